@@ -1,0 +1,86 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <vector>
+
+#include "meshmark/core/triangle_mesh.h"
+
+namespace meshmark {
+
+/// File formats, chosen by file extension (case-insensitive).
+enum class MeshFormat
+{
+    Ply,  ///< .ply: ASCII, binary little- and big-endian; `face` lists and `tristrips`.
+    Obj,  ///< .obj: v/vt/vn/f in every index form, polygons, groups, materials.
+    Off,  ///< .off: OFF (also COFF/NOFF/CNOFF headers' positions).
+    Stl,  ///< .stl: ASCII and binary; corners welded for analysis.
+};
+
+/// \brief Format for a path's extension.
+/// \throws IoError naming the file when the extension is not one of .ply .obj .off .stl.
+[[nodiscard]] MeshFormat format_from_extension(const std::filesystem::path& path);
+
+/// Name of a format as used in messages and --json ("PLY", "OBJ", ...).
+[[nodiscard]] const char* to_string(MeshFormat format) noexcept;
+
+namespace detail {
+struct FileLayout;  // Everything a preserving writer needs: the original bytes and where positions sit.
+}
+
+/// \brief A mesh as read from a file, with what is needed to write it back unchanged except
+/// for its vertex positions.
+struct MeshFile
+{
+    TriangleMesh mesh;  ///< Positions (every vertex record of the file, referenced or not) and
+                        ///< triangles (polygons fan-triangulated, strips decoded). For STL the
+                        ///< positions are the distinct corner positions (bit-identical corners welded).
+    MeshFormat format = MeshFormat::Ply;
+    std::filesystem::path path;
+    bool is_single_precision = false;  ///< Positions were stored as float32 (binary, or typed ASCII).
+    std::shared_ptr<const detail::FileLayout> layout;  ///< Opaque; used by write_mesh_file.
+};
+
+/// \brief Read a mesh file, keeping everything needed for a preserving write.
+/// \details The whole file is read and validated (finite coordinates, indices in range)
+/// before anything is returned; a file is never opened for writing.
+/// \throws IoError (missing, unreadable, truncated, malformed; names the file and the line
+/// or byte offset) or InvalidMesh (non-finite coordinate, index out of range).
+[[nodiscard]] MeshFile read_mesh_file(const std::filesystem::path& path);
+
+/// \brief Read only the geometry of a mesh file. Same errors as read_mesh_file.
+[[nodiscard]] TriangleMesh read_mesh(const std::filesystem::path& path);
+
+/// Options of the generic writers.
+struct WriteOptions
+{
+    bool is_binary = true;             ///< PLY and STL: binary (little-endian) rather than ASCII.
+    bool use_single_precision = false;  ///< Store positions as float32 (PLY) instead of float64.
+    /// Optional per-vertex colors (PLY only: red/green/blue uchar properties), #V entries.
+    const std::vector<std::array<std::uint8_t, 3>>* vertex_colors = nullptr;
+};
+
+/// \brief Write \p mesh to \p path in the format of its extension, atomically.
+/// \details ASCII numbers use the shortest representation that reads back to the same double.
+/// \throws IoError (unknown extension, unwritable directory); nothing is left at \p path then.
+void write_mesh(const std::filesystem::path& path, const TriangleMesh& mesh,
+                const WriteOptions& options = {});
+
+/// \brief Write \p source with its vertex positions replaced by \p positions, atomically.
+/// \details When \p path has the same format as \p source, everything but the positions is
+/// preserved byte for byte: header, comments, property order and types, extra elements and
+/// properties, normals, texture coordinates, faces (polygons and strips as they were),
+/// unreferenced vertices. Positions keep the file's precision: float32 stays float32; an
+/// ASCII coordinate is rewritten only if its value changed, with the shortest digits that
+/// read back to the new value in the file's precision. STL facets get their corners' new
+/// positions and a recomputed normal (a zero normal stays zero). When the formats differ,
+/// this is write_mesh of the positions and triangles.
+/// \pre positions.rows() == source.mesh.V.rows().
+/// \throws IoError as write_mesh; InvalidOption on a row-count mismatch.
+void write_mesh_file(const std::filesystem::path& path, const MeshFile& source,
+                     const Positions& positions, const WriteOptions& options = {});
+
+}  // namespace meshmark
