@@ -1,0 +1,32 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+
+#include <functional>
+
+#include <CLI/CLI.hpp>
+
+namespace meshmark::cli {
+
+/// Flags every command accepts.
+struct GlobalArgs
+{
+    int threads = 0;       ///< 0 = all cores.
+    bool quiet = false;    ///< No progress or summary on stderr.
+    bool verbose = false;  ///< More detail on stderr.
+};
+
+/// The command chosen on the command line, run by main after parsing; returns the exit code.
+using CommandRunner = std::function<int()>;
+
+// One registration function per subcommand (one file each): adds the subcommand and its flags
+// to \p app and, when it is the one chosen, stores in \p runner the call that runs it.
+void register_embed(CLI::App& app, const GlobalArgs& global, CommandRunner& runner);
+void register_detect(CLI::App& app, const GlobalArgs& global, CommandRunner& runner);
+void register_demo(CLI::App& app, const GlobalArgs& global, CommandRunner& runner);
+void register_attack(CLI::App& app, const GlobalArgs& global, CommandRunner& runner);
+void register_compare(CLI::App& app, const GlobalArgs& global, CommandRunner& runner);
+
+/// Adds --threads, --quiet and --verbose to a subcommand.
+void add_global_flags(CLI::App& command, GlobalArgs& global);
+
+}  // namespace meshmark::cli

@@ -1,0 +1,68 @@
+// SPDX-License-Identifier: MIT
+// The meshmark program: parses the command line, runs one subcommand, maps errors to exit codes.
+#include <cstdio>
+#include <exception>
+
+#include "commands.h"
+#include "meshmark/core/error.h"
+
+namespace meshmark::cli {
+
+void add_global_flags(CLI::App& command, GlobalArgs& global)
+{
+    command.add_option("--threads", global.threads, "Worker threads (0 = all cores); results are "
+                                                    "bit-identical for any value")
+        ->check(CLI::Range(0, 1024))
+        ->default_val(0);
+    command.add_flag("-q,--quiet", global.quiet, "No progress or summary on stderr");
+    command.add_flag("-v,--verbose", global.verbose, "More detail on stderr");
+}
+
+}  // namespace meshmark::cli
+
+int main(int argc, char** argv)
+{
+    using namespace meshmark;
+    CLI::App app{"meshmark: robust invisible watermarks for 3D meshes (spectral RBF method of "
+                 "Wu & Kobbelt, with corrections).\n"
+                 "Exit codes: 0 success (detect: watermark found), 1 detect: not found, "
+                 "2 usage, 3 invalid input, 4 numerical failure, 5 internal error.",
+                 "meshmark"};
+    app.set_version_flag("--version", "meshmark 0.1.0");
+    app.require_subcommand(1);
+    cli::GlobalArgs global;
+    cli::CommandRunner runner;
+#ifndef MESHMARK_CLI_NO_DEMO
+    cli::register_demo(app, global, runner);
+#endif
+#ifndef MESHMARK_CLI_NO_EMBED
+    cli::register_embed(app, global, runner);
+#endif
+#ifndef MESHMARK_CLI_NO_DETECT
+    cli::register_detect(app, global, runner);
+#endif
+#ifndef MESHMARK_CLI_NO_ATTACK
+    cli::register_attack(app, global, runner);
+#endif
+#ifndef MESHMARK_CLI_NO_COMPARE
+    cli::register_compare(app, global, runner);
+#endif
+    try
+    {
+        app.parse(argc, argv);
+    }
+    catch (const CLI::ParseError& e)
+    {
+        const int code = app.exit(e);
+        return code == 0 ? 0 : static_cast<int>(ExitCode::Usage);
+    }
+    try
+    {
+        return runner ? runner() : static_cast<int>(ExitCode::Usage);
+    }
+    catch (const std::exception& e)
+    {
+        std::fprintf(stderr, "meshmark: %s\n", e.what());
+        return static_cast<int>(exit_code_for(e));
+    }
+}
