@@ -1,0 +1,125 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "meshmark/core/triangle_mesh.h"
+
+namespace meshmark {
+
+/// \brief Wendland's compactly supported RBF, phi(r) = (1 - r)^4 (4 r + 1) for r < 1, else 0
+/// [Wendland 1995; Wu & Kobbelt 2005, Sec. 3].
+[[nodiscard]] inline double wendland(double r) noexcept
+{
+    if (r >= 1.0)
+    {
+        return 0.0;
+    }
+    const double t = 1.0 - r;
+    const double t2 = t * t;
+    return t2 * t2 * (4.0 * r + 1.0);
+}
+
+/// \brief Choose \p k centers among the rows listed in \p active, driven by \p seed.
+/// \details Uniform sampling without replacement (a partial Fisher-Yates shuffle of
+/// \p active with Rng(seed)); a candidate whose position equals an already chosen center is
+/// skipped, because two equal centers make the Gram matrix singular (seams, STL corners).
+/// \return k vertex indices, in draw order.
+/// \throws InvalidMesh if fewer than k distinct positions exist.
+[[nodiscard]] std::vector<std::int32_t> random_centers(const Positions& V,
+                                                       const std::vector<std::int32_t>& active,
+                                                       int k, std::uint64_t seed);
+
+/// \brief The orthogonalized RBF basis of a mesh [Wu & Kobbelt 2005], never materialized.
+/// \details With B_ij = phi(|p_i - q_j| / sigma) over the active rows (n x k), the Gram matrix
+/// G = B^T B = V W^2 V^T is accumulated in row blocks (pass 1), and the orthonormal basis is
+/// U = B V W^-1, singular values descending. U is never stored: projections and syntheses
+/// evaluate B again block by block, so memory is O(n + k^2). Blocks are grouped into a fixed
+/// number of chunks that depends only on n, chunks are reduced in order, so results are
+/// bit-identical for any thread count. Eigenvector signs are fixed so that every mode has a
+/// positive sum over the vertices (1^T U_j > 0), falling back to a positive largest component.
+/// All arithmetic happens in the frame centered at \p origin (the caller passes the centroid),
+/// which keeps it independent of where the model sits.
+class RbfBasis
+{
+public:
+    /// \brief Build the basis: pass 1 over the active rows (Gram matrix, B^T 1, B^T (P - o)),
+    /// then the eigen-decomposition of the k x k Gram matrix.
+    /// \param V        #V x 3 positions (all vertices of the file).
+    /// \param active   Rows taking part (sorted, unique); others get zero in syntheses.
+    /// \param centers  k row indices of the centers.
+    /// \param sigma    Support radius of phi, > 0.
+    /// \param origin   Frame origin (the centroid of the active rows).
+    /// \param threads  Worker threads, 0 = all cores.
+    /// \throws InvalidOption on empty inputs or sigma <= 0.
+    RbfBasis(const Positions& V, std::vector<std::int32_t> active, std::vector<std::int32_t> centers,
+             double sigma, const Eigen::Vector3d& origin, int threads);
+
+    [[nodiscard]] int size() const noexcept { return static_cast<int>(center_positions_.rows()); }
+    [[nodiscard]] const std::vector<std::int32_t>& active_rows() const noexcept { return active_; }
+    [[nodiscard]] double sigma() const noexcept { return sigma_; }
+    /// Singular values of B (k, descending): W in G = V W^2 V^T.
+    [[nodiscard]] const Eigen::VectorXd& singular_values() const noexcept { return singular_values_; }
+    /// Eigenvectors V of G (k x k, columns match singular_values()).
+    [[nodiscard]] const Eigen::MatrixXd& eigenvectors() const noexcept { return eigenvectors_; }
+    /// The Gram matrix G = B^T B (k x k), as accumulated.
+    [[nodiscard]] const Eigen::MatrixXd& gram() const noexcept { return gram_; }
+
+    /// \brief Spectral coefficients of the positions, alpha = U^T (P - o) (k x 3), frame axes.
+    [[nodiscard]] Eigen::MatrixX3d position_coefficients() const;
+
+    /// \brief Leading-mode projection U_m^T X over the active rows (m x 3).
+    /// \param X  #V x 3 (inactive rows ignored), e.g. a displacement field.
+    [[nodiscard]] Eigen::MatrixX3d project(const Positions& X, int modes) const;
+
+    /// \brief Least-squares coefficients of the leading modes over a subset of rows.
+    /// \details Minimizes |U_m,S c - X_S| over the rows S of the active set with
+    /// \p is_kept[i] != 0 (DESIGN.md step 8: the cropped rows are left out of the basis
+    /// functions). With every row kept this equals project(X, modes) up to rounding.
+    /// \throws NumericalError if the kept rows cannot determine the coefficients.
+    [[nodiscard]] Eigen::MatrixX3d project_least_squares(const Positions& X,
+                                                         const std::vector<std::uint8_t>& is_kept,
+                                                         int modes) const;
+
+    /// \brief Synthesis U_m c (#V x 3, zero on inactive rows) of the first c.rows() modes.
+    /// \param orthogonality_error  If not null, receives max |U_m^T U_m - I| measured on the
+    ///        same pass (a check of the modes actually used).
+    [[nodiscard]] Positions synthesize(const Eigen::MatrixX3d& c,
+                                       double* orthogonality_error = nullptr) const;
+
+    /// \brief The first \p modes columns of U, explicitly (#active x modes). For tests and
+    /// small meshes only: this is exactly what the streaming passes avoid.
+    [[nodiscard]] Eigen::MatrixXd modes_dense(int modes) const;
+
+private:
+    struct Chunk
+    {
+        std::size_t begin;
+        std::size_t end;
+    };
+    template <class BlockFn>
+    void for_each_block(const BlockFn& fn) const;
+    void evaluate_block(std::size_t begin, std::size_t end, Eigen::MatrixXd& B, Positions& P) const;
+    [[nodiscard]] Eigen::MatrixXd mode_transform(int modes) const;  // V_m W_m^-1, k x m
+
+    const Positions* V_;
+    std::vector<std::int32_t> active_;
+    Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> center_positions_;  // minus origin
+    double sigma_;
+    Eigen::Vector3d origin_;
+    int threads_;
+    std::vector<Chunk> chunks_;
+    Eigen::MatrixXd gram_;
+    Eigen::MatrixX3d bt_positions_;  // B^T (P - o)
+    Eigen::VectorXd bt_ones_;        // B^T 1
+    Eigen::VectorXd singular_values_;
+    Eigen::MatrixXd eigenvectors_;
+};
+
+/// Rows per block of the streaming passes: a B block of 256 x 100 doubles stays in L2 cache.
+inline constexpr std::size_t kBasisBlockRows = 256;
+
+}  // namespace meshmark

@@ -1,0 +1,112 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "meshmark/core/triangle_mesh.h"
+
+namespace meshmark {
+
+/// How coefficients are modulated (DESIGN.md step 5).
+enum class EmbeddingRule
+{
+    Additive,  ///< beta = alpha + b' s, one step s for all modulated coefficients (default).
+    Paper,     ///< beta = alpha (1 + b' rho) [Wu & Kobbelt 2005, Eq. 6], in the canonical frame.
+};
+
+/// Name used in key files and on the command line: "additive" or "paper".
+[[nodiscard]] const char* to_string(EmbeddingRule rule) noexcept;
+/// \throws InvalidOption for any other name.
+[[nodiscard]] EmbeddingRule parse_embedding_rule(const std::string& name);
+
+/// Default strength of each rule: the additive rule's RMS vertex displacement relative to the
+/// principal bounding-box diagonal, and the paper's rho.
+[[nodiscard]] double default_strength(EmbeddingRule rule) noexcept;
+
+/// Parameters that, with the original mesh and the seed, determine the watermark.
+struct EmbedOptions
+{
+    int basis_size = 100;   ///< k, number of RBF centers [Wu & Kobbelt: 100].
+    int coefficients = 8;   ///< m, modulated coefficients per axis: 3m payload bits.
+    EmbeddingRule rule = EmbeddingRule::Additive;
+    /// Additive: RMS vertex displacement as a fraction of the principal bbox diagonal.
+    /// Paper: rho. Negative means "the rule's default" (default_strength).
+    double strength = -1.0;
+    double sigma_factor = 1.0;  ///< sigma = sigma_factor * diagonal / 2 [Wu & Kobbelt].
+
+    /// \throws InvalidOption naming the field, value and allowed range.
+    void validate() const;
+    /// The strength actually used (resolves the negative default).
+    [[nodiscard]] double resolved_strength() const noexcept;
+};
+
+/// Number of payload bits for \p options (3m).
+[[nodiscard]] inline int payload_bit_count(const EmbedOptions& options) noexcept
+{
+    return 3 * options.coefficients;
+}
+
+/// Identifies the original mesh a key belongs to.
+struct MeshFingerprint
+{
+    std::int64_t vertex_count = 0;
+    std::int64_t face_count = 0;
+    std::uint64_t position_hash = 0;  ///< hash_bytes over the positions as IEEE doubles.
+
+    friend bool operator==(const MeshFingerprint&, const MeshFingerprint&) = default;
+};
+
+/// Fingerprint of a mesh's positions and counts.
+[[nodiscard]] MeshFingerprint fingerprint(const TriangleMesh& mesh);
+
+/// \brief Everything that, with the original mesh, regenerates the watermarked mesh and
+/// detects it: stored as a versioned JSON key file (mode 0600).
+struct Key
+{
+    static constexpr int kVersion = 1;
+
+    std::uint64_t seed = 0;       ///< Secret; every random choice derives from it.
+    EmbedOptions options;
+    std::vector<std::uint8_t> payload;  ///< 3m bits (0/1), before the key-derived mask.
+    std::optional<std::string> message;  ///< The text the payload was derived from, if any.
+    MeshFingerprint original;
+};
+
+/// \brief Payload bits from a message: the first n bits of Rng(hash_bytes(message)).
+[[nodiscard]] std::vector<std::uint8_t> payload_from_message(const std::string& message, int n);
+
+/// \brief Payload bits from hex digits, most significant bit first.
+/// \details Exactly ceil(n / 4) digits are required; unused low bits of the last digit must be 0.
+/// \throws InvalidOption for other lengths, non-hex characters or non-zero padding.
+[[nodiscard]] std::vector<std::uint8_t> payload_from_hex(const std::string& hex, int n);
+
+/// \brief A random payload drawn from the seed's "payload" stream.
+[[nodiscard]] std::vector<std::uint8_t> random_payload(std::uint64_t seed, int n);
+
+/// \brief The key-derived mask XOR-ed with the payload before embedding (DESIGN.md step 5):
+/// without it, a wrong key reads the mark, because the leading modes barely depend on the centers.
+[[nodiscard]] std::vector<std::uint8_t> payload_mask(std::uint64_t seed, int n);
+
+/// Bits as a string of '0'/'1'.
+[[nodiscard]] std::string to_bit_string(const std::vector<std::uint8_t>& bits);
+/// Bits as hex digits, most significant first (the inverse of payload_from_hex).
+[[nodiscard]] std::string to_hex(const std::vector<std::uint8_t>& bits);
+
+/// \brief Serialize a key to its JSON text (versioned, with a checksum over the content).
+[[nodiscard]] std::string to_json(const Key& key);
+/// \brief Parse and validate a key's JSON text.
+/// \param source Names the file in error messages.
+/// \throws IoError for malformed JSON, another format or version, missing or invalid fields,
+/// or a checksum mismatch (a tampered or truncated key).
+[[nodiscard]] Key parse_key(const std::string& text, const std::string& source);
+
+/// \brief Write a key file atomically with mode 0600.
+void write_key(const std::filesystem::path& path, const Key& key);
+/// \brief Read and validate a key file. \throws IoError as parse_key, or if unreadable.
+[[nodiscard]] Key read_key(const std::filesystem::path& path);
+
+}  // namespace meshmark

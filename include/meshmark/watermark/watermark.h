@@ -1,0 +1,130 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "meshmark/basis/rbf_basis.h"
+#include "meshmark/core/triangle_mesh.h"
+#include "meshmark/watermark/key.h"
+
+namespace meshmark {
+
+/// \brief The model's canonical frame: centroid and principal axes of the analysed vertices.
+/// \details Embedding happens in this frame so that the watermark does not depend on where the
+/// model sits, how it is oriented or how large it is (DESIGN.md, "The coordinate frame").
+/// Axes are the covariance eigenvectors, largest variance first; the first two point towards
+/// the positive third moment (skewness) and the third is their cross product, so a rotated
+/// model gets the rotated frame.
+struct CanonicalFrame
+{
+    Eigen::Vector3d origin = Eigen::Vector3d::Zero();      ///< Centroid of the analysed vertices.
+    Eigen::Matrix3d axes = Eigen::Matrix3d::Identity();    ///< Rows: principal axes (a rotation).
+    double diagonal = 0.0;  ///< Diagonal of the bounding box in the principal axes ("D").
+};
+
+/// \brief Canonical frame of the listed rows.
+/// \throws NumericalError if the vertices coincide or are collinear (no 2D extent).
+[[nodiscard]] CanonicalFrame canonical_frame(const Positions& V, const std::vector<std::int32_t>& rows);
+
+/// Per-bit outcome of an extraction.
+struct Extraction
+{
+    /// Signed coefficient change of each modulated coefficient divided by its modulation
+    /// (3m values, bit t = 3 * mode + axis): +1 where a 1 was embedded, -1 where a 0 was,
+    /// ~0 where nothing was.
+    std::vector<double> normalized_change;
+    std::vector<std::uint8_t> bits_found;  ///< Payload bits: 0, 1, or 2 for undecided.
+};
+
+/// Options of the decision (DESIGN.md steps 9-10).
+struct DetectOptions
+{
+    double threshold = 0.75;  ///< Ownership is claimed when R >= threshold.
+    double epsilon = 0.1;     ///< Undecided band, as a fraction of the modulation.
+    /// \throws InvalidOption unless threshold is in (0, 1] and epsilon in [0, 1).
+    void validate() const;
+};
+
+/// The verdict on a suspect.
+struct Decision
+{
+    bool is_present = false;
+    double correlation = 0.0;  ///< R: fraction of payload bits read back correctly (N/A = wrong).
+    int matches = 0;
+    int bit_count = 0;
+    /// P(an unmarked mesh reaches at least this many matches) = P(X >= matches), X ~ Bin(3m, 1/2):
+    /// each decided bit of an unrelated mesh matches the key-masked payload with probability
+    /// 1/2 and an undecided one never does, so this bounds the chance from above.
+    double false_positive_probability = 1.0;
+    std::string bits_expected;  ///< '0'/'1'.
+    std::string bits_found;     ///< '0'/'1'/'?'.
+};
+
+/// \brief P(X >= k) for X ~ Binomial(n, 1/2), exact.
+[[nodiscard]] double binomial_tail_half(int n, int k);
+
+/// What an embedding did.
+struct EmbedStats
+{
+    double max_displacement_rel = 0.0;  ///< Max vertex displacement / axis-aligned bbox diagonal.
+    double rms_displacement_rel = 0.0;  ///< RMS over the analysed vertices, same unit.
+    double orthogonality_error = 0.0;   ///< max |U_m^T U_m - I| over the modes used.
+    double modulation_step = 0.0;       ///< Additive rule: s, in file units.
+    int weak_bits = 0;  ///< Paper rule: bits on coefficients below 1/10 of the largest modulated one.
+    int analysed_vertices = 0;
+};
+
+/// \brief A watermark as defined by (original mesh, key): the basis and modulation, built
+/// once and used for embedding, regeneration of the watermarked mesh, and extraction.
+/// \details Centers are drawn from the key's seed among the referenced vertices (all vertices
+/// of a point cloud); unreferenced vertices take no part and never move.
+/// [Wu & Kobbelt 2005], with the corrections of DESIGN.md: canonical frame, additive rule by
+/// default, key-masked payload, sign-correct decision.
+class SpectralWatermark
+{
+public:
+    /// \throws InvalidOption (bad key options), InvalidMesh (too few distinct vertices),
+    /// NumericalError (degenerate geometry or Gram matrix).
+    SpectralWatermark(const TriangleMesh& original, const Key& key, int threads = 0);
+
+    [[nodiscard]] const Key& key() const noexcept { return key_; }
+    [[nodiscard]] const CanonicalFrame& frame() const noexcept { return frame_; }
+    [[nodiscard]] const RbfBasis& basis() const noexcept { return *basis_; }
+    [[nodiscard]] const std::vector<std::int32_t>& centers() const noexcept { return centers_; }
+    /// Signs b' in {-1, +1} actually embedded (m x 3, canonical axes).
+    [[nodiscard]] const Eigen::MatrixX3d& embedded_signs() const noexcept { return signs_; }
+    /// Modulation of each coefficient (m x 3, canonical axes): s, or alpha * rho (signed).
+    [[nodiscard]] const Eigen::MatrixX3d& modulation() const noexcept { return modulation_; }
+
+    /// \brief The watermark's displacement field in file coordinates (#V x 3; zero on
+    /// unreferenced vertices). P_w = P + displacement. \param stats receives the distortion.
+    [[nodiscard]] Positions displacement(EmbedStats* stats = nullptr) const;
+
+    /// \brief Read the bits from \p suspect, given vertex for vertex in the original's frame.
+    /// \param suspect  #V x 3, row i corresponds to vertex i of the original.
+    /// \param is_kept  Optional: rows with 0 are cropped and left out (least squares over the
+    ///                 others, DESIGN.md step 8).
+    [[nodiscard]] Extraction extract(const Positions& suspect, const DetectOptions& options,
+                                     const std::vector<std::uint8_t>* is_kept = nullptr) const;
+
+    /// \brief Correlation, verdict and false-positive probability of an extraction.
+    [[nodiscard]] Decision decide(const Extraction& extraction, const DetectOptions& options) const;
+
+private:
+    const TriangleMesh* original_;
+    Key key_;
+    CanonicalFrame frame_;
+    std::vector<std::int32_t> centers_;
+    std::optional<RbfBasis> basis_;
+    Eigen::MatrixX3d signs_;
+    Eigen::MatrixX3d modulation_;
+    std::vector<std::uint8_t> mask_;
+    int weak_bits_ = 0;
+};
+
+}  // namespace meshmark

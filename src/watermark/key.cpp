@@ -1,0 +1,385 @@
+// SPDX-License-Identifier: MIT
+#include "meshmark/watermark/key.h"
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "meshmark/core/atomic_file.h"
+#include "meshmark/core/error.h"
+#include "meshmark/core/rng.h"
+
+namespace meshmark {
+namespace {
+
+using Json = nlohmann::json;
+
+constexpr const char* kKeyFormat = "meshmark-key";
+// A key is a few hundred bytes; anything far larger is not a key (and is not parsed).
+constexpr std::uintmax_t kMaxKeyBytes = 1U << 20U;
+
+std::string hex64(std::uint64_t value)
+{
+    static const char* digits = "0123456789abcdef";
+    std::string s(16, '0');
+    for (int i = 15; i >= 0; --i)
+    {
+        s[static_cast<std::size_t>(i)] = digits[value & 0xFU];
+        value >>= 4U;
+    }
+    return s;
+}
+
+std::uint64_t parse_hex64(const std::string& text, const std::string& field, const std::string& source)
+{
+    if (text.empty() || text.size() > 16)
+    {
+        throw IoError(source + ": key field '" + field + "' must be 1 to 16 hex digits.");
+    }
+    std::uint64_t value = 0;
+    for (const char c : text)
+    {
+        const int digit = std::isdigit(static_cast<unsigned char>(c)) ? c - '0'
+                          : (c >= 'a' && c <= 'f')                    ? c - 'a' + 10
+                                                                      : -1;
+        if (digit < 0)
+        {
+            throw IoError(source + ": key field '" + field + "' has a character that is not a "
+                          "lower-case hex digit.");
+        }
+        value = (value << 4U) | static_cast<std::uint64_t>(digit);
+    }
+    return value;
+}
+
+std::uint64_t checksum_of(const Json& content)
+{
+    const std::string text = content.dump();
+    return hash_bytes(text.data(), text.size(), 0x6B6579U);
+}
+
+Json content_json(const Key& key)
+{
+    Json j;
+    j["format"] = kKeyFormat;
+    j["version"] = Key::kVersion;
+    j["seed"] = hex64(key.seed);
+    j["embedding"] = {{"rule", to_string(key.options.rule)},
+                      {"basis_size", key.options.basis_size},
+                      {"coefficients", key.options.coefficients},
+                      {"strength", key.options.resolved_strength()},
+                      {"sigma_factor", key.options.sigma_factor},
+                      {"centers", "random"}};
+    j["payload"] = {{"bits", to_bit_string(key.payload)}};
+    if (key.message)
+    {
+        j["payload"]["message"] = *key.message;
+    }
+    j["original"] = {{"vertex_count", key.original.vertex_count},
+                     {"face_count", key.original.face_count},
+                     {"position_hash", hex64(key.original.position_hash)}};
+    return j;
+}
+
+template <class T>
+T field(const Json& object, const char* name, const std::string& where, const std::string& source)
+{
+    const auto it = object.find(name);
+    if (it == object.end())
+    {
+        throw IoError(source + ": key is missing the field '" + where + name + "'.");
+    }
+    try
+    {
+        return it->get<T>();
+    }
+    catch (const Json::exception&)
+    {
+        throw IoError(source + ": key field '" + where + name + "' has the wrong type.");
+    }
+}
+
+}  // namespace
+
+const char* to_string(EmbeddingRule rule) noexcept
+{
+    return rule == EmbeddingRule::Paper ? "paper" : "additive";
+}
+
+EmbeddingRule parse_embedding_rule(const std::string& name)
+{
+    if (name == "additive")
+    {
+        return EmbeddingRule::Additive;
+    }
+    if (name == "paper")
+    {
+        return EmbeddingRule::Paper;
+    }
+    throw InvalidOption("unknown embedding rule '" + name + "' (expected additive or paper).");
+}
+
+double default_strength(EmbeddingRule rule) noexcept
+{
+    // Additive: RMS displacement of 0.1% of the diagonal (the starting point; the
+    // robustness benchmark refines it). Paper: rho = 0.01 [Wu & Kobbelt 2005, Sec. 6].
+    return rule == EmbeddingRule::Paper ? 0.01 : 1e-3;
+}
+
+void EmbedOptions::validate() const
+{
+    if (basis_size < 4 || basis_size > 5000)
+    {
+        throw InvalidOption("basis size (--basis-size) must be in 4..5000, got " +
+                            std::to_string(basis_size) + ".");
+    }
+    if (coefficients < 1 || coefficients > basis_size)
+    {
+        throw InvalidOption("modulated coefficients (--coefficients) must be in 1.." +
+                            std::to_string(basis_size) + " (the basis size), got " +
+                            std::to_string(coefficients) + ".");
+    }
+    const double s = resolved_strength();
+    if (!std::isfinite(s) || s < 0.0 || s > 0.5)
+    {
+        throw InvalidOption("strength (--strength) must be in 0..0.5, got " + std::to_string(s) + ".");
+    }
+    if (!std::isfinite(sigma_factor) || sigma_factor <= 0.0 || sigma_factor > 100.0)
+    {
+        throw InvalidOption("sigma factor must be in (0, 100], got " + std::to_string(sigma_factor) + ".");
+    }
+}
+
+double EmbedOptions::resolved_strength() const noexcept
+{
+    return strength < 0.0 ? default_strength(rule) : strength;
+}
+
+MeshFingerprint fingerprint(const TriangleMesh& mesh)
+{
+    MeshFingerprint fp;
+    fp.vertex_count = mesh.V.rows();
+    fp.face_count = mesh.F.rows();
+    fp.position_hash = hash_bytes(mesh.V.data(), static_cast<std::size_t>(mesh.V.size()) * sizeof(double));
+    return fp;
+}
+
+std::vector<std::uint8_t> payload_from_message(const std::string& message, int n)
+{
+    Rng rng(hash_bytes(message.data(), message.size(), 0x6D7367U));
+    std::vector<std::uint8_t> bits(static_cast<std::size_t>(n));
+    for (auto& b : bits)
+    {
+        b = static_cast<std::uint8_t>(rng.bits() & 1U);
+    }
+    return bits;
+}
+
+std::vector<std::uint8_t> payload_from_hex(const std::string& hex, int n)
+{
+    const auto digits = static_cast<std::size_t>((n + 3) / 4);
+    if (hex.size() != digits)
+    {
+        throw InvalidOption("--bits needs exactly " + std::to_string(digits) + " hex digits for " +
+                            std::to_string(n) + " payload bits, got " + std::to_string(hex.size()) + ".");
+    }
+    std::vector<std::uint8_t> bits;
+    bits.reserve(digits * 4);
+    for (const char c : hex)
+    {
+        const char lower = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+        int value = -1;
+        if (lower >= '0' && lower <= '9')
+        {
+            value = lower - '0';
+        }
+        else if (lower >= 'a' && lower <= 'f')
+        {
+            value = lower - 'a' + 10;
+        }
+        if (value < 0)
+        {
+            throw InvalidOption("--bits must be hex digits, got '" + hex + "'.");
+        }
+        for (int b = 3; b >= 0; --b)
+        {
+            bits.push_back(static_cast<std::uint8_t>((static_cast<unsigned>(value) >> static_cast<unsigned>(b)) & 1U));
+        }
+    }
+    for (std::size_t i = static_cast<std::size_t>(n); i < bits.size(); ++i)
+    {
+        if (bits[i] != 0)
+        {
+            throw InvalidOption("--bits encodes more than " + std::to_string(n) +
+                                " bits: the unused low bits of the last digit must be 0.");
+        }
+    }
+    bits.resize(static_cast<std::size_t>(n));
+    return bits;
+}
+
+std::vector<std::uint8_t> random_payload(std::uint64_t seed, int n)
+{
+    Rng rng(derive_seed(seed, "payload"));
+    std::vector<std::uint8_t> bits(static_cast<std::size_t>(n));
+    for (auto& b : bits)
+    {
+        b = static_cast<std::uint8_t>(rng.bits() & 1U);
+    }
+    return bits;
+}
+
+std::vector<std::uint8_t> payload_mask(std::uint64_t seed, int n)
+{
+    Rng rng(derive_seed(seed, "payload-mask"));
+    std::vector<std::uint8_t> bits(static_cast<std::size_t>(n));
+    for (auto& b : bits)
+    {
+        b = static_cast<std::uint8_t>(rng.bits() & 1U);
+    }
+    return bits;
+}
+
+std::string to_bit_string(const std::vector<std::uint8_t>& bits)
+{
+    std::string s;
+    s.reserve(bits.size());
+    for (const auto b : bits)
+    {
+        s.push_back(b != 0 ? '1' : '0');
+    }
+    return s;
+}
+
+std::string to_hex(const std::vector<std::uint8_t>& bits)
+{
+    static const char* digits = "0123456789abcdef";
+    std::string s;
+    for (std::size_t i = 0; i < bits.size(); i += 4)
+    {
+        unsigned value = 0;
+        for (std::size_t b = 0; b < 4; ++b)
+        {
+            value = (value << 1U) | (i + b < bits.size() && bits[i + b] != 0 ? 1U : 0U);
+        }
+        s.push_back(digits[value]);
+    }
+    return s;
+}
+
+std::string to_json(const Key& key)
+{
+    Json j = content_json(key);
+    j["checksum"] = hex64(checksum_of(j));
+    return j.dump(2) + "\n";
+}
+
+Key parse_key(const std::string& text, const std::string& source)
+{
+    Json j;
+    try
+    {
+        j = Json::parse(text);
+    }
+    catch (const Json::parse_error& e)
+    {
+        throw IoError(source + ": the key file is not valid JSON (byte " + std::to_string(e.byte) +
+                      "); is it truncated?");
+    }
+    if (!j.is_object() || j.value("format", std::string()) != kKeyFormat)
+    {
+        throw IoError(source + ": not a meshmark key file (missing \"format\": \"meshmark-key\").");
+    }
+    const int version = field<int>(j, "version", "", source);
+    if (version != Key::kVersion)
+    {
+        throw IoError(source + ": key file version " + std::to_string(version) +
+                      " is not supported (this meshmark reads version " +
+                      std::to_string(Key::kVersion) + ").");
+    }
+    const std::string checksum = field<std::string>(j, "checksum", "", source);
+    Json content = j;
+    content.erase("checksum");
+    if (parse_hex64(checksum, "checksum", source) != checksum_of(content))
+    {
+        throw IoError(source + ": the key file's checksum does not match its content; it was "
+                      "modified or damaged.");
+    }
+
+    Key key;
+    key.seed = parse_hex64(field<std::string>(j, "seed", "", source), "seed", source);
+    const Json embedding = field<Json>(j, "embedding", "", source);
+    key.options.rule = parse_embedding_rule(field<std::string>(embedding, "rule", "embedding.", source));
+    key.options.basis_size = field<int>(embedding, "basis_size", "embedding.", source);
+    key.options.coefficients = field<int>(embedding, "coefficients", "embedding.", source);
+    key.options.strength = field<double>(embedding, "strength", "embedding.", source);
+    key.options.sigma_factor = field<double>(embedding, "sigma_factor", "embedding.", source);
+    if (field<std::string>(embedding, "centers", "embedding.", source) != "random")
+    {
+        throw IoError(source + ": key field 'embedding.centers' must be \"random\".");
+    }
+    try
+    {
+        key.options.validate();
+    }
+    catch (const InvalidOption& e)
+    {
+        throw IoError(source + ": invalid key parameters: " + e.what());
+    }
+    const Json payload = field<Json>(j, "payload", "", source);
+    const std::string bits = field<std::string>(payload, "bits", "payload.", source);
+    if (bits.size() != static_cast<std::size_t>(payload_bit_count(key.options)) ||
+        bits.find_first_not_of("01") != std::string::npos)
+    {
+        throw IoError(source + ": key field 'payload.bits' must hold " +
+                      std::to_string(payload_bit_count(key.options)) + " characters 0 or 1.");
+    }
+    for (const char c : bits)
+    {
+        key.payload.push_back(c == '1' ? 1 : 0);
+    }
+    if (payload.contains("message"))
+    {
+        key.message = field<std::string>(payload, "message", "payload.", source);
+    }
+    const Json original = field<Json>(j, "original", "", source);
+    key.original.vertex_count = field<std::int64_t>(original, "vertex_count", "original.", source);
+    key.original.face_count = field<std::int64_t>(original, "face_count", "original.", source);
+    key.original.position_hash =
+        parse_hex64(field<std::string>(original, "position_hash", "original.", source),
+                    "original.position_hash", source);
+    return key;
+}
+
+void write_key(const std::filesystem::path& path, const Key& key)
+{
+    const std::string text = to_json(key);
+    write_file_atomically(path, [&](std::ostream& out) { out << text; }, {.permissions = 0600});
+}
+
+Key read_key(const std::filesystem::path& path)
+{
+    std::error_code ec;
+    const auto size = std::filesystem::file_size(path, ec);
+    if (ec)
+    {
+        throw IoError(path.string() + ": cannot read the key file (" + ec.message() + ").");
+    }
+    if (size > kMaxKeyBytes)
+    {
+        throw IoError(path.string() + ": the file is " + std::to_string(size) +
+                      " bytes, far too large to be a meshmark key.");
+    }
+    std::ifstream in(path, std::ios::binary);
+    if (!in)
+    {
+        throw IoError(path.string() + ": cannot open the key file.");
+    }
+    std::stringstream buffer;
+    buffer << in.rdbuf();
+    return parse_key(buffer.str(), path.string());
+}
+
+}  // namespace meshmark

@@ -1,0 +1,178 @@
+// SPDX-License-Identifier: MIT
+#include "meshmark/basis/rbf_basis.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/SVD>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <numeric>
+#include <set>
+
+#include "meshmark/core/error.h"
+#include "meshmark/core/rng.h"
+#include "meshmark/geometry/shapes.h"
+
+namespace meshmark {
+namespace {
+
+std::vector<std::int32_t> all_rows(const TriangleMesh& mesh) { return referenced_vertices(mesh); }
+
+// Dense reference: B evaluated directly, in the same centered frame.
+Eigen::MatrixXd dense_B(const Positions& V, const std::vector<std::int32_t>& rows,
+                        const std::vector<std::int32_t>& centers, double sigma)
+{
+    Eigen::MatrixXd B(static_cast<Eigen::Index>(rows.size()), static_cast<Eigen::Index>(centers.size()));
+    for (std::size_t i = 0; i < rows.size(); ++i)
+    {
+        for (std::size_t j = 0; j < centers.size(); ++j)
+        {
+            const double r = (V.row(rows[i]) - V.row(centers[j])).norm() / sigma;
+            B(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) = wendland(r);
+        }
+    }
+    return B;
+}
+
+}  // namespace
+
+TEST(WendlandTest, matches_closed_form_and_support)
+{
+    EXPECT_DOUBLE_EQ(wendland(0.0), 1.0);
+    EXPECT_DOUBLE_EQ(wendland(0.5), std::pow(0.5, 4) * 3.0);
+    EXPECT_DOUBLE_EQ(wendland(1.0), 0.0);
+    EXPECT_DOUBLE_EQ(wendland(2.5), 0.0);
+    // C2 at the support boundary: value and slope vanish.
+    EXPECT_LT(wendland(1.0 - 1e-4), 1e-15);
+}
+
+TEST(RbfBasisTest, gram_matches_dense_computation)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(3);  // 642 vertices: several blocks
+    const auto rows = all_rows(mesh);
+    const auto centers = random_centers(mesh.V, rows, 40, 11);
+    const double sigma = 0.9;
+    const Eigen::Vector3d origin = mesh.V.colwise().mean().transpose();
+    const RbfBasis basis(mesh.V, rows, centers, sigma, origin, 2);
+    const Eigen::MatrixXd B = dense_B(mesh.V, rows, centers, sigma);
+    const Eigen::MatrixXd G = B.transpose() * B;
+    EXPECT_LT((basis.gram() - G).cwiseAbs().maxCoeff(), 1e-10 * G.cwiseAbs().maxCoeff());
+    // Singular values are those of B, descending.
+    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(B);
+    for (int j = 0; j < 10; ++j)
+    {
+        EXPECT_NEAR(basis.singular_values()(j), svd.singularValues()(j), 1e-9 * svd.singularValues()(0));
+    }
+    for (int j = 1; j < basis.size(); ++j)
+    {
+        EXPECT_GE(basis.singular_values()(j - 1), basis.singular_values()(j));
+    }
+}
+
+TEST(RbfBasisTest, leading_modes_are_orthonormal_and_span_B)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(3);
+    const auto rows = all_rows(mesh);
+    const auto centers = random_centers(mesh.V, rows, 60, 5);
+    const Eigen::Vector3d origin = mesh.V.colwise().mean().transpose();
+    const RbfBasis basis(mesh.V, rows, centers, 1.0, origin, 1);
+    const int m = 8;
+    const Eigen::MatrixXd U = basis.modes_dense(m);
+    EXPECT_LT((U.transpose() * U - Eigen::MatrixXd::Identity(m, m)).cwiseAbs().maxCoeff(), 1e-9);
+    // U = B V W^-1 exactly as the dense formula says.
+    const Eigen::MatrixXd B = dense_B(mesh.V, rows, centers, 1.0);
+    const Eigen::MatrixXd U_ref = B * basis.eigenvectors().leftCols(m) *
+                                  basis.singular_values().head(m).cwiseInverse().asDiagonal();
+    EXPECT_LT((U - U_ref).cwiseAbs().maxCoeff(), 1e-9);
+    // Sign convention: every mode has a positive sum.
+    for (int j = 0; j < m; ++j)
+    {
+        EXPECT_GT(U.col(j).sum(), 0.0);
+    }
+    // The synthesis pass measures the same orthogonality.
+    double error = 1.0;
+    const Positions d = basis.synthesize(Eigen::MatrixX3d::Ones(m, 3), &error);
+    EXPECT_LT(error, 1e-9);
+    EXPECT_NEAR(d.col(0).squaredNorm(), static_cast<double>(m), 1e-8);
+}
+
+TEST(RbfBasisTest, projection_inverts_synthesis_and_least_squares_handles_cropping)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(4);  // 2562 vertices
+    const auto rows = all_rows(mesh);
+    const auto centers = random_centers(mesh.V, rows, 50, 9);
+    const Eigen::Vector3d origin = mesh.V.colwise().mean().transpose();
+    const RbfBasis basis(mesh.V, rows, centers, 1.2, origin, 2);
+    Eigen::MatrixX3d c(6, 3);
+    Rng rng(1);
+    for (Eigen::Index i = 0; i < c.size(); ++i)
+    {
+        c.data()[i] = rng.normal();
+    }
+    const Positions field = basis.synthesize(c);
+    EXPECT_LT((basis.project(field, 6) - c).cwiseAbs().maxCoeff(), 1e-9);
+    // Keep only the half with x > 0: least squares still recovers the coefficients of a field
+    // that lies in the span of the basis.
+    std::vector<std::uint8_t> kept(static_cast<std::size_t>(mesh.V.rows()));
+    for (Eigen::Index i = 0; i < mesh.V.rows(); ++i)
+    {
+        kept[static_cast<std::size_t>(i)] = mesh.V(i, 0) > 0.0 ? 1 : 0;
+    }
+    EXPECT_LT((basis.project_least_squares(field, kept, 6) - c).cwiseAbs().maxCoeff(), 1e-5);
+    // The plain projection of the cropped field is badly off, which is why least squares exists.
+    Positions cropped = field;
+    for (Eigen::Index i = 0; i < mesh.V.rows(); ++i)
+    {
+        if (kept[static_cast<std::size_t>(i)] == 0)
+        {
+            cropped.row(i).setZero();
+        }
+    }
+    EXPECT_GT((basis.project(cropped, 6) - c).cwiseAbs().maxCoeff(), 0.1);
+}
+
+TEST(RbfBasisTest, results_are_bit_identical_for_any_thread_count)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(5);  // 10242 vertices: several chunks
+    const auto rows = all_rows(mesh);
+    const auto centers = random_centers(mesh.V, rows, 100, 3);
+    const Eigen::Vector3d origin = mesh.V.colwise().mean().transpose();
+    const RbfBasis one(mesh.V, rows, centers, 1.0, origin, 1);
+    const RbfBasis two(mesh.V, rows, centers, 1.0, origin, 2);
+    const RbfBasis three(mesh.V, rows, centers, 1.0, origin, 3);
+    EXPECT_TRUE(one.gram() == two.gram());
+    EXPECT_TRUE(one.gram() == three.gram());
+    const Eigen::MatrixX3d c = Eigen::MatrixX3d::Ones(8, 3);
+    EXPECT_TRUE(one.synthesize(c) == two.synthesize(c));
+    EXPECT_TRUE(one.synthesize(c) == three.synthesize(c));
+}
+
+TEST(RandomCentersTest, deterministic_distinct_and_refuses_too_few_positions)
+{
+    TriangleMesh mesh = icosphere(2);
+    const auto rows = all_rows(mesh);
+    const auto a = random_centers(mesh.V, rows, 30, 77);
+    EXPECT_EQ(a, random_centers(mesh.V, rows, 30, 77));
+    EXPECT_NE(a, random_centers(mesh.V, rows, 30, 78));
+    std::vector<std::int32_t> sorted = a;
+    std::sort(sorted.begin(), sorted.end());
+    EXPECT_EQ(std::adjacent_find(sorted.begin(), sorted.end()), sorted.end());
+    // Duplicate every position: centers never repeat a position.
+    Positions doubled(2 * mesh.V.rows(), 3);
+    doubled << mesh.V, mesh.V;
+    std::vector<std::int32_t> doubled_rows(static_cast<std::size_t>(doubled.rows()));
+    std::iota(doubled_rows.begin(), doubled_rows.end(), 0);
+    const auto b = random_centers(doubled, doubled_rows, static_cast<int>(mesh.V.rows()), 1);
+    std::set<std::array<double, 3>> positions;
+    for (const auto i : b)
+    {
+        positions.insert({doubled(i, 0), doubled(i, 1), doubled(i, 2)});
+    }
+    EXPECT_EQ(positions.size(), b.size());
+    EXPECT_THROW((void)random_centers(doubled, doubled_rows, static_cast<int>(mesh.V.rows()) + 1, 1),
+                 InvalidMesh);
+}
+
+}  // namespace meshmark
