@@ -1,0 +1,107 @@
+// SPDX-License-Identifier: MIT
+#include "meshmark/watermark/key.h"
+
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+
+#include <fstream>
+
+#include "meshmark/core/error.h"
+#include "meshmark/geometry/shapes.h"
+#include "support/test_paths.h"
+
+namespace meshmark {
+namespace {
+
+Key sample_key()
+{
+    Key key;
+    key.seed = 0xFEDCBA9876543210ULL;
+    key.options.rule = EmbeddingRule::Paper;
+    key.options.basis_size = 80;
+    key.options.coefficients = 6;
+    key.options.strength = 0.02;
+    key.payload = payload_from_message("(c) ACME", 18);
+    key.message = "(c) ACME";
+    key.original = fingerprint(icosphere(2));
+    return key;
+}
+
+}  // namespace
+
+TEST(KeyTest, json_round_trip_keeps_every_field)
+{
+    const Key key = sample_key();
+    const Key back = parse_key(to_json(key), "k.json");
+    EXPECT_EQ(back.seed, key.seed);
+    EXPECT_EQ(back.options.rule, key.options.rule);
+    EXPECT_EQ(back.options.basis_size, 80);
+    EXPECT_EQ(back.options.coefficients, 6);
+    EXPECT_DOUBLE_EQ(back.options.strength, 0.02);
+    EXPECT_EQ(back.payload, key.payload);
+    EXPECT_EQ(back.message, key.message);
+    EXPECT_EQ(back.original, key.original);
+}
+
+TEST(KeyTest, tampered_truncated_or_foreign_keys_are_rejected_with_a_clear_message)
+{
+    const std::string text = to_json(sample_key());
+    std::string tampered = text;
+    tampered.replace(tampered.find("\"basis_size\": 80"), 16, "\"basis_size\": 81");
+    try
+    {
+        (void)parse_key(tampered, "k.json");
+        FAIL() << "tampered key accepted";
+    }
+    catch (const IoError& e)
+    {
+        EXPECT_NE(std::string(e.what()).find("k.json"), std::string::npos);
+        EXPECT_NE(std::string(e.what()).find("checksum"), std::string::npos);
+    }
+    EXPECT_THROW((void)parse_key(text.substr(0, text.size() / 2), "k.json"), IoError);
+    EXPECT_THROW((void)parse_key("{\"format\": \"other\"}", "k.json"), IoError);
+    std::string future = text;
+    future.replace(future.find("\"version\": 1"), 12, "\"version\": 2");
+    try
+    {
+        (void)parse_key(future, "k.json");
+        FAIL() << "future version accepted";
+    }
+    catch (const IoError& e)
+    {
+        EXPECT_NE(std::string(e.what()).find("version 2"), std::string::npos);
+    }
+}
+
+TEST(KeyTest, key_file_is_private_and_reads_back)
+{
+    const auto dir = test::temp_dir("key");
+    const auto path = dir / "key.json";
+    write_key(path, sample_key());
+    struct stat st{};
+    ASSERT_EQ(::stat(path.c_str(), &st), 0);
+    EXPECT_EQ(st.st_mode & 0777U, 0600U);
+    EXPECT_EQ(read_key(path).seed, sample_key().seed);
+    EXPECT_THROW((void)read_key(dir / "missing.json"), IoError);
+}
+
+TEST(PayloadTest, hex_round_trip_and_validation)
+{
+    const auto bits = payload_from_hex("a5c3f0", 24);
+    EXPECT_EQ(to_bit_string(bits), "101001011100001111110000");
+    EXPECT_EQ(to_hex(bits), "a5c3f0");
+    EXPECT_THROW((void)payload_from_hex("a5c3f", 24), InvalidOption);
+    EXPECT_THROW((void)payload_from_hex("a5c3fg", 24), InvalidOption);
+    EXPECT_EQ(payload_from_hex("f8", 5).size(), 5U);
+    EXPECT_THROW((void)payload_from_hex("f9", 5), InvalidOption);  // padding bits must be 0
+}
+
+TEST(PayloadTest, message_payload_is_stable_and_mask_depends_on_seed)
+{
+    EXPECT_EQ(payload_from_message("hello", 24), payload_from_message("hello", 24));
+    EXPECT_NE(payload_from_message("hello", 24), payload_from_message("hellp", 24));
+    EXPECT_NE(payload_mask(1, 24), payload_mask(2, 24));
+    EXPECT_NE(random_payload(1, 24), payload_mask(1, 24));
+}
+
+}  // namespace meshmark

@@ -1,0 +1,192 @@
+// SPDX-License-Identifier: MIT
+#include "meshmark/watermark/watermark.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include <Eigen/Geometry>
+
+#include "meshmark/core/bounding_box.h"
+#include "meshmark/core/error.h"
+#include "meshmark/core/rng.h"
+#include "meshmark/geometry/shapes.h"
+
+namespace meshmark {
+namespace {
+
+Key make_key(const TriangleMesh& mesh, std::uint64_t seed, EmbeddingRule rule = EmbeddingRule::Additive,
+             double strength = -1.0)
+{
+    Key key;
+    key.seed = seed;
+    key.options.rule = rule;
+    key.options.strength = strength;
+    key.payload = random_payload(seed, payload_bit_count(key.options));
+    key.original = fingerprint(mesh);
+    return key;
+}
+
+Decision detect_positions(const SpectralWatermark& mark, const Positions& suspect)
+{
+    const DetectOptions options;
+    return mark.decide(mark.extract(suspect, options), options);
+}
+
+}  // namespace
+
+TEST(SpectralWatermarkTest, marked_copy_reads_back_all_bits_with_both_rules)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(4);
+    for (const auto rule : {EmbeddingRule::Additive, EmbeddingRule::Paper})
+    {
+        const SpectralWatermark mark(mesh, make_key(mesh, 42, rule));
+        EmbedStats stats;
+        const Positions marked = mesh.V + mark.displacement(&stats);
+        const Decision decision = detect_positions(mark, marked);
+        EXPECT_DOUBLE_EQ(decision.correlation, 1.0) << to_string(rule);
+        EXPECT_TRUE(decision.is_present);
+        EXPECT_EQ(decision.bits_found, decision.bits_expected);
+        EXPECT_NEAR(decision.false_positive_probability, std::pow(0.5, 24), 1e-20);
+        EXPECT_LT(stats.orthogonality_error, 1e-9);
+    }
+}
+
+TEST(SpectralWatermarkTest, additive_strength_is_the_rms_displacement_in_diagonals)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(4);
+    Key key = make_key(mesh, 7, EmbeddingRule::Additive, 2e-3);
+    const SpectralWatermark mark(mesh, key);
+    const Positions d = mark.displacement();
+    const double rms = std::sqrt(d.rowwise().squaredNorm().mean());
+    EXPECT_NEAR(rms / mark.frame().diagonal, 2e-3, 1e-9);
+}
+
+TEST(SpectralWatermarkTest, zero_strength_reproduces_the_input)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(3);
+    for (const auto rule : {EmbeddingRule::Additive, EmbeddingRule::Paper})
+    {
+        const SpectralWatermark mark(mesh, make_key(mesh, 3, rule, 0.0));
+        const Positions marked = mesh.V + mark.displacement();
+        const double diagonal = bounding_box(mesh.V).diagonal();
+        EXPECT_LE((marked - mesh.V).cwiseAbs().maxCoeff(), 1e-12 * diagonal);
+    }
+}
+
+TEST(SpectralWatermarkTest, unmarked_and_wrong_key_copies_are_not_claimed)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(4);
+    const SpectralWatermark mark(mesh, make_key(mesh, 100));
+    const Decision unmarked = detect_positions(mark, mesh.V);
+    EXPECT_FALSE(unmarked.is_present);
+    EXPECT_EQ(unmarked.correlation, 0.0);  // nothing moved: every bit undecided
+    double sum = 0.0;
+    double largest = 0.0;
+    const int trials = 25;
+    for (int t = 0; t < trials; ++t)
+    {
+        const SpectralWatermark other(mesh, make_key(mesh, 1000 + static_cast<std::uint64_t>(t)));
+        const Positions marked_other = mesh.V + other.displacement();
+        const Decision d = detect_positions(mark, marked_other);
+        sum += d.correlation;
+        largest = std::max(largest, d.correlation);
+    }
+    EXPECT_LT(sum / trials, 0.6);
+    EXPECT_LT(largest, 0.9);
+}
+
+TEST(SpectralWatermarkTest, same_message_under_another_key_is_not_claimed)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(4);
+    Key key = make_key(mesh, 5);
+    key.payload = payload_from_message("owner", 24);
+    const SpectralWatermark mark(mesh, key);
+    double sum = 0.0;
+    const int trials = 25;
+    for (int t = 0; t < trials; ++t)
+    {
+        Key other_key = make_key(mesh, 500 + static_cast<std::uint64_t>(t));
+        other_key.payload = key.payload;
+        const SpectralWatermark other(mesh, other_key);
+        sum += detect_positions(mark, mesh.V + other.displacement()).correlation;
+    }
+    // Without the key-derived mask this would be near 1 (DESIGN.md, "Evidence").
+    EXPECT_LT(sum / trials, 0.6);
+}
+
+TEST(SpectralWatermarkTest, displacement_follows_the_model_under_similarity_transforms)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(4);
+    const double D = bounding_box(mesh.V).diagonal();
+    const Eigen::Matrix3d R =
+        Eigen::AngleAxisd(1.1, Eigen::Vector3d(0.3, -0.5, 0.8).normalized()).toRotationMatrix();
+    const double scale = 3.7;
+    const Eigen::RowVector3d shift(10.0 * D, -4.0 * D, 7.0 * D);
+    TriangleMesh moved = mesh;
+    moved.V = ((mesh.V * R.transpose()) * scale).rowwise() + shift;
+    for (const auto rule : {EmbeddingRule::Additive, EmbeddingRule::Paper})
+    {
+        const Positions d0 = SpectralWatermark(mesh, make_key(mesh, 9, rule)).displacement();
+        const Positions d1 = SpectralWatermark(moved, make_key(moved, 9, rule)).displacement();
+        const Positions expected = (d0 * R.transpose()) * scale;
+        const double magnitude = d0.cwiseAbs().maxCoeff() * scale;
+        EXPECT_LT((d1 - expected).cwiseAbs().maxCoeff(), 1e-8 * magnitude) << to_string(rule);
+    }
+}
+
+TEST(SpectralWatermarkTest, unreferenced_vertices_never_move_and_point_clouds_work)
+{
+    TriangleMesh mesh = lumpy_ellipsoid(3);
+    const auto n = mesh.V.rows();
+    mesh.V.conservativeResize(n + 1, 3);
+    mesh.V.row(n) << 9.0, 9.0, 9.0;
+    const SpectralWatermark mark(mesh, make_key(mesh, 1));
+    const Positions d = mark.displacement();
+    EXPECT_EQ(d.row(n).squaredNorm(), 0.0);
+
+    TriangleMesh cloud = lumpy_ellipsoid(3);
+    cloud.F.resize(0, 3);
+    const SpectralWatermark cloud_mark(cloud, make_key(cloud, 2));
+    EXPECT_DOUBLE_EQ(detect_positions(cloud_mark, cloud.V + cloud_mark.displacement()).correlation, 1.0);
+}
+
+TEST(SpectralWatermarkTest, noise_and_smoothing_keep_the_mark)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(5);
+    const SpectralWatermark mark(mesh, make_key(mesh, 77));
+    Positions marked = mesh.V + mark.displacement();
+    const double D = bounding_box(mesh.V).diagonal();
+    Rng rng(5);
+    Positions noisy = marked;
+    for (Eigen::Index i = 0; i < noisy.size(); ++i)
+    {
+        noisy.data()[i] += rng.uniform(-1e-3, 1e-3) * D;
+    }
+    EXPECT_TRUE(detect_positions(mark, noisy).is_present);
+}
+
+TEST(SpectralWatermarkTest, degenerate_inputs_fail_cleanly)
+{
+    TriangleMesh line;
+    line.V.resize(300, 3);
+    for (Eigen::Index i = 0; i < 300; ++i)
+    {
+        line.V.row(i) << static_cast<double>(i), 2.0 * static_cast<double>(i), 0.0;
+    }
+    EXPECT_THROW(SpectralWatermark(line, make_key(line, 1)), NumericalError);
+    const TriangleMesh tiny = icosphere(1);  // 42 vertices < 100 basis functions
+    EXPECT_THROW(SpectralWatermark(tiny, make_key(tiny, 1)), InvalidMesh);
+}
+
+TEST(BinomialTest, tail_matches_direct_sums)
+{
+    EXPECT_DOUBLE_EQ(binomial_tail_half(24, 0), 1.0);
+    EXPECT_NEAR(binomial_tail_half(24, 24), std::pow(0.5, 24), 1e-22);
+    EXPECT_NEAR(binomial_tail_half(24, 18), 190051.0 / 16777216.0, 1e-14);
+    EXPECT_NEAR(binomial_tail_half(4, 2), 11.0 / 16.0, 1e-15);
+    EXPECT_EQ(binomial_tail_half(24, 25), 0.0);
+}
+
+}  // namespace meshmark
