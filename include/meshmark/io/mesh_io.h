@@ -58,9 +58,14 @@ struct MeshFile
 struct WriteOptions
 {
     bool is_binary = true;             ///< PLY and STL: binary (little-endian) rather than ASCII.
-    bool use_single_precision = false;  ///< Store positions as float32 (PLY) instead of float64.
+    /// Store positions as float32 instead of float64 (PLY binary and ASCII; for OBJ, OFF and
+    /// ASCII STL: shortest float32 digits). Binary STL is always float32.
+    bool use_single_precision = false;
     /// Optional per-vertex colors (PLY only: red/green/blue uchar properties), #V entries.
     const std::vector<std::array<std::uint8_t, 3>>* vertex_colors = nullptr;
+
+    /// \brief Throws InvalidOption unless vertex_colors is null or has \p vertex_count entries.
+    void validate(Eigen::Index vertex_count) const;
 };
 
 /// \brief Write \p mesh to \p path in the format of its extension, atomically.

@@ -1,0 +1,43 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+
+#include <filesystem>
+#include <ostream>
+#include <string>
+
+#include "meshmark/io/mesh_io.h"
+#include "io/detail/file_layout.h"
+
+namespace meshmark::detail {
+
+// Readers: parse layout.bytes (the whole file) into a MeshFile whose layout is filled in.
+// Each throws IoError/InvalidMesh naming `path`.
+[[nodiscard]] TriangleMesh read_ply(const std::filesystem::path& path, FileLayout& layout,
+                                    bool& is_single_precision);
+[[nodiscard]] TriangleMesh read_obj(const std::filesystem::path& path, FileLayout& layout,
+                                    bool& is_single_precision);
+[[nodiscard]] TriangleMesh read_off(const std::filesystem::path& path, FileLayout& layout,
+                                    bool& is_single_precision);
+[[nodiscard]] TriangleMesh read_stl(const std::filesystem::path& path, FileLayout& layout,
+                                    bool& is_single_precision);
+
+// Generic writers: the whole file for `mesh` in one string.
+[[nodiscard]] std::string ply_bytes(const TriangleMesh& mesh, const WriteOptions& options);
+[[nodiscard]] std::string obj_bytes(const TriangleMesh& mesh, const WriteOptions& options);
+[[nodiscard]] std::string off_bytes(const TriangleMesh& mesh, const WriteOptions& options);
+[[nodiscard]] std::string stl_bytes(const TriangleMesh& mesh, const WriteOptions& options);
+
+/// \brief The original file of \p layout with positions \p original replaced by
+/// \p positions: unchanged coordinates keep their bytes, changed ones follow the
+/// precision rules of mesh_io.h. \p path names the target in errors.
+[[nodiscard]] std::string preserved_bytes(const std::filesystem::path& path,
+                                          const FileLayout& layout, const Positions& original,
+                                          const Positions& positions);
+
+/// The STL part of preserved_bytes (facet corners and recomputed normals).
+[[nodiscard]] std::string preserved_stl_bytes(const std::filesystem::path& path,
+                                              const FileLayout& layout, const StlFacets& facets,
+                                              const Positions& original,
+                                              const Positions& positions);
+
+}  // namespace meshmark::detail

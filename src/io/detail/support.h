@@ -1,0 +1,117 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "meshmark/core/triangle_mesh.h"
+
+namespace meshmark::detail {
+
+/// Throw IoError "<path>: <what>." (what is one clause, without the final period).
+[[noreturn]] void fail_io(const std::filesystem::path& path, const std::string& what);
+/// Throw InvalidMesh "<path>: <what>.".
+[[noreturn]] void fail_mesh(const std::filesystem::path& path, const std::string& what);
+
+/// A token for a message: quoted, cut to 40 characters, control bytes escaped.
+[[nodiscard]] std::string quoted(std::string_view token);
+
+/// The whole file, read with one read into memory; IoError when missing or unreadable.
+[[nodiscard]] std::string read_file_bytes(const std::filesystem::path& path);
+
+/// Spaces that separate tokens within a line (everything but '\n').
+[[nodiscard]] constexpr bool is_blank(char c) noexcept
+{
+    return c == ' ' || c == '\t' || c == '\r' || c == '\f' || c == '\v';
+}
+
+/// Successive lines of a text (without their '\n'), with 1-based line numbers.
+class LineCursor
+{
+public:
+    explicit LineCursor(std::string_view text, std::size_t start = 0, std::size_t line = 0)
+        : text_(text), next_(start), line_(line)
+    {
+    }
+    /// Advance to the next line; false at the end of the text.
+    bool next(std::string_view& line) noexcept;
+    [[nodiscard]] std::size_t line_number() const noexcept { return line_; }
+    /// Offset just past the current line's '\n' (or the end of the text).
+    [[nodiscard]] std::size_t next_offset() const noexcept { return next_; }
+
+private:
+    std::string_view text_;
+    std::size_t next_;
+    std::size_t line_;
+};
+
+/// Whitespace-separated tokens of one line.
+class TokenCursor
+{
+public:
+    explicit TokenCursor(std::string_view line) noexcept : line_(line) {}
+    /// Next token; false when the line has no more.
+    bool next(std::string_view& token) noexcept;
+
+private:
+    std::string_view line_;
+    std::size_t pos_ = 0;
+};
+
+/// Whitespace-separated tokens across lines (ASCII PLY bodies), counting lines.
+class TokenStream
+{
+public:
+    TokenStream(std::string_view text, std::size_t start, std::size_t line) noexcept
+        : text_(text), pos_(start), line_(line)
+    {
+    }
+    /// Next token; empty at the end of the text.
+    std::string_view next() noexcept;
+    /// Line of the last token returned (1-based).
+    [[nodiscard]] std::size_t line() const noexcept { return line_; }
+    [[nodiscard]] std::size_t remaining() const noexcept { return text_.size() - pos_; }
+
+private:
+    std::string_view text_;
+    std::size_t pos_;
+    std::size_t line_;
+};
+
+/// A mesh from flat arrays: \p xyz (3 per vertex) and \p triangles (3 per face).
+[[nodiscard]] TriangleMesh make_mesh(const std::vector<double>& xyz,
+                                     const std::vector<std::int32_t>& triangles);
+
+/// Faces from a flat array of 3 indices per triangle.
+[[nodiscard]] Faces make_faces(const std::vector<std::int32_t>& triangles);
+
+/// Throw InvalidMesh naming \p path and the vertex if any coordinate is NaN or infinite.
+void check_finite(const std::filesystem::path& path, const Positions& V);
+
+/// Largest vertex count that 32-bit indices address.
+inline constexpr std::uint64_t kMaxVertices = 2147483647U;
+
+}  // namespace meshmark::detail
+
+namespace meshmark::detail {
+
+/// Append the fan triangles (i0, ik, ik+1) of a polygon of \p n checked indices (none if n < 3).
+inline void append_fan(std::vector<std::int32_t>& triangles, const std::int32_t* indices,
+                       std::size_t n)
+{
+    for (std::size_t k = 1; k + 1 < n; ++k)
+    {
+        triangles.push_back(indices[0]);
+        triangles.push_back(indices[k]);
+        triangles.push_back(indices[k + 1]);
+    }
+}
+
+/// "outside 0..n-1" for index messages ("but the file has no vertices" when n == 0).
+[[nodiscard]] std::string index_range(std::uint64_t vertex_count);
+
+}  // namespace meshmark::detail

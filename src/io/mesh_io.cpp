@@ -1,0 +1,155 @@
+// SPDX-License-Identifier: MIT
+#include "meshmark/io/mesh_io.h"
+
+#include <algorithm>
+#include <cctype>
+#include <memory>
+#include <string>
+
+#include "meshmark/core/atomic_file.h"
+#include "meshmark/core/error.h"
+#include "io/detail/file_layout.h"
+#include "io/detail/formats.h"
+#include "io/detail/support.h"
+
+namespace meshmark {
+namespace {
+
+void write_bytes(const std::filesystem::path& path, const std::string& bytes)
+{
+    write_file_atomically(path, [&bytes](std::ostream& out)
+                          { out.write(bytes.data(), static_cast<std::streamsize>(bytes.size())); });
+}
+
+}  // namespace
+
+MeshFormat format_from_extension(const std::filesystem::path& path)
+{
+    std::string ext = path.extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(),
+                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    if (ext == ".ply")
+    {
+        return MeshFormat::Ply;
+    }
+    if (ext == ".obj")
+    {
+        return MeshFormat::Obj;
+    }
+    if (ext == ".off")
+    {
+        return MeshFormat::Off;
+    }
+    if (ext == ".stl")
+    {
+        return MeshFormat::Stl;
+    }
+    detail::fail_io(path, "unknown mesh file extension " +
+                              (ext.empty() ? std::string("(none)") : detail::quoted(ext)) +
+                              "; expected .ply, .obj, .off or .stl");
+}
+
+const char* to_string(MeshFormat format) noexcept
+{
+    switch (format)
+    {
+    case MeshFormat::Ply:
+        return "PLY";
+    case MeshFormat::Obj:
+        return "OBJ";
+    case MeshFormat::Off:
+        return "OFF";
+    case MeshFormat::Stl:
+        return "STL";
+    }
+    return "?";
+}
+
+void WriteOptions::validate(Eigen::Index vertex_count) const
+{
+    if (vertex_colors != nullptr && static_cast<Eigen::Index>(vertex_colors->size()) != vertex_count)
+    {
+        throw InvalidOption("WriteOptions::vertex_colors has " +
+                            std::to_string(vertex_colors->size()) + " entries; expected one per "
+                            "vertex (" + std::to_string(vertex_count) + ").");
+    }
+}
+
+MeshFile read_mesh_file(const std::filesystem::path& path)
+{
+    MeshFile file;
+    file.format = format_from_extension(path);
+    file.path = path;
+    auto layout = std::make_shared<detail::FileLayout>();
+    layout->format = file.format;
+    layout->bytes = detail::read_file_bytes(path);
+    switch (file.format)
+    {
+    case MeshFormat::Ply:
+        file.mesh = detail::read_ply(path, *layout, file.is_single_precision);
+        break;
+    case MeshFormat::Obj:
+        file.mesh = detail::read_obj(path, *layout, file.is_single_precision);
+        break;
+    case MeshFormat::Off:
+        file.mesh = detail::read_off(path, *layout, file.is_single_precision);
+        break;
+    case MeshFormat::Stl:
+        file.mesh = detail::read_stl(path, *layout, file.is_single_precision);
+        break;
+    }
+    file.layout = std::move(layout);
+    return file;
+}
+
+TriangleMesh read_mesh(const std::filesystem::path& path)
+{
+    return std::move(read_mesh_file(path).mesh);
+}
+
+void write_mesh(const std::filesystem::path& path, const TriangleMesh& mesh,
+                const WriteOptions& options)
+{
+    const auto format = format_from_extension(path);
+    options.validate(mesh.V.rows());
+    validate(mesh, path.string().c_str());
+    switch (format)
+    {
+    case MeshFormat::Ply:
+        write_bytes(path, detail::ply_bytes(mesh, options));
+        break;
+    case MeshFormat::Obj:
+        write_bytes(path, detail::obj_bytes(mesh, options));
+        break;
+    case MeshFormat::Off:
+        write_bytes(path, detail::off_bytes(mesh, options));
+        break;
+    case MeshFormat::Stl:
+        write_bytes(path, detail::stl_bytes(mesh, options));
+        break;
+    }
+}
+
+void write_mesh_file(const std::filesystem::path& path, const MeshFile& source,
+                     const Positions& positions, const WriteOptions& options)
+{
+    if (positions.rows() != source.mesh.V.rows())
+    {
+        throw InvalidOption("write_mesh_file: positions have " + std::to_string(positions.rows()) +
+                            " rows, but " + source.path.string() + " has " +
+                            std::to_string(source.mesh.V.rows()) + " vertices.");
+    }
+    const auto format = format_from_extension(path);
+    if (format != source.format || source.layout == nullptr)
+    {
+        TriangleMesh mesh;
+        mesh.V = positions;
+        mesh.F = source.mesh.F;
+        write_mesh(path, mesh, options);
+        return;
+    }
+    detail::check_finite(path, positions);
+    write_bytes(path, detail::preserved_bytes(path, *source.layout, source.mesh.V, positions));
+}
+
+}  // namespace meshmark

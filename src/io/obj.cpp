@@ -1,0 +1,221 @@
+// SPDX-License-Identifier: MIT
+// Wavefront OBJ reader and generic writer. Only `v` and `f` lines matter for the geometry;
+// every other line (vt, vn, g, o, s, mtllib, usemtl, comments, ...) is kept as bytes by the
+// preserving writer. Hand-written: the packaged OBJ loaders do not report where each
+// coordinate token sits, which the byte-exact rewrite needs.
+#include <charconv>
+#include <string>
+#include <vector>
+
+#include "io/detail/formats.h"
+#include "io/detail/support.h"
+
+namespace meshmark::detail {
+namespace {
+
+constexpr int kFloatDecimalDigits = 9;  // FLT_DECIMAL_DIG: see append_like_token.
+
+struct ObjState
+{
+    std::vector<double> xyz;
+    std::vector<std::int32_t> triangles;
+    std::vector<std::int32_t> polygon;  // Reused across faces.
+    TextPositions slots;
+    bool is_single_precision = true;
+    std::uint64_t face_count = 0;
+    // The largest forward index seen, checked once the vertex count is final.
+    std::int64_t max_index = -1;
+    std::uint64_t max_face = 0;
+    std::size_t max_line = 0;
+};
+
+void read_vertex(const std::filesystem::path& path, std::string_view bytes, TokenCursor& tokens,
+                 std::size_t line, ObjState& state)
+{
+    if (state.xyz.size() / 3 >= kMaxVertices)
+    {
+        fail_io(path, "line " + std::to_string(line) + ": more than 2147483647 vertices");
+    }
+    for (int d = 0; d < 3; ++d)
+    {
+        std::string_view token;
+        double value = 0.0;
+        if (!tokens.next(token))
+        {
+            fail_io(path, "line " + std::to_string(line) + ": vertex with fewer than 3 coordinates");
+        }
+        if (!parse_double(token, value))
+        {
+            fail_io(path, "line " + std::to_string(line) + ": bad coordinate " + quoted(token));
+        }
+        state.xyz.push_back(value);
+        state.slots.tokens.push_back({static_cast<std::uint64_t>(token.data() - bytes.data()),
+                                      static_cast<std::uint32_t>(token.size())});
+        state.is_single_precision =
+            state.is_single_precision && significant_digits(token) <= kFloatDecimalDigits;
+    }
+}
+
+// One `f` corner: "v", "v/vt", "v//vn" or "v/vt/vn", each index possibly negative.
+bool parse_corner(std::string_view token, std::int64_t& vertex)
+{
+    const char* p = token.data();
+    const char* end = p + token.size();
+    auto result = std::from_chars(p, end, vertex);
+    if (result.ec != std::errc())
+    {
+        return false;
+    }
+    p = result.ptr;
+    for (int part = 0; part < 2 && p != end; ++part)
+    {
+        if (*p != '/')
+        {
+            return false;
+        }
+        ++p;
+        if (p != end && *p != '/')
+        {
+            std::int64_t ignored = 0;
+            result = std::from_chars(p, end, ignored);
+            if (result.ec != std::errc())
+            {
+                return false;
+            }
+            p = result.ptr;
+        }
+        else if (part == 1)
+        {
+            return false;  // "v/vt/" has an empty normal index.
+        }
+    }
+    return p == end;
+}
+
+void read_face(const std::filesystem::path& path, TokenCursor& tokens, std::size_t line,
+               ObjState& state)
+{
+    const auto face = state.face_count++;
+    const auto defined = static_cast<std::int64_t>(state.xyz.size() / 3);
+    state.polygon.clear();
+    std::string_view token;
+    while (tokens.next(token) && token[0] != '#')
+    {
+        std::int64_t index = 0;
+        if (!parse_corner(token, index))
+        {
+            fail_io(path, "line " + std::to_string(line) + ": bad face corner " + quoted(token));
+        }
+        const auto where = [face, line]
+        { return "face " + std::to_string(face) + " (line " + std::to_string(line) + ")"; };
+        if (index == 0)
+        {
+            fail_mesh(path, where() + " uses vertex index 0; OBJ indices start at 1");
+        }
+        // Negative indices count back from the last vertex defined so far.
+        const auto resolved = index > 0 ? index - 1 : defined + index;
+        if (resolved < 0)
+        {
+            fail_mesh(path, where() + " uses relative vertex index " + std::to_string(index) +
+                                ", but only " + std::to_string(defined) + " vertices precede it");
+        }
+        if (resolved >= static_cast<std::int64_t>(kMaxVertices))
+        {
+            fail_mesh(path, where() + " uses vertex index " + std::to_string(index) +
+                                ", beyond what 32-bit indices address");
+        }
+        if (resolved > state.max_index)
+        {
+            state.max_index = resolved;
+            state.max_face = face;
+            state.max_line = line;
+        }
+        state.polygon.push_back(static_cast<std::int32_t>(resolved));
+    }
+    if (state.polygon.size() < 3)
+    {
+        fail_io(path, "line " + std::to_string(line) + ": face with fewer than 3 vertices");
+    }
+    append_fan(state.triangles, state.polygon.data(), state.polygon.size());
+}
+
+}  // namespace
+
+TriangleMesh read_obj(const std::filesystem::path& path, FileLayout& layout,
+                      bool& is_single_precision)
+{
+    const std::string_view bytes = layout.bytes;
+    ObjState state;
+    state.xyz.reserve(bytes.size() / 16);
+    state.slots.tokens.reserve(bytes.size() / 16);
+    LineCursor lines(bytes);
+    std::string_view line;
+    // Lines -> v / f records; everything else stays in the bytes untouched.
+    while (lines.next(line))
+    {
+        TokenCursor tokens(line);
+        std::string_view keyword;
+        if (!tokens.next(keyword))
+        {
+            continue;
+        }
+        if (keyword == "v")
+        {
+            read_vertex(path, bytes, tokens, lines.line_number(), state);
+        }
+        else if (keyword == "f")
+        {
+            read_face(path, tokens, lines.line_number(), state);
+        }
+    }
+    const auto vertex_count = static_cast<std::int64_t>(state.xyz.size() / 3);
+    if (state.max_index >= vertex_count)
+    {
+        fail_mesh(path, "face " + std::to_string(state.max_face) + " (line " +
+                            std::to_string(state.max_line) + ") uses vertex index " +
+                            std::to_string(state.max_index + 1) + ", outside 1.." +
+                            std::to_string(vertex_count));
+    }
+    auto mesh = make_mesh(state.xyz, state.triangles);
+    check_finite(path, mesh.V);
+    is_single_precision = state.is_single_precision;
+    layout.positions = std::move(state.slots);
+    return mesh;
+}
+
+std::string obj_bytes(const TriangleMesh& mesh, const WriteOptions& options)
+{
+    std::string out = "# written by meshmark\n";
+    out.reserve(static_cast<std::size_t>(mesh.V.rows()) * 40 +
+                static_cast<std::size_t>(mesh.F.rows()) * 24);
+    for (Eigen::Index i = 0; i < mesh.V.rows(); ++i)
+    {
+        out += 'v';
+        for (Eigen::Index d = 0; d < 3; ++d)
+        {
+            out += ' ';
+            if (options.use_single_precision)
+            {
+                append_shortest(out, static_cast<float>(mesh.V(i, d)));
+            }
+            else
+            {
+                append_shortest(out, mesh.V(i, d));
+            }
+        }
+        out += '\n';
+    }
+    for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
+    {
+        out += 'f';
+        for (Eigen::Index c = 0; c < 3; ++c)
+        {
+            out += ' ';
+            out += std::to_string(static_cast<std::int64_t>(mesh.F(f, c)) + 1);
+        }
+        out += '\n';
+    }
+    return out;
+}
+
+}  // namespace meshmark::detail
