@@ -1,0 +1,212 @@
+// SPDX-License-Identifier: MIT
+#include "meshmark/geometry/closest_point_index.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <utility>
+
+#include <CGAL/Simple_cartesian.h>
+#include <CGAL/squared_distance_3.h>
+
+#include "meshmark/core/bounding_box.h"
+#include "meshmark/core/error.h"
+#include "meshmark/core/rng.h"
+#include "meshmark/geometry/shapes.h"
+
+namespace meshmark {
+namespace {
+
+using Kernel = CGAL::Simple_cartesian<double>;
+
+Kernel::Point_3 to_cgal(const Eigen::Vector3d& p)
+{
+    return {p.x(), p.y(), p.z()};
+}
+
+Kernel::Triangle_3 triangle(const TriangleMesh& mesh, Eigen::Index f)
+{
+    auto corner = [&](int c) { return to_cgal(mesh.V.row(mesh.F(f, c)).transpose()); };
+    return {corner(0), corner(1), corner(2)};
+}
+
+/// Distance from \p p to the surface by trying every triangle, with CGAL's point-triangle
+/// distance as an independent oracle.
+double brute_force_distance(const TriangleMesh& mesh, const Eigen::Vector3d& p)
+{
+    double best = std::numeric_limits<double>::infinity();
+    for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
+    {
+        best = std::min(best, CGAL::squared_distance(to_cgal(p), triangle(mesh, f)));
+    }
+    return std::sqrt(best);
+}
+
+/// Queries of every kind: far away, near the surface, on vertices and on edge midpoints.
+Positions mixed_queries(const TriangleMesh& mesh, std::uint64_t seed, Eigen::Index count)
+{
+    Rng rng(seed);
+    const BoundingBox box = bounding_box(mesh.V);
+    const Eigen::Vector3d lo = box.min - 0.5 * (box.max - box.min);
+    const Eigen::Vector3d hi = box.max + 0.5 * (box.max - box.min);
+    Positions queries(count, 3);
+    for (Eigen::Index i = 0; i < count; ++i)
+    {
+        const auto v = static_cast<Eigen::Index>(rng.below(static_cast<std::uint64_t>(mesh.V.rows())));
+        switch (i % 4)
+        {
+        case 0:  // anywhere in an enlarged box
+            for (Eigen::Index k = 0; k < 3; ++k)
+            {
+                queries(i, k) = rng.uniform(lo[k], hi[k]);
+            }
+            break;
+        case 1:  // close to the surface
+            for (Eigen::Index k = 0; k < 3; ++k)
+            {
+                queries(i, k) = mesh.V(v, k) + 1e-3 * box.diagonal() * rng.normal();
+            }
+            break;
+        case 2:  // exactly on a vertex
+            queries.row(i) = mesh.V.row(v);
+            break;
+        default:  // on an edge
+        {
+            const auto f = static_cast<Eigen::Index>(rng.below(static_cast<std::uint64_t>(mesh.F.rows())));
+            queries.row(i) = 0.5 * (mesh.V.row(mesh.F(f, 0)) + mesh.V.row(mesh.F(f, 1)));
+        }
+        }
+    }
+    return queries;
+}
+
+void expect_matches_brute_force(const TriangleMesh& mesh, const Positions& queries)
+{
+    const ClosestPointIndex index(mesh);
+    ASSERT_FALSE(index.is_point_cloud());
+    const auto results = index.closest(queries, 2);
+    ASSERT_EQ(static_cast<Eigen::Index>(results.size()), queries.rows());
+    for (Eigen::Index i = 0; i < queries.rows(); ++i)
+    {
+        const Eigen::Vector3d q = queries.row(i).transpose();
+        const ClosestPoint& r = results[static_cast<std::size_t>(i)];
+        ASSERT_GE(r.face, 0);
+        ASSERT_LT(r.face, mesh.F.rows());
+        EXPECT_EQ(r.vertex, -1);
+        EXPECT_NEAR(r.distance, brute_force_distance(mesh, q), 1e-12) << "query " << i;
+        EXPECT_DOUBLE_EQ(r.distance, (r.point - q).norm());
+        // The reported point lies on the reported face.
+        EXPECT_LE(std::sqrt(CGAL::squared_distance(to_cgal(r.point), triangle(mesh, r.face))), 1e-12)
+            << "query " << i;
+    }
+}
+
+}  // namespace
+
+TEST(ClosestPointIndexTest, matches_brute_force_on_random_queries)
+{
+    expect_matches_brute_force(lumpy_ellipsoid(3), mixed_queries(lumpy_ellipsoid(3), 1, 2000));
+    const TriangleMesh ring = torus(1.0, 0.3, 40, 16);
+    expect_matches_brute_force(ring, mixed_queries(ring, 2, 2000));
+}
+
+TEST(ClosestPointIndexTest, matches_brute_force_on_open_and_tiny_meshes)
+{
+    const TriangleMesh grid = plane_grid(7, 5);
+    expect_matches_brute_force(grid, mixed_queries(grid, 3, 500));
+    TriangleMesh single;
+    single.V.resize(3, 3);
+    single.V << 0.0, 0.0, 0.0, 1.0, 0.2, 0.0, 0.3, 1.0, 0.5;
+    single.F.resize(1, 3);
+    single.F << 0, 1, 2;
+    expect_matches_brute_force(single, mixed_queries(single, 4, 500));
+}
+
+TEST(ClosestPointIndexTest, handles_degenerate_triangles_like_brute_force)
+{
+    // A grid with a collinear (zero-area) triangle, a triangle with a repeated corner and a
+    // needle appended: the index must still return the true distance to the whole set.
+    TriangleMesh mesh = plane_grid(4, 4);
+    const Eigen::Index n = mesh.V.rows();
+    mesh.V.conservativeResize(n + 4, 3);
+    mesh.V.row(n) << 0.2, 0.3, 0.4;
+    mesh.V.row(n + 1) << 0.6, 0.5, 0.6;
+    mesh.V.row(n + 2) << 1.0, 0.7, 0.8;  // collinear with the two above
+    mesh.V.row(n + 3) << 0.6, 0.5 + 1e-13, 0.6;
+    const Eigen::Index m = mesh.F.rows();
+    mesh.F.conservativeResize(m + 3, 3);
+    const auto i = static_cast<std::int32_t>(n);
+    mesh.F.row(m) << i, i + 1, i + 2;
+    mesh.F.row(m + 1) << i, i, i + 2;
+    mesh.F.row(m + 2) << i, i + 1, i + 3;
+    expect_matches_brute_force(mesh, mixed_queries(mesh, 5, 2000));
+}
+
+TEST(ClosestPointIndexTest, points_on_the_surface_are_at_zero_distance)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(2);
+    const ClosestPointIndex index(mesh);
+    for (Eigen::Index f = 0; f < mesh.F.rows(); f += 7)
+    {
+        const Eigen::Vector3d centroid =
+            (mesh.V.row(mesh.F(f, 0)) + mesh.V.row(mesh.F(f, 1)) + mesh.V.row(mesh.F(f, 2))).transpose() / 3.0;
+        EXPECT_LE(index.closest(centroid).distance, 1e-15);
+    }
+}
+
+TEST(ClosestPointIndexTest, results_are_identical_for_one_and_two_threads)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(4);
+    const Positions queries = mixed_queries(mesh, 6, 20000);
+    const ClosestPointIndex index(mesh);
+    const auto one = index.closest(queries, 1);
+    const auto two = index.closest(queries, 2);
+    ASSERT_EQ(one.size(), two.size());
+    for (std::size_t i = 0; i < one.size(); ++i)
+    {
+        ASSERT_EQ(one[i].face, two[i].face) << i;
+        ASSERT_EQ(one[i].distance, two[i].distance) << i;
+        ASSERT_EQ(one[i].point, two[i].point) << i;
+        // The batch call gives what a single query gives.
+        ASSERT_EQ(one[i].distance, index.closest(Eigen::Vector3d(queries.row(static_cast<Eigen::Index>(i)))).distance);
+    }
+}
+
+TEST(ClosestPointIndexTest, point_cloud_returns_nearest_vertex)
+{
+    TriangleMesh cloud = lumpy_ellipsoid(3);
+    cloud.F.resize(0, 3);
+    const ClosestPointIndex index(cloud);
+    ASSERT_TRUE(index.is_point_cloud());
+    TriangleMesh surface = lumpy_ellipsoid(3);
+    const Positions queries = mixed_queries(surface, 7, 2000);
+    const auto results = index.closest(queries, 2);
+    for (Eigen::Index i = 0; i < queries.rows(); ++i)
+    {
+        const Eigen::RowVector3d q = queries.row(i);
+        Eigen::Index nearest = 0;
+        const double best = (cloud.V.rowwise() - q).rowwise().norm().minCoeff(&nearest);
+        const ClosestPoint& r = results[static_cast<std::size_t>(i)];
+        EXPECT_EQ(r.face, -1);
+        EXPECT_NEAR(r.distance, best, 1e-12);
+        EXPECT_EQ(r.point, cloud.V.row(r.vertex).transpose());
+        EXPECT_NEAR((cloud.V.row(r.vertex) - q).norm(), best, 1e-12);
+    }
+}
+
+TEST(ClosestPointIndexTest, rejects_empty_mesh_and_survives_moves)
+{
+    EXPECT_THROW(ClosestPointIndex(TriangleMesh{}), InvalidMesh);
+    ClosestPointIndex a(icosphere(2));
+    const Eigen::Vector3d far(3.0, 0.0, 0.0);
+    const double expected = a.closest(far).distance;
+    EXPECT_NEAR(expected, 2.0, 1e-12);  // (1, 0, 0) is a vertex of the icosphere
+    ClosestPointIndex b(std::move(a));
+    EXPECT_EQ(b.closest(far).distance, expected);
+    ClosestPointIndex c(plane_grid(1, 1));
+    c = std::move(b);
+    EXPECT_EQ(c.closest(far).distance, expected);
+}
+
+}  // namespace meshmark
