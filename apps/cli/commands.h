@@ -19,12 +19,13 @@ struct GlobalArgs
 using CommandRunner = std::function<int()>;
 
 // One registration function per subcommand (one file each): adds the subcommand and its flags
-// to \p app and, when it is the one chosen, stores in \p runner the call that runs it.
-void register_embed(CLI::App& app, const GlobalArgs& global, CommandRunner& runner);
-void register_detect(CLI::App& app, const GlobalArgs& global, CommandRunner& runner);
-void register_demo(CLI::App& app, const GlobalArgs& global, CommandRunner& runner);
-void register_attack(CLI::App& app, const GlobalArgs& global, CommandRunner& runner);
-void register_compare(CLI::App& app, const GlobalArgs& global, CommandRunner& runner);
+// to \p app (with add_global_flags, which binds --threads/--quiet/--verbose to \p global) and,
+// when it is the one chosen, stores in \p runner the call that runs it.
+void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner);
+void register_detect(CLI::App& app, GlobalArgs& global, CommandRunner& runner);
+void register_demo(CLI::App& app, GlobalArgs& global, CommandRunner& runner);
+void register_attack(CLI::App& app, GlobalArgs& global, CommandRunner& runner);
+void register_compare(CLI::App& app, GlobalArgs& global, CommandRunner& runner);
 
 /// Adds --threads, --quiet and --verbose to a subcommand.
 void add_global_flags(CLI::App& command, GlobalArgs& global);
