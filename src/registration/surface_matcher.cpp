@@ -1,0 +1,276 @@
+// SPDX-License-Identifier: MIT
+#include "registration/detail/surface_matcher.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <utility>
+
+#include <omp.h>
+
+#include <Eigen/Geometry>
+#include <nanoflann.hpp>
+
+#include "meshmark/core/error.h"
+
+namespace meshmark::detail {
+namespace {
+
+/// nanoflann dataset adaptor over a compact Positions copy.
+struct PointsAdaptor
+{
+    const Positions* points = nullptr;
+
+    [[nodiscard]] std::size_t kdtree_get_point_count() const
+    {
+        return static_cast<std::size_t>(points->rows());
+    }
+    [[nodiscard]] double kdtree_get_pt(std::uint32_t i, std::size_t dim) const
+    {
+        return (*points)(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(dim));
+    }
+    template <class Box>
+    bool kdtree_get_bbox(Box& /*box*/) const
+    {
+        return false;
+    }
+};
+
+using KdTree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, PointsAdaptor>,
+                                                   PointsAdaptor, 3, std::uint32_t>;
+
+}  // namespace
+
+struct SurfaceMatcher::Impl
+{
+    Positions points;                        // kd-tree points (compact).
+    std::vector<std::int32_t> vertex_of;     // kd point -> mesh vertex (surface mode).
+    Positions V;                             // mesh positions (surface mode).
+    Faces F;                                 // mesh faces (surface mode).
+    Positions face_normal;                   // unit face normals (surface mode).
+    std::vector<std::size_t> ring_offsets;   // vertex -> incident faces, CSR.
+    std::vector<std::int32_t> ring_faces;
+    PointsAdaptor adaptor;
+    std::unique_ptr<KdTree> tree;
+
+    void build_tree()
+    {
+        if (points.rows() == 0)
+        {
+            throw InvalidMesh("registration: the target of a closest-point search has no points.");
+        }
+        adaptor.points = &points;
+        tree = std::make_unique<KdTree>(3, adaptor, nanoflann::KDTreeSingleIndexAdaptorParams(10));
+    }
+
+    // Unit normals by the right-hand rule; zero for a degenerate triangle.
+    void build_face_normals()
+    {
+        face_normal.resize(F.rows(), 3);
+        for (Eigen::Index f = 0; f < F.rows(); ++f)
+        {
+            const Eigen::Vector3d a = V.row(F(f, 0)).transpose();
+            const Eigen::Vector3d n = (V.row(F(f, 1)).transpose() - a).cross(V.row(F(f, 2)).transpose() - a);
+            const double length = n.norm();
+            face_normal.row(f) = (length > 0.0 ? Eigen::Vector3d(n / length) : Eigen::Vector3d::Zero()).transpose();
+        }
+    }
+
+    void build_rings()
+    {
+        const auto n = static_cast<std::size_t>(V.rows());
+        ring_offsets.assign(n + 1, 0);
+        for (Eigen::Index i = 0; i < F.size(); ++i)
+        {
+            ++ring_offsets[static_cast<std::size_t>(F.data()[i]) + 1];
+        }
+        for (std::size_t v = 0; v < n; ++v)
+        {
+            ring_offsets[v + 1] += ring_offsets[v];
+        }
+        ring_faces.resize(ring_offsets.back());
+        std::vector<std::size_t> cursor(ring_offsets.begin(), ring_offsets.end() - 1);
+        for (Eigen::Index f = 0; f < F.rows(); ++f)
+        {
+            for (int c = 0; c < 3; ++c)
+            {
+                const auto v = static_cast<std::size_t>(F(f, c));
+                ring_faces[cursor[v]++] = static_cast<std::int32_t>(f);
+            }
+        }
+    }
+
+    [[nodiscard]] std::uint32_t nearest(const Eigen::Vector3d& q, double& squared) const
+    {
+        std::uint32_t index = 0;
+        tree->knnSearch(q.data(), 1, &index, &squared);
+        return index;
+    }
+};
+
+SurfaceMatcher::SurfaceMatcher(Positions points) : impl_(std::make_unique<Impl>())
+{
+    impl_->points = std::move(points);
+    impl_->build_tree();
+}
+
+SurfaceMatcher::SurfaceMatcher(const TriangleMesh& mesh) : impl_(std::make_unique<Impl>())
+{
+    if (mesh.F.rows() == 0)
+    {
+        impl_->points = mesh.V;
+        impl_->build_tree();
+        return;
+    }
+    impl_->V = mesh.V;
+    impl_->F = mesh.F;
+    impl_->build_face_normals();
+    impl_->vertex_of = referenced_vertices(mesh);
+    impl_->points.resize(static_cast<Eigen::Index>(impl_->vertex_of.size()), 3);
+    for (std::size_t i = 0; i < impl_->vertex_of.size(); ++i)
+    {
+        impl_->points.row(static_cast<Eigen::Index>(i)) = mesh.V.row(impl_->vertex_of[i]);
+    }
+    impl_->build_rings();
+    impl_->build_tree();
+}
+
+SurfaceMatcher::~SurfaceMatcher() = default;
+
+bool SurfaceMatcher::has_normals() const noexcept
+{
+    return impl_->F.rows() > 0;
+}
+
+Match SurfaceMatcher::match(const Eigen::Vector3d& query) const
+{
+    const Impl& m = *impl_;
+    double squared = 0.0;
+    const std::uint32_t k = m.nearest(query, squared);
+    Match result;
+    result.point = m.points.row(static_cast<Eigen::Index>(k)).transpose();
+    result.distance = std::sqrt(squared);
+    if (m.F.rows() == 0)
+    {
+        return result;
+    }
+    // Project onto every triangle around the nearest vertex; the first strictly closer
+    // triangle in ring order wins, so ties resolve the same way on every run.
+    const auto v = static_cast<std::size_t>(m.vertex_of[k]);
+    double best = squared;
+    std::int32_t best_face = m.ring_faces[m.ring_offsets[v]];
+    for (std::size_t r = m.ring_offsets[v]; r < m.ring_offsets[v + 1]; ++r)
+    {
+        const std::int32_t f = m.ring_faces[r];
+        const auto row = m.F.row(f);
+        const Eigen::Vector3d p = closest_point_on_triangle(query, m.V.row(row(0)).transpose(),
+                                                           m.V.row(row(1)).transpose(),
+                                                           m.V.row(row(2)).transpose());
+        const double d2 = (p - query).squaredNorm();
+        if (d2 < best)
+        {
+            best = d2;
+            best_face = f;
+            result.point = p;
+        }
+    }
+    result.distance = std::sqrt(best);
+    result.normal = m.face_normal.row(best_face).transpose();
+    return result;
+}
+
+void SurfaceMatcher::match_all(const Positions& queries, std::vector<Match>& out, int threads) const
+{
+    const auto count = static_cast<std::int64_t>(queries.rows());
+    out.resize(static_cast<std::size_t>(count));
+#pragma omp parallel for schedule(static) num_threads(resolve_threads(threads))
+    for (std::int64_t i = 0; i < count; ++i)
+    {
+        out[static_cast<std::size_t>(i)] =
+            match(queries.row(static_cast<Eigen::Index>(i)).transpose());
+    }
+}
+
+Eigen::Vector3d closest_point_on_triangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
+                                          const Eigen::Vector3d& b, const Eigen::Vector3d& c)
+{
+    // Voronoi-region walk of Ericson, "Real-Time Collision Detection", section 5.1.5.
+    const Eigen::Vector3d ab = b - a;
+    const Eigen::Vector3d ac = c - a;
+    const Eigen::Vector3d ap = p - a;
+    const double d1 = ab.dot(ap);
+    const double d2 = ac.dot(ap);
+    if (d1 <= 0.0 && d2 <= 0.0)
+    {
+        return a;
+    }
+    const Eigen::Vector3d bp = p - b;
+    const double d3 = ab.dot(bp);
+    const double d4 = ac.dot(bp);
+    if (d3 >= 0.0 && d4 <= d3)
+    {
+        return b;
+    }
+    const double vc = d1 * d4 - d3 * d2;
+    if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0)
+    {
+        return a + (d1 / (d1 - d3)) * ab;
+    }
+    const Eigen::Vector3d cp = p - c;
+    const double d5 = ab.dot(cp);
+    const double d6 = ac.dot(cp);
+    if (d6 >= 0.0 && d5 <= d6)
+    {
+        return c;
+    }
+    const double vb = d5 * d2 - d1 * d6;
+    if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0)
+    {
+        return a + (d2 / (d2 - d6)) * ac;
+    }
+    const double va = d3 * d6 - d5 * d4;
+    if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0)
+    {
+        return b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (c - b);
+    }
+    const double sum = va + vb + vc;
+    if (!(sum > 0.0))
+    {
+        return a;  // Degenerate (zero-area) triangle: its corner a is as good as any point.
+    }
+    const double v = vb / sum;
+    const double w = vc / sum;
+    return a + v * ab + w * ac;
+}
+
+double median_neighbor_spacing(const Positions& V, std::size_t max_queries)
+{
+    const auto n = static_cast<std::size_t>(V.rows());
+    if (n < 2)
+    {
+        return 0.0;
+    }
+    PointsAdaptor adaptor{&V};
+    const KdTree tree(3, adaptor, nanoflann::KDTreeSingleIndexAdaptorParams(10));
+    const std::size_t step = std::max<std::size_t>(1, n / std::max<std::size_t>(max_queries, 1));
+    std::vector<double> spacing;
+    for (std::size_t i = 0; i < n; i += step)
+    {
+        std::array<std::uint32_t, 2> index{};
+        std::array<double, 2> squared{};
+        const Eigen::Vector3d q = V.row(static_cast<Eigen::Index>(i)).transpose();
+        tree.knnSearch(q.data(), 2, index.data(), squared.data());
+        spacing.push_back(std::sqrt(squared[1]));
+    }
+    const auto middle = spacing.begin() + static_cast<std::ptrdiff_t>(spacing.size() / 2);
+    std::nth_element(spacing.begin(), middle, spacing.end());
+    return *middle;
+}
+
+int resolve_threads(int threads)
+{
+    return threads > 0 ? threads : omp_get_max_threads();
+}
+
+}  // namespace meshmark::detail
