@@ -1,0 +1,41 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+
+#include "meshmark/core/triangle_mesh.h"
+
+namespace meshmark {
+
+/// Cost and placement of the edge collapses.
+enum class SimplificationPolicy
+{
+    GarlandHeckbert,  ///< Plane quadric error metric [Garland & Heckbert 1997].
+    LindstromTurk,    ///< Memoryless volume/boundary/shape optimization [Lindstrom & Turk 1998].
+};
+
+/// Parameters of the simplification attack.
+struct SimplificationOptions
+{
+    /// Fraction of the referenced vertices kept; the benchmark's levels are 0.5, 0.25, 0.1,
+    /// 0.02 and 0.01. Range (0, 1].
+    double vertex_fraction = 0.5;
+    SimplificationPolicy policy = SimplificationPolicy::GarlandHeckbert;
+
+    /// \throws InvalidOption when vertex_fraction is outside (0, 1].
+    void validate() const;
+    bool operator==(const SimplificationOptions&) const = default;
+};
+
+/// \brief Quadric edge-collapse simplification down to a fraction of the vertices, with CGAL's
+/// Surface_mesh_simplification.
+/// \details The target is `round(vertex_fraction * referenced vertex count)` (at least 4); each
+/// collapse removes one vertex and collapses stop at the target, so the result has the target
+/// count unless no valid collapse is left (tiny targets on meshes of many small pieces).
+/// Collapses keep the surface a combinatorial manifold (link condition) and refuse placements
+/// that flip a face normal, so a closed manifold input stays closed and edge-manifold. Messy
+/// input is repaired first (see "Messy meshes" in docs/algorithms/attacks.md): unreferenced
+/// vertices and degenerate or duplicate faces are dropped, and non-manifold edges and vertices
+/// are cut apart into manifold pieces. New vertices have no correspondence with old ones.
+/// \throws InvalidOption from options.validate(); InvalidMesh for a mesh with no faces.
+[[nodiscard]] TriangleMesh simplify(const TriangleMesh& mesh, const SimplificationOptions& options);
+
+}  // namespace meshmark

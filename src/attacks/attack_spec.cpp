@@ -1,0 +1,667 @@
+// SPDX-License-Identifier: MIT
+#include "meshmark/attacks/attack_spec.h"
+
+#include <array>
+#include <charconv>
+#include <initializer_list>
+#include <optional>
+#include <utility>
+
+#include "meshmark/core/error.h"
+#include "attacks/detail/format.h"
+
+namespace meshmark {
+namespace {
+
+constexpr std::string_view kKnownAttacks =
+    "similarity, noise, smooth, taubin, quantize, simplify, remesh, subdivide, crop, reorder";
+
+std::string_view trim(std::string_view s)
+{
+    while (!s.empty() && (s.front() == ' ' || s.front() == '\t'))
+    {
+        s.remove_prefix(1);
+    }
+    while (!s.empty() && (s.back() == ' ' || s.back() == '\t'))
+    {
+        s.remove_suffix(1);
+    }
+    return s;
+}
+
+std::vector<std::string_view> split(std::string_view s, char separator)
+{
+    std::vector<std::string_view> parts;
+    std::size_t start = 0;
+    while (true)
+    {
+        const std::size_t end = s.find(separator, start);
+        parts.push_back(trim(s.substr(start, end - start)));
+        if (end == std::string_view::npos)
+        {
+            return parts;
+        }
+        start = end + 1;
+    }
+}
+
+std::string quoted(std::string_view s)
+{
+    // Appended piece by piece: GCC 12 reports a false -Wrestrict on "'" + std::string(s).
+    std::string result(1, '\'');
+    result.append(s);
+    result += '\'';
+    return result;
+}
+
+// One step of a spec, split into name, optional level and keys. Every read either succeeds
+// or throws InvalidOption naming the step; finish() rejects keys nobody read.
+class StepReader
+{
+public:
+    explicit StepReader(std::string_view text) : text_(text)
+    {
+        if (text.empty())
+        {
+            throw InvalidOption("Empty attack step in the attack spec (two commas in a row, or a "
+                                "comma at an end?).");
+        }
+        const auto parts = split(text, ':');
+        const std::size_t equals = parts.front().find('=');
+        name_ = trim(parts.front().substr(0, equals));
+        if (equals != std::string_view::npos)
+        {
+            level_ = trim(parts.front().substr(equals + 1));
+            if (level_->empty())
+            {
+                fail("the level after '=' is missing.");
+            }
+        }
+        for (std::size_t i = 1; i < parts.size(); ++i)
+        {
+            const std::size_t eq = parts[i].find('=');
+            if (parts[i].empty() || eq == std::string_view::npos || eq == 0 ||
+                eq + 1 == parts[i].size())
+            {
+                fail("expected KEY=VALUE after ':' but found " + quoted(parts[i]) + ".");
+            }
+            const auto key = trim(parts[i].substr(0, eq));
+            for (const auto& [known, value] : keys_)
+            {
+                if (known == key)
+                {
+                    fail("the key " + quoted(key) + " is given twice.");
+                }
+            }
+            keys_.emplace_back(key, trim(parts[i].substr(eq + 1)));
+        }
+        is_used_.assign(keys_.size(), false);
+    }
+
+    [[nodiscard]] std::string_view name() const { return name_; }
+    [[nodiscard]] std::optional<std::string_view> level() const { return level_; }
+
+    [[noreturn]] void fail(const std::string& problem) const
+    {
+        throw InvalidOption("Bad attack step " + quoted(text_) + ": " + problem);
+    }
+
+    void forbid_level() const
+    {
+        if (level_)
+        {
+            fail(std::string(name_) + " takes no level (found " + quoted(*level_) + ").");
+        }
+    }
+
+    [[nodiscard]] double number(std::string_view text, std::string_view what) const
+    {
+        std::string_view digits = text;
+        if (!digits.empty() && digits.front() == '+')
+        {
+            digits.remove_prefix(1);
+        }
+        double value = 0.0;
+        const auto [end, error] = std::from_chars(digits.data(), digits.data() + digits.size(),
+                                                  value);
+        if (error != std::errc() || end != digits.data() + digits.size() || digits.empty())
+        {
+            fail(std::string(what) + " " + quoted(text) + " is not a number.");
+        }
+        return value;
+    }
+
+    [[nodiscard]] int integer(std::string_view text, std::string_view what) const
+    {
+        int value = 0;
+        const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
+        if (error != std::errc() || end != text.data() + text.size() || text.empty())
+        {
+            fail(std::string(what) + " " + quoted(text) + " is not a whole number.");
+        }
+        return value;
+    }
+
+    [[nodiscard]] std::optional<std::string_view> take(std::string_view key)
+    {
+        for (std::size_t i = 0; i < keys_.size(); ++i)
+        {
+            if (keys_[i].first == key)
+            {
+                is_used_[i] = true;
+                return keys_[i].second;
+            }
+        }
+        return std::nullopt;
+    }
+
+    [[nodiscard]] std::optional<double> take_number(std::string_view key)
+    {
+        const auto value = take(key);
+        return value ? std::optional<double>(number(*value, "the value of " + quoted(key)))
+                     : std::nullopt;
+    }
+
+    [[nodiscard]] std::optional<int> take_integer(std::string_view key)
+    {
+        const auto value = take(key);
+        return value ? std::optional<int>(integer(*value, "the value of " + quoted(key)))
+                     : std::nullopt;
+    }
+
+    // Reads a word among `choices` and returns its enumerator.
+    template <typename E>
+    [[nodiscard]] E choice(std::string_view word, std::string_view what,
+                           std::initializer_list<std::pair<std::string_view, E>> choices) const
+    {
+        std::string allowed;
+        for (const auto& [name, value] : choices)
+        {
+            if (word == name)
+            {
+                return value;
+            }
+            allowed += (allowed.empty() ? "" : ", ") + std::string(name);
+        }
+        fail(std::string(what) + " " + quoted(word) + " is not one of " + allowed + ".");
+    }
+
+    // Rejects keys that no reader took, listing the ones the attack accepts.
+    void finish(std::string_view allowed) const
+    {
+        for (std::size_t i = 0; i < keys_.size(); ++i)
+        {
+            if (!is_used_[i])
+            {
+                fail("unknown key " + quoted(keys_[i].first) + " for " + std::string(name_) +
+                     (allowed.empty() ? std::string(", which takes no keys.")
+                                      : "; allowed keys: " + std::string(allowed) + "."));
+            }
+        }
+    }
+
+private:
+    std::string_view text_;
+    std::string_view name_;
+    std::optional<std::string_view> level_;
+    std::vector<std::pair<std::string_view, std::string_view>> keys_;
+    std::vector<bool> is_used_;
+};
+
+// --- Direction keys shared by similarity and crop: axis=x|y|z, or ax=, ay=, az=. ---
+
+std::optional<Eigen::Vector3d> take_axis(StepReader& step)
+{
+    const auto word = step.take("axis");
+    const auto ax = step.take_number("ax");
+    const auto ay = step.take_number("ay");
+    const auto az = step.take_number("az");
+    const bool has_components = ax || ay || az;
+    if (word && has_components)
+    {
+        step.fail("give the axis as axis=x|y|z or as ax=,ay=,az=, not both.");
+    }
+    if (word)
+    {
+        return step.choice<Eigen::Vector3d>(*word, "the axis",
+                                            {{"x", Eigen::Vector3d::UnitX()},
+                                             {"y", Eigen::Vector3d::UnitY()},
+                                             {"z", Eigen::Vector3d::UnitZ()}});
+    }
+    if (has_components)
+    {
+        return Eigen::Vector3d(ax.value_or(0.0), ay.value_or(0.0), az.value_or(0.0));
+    }
+    return std::nullopt;
+}
+
+std::string axis_keys(const Eigen::Vector3d& axis)
+{
+    const std::array<std::pair<const char*, Eigen::Vector3d>, 3> named = {
+        {{"x", Eigen::Vector3d::UnitX()},
+         {"y", Eigen::Vector3d::UnitY()},
+         {"z", Eigen::Vector3d::UnitZ()}}};
+    for (const auto& [name, unit] : named)
+    {
+        if (axis == unit)
+        {
+            return std::string(":axis=") + name;
+        }
+    }
+    return ":ax=" + detail::format_number(axis.x()) + ":ay=" + detail::format_number(axis.y()) +
+           ":az=" + detail::format_number(axis.z());
+}
+
+std::string key(const char* name, double value)
+{
+    return std::string(":") + name + "=" + detail::format_number(value);
+}
+
+// --- One parser per attack: level and keys into the options struct. ---
+
+AttackSpec parse_similarity(StepReader& step)
+{
+    step.forbid_level();
+    SimilarityOptions options;
+    const auto axis = take_axis(step);
+    const auto angle = step.take_number("angle");
+    const auto scale = step.take_number("scale");
+    const auto tx = step.take_number("tx");
+    const auto ty = step.take_number("ty");
+    const auto tz = step.take_number("tz");
+    const auto smax = step.take_number("smax");
+    const auto tmax = step.take_number("tmax");
+    step.finish("axis, ax, ay, az, angle, scale, tx, ty, tz (explicit); smax, tmax (random)");
+    options.is_random = !(axis || angle || scale || tx || ty || tz);
+    if (!options.is_random && (smax || tmax))
+    {
+        step.fail("smax and tmax shape a random similarity and cannot be mixed with explicit "
+                  "keys.");
+    }
+    options.axis = axis.value_or(options.axis);
+    options.angle_deg = angle.value_or(options.angle_deg);
+    options.scale = scale.value_or(options.scale);
+    options.translation = {tx.value_or(0.0), ty.value_or(0.0), tz.value_or(0.0)};
+    options.max_scale = smax.value_or(options.max_scale);
+    options.max_translation_radii = tmax.value_or(options.max_translation_radii);
+    return options;
+}
+
+AttackSpec parse_noise(StepReader& step)
+{
+    NoiseOptions options;
+    if (const auto level = step.level())
+    {
+        options.amplitude = step.number(*level, "the amplitude");
+    }
+    if (const auto word = step.take("dist"))
+    {
+        options.distribution = step.choice<NoiseDistribution>(
+            *word, "dist", {{"uniform", NoiseDistribution::Uniform},
+                            {"gaussian", NoiseDistribution::Gaussian}});
+    }
+    if (const auto word = step.take("dir"))
+    {
+        options.direction = step.choice<NoiseDirection>(
+            *word, "dir", {{"iso", NoiseDirection::Isotropic}, {"normal", NoiseDirection::Normal}});
+    }
+    if (const auto word = step.take("ref"))
+    {
+        options.reference = step.choice<NoiseReference>(
+            *word, "ref", {{"diag", NoiseReference::BboxDiagonal},
+                           {"centroid", NoiseReference::CentroidDistance}});
+    }
+    step.finish("dist, dir, ref");
+    return options;
+}
+
+AttackSpec parse_smooth(StepReader& step)
+{
+    LaplacianSmoothingOptions options;
+    if (const auto level = step.level())
+    {
+        options.iterations = step.integer(*level, "the iteration count");
+    }
+    options.lambda = step.take_number("lambda").value_or(options.lambda);
+    step.finish("lambda");
+    return options;
+}
+
+AttackSpec parse_taubin(StepReader& step)
+{
+    TaubinSmoothingOptions options;
+    if (const auto level = step.level())
+    {
+        options.iterations = step.integer(*level, "the iteration count");
+    }
+    options.lambda = step.take_number("lambda").value_or(options.lambda);
+    options.mu = step.take_number("mu").value_or(options.mu);
+    step.finish("lambda, mu");
+    return options;
+}
+
+AttackSpec parse_quantize(StepReader& step)
+{
+    QuantizationOptions options;
+    if (const auto level = step.level())
+    {
+        options.bits = step.integer(*level, "the bit count");
+    }
+    step.finish("");
+    return options;
+}
+
+AttackSpec parse_simplify(StepReader& step)
+{
+    SimplificationOptions options;
+    if (const auto level = step.level())
+    {
+        options.vertex_fraction = step.number(*level, "the vertex fraction");
+    }
+    if (const auto word = step.take("policy"))
+    {
+        options.policy = step.choice<SimplificationPolicy>(
+            *word, "policy", {{"gh", SimplificationPolicy::GarlandHeckbert},
+                              {"lt", SimplificationPolicy::LindstromTurk}});
+    }
+    step.finish("policy");
+    return options;
+}
+
+AttackSpec parse_remesh(StepReader& step)
+{
+    RemeshingOptions options;
+    if (const auto level = step.level())
+    {
+        options.vertex_fraction = step.number(*level, "the vertex fraction");
+    }
+    options.iterations = step.take_integer("iter").value_or(options.iterations);
+    step.finish("iter");
+    return options;
+}
+
+AttackSpec parse_subdivide(StepReader& step)
+{
+    SubdivisionOptions options;
+    if (const auto level = step.level())
+    {
+        options.scheme = step.choice<SubdivisionScheme>(*level, "the scheme",
+                                                        {{"loop", SubdivisionScheme::Loop},
+                                                         {"midpoint", SubdivisionScheme::Midpoint},
+                                                         {"sqrt3", SubdivisionScheme::Sqrt3}});
+    }
+    options.steps = step.take_integer("steps").value_or(options.steps);
+    step.finish("steps");
+    return options;
+}
+
+AttackSpec parse_crop(StepReader& step)
+{
+    CropOptions options;
+    if (const auto level = step.level())
+    {
+        options.vertex_fraction = step.number(*level, "the vertex fraction");
+    }
+    options.direction = take_axis(step);
+    step.finish("axis, ax, ay, az");
+    return options;
+}
+
+AttackSpec parse_reorder(StepReader& step)
+{
+    step.forbid_level();
+    step.finish("");
+    return ReorderOptions{};
+}
+
+struct AttackParser
+{
+    std::string_view name;
+    AttackSpec (*parse)(StepReader&);
+};
+
+// In the order of AttackSpec's alternatives: attack_name() indexes this table by variant index.
+constexpr std::array<AttackParser, 10> kParsers = {{
+    {"similarity", parse_similarity},
+    {"noise", parse_noise},
+    {"smooth", parse_smooth},
+    {"taubin", parse_taubin},
+    {"quantize", parse_quantize},
+    {"simplify", parse_simplify},
+    {"remesh", parse_remesh},
+    {"subdivide", parse_subdivide},
+    {"crop", parse_crop},
+    {"reorder", parse_reorder},
+}};
+
+static_assert(std::variant_size_v<AttackSpec> == kParsers.size());
+
+AttackSpec parse_step(std::string_view text)
+{
+    StepReader step(text);
+    for (const auto& parser : kParsers)
+    {
+        if (parser.name == step.name())
+        {
+            AttackSpec spec = parser.parse(step);
+            try
+            {
+                std::visit([](const auto& options) { options.validate(); }, spec);
+            }
+            catch (const InvalidOption& e)
+            {
+                step.fail(e.what());
+            }
+            return spec;
+        }
+    }
+    step.fail("unknown attack " + quoted(step.name()) + "; known attacks: " +
+              std::string(kKnownAttacks) + ".");
+}
+
+// --- Canonical text, one overload per options struct. ---
+
+std::string text_of(const SimilarityOptions& o)
+{
+    const SimilarityOptions defaults;
+    std::string text = "similarity";
+    if (o.is_random)
+    {
+        text += o.max_scale != defaults.max_scale ? key("smax", o.max_scale) : "";
+        text += o.max_translation_radii != defaults.max_translation_radii
+                    ? key("tmax", o.max_translation_radii)
+                    : "";
+        return text;
+    }
+    std::string keys = o.axis != defaults.axis ? axis_keys(o.axis) : "";
+    keys += o.angle_deg != 0.0 ? key("angle", o.angle_deg) : "";
+    keys += o.scale != 1.0 ? key("scale", o.scale) : "";
+    keys += o.translation.x() != 0.0 ? key("tx", o.translation.x()) : "";
+    keys += o.translation.y() != 0.0 ? key("ty", o.translation.y()) : "";
+    keys += o.translation.z() != 0.0 ? key("tz", o.translation.z()) : "";
+    // An explicit identity still needs one explicit key to read back as explicit.
+    return text + (keys.empty() ? key("scale", 1.0) : keys);
+}
+
+std::string text_of(const NoiseOptions& o)
+{
+    std::string text = "noise=" + detail::format_number(o.amplitude);
+    text += o.distribution == NoiseDistribution::Gaussian ? ":dist=gaussian" : "";
+    text += o.direction == NoiseDirection::Normal ? ":dir=normal" : "";
+    text += o.reference == NoiseReference::CentroidDistance ? ":ref=centroid" : "";
+    return text;
+}
+
+std::string text_of(const LaplacianSmoothingOptions& o)
+{
+    const LaplacianSmoothingOptions defaults;
+    return "smooth=" + std::to_string(o.iterations) +
+           (o.lambda != defaults.lambda ? key("lambda", o.lambda) : "");
+}
+
+std::string text_of(const TaubinSmoothingOptions& o)
+{
+    const TaubinSmoothingOptions defaults;
+    return "taubin=" + std::to_string(o.iterations) +
+           (o.lambda != defaults.lambda ? key("lambda", o.lambda) : "") +
+           (o.mu != defaults.mu ? key("mu", o.mu) : "");
+}
+
+std::string text_of(const QuantizationOptions& o) { return "quantize=" + std::to_string(o.bits); }
+
+std::string text_of(const SimplificationOptions& o)
+{
+    return "simplify=" + detail::format_number(o.vertex_fraction) +
+           (o.policy == SimplificationPolicy::LindstromTurk ? ":policy=lt" : "");
+}
+
+std::string text_of(const RemeshingOptions& o)
+{
+    const RemeshingOptions defaults;
+    return "remesh=" + detail::format_number(o.vertex_fraction) +
+           (o.iterations != defaults.iterations ? ":iter=" + std::to_string(o.iterations) : "");
+}
+
+std::string text_of(const SubdivisionOptions& o)
+{
+    const char* scheme = o.scheme == SubdivisionScheme::Loop       ? "loop"
+                         : o.scheme == SubdivisionScheme::Midpoint ? "midpoint"
+                                                                   : "sqrt3";
+    return std::string("subdivide=") + scheme +
+           (o.steps != 1 ? ":steps=" + std::to_string(o.steps) : "");
+}
+
+std::string text_of(const CropOptions& o)
+{
+    return "crop=" + detail::format_number(o.vertex_fraction) +
+           (o.direction ? axis_keys(*o.direction) : "");
+}
+
+std::string text_of(const ReorderOptions& /*options*/) { return "reorder"; }
+
+// --- Dispatch. ---
+
+AttackResult with_identity(TriangleMesh mesh)
+{
+    AttackResult result;
+    result.source_vertex = identity_correspondence(mesh.V.rows());
+    result.mesh = std::move(mesh);
+    return result;
+}
+
+AttackResult without_correspondence(TriangleMesh mesh)
+{
+    AttackResult result;
+    result.mesh = std::move(mesh);
+    return result;
+}
+
+template <typename... Visitors>
+struct Overloaded : Visitors...
+{
+    using Visitors::operator()...;
+};
+
+}  // namespace
+
+std::vector<AttackSpec> parse_attack_spec(std::string_view text)
+{
+    if (trim(text).empty())
+    {
+        throw InvalidOption("The attack spec is empty; expected STEP[,STEP]... such as "
+                            "'similarity,simplify=0.1,noise=0.001'.");
+    }
+    std::vector<AttackSpec> specs;
+    for (const auto step : split(text, ','))
+    {
+        specs.push_back(parse_step(step));
+    }
+    return specs;
+}
+
+std::string to_string(const AttackSpec& spec)
+{
+    return std::visit([](const auto& options) { return text_of(options); }, spec);
+}
+
+std::string to_string(const std::vector<AttackSpec>& specs)
+{
+    std::string text;
+    for (const auto& spec : specs)
+    {
+        if (!text.empty())
+        {
+            text += ',';
+        }
+        text += to_string(spec);
+    }
+    return text;
+}
+
+std::string_view attack_name(const AttackSpec& spec)
+{
+    return kParsers[spec.index()].name;
+}
+
+AttackResult apply_attack(const TriangleMesh& mesh, const AttackSpec& spec, Rng& rng, int threads)
+{
+    return std::visit(
+        Overloaded{
+            [&](const SimilarityOptions& o) { return apply_similarity(mesh, o, rng); },
+            [&](const NoiseOptions& o) { return with_identity(add_noise(mesh, o, rng, threads)); },
+            [&](const LaplacianSmoothingOptions& o) {
+                return with_identity(smooth_laplacian(mesh, o, threads));
+            },
+            [&](const TaubinSmoothingOptions& o) {
+                return with_identity(smooth_taubin(mesh, o, threads));
+            },
+            [&](const QuantizationOptions& o) { return with_identity(quantize(mesh, o)); },
+            [&](const SimplificationOptions& o) {
+                return without_correspondence(simplify(mesh, o));
+            },
+            [&](const RemeshingOptions& o) { return without_correspondence(remesh(mesh, o)); },
+            [&](const SubdivisionOptions& o) {
+                return without_correspondence(subdivide(mesh, o));
+            },
+            [&](const CropOptions& o) { return crop(mesh, o, rng); },
+            [&](const ReorderOptions& o) { return reorder(mesh, o, rng); },
+        },
+        spec);
+}
+
+AttackResult apply_attacks(const TriangleMesh& mesh, const std::vector<AttackSpec>& specs,
+                           std::uint64_t seed, int threads)
+{
+    AttackResult total = with_identity(mesh);
+    for (std::size_t k = 0; k < specs.size(); ++k)
+    {
+        // Each step draws from its own stream, named by its position and attack.
+        const std::string purpose =
+            "attack/" + std::to_string(k) + "/" + std::string(attack_name(specs[k]));
+        Rng rng(derive_seed(seed, purpose));
+        AttackResult step = apply_attack(total.mesh, specs[k], rng, threads);
+
+        // Compose the similarity and the correspondence with those of the steps before.
+        if (step.similarity)
+        {
+            total.similarity =
+                total.similarity ? total.similarity->then(*step.similarity) : *step.similarity;
+        }
+        if (total.source_vertex && step.source_vertex)
+        {
+            for (auto& source : *step.source_vertex)
+            {
+                source = (*total.source_vertex)[static_cast<std::size_t>(source)];
+            }
+            total.source_vertex = std::move(step.source_vertex);
+        }
+        else
+        {
+            total.source_vertex.reset();
+        }
+        total.mesh = std::move(step.mesh);
+    }
+    return total;
+}
+
+}  // namespace meshmark

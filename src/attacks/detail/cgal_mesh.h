@@ -1,0 +1,35 @@
+// SPDX-License-Identifier: MIT
+// Private bridge between TriangleMesh and CGAL's Surface_mesh, for the CGAL-backed attacks only
+// (simplification, remeshing, subdivision). Never included by a public header, so CGAL stays
+// out of every translation unit but these.
+#pragma once
+
+#include <string_view>
+
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Surface_mesh.h>
+
+#include "meshmark/core/triangle_mesh.h"
+
+namespace meshmark::detail {
+
+using CgalKernel = CGAL::Exact_predicates_inexact_constructions_kernel;
+using CgalPoint = CgalKernel::Point_3;
+using SurfaceMesh = CGAL::Surface_mesh<CgalPoint>;
+
+/// \brief A valid CGAL surface built from the triangles of \p mesh.
+/// \details Only referenced vertices are used. A mesh that is already an oriented combinatorial
+/// manifold is converted as it is; otherwise the soup is repaired first with CGAL's
+/// repair_polygon_soup (merges points at identical positions, drops degenerate and duplicate
+/// faces) and orient_polygon_soup (duplicates the points along non-manifold edges and at
+/// non-manifold vertices, so the surface is cut into manifold pieces, and makes orientations
+/// agree) [Guéziec, Taubin, Lazarus, Horn 2001].
+/// \param attack  Names the attack in error messages.
+/// \throws InvalidMesh when the mesh has no faces, or no usable face is left after repair.
+[[nodiscard]] SurfaceMesh to_surface_mesh(const TriangleMesh& mesh, std::string_view attack);
+
+/// \brief The vertices (renumbered densely, in CGAL's order) and triangles of \p surface.
+/// \pre Every face of \p surface is a triangle.
+[[nodiscard]] TriangleMesh to_triangle_mesh(const SurfaceMesh& surface);
+
+}  // namespace meshmark::detail

@@ -1,0 +1,30 @@
+// SPDX-License-Identifier: MIT
+// Private helpers shared by the attacks: thread counts and random directions.
+#pragma once
+
+#include <cmath>
+#include <numbers>
+
+#include <Eigen/Core>
+#include <omp.h>
+
+#include "meshmark/core/rng.h"
+
+namespace meshmark::detail {
+
+/// Threads to use for a `threads` argument (0 = all cores).
+inline int thread_count(int threads)
+{
+    return threads > 0 ? threads : omp_get_max_threads();
+}
+
+/// Direction uniform on the unit sphere (Archimedes: z uniform in [-1, 1], longitude uniform).
+inline Eigen::Vector3d random_unit_vector(Rng& rng)
+{
+    const double z = rng.uniform(-1.0, 1.0);
+    const double phi = 2.0 * std::numbers::pi * rng.uniform();
+    const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
+    return {r * std::cos(phi), r * std::sin(phi), z};
+}
+
+}  // namespace meshmark::detail

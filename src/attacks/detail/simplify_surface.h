@@ -1,0 +1,17 @@
+// SPDX-License-Identifier: MIT
+// Private: quadric edge collapse on a CGAL surface, shared by simplify() and remesh().
+#pragma once
+
+#include <cstddef>
+
+#include "meshmark/attacks/simplification.h"
+#include "attacks/detail/cgal_mesh.h"
+
+namespace meshmark::detail {
+
+/// \brief Collapse edges of \p surface with \p policy until it has \p target_vertices vertices
+/// (or no valid collapse is left). Does nothing when it already has that few.
+void simplify_surface(SurfaceMesh& surface, std::size_t target_vertices,
+                      SimplificationPolicy policy);
+
+}  // namespace meshmark::detail

@@ -1,0 +1,92 @@
+// SPDX-License-Identifier: MIT
+#include "meshmark/attacks/remeshing.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+#include <utility>
+
+#include <CGAL/Polygon_mesh_processing/measure.h>
+#include <CGAL/Polygon_mesh_processing/remesh.h>
+
+#include "meshmark/core/error.h"
+#include "attacks/detail/cgal_mesh.h"
+#include "attacks/detail/format.h"
+
+namespace meshmark {
+namespace {
+
+namespace pmp = CGAL::Polygon_mesh_processing;
+
+// A pass is accepted when its vertex count is this close to the target (relative); the
+// contract is 10%, so 5% leaves room for what the projection and relaxation still move.
+constexpr double kCountTolerance = 0.05;
+// Passes before giving up on the tolerance and returning the closest result.
+constexpr int kMaxPasses = 4;
+
+// Edge length whose equilateral triangles tile `area` with `vertices` vertices: a closed
+// triangle mesh has F ≈ 2V faces of area sqrt(3)/4 L^2 each.
+double edge_length_for(double area, double vertices)
+{
+    return std::sqrt(2.0 * area / (std::sqrt(3.0) * vertices));
+}
+
+detail::SurfaceMesh remesh_pass(const detail::SurfaceMesh& input, double edge_length,
+                                int iterations)
+{
+    detail::SurfaceMesh surface = input;
+    pmp::isotropic_remeshing(faces(surface), edge_length, surface,
+                             CGAL::parameters::number_of_iterations(
+                                 static_cast<unsigned int>(iterations)));
+    surface.collect_garbage();
+    return surface;
+}
+
+}  // namespace
+
+void RemeshingOptions::validate() const
+{
+    if (!std::isfinite(vertex_fraction) || vertex_fraction <= 0.0 || vertex_fraction > 10.0)
+    {
+        throw InvalidOption("remesh: fraction " + detail::format_number(vertex_fraction) +
+                            " is outside (0, 10].");
+    }
+    if (iterations < 1 || iterations > 20)
+    {
+        throw InvalidOption("remesh: iter " + std::to_string(iterations) + " is outside 1..20.");
+    }
+}
+
+TriangleMesh remesh(const TriangleMesh& mesh, const RemeshingOptions& options)
+{
+    options.validate();
+    const auto referenced = static_cast<double>(referenced_vertices(mesh).size());
+    const double target = std::max(4.0, std::round(options.vertex_fraction * referenced));
+    const detail::SurfaceMesh input = detail::to_surface_mesh(mesh, "remesh");
+
+    // First guess from the area, then correct the length by the square root of the count ratio
+    // (the vertex density goes as 1 / L^2) and remesh the input again.
+    double edge_length = edge_length_for(pmp::area(input), target);
+    detail::SurfaceMesh best;
+    double best_error = std::numeric_limits<double>::infinity();
+    for (int pass = 0; pass < kMaxPasses; ++pass)
+    {
+        detail::SurfaceMesh surface = remesh_pass(input, edge_length, options.iterations);
+        const auto count = static_cast<double>(surface.number_of_vertices());
+        const double error = std::abs(count / target - 1.0);
+        if (error < best_error)
+        {
+            best = std::move(surface);
+            best_error = error;
+        }
+        if (error <= kCountTolerance)
+        {
+            break;
+        }
+        edge_length *= std::sqrt(count / target);
+    }
+    return detail::to_triangle_mesh(best);
+}
+
+}  // namespace meshmark

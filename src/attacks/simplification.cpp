@@ -1,0 +1,103 @@
+// SPDX-License-Identifier: MIT
+#include "meshmark/attacks/simplification.h"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+// The kernel first: Bounded_normal_change_placement.h uses CGAL::is_positive without including it.
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/Bounded_normal_change_placement.h>
+#include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/GarlandHeckbert_plane_policies.h>
+#include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/LindstromTurk_cost.h>
+#include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/LindstromTurk_placement.h>
+#include <CGAL/Surface_mesh_simplification/edge_collapse.h>
+
+#include "meshmark/core/error.h"
+#include "attacks/detail/cgal_mesh.h"
+#include "attacks/detail/format.h"
+#include "attacks/detail/simplify_surface.h"
+
+namespace meshmark {
+namespace detail {
+namespace {
+
+namespace sms = CGAL::Surface_mesh_simplification;
+
+// Stops the collapses when the surface is down to the target vertex count. Every collapse
+// removes exactly one vertex, so the count is hit exactly (CGAL's own predicates count edges or
+// faces, which only approximate a vertex target on surfaces with boundaries or several pieces).
+class VertexCountStop
+{
+public:
+    VertexCountStop(const SurfaceMesh& surface, std::size_t target)
+        : surface_(&surface), target_(target)
+    {
+    }
+    template <typename Cost, typename Profile>
+    bool operator()(const Cost& /*current_cost*/, const Profile& /*profile*/,
+                    std::size_t /*initial_edge_count*/, std::size_t /*current_edge_count*/) const
+    {
+        return surface_->number_of_vertices() <= target_;
+    }
+
+private:
+    const SurfaceMesh* surface_;
+    std::size_t target_;
+};
+
+}  // namespace
+
+void simplify_surface(SurfaceMesh& surface, std::size_t target_vertices,
+                      SimplificationPolicy policy)
+{
+    if (surface.number_of_vertices() <= target_vertices)
+    {
+        return;
+    }
+    const VertexCountStop stop(surface, target_vertices);
+    // Both policies are wrapped in Bounded_normal_change_placement, which refuses a collapse
+    // that would flip a face normal (fold-overs would make the result self-intersect).
+    if (policy == SimplificationPolicy::GarlandHeckbert)
+    {
+        using Policies = sms::GarlandHeckbert_plane_policies<SurfaceMesh, CgalKernel>;
+        const Policies policies(surface);
+        const sms::Bounded_normal_change_placement<Policies::Get_placement> placement(
+            policies.get_placement());
+        sms::edge_collapse(surface, stop,
+                           CGAL::parameters::get_cost(policies.get_cost()).get_placement(placement));
+    }
+    else
+    {
+        const sms::Bounded_normal_change_placement<sms::LindstromTurk_placement<SurfaceMesh>>
+            placement;
+        sms::edge_collapse(surface, stop,
+                           CGAL::parameters::get_cost(sms::LindstromTurk_cost<SurfaceMesh>())
+                               .get_placement(placement));
+    }
+}
+
+}  // namespace detail
+
+void SimplificationOptions::validate() const
+{
+    if (!std::isfinite(vertex_fraction) || vertex_fraction <= 0.0 || vertex_fraction > 1.0)
+    {
+        throw InvalidOption("simplify: fraction " + detail::format_number(vertex_fraction) +
+                            " is outside (0, 1].");
+    }
+}
+
+TriangleMesh simplify(const TriangleMesh& mesh, const SimplificationOptions& options)
+{
+    options.validate();
+    // Target from the referenced vertices: unreferenced ones are not part of the surface.
+    const auto referenced = static_cast<double>(referenced_vertices(mesh).size());
+    const auto target = static_cast<std::size_t>(
+        std::max(4.0, std::round(options.vertex_fraction * referenced)));
+    detail::SurfaceMesh surface = detail::to_surface_mesh(mesh, "simplify");
+    detail::simplify_surface(surface, target, options.policy);
+    return detail::to_triangle_mesh(surface);
+}
+
+}  // namespace meshmark

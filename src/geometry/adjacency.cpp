@@ -1,0 +1,130 @@
+// SPDX-License-Identifier: MIT
+#include "meshmark/geometry/adjacency.h"
+
+#include <algorithm>
+#include <utility>
+
+namespace meshmark {
+namespace {
+
+// Calls visit(a, b) once for each of the three corner pairs (edges) of every face whose two
+// ends differ, in face order.
+template <typename Visit>
+void for_each_face_edge(const TriangleMesh& mesh, Visit&& visit)
+{
+    for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
+    {
+        for (int c = 0; c < 3; ++c)
+        {
+            const std::int32_t a = mesh.F(f, c);
+            const std::int32_t b = mesh.F(f, (c + 1) % 3);
+            if (a != b)
+            {
+                visit(a, b);
+            }
+        }
+    }
+}
+
+// Prefix sums of per-row counts: offsets[v] = sum of counts[0..v).
+std::vector<std::size_t> row_offsets(const std::vector<std::size_t>& counts)
+{
+    std::vector<std::size_t> offsets(counts.size() + 1, 0);
+    for (std::size_t v = 0; v < counts.size(); ++v)
+    {
+        offsets[v + 1] = offsets[v] + counts[v];
+    }
+    return offsets;
+}
+
+}  // namespace
+
+VertexAdjacency vertex_adjacency(const TriangleMesh& mesh)
+{
+    // Counting sort into rows (O(#F)), then sort and deduplicate each short row: far cheaper
+    // than sorting all 6 #F half-edges globally on large meshes.
+    const auto n = static_cast<std::size_t>(mesh.V.rows());
+    std::vector<std::size_t> counts(n, 0);
+    for_each_face_edge(mesh, [&](std::int32_t a, std::int32_t b) {
+        ++counts[static_cast<std::size_t>(a)];
+        ++counts[static_cast<std::size_t>(b)];
+    });
+    std::vector<std::size_t> cursor = row_offsets(counts);
+    std::vector<std::int32_t> raw(cursor.back());
+    for_each_face_edge(mesh, [&](std::int32_t a, std::int32_t b) {
+        raw[cursor[static_cast<std::size_t>(a)]++] = b;
+        raw[cursor[static_cast<std::size_t>(b)]++] = a;
+    });
+
+    VertexAdjacency adjacency;
+    adjacency.offsets.assign(n + 1, 0);
+    adjacency.neighbors.reserve(raw.size() / 2);
+    std::size_t begin = 0;
+    for (std::size_t v = 0; v < n; ++v)
+    {
+        const auto row_begin = raw.begin() + static_cast<std::ptrdiff_t>(begin);
+        const auto row_end = row_begin + static_cast<std::ptrdiff_t>(counts[v]);
+        std::sort(row_begin, row_end);
+        const auto unique_end = std::unique(row_begin, row_end);
+        adjacency.neighbors.insert(adjacency.neighbors.end(), row_begin, unique_end);
+        adjacency.offsets[v + 1] = adjacency.neighbors.size();
+        begin += counts[v];
+    }
+    return adjacency;
+}
+
+EdgeStatistics edge_statistics(const TriangleMesh& mesh)
+{
+    // Bucket every face edge under its smaller end, remembering the larger end and whether the
+    // face runs along it from small to large (+1) or back (-1).
+    const auto n = static_cast<std::size_t>(mesh.V.rows());
+    std::vector<std::size_t> counts(n, 0);
+    for_each_face_edge(mesh, [&](std::int32_t a, std::int32_t b) {
+        ++counts[static_cast<std::size_t>(std::min(a, b))];
+    });
+    std::vector<std::size_t> cursor = row_offsets(counts);
+    std::vector<std::pair<std::int32_t, int>> entries(cursor.back());
+    for_each_face_edge(mesh, [&](std::int32_t a, std::int32_t b) {
+        entries[cursor[static_cast<std::size_t>(std::min(a, b))]++] = {std::max(a, b),
+                                                                        a < b ? 1 : -1};
+    });
+
+    // Within a row, equal larger ends form one undirected edge; count its faces and directions.
+    EdgeStatistics stats;
+    std::size_t begin = 0;
+    for (std::size_t v = 0; v < n; ++v)
+    {
+        const auto row_begin = entries.begin() + static_cast<std::ptrdiff_t>(begin);
+        const auto row_end = row_begin + static_cast<std::ptrdiff_t>(counts[v]);
+        std::sort(row_begin, row_end);
+        for (auto it = row_begin; it != row_end;)
+        {
+            auto next = it;
+            int direction_sum = 0;
+            while (next != row_end && next->first == it->first)
+            {
+                direction_sum += next->second;
+                ++next;
+            }
+            const auto uses = static_cast<std::size_t>(next - it);
+            ++stats.edge_count;
+            if (uses == 1)
+            {
+                ++stats.boundary_edge_count;
+            }
+            else if (uses > 2)
+            {
+                ++stats.non_manifold_edge_count;
+            }
+            else if (direction_sum != 0)
+            {
+                ++stats.inconsistent_edge_count;
+            }
+            it = next;
+        }
+        begin += counts[v];
+    }
+    return stats;
+}
+
+}  // namespace meshmark
