@@ -61,35 +61,29 @@ bool parse_corner(std::string_view token, std::int64_t& vertex)
 {
     const char* p = token.data();
     const char* end = p + token.size();
+    const auto integer = [&p, end]
+    {
+        std::int64_t ignored = 0;
+        const auto result = std::from_chars(p, end, ignored);
+        p = result.ptr;
+        return result.ec == std::errc();
+    };
     auto result = std::from_chars(p, end, vertex);
-    if (result.ec != std::errc())
+    p = result.ptr;
+    if (result.ec != std::errc() || p == end)
+    {
+        return result.ec == std::errc();
+    }
+    // "/vt" (empty only when "/vn" follows), then optionally "/vn".
+    if (*p++ != '/' || p == end || (*p != '/' && !integer()))
     {
         return false;
     }
-    p = result.ptr;
-    for (int part = 0; part < 2 && p != end; ++part)
+    if (p == end)
     {
-        if (*p != '/')
-        {
-            return false;
-        }
-        ++p;
-        if (p != end && *p != '/')
-        {
-            std::int64_t ignored = 0;
-            result = std::from_chars(p, end, ignored);
-            if (result.ec != std::errc())
-            {
-                return false;
-            }
-            p = result.ptr;
-        }
-        else if (part == 1)
-        {
-            return false;  // "v/vt/" has an empty normal index.
-        }
+        return true;
     }
-    return p == end;
+    return *p++ == '/' && integer() && p == end;
 }
 
 void read_face(const std::filesystem::path& path, TokenCursor& tokens, std::size_t line,

@@ -1,0 +1,180 @@
+// SPDX-License-Identifier: MIT
+// Reading the tiny fixtures of tests/data: exact counts, positions and triangles per feature.
+#include <gtest/gtest.h>
+
+#include "io_test_support.h"
+#include "meshmark/core/error.h"
+#include "meshmark/io/mesh_io.h"
+
+namespace meshmark {
+
+using test::cube_positions;
+using test::cube_triangles;
+using test::fixture;
+
+namespace {
+const double kFloatTop = static_cast<double>(1.1F);  // 1.1 as stored in float32
+}  // namespace
+
+TEST(IoTest, format_from_extension_is_case_insensitive)
+{
+    EXPECT_EQ(format_from_extension("a/b.PLY"), MeshFormat::Ply);
+    EXPECT_EQ(format_from_extension("b.Obj"), MeshFormat::Obj);
+    EXPECT_EQ(format_from_extension("b.off"), MeshFormat::Off);
+    EXPECT_EQ(format_from_extension("b.sTl"), MeshFormat::Stl);
+    EXPECT_STREQ(to_string(MeshFormat::Stl), "STL");
+}
+
+TEST(IoTest, rejects_unknown_extension_naming_the_file)
+{
+    test::expect_error<IoError>([] { static_cast<void>(format_from_extension("mesh.xyz")); },
+                                {"mesh.xyz", "'.xyz'"});
+    test::expect_error<IoError>([] { static_cast<void>(read_mesh("no_extension")); },
+                                {"no_extension", "extension"});
+}
+
+TEST(IoTest, reads_ascii_ply)
+{
+    const auto file = read_mesh_file(fixture("cube_ascii.ply"));
+    EXPECT_EQ(file.format, MeshFormat::Ply);
+    EXPECT_TRUE(file.is_single_precision);
+    // Typed ASCII: a float property reads as the float it denotes.
+    test::expect_positions(file.mesh, cube_positions(kFloatTop));
+    test::expect_triangles(file.mesh, cube_triangles());
+}
+
+TEST(IoTest, reads_binary_little_endian_ply)
+{
+    const auto file = read_mesh_file(fixture("cube_binary_le.ply"));
+    EXPECT_TRUE(file.is_single_precision);
+    test::expect_positions(file.mesh, cube_positions(kFloatTop));
+    test::expect_triangles(file.mesh, cube_triangles());
+}
+
+TEST(IoTest, reads_binary_big_endian_ply)
+{
+    const auto file = read_mesh_file(fixture("cube_binary_be.ply"));
+    EXPECT_TRUE(file.is_single_precision);
+    test::expect_positions(file.mesh, cube_positions(kFloatTop));
+    test::expect_triangles(file.mesh, cube_triangles());
+}
+
+TEST(IoTest, skips_extra_properties_and_elements_by_declared_type)
+{
+    // double x/y/z split by other properties, a list in the vertex element, an extra
+    // element with lists, and face properties around the index list.
+    const auto file = read_mesh_file(fixture("cube_normals_extra_props.ply"));
+    EXPECT_FALSE(file.is_single_precision);
+    test::expect_positions(file.mesh, cube_positions(1.1));
+    test::expect_triangles(file.mesh, cube_triangles());
+}
+
+TEST(IoTest, decodes_triangle_strips_with_restart_and_degenerates)
+{
+    // Strip 0 1 2 3 -1 4 5 6 7 7 8 9: odd triangles flipped, parity kept across the
+    // skipped degenerate triangles (6,7,7) and (7,7,8).
+    const auto mesh = read_mesh(fixture("tristrip.ply"));
+    EXPECT_EQ(mesh.V.rows(), 10);
+    test::expect_triangles(mesh, {{0, 1, 2}, {2, 1, 3}, {4, 5, 6}, {6, 5, 7}, {7, 8, 9}});
+}
+
+TEST(IoTest, fan_triangulates_obj_polygons)
+{
+    const auto mesh = read_mesh(fixture("quad_faces.obj"));
+    ASSERT_EQ(mesh.V.rows(), 9);
+    EXPECT_EQ(mesh.V(8, 1), 1.5);
+    test::expect_triangles(mesh, {{0, 3, 2}, {0, 2, 1}, {4, 5, 6}, {4, 6, 7}, {0, 1, 5},
+                                  {0, 5, 4}, {0, 4, 7}, {0, 7, 3}, {1, 2, 6}, {1, 6, 5},
+                                  {2, 3, 7}, {2, 7, 8}, {2, 8, 6}});
+}
+
+TEST(IoTest, reads_every_obj_index_form)
+{
+    // v, v/vt, v//vn, v/vt/vn and negative indices; groups, materials and an `l` line.
+    const auto file = read_mesh_file(fixture("obj_index_forms.obj"));
+    EXPECT_EQ(file.format, MeshFormat::Obj);
+    EXPECT_TRUE(file.is_single_precision);
+    test::expect_positions(file.mesh,
+                           {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0.5, 0.5, 1}});
+    test::expect_triangles(file.mesh, {{0, 1, 2}, {0, 2, 3}, {0, 1, 4}, {1, 2, 4}, {2, 3, 4}});
+}
+
+TEST(IoTest, reads_off_with_comments_and_polygons)
+{
+    const auto file = read_mesh_file(fixture("cube.off"));
+    EXPECT_EQ(file.format, MeshFormat::Off);
+    test::expect_positions(file.mesh, cube_positions(1.1));
+    test::expect_triangles(file.mesh, cube_triangles());
+}
+
+TEST(IoTest, reads_ascii_stl_and_welds_corners)
+{
+    const auto file = read_mesh_file(fixture("cube_ascii.stl"));
+    EXPECT_EQ(file.format, MeshFormat::Stl);
+    EXPECT_TRUE(file.is_single_precision);
+    // 36 corners weld into the 8 cube vertices, numbered by first use.
+    ASSERT_EQ(file.mesh.V.rows(), 8);
+    ASSERT_EQ(file.mesh.F.rows(), 12);
+    const auto expected = cube_positions(1.1);
+    const auto triangles = cube_triangles();
+    for (Eigen::Index f = 0; f < 12; ++f)
+    {
+        for (Eigen::Index c = 0; c < 3; ++c)
+        {
+            const auto& corner =
+                expected[static_cast<std::size_t>(triangles[static_cast<std::size_t>(f)]
+                                                           [static_cast<std::size_t>(c)])];
+            for (Eigen::Index d = 0; d < 3; ++d)
+            {
+                EXPECT_EQ(file.mesh.V(file.mesh.F(f, c), d), corner[static_cast<std::size_t>(d)]);
+            }
+        }
+    }
+}
+
+TEST(IoTest, reads_binary_stl_and_welds_corners)
+{
+    const auto file = read_mesh_file(fixture("cube_binary.stl"));
+    EXPECT_TRUE(file.is_single_precision);
+    ASSERT_EQ(file.mesh.V.rows(), 8);
+    ASSERT_EQ(file.mesh.F.rows(), 12);
+    // Corners of the first facet (0, 3, 2) are the first three vertices.
+    test::expect_triangles(file.mesh, {{0, 1, 2}, {0, 2, 3}, {4, 5, 6}, {4, 6, 7}, {0, 3, 5},
+                                       {0, 5, 4}, {2, 1, 7}, {2, 7, 6}, {0, 4, 7}, {0, 7, 1},
+                                       {3, 2, 6}, {3, 6, 5}});
+    EXPECT_EQ(file.mesh.V(6, 2), kFloatTop);
+}
+
+TEST(IoTest, reads_binary_stl_whose_header_starts_with_solid)
+{
+    const auto plain = read_mesh(fixture("cube_binary.stl"));
+    const auto solid = read_mesh(fixture("cube_binary_solid_header.stl"));
+    EXPECT_EQ(test::file_bytes(fixture("cube_binary_solid_header.stl")).substr(0, 5), "solid");
+    EXPECT_EQ(solid.V, plain.V);
+    EXPECT_EQ(solid.F, plain.F);
+}
+
+TEST(IoTest, keeps_unreferenced_vertices)
+{
+    const auto dir = test::temp_dir("io_unreferenced");
+    test::put_bytes(dir / "u.obj", "v 0 0 0\nv 9 9 9\nv 1 0 0\nv 0 1 0\nf 1 3 4\n");
+    const auto mesh = read_mesh(dir / "u.obj");
+    EXPECT_EQ(mesh.V.rows(), 4);
+    EXPECT_EQ(mesh.V(1, 0), 9.0);
+    test::expect_triangles(mesh, {{0, 2, 3}});
+}
+
+TEST(IoTest, reads_point_cloud_ply_without_faces)
+{
+    const auto dir = test::temp_dir("io_points");
+    test::put_bytes(dir / "p.ply",
+                    "ply\r\nformat ascii 1.0\r\nelement vertex 2\r\nproperty double x\r\n"
+                    "property double y\r\nproperty double z\r\nend_header\r\n"
+                    "0.1 +2 -3e-2\r\n4 5 6\r\n");
+    const auto file = read_mesh_file(dir / "p.ply");
+    EXPECT_FALSE(file.is_single_precision);
+    test::expect_positions(file.mesh, {{0.1, 2, -3e-2}, {4, 5, 6}});
+    EXPECT_TRUE(file.mesh.is_point_cloud());
+}
+
+}  // namespace meshmark
