@@ -1,0 +1,285 @@
+// SPDX-License-Identifier: MIT
+#include "meshmark/metrics/distortion.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include <omp.h>
+
+#include "meshmark/core/bounding_box.h"
+#include "meshmark/core/error.h"
+#include "meshmark/core/rng.h"
+#include "meshmark/metrics/surface_sampling.h"
+
+namespace meshmark {
+namespace {
+
+/// Running statistics of sample distances. Combined strictly in sample order, so the sums (and
+/// the first sample reaching the maximum) are the same for any thread count.
+struct DistanceSums
+{
+    double max = -1.0;
+    Eigen::Vector3d max_point = Eigen::Vector3d::Zero();
+    double sum = 0.0;
+    double sum_squares = 0.0;
+    std::int64_t count = 0;
+
+    void add(double distance, const Eigen::Vector3d& point)
+    {
+        if (distance > max)
+        {
+            max = distance;
+            max_point = point;
+        }
+        sum += distance;
+        sum_squares += distance * distance;
+        ++count;
+    }
+
+    void add(const DistanceSums& other)
+    {
+        if (other.count > 0 && other.max > max)
+        {
+            max = other.max;
+            max_point = other.max_point;
+        }
+        sum += other.sum;
+        sum_squares += other.sum_squares;
+        count += other.count;
+    }
+};
+
+int resolve_threads(int threads)
+{
+    return threads > 0 ? threads : omp_get_max_threads();
+}
+
+/// Distance of every vertex of \p mesh to the indexed surface.
+Eigen::VectorXd all_vertex_distances(const TriangleMesh& mesh, const ClosestPointIndex& to, int threads)
+{
+    Eigen::VectorXd distances(mesh.V.rows());
+#pragma omp parallel for schedule(dynamic, 1024) num_threads(resolve_threads(threads))
+    for (Eigen::Index i = 0; i < mesh.V.rows(); ++i)
+    {
+        distances[i] = to.closest(Eigen::Vector3d(mesh.V.row(i).transpose())).distance;
+    }
+    return distances;
+}
+
+/// Sums over the stratified area samples, block by block: samples are generated, measured and
+/// reduced per block, so memory stays O(threads * block) however many samples are asked for.
+DistanceSums area_sample_sums(const TriangleMesh& from, const ClosestPointIndex& to, std::int64_t count,
+                              std::uint64_t seed, int threads)
+{
+    const Eigen::VectorXd cumulative = cumulative_face_areas(from);
+    const std::int64_t blocks = (count + kSamplesPerBlock - 1) / kSamplesPerBlock;
+    std::vector<DistanceSums> per_block(static_cast<std::size_t>(blocks));
+#pragma omp parallel num_threads(resolve_threads(threads))
+    {
+        Positions samples;
+#pragma omp for schedule(dynamic, 1)
+        for (std::int64_t b = 0; b < blocks; ++b)
+        {
+            sample_surface_block(from, cumulative, count, seed, b, samples);
+            DistanceSums& sums = per_block[static_cast<std::size_t>(b)];
+            for (Eigen::Index i = 0; i < samples.rows(); ++i)
+            {
+                const Eigen::Vector3d p = samples.row(i).transpose();
+                sums.add(to.closest(p).distance, p);
+            }
+        }
+    }
+    DistanceSums total;
+    for (const auto& sums : per_block)
+    {
+        total.add(sums);
+    }
+    return total;
+}
+
+bool has_positive_area(const TriangleMesh& mesh)
+{
+    const Eigen::VectorXd cumulative = cumulative_face_areas(mesh);
+    return cumulative.size() > 0 && cumulative[cumulative.size() - 1] > 0.0;
+}
+
+double seconds_since(std::chrono::steady_clock::time_point start)
+{
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+void report_progress(const CompareOptions& options, const std::string& message)
+{
+    if (options.progress)
+    {
+        options.progress(message);
+    }
+}
+
+void require_vertices(const std::vector<std::int32_t>& rows, const char* name)
+{
+    if (rows.empty())
+    {
+        throw InvalidMesh(std::string("compare: mesh ") + name + " has no vertices to measure.");
+    }
+}
+
+}  // namespace
+
+void CompareOptions::validate() const
+{
+    if (samples < 0)
+    {
+        throw InvalidOption("compare: samples = " + std::to_string(samples) + " must be >= 0 (0 = automatic).");
+    }
+    if (threads < 0)
+    {
+        throw InvalidOption("compare: threads = " + std::to_string(threads) + " must be >= 0 (0 = all cores).");
+    }
+}
+
+std::int64_t auto_sample_count(const TriangleMesh& mesh)
+{
+    if (mesh.is_point_cloud())
+    {
+        return 0;
+    }
+    return std::clamp(kAutoSamplesPerFace * static_cast<std::int64_t>(mesh.F.rows()), kMinAutoSamples,
+                      kMaxAutoSamples);
+}
+
+OneSidedDistance one_sided_distance(const TriangleMesh& from, const ClosestPointIndex& to,
+                                    std::int64_t area_samples, std::uint64_t seed, int threads,
+                                    Eigen::VectorXd* vertex_distances)
+{
+    if (area_samples < 0)
+    {
+        throw InvalidOption("one_sided_distance: area_samples = " + std::to_string(area_samples) +
+                            " must be >= 0.");
+    }
+    // Vertex samples: every referenced vertex, so the one-sided Hausdorff distance sees each one.
+    const Eigen::VectorXd distances = all_vertex_distances(from, to, threads);
+    DistanceSums vertex_sums;
+    for (const std::int32_t v : referenced_vertices(from))
+    {
+        vertex_sums.add(distances[v], from.V.row(v).transpose());
+    }
+    // Area samples: stratified, so their plain mean is an area-weighted mean. A point cloud, or a
+    // surface of zero area, has none; its vertices then carry the averages.
+    const std::int64_t count = from.is_point_cloud() || !has_positive_area(from) ? 0 : area_samples;
+    const DistanceSums area_sums = count > 0 ? area_sample_sums(from, to, count, seed, threads) : DistanceSums{};
+    const DistanceSums& averaged = area_sums.count > 0 ? area_sums : vertex_sums;
+
+    OneSidedDistance result;
+    DistanceSums all = vertex_sums;
+    all.add(area_sums);
+    result.max = std::max(all.max, 0.0);
+    result.max_point = all.max_point;
+    if (averaged.count > 0)
+    {
+        const auto n = static_cast<double>(averaged.count);
+        result.mean = averaged.sum / n;
+        result.rms = std::sqrt(averaged.sum_squares / n);
+    }
+    result.vertex_samples = vertex_sums.count;
+    result.area_samples = area_sums.count;
+    if (vertex_distances != nullptr)
+    {
+        *vertex_distances = distances;
+    }
+    return result;
+}
+
+bool has_same_connectivity(const TriangleMesh& a, const TriangleMesh& b)
+{
+    return a.V.rows() == b.V.rows() && a.F.rows() == b.F.rows() && a.F == b.F;
+}
+
+Displacement vertex_displacement(const TriangleMesh& a, const TriangleMesh& b)
+{
+    if (!has_same_connectivity(a, b))
+    {
+        throw InvalidMesh("vertex_displacement: the meshes do not share connectivity (" +
+                          std::to_string(a.V.rows()) + " vs " + std::to_string(b.V.rows()) + " vertices, " +
+                          std::to_string(a.F.rows()) + " vs " + std::to_string(b.F.rows()) +
+                          " faces, or different face rows).");
+    }
+    Displacement result;
+    double sum_squares = 0.0;
+    const std::vector<std::int32_t> rows = referenced_vertices(a);
+    for (const std::int32_t v : rows)
+    {
+        const double d = (b.V.row(v) - a.V.row(v)).norm();
+        if (d > result.max || result.max_vertex < 0)
+        {
+            result.max = d;
+            result.max_vertex = v;
+        }
+        sum_squares += d * d;
+    }
+    if (!rows.empty())
+    {
+        result.rms = std::sqrt(sum_squares / static_cast<double>(rows.size()));
+    }
+    return result;
+}
+
+DistortionReport compare_meshes(const TriangleMesh& a, const TriangleMesh& b, const CompareOptions& options)
+{
+    options.validate();
+    const auto start = std::chrono::steady_clock::now();
+    DistortionReport report;
+
+    // Unit: the bounding-box diagonal of A's measured vertices.
+    const std::vector<std::int32_t> rows_a = referenced_vertices(a);
+    require_vertices(rows_a, "A");
+    require_vertices(referenced_vertices(b), "B");
+    report.diagonal = bounding_box(a.V, rows_a).diagonal();
+    if (!(report.diagonal > 0.0) || !std::isfinite(report.diagonal))
+    {
+        throw InvalidMesh("compare: mesh A has a zero or non-finite bounding-box diagonal, so relative "
+                          "distances are undefined.");
+    }
+
+    // Indices: exact closest points on each surface (nearest points for a cloud).
+    report_progress(options, "compare: building closest-point indices");
+    auto phase = std::chrono::steady_clock::now();
+    const ClosestPointIndex index_a(a);
+    const ClosestPointIndex index_b(b);
+    report.seconds.index = seconds_since(phase);
+
+    // A -> B, then B -> A, each with its own random stream.
+    const std::int64_t samples_a = options.samples > 0 ? options.samples : auto_sample_count(a);
+    const std::int64_t samples_b = options.samples > 0 ? options.samples : auto_sample_count(b);
+    report_progress(options, "compare: A -> B with " + std::to_string(samples_a) + " area samples");
+    phase = std::chrono::steady_clock::now();
+    report.a_to_b = one_sided_distance(a, index_b, samples_a, derive_seed(options.seed, "compare:a"), options.threads);
+    report.seconds.a_to_b = seconds_since(phase);
+    report_progress(options, "compare: B -> A with " + std::to_string(samples_b) + " area samples");
+    phase = std::chrono::steady_clock::now();
+    report.b_to_a = one_sided_distance(b, index_a, samples_b, derive_seed(options.seed, "compare:b"), options.threads,
+                                       options.keep_vertex_distances ? &report.vertex_distances_ba : nullptr);
+    report.seconds.b_to_a = seconds_since(phase);
+
+    // Relative figures, and the vertex displacement when the connectivity is shared.
+    const double d = report.diagonal;
+    report.hausdorff_ab_rel = report.a_to_b.max / d;
+    report.hausdorff_ba_rel = report.b_to_a.max / d;
+    report.hausdorff_rel = std::max(report.hausdorff_ab_rel, report.hausdorff_ba_rel);
+    report.rms_ab_rel = report.a_to_b.rms / d;
+    report.rms_ba_rel = report.b_to_a.rms / d;
+    report.mrms_rel = std::max(report.rms_ab_rel, report.rms_ba_rel);
+    if (has_same_connectivity(a, b))
+    {
+        report.displacement = vertex_displacement(a, b);
+        report.max_displacement_rel = report.displacement->max / d;
+        report.rms_displacement_rel = report.displacement->rms / d;
+    }
+    report.seconds.total = seconds_since(start);
+    return report;
+}
+
+}  // namespace meshmark

@@ -1,0 +1,228 @@
+// SPDX-License-Identifier: MIT
+#include "meshmark/metrics/distortion.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "meshmark/core/error.h"
+#include "meshmark/geometry/shapes.h"
+
+namespace meshmark {
+namespace {
+
+TriangleMesh translated(TriangleMesh mesh, const Eigen::RowVector3d& t)
+{
+    mesh.V.rowwise() += t;
+    return mesh;
+}
+
+CompareOptions with_samples(std::int64_t samples, int threads = 2)
+{
+    CompareOptions options;
+    options.samples = samples;
+    options.threads = threads;
+    return options;
+}
+
+/// Flat grid over [0,1]^2 with 20x20 cells, and the same grid with its centre vertex raised by h.
+constexpr int kBumpCells = 20;
+constexpr double kBumpHeight = 0.1;
+
+TriangleMesh bumped_grid()
+{
+    TriangleMesh mesh = plane_grid(kBumpCells, kBumpCells);
+    mesh.V((kBumpCells / 2) * (kBumpCells + 1) + kBumpCells / 2, 2) = kBumpHeight;
+    return mesh;
+}
+
+}  // namespace
+
+TEST(DistortionTest, mesh_against_itself_is_zero)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(3);
+    const DistortionReport r = compare_meshes(mesh, mesh, with_samples(50'000));
+    EXPECT_LE(r.hausdorff_rel, 1e-12);
+    EXPECT_LE(r.mrms_rel, 1e-12);
+    ASSERT_TRUE(r.displacement.has_value());
+    EXPECT_EQ(r.displacement->max, 0.0);
+    EXPECT_EQ(r.rms_displacement_rel, 0.0);
+    EXPECT_EQ(r.a_to_b.vertex_samples, mesh.V.rows());
+    EXPECT_EQ(r.a_to_b.area_samples, 50'000);
+}
+
+TEST(DistortionTest, scaled_sphere_is_one_percent_of_radius_away)
+{
+    // Every point of the unit sphere is 0.01 from the sphere of radius 1.01; the polyhedra
+    // deviate from that by the flatness of their faces (cos of ~1 degree at this resolution).
+    const TriangleMesh a = icosphere(4);
+    TriangleMesh b = a;
+    b.V *= 1.01;
+    const DistortionReport r = compare_meshes(a, b, with_samples(200'000));
+    EXPECT_NEAR(r.diagonal, 2.0 * std::sqrt(3.0), 1e-12);
+    const double expected_rel = 0.01 / r.diagonal;
+    EXPECT_NEAR(r.hausdorff_rel, expected_rel, 0.02 * expected_rel);
+    EXPECT_NEAR(r.hausdorff_ab_rel, expected_rel, 0.02 * expected_rel);
+    EXPECT_NEAR(r.hausdorff_ba_rel, expected_rel, 0.02 * expected_rel);
+    // Interior points are closer than vertices: RMS lies a little below the maximum.
+    EXPECT_LE(r.rms_ab_rel, r.hausdorff_ab_rel);
+    EXPECT_NEAR(r.rms_ab_rel, expected_rel, 0.03 * expected_rel);
+    EXPECT_NEAR(r.mrms_rel, std::max(r.rms_ab_rel, r.rms_ba_rel), 0.0);
+    EXPECT_NEAR(r.max_displacement_rel, expected_rel, 1e-12);
+}
+
+TEST(DistortionTest, translated_copy_is_the_translation_away)
+{
+    // A plane moved along its normal: every distance is exactly the translation.
+    const TriangleMesh grid = plane_grid(10, 10);
+    const DistortionReport flat = compare_meshes(grid, translated(grid, {0.0, 0.0, 0.05}), with_samples(20'000));
+    const double diagonal = std::sqrt(2.0);
+    EXPECT_NEAR(flat.diagonal, diagonal, 1e-15);
+    EXPECT_NEAR(flat.hausdorff_ab_rel, 0.05 / diagonal, 1e-12);
+    EXPECT_NEAR(flat.hausdorff_ba_rel, 0.05 / diagonal, 1e-12);
+    EXPECT_NEAR(flat.rms_ab_rel, 0.05 / diagonal, 1e-12);
+    EXPECT_NEAR(flat.rms_ba_rel, 0.05 / diagonal, 1e-12);
+    EXPECT_NEAR(flat.rms_displacement_rel, 0.05 / diagonal, 1e-12);
+
+    // A sphere moved by t: the farthest points are the poles along t, at |t|.
+    const TriangleMesh sphere = icosphere(4);
+    const DistortionReport moved = compare_meshes(sphere, translated(sphere, {0.0, 0.0, 0.02}), with_samples(100'000));
+    EXPECT_NEAR(moved.hausdorff_rel * moved.diagonal, 0.02, 0.01 * 0.02);
+}
+
+TEST(DistortionTest, in_plane_shift_matches_analytic_rms)
+{
+    // Shifting the unit square by d along x uncovers a strip of width d whose points are
+    // (d - x) from the copy: Hausdorff d, RMS sqrt(integral_0^d (d - x)^2 dx) = sqrt(d^3 / 3).
+    const double d = 0.1;
+    const TriangleMesh grid = plane_grid(20, 20);
+    const DistortionReport r = compare_meshes(grid, translated(grid, {d, 0.0, 0.0}), with_samples(200'000));
+    EXPECT_NEAR(r.a_to_b.max, d, 1e-12);
+    EXPECT_NEAR(r.a_to_b.rms, std::sqrt(d * d * d / 3.0), 0.01 * std::sqrt(d * d * d / 3.0));
+    EXPECT_NEAR(r.a_to_b.mean, d * d / 2.0, 0.01 * d * d / 2.0);
+    EXPECT_NEAR(r.b_to_a.rms, r.a_to_b.rms, 0.01 * r.a_to_b.rms);  // symmetric situation
+}
+
+TEST(DistortionTest, one_sided_distances_differ_for_a_bump)
+{
+    // B's apex is h above the plane A: hausdorff_ba = h. The point of A under the apex is nearest
+    // to the steepest faces of the bump, whose base edges (the grid diagonals) lie e = s / sqrt(2)
+    // from it: hausdorff_ab = h e / sqrt(h^2 + e^2), well below h.
+    const TriangleMesh a = plane_grid(kBumpCells, kBumpCells);
+    const TriangleMesh b = bumped_grid();
+    const DistortionReport r = compare_meshes(a, b, with_samples(100'000));
+    const double e = (1.0 / kBumpCells) / std::sqrt(2.0);
+    const double h = kBumpHeight;
+    EXPECT_NEAR(r.b_to_a.max, h, 1e-12);
+    EXPECT_NEAR(r.a_to_b.max, h * e / std::sqrt(h * h + e * e), 1e-12);
+    EXPECT_LT(r.hausdorff_ab_rel, 0.5 * r.hausdorff_ba_rel);
+    EXPECT_EQ(r.hausdorff_rel, r.hausdorff_ba_rel);
+    EXPECT_NEAR(r.b_to_a.max_point.z(), h, 1e-15);  // reached at the apex
+}
+
+TEST(DistortionTest, displacement_requires_shared_connectivity)
+{
+    const TriangleMesh a = lumpy_ellipsoid(3);
+    TriangleMesh b = a;
+    b.V.row(5) += 0.1 * a.V.row(5).normalized();  // outwards
+    b.V.row(9) += Eigen::RowVector3d(0.03, 0.04, 0.0);
+    const Displacement d = vertex_displacement(a, b);
+    EXPECT_EQ(d.max_vertex, 5);
+    EXPECT_NEAR(d.max, 0.1, 1e-15);
+    EXPECT_NEAR(d.rms, std::sqrt((0.01 + 0.0025) / static_cast<double>(a.V.rows())), 1e-15);
+    const DistortionReport r = compare_meshes(a, b, with_samples(10'000));
+    ASSERT_TRUE(r.displacement.has_value());
+    EXPECT_NEAR(r.max_displacement_rel, 0.1 / r.diagonal, 1e-15);
+    // The moved vertex is a sample of B, so the one-sided distance B -> A sees it (the bump is
+    // 0.1 high; the surface of A is tilted against it by well under 60 degrees).
+    EXPECT_GT(r.hausdorff_ba_rel, 0.5 * r.max_displacement_rel);
+
+    TriangleMesh flipped = b;
+    std::swap(flipped.F(0, 1), flipped.F(0, 2));
+    EXPECT_FALSE(has_same_connectivity(a, flipped));
+    EXPECT_THROW((void)vertex_displacement(a, flipped), InvalidMesh);
+    EXPECT_FALSE(compare_meshes(a, flipped, with_samples(1000)).displacement.has_value());
+    EXPECT_FALSE(compare_meshes(a, icosphere(2), with_samples(1000)).displacement.has_value());
+    // The lumpy ellipsoid is a displaced icosphere: same connectivity, so displacement applies.
+    EXPECT_TRUE(compare_meshes(a, icosphere(3), with_samples(1000)).displacement.has_value());
+}
+
+TEST(DistortionTest, point_clouds_are_measured_at_their_points)
+{
+    // Grid points 0.1 apart moved by 0.03 along z: each point's nearest neighbour is its copy.
+    TriangleMesh cloud = plane_grid(10, 10);
+    cloud.F.resize(0, 3);
+    const DistortionReport r = compare_meshes(cloud, translated(cloud, {0.0, 0.0, 0.03}), with_samples(1000));
+    EXPECT_EQ(r.a_to_b.area_samples, 0);
+    EXPECT_EQ(r.a_to_b.vertex_samples, cloud.V.rows());
+    EXPECT_NEAR(r.hausdorff_rel * r.diagonal, 0.03, 1e-12);
+    EXPECT_NEAR(r.mrms_rel * r.diagonal, 0.03, 1e-12);
+    ASSERT_TRUE(r.displacement.has_value());
+    EXPECT_NEAR(r.displacement->rms, 0.03, 1e-12);
+
+    // A cloud against a surface: the cloud's points lie on the surface, so cloud -> mesh is 0,
+    // while mesh -> cloud sees the gaps between points (at most half a cell diagonal).
+    const TriangleMesh grid = plane_grid(10, 10);
+    const DistortionReport mixed = compare_meshes(cloud, grid, with_samples(20'000));
+    EXPECT_LE(mixed.a_to_b.max, 1e-15);
+    EXPECT_GT(mixed.b_to_a.max, 0.06);
+    EXPECT_LE(mixed.b_to_a.max, 0.05 * std::sqrt(2.0) + 1e-12);
+}
+
+TEST(DistortionTest, results_do_not_depend_on_threads_and_follow_the_seed)
+{
+    const TriangleMesh a = lumpy_ellipsoid(3);
+    const TriangleMesh b = bumped_grid();
+    CompareOptions one = with_samples(30'000, 1);
+    CompareOptions two = with_samples(30'000, 2);
+    const DistortionReport r1 = compare_meshes(a, b, one);
+    const DistortionReport r2 = compare_meshes(a, b, two);
+    EXPECT_EQ(r1.hausdorff_ab_rel, r2.hausdorff_ab_rel);
+    EXPECT_EQ(r1.hausdorff_ba_rel, r2.hausdorff_ba_rel);
+    EXPECT_EQ(r1.rms_ab_rel, r2.rms_ab_rel);
+    EXPECT_EQ(r1.rms_ba_rel, r2.rms_ba_rel);
+    EXPECT_EQ(r1.a_to_b.mean, r2.a_to_b.mean);
+    EXPECT_EQ(r1.a_to_b.max_point, r2.a_to_b.max_point);
+    two.seed = 99;
+    const DistortionReport other_seed = compare_meshes(a, b, two);
+    EXPECT_NE(other_seed.rms_ab_rel, r1.rms_ab_rel);
+    EXPECT_NEAR(other_seed.rms_ab_rel, r1.rms_ab_rel, 0.01 * r1.rms_ab_rel);
+}
+
+TEST(DistortionTest, keeps_vertex_distances_of_b_on_request)
+{
+    const TriangleMesh a = plane_grid(kBumpCells, kBumpCells);
+    const TriangleMesh b = bumped_grid();
+    CompareOptions options = with_samples(1000);
+    options.keep_vertex_distances = true;
+    const DistortionReport r = compare_meshes(a, b, options);
+    ASSERT_EQ(r.vertex_distances_ba.size(), b.V.rows());
+    EXPECT_NEAR(r.vertex_distances_ba.maxCoeff(), kBumpHeight, 1e-15);
+    EXPECT_EQ((r.vertex_distances_ba.array() > 1e-12).count(), 1);
+    EXPECT_EQ(compare_meshes(a, b, with_samples(1000)).vertex_distances_ba.size(), 0);
+}
+
+TEST(DistortionTest, auto_sample_count_is_clamped)
+{
+    EXPECT_EQ(auto_sample_count(icosphere(1)), kMinAutoSamples);
+    TriangleMesh cloud = icosphere(1);
+    cloud.F.resize(0, 3);
+    EXPECT_EQ(auto_sample_count(cloud), 0);
+    TriangleMesh big = icosphere(0);
+    big.F.resize(kMaxAutoSamples / kAutoSamplesPerFace + 1, 3);
+    big.F.setZero();
+    EXPECT_EQ(auto_sample_count(big), kMaxAutoSamples);
+}
+
+TEST(DistortionTest, rejects_bad_options_and_unusable_meshes)
+{
+    const TriangleMesh mesh = icosphere(1);
+    EXPECT_THROW((void)compare_meshes(mesh, mesh, with_samples(-1)), InvalidOption);
+    EXPECT_THROW((void)compare_meshes(mesh, mesh, with_samples(10, -2)), InvalidOption);
+    EXPECT_THROW((void)compare_meshes(mesh, TriangleMesh{}, with_samples(10)), InvalidMesh);
+    TriangleMesh point;
+    point.V = Positions::Zero(1, 3);
+    EXPECT_THROW((void)compare_meshes(point, mesh, with_samples(10)), InvalidMesh);
+}
+
+}  // namespace meshmark
