@@ -1,0 +1,106 @@
+// SPDX-License-Identifier: MIT
+// `meshmark detect`: look for a key's watermark in a suspect copy.
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include "commands.h"
+#include "meshmark/pipeline/detect_file.h"
+#include "report.h"
+
+namespace meshmark::cli {
+namespace {
+
+struct DetectArgs
+{
+    std::string suspect;
+    std::string original;
+    std::string key;
+    bool json = false;
+    DetectOptions decision;
+};
+
+nlohmann::json transform_json(const Eigen::Matrix4d& m)
+{
+    nlohmann::json rows = nlohmann::json::array();
+    for (int r = 0; r < 4; ++r)
+    {
+        rows.push_back({m(r, 0), m(r, 1), m(r, 2), m(r, 3)});
+    }
+    return rows;
+}
+
+int run_detect(const DetectArgs& args, const GlobalArgs& global)
+{
+    DetectFileOptions options;
+    options.decision = args.decision;
+    options.threads = global.threads;
+    options.progress = make_progress(global, "detect");
+    const DetectReport report = detect_file(args.suspect, args.original, args.key, options);
+    const Decision& d = report.decision;
+    if (args.json)
+    {
+        print_json({{"detected", d.is_present},
+                    {"correlation", d.correlation},
+                    {"matches", d.matches},
+                    {"bit_count", d.bit_count},
+                    {"threshold", args.decision.threshold},
+                    {"bits_expected", d.bits_expected},
+                    {"bits_found", d.bits_found},
+                    {"false_positive_probability", d.false_positive_probability},
+                    {"cropped_fraction", report.cropped_fraction},
+                    {"registration",
+                     {{"method", report.alignment},
+                      {"rms_error", report.registration_rms},
+                      {"transform", transform_json(report.transform)}}},
+                    {"suspect_vertices", report.suspect_vertices},
+                    {"original_vertices", report.original_vertices},
+                    {"seconds", to_json(report.seconds)}});
+    }
+    else
+    {
+        std::printf("%s: watermark %s, R = %.3f (%d of %d bits), false-positive probability %s\n",
+                    args.suspect.c_str(), d.is_present ? "FOUND" : "not found", d.correlation,
+                    d.matches, d.bit_count, format_number(d.false_positive_probability).c_str());
+        if (global.verbose)
+        {
+            std::printf("  expected %s\n  found    %s\n  alignment %s, RMS distance %s of the diagonal, "
+                        "cropped %.1f%%, %.3f s\n",
+                        d.bits_expected.c_str(), d.bits_found.c_str(), report.alignment.c_str(),
+                        format_number(report.registration_rms).c_str(), 100.0 * report.cropped_fraction,
+                        report.seconds.total);
+        }
+    }
+    return d.is_present ? 0 : 1;
+}
+
+}  // namespace
+
+void register_detect(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
+{
+    auto args = std::make_shared<DetectArgs>();
+    auto* command = app.add_subcommand(
+        "detect",
+        "Look for the watermark of KEY in SUSPECT (non-blind: needs the original). Exit code 0 when "
+        "the watermark is found, 1 when it is not, >= 2 on errors.");
+    command->add_option("SUSPECT", args->suspect, "Suspect mesh")->required()->check(CLI::ExistingFile);
+    command->add_option("--original", args->original, "The original (unmarked) mesh the key was made for")
+        ->required()
+        ->check(CLI::ExistingFile);
+    command->add_option("--key", args->key, "Key file written by embed")->required()->check(CLI::ExistingFile);
+    command->add_option("--threshold", args->decision.threshold,
+                        "Claim ownership when R (fraction of payload bits read back) >= this")
+        ->capture_default_str();
+    command->add_option("--epsilon", args->decision.epsilon,
+                        "Undecided band around zero change, as a fraction of the modulation")
+        ->capture_default_str();
+    command->add_flag("--json", args->json,
+                      "Print one JSON object: detected, correlation, bits_expected, bits_found, "
+                      "false_positive_probability, cropped_fraction, registration, seconds");
+    add_global_flags(*command, global);
+    command->callback([args, &global, &runner]() {
+        runner = [args, &global]() { return run_detect(*args, global); };
+    });
+}
+
+}  // namespace meshmark::cli

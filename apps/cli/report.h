@@ -1,0 +1,25 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "commands.h"
+#include "meshmark/pipeline/embed_file.h"
+
+namespace meshmark::cli {
+
+/// Progress on stderr, only when stderr is a terminal and --quiet is off.
+[[nodiscard]] ProgressCallback make_progress(const GlobalArgs& global, const std::string& command);
+
+/// Phase timings as a JSON object {"read": 0.1, ..., "total": 0.5}.
+[[nodiscard]] nlohmann::json to_json(const PhaseTimings& timings);
+
+/// Prints a JSON object on stdout (one line per object, for scripts).
+void print_json(const nlohmann::json& object);
+
+/// Formats a number with \p digits significant digits ("%.*g").
+[[nodiscard]] std::string format_number(double value, int digits = 3);
+
+}  // namespace meshmark::cli

@@ -1,0 +1,44 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+
+#include <filesystem>
+#include <string>
+
+#include <Eigen/Core>
+
+#include "meshmark/pipeline/embed_file.h"
+#include "meshmark/watermark/watermark.h"
+
+namespace meshmark {
+
+/// Options of detect_file.
+struct DetectFileOptions
+{
+    DetectOptions decision;     ///< Threshold R and undecided band epsilon.
+    int threads = 0;            ///< 0 = all cores.
+    ProgressCallback progress;  ///< Optional.
+};
+
+/// What detect_file found.
+struct DetectReport
+{
+    Decision decision;
+    double cropped_fraction = 0.0;
+    std::string alignment = "none";  ///< How the suspect was put in correspondence.
+    Eigen::Matrix4d transform = Eigen::Matrix4d::Identity();  ///< Suspect -> original frame.
+    double registration_rms = 0.0;  ///< RMS distance to the watermarked mesh / bbox diagonal.
+    std::int64_t suspect_vertices = 0;
+    std::int64_t original_vertices = 0;
+    PhaseTimings seconds;
+};
+
+/// \brief Look for the watermark of \p key in \p suspect (DESIGN.md steps 6-10).
+/// \details Reads the key and the original, checks the original against the key's
+/// fingerprint, regenerates the watermark, puts the suspect in vertex correspondence with it,
+/// extracts the bits and decides. "Not found" is a result, not an error.
+/// \throws IoError / InvalidMesh for unreadable inputs, InvalidOption when the original does
+/// not belong to the key or the suspect cannot be put in correspondence.
+DetectReport detect_file(const std::filesystem::path& suspect, const std::filesystem::path& original,
+                         const std::filesystem::path& key_path, const DetectFileOptions& options);
+
+}  // namespace meshmark

@@ -1,0 +1,65 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "meshmark/io/mesh_io.h"
+#include "meshmark/watermark/key.h"
+#include "meshmark/watermark/watermark.h"
+
+namespace meshmark {
+
+/// Progress of a long command: a phase name and the fraction done (0..1) within it.
+using ProgressCallback = std::function<void(std::string_view phase, double fraction)>;
+
+/// Time spent per phase, in seconds (reported by `--json` as "seconds").
+struct PhaseTimings
+{
+    std::vector<std::pair<std::string, double>> phases;
+    double total = 0.0;
+};
+
+/// Options of embed_file: the watermark's parameters plus where its payload comes from.
+struct EmbedFileOptions
+{
+    EmbedOptions embed;                    ///< k, m, rule, strength, sigma factor.
+    std::optional<std::string> message;   ///< Payload from a text (hashed to 3m bits).
+    std::optional<std::string> bits_hex;  ///< Payload given directly as hex digits.
+    std::optional<std::uint64_t> seed;    ///< Secret seed; drawn from the OS when absent.
+    int threads = 0;                      ///< 0 = all cores.
+    bool force = false;                   ///< Allow replacing an existing key file.
+    ProgressCallback progress;            ///< Optional.
+    /// \throws InvalidOption on conflicting or out-of-range options.
+    void validate() const;
+};
+
+/// What embed_file did.
+struct EmbedReport
+{
+    Key key;
+    EmbedStats stats;
+    MeshFormat input_format = MeshFormat::Ply;
+    MeshFormat output_format = MeshFormat::Ply;
+    std::int64_t vertex_count = 0;
+    std::int64_t face_count = 0;
+    PhaseTimings seconds;
+};
+
+/// \brief Watermark a mesh file end to end: read -> basis -> embed -> write mesh and key.
+/// \details The output is written in the format of its extension; when that is the input's
+/// format everything but the positions is preserved (see write_mesh_file). The input is never
+/// opened for writing. Both files are written atomically and together: the key is staged next
+/// to its target and renamed into place only after the mesh is written, so a failure leaves no
+/// new file behind and any existing key untouched.
+/// \throws InvalidOption (output or key path equal to the input, existing key without force,
+/// bad options), IoError, InvalidMesh, NumericalError.
+EmbedReport embed_file(const std::filesystem::path& input, const std::filesystem::path& output,
+                       const std::filesystem::path& key_path, const EmbedFileOptions& options);
+
+}  // namespace meshmark

@@ -1,0 +1,125 @@
+// SPDX-License-Identifier: MIT
+#include "meshmark/pipeline/embed_file.h"
+
+#include <random>
+
+#include "meshmark/core/atomic_file.h"
+#include "meshmark/core/error.h"
+#include "timer.h"
+
+namespace meshmark {
+namespace {
+
+std::uint64_t fresh_seed()
+{
+    std::random_device device;
+    return (static_cast<std::uint64_t>(device()) << 32U) ^ static_cast<std::uint64_t>(device());
+}
+
+void check_paths(const std::filesystem::path& input, const std::filesystem::path& output,
+                 const std::filesystem::path& key_path, bool force)
+{
+    if (is_same_file(input, output))
+    {
+        throw InvalidOption(output.string() + ": the output would replace the input; an original is "
+                            "never overwritten (choose another -o).");
+    }
+    if (is_same_file(input, key_path) || output == key_path)
+    {
+        throw InvalidOption(key_path.string() + ": the key file must differ from the input and output.");
+    }
+    if (!force && std::filesystem::exists(key_path))
+    {
+        throw InvalidOption(key_path.string() + ": a key file already exists there; it may be the only "
+                            "proof for copies marked earlier. Choose another --key or pass --force.");
+    }
+}
+
+}  // namespace
+
+void EmbedFileOptions::validate() const
+{
+    embed.validate();
+    if (message && bits_hex)
+    {
+        throw InvalidOption("give either --message or --bits, not both.");
+    }
+    if (threads < 0)
+    {
+        throw InvalidOption("--threads must be >= 0 (0 = all cores).");
+    }
+}
+
+EmbedReport embed_file(const std::filesystem::path& input, const std::filesystem::path& output,
+                       const std::filesystem::path& key_path, const EmbedFileOptions& options)
+{
+    options.validate();
+    check_paths(input, output, key_path, options.force);
+    (void)format_from_extension(output);  // fail on a bad extension before any work
+
+    EmbedReport report;
+    detail::PhaseTimer timer(report.seconds, options.progress);
+    const MeshFile file = read_mesh_file(input);
+    report.input_format = file.format;
+    report.output_format = format_from_extension(output);
+    report.vertex_count = file.mesh.vertex_count();
+    report.face_count = file.mesh.face_count();
+    timer.lap("read");
+
+    // Key: seed, parameters, payload (message, hex or random) and the original's fingerprint.
+    Key key;
+    key.seed = options.seed ? *options.seed : fresh_seed();
+    key.options = options.embed;
+    key.options.strength = options.embed.resolved_strength();
+    const int bits = payload_bit_count(key.options);
+    if (options.message)
+    {
+        key.payload = payload_from_message(*options.message, bits);
+        key.message = options.message;
+    }
+    else if (options.bits_hex)
+    {
+        key.payload = payload_from_hex(*options.bits_hex, bits);
+    }
+    else
+    {
+        key.payload = random_payload(key.seed, bits);
+    }
+    key.original = fingerprint(file.mesh);
+
+    // Basis (pass 1 + eigen-decomposition) -> synthesis of the displacement (pass 2).
+    const SpectralWatermark mark(file.mesh, key, options.threads);
+    timer.lap("basis");
+    const Positions field = mark.displacement(&report.stats);
+    const Positions marked = file.mesh.V + field;
+    timer.lap("embed");
+
+    // Both files or neither: the key goes to a staging file next to its target, the mesh is
+    // written atomically, and only then does the key take its place. A failure on the way
+    // removes the staging file and leaves any existing key untouched.
+    auto staging = key_path;
+    staging += ".partial-" + std::to_string(key.seed % 1000000007ULL);
+    write_key(staging, key);
+    try
+    {
+        write_mesh_file(output, file, marked);
+        std::filesystem::rename(staging, key_path);
+    }
+    catch (const std::filesystem::filesystem_error& e)
+    {
+        std::error_code ignored;
+        std::filesystem::remove(staging, ignored);
+        throw IoError(key_path.string() + ": cannot write the key file (" + e.code().message() + ").");
+    }
+    catch (...)
+    {
+        std::error_code ignored;
+        std::filesystem::remove(staging, ignored);
+        throw;
+    }
+    timer.lap("write");
+    report.key = std::move(key);
+    return report;
+}
+
+}  // namespace meshmark
