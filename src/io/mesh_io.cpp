@@ -6,11 +6,11 @@
 #include <memory>
 #include <string>
 
-#include "meshmark/core/atomic_file.h"
-#include "meshmark/core/error.h"
 #include "io/detail/file_layout.h"
 #include "io/detail/formats.h"
 #include "io/detail/support.h"
+#include "meshmark/core/atomic_file.h"
+#include "meshmark/core/error.h"
 
 namespace meshmark {
 namespace {
@@ -53,25 +53,28 @@ const char* to_string(MeshFormat format) noexcept
 {
     switch (format)
     {
-    case MeshFormat::Ply:
-        return "PLY";
-    case MeshFormat::Obj:
-        return "OBJ";
-    case MeshFormat::Off:
-        return "OFF";
-    case MeshFormat::Stl:
-        return "STL";
+        case MeshFormat::Ply:
+            return "PLY";
+        case MeshFormat::Obj:
+            return "OBJ";
+        case MeshFormat::Off:
+            return "OFF";
+        case MeshFormat::Stl:
+            return "STL";
     }
     return "?";
 }
 
 void WriteOptions::validate(Eigen::Index vertex_count) const
 {
-    if (vertex_colors != nullptr && static_cast<Eigen::Index>(vertex_colors->size()) != vertex_count)
+    if (vertex_colors != nullptr &&
+        static_cast<Eigen::Index>(vertex_colors->size()) != vertex_count)
     {
         throw InvalidOption("WriteOptions::vertex_colors has " +
-                            std::to_string(vertex_colors->size()) + " entries; expected one per "
-                            "vertex (" + std::to_string(vertex_count) + ").");
+                            std::to_string(vertex_colors->size()) +
+                            " entries; expected one per "
+                            "vertex (" +
+                            std::to_string(vertex_count) + ").");
     }
 }
 
@@ -85,18 +88,18 @@ MeshFile read_mesh_file(const std::filesystem::path& path)
     layout->bytes = detail::read_file_bytes(path);
     switch (file.format)
     {
-    case MeshFormat::Ply:
-        file.mesh = detail::read_ply(path, *layout, file.is_single_precision);
-        break;
-    case MeshFormat::Obj:
-        file.mesh = detail::read_obj(path, *layout, file.is_single_precision);
-        break;
-    case MeshFormat::Off:
-        file.mesh = detail::read_off(path, *layout, file.is_single_precision);
-        break;
-    case MeshFormat::Stl:
-        file.mesh = detail::read_stl(path, *layout, file.is_single_precision);
-        break;
+        case MeshFormat::Ply:
+            file.mesh = detail::read_ply(path, *layout, file.is_single_precision);
+            break;
+        case MeshFormat::Obj:
+            file.mesh = detail::read_obj(path, *layout, file.is_single_precision);
+            break;
+        case MeshFormat::Off:
+            file.mesh = detail::read_off(path, *layout, file.is_single_precision);
+            break;
+        case MeshFormat::Stl:
+            file.mesh = detail::read_stl(path, *layout, file.is_single_precision);
+            break;
     }
     file.layout = std::move(layout);
     return file;
@@ -115,18 +118,18 @@ void write_mesh(const std::filesystem::path& path, const TriangleMesh& mesh,
     validate(mesh, path.string().c_str());
     switch (format)
     {
-    case MeshFormat::Ply:
-        write_bytes(path, detail::ply_bytes(mesh, options));
-        break;
-    case MeshFormat::Obj:
-        write_bytes(path, detail::obj_bytes(mesh, options));
-        break;
-    case MeshFormat::Off:
-        write_bytes(path, detail::off_bytes(mesh, options));
-        break;
-    case MeshFormat::Stl:
-        write_bytes(path, detail::stl_bytes(mesh, options));
-        break;
+        case MeshFormat::Ply:
+            write_bytes(path, detail::ply_bytes(mesh, options));
+            break;
+        case MeshFormat::Obj:
+            write_bytes(path, detail::obj_bytes(mesh, options));
+            break;
+        case MeshFormat::Off:
+            write_bytes(path, detail::off_bytes(mesh, options));
+            break;
+        case MeshFormat::Stl:
+            write_bytes(path, detail::stl_bytes(mesh, options));
+            break;
     }
 }
 

@@ -100,18 +100,18 @@ std::size_t scalar_size(ScalarType type) noexcept
 {
     switch (type)
     {
-    case ScalarType::Int8:
-    case ScalarType::UInt8:
-        return 1;
-    case ScalarType::Int16:
-    case ScalarType::UInt16:
-        return 2;
-    case ScalarType::Int32:
-    case ScalarType::UInt32:
-    case ScalarType::Float32:
-        return 4;
-    case ScalarType::Float64:
-        return 8;
+        case ScalarType::Int8:
+        case ScalarType::UInt8:
+            return 1;
+        case ScalarType::Int16:
+        case ScalarType::UInt16:
+            return 2;
+        case ScalarType::Int32:
+        case ScalarType::UInt32:
+        case ScalarType::Float32:
+            return 4;
+        case ScalarType::Float64:
+            return 8;
     }
     return 0;
 }
@@ -129,14 +129,22 @@ std::optional<ScalarType> scalar_type_from_name(std::string_view name) noexcept
         ScalarType type;
     };
     static constexpr std::array<Entry, 16> kNames{{
-        {"char", ScalarType::Int8},      {"int8", ScalarType::Int8},
-        {"uchar", ScalarType::UInt8},    {"uint8", ScalarType::UInt8},
-        {"short", ScalarType::Int16},    {"int16", ScalarType::Int16},
-        {"ushort", ScalarType::UInt16},  {"uint16", ScalarType::UInt16},
-        {"int", ScalarType::Int32},      {"int32", ScalarType::Int32},
-        {"uint", ScalarType::UInt32},    {"uint32", ScalarType::UInt32},
-        {"float", ScalarType::Float32},  {"float32", ScalarType::Float32},
-        {"double", ScalarType::Float64}, {"float64", ScalarType::Float64},
+        {"char", ScalarType::Int8},
+        {"int8", ScalarType::Int8},
+        {"uchar", ScalarType::UInt8},
+        {"uint8", ScalarType::UInt8},
+        {"short", ScalarType::Int16},
+        {"int16", ScalarType::Int16},
+        {"ushort", ScalarType::UInt16},
+        {"uint16", ScalarType::UInt16},
+        {"int", ScalarType::Int32},
+        {"int32", ScalarType::Int32},
+        {"uint", ScalarType::UInt32},
+        {"uint32", ScalarType::UInt32},
+        {"float", ScalarType::Float32},
+        {"float32", ScalarType::Float32},
+        {"double", ScalarType::Float64},
+        {"float64", ScalarType::Float64},
     }};
     for (const auto& entry : kNames)
     {
@@ -152,12 +160,12 @@ double load_scalar(const char* p, ScalarType type, bool is_big_endian) noexcept
 {
     switch (type)
     {
-    case ScalarType::Float32:
-        return static_cast<double>(load_as<float>(p, is_big_endian));
-    case ScalarType::Float64:
-        return load_as<double>(p, is_big_endian);
-    default:
-        return static_cast<double>(load_integer(p, type, is_big_endian));
+        case ScalarType::Float32:
+            return static_cast<double>(load_as<float>(p, is_big_endian));
+        case ScalarType::Float64:
+            return load_as<double>(p, is_big_endian);
+        default:
+            return static_cast<double>(load_integer(p, type, is_big_endian));
     }
 }
 
@@ -165,21 +173,21 @@ std::int64_t load_integer(const char* p, ScalarType type, bool is_big_endian) no
 {
     switch (type)
     {
-    case ScalarType::Int8:
-        return load_as<std::int8_t>(p, is_big_endian);
-    case ScalarType::UInt8:
-        return load_as<std::uint8_t>(p, is_big_endian);
-    case ScalarType::Int16:
-        return load_as<std::int16_t>(p, is_big_endian);
-    case ScalarType::UInt16:
-        return load_as<std::uint16_t>(p, is_big_endian);
-    case ScalarType::Int32:
-        return load_as<std::int32_t>(p, is_big_endian);
-    case ScalarType::UInt32:
-        return load_as<std::uint32_t>(p, is_big_endian);
-    case ScalarType::Float32:
-    case ScalarType::Float64:
-        break;
+        case ScalarType::Int8:
+            return load_as<std::int8_t>(p, is_big_endian);
+        case ScalarType::UInt8:
+            return load_as<std::uint8_t>(p, is_big_endian);
+        case ScalarType::Int16:
+            return load_as<std::int16_t>(p, is_big_endian);
+        case ScalarType::UInt16:
+            return load_as<std::uint16_t>(p, is_big_endian);
+        case ScalarType::Int32:
+            return load_as<std::int32_t>(p, is_big_endian);
+        case ScalarType::UInt32:
+            return load_as<std::uint32_t>(p, is_big_endian);
+        case ScalarType::Float32:
+        case ScalarType::Float64:
+            break;
     }
     return 0;
 }
@@ -188,24 +196,24 @@ bool store_scalar(char* p, ScalarType type, bool is_big_endian, double value) no
 {
     switch (type)
     {
-    case ScalarType::Int8:
-        return store_rounded<std::int8_t>(p, value, is_big_endian);
-    case ScalarType::UInt8:
-        return store_rounded<std::uint8_t>(p, value, is_big_endian);
-    case ScalarType::Int16:
-        return store_rounded<std::int16_t>(p, value, is_big_endian);
-    case ScalarType::UInt16:
-        return store_rounded<std::uint16_t>(p, value, is_big_endian);
-    case ScalarType::Int32:
-        return store_rounded<std::int32_t>(p, value, is_big_endian);
-    case ScalarType::UInt32:
-        return store_rounded<std::uint32_t>(p, value, is_big_endian);
-    case ScalarType::Float32:
-        store_as<float>(p, static_cast<float>(value), is_big_endian);
-        return true;
-    case ScalarType::Float64:
-        store_as<double>(p, value, is_big_endian);
-        return true;
+        case ScalarType::Int8:
+            return store_rounded<std::int8_t>(p, value, is_big_endian);
+        case ScalarType::UInt8:
+            return store_rounded<std::uint8_t>(p, value, is_big_endian);
+        case ScalarType::Int16:
+            return store_rounded<std::int16_t>(p, value, is_big_endian);
+        case ScalarType::UInt16:
+            return store_rounded<std::uint16_t>(p, value, is_big_endian);
+        case ScalarType::Int32:
+            return store_rounded<std::int32_t>(p, value, is_big_endian);
+        case ScalarType::UInt32:
+            return store_rounded<std::uint32_t>(p, value, is_big_endian);
+        case ScalarType::Float32:
+            store_as<float>(p, static_cast<float>(value), is_big_endian);
+            return true;
+        case ScalarType::Float64:
+            store_as<double>(p, value, is_big_endian);
+            return true;
     }
     return false;
 }
@@ -233,24 +241,24 @@ bool append_typed(std::string& out, ScalarType type, double value)
 {
     switch (type)
     {
-    case ScalarType::Int8:
-        return append_rounded<std::int8_t>(out, value);
-    case ScalarType::UInt8:
-        return append_rounded<std::uint8_t>(out, value);
-    case ScalarType::Int16:
-        return append_rounded<std::int16_t>(out, value);
-    case ScalarType::UInt16:
-        return append_rounded<std::uint16_t>(out, value);
-    case ScalarType::Int32:
-        return append_rounded<std::int32_t>(out, value);
-    case ScalarType::UInt32:
-        return append_rounded<std::uint32_t>(out, value);
-    case ScalarType::Float32:
-        append_shortest(out, static_cast<float>(value));
-        return true;
-    case ScalarType::Float64:
-        append_shortest(out, value);
-        return true;
+        case ScalarType::Int8:
+            return append_rounded<std::int8_t>(out, value);
+        case ScalarType::UInt8:
+            return append_rounded<std::uint8_t>(out, value);
+        case ScalarType::Int16:
+            return append_rounded<std::int16_t>(out, value);
+        case ScalarType::UInt16:
+            return append_rounded<std::uint16_t>(out, value);
+        case ScalarType::Int32:
+            return append_rounded<std::int32_t>(out, value);
+        case ScalarType::UInt32:
+            return append_rounded<std::uint32_t>(out, value);
+        case ScalarType::Float32:
+            append_shortest(out, static_cast<float>(value));
+            return true;
+        case ScalarType::Float64:
+            append_shortest(out, value);
+            return true;
     }
     return false;
 }

@@ -42,7 +42,8 @@ void read_vertex(const std::filesystem::path& path, std::string_view bytes, Toke
         double value = 0.0;
         if (!tokens.next(token))
         {
-            fail_io(path, "line " + std::to_string(line) + ": vertex with fewer than 3 coordinates");
+            fail_io(path,
+                    "line " + std::to_string(line) + ": vertex with fewer than 3 coordinates");
         }
         if (!parse_double(token, value))
         {

@@ -63,8 +63,8 @@ bool is_off_keyword(std::string_view keyword)
     return keyword.empty();
 }
 
-std::uint64_t read_count(const std::filesystem::path& path, TokenCursor& tokens,
-                         std::size_t line, const char* what)
+std::uint64_t read_count(const std::filesystem::path& path, TokenCursor& tokens, std::size_t line,
+                         const char* what)
 {
     std::string_view token;
     std::int64_t value = 0;
@@ -143,9 +143,8 @@ TriangleMesh read_off(const std::filesystem::path& path, FileLayout& layout,
             double value = 0.0;
             if (!tokens.next(token) || !parse_double(token, value))
             {
-                fail_io(path, "line " + std::to_string(lines.line_number()) +
-                                  ": bad coordinate " + quoted(token) + " of vertex " +
-                                  std::to_string(i));
+                fail_io(path, "line " + std::to_string(lines.line_number()) + ": bad coordinate " +
+                                  quoted(token) + " of vertex " + std::to_string(i));
             }
             mesh.V(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(d)) = value;
             slots.tokens[3 * i + d] = {static_cast<std::uint64_t>(token.data() - bytes.data()),
@@ -202,8 +201,8 @@ TriangleMesh read_off(const std::filesystem::path& path, FileLayout& layout,
 
 std::string off_bytes(const TriangleMesh& mesh, const WriteOptions& options)
 {
-    std::string out = "OFF\n" + std::to_string(mesh.V.rows()) + " " +
-                      std::to_string(mesh.F.rows()) + " 0\n";
+    std::string out =
+        "OFF\n" + std::to_string(mesh.V.rows()) + " " + std::to_string(mesh.F.rows()) + " 0\n";
     out.reserve(static_cast<std::size_t>(mesh.V.rows()) * 40 +
                 static_cast<std::size_t>(mesh.F.rows()) * 24);
     for (Eigen::Index i = 0; i < mesh.V.rows(); ++i)
@@ -235,4 +234,3 @@ std::string off_bytes(const TriangleMesh& mesh, const WriteOptions& options)
 }
 
 }  // namespace meshmark::detail
-

@@ -45,10 +45,10 @@ struct PlyElement
     std::string name;
     std::uint64_t count = 0;
     std::vector<PlyProperty> properties;
-    std::size_t line = 0;             ///< Header line that declares it.
+    std::size_t line = 0;  ///< Header line that declares it.
     Role role = Role::Skip;
     std::array<std::size_t, 3> axes{};  ///< Vertex: property index of x, y, z.
-    std::size_t list = 0;             ///< Faces/strips: property index of the index list.
+    std::size_t list = 0;               ///< Faces/strips: property index of the index list.
 };
 
 struct PlyHeader
@@ -59,7 +59,10 @@ struct PlyHeader
     std::size_t body_line = 0;  ///< Line number of the first body line (ASCII).
 };
 
-std::string header_line(std::size_t line) { return "line " + std::to_string(line) + " of the header"; }
+std::string header_line(std::size_t line)
+{
+    return "line " + std::to_string(line) + " of the header";
+}
 
 std::uint64_t parse_count(const std::filesystem::path& path, std::string_view token,
                           std::size_t line)
@@ -73,8 +76,7 @@ std::uint64_t parse_count(const std::filesystem::path& path, std::string_view to
     return static_cast<std::uint64_t>(value);
 }
 
-ScalarType parse_type(const std::filesystem::path& path, std::string_view token,
-                      std::size_t line)
+ScalarType parse_type(const std::filesystem::path& path, std::string_view token, std::size_t line)
 {
     const auto type = scalar_type_from_name(token);
     if (!type)
@@ -321,7 +323,10 @@ class ListSink
 public:
     ListSink(const std::filesystem::path& path, const PlyElement& element,
              std::uint64_t vertex_count, std::vector<std::int32_t>& triangles)
-        : path_(path), element_(element), vertex_count_(vertex_count), triangles_(triangles),
+        : path_(path),
+          element_(element),
+          vertex_count_(vertex_count),
+          triangles_(triangles),
           strips_(triangles)
     {
     }
@@ -396,10 +401,9 @@ public:
         if (n > bytes_.size() - pos_)
         {
             fail_io(path_, "truncated binary data: record " + std::to_string(record) +
-                               " of element '" + element.name + "' needs " +
-                               std::to_string(n) + " bytes at byte offset " +
-                               std::to_string(pos_) + ", but the file ends at byte " +
-                               std::to_string(bytes_.size()));
+                               " of element '" + element.name + "' needs " + std::to_string(n) +
+                               " bytes at byte offset " + std::to_string(pos_) +
+                               ", but the file ends at byte " + std::to_string(bytes_.size()));
         }
     }
 
@@ -518,13 +522,13 @@ void read_binary_vertices(BinaryReader& in, const PlyElement& element, Positions
         const auto stride = static_cast<std::size_t>(min_size);
         if (is_uniform && type == ScalarType::Float32)
         {
-            load_fixed_positions<float>(in.data(), stride, slots.field_offsets,
-                                        in.is_big_endian(), type, V);
+            load_fixed_positions<float>(in.data(), stride, slots.field_offsets, in.is_big_endian(),
+                                        type, V);
         }
         else if (is_uniform && type == ScalarType::Float64)
         {
-            load_fixed_positions<double>(in.data(), stride, slots.field_offsets,
-                                         in.is_big_endian(), type, V);
+            load_fixed_positions<double>(in.data(), stride, slots.field_offsets, in.is_big_endian(),
+                                         type, V);
         }
         else
         {
@@ -533,8 +537,8 @@ void read_binary_vertices(BinaryReader& in, const PlyElement& element, Positions
                 for (std::size_t d = 0; d < 3; ++d)
                 {
                     V(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(d)) =
-                        load_scalar(in.data() + i * stride + slots.field_offsets[d],
-                                    slots.types[d], in.is_big_endian());
+                        load_scalar(in.data() + i * stride + slots.field_offsets[d], slots.types[d],
+                                    in.is_big_endian());
                 }
             }
         }
@@ -702,16 +706,16 @@ void read_binary_body(const std::filesystem::path& path, const PlyHeader& header
     {
         switch (element.role)
         {
-        case Role::Vertex:
-            read_binary_vertices(in, element, V, slots);
-            break;
-        case Role::Faces:
-        case Role::Strips:
-            read_binary_lists(in, element, vertex_count, triangles, path);
-            break;
-        case Role::Skip:
-            skip_binary_element(in, element);
-            break;
+            case Role::Vertex:
+                read_binary_vertices(in, element, V, slots);
+                break;
+            case Role::Faces:
+            case Role::Strips:
+                read_binary_lists(in, element, vertex_count, triangles, path);
+                break;
+            case Role::Skip:
+                skip_binary_element(in, element);
+                break;
         }
     }
 }
@@ -748,8 +752,7 @@ public:
         {
             fail_io(path_, "element '" + element.name + "' declares " +
                                std::to_string(element.count) + " records, but only " +
-                               std::to_string(tokens_.remaining()) +
-                               " bytes follow the header");
+                               std::to_string(tokens_.remaining()) + " bytes follow the header");
         }
     }
 
@@ -929,16 +932,16 @@ void read_ascii_body(const std::filesystem::path& path, const PlyHeader& header,
     {
         switch (element.role)
         {
-        case Role::Vertex:
-            read_ascii_vertices(in, element, V, slots);
-            break;
-        case Role::Faces:
-        case Role::Strips:
-            read_ascii_lists(in, element, vertex_count, triangles, path);
-            break;
-        case Role::Skip:
-            skip_ascii_element(in, element);
-            break;
+            case Role::Vertex:
+                read_ascii_vertices(in, element, V, slots);
+                break;
+            case Role::Faces:
+            case Role::Strips:
+                read_ascii_lists(in, element, vertex_count, triangles, path);
+                break;
+            case Role::Skip:
+                skip_ascii_element(in, element);
+                break;
         }
     }
 }
@@ -997,8 +1000,7 @@ void append_binary_body(std::string& out, const TriangleMesh& mesh, const WriteO
         *p++ = 3;
         for (std::size_t c = 0; c < 3; ++c)
         {
-            static_cast<void>(
-                store_scalar(p, ScalarType::Int32, false, mesh.F.data()[3 * f + c]));
+            static_cast<void>(store_scalar(p, ScalarType::Int32, false, mesh.F.data()[3 * f + c]));
             p += 4;
         }
     }
@@ -1077,8 +1079,8 @@ TriangleMesh read_ply(const std::filesystem::path& path, FileLayout& layout,
     }
     check_finite(path, mesh.V);
     mesh.F = make_faces(triangles);
-    is_single_precision = std::all_of(types.begin(), types.end(), [](ScalarType t)
-                                      { return t == ScalarType::Float32; });
+    is_single_precision = std::all_of(types.begin(), types.end(),
+                                      [](ScalarType t) { return t == ScalarType::Float32; });
     return mesh;
 }
 

@@ -13,34 +13,37 @@ namespace meshmark::detail {
 namespace {
 
 // Bitwise comparison: a coordinate is rewritten only if its double changed at all.
-bool is_changed(double a, double b) noexcept { return std::memcmp(&a, &b, sizeof(double)) != 0; }
+bool is_changed(double a, double b) noexcept
+{
+    return std::memcmp(&a, &b, sizeof(double)) != 0;
+}
 
 const char* type_name(ScalarType type) noexcept
 {
     switch (type)
     {
-    case ScalarType::Int8:
-        return "char";
-    case ScalarType::UInt8:
-        return "uchar";
-    case ScalarType::Int16:
-        return "short";
-    case ScalarType::UInt16:
-        return "ushort";
-    case ScalarType::Int32:
-        return "int";
-    case ScalarType::UInt32:
-        return "uint";
-    case ScalarType::Float32:
-        return "float";
-    case ScalarType::Float64:
-        return "double";
+        case ScalarType::Int8:
+            return "char";
+        case ScalarType::UInt8:
+            return "uchar";
+        case ScalarType::Int16:
+            return "short";
+        case ScalarType::UInt16:
+            return "ushort";
+        case ScalarType::Int32:
+            return "int";
+        case ScalarType::UInt32:
+            return "uint";
+        case ScalarType::Float32:
+            return "float";
+        case ScalarType::Float64:
+            return "double";
     }
     return "?";
 }
 
-[[noreturn]] void fail_range(const std::filesystem::path& path, std::size_t vertex,
-                             ScalarType type, double value)
+[[noreturn]] void fail_range(const std::filesystem::path& path, std::size_t vertex, ScalarType type,
+                             double value)
 {
     std::string text;
     append_shortest(text, value);
@@ -101,8 +104,8 @@ std::string preserved_binary(const std::filesystem::path& path, const std::strin
             {
                 continue;
             }
-            if (!store_scalar(out.data() + slots.offset(i, d), slots.types[d],
-                              slots.is_big_endian, value))
+            if (!store_scalar(out.data() + slots.offset(i, d), slots.types[d], slots.is_big_endian,
+                              value))
             {
                 fail_range(path, i, slots.types[d], value);
             }

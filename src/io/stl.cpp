@@ -32,7 +32,8 @@ public:
 
     std::int32_t vertex(const Key& key)
     {
-        const auto [it, is_new] = map_.try_emplace(bits(key), static_cast<std::int32_t>(xyz_.size() / 3));
+        const auto [it, is_new] =
+            map_.try_emplace(bits(key), static_cast<std::int32_t>(xyz_.size() / 3));
         if (is_new)
         {
             for (const auto value : key)
@@ -55,7 +56,8 @@ private:
             std::uint64_t h = 0;
             for (const auto word : k)
             {
-                h ^= static_cast<std::uint64_t>(word) + 0x9e3779b97f4a7c15ULL + (h << 6U) + (h >> 2U);
+                h ^= static_cast<std::uint64_t>(word) + 0x9e3779b97f4a7c15ULL + (h << 6U) +
+                     (h >> 2U);
             }
             return static_cast<std::size_t>(h);
         }
@@ -111,8 +113,10 @@ TriangleMesh read_binary_stl(const std::filesystem::path& path, std::string_view
 {
     if (bytes.size() < kFacetOffset)
     {
-        fail_io(path, "truncated binary data: a binary STL needs an 84-byte header, but the file "
-                      "has " + std::to_string(bytes.size()) + " bytes");
+        fail_io(path,
+                "truncated binary data: a binary STL needs an 84-byte header, but the file "
+                "has " +
+                    std::to_string(bytes.size()) + " bytes");
     }
     const auto count = static_cast<std::uint64_t>(
         load_integer(bytes.data() + kHeaderSize, ScalarType::UInt32, false));
@@ -160,7 +164,8 @@ bool iequals(std::string_view a, std::string_view b) noexcept
     }
     for (std::size_t i = 0; i < a.size(); ++i)
     {
-        const auto lower = [](char c) { return c >= 'A' && c <= 'Z' ? static_cast<char>(c + 32) : c; };
+        const auto lower = [](char c)
+        { return c >= 'A' && c <= 'Z' ? static_cast<char>(c + 32) : c; };
         if (lower(a[i]) != lower(b[i]))
         {
             return false;
@@ -234,8 +239,8 @@ public:
             std::string_view token;
             if (!tokens_.next(token) || !parse_double(token, values[d]))
             {
-                fail_io(path_, "line " + std::to_string(lines_.line_number()) +
-                                   ": bad number " + quoted(token));
+                fail_io(path_, "line " + std::to_string(lines_.line_number()) + ": bad number " +
+                                   quoted(token));
             }
             spans[d] = {static_cast<std::uint64_t>(token.data() - bytes_.data()),
                         static_cast<std::uint32_t>(token.size())};
@@ -340,10 +345,10 @@ std::vector<char> moved_vertices(const Positions& original, const Positions& pos
     std::vector<char> moved(static_cast<std::size_t>(original.rows()), 0);
     for (std::size_t i = 0; i < moved.size(); ++i)
     {
-        moved[i] = std::memcmp(original.data() + 3 * i, positions.data() + 3 * i,
-                               3 * sizeof(double)) != 0
-                       ? 1
-                       : 0;
+        moved[i] =
+            std::memcmp(original.data() + 3 * i, positions.data() + 3 * i, 3 * sizeof(double)) != 0
+                ? 1
+                : 0;
     }
     return moved;
 }
@@ -368,8 +373,8 @@ void patch_binary_facets(std::string& out, const StlFacets& facets, const std::v
         {
             for (std::size_t d = 0; d < 3; ++d)
             {
-                const auto value = static_cast<float>(
-                    positions(corners[c], static_cast<Eigen::Index>(d)));
+                const auto value =
+                    static_cast<float>(positions(corners[c], static_cast<Eigen::Index>(d)));
                 store_float(facet + 12 + 12 * c + 4 * d, value, false);
                 stored[c][d] = static_cast<double>(value);
             }
@@ -377,8 +382,8 @@ void patch_binary_facets(std::string& out, const StlFacets& facets, const std::v
         bool is_zero_normal = true;
         for (std::size_t d = 0; d < 3; ++d)
         {
-            is_zero_normal = is_zero_normal &&
-                             load_scalar(facet + 4 * d, ScalarType::Float32, false) == 0.0;
+            is_zero_normal =
+                is_zero_normal && load_scalar(facet + 4 * d, ScalarType::Float32, false) == 0.0;
         }
         if (!is_zero_normal)
         {
@@ -470,7 +475,7 @@ void append_number(std::string& out, double value, bool is_single)
 }
 
 std::array<std::array<double, 3>, 3> triangle(const TriangleMesh& mesh, Eigen::Index f,
-                                               bool is_single)
+                                              bool is_single)
 {
     std::array<std::array<double, 3>, 3> p{};
     for (Eigen::Index c = 0; c < 3; ++c)

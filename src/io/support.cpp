@@ -1,14 +1,14 @@
 // SPDX-License-Identifier: MIT
 #include "io/detail/support.h"
 
-#include <fcntl.h>
-#include <sys/stat.h>
-#include <unistd.h>
-
 #include <array>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include "meshmark/core/error.h"
 
@@ -82,9 +82,9 @@ std::string read_file_bytes(const std::filesystem::path& path)
     if (fd.get() < 0)
     {
         const int err = errno;
-        fail_io(path, err == ENOENT ? std::string("no such file")
-                                    : std::string("cannot open the file (") +
-                                          std::strerror(err) + ")");
+        fail_io(path, err == ENOENT
+                          ? std::string("no such file")
+                          : std::string("cannot open the file (") + std::strerror(err) + ")");
     }
     struct stat info
     {

@@ -8,8 +8,8 @@
 #include <variant>
 #include <vector>
 
-#include "meshmark/io/mesh_io.h"
 #include "io/detail/numbers.h"
+#include "meshmark/io/mesh_io.h"
 
 namespace meshmark::detail {
 
@@ -35,12 +35,11 @@ struct TextPositions
 /// have a fixed size, else coordinate_offsets[3 * i + d] (lists in the vertex element).
 struct BinaryPositions
 {
-    std::uint64_t first_record = 0;    ///< Offset of vertex 0's record.
-    std::uint64_t record_stride = 0;   ///< Record size when records are fixed-size.
+    std::uint64_t first_record = 0;   ///< Offset of vertex 0's record.
+    std::uint64_t record_stride = 0;  ///< Record size when records are fixed-size.
     std::array<std::uint64_t, 3> field_offsets{};
     std::vector<std::uint64_t> coordinate_offsets;  ///< 3 per vertex, only for varying records.
-    std::array<ScalarType, 3> types{ScalarType::Float32, ScalarType::Float32,
-                                    ScalarType::Float32};
+    std::array<ScalarType, 3> types{ScalarType::Float32, ScalarType::Float32, ScalarType::Float32};
     bool is_big_endian = false;
 
     [[nodiscard]] std::uint64_t offset(std::size_t vertex, std::size_t axis) const

@@ -5,8 +5,8 @@
 #include <ostream>
 #include <string>
 
-#include "meshmark/io/mesh_io.h"
 #include "io/detail/file_layout.h"
+#include "meshmark/io/mesh_io.h"
 
 namespace meshmark::detail {
 

@@ -1,11 +1,12 @@
 // SPDX-License-Identifier: MIT
 // Negative fixtures and hostile inputs: each fails with a typed error naming the file.
-#include <gtest/gtest.h>
+#include "meshmark/core/error.h"
 
 #include <chrono>
 
+#include <gtest/gtest.h>
+
 #include "io_test_support.h"
-#include "meshmark/core/error.h"
 #include "meshmark/io/mesh_io.h"
 
 namespace meshmark {
@@ -35,7 +36,8 @@ TEST(IoErrorTest, rejects_malformed_ply_header)
 
 TEST(IoErrorTest, rejects_truncated_binary_ply)
 {
-    expect_read_error<IoError>(fixture("truncated_binary.ply"), {"truncated", "vertex", "50 bytes"});
+    expect_read_error<IoError>(fixture("truncated_binary.ply"),
+                               {"truncated", "vertex", "50 bytes"});
 }
 
 TEST(IoErrorTest, rejects_truncated_binary_stl)
@@ -101,19 +103,22 @@ TEST(IoErrorTest, rejects_bad_tokens_with_line_numbers)
     expect_read_error<IoError>(dir / "t.obj", {"line 3", "'x'"});
     test::put_bytes(dir / "f.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2/ 3\n");
     expect_read_error<IoError>(dir / "f.obj", {"line 4", "'2/'"});
-    test::put_bytes(dir / "t.stl", "solid s\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\n"
-                                   "vertex 1 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid s\n");
+    test::put_bytes(dir / "t.stl",
+                    "solid s\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\n"
+                    "vertex 1 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid s\n");
     expect_read_error<IoError>(dir / "t.stl", {"line 5"});
 }
 
 TEST(IoErrorTest, rejects_unsupported_layouts)
 {
     const auto dir = test::temp_dir("io_layout");
-    test::put_bytes(dir / "nox.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float u\n"
-                                     "property float y\nproperty float z\nend_header\n0 0 0\n");
+    test::put_bytes(dir / "nox.ply",
+                    "ply\nformat ascii 1.0\nelement vertex 1\nproperty float u\n"
+                    "property float y\nproperty float z\nend_header\n0 0 0\n");
     expect_read_error<IoError>(dir / "nox.ply", {"no scalar 'x' property"});
-    test::put_bytes(dir / "nov.ply", "ply\nformat ascii 1.0\nelement point 1\nproperty float x\n"
-                                     "end_header\n0\n");
+    test::put_bytes(dir / "nov.ply",
+                    "ply\nformat ascii 1.0\nelement point 1\nproperty float x\n"
+                    "end_header\n0\n");
     expect_read_error<IoError>(dir / "nov.ply", {"no 'vertex' element"});
     test::put_bytes(dir / "notply.ply", "solid x\n");
     expect_read_error<IoError>(dir / "notply.ply", {"not a PLY file"});
@@ -127,10 +132,11 @@ TEST(IoErrorTest, rejects_unsupported_layouts)
     expect_read_error<InvalidMesh>(dir / "zero.obj", {"face 0", "index 0"});
     test::put_bytes(dir / "neg.obj", "v 0 0 0\nv 1 0 0\nf -1 -2 -3\nv 0 1 0\n");
     expect_read_error<InvalidMesh>(dir / "neg.obj", {"face 0", "-3", "only 2 vertices"});
-    test::put_bytes(dir / "strip.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
-                                       "property float y\nproperty float z\nelement tristrips 1\n"
-                                       "property list int int vertex_indices\nend_header\n"
-                                       "0 0 0\n1 0 0\n0 1 0\n4 0 1 2 -2\n");
+    test::put_bytes(dir / "strip.ply",
+                    "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+                    "property float y\nproperty float z\nelement tristrips 1\n"
+                    "property list int int vertex_indices\nend_header\n"
+                    "0 0 0\n1 0 0\n0 1 0\n4 0 1 2 -2\n");
     expect_read_error<InvalidMesh>(dir / "strip.ply", {"tristrips record 0", "-2"});
 }
 

@@ -2,14 +2,14 @@
 // Helpers shared by the io tests: file bytes, expected cube data, exception matchers.
 #pragma once
 
-#include <gtest/gtest.h>
-
 #include <array>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include <gtest/gtest.h>
 
 #include "meshmark/core/triangle_mesh.h"
 #include "support/test_paths.h"
@@ -30,7 +30,10 @@ inline void put_bytes(const std::filesystem::path& path, const std::string& byte
     out << bytes;
 }
 
-inline std::filesystem::path fixture(const std::string& name) { return data_dir() / name; }
+inline std::filesystem::path fixture(const std::string& name)
+{
+    return data_dir() / name;
+}
 
 using Rows = std::vector<std::array<double, 3>>;
 using Triangles = std::vector<std::array<std::int32_t, 3>>;
@@ -38,7 +41,7 @@ using Triangles = std::vector<std::array<std::int32_t, 3>>;
 /// The cube of the fixtures with vertex 6 at z = `top` (1.1 as float or as double).
 inline Rows cube_positions(double top)
 {
-    return {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0},
+    return {{0, 0, 0}, {1, 0, 0}, {1, 1, 0},   {0, 1, 0},
             {0, 0, 1}, {1, 0, 1}, {1, 1, top}, {0, 1, 1}};
 }
 
@@ -63,7 +66,8 @@ inline void expect_positions(const TriangleMesh& mesh, const Rows& expected)
     {
         for (Eigen::Index d = 0; d < 3; ++d)
         {
-            EXPECT_EQ(mesh.V(i, d), expected[static_cast<std::size_t>(i)][static_cast<std::size_t>(d)])
+            EXPECT_EQ(mesh.V(i, d),
+                      expected[static_cast<std::size_t>(i)][static_cast<std::size_t>(d)])
                 << "vertex " << i << " axis " << d;
         }
     }
@@ -76,7 +80,8 @@ inline void expect_triangles(const TriangleMesh& mesh, const Triangles& expected
     {
         for (Eigen::Index c = 0; c < 3; ++c)
         {
-            EXPECT_EQ(mesh.F(f, c), expected[static_cast<std::size_t>(f)][static_cast<std::size_t>(c)])
+            EXPECT_EQ(mesh.F(f, c),
+                      expected[static_cast<std::size_t>(f)][static_cast<std::size_t>(c)])
                 << "face " << f << " corner " << c;
         }
     }

@@ -1,13 +1,12 @@
 // SPDX-License-Identifier: MIT
 // The preserving writer: unchanged positions give the same bytes; changed positions keep the
 // file's precision and leave every other byte or token as it was.
-#include <gtest/gtest.h>
-
 #include <charconv>
 #include <cmath>
 #include <cstring>
 
 #include <Eigen/Geometry>
+#include <gtest/gtest.h>
 
 #include "io_test_support.h"
 #include "meshmark/core/error.h"
@@ -19,11 +18,17 @@ using test::fixture;
 
 namespace {
 
-const std::vector<std::string> kValidFixtures{
-    "cube_ascii.ply",     "cube_binary_le.ply",           "cube_binary_be.ply",
-    "cube_normals_extra_props.ply", "tristrip.ply",       "quad_faces.obj",
-    "obj_index_forms.obj", "cube.off",                    "cube_ascii.stl",
-    "cube_binary.stl",    "cube_binary_solid_header.stl"};
+const std::vector<std::string> kValidFixtures{"cube_ascii.ply",
+                                              "cube_binary_le.ply",
+                                              "cube_binary_be.ply",
+                                              "cube_normals_extra_props.ply",
+                                              "tristrip.ply",
+                                              "quad_faces.obj",
+                                              "obj_index_forms.obj",
+                                              "cube.off",
+                                              "cube_ascii.stl",
+                                              "cube_binary.stl",
+                                              "cube_binary_solid_header.stl"};
 
 // Moves every coordinate by a small, vertex-dependent amount.
 Positions perturbed(const Positions& V)
@@ -39,7 +44,10 @@ Positions perturbed(const Positions& V)
     return result;
 }
 
-double as_float(double v) { return static_cast<double>(static_cast<float>(v)); }
+double as_float(double v)
+{
+    return static_cast<double>(static_cast<float>(v));
+}
 
 bool is_number(const std::string& token)
 {
@@ -132,8 +140,9 @@ TEST(PreserveTest, changed_ascii_ply_tokens_use_the_declared_type)
     EXPECT_EQ(read_mesh(dir / "c.ply").V(6, 2), as_float(1.0 / 3.0));
 
     // A double property keeps double digits.
-    test::put_bytes(dir / "d.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty double x\n"
-                                   "property double y\nproperty int z\nend_header\n1 2 3\n");
+    test::put_bytes(dir / "d.ply",
+                    "ply\nformat ascii 1.0\nelement vertex 1\nproperty double x\n"
+                    "property double y\nproperty int z\nend_header\n1 2 3\n");
     const auto typed = read_mesh_file(dir / "d.ply");
     Positions p(1, 3);
     p << 1.0 / 3.0, 2.0, 4.6;  // int property: rounded
@@ -158,8 +167,9 @@ TEST(PreserveTest, changed_obj_and_off_tokens_follow_the_significant_digit_rule)
     EXPECT_EQ(test::file_bytes(dir / "b.obj"),
               "v 0.33333334 0.3333333333333333 2.000000 1 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
 
-    test::put_bytes(dir / "a.off", "OFF\n3 1 0\n0.5 0.12345678901234567 2.000000\n1 0 0\n0 1 0\n"
-                                   "3 0 1 2\n");
+    test::put_bytes(dir / "a.off",
+                    "OFF\n3 1 0\n0.5 0.12345678901234567 2.000000\n1 0 0\n0 1 0\n"
+                    "3 0 1 2\n");
     const auto off = read_mesh_file(dir / "a.off");
     write_mesh_file(dir / "b.off", off, moved);
     EXPECT_EQ(test::file_bytes(dir / "b.off"),
@@ -177,9 +187,9 @@ TEST(PreserveTest, perturbed_text_files_change_only_position_tokens)
         const auto moved = perturbed(original.mesh.V);
         write_mesh_file(dir / name, original, moved);
         // Every coordinate's text changes, and nothing else does.
-        EXPECT_EQ(changed_number_tokens(test::file_bytes(fixture(name)),
-                                        test::file_bytes(dir / name)),
-                  static_cast<std::size_t>(moved.size()));
+        EXPECT_EQ(
+            changed_number_tokens(test::file_bytes(fixture(name)), test::file_bytes(dir / name)),
+            static_cast<std::size_t>(moved.size()));
         const auto changed = read_mesh_file(dir / name);
         EXPECT_EQ(changed.mesh.F, original.mesh.F);
         for (Eigen::Index k = 0; k < moved.size(); ++k)
@@ -226,9 +236,8 @@ TEST(PreserveTest, changed_binary_stl_moves_corners_and_recomputes_normals)
             {
                 const auto value = float_at(out, at + 12 + 12 * c + 4 * d);
                 p[c][static_cast<Eigen::Index>(d)] = static_cast<double>(value);
-                EXPECT_EQ(value, static_cast<float>(
-                                     moved(F(f, static_cast<Eigen::Index>(c)),
-                                           static_cast<Eigen::Index>(d))));
+                EXPECT_EQ(value, static_cast<float>(moved(F(f, static_cast<Eigen::Index>(c)),
+                                                          static_cast<Eigen::Index>(d))));
             }
         }
         const Eigen::Vector3d n(float_at(out, at), float_at(out, at + 4), float_at(out, at + 8));
@@ -297,9 +306,11 @@ TEST(PreserveTest, rejects_bad_positions_and_leaves_no_file)
                                     {"b.off", "vertex 3"});
     Positions huge = file.mesh.V;
     huge(0, 0) = 1e300;
-    test::put_bytes(dir / "i.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 1\n"
-                                   "property short x\nproperty short y\nproperty short z\n"
-                                   "end_header\n" + std::string(6, '\0'));
+    test::put_bytes(dir / "i.ply",
+                    "ply\nformat binary_little_endian 1.0\nelement vertex 1\n"
+                    "property short x\nproperty short y\nproperty short z\n"
+                    "end_header\n" +
+                        std::string(6, '\0'));
     const auto shorts = read_mesh_file(dir / "i.ply");
     EXPECT_THROW(write_mesh_file(dir / "j.ply", shorts, huge.topRows(1)), IoError);
     EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir), {}), 1);

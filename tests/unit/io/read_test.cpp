@@ -83,9 +83,19 @@ TEST(IoTest, fan_triangulates_obj_polygons)
     const auto mesh = read_mesh(fixture("quad_faces.obj"));
     ASSERT_EQ(mesh.V.rows(), 9);
     EXPECT_EQ(mesh.V(8, 1), 1.5);
-    test::expect_triangles(mesh, {{0, 3, 2}, {0, 2, 1}, {4, 5, 6}, {4, 6, 7}, {0, 1, 5},
-                                  {0, 5, 4}, {0, 4, 7}, {0, 7, 3}, {1, 2, 6}, {1, 6, 5},
-                                  {2, 3, 7}, {2, 7, 8}, {2, 8, 6}});
+    test::expect_triangles(mesh, {{0, 3, 2},
+                                  {0, 2, 1},
+                                  {4, 5, 6},
+                                  {4, 6, 7},
+                                  {0, 1, 5},
+                                  {0, 5, 4},
+                                  {0, 4, 7},
+                                  {0, 7, 3},
+                                  {1, 2, 6},
+                                  {1, 6, 5},
+                                  {2, 3, 7},
+                                  {2, 7, 8},
+                                  {2, 8, 6}});
 }
 
 TEST(IoTest, reads_every_obj_index_form)
@@ -94,8 +104,7 @@ TEST(IoTest, reads_every_obj_index_form)
     const auto file = read_mesh_file(fixture("obj_index_forms.obj"));
     EXPECT_EQ(file.format, MeshFormat::Obj);
     EXPECT_TRUE(file.is_single_precision);
-    test::expect_positions(file.mesh,
-                           {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0.5, 0.5, 1}});
+    test::expect_positions(file.mesh, {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0.5, 0.5, 1}});
     test::expect_triangles(file.mesh, {{0, 1, 2}, {0, 2, 3}, {0, 1, 4}, {1, 2, 4}, {2, 3, 4}});
 }
 
@@ -121,9 +130,8 @@ TEST(IoTest, reads_ascii_stl_and_welds_corners)
     {
         for (Eigen::Index c = 0; c < 3; ++c)
         {
-            const auto& corner =
-                expected[static_cast<std::size_t>(triangles[static_cast<std::size_t>(f)]
-                                                           [static_cast<std::size_t>(c)])];
+            const auto& corner = expected[static_cast<std::size_t>(
+                triangles[static_cast<std::size_t>(f)][static_cast<std::size_t>(c)])];
             for (Eigen::Index d = 0; d < 3; ++d)
             {
                 EXPECT_EQ(file.mesh.V(file.mesh.F(f, c), d), corner[static_cast<std::size_t>(d)]);
@@ -139,9 +147,18 @@ TEST(IoTest, reads_binary_stl_and_welds_corners)
     ASSERT_EQ(file.mesh.V.rows(), 8);
     ASSERT_EQ(file.mesh.F.rows(), 12);
     // Corners of the first facet (0, 3, 2) are the first three vertices.
-    test::expect_triangles(file.mesh, {{0, 1, 2}, {0, 2, 3}, {4, 5, 6}, {4, 6, 7}, {0, 3, 5},
-                                       {0, 5, 4}, {2, 1, 7}, {2, 7, 6}, {0, 4, 7}, {0, 7, 1},
-                                       {3, 2, 6}, {3, 6, 5}});
+    test::expect_triangles(file.mesh, {{0, 1, 2},
+                                       {0, 2, 3},
+                                       {4, 5, 6},
+                                       {4, 6, 7},
+                                       {0, 3, 5},
+                                       {0, 5, 4},
+                                       {2, 1, 7},
+                                       {2, 7, 6},
+                                       {0, 4, 7},
+                                       {0, 7, 1},
+                                       {3, 2, 6},
+                                       {3, 6, 5}});
     EXPECT_EQ(file.mesh.V(6, 2), kFloatTop);
 }
 

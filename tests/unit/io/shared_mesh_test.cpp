@@ -1,12 +1,12 @@
 // SPDX-License-Identifier: MIT
 // The real meshes of the shared folder: counts from SOURCES.md, byte-identical round trips,
 // and perturbed round trips that keep the file's precision.
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <fstream>
 #include <map>
 #include <regex>
+
+#include <gtest/gtest.h>
 
 #include "io_test_support.h"
 #include "meshmark/io/mesh_io.h"

@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: MIT
 // Generic writers: write -> read round trips for every format and option.
-#include <gtest/gtest.h>
-
 #include <cstring>
+
+#include <gtest/gtest.h>
 
 #include "io_test_support.h"
 #include "meshmark/core/error.h"
@@ -18,9 +18,9 @@ TriangleMesh awkward_tetrahedron()
     TriangleMesh mesh;
     mesh.V.resize(5, 3);
     mesh.V << 0.1, 1.0 / 3.0, -2.0 / 7.0,  //
-        1e-7, 12345.678901234567, 0.0,      //
-        -1.5, 2.0 / 3.0, 1e10 / 3.0,        //
-        0.7, -0.2, 5e-320,                  //
+        1e-7, 12345.678901234567, 0.0,     //
+        -1.5, 2.0 / 3.0, 1e10 / 3.0,       //
+        0.7, -0.2, 5e-320,                 //
         9.0, 9.0, 9.0;
     mesh.F.resize(4, 3);
     mesh.F << 0, 1, 2, 0, 3, 1, 1, 3, 2, 2, 3, 0;
@@ -42,7 +42,8 @@ TEST(WriteTest, ply_round_trips_in_every_encoding_and_precision)
     {
         for (const bool is_single : {false, true})
         {
-            SCOPED_TRACE(std::string(is_binary ? "binary" : "ascii") + (is_single ? " float" : " double"));
+            SCOPED_TRACE(std::string(is_binary ? "binary" : "ascii") +
+                         (is_single ? " float" : " double"));
             const auto path = dir / "t.ply";
             write_mesh(path, mesh, {.is_binary = is_binary, .use_single_precision = is_single});
             const auto file = read_mesh_file(path);
@@ -50,8 +51,9 @@ TEST(WriteTest, ply_round_trips_in_every_encoding_and_precision)
             EXPECT_EQ(file.mesh.V, is_single ? as_float(mesh.V) : mesh.V);
             EXPECT_EQ(file.mesh.F, mesh.F);
             const auto bytes = test::file_bytes(path);
-            EXPECT_NE(bytes.find(is_binary ? "format binary_little_endian 1.0\n" : "format ascii 1.0\n"),
-                      std::string::npos);
+            EXPECT_NE(
+                bytes.find(is_binary ? "format binary_little_endian 1.0\n" : "format ascii 1.0\n"),
+                std::string::npos);
         }
     }
 }
@@ -136,8 +138,7 @@ TEST(WriteTest, rejects_invalid_meshes_and_unwritable_targets)
 {
     const auto dir = test::temp_dir("write_bad");
     auto mesh = awkward_tetrahedron();
-    test::expect_error<IoError>([&] { write_mesh(dir / "missing" / "t.ply", mesh); },
-                                {"t.ply"});
+    test::expect_error<IoError>([&] { write_mesh(dir / "missing" / "t.ply", mesh); }, {"t.ply"});
     test::expect_error<IoError>([&] { write_mesh(dir / "t.xyz", mesh); }, {"t.xyz"});
     mesh.F(2, 1) = 5;
     test::expect_error<InvalidMesh>([&] { write_mesh(dir / "t.ply", mesh); }, {"face 2"});
