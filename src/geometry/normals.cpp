@@ -1,6 +1,10 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/geometry/normals.h"
 
+#include <Eigen/Geometry>
+
+#include <Eigen/Geometry>
+
 namespace meshmark {
 namespace {
 
