@@ -207,26 +207,26 @@ std::int32_t inner_nodes(std::int32_t n)
 class TriangleBvh
 {
 public:
-    TriangleBvh(const Positions& V, const Faces& F)
+    TriangleBvh(const Positions& V, const Faces& F) : V_(&V), F_(&F)
     {
         const auto face_count = static_cast<std::int32_t>(F.rows());
-        triangles_.resize(static_cast<std::size_t>(face_count));
-        centroids_.resize(static_cast<std::size_t>(face_count));
+        items_.resize(static_cast<std::size_t>(face_count));
         for (std::int32_t f = 0; f < face_count; ++f)
         {
-            const Vec3 a = V.row(F(f, 0)).transpose();
-            const Vec3 b = V.row(F(f, 1)).transpose();
-            const Vec3 c = V.row(F(f, 2)).transpose();
-            triangles_[static_cast<std::size_t>(f)] = make_triangle(a, b, c, f);
-            centroids_[static_cast<std::size_t>(f)] = (a + b + c) / 3.0;
+            const Vec3 sum = V.row(F(f, 0)) + V.row(F(f, 1)) + V.row(F(f, 2));
+            items_[static_cast<std::size_t>(f)] = {sum / 3.0, f};
         }
+        triangles_.resize(static_cast<std::size_t>(face_count));
         // The root is always an inner node (a child may be an empty leaf) so queries need no
         // special case for tiny meshes.
         nodes_.resize(static_cast<std::size_t>(std::max(inner_nodes(face_count), 1)));
+        Box root_box;
 #pragma omp parallel num_threads(omp_get_max_threads())
 #pragma omp single
-        build_inner(0, 0, face_count);
-        centroids_ = {};
+        build_inner(0, 0, face_count, root_box);
+        items_ = {};
+        V_ = nullptr;
+        F_ = nullptr;
     }
 
     [[nodiscard]] ClosestPoint closest(const Vec3& p) const
@@ -299,53 +299,69 @@ private:
         }
     }
 
-    // Builds the inner node `index` over triangles [begin, end) and its inner descendants, which
-    // take the slots after it: the left subtree first, then the right one.
-    void build_inner(std::int32_t index, std::int32_t begin, std::int32_t end)
+    // Builds the inner node `index` over items [begin, end) and its inner descendants, which take
+    // the slots after it (left subtree first), lays out the triangles of its leaves, and stores
+    // the subtree's box in `box` (boxes are merged bottom-up, so each triangle is read once).
+    void build_inner(std::int32_t index, std::int32_t begin, std::int32_t end, Box& box)
     {
         const std::int32_t n = end - begin;
         const std::int32_t middle = begin + n / 2;
         split_at_median(begin, middle, end);
         Node& node = nodes_[static_cast<std::size_t>(index)];
         const std::array<std::int32_t, 3> bounds = {begin, middle, end};
-        std::array<std::int32_t, 2> slot = {index + 1, index + 1 + inner_nodes(middle - begin)};
+        const std::array<std::int32_t, 2> slot = {index + 1, index + 1 + inner_nodes(middle - begin)};
         for (std::size_t c = 0; c < 2; ++c)
         {
             const std::int32_t size = bounds[c + 1] - bounds[c];
-            node.box[c] = fit_box(bounds[c], bounds[c + 1]);
             const bool is_leaf = size <= kLeafSize;
             node.child[c] = is_leaf ? bounds[c] : slot[c];
             node.count[c] = is_leaf ? size : -1;
         }
-        const bool is_left_inner = node.count[0] < 0;
-        const bool is_right_inner = node.count[1] < 0;
-        if (is_left_inner && n >= kTaskGrain)
+        Box& left_box = node.box[0];
+        if (node.count[0] >= 0)
+        {
+            left_box = build_leaf(begin, middle);
+        }
+        else if (n >= kTaskGrain)
         {
 #pragma omp task default(shared) firstprivate(slot, begin, middle)
-            build_inner(slot[0], begin, middle);
+            build_inner(slot[0], begin, middle, left_box);
         }
-        else if (is_left_inner)
+        else
         {
-            build_inner(slot[0], begin, middle);
+            build_inner(slot[0], begin, middle, left_box);
         }
-        if (is_right_inner)
+        if (node.count[1] >= 0)
         {
-            build_inner(slot[1], middle, end);
+            node.box[1] = build_leaf(middle, end);
+        }
+        else
+        {
+            build_inner(slot[1], middle, end, node.box[1]);
         }
 #pragma omp taskwait
+        for (std::size_t k = 0; k < 3; ++k)
+        {
+            box.lo[k] = std::min(node.box[0].lo[k], node.box[1].lo[k]);
+            box.hi[k] = std::max(node.box[0].hi[k], node.box[1].hi[k]);
+        }
     }
 
-    [[nodiscard]] Box fit_box(std::int32_t begin, std::int32_t end) const
+    // Copies the triangles of items [begin, end) into leaf order and returns their box, rounded
+    // outwards to single precision (an empty leaf gets an empty box, infinitely far away).
+    Box build_leaf(std::int32_t begin, std::int32_t end)
     {
         Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity());
         Vec3 hi = -lo;
         for (std::int32_t i = begin; i < end; ++i)
         {
-            const Triangle& t = triangles_[static_cast<std::size_t>(i)];
-            const Vec3 b = t.a + t.ab;
-            const Vec3 c = t.a + t.ac;
-            lo = lo.cwiseMin(t.a).cwiseMin(b).cwiseMin(c);
-            hi = hi.cwiseMax(t.a).cwiseMax(b).cwiseMax(c);
+            const std::int32_t f = items_[static_cast<std::size_t>(i)].face;
+            const Vec3 a = V_->row((*F_)(f, 0)).transpose();
+            const Vec3 b = V_->row((*F_)(f, 1)).transpose();
+            const Vec3 c = V_->row((*F_)(f, 2)).transpose();
+            triangles_[static_cast<std::size_t>(i)] = make_triangle(a, b, c, f);
+            lo = lo.cwiseMin(a).cwiseMin(b).cwiseMin(c);
+            hi = hi.cwiseMax(a).cwiseMax(b).cwiseMax(c);
         }
         Box box;
         for (std::size_t k = 0; k < 3; ++k)
@@ -356,30 +372,38 @@ private:
         return box;
     }
 
-    // Partitions [begin, end) around the median centroid along the longest axis of the
+    // Partitions items [begin, end) around the median centroid along the longest axis of their
     // centroids' extent; ties are broken by face index, so the split is a total order.
     void split_at_median(std::int32_t begin, std::int32_t middle, std::int32_t end)
     {
+        const auto first = items_.begin() + begin;
+        const auto last = items_.begin() + end;
         Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity());
         Vec3 hi = -lo;
-        for (std::int32_t i = begin; i < end; ++i)
+        for (auto it = first; it != last; ++it)
         {
-            const Vec3& c = centroids_[static_cast<std::size_t>(triangles_[static_cast<std::size_t>(i)].face)];
-            lo = lo.cwiseMin(c);
-            hi = hi.cwiseMax(c);
+            lo = lo.cwiseMin(it->centroid);
+            hi = hi.cwiseMax(it->centroid);
         }
         Eigen::Index axis = 0;
         (hi - lo).maxCoeff(&axis);
-        const auto key = [&](const Triangle& t) {
-            return std::pair{centroids_[static_cast<std::size_t>(t.face)][axis], t.face};
-        };
-        std::nth_element(triangles_.begin() + begin, triangles_.begin() + middle, triangles_.begin() + end,
-                         [&](const Triangle& x, const Triangle& y) { return key(x) < key(y); });
+        std::nth_element(first, items_.begin() + middle, last, [axis](const BuildItem& x, const BuildItem& y) {
+            return std::pair{x.centroid[axis], x.face} < std::pair{y.centroid[axis], y.face};
+        });
     }
+
+    /// A face during the build: its centroid (the split key) and index.
+    struct BuildItem
+    {
+        Vec3 centroid;
+        std::int32_t face = -1;
+    };
 
     std::vector<Triangle> triangles_;  // In leaf order.
     std::vector<Node> nodes_;          // Inner nodes, root first, depth-first order.
-    std::vector<Vec3> centroids_;      // By face index; only during the build.
+    std::vector<BuildItem> items_;     // Only during the build, as are V_ and F_.
+    const Positions* V_ = nullptr;
+    const Faces* F_ = nullptr;
 };
 
 /// nanoflann dataset adaptor over the rows of a Positions matrix.
