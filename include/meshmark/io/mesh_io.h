@@ -71,6 +71,8 @@ struct WriteOptions
 /// \brief Write \p mesh to \p path in the format of its extension, atomically.
 /// \details ASCII numbers use the shortest representation that reads back to the same double.
 /// \throws IoError (unknown extension, unwritable directory); nothing is left at \p path then.
+/// \throws InvalidMesh (non-finite coordinate, index out of range) and InvalidOption
+/// (vertex_colors of the wrong size) before anything is written.
 void write_mesh(const std::filesystem::path& path, const TriangleMesh& mesh,
                 const WriteOptions& options = {});
 
@@ -82,9 +84,12 @@ void write_mesh(const std::filesystem::path& path, const TriangleMesh& mesh,
 /// ASCII coordinate is rewritten only if its value changed, with the shortest digits that
 /// read back to the new value in the file's precision. STL facets get their corners' new
 /// positions and a recomputed normal (a zero normal stays zero). When the formats differ,
-/// this is write_mesh of the positions and triangles.
+/// this is write_mesh of the positions and triangles, and only then are \p options used.
+/// Writing the unchanged positions reproduces the source file byte for byte; \p path may be
+/// the source file itself. See docs/file_formats.md for the precision rules per format.
 /// \pre positions.rows() == source.mesh.V.rows().
-/// \throws IoError as write_mesh; InvalidOption on a row-count mismatch.
+/// \throws IoError as write_mesh, or when a changed coordinate does not fit an integer
+/// position type; InvalidOption on a row-count mismatch; InvalidMesh on a non-finite position.
 void write_mesh_file(const std::filesystem::path& path, const MeshFile& source,
                      const Positions& positions, const WriteOptions& options = {});
 
