@@ -18,7 +18,7 @@ constexpr int kFloatDecimalDigits = 9;  // FLT_DECIMAL_DIG: see append_like_toke
 struct ObjState
 {
     std::vector<double> xyz;
-    std::vector<std::int32_t> triangles;
+    TriangleBuffer triangles;
     std::vector<std::int32_t> polygon;  // Reused across faces.
     TextPositions slots;
     bool is_single_precision = true;

@@ -155,8 +155,8 @@ TriangleMesh read_off(const std::filesystem::path& path, FileLayout& layout,
     }
     check_finite(path, mesh.V);
 
-    std::vector<std::int32_t> triangles;
-    triangles.reserve(3 * static_cast<std::size_t>(face_count));
+    TriangleBuffer triangles;
+    triangles.reserve(static_cast<std::size_t>(face_count));
     std::vector<std::int32_t> polygon;
     for (std::uint64_t f = 0; f < face_count; ++f)
     {
@@ -194,7 +194,7 @@ TriangleMesh read_off(const std::filesystem::path& path, FileLayout& layout,
         }
         append_fan(triangles, polygon.data(), polygon.size());
     }
-    mesh.F = make_faces(triangles);
+    mesh.F = triangles.take();
     layout.positions = std::move(slots);
     return mesh;
 }

@@ -72,12 +72,12 @@ private:
     std::vector<double> xyz_;
 };
 
-void add_facet_triangle(std::vector<std::int32_t>& triangles, const std::int32_t* corners)
+void add_facet_triangle(TriangleBuffer& triangles, const std::int32_t* corners)
 {
     // A facet whose corners weld together is degenerate: kept in the file, not in F.
     if (corners[0] != corners[1] && corners[1] != corners[2] && corners[0] != corners[2])
     {
-        triangles.insert(triangles.end(), corners, corners + 3);
+        triangles.push(corners[0], corners[1], corners[2]);
     }
 }
 
@@ -131,8 +131,8 @@ TriangleMesh read_binary_stl(const std::filesystem::path& path, std::string_view
     facets.is_binary = true;
     facets.corner_vertices.resize(3 * n);
     Welder<float> welder(3 * n);
-    std::vector<std::int32_t> triangles;
-    triangles.reserve(3 * n);
+    TriangleBuffer triangles;
+    triangles.reserve(n);
     for (std::size_t f = 0; f < n; ++f)
     {
         const char* facet = bytes.data() + kFacetOffset + f * kFacetSize;
@@ -263,7 +263,7 @@ TriangleMesh read_ascii_stl(const std::filesystem::path& path, std::string_view 
     facets.is_binary = false;
     AsciiStlReader in(path, bytes);
     Welder<double> welder(bytes.size() / 64);
-    std::vector<std::int32_t> triangles;
+    TriangleBuffer triangles;
     is_single_precision = true;
     bool is_normal_single = true;  // Normals do not decide the precision of positions.
     // solid -> (facet normal / outer loop / 3 x vertex / endloop / endfacet)* -> endsolid,

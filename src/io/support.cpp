@@ -202,7 +202,7 @@ std::string_view TokenStream::next() noexcept
     return {start, static_cast<std::size_t>(p - start)};
 }
 
-TriangleMesh make_mesh(const std::vector<double>& xyz, const std::vector<std::int32_t>& triangles)
+TriangleMesh make_mesh(const std::vector<double>& xyz, TriangleBuffer& triangles)
 {
     TriangleMesh mesh;
     mesh.V.resize(static_cast<Eigen::Index>(xyz.size() / 3), 3);
@@ -210,22 +210,8 @@ TriangleMesh make_mesh(const std::vector<double>& xyz, const std::vector<std::in
     {
         std::memcpy(mesh.V.data(), xyz.data(), xyz.size() * sizeof(double));
     }
-    mesh.F.resize(static_cast<Eigen::Index>(triangles.size() / 3), 3);
-    if (!triangles.empty())
-    {
-        std::memcpy(mesh.F.data(), triangles.data(), triangles.size() * sizeof(std::int32_t));
-    }
+    mesh.F = triangles.take();
     return mesh;
-}
-
-Faces make_faces(const std::vector<std::int32_t>& triangles)
-{
-    Faces F(static_cast<Eigen::Index>(triangles.size() / 3), 3);
-    if (!triangles.empty())
-    {
-        std::memcpy(F.data(), triangles.data(), triangles.size() * sizeof(std::int32_t));
-    }
-    return F;
 }
 
 void check_finite(const std::filesystem::path& path, const Positions& V)

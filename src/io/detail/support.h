@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
@@ -82,12 +83,53 @@ private:
     std::size_t line_;
 };
 
-/// A mesh from flat arrays: \p xyz (3 per vertex) and \p triangles (3 per face).
-[[nodiscard]] TriangleMesh make_mesh(const std::vector<double>& xyz,
-                                     const std::vector<std::int32_t>& triangles);
+/// \brief Triangles appended one at a time into a geometrically growing Faces matrix.
+/// \details Storage is reserved uninitialized and handed over without a copy by take(), which
+/// matters for meshes with millions of faces.
+class TriangleBuffer
+{
+public:
+    /// Make room for \p triangles triangles in total.
+    void reserve(std::size_t triangles)
+    {
+        if (triangles > capacity())
+        {
+            F_.conservativeResize(static_cast<Eigen::Index>(triangles), 3);
+        }
+    }
+    void push(std::int32_t a, std::int32_t b, std::int32_t c)
+    {
+        if (size_ == capacity())
+        {
+            constexpr std::size_t kMinCapacity = 64;
+            reserve(std::max(kMinCapacity, 2 * capacity()));
+        }
+        std::int32_t* p = F_.data() + 3 * size_;
+        p[0] = a;
+        p[1] = b;
+        p[2] = c;
+        ++size_;
+    }
+    [[nodiscard]] std::size_t size() const noexcept { return size_; }
+    /// The triangles pushed so far; the buffer is empty afterwards.
+    [[nodiscard]] Faces take()
+    {
+        F_.conservativeResize(static_cast<Eigen::Index>(size_), 3);
+        size_ = 0;
+        return std::move(F_);
+    }
 
-/// Faces from a flat array of 3 indices per triangle.
-[[nodiscard]] Faces make_faces(const std::vector<std::int32_t>& triangles);
+private:
+    [[nodiscard]] std::size_t capacity() const noexcept
+    {
+        return static_cast<std::size_t>(F_.rows());
+    }
+    Faces F_;
+    std::size_t size_ = 0;
+};
+
+/// A mesh from flat positions \p xyz (3 per vertex) and the triangles of \p triangles.
+[[nodiscard]] TriangleMesh make_mesh(const std::vector<double>& xyz, TriangleBuffer& triangles);
 
 /// Throw InvalidMesh naming \p path and the vertex if any coordinate is NaN or infinite.
 void check_finite(const std::filesystem::path& path, const Positions& V);
@@ -100,14 +142,11 @@ inline constexpr std::uint64_t kMaxVertices = 2147483647U;
 namespace meshmark::detail {
 
 /// Append the fan triangles (i0, ik, ik+1) of a polygon of \p n checked indices (none if n < 3).
-inline void append_fan(std::vector<std::int32_t>& triangles, const std::int32_t* indices,
-                       std::size_t n)
+inline void append_fan(TriangleBuffer& triangles, const std::int32_t* indices, std::size_t n)
 {
     for (std::size_t k = 1; k + 1 < n; ++k)
     {
-        triangles.push_back(indices[0]);
-        triangles.push_back(indices[k]);
-        triangles.push_back(indices[k + 1]);
+        triangles.push(indices[0], indices[k], indices[k + 1]);
     }
 }
 
