@@ -2,6 +2,9 @@
 // Reading the tiny fixtures of tests/data: exact counts, positions and triangles per feature.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cstring>
+
 #include "io_test_support.h"
 #include "meshmark/core/error.h"
 #include "meshmark/io/mesh_io.h"
@@ -192,6 +195,80 @@ TEST(IoTest, reads_point_cloud_ply_without_faces)
     EXPECT_FALSE(file.is_single_precision);
     test::expect_positions(file.mesh, {{0.1, 2, -3e-2}, {4, 5, 6}});
     EXPECT_TRUE(file.mesh.is_point_cloud());
+}
+
+namespace {
+
+// A binary PLY of one triangle in the given byte order: float positions, `list uchar int`.
+std::string one_triangle_ply(bool is_big_endian, std::int32_t last_index)
+{
+    std::string bytes = std::string("ply\nformat ") +
+                        (is_big_endian ? "binary_big_endian" : "binary_little_endian") +
+                        " 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                        "property float z\nelement face 1\n"
+                        "property list uchar int vertex_indices\nend_header\n";
+    const auto append = [&bytes, is_big_endian](const void* value)
+    {
+        std::array<char, 4> raw{};
+        std::memcpy(raw.data(), value, 4);
+        if (is_big_endian)
+        {
+            std::reverse(raw.begin(), raw.end());
+        }
+        bytes.append(raw.data(), 4);
+    };
+    for (int i = 0; i < 9; ++i)
+    {
+        const float value = 0.5F * static_cast<float>(i);
+        append(&value);
+    }
+    bytes += '\x03';
+    for (const std::int32_t index : {2, 0, last_index})
+    {
+        append(&index);
+    }
+    return bytes;
+}
+
+}  // namespace
+
+TEST(IoTest, reads_binary_triangles_in_both_byte_orders)
+{
+    const auto dir = test::temp_dir("io_fast_faces");
+    for (const bool is_big_endian : {false, true})
+    {
+        SCOPED_TRACE(is_big_endian ? "big-endian" : "little-endian");
+        test::put_bytes(dir / "t.ply", one_triangle_ply(is_big_endian, 1));
+        const auto mesh = read_mesh(dir / "t.ply");
+        test::expect_positions(mesh, {{0, 0.5, 1}, {1.5, 2, 2.5}, {3, 3.5, 4}});
+        test::expect_triangles(mesh, {{2, 0, 1}});
+        test::put_bytes(dir / "bad.ply", one_triangle_ply(is_big_endian, -1));
+        test::expect_error<InvalidMesh>([&] { static_cast<void>(read_mesh(dir / "bad.ply")); },
+                                        {"bad.ply", "face 0", "vertex index -1", "0..2"});
+    }
+}
+
+TEST(IoTest, reads_ascii_stl_with_several_solids)
+{
+    const auto dir = test::temp_dir("io_solids");
+    const std::string facet =
+        "facet normal 0 0 1\n outer loop\n  vertex 0 0 0\n  vertex 1 0 0\n  vertex 0 1 0\n"
+        " endloop\nendfacet\n";
+    test::put_bytes(dir / "s.stl", "solid a\n" + facet + "endsolid a\nSOLID b\n" + facet +
+                                       "ENDSOLID b\n");
+    const auto mesh = read_mesh(dir / "s.stl");
+    EXPECT_EQ(mesh.V.rows(), 3);
+    test::expect_triangles(mesh, {{0, 1, 2}, {0, 1, 2}});
+}
+
+TEST(IoTest, reads_off_counts_on_the_keyword_line)
+{
+    const auto dir = test::temp_dir("io_off_counts");
+    test::put_bytes(dir / "c.off", "COFF 3 1 0\n0 0 0 255 0 0 255\n1 0 0 0 255 0 255\n"
+                                   "0 1 0 0 0 255 255\n3 0 1 2\n");
+    const auto mesh = read_mesh(dir / "c.off");
+    test::expect_positions(mesh, {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}});
+    test::expect_triangles(mesh, {{0, 1, 2}});
 }
 
 }  // namespace meshmark
