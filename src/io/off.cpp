@@ -87,15 +87,16 @@ void check_count(const std::filesystem::path& path, std::uint64_t count, std::si
     }
 }
 
-}  // namespace
-
-TriangleMesh read_off(const std::filesystem::path& path, FileLayout& layout,
-                      bool& is_single_precision)
+struct OffCounts
 {
-    const std::string_view bytes = layout.bytes;
-    OffLines lines(bytes);
+    std::uint64_t vertices = 0;
+    std::uint64_t faces = 0;
+};
+
+// The keyword line, then the counts (on the same line or the next), checked against the size.
+OffCounts read_off_header(const std::filesystem::path& path, OffLines& lines, std::size_t size)
+{
     std::string_view line;
-    // Header keyword -> counts (same line or the next) -> vertex lines -> face lines.
     std::string_view keyword;
     if (!lines.next(line) || !TokenCursor(line).next(keyword) || !is_off_keyword(keyword))
     {
@@ -112,29 +113,33 @@ TriangleMesh read_off(const std::filesystem::path& path, FileLayout& layout,
         }
         header = TokenCursor(line);
     }
-    const auto counts_line = lines.line_number();
-    const auto vertex_count = read_count(path, header, counts_line, "vertex");
-    const auto face_count = read_count(path, header, counts_line, "face");
-    if (vertex_count > kMaxVertices)
+    OffCounts counts;
+    counts.vertices = read_count(path, header, lines.line_number(), "vertex");
+    counts.faces = read_count(path, header, lines.line_number(), "face");
+    if (counts.vertices > kMaxVertices)
     {
-        fail_io(path, "the header declares " + std::to_string(vertex_count) +
+        fail_io(path, "the header declares " + std::to_string(counts.vertices) +
                           " vertices, more than the 2147483647 that 32-bit indices address");
     }
-    check_count(path, vertex_count, lines.remaining(bytes.size()), "vertices");
-    check_count(path, face_count, lines.remaining(bytes.size()), "faces");
+    check_count(path, counts.vertices, lines.remaining(size), "vertices");
+    check_count(path, counts.faces, lines.remaining(size), "faces");
+    return counts;
+}
 
-    TriangleMesh mesh;
-    mesh.V.resize(static_cast<Eigen::Index>(vertex_count), 3);
-    TextPositions slots;
-    slots.tokens.resize(3 * static_cast<std::size_t>(vertex_count));
+// One line per vertex: its first three numbers are the position, the rest is kept as text.
+void read_off_vertices(const std::filesystem::path& path, std::string_view bytes, OffLines& lines,
+                       Positions& V, TextPositions& slots, bool& is_single_precision)
+{
+    const auto count = static_cast<std::size_t>(V.rows());
+    slots.tokens.resize(3 * count);
     is_single_precision = true;
-    for (std::uint64_t i = 0; i < vertex_count; ++i)
+    std::string_view line;
+    for (std::size_t i = 0; i < count; ++i)
     {
         if (!lines.next(line))
         {
-            fail_io(path, "unexpected end of file: the header declares " +
-                              std::to_string(vertex_count) + " vertices, found " +
-                              std::to_string(i));
+            fail_io(path, "unexpected end of file: the header declares " + std::to_string(count) +
+                              " vertices, found " + std::to_string(i));
         }
         TokenCursor tokens(line);
         for (std::size_t d = 0; d < 3; ++d)
@@ -146,24 +151,28 @@ TriangleMesh read_off(const std::filesystem::path& path, FileLayout& layout,
                 fail_io(path, "line " + std::to_string(lines.line_number()) + ": bad coordinate " +
                                   quoted(token) + " of vertex " + std::to_string(i));
             }
-            mesh.V(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(d)) = value;
+            V.data()[3 * i + d] = value;
             slots.tokens[3 * i + d] = {static_cast<std::uint64_t>(token.data() - bytes.data()),
                                        static_cast<std::uint32_t>(token.size())};
             is_single_precision =
                 is_single_precision && significant_digits(token) <= kFloatDecimalDigits;
         }
     }
-    check_finite(path, mesh.V);
+}
 
+// One line per face: `n i0 ... i(n-1)`, then optional color values.
+Faces read_off_faces(const std::filesystem::path& path, OffLines& lines, const OffCounts& counts)
+{
     TriangleBuffer triangles;
-    triangles.reserve(static_cast<std::size_t>(face_count));
-    std::vector<std::int32_t> polygon;
-    for (std::uint64_t f = 0; f < face_count; ++f)
+    triangles.reserve(static_cast<std::size_t>(counts.faces));
+    std::vector<std::int32_t> polygon;  // Reused across faces.
+    std::string_view line;
+    for (std::uint64_t f = 0; f < counts.faces; ++f)
     {
         if (!lines.next(line))
         {
             fail_io(path, "unexpected end of file: the header declares " +
-                              std::to_string(face_count) + " faces, found " + std::to_string(f));
+                              std::to_string(counts.faces) + " faces, found " + std::to_string(f));
         }
         const auto where = [&lines] { return "line " + std::to_string(lines.line_number()); };
         TokenCursor tokens(line);
@@ -184,17 +193,34 @@ TriangleMesh read_off(const std::filesystem::path& path, FileLayout& layout,
                 fail_io(path, where() + ": bad vertex index " + quoted(token) + " of face " +
                                   std::to_string(f));
             }
-            if (index < 0 || static_cast<std::uint64_t>(index) >= vertex_count)
+            if (index < 0 || static_cast<std::uint64_t>(index) >= counts.vertices)
             {
                 fail_mesh(path, "face " + std::to_string(f) + " (" + where() +
                                     ") uses vertex index " + std::to_string(index) + ", " +
-                                    index_range(vertex_count));
+                                    index_range(counts.vertices));
             }
             polygon.push_back(static_cast<std::int32_t>(index));
         }
         append_fan(triangles, polygon.data(), polygon.size());
     }
-    mesh.F = triangles.take();
+    return triangles.take();
+}
+
+}  // namespace
+
+TriangleMesh read_off(const std::filesystem::path& path, FileLayout& layout,
+                      bool& is_single_precision)
+{
+    const std::string_view bytes = layout.bytes;
+    OffLines lines(bytes);
+    // Header (keyword, counts) -> vertex lines -> face lines.
+    const auto counts = read_off_header(path, lines, bytes.size());
+    TriangleMesh mesh;
+    mesh.V.resize(static_cast<Eigen::Index>(counts.vertices), 3);
+    TextPositions slots;
+    read_off_vertices(path, bytes, lines, mesh.V, slots, is_single_precision);
+    check_finite(path, mesh.V);
+    mesh.F = read_off_faces(path, lines, counts);
     layout.positions = std::move(slots);
     return mesh;
 }

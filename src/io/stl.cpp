@@ -82,8 +82,9 @@ void add_facet_triangle(TriangleBuffer& triangles, const std::int32_t* corners)
 }
 
 // ASCII unless the bytes after a leading "solid" contain something no text file holds: a
-// binary STL's header may itself begin with "solid", but its count and float data do not
-// stay within printable characters.
+// binary STL's header may itself begin with "solid", but its count and float data rarely stay
+// within printable characters, and never also spell "facet" or "endsolid" while the facet
+// count matches the file size.
 bool is_ascii_stl(std::string_view bytes)
 {
     std::size_t start = 0;
@@ -105,7 +106,16 @@ bool is_ascii_stl(std::string_view bytes)
             return false;
         }
     }
-    return true;
+    // Text all the way: ASCII when a facet or the end of the solid shows up early, or when the
+    // size cannot be that of a binary STL.
+    const bool has_keyword = probe.find("facet") != std::string_view::npos ||
+                             probe.find("endsolid") != std::string_view::npos;
+    const bool has_binary_size = bytes.size() >= kFacetOffset &&
+                                 (bytes.size() - kFacetOffset) % kFacetSize == 0 &&
+                                 static_cast<std::uint64_t>(load_integer(
+                                     bytes.data() + kHeaderSize, ScalarType::UInt32, false)) ==
+                                     (bytes.size() - kFacetOffset) / kFacetSize;
+    return has_keyword || !has_binary_size;
 }
 
 TriangleMesh read_binary_stl(const std::filesystem::path& path, std::string_view bytes,
