@@ -1,0 +1,221 @@
+// SPDX-License-Identifier: MIT
+// The meshmark program as users and scripts see it: exit codes, --json, messages, no partial files.
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "meshmark/geometry/shapes.h"
+#include "meshmark/io/mesh_io.h"
+#include "support/test_paths.h"
+
+namespace meshmark {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Run
+{
+    int exit_code = -1;
+    std::string out;
+    std::string err;
+};
+
+std::string slurp(const fs::path& p)
+{
+    std::ifstream in(p, std::ios::binary);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+}
+
+Run run(const std::string& arguments, const fs::path& dir)
+{
+    const auto out = dir / "stdout.txt";
+    const auto err = dir / "stderr.txt";
+    const std::string command = test::cli_path().string() + " " + arguments + " >" + out.string() +
+                                " 2>" + err.string();
+    const int status = std::system(command.c_str());
+    Run result;
+    result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    result.out = slurp(out);
+    result.err = slurp(err);
+    return result;
+}
+
+class CliTest : public ::testing::Test
+{
+protected:
+    void SetUp() override
+    {
+        if (test::cli_path().empty())
+        {
+            GTEST_SKIP() << "the CLI is not built";
+        }
+        dir_ = test::temp_dir(::testing::UnitTest::GetInstance()->current_test_info()->name());
+        original_ = dir_ / "original.ply";
+        write_mesh(original_, lumpy_ellipsoid(5));
+    }
+    fs::path dir_;
+    fs::path original_;
+};
+
+TEST_F(CliTest, embed_then_detect_reports_json_and_exit_codes)
+{
+    const auto marked = dir_ / "marked.ply";
+    const auto key = dir_ / "key.json";
+    Run r = run("embed " + original_.string() + " -o " + marked.string() + " --key " + key.string() +
+                    " --message hello --seed 12 --json",
+                dir_);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const auto embed_json = nlohmann::json::parse(r.out);
+    EXPECT_GT(embed_json["rms_displacement"].get<double>(), 0.0);
+    EXPECT_TRUE(embed_json["seconds"].contains("total"));
+    struct stat st{};
+    ASSERT_EQ(::stat(key.c_str(), &st), 0);
+    EXPECT_EQ(st.st_mode & 0777U, 0600U);
+
+    r = run("detect " + marked.string() + " --original " + original_.string() + " --key " + key.string() +
+                " --json",
+            dir_);
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    const auto j = nlohmann::json::parse(r.out);
+    EXPECT_TRUE(j["detected"].get<bool>());
+    EXPECT_DOUBLE_EQ(j["correlation"].get<double>(), 1.0);
+    EXPECT_EQ(j["bits_expected"].get<std::string>(), j["bits_found"].get<std::string>());
+    for (const char* field : {"false_positive_probability", "cropped_fraction", "registration", "seconds"})
+    {
+        EXPECT_TRUE(j.contains(field)) << field;
+    }
+    EXPECT_EQ(j["registration"]["transform"].size(), 4U);
+    EXPECT_TRUE(j["registration"].contains("rms_error"));
+
+    r = run("detect " + original_.string() + " --original " + original_.string() + " --key " + key.string() +
+                " --json",
+            dir_);
+    EXPECT_EQ(r.exit_code, 1) << r.err;
+    EXPECT_FALSE(nlohmann::json::parse(r.out)["detected"].get<bool>());
+}
+
+TEST_F(CliTest, never_overwrites_the_input_or_an_existing_key)
+{
+    const std::string before = slurp(original_);
+    Run r = run("embed " + original_.string() + " -o " + original_.string() + " --key " +
+                    (dir_ / "k.json").string(),
+                dir_);
+    EXPECT_EQ(r.exit_code, 2);
+    EXPECT_NE(r.err.find("input"), std::string::npos) << r.err;
+    EXPECT_EQ(slurp(original_), before);
+    EXPECT_FALSE(fs::exists(dir_ / "k.json"));
+
+    const auto key = dir_ / "key.json";
+    ASSERT_EQ(run("embed " + original_.string() + " -o " + (dir_ / "a.ply").string() + " --key " + key.string(),
+                  dir_)
+                  .exit_code,
+              0);
+    const std::string key_text = slurp(key);
+    r = run("embed " + original_.string() + " -o " + (dir_ / "b.ply").string() + " --key " + key.string(), dir_);
+    EXPECT_EQ(r.exit_code, 2);
+    EXPECT_EQ(slurp(key), key_text);
+    EXPECT_FALSE(fs::exists(dir_ / "b.ply"));
+}
+
+// Each bad input: one clear sentence naming the file, the right exit code, no output file.
+struct BadInput
+{
+    const char* name;
+    const char* content;  // written to dir/<file>
+    const char* file;
+    int exit_code;
+    const char* expected_words;
+};
+
+TEST_F(CliTest, bad_inputs_fail_cleanly_without_output)
+{
+    std::string line_ply = "ply\nformat ascii 1.0\nelement vertex 200\nproperty float x\nproperty float y\n"
+                           "property float z\nend_header\n";
+    for (int i = 0; i < 200; ++i)
+    {
+        line_ply += std::to_string(i) + " " + std::to_string(2 * i) + " 0\n";
+    }
+    const BadInput cases[] = {
+        {"truncated binary", "ply\nformat binary_little_endian 1.0\nelement vertex 100\nproperty float x\n"
+                             "property float y\nproperty float z\nend_header\n\x01\x02",
+         "truncated.ply", 3, "truncated.ply"},
+        {"malformed header", "ply\nformat ascii 1.0\nelement vertex three\nend_header\n", "header.ply", 3,
+         "header.ply"},
+        {"nan coordinate", "OFF\n3 1 0\n0 0 0\nnan 1 0\n0 1 1\n3 0 1 2\n", "nan.off", 3, "nan.off"},
+        {"index out of range", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n", "index.obj", 3, "index.obj"},
+        {"too few vertices", "OFF\n4 2 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n3 0 2 3\n", "tiny.off", 3,
+         "basis"},
+        {"collinear vertices", line_ply.c_str(), "line.ply", 4, "collinear"},
+        {"unknown extension", "whatever", "mesh.xyz", 3, "mesh.xyz"},
+    };
+    for (const auto& c : cases)
+    {
+        const auto input = dir_ / c.file;
+        std::ofstream(input, std::ios::binary) << c.content;
+        const auto output = dir_ / (std::string("out_") + c.file + ".ply");
+        const auto key = dir_ / (std::string("key_") + c.file + ".json");
+        const Run r = run("embed " + input.string() + " -o " + output.string() + " --key " + key.string(), dir_);
+        EXPECT_EQ(r.exit_code, c.exit_code) << c.name << ": " << r.err;
+        EXPECT_NE(r.err.find(c.expected_words), std::string::npos) << c.name << ": " << r.err;
+        EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << c.name << ": " << r.err;
+        EXPECT_FALSE(fs::exists(output)) << c.name;
+        EXPECT_FALSE(fs::exists(key)) << c.name;
+    }
+    // Missing input and unknown output extension.
+    Run r = run("embed " + (dir_ / "missing.ply").string() + " -o " + (dir_ / "o.ply").string() + " --key " +
+                    (dir_ / "k.json").string(),
+                dir_);
+    EXPECT_GE(r.exit_code, 2);
+    EXPECT_NE(r.err.find("missing.ply"), std::string::npos) << r.err;
+    r = run("embed " + original_.string() + " -o " + (dir_ / "o.abc").string() + " --key " +
+                (dir_ / "k.json").string(),
+            dir_);
+    EXPECT_EQ(r.exit_code, 3) << r.err;
+    EXPECT_FALSE(fs::exists(dir_ / "o.abc"));
+    EXPECT_FALSE(fs::exists(dir_ / "k.json"));
+}
+
+TEST_F(CliTest, detect_rejects_corrupt_keys_wrong_originals_and_mismatched_suspects)
+{
+    const auto marked = dir_ / "marked.ply";
+    const auto key = dir_ / "key.json";
+    ASSERT_EQ(run("embed " + original_.string() + " -o " + marked.string() + " --key " + key.string(), dir_)
+                  .exit_code,
+              0);
+    const std::string text = slurp(key);
+    const auto truncated = dir_ / "truncated.json";
+    std::ofstream(truncated) << text.substr(0, text.size() / 2);
+    Run r = run("detect " + marked.string() + " --original " + original_.string() + " --key " +
+                    truncated.string(),
+                dir_);
+    EXPECT_EQ(r.exit_code, 3);
+    EXPECT_NE(r.err.find("truncated.json"), std::string::npos) << r.err;
+
+    std::string future = text;
+    future.replace(future.find("\"version\": 1"), 12, "\"version\": 7");
+    const auto other_version = dir_ / "future.json";
+    std::ofstream(other_version) << future;
+    r = run("detect " + marked.string() + " --original " + original_.string() + " --key " +
+                other_version.string(),
+            dir_);
+    EXPECT_EQ(r.exit_code, 3);
+    EXPECT_NE(r.err.find("version"), std::string::npos) << r.err;
+
+    const auto other_original = dir_ / "other.ply";
+    write_mesh(other_original, lumpy_ellipsoid(4));
+    r = run("detect " + marked.string() + " --original " + other_original.string() + " --key " + key.string(),
+            dir_);
+    EXPECT_EQ(r.exit_code, 3);
+    EXPECT_NE(r.err.find("not the original"), std::string::npos) << r.err;
+}
+
+}  // namespace
+}  // namespace meshmark
