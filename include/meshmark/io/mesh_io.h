@@ -40,7 +40,10 @@ struct MeshFile
                         ///< positions are the distinct corner positions (bit-identical corners welded).
     MeshFormat format = MeshFormat::Ply;
     std::filesystem::path path;
-    bool is_single_precision = false;  ///< Positions were stored as float32 (binary, or typed ASCII).
+    /// Positions were stored as float32 and changed ones are written back as float32: binary
+    /// or float-typed ASCII PLY, binary STL; for OBJ, OFF and ASCII STL, every coordinate
+    /// token had at most 9 significant digits.
+    bool is_single_precision = false;
     std::shared_ptr<const detail::FileLayout> layout;  ///< Opaque; used by write_mesh_file.
 };
 
