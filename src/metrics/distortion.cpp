@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <omp.h>
@@ -111,11 +112,11 @@ double seconds_since(std::chrono::steady_clock::time_point start)
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-void report_progress(const CompareOptions& options, const std::string& message)
+void report_progress(const CompareOptions& options, std::string_view phase, double fraction)
 {
     if (options.progress)
     {
-        options.progress(message);
+        options.progress(phase, fraction);
     }
 }
 
@@ -245,7 +246,7 @@ DistortionReport compare_meshes(const TriangleMesh& a, const TriangleMesh& b, co
     }
 
     // Indices: exact closest points on each surface (nearest points for a cloud).
-    report_progress(options, "compare: building closest-point indices");
+    report_progress(options, "building closest-point indices", 0.0);
     auto phase = std::chrono::steady_clock::now();
     const ClosestPointIndex index_a(a);
     const ClosestPointIndex index_b(b);
@@ -254,11 +255,11 @@ DistortionReport compare_meshes(const TriangleMesh& a, const TriangleMesh& b, co
     // A -> B, then B -> A, each with its own random stream.
     const std::int64_t samples_a = options.samples > 0 ? options.samples : auto_sample_count(a);
     const std::int64_t samples_b = options.samples > 0 ? options.samples : auto_sample_count(b);
-    report_progress(options, "compare: A -> B with " + std::to_string(samples_a) + " area samples");
+    report_progress(options, "measuring A against B", 0.1);
     phase = std::chrono::steady_clock::now();
     report.a_to_b = one_sided_distance(a, index_b, samples_a, derive_seed(options.seed, "compare:a"), options.threads);
     report.seconds.a_to_b = seconds_since(phase);
-    report_progress(options, "compare: B -> A with " + std::to_string(samples_b) + " area samples");
+    report_progress(options, "measuring B against A", 0.55);
     phase = std::chrono::steady_clock::now();
     report.b_to_a = one_sided_distance(b, index_a, samples_b, derive_seed(options.seed, "compare:b"), options.threads,
                                        options.keep_vertex_distances ? &report.vertex_distances_ba : nullptr);
@@ -279,6 +280,7 @@ DistortionReport compare_meshes(const TriangleMesh& a, const TriangleMesh& b, co
         report.rms_displacement_rel = report.displacement->rms / d;
     }
     report.seconds.total = seconds_since(start);
+    report_progress(options, "done", 1.0);
     return report;
 }
 

@@ -3,7 +3,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <string_view>
+#include <vector>
 
 #include "meshmark/core/error.h"
 #include "meshmark/geometry/shapes.h"
@@ -200,6 +203,20 @@ TEST(DistortionTest, keeps_vertex_distances_of_b_on_request)
     EXPECT_NEAR(r.vertex_distances_ba.maxCoeff(), kBumpHeight, 1e-15);
     EXPECT_EQ((r.vertex_distances_ba.array() > 1e-12).count(), 1);
     EXPECT_EQ(compare_meshes(a, b, with_samples(1000)).vertex_distances_ba.size(), 0);
+}
+
+TEST(DistortionTest, reports_progress_up_to_completion)
+{
+    CompareOptions options = with_samples(1000);
+    std::vector<double> fractions;
+    options.progress = [&](std::string_view phase, double fraction) {
+        EXPECT_FALSE(phase.empty());
+        fractions.push_back(fraction);
+    };
+    (void)compare_meshes(icosphere(2), icosphere(3), options);
+    ASSERT_GE(fractions.size(), 2U);
+    EXPECT_TRUE(std::is_sorted(fractions.begin(), fractions.end()));
+    EXPECT_EQ(fractions.back(), 1.0);
 }
 
 TEST(DistortionTest, auto_sample_count_is_clamped)

@@ -1,0 +1,216 @@
+// SPDX-License-Identifier: MIT
+// `meshmark compare`: distortion metrics between two meshes, and an optional distance heatmap.
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "commands.h"
+#include "meshmark/core/atomic_file.h"
+#include "meshmark/core/error.h"
+#include "meshmark/io/mesh_io.h"
+#include "meshmark/metrics/distortion.h"
+#include "meshmark/metrics/heatmap.h"
+#include "report.h"
+
+namespace meshmark::cli {
+namespace {
+
+struct CompareArgs
+{
+    std::string a;
+    std::string b;
+    bool json = false;
+    std::string heatmap;
+    CompareOptions options;
+};
+
+double seconds_since(std::chrono::steady_clock::time_point start)
+{
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+// The heatmap is PLY only (per-vertex colors), and never replaces an input.
+void check_heatmap_path(const CompareArgs& args)
+{
+    if (args.heatmap.empty())
+    {
+        return;
+    }
+    const std::filesystem::path out(args.heatmap);
+    if (format_from_extension(out) != MeshFormat::Ply)
+    {
+        throw InvalidOption("compare: --heatmap " + args.heatmap +
+                            " must name a .ply file (per-vertex colors are written as PLY only).");
+    }
+    if (is_same_file(out, args.a) || is_same_file(out, args.b))
+    {
+        throw InvalidOption("compare: --heatmap " + args.heatmap + " would overwrite an input mesh.");
+    }
+}
+
+/// B colored by the distance of each vertex to A: blue at 0, red at the largest distance of a
+/// referenced vertex of B. Returns that largest distance.
+double write_heatmap(const std::string& path, const TriangleMesh& b, const Eigen::VectorXd& distances)
+{
+    double max_distance = 0.0;
+    for (const std::int32_t v : referenced_vertices(b))
+    {
+        max_distance = std::max(max_distance, distances[v]);
+    }
+    const std::vector<Rgb8> colors = distance_colors(distances, max_distance);
+    write_mesh(path, b, WriteOptions{.vertex_colors = &colors});
+    return max_distance;
+}
+
+nlohmann::json mesh_json(const std::string& path, const TriangleMesh& mesh, const OneSidedDistance& side)
+{
+    return {{"file", path},
+            {"vertices", mesh.vertex_count()},
+            {"faces", mesh.face_count()},
+            {"vertex_samples", side.vertex_samples},
+            {"area_samples", side.area_samples}};
+}
+
+nlohmann::json report_json(const CompareArgs& args, const TriangleMesh& a, const TriangleMesh& b,
+                           const DistortionReport& r)
+{
+    nlohmann::json out = {{"hausdorff", r.hausdorff_rel},
+                          {"hausdorff_ab", r.hausdorff_ab_rel},
+                          {"hausdorff_ba", r.hausdorff_ba_rel},
+                          {"rms_ab", r.rms_ab_rel},
+                          {"rms_ba", r.rms_ba_rel},
+                          {"mrms", r.mrms_rel},
+                          {"mean_ab", r.a_to_b.mean / r.diagonal},
+                          {"mean_ba", r.b_to_a.mean / r.diagonal},
+                          {"same_connectivity", r.displacement.has_value()},
+                          {"unit", "bounding-box diagonal of A"},
+                          {"bbox_diagonal", r.diagonal},
+                          {"a", mesh_json(args.a, a, r.a_to_b)},
+                          {"b", mesh_json(args.b, b, r.b_to_a)},
+                          {"samples", r.a_to_b.vertex_samples + r.a_to_b.area_samples + r.b_to_a.vertex_samples +
+                                          r.b_to_a.area_samples},
+                          {"seed", args.options.seed}};
+    if (r.displacement)
+    {
+        out["max_displacement"] = r.max_displacement_rel;
+        out["rms_displacement"] = r.rms_displacement_rel;
+    }
+    return out;
+}
+
+void print_text(const CompareArgs& args, const TriangleMesh& a, const TriangleMesh& b, const DistortionReport& r)
+{
+    const auto pct = [](double rel) { return format_number(100.0 * rel, 4) + "%"; };
+    std::printf("A: %s (%lld vertices, %lld triangles)\nB: %s (%lld vertices, %lld triangles)\n", args.a.c_str(),
+                static_cast<long long>(a.vertex_count()), static_cast<long long>(a.face_count()), args.b.c_str(),
+                static_cast<long long>(b.vertex_count()), static_cast<long long>(b.face_count()));
+    std::printf("distances in %% of the bounding-box diagonal of A (%s):\n", format_number(r.diagonal, 6).c_str());
+    std::printf("  Hausdorff     %s  (A->B %s, B->A %s)\n", pct(r.hausdorff_rel).c_str(),
+                pct(r.hausdorff_ab_rel).c_str(), pct(r.hausdorff_ba_rel).c_str());
+    std::printf("  RMS           A->B %s, B->A %s\n", pct(r.rms_ab_rel).c_str(), pct(r.rms_ba_rel).c_str());
+    std::printf("  MRMS          %s\n", pct(r.mrms_rel).c_str());
+    if (r.displacement)
+    {
+        std::printf("  displacement  max %s, RMS %s (same connectivity)\n", pct(r.max_displacement_rel).c_str(),
+                    pct(r.rms_displacement_rel).c_str());
+    }
+    std::printf("samples: A %lld vertices + %lld on faces, B %lld vertices + %lld on faces\n",
+                static_cast<long long>(r.a_to_b.vertex_samples), static_cast<long long>(r.a_to_b.area_samples),
+                static_cast<long long>(r.b_to_a.vertex_samples), static_cast<long long>(r.b_to_a.area_samples));
+}
+
+int run_compare(const CompareArgs& args, const GlobalArgs& global)
+{
+    const auto start = std::chrono::steady_clock::now();
+    check_heatmap_path(args);
+
+    // Read both meshes, then measure.
+    const TriangleMesh a = read_mesh(args.a);
+    const TriangleMesh b = read_mesh(args.b);
+    const double read_seconds = seconds_since(start);
+    CompareOptions options = args.options;
+    options.threads = global.threads;
+    options.keep_vertex_distances = !args.heatmap.empty();
+    options.progress = make_progress(global, "compare");
+    const DistortionReport report = compare_meshes(a, b, options);
+
+    // Optional heatmap of B's vertices.
+    double heatmap_seconds = 0.0;
+    double heatmap_max = 0.0;
+    if (!args.heatmap.empty())
+    {
+        const auto phase = std::chrono::steady_clock::now();
+        heatmap_max = write_heatmap(args.heatmap, b, report.vertex_distances_ba);
+        heatmap_seconds = seconds_since(phase);
+    }
+
+    if (args.json)
+    {
+        nlohmann::json out = report_json(args, a, b, report);
+        if (!args.heatmap.empty())
+        {
+            out["heatmap"] = {{"file", args.heatmap}, {"max_distance", heatmap_max / report.diagonal}};
+        }
+        out["seconds"] = {{"read", read_seconds},
+                          {"index", report.seconds.index},
+                          {"a_to_b", report.seconds.a_to_b},
+                          {"b_to_a", report.seconds.b_to_a},
+                          {"heatmap", heatmap_seconds},
+                          {"total", seconds_since(start)}};
+        print_json(out);
+        return 0;
+    }
+    print_text(args, a, b, report);
+    if (!args.heatmap.empty())
+    {
+        std::printf("heatmap: %s (B colored by distance to A: blue 0, red %s%% of the diagonal)\n",
+                    args.heatmap.c_str(), format_number(100.0 * heatmap_max / report.diagonal, 4).c_str());
+    }
+    if (!global.quiet)
+    {
+        std::fprintf(stderr, "meshmark compare: %.2f s (read %.2f, index %.2f, A->B %.2f, B->A %.2f)\n",
+                     seconds_since(start), read_seconds, report.seconds.index, report.seconds.a_to_b,
+                     report.seconds.b_to_a);
+    }
+    return 0;
+}
+
+}  // namespace
+
+void register_compare(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
+{
+    auto args = std::make_shared<CompareArgs>();
+    auto* command = app.add_subcommand(
+        "compare",
+        "Distortion between two meshes, relative to the bounding-box diagonal of A: symmetric and "
+        "one-sided Hausdorff distances, area-weighted RMS distances and MRMS (their maximum), "
+        "measured surface to surface (vertices plus stratified samples on the faces, exact "
+        "point-to-triangle distances); plus vertex displacement when A and B share connectivity.");
+    command->add_option("A", args->a, "Reference mesh (defines the unit)")->required()->check(CLI::ExistingFile);
+    command->add_option("B", args->b, "Mesh compared with A")->required()->check(CLI::ExistingFile);
+    command->add_flag("--json", args->json,
+                      "Print one JSON object: hausdorff, hausdorff_ab, hausdorff_ba, rms_ab, rms_ba, mrms, "
+                      "mean_ab, mean_ba, max_displacement and rms_displacement (same connectivity only), "
+                      "counts, samples, seconds");
+    command->add_option("--heatmap", args->heatmap,
+                        "Write B to this .ply with per-vertex colors showing each vertex's distance to A: "
+                        "blue (0) -> cyan -> green -> yellow -> red (the largest distance of B's vertices), "
+                        "linear in distance; open it in MeshLab or Blender");
+    command->add_option("--samples", args->options.samples,
+                        "Area samples per surface on top of the vertices; 0 = automatic: " +
+                            std::to_string(kAutoSamplesPerFace) + " per triangle, at least " +
+                            std::to_string(kMinAutoSamples) + ", at most " + std::to_string(kMaxAutoSamples))
+        ->check(CLI::Range(std::int64_t{0}, std::int64_t{1'000'000'000}))
+        ->capture_default_str();
+    command->add_option("--seed", args->options.seed, "Seed of the stratified sampling")->capture_default_str();
+    add_global_flags(*command, global);
+    command->callback([args, &global, &runner]() {
+        runner = [args, &global]() { return run_compare(*args, global); };
+    });
+}
+
+}  // namespace meshmark::cli
