@@ -67,13 +67,24 @@ struct Box
 };
 
 /// Inner BVH node holding the boxes of both children, so one cache line decides which child to
-/// visit first. A child is an inner node (`count < 0`, index `child`) or a leaf (triangles
-/// [child, child + count), possibly empty).
+/// visit first; the boxes are stored axis by axis ({child 0, child 1} pairs) so that both
+/// distances are computed together in SIMD lanes. A child is an inner node (`count < 0`, index
+/// `child`) or a leaf (triangles [child, child + count), possibly empty).
 struct alignas(64) Node
 {
-    std::array<Box, 2> box{};
+    std::array<std::array<float, 2>, 3> lo{};
+    std::array<std::array<float, 2>, 3> hi{};
     std::array<std::int32_t, 2> child{};
     std::array<std::int32_t, 2> count{};
+
+    void set_box(std::size_t c, const Box& box)
+    {
+        for (std::size_t k = 0; k < 3; ++k)
+        {
+            lo[k][c] = box.lo[k];
+            hi[k][c] = box.hi[k];
+        }
+    }
 };
 
 /// Closest point to \p p on the segment a + t d, t in [0, 1] (d may be zero).
@@ -168,13 +179,16 @@ Vec3 closest_on_triangle(const Vec3& p, const Triangle& t)
     return best;
 }
 
-double box_squared_distance(const Box& box, const Vec3& p)
+/// Squared distances from \p p to the boxes of both children of \p node.
+Eigen::Array2d child_squared_distances(const Node& node, const Vec3& p)
 {
-    double d2 = 0.0;
+    Eigen::Array2d d2 = Eigen::Array2d::Zero();
     for (std::size_t k = 0; k < 3; ++k)
     {
-        const double x = p[static_cast<Eigen::Index>(k)];
-        const double d = std::max(std::max(static_cast<double>(box.lo[k]) - x, x - static_cast<double>(box.hi[k])), 0.0);
+        const Eigen::Array2d x = Eigen::Array2d::Constant(p[static_cast<Eigen::Index>(k)]);
+        const Eigen::Array2d lo = Eigen::Map<const Eigen::Array2f>(node.lo[k].data()).cast<double>();
+        const Eigen::Array2d hi = Eigen::Map<const Eigen::Array2f>(node.hi[k].data()).cast<double>();
+        const Eigen::Array2d d = (lo - x).max(x - hi).max(0.0);
         d2 += d * d;
     }
     return d2;
@@ -245,24 +259,25 @@ public:
                 continue;
             }
             const Node& node = nodes_[static_cast<std::size_t>(index)];
-            const std::array<double, 2> d = {box_squared_distance(node.box[0], p),
-                                             box_squared_distance(node.box[1], p)};
-            const std::size_t near = d[1] < d[0] ? 1 : 0;
-            const std::size_t far = 1 - near;
+            const Eigen::Array2d d = child_squared_distances(node, p);
+            const Eigen::Index near = d[1] < d[0] ? 1 : 0;
+            const Eigen::Index far = 1 - near;
             // Leaves are searched at once (nearer first); inner children are pushed, the farther
             // one first so that the nearer one is popped next.
-            for (const std::size_t c : {near, far})
+            for (const Eigen::Index c : {near, far})
             {
-                if (node.count[c] >= 0 && d[c] < search.best_d2)
+                const auto i = static_cast<std::size_t>(c);
+                if (node.count[i] >= 0 && d[c] < search.best_d2)
                 {
-                    search_leaf(search, node.child[c], node.count[c]);
+                    search_leaf(search, node.child[i], node.count[i]);
                 }
             }
-            for (const std::size_t c : {far, near})
+            for (const Eigen::Index c : {far, near})
             {
-                if (node.count[c] < 0 && d[c] < search.best_d2)
+                const auto i = static_cast<std::size_t>(c);
+                if (node.count[i] < 0 && d[c] < search.best_d2)
                 {
-                    stack[top++] = {node.child[c], d[c]};
+                    stack[top++] = {node.child[i], d[c]};
                 }
             }
         }
@@ -317,33 +332,37 @@ private:
             node.child[c] = is_leaf ? bounds[c] : slot[c];
             node.count[c] = is_leaf ? size : -1;
         }
-        Box& left_box = node.box[0];
+        std::array<Box, 2> boxes;
         if (node.count[0] >= 0)
         {
-            left_box = build_leaf(begin, middle);
+            boxes[0] = build_leaf(begin, middle);
         }
         else if (n >= kTaskGrain)
         {
 #pragma omp task default(shared) firstprivate(slot, begin, middle)
-            build_inner(slot[0], begin, middle, left_box);
+            build_inner(slot[0], begin, middle, boxes[0]);
         }
         else
         {
-            build_inner(slot[0], begin, middle, left_box);
+            build_inner(slot[0], begin, middle, boxes[0]);
         }
         if (node.count[1] >= 0)
         {
-            node.box[1] = build_leaf(middle, end);
+            boxes[1] = build_leaf(middle, end);
         }
         else
         {
-            build_inner(slot[1], middle, end, node.box[1]);
+            build_inner(slot[1], middle, end, boxes[1]);
         }
 #pragma omp taskwait
+        for (std::size_t c = 0; c < 2; ++c)
+        {
+            node.set_box(c, boxes[c]);
+        }
         for (std::size_t k = 0; k < 3; ++k)
         {
-            box.lo[k] = std::min(node.box[0].lo[k], node.box[1].lo[k]);
-            box.hi[k] = std::max(node.box[0].hi[k], node.box[1].hi[k]);
+            box.lo[k] = std::min(boxes[0].lo[k], boxes[1].lo[k]);
+            box.hi[k] = std::max(boxes[0].hi[k], boxes[1].hi[k]);
         }
     }
 

@@ -17,7 +17,7 @@ namespace meshmark {
 /// most kMaxAutoSamples (the cap bounds the time on very large meshes: see docs/algorithms/metrics.md).
 inline constexpr std::int64_t kAutoSamplesPerFace = 10;
 inline constexpr std::int64_t kMinAutoSamples = 1'000'000;
-inline constexpr std::int64_t kMaxAutoSamples = 4'000'000;
+inline constexpr std::int64_t kMaxAutoSamples = 2'000'000;
 
 /// Parameters of compare_meshes.
 struct CompareOptions
@@ -74,7 +74,7 @@ struct DistortionReport
     double hausdorff_ba_rel = 0.0;  ///< b_to_a.max / diagonal.
     double rms_ab_rel = 0.0;        ///< a_to_b.rms / diagonal.
     double rms_ba_rel = 0.0;        ///< b_to_a.rms / diagonal.
-    double mrms_rel = 0.0;          ///< max(rms_ab, rms_ba) [Wang et al. 2008].
+    double mrms_rel = 0.0;          ///< max(rms_ab, rms_ba) [Wang et al. 2010].
     std::optional<Displacement> displacement;  ///< Absolute; set when A and B share connectivity.
     double max_displacement_rel = 0.0;  ///< displacement->max / diagonal (0 without displacement).
     double rms_displacement_rel = 0.0;  ///< displacement->rms / diagonal (0 without displacement).
@@ -93,7 +93,7 @@ struct DistortionReport
 /// one-sided Hausdorff distance is the largest sample distance (vertices included, so a
 /// displaced vertex is never missed); RMS and mean are area-weighted, from the area samples
 /// only. MRMS is the larger of the two one-sided RMS distances, the distortion measure of the
-/// watermarking benchmark [Wang et al. 2008, "A benchmark for 3D mesh watermarking"]. A point
+/// watermarking benchmark [Wang et al. 2010, "A benchmark for 3D mesh watermarking"]. A point
 /// cloud is sampled at its points (equal weights) and measured by nearest point.
 /// When the meshes share connectivity (has_same_connectivity), the vertex displacement is
 /// reported too. Deterministic for a given seed, for any thread count.
