@@ -248,7 +248,7 @@ public:
         Search search{p};
         // Depth-first, nearer child first; a subtree is skipped when its box is farther than the
         // best triangle so far. The median split bounds the depth by log2(#F) < 32.
-        std::array<std::pair<std::int32_t, double>, 64> stack{};
+        std::array<StackEntry, 64> stack;  // deliberately not zeroed: 1 KB per query
         std::size_t top = 0;
         stack[top++] = {0, 0.0};
         while (top > 0)
@@ -289,6 +289,13 @@ public:
     }
 
 private:
+    /// A subtree waiting to be visited, with the squared distance to its box.
+    struct StackEntry
+    {
+        std::int32_t node;
+        double d2;
+    };
+
     struct Search
     {
         Vec3 p;
