@@ -1,7 +1,11 @@
 // SPDX-License-Identifier: MIT
 #include "attacks/detail/cgal_mesh.h"
 
+#include <algorithm>
+#include <array>
+#include <cstdint>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include <CGAL/Polygon_mesh_processing/orient_polygon_soup.h>
@@ -14,6 +18,86 @@ namespace meshmark::detail {
 
 namespace pmp = CGAL::Polygon_mesh_processing;
 
+namespace {
+
+using Triangle = std::array<std::size_t, 3>;
+
+std::uint64_t edge_key(std::size_t a, std::size_t b)
+{
+    return (static_cast<std::uint64_t>(std::min(a, b)) << 32U) | std::max(a, b);
+}
+
+// Drops the fewest faces needed so that no edge has more than two, preferring to drop faces on
+// many non-manifold edges (the fins and folds that decimators leave behind). CGAL's
+// orient_polygon_soup would instead cut the surface apart along every non-manifold edge, which
+// shatters meshes like dragon_vrip_res4.ply (803 such edges) into hundreds of loose triangles
+// that no edge collapse can remove. Faces with a repeated corner are dropped too.
+std::vector<Triangle> at_most_two_faces_per_edge(const std::vector<Triangle>& triangles)
+{
+    std::unordered_map<std::uint64_t, int> uses;
+    uses.reserve(triangles.size() * 2);
+    for (const auto& t : triangles)
+    {
+        for (int c = 0; c < 3; ++c)
+        {
+            ++uses[edge_key(t[static_cast<std::size_t>(c)], t[static_cast<std::size_t>((c + 1) % 3)])];
+        }
+    }
+    // Faces with fewer non-manifold edges first; ties keep the file order (deterministic).
+    std::vector<std::pair<int, std::size_t>> order;
+    order.reserve(triangles.size());
+    for (std::size_t f = 0; f < triangles.size(); ++f)
+    {
+        const auto& t = triangles[f];
+        if (t[0] == t[1] || t[1] == t[2] || t[2] == t[0])
+        {
+            continue;
+        }
+        int crowded = 0;
+        for (int c = 0; c < 3; ++c)
+        {
+            crowded += uses[edge_key(t[static_cast<std::size_t>(c)],
+                                     t[static_cast<std::size_t>((c + 1) % 3)])] > 2 ? 1 : 0;
+        }
+        order.emplace_back(crowded, f);
+    }
+    std::sort(order.begin(), order.end());
+    std::unordered_map<std::uint64_t, int> accepted;
+    accepted.reserve(triangles.size() * 2);
+    std::vector<char> is_kept(triangles.size(), 0);
+    for (const auto& [crowded, f] : order)
+    {
+        const auto& t = triangles[f];
+        std::array<std::uint64_t, 3> keys{};
+        bool fits = true;
+        for (std::size_t c = 0; c < 3; ++c)
+        {
+            keys[c] = edge_key(t[c], t[(c + 1) % 3]);
+            fits = fits && accepted[keys[c]] < 2;
+        }
+        if (fits)
+        {
+            for (const auto key : keys)
+            {
+                ++accepted[key];
+            }
+            is_kept[f] = 1;
+        }
+    }
+    std::vector<Triangle> kept;
+    kept.reserve(triangles.size());
+    for (std::size_t f = 0; f < triangles.size(); ++f)
+    {
+        if (is_kept[f] != 0)
+        {
+            kept.push_back(triangles[f]);
+        }
+    }
+    return kept;
+}
+
+}  // namespace
+
 SurfaceMesh to_surface_mesh(const TriangleMesh& mesh, std::string_view attack)
 {
     if (mesh.F.rows() == 0)
@@ -23,8 +107,7 @@ SurfaceMesh to_surface_mesh(const TriangleMesh& mesh, std::string_view attack)
                           "triangle surface.");
     }
 
-    // Polygon soup over the referenced vertices (variable-size polygons, so that the repair
-    // can drop faces that become degenerate when coincident points are merged).
+    // Triangle soup over the referenced vertices.
     const auto rows = referenced_vertices(mesh);
     std::vector<std::size_t> soup_index(static_cast<std::size_t>(mesh.V.rows()), 0);
     std::vector<CgalPoint> points;
@@ -34,26 +117,39 @@ SurfaceMesh to_surface_mesh(const TriangleMesh& mesh, std::string_view attack)
         soup_index[static_cast<std::size_t>(i)] = points.size();
         points.emplace_back(mesh.V(i, 0), mesh.V(i, 1), mesh.V(i, 2));
     }
-    std::vector<std::vector<std::size_t>> polygons(static_cast<std::size_t>(mesh.F.rows()));
+    std::vector<Triangle> triangles(static_cast<std::size_t>(mesh.F.rows()));
     for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
     {
-        auto& polygon = polygons[static_cast<std::size_t>(f)];
         for (int c = 0; c < 3; ++c)
         {
-            polygon.push_back(soup_index[static_cast<std::size_t>(mesh.F(f, c))]);
+            triangles[static_cast<std::size_t>(f)][static_cast<std::size_t>(c)] =
+                soup_index[static_cast<std::size_t>(mesh.F(f, c))];
         }
     }
 
-    // Repair only when needed: the check is much cheaper than the repair on clean meshes.
-    if (!pmp::is_polygon_soup_a_polygon_mesh(polygons))
+    // Clean soups (the check is much cheaper than the repair) go straight in. Others: thin out
+    // non-manifold edges, then let CGAL merge coincident points, drop degenerate and duplicate
+    // faces, and orient, duplicating points where the surface is still non-manifold. The repair
+    // works on variable-size polygons, since it only drops faces that become degenerate when
+    // coincident points merge from those.
+    SurfaceMesh surface;
+    if (pmp::is_polygon_soup_a_polygon_mesh(triangles))
     {
+        pmp::polygon_soup_to_polygon_mesh(points, triangles, surface);
+    }
+    else
+    {
+        std::vector<std::vector<std::size_t>> polygons;
+        for (const auto& t : at_most_two_faces_per_edge(triangles))
+        {
+            polygons.push_back({t[0], t[1], t[2]});
+        }
         pmp::repair_polygon_soup(points, polygons);
         pmp::orient_polygon_soup(points, polygons);
-    }
-    SurfaceMesh surface;
-    if (!polygons.empty())
-    {
-        pmp::polygon_soup_to_polygon_mesh(points, polygons, surface);
+        if (!polygons.empty())
+        {
+            pmp::polygon_soup_to_polygon_mesh(points, polygons, surface);
+        }
     }
     if (surface.number_of_faces() == 0)
     {

@@ -83,7 +83,8 @@ TriangleMesh add_noise(const TriangleMesh& mesh, const NoiseOptions& options, Rn
     TriangleMesh result = mesh;
     const Eigen::Index n = mesh.V.rows();
     const Eigen::Index blocks = (n + kBlockSize - 1) / kBlockSize;
-#pragma omp parallel for num_threads(detail::thread_count(threads)) schedule(static)
+#pragma omp parallel for num_threads(detail::thread_count(threads)) schedule(static) \
+    if (blocks >= 4)
     for (Eigen::Index b = 0; b < blocks; ++b)
     {
         Rng block_rng(splitmix64(base_seed ^ splitmix64(static_cast<std::uint64_t>(b))));

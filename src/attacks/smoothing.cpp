@@ -15,6 +15,9 @@ namespace meshmark {
 namespace {
 
 constexpr int kMaxIterations = 100000;
+// Below this many vertices a step takes microseconds and a parallel region costs more than it
+// saves (much more on a loaded machine, where a descheduled thread stalls every barrier).
+constexpr Eigen::Index kParallelMinimum = 20000;
 
 void check_iterations(const char* attack, int iterations)
 {
@@ -41,7 +44,7 @@ void laplacian_step(const Positions& in, const VertexAdjacency& adjacency, doubl
                     int threads, Positions& out)
 {
     const auto n = static_cast<Eigen::Index>(adjacency.vertex_count());
-#pragma omp parallel for num_threads(threads) schedule(static)
+#pragma omp parallel for num_threads(threads) schedule(static) if (n >= kParallelMinimum)
     for (Eigen::Index i = 0; i < n; ++i)
     {
         const auto neighbours = adjacency.of(static_cast<std::size_t>(i));

@@ -3,8 +3,6 @@
 
 #include <Eigen/Geometry>
 
-#include <Eigen/Geometry>
-
 namespace meshmark {
 namespace {
 

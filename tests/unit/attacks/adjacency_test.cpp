@@ -1,0 +1,78 @@
+// SPDX-License-Identifier: MIT
+#include "meshmark/geometry/adjacency.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+
+#include "meshmark/geometry/shapes.h"
+
+namespace meshmark {
+
+TEST(AdjacencyTest, icosphere_neighbours_are_symmetric_sorted_and_match_euler)
+{
+    const TriangleMesh mesh = icosphere(2);
+    const VertexAdjacency adjacency = vertex_adjacency(mesh);
+    ASSERT_EQ(adjacency.vertex_count(), static_cast<std::size_t>(mesh.V.rows()));
+    for (std::size_t v = 0; v < adjacency.vertex_count(); ++v)
+    {
+        const auto row = adjacency.of(v);
+        // Icosahedron vertices keep valence 5, all others have 6.
+        EXPECT_TRUE(row.size() == 5 || row.size() == 6) << "vertex " << v;
+        EXPECT_TRUE(std::is_sorted(row.begin(), row.end()));
+        for (const auto u : row)
+        {
+            const auto back = adjacency.of(static_cast<std::size_t>(u));
+            EXPECT_TRUE(std::binary_search(back.begin(), back.end(), static_cast<std::int32_t>(v)));
+        }
+    }
+    // Euler: V - E + F = 2 for a sphere, and each edge appears in two rows.
+    const auto edges = static_cast<Eigen::Index>(adjacency.neighbors.size() / 2);
+    EXPECT_EQ(mesh.V.rows() - edges + mesh.F.rows(), 2);
+}
+
+TEST(AdjacencyTest, unreferenced_vertex_and_point_cloud_have_no_neighbours)
+{
+    TriangleMesh mesh = icosphere(0);
+    mesh.V.conservativeResize(mesh.V.rows() + 1, 3);
+    mesh.V.row(mesh.V.rows() - 1).setZero();
+    const VertexAdjacency adjacency = vertex_adjacency(mesh);
+    EXPECT_TRUE(adjacency.of(adjacency.vertex_count() - 1).empty());
+
+    TriangleMesh cloud;
+    cloud.V = mesh.V;
+    EXPECT_TRUE(vertex_adjacency(cloud).neighbors.empty());
+}
+
+TEST(AdjacencyTest, edge_statistics_classify_closed_open_flipped_and_non_manifold)
+{
+    const EdgeStatistics sphere = edge_statistics(icosphere(2));
+    EXPECT_TRUE(sphere.is_closed());
+    EXPECT_TRUE(sphere.is_consistently_oriented());
+    EXPECT_EQ(sphere.edge_count, 480U);
+
+    // A 3 x 2 grid has 2 * (3 + 2) boundary edges.
+    const EdgeStatistics grid = edge_statistics(plane_grid(3, 2));
+    EXPECT_EQ(grid.boundary_edge_count, 10U);
+    EXPECT_FALSE(grid.is_closed());
+    EXPECT_TRUE(grid.is_consistently_oriented());
+
+    // Flipping one face of a closed sphere makes its three edges inconsistent.
+    TriangleMesh flipped = icosphere(1);
+    std::swap(flipped.F(0, 1), flipped.F(0, 2));
+    EXPECT_EQ(edge_statistics(flipped).inconsistent_edge_count, 3U);
+
+    // A third face on an existing edge makes it non-manifold.
+    TriangleMesh fin = icosphere(1);
+    fin.V.conservativeResize(fin.V.rows() + 1, 3);
+    fin.V.row(fin.V.rows() - 1) << 2.0, 0.0, 0.0;
+    fin.F.conservativeResize(fin.F.rows() + 1, 3);
+    fin.F.row(fin.F.rows() - 1) << fin.F(0, 0), fin.F(0, 1),
+        static_cast<std::int32_t>(fin.V.rows() - 1);
+    const EdgeStatistics fin_stats = edge_statistics(fin);
+    EXPECT_EQ(fin_stats.non_manifold_edge_count, 1U);
+    EXPECT_EQ(fin_stats.boundary_edge_count, 2U);
+    EXPECT_FALSE(fin_stats.is_edge_manifold());
+}
+
+}  // namespace meshmark

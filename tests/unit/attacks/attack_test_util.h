@@ -1,0 +1,53 @@
+// SPDX-License-Identifier: MIT
+// Small helpers shared by the attack tests.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+
+#include "meshmark/core/triangle_mesh.h"
+
+namespace meshmark::test {
+
+/// True when both meshes have the same shape and bit-identical positions and faces.
+inline bool bit_identical(const TriangleMesh& a, const TriangleMesh& b)
+{
+    return a.V.rows() == b.V.rows() && a.F.rows() == b.F.rows() &&
+           std::memcmp(a.V.data(), b.V.data(), sizeof(double) * static_cast<std::size_t>(a.V.size())) ==
+               0 &&
+           std::memcmp(a.F.data(), b.F.data(),
+                       sizeof(std::int32_t) * static_cast<std::size_t>(a.F.size())) == 0;
+}
+
+/// Mean distance of the vertices to the origin.
+inline double mean_radius(const TriangleMesh& mesh)
+{
+    return mesh.V.rowwise().norm().mean();
+}
+
+/// Relative deviation of \p actual from \p target.
+inline double relative_error(double actual, double target)
+{
+    return std::abs(actual / target - 1.0);
+}
+
+/// An icosphere with one extra vertex no face uses, at (3, 3, 3).
+inline TriangleMesh with_unreferenced_vertex(TriangleMesh mesh)
+{
+    const auto n = mesh.V.rows();
+    mesh.V.conservativeResize(n + 1, 3);
+    mesh.V.row(n) << 3.0, 3.0, 3.0;
+    return mesh;
+}
+
+/// The vertices of \p mesh with no faces.
+inline TriangleMesh point_cloud_of(const TriangleMesh& mesh)
+{
+    TriangleMesh cloud;
+    cloud.V = mesh.V;
+    return cloud;
+}
+
+}  // namespace meshmark::test

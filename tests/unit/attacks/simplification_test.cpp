@@ -1,0 +1,77 @@
+// SPDX-License-Identifier: MIT
+#include "meshmark/attacks/simplification.h"
+
+#include <gtest/gtest.h>
+
+#include "meshmark/core/error.h"
+#include "meshmark/geometry/adjacency.h"
+#include "meshmark/geometry/shapes.h"
+#include "attack_test_util.h"
+
+namespace meshmark {
+
+TEST(SimplificationTest, closed_sphere_reaches_the_target_and_stays_closed_on_the_surface)
+{
+    const TriangleMesh mesh = icosphere(4);  // 2562 vertices
+    for (const auto policy : {SimplificationPolicy::GarlandHeckbert,
+                              SimplificationPolicy::LindstromTurk})
+    {
+        for (const double fraction : {0.5, 0.25, 0.1, 0.02})
+        {
+            const TriangleMesh s = simplify(mesh, {.vertex_fraction = fraction, .policy = policy});
+            const double target = fraction * static_cast<double>(mesh.V.rows());
+            EXPECT_LE(test::relative_error(static_cast<double>(s.V.rows()), target), 0.1)
+                << "fraction " << fraction;
+            const EdgeStatistics edges = edge_statistics(s);
+            EXPECT_TRUE(edges.is_closed()) << "fraction " << fraction;
+            EXPECT_TRUE(edges.is_consistently_oriented()) << "fraction " << fraction;
+            // Closed genus-0 surface: V - E + F = 2.
+            EXPECT_EQ(s.V.rows() - static_cast<Eigen::Index>(edges.edge_count) + s.F.rows(), 2);
+            const Eigen::VectorXd r = s.V.rowwise().norm();
+            EXPECT_LT((r.array() - 1.0).abs().maxCoeff(), fraction >= 0.1 ? 0.02 : 0.1);
+        }
+    }
+}
+
+TEST(SimplificationTest, torus_keeps_its_genus_and_result_is_deterministic)
+{
+    const TriangleMesh mesh = torus(1.0, 0.3, 64, 24);
+    const TriangleMesh a = simplify(mesh, {.vertex_fraction = 0.1});
+    const TriangleMesh b = simplify(mesh, {.vertex_fraction = 0.1});
+    EXPECT_TRUE(test::bit_identical(a, b));
+    const EdgeStatistics edges = edge_statistics(a);
+    EXPECT_TRUE(edges.is_closed());
+    EXPECT_EQ(a.V.rows() - static_cast<Eigen::Index>(edges.edge_count) + a.F.rows(), 0);
+}
+
+TEST(SimplificationTest, target_counts_referenced_vertices_and_drops_unreferenced_ones)
+{
+    const TriangleMesh mesh = test::with_unreferenced_vertex(icosphere(3));  // 642 + 1
+    const TriangleMesh s = simplify(mesh, {.vertex_fraction = 0.5});
+    EXPECT_EQ(s.V.rows(), 321);
+    EXPECT_LT(s.V.cwiseAbs().maxCoeff(), 1.01);  // the vertex at (3, 3, 3) is gone
+}
+
+TEST(SimplificationTest, non_manifold_input_is_cut_apart_and_simplified)
+{
+    // A sphere with a fin: one extra triangle on an existing edge (three faces on that edge).
+    TriangleMesh mesh = icosphere(3);
+    mesh.V.conservativeResize(mesh.V.rows() + 1, 3);
+    mesh.V.row(mesh.V.rows() - 1) = 1.5 * mesh.V.row(mesh.F(0, 0));
+    mesh.F.conservativeResize(mesh.F.rows() + 1, 3);
+    mesh.F.row(mesh.F.rows() - 1) << mesh.F(0, 1), mesh.F(0, 0),
+        static_cast<std::int32_t>(mesh.V.rows() - 1);
+    ASSERT_FALSE(edge_statistics(mesh).is_edge_manifold());
+    const TriangleMesh s = simplify(mesh, {.vertex_fraction = 0.25});
+    EXPECT_TRUE(edge_statistics(s).is_edge_manifold());
+    EXPECT_LE(test::relative_error(static_cast<double>(s.V.rows()), 0.25 * 643.0), 0.1);
+}
+
+TEST(SimplificationTest, point_clouds_and_bad_fractions_throw)
+{
+    EXPECT_THROW((void)simplify(test::point_cloud_of(icosphere(1)), {}), InvalidMesh);
+    EXPECT_THROW((void)simplify(icosphere(1), {.vertex_fraction = 0.0}), InvalidOption);
+    EXPECT_THROW((void)simplify(icosphere(1), {.vertex_fraction = 1.5}), InvalidOption);
+}
+
+}  // namespace meshmark
