@@ -2,6 +2,9 @@
 #include "meshmark/registration/registration.h"
 
 #include <algorithm>
+#include <cstdlib>
+#include <cstdio>
+#include <sstream>
 #include <array>
 #include <cmath>
 #include <memory>
@@ -29,18 +32,26 @@ using detail::IcpSettings;
 using detail::Similarity;
 using detail::SurfaceMatcher;
 
-// Coarse-stage budget: iterations of the first (many candidates) and second round, and how
-// many candidates survive each round. Measured in docs/algorithms/registration.md: the right
-// candidate was always among the first 2 after round 1 on the test shapes; 6 leaves margin.
-constexpr int kRoundOneIterations = 6;
-constexpr int kRoundTwoIterations = 30;
-constexpr std::size_t kRoundOneSurvivors = 6;
-constexpr std::size_t kRoundTwoSurvivors = 2;
+static int envi(const char* n, int d){ const char* v = std::getenv(n); return v ? std::atoi(v) : d; }
+static double envd(const char* n, double d){ const char* v = std::getenv(n); return v ? std::atof(v) : d; }
+
+/// One round of the coarse tournament: every candidate runs `iterations` of trimmed
+/// point-to-point ICP on the sample tier `tier`, then the best `survivors` go on.
+struct Round
+{
+    std::size_t tier;
+    int iterations;
+    std::size_t survivors;
+};
+
+// Coarse-stage budget (measured in docs/algorithms/registration.md).
+static const std::array<Round, 3> kRounds = {Round{0, envi("R1IT", 10), static_cast<std::size_t>(envi("R1S", 48))},
+                                             Round{1, envi("R2IT", 20), static_cast<std::size_t>(envi("R2S", 8))},
+                                             Round{2, envi("R3IT", 30), static_cast<std::size_t>(envi("R3S", 2))}};
+static const int kSpiralRotations = envi("NSPIRAL", 120);
 constexpr double kCoarseTolerance = 1e-6;
 constexpr int kFinalIterations = 6;
-// Scale hypotheses relative to the ratio of RMS radii: 1 for a complete copy, 0.75 for a copy
-// cropped to about half (its spread is smaller than the reference's, so the ratio overshoots).
-constexpr std::array<double, 2> kScaleHypotheses = {1.0, 0.75};
+static const std::vector<double> kScaleHypotheses = envi("NSCALE", 1) == 1 ? std::vector<double>{1.0} : std::vector<double>{1.0, envd("SCALE2", 0.75)};
 // The coarse ICP may not leave [0.25, 2] times the initial scale (collapse guard).
 constexpr double kMinScaleFactor = 0.25;
 constexpr double kMaxScaleFactor = 2.0;
@@ -146,6 +157,26 @@ std::vector<Mat3> axis_rotations()
     return result;
 }
 
+// Rotations spread evenly over SO(3): a super-Fibonacci spiral of unit quaternions
+// [Alexa 2022, "Super-Fibonacci Spirals: Fast, Low-Discrepancy Sampling of SO(3)"].
+std::vector<Mat3> spiral_rotations(int count)
+{
+    const double phi = std::sqrt(2.0);
+    const double psi = 1.533751168755204288118041;
+    std::vector<Mat3> result;
+    for (int i = 0; i < count; ++i)
+    {
+        const double s = i + 0.5;
+        const double r = std::sqrt(s / count);
+        const double R = std::sqrt(1.0 - s / count);
+        const double alpha = 2.0 * M_PI * s / phi;
+        const double beta = 2.0 * M_PI * s / psi;
+        const Eigen::Quaterniond q(R * std::cos(beta), r * std::sin(alpha), r * std::cos(alpha), R * std::sin(beta));
+        result.push_back(q.normalized().toRotationMatrix());
+    }
+    return result;
+}
+
 /// Rows of \p V listed in \p rows, in that order.
 Positions gather(const Positions& V, const std::vector<std::int32_t>& rows, std::size_t count)
 {
@@ -171,11 +202,11 @@ std::vector<std::int32_t> shuffled(std::vector<std::int32_t> rows, std::uint64_t
     return rows;
 }
 
-/// The suspect's point samples of every stage, mirrored or not.
-struct SampleSets
-{
-    Positions coarse, refine, fine, last;
-};
+/// The suspect's point samples of every stage, by tier: the coarse rounds' three sizes,
+/// then the fine and the final stage.
+using SampleSets = std::array<Positions, 5>;
+constexpr std::size_t kFineTier = 3;
+constexpr std::size_t kFinalTier = 4;
 
 SampleSets sample_sets(const Positions& V, const std::vector<std::int32_t>& order,
                        const RegistrationOptions& options, bool mirrored)
@@ -188,8 +219,8 @@ SampleSets sample_sets(const Positions& V, const std::vector<std::int32_t>& orde
         }
         return X;
     };
-    return {take(options.coarse_samples), take(options.refine_samples),
-            take(options.fine_samples), take(options.final_samples)};
+    return {take(options.coarse_samples), take(2 * options.coarse_samples),
+            take(options.refine_samples), take(options.fine_samples), take(options.final_samples)};
 }
 
 /// One coarse hypothesis and how well it did so far.
@@ -254,7 +285,10 @@ std::vector<Candidate> axis_candidates(const Problem& p, const Moments& suspect,
         const Mat3 M = mirrored ? mirror_matrix() : Mat3::Identity();
         const Vec3 c_y = M * suspect.centroid;
         const Mat3 E_y = principal_frame(M * suspect.covariance * M);
-        for (const Mat3& P : axis_rotations())
+        std::vector<Mat3> rotations = axis_rotations();
+        const auto extra = spiral_rotations(kSpiralRotations);
+        rotations.insert(rotations.end(), extra.begin(), extra.end());
+        for (const Mat3& P : rotations)
         {
             for (const double factor : kScaleHypotheses)
             {
@@ -270,23 +304,24 @@ std::vector<Candidate> axis_candidates(const Problem& p, const Moments& suspect,
     return result;
 }
 
-// Round 1 runs every candidate on few points, in parallel over candidates (each run is
-// single-threaded and writes only its own slot, so the schedule cannot change the result).
-void run_round(const Problem& p, std::vector<Candidate>& candidates, bool is_first_round)
+// Each round runs its candidates in parallel (each run is single-threaded and writes only its
+// own slot, so the schedule cannot change the result), then keeps the best.
+int run_round(const Problem& p, std::vector<Candidate>& candidates, const Round& round)
 {
     const auto count = static_cast<std::int64_t>(candidates.size());
 #pragma omp parallel for schedule(dynamic, 1) num_threads(detail::resolve_threads(p.options.threads))
     for (std::int64_t i = 0; i < count; ++i)
     {
         Candidate& c = candidates[static_cast<std::size_t>(i)];
-        const SampleSets& sets = p.samples[c.mirrored ? 1 : 0];
-        const IcpSettings settings = coarse_settings(
-            p, is_first_round ? kRoundOneIterations : kRoundTwoIterations, p.initial_scale, 1);
-        c.outcome = detail::icp_point_to_point(is_first_round ? sets.coarse : sets.refine,
-                                               *p.coarse_target, c.transform, settings);
+        const Positions& X = p.samples[c.mirrored ? 1 : 0][round.tier];
+        const IcpSettings settings = coarse_settings(p, round.iterations, p.initial_scale, 1);
+        const SurfaceMatcher& target = (round.tier == 2 && envi("R3FINE", 0)) ? *p.fine_target : *p.coarse_target;
+        c.outcome = detail::icp_point_to_point(X, target, c.transform, settings);
         c.transform = c.outcome.transform;
         c.score = score_of(c.outcome);
     }
+    keep_best(candidates, round.survivors);
+    return round.iterations;
 }
 
 IcpSettings fine_settings(const Problem& p, int iterations)
@@ -317,14 +352,14 @@ RegistrationResult finish(const Problem& p, std::vector<Candidate> candidates, i
     int iterations = coarse_iterations;
     for (Candidate& c : candidates)
     {
-        c.outcome = refine(p, p.samples[c.mirrored ? 1 : 0].fine, c.transform, p.options.max_iterations);
+        c.outcome = refine(p, p.samples[c.mirrored ? 1 : 0][kFineTier], c.transform, p.options.max_iterations);
         c.transform = c.outcome.transform;
         c.score = score_of(c.outcome);
         iterations += c.outcome.iterations;
     }
     keep_best(candidates, 1);
     Candidate& best = candidates.front();
-    const Positions& last = p.samples[best.mirrored ? 1 : 0].last;
+    const Positions& last = p.samples[best.mirrored ? 1 : 0][kFinalTier];
     const IcpOutcome final_run = refine(p, last, best.transform, kFinalIterations);
     iterations += final_run.iterations;
     const IcpOutcome final_state = detail::evaluate(last, *p.fine_target, final_run.transform, fine_settings(p, 0));
@@ -428,13 +463,14 @@ RegistrationResult register_to_reference(const TriangleMesh& suspect, const Tria
     // Coarse alignment: every axis candidate on few points, the best on more points.
     std::vector<Candidate> candidates = axis_candidates(p, ms, mr);
     const int tried = static_cast<int>(candidates.size());
-    run_round(p, candidates, true);
-    keep_best(candidates, kRoundOneSurvivors);
-    run_round(p, candidates, false);
-    keep_best(candidates, kRoundTwoSurvivors);
+    int iterations = 0;
+    for (const Round& round : kRounds)
+    {
+        iterations += run_round(p, candidates, round);
+    }
 
     // Fine alignment of the survivors: point-to-plane ICP against the exact surface.
-    RegistrationResult result = finish(p, std::move(candidates), kRoundOneIterations + kRoundTwoIterations);
+    RegistrationResult result = finish(p, std::move(candidates), iterations);
     result.candidates = tried;
     return result;
 }
@@ -473,9 +509,8 @@ RegistrationResult register_to_reference(const TriangleMesh& suspect, const Tria
         candidates.push_back(c);
     }
     p.initial_scale = candidates.front().transform.scale;
-    run_round(p, candidates, false);
-    keep_best(candidates, kRoundTwoSurvivors);
-    RegistrationResult result = finish(p, std::move(candidates), kRoundTwoIterations);
+    const int iterations = run_round(p, candidates, kRounds.back());
+    RegistrationResult result = finish(p, std::move(candidates), iterations);
     result.candidates = static_cast<int>(options.allow_reflection ? 2 : 1);
     return result;
 }

@@ -1,0 +1,241 @@
+// SPDX-License-Identifier: MIT
+#include "meshmark/registration/registration.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "meshmark/core/bounding_box.h"
+#include "meshmark/core/error.h"
+#include "meshmark/core/rng.h"
+#include "meshmark/geometry/shapes.h"
+#include "perturbations.h"
+
+namespace meshmark {
+namespace {
+
+double linear_det(const Eigen::Matrix4d& T)
+{
+    return T.topLeftCorner<3, 3>().determinant();
+}
+
+// The suspect's clean positions mapped back by the registration, compared with where they
+// came from in the reference, relative to the reference's bbox diagonal.
+double alignment_error(const RegistrationResult& result, const Positions& clean_suspect,
+                       const Positions& truth, double diagonal)
+{
+    return test::rms_distance(transform_points(result.transform, clean_suspect), truth) / diagonal;
+}
+
+TEST(RegistrationTest, recovers_known_similarities_of_lumpy_ellipsoid)
+{
+    const TriangleMesh reference = lumpy_ellipsoid(4);
+    const double D = bounding_box(reference.V).diagonal();
+    Rng rng(1);
+    for (int trial = 0; trial < 3; ++trial)
+    {
+        const Eigen::Matrix4d T = test::random_similarity(rng, false);
+        TriangleMesh suspect = reference;
+        suspect.V = test::apply(T, reference.V);
+        const RegistrationResult result = register_to_reference(suspect, reference);
+        EXPECT_TRUE(result.converged) << "trial " << trial;
+        EXPECT_FALSE(result.is_reflection);
+        EXPECT_LT(alignment_error(result, suspect.V, reference.V, D), 1e-9) << "trial " << trial;
+        // The recovered transform is the inverse of the applied one, scale included.
+        const Eigen::Matrix4d expected = T.inverse();
+        EXPECT_LT((result.transform - expected).norm() / expected.norm(), 1e-9);
+        EXPECT_NEAR(result.scale * std::cbrt(T.block<3, 3>(0, 0).determinant()), 1.0, 1e-9);
+        EXPECT_LT(result.rms_error, 1e-9);
+        EXPECT_GT(result.overlap_fraction, 0.99);
+    }
+}
+
+TEST(RegistrationTest, recovers_mirrored_copy_and_reports_reflection)
+{
+    const TriangleMesh reference = lumpy_ellipsoid(4);
+    const double D = bounding_box(reference.V).diagonal();
+    Rng rng(2);
+    for (int trial = 0; trial < 2; ++trial)
+    {
+        const Eigen::Matrix4d T = test::random_similarity(rng, true);
+        TriangleMesh suspect = reference;
+        suspect.V = test::apply(T, reference.V);
+        const RegistrationResult result = register_to_reference(suspect, reference);
+        EXPECT_TRUE(result.converged);
+        EXPECT_TRUE(result.is_reflection);
+        EXPECT_LT(linear_det(result.transform), 0.0);
+        EXPECT_LT(alignment_error(result, suspect.V, reference.V, D), 1e-9);
+    }
+}
+
+TEST(RegistrationTest, refuses_reflection_when_not_allowed)
+{
+    const TriangleMesh reference = lumpy_ellipsoid(3);
+    Rng rng(3);
+    TriangleMesh suspect = reference;
+    suspect.V = test::apply(test::random_similarity(rng, true), reference.V);
+    const RegistrationResult result =
+        register_to_reference(suspect, reference, {.allow_reflection = false});
+    EXPECT_FALSE(result.is_reflection);
+    EXPECT_GT(linear_det(result.transform), 0.0);
+    // A proper map cannot fit a mirrored asymmetric shape.
+    EXPECT_GT(result.rms_error, 1e-3);
+}
+
+TEST(RegistrationTest, converges_on_copy_cropped_to_half_by_a_plane)
+{
+    const TriangleMesh reference = lumpy_ellipsoid(4);
+    const double D = bounding_box(reference.V).diagonal();
+    Rng rng(4);
+    for (int trial = 0; trial < 4; ++trial)
+    {
+        const Eigen::Vector3d n = Eigen::Vector3d(rng.normal(), rng.normal(), rng.normal()).normalized();
+        const test::Cropped cropped = test::crop_by_plane(reference, n, 0.5);
+        const Eigen::Matrix4d T = test::random_similarity(rng, trial % 2 == 1);
+        TriangleMesh suspect = cropped.mesh;
+        suspect.V = test::apply(T, cropped.mesh.V);
+        const RegistrationResult result = register_to_reference(suspect, reference);
+        EXPECT_TRUE(result.converged) << "trial " << trial;
+        EXPECT_EQ(result.is_reflection, trial % 2 == 1);
+        EXPECT_LT(alignment_error(result, suspect.V, cropped.mesh.V, D), 1e-8) << "trial " << trial;
+    }
+}
+
+TEST(RegistrationTest, converges_on_noisy_copy)
+{
+    const TriangleMesh reference = lumpy_ellipsoid(4);
+    const double D = bounding_box(reference.V).diagonal();
+    Rng rng(5);
+    for (int trial = 0; trial < 2; ++trial)
+    {
+        const Eigen::Matrix4d T = test::random_similarity(rng, false);
+        TriangleMesh suspect = reference;
+        const Positions clean = test::apply(T, reference.V);
+        suspect.V = test::add_noise(clean, 0.01 * D * std::cbrt(T.block<3, 3>(0, 0).determinant()), rng);
+        const RegistrationResult result = register_to_reference(suspect, reference);
+        EXPECT_TRUE(result.converged) << "trial " << trial;
+        // Noise of 1% of the diagonal averages out over thousands of samples.
+        EXPECT_LT(alignment_error(result, clean, reference.V, D), 1e-3) << "trial " << trial;
+        EXPECT_GT(result.rms_error, 1e-3);  // the residual reflects the noise
+    }
+}
+
+TEST(RegistrationTest, converges_on_point_cloud_and_triangle_soup)
+{
+    const TriangleMesh reference = lumpy_ellipsoid(4);
+    const double D = bounding_box(reference.V).diagonal();
+    Rng rng(6);
+    const Eigen::Matrix4d T = test::random_similarity(rng, false);
+    TriangleMesh cloud;
+    cloud.V = test::apply(T, reference.V);
+    const RegistrationResult from_cloud = register_to_reference(cloud, reference);
+    EXPECT_TRUE(from_cloud.converged);
+    EXPECT_LT(alignment_error(from_cloud, cloud.V, reference.V, D), 1e-9);
+
+    TriangleMesh soup = test::triangle_soup(reference);
+    const Positions soup_truth = soup.V;
+    soup.V = test::apply(T, soup.V);
+    const RegistrationResult from_soup = register_to_reference(soup, reference);
+    EXPECT_TRUE(from_soup.converged);
+    EXPECT_LT(alignment_error(from_soup, soup.V, soup_truth, D), 1e-9);
+}
+
+TEST(RegistrationTest, point_cloud_reference_works)
+{
+    TriangleMesh reference = lumpy_ellipsoid(4);
+    reference.F.resize(0, 3);
+    const double D = bounding_box(reference.V).diagonal();
+    Rng rng(7);
+    TriangleMesh suspect = reference;
+    suspect.V = test::apply(test::random_similarity(rng, false), reference.V);
+    const RegistrationResult result = register_to_reference(suspect, reference);
+    EXPECT_TRUE(result.converged);
+    EXPECT_LT(alignment_error(result, suspect.V, reference.V, D), 1e-9);
+}
+
+TEST(RegistrationTest, user_point_pairs_give_the_transform)
+{
+    // A torus is symmetric about its axis: no automatic method can tell its rotation about z,
+    // but three pairs can.
+    const TriangleMesh reference = torus(1.0, 0.35, 48, 24);
+    const double D = bounding_box(reference.V).diagonal();
+    Rng rng(8);
+    const Eigen::Matrix4d T = test::random_similarity(rng, false);
+    TriangleMesh suspect = reference;
+    suspect.V = test::apply(T, reference.V);
+    std::vector<PointPair> pairs;
+    for (const Eigen::Index i : {Eigen::Index{0}, Eigen::Index{300}, Eigen::Index{700}})
+    {
+        pairs.push_back({suspect.V.row(i).transpose(), reference.V.row(i).transpose()});
+    }
+    const Eigen::Matrix4d from_pairs = similarity_from_pairs(pairs);
+    EXPECT_LT((from_pairs - T.inverse()).norm() / T.inverse().norm(), 1e-9);
+
+    const RegistrationResult result = register_to_reference(suspect, reference, pairs);
+    EXPECT_TRUE(result.converged);
+    EXPECT_FALSE(result.is_reflection);
+    EXPECT_LT(alignment_error(result, suspect.V, reference.V, D), 1e-9);
+}
+
+TEST(RegistrationTest, similarity_from_pairs_finds_reflections_and_rejects_collinear_points)
+{
+    Rng rng(9);
+    const Eigen::Matrix4d T = test::random_similarity(rng, true);
+    std::vector<PointPair> pairs;
+    const TriangleMesh shape = lumpy_ellipsoid(1);
+    for (Eigen::Index i = 0; i < 6; ++i)
+    {
+        const Eigen::Vector3d p = shape.V.row(7 * i).transpose();
+        pairs.push_back({T.block<3, 3>(0, 0) * p + T.block<3, 1>(0, 3), p});
+    }
+    const Eigen::Matrix4d A = similarity_from_pairs(pairs);
+    EXPECT_LT((A - T.inverse()).norm() / T.inverse().norm(), 1e-9);
+    EXPECT_LT(linear_det(A), 0.0);
+    EXPECT_GT(linear_det(similarity_from_pairs(pairs, false)), 0.0);
+
+    std::vector<PointPair> collinear;
+    for (int i = 0; i < 4; ++i)
+    {
+        collinear.push_back({Eigen::Vector3d(i, 2.0 * i, 0.0), Eigen::Vector3d(i, 0.0, 0.0)});
+    }
+    EXPECT_THROW(static_cast<void>(similarity_from_pairs(collinear)), InvalidOption);
+    collinear.resize(2);
+    EXPECT_THROW(static_cast<void>(similarity_from_pairs(collinear)), InvalidOption);
+}
+
+TEST(RegistrationTest, is_bit_identical_for_one_and_two_threads)
+{
+    const TriangleMesh reference = lumpy_ellipsoid(4);
+    Rng rng(10);
+    const test::Cropped cropped = test::crop_by_plane(reference, Eigen::Vector3d(0.3, -0.5, 0.8).normalized(), 0.6);
+    TriangleMesh suspect = cropped.mesh;
+    suspect.V = test::add_noise(test::apply(test::random_similarity(rng, true), cropped.mesh.V), 0.02, rng);
+    const RegistrationResult one = register_to_reference(suspect, reference, {.threads = 1});
+    const RegistrationResult two = register_to_reference(suspect, reference, {.threads = 2});
+    for (Eigen::Index i = 0; i < 16; ++i)
+    {
+        EXPECT_EQ(one.transform.data()[i], two.transform.data()[i]) << "entry " << i;
+    }
+    EXPECT_EQ(one.rms_error, two.rms_error);
+    EXPECT_EQ(one.iterations, two.iterations);
+    EXPECT_EQ(one.overlap_fraction, two.overlap_fraction);
+}
+
+TEST(RegistrationTest, rejects_bad_input_and_options)
+{
+    const TriangleMesh reference = lumpy_ellipsoid(2);
+    TriangleMesh tiny;
+    tiny.V = Positions::Zero(3, 3);
+    EXPECT_THROW(static_cast<void>(register_to_reference(tiny, reference)), InvalidMesh);
+    TriangleMesh flat_point;
+    flat_point.V = Positions::Ones(10, 3);
+    EXPECT_THROW(static_cast<void>(register_to_reference(flat_point, reference)), InvalidMesh);
+    EXPECT_THROW(static_cast<void>(register_to_reference(reference, reference, {.trim_keep = 0.1})),
+                 InvalidOption);
+    EXPECT_THROW(static_cast<void>(register_to_reference(reference, reference, {.threads = -1})),
+                 InvalidOption);
+}
+
+}  // namespace
+}  // namespace meshmark

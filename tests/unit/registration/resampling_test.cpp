@@ -1,0 +1,135 @@
+// SPDX-License-Identifier: MIT
+#include "meshmark/registration/resampling.h"
+
+#include <gtest/gtest.h>
+
+#include <vector>
+
+#include "meshmark/core/bounding_box.h"
+#include "meshmark/core/error.h"
+#include "meshmark/core/rng.h"
+#include "meshmark/geometry/shapes.h"
+#include "meshmark/registration/registration.h"
+#include "perturbations.h"
+
+namespace meshmark {
+namespace {
+
+TEST(ResamplingTest, unmoved_copy_returns_reference_positions_exactly)
+{
+    const TriangleMesh reference = lumpy_ellipsoid(4);
+    const Resampling r = resample(reference, reference, Eigen::Matrix4d::Identity());
+    ASSERT_EQ(r.points.rows(), reference.V.rows());
+    EXPECT_EQ(r.points, reference.V);
+    EXPECT_EQ(r.distance.maxCoeff(), 0.0);
+    EXPECT_EQ(r.cropped_fraction, 0.0);
+    EXPECT_GT(r.mean_edge_length, 0.0);
+}
+
+TEST(ResamplingTest, registered_copy_point_cloud_and_soup_return_reference_positions)
+{
+    const TriangleMesh reference = lumpy_ellipsoid(4);
+    const double D = bounding_box(reference.V).diagonal();
+    Rng rng(21);
+    const Eigen::Matrix4d T = test::random_similarity(rng, true);
+    TriangleMesh suspect = reference;
+    suspect.V = test::apply(T, reference.V);
+    const Eigen::Matrix4d back = T.inverse();
+
+    const Resampling mesh = resample(reference, suspect, back);
+    EXPECT_LT((mesh.points - reference.V).cwiseAbs().maxCoeff(), 1e-12 * D);
+    EXPECT_EQ(mesh.cropped_fraction, 0.0);
+
+    TriangleMesh cloud;
+    cloud.V = suspect.V;
+    const Resampling from_cloud = resample(reference, cloud, back);
+    EXPECT_LT((from_cloud.points - reference.V).cwiseAbs().maxCoeff(), 1e-12 * D);
+
+    TriangleMesh soup = test::triangle_soup(reference);
+    soup.V = test::apply(T, soup.V);
+    const Resampling from_soup = resample(reference, soup, back);
+    EXPECT_LT((from_soup.points - reference.V).cwiseAbs().maxCoeff(), 1e-12 * D);
+}
+
+TEST(ResamplingTest, resamples_the_surface_between_vertices)
+{
+    // A coarse suspect of the same sphere: reference vertices land on its triangles, not on
+    // its vertices, so the distance is the chordal gap, far below the vertex spacing.
+    const TriangleMesh reference = icosphere(4);
+    const TriangleMesh coarse = icosphere(2);
+    const Resampling r = resample(reference, coarse, Eigen::Matrix4d::Identity());
+    TriangleMesh coarse_cloud;
+    coarse_cloud.V = coarse.V;
+    const Resampling nearest = resample(reference, coarse_cloud, Eigen::Matrix4d::Identity());
+    EXPECT_LT(r.distance.maxCoeff(), 0.5 * nearest.distance.maxCoeff());
+    EXPECT_LT(r.distance.maxCoeff(), 0.02);  // chord sagitta of a level-2 icosphere
+    EXPECT_EQ(r.cropped_fraction, 0.0);
+}
+
+TEST(ResamplingTest, crop_marking_flags_the_removed_half)
+{
+    const TriangleMesh reference = lumpy_ellipsoid(5);
+    Rng rng(22);
+    for (int trial = 0; trial < 2; ++trial)
+    {
+        const Eigen::Vector3d n = Eigen::Vector3d(rng.normal(), rng.normal(), rng.normal()).normalized();
+        const test::Cropped cropped = test::crop_by_plane(reference, n, 0.5);
+        const Eigen::Matrix4d T = test::random_similarity(rng, false);
+        TriangleMesh suspect = cropped.mesh;
+        suspect.V = test::apply(T, cropped.mesh.V);
+        const RegistrationResult reg = register_to_reference(suspect, reference);
+        ASSERT_TRUE(reg.converged);
+        const Resampling r = resample(reference, suspect, reg.transform);
+        std::size_t false_flags = 0;
+        std::size_t removed = 0;
+        for (std::size_t i = 0; i < r.is_cropped.size(); ++i)
+        {
+            removed += cropped.is_removed[i] ? 1U : 0U;
+            false_flags += (r.is_cropped[i] != 0 && !cropped.is_removed[i]) ? 1U : 0U;
+        }
+        EXPECT_EQ(false_flags, 0U) << "kept vertices flagged as cropped";
+        const double removed_fraction = static_cast<double>(removed) / static_cast<double>(r.is_cropped.size());
+        // Only a band of about two edge lengths along the cut escapes the flag.
+        EXPECT_LE(r.cropped_fraction, removed_fraction);
+        EXPECT_GT(r.cropped_fraction, removed_fraction - 0.05) << "trial " << trial;
+    }
+}
+
+TEST(ResamplingTest, noisy_copy_is_not_flagged_as_cropped)
+{
+    const TriangleMesh reference = lumpy_ellipsoid(5);
+    const double D = bounding_box(reference.V).diagonal();
+    Rng rng(23);
+    TriangleMesh suspect = reference;
+    suspect.V = test::add_noise(reference.V, 0.01 * D, rng);
+    const Resampling r = resample(reference, suspect, Eigen::Matrix4d::Identity());
+    EXPECT_LT(r.cropped_fraction, 0.001);
+}
+
+TEST(ResamplingTest, is_bit_identical_for_one_and_two_threads)
+{
+    const TriangleMesh reference = lumpy_ellipsoid(4);
+    Rng rng(24);
+    TriangleMesh suspect = reference;
+    const Eigen::Matrix4d T = test::random_similarity(rng, false);
+    suspect.V = test::add_noise(test::apply(T, reference.V), 0.05, rng);
+    const Resampling one = resample(reference, suspect, T.inverse(), {.threads = 1});
+    const Resampling two = resample(reference, suspect, T.inverse(), {.threads = 2});
+    EXPECT_EQ(one.points, two.points);
+    EXPECT_EQ(one.distance, two.distance);
+    EXPECT_EQ(one.is_cropped, two.is_cropped);
+    EXPECT_EQ(one.crop_threshold, two.crop_threshold);
+}
+
+TEST(ResamplingTest, rejects_singular_transform_and_bad_options)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(1);
+    EXPECT_THROW(static_cast<void>(resample(mesh, mesh, Eigen::Matrix4d::Zero())), InvalidOption);
+    EXPECT_THROW(static_cast<void>(resample(mesh, mesh, Eigen::Matrix4d::Identity(), {.quantile = 0.0})),
+                 InvalidOption);
+    EXPECT_THROW(static_cast<void>(resample(mesh, TriangleMesh{}, Eigen::Matrix4d::Identity())),
+                 InvalidMesh);
+}
+
+}  // namespace
+}  // namespace meshmark
