@@ -1,0 +1,113 @@
+// SPDX-License-Identifier: MIT
+// `meshmark attack` end to end: exit codes, determinism across runs, refusal to overwrite.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+
+#include "meshmark/geometry/shapes.h"
+#include "meshmark/io/mesh_io.h"
+#include "support/test_paths.h"
+#include "attack_test_util.h"
+
+namespace meshmark {
+namespace {
+
+class AttackCliTest : public ::testing::Test
+{
+protected:
+    void SetUp() override
+    {
+        if (test::cli_path().empty() || !std::filesystem::exists(test::cli_path()))
+        {
+            GTEST_SKIP() << "the meshmark program is not built";
+        }
+        dir_ = test::temp_dir("attack_cli");
+        input_ = dir_ / "ellipsoid.ply";
+        write_mesh(input_, lumpy_ellipsoid(4));  // 2562 vertices
+    }
+
+    // Runs `meshmark attack ARGS`, stdout and stderr to files; returns the exit code.
+    int run(const std::string& args) const
+    {
+        const std::string command = test::cli_path().string() + " attack " + args + " >" +
+                                    (dir_ / "stdout.txt").string() + " 2>" +
+                                    (dir_ / "stderr.txt").string();
+        const int status = std::system(command.c_str());
+        return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    }
+
+    std::string file(const std::string& name) const
+    {
+        std::ifstream in(dir_ / name, std::ios::binary);
+        return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+    }
+
+    std::filesystem::path dir_;
+    std::filesystem::path input_;
+};
+
+TEST_F(AttackCliTest, chain_writes_the_attacked_mesh_and_is_reproducible_per_seed)
+{
+    const std::string spec = " similarity,simplify=0.1,noise=0.001";
+    ASSERT_EQ(run(input_.string() + " -o " + (dir_ / "a.ply").string() + " --seed 3" + spec), 0)
+        << file("stderr.txt");
+    EXPECT_NE(file("stderr.txt").find("2562 vertices"), std::string::npos) << file("stderr.txt");
+    ASSERT_EQ(run(input_.string() + " -o " + (dir_ / "b.ply").string() + " --seed 3 -q" + spec),
+              0);
+    EXPECT_TRUE(file("stderr.txt").empty());
+    ASSERT_EQ(run(input_.string() + " -o " + (dir_ / "c.ply").string() + " --seed 4" + spec), 0);
+    const TriangleMesh a = read_mesh(dir_ / "a.ply");
+    EXPECT_LE(test::relative_error(static_cast<double>(a.V.rows()), 256.2), 0.1);
+    EXPECT_EQ(file("a.ply"), file("b.ply"));
+    EXPECT_NE(file("a.ply"), file("c.ply"));
+}
+
+TEST_F(AttackCliTest, json_reports_counts_and_the_similarity_applied)
+{
+    ASSERT_EQ(run(input_.string() + " -o " + (dir_ / "s.obj").string() +
+                  " --json similarity:axis=z:angle=90:scale=2"),
+              0);
+    const std::string json = file("stdout.txt");
+    EXPECT_NE(json.find("\"spec\":\"similarity:angle=90:scale=2\""), std::string::npos) << json;
+    EXPECT_NE(json.find("\"vertices_after\":2562"), std::string::npos) << json;
+    EXPECT_NE(json.find("\"transform\":[["), std::string::npos) << json;
+    const TriangleMesh in = read_mesh(input_);
+    const TriangleMesh out = read_mesh(dir_ / "s.obj");
+    ASSERT_EQ(out.V.rows(), in.V.rows());
+    EXPECT_NEAR(out.V(0, 0), -2.0 * in.V(0, 1), 1e-9);
+    EXPECT_NEAR(out.V(0, 1), 2.0 * in.V(0, 0), 1e-9);
+}
+
+TEST_F(AttackCliTest, errors_map_to_exit_codes_and_leave_no_output)
+{
+    const std::string out = (dir_ / "never.ply").string();
+    EXPECT_EQ(run(input_.string() + " -o " + out + " nosie=0.1"), 2);
+    EXPECT_NE(file("stderr.txt").find("unknown attack 'nosie'"), std::string::npos);
+    EXPECT_EQ(run(input_.string() + " -o " + out + " noise=0.1:foo=2"), 2);
+    EXPECT_EQ(run((dir_ / "missing.ply").string() + " -o " + out + " noise"), 3);
+    EXPECT_EQ(run(input_.string() + " -o " + (dir_ / "out.xyz").string() + " noise"), 3);
+
+    TriangleMesh cloud;
+    cloud.V = lumpy_ellipsoid(2).V;
+    write_mesh(dir_ / "cloud.ply", cloud);
+    EXPECT_EQ(run((dir_ / "cloud.ply").string() + " -o " + out + " smooth=5"), 3);
+    EXPECT_NE(file("stderr.txt").find("cloud.ply"), std::string::npos) << file("stderr.txt");
+    EXPECT_FALSE(std::filesystem::exists(out));
+}
+
+TEST_F(AttackCliTest, refuses_to_overwrite_the_input_unless_forced)
+{
+    const std::string before = file("ellipsoid.ply");
+    EXPECT_EQ(run(input_.string() + " -o " + input_.string() + " noise=0.01"), 2);
+    EXPECT_EQ(file("ellipsoid.ply"), before);
+    EXPECT_EQ(run(input_.string() + " -o " + input_.string() + " --force noise=0.01"), 0);
+    EXPECT_NE(file("ellipsoid.ply"), before);
+}
+
+}  // namespace
+}  // namespace meshmark
