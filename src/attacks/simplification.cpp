@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <vector>
 
 // The kernel first: Bounded_normal_change_placement.h uses CGAL::is_positive without including it.
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
@@ -12,6 +13,7 @@
 #include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/LindstromTurk_cost.h>
 #include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/LindstromTurk_placement.h>
 #include <CGAL/Surface_mesh_simplification/edge_collapse.h>
+#include <CGAL/boost/graph/Euler_operations.h>
 
 #include "meshmark/core/error.h"
 #include "attacks/detail/cgal_mesh.h"
@@ -46,15 +48,15 @@ private:
     std::size_t target_;
 };
 
-}  // namespace
+// Rounds of unblocking (see simplify_surface) before accepting a count above the target.
+constexpr int kMaxUnblockRounds = 8;
 
-void simplify_surface(SurfaceMesh& surface, std::size_t target_vertices,
-                      SimplificationPolicy policy)
+// GCC 12 reports a false -Wmaybe-uninitialized inside CGAL's Garland-Heckbert quadrics (Eigen
+// 4x4 DontAlign matrices, assigned before use) once they are inlined here.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+void collapse(SurfaceMesh& surface, std::size_t target_vertices, SimplificationPolicy policy)
 {
-    if (surface.number_of_vertices() <= target_vertices)
-    {
-        return;
-    }
     const VertexCountStop stop(surface, target_vertices);
     // Both policies are wrapped in Bounded_normal_change_placement, which refuses a collapse
     // that would flip a face normal (fold-overs would make the result self-intersect).
@@ -74,6 +76,70 @@ void simplify_surface(SurfaceMesh& surface, std::size_t target_vertices,
         sms::edge_collapse(surface, stop,
                            CGAL::parameters::get_cost(sms::LindstromTurk_cost<SurfaceMesh>())
                                .get_placement(placement));
+    }
+}
+#pragma GCC diagnostic pop
+
+// Removes the triangles whose three edges are all on the border (loose triangles: no collapse
+// can shrink them) and closes the holes bounded by three edges (collapsing any edge around one
+// would pinch the surface, so each blocks its neighbourhood). Returns how many it changed.
+std::size_t unblock(SurfaceMesh& surface)
+{
+    std::vector<SurfaceMesh::Face_index> loose;
+    for (const auto f : surface.faces())
+    {
+        bool is_loose = true;
+        for (const auto h : CGAL::halfedges_around_face(surface.halfedge(f), surface))
+        {
+            is_loose = is_loose && surface.is_border(surface.opposite(h));
+        }
+        if (is_loose)
+        {
+            loose.push_back(f);
+        }
+    }
+    for (const auto f : loose)
+    {
+        CGAL::Euler::remove_face(surface.halfedge(f), surface);
+    }
+    std::vector<SurfaceMesh::Halfedge_index> holes;
+    for (const auto h : surface.halfedges())
+    {
+        const auto third = surface.next(surface.next(h));
+        // Count each triangular hole once, from its smallest halfedge.
+        if (surface.is_border(h) && surface.next(third) == h && h < surface.next(h) && h < third)
+        {
+            holes.push_back(h);
+        }
+    }
+    for (const auto h : holes)
+    {
+        CGAL::Euler::fill_hole(h, surface);
+    }
+    surface.collect_garbage();
+    return loose.size() + holes.size();
+}
+
+}  // namespace
+
+void simplify_surface(SurfaceMesh& surface, std::size_t target_vertices,
+                      SimplificationPolicy policy)
+{
+    if (surface.number_of_vertices() <= target_vertices)
+    {
+        return;
+    }
+    collapse(surface, target_vertices, policy);
+    // When the collapses run out above the target, what stops them is topological, typically
+    // slits and crumbs left by cutting a non-manifold input apart: unblock and go on.
+    for (int round = 0; round < kMaxUnblockRounds && surface.number_of_vertices() > target_vertices;
+         ++round)
+    {
+        if (unblock(surface) == 0)
+        {
+            break;
+        }
+        collapse(surface, target_vertices, policy);
     }
 }
 

@@ -29,12 +29,16 @@ struct SimplificationOptions
 /// Surface_mesh_simplification.
 /// \details The target is `round(vertex_fraction * referenced vertex count)` (at least 4); each
 /// collapse removes one vertex and collapses stop at the target, so the result has the target
-/// count unless no valid collapse is left (tiny targets on meshes of many small pieces).
-/// Collapses keep the surface a combinatorial manifold (link condition) and refuse placements
-/// that flip a face normal, so a closed manifold input stays closed and edge-manifold. Messy
-/// input is repaired first (see "Messy meshes" in docs/algorithms/attacks.md): unreferenced
-/// vertices and degenerate or duplicate faces are dropped, and non-manifold edges and vertices
-/// are cut apart into manifold pieces. New vertices have no correspondence with old ones.
+/// count. Collapses keep the surface a combinatorial manifold (link condition) and refuse
+/// placements that flip a face normal, so a closed manifold input stays closed and
+/// edge-manifold. When the collapses run out above the target, the cause is topological
+/// (triangular holes, around which every collapse would pinch the surface, and loose
+/// triangles, typically left by repairing a non-manifold input): those holes are closed, the
+/// loose triangles removed, and collapsing goes on. Messy input is repaired first (see
+/// "Messy meshes" in docs/algorithms/attacks.md): unreferenced vertices and degenerate or
+/// duplicate faces are dropped, the fewest faces are dropped so that no edge has more than
+/// two, and what is still non-manifold is cut apart. New vertices have no correspondence with
+/// old ones. [Garland & Heckbert 1997; Lindstrom & Turk 1998; CGAL Surface_mesh_simplification]
 /// \throws InvalidOption from options.validate(); InvalidMesh for a mesh with no faces.
 [[nodiscard]] TriangleMesh simplify(const TriangleMesh& mesh, const SimplificationOptions& options);
 

@@ -19,11 +19,11 @@ using SurfaceMesh = CGAL::Surface_mesh<CgalPoint>;
 
 /// \brief A valid CGAL surface built from the triangles of \p mesh.
 /// \details Only referenced vertices are used. A mesh that is already an oriented combinatorial
-/// manifold is converted as it is; otherwise the soup is repaired first with CGAL's
-/// repair_polygon_soup (merges points at identical positions, drops degenerate and duplicate
-/// faces) and orient_polygon_soup (duplicates the points along non-manifold edges and at
-/// non-manifold vertices, so the surface is cut into manifold pieces, and makes orientations
-/// agree) [Guéziec, Taubin, Lazarus, Horn 2001].
+/// manifold is converted as it is. Otherwise: the fewest faces are dropped so that no edge has
+/// more than two (faces on the most non-manifold edges first: fins and folds), then CGAL's
+/// repair_polygon_soup merges points at identical positions and drops degenerate and duplicate
+/// faces, and orient_polygon_soup makes orientations agree, duplicating points where the
+/// surface is still non-manifold (cutting it apart there) [Guéziec, Taubin, Lazarus, Horn 2001].
 /// \param attack  Names the attack in error messages.
 /// \throws InvalidMesh when the mesh has no faces, or no usable face is left after repair.
 [[nodiscard]] SurfaceMesh to_surface_mesh(const TriangleMesh& mesh, std::string_view attack);

@@ -46,7 +46,8 @@ protected:
 TEST_P(SharedMeshAttackTest, simplification_hits_the_target_and_stays_edge_manifold)
 {
     for (const auto& [spec, fraction] :
-         {std::pair{"simplify=0.1", 0.1}, std::pair{"simplify=0.25:policy=lt", 0.25}})
+         {std::pair{"simplify=0.1", 0.1}, std::pair{"simplify=0.25:policy=lt", 0.25},
+          std::pair{"simplify=0.01", 0.01}})
     {
         const TriangleMesh out = run(spec).mesh;
         EXPECT_LE(test::relative_error(static_cast<double>(out.V.rows()), fraction * referenced_),

@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <vector>
+
 #include "meshmark/core/error.h"
 #include "meshmark/geometry/adjacency.h"
 #include "meshmark/geometry/shapes.h"
@@ -65,6 +67,44 @@ TEST(SimplificationTest, non_manifold_input_is_cut_apart_and_simplified)
     const TriangleMesh s = simplify(mesh, {.vertex_fraction = 0.25});
     EXPECT_TRUE(edge_statistics(s).is_edge_manifold());
     EXPECT_LE(test::relative_error(static_cast<double>(s.V.rows()), 0.25 * 643.0), 0.1);
+}
+
+TEST(SimplificationTest, small_holes_and_loose_triangles_do_not_stop_it_short_of_the_target)
+{
+    // Every 40th face removed (64 triangular holes) and 10 loose triangles added: collapses
+    // around a triangular hole are invalid and a loose triangle cannot shrink.
+    const TriangleMesh sphere = icosphere(4);
+    TriangleMesh mesh;
+    mesh.V = sphere.V;
+    std::vector<Eigen::RowVector3i> kept;
+    for (Eigen::Index f = 0; f < sphere.F.rows(); ++f)
+    {
+        if (f % 40 != 0)
+        {
+            kept.push_back(sphere.F.row(f));
+        }
+    }
+    const auto n = mesh.V.rows();
+    mesh.V.conservativeResize(n + 30, 3);
+    for (int t = 0; t < 10; ++t)
+    {
+        const double x = 2.0 + t;
+        mesh.V.row(n + 3 * t) << x, 0.0, 0.0;
+        mesh.V.row(n + 3 * t + 1) << x, 0.5, 0.0;
+        mesh.V.row(n + 3 * t + 2) << x, 0.0, 0.5;
+        const auto first = static_cast<int>(n + 3 * t);
+        kept.emplace_back(first, first + 1, first + 2);
+    }
+    mesh.F.resize(static_cast<Eigen::Index>(kept.size()), 3);
+    for (std::size_t f = 0; f < kept.size(); ++f)
+    {
+        mesh.F.row(static_cast<Eigen::Index>(f)) = kept[f];
+    }
+    const double target = 0.02 * static_cast<double>(mesh.V.rows());
+    const TriangleMesh s = simplify(mesh, {.vertex_fraction = 0.02});
+    EXPECT_LE(test::relative_error(static_cast<double>(s.V.rows()), target), 0.1)
+        << s.V.rows() << " vertices";
+    EXPECT_TRUE(edge_statistics(s).is_consistently_oriented());
 }
 
 TEST(SimplificationTest, point_clouds_and_bad_fractions_throw)
