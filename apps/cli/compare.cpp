@@ -62,7 +62,8 @@ double write_heatmap(const std::string& path, const TriangleMesh& b, const Eigen
         max_distance = std::max(max_distance, distances[v]);
     }
     const std::vector<Rgb8> colors = distance_colors(distances, max_distance);
-    write_mesh(path, b, WriteOptions{.vertex_colors = &colors});
+    // Float positions: the file is for viewing, and every PLY viewer reads float.
+    write_mesh(path, b, WriteOptions{.use_single_precision = true, .vertex_colors = &colors});
     return max_distance;
 }
 
