@@ -96,6 +96,36 @@ std::vector<Triangle> at_most_two_faces_per_edge(const std::vector<Triangle>& tr
     return kept;
 }
 
+struct Soup
+{
+    std::vector<CgalPoint> points;
+    std::vector<Triangle> triangles;
+};
+
+// The triangles over the referenced vertices only, renumbered in order.
+Soup referenced_soup(const TriangleMesh& mesh)
+{
+    Soup soup;
+    const auto rows = referenced_vertices(mesh);
+    std::vector<std::size_t> soup_index(static_cast<std::size_t>(mesh.V.rows()), 0);
+    soup.points.reserve(rows.size());
+    for (const auto i : rows)
+    {
+        soup_index[static_cast<std::size_t>(i)] = soup.points.size();
+        soup.points.emplace_back(mesh.V(i, 0), mesh.V(i, 1), mesh.V(i, 2));
+    }
+    soup.triangles.resize(static_cast<std::size_t>(mesh.F.rows()));
+    for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
+    {
+        for (int c = 0; c < 3; ++c)
+        {
+            soup.triangles[static_cast<std::size_t>(f)][static_cast<std::size_t>(c)] =
+                soup_index[static_cast<std::size_t>(mesh.F(f, c))];
+        }
+    }
+    return soup;
+}
+
 }  // namespace
 
 SurfaceMesh to_surface_mesh(const TriangleMesh& mesh, std::string_view attack)
@@ -106,26 +136,7 @@ SurfaceMesh to_surface_mesh(const TriangleMesh& mesh, std::string_view attack)
                           ": the mesh has no faces (a point cloud); this attack needs a "
                           "triangle surface.");
     }
-
-    // Triangle soup over the referenced vertices.
-    const auto rows = referenced_vertices(mesh);
-    std::vector<std::size_t> soup_index(static_cast<std::size_t>(mesh.V.rows()), 0);
-    std::vector<CgalPoint> points;
-    points.reserve(rows.size());
-    for (const auto i : rows)
-    {
-        soup_index[static_cast<std::size_t>(i)] = points.size();
-        points.emplace_back(mesh.V(i, 0), mesh.V(i, 1), mesh.V(i, 2));
-    }
-    std::vector<Triangle> triangles(static_cast<std::size_t>(mesh.F.rows()));
-    for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
-    {
-        for (int c = 0; c < 3; ++c)
-        {
-            triangles[static_cast<std::size_t>(f)][static_cast<std::size_t>(c)] =
-                soup_index[static_cast<std::size_t>(mesh.F(f, c))];
-        }
-    }
+    Soup soup = referenced_soup(mesh);
 
     // Clean soups (the check is much cheaper than the repair) go straight in. Others: thin out
     // non-manifold edges, then let CGAL merge coincident points, drop degenerate and duplicate
@@ -133,22 +144,22 @@ SurfaceMesh to_surface_mesh(const TriangleMesh& mesh, std::string_view attack)
     // works on variable-size polygons, since it only drops faces that become degenerate when
     // coincident points merge from those.
     SurfaceMesh surface;
-    if (pmp::is_polygon_soup_a_polygon_mesh(triangles))
+    if (pmp::is_polygon_soup_a_polygon_mesh(soup.triangles))
     {
-        pmp::polygon_soup_to_polygon_mesh(points, triangles, surface);
+        pmp::polygon_soup_to_polygon_mesh(soup.points, soup.triangles, surface);
     }
     else
     {
         std::vector<std::vector<std::size_t>> polygons;
-        for (const auto& t : at_most_two_faces_per_edge(triangles))
+        for (const auto& t : at_most_two_faces_per_edge(soup.triangles))
         {
             polygons.push_back({t[0], t[1], t[2]});
         }
-        pmp::repair_polygon_soup(points, polygons);
-        pmp::orient_polygon_soup(points, polygons);
+        pmp::repair_polygon_soup(soup.points, polygons);
+        pmp::orient_polygon_soup(soup.points, polygons);
         if (!polygons.empty())
         {
-            pmp::polygon_soup_to_polygon_mesh(points, polygons, surface);
+            pmp::polygon_soup_to_polygon_mesh(soup.points, polygons, surface);
         }
     }
     if (surface.number_of_faces() == 0)
