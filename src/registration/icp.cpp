@@ -110,7 +110,7 @@ Positions apply(const Similarity& T, const Positions& X, int threads)
     Positions Y(X.rows(), 3);
     const Eigen::Matrix3d A = T.scale * T.rotation;
     const auto n = static_cast<std::int64_t>(X.rows());
-#pragma omp parallel for schedule(static) num_threads(resolve_threads(threads))
+#pragma omp parallel for schedule(static) num_threads(resolve_threads(threads)) if (threads != 1)
     for (std::int64_t i = 0; i < n; ++i)
     {
         const auto r = static_cast<Eigen::Index>(i);

@@ -2,9 +2,6 @@
 #include "meshmark/registration/registration.h"
 
 #include <algorithm>
-#include <cstdlib>
-#include <cstdio>
-#include <sstream>
 #include <array>
 #include <cmath>
 #include <memory>
@@ -32,9 +29,6 @@ using detail::IcpSettings;
 using detail::Similarity;
 using detail::SurfaceMatcher;
 
-static int envi(const char* n, int d){ const char* v = std::getenv(n); return v ? std::atoi(v) : d; }
-static double envd(const char* n, double d){ const char* v = std::getenv(n); return v ? std::atof(v) : d; }
-
 /// One round of the coarse tournament: every candidate runs `iterations` of trimmed
 /// point-to-point ICP on the sample tier `tier`, then the best `survivors` go on.
 struct Round
@@ -44,14 +38,24 @@ struct Round
     std::size_t survivors;
 };
 
-// Coarse-stage budget (measured in docs/algorithms/registration.md).
-static const std::array<Round, 3> kRounds = {Round{0, envi("R1IT", 10), static_cast<std::size_t>(envi("R1S", 48))},
-                                             Round{1, envi("R2IT", 20), static_cast<std::size_t>(envi("R2S", 8))},
-                                             Round{2, envi("R3IT", 30), static_cast<std::size_t>(envi("R3S", 2))}};
-static const int kSpiralRotations = envi("NSPIRAL", 120);
+// Coarse-stage budget, measured in docs/algorithms/registration.md: 64 samples and 8
+// iterations sort out the hundreds of starts; the right one was always among the best 48.
+constexpr std::array<Round, 3> kRounds = {Round{0, 8, 48}, Round{1, 20, 8}, Round{2, 30, 8}};
 constexpr double kCoarseTolerance = 1e-6;
+// Candidates that go on to the fine stage: the best two, plus the best proper one.
+constexpr std::size_t kFineCandidates = 2;
+// A mirrored result must beat the best proper one by this factor: a mirror-symmetric shape
+// (a cow, a teapot) fits itself both ways, and a copy is far more often unmirrored.
+constexpr double kReflectionMargin = 0.95;
+// Crop hypotheses: plane normals, kept area fractions, and how many parts become candidates
+// (32 of 256 parts; fewer missed 1-2 of 8 half-crops of real meshes, see the docs).
+constexpr int kCropDirections = 64;
+constexpr std::array<double, 4> kCropFractions = {0.5, 0.625, 0.75, 0.875};
+constexpr std::size_t kCropHypotheses = 32;
+constexpr std::size_t kCropElements = 8000;  // reference triangles sampled for part moments
+// Principal axes count as interchangeable when their relative eigenvalue gap is below this.
+constexpr double kAxisGap = 0.1;
 constexpr int kFinalIterations = 6;
-static const std::vector<double> kScaleHypotheses = envi("NSCALE", 1) == 1 ? std::vector<double>{1.0} : std::vector<double>{1.0, envd("SCALE2", 0.75)};
 // The coarse ICP may not leave [0.25, 2] times the initial scale (collapse guard).
 constexpr double kMinScaleFactor = 0.25;
 constexpr double kMaxScaleFactor = 2.0;
@@ -157,26 +161,6 @@ std::vector<Mat3> axis_rotations()
     return result;
 }
 
-// Rotations spread evenly over SO(3): a super-Fibonacci spiral of unit quaternions
-// [Alexa 2022, "Super-Fibonacci Spirals: Fast, Low-Discrepancy Sampling of SO(3)"].
-std::vector<Mat3> spiral_rotations(int count)
-{
-    const double phi = std::sqrt(2.0);
-    const double psi = 1.533751168755204288118041;
-    std::vector<Mat3> result;
-    for (int i = 0; i < count; ++i)
-    {
-        const double s = i + 0.5;
-        const double r = std::sqrt(s / count);
-        const double R = std::sqrt(1.0 - s / count);
-        const double alpha = 2.0 * M_PI * s / phi;
-        const double beta = 2.0 * M_PI * s / psi;
-        const Eigen::Quaterniond q(R * std::cos(beta), r * std::sin(alpha), r * std::cos(alpha), R * std::sin(beta));
-        result.push_back(q.normalized().toRotationMatrix());
-    }
-    return result;
-}
-
 /// Rows of \p V listed in \p rows, in that order.
 Positions gather(const Positions& V, const std::vector<std::int32_t>& rows, std::size_t count)
 {
@@ -246,6 +230,7 @@ struct Problem
     std::unique_ptr<SurfaceMatcher> fine_target;
     double reference_diagonal = 1.0;
     double initial_scale = 1.0;
+    double score_floor = 0.0;  // scores below this (suspect units) count as exact fits
 };
 
 IcpSettings coarse_settings(const Problem& p, int iterations, double scale_hint, int threads)
@@ -269,13 +254,40 @@ void keep_best(std::vector<Candidate>& candidates, std::size_t count)
     candidates.resize(std::min(count, candidates.size()));
 }
 
-/// Coarse hypotheses from the principal axes: 24 axis rotations x scale hypotheses, for the
-/// suspect and (when allowed) its mirror image.
-std::vector<Candidate> axis_candidates(const Problem& p, const Moments& suspect, const Moments& reference)
+// The rotations worth trying between two principal frames: the four sign flips when both
+// shapes have well separated axes (relative eigenvalue gaps above kAxisGap), all 24 axis
+// rotations when some axes are nearly interchangeable.
+std::vector<Mat3> frame_rotations(const Mat3& a, const Mat3& b)
 {
-    const Mat3 E_r = principal_frame(reference.covariance);
-    const double s0 = std::sqrt(reference.covariance.trace() / suspect.covariance.trace());
-    std::vector<Candidate> result;
+    auto gap = [](const Mat3& covariance) {
+        const Eigen::SelfAdjointEigenSolver<Mat3> solver(covariance, Eigen::EigenvaluesOnly);
+        const Vec3 l = solver.eigenvalues();
+        return std::min(l(2) - l(1), l(1) - l(0)) / l(2);
+    };
+    std::vector<Mat3> all = axis_rotations();
+    if (std::min(gap(a), gap(b)) < kAxisGap)
+    {
+        return all;
+    }
+    std::vector<Mat3> flips;
+    for (const Mat3& P : all)
+    {
+        if (P.isDiagonal())
+        {
+            flips.push_back(P);
+        }
+    }
+    return flips;
+}
+
+/// Starts that map the suspect's principal frame onto a target frame by every rotation in
+/// \p rotations, for the suspect and (when allowed) its mirror image; the scale matches the
+/// RMS radii, the translation the centroids.
+void add_frame_candidates(const Problem& p, const Moments& suspect, const Moments& target,
+                          const std::vector<Mat3>& rotations, std::vector<Candidate>& out)
+{
+    const Mat3 E_t = principal_frame(target.covariance);
+    const double s0 = std::sqrt(target.covariance.trace() / suspect.covariance.trace());
     for (const bool mirrored : {false, true})
     {
         if (mirrored && !p.options.allow_reflection)
@@ -285,21 +297,129 @@ std::vector<Candidate> axis_candidates(const Problem& p, const Moments& suspect,
         const Mat3 M = mirrored ? mirror_matrix() : Mat3::Identity();
         const Vec3 c_y = M * suspect.centroid;
         const Mat3 E_y = principal_frame(M * suspect.covariance * M);
-        std::vector<Mat3> rotations = axis_rotations();
-        const auto extra = spiral_rotations(kSpiralRotations);
-        rotations.insert(rotations.end(), extra.begin(), extra.end());
         for (const Mat3& P : rotations)
         {
-            for (const double factor : kScaleHypotheses)
+            Candidate c;
+            c.mirrored = mirrored;
+            c.transform.rotation = E_t * P * E_y.transpose();
+            c.transform.scale = s0;
+            c.transform.translation = target.centroid - s0 * c.transform.rotation * c_y;
+            out.push_back(c);
+        }
+    }
+}
+
+/// A small piece of the reference (a triangle, or a point) and its moment contributions.
+struct Element
+{
+    double weight = 0.0;          // area (1 for a point)
+    Vec3 first = Vec3::Zero();    // weight * centroid
+    Mat3 second = Mat3::Zero();   // weight * E[x x^T]
+    Vec3 centroid = Vec3::Zero();
+};
+
+// A seeded subsample of the reference's triangles (or points), relative to \p o.
+std::vector<Element> reference_elements(const TriangleMesh& reference, bool use_area,
+                                        const std::vector<std::int32_t>& rows, const Vec3& o,
+                                        std::uint64_t seed)
+{
+    std::vector<Element> elements;
+    if (use_area)
+    {
+        std::vector<std::int32_t> faces(static_cast<std::size_t>(reference.F.rows()));
+        std::iota(faces.begin(), faces.end(), 0);
+        faces = shuffled(std::move(faces), seed);
+        faces.resize(std::min(faces.size(), kCropElements));
+        for (const std::int32_t f : faces)
+        {
+            const Vec3 a = reference.V.row(reference.F(f, 0)).transpose() - o;
+            const Vec3 b = reference.V.row(reference.F(f, 1)).transpose() - o;
+            const Vec3 c = reference.V.row(reference.F(f, 2)).transpose() - o;
+            const double w = 0.5 * (b - a).cross(c - a).norm();
+            const Vec3 sum = a + b + c;
+            elements.push_back({w, (w / 3.0) * sum,
+                                (w / 12.0) * (a * a.transpose() + b * b.transpose() +
+                                              c * c.transpose() + sum * sum.transpose()),
+                                sum / 3.0});
+        }
+        return elements;
+    }
+    std::vector<std::int32_t> order = shuffled(rows, seed);
+    order.resize(std::min(order.size(), kCropElements));
+    for (const std::int32_t r : order)
+    {
+        const Vec3 x = reference.V.row(r).transpose() - o;
+        elements.push_back({1.0, x, x * x.transpose(), x});
+    }
+    return elements;
+}
+
+/// Eigenvalues of a covariance divided by their sum, largest first: a scale-free shape
+/// signature.
+Vec3 shape_signature(const Mat3& covariance)
+{
+    const Eigen::SelfAdjointEigenSolver<Mat3> solver(covariance, Eigen::EigenvaluesOnly);
+    const Vec3 l = solver.eigenvalues().reverse();
+    return l / l.sum();
+}
+
+// Crop hypotheses: a copy cropped by a plane has the moments of the part of the reference on
+// one side of that plane, not those of the whole. For planes normal to evenly spread
+// directions, keeping several fractions of the reference's area, compute the part's moments
+// and keep the parts whose scale-free shape signature is closest to the suspect's.
+std::vector<Moments> crop_hypotheses(const TriangleMesh& reference, bool use_area,
+                                     const std::vector<std::int32_t>& rows, const Moments& whole,
+                                     const Moments& suspect, std::uint64_t seed)
+{
+    const Vec3 o = whole.centroid;
+    const std::vector<Element> elements = reference_elements(reference, use_area, rows, o, seed);
+    double total = 0.0;
+    for (const Element& e : elements)
+    {
+        total += e.weight;
+    }
+    const Vec3 target = shape_signature(suspect.covariance);
+    std::vector<std::pair<double, Moments>> parts;
+    std::vector<std::pair<double, std::size_t>> order(elements.size());
+    const int directions = kCropDirections;
+    for (int d = 0; d < directions; ++d)
+    {
+        // Fibonacci sphere: evenly spread unit normals.
+        const double z = 1.0 - (2.0 * d + 1.0) / directions;
+        const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
+        const double angle = d * M_PI * (3.0 - std::sqrt(5.0));
+        const Vec3 n(r * std::cos(angle), r * std::sin(angle), z);
+        for (std::size_t i = 0; i < elements.size(); ++i)
+        {
+            order[i] = {elements[i].centroid.dot(n), i};  // the index breaks ties: deterministic
+        }
+        std::sort(order.begin(), order.end());
+        double w = 0.0;
+        Vec3 first = Vec3::Zero();
+        Mat3 second = Mat3::Zero();
+        std::size_t next = 0;
+        for (const auto& [h, i] : order)
+        {
+            w += elements[i].weight;
+            first += elements[i].first;
+            second += elements[i].second;
+            while (next < kCropFractions.size() && w >= kCropFractions[next] * total)
             {
-                Candidate c;
-                c.mirrored = mirrored;
-                c.transform.rotation = E_r * P * E_y.transpose();
-                c.transform.scale = s0 * factor;
-                c.transform.translation = reference.centroid - c.transform.scale * c.transform.rotation * c_y;
-                result.push_back(c);
+                Moments m;
+                const Vec3 mean = first / w;
+                m.centroid = o + mean;
+                m.covariance = second / w - mean * mean.transpose();
+                parts.emplace_back((shape_signature(m.covariance) - target).lpNorm<1>(), m);
+                ++next;
             }
         }
+    }
+    std::stable_sort(parts.begin(), parts.end(),
+                     [](const auto& a, const auto& b) { return a.first < b.first; });
+    std::vector<Moments> result;
+    for (std::size_t i = 0; i < std::min(parts.size(), kCropHypotheses); ++i)
+    {
+        result.push_back(parts[i].second);
     }
     return result;
 }
@@ -315,8 +435,7 @@ int run_round(const Problem& p, std::vector<Candidate>& candidates, const Round&
         Candidate& c = candidates[static_cast<std::size_t>(i)];
         const Positions& X = p.samples[c.mirrored ? 1 : 0][round.tier];
         const IcpSettings settings = coarse_settings(p, round.iterations, p.initial_scale, 1);
-        const SurfaceMatcher& target = (round.tier == 2 && envi("R3FINE", 0)) ? *p.fine_target : *p.coarse_target;
-        c.outcome = detail::icp_point_to_point(X, target, c.transform, settings);
+        c.outcome = detail::icp_point_to_point(X, *p.coarse_target, c.transform, settings);
         c.transform = c.outcome.transform;
         c.score = score_of(c.outcome);
     }
@@ -349,16 +468,36 @@ IcpOutcome refine(const Problem& p, const Positions& X, const Similarity& start,
 // reference surface; the best one then gets its last iterations on many points.
 RegistrationResult finish(const Problem& p, std::vector<Candidate> candidates, int coarse_iterations)
 {
+    // The best few, plus the best proper candidate (see kReflectionMargin).
+    keep_best(candidates, candidates.size());
+    std::vector<Candidate> fine(candidates.begin(),
+                                candidates.begin() + static_cast<std::ptrdiff_t>(
+                                                         std::min(kFineCandidates, candidates.size())));
+    const auto proper = std::find_if(candidates.begin(), candidates.end(),
+                                     [](const Candidate& c) { return !c.mirrored; });
+    if (proper != candidates.end() && std::none_of(fine.begin(), fine.end(), [](const Candidate& c) {
+            return !c.mirrored;
+        }))
+    {
+        fine.push_back(*proper);
+    }
     int iterations = coarse_iterations;
-    for (Candidate& c : candidates)
+    for (Candidate& c : fine)
     {
         c.outcome = refine(p, p.samples[c.mirrored ? 1 : 0][kFineTier], c.transform, p.options.max_iterations);
         c.transform = c.outcome.transform;
         c.score = score_of(c.outcome);
         iterations += c.outcome.iterations;
     }
-    keep_best(candidates, 1);
-    Candidate& best = candidates.front();
+    keep_best(fine, fine.size());
+    const Candidate* chosen = &fine.front();
+    const auto best_proper = std::find_if(fine.begin(), fine.end(), [](const Candidate& c) { return !c.mirrored; });
+    if (chosen->mirrored && best_proper != fine.end() &&
+        !(chosen->score < kReflectionMargin * best_proper->score - p.score_floor))
+    {
+        chosen = &*best_proper;
+    }
+    const Candidate& best = *chosen;
     const Positions& last = p.samples[best.mirrored ? 1 : 0][kFinalTier];
     const IcpOutcome final_run = refine(p, last, best.transform, kFinalIterations);
     iterations += final_run.iterations;
@@ -398,7 +537,7 @@ Problem make_problem(const TriangleMesh& suspect, const TriangleMesh& reference,
                      const std::vector<std::int32_t>& suspect_rows,
                      const std::vector<std::int32_t>& reference_rows, const RegistrationOptions& options)
 {
-    Problem p{options, {}, nullptr, nullptr, 1.0, 1.0};
+    Problem p{options, {}, nullptr, nullptr, 1.0, 1.0, 0.0};
     const std::vector<std::int32_t> order = shuffled(suspect_rows, derive_seed(options.seed, "suspect samples"));
     p.samples[0] = sample_sets(suspect.V, order, options, false);
     if (options.allow_reflection)
@@ -412,6 +551,7 @@ Problem make_problem(const TriangleMesh& suspect, const TriangleMesh& reference,
         std::min(reference_order.size(), static_cast<std::size_t>(options.reference_samples))));
     p.fine_target = std::make_unique<SurfaceMatcher>(reference);
     p.reference_diagonal = std::max(bounding_box(reference.V, reference_rows).diagonal(), 1e-300);
+    p.score_floor = 1e-9 * bounding_box(suspect.V, suspect_rows).diagonal();
     return p;
 }
 
@@ -460,8 +600,15 @@ RegistrationResult register_to_reference(const TriangleMesh& suspect, const Tria
     }
     p.initial_scale = std::sqrt(mr.covariance.trace() / ms.covariance.trace());
 
-    // Coarse alignment: every axis candidate on few points, the best on more points.
-    std::vector<Candidate> candidates = axis_candidates(p, ms, mr);
+    // Coarse alignment: the whole shape's axes, and the axes of plausible cropped parts of
+    // the reference; a tournament of short trimmed ICP runs on growing samples.
+    std::vector<Candidate> candidates;
+    add_frame_candidates(p, ms, mr, axis_rotations(), candidates);
+    for (const Moments& part : crop_hypotheses(reference, use_area, reference_rows, mr, ms,
+                                               derive_seed(options.seed, "crop elements")))
+    {
+        add_frame_candidates(p, ms, part, frame_rotations(part.covariance, ms.covariance), candidates);
+    }
     const int tried = static_cast<int>(candidates.size());
     int iterations = 0;
     for (const Round& round : kRounds)

@@ -184,7 +184,7 @@ void SurfaceMatcher::match_all(const Positions& queries, std::vector<Match>& out
 {
     const auto count = static_cast<std::int64_t>(queries.rows());
     out.resize(static_cast<std::size_t>(count));
-#pragma omp parallel for schedule(static) num_threads(resolve_threads(threads))
+#pragma omp parallel for schedule(static) num_threads(resolve_threads(threads)) if (threads != 1)
     for (std::int64_t i = 0; i < count; ++i)
     {
         out[static_cast<std::size_t>(i)] =

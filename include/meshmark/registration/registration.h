@@ -26,7 +26,7 @@ struct RegistrationOptions
     bool allow_reflection = true;  ///< Also try mirrored candidates (det = -1).
     /// Fraction of ICP pairs kept at each iteration: the closest ones (trimmed ICP).
     double trim_keep = 0.9;
-    int coarse_samples = 128;      ///< Suspect points per candidate in the first coarse round.
+    int coarse_samples = 64;       ///< Suspect points per candidate in the first coarse round.
     int refine_samples = 1024;     ///< Suspect points in the second coarse round.
     int fine_samples = 4096;       ///< Suspect points of the fine (point-to-plane) stage.
     int final_samples = 32768;     ///< Suspect points of the last few fine iterations.
