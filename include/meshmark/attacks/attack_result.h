@@ -6,7 +6,6 @@
 #include <vector>
 
 #include <Eigen/Core>
-#include <Eigen/Geometry>
 
 #include "meshmark/core/triangle_mesh.h"
 
