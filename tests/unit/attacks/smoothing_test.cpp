@@ -84,7 +84,9 @@ TEST(SmoothingTest, taubin_removes_noise_with_far_less_shrinkage_than_laplacian)
 
 TEST(SmoothingTest, result_is_bit_identical_for_any_thread_count)
 {
-    const TriangleMesh mesh = noisy_sphere();
+    Rng rng(3);
+    // 40962 vertices: above the size where smoothing goes parallel.
+    const TriangleMesh mesh = add_noise(icosphere(6), {.amplitude = 0.005}, rng);
     const TriangleMesh one = smooth_laplacian(mesh, {.iterations = 7}, 1);
     EXPECT_TRUE(test::bit_identical(one, smooth_laplacian(mesh, {.iterations = 7}, 2)));
     EXPECT_TRUE(test::bit_identical(one, smooth_laplacian(mesh, {.iterations = 7}, 3)));
