@@ -106,9 +106,9 @@ void expect_matches_brute_force(const TriangleMesh& mesh, const Positions& queri
 
 TEST(ClosestPointIndexTest, matches_brute_force_on_random_queries)
 {
-    expect_matches_brute_force(lumpy_ellipsoid(3), mixed_queries(lumpy_ellipsoid(3), 1, 2000));
+    expect_matches_brute_force(lumpy_ellipsoid(3), mixed_queries(lumpy_ellipsoid(3), 1, 400));
     const TriangleMesh ring = torus(1.0, 0.3, 40, 16);
-    expect_matches_brute_force(ring, mixed_queries(ring, 2, 2000));
+    expect_matches_brute_force(ring, mixed_queries(ring, 2, 400));
 }
 
 TEST(ClosestPointIndexTest, matches_brute_force_on_open_and_tiny_meshes)
@@ -140,7 +140,7 @@ TEST(ClosestPointIndexTest, handles_degenerate_triangles_like_brute_force)
     mesh.F.row(m) << i, i + 1, i + 2;
     mesh.F.row(m + 1) << i, i, i + 2;
     mesh.F.row(m + 2) << i, i + 1, i + 3;
-    expect_matches_brute_force(mesh, mixed_queries(mesh, 5, 2000));
+    expect_matches_brute_force(mesh, mixed_queries(mesh, 5, 1000));
 }
 
 TEST(ClosestPointIndexTest, points_on_the_surface_are_at_zero_distance)
@@ -158,7 +158,7 @@ TEST(ClosestPointIndexTest, points_on_the_surface_are_at_zero_distance)
 TEST(ClosestPointIndexTest, results_are_identical_for_one_and_two_threads)
 {
     const TriangleMesh mesh = lumpy_ellipsoid(4);
-    const Positions queries = mixed_queries(mesh, 6, 20000);
+    const Positions queries = mixed_queries(mesh, 6, 3000);
     const ClosestPointIndex index(mesh);
     const auto one = index.closest(queries, 1);
     const auto two = index.closest(queries, 2);
@@ -180,7 +180,7 @@ TEST(ClosestPointIndexTest, point_cloud_returns_nearest_vertex)
     const ClosestPointIndex index(cloud);
     ASSERT_TRUE(index.is_point_cloud());
     TriangleMesh surface = lumpy_ellipsoid(3);
-    const Positions queries = mixed_queries(surface, 7, 2000);
+    const Positions queries = mixed_queries(surface, 7, 1000);
     const auto results = index.closest(queries, 2);
     for (Eigen::Index i = 0; i < queries.rows(); ++i)
     {
