@@ -72,10 +72,9 @@ Eigen::VectorXd all_vertex_distances(const TriangleMesh& mesh, const ClosestPoin
 
 /// Sums over the stratified area samples, block by block: samples are generated, measured and
 /// reduced per block, so memory stays O(threads * block) however many samples are asked for.
-DistanceSums area_sample_sums(const TriangleMesh& from, const ClosestPointIndex& to, std::int64_t count,
-                              std::uint64_t seed, int threads)
+DistanceSums area_sample_sums(const TriangleMesh& from, const Eigen::VectorXd& cumulative,
+                              const ClosestPointIndex& to, std::int64_t count, std::uint64_t seed, int threads)
 {
-    const Eigen::VectorXd cumulative = cumulative_face_areas(from);
     const std::int64_t blocks = (count + kSamplesPerBlock - 1) / kSamplesPerBlock;
     std::vector<DistanceSums> per_block(static_cast<std::size_t>(blocks));
 #pragma omp parallel num_threads(resolve_threads(threads))
@@ -101,10 +100,9 @@ DistanceSums area_sample_sums(const TriangleMesh& from, const ClosestPointIndex&
     return total;
 }
 
-bool has_positive_area(const TriangleMesh& mesh)
+bool has_positive_area(const Eigen::VectorXd& cumulative_areas)
 {
-    const Eigen::VectorXd cumulative = cumulative_face_areas(mesh);
-    return cumulative.size() > 0 && cumulative[cumulative.size() - 1] > 0.0;
+    return cumulative_areas.size() > 0 && cumulative_areas[cumulative_areas.size() - 1] > 0.0;
 }
 
 double seconds_since(std::chrono::steady_clock::time_point start)
@@ -170,8 +168,10 @@ OneSidedDistance one_sided_distance(const TriangleMesh& from, const ClosestPoint
     }
     // Area samples: stratified, so their plain mean is an area-weighted mean. A point cloud, or a
     // surface of zero area, has none; its vertices then carry the averages.
-    const std::int64_t count = from.is_point_cloud() || !has_positive_area(from) ? 0 : area_samples;
-    const DistanceSums area_sums = count > 0 ? area_sample_sums(from, to, count, seed, threads) : DistanceSums{};
+    const Eigen::VectorXd cumulative = cumulative_face_areas(from);
+    const std::int64_t count = has_positive_area(cumulative) ? area_samples : 0;
+    const DistanceSums area_sums =
+        count > 0 ? area_sample_sums(from, cumulative, to, count, seed, threads) : DistanceSums{};
     const DistanceSums& averaged = area_sums.count > 0 ? area_sums : vertex_sums;
 
     OneSidedDistance result;
