@@ -247,24 +247,53 @@ Eigen::MatrixX3d RbfBasis::position_coefficients() const
 
 Eigen::MatrixX3d RbfBasis::project(const Positions& X, int modes) const
 {
+    return project(std::vector<Positions>{X}, modes).front();
+}
+
+std::vector<Eigen::MatrixX3d> RbfBasis::project(const std::vector<Positions>& fields, int modes) const
+{
     const Eigen::MatrixXd T = mode_transform(modes);
     const auto k = static_cast<Eigen::Index>(size());
-    std::vector<Eigen::MatrixX3d> parts(chunks_.size(), Eigen::MatrixX3d::Zero(k, 3));
+    const auto q = static_cast<Eigen::Index>(fields.size());
+    // B^T [X_1 ... X_q] (k x 3q) per chunk, one evaluation of B for all fields.
+    std::vector<Eigen::MatrixXd> parts(chunks_.size(), Eigen::MatrixXd::Zero(k, 3 * q));
     for_each_block([&](std::size_t chunk, const Eigen::MatrixXd& B, const Positions& /*P*/,
                        Eigen::Index rows, std::size_t begin) {
-        Eigen::Matrix<double, Eigen::Dynamic, 3> x(rows, 3);
+        Eigen::MatrixXd x(rows, 3 * q);
         for (Eigen::Index i = 0; i < rows; ++i)
         {
-            x.row(i) = X.row(active_[begin + static_cast<std::size_t>(i)]);
+            const auto row = active_[begin + static_cast<std::size_t>(i)];
+            for (Eigen::Index f = 0; f < q; ++f)
+            {
+                x.block(i, 3 * f, 1, 3) = fields[static_cast<std::size_t>(f)].row(row);
+            }
         }
         parts[chunk].noalias() += B.topRows(rows).transpose() * x;
     });
-    Eigen::MatrixX3d bt_x = Eigen::MatrixX3d::Zero(k, 3);
+    Eigen::MatrixXd bt_x = Eigen::MatrixXd::Zero(k, 3 * q);
     for (const auto& part : parts)
     {
         bt_x += part;
     }
-    return T.transpose() * bt_x;
+    std::vector<Eigen::MatrixX3d> result;
+    result.reserve(fields.size());
+    for (Eigen::Index f = 0; f < q; ++f)
+    {
+        result.emplace_back(T.transpose() * bt_x.middleCols(3 * f, 3));
+    }
+    return result;
+}
+
+int RbfBasis::well_conditioned_modes(double relative_tolerance) const
+{
+    const double largest = singular_values_(0) * singular_values_(0);
+    int count = 0;
+    while (count < size() &&
+           singular_values_(count) * singular_values_(count) > relative_tolerance * largest)
+    {
+        ++count;
+    }
+    return count;
 }
 
 Eigen::MatrixX3d RbfBasis::project_least_squares(const Positions& X,

@@ -2,6 +2,8 @@
 #include "meshmark/pipeline/detect_file.h"
 
 #include <cmath>
+
+#include <Eigen/Geometry>
 #include <string>
 
 #include "meshmark/core/bounding_box.h"
@@ -63,11 +65,18 @@ DetectReport detect_file(const std::filesystem::path& suspect_path,
     report.alignment = "same-connectivity";
     const Positions marked = original.V + mark.displacement();
     const double diagonal = bounding_box(original.V).diagonal();
+    // With vertex correspondence the best similarity onto the watermarked mesh is closed-form
+    // [Umeyama 1991]; it undoes a moved or scaled copy. What it may absorb of the watermark's
+    // own similarity component is removed on both sides by the nuisance fit of the extraction.
+    const Eigen::Matrix4d T = Eigen::umeyama(suspect.V.transpose(), marked.transpose(), true);
+    const Positions aligned =
+        (suspect.V * T.topLeftCorner<3, 3>().transpose()).rowwise() + T.topRightCorner<3, 1>().transpose();
+    report.transform = T;
     report.registration_rms =
-        std::sqrt((suspect.V - marked).rowwise().squaredNorm().mean()) / diagonal;
+        std::sqrt((aligned - marked).rowwise().squaredNorm().mean()) / diagonal;
     timer.lap("correspondence");
 
-    const Extraction extraction = mark.extract(suspect.V, options.decision);
+    const Extraction extraction = mark.extract(aligned, options.decision);
     report.decision = mark.decide(extraction, options.decision);
     timer.lap("extract");
     return report;

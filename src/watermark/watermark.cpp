@@ -7,10 +7,13 @@
 #include <string>
 
 #include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
+#include <Eigen/QR>
 
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/rng.h"
+#include "meshmark/geometry/adjacency.h"
 
 namespace meshmark {
 namespace {
@@ -35,7 +38,89 @@ double third_moment(const Positions& V, const std::vector<std::int32_t>& rows,
     return sum;
 }
 
+// Modes used to fit the nuisance: eigenvalue above 1e-8 of the largest (W ratio 1e-4), where
+// projections are still accurate to many digits despite the Gram matrix's conditioning.
+constexpr double kNuisanceModeTolerance = 1e-8;
+
+// Powers of the uniform Laplacian applied to the positions: the directions in which N steps
+// of Laplacian (or Taubin) smoothing move a mesh, (I - lambda L)^N P = P - N lambda L P + ...
+constexpr int kLaplacianPowers = 3;
+
+// Fields (#V x 3) whose effect a suspect may show without any watermark: the 7 infinitesimal
+// similarity motions about the centroid (left over by registration) and L P, L^2 P, L^3 P
+// (smoothing). Zero on rows that take no part.
+std::vector<Positions> nuisance_fields(const TriangleMesh& mesh, const std::vector<std::int32_t>& rows,
+                                       const Eigen::Vector3d& origin)
+{
+    const auto n = mesh.V.rows();
+    std::vector<Positions> fields;
+    for (int axis = 0; axis < 3; ++axis)
+    {
+        Positions t = Positions::Zero(n, 3);
+        Positions r = Positions::Zero(n, 3);
+        const Eigen::Vector3d e = Eigen::Vector3d::Unit(axis);
+        for (const auto i : rows)
+        {
+            t(i, axis) = 1.0;
+            r.row(i) = e.cross(mesh.V.row(i).transpose() - origin).transpose();
+        }
+        fields.push_back(std::move(t));
+        fields.push_back(std::move(r));
+    }
+    Positions scale = Positions::Zero(n, 3);
+    for (const auto i : rows)
+    {
+        scale.row(i) = mesh.V.row(i) - origin.transpose();
+    }
+    fields.push_back(std::move(scale));
+    if (mesh.is_point_cloud())
+    {
+        return fields;
+    }
+    const VertexAdjacency adjacency = vertex_adjacency(mesh);
+    Positions current = mesh.V;
+    for (int power = 0; power < kLaplacianPowers; ++power)
+    {
+        Positions next = Positions::Zero(n, 3);
+        for (const auto i : rows)
+        {
+            const auto neighbors = adjacency.of(static_cast<std::size_t>(i));
+            if (neighbors.empty())
+            {
+                continue;
+            }
+            Eigen::RowVector3d mean = Eigen::RowVector3d::Zero();
+            for (const auto j : neighbors)
+            {
+                mean += current.row(j);
+            }
+            next.row(i) = mean / static_cast<double>(neighbors.size()) - current.row(i);
+        }
+        fields.push_back(next);
+        current = std::move(next);
+    }
+    return fields;
+}
+
 }  // namespace
+
+Eigen::MatrixX3d SpectralWatermark::remove_nuisance(const Eigen::MatrixX3d& observed,
+                                                    const NuisanceModel& model, int m)
+{
+    // Fit the nuisance amplitudes on the unmodulated modes m..r-1 only (they carry no
+    // watermark, so the fit cannot see, absorb or forge bits), then subtract the fitted
+    // nuisance from the modulated modes.
+    const int rest = model.modes - m;
+    const Eigen::MatrixX3d observed_rest = observed.bottomRows(rest);
+    const Eigen::VectorXd target = Eigen::Map<const Eigen::VectorXd>(observed_rest.data(), 3 * rest);
+    const Eigen::VectorXd gamma = model.rest_design.colPivHouseholderQr().solve(target);
+    Eigen::MatrixX3d result = observed.topRows(m);
+    for (std::size_t f = 0; f < model.responses.size(); ++f)
+    {
+        result -= gamma(static_cast<Eigen::Index>(f)) * model.responses[f].topRows(m);
+    }
+    return result;
+}
 
 CanonicalFrame canonical_frame(const Positions& V, const std::vector<std::int32_t>& rows)
 {
@@ -123,7 +208,7 @@ double binomial_tail_half(int n, int k)
 }
 
 SpectralWatermark::SpectralWatermark(const TriangleMesh& original, const Key& key, int threads)
-    : original_(&original), key_(key)
+    : original_(&original), key_(key), threads_(threads)
 {
     key_.options.validate();
     const int m = key_.options.coefficients;
@@ -219,9 +304,19 @@ Extraction SpectralWatermark::extract(const Positions& suspect, const DetectOpti
     const int m = key_.options.coefficients;
     // gamma - alpha: projection of the change (least squares if rows are cropped), canonical axes.
     const Positions change = suspect - original_->V;
-    const Eigen::MatrixX3d delta_file = is_kept == nullptr
-                                            ? basis_->project(change, m)
-                                            : basis_->project_least_squares(change, *is_kept, m);
+    Eigen::MatrixX3d delta_file;
+    if (is_kept != nullptr)
+    {
+        delta_file = basis_->project_least_squares(change, *is_kept, m);
+    }
+    else if (options.remove_nuisance && nuisance_model().modes > m)
+    {
+        delta_file = remove_nuisance(basis_->project(change, nuisance_model().modes), nuisance_model(), m);
+    }
+    else
+    {
+        delta_file = basis_->project(change, m);
+    }
     const Eigen::MatrixX3d delta = delta_file * frame_.axes.transpose();
 
     // Sign-correct decision on the normalized change (DESIGN.md step 9).
@@ -250,6 +345,36 @@ Extraction SpectralWatermark::extract(const Positions& suspect, const DetectOpti
         result.bits_found[static_cast<std::size_t>(t)] = bit;
     }
     return result;
+}
+
+const SpectralWatermark::NuisanceModel& SpectralWatermark::nuisance_model() const
+{
+    if (nuisance_)
+    {
+        return *nuisance_;
+    }
+    NuisanceModel model;
+    const int m = key_.options.coefficients;
+    model.modes = basis_->well_conditioned_modes(kNuisanceModeTolerance);
+    // Enough unmodulated modes to fit the nuisance fields with room to spare.
+    const auto fields = nuisance_fields(*original_, basis_->active_rows(), frame_.origin);
+    const auto q = static_cast<Eigen::Index>(fields.size());
+    if (model.modes - m < 4 * static_cast<int>(q))
+    {
+        model.modes = 0;
+        nuisance_ = model;
+        return *nuisance_;
+    }
+    model.responses = basis_->project(fields, model.modes);
+    const Eigen::Index rest_rows = 3 * (model.modes - m);
+    model.rest_design.resize(rest_rows, q);
+    for (Eigen::Index f = 0; f < q; ++f)
+    {
+        const Eigen::MatrixX3d rest = model.responses[static_cast<std::size_t>(f)].bottomRows(model.modes - m);
+        model.rest_design.col(f) = Eigen::Map<const Eigen::VectorXd>(rest.data(), rest_rows);
+    }
+    nuisance_ = std::move(model);
+    return *nuisance_;
 }
 
 Decision SpectralWatermark::decide(const Extraction& extraction, const DetectOptions& options) const

@@ -19,7 +19,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct Run
+struct CliRun
 {
     int exit_code = -1;
     std::string out;
@@ -34,14 +34,14 @@ std::string slurp(const fs::path& p)
     return ss.str();
 }
 
-Run run(const std::string& arguments, const fs::path& dir)
+CliRun run(const std::string& arguments, const fs::path& dir)
 {
     const auto out = dir / "stdout.txt";
     const auto err = dir / "stderr.txt";
     const std::string command = test::cli_path().string() + " " + arguments + " >" + out.string() +
                                 " 2>" + err.string();
     const int status = std::system(command.c_str());
-    Run result;
+    CliRun result;
     result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
     result.out = slurp(out);
     result.err = slurp(err);
@@ -69,7 +69,7 @@ TEST_F(CliTest, embed_then_detect_reports_json_and_exit_codes)
 {
     const auto marked = dir_ / "marked.ply";
     const auto key = dir_ / "key.json";
-    Run r = run("embed " + original_.string() + " -o " + marked.string() + " --key " + key.string() +
+    CliRun r = run("embed " + original_.string() + " -o " + marked.string() + " --key " + key.string() +
                     " --message hello --seed 12 --json",
                 dir_);
     ASSERT_EQ(r.exit_code, 0) << r.err;
@@ -105,7 +105,7 @@ TEST_F(CliTest, embed_then_detect_reports_json_and_exit_codes)
 TEST_F(CliTest, never_overwrites_the_input_or_an_existing_key)
 {
     const std::string before = slurp(original_);
-    Run r = run("embed " + original_.string() + " -o " + original_.string() + " --key " +
+    CliRun r = run("embed " + original_.string() + " -o " + original_.string() + " --key " +
                     (dir_ / "k.json").string(),
                 dir_);
     EXPECT_EQ(r.exit_code, 2);
@@ -162,7 +162,7 @@ TEST_F(CliTest, bad_inputs_fail_cleanly_without_output)
         std::ofstream(input, std::ios::binary) << c.content;
         const auto output = dir_ / (std::string("out_") + c.file + ".ply");
         const auto key = dir_ / (std::string("key_") + c.file + ".json");
-        const Run r = run("embed " + input.string() + " -o " + output.string() + " --key " + key.string(), dir_);
+        const CliRun r = run("embed " + input.string() + " -o " + output.string() + " --key " + key.string(), dir_);
         EXPECT_EQ(r.exit_code, c.exit_code) << c.name << ": " << r.err;
         EXPECT_NE(r.err.find(c.expected_words), std::string::npos) << c.name << ": " << r.err;
         EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << c.name << ": " << r.err;
@@ -170,7 +170,7 @@ TEST_F(CliTest, bad_inputs_fail_cleanly_without_output)
         EXPECT_FALSE(fs::exists(key)) << c.name;
     }
     // Missing input and unknown output extension.
-    Run r = run("embed " + (dir_ / "missing.ply").string() + " -o " + (dir_ / "o.ply").string() + " --key " +
+    CliRun r = run("embed " + (dir_ / "missing.ply").string() + " -o " + (dir_ / "o.ply").string() + " --key " +
                     (dir_ / "k.json").string(),
                 dir_);
     EXPECT_GE(r.exit_code, 2);
@@ -193,7 +193,7 @@ TEST_F(CliTest, detect_rejects_corrupt_keys_wrong_originals_and_mismatched_suspe
     const std::string text = slurp(key);
     const auto truncated = dir_ / "truncated.json";
     std::ofstream(truncated) << text.substr(0, text.size() / 2);
-    Run r = run("detect " + marked.string() + " --original " + original_.string() + " --key " +
+    CliRun r = run("detect " + marked.string() + " --original " + original_.string() + " --key " +
                     truncated.string(),
                 dir_);
     EXPECT_EQ(r.exit_code, 3);

@@ -75,6 +75,14 @@ public:
     /// \param X  #V x 3 (inactive rows ignored), e.g. a displacement field.
     [[nodiscard]] Eigen::MatrixX3d project(const Positions& X, int modes) const;
 
+    /// \brief Leading-mode projections of several fields in one pass (each modes x 3).
+    [[nodiscard]] std::vector<Eigen::MatrixX3d> project(const std::vector<Positions>& fields,
+                                                        int modes) const;
+
+    /// \brief Number of leading modes whose eigenvalue W_j^2 exceeds \p relative_tolerance
+    /// times the largest: the modes whose projections are numerically trustworthy.
+    [[nodiscard]] int well_conditioned_modes(double relative_tolerance) const;
+
     /// \brief Least-squares coefficients of the leading modes over a subset of rows.
     /// \details Minimizes |U_m,S c - X_S| over the rows S of the active set with
     /// \p is_kept[i] != 0 (DESIGN.md step 8: the cropped rows are left out of the basis

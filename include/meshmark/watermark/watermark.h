@@ -46,6 +46,10 @@ struct DetectOptions
 {
     double threshold = 0.75;  ///< Ownership is claimed when R >= threshold.
     double epsilon = 0.1;     ///< Undecided band, as a fraction of the modulation.
+    /// Remove the attack's predictable part before deciding: the changes of a similarity
+    /// motion and of Laplacian smoothing are fitted on the unmodulated modes (which carry no
+    /// watermark) and subtracted from the modulated ones. See docs/algorithms/detection.md.
+    bool remove_nuisance = true;
     /// \throws InvalidOption unless threshold is in (0, 1] and epsilon in [0, 1).
     void validate() const;
 };
@@ -116,6 +120,16 @@ public:
     [[nodiscard]] Decision decide(const Extraction& extraction, const DetectOptions& options) const;
 
 private:
+    struct NuisanceModel
+    {
+        int modes = 0;                           ///< r: modulated + unmodulated modes used.
+        std::vector<Eigen::MatrixX3d> responses;  ///< U_r^T N_q per nuisance field (r x 3).
+        Eigen::MatrixXd rest_design;              ///< Unmodulated rows of the responses, flattened.
+    };
+    [[nodiscard]] const NuisanceModel& nuisance_model() const;
+    [[nodiscard]] static Eigen::MatrixX3d remove_nuisance(const Eigen::MatrixX3d& observed,
+                                                          const NuisanceModel& model, int m);
+
     const TriangleMesh* original_;
     Key key_;
     CanonicalFrame frame_;
@@ -125,6 +139,8 @@ private:
     Eigen::MatrixX3d modulation_;
     std::vector<std::uint8_t> mask_;
     int weak_bits_ = 0;
+    int threads_ = 0;
+    mutable std::optional<NuisanceModel> nuisance_;  // built on first extraction
 };
 
 }  // namespace meshmark
