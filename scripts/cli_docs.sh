@@ -1,0 +1,14 @@
+#!/usr/bin/env bash
+# Regenerate docs/cli.md from the built program's --help texts.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+m=build/bin/meshmark
+{
+  echo "# Command-line reference"
+  echo
+  echo "Generated from \`meshmark ... --help\` (regenerate with \`scripts/cli_docs.sh\`). The contract other programs rely on (exit codes, \`--json\` fields, the attack grammar) is in DESIGN.md, \"Command line\"."
+  echo
+  for c in "" demo embed detect attack compare; do
+    echo "## meshmark $c"; echo; echo '```'; $m $c --help; echo '```'; echo
+  done
+} > docs/cli.md
