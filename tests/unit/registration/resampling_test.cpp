@@ -9,7 +9,6 @@
 #include "meshmark/core/error.h"
 #include "meshmark/core/rng.h"
 #include "meshmark/geometry/shapes.h"
-#include "meshmark/registration/registration.h"
 #include "perturbations.h"
 
 namespace meshmark {
@@ -77,9 +76,8 @@ TEST(ResamplingTest, crop_marking_flags_the_removed_half)
         const Eigen::Matrix4d T = test::random_similarity(rng, false);
         TriangleMesh suspect = cropped.mesh;
         suspect.V = test::apply(T, cropped.mesh.V);
-        const RegistrationResult reg = register_to_reference(suspect, reference);
-        ASSERT_TRUE(reg.converged);
-        const Resampling r = resample(reference, suspect, reg.transform);
+        // The known inverse isolates crop marking (registration of crops is tested apart).
+        const Resampling r = resample(reference, suspect, T.inverse());
         std::size_t false_flags = 0;
         std::size_t removed = 0;
         for (std::size_t i = 0; i < r.is_cropped.size(); ++i)

@@ -17,7 +17,7 @@ namespace {
 
 TEST(SharedMeshRegistrationTest, recovers_similarities_of_small_real_meshes)
 {
-    const auto paths = test::shared_meshes_up_to(12000);
+    const auto paths = test::shared_meshes_up_to(4000);
     if (paths.empty())
     {
         GTEST_SKIP() << "no shared meshes in " << test::mesh_dir();
