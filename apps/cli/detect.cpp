@@ -6,6 +6,7 @@
 
 #include "commands.h"
 #include "meshmark/pipeline/detect_file.h"
+#include "meshmark/registration/point_pairs.h"
 #include "report.h"
 
 namespace meshmark::cli {
@@ -16,7 +17,9 @@ struct DetectArgs
     std::string suspect;
     std::string original;
     std::string key;
+    std::string pairs;
     bool json = false;
+    bool do_register = false;
     DetectOptions decision;
 };
 
@@ -35,6 +38,11 @@ int run_detect(const DetectArgs& args, const GlobalArgs& global)
     DetectFileOptions options;
     options.decision = args.decision;
     options.threads = global.threads;
+    options.allow_registration = args.do_register || !args.pairs.empty();
+    if (!args.pairs.empty())
+    {
+        options.pairs = read_point_pairs(args.pairs);
+    }
     options.progress = make_progress(global, "detect");
     const DetectReport report = detect_file(args.suspect, args.original, args.key, options);
     const Decision& d = report.decision;
@@ -81,8 +89,10 @@ void register_detect(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     auto args = std::make_shared<DetectArgs>();
     auto* command = app.add_subcommand(
         "detect",
-        "Look for the watermark of KEY in SUSPECT (non-blind: needs the original). Exit code 0 when "
-        "the watermark is found, 1 when it is not, >= 2 on errors.");
+        "Look for the watermark of KEY in SUSPECT (non-blind: needs the original). The suspect "
+        "must keep the original's vertices in order (as after noise, smoothing, quantization, "
+        "or any similarity transform, which is undone automatically); --register tries others. "
+        "Exit code 0 when the watermark is found, 1 when it is not, >= 2 on errors.");
     command->add_option("SUSPECT", args->suspect, "Suspect mesh")->required()->check(CLI::ExistingFile);
     command->add_option("--original", args->original, "The original (unmarked) mesh the key was made for")
         ->required()
@@ -94,6 +104,14 @@ void register_detect(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     command->add_option("--epsilon", args->decision.epsilon,
                         "Undecided band around zero change, as a fraction of the modulation")
         ->capture_default_str();
+    command->add_option("--pairs", args->pairs,
+                        "Text file of >= 3 point pairs 'xs ys zs  xo yo zo' (suspect, original) to "
+                        "start the registration from, for hard cases (implies --register)")
+        ->check(CLI::ExistingFile);
+    command->add_flag("--register", args->do_register,
+                      "EXPERIMENTAL: register and resample a suspect whose vertices do not "
+                      "correspond to the original's (reordered, simplified, remeshed, cropped); "
+                      "not yet reliable, see docs/algorithms/detection.md");
     command->add_flag("--json", args->json,
                       "Print one JSON object: detected, correlation, bits_expected, bits_found, "
                       "false_positive_probability, cropped_fraction, registration, seconds");

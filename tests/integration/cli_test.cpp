@@ -102,6 +102,33 @@ TEST_F(CliTest, embed_then_detect_reports_json_and_exit_codes)
     EXPECT_FALSE(nlohmann::json::parse(r.out)["detected"].get<bool>());
 }
 
+TEST_F(CliTest, detects_a_moved_scaled_copy_and_after_noise_and_smoothing)
+{
+    const auto marked = dir_ / "marked.ply";
+    const auto key = dir_ / "key.json";
+    ASSERT_EQ(run("embed " + original_.string() + " -o " + marked.string() + " --key " + key.string(), dir_)
+                  .exit_code,
+              0);
+    for (const char* spec : {"similarity", "similarity:axis=z:angle=90:scale=3:tx=100", "noise=0.001,smooth=10",
+                             "quantize=10,similarity"})
+    {
+        const auto attacked = dir_ / "attacked.ply";
+        ASSERT_EQ(run("attack " + marked.string() + " -o " + attacked.string() + " --seed 4 " + spec, dir_).exit_code, 0)
+            << spec;
+        const CliRun r = run("detect " + attacked.string() + " --original " + original_.string() + " --key " +
+                                 key.string() + " --json",
+                             dir_);
+        EXPECT_EQ(r.exit_code, 0) << spec << ": " << r.err;
+        // The same attack on the unmarked original is not claimed.
+        const auto clean = dir_ / "clean.ply";
+        ASSERT_EQ(run("attack " + original_.string() + " -o " + clean.string() + " --seed 4 " + spec, dir_).exit_code, 0);
+        EXPECT_EQ(run("detect " + clean.string() + " --original " + original_.string() + " --key " + key.string(), dir_)
+                      .exit_code,
+                  1)
+            << spec;
+    }
+}
+
 TEST_F(CliTest, never_overwrites_the_input_or_an_existing_key)
 {
     const std::string before = slurp(original_);
@@ -208,6 +235,14 @@ TEST_F(CliTest, detect_rejects_corrupt_keys_wrong_originals_and_mismatched_suspe
             dir_);
     EXPECT_EQ(r.exit_code, 3);
     EXPECT_NE(r.err.find("version"), std::string::npos) << r.err;
+
+    // A suspect with other vertices: refused in the vertex-for-vertex mode, with a clear reason.
+    const auto smaller = dir_ / "smaller.ply";
+    write_mesh(smaller, lumpy_ellipsoid(4));
+    r = run("detect " + smaller.string() + " --original " + original_.string() + " --key " + key.string(), dir_);
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    EXPECT_NE(r.err.find("smaller.ply"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("vertices"), std::string::npos) << r.err;
 
     const auto other_original = dir_ / "other.ply";
     write_mesh(other_original, lumpy_ellipsoid(4));

@@ -7,6 +7,7 @@
 #include <Eigen/Core>
 
 #include "meshmark/pipeline/embed_file.h"
+#include "meshmark/registration/registration.h"
 #include "meshmark/watermark/watermark.h"
 
 namespace meshmark {
@@ -16,7 +17,12 @@ struct DetectFileOptions
 {
     DetectOptions decision;     ///< Threshold R and undecided band epsilon.
     int threads = 0;            ///< 0 = all cores.
-    ProgressCallback progress;  ///< Optional.
+    /// Experimental: register and resample suspects whose vertices do not correspond. Off by
+    /// default until the general detector meets its robustness and false-positive targets
+    /// (see docs/algorithms/detection.md, "General suspects").
+    bool allow_registration = false;
+    std::vector<PointPair> pairs;    ///< Optional user point pairs (suspect, original) to start from.
+    ProgressCallback progress;       ///< Optional.
 };
 
 /// What detect_file found.
@@ -35,7 +41,11 @@ struct DetectReport
 /// \brief Look for the watermark of \p key in \p suspect (DESIGN.md steps 6-10).
 /// \details Reads the key and the original, checks the original against the key's
 /// fingerprint, regenerates the watermark, puts the suspect in vertex correspondence with it,
-/// extracts the bits and decides. "Not found" is a result, not an error.
+/// extracts the bits and decides. A suspect with the original's vertex count is taken vertex
+/// for vertex (after a closed-form similarity); with allow_registration, anything else is
+/// registered onto the watermarked mesh and resampled at the original's vertices, with cropped
+/// vertices left out (least squares).
+/// "Not found" is a result, not an error.
 /// \throws IoError / InvalidMesh for unreadable inputs, InvalidOption when the original does
 /// not belong to the key or the suspect cannot be put in correspondence.
 DetectReport detect_file(const std::filesystem::path& suspect, const std::filesystem::path& original,
