@@ -129,6 +129,26 @@ TEST_F(CliTest, detects_a_moved_scaled_copy_and_after_noise_and_smoothing)
     }
 }
 
+TEST_F(CliTest, watermarks_a_point_cloud_and_keeps_it_a_point_cloud)
+{
+    TriangleMesh cloud = lumpy_ellipsoid(5);
+    cloud.F.resize(0, 3);
+    const auto input = dir_ / "scan.ply";
+    write_mesh(input, cloud);
+    const auto marked = dir_ / "scan_marked.ply";
+    const auto key = dir_ / "key.json";
+    ASSERT_EQ(run("embed " + input.string() + " -o " + marked.string() + " --key " + key.string(), dir_).exit_code, 0);
+    const TriangleMesh back = read_mesh(marked);
+    EXPECT_EQ(back.F.rows(), 0);
+    EXPECT_EQ(back.V.rows(), cloud.V.rows());
+    EXPECT_EQ(run("detect " + marked.string() + " --original " + input.string() + " --key " + key.string(), dir_)
+                  .exit_code,
+              0);
+    EXPECT_EQ(run("detect " + input.string() + " --original " + input.string() + " --key " + key.string(), dir_)
+                  .exit_code,
+              1);
+}
+
 TEST_F(CliTest, never_overwrites_the_input_or_an_existing_key)
 {
     const std::string before = slurp(original_);

@@ -53,6 +53,13 @@ TEST_P(SharedMeshTest, embeds_detects_and_rejects_unmarked_and_wrong_keys)
     ASSERT_EQ(back.V.rows(), mesh.V.rows());
     EXPECT_DOUBLE_EQ(correlation(mark, back.V), 1.0);
 
+    // Zero strength (paper rule, rho = 0) returns the input to within 1e-12 of the diagonal.
+    Key zero = key_for(mesh, 0xC0FFEE);
+    zero.options.rule = EmbeddingRule::Paper;
+    zero.options.strength = 0.0;
+    const Positions unchanged = mesh.V + SpectralWatermark(mesh, zero).displacement();
+    EXPECT_LE((unchanged - mesh.V).cwiseAbs().maxCoeff(), 1e-12 * bounding_box(mesh.V).diagonal());
+
     // Unmarked original: nothing moved, nothing claimed.
     EXPECT_LT(correlation(mark, mesh.V), 0.5);
 
