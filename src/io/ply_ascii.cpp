@@ -208,14 +208,7 @@ void read_ply_ascii_body(const std::filesystem::path& path, const PlyHeader& hea
                          TextPositions& slots)
 {
     AsciiReader in(path, bytes, header.body_offset, header.body_line);
-    std::uint64_t vertex_count = 0;
-    for (const auto& element : header.elements)
-    {
-        if (element.role == Role::Vertex)
-        {
-            vertex_count = element.count;
-        }
-    }
+    const std::uint64_t vertex_count = header.vertex_count();
     for (const auto& element : header.elements)
     {
         switch (element.role)

@@ -330,14 +330,7 @@ void read_ply_binary_body(const std::filesystem::path& path, const PlyHeader& he
 {
     slots.is_big_endian = header.encoding == PlyEncoding::BinaryBigEndian;
     BinaryReader in(path, bytes, header.body_offset, slots.is_big_endian);
-    std::uint64_t vertex_count = 0;
-    for (const auto& element : header.elements)
-    {
-        if (element.role == Role::Vertex)
-        {
-            vertex_count = element.count;
-        }
-    }
+    const std::uint64_t vertex_count = header.vertex_count();
     for (const auto& element : header.elements)
     {
         switch (element.role)

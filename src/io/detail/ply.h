@@ -54,6 +54,19 @@ struct PlyHeader
     std::vector<PlyElement> elements;
     std::size_t body_offset = 0;
     std::size_t body_line = 0;  ///< Line number of the first body line (ASCII).
+
+    /// Records in the vertex element (0 if there is none).
+    [[nodiscard]] std::uint64_t vertex_count() const noexcept
+    {
+        for (const auto& element : elements)
+        {
+            if (element.role == Role::Vertex)
+            {
+                return element.count;
+            }
+        }
+        return 0;
+    }
 };
 
 /// \brief Parse a PLY header and mark the elements meshmark reads (vertex, face, tristrips).
