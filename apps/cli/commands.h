@@ -26,6 +26,7 @@ void register_detect(CLI::App& app, GlobalArgs& global, CommandRunner& runner);
 void register_demo(CLI::App& app, GlobalArgs& global, CommandRunner& runner);
 void register_attack(CLI::App& app, GlobalArgs& global, CommandRunner& runner);
 void register_compare(CLI::App& app, GlobalArgs& global, CommandRunner& runner);
+void register_bench(CLI::App& app, GlobalArgs& global, CommandRunner& runner);
 
 /// Adds --threads, --quiet and --verbose to a subcommand.
 void add_global_flags(CLI::App& command, GlobalArgs& global);

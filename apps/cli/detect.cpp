@@ -19,7 +19,7 @@ struct DetectArgs
     std::string key;
     std::string pairs;
     bool json = false;
-    bool do_register = false;
+    bool no_register = false;
     DetectOptions decision;
 };
 
@@ -38,7 +38,7 @@ int run_detect(const DetectArgs& args, const GlobalArgs& global)
     DetectFileOptions options;
     options.decision = args.decision;
     options.threads = global.threads;
-    options.allow_registration = args.do_register || !args.pairs.empty();
+    options.allow_registration = !args.no_register;
     if (!args.pairs.empty())
     {
         options.pairs = read_point_pairs(args.pairs);
@@ -89,10 +89,11 @@ void register_detect(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     auto args = std::make_shared<DetectArgs>();
     auto* command = app.add_subcommand(
         "detect",
-        "Look for the watermark of KEY in SUSPECT (non-blind: needs the original). The suspect "
-        "must keep the original's vertices in order (as after noise, smoothing, quantization, "
-        "or any similarity transform, which is undone automatically); --register tries others. "
-        "Exit code 0 when the watermark is found, 1 when it is not, >= 2 on errors.");
+        "Look for the watermark of KEY in SUSPECT (non-blind: needs the original). A suspect that "
+        "keeps the original's vertices in order (noise, smoothing, quantization, any similarity) "
+        "is compared vertex for vertex; any other (reordered, simplified, remeshed, subdivided, "
+        "cropped, a point cloud) is registered onto the watermarked mesh automatically and "
+        "resampled. Exit code 0 when the watermark is found, 1 when it is not, >= 2 on errors.");
     command->add_option("SUSPECT", args->suspect, "Suspect mesh")->required()->check(CLI::ExistingFile);
     command->add_option("--original", args->original, "The original (unmarked) mesh the key was made for")
         ->required()
@@ -106,12 +107,11 @@ void register_detect(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
         ->capture_default_str();
     command->add_option("--pairs", args->pairs,
                         "Text file of >= 3 point pairs 'xs ys zs  xo yo zo' (suspect, original) to "
-                        "start the registration from, for hard cases (implies --register)")
+                        "start the registration from, for hard cases")
         ->check(CLI::ExistingFile);
-    command->add_flag("--register", args->do_register,
-                      "EXPERIMENTAL: register and resample a suspect whose vertices do not "
-                      "correspond to the original's (reordered, simplified, remeshed, cropped); "
-                      "not yet reliable, see docs/algorithms/detection.md");
+    command->add_flag("--no-register", args->no_register,
+                      "Only accept a suspect whose vertices correspond to the original's, in order "
+                      "(no registration or resampling)");
     command->add_flag("--json", args->json,
                       "Print one JSON object: detected, correlation, bits_expected, bits_found, "
                       "false_positive_probability, cropped_fraction, registration, seconds");

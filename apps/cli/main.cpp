@@ -47,6 +47,9 @@ int main(int argc, char** argv)
 #ifndef MESHMARK_CLI_NO_COMPARE
     cli::register_compare(app, global, runner);
 #endif
+#ifndef MESHMARK_CLI_NO_BENCH
+    cli::register_bench(app, global, runner);
+#endif
     try
     {
         app.parse(argc, argv);

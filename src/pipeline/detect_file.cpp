@@ -21,11 +21,6 @@ namespace {
 // order stay far below (1% noise: ~0.6%); a reordered copy is far above (~30%).
 constexpr double kCorrespondenceTolerance = 0.02;
 
-// Below this cropped fraction the few far vertices (seams, remeshing at thin parts) are kept
-// and the full projection with nuisance removal is used; above it, least squares over the
-// surviving rows (DESIGN.md step 8).
-constexpr double kCropFractionForLeastSquares = 0.02;
-
 void check_original(const TriangleMesh& original, const Key& key, const std::filesystem::path& path)
 {
     const MeshFingerprint found = fingerprint(original);
@@ -75,6 +70,7 @@ DetectReport detect_file(const std::filesystem::path& suspect_path,
     // watermarked mesh [Umeyama 1991]. What it may absorb of the watermark's own similarity
     // component is removed on both sides by the nuisance fit of the extraction.
     bool is_corresponding = false;
+    bool is_resampled = false;
     if (suspect.vertex_count() == original.vertex_count() && options.pairs.empty())
     {
         const Eigen::Matrix4d T = Eigen::umeyama(suspect.V.transpose(), marked.V.transpose(), true);
@@ -93,8 +89,8 @@ DetectReport detect_file(const std::filesystem::path& suspect_path,
                 suspect_path.string() + ": the suspect's vertices do not correspond to the "
                 "original's (" + std::to_string(suspect.vertex_count()) + " vertices against " +
                 std::to_string(original.vertex_count()) +
-                ", or the same count in another order or shape); detection needs the same "
-                "vertices in the same order unless --register (experimental) is given.");
+                ", or the same count in another order or shape), and registration is off "
+                "(--no-register).");
         }
         // Any pose, connectivity or cropping: register onto the watermarked mesh, then take for
         // every vertex of it the closest point of the suspect's surface.
@@ -115,7 +111,7 @@ DetectReport detect_file(const std::filesystem::path& suspect_path,
         report.registration_rms = r.rms_error;
         report.cropped_fraction = sampled.cropped_fraction;
         aligned = std::move(sampled.points);
-        if (sampled.cropped_fraction > kCropFractionForLeastSquares)
+        if (sampled.cropped_fraction > 0.0)
         {
             kept_rows.resize(sampled.is_cropped.size());
             for (std::size_t i = 0; i < kept_rows.size(); ++i)
@@ -124,10 +120,12 @@ DetectReport detect_file(const std::filesystem::path& suspect_path,
             }
             kept = &kept_rows;
         }
+        is_resampled = true;
     }
     timer.lap("correspondence");
 
-    const Extraction extraction = mark.extract(aligned, options.decision, kept);
+    const Extraction extraction = is_resampled ? mark.extract_resampled(aligned, options.decision, kept)
+                                               : mark.extract(aligned, options.decision);
     report.decision = mark.decide(extraction, options.decision);
     timer.lap("extract");
     return report;

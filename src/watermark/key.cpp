@@ -3,6 +3,8 @@
 
 #include <cmath>
 #include <fstream>
+#include <limits>
+#include <type_traits>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
@@ -19,6 +21,7 @@ using Json = nlohmann::json;
 constexpr const char* kKeyFormat = "meshmark-key";
 // A key is a few hundred bytes; anything far larger is not a key (and is not parsed).
 constexpr std::uintmax_t kMaxKeyBytes = 1U << 20U;
+constexpr int kMaxKeyDepth = 16;  // A key nests 3 levels deep.
 
 std::string hex64(std::uint64_t value)
 {
@@ -93,7 +96,25 @@ T field(const Json& object, const char* name, const std::string& where, const st
     }
     try
     {
-        return it->get<T>();
+        if constexpr (std::is_integral_v<T>)
+        {
+            // get<int> from a float or an out-of-range integer would convert silently (or, for
+            // floats out of range, with undefined behaviour): accept only integers that fit.
+            if (!it->is_number_integer())
+            {
+                throw IoError(source + ": key field '" + where + name + "' must be an integer.");
+            }
+            const bool fits = it->is_number_unsigned()
+                                  ? it->template get<std::uint64_t>() <=
+                                        static_cast<std::uint64_t>(std::numeric_limits<T>::max())
+                                  : it->template get<std::int64_t>() >= std::numeric_limits<T>::min() &&
+                                        it->template get<std::int64_t>() <= std::numeric_limits<T>::max();
+            if (!fits)
+            {
+                throw IoError(source + ": key field '" + where + name + "' is out of range.");
+            }
+        }
+        return it->template get<T>();
     }
     catch (const Json::exception&)
     {
@@ -278,17 +299,36 @@ std::string to_json(const Key& key)
 
 Key parse_key(const std::string& text, const std::string& source)
 {
+    if (text.size() > kMaxKeyBytes)
+    {
+        throw IoError(source + ": the key text is " + std::to_string(text.size()) +
+                      " bytes, far too large to be a meshmark key.");
+    }
     Json j;
     try
     {
-        j = Json::parse(text);
+        // A key nests 3 levels deep; refuse deeper input while parsing so that hostile
+        // nesting costs neither time nor memory.
+        j = Json::parse(text, [](int depth, Json::parse_event_t, Json&) {
+            if (depth > kMaxKeyDepth)
+            {
+                throw Json::other_error::create(0, "nesting too deep", nullptr);
+            }
+            return true;
+        });
     }
     catch (const Json::parse_error& e)
     {
         throw IoError(source + ": the key file is not valid JSON (byte " + std::to_string(e.byte) +
                       "); is it truncated?");
     }
-    if (!j.is_object() || j.value("format", std::string()) != kKeyFormat)
+    catch (const Json::other_error&)
+    {
+        throw IoError(source + ": the key file nests JSON values more than " +
+                      std::to_string(kMaxKeyDepth) + " levels deep; it is not a meshmark key.");
+    }
+    const auto format = j.is_object() ? j.find("format") : j.end();
+    if (format == j.end() || !format->is_string() || format->get<std::string>() != kKeyFormat)
     {
         throw IoError(source + ": not a meshmark key file (missing \"format\": \"meshmark-key\").");
     }

@@ -14,6 +14,7 @@
 #include "meshmark/core/error.h"
 #include "meshmark/core/rng.h"
 #include "meshmark/geometry/adjacency.h"
+#include "meshmark/geometry/normals.h"
 
 namespace meshmark {
 namespace {
@@ -341,6 +342,102 @@ Extraction SpectralWatermark::extract(const Positions& suspect, const DetectOpti
         if (bit != 2)
         {
             bit = static_cast<std::uint8_t>(bit ^ mask_[static_cast<std::size_t>(t)]);
+        }
+        result.bits_found[static_cast<std::size_t>(t)] = bit;
+    }
+    return result;
+}
+
+Extraction SpectralWatermark::extract_resampled(const Positions& resampled, const DetectOptions& options,
+                                                const std::vector<std::uint8_t>* is_kept) const
+{
+    options.validate();
+    if (resampled.rows() != original_->V.rows())
+    {
+        throw InvalidOption("the resampled suspect has " + std::to_string(resampled.rows()) +
+                            " rows, the original " + std::to_string(original_->V.rows()) + ".");
+    }
+    const int m = key_.options.coefficients;
+    const int bit_count = 3 * m;
+    const int r = basis_->well_conditioned_modes(kNuisanceModeTolerance);
+    const auto& rows = basis_->active_rows();
+    const auto n = original_->V.rows();
+
+    // The sampling operator S: per-vertex projection on the original's normal (what a
+    // closest-point resampling keeps of a small displacement), zero on cropped rows.
+    const bool has_normals = !original_->is_point_cloud();
+    const Positions normals = has_normals ? vertex_normals(*original_) : Positions();
+    auto apply_operator = [&](Positions& field) {
+        for (const auto i : rows)
+        {
+            if (is_kept != nullptr && (*is_kept)[static_cast<std::size_t>(i)] == 0)
+            {
+                field.row(i).setZero();
+            }
+            else if (has_normals)
+            {
+                const Eigen::RowVector3d normal = normals.row(i);
+                field.row(i) = field.row(i).dot(normal) * normal;
+            }
+        }
+    };
+
+    // Fields: the expected response of each bit (b' = +1), the nuisance, and the observation.
+    std::vector<Positions> fields;
+    fields.reserve(static_cast<std::size_t>(bit_count) + 16);
+    const Eigen::MatrixXd U = basis_->modes_dense(m);
+    for (int t = 0; t < bit_count; ++t)
+    {
+        const Eigen::RowVector3d direction = frame_.axes.row(t % 3) * modulation_(t / 3, t % 3);
+        Positions field = Positions::Zero(n, 3);
+        for (std::size_t a = 0; a < rows.size(); ++a)
+        {
+            field.row(rows[a]) = U(static_cast<Eigen::Index>(a), t / 3) * direction;
+        }
+        apply_operator(field);
+        fields.push_back(std::move(field));
+    }
+    for (auto& nuisance : nuisance_fields(*original_, rows, frame_.origin))
+    {
+        apply_operator(nuisance);
+        fields.push_back(std::move(nuisance));
+    }
+    Positions observed = Positions::Zero(n, 3);
+    for (const auto i : rows)
+    {
+        if (is_kept == nullptr || (*is_kept)[static_cast<std::size_t>(i)] != 0)
+        {
+            observed.row(i) = resampled.row(i) - original_->V.row(i);
+        }
+    }
+    fields.push_back(std::move(observed));
+
+    // Everything on the leading r modes, then joint least squares for (bits, nuisance).
+    const auto projected = basis_->project(fields, r);
+    const auto unknowns = static_cast<Eigen::Index>(fields.size() - 1);
+    Eigen::MatrixXd design(3 * r, unknowns);
+    for (Eigen::Index f = 0; f < unknowns; ++f)
+    {
+        design.col(f) = Eigen::Map<const Eigen::VectorXd>(projected[static_cast<std::size_t>(f)].data(), 3 * r);
+    }
+    const Eigen::VectorXd target = Eigen::Map<const Eigen::VectorXd>(projected.back().data(), 3 * r);
+    const Eigen::VectorXd solution = design.colPivHouseholderQr().solve(target);
+
+    Extraction result;
+    result.normalized_change.resize(static_cast<std::size_t>(bit_count));
+    result.bits_found.resize(static_cast<std::size_t>(bit_count));
+    for (int t = 0; t < bit_count; ++t)
+    {
+        const double value = solution(t);
+        result.normalized_change[static_cast<std::size_t>(t)] = value;
+        std::uint8_t bit = 2;
+        if (value > options.epsilon)
+        {
+            bit = static_cast<std::uint8_t>(1U ^ mask_[static_cast<std::size_t>(t)]);
+        }
+        else if (value < -options.epsilon)
+        {
+            bit = mask_[static_cast<std::size_t>(t)];
         }
         result.bits_found[static_cast<std::size_t>(t)] = bit;
     }

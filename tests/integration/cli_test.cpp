@@ -102,7 +102,7 @@ TEST_F(CliTest, embed_then_detect_reports_json_and_exit_codes)
     EXPECT_FALSE(nlohmann::json::parse(r.out)["detected"].get<bool>());
 }
 
-TEST_F(CliTest, detects_a_moved_scaled_copy_and_after_noise_and_smoothing)
+TEST_F(CliTest, detects_attacked_copies_and_never_the_same_attacks_on_the_original)
 {
     const auto marked = dir_ / "marked.ply";
     const auto key = dir_ / "key.json";
@@ -110,7 +110,8 @@ TEST_F(CliTest, detects_a_moved_scaled_copy_and_after_noise_and_smoothing)
                   .exit_code,
               0);
     for (const char* spec : {"similarity", "similarity:axis=z:angle=90:scale=3:tx=100", "noise=0.001,smooth=10",
-                             "quantize=10,similarity"})
+                             "quantize=10,similarity", "reorder", "subdivide=loop", "simplify=0.25",
+                             "similarity,simplify=0.1,noise=0.001"})
     {
         const auto attacked = dir_ / "attacked.ply";
         ASSERT_EQ(run("attack " + marked.string() + " -o " + attacked.string() + " --seed 4 " + spec, dir_).exit_code, 0)
@@ -259,10 +260,16 @@ TEST_F(CliTest, detect_rejects_corrupt_keys_wrong_originals_and_mismatched_suspe
     // A suspect with other vertices: refused in the vertex-for-vertex mode, with a clear reason.
     const auto smaller = dir_ / "smaller.ply";
     write_mesh(smaller, lumpy_ellipsoid(4));
-    r = run("detect " + smaller.string() + " --original " + original_.string() + " --key " + key.string(), dir_);
+    r = run("detect " + smaller.string() + " --original " + original_.string() + " --key " + key.string() +
+                " --no-register",
+            dir_);
     EXPECT_EQ(r.exit_code, 2) << r.err;
     EXPECT_NE(r.err.find("smaller.ply"), std::string::npos) << r.err;
     EXPECT_NE(r.err.find("vertices"), std::string::npos) << r.err;
+
+    // With registration (the default) the same unmarked, coarser copy is examined and not claimed.
+    r = run("detect " + smaller.string() + " --original " + original_.string() + " --key " + key.string(), dir_);
+    EXPECT_EQ(r.exit_code, 1) << r.err;
 
     const auto other_original = dir_ / "other.ply";
     write_mesh(other_original, lumpy_ellipsoid(4));

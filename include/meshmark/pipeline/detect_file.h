@@ -17,10 +17,9 @@ struct DetectFileOptions
 {
     DetectOptions decision;     ///< Threshold R and undecided band epsilon.
     int threads = 0;            ///< 0 = all cores.
-    /// Experimental: register and resample suspects whose vertices do not correspond. Off by
-    /// default until the general detector meets its robustness and false-positive targets
-    /// (see docs/algorithms/detection.md, "General suspects").
-    bool allow_registration = false;
+    /// Register and resample suspects whose vertices do not correspond to the original's
+    /// (docs/algorithms/detection.md, "General suspects"). False: such suspects are refused.
+    bool allow_registration = true;
     std::vector<PointPair> pairs;    ///< Optional user point pairs (suspect, original) to start from.
     ProgressCallback progress;       ///< Optional.
 };
@@ -42,7 +41,7 @@ struct DetectReport
 /// \details Reads the key and the original, checks the original against the key's
 /// fingerprint, regenerates the watermark, puts the suspect in vertex correspondence with it,
 /// extracts the bits and decides. A suspect with the original's vertex count is taken vertex
-/// for vertex (after a closed-form similarity); with allow_registration, anything else is
+/// for vertex (after a closed-form similarity); unless allow_registration is off, anything else is
 /// registered onto the watermarked mesh and resampled at the original's vertices, with cropped
 /// vertices left out (least squares).
 /// "Not found" is a result, not an error.

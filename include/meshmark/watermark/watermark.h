@@ -116,6 +116,18 @@ public:
     [[nodiscard]] Extraction extract(const Positions& suspect, const DetectOptions& options,
                                      const std::vector<std::uint8_t>* is_kept = nullptr) const;
 
+    /// \brief Read the bits from a suspect resampled at the original's vertices.
+    /// \details For a suspect registered and resampled (closest points of its surface to the
+    /// original's vertices), only the normal component of the watermark survives, cropped rows
+    /// carry nothing, and the similarity and smoothing nuisance is present. All of that is
+    /// linear, so the expected response of every bit and every nuisance field is computed
+    /// through the same operator (normal projection, crop mask) and the bits are decoded
+    /// jointly by least squares on the leading modes. With no faces (a point cloud) no normal
+    /// projection is applied.
+    /// \param resampled #V x 3 closest points, original frame. \param is_kept optional crop mask.
+    [[nodiscard]] Extraction extract_resampled(const Positions& resampled, const DetectOptions& options,
+                                               const std::vector<std::uint8_t>* is_kept = nullptr) const;
+
     /// \brief Correlation, verdict and false-positive probability of an extraction.
     [[nodiscard]] Decision decide(const Extraction& extraction, const DetectOptions& options) const;
 

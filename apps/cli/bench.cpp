@@ -1,0 +1,419 @@
+// SPDX-License-Identifier: MIT
+// `meshmark bench speed`: end-to-end embed and detect timings and peak memory per mesh.
+//
+// Every embed and detect runs in its own child process (posix_spawn of this very program with
+// `embed ... --json` / `detect ... --json`), so each peak RSS (wait4's ru_maxrss) is that run's
+// own and the phase times are the ones embed_file/detect_file report. The parent never loads a
+// mesh: generated meshes are written by a forked child, because Linux folds the RSS peak of the
+// process image an exec replaces into the child's ru_maxrss, and a large parent would hide the
+// child's own figure.
+#include <spawn.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
+#include <cctype>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "bench_mesh.h"
+#include "commands.h"
+#include "meshmark/core/error.h"
+#include "meshmark/io/mesh_io.h"
+#include "report.h"
+
+extern char** environ;  // NOLINT: POSIX, for posix_spawn
+
+namespace meshmark::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct BenchSpeedArgs
+{
+    std::string mesh_dir;
+    std::vector<std::int64_t> sizes{10'000, 100'000, 1'000'000};
+    std::string work_dir;
+    int repeat = 1;
+    bool no_shared = false;
+    bool no_generated = false;
+    bool no_detect = false;
+    bool keep = false;
+    bool json = false;
+};
+
+/// One child run: its exit code, JSON report (if any) and peak RSS.
+struct ChildRun
+{
+    int exit_code = -1;
+    nlohmann::json report;
+    double peak_mib = 0.0;
+    double wall_seconds = 0.0;
+};
+
+ChildRun run_child(const fs::path& program, const std::vector<std::string>& args)
+{
+    std::vector<char*> argv;
+    argv.push_back(const_cast<char*>(program.c_str()));  // posix_spawn's signature; not written
+    for (const auto& a : args)
+    {
+        argv.push_back(const_cast<char*>(a.c_str()));
+    }
+    argv.push_back(nullptr);
+
+    int pipe_fds[2];
+    if (::pipe(pipe_fds) != 0)
+    {
+        throw IoError(std::string("cannot create a pipe for a benchmark run (") + std::strerror(errno) + ").");
+    }
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_adddup2(&actions, pipe_fds[1], STDOUT_FILENO);
+    posix_spawn_file_actions_addclose(&actions, pipe_fds[0]);
+    posix_spawn_file_actions_addclose(&actions, pipe_fds[1]);
+    pid_t pid = 0;
+    const auto start = std::chrono::steady_clock::now();
+    const int spawned = ::posix_spawn(&pid, program.c_str(), &actions, nullptr, argv.data(), environ);
+    posix_spawn_file_actions_destroy(&actions);
+    ::close(pipe_fds[1]);
+    if (spawned != 0)
+    {
+        ::close(pipe_fds[0]);
+        throw IoError(program.string() + ": cannot start a benchmark run (" + std::strerror(spawned) + ").");
+    }
+    std::string output;
+    char buffer[4096];
+    for (;;)
+    {
+        const ssize_t got = ::read(pipe_fds[0], buffer, sizeof(buffer));
+        if (got > 0)
+        {
+            output.append(buffer, static_cast<std::size_t>(got));
+        }
+        else if (got == 0 || errno != EINTR)
+        {
+            break;
+        }
+    }
+    ::close(pipe_fds[0]);
+    int status = 0;
+    rusage usage{};
+    while (::wait4(pid, &status, 0, &usage) < 0)
+    {
+        if (errno != EINTR)
+        {
+            throw IoError(std::string("cannot wait for a benchmark run (") + std::strerror(errno) + ").");
+        }
+    }
+    ChildRun run;
+    run.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    run.peak_mib = static_cast<double>(usage.ru_maxrss) / 1024.0;  // Linux: kibibytes
+    run.report = nlohmann::json::parse(output, nullptr, false);
+    if (run.report.is_discarded())
+    {
+        run.report = nlohmann::json::object();
+    }
+    return run;
+}
+
+/// Writes bumpy_torus(vertices) as a binary float32 PLY from a forked child (see the top).
+void write_generated(const fs::path& path, std::int64_t vertices)
+{
+    std::fflush(nullptr);
+    const pid_t pid = ::fork();
+    if (pid < 0)
+    {
+        throw IoError(std::string("cannot fork to generate a mesh (") + std::strerror(errno) + ").");
+    }
+    if (pid == 0)
+    {
+        int code = 0;
+        try
+        {
+            WriteOptions options;
+            options.use_single_precision = true;
+            write_mesh(path, bumpy_torus(vertices), options);
+        }
+        catch (const std::exception& e)
+        {
+            std::fprintf(stderr, "meshmark bench: %s\n", e.what());
+            code = 1;
+        }
+        ::_exit(code);
+    }
+    int status = 0;
+    while (::waitpid(pid, &status, 0) < 0 && errno == EINTR)
+    {
+    }
+    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
+    {
+        throw IoError(path.string() + ": cannot write the generated mesh of " + std::to_string(vertices) +
+                      " vertices.");
+    }
+}
+
+struct Case
+{
+    std::string name;
+    fs::path input;
+};
+
+fs::path default_mesh_dir()
+{
+    if (const char* env = std::getenv("MESHMARK_MESH_DIR"); env != nullptr && *env != '\0')
+    {
+        return env;
+    }
+    return fs::path("..") / "shared" / "data" / "meshes";
+}
+
+std::vector<Case> shared_cases(const fs::path& dir)
+{
+    std::vector<Case> cases;
+    std::error_code error;
+    if (!fs::is_directory(dir, error))
+    {
+        return cases;
+    }
+    for (const auto& entry : fs::directory_iterator(dir))
+    {
+        if (!entry.is_regular_file())
+        {
+            continue;
+        }
+        std::string ext = entry.path().extension().string();
+        std::transform(ext.begin(), ext.end(), ext.begin(),
+                       [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+        if (ext == ".ply" || ext == ".obj" || ext == ".off" || ext == ".stl")
+        {
+            cases.push_back({entry.path().filename().string(), entry.path()});
+        }
+    }
+    std::sort(cases.begin(), cases.end(), [](const Case& a, const Case& b) { return a.name < b.name; });
+    return cases;
+}
+
+double phase(const nlohmann::json& report, const char* name)
+{
+    if (report.contains("seconds") && report["seconds"].contains(name))
+    {
+        return report["seconds"][name].get<double>();
+    }
+    return 0.0;
+}
+
+nlohmann::json bench_case(const fs::path& program, const Case& c, const fs::path& work,
+                          const BenchSpeedArgs& args, const GlobalArgs& global)
+{
+    const fs::path output = work / ("marked-" + c.input.stem().string() + c.input.extension().string());
+    const fs::path key = work / ("key-" + c.input.stem().string() + ".json");
+    const std::string threads = std::to_string(global.threads);
+    std::optional<ChildRun> best;
+    for (int r = 0; r < args.repeat; ++r)
+    {
+        ChildRun run = run_child(program, {"embed", c.input.string(), "-o", output.string(), "--key",
+                                           key.string(), "--seed", "20261122", "--force", "--json",
+                                           "-q", "--threads", threads});
+        if (run.exit_code != 0)
+        {
+            best = std::move(run);
+            break;
+        }
+        if (!best || phase(run.report, "total") < phase(best->report, "total"))
+        {
+            best = std::move(run);
+        }
+    }
+    nlohmann::json row = {{"mesh", c.name}, {"input", c.input.string()}, {"threads", global.threads}};
+    row["embed_exit_code"] = best->exit_code;
+    if (best->exit_code != 0)
+    {
+        return row;
+    }
+    const auto vertices = best->report.value("vertices", std::int64_t{0});
+    const double total = phase(best->report, "total");
+    row["vertices"] = vertices;
+    row["faces"] = best->report.value("faces", std::int64_t{0});
+    row["embed_seconds"] = best->report["seconds"];
+    row["embed_process_seconds"] = best->wall_seconds;
+    row["embed_us_per_vertex"] = vertices > 0 ? 1e6 * total / static_cast<double>(vertices) : 0.0;
+    row["embed_peak_mib"] = best->peak_mib;
+    if (!args.no_detect)
+    {
+        const ChildRun detect = run_child(program, {"detect", output.string(), "--original", c.input.string(),
+                                                    "--key", key.string(), "--json", "-q", "--threads", threads});
+        row["detect_exit_code"] = detect.exit_code;
+        row["detected"] = detect.exit_code == 0;
+        if (detect.exit_code == 0 || detect.exit_code == 1)
+        {
+            row["detect_seconds"] = detect.report["seconds"];
+            row["detect_peak_mib"] = detect.peak_mib;
+            row["correlation"] = detect.report.value("correlation", 0.0);
+        }
+    }
+    if (!args.keep)
+    {
+        std::error_code ignored;
+        fs::remove(output, ignored);
+        fs::remove(key, ignored);
+    }
+    return row;
+}
+
+void print_table(const std::vector<nlohmann::json>& rows)
+{
+    std::printf("%-24s %9s %7s %7s %7s %7s %7s %8s %8s %8s %8s %s\n", "mesh", "vertices", "read", "basis",
+                "embed", "write", "total", "us/vert", "peak MB", "detect", "det. MB", "found");
+    for (const auto& row : rows)
+    {
+        if (row.value("embed_exit_code", -1) != 0)
+        {
+            std::printf("%-24s embed failed (exit code %d)\n", row["mesh"].get<std::string>().c_str(),
+                        row.value("embed_exit_code", -1));
+            continue;
+        }
+        const auto& s = row["embed_seconds"];
+        const auto get = [](const nlohmann::json& o, const char* k) { return o.value(k, 0.0); };
+        std::printf("%-24s %9lld %7.3f %7.3f %7.3f %7.3f %7.3f %8.3f %8.1f", row["mesh"].get<std::string>().c_str(),
+                    static_cast<long long>(row["vertices"].get<std::int64_t>()), get(s, "read"),
+                    get(s, "basis"), get(s, "embed"), get(s, "write"), get(s, "total"),
+                    row["embed_us_per_vertex"].get<double>(), row["embed_peak_mib"].get<double>());
+        if (row.contains("detect_seconds"))
+        {
+            std::printf(" %8.3f %8.1f %s\n", get(row["detect_seconds"], "total"),
+                        row["detect_peak_mib"].get<double>(), row["detected"].get<bool>() ? "yes" : "NO");
+        }
+        else if (row.contains("detect_exit_code"))
+        {
+            std::printf(" detect failed (exit code %d)\n", row["detect_exit_code"].get<int>());
+        }
+        else
+        {
+            std::printf("\n");
+        }
+    }
+    std::printf("Times in seconds (embed_file's phases, best of --repeat by total); peak MB = the run's "
+                "own peak RSS in MiB; detect = detect_file on the marked copy.\n");
+}
+
+int run_bench_speed(const BenchSpeedArgs& args, const GlobalArgs& global)
+{
+    const fs::path program = fs::read_symlink("/proc/self/exe");
+    const fs::path work = args.work_dir.empty()
+                              ? fs::temp_directory_path() / ("meshmark-bench-" + std::to_string(::getpid()))
+                              : fs::path(args.work_dir);
+    fs::create_directories(work);
+
+    std::vector<Case> cases;
+    if (!args.no_shared)
+    {
+        const fs::path dir = args.mesh_dir.empty() ? default_mesh_dir() : fs::path(args.mesh_dir);
+        cases = shared_cases(dir);
+        if (cases.empty() && !global.quiet)
+        {
+            std::fprintf(stderr, "meshmark bench: no meshes in %s (set --mesh-dir or MESHMARK_MESH_DIR)\n",
+                         dir.string().c_str());
+        }
+    }
+    std::vector<fs::path> generated;
+    for (const auto n : args.no_generated ? std::vector<std::int64_t>{} : args.sizes)
+    {
+        const fs::path path = work / ("generated-" + std::to_string(n) + ".ply");
+        if (!global.quiet)
+        {
+            std::fprintf(stderr, "meshmark bench: generating %lld vertices\n", static_cast<long long>(n));
+        }
+        write_generated(path, n);
+        generated.push_back(path);
+        cases.push_back({"generated-" + std::to_string(n), path});
+    }
+
+    std::vector<nlohmann::json> rows;
+    for (const auto& c : cases)
+    {
+        if (!global.quiet)
+        {
+            std::fprintf(stderr, "meshmark bench: %s\n", c.name.c_str());
+        }
+        rows.push_back(bench_case(program, c, work, args, global));
+    }
+    if (!args.keep)
+    {
+        std::error_code ignored;
+        for (const auto& path : generated)
+        {
+            fs::remove(path, ignored);
+        }
+        if (args.work_dir.empty())
+        {
+            fs::remove(work, ignored);
+        }
+    }
+    rusage self{};
+    ::getrusage(RUSAGE_SELF, &self);
+    if (args.json)
+    {
+        print_json({{"runs", rows},
+                    {"threads", global.threads},
+                    {"repeat", args.repeat},
+                    {"harness_peak_mib", static_cast<double>(self.ru_maxrss) / 1024.0}});
+    }
+    else
+    {
+        print_table(rows);
+    }
+    const bool all_ok = std::all_of(rows.begin(), rows.end(), [](const nlohmann::json& r) {
+        return r.value("embed_exit_code", -1) == 0 && r.value("detect_exit_code", 0) == 0;
+    });
+    return all_ok ? 0 : static_cast<int>(ExitCode::Internal);
+}
+
+}  // namespace
+
+void register_bench(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
+{
+    auto args = std::make_shared<BenchSpeedArgs>();
+    auto* bench = app.add_subcommand("bench", "Measure meshmark itself");
+    bench->require_subcommand(1);
+    auto* speed = bench->add_subcommand(
+        "speed",
+        "End-to-end embed (read, basis, embed, write) and detect times and peak RSS, one child "
+        "process per run, for the shared meshes and generated meshes of given sizes");
+    speed->add_option("--mesh-dir", args->mesh_dir,
+                      "Meshes to time (.ply .obj .off .stl); default $MESHMARK_MESH_DIR, else "
+                      "../shared/data/meshes");
+    speed->add_flag("--no-shared", args->no_shared, "Only the generated meshes");
+    speed->add_flag("--no-generated", args->no_generated, "Only the meshes of --mesh-dir");
+    speed->add_option("--sizes", args->sizes,
+                      "Vertex counts of generated meshes (binary float32 PLY)")
+        ->delimiter(',')
+        ->check(CLI::Range(std::int64_t{9}, std::int64_t{100'000'000}))
+        ->capture_default_str();
+    speed->add_option("--repeat", args->repeat, "Embed runs per mesh; the fastest total is reported")
+        ->check(CLI::Range(1, 100))
+        ->capture_default_str();
+    speed->add_option("--work-dir", args->work_dir,
+                      "Where generated meshes, marked copies and keys go (default: a temporary "
+                      "directory)");
+    speed->add_flag("--keep", args->keep, "Keep the generated meshes, marked copies and keys");
+    speed->add_flag("--no-detect", args->no_detect, "Time embed only");
+    speed->add_flag("--json", args->json, "Print one JSON object with every run on stdout");
+    add_global_flags(*speed, global);
+    speed->callback([args, &global, &runner]() {
+        runner = [args, &global]() { return run_bench_speed(*args, global); };
+    });
+}
+
+}  // namespace meshmark::cli
