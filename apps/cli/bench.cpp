@@ -320,12 +320,21 @@ int run_bench_speed(const BenchSpeedArgs& args, const GlobalArgs& global)
     if (!args.no_shared)
     {
         const fs::path dir = args.mesh_dir.empty() ? default_mesh_dir() : fs::path(args.mesh_dir);
+        std::error_code error;
+        if (!args.mesh_dir.empty() && !fs::is_directory(dir, error))
+        {
+            throw IoError(dir.string() + ": --mesh-dir is not a directory.");
+        }
         cases = shared_cases(dir);
         if (cases.empty() && !global.quiet)
         {
             std::fprintf(stderr, "meshmark bench: no meshes in %s (set --mesh-dir or MESHMARK_MESH_DIR)\n",
                          dir.string().c_str());
         }
+    }
+    if (cases.empty() && (args.no_generated || args.sizes.empty()))
+    {
+        throw InvalidOption("nothing to time: no meshes in the mesh directory and no generated sizes.");
     }
     std::vector<fs::path> generated;
     for (const auto n : args.no_generated ? std::vector<std::int64_t>{} : args.sizes)
