@@ -314,7 +314,6 @@ int run_bench_speed(const BenchSpeedArgs& args, const GlobalArgs& global)
     const fs::path work = args.work_dir.empty()
                               ? fs::temp_directory_path() / ("meshmark-bench-" + std::to_string(::getpid()))
                               : fs::path(args.work_dir);
-    fs::create_directories(work);
 
     std::vector<Case> cases;
     if (!args.no_shared)
@@ -336,6 +335,20 @@ int run_bench_speed(const BenchSpeedArgs& args, const GlobalArgs& global)
     {
         throw InvalidOption("nothing to time: no meshes in the mesh directory and no generated sizes.");
     }
+    fs::create_directories(work);
+    // A temporary work directory goes away however the run ends (unless --keep).
+    struct RemoveOnExit
+    {
+        fs::path path;
+        ~RemoveOnExit()
+        {
+            if (!path.empty())
+            {
+                std::error_code ignored;
+                fs::remove_all(path, ignored);
+            }
+        }
+    } const cleanup{args.work_dir.empty() && !args.keep ? work : fs::path()};
     std::vector<fs::path> generated;
     for (const auto n : args.no_generated ? std::vector<std::int64_t>{} : args.sizes)
     {
@@ -364,10 +377,6 @@ int run_bench_speed(const BenchSpeedArgs& args, const GlobalArgs& global)
         for (const auto& path : generated)
         {
             fs::remove(path, ignored);
-        }
-        if (args.work_dir.empty())
-        {
-            fs::remove(work, ignored);
         }
     }
     rusage self{};
