@@ -364,7 +364,13 @@ AttackSpec parse_simplify(StepReader& step)
             *word, "policy", {{"gh", SimplificationPolicy::GarlandHeckbert},
                               {"lt", SimplificationPolicy::LindstromTurk}});
     }
-    step.finish("policy");
+    if (const auto word = step.take("method"))
+    {
+        options.method = step.choice<SimplificationMethod>(
+            *word, "method", {{"meshopt", SimplificationMethod::Meshoptimizer},
+                              {"cgal", SimplificationMethod::Cgal}});
+    }
+    step.finish("policy, method");
     return options;
 }
 
@@ -512,7 +518,10 @@ std::string text_of(const QuantizationOptions& o) { return "quantize=" + std::to
 std::string text_of(const SimplificationOptions& o)
 {
     return "simplify=" + detail::format_number(o.vertex_fraction) +
-           (o.policy == SimplificationPolicy::LindstromTurk ? ":policy=lt" : "");
+           (o.policy == SimplificationPolicy::LindstromTurk ? ":policy=lt" : "") +
+           (o.method == SimplificationOptions{}.method
+                ? ""
+                : (o.method == SimplificationMethod::Cgal ? ":method=cgal" : ":method=meshopt"));
 }
 
 std::string text_of(const RemeshingOptions& o)
@@ -561,6 +570,9 @@ struct Overloaded : Visitors...
 {
     using Visitors::operator()...;
 };
+// Explicit guide: clang before 17 lacks C++20 aggregate CTAD (needed by the clang fuzz build).
+template <typename... Visitors>
+Overloaded(Visitors...) -> Overloaded<Visitors...>;
 
 }  // namespace
 
