@@ -92,7 +92,7 @@ INSTANTIATE_TEST_SUITE_P(Targets, FuzzReplay,
                                            Target{"fuzz_read_off", read_off}, Target{"fuzz_read_stl", read_stl},
                                            Target{"fuzz_parse_key", fuzz::parse_key_bytes},
                                            Target{"fuzz_attack_spec", fuzz::parse_attack_spec_bytes}),
-                         [](const ::testing::TestParamInfo<Target>& info) { return info.param.name; });
+                         [](const ::testing::TestParamInfo<Target>& param_info) { return param_info.param.name; });
 
 }  // namespace
 }  // namespace meshmark
