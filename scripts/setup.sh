@@ -10,6 +10,7 @@ packages=(
   libcli11-dev           # command-line parsing
   libnanoflann-dev       # kd-tree (welding, nearest neighbours)
   libcgal-dev libgmp-dev libmpfr-dev libboost-dev  # simplification, remeshing, subdivision
+  libmeshoptimizer-dev   # fast simplification
   libgtest-dev libgmock-dev googletest              # tests
   libbenchmark-dev       # micro-benchmarks
 )

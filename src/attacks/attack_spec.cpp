@@ -521,7 +521,8 @@ std::string text_of(const SimplificationOptions& o)
            (o.policy == SimplificationPolicy::LindstromTurk ? ":policy=lt" : "") +
            (o.method == SimplificationOptions{}.method
                 ? ""
-                : (o.method == SimplificationMethod::Cgal ? ":method=cgal" : ":method=meshopt"));
+                : (o.method == SimplificationMethod::Meshoptimizer ? ":method=meshopt"
+                                                                    : ":method=cgal"));
 }
 
 std::string text_of(const RemeshingOptions& o)

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <utility>
 #include <vector>
 
 // The kernel first: Bounded_normal_change_placement.h uses CGAL::is_positive without including it.
@@ -18,6 +19,7 @@
 #include "meshmark/core/error.h"
 #include "attacks/detail/cgal_mesh.h"
 #include "attacks/detail/format.h"
+#include "attacks/detail/simplify_meshopt.h"
 #include "attacks/detail/simplify_surface.h"
 
 namespace meshmark {
@@ -25,6 +27,9 @@ namespace detail {
 namespace {
 
 namespace sms = CGAL::Surface_mesh_simplification;
+
+// meshoptimizer results further than this from the target fall back to CGAL.
+constexpr double kMeshoptTolerance = 0.05;
 
 // Stops the collapses when the surface is down to the target vertex count. Every collapse
 // removes exactly one vertex, so the count is hit exactly (CGAL's own predicates count edges or
@@ -161,6 +166,13 @@ TriangleMesh simplify(const TriangleMesh& mesh, const SimplificationOptions& opt
     const auto referenced = static_cast<double>(referenced_vertices(mesh).size());
     const auto target = static_cast<std::size_t>(
         std::max(4.0, std::round(options.vertex_fraction * referenced)));
+    if (options.method == SimplificationMethod::Meshoptimizer)
+    {
+        if (auto result = detail::simplify_meshopt(mesh, target, detail::kMeshoptTolerance))
+        {
+            return std::move(*result);
+        }
+    }
     detail::SurfaceMesh surface = detail::to_surface_mesh(mesh, "simplify");
     detail::simplify_surface(surface, target, options.policy);
     return detail::to_triangle_mesh(surface);

@@ -3,8 +3,10 @@
 
 #include <gtest/gtest.h>
 
+#include <variant>
 #include <vector>
 
+#include "meshmark/attacks/attack_spec.h"
 #include "meshmark/core/error.h"
 #include "meshmark/geometry/adjacency.h"
 #include "meshmark/geometry/shapes.h"
@@ -105,6 +107,58 @@ TEST(SimplificationTest, small_holes_and_loose_triangles_do_not_stop_it_short_of
     EXPECT_LE(test::relative_error(static_cast<double>(s.V.rows()), target), 0.1)
         << s.V.rows() << " vertices";
     EXPECT_TRUE(edge_statistics(s).is_consistently_oriented());
+}
+
+TEST(SimplificationTest, meshopt_keeps_input_vertices_near_the_target_and_is_deterministic)
+{
+    const TriangleMesh mesh = torus(1.0, 0.3, 64, 24);  // 1536 vertices
+    for (const double fraction : {0.5, 0.1, 0.02})
+    {
+        const SimplificationOptions options{.vertex_fraction = fraction,
+                                            .method = SimplificationMethod::Meshoptimizer};
+        const TriangleMesh a = simplify(mesh, options);
+        const TriangleMesh b = simplify(mesh, options);
+        EXPECT_TRUE(test::bit_identical(a, b)) << "fraction " << fraction;
+        const double target = fraction * static_cast<double>(mesh.V.rows());
+        EXPECT_LE(test::relative_error(static_cast<double>(a.V.rows()), target), 0.1)
+            << "fraction " << fraction << ": " << a.V.rows() << " vertices";
+        // Collapses land on existing vertices: every kept position is an input position,
+        // in increasing original order, and no face is degenerate.
+        Eigen::Index cursor = 0;
+        for (Eigen::Index v = 0; v < a.V.rows(); ++v)
+        {
+            while (cursor < mesh.V.rows() && mesh.V.row(cursor) != a.V.row(v))
+            {
+                ++cursor;
+            }
+            ASSERT_LT(cursor, mesh.V.rows()) << "vertex " << v << " is not an input vertex";
+        }
+        for (Eigen::Index f = 0; f < a.F.rows(); ++f)
+        {
+            EXPECT_TRUE(a.F(f, 0) != a.F(f, 1) && a.F(f, 1) != a.F(f, 2) && a.F(f, 0) != a.F(f, 2));
+        }
+        EXPECT_EQ(referenced_vertices(a).size(), static_cast<std::size_t>(a.V.rows()));
+    }
+}
+
+TEST(SimplificationTest, method_key_parses_and_round_trips)
+{
+    const auto specs = parse_attack_spec("simplify=0.1:method=meshopt,simplify=0.2:method=cgal");
+    ASSERT_EQ(specs.size(), 2U);
+    const auto& fast = std::get<SimplificationOptions>(specs[0]);
+    EXPECT_EQ(fast.method, SimplificationMethod::Meshoptimizer);
+    EXPECT_EQ(std::get<SimplificationOptions>(specs[1]).method, SimplificationMethod::Cgal);
+    EXPECT_EQ(to_string(specs[0]), "simplify=0.1:method=meshopt");
+    EXPECT_EQ(to_string(specs[1]), "simplify=0.2");  // the default method is omitted
+    EXPECT_EQ(parse_attack_spec(to_string(specs[0])).front(), specs[0]);
+    EXPECT_THROW((void)parse_attack_spec("simplify=0.1:method=fast"), InvalidOption);
+}
+
+TEST(SimplificationTest, meshopt_point_clouds_still_throw)
+{
+    EXPECT_THROW((void)simplify(test::point_cloud_of(icosphere(1)),
+                                {.method = SimplificationMethod::Meshoptimizer}),
+                 InvalidMesh);
 }
 
 TEST(SimplificationTest, point_clouds_and_bad_fractions_throw)
