@@ -327,6 +327,12 @@ Key parse_key(const std::string& text, const std::string& source)
         throw IoError(source + ": the key file nests JSON values more than " +
                       std::to_string(kMaxKeyDepth) + " levels deep; it is not a meshmark key.");
     }
+    catch (const Json::exception&)
+    {
+        // E.g. out_of_range for a number that overflows a double ("1e1111").
+        throw IoError(source + ": the key file is not a valid meshmark key (a JSON value is out "
+                      "of range).");
+    }
     const auto format = j.is_object() ? j.find("format") : j.end();
     if (format == j.end() || !format->is_string() || format->get<std::string>() != kKeyFormat)
     {
