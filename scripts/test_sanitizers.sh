@@ -13,6 +13,10 @@ cmake --build build-asan -j "$jobs"
 built=$(date +%s)
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1:strict_string_checks=1}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
-ctest --test-dir build-asan --output-on-failure -j "$jobs" -L unit -LE slow "$@"
+# CGAL in Debug under ASan is 10-50x slower: the real-mesh attack tests and the biggest
+# simplification case (each > 2 min here) are left out; override with MESHMARK_ASAN_EXCLUDE.
+exclude=${MESHMARK_ASAN_EXCLUDE-'SharedMeshAttackTest|SimplificationTest\.closed_sphere'}
+ctest --test-dir build-asan --output-on-failure -j "$jobs" -L unit -LE slow \
+    ${exclude:+-E "$exclude"} "$@"
 end=$(date +%s)
 echo "test_sanitizers.sh: build $((built - start)) s, tests $((end - built)) s, total $((end - start)) s"
