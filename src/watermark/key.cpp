@@ -57,6 +57,17 @@ std::uint64_t parse_hex64(const std::string& text, const std::string& field, con
     return value;
 }
 
+// n bits, each the lowest bit of one draw (the documented payload/mask mapping).
+std::vector<std::uint8_t> low_bits(Rng& rng, int n)
+{
+    std::vector<std::uint8_t> bits(static_cast<std::size_t>(n));
+    for (auto& b : bits)
+    {
+        b = static_cast<std::uint8_t>(rng.bits() & 1U);
+    }
+    return bits;
+}
+
 std::uint64_t checksum_of(const Json& content)
 {
     const std::string text = content.dump();
@@ -190,12 +201,7 @@ MeshFingerprint fingerprint(const TriangleMesh& mesh)
 std::vector<std::uint8_t> payload_from_message(const std::string& message, int n)
 {
     Rng rng(hash_bytes(message.data(), message.size(), 0x6D7367U));
-    std::vector<std::uint8_t> bits(static_cast<std::size_t>(n));
-    for (auto& b : bits)
-    {
-        b = static_cast<std::uint8_t>(rng.bits() & 1U);
-    }
-    return bits;
+    return low_bits(rng, n);
 }
 
 std::vector<std::uint8_t> payload_from_hex(const std::string& hex, int n)
@@ -244,23 +250,13 @@ std::vector<std::uint8_t> payload_from_hex(const std::string& hex, int n)
 std::vector<std::uint8_t> random_payload(std::uint64_t seed, int n)
 {
     Rng rng(derive_seed(seed, "payload"));
-    std::vector<std::uint8_t> bits(static_cast<std::size_t>(n));
-    for (auto& b : bits)
-    {
-        b = static_cast<std::uint8_t>(rng.bits() & 1U);
-    }
-    return bits;
+    return low_bits(rng, n);
 }
 
 std::vector<std::uint8_t> payload_mask(std::uint64_t seed, int n)
 {
     Rng rng(derive_seed(seed, "payload-mask"));
-    std::vector<std::uint8_t> bits(static_cast<std::size_t>(n));
-    for (auto& b : bits)
-    {
-        b = static_cast<std::uint8_t>(rng.bits() & 1U);
-    }
-    return bits;
+    return low_bits(rng, n);
 }
 
 std::string to_bit_string(const std::vector<std::uint8_t>& bits)
