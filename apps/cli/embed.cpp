@@ -1,10 +1,15 @@
 // SPDX-License-Identifier: MIT
 // `meshmark embed`: watermark a mesh file and write its key.
+#include <unistd.h>
+
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <string>
 
 #include "commands.h"
+#include "meshmark/core/atomic_file.h"
+#include "meshmark/core/error.h"
 #include "meshmark/pipeline/embed_file.h"
 #include "report.h"
 
@@ -26,6 +31,39 @@ struct EmbedArgs
     bool force = false;
     EmbedOptions options;
 };
+
+// -o may name the input only with --force. The marked copy is then written (atomically) to
+// a hidden staging file next to the input, ".<stem>.meshmark-embed-<pid><ext>", and renamed
+// over the input once the mesh and the key are complete: the original is replaced by a whole
+// file or not at all, and is never opened for writing. A kill between the two leaves the
+// staging file (hidden, never an output name) and the original untouched.
+EmbedReport embed_maybe_in_place(const EmbedArgs& args, const EmbedFileOptions& options)
+{
+    if (!is_same_file(args.input, args.output))
+    {
+        return embed_file(args.input, args.output, args.key, options);
+    }
+    if (!args.force)
+    {
+        throw InvalidOption(args.output + ": -o names the input file, which an embed never "
+                            "replaces unless asked; choose another -o or pass --force.");
+    }
+    const std::filesystem::path target = std::filesystem::canonical(args.input);
+    const std::filesystem::path staged =
+        target.parent_path() / ("." + target.stem().string() + ".meshmark-embed-" +
+                                std::to_string(::getpid()) + target.extension().string());
+    EmbedReport report = embed_file(args.input, staged, args.key, options);
+    std::error_code error;
+    std::filesystem::rename(staged, target, error);
+    if (error)
+    {
+        std::error_code ignored;
+        std::filesystem::remove(staged, ignored);
+        throw IoError(args.output + ": cannot replace the input with the marked copy (" +
+                      error.message() + "); the input is unchanged.");
+    }
+    return report;
+}
 
 int run_embed(const EmbedArgs& args, const GlobalArgs& global)
 {
@@ -49,7 +87,7 @@ int run_embed(const EmbedArgs& args, const GlobalArgs& global)
     options.force = args.force;
     options.progress = make_progress(global, "embed");
 
-    const EmbedReport report = embed_file(args.input, args.output, args.key, options);
+    const EmbedReport report = embed_maybe_in_place(args, options);
 
     const auto& stats = report.stats;
     if (args.json)
@@ -130,7 +168,9 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     command->add_option("--seed", args->seed,
                         "Secret seed (centers, payload mask, random payload); random if absent");
     command->add_flag("--json", args->json, "Print a JSON report on stdout");
-    command->add_flag("--force", args->force, "Replace an existing key file");
+    command->add_flag("--force", args->force,
+                      "Replace an existing key file, or the input itself when -o names it "
+                      "(atomically: a complete marked file or the untouched original)");
     add_global_flags(*command, global);
     command->callback([args, &global, &runner, command]() {
         args->has_seed = command->count("--seed") > 0;
