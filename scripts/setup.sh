@@ -11,6 +11,7 @@ packages=(
   libnanoflann-dev       # kd-tree (welding, nearest neighbours)
   libcgal-dev libgmp-dev libmpfr-dev libboost-dev  # simplification, remeshing, subdivision
   libmeshoptimizer-dev   # fast simplification
+  libtinygltf-dev libstb-dev libdraco-dev lib3mf-dev  # glTF/GLB (+ Draco) and 3MF files
   libgtest-dev libgmock-dev googletest              # tests
   libbenchmark-dev       # micro-benchmarks
 )

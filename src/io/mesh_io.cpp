@@ -44,9 +44,17 @@ MeshFormat format_from_extension(const std::filesystem::path& path)
     {
         return MeshFormat::Stl;
     }
+    if (ext == ".gltf")
+    {
+        return MeshFormat::Gltf;
+    }
+    if (ext == ".glb")
+    {
+        return MeshFormat::Glb;
+    }
     detail::fail_io(path, "unknown mesh file extension " +
                               (ext.empty() ? std::string("(none)") : detail::quoted(ext)) +
-                              "; expected .ply, .obj, .off or .stl");
+                              "; expected .ply, .obj, .off, .stl, .gltf or .glb");
 }
 
 const char* to_string(MeshFormat format) noexcept
@@ -61,6 +69,10 @@ const char* to_string(MeshFormat format) noexcept
             return "OFF";
         case MeshFormat::Stl:
             return "STL";
+        case MeshFormat::Gltf:
+            return "glTF";
+        case MeshFormat::Glb:
+            return "GLB";
     }
     return "?";
 }
@@ -100,6 +112,14 @@ MeshFile read_mesh_file(const std::filesystem::path& path)
         case MeshFormat::Stl:
             file.mesh = detail::read_stl(path, *layout, file.is_single_precision);
             break;
+        case MeshFormat::Gltf:
+        case MeshFormat::Glb:
+        {
+            auto& asset = layout->positions.emplace<detail::GltfAsset>();
+            file.mesh = detail::read_gltf(path, layout->bytes, file.format == MeshFormat::Glb, asset);
+            file.is_single_precision = true;
+            break;
+        }
     }
     file.layout = std::move(layout);
     return file;
@@ -130,6 +150,10 @@ void write_mesh(const std::filesystem::path& path, const TriangleMesh& mesh,
         case MeshFormat::Stl:
             write_bytes(path, detail::stl_bytes(mesh, options));
             break;
+        case MeshFormat::Gltf:
+        case MeshFormat::Glb:
+            write_bytes(path, detail::gltf_bytes(mesh, format == MeshFormat::Glb));
+            break;
     }
 }
 
@@ -152,6 +176,12 @@ void write_mesh_file(const std::filesystem::path& path, const MeshFile& source,
         return;
     }
     detail::check_finite(path, positions);
+    if (const auto* asset = std::get_if<detail::GltfAsset>(&source.layout->positions))
+    {
+        detail::write_gltf_preserving(path, format == MeshFormat::Glb, *asset, source.mesh.V,
+                                      positions);
+        return;
+    }
     write_bytes(path, detail::preserved_bytes(path, *source.layout, source.mesh.V, positions));
 }
 

@@ -18,10 +18,16 @@ enum class MeshFormat
     Obj,  ///< .obj: v/vt/vn/f in every index form, polygons, groups, materials.
     Off,  ///< .off: OFF (also COFF/NOFF/CNOFF headers' positions).
     Stl,  ///< .stl: ASCII and binary; corners welded for analysis.
+    /// .gltf: glTF 2.0 JSON with data: URIs or external buffers (KHR_draco_mesh_compression
+    /// and KHR_mesh_quantization included). The mesh is every TRIANGLES (and POINTS)
+    /// primitive of the scene in world coordinates, coincident vertices welded.
+    Gltf,
+    Glb,  ///< .glb: binary glTF 2.0, read like Gltf.
 };
 
 /// \brief Format for a path's extension.
-/// \throws IoError naming the file when the extension is not one of .ply .obj .off .stl.
+/// \throws IoError naming the file when the extension is not one of .ply .obj .off .stl
+/// .gltf .glb.
 [[nodiscard]] MeshFormat format_from_extension(const std::filesystem::path& path);
 
 /// Name of a format as used in messages and --json ("PLY", "OBJ", ...).

@@ -8,6 +8,7 @@
 #include <variant>
 #include <vector>
 
+#include "io/detail/gltf.h"
 #include "io/detail/numbers.h"
 #include "meshmark/io/mesh_io.h"
 
@@ -64,7 +65,7 @@ struct FileLayout
 {
     MeshFormat format = MeshFormat::Ply;
     std::string bytes;  ///< The file exactly as read.
-    std::variant<TextPositions, BinaryPositions, StlFacets> positions;
+    std::variant<TextPositions, BinaryPositions, StlFacets, GltfAsset> positions;
 };
 
 }  // namespace meshmark::detail

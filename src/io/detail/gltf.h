@@ -1,0 +1,145 @@
+// SPDX-License-Identifier: MIT
+// glTF 2.0 / GLB: what the preserving writer needs to know about where positions live.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "meshmark/core/triangle_mesh.h"
+
+namespace meshmark::detail {
+
+/// glTF accessor component types that a POSITION accessor may have (core: FLOAT;
+/// KHR_mesh_quantization: the four integer types, normalized or not).
+enum class GltfComponent : std::uint16_t
+{
+    Int8 = 5120,
+    UInt8 = 5121,
+    Int16 = 5122,
+    UInt16 = 5123,
+    UInt32 = 5125,
+    Float32 = 5126,
+};
+
+/// Where a buffer came from, which decides how the writer stores it.
+enum class GltfBufferSource : std::uint8_t
+{
+    GlbBinChunk,  ///< The BIN chunk of a GLB (buffer 0 without a uri).
+    DataUri,      ///< A base64 data: URI inside the JSON.
+    External,     ///< A file next to the .gltf (written anew beside the output).
+};
+
+/// One buffer of the asset: its bytes as loaded and where they came from.
+struct GltfBuffer
+{
+    GltfBufferSource source = GltfBufferSource::External;
+    std::string bytes;       ///< Exactly byteLength bytes.
+    std::string uri_prefix;  ///< DataUri: everything up to and including the ','.
+    std::filesystem::path file;  ///< External: the file it was read from.
+};
+
+/// Byte location of one accessor element; buffer < 0 means an implicit zero element (an
+/// accessor without bufferView, or the base of a sparse accessor without one).
+struct GltfElement
+{
+    std::int32_t buffer = -1;
+    std::uint64_t offset = 0;
+};
+
+/// A POSITION accessor stored in buffers (non-Draco), with the world transform it was read
+/// with (the first node instance that uses it) and the welded vertex of each element.
+struct GltfPositionAccessor
+{
+    std::int32_t accessor = 0;
+    GltfComponent component = GltfComponent::Float32;
+    bool is_normalized = false;
+    Eigen::Matrix4d to_world = Eigen::Matrix4d::Identity();
+    std::vector<GltfElement> elements;   ///< Per element, after sparse substitution.
+    std::vector<std::int32_t> welded;    ///< Per element: the vertex of MeshFile::mesh.
+};
+
+/// A primitive compressed with KHR_draco_mesh_compression.
+struct GltfDracoPrimitive
+{
+    std::int32_t mesh = 0;
+    std::int32_t primitive = 0;
+    std::int32_t buffer_view = 0;
+    std::int32_t position_accessor = 0;
+    std::int32_t position_attribute_id = 0;  ///< Draco unique id of the position attribute.
+    bool has_foreign_attributes = false;      ///< Attributes or targets outside the Draco data.
+    Eigen::Matrix4d to_world = Eigen::Matrix4d::Identity();
+    std::vector<std::int32_t> welded;  ///< Per Draco point: the vertex of MeshFile::mesh.
+};
+
+/// Everything the preserving glTF/GLB writer needs.
+struct GltfAsset
+{
+    bool is_glb = false;
+    std::string json;                 ///< The JSON text exactly as read.
+    std::vector<GltfBuffer> buffers;  ///< Indexed like the JSON "buffers".
+    std::string glb_tail;             ///< GLB: chunks after the BIN chunk, verbatim.
+    bool glb_has_bin = false;         ///< GLB: the file has a BIN chunk.
+    /// GLB: bytes of the BIN chunk after buffer 0 (the whole chunk when no buffer uses it).
+    std::string glb_bin_padding;
+    std::vector<GltfPositionAccessor> accessors;
+    std::vector<GltfDracoPrimitive> draco;
+};
+
+/// A stored POSITION component as the coordinate a renderer sees (normalized integers
+/// mapped to [-1, 1] or [0, 1] as the glTF spec says).
+[[nodiscard]] double dequantize(double stored, const GltfPositionAccessor& record);
+
+/// Read a .gltf or .glb (already in \p bytes) into its welded world-frame mesh.
+[[nodiscard]] TriangleMesh read_gltf(const std::filesystem::path& path, const std::string& bytes,
+                                     bool is_glb, GltfAsset& asset);
+
+/// \brief Write \p asset with welded positions \p original replaced by \p positions to
+/// \p path (a .gltf or .glb; external buffers are written beside it), atomically.
+void write_gltf_preserving(const std::filesystem::path& path, bool is_glb, const GltfAsset& asset,
+                           const Positions& original, const Positions& positions);
+
+/// The bytes of a minimal glTF asset (.glb when \p is_glb, else a .gltf with a data: URI).
+[[nodiscard]] std::string gltf_bytes(const TriangleMesh& mesh, bool is_glb);
+
+// Container helpers (gltf_container.cpp).
+
+/// The chunks of a GLB file; throws IoError naming \p path when the container is malformed.
+struct GlbChunks
+{
+    std::string json;
+    bool has_bin = false;
+    std::string bin;  ///< The whole BIN chunk payload (buffer 0 plus padding).
+    std::string tail;
+};
+[[nodiscard]] GlbChunks split_glb(const std::filesystem::path& path, const std::string& bytes);
+/// A GLB file from its JSON text and BIN payload (each padded to 4 bytes) and extra chunks.
+[[nodiscard]] std::string assemble_glb(const std::filesystem::path& path, const std::string& json,
+                                       const std::string* bin, const std::string& tail);
+[[nodiscard]] std::string base64_encode(const std::string& bytes);
+
+// Draco (draco.cpp).
+
+/// A decoded Draco primitive: positions (3 per point, float32 values), triangles, and the
+/// position quantization of the bitstream (0 when positions were not quantized).
+struct DracoGeometry
+{
+    std::vector<float> positions;
+    std::vector<std::uint32_t> triangles;
+    std::uint32_t point_count = 0;
+    int quantization_bits = 0;
+};
+[[nodiscard]] DracoGeometry decode_draco(const std::filesystem::path& path,
+                                         const std::string& bytes, std::int32_t position_id);
+/// \brief Re-encode \p bytes with the positions of every point replaced by \p positions
+/// (3 per point), keeping every attribute, its unique id and its quantization.
+/// \param keep_order  Use the sequential method, which keeps the point order.
+[[nodiscard]] std::string reencode_draco(const std::filesystem::path& path,
+                                         const std::string& bytes, std::int32_t position_id,
+                                         const std::vector<float>& positions, bool keep_order);
+
+}  // namespace meshmark::detail

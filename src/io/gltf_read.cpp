@@ -1,0 +1,942 @@
+// SPDX-License-Identifier: MIT
+// glTF 2.0 / GLB reader: tinygltf parses and validates the container and loads the buffers;
+// this file walks the scene graph, locates every POSITION element's bytes (strides, sparse
+// substitution, KHR_mesh_quantization types), decodes Draco primitives, and welds coincident
+// world-space vertices into one mesh.
+#include <tiny_gltf.h>
+
+#include <algorithm>
+#include <array>
+#include <cctype>
+#include <climits>
+#include <cmath>
+#include <cstring>
+#include <map>
+#include <optional>
+#include <unordered_map>
+#include <unordered_set>
+
+#include <Eigen/Geometry>
+
+#include "io/detail/gltf.h"
+#include "io/detail/numbers.h"
+#include "io/detail/support.h"
+#include "meshmark/core/error.h"
+
+namespace meshmark::detail {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr int kModePoints = 0;
+constexpr int kModeTriangles = 4;
+constexpr const char* kDracoExtension = "KHR_draco_mesh_compression";
+
+// Vertices of different node transforms are welded when closer than this fraction of the
+// bbox diagonal. An exporter that stores each part as T^-1 * world in float32 leaves the
+// parts' shared vertices a few float32 ulps apart in world space (~1e-7 of the extent); the
+// factor 10 margin stays far below any real edge length (a 1M-vertex mesh has ~1e-3 D).
+constexpr double kCrossTransformWeldRel = 1e-6;
+// Node visits allowed while walking the scene graph (a DAG of shared children can otherwise
+// explode exponentially in a hostile file).
+constexpr std::size_t kMaxNodeVisits = 1U << 20U;
+// Elements of an accessor without any stored data (all implicit zeros).
+constexpr std::uint64_t kMaxImplicitElements = 1U << 24U;
+
+// Image data is never decoded: images are carried through as they are.
+bool skip_image(tinygltf::Image*, const int, std::string*, std::string*, int, int,
+                const unsigned char*, int, void*)
+{
+    return true;
+}
+
+std::string percent_decoded(const std::string& uri)
+{
+    std::string out;
+    for (std::size_t i = 0; i < uri.size(); ++i)
+    {
+        if (uri[i] == '%' && i + 2 < uri.size() && std::isxdigit(static_cast<unsigned char>(uri[i + 1])) != 0 &&
+            std::isxdigit(static_cast<unsigned char>(uri[i + 2])) != 0)
+        {
+            out += static_cast<char>(std::stoi(uri.substr(i + 1, 2), nullptr, 16));
+            i += 2;
+        }
+        else
+        {
+            out += uri[i];
+        }
+    }
+    return out;
+}
+
+std::string first_line(const std::string& text)
+{
+    const auto end = text.find('\n');
+    std::string line = text.substr(0, end);
+    while (!line.empty() && (line.back() == '\r' || line.back() == ' '))
+    {
+        line.pop_back();
+    }
+    return line.empty() ? std::string("no reason given") : line;
+}
+
+tinygltf::Model load_model(const fs::path& path, const std::string& bytes, bool is_glb)
+{
+    if (bytes.size() > UINT_MAX)
+    {
+        fail_io(path, "the file is larger than 4 GiB, which glTF loaders do not support");
+    }
+    tinygltf::TinyGLTF loader;
+    loader.SetImageLoader(skip_image, nullptr);
+    tinygltf::Model model;
+    std::string err;
+    std::string warn;
+    const std::string base_dir = path.parent_path().string();
+    bool ok = false;
+    try
+    {
+        ok = is_glb ? loader.LoadBinaryFromMemory(
+                          &model, &err, &warn, reinterpret_cast<const unsigned char*>(bytes.data()),
+                          static_cast<unsigned int>(bytes.size()), base_dir)
+                    : loader.LoadASCIIFromString(&model, &err, &warn, bytes.data(),
+                                                 static_cast<unsigned int>(bytes.size()), base_dir);
+    }
+    catch (const std::exception& e)
+    {
+        fail_io(path, std::string("not a valid glTF 2.0 asset: ") + e.what());
+    }
+    if (!ok)
+    {
+        fail_io(path, "not a valid glTF 2.0 asset: " + first_line(err));
+    }
+    return model;
+}
+
+std::optional<GltfComponent> component_of(int type)
+{
+    switch (type)
+    {
+        case 5120:
+        case 5121:
+        case 5122:
+        case 5123:
+        case 5125:
+        case 5126:
+            return static_cast<GltfComponent>(type);
+        default:
+            return std::nullopt;
+    }
+}
+
+std::size_t component_size(GltfComponent c)
+{
+    switch (c)
+    {
+        case GltfComponent::Int8:
+        case GltfComponent::UInt8:
+            return 1;
+        case GltfComponent::Int16:
+        case GltfComponent::UInt16:
+            return 2;
+        default:
+            return 4;
+    }
+}
+
+ScalarType scalar_of(GltfComponent c)
+{
+    switch (c)
+    {
+        case GltfComponent::Int8:
+            return ScalarType::Int8;
+        case GltfComponent::UInt8:
+            return ScalarType::UInt8;
+        case GltfComponent::Int16:
+            return ScalarType::Int16;
+        case GltfComponent::UInt16:
+            return ScalarType::UInt16;
+        case GltfComponent::UInt32:
+            return ScalarType::UInt32;
+        default:
+            return ScalarType::Float32;
+    }
+}
+
+// One vertex of one instance before welding.
+struct RawVertices
+{
+    std::vector<double> world;       // 3 per element
+    std::vector<std::int32_t> group;  // transform group per element
+};
+
+class Reader
+{
+public:
+    Reader(const fs::path& path, const tinygltf::Model& model, GltfAsset& asset)
+        : path_(path), model_(model), asset_(asset)
+    {
+    }
+
+    TriangleMesh run();
+
+private:
+    void walk(int node, const Eigen::Matrix4d& parent, std::vector<char>& on_stack);
+    void add_primitive(int mesh, int index, const Eigen::Matrix4d& to_world);
+    void add_plain(const tinygltf::Primitive& prim, int mesh, int index,
+                   const Eigen::Matrix4d& to_world);
+    void add_draco(const tinygltf::Primitive& prim, int mesh, int index,
+                   const Eigen::Matrix4d& to_world);
+    std::vector<GltfElement> locate(int accessor, int components, const std::string& what) const;
+    void add_triangles(const tinygltf::Primitive& prim, int mesh, int index, std::size_t base,
+                       std::size_t count);
+    std::int32_t group_of(const Eigen::Matrix4d& to_world);
+    void append_world(const std::vector<double>& local, const Eigen::Matrix4d& to_world,
+                      std::int32_t group);
+    TriangleMesh weld();
+    [[noreturn]] void fail(const std::string& what) const { fail_io(path_, what); }
+
+    const fs::path& path_;
+    const tinygltf::Model& model_;
+    GltfAsset& asset_;
+    std::size_t visits_ = 0;
+    std::map<int, std::size_t> accessor_slot_;      // POSITION accessor -> asset_.accessors
+    std::map<int, std::size_t> draco_slot_;         // Draco bufferView -> asset_.draco
+    std::vector<std::size_t> slot_base_;            // first raw element of each accessor slot
+    std::vector<std::size_t> draco_base_;           // first raw element of each Draco slot
+    std::vector<Eigen::Matrix4d> groups_;           // distinct world transforms
+    RawVertices raw_;
+    std::vector<std::uint64_t> corners_;            // raw element ids, 3 per triangle
+};
+
+Eigen::Matrix4d local_matrix(const tinygltf::Node& node)
+{
+    Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+    if (node.matrix.size() == 16)
+    {
+        for (int k = 0; k < 16; ++k)
+        {
+            m(k % 4, k / 4) = node.matrix[static_cast<std::size_t>(k)];  // column-major
+        }
+        return m;
+    }
+    Eigen::Affine3d t = Eigen::Affine3d::Identity();
+    if (node.translation.size() == 3)
+    {
+        t.translate(Eigen::Vector3d(node.translation[0], node.translation[1], node.translation[2]));
+    }
+    if (node.rotation.size() == 4)
+    {
+        // glTF stores (x, y, z, w); Eigen's constructor takes (w, x, y, z).
+        Eigen::Quaterniond q(node.rotation[3], node.rotation[0], node.rotation[1],
+                             node.rotation[2]);
+        if (q.norm() > 0.0)
+        {
+            q.normalize();
+        }
+        t.rotate(q);
+    }
+    if (node.scale.size() == 3)
+    {
+        t.scale(Eigen::Vector3d(node.scale[0], node.scale[1], node.scale[2]));
+    }
+    return t.matrix();
+}
+
+bool same_matrix(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b)
+{
+    return std::memcmp(a.data(), b.data(), sizeof(double) * 16) == 0;
+}
+
+TriangleMesh Reader::run()
+{
+    // Roots: the default scene, else every scene, else every node that is no one's child.
+    std::vector<int> roots;
+    const auto scene_count = static_cast<int>(model_.scenes.size());
+    if (model_.defaultScene >= 0 && model_.defaultScene < scene_count)
+    {
+        roots = model_.scenes[static_cast<std::size_t>(model_.defaultScene)].nodes;
+    }
+    else if (scene_count > 0)
+    {
+        for (const auto& scene : model_.scenes)
+        {
+            roots.insert(roots.end(), scene.nodes.begin(), scene.nodes.end());
+        }
+    }
+    else
+    {
+        std::vector<char> is_child(model_.nodes.size(), 0);
+        for (const auto& node : model_.nodes)
+        {
+            for (const int c : node.children)
+            {
+                if (c >= 0 && static_cast<std::size_t>(c) < is_child.size())
+                {
+                    is_child[static_cast<std::size_t>(c)] = 1;
+                }
+            }
+        }
+        for (std::size_t n = 0; n < is_child.size(); ++n)
+        {
+            if (is_child[n] == 0)
+            {
+                roots.push_back(static_cast<int>(n));
+            }
+        }
+    }
+    std::vector<char> on_stack(model_.nodes.size(), 0);
+    for (const int root : roots)
+    {
+        walk(root, Eigen::Matrix4d::Identity(), on_stack);
+    }
+    return weld();
+}
+
+void Reader::walk(int node_index, const Eigen::Matrix4d& parent, std::vector<char>& on_stack)
+{
+    if (node_index < 0 || static_cast<std::size_t>(node_index) >= model_.nodes.size())
+    {
+        fail("node index " + std::to_string(node_index) + " is out of range");
+    }
+    const auto n = static_cast<std::size_t>(node_index);
+    if (on_stack[n] != 0)
+    {
+        fail("node " + std::to_string(node_index) + " is its own ancestor (a cycle in the node tree)");
+    }
+    if (++visits_ > kMaxNodeVisits)
+    {
+        fail("the node graph expands to more than " + std::to_string(kMaxNodeVisits) + " nodes");
+    }
+    const auto& node = model_.nodes[n];
+    const Eigen::Matrix4d to_world = parent * local_matrix(node);
+    if (!to_world.allFinite())
+    {
+        fail("node " + std::to_string(node_index) + " has a non-finite transform");
+    }
+    if (node.mesh >= 0)
+    {
+        if (static_cast<std::size_t>(node.mesh) >= model_.meshes.size())
+        {
+            fail("node " + std::to_string(node_index) + " refers to missing mesh " +
+                 std::to_string(node.mesh));
+        }
+        // A singular transform (zero scale) hides the mesh: it has no world geometry to mark.
+        if (std::abs(to_world.topLeftCorner<3, 3>().determinant()) > 0.0)
+        {
+            const auto& mesh = model_.meshes[static_cast<std::size_t>(node.mesh)];
+            for (std::size_t p = 0; p < mesh.primitives.size(); ++p)
+            {
+                add_primitive(node.mesh, static_cast<int>(p), to_world);
+            }
+        }
+    }
+    on_stack[n] = 1;
+    for (const int child : node.children)
+    {
+        walk(child, to_world, on_stack);
+    }
+    on_stack[n] = 0;
+}
+
+void Reader::add_primitive(int mesh, int index, const Eigen::Matrix4d& to_world)
+{
+    const auto& prim =
+        model_.meshes[static_cast<std::size_t>(mesh)].primitives[static_cast<std::size_t>(index)];
+    if (prim.mode != kModeTriangles && prim.mode != kModePoints)
+    {
+        return;  // lines, strips and fans are carried through untouched
+    }
+    if (prim.extensions.count(kDracoExtension) != 0)
+    {
+        add_draco(prim, mesh, index, to_world);
+    }
+    else
+    {
+        add_plain(prim, mesh, index, to_world);
+    }
+}
+
+std::vector<GltfElement> Reader::locate(int accessor_index, int components,
+                                        const std::string& what) const
+{
+    const auto& acc = model_.accessors[static_cast<std::size_t>(accessor_index)];
+    const auto component = component_of(acc.componentType);
+    if (!component)
+    {
+        fail(what + " accessor " + std::to_string(accessor_index) + " has component type " +
+             std::to_string(acc.componentType));
+    }
+    const std::size_t element_size = component_size(*component) * static_cast<std::size_t>(components);
+    const std::uint64_t count = acc.count;
+    if (count > kMaxVertices || (acc.bufferView < 0 && count > kMaxImplicitElements))
+    {
+        fail(what + " accessor " + std::to_string(accessor_index) + " has " + std::to_string(count) +
+             " elements, more than supported");
+    }
+    std::vector<GltfElement> elements(static_cast<std::size_t>(count));
+    // Byte range [offset, offset + size) of a bufferView, checked against its buffer.
+    const auto view_range = [&](int view_index, std::uint64_t offset, std::uint64_t stride,
+                                std::uint64_t n) -> std::pair<std::int32_t, std::uint64_t>
+    {
+        if (view_index < 0 || static_cast<std::size_t>(view_index) >= model_.bufferViews.size())
+        {
+            fail(what + " accessor " + std::to_string(accessor_index) +
+                 " refers to missing bufferView " + std::to_string(view_index));
+        }
+        const auto& view = model_.bufferViews[static_cast<std::size_t>(view_index)];
+        if (view.buffer < 0 || static_cast<std::size_t>(view.buffer) >= asset_.buffers.size() ||
+            view.byteOffset + view.byteLength > asset_.buffers[static_cast<std::size_t>(view.buffer)].bytes.size() ||
+            (n > 0 && offset + stride * (n - 1) + element_size > view.byteLength))
+        {
+            fail(what + " accessor " + std::to_string(accessor_index) +
+                 " reaches past the end of bufferView " + std::to_string(view_index) +
+                 " or its buffer");
+        }
+        return {view.buffer, view.byteOffset + offset};
+    };
+    if (acc.bufferView >= 0)
+    {
+        std::uint64_t stride = element_size;
+        if (static_cast<std::size_t>(acc.bufferView) < model_.bufferViews.size())
+        {
+            const auto declared = model_.bufferViews[static_cast<std::size_t>(acc.bufferView)].byteStride;
+            if (declared != 0)
+            {
+                if (declared < element_size)
+                {
+                    fail(what + " accessor " + std::to_string(accessor_index) +
+                         " has a byteStride smaller than its element");
+                }
+                stride = declared;
+            }
+        }
+        const auto [buffer, first] = view_range(acc.bufferView, acc.byteOffset, stride, count);
+        for (std::uint64_t e = 0; e < count; ++e)
+        {
+            elements[e] = {buffer, first + e * stride};
+        }
+    }
+    if (acc.sparse.isSparse)
+    {
+        const auto& sparse = acc.sparse;
+        const auto n = static_cast<std::uint64_t>(std::max(sparse.count, 0));
+        const auto index_type = component_of(sparse.indices.componentType);
+        if (n > count || !index_type ||
+            (*index_type != GltfComponent::UInt8 && *index_type != GltfComponent::UInt16 &&
+             *index_type != GltfComponent::UInt32) ||
+            sparse.indices.byteOffset < 0 || sparse.values.byteOffset < 0)
+        {
+            fail(what + " accessor " + std::to_string(accessor_index) + " has invalid sparse data");
+        }
+        const std::size_t index_size = component_size(*index_type);
+        if (sparse.indices.bufferView < 0 ||
+            static_cast<std::size_t>(sparse.indices.bufferView) >= model_.bufferViews.size())
+        {
+            fail(what + " accessor " + std::to_string(accessor_index) + " has invalid sparse indices");
+        }
+        const auto& index_view = model_.bufferViews[static_cast<std::size_t>(sparse.indices.bufferView)];
+        const auto index_offset = static_cast<std::uint64_t>(sparse.indices.byteOffset);
+        if (index_view.buffer < 0 || static_cast<std::size_t>(index_view.buffer) >= asset_.buffers.size() ||
+            index_view.byteOffset + index_view.byteLength >
+                asset_.buffers[static_cast<std::size_t>(index_view.buffer)].bytes.size() ||
+            index_offset + n * index_size > index_view.byteLength)
+        {
+            fail(what + " accessor " + std::to_string(accessor_index) +
+                 " has sparse indices past the end of their bufferView");
+        }
+        const char* index_bytes = asset_.buffers[static_cast<std::size_t>(index_view.buffer)].bytes.data() +
+                                  index_view.byteOffset + index_offset;
+        const auto [buffer, first] = view_range(sparse.values.bufferView,
+                                                static_cast<std::uint64_t>(sparse.values.byteOffset),
+                                                element_size, n);
+        for (std::uint64_t j = 0; j < n; ++j)
+        {
+            const auto target = static_cast<std::uint64_t>(
+                load_integer(index_bytes + j * index_size, scalar_of(*index_type), false));
+            if (target >= count)
+            {
+                fail(what + " accessor " + std::to_string(accessor_index) + " has sparse index " +
+                     std::to_string(target) + " " + index_range(count));
+            }
+            elements[target] = {buffer, first + j * element_size};
+        }
+    }
+    return elements;
+}
+
+std::int32_t Reader::group_of(const Eigen::Matrix4d& to_world)
+{
+    for (std::size_t g = 0; g < groups_.size(); ++g)
+    {
+        if (same_matrix(groups_[g], to_world))
+        {
+            return static_cast<std::int32_t>(g);
+        }
+    }
+    groups_.push_back(to_world);
+    return static_cast<std::int32_t>(groups_.size() - 1);
+}
+
+void Reader::append_world(const std::vector<double>& local, const Eigen::Matrix4d& to_world,
+                          std::int32_t group)
+{
+    const std::size_t n = local.size() / 3;
+    for (std::size_t i = 0; i < n; ++i)
+    {
+        const Eigen::Vector4d p(local[3 * i], local[3 * i + 1], local[3 * i + 2], 1.0);
+        const Eigen::Vector4d w = to_world * p;
+        raw_.world.insert(raw_.world.end(), {w.x(), w.y(), w.z()});
+        raw_.group.push_back(group);
+    }
+}
+
+void Reader::add_plain(const tinygltf::Primitive& prim, int mesh, int index,
+                       const Eigen::Matrix4d& to_world)
+{
+    const auto it = prim.attributes.find("POSITION");
+    if (it == prim.attributes.end())
+    {
+        return;
+    }
+    const int a = it->second;
+    if (a < 0 || static_cast<std::size_t>(a) >= model_.accessors.size())
+    {
+        fail("mesh " + std::to_string(mesh) + " primitive " + std::to_string(index) +
+             " has a missing POSITION accessor");
+    }
+    std::size_t slot = 0;
+    if (const auto found = accessor_slot_.find(a); found != accessor_slot_.end())
+    {
+        slot = found->second;
+        // Another instance of the same positions under a different transform: its vertices
+        // cannot take a second displacement, so only the first instance is watermarked.
+        if (!same_matrix(asset_.accessors[slot].to_world, to_world))
+        {
+            return;
+        }
+    }
+    else
+    {
+        const auto& acc = model_.accessors[static_cast<std::size_t>(a)];
+        const auto component = component_of(acc.componentType);
+        if (acc.type != TINYGLTF_TYPE_VEC3 || !component || *component == GltfComponent::UInt32)
+        {
+            fail("POSITION accessor " + std::to_string(a) + " is not a VEC3 of float or 8/16-bit integers");
+        }
+        GltfPositionAccessor record;
+        record.accessor = a;
+        record.component = *component;
+        record.is_normalized = acc.normalized;
+        record.to_world = to_world;
+        record.elements = locate(a, 3, "POSITION");
+        // Local positions, decoded and de-normalized as a renderer would.
+        std::vector<double> local(3 * record.elements.size(), 0.0);
+        const auto type = scalar_of(record.component);
+        const std::size_t size = component_size(record.component);
+        for (std::size_t e = 0; e < record.elements.size(); ++e)
+        {
+            const auto& el = record.elements[e];
+            for (std::size_t d = 0; d < 3 && el.buffer >= 0; ++d)
+            {
+                const char* p = asset_.buffers[static_cast<std::size_t>(el.buffer)].bytes.data() +
+                                el.offset + d * size;
+                local[3 * e + d] = dequantize(load_scalar(p, type, false), record);
+            }
+        }
+        for (std::size_t k = 0; k < local.size(); ++k)
+        {
+            if (!std::isfinite(local[k]))
+            {
+                fail_mesh(path_, "POSITION accessor " + std::to_string(a) + " element " +
+                                     std::to_string(k / 3) + " has a non-finite coordinate");
+            }
+        }
+        slot = asset_.accessors.size();
+        accessor_slot_[a] = slot;
+        slot_base_.push_back(raw_.group.size());
+        append_world(local, to_world, group_of(to_world));
+        asset_.accessors.push_back(std::move(record));
+    }
+    if (prim.mode == kModeTriangles)
+    {
+        add_triangles(prim, mesh, index, slot_base_[slot], asset_.accessors[slot].elements.size());
+    }
+}
+
+void Reader::add_triangles(const tinygltf::Primitive& prim, int mesh, int index, std::size_t base,
+                           std::size_t count)
+{
+    const std::string where = "mesh " + std::to_string(mesh) + " primitive " + std::to_string(index);
+    if (prim.indices < 0)
+    {
+        if (count % 3 != 0)
+        {
+            fail_mesh(path_, where + " has " + std::to_string(count) +
+                                 " non-indexed vertices, not a multiple of 3");
+        }
+        for (std::size_t e = 0; e < count; ++e)
+        {
+            corners_.push_back(base + e);
+        }
+        return;
+    }
+    if (static_cast<std::size_t>(prim.indices) >= model_.accessors.size())
+    {
+        fail(where + " has a missing indices accessor");
+    }
+    const auto& acc = model_.accessors[static_cast<std::size_t>(prim.indices)];
+    const auto component = component_of(acc.componentType);
+    if (acc.type != TINYGLTF_TYPE_SCALAR || !component ||
+        (*component != GltfComponent::UInt8 && *component != GltfComponent::UInt16 &&
+         *component != GltfComponent::UInt32))
+    {
+        fail(where + " has indices that are not unsigned integer scalars");
+    }
+    const auto elements = locate(prim.indices, 1, "indices");
+    if (elements.size() % 3 != 0)
+    {
+        fail_mesh(path_, where + " has " + std::to_string(elements.size()) +
+                             " indices, not a multiple of 3");
+    }
+    const auto type = scalar_of(*component);
+    for (const auto& el : elements)
+    {
+        const std::uint64_t i =
+            el.buffer < 0 ? 0
+                          : static_cast<std::uint64_t>(load_integer(
+                                asset_.buffers[static_cast<std::size_t>(el.buffer)].bytes.data() +
+                                    el.offset,
+                                type, false));
+        if (i >= count)
+        {
+            fail_mesh(path_, where + " has index " + std::to_string(i) + " " + index_range(count));
+        }
+        corners_.push_back(base + i);
+    }
+}
+
+void Reader::add_draco(const tinygltf::Primitive& prim, int mesh, int index,
+                       const Eigen::Matrix4d& to_world)
+{
+    const std::string where = "mesh " + std::to_string(mesh) + " primitive " + std::to_string(index);
+    const auto& ext = prim.extensions.at(kDracoExtension);
+    const auto& view_value = ext.Get("bufferView");
+    const auto& position_value = ext.Get("attributes").Get("POSITION");
+    const auto position = prim.attributes.find("POSITION");
+    if (!view_value.IsInt() || !position_value.IsInt() || position == prim.attributes.end() ||
+        position->second < 0 || static_cast<std::size_t>(position->second) >= model_.accessors.size())
+    {
+        fail(where + " has a " + std::string(kDracoExtension) +
+             " extension without bufferView or POSITION attribute");
+    }
+    const int view_index = view_value.Get<int>();
+    if (view_index < 0 || static_cast<std::size_t>(view_index) >= model_.bufferViews.size())
+    {
+        fail(where + " refers to missing Draco bufferView " + std::to_string(view_index));
+    }
+    std::size_t slot = 0;
+    if (const auto found = draco_slot_.find(view_index); found != draco_slot_.end())
+    {
+        slot = found->second;
+        if (!same_matrix(asset_.draco[slot].to_world, to_world))
+        {
+            return;  // a second instance, see add_plain
+        }
+    }
+    else
+    {
+        const auto& view = model_.bufferViews[static_cast<std::size_t>(view_index)];
+        if (view.buffer < 0 || static_cast<std::size_t>(view.buffer) >= asset_.buffers.size() ||
+            view.byteOffset + view.byteLength >
+                asset_.buffers[static_cast<std::size_t>(view.buffer)].bytes.size())
+        {
+            fail(where + " has a Draco bufferView past the end of its buffer");
+        }
+        GltfDracoPrimitive record;
+        record.mesh = mesh;
+        record.primitive = index;
+        record.buffer_view = view_index;
+        record.position_accessor = position->second;
+        record.position_attribute_id = position_value.Get<int>();
+        record.to_world = to_world;
+        const auto& draco_attributes = ext.Get("attributes").Keys();
+        record.has_foreign_attributes = !prim.targets.empty();
+        for (const auto& [name, accessor] : prim.attributes)
+        {
+            static_cast<void>(accessor);
+            if (std::find(draco_attributes.begin(), draco_attributes.end(), name) ==
+                draco_attributes.end())
+            {
+                record.has_foreign_attributes = true;
+            }
+        }
+        const auto& buffer = asset_.buffers[static_cast<std::size_t>(view.buffer)].bytes;
+        const auto geometry = decode_draco(path_, buffer.substr(view.byteOffset, view.byteLength),
+                                           record.position_attribute_id);
+        std::vector<double> local(geometry.positions.begin(), geometry.positions.end());
+        slot = asset_.draco.size();
+        draco_slot_[view_index] = slot;
+        draco_base_.push_back(raw_.group.size());
+        append_world(local, to_world, group_of(to_world));
+        record.welded.resize(geometry.point_count);
+        asset_.draco.push_back(std::move(record));
+        if (prim.mode == kModeTriangles)
+        {
+            for (const auto c : geometry.triangles)
+            {
+                corners_.push_back(draco_base_[slot] + c);
+            }
+        }
+        return;
+    }
+    // A repeated use under the same transform adds the same triangles again; the Draco data
+    // has one connectivity, so they are already there.
+}
+
+TriangleMesh Reader::weld()
+{
+    const std::size_t n = raw_.group.size();
+    if (n > kMaxVertices)
+    {
+        fail("the asset has more than " + std::to_string(kMaxVertices) + " vertices");
+    }
+    std::vector<std::int32_t> welded(n, -1);
+    std::vector<double> xyz;
+    xyz.reserve(3 * n);
+
+    // Exact welding of bit-identical world positions (seams, parts sharing a transform).
+    struct Key
+    {
+        std::array<std::uint64_t, 3> bits;
+        bool operator==(const Key&) const = default;
+    };
+    struct KeyHash
+    {
+        std::size_t operator()(const Key& k) const noexcept
+        {
+            std::uint64_t h = 0x9e3779b97f4a7c15ULL;
+            for (const auto b : k.bits)
+            {
+                h ^= b + 0x9e3779b97f4a7c15ULL + (h << 6U) + (h >> 2U);
+            }
+            return static_cast<std::size_t>(h);
+        }
+    };
+    const auto key_of = [&](std::size_t i)
+    {
+        Key k{};
+        for (std::size_t d = 0; d < 3; ++d)
+        {
+            const double v = raw_.world[3 * i + d] == 0.0 ? 0.0 : raw_.world[3 * i + d];  // -0 == +0
+            std::memcpy(&k.bits[d], &v, sizeof(double));
+        }
+        return k;
+    };
+    std::unordered_map<Key, std::int32_t, KeyHash> exact;
+    exact.reserve(n);
+
+    // Tolerance welding across different transforms: a hash grid of cell = tolerance, the
+    // 27 cells around a vertex hold every candidate (hand-written: io depends on core only).
+    const bool use_tolerance = groups_.size() > 1;
+    double tolerance = 0.0;
+    if (use_tolerance && n > 0)
+    {
+        Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+        Eigen::Vector3d hi = -lo;
+        for (std::size_t i = 0; i < n; ++i)
+        {
+            const Eigen::Vector3d p(raw_.world[3 * i], raw_.world[3 * i + 1], raw_.world[3 * i + 2]);
+            lo = lo.cwiseMin(p);
+            hi = hi.cwiseMax(p);
+        }
+        tolerance = kCrossTransformWeldRel * (hi - lo).norm();
+    }
+    const bool use_grid = use_tolerance && tolerance > 0.0;
+    const auto cell_of = [&](const double* p)
+    {
+        std::array<std::int64_t, 3> c{};
+        for (std::size_t d = 0; d < 3; ++d)
+        {
+            c[d] = static_cast<std::int64_t>(std::floor(p[d] / tolerance));
+        }
+        return c;
+    };
+    struct CellHash
+    {
+        std::size_t operator()(const std::array<std::int64_t, 3>& c) const noexcept
+        {
+            return static_cast<std::size_t>(static_cast<std::uint64_t>(c[0]) * 73856093ULL ^
+                                            static_cast<std::uint64_t>(c[1]) * 19349663ULL ^
+                                            static_cast<std::uint64_t>(c[2]) * 83492791ULL);
+        }
+    };
+    std::unordered_map<std::array<std::int64_t, 3>, std::vector<std::int32_t>, CellHash> grid;
+    std::unordered_set<std::uint64_t> members;  // welded * groups + group
+    const auto member_key = [&](std::int32_t w, std::int32_t g)
+    { return static_cast<std::uint64_t>(w) * groups_.size() + static_cast<std::uint64_t>(g); };
+
+    for (std::size_t i = 0; i < n; ++i)
+    {
+        const Key key = key_of(i);
+        const double* p = raw_.world.data() + 3 * i;
+        const std::int32_t g = raw_.group[i];
+        if (const auto found = exact.find(key); found != exact.end())
+        {
+            welded[i] = found->second;
+            if (use_grid)
+            {
+                members.insert(member_key(found->second, g));
+            }
+            continue;
+        }
+        std::int32_t best = -1;
+        if (use_grid)
+        {
+            // The nearest welded vertex within tolerance that no vertex of this group joined.
+            const auto c = cell_of(p);
+            double best_d2 = tolerance * tolerance;
+            for (std::int64_t dx = -1; dx <= 1; ++dx)
+            {
+                for (std::int64_t dy = -1; dy <= 1; ++dy)
+                {
+                    for (std::int64_t dz = -1; dz <= 1; ++dz)
+                    {
+                        const auto cell = grid.find({c[0] + dx, c[1] + dy, c[2] + dz});
+                        if (cell == grid.end())
+                        {
+                            continue;
+                        }
+                        for (const auto w : cell->second)
+                        {
+                            const double* q = xyz.data() + 3 * static_cast<std::size_t>(w);
+                            const double d2 = (p[0] - q[0]) * (p[0] - q[0]) +
+                                              (p[1] - q[1]) * (p[1] - q[1]) +
+                                              (p[2] - q[2]) * (p[2] - q[2]);
+                            if ((d2 < best_d2 || (d2 == best_d2 && w < best)) &&
+                                members.count(member_key(w, g)) == 0)
+                            {
+                                best = w;
+                                best_d2 = d2;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        if (best < 0)
+        {
+            best = static_cast<std::int32_t>(xyz.size() / 3);
+            xyz.insert(xyz.end(), {p[0], p[1], p[2]});
+            if (use_grid)
+            {
+                grid[cell_of(p)].push_back(best);
+            }
+        }
+        welded[i] = best;
+        exact.emplace(key, best);
+        if (use_grid)
+        {
+            members.insert(member_key(best, g));
+        }
+    }
+
+    // Hand the welded ids to the layout, then build the mesh.
+    for (std::size_t s = 0; s < asset_.accessors.size(); ++s)
+    {
+        auto& record = asset_.accessors[s];
+        record.welded.assign(welded.begin() + static_cast<std::ptrdiff_t>(slot_base_[s]),
+                             welded.begin() + static_cast<std::ptrdiff_t>(slot_base_[s] +
+                                                                          record.elements.size()));
+    }
+    for (std::size_t s = 0; s < asset_.draco.size(); ++s)
+    {
+        auto& record = asset_.draco[s];
+        const auto first = welded.begin() + static_cast<std::ptrdiff_t>(draco_base_[s]);
+        std::copy(first, first + static_cast<std::ptrdiff_t>(record.welded.size()),
+                  record.welded.begin());
+    }
+    TriangleBuffer triangles;
+    triangles.reserve(corners_.size() / 3);
+    for (std::size_t t = 0; t + 2 < corners_.size(); t += 3)
+    {
+        triangles.push(welded[corners_[t]], welded[corners_[t + 1]], welded[corners_[t + 2]]);
+    }
+    return make_mesh(xyz, triangles);
+}
+
+}  // namespace
+
+double dequantize(double stored, const GltfPositionAccessor& record)
+{
+    if (!record.is_normalized)
+    {
+        return stored;
+    }
+    switch (record.component)
+    {
+        case GltfComponent::Int8:
+            return std::max(stored / 127.0, -1.0);
+        case GltfComponent::UInt8:
+            return stored / 255.0;
+        case GltfComponent::Int16:
+            return std::max(stored / 32767.0, -1.0);
+        case GltfComponent::UInt16:
+            return stored / 65535.0;
+        default:
+            return stored;
+    }
+}
+
+TriangleMesh read_gltf(const fs::path& path, const std::string& bytes, bool is_glb,
+                       GltfAsset& asset)
+{
+    asset.is_glb = is_glb;
+    // The container first (GLB chunks), then tinygltf's parse and buffer loading.
+    if (is_glb)
+    {
+        auto chunks = split_glb(path, bytes);
+        asset.json = std::move(chunks.json);
+        asset.glb_tail = std::move(chunks.tail);
+        asset.glb_has_bin = chunks.has_bin;
+        asset.glb_bin_padding = std::move(chunks.bin);  // trimmed to the padding below
+    }
+    else
+    {
+        asset.json = bytes;
+    }
+    const tinygltf::Model model = load_model(path, bytes, is_glb);
+    asset.buffers.resize(model.buffers.size());
+    for (std::size_t b = 0; b < model.buffers.size(); ++b)
+    {
+        const auto& source = model.buffers[b];
+        auto& buffer = asset.buffers[b];
+        buffer.bytes.assign(source.data.begin(), source.data.end());
+        if (source.uri.empty())
+        {
+            if (!is_glb || b != 0)
+            {
+                fail_io(path, "buffer " + std::to_string(b) + " has no uri");
+            }
+            buffer.source = GltfBufferSource::GlbBinChunk;
+            if (asset.glb_bin_padding.size() < buffer.bytes.size())
+            {
+                fail_io(path, "the GLB BIN chunk is shorter than buffer 0");
+            }
+            asset.glb_bin_padding.erase(0, buffer.bytes.size());
+        }
+        else if (source.uri.rfind("data:", 0) == 0)
+        {
+            buffer.source = GltfBufferSource::DataUri;
+            buffer.uri_prefix = source.uri.substr(0, source.uri.find(',') + 1);
+        }
+        else
+        {
+            buffer.source = GltfBufferSource::External;
+            buffer.file = path.parent_path() / percent_decoded(source.uri);
+        }
+    }
+    Reader reader(path, model, asset);
+    return reader.run();
+}
+
+}  // namespace meshmark::detail

@@ -1,0 +1,586 @@
+// SPDX-License-Identifier: MIT
+// glTF 2.0 / GLB writers. The preserving writer patches position bytes in copies of the
+// original buffers and edits only what positions determine in the JSON (POSITION min/max;
+// for re-encoded Draco data, its bufferView, the views after it and the buffer length):
+// nlohmann::ordered_json keeps every other member, unknown ones included, in its order.
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <optional>
+
+#include <Eigen/LU>
+
+#include "io/detail/gltf.h"
+#include "io/detail/numbers.h"
+#include "io/detail/support.h"
+#include "meshmark/core/atomic_file.h"
+#include "meshmark/core/error.h"
+
+namespace meshmark::detail {
+namespace {
+
+namespace fs = std::filesystem;
+using Json = nlohmann::ordered_json;
+
+constexpr int kFloat = 5126;
+constexpr int kUnsignedInt = 5125;
+constexpr int kArrayBuffer = 34962;
+constexpr int kElementArrayBuffer = 34963;
+constexpr const char* kDracoExtension = "KHR_draco_mesh_compression";
+
+bool is_changed(const Positions& a, const Positions& b, std::int32_t row)
+{
+    return std::memcmp(a.row(row).data(), b.row(row).data(), 3 * sizeof(double)) != 0;
+}
+
+ScalarType scalar_of(GltfComponent c)
+{
+    switch (c)
+    {
+        case GltfComponent::Int8:
+            return ScalarType::Int8;
+        case GltfComponent::UInt8:
+            return ScalarType::UInt8;
+        case GltfComponent::Int16:
+            return ScalarType::Int16;
+        case GltfComponent::UInt16:
+            return ScalarType::UInt16;
+        case GltfComponent::UInt32:
+            return ScalarType::UInt32;
+        default:
+            return ScalarType::Float32;
+    }
+}
+
+// Inverse of dequantize: the stored value for a coordinate (before rounding).
+double quantize(double value, const GltfPositionAccessor& record)
+{
+    if (!record.is_normalized)
+    {
+        return value;
+    }
+    switch (record.component)
+    {
+        case GltfComponent::Int8:
+            return value * 127.0;
+        case GltfComponent::UInt8:
+            return value * 255.0;
+        case GltfComponent::Int16:
+            return value * 32767.0;
+        case GltfComponent::UInt16:
+            return value * 65535.0;
+        default:
+            return value;
+    }
+}
+
+// A float32 bound as the JSON number with the float's shortest digits ("0.1", not
+// "0.10000000149011612"), so readers converting it to float get the exact value back.
+Json float_number(double value)
+{
+    std::string text;
+    append_shortest(text, static_cast<float>(value));
+    double parsed = 0.0;
+    static_cast<void>(parse_double(text, parsed));
+    return Json(parsed);
+}
+
+std::string percent_encoded(const std::string& name)
+{
+    std::string out;
+    for (const char ch : name)
+    {
+        const auto c = static_cast<unsigned char>(ch);
+        if (std::isalnum(c) != 0 || c == '-' || c == '.' || c == '_' || c == '~')
+        {
+            out += ch;
+        }
+        else
+        {
+            constexpr std::string_view kHex = "0123456789ABCDEF";
+            out += '%';
+            out += kHex[c >> 4U];
+            out += kHex[c & 0xfU];
+        }
+    }
+    return out;
+}
+
+class Writer
+{
+public:
+    Writer(const fs::path& path, const GltfAsset& asset, const Positions& original,
+           const Positions& positions)
+        : path_(path), asset_(asset), original_(original), positions_(positions)
+    {
+        for (const auto& b : asset.buffers)
+        {
+            buffers_.push_back(b.bytes);
+        }
+    }
+
+    void run(bool is_glb);
+
+private:
+    Json& doc();
+    void write_accessor(const GltfPositionAccessor& record);
+    void write_draco(const GltfDracoPrimitive& record);
+    void splice(std::int32_t view, const std::string& bytes);
+    void set_bounds(std::int32_t accessor, const std::array<double, 3>& lo,
+                    const std::array<double, 3>& hi, bool is_float);
+    std::vector<std::pair<fs::path, std::string>> external_files();
+    std::string json_text();
+    [[noreturn]] void fail(const std::string& what) const { fail_io(path_, what); }
+
+    const fs::path& path_;
+    const GltfAsset& asset_;
+    const Positions& original_;
+    const Positions& positions_;
+    std::vector<std::string> buffers_;
+    std::optional<Json> doc_;
+    bool is_json_changed_ = false;
+};
+
+Json& Writer::doc()
+{
+    if (!doc_)
+    {
+        try
+        {
+            doc_ = Json::parse(asset_.json);
+        }
+        catch (const Json::exception& e)
+        {
+            fail(std::string("cannot re-parse the glTF JSON: ") + e.what());
+        }
+    }
+    return *doc_;
+}
+
+void Writer::write_accessor(const GltfPositionAccessor& record)
+{
+    const Eigen::Matrix4d to_local = record.to_world.inverse();
+    const auto type = scalar_of(record.component);
+    const std::size_t size = record.component == GltfComponent::Float32 ? 4
+                             : (record.component == GltfComponent::Int16 ||
+                                record.component == GltfComponent::UInt16)
+                                 ? 2
+                                 : 1;
+    bool is_any_changed = false;
+    for (std::size_t e = 0; e < record.elements.size(); ++e)
+    {
+        const std::int32_t w = record.welded[e];
+        if (!is_changed(original_, positions_, w))
+        {
+            continue;
+        }
+        const auto& el = record.elements[e];
+        if (el.buffer < 0)
+        {
+            fail("cannot move vertex " + std::to_string(w) + ": element " + std::to_string(e) +
+                 " of POSITION accessor " + std::to_string(record.accessor) +
+                 " is an implicit zero with no bytes to store a new value in");
+        }
+        const Eigen::Vector4d world(positions_(w, 0), positions_(w, 1), positions_(w, 2), 1.0);
+        const Eigen::Vector4d local = to_local * world;
+        char* p = buffers_[static_cast<std::size_t>(el.buffer)].data() + el.offset;
+        for (std::size_t d = 0; d < 3; ++d)
+        {
+            const double value = quantize(local[static_cast<Eigen::Index>(d)], record);
+            const bool fits = type == ScalarType::Float32
+                                  ? std::isfinite(static_cast<float>(value))
+                                  : true;
+            if (!fits || !store_scalar(p + d * size, type, false, value))
+            {
+                fail("cannot store coordinate " + std::to_string(value) + " of vertex " +
+                     std::to_string(w) + " in POSITION accessor " +
+                     std::to_string(record.accessor) + "'s component type");
+            }
+        }
+        is_any_changed = true;
+    }
+    if (!is_any_changed)
+    {
+        return;
+    }
+    // Bounds of the stored values after sparse substitution, in the component type.
+    std::array<double, 3> lo{};
+    std::array<double, 3> hi{};
+    lo.fill(std::numeric_limits<double>::infinity());
+    hi.fill(-std::numeric_limits<double>::infinity());
+    for (const auto& el : record.elements)
+    {
+        for (std::size_t d = 0; d < 3; ++d)
+        {
+            const double v =
+                el.buffer < 0
+                    ? 0.0
+                    : load_scalar(buffers_[static_cast<std::size_t>(el.buffer)].data() + el.offset +
+                                      d * size,
+                                  type, false);
+            lo[d] = std::min(lo[d], v);
+            hi[d] = std::max(hi[d], v);
+        }
+    }
+    set_bounds(record.accessor, lo, hi, type == ScalarType::Float32);
+}
+
+void Writer::set_bounds(std::int32_t accessor, const std::array<double, 3>& lo,
+                        const std::array<double, 3>& hi, bool is_float)
+{
+    auto& acc = doc()["accessors"][static_cast<std::size_t>(accessor)];
+    for (const auto& [name, values] : {std::pair{"min", &lo}, std::pair{"max", &hi}})
+    {
+        if (!acc.contains(name) || !acc[name].is_array() || acc[name].size() != 3)
+        {
+            continue;  // an absent (or malformed) bound stays as it was
+        }
+        Json bound = Json::array();
+        for (const double v : *values)
+        {
+            bound.push_back(is_float ? float_number(v) : Json(static_cast<std::int64_t>(v)));
+        }
+        bool is_same = true;
+        for (std::size_t d = 0; d < 3; ++d)
+        {
+            is_same = is_same && acc[name][d].is_number() &&
+                      acc[name][d].get<double>() == bound[d].get<double>();
+        }
+        if (!is_same)
+        {
+            acc[name] = std::move(bound);
+            is_json_changed_ = true;
+        }
+    }
+}
+
+void Writer::write_draco(const GltfDracoPrimitive& record)
+{
+    bool is_any_changed = false;
+    for (const auto w : record.welded)
+    {
+        is_any_changed = is_any_changed || is_changed(original_, positions_, w);
+    }
+    if (!is_any_changed)
+    {
+        return;
+    }
+    const auto& view = doc()["bufferViews"][static_cast<std::size_t>(record.buffer_view)];
+    const auto buffer = view["buffer"].get<std::size_t>();
+    const auto offset = view.value("byteOffset", std::uint64_t{0});
+    const auto length = view["byteLength"].get<std::uint64_t>();
+    const std::string old_bytes = buffers_[buffer].substr(offset, length);
+
+    // New local positions of the changed points; the others keep their decoded floats.
+    auto geometry = decode_draco(path_, old_bytes, record.position_attribute_id);
+    const Eigen::Matrix4d to_local = record.to_world.inverse();
+    for (std::size_t i = 0; i < record.welded.size(); ++i)
+    {
+        const std::int32_t w = record.welded[i];
+        if (!is_changed(original_, positions_, w))
+        {
+            continue;
+        }
+        const Eigen::Vector4d local =
+            to_local * Eigen::Vector4d(positions_(w, 0), positions_(w, 1), positions_(w, 2), 1.0);
+        for (std::size_t d = 0; d < 3; ++d)
+        {
+            geometry.positions[3 * i + d] = static_cast<float>(local[static_cast<Eigen::Index>(d)]);
+        }
+    }
+    const std::string new_bytes = reencode_draco(path_, old_bytes, record.position_attribute_id,
+                                                 geometry.positions, record.has_foreign_attributes);
+    splice(record.buffer_view, new_bytes);
+
+    // Point count and position bounds as the new stream decodes.
+    const auto decoded = decode_draco(path_, new_bytes, record.position_attribute_id);
+    std::array<double, 3> lo{};
+    std::array<double, 3> hi{};
+    lo.fill(std::numeric_limits<double>::infinity());
+    hi.fill(-std::numeric_limits<double>::infinity());
+    for (std::size_t k = 0; k < decoded.positions.size(); ++k)
+    {
+        lo[k % 3] = std::min(lo[k % 3], static_cast<double>(decoded.positions[k]));
+        hi[k % 3] = std::max(hi[k % 3], static_cast<double>(decoded.positions[k]));
+    }
+    set_bounds(record.position_accessor, lo, hi, true);
+    const auto& prim = doc()["meshes"][static_cast<std::size_t>(record.mesh)]["primitives"]
+                            [static_cast<std::size_t>(record.primitive)];
+    for (const auto& [name, accessor] : prim["extensions"][kDracoExtension]["attributes"].items())
+    {
+        static_cast<void>(accessor);
+        if (prim["attributes"].contains(name))
+        {
+            auto& acc = doc()["accessors"][prim["attributes"][name].get<std::size_t>()];
+            if (acc.value("count", std::uint64_t{0}) != decoded.point_count)
+            {
+                acc["count"] = decoded.point_count;
+                is_json_changed_ = true;
+            }
+        }
+    }
+}
+
+void Writer::splice(std::int32_t view_index, const std::string& bytes)
+{
+    auto& views = doc()["bufferViews"];
+    auto& view = views[static_cast<std::size_t>(view_index)];
+    const auto buffer = view["buffer"].get<std::size_t>();
+    const auto offset = view.value("byteOffset", std::uint64_t{0});
+    const auto old_length = view["byteLength"].get<std::uint64_t>();
+    // Shift everything after the view by a multiple of 4 so later data keeps its alignment.
+    const auto new_length = static_cast<std::int64_t>(bytes.size());
+    const auto difference = new_length - static_cast<std::int64_t>(old_length);
+    const std::int64_t shift = difference >= 0 ? (difference + 3) / 4 * 4 : -((-difference) / 4 * 4);
+    const auto span = static_cast<std::uint64_t>(static_cast<std::int64_t>(old_length) + shift);
+    for (std::size_t v = 0; v < views.size(); ++v)
+    {
+        auto& other = views[v];
+        if (static_cast<std::int32_t>(v) == view_index || other["buffer"].get<std::size_t>() != buffer)
+        {
+            continue;
+        }
+        const auto o = other.value("byteOffset", std::uint64_t{0});
+        if (o >= offset + old_length)
+        {
+            other["byteOffset"] = static_cast<std::uint64_t>(static_cast<std::int64_t>(o) + shift);
+        }
+        else if (o + other["byteLength"].get<std::uint64_t>() > offset)
+        {
+            fail("bufferView " + std::to_string(v) + " overlaps the Draco data of bufferView " +
+                 std::to_string(view_index) + ", which changes size");
+        }
+    }
+    std::string& data = buffers_[buffer];
+    std::string replaced = bytes;
+    replaced.resize(span, '\0');
+    data.replace(offset, old_length, replaced);
+    view["byteLength"] = bytes.size();
+    doc()["buffers"][buffer]["byteLength"] = data.size();
+    is_json_changed_ = true;
+}
+
+std::vector<std::pair<fs::path, std::string>> Writer::external_files()
+{
+    std::vector<std::size_t> external;
+    for (std::size_t b = 0; b < asset_.buffers.size(); ++b)
+    {
+        if (asset_.buffers[b].source == GltfBufferSource::External)
+        {
+            external.push_back(b);
+        }
+    }
+    std::vector<std::pair<fs::path, std::string>> files;
+    if (external.empty())
+    {
+        return files;
+    }
+    // Names derived from the output; never one of the files the source asset reads.
+    std::string stem = path_.stem().string();
+    const auto name_of = [&](std::size_t k)
+    { return external.size() == 1 ? stem + ".bin" : stem + "_" + std::to_string(k) + ".bin"; };
+    const auto collides = [&]()
+    {
+        for (std::size_t k = 0; k < external.size(); ++k)
+        {
+            const fs::path candidate = path_.parent_path() / name_of(k);
+            for (const auto& b : asset_.buffers)
+            {
+                if (b.source == GltfBufferSource::External && is_same_file(candidate, b.file))
+                {
+                    return true;
+                }
+            }
+        }
+        return false;
+    };
+    while (collides())
+    {
+        stem += "_wm";
+    }
+    for (std::size_t k = 0; k < external.size(); ++k)
+    {
+        const std::string name = name_of(k);
+        doc()["buffers"][external[k]]["uri"] = percent_encoded(name);
+        files.emplace_back(path_.parent_path() / name, buffers_[external[k]]);
+    }
+    is_json_changed_ = true;
+    return files;
+}
+
+std::string Writer::json_text()
+{
+    for (std::size_t b = 0; b < asset_.buffers.size(); ++b)
+    {
+        if (asset_.buffers[b].source == GltfBufferSource::DataUri &&
+            buffers_[b] != asset_.buffers[b].bytes)
+        {
+            doc()["buffers"][b]["uri"] = asset_.buffers[b].uri_prefix + base64_encode(buffers_[b]);
+            is_json_changed_ = true;
+        }
+    }
+    if (!is_json_changed_)
+    {
+        return asset_.json;
+    }
+    // Indented like the source: pretty-printed sources get 2-space indentation back.
+    const bool is_pretty = asset_.json.find('\n') != std::string::npos;
+    try
+    {
+        return is_pretty ? doc().dump(2) : doc().dump();
+    }
+    catch (const Json::exception& e)
+    {
+        fail(std::string("cannot serialize the glTF JSON: ") + e.what());
+    }
+}
+
+void Writer::run(bool is_glb)
+{
+    // Plain accessors first: their byte offsets are those of the original buffers, which
+    // Draco re-encoding may shift.
+    for (const auto& record : asset_.accessors)
+    {
+        write_accessor(record);
+    }
+    for (const auto& record : asset_.draco)
+    {
+        write_draco(record);
+    }
+    const auto files = external_files();
+    std::string main;
+    if (is_glb)
+    {
+        std::string bin;
+        const bool has_bin_buffer =
+            !asset_.buffers.empty() && asset_.buffers[0].source == GltfBufferSource::GlbBinChunk;
+        if (has_bin_buffer)
+        {
+            bin = buffers_[0];
+            if (buffers_[0].size() == asset_.buffers[0].bytes.size())
+            {
+                bin += asset_.glb_bin_padding;
+            }
+        }
+        else
+        {
+            bin = asset_.glb_bin_padding;
+        }
+        main = assemble_glb(path_, json_text(), asset_.glb_has_bin ? &bin : nullptr, asset_.glb_tail);
+    }
+    else
+    {
+        main = json_text();
+    }
+
+    // Buffers beside the output first, then the asset; on failure nothing new is left.
+    std::vector<fs::path> written;
+    try
+    {
+        for (const auto& [file, bytes] : files)
+        {
+            write_file_atomically(file, [&bytes = bytes](std::ostream& out)
+                                  { out.write(bytes.data(), static_cast<std::streamsize>(bytes.size())); });
+            written.push_back(file);
+        }
+        write_file_atomically(path_, [&main](std::ostream& out)
+                              { out.write(main.data(), static_cast<std::streamsize>(main.size())); });
+    }
+    catch (...)
+    {
+        std::error_code ignored;
+        for (const auto& file : written)
+        {
+            fs::remove(file, ignored);
+        }
+        throw;
+    }
+}
+
+}  // namespace
+
+void write_gltf_preserving(const fs::path& path, bool is_glb, const GltfAsset& asset,
+                           const Positions& original, const Positions& positions)
+{
+    Writer writer(path, asset, original, positions);
+    writer.run(is_glb);
+}
+
+std::string gltf_bytes(const TriangleMesh& mesh, bool is_glb)
+{
+    const auto n = static_cast<std::size_t>(mesh.V.rows());
+    const auto f = static_cast<std::size_t>(mesh.F.rows());
+    Json doc;
+    doc["asset"] = {{"version", "2.0"}, {"generator", "meshmark"}};
+    doc["scene"] = 0;
+    if (n == 0)
+    {
+        doc["scenes"] = Json::array({Json::object({{"nodes", Json::array()}})});
+        const std::string text = doc.dump();
+        return is_glb ? assemble_glb("(generated)", text, nullptr, "") : text;
+    }
+    doc["scenes"] = Json::array({{{"nodes", {0}}}});
+    doc["nodes"] = Json::array({{{"mesh", 0}}});
+
+    // One buffer: float32 positions, then uint32 indices (both 4-byte aligned).
+    std::string bin(12 * n + 12 * f, '\0');
+    std::array<double, 3> lo{};
+    std::array<double, 3> hi{};
+    lo.fill(std::numeric_limits<double>::infinity());
+    hi.fill(-std::numeric_limits<double>::infinity());
+    for (std::size_t i = 0; i < n; ++i)
+    {
+        for (std::size_t d = 0; d < 3; ++d)
+        {
+            const float v = static_cast<float>(mesh.V(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(d)));
+            store_float(bin.data() + 12 * i + 4 * d, v, false);
+            lo[d] = std::min(lo[d], static_cast<double>(v));
+            hi[d] = std::max(hi[d], static_cast<double>(v));
+        }
+    }
+    static_assert(sizeof(std::int32_t) == 4);
+    std::memcpy(bin.data() + 12 * n, mesh.F.data(), 12 * f);  // little-endian host assumed
+
+    Json min = Json::array();
+    Json max = Json::array();
+    for (std::size_t d = 0; d < 3; ++d)
+    {
+        min.push_back(float_number(lo[d]));
+        max.push_back(float_number(hi[d]));
+    }
+    Json primitive = {{"attributes", {{"POSITION", 0}}}, {"mode", f > 0 ? 4 : 0}};
+    doc["bufferViews"] = Json::array(
+        {{{"buffer", 0}, {"byteOffset", 0}, {"byteLength", 12 * n}, {"target", kArrayBuffer}}});
+    doc["accessors"] = Json::array({{{"bufferView", 0},
+                                     {"componentType", kFloat},
+                                     {"count", n},
+                                     {"type", "VEC3"},
+                                     {"min", min},
+                                     {"max", max}}});
+    if (f > 0)
+    {
+        primitive["indices"] = 1;
+        doc["bufferViews"].push_back({{"buffer", 0},
+                                      {"byteOffset", 12 * n},
+                                      {"byteLength", 12 * f},
+                                      {"target", kElementArrayBuffer}});
+        doc["accessors"].push_back({{"bufferView", 1},
+                                    {"componentType", kUnsignedInt},
+                                    {"count", 3 * f},
+                                    {"type", "SCALAR"}});
+    }
+    doc["meshes"] = Json::array({{{"primitives", Json::array({primitive})}}});
+    Json buffer = {{"byteLength", bin.size()}};
+    if (!is_glb)
+    {
+        buffer["uri"] = "data:application/octet-stream;base64," + base64_encode(bin);
+    }
+    doc["buffers"] = Json::array({buffer});
+    const std::string text = doc.dump();
+    return is_glb ? assemble_glb("(generated)", text, &bin, "") : text;
+}
+
+}  // namespace meshmark::detail

@@ -1,0 +1,534 @@
+// SPDX-License-Identifier: MIT
+// glTF 2.0 / GLB: world-frame welded reading, and the preserving writer (only position bytes
+// and POSITION min/max change; the result stays a valid asset for tinygltf).
+#include <tiny_gltf.h>
+
+#include <cmath>
+#include <set>
+
+#include <Eigen/Geometry>
+#include <gtest/gtest.h>
+
+#include "gltf_test_support.h"
+#include "meshmark/core/error.h"
+#include "meshmark/io/mesh_io.h"
+
+namespace meshmark {
+namespace {
+
+namespace fs = std::filesystem;
+using test::GltfBuilder;
+using test::Json;
+
+struct Glb
+{
+    Json json;
+    std::string bin;
+};
+
+Glb split(const std::string& bytes)
+{
+    const auto u32 = [&bytes](std::size_t o)
+    {
+        std::uint32_t v = 0;
+        std::memcpy(&v, bytes.data() + o, 4);
+        return v;
+    };
+    const auto json_length = u32(12);
+    Glb glb;
+    glb.json = Json::parse(bytes.substr(20, json_length));
+    const std::size_t bin_at = 20 + json_length;
+    if (bin_at + 8 <= bytes.size())
+    {
+        glb.bin = bytes.substr(bin_at + 8, u32(bin_at));
+    }
+    return glb;
+}
+
+// The unit box [0,1]^3 as 24 corners (4 per face, so every corner appears 3 times, as a
+// glTF exporter writes a box with per-face normals) and 12 triangles.
+void box_faces(std::vector<float>& xyz, std::vector<float>& normals, std::vector<std::uint16_t>& idx,
+               const Eigen::Matrix4d& place)
+{
+    const int axes[6][3] = {{0, 1, 2}, {0, 1, 2}, {1, 2, 0}, {1, 2, 0}, {2, 0, 1}, {2, 0, 1}};
+    for (int f = 0; f < 6; ++f)
+    {
+        const float side = static_cast<float>(f % 2);
+        const auto base = static_cast<std::uint16_t>(xyz.size() / 3);
+        const float uv[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+        for (const auto& c : uv)
+        {
+            float p[3] = {0, 0, 0};
+            p[axes[f][0]] = c[0];
+            p[axes[f][1]] = c[1];
+            p[axes[f][2]] = side;
+            const Eigen::Vector4d q = place * Eigen::Vector4d(p[0], p[1], p[2], 1.0);
+            for (int d = 0; d < 3; ++d)
+            {
+                xyz.push_back(static_cast<float>(q[d]));
+                normals.push_back(d == axes[f][2] ? (side > 0 ? 1.0f : -1.0f) : 0.0f);
+            }
+        }
+        for (const int k : {0, 1, 2, 0, 2, 3})
+        {
+            idx.push_back(static_cast<std::uint16_t>(base + k));
+        }
+    }
+}
+
+// Column-major array of a 4x4 matrix, as glTF stores node.matrix.
+std::vector<double> column_major(const Eigen::Matrix4d& m)
+{
+    return std::vector<double>(m.data(), m.data() + 16);
+}
+
+/// Two boxes sharing the face x = 1 in world space:
+/// - box A (mesh 0): interleaved POSITION+NORMAL (stride 24) plus TEXCOORD_0, under a node
+///   with a matrix (scale 2, translation (1, 0, 0)), so its world box is [1,3]x[0,2]x[0,2];
+/// - box B (mesh 1): packed positions, under a node with TRS (rotation 90 deg about z,
+///   scale 0.5, translation) that is the child of a translated root; its local positions are
+///   the world box [3,5]x[0,2]x[0,2] mapped back through that transform in float32.
+struct TwoBoxes
+{
+    GltfBuilder builder;
+    Eigen::Matrix4d a_to_world;
+    Eigen::Matrix4d b_to_world;
+};
+
+TwoBoxes two_boxes()
+{
+    TwoBoxes t;
+    auto& b = t.builder;
+    Eigen::Affine3d a = Eigen::Affine3d::Identity();
+    a.translate(Eigen::Vector3d(1, 0, 0)).scale(2.0);
+    t.a_to_world = a.matrix();
+
+    // Box A: interleaved position + normal, separate UVs.
+    std::vector<float> xyz;
+    std::vector<float> normals;
+    std::vector<std::uint16_t> idx;
+    box_faces(xyz, normals, idx, Eigen::Matrix4d::Identity());
+    std::vector<float> interleaved;
+    std::vector<float> uvs;
+    for (std::size_t i = 0; i < xyz.size() / 3; ++i)
+    {
+        interleaved.insert(interleaved.end(), {xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2],
+                                               normals[3 * i], normals[3 * i + 1], normals[3 * i + 2]});
+        uvs.insert(uvs.end(), {static_cast<float>(i % 2), static_cast<float>((i / 2) % 2)});
+    }
+    const int view = b.view(GltfBuilder::raw(interleaved), 24);
+    const int pos_a = b.accessor(view, 0, 5126, xyz.size() / 3, "VEC3");
+    b.set_bounds(pos_a, xyz);
+    const int nrm_a = b.accessor(view, 12, 5126, xyz.size() / 3, "VEC3");
+    const int uv_a = b.accessor(b.view(GltfBuilder::raw(uvs)), 0, 5126, uvs.size() / 2, "VEC2");
+    const int idx_a = b.indices(idx);
+    const int mesh_a = b.mesh(Json::array({{{"attributes", {{"POSITION", pos_a}, {"NORMAL", nrm_a}, {"TEXCOORD_0", uv_a}}},
+                                            {"indices", idx_a},
+                                            {"material", 0}}}));
+    b.node({{"name", "A"}, {"mesh", mesh_a}, {"matrix", column_major(t.a_to_world)}});
+
+    // Box B under root R (translation) -> child (TRS).
+    const Eigen::Vector3d root_t(0.5, 0.25, 0.0);
+    const Eigen::Quaterniond q(Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()));
+    const Eigen::Vector3d child_t(2.0, -1.0, 0.0);
+    Eigen::Affine3d bt = Eigen::Affine3d::Identity();
+    bt.translate(root_t).translate(child_t).rotate(q).scale(0.5);
+    t.b_to_world = bt.matrix();
+    Eigen::Affine3d world_box = Eigen::Affine3d::Identity();
+    world_box.translate(Eigen::Vector3d(3, 0, 0)).scale(2.0);
+    std::vector<float> xyz_b;
+    std::vector<float> normals_b;
+    std::vector<std::uint16_t> idx_b;
+    box_faces(xyz_b, normals_b, idx_b, t.b_to_world.inverse() * world_box.matrix());
+    const int pos_b = b.positions(xyz_b);
+    const int mesh_b = b.mesh(Json::array({{{"attributes", {{"POSITION", pos_b}}}, {"indices", b.indices(idx_b)}, {"extras", {{"tag", "b"}}}}}));
+    const int child = b.node({{"name", "B"},
+                              {"mesh", mesh_b},
+                              {"translation", {child_t.x(), child_t.y(), child_t.z()}},
+                              {"rotation", {q.x(), q.y(), q.z(), q.w()}},
+                              {"scale", {0.5, 0.5, 0.5}}},
+                             false);
+    b.node({{"name", "R"}, {"translation", {root_t.x(), root_t.y(), root_t.z()}}, {"children", {child}}});
+    b.doc["extensionsUsed"] = {"EXT_unknown_vendor"};
+    b.doc["extensions"] = {{"EXT_unknown_vendor", {{"keep", {1, 2, 3}}}}};
+    return t;
+}
+
+// Moves every welded vertex by a smooth, vertex-dependent offset.
+Positions displaced(const Positions& V)
+{
+    Positions result = V;
+    for (Eigen::Index i = 0; i < V.rows(); ++i)
+    {
+        result(i, 0) += 0.01 * std::sin(3.0 * V(i, 1));
+        result(i, 1) += 0.02 * std::cos(2.0 * V(i, 2));
+        result(i, 2) += 0.015 * std::sin(V(i, 0));
+    }
+    return result;
+}
+
+// Byte ranges of every POSITION element of the plain accessors in a GLB JSON.
+std::vector<bool> position_bytes(const Json& doc, std::size_t size)
+{
+    std::vector<bool> mask(size, false);
+    std::set<int> position_accessors;
+    for (const auto& mesh : doc["meshes"])
+    {
+        for (const auto& prim : mesh["primitives"])
+        {
+            position_accessors.insert(prim["attributes"]["POSITION"].get<int>());
+        }
+    }
+    for (const int a : position_accessors)
+    {
+        const auto& acc = doc["accessors"][static_cast<std::size_t>(a)];
+        const auto& view = doc["bufferViews"][acc["bufferView"].get<std::size_t>()];
+        const std::size_t stride = view.value("byteStride", std::size_t{12});
+        const std::size_t first = view.value("byteOffset", std::size_t{0}) + acc.value("byteOffset", std::size_t{0});
+        for (std::size_t e = 0; e < acc["count"].get<std::size_t>(); ++e)
+        {
+            for (std::size_t k = 0; k < 12; ++k)
+            {
+                mask[first + e * stride + k] = true;
+            }
+        }
+    }
+    return mask;
+}
+
+Json without_position_bounds(Json doc)
+{
+    for (const auto& mesh : doc["meshes"])
+    {
+        for (const auto& prim : mesh["primitives"])
+        {
+            auto& acc = doc["accessors"][prim["attributes"]["POSITION"].get<std::size_t>()];
+            acc.erase("min");
+            acc.erase("max");
+        }
+    }
+    return doc;
+}
+
+bool tinygltf_reads(const fs::path& path)
+{
+    tinygltf::TinyGLTF loader;
+    tinygltf::Model model;
+    std::string err;
+    std::string warn;
+    const bool ok = path.extension() == ".glb"
+                        ? loader.LoadBinaryFromFile(&model, &err, &warn, path.string())
+                        : loader.LoadASCIIFromFile(&model, &err, &warn, path.string());
+    EXPECT_TRUE(err.empty()) << err;
+    return ok;
+}
+
+class GltfTest : public ::testing::Test
+{
+protected:
+    fs::path dir = test::temp_dir("gltf_test");
+};
+
+TEST_F(GltfTest, reads_world_positions_and_welds_seams_and_touching_parts)
+{
+    const auto t = two_boxes();
+    test::put_bytes(dir / "boxes.glb", t.builder.glb());
+    const MeshFile file = read_mesh_file(dir / "boxes.glb");
+    EXPECT_EQ(file.format, MeshFormat::Glb);
+    // 8 corners of A + 4 new corners of B: the 3 seam copies of each corner and the 4 shared
+    // corners of the touching face (a few float32 ulps apart in world space) are welded.
+    EXPECT_EQ(file.mesh.V.rows(), 12);
+    EXPECT_EQ(file.mesh.F.rows(), 24);
+    EXPECT_NEAR(file.mesh.V.col(0).minCoeff(), 1.0, 1e-6);
+    EXPECT_NEAR(file.mesh.V.col(0).maxCoeff(), 5.0, 1e-6);
+    EXPECT_NEAR(file.mesh.V.col(1).maxCoeff(), 2.0, 1e-6);
+    for (Eigen::Index f = 0; f < file.mesh.F.rows(); ++f)
+    {
+        EXPECT_NE(file.mesh.F(f, 0), file.mesh.F(f, 1));
+        EXPECT_NE(file.mesh.F(f, 1), file.mesh.F(f, 2));
+    }
+}
+
+TEST_F(GltfTest, unchanged_positions_reproduce_glb_and_gltf_byte_for_byte)
+{
+    const auto t = two_boxes();
+    test::put_bytes(dir / "in.glb", t.builder.glb());
+    test::put_bytes(dir / "in.gltf", t.builder.gltf());
+    for (const char* name : {"in.glb", "in.gltf"})
+    {
+        const MeshFile file = read_mesh_file(dir / name);
+        const fs::path out = dir / (std::string("out") + fs::path(name).extension().string());
+        write_mesh_file(out, file, file.mesh.V);
+        EXPECT_EQ(test::file_bytes(out), test::file_bytes(dir / name)) << name;
+    }
+}
+
+TEST_F(GltfTest, changed_positions_change_only_position_bytes_and_bounds)
+{
+    const auto t = two_boxes();
+    test::put_bytes(dir / "in.glb", t.builder.glb());
+    const MeshFile file = read_mesh_file(dir / "in.glb");
+    const Positions moved = displaced(file.mesh.V);
+    write_mesh_file(dir / "out.glb", file, moved);
+    EXPECT_TRUE(tinygltf_reads(dir / "out.glb"));
+
+    const Glb before = split(test::file_bytes(dir / "in.glb"));
+    const Glb after = split(test::file_bytes(dir / "out.glb"));
+    // JSON: equal once the POSITION bounds are left out; the extension/extras survive.
+    EXPECT_EQ(without_position_bounds(after.json), without_position_bounds(before.json));
+    EXPECT_NE(after.json["accessors"][0]["max"], before.json["accessors"][0]["max"]);
+    // Binary: every byte outside the position elements is identical (normals, UVs,
+    // indices, padding); some position bytes changed.
+    ASSERT_EQ(after.bin.size(), before.bin.size());
+    const auto mask = position_bytes(before.json, before.bin.size());
+    std::size_t changed_position_bytes = 0;
+    for (std::size_t k = 0; k < before.bin.size(); ++k)
+    {
+        if (!mask[k])
+        {
+            ASSERT_EQ(after.bin[k], before.bin[k]) << "byte " << k;
+        }
+        else if (after.bin[k] != before.bin[k])
+        {
+            ++changed_position_bytes;
+        }
+    }
+    EXPECT_GT(changed_position_bytes, 0U);
+
+    // Read back: same welded structure (no cracks at seams or between the parts) and the
+    // new positions to float32 precision.
+    const MeshFile again = read_mesh_file(dir / "out.glb");
+    ASSERT_EQ(again.mesh.V.rows(), file.mesh.V.rows());
+    EXPECT_EQ(again.mesh.F, file.mesh.F);
+    EXPECT_LT((again.mesh.V - moved).cwiseAbs().maxCoeff(), 1e-6);
+
+    // Bounds are those of the stored floats.
+    for (const int a : {0, 4})
+    {
+        const auto& acc = after.json["accessors"][static_cast<std::size_t>(a)];
+        ASSERT_EQ(acc["type"], "VEC3");
+        const auto& view = after.json["bufferViews"][acc["bufferView"].get<std::size_t>()];
+        const std::size_t stride = view.value("byteStride", std::size_t{12});
+        const std::size_t first = view.value("byteOffset", std::size_t{0});
+        for (std::size_t d = 0; d < 3; ++d)
+        {
+            float lo = 1e30f;
+            float hi = -1e30f;
+            for (std::size_t e = 0; e < acc["count"].get<std::size_t>(); ++e)
+            {
+                const float v = test::float_at(after.bin, first + e * stride + 4 * d);
+                lo = std::min(lo, v);
+                hi = std::max(hi, v);
+            }
+            EXPECT_EQ(static_cast<float>(acc["min"][d].get<double>()), lo);
+            EXPECT_EQ(static_cast<float>(acc["max"][d].get<double>()), hi);
+        }
+    }
+}
+
+TEST_F(GltfTest, data_uri_gltf_round_trip_keeps_json_and_rewrites_only_the_buffer)
+{
+    const auto t = two_boxes();
+    test::put_bytes(dir / "in.gltf", t.builder.gltf());
+    const MeshFile file = read_mesh_file(dir / "in.gltf");
+    EXPECT_EQ(file.mesh.V.rows(), 12);
+    const Positions moved = displaced(file.mesh.V);
+    write_mesh_file(dir / "out.gltf", file, moved);
+    EXPECT_TRUE(tinygltf_reads(dir / "out.gltf"));
+    auto before = Json::parse(test::file_bytes(dir / "in.gltf"));
+    auto after = Json::parse(test::file_bytes(dir / "out.gltf"));
+    EXPECT_NE(after["buffers"][0]["uri"], before["buffers"][0]["uri"]);
+    EXPECT_EQ(after["buffers"][0]["uri"].get<std::string>().rfind("data:application/octet-stream;base64,", 0), 0U);
+    after["buffers"][0].erase("uri");
+    before["buffers"][0].erase("uri");
+    EXPECT_EQ(without_position_bounds(after), without_position_bounds(before));
+    const MeshFile again = read_mesh_file(dir / "out.gltf");
+    EXPECT_LT((again.mesh.V - moved).cwiseAbs().maxCoeff(), 1e-6);
+}
+
+TEST_F(GltfTest, external_buffer_is_written_beside_the_output_and_the_input_is_untouched)
+{
+    const auto t = two_boxes();
+    fs::create_directories(dir / "src");
+    fs::create_directories(dir / "dst");
+    test::put_bytes(dir / "src" / "scene.gltf", t.builder.gltf("scene data.bin"));
+    test::put_bytes(dir / "src" / "scene data.bin", t.builder.bin);
+    const MeshFile file = read_mesh_file(dir / "src" / "scene.gltf");
+    const Positions moved = displaced(file.mesh.V);
+    write_mesh_file(dir / "dst" / "marked.gltf", file, moved);
+    EXPECT_EQ(test::file_bytes(dir / "src" / "scene data.bin"), t.builder.bin);
+    ASSERT_TRUE(fs::exists(dir / "dst" / "marked.bin"));
+    const auto out = Json::parse(test::file_bytes(dir / "dst" / "marked.gltf"));
+    EXPECT_EQ(out["buffers"][0]["uri"], "marked.bin");
+    EXPECT_TRUE(tinygltf_reads(dir / "dst" / "marked.gltf"));
+    const MeshFile again = read_mesh_file(dir / "dst" / "marked.gltf");
+    EXPECT_LT((again.mesh.V - moved).cwiseAbs().maxCoeff(), 1e-6);
+
+    // In place: the new buffer gets a name that is not the source's buffer file.
+    test::put_bytes(dir / "src" / "scene.bin", t.builder.bin);
+    test::put_bytes(dir / "src" / "s2.gltf", t.builder.gltf("scene.bin"));
+    const MeshFile second = read_mesh_file(dir / "src" / "s2.gltf");
+    write_mesh_file(dir / "src" / "scene.gltf", second, displaced(second.mesh.V));
+    EXPECT_EQ(test::file_bytes(dir / "src" / "scene.bin"), t.builder.bin);
+    EXPECT_EQ(Json::parse(test::file_bytes(dir / "src" / "scene.gltf"))["buffers"][0]["uri"],
+              "scene_wm.bin");
+}
+
+TEST_F(GltfTest, instanced_mesh_is_watermarked_once_through_its_first_instance)
+{
+    GltfBuilder b;
+    std::vector<float> xyz;
+    std::vector<float> normals;
+    std::vector<std::uint16_t> idx;
+    box_faces(xyz, normals, idx, Eigen::Matrix4d::Identity());
+    const int pos = b.positions(xyz);
+    const int mesh = b.mesh(Json::array({{{"attributes", {{"POSITION", pos}}}, {"indices", b.indices(idx)}}}));
+    b.node({{"mesh", mesh}, {"translation", {10.0, 0.0, 0.0}}});
+    b.node({{"mesh", mesh}, {"translation", {-10.0, 0.0, 0.0}}});
+    test::put_bytes(dir / "inst.glb", b.glb());
+    const MeshFile file = read_mesh_file(dir / "inst.glb");
+    ASSERT_EQ(file.mesh.V.rows(), 8);
+    EXPECT_EQ(file.mesh.F.rows(), 12);
+    EXPECT_NEAR(file.mesh.V.col(0).minCoeff(), 10.0, 0.0);
+    Positions moved = file.mesh.V;
+    moved(0, 2) += 0.25;
+    write_mesh_file(dir / "inst_out.glb", file, moved);
+    const MeshFile again = read_mesh_file(dir / "inst_out.glb");
+    EXPECT_LT((again.mesh.V - moved).cwiseAbs().maxCoeff(), 1e-6);
+}
+
+TEST_F(GltfTest, sparse_accessor_positions_are_read_and_written_through)
+{
+    // Base positions in a view; the sparse part replaces elements 1 and 2.
+    GltfBuilder b;
+    const std::vector<float> base{0, 0, 0, 9, 9, 9, 9, 9, 9, 0, 1, 0};
+    const std::vector<float> values{1, 0, 0, 1, 1, 0};
+    const std::vector<std::uint16_t> which{1, 2};
+    const int base_view = b.view(GltfBuilder::raw(base));
+    const int index_view = b.view(GltfBuilder::raw(which));
+    const int value_view = b.view(GltfBuilder::raw(values));
+    const int pos = b.accessor(base_view, 0, 5126, 4, "VEC3");
+    b.doc["accessors"][static_cast<std::size_t>(pos)]["sparse"] = {
+        {"count", 2},
+        {"indices", {{"bufferView", index_view}, {"componentType", 5123}}},
+        {"values", {{"bufferView", value_view}}}};
+    b.set_bounds(pos, {0, 0, 0, 1, 1, 0});
+    const int mesh = b.mesh(Json::array({{{"attributes", {{"POSITION", pos}}}, {"indices", b.indices({0, 1, 2, 0, 2, 3})}}}));
+    b.node({{"mesh", mesh}});
+    test::put_bytes(dir / "sparse.glb", b.glb());
+    const MeshFile file = read_mesh_file(dir / "sparse.glb");
+    ASSERT_EQ(file.mesh.V.rows(), 4);
+    EXPECT_EQ(file.mesh.V(1, 0), 1.0);
+    EXPECT_EQ(file.mesh.V(2, 1), 1.0);
+    Positions moved = file.mesh.V;
+    moved(1, 2) = 0.5;  // a sparse element
+    moved(3, 2) = -0.5;  // a base element
+    write_mesh_file(dir / "sparse_out.glb", file, moved);
+    const Glb after = split(test::file_bytes(dir / "sparse_out.glb"));
+    const Glb before = split(test::file_bytes(dir / "sparse.glb"));
+    // The overridden base element 1 is untouched; the sparse value and base element 3 moved.
+    const auto& views = after.json["bufferViews"];
+    const std::size_t base_at = views[static_cast<std::size_t>(base_view)]["byteOffset"];
+    const std::size_t value_at = views[static_cast<std::size_t>(value_view)]["byteOffset"];
+    EXPECT_EQ(test::float_at(after.bin, base_at + 12 + 8), 9.0f);
+    EXPECT_EQ(test::float_at(after.bin, value_at + 8), 0.5f);
+    EXPECT_EQ(test::float_at(after.bin, base_at + 36 + 8), -0.5f);
+    EXPECT_EQ(after.json["accessors"][static_cast<std::size_t>(pos)]["min"][2], -0.5);
+    EXPECT_EQ(after.json["accessors"][static_cast<std::size_t>(pos)]["max"][2], 0.5);
+    const MeshFile again = read_mesh_file(dir / "sparse_out.glb");
+    EXPECT_EQ(again.mesh.V, moved);
+    EXPECT_TRUE(tinygltf_reads(dir / "sparse_out.glb"));
+    static_cast<void>(before);
+}
+
+TEST_F(GltfTest, quantized_positions_are_dequantized_and_requantized)
+{
+    // KHR_mesh_quantization: normalized int16 positions under a scaling node.
+    GltfBuilder b;
+    const std::vector<std::int16_t> q{0, 0, 0, 32767, 0, 0, 32767, 32767, 0, 0, 32767, 0};
+    const int view = b.view(GltfBuilder::raw(q));
+    const int pos = b.accessor(view, 0, 5122, 4, "VEC3", true);
+    b.doc["accessors"][static_cast<std::size_t>(pos)]["min"] = {0, 0, 0};
+    b.doc["accessors"][static_cast<std::size_t>(pos)]["max"] = {32767, 32767, 0};
+    const int mesh = b.mesh(Json::array({{{"attributes", {{"POSITION", pos}}}, {"indices", b.indices({0, 1, 2, 0, 2, 3})}}}));
+    b.node({{"mesh", mesh}, {"scale", {4.0, 4.0, 4.0}}});
+    b.doc["extensionsUsed"] = {"KHR_mesh_quantization"};
+    b.doc["extensionsRequired"] = {"KHR_mesh_quantization"};
+    test::put_bytes(dir / "q.glb", b.glb());
+    const MeshFile file = read_mesh_file(dir / "q.glb");
+    ASSERT_EQ(file.mesh.V.rows(), 4);
+    EXPECT_DOUBLE_EQ(file.mesh.V(2, 0), 4.0);
+    Positions moved = file.mesh.V;
+    moved(2, 0) = 2.0;
+    moved(0, 2) = -1.0;
+    write_mesh_file(dir / "q_out.glb", file, moved);
+    const MeshFile again = read_mesh_file(dir / "q_out.glb");
+    // One int16 step of a 4-unit normalized range is 4 / 32767.
+    EXPECT_LT((again.mesh.V - moved).cwiseAbs().maxCoeff(), 4.0 / 32767.0);
+    const Glb after = split(test::file_bytes(dir / "q_out.glb"));
+    EXPECT_EQ(after.json["accessors"][static_cast<std::size_t>(pos)]["min"][2], -8192);
+    EXPECT_EQ(after.json["accessors"][static_cast<std::size_t>(pos)]["max"][0], 32767);
+}
+
+TEST_F(GltfTest, generic_writer_makes_valid_glb_and_gltf)
+{
+    TriangleMesh mesh;
+    mesh.V.resize(4, 3);
+    mesh.V << 0, 0, 0, 1, 0, 0, 0, 1, 0, 0.1, 0.2, 1.0 / 3.0;
+    mesh.F.resize(4, 3);
+    mesh.F << 0, 2, 1, 0, 1, 3, 1, 2, 3, 2, 0, 3;
+    for (const char* name : {"w.glb", "w.gltf"})
+    {
+        write_mesh(dir / name, mesh);
+        EXPECT_TRUE(tinygltf_reads(dir / name));
+        const TriangleMesh again = read_mesh(dir / name);
+        EXPECT_EQ(again.F, mesh.F);
+        EXPECT_LT((again.V - mesh.V).cwiseAbs().maxCoeff(), 1e-7);
+    }
+}
+
+TEST_F(GltfTest, hostile_files_fail_with_one_sentence_naming_the_file)
+{
+    const auto t = two_boxes();
+    const std::string glb = t.builder.glb();
+    const auto expect_error = [&](const std::string& name, const std::string& bytes)
+    {
+        test::put_bytes(dir / name, bytes);
+        try
+        {
+            static_cast<void>(read_mesh_file(dir / name));
+            ADD_FAILURE() << name << " was accepted";
+        }
+        catch (const Error& e)
+        {
+            EXPECT_NE(std::string(e.what()).find(name), std::string::npos) << e.what();
+        }
+    };
+    expect_error("truncated.glb", glb.substr(0, glb.size() - 10));
+    expect_error("not.glb", "hello world, this is not binary glTF");
+    expect_error("bad.gltf", "{\"asset\": {\"version\": \"2.0\"}, \"nodes\": [");
+
+    // Index past the end of the positions.
+    GltfBuilder b;
+    const int pos = b.positions({0, 0, 0, 1, 0, 0, 0, 1, 0});
+    b.node({{"mesh", b.mesh(Json::array({{{"attributes", {{"POSITION", pos}}}, {"indices", b.indices({0, 1, 7})}}}))}});
+    expect_error("index.glb", b.glb());
+
+    // A cycle in the node tree.
+    GltfBuilder c;
+    const int p2 = c.positions({0, 0, 0, 1, 0, 0, 0, 1, 0});
+    const int m2 = c.mesh(Json::array({{{"attributes", {{"POSITION", p2}}}}}));
+    c.node({{"mesh", m2}, {"children", {1}}});
+    c.node({{"children", {0}}}, false);
+    expect_error("cycle.glb", c.glb());
+
+    // An accessor reaching past its bufferView.
+    GltfBuilder d;
+    const int p3 = d.positions({0, 0, 0, 1, 0, 0, 0, 1, 0});
+    d.doc["accessors"][static_cast<std::size_t>(p3)]["count"] = 300;
+    d.node({{"mesh", d.mesh(Json::array({{{"attributes", {{"POSITION", p3}}}}}))}});
+    expect_error("overrun.glb", d.glb());
+}
+
+}  // namespace
+}  // namespace meshmark

@@ -1,0 +1,209 @@
+// SPDX-License-Identifier: MIT
+// Builds small glTF assets for the io tests: one binary buffer, accessors, meshes and nodes,
+// saved as .glb, as .gltf with a data: URI, or as .gltf with an external .bin.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "io_test_support.h"
+
+namespace meshmark::test {
+
+using Json = nlohmann::ordered_json;
+
+inline std::string base64(const std::string& bytes)
+{
+    static const char* kAlphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    std::string out;
+    std::size_t i = 0;
+    for (; i + 2 < bytes.size(); i += 3)
+    {
+        const auto v = (static_cast<unsigned>(static_cast<unsigned char>(bytes[i])) << 16U) |
+                       (static_cast<unsigned>(static_cast<unsigned char>(bytes[i + 1])) << 8U) |
+                       static_cast<unsigned>(static_cast<unsigned char>(bytes[i + 2]));
+        for (int s = 18; s >= 0; s -= 6)
+        {
+            out += kAlphabet[(v >> static_cast<unsigned>(s)) & 63U];
+        }
+    }
+    if (i < bytes.size())
+    {
+        auto v = static_cast<unsigned>(static_cast<unsigned char>(bytes[i])) << 16U;
+        if (i + 1 < bytes.size())
+        {
+            v |= static_cast<unsigned>(static_cast<unsigned char>(bytes[i + 1])) << 8U;
+        }
+        out += kAlphabet[(v >> 18U) & 63U];
+        out += kAlphabet[(v >> 12U) & 63U];
+        out += i + 1 < bytes.size() ? kAlphabet[(v >> 6U) & 63U] : '=';
+        out += '=';
+    }
+    return out;
+}
+
+/// A glTF asset under construction: JSON plus one binary buffer.
+struct GltfBuilder
+{
+    Json doc = Json::object();
+    std::string bin;
+
+    GltfBuilder()
+    {
+        doc["asset"] = {{"version", "2.0"}, {"generator", "meshmark tests"}, {"extras", {{"k", 1}}}};
+        doc["scene"] = 0;
+        doc["scenes"] = Json::array({Json::object({{"nodes", Json::array()}})});
+        doc["nodes"] = Json::array();
+        doc["meshes"] = Json::array();
+        doc["accessors"] = Json::array();
+        doc["bufferViews"] = Json::array();
+        doc["materials"] = Json::array({{{"name", "red"}, {"pbrMetallicRoughness", {{"baseColorFactor", {1, 0, 0, 1}}}}}});
+    }
+
+    void align()
+    {
+        while (bin.size() % 4 != 0)
+        {
+            bin.push_back('\0');
+        }
+    }
+
+    /// Append raw bytes as a new bufferView; returns its index.
+    int view(const std::string& bytes, int stride = 0)
+    {
+        align();
+        Json v = {{"buffer", 0}, {"byteOffset", bin.size()}, {"byteLength", bytes.size()}};
+        if (stride > 0)
+        {
+            v["byteStride"] = stride;
+        }
+        bin += bytes;
+        doc["bufferViews"].push_back(v);
+        return static_cast<int>(doc["bufferViews"].size() - 1);
+    }
+
+    template <typename T>
+    static std::string raw(const std::vector<T>& values)
+    {
+        std::string s(values.size() * sizeof(T), '\0');
+        std::memcpy(s.data(), values.data(), s.size());
+        return s;
+    }
+
+    int accessor(int view_index, std::size_t offset, int component, std::size_t count,
+                 const char* type, bool normalized = false)
+    {
+        Json a = {{"bufferView", view_index}, {"byteOffset", offset}, {"componentType", component},
+                  {"count", count}, {"type", type}};
+        if (normalized)
+        {
+            a["normalized"] = true;
+        }
+        doc["accessors"].push_back(a);
+        return static_cast<int>(doc["accessors"].size() - 1);
+    }
+
+    /// A float VEC3 accessor in its own tightly packed view, with min/max.
+    int positions(const std::vector<float>& xyz)
+    {
+        const int a = accessor(view(raw(xyz)), 0, 5126, xyz.size() / 3, "VEC3");
+        set_bounds(a, xyz);
+        return a;
+    }
+
+    void set_bounds(int a, const std::vector<float>& xyz)
+    {
+        std::array<float, 3> lo{1e30f, 1e30f, 1e30f};
+        std::array<float, 3> hi{-1e30f, -1e30f, -1e30f};
+        for (std::size_t k = 0; k < xyz.size(); ++k)
+        {
+            lo[k % 3] = std::min(lo[k % 3], xyz[k]);
+            hi[k % 3] = std::max(hi[k % 3], xyz[k]);
+        }
+        doc["accessors"][static_cast<std::size_t>(a)]["min"] = lo;
+        doc["accessors"][static_cast<std::size_t>(a)]["max"] = hi;
+    }
+
+    int indices(const std::vector<std::uint16_t>& values)
+    {
+        return accessor(view(raw(values)), 0, 5123, values.size(), "SCALAR");
+    }
+
+    int mesh(const Json& primitives)
+    {
+        doc["meshes"].push_back({{"primitives", primitives}});
+        return static_cast<int>(doc["meshes"].size() - 1);
+    }
+
+    int node(Json node_json, bool is_root = true)
+    {
+        doc["nodes"].push_back(std::move(node_json));
+        const int n = static_cast<int>(doc["nodes"].size() - 1);
+        if (is_root)
+        {
+            doc["scenes"][0]["nodes"].push_back(n);
+        }
+        return n;
+    }
+
+    [[nodiscard]] std::string glb() const
+    {
+        Json d = doc;
+        std::string b = bin;
+        while (b.size() % 4 != 0)
+        {
+            b.push_back('\0');
+        }
+        d["buffers"] = Json::array({{{"byteLength", bin.size()}}});
+        std::string json = d.dump();
+        while (json.size() % 4 != 0)
+        {
+            json.push_back(' ');
+        }
+        std::string out;
+        const auto u32 = [&out](std::uint32_t v)
+        {
+            for (unsigned s = 0; s < 32; s += 8)
+            {
+                out.push_back(static_cast<char>((v >> s) & 0xffU));
+            }
+        };
+        u32(0x46546C67U);
+        u32(2);
+        u32(static_cast<std::uint32_t>(12 + 8 + json.size() + 8 + b.size()));
+        u32(static_cast<std::uint32_t>(json.size()));
+        u32(0x4E4F534AU);
+        out += json;
+        u32(static_cast<std::uint32_t>(b.size()));
+        u32(0x004E4942U);
+        out += b;
+        return out;
+    }
+
+    /// .gltf text with the buffer as a data: URI, or as \p bin_name beside it.
+    [[nodiscard]] std::string gltf(const std::string& bin_name = "") const
+    {
+        Json d = doc;
+        d["buffers"] = Json::array(
+            {{{"byteLength", bin.size()},
+              {"uri", bin_name.empty() ? "data:application/octet-stream;base64," + base64(bin)
+                                       : bin_name}}});
+        return d.dump(2);
+    }
+};
+
+/// Little-endian float32 at byte \p offset of \p bytes.
+inline float float_at(const std::string& bytes, std::size_t offset)
+{
+    float v = 0.0f;
+    std::memcpy(&v, bytes.data() + offset, sizeof(float));
+    return v;
+}
+
+}  // namespace meshmark::test
