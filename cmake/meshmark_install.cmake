@@ -1,0 +1,93 @@
+# SPDX-License-Identifier: MIT
+# Installation and the CMake package: `find_package(meshmark CONFIG REQUIRED)` gives
+# meshmark::meshmark (every module) and meshmark::<module> (one module and what it needs).
+include(GNUInstallDirs)
+include(CMakePackageConfigHelpers)
+
+set(MESHMARK_INSTALL_CMAKEDIR "${CMAKE_INSTALL_LIBDIR}/cmake/meshmark" CACHE STRING
+    "Where the meshmark CMake package is installed, relative to the prefix")
+
+# The packages the exported targets name: a static library carries its PRIVATE dependencies
+# to the consumer's link line as $<LINK_ONLY:pkg::target>, so the consumer must find them too.
+# Each namespace becomes one find_dependency() call; the arguments below are the ones the
+# project itself uses, any other namespace is looked up as a package of the same name.
+function(meshmark_package_dependencies targets out_var)
+  set(namespaces "")
+  foreach(target IN LISTS targets)
+    get_target_property(libraries ${target} INTERFACE_LINK_LIBRARIES)
+    if(NOT libraries)
+      continue()
+    endif()
+    string(REGEX MATCHALL "[A-Za-z0-9_]+::" found "${libraries}")
+    list(APPEND namespaces ${found})
+  endforeach()
+  list(REMOVE_DUPLICATES namespaces)
+  list(SORT namespaces)
+  set(calls "")
+  foreach(namespace IN LISTS namespaces)
+    string(REPLACE "::" "" package "${namespace}")
+    if(package STREQUAL "meshmark")
+      continue()
+    elseif(package STREQUAL "Eigen3")
+      set(call "find_dependency(Eigen3 3.4 NO_MODULE)")
+    elseif(package STREQUAL "OpenMP")
+      set(call "find_dependency(OpenMP COMPONENTS CXX)")
+    elseif(package STREQUAL "nlohmann_json")
+      set(call "find_dependency(nlohmann_json 3.10)")
+    elseif(package STREQUAL "meshoptimizer")
+      set(call "find_dependency(meshoptimizer CONFIG)")
+    else()
+      set(call "find_dependency(${package})")
+    endif()
+    string(APPEND calls "${call}\n")
+  endforeach()
+  set(${out_var} "${calls}" PARENT_SCOPE)
+endfunction()
+
+# Install the headers, the module libraries, the umbrella target and the package files.
+# \p modules: the module names built in this tree (targets meshmark_<module>).
+function(meshmark_install modules)
+  set(targets meshmark)
+  set(built "")
+  foreach(module IN LISTS modules)
+    if(TARGET meshmark_${module})
+      list(APPEND targets meshmark_${module})
+      list(APPEND built ${module})
+      set_target_properties(meshmark_${module} PROPERTIES EXPORT_NAME ${module})
+    endif()
+  endforeach()
+
+  install(DIRECTORY ${PROJECT_SOURCE_DIR}/include/meshmark
+          DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}
+          COMPONENT meshmark_development
+          FILES_MATCHING PATTERN "*.h")
+  install(TARGETS ${targets}
+          EXPORT meshmarkTargets
+          ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT meshmark_development
+          LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT meshmark_development)
+  install(EXPORT meshmarkTargets
+          NAMESPACE meshmark::
+          DESTINATION ${MESHMARK_INSTALL_CMAKEDIR}
+          COMPONENT meshmark_development)
+
+  meshmark_package_dependencies("${targets}" MESHMARK_FIND_DEPENDENCIES)
+  set(MESHMARK_EXPORTED_MODULES "${built}")
+  configure_package_config_file(
+    ${PROJECT_SOURCE_DIR}/cmake/meshmarkConfig.cmake.in
+    ${PROJECT_BINARY_DIR}/meshmarkConfig.cmake
+    INSTALL_DESTINATION ${MESHMARK_INSTALL_CMAKEDIR})
+  # 0.x: a minor release may break the API, so only the same major.minor is compatible.
+  write_basic_package_version_file(
+    ${PROJECT_BINARY_DIR}/meshmarkConfigVersion.cmake
+    VERSION ${PROJECT_VERSION}
+    COMPATIBILITY SameMinorVersion)
+  install(FILES ${PROJECT_BINARY_DIR}/meshmarkConfig.cmake
+                ${PROJECT_BINARY_DIR}/meshmarkConfigVersion.cmake
+          DESTINATION ${MESHMARK_INSTALL_CMAKEDIR}
+          COMPONENT meshmark_development)
+
+  # The program, when it is built.
+  if(TARGET meshmark_cli)
+    install(TARGETS meshmark_cli RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT meshmark_runtime)
+  endif()
+endfunction()
