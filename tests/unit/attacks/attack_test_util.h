@@ -11,14 +11,19 @@
 
 namespace meshmark::test {
 
+/// True when \p size bytes at \p a and \p b are equal; an empty range is equal even when its
+/// data() is null (memcmp on a null pointer is undefined behaviour, even for 0 bytes).
+inline bool same_bytes(const void* a, const void* b, std::size_t size)
+{
+    return size == 0 || std::memcmp(a, b, size) == 0;
+}
+
 /// True when both meshes have the same shape and bit-identical positions and faces.
 inline bool bit_identical(const TriangleMesh& a, const TriangleMesh& b)
 {
     return a.V.rows() == b.V.rows() && a.F.rows() == b.F.rows() &&
-           std::memcmp(a.V.data(), b.V.data(), sizeof(double) * static_cast<std::size_t>(a.V.size())) ==
-               0 &&
-           std::memcmp(a.F.data(), b.F.data(),
-                       sizeof(std::int32_t) * static_cast<std::size_t>(a.F.size())) == 0;
+           same_bytes(a.V.data(), b.V.data(), sizeof(double) * static_cast<std::size_t>(a.V.size())) &&
+           same_bytes(a.F.data(), b.F.data(), sizeof(std::int32_t) * static_cast<std::size_t>(a.F.size()));
 }
 
 /// Mean distance of the vertices to the origin.
