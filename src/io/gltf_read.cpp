@@ -3,6 +3,7 @@
 // this file walks the scene graph, locates every POSITION element's bytes (strides, sparse
 // substitution, KHR_mesh_quantization types), decodes Draco primitives, and welds coincident
 // world-space vertices into one mesh.
+#include <nlohmann/json.hpp>
 #include <tiny_gltf.h>
 
 #include <algorithm>
@@ -80,8 +81,57 @@ std::string first_line(const std::string& text)
     return line.empty() ? std::string("no reason given") : line;
 }
 
-tinygltf::Model load_model(const fs::path& path, const std::string& bytes, bool is_glb)
+// tinygltf 2.7 (built without Draco) rejects an indices accessor without bufferView, which
+// is how every Draco primitive declares its indices; the copy it validates leaves those
+// out (the triangles come from the Draco data anyway).
+std::string without_draco_indices(const fs::path& path, const std::string& json)
 {
+    using Json = nlohmann::ordered_json;
+    Json doc;
+    try
+    {
+        doc = Json::parse(json);
+        if (!doc.is_object() || !doc.contains("meshes") || !doc["meshes"].is_array())
+        {
+            return json;
+        }
+        for (auto& mesh : doc["meshes"])
+        {
+            if (!mesh.is_object() || !mesh.contains("primitives") || !mesh["primitives"].is_array())
+            {
+                continue;
+            }
+            for (auto& prim : mesh["primitives"])
+            {
+                if (prim.is_object() && prim.contains("extensions") && prim["extensions"].is_object() &&
+                    prim["extensions"].contains(kDracoExtension))
+                {
+                    prim.erase("indices");
+                }
+            }
+        }
+        return doc.dump();
+    }
+    catch (const Json::exception& e)
+    {
+        fail_io(path, std::string("not a valid glTF 2.0 asset: ") + e.what());
+    }
+}
+
+tinygltf::Model load_model(const fs::path& path, const std::string& file_bytes,
+                           const std::string& json, bool is_glb)
+{
+    std::string patched;
+    if (json.find(kDracoExtension) != std::string::npos)
+    {
+        patched = without_draco_indices(path, json);
+        if (is_glb)
+        {
+            const auto chunks = split_glb(path, file_bytes);
+            patched = assemble_glb(path, patched, chunks.has_bin ? &chunks.bin : nullptr, chunks.tail);
+        }
+    }
+    const std::string& bytes = patched.empty() ? file_bytes : patched;
     if (bytes.size() > UINT_MAX)
     {
         fail_io(path, "the file is larger than 4 GiB, which glTF loaders do not support");
@@ -904,7 +954,7 @@ TriangleMesh read_gltf(const fs::path& path, const std::string& bytes, bool is_g
     {
         asset.json = bytes;
     }
-    const tinygltf::Model model = load_model(path, bytes, is_glb);
+    const tinygltf::Model model = load_model(path, bytes, asset.json, is_glb);
     asset.buffers.resize(model.buffers.size());
     for (std::size_t b = 0; b < model.buffers.size(); ++b)
     {
