@@ -1,0 +1,115 @@
+// SPDX-License-Identifier: MIT
+// End to end through the pipeline: embed into a two-part GLB whose parts sit under different
+// node transforms, move the whole asset by a similarity, detect.
+#include <cmath>
+
+#include <Eigen/Geometry>
+#include <gtest/gtest.h>
+
+#include "gltf_test_support.h"
+#include "meshmark/geometry/shapes.h"
+#include "meshmark/io/mesh_io.h"
+#include "meshmark/pipeline/detect_file.h"
+#include "meshmark/pipeline/embed_file.h"
+
+namespace meshmark {
+namespace {
+
+namespace fs = std::filesystem;
+using test::GltfBuilder;
+using test::Json;
+
+// The lumpy ellipsoid cut in two by the plane x = 0: each half is one primitive of its own
+// mesh, stored in its node's local frame (float32), so the cut vertices appear in both parts
+// and meet again in world space only to float32 precision.
+std::string two_part_glb(const TriangleMesh& shape)
+{
+    Eigen::Affine3d t0 = Eigen::Affine3d::Identity();
+    t0.translate(Eigen::Vector3d(0.3, -0.2, 0.1)).rotate(Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()));
+    Eigen::Affine3d t1 = Eigen::Affine3d::Identity();
+    t1.translate(Eigen::Vector3d(-1.0, 0.5, 2.0)).scale(1.5);
+    const std::array<Eigen::Matrix4d, 2> to_world{t0.matrix(), t1.matrix()};
+    GltfBuilder b;
+    for (int part = 0; part < 2; ++part)
+    {
+        std::vector<std::int32_t> local_of(static_cast<std::size_t>(shape.V.rows()), -1);
+        std::vector<float> xyz;
+        std::vector<std::uint16_t> idx;
+        const Eigen::Matrix4d to_local = to_world[static_cast<std::size_t>(part)].inverse();
+        for (Eigen::Index f = 0; f < shape.F.rows(); ++f)
+        {
+            const double cx = (shape.V(shape.F(f, 0), 0) + shape.V(shape.F(f, 1), 0) + shape.V(shape.F(f, 2), 0)) / 3;
+            if ((cx < 0.0) != (part == 0))
+            {
+                continue;
+            }
+            for (Eigen::Index c = 0; c < 3; ++c)
+            {
+                const auto v = static_cast<std::size_t>(shape.F(f, c));
+                if (local_of[v] < 0)
+                {
+                    local_of[v] = static_cast<std::int32_t>(xyz.size() / 3);
+                    const Eigen::Vector4d p = to_local * Eigen::Vector4d(shape.V(static_cast<Eigen::Index>(v), 0), shape.V(static_cast<Eigen::Index>(v), 1), shape.V(static_cast<Eigen::Index>(v), 2), 1.0);
+                    xyz.insert(xyz.end(), {static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z())});
+                }
+                idx.push_back(static_cast<std::uint16_t>(local_of[v]));
+            }
+        }
+        const int pos = b.positions(xyz);
+        const int mesh = b.mesh(Json::array({{{"attributes", {{"POSITION", pos}}}, {"indices", b.indices(idx)}}}));
+        const auto& m = to_world[static_cast<std::size_t>(part)];
+        b.node({{"mesh", mesh}, {"matrix", std::vector<double>(m.data(), m.data() + 16)}});
+    }
+    return b.glb();
+}
+
+TEST(GltfPipelineTest, two_part_glb_detects_after_a_similarity_of_the_whole_asset)
+{
+    const fs::path dir = test::temp_dir("gltf_pipeline_test");
+    const TriangleMesh shape = lumpy_ellipsoid(4);
+    test::put_bytes(dir / "asset.glb", two_part_glb(shape));
+    const MeshFile original = read_mesh_file(dir / "asset.glb");
+    // The two halves weld back into the closed surface.
+    ASSERT_EQ(original.mesh.V.rows(), shape.V.rows());
+
+    EmbedFileOptions options;
+    options.seed = 7;
+    options.message = "glTF";
+    options.threads = 1;
+    // Spread over 4 coefficients per bit: with r = 1 (24 coefficients) the score of even an
+    // intact mark stays below the default 1e-6 false-positive bound.
+    options.embed.repetitions = 4;
+    const auto report = embed_file(dir / "asset.glb", dir / "marked.glb", dir / "key.json", options);
+    EXPECT_EQ(report.output_format, MeshFormat::Glb);
+
+    // The whole asset rotated, scaled and moved (every accessor's positions).
+    Eigen::Affine3d s = Eigen::Affine3d::Identity();
+    s.translate(Eigen::Vector3d(5, -3, 1)).rotate(Eigen::AngleAxisd(1.1, Eigen::Vector3d(0.2, 1, -0.4).normalized())).scale(2.5);
+    const auto moved = [&s](const MeshFile& file)
+    {
+        Positions V = file.mesh.V;
+        for (Eigen::Index i = 0; i < V.rows(); ++i)
+        {
+            V.row(i) = (s * Eigen::Vector3d(V.row(i).transpose())).transpose();
+        }
+        return V;
+    };
+    const MeshFile marked = read_mesh_file(dir / "marked.glb");
+    ASSERT_EQ(marked.mesh.V.rows(), original.mesh.V.rows());
+    write_mesh_file(dir / "suspect.glb", marked, moved(marked));
+    write_mesh_file(dir / "clean.glb", original, moved(original));
+
+    DetectFileOptions detect;
+    detect.threads = 1;
+    const auto found = detect_file(dir / "suspect.glb", dir / "asset.glb", dir / "key.json", detect);
+    EXPECT_TRUE(found.decision.is_present)
+        << "R " << found.decision.correlation << " z " << found.decision.score << " matches "
+        << found.decision.matches << "/" << found.decision.bit_count << " alignment "
+        << found.alignment << " rms " << found.registration_rms;
+    EXPECT_EQ(found.decision.matches, found.decision.bit_count);
+    const auto clean = detect_file(dir / "clean.glb", dir / "asset.glb", dir / "key.json", detect);
+    EXPECT_FALSE(clean.decision.is_present);
+}
+
+}  // namespace
+}  // namespace meshmark
