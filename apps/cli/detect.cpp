@@ -20,6 +20,7 @@ struct DetectArgs
     std::string pairs;
     bool json = false;
     bool no_register = false;
+    std::string verdict = "correlation";
     DetectOptions decision;
 };
 
@@ -37,6 +38,7 @@ int run_detect(const DetectArgs& args, const GlobalArgs& global)
 {
     DetectFileOptions options;
     options.decision = args.decision;
+    options.decision.verdict = parse_verdict_rule(args.verdict);
     options.threads = global.threads;
     options.allow_registration = !args.no_register;
     if (!args.pairs.empty())
@@ -48,14 +50,20 @@ int run_detect(const DetectArgs& args, const GlobalArgs& global)
     const Decision& d = report.decision;
     if (args.json)
     {
-        print_json({{"detected", d.is_present},
+        nlohmann::json out = {{"detected", d.is_present},
                     {"correlation", d.correlation},
                     {"matches", d.matches},
                     {"bit_count", d.bit_count},
                     {"threshold", args.decision.threshold},
+                    {"verdict", to_string(d.verdict)},
+                    {"score", d.score},
+                    {"coefficient_count", d.coefficient_count},
+                    {"max_false_positive_probability", args.decision.max_false_positive},
                     {"bits_expected", d.bits_expected},
                     {"bits_found", d.bits_found},
                     {"false_positive_probability", d.false_positive_probability},
+                    {"score_false_positive_probability", d.score_false_positive_probability},
+                    {"bits_false_positive_probability", d.bits_false_positive_probability},
                     {"cropped_fraction", report.cropped_fraction},
                     {"registration",
                      {{"method", report.alignment},
@@ -63,13 +71,22 @@ int run_detect(const DetectArgs& args, const GlobalArgs& global)
                       {"transform", transform_json(report.transform)}}},
                     {"suspect_vertices", report.suspect_vertices},
                     {"original_vertices", report.original_vertices},
-                    {"seconds", to_json(report.seconds)}});
+                    {"seconds", to_json(report.seconds)}};
+        if (global.verbose)
+        {
+            out["normalized_change"] = report.extraction.normalized_change;
+            out["coefficient_weights"] = report.extraction.weights;
+            out["bit_values"] = report.extraction.bit_values;
+        }
+        print_json(out);
     }
     else
     {
-        std::printf("%s: watermark %s, R = %.3f (%d of %d bits), false-positive probability %s\n",
-                    args.suspect.c_str(), d.is_present ? "FOUND" : "not found", d.correlation,
-                    d.matches, d.bit_count, format_number(d.false_positive_probability).c_str());
+        std::printf("%s: watermark %s, z = %.2f over %d coefficients, R = %.3f (%d of %d bits), "
+                    "false-positive probability %s\n",
+                    args.suspect.c_str(), d.is_present ? "FOUND" : "not found", d.score,
+                    d.coefficient_count, d.correlation, d.matches, d.bit_count,
+                    format_number(d.false_positive_probability).c_str());
         if (global.verbose)
         {
             std::printf("  expected %s\n  found    %s\n  alignment %s, RMS distance %s of the diagonal, "
@@ -92,15 +109,29 @@ void register_detect(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
         "Look for the watermark of KEY in SUSPECT (non-blind: needs the original). A suspect that "
         "keeps the original's vertices in order (noise, smoothing, quantization, any similarity) "
         "is compared vertex for vertex; any other (reordered, simplified, remeshed, subdivided, "
-        "cropped, a point cloud) is registered onto the watermarked mesh automatically and "
-        "resampled. Exit code 0 when the watermark is found, 1 when it is not, >= 2 on errors.");
+        "cropped, a point cloud) is registered onto the original automatically and resampled. "
+        "The default verdict correlates every modulated coefficient with the key's signs and "
+        "claims ownership only when the probability that an unmarked mesh scores as high is "
+        "at most --max-fpp (a bound that holds whatever the mesh: docs/statistics.md); "
+        "--verdict bits is the paper's rule (R >= --threshold). "
+        "Exit code 0 when the watermark is found, 1 when it is not, >= 2 on errors.");
     command->add_option("SUSPECT", args->suspect, "Suspect mesh")->required()->check(CLI::ExistingFile);
     command->add_option("--original", args->original, "The original (unmarked) mesh the key was made for")
         ->required()
         ->check(CLI::ExistingFile);
     command->add_option("--key", args->key, "Key file written by embed")->required()->check(CLI::ExistingFile);
+    command->add_option("--verdict", args->verdict,
+                        "correlation: soft correlation of all modulated coefficients, claim when the "
+                        "false-positive bound <= --max-fpp; bits: the paper's rule, claim when "
+                        "R >= --threshold")
+        ->check(CLI::IsMember({"correlation", "bits"}))
+        ->capture_default_str();
+    command->add_option("--max-fpp", args->decision.max_false_positive,
+                        "Correlation verdict: largest false-positive probability at which ownership "
+                        "is claimed")
+        ->capture_default_str();
     command->add_option("--threshold", args->decision.threshold,
-                        "Claim ownership when R (fraction of payload bits read back) >= this")
+                        "Bits verdict: claim ownership when R (fraction of payload bits read back) >= this")
         ->capture_default_str();
     command->add_option("--epsilon", args->decision.epsilon,
                         "Undecided band around zero change, as a fraction of the modulation")
@@ -113,8 +144,10 @@ void register_detect(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
                       "Only accept a suspect whose vertices correspond to the original's, in order "
                       "(no registration or resampling)");
     command->add_flag("--json", args->json,
-                      "Print one JSON object: detected, correlation, bits_expected, bits_found, "
-                      "false_positive_probability, cropped_fraction, registration, seconds");
+                      "Print one JSON object: detected, verdict, score, correlation, bits_expected, "
+                      "bits_found, false_positive_probability (of the verdict used; also "
+                      "score_ and bits_false_positive_probability), cropped_fraction, "
+                      "registration, seconds");
     add_global_flags(*command, global);
     command->callback([args, &global, &runner]() {
         runner = [args, &global]() { return run_detect(*args, global); };

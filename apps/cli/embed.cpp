@@ -102,6 +102,7 @@ int run_embed(const EmbedArgs& args, const GlobalArgs& global)
                     {"strength", report.key.options.strength},
                     {"basis_size", report.key.options.basis_size},
                     {"coefficients", report.key.options.coefficients},
+                    {"repetitions", report.key.options.repetitions},
                     {"bits", to_bit_string(report.key.payload)},
                     {"max_displacement", stats.max_displacement_rel},
                     {"rms_displacement", stats.rms_displacement_rel},
@@ -153,7 +154,11 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     command->add_option("--basis-size", args->options.basis_size, "k, RBF basis functions")
         ->capture_default_str();
     command->add_option("--coefficients", args->options.coefficients,
-                        "m, modulated coefficients per axis (3m payload bits)")
+                        "m, payload bits per axis (3m payload bits)")
+        ->capture_default_str();
+    command->add_option("--repetitions", args->options.repetitions,
+                        "r, coefficients per payload bit (the mark uses m*r modes, each copy with "
+                        "its own key sign; more copies, same distortion, stronger verdict)")
         ->capture_default_str();
     command->add_option("--rule", args->rule,
                         "additive: beta = alpha + b's (default); paper: beta = alpha(1 + b'rho)")

@@ -83,6 +83,7 @@ Json content_json(const Key& key)
     j["embedding"] = {{"rule", to_string(key.options.rule)},
                       {"basis_size", key.options.basis_size},
                       {"coefficients", key.options.coefficients},
+                      {"repetitions", key.options.repetitions},
                       {"strength", key.options.resolved_strength()},
                       {"sigma_factor", key.options.sigma_factor},
                       {"centers", "random"}};
@@ -172,6 +173,12 @@ void EmbedOptions::validate() const
         throw InvalidOption("modulated coefficients (--coefficients) must be in 1.." +
                             std::to_string(basis_size) + " (the basis size), got " +
                             std::to_string(coefficients) + ".");
+    }
+    if (repetitions < 1 || static_cast<long long>(repetitions) * coefficients > basis_size)
+    {
+        throw InvalidOption("repetitions (--repetitions) must be at least 1 and at most the basis size "
+                            "divided by the coefficients (" + std::to_string(basis_size) + " / " +
+                            std::to_string(coefficients) + "), got " + std::to_string(repetitions) + ".");
     }
     const double s = resolved_strength();
     if (!std::isfinite(s) || s < 0.0 || s > 0.5)
@@ -356,6 +363,9 @@ Key parse_key(const std::string& text, const std::string& source)
     key.options.rule = parse_embedding_rule(field<std::string>(embedding, "rule", "embedding.", source));
     key.options.basis_size = field<int>(embedding, "basis_size", "embedding.", source);
     key.options.coefficients = field<int>(embedding, "coefficients", "embedding.", source);
+    // Absent from keys written before spreading existed: those embedded every bit once.
+    key.options.repetitions =
+        embedding.contains("repetitions") ? field<int>(embedding, "repetitions", "embedding.", source) : 1;
     key.options.strength = field<double>(embedding, "strength", "embedding.", source);
     key.options.sigma_factor = field<double>(embedding, "sigma_factor", "embedding.", source);
     if (field<std::string>(embedding, "centers", "embedding.", source) != "random")

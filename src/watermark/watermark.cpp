@@ -2,6 +2,7 @@
 #include "meshmark/watermark/watermark.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -9,6 +10,8 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <Eigen/QR>
+#include <Eigen/SVD>
+#include <omp.h>
 
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
@@ -103,25 +106,49 @@ std::vector<Positions> nuisance_fields(const TriangleMesh& mesh, const std::vect
     return fields;
 }
 
-}  // namespace
-
-Eigen::MatrixX3d SpectralWatermark::remove_nuisance(const Eigen::MatrixX3d& observed,
-                                                    const NuisanceModel& model, int m)
+// Least squares with the variance of every unknown, up to the common noise variance:
+// diag((A^T A)^+) from the SVD of A. Unknowns the data cannot determine get infinite variance.
+struct JointSolution
 {
-    // Fit the nuisance amplitudes on the unmodulated modes m..r-1 only (they carry no
-    // watermark, so the fit cannot see, absorb or forge bits), then subtract the fitted
-    // nuisance from the modulated modes.
-    const int rest = model.modes - m;
-    const Eigen::MatrixX3d observed_rest = observed.bottomRows(rest);
-    const Eigen::VectorXd target = Eigen::Map<const Eigen::VectorXd>(observed_rest.data(), 3 * rest);
-    const Eigen::VectorXd gamma = model.rest_design.colPivHouseholderQr().solve(target);
-    Eigen::MatrixX3d result = observed.topRows(m);
-    for (std::size_t f = 0; f < model.responses.size(); ++f)
+    Eigen::VectorXd amplitudes;
+    Eigen::VectorXd variances;
+};
+
+JointSolution solve_jointly(const Eigen::MatrixXd& design, const Eigen::VectorXd& target)
+{
+    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(design, Eigen::ComputeThinU | Eigen::ComputeThinV);
+    const Eigen::VectorXd& sv = svd.singularValues();
+    const double cutoff = sv.size() > 0 ? 1e-10 * sv(0) : 0.0;
+    JointSolution result;
+    result.amplitudes = Eigen::VectorXd::Zero(design.cols());
+    result.variances = Eigen::VectorXd::Zero(design.cols());
+    const Eigen::VectorXd projected = svd.matrixU().transpose() * target;
+    Eigen::Index rank = 0;
+    for (Eigen::Index j = 0; j < sv.size(); ++j)
     {
-        result -= gamma(static_cast<Eigen::Index>(f)) * model.responses[f].topRows(m);
+        if (sv(j) > cutoff)
+        {
+            result.amplitudes += svd.matrixV().col(j) * (projected(j) / sv(j));
+            result.variances += svd.matrixV().col(j).cwiseAbs2() / (sv(j) * sv(j));
+            ++rank;
+        }
+    }
+    if (rank < design.cols())
+    {
+        // Directions of the null space: unknowns with a component there are undetermined.
+        const Eigen::MatrixXd null_space = svd.matrixV().rightCols(design.cols() - rank);
+        for (Eigen::Index c = 0; c < design.cols(); ++c)
+        {
+            if (null_space.row(c).norm() > 1e-8)
+            {
+                result.variances(c) = std::numeric_limits<double>::infinity();
+            }
+        }
     }
     return result;
 }
+
+}  // namespace
 
 CanonicalFrame canonical_frame(const Positions& V, const std::vector<std::int32_t>& rows)
 {
@@ -185,6 +212,42 @@ void DetectOptions::validate() const
     {
         throw InvalidOption("epsilon must be in [0, 1), got " + std::to_string(epsilon) + ".");
     }
+    if (!(max_false_positive > 0.0 && max_false_positive <= 1.0))
+    {
+        throw InvalidOption("the largest false-positive probability (--max-fpp) must be in (0, 1], got " +
+                            std::to_string(max_false_positive) + ".");
+    }
+}
+
+const char* to_string(VerdictRule rule) noexcept
+{
+    return rule == VerdictRule::Bits ? "bits" : "correlation";
+}
+
+VerdictRule parse_verdict_rule(const std::string& name)
+{
+    if (name == "correlation")
+    {
+        return VerdictRule::Correlation;
+    }
+    if (name == "bits")
+    {
+        return VerdictRule::Bits;
+    }
+    throw InvalidOption("unknown verdict rule '" + name + "' (expected correlation or bits).");
+}
+
+double rademacher_tail_bound(double z)
+{
+    if (!(z > 0.0))
+    {
+        return 1.0;
+    }
+    // Hoeffding: P(S >= z |a|) <= exp(-z^2 / 2). Pinelis: P(S >= z |a|) <= c (1 - Phi(z)) with
+    // c = 2 e^3 / 9 ~ 4.46, tighter beyond z ~ 3.3. Both hold for every weight vector a.
+    const double hoeffding = std::exp(-0.5 * z * z);
+    const double pinelis = 2.0 * std::exp(3.0) / 9.0 * 0.5 * std::erfc(z / std::sqrt(2.0));
+    return std::min({1.0, hoeffding, pinelis});
 }
 
 double binomial_tail_half(int n, int k)
@@ -212,7 +275,6 @@ SpectralWatermark::SpectralWatermark(const TriangleMesh& original, const Key& ke
     : original_(&original), key_(key), threads_(threads)
 {
     key_.options.validate();
-    const int m = key_.options.coefficients;
     const int bit_count = payload_bit_count(key_.options);
     if (static_cast<int>(key_.payload.size()) != bit_count)
     {
@@ -235,28 +297,31 @@ SpectralWatermark::SpectralWatermark(const TriangleMesh& original, const Key& ke
     const auto analysed = static_cast<double>(active.size());
     basis_.emplace(original.V, std::move(active), centers_, sigma, frame_.origin, threads);
 
-    // Payload -> key-masked signs b' (bit t = 3 * mode + axis).
-    mask_ = payload_mask(key_.seed, bit_count);
-    signs_.resize(m, 3);
-    for (int t = 0; t < bit_count; ++t)
+    // Payload -> key-masked signs b': coefficient c = 3 * mode + axis carries payload bit
+    // c mod 3m, with its own mask bit, so the r copies of a bit get independent signs.
+    const int modes = modulated_modes(key_.options);
+    const int coefficient_count = 3 * modes;
+    mask_ = payload_mask(key_.seed, coefficient_count);
+    signs_.resize(modes, 3);
+    for (int c = 0; c < coefficient_count; ++c)
     {
-        const unsigned embedded = static_cast<unsigned>(key_.payload[static_cast<std::size_t>(t)]) ^
-                                  static_cast<unsigned>(mask_[static_cast<std::size_t>(t)]);
-        signs_(t / 3, t % 3) = embedded != 0 ? 1.0 : -1.0;
+        const unsigned embedded = static_cast<unsigned>(key_.payload[static_cast<std::size_t>(c % bit_count)]) ^
+                                  static_cast<unsigned>(mask_[static_cast<std::size_t>(c)]);
+        signs_(c / 3, c % 3) = embedded != 0 ? 1.0 : -1.0;
     }
 
     // Modulation per coefficient, in the canonical frame.
     const double strength = key_.options.resolved_strength();
     if (key_.options.rule == EmbeddingRule::Additive)
     {
-        // |U_m b' s|_F^2 = 3 m s^2 for orthonormal modes, so this s gives an RMS displacement of
+        // |U b' s|_F^2 = 3 m r s^2 for orthonormal modes, so this s gives an RMS displacement of
         // strength * D over the analysed vertices.
-        const double step = strength * frame_.diagonal * std::sqrt(analysed / (3.0 * m));
-        modulation_ = Eigen::MatrixX3d::Constant(m, 3, step);
+        const double step = strength * frame_.diagonal * std::sqrt(analysed / static_cast<double>(coefficient_count));
+        modulation_ = Eigen::MatrixX3d::Constant(modes, 3, step);
     }
     else
     {
-        const Eigen::MatrixX3d alpha_file = basis_->position_coefficients().topRows(m);
+        const Eigen::MatrixX3d alpha_file = basis_->position_coefficients().topRows(modes);
         const Eigen::MatrixX3d alpha = alpha_file * frame_.axes.transpose();
         modulation_ = alpha * strength;
         const double largest = alpha.cwiseAbs().maxCoeff();
@@ -292,6 +357,37 @@ Positions SpectralWatermark::displacement(EmbedStats* stats) const
     return field;
 }
 
+Extraction SpectralWatermark::extraction_from(const Eigen::VectorXd& normalized, const Eigen::VectorXd& variances,
+                                              const DetectOptions& options) const
+{
+    // normalized(c): change of coefficient c divided by its modulation (DESIGN.md step 9,
+    // sign-correct). Undo each coefficient's mask and average the r copies of every payload
+    // bit (soft decision); weight each coefficient by its inverse variance for the correlation.
+    const int bit_count = payload_bit_count(key_.options);
+    const auto coefficient_count = normalized.size();
+    Extraction result;
+    result.normalized_change.resize(static_cast<std::size_t>(coefficient_count));
+    result.weights.resize(static_cast<std::size_t>(coefficient_count));
+    result.bit_values.assign(static_cast<std::size_t>(bit_count), 0.0);
+    for (Eigen::Index c = 0; c < coefficient_count; ++c)
+    {
+        const auto slot = static_cast<std::size_t>(c);
+        const double value = std::isfinite(variances(c)) ? normalized(c) : 0.0;
+        result.normalized_change[slot] = value;
+        result.weights[slot] = variances(c) > 0.0 ? (std::isfinite(variances(c)) ? 1.0 / variances(c) : 0.0) : 1.0;
+        result.bit_values[slot % static_cast<std::size_t>(bit_count)] += mask_[slot] != 0 ? -value : value;
+    }
+    const double copies = static_cast<double>(coefficient_count / bit_count);
+    result.bits_found.resize(static_cast<std::size_t>(bit_count));
+    for (std::size_t t = 0; t < result.bit_values.size(); ++t)
+    {
+        const double value = result.bit_values[t] / copies;
+        result.bit_values[t] = value;
+        result.bits_found[t] = value > options.epsilon ? 1 : (value < -options.epsilon ? 0 : 2);
+    }
+    return result;
+}
+
 Extraction SpectralWatermark::extract(const Positions& suspect, const DetectOptions& options,
                                       const std::vector<std::uint8_t>* is_kept) const
 {
@@ -302,50 +398,57 @@ Extraction SpectralWatermark::extract(const Positions& suspect, const DetectOpti
                             " vertices in correspondence, the original " +
                             std::to_string(original_->V.rows()) + ".");
     }
-    const int m = key_.options.coefficients;
-    // gamma - alpha: projection of the change (least squares if rows are cropped), canonical axes.
+    const int modes = static_cast<int>(modulation_.rows());
+    const auto coefficients = static_cast<Eigen::Index>(3 * modes);
     const Positions change = suspect - original_->V;
-    Eigen::MatrixX3d delta_file;
+    auto normalize = [&](const Eigen::MatrixX3d& delta_file) {
+        const Eigen::MatrixX3d delta = delta_file * frame_.axes.transpose();
+        Eigen::VectorXd x(coefficients);
+        for (Eigen::Index c = 0; c < coefficients; ++c)
+        {
+            const double modulation = modulation_(c / 3, c % 3);
+            x(c) = modulation != 0.0 ? delta(c / 3, c % 3) / modulation : 0.0;
+        }
+        return x;
+    };
     if (is_kept != nullptr)
     {
-        delta_file = basis_->project_least_squares(change, *is_kept, m);
+        // gamma - alpha by least squares over the kept rows (DESIGN.md step 8).
+        return extraction_from(normalize(basis_->project_least_squares(change, *is_kept, modes)),
+                               Eigen::VectorXd::Ones(coefficients), options);
     }
-    else if (options.remove_nuisance && nuisance_model().modes > m)
+    if (!options.remove_nuisance || nuisance_model().modes <= modes)
     {
-        delta_file = remove_nuisance(basis_->project(change, nuisance_model().modes), nuisance_model(), m);
+        return extraction_from(normalize(basis_->project(change, modes)), Eigen::VectorXd::Ones(coefficients),
+                               options);
     }
-    else
+    // Joint least squares on the leading r modes: the modulated coefficients are free (one
+    // unknown each), the nuisance fields (similarity, smoothing) enter through their responses,
+    // so their amplitudes are determined by the unmodulated modes and their effect on the
+    // modulated ones is removed; the variances weight the correlation.
+    const NuisanceModel& model = nuisance_model();
+    const int r = model.modes;
+    const auto q = static_cast<Eigen::Index>(model.responses.size());
+    Eigen::MatrixXd design = Eigen::MatrixXd::Zero(3 * r, coefficients + q);
+    for (Eigen::Index c = 0; c < coefficients; ++c)
     {
-        delta_file = basis_->project(change, m);
+        const auto mode = c / 3;
+        const auto axis = c % 3;
+        for (Eigen::Index b = 0; b < 3; ++b)
+        {
+            // Canonical axis `axis` in file coordinates is frame_.axes.row(axis).
+            design(mode + r * b, c) = modulation_(mode, axis) * frame_.axes(axis, b);
+        }
     }
-    const Eigen::MatrixX3d delta = delta_file * frame_.axes.transpose();
-
-    // Sign-correct decision on the normalized change (DESIGN.md step 9).
-    Extraction result;
-    const int bit_count = 3 * m;
-    result.normalized_change.resize(static_cast<std::size_t>(bit_count));
-    result.bits_found.resize(static_cast<std::size_t>(bit_count));
-    for (int t = 0; t < bit_count; ++t)
+    for (Eigen::Index f = 0; f < q; ++f)
     {
-        const double modulation = modulation_(t / 3, t % 3);
-        const double value = modulation != 0.0 ? delta(t / 3, t % 3) / modulation : 0.0;
-        result.normalized_change[static_cast<std::size_t>(t)] = value;
-        std::uint8_t bit = 2;
-        if (value > options.epsilon)
-        {
-            bit = 1;
-        }
-        else if (value < -options.epsilon)
-        {
-            bit = 0;
-        }
-        if (bit != 2)
-        {
-            bit = static_cast<std::uint8_t>(bit ^ mask_[static_cast<std::size_t>(t)]);
-        }
-        result.bits_found[static_cast<std::size_t>(t)] = bit;
+        design.col(coefficients + f) =
+            Eigen::Map<const Eigen::VectorXd>(model.responses[static_cast<std::size_t>(f)].data(), 3 * r);
     }
-    return result;
+    const Eigen::MatrixX3d projected = basis_->project(change, r);
+    const JointSolution solution =
+        solve_jointly(design, Eigen::Map<const Eigen::VectorXd>(projected.data(), 3 * r));
+    return extraction_from(solution.amplitudes.head(coefficients), solution.variances.head(coefficients), options);
 }
 
 Extraction SpectralWatermark::extract_resampled(const Positions& resampled, const DetectOptions& options,
@@ -357,91 +460,102 @@ Extraction SpectralWatermark::extract_resampled(const Positions& resampled, cons
         throw InvalidOption("the resampled suspect has " + std::to_string(resampled.rows()) +
                             " rows, the original " + std::to_string(original_->V.rows()) + ".");
     }
-    const int m = key_.options.coefficients;
-    const int bit_count = 3 * m;
-    const int r = basis_->well_conditioned_modes(kNuisanceModeTolerance);
+    const int modes = static_cast<int>(modulation_.rows());
+    const auto coefficients = static_cast<Eigen::Index>(3 * modes);
     const auto& rows = basis_->active_rows();
-    const auto n = original_->V.rows();
+    const auto active = static_cast<Eigen::Index>(rows.size());
 
-    // The sampling operator S: per-vertex projection on the original's normal (what a
-    // closest-point resampling keeps of a small displacement), zero on cropped rows.
+    // Model: the observed change o = S (U_M diag(mod) b' + sum_f g_f N_f) + noise, where S is
+    // the sampling operator (per vertex: projection on the original's normal, which is what a
+    // closest-point resampling keeps of a small displacement; zero on cropped rows; identity
+    // for a point cloud) and N_f the nuisance fields. Everything is projected on the leading
+    // r well-conditioned modes and (b', g) solved by least squares. With U_r dense (#active x
+    // r) the 3r x (3 m r + q + 1) normal system is accumulated block by block without ever
+    // forming a field per unknown: A[(l, b), col] = sum_i U_il (S_i column_i)_b.
+    const int r = std::max(basis_->well_conditioned_modes(kNuisanceModeTolerance), modes);
+    const Eigen::MatrixXd U = basis_->modes_dense(r);
     const bool has_normals = !original_->is_point_cloud();
     const Positions normals = has_normals ? vertex_normals(*original_) : Positions();
-    auto apply_operator = [&](Positions& field) {
-        for (const auto i : rows)
+    const std::vector<Positions> nuisance = nuisance_fields(*original_, rows, frame_.origin);
+    const auto q = static_cast<Eigen::Index>(nuisance.size());
+    const Eigen::Index columns = coefficients + q + 1;
+
+    auto is_row_kept = [&](std::int32_t i) {
+        return is_kept == nullptr || (*is_kept)[static_cast<std::size_t>(i)] != 0;
+    };
+    auto sample = [&](std::int32_t i, const Eigen::RowVector3d& v) -> Eigen::RowVector3d {
+        if (!has_normals)
         {
-            if (is_kept != nullptr && (*is_kept)[static_cast<std::size_t>(i)] == 0)
-            {
-                field.row(i).setZero();
-            }
-            else if (has_normals)
-            {
-                const Eigen::RowVector3d normal = normals.row(i);
-                field.row(i) = field.row(i).dot(normal) * normal;
-            }
+            return v;
         }
+        const Eigen::RowVector3d normal = normals.row(i);
+        return v.dot(normal) * normal;
     };
 
-    // Fields: the expected response of each bit (b' = +1), the nuisance, and the observation.
-    std::vector<Positions> fields;
-    fields.reserve(static_cast<std::size_t>(bit_count) + 16);
-    const Eigen::MatrixXd U = basis_->modes_dense(m);
-    for (int t = 0; t < bit_count; ++t)
+    // Fixed chunks reduced in order: bit-identical for any thread count.
+    constexpr Eigen::Index kChunkRows = 4096;
+    const Eigen::Index chunk_count = std::max<Eigen::Index>(1, (active + kChunkRows - 1) / kChunkRows);
+    std::vector<Eigen::MatrixXd> partial(static_cast<std::size_t>(chunk_count));
+    const int threads = threads_ > 0 ? threads_ : omp_get_num_procs();
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
+    for (Eigen::Index chunk = 0; chunk < chunk_count; ++chunk)
     {
-        const Eigen::RowVector3d direction = frame_.axes.row(t % 3) * modulation_(t / 3, t % 3);
-        Positions field = Positions::Zero(n, 3);
-        for (std::size_t a = 0; a < rows.size(); ++a)
+        const Eigen::Index begin = chunk * kChunkRows;
+        const Eigen::Index count = std::min(kChunkRows, active - begin);
+        // Right-hand side per file axis b: column values (S_i column_i)_b for every row i.
+        std::array<Eigen::MatrixXd, 3> right;
+        for (auto& m : right)
         {
-            field.row(rows[a]) = U(static_cast<Eigen::Index>(a), t / 3) * direction;
+            m = Eigen::MatrixXd::Zero(count, columns);
         }
-        apply_operator(field);
-        fields.push_back(std::move(field));
-    }
-    for (auto& nuisance : nuisance_fields(*original_, rows, frame_.origin))
-    {
-        apply_operator(nuisance);
-        fields.push_back(std::move(nuisance));
-    }
-    Positions observed = Positions::Zero(n, 3);
-    for (const auto i : rows)
-    {
-        if (is_kept == nullptr || (*is_kept)[static_cast<std::size_t>(i)] != 0)
+        for (Eigen::Index a = 0; a < count; ++a)
         {
-            observed.row(i) = resampled.row(i) - original_->V.row(i);
+            const std::int32_t i = rows[static_cast<std::size_t>(begin + a)];
+            if (!is_row_kept(i))
+            {
+                continue;
+            }
+            for (int axis = 0; axis < 3; ++axis)
+            {
+                const Eigen::RowVector3d response = sample(i, frame_.axes.row(axis));
+                for (int mode = 0; mode < modes; ++mode)
+                {
+                    const double u = U(begin + a, mode) * modulation_(mode, axis);
+                    for (int b = 0; b < 3; ++b)
+                    {
+                        right[static_cast<std::size_t>(b)](a, 3 * mode + axis) = u * response(b);
+                    }
+                }
+            }
+            for (Eigen::Index f = 0; f < q; ++f)
+            {
+                const Eigen::RowVector3d response = sample(i, nuisance[static_cast<std::size_t>(f)].row(i));
+                for (int b = 0; b < 3; ++b)
+                {
+                    right[static_cast<std::size_t>(b)](a, coefficients + f) = response(b);
+                }
+            }
+            const Eigen::RowVector3d observed = resampled.row(i) - original_->V.row(i);
+            for (int b = 0; b < 3; ++b)
+            {
+                right[static_cast<std::size_t>(b)](a, columns - 1) = observed(b);
+            }
         }
-    }
-    fields.push_back(std::move(observed));
-
-    // Everything on the leading r modes, then joint least squares for (bits, nuisance).
-    const auto projected = basis_->project(fields, r);
-    const auto unknowns = static_cast<Eigen::Index>(fields.size() - 1);
-    Eigen::MatrixXd design(3 * r, unknowns);
-    for (Eigen::Index f = 0; f < unknowns; ++f)
-    {
-        design.col(f) = Eigen::Map<const Eigen::VectorXd>(projected[static_cast<std::size_t>(f)].data(), 3 * r);
-    }
-    const Eigen::VectorXd target = Eigen::Map<const Eigen::VectorXd>(projected.back().data(), 3 * r);
-    const Eigen::VectorXd solution = design.colPivHouseholderQr().solve(target);
-
-    Extraction result;
-    result.normalized_change.resize(static_cast<std::size_t>(bit_count));
-    result.bits_found.resize(static_cast<std::size_t>(bit_count));
-    for (int t = 0; t < bit_count; ++t)
-    {
-        const double value = solution(t);
-        result.normalized_change[static_cast<std::size_t>(t)] = value;
-        std::uint8_t bit = 2;
-        if (value > options.epsilon)
+        Eigen::MatrixXd& sum = partial[static_cast<std::size_t>(chunk)];
+        sum.resize(3 * r, columns);
+        for (int b = 0; b < 3; ++b)
         {
-            bit = static_cast<std::uint8_t>(1U ^ mask_[static_cast<std::size_t>(t)]);
+            sum.middleRows(b * r, r).noalias() =
+                U.middleRows(begin, count).transpose() * right[static_cast<std::size_t>(b)];
         }
-        else if (value < -options.epsilon)
-        {
-            bit = mask_[static_cast<std::size_t>(t)];
-        }
-        result.bits_found[static_cast<std::size_t>(t)] = bit;
     }
-    return result;
+    Eigen::MatrixXd system = partial.front();
+    for (std::size_t chunk = 1; chunk < partial.size(); ++chunk)
+    {
+        system += partial[chunk];
+    }
+    const JointSolution solution = solve_jointly(system.leftCols(columns - 1), system.col(columns - 1));
+    return extraction_from(solution.amplitudes.head(coefficients), solution.variances.head(coefficients), options);
 }
 
 const SpectralWatermark::NuisanceModel& SpectralWatermark::nuisance_model() const
@@ -451,25 +565,17 @@ const SpectralWatermark::NuisanceModel& SpectralWatermark::nuisance_model() cons
         return *nuisance_;
     }
     NuisanceModel model;
-    const int m = key_.options.coefficients;
+    const int modes = static_cast<int>(modulation_.rows());
     model.modes = basis_->well_conditioned_modes(kNuisanceModeTolerance);
     // Enough unmodulated modes to fit the nuisance fields with room to spare.
     const auto fields = nuisance_fields(*original_, basis_->active_rows(), frame_.origin);
-    const auto q = static_cast<Eigen::Index>(fields.size());
-    if (model.modes - m < 4 * static_cast<int>(q))
+    if (model.modes - modes < 4 * static_cast<int>(fields.size()))
     {
         model.modes = 0;
         nuisance_ = model;
         return *nuisance_;
     }
     model.responses = basis_->project(fields, model.modes);
-    const Eigen::Index rest_rows = 3 * (model.modes - m);
-    model.rest_design.resize(rest_rows, q);
-    for (Eigen::Index f = 0; f < q; ++f)
-    {
-        const Eigen::MatrixX3d rest = model.responses[static_cast<std::size_t>(f)].bottomRows(model.modes - m);
-        model.rest_design.col(f) = Eigen::Map<const Eigen::VectorXd>(rest.data(), rest_rows);
-    }
     nuisance_ = std::move(model);
     return *nuisance_;
 }
@@ -478,6 +584,7 @@ Decision SpectralWatermark::decide(const Extraction& extraction, const DetectOpt
 {
     options.validate();
     Decision decision;
+    decision.verdict = options.verdict;
     decision.bit_count = static_cast<int>(key_.payload.size());
     for (std::size_t t = 0; t < key_.payload.size(); ++t)
     {
@@ -490,8 +597,53 @@ Decision SpectralWatermark::decide(const Extraction& extraction, const DetectOpt
         }
     }
     decision.correlation = static_cast<double>(decision.matches) / decision.bit_count;
-    decision.false_positive_probability = binomial_tail_half(decision.bit_count, decision.matches);
-    decision.is_present = decision.correlation >= options.threshold;
+    decision.bits_false_positive_probability = binomial_tail_half(decision.bit_count, decision.matches);
+
+    // Soft-decision correlation with the embedded signs. For a mesh that does not carry this
+    // key's mark, x does not depend on the key mask, so sum_c b'_c a_c x_c is a sum of
+    // independent random signs with fixed weights (docs/statistics.md). Three weightings a:
+    // uniform (best when every coefficient is read equally well), inverse variance (best when
+    // the nuisance fit or a crop makes some coefficients far noisier than others) and their
+    // geometric mean; the verdict takes the best and pays for the choice with a union bound.
+    const auto& x = extraction.normalized_change;
+    const auto& w = extraction.weights;
+    constexpr std::array<double, 3> kWeightPowers = {0.0, 0.5, 1.0};
+    decision.coefficient_count = static_cast<int>(x.size());
+    decision.score = 0.0;
+    double best_bound = 1.0;
+    bool is_first = true;
+    for (const double power : kWeightPowers)
+    {
+        double dot = 0.0;
+        double norm_sq = 0.0;
+        for (std::size_t c = 0; c < x.size(); ++c)
+        {
+            const double weight = power == 0.0 ? 1.0 : std::pow(w[c], power);
+            const double wx = weight * x[c];
+            dot += signs_(static_cast<Eigen::Index>(c / 3), static_cast<Eigen::Index>(c % 3)) * wx;
+            norm_sq += wx * wx;
+        }
+        const double z = norm_sq > 0.0 ? dot / std::sqrt(norm_sq) : 0.0;
+        if (is_first || z > decision.score)
+        {
+            decision.score = z;
+            best_bound = rademacher_tail_bound(z);
+            is_first = false;
+        }
+    }
+    decision.score_false_positive_probability =
+        std::min(1.0, static_cast<double>(kWeightPowers.size()) * best_bound);
+
+    if (options.verdict == VerdictRule::Bits)
+    {
+        decision.false_positive_probability = decision.bits_false_positive_probability;
+        decision.is_present = decision.correlation >= options.threshold;
+    }
+    else
+    {
+        decision.false_positive_probability = decision.score_false_positive_probability;
+        decision.is_present = decision.score_false_positive_probability <= options.max_false_positive;
+    }
     return decision;
 }
 

@@ -28,6 +28,7 @@ struct DetectFileOptions
 struct DetectReport
 {
     Decision decision;
+    Extraction extraction;  ///< What was read (per coefficient and per bit), for diagnosis.
     double cropped_fraction = 0.0;
     std::string alignment = "none";  ///< How the suspect was put in correspondence.
     Eigen::Matrix4d transform = Eigen::Matrix4d::Identity();  ///< Suspect -> original frame.

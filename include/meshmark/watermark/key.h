@@ -31,7 +31,13 @@ enum class EmbeddingRule
 struct EmbedOptions
 {
     int basis_size = 100;   ///< k, number of RBF centers [Wu & Kobbelt: 100].
-    int coefficients = 8;   ///< m, modulated coefficients per axis: 3m payload bits.
+    int coefficients = 8;   ///< m, payload bits per axis: 3m payload bits.
+    /// Spreading factor r: each payload bit is embedded on r coefficients (modes m r in all,
+    /// bit t on coefficients t, t + 3m, t + 6m, ...), each with its own key-mask sign, and read
+    /// back by soft-decision correlation. More coefficients at the same distortion make a
+    /// verdict with a far smaller false-positive probability possible (docs/statistics.md).
+    /// Keys written before this field existed mean 1.
+    int repetitions = 4;
     EmbeddingRule rule = EmbeddingRule::Additive;
     /// Additive: RMS vertex displacement as a fraction of the principal bbox diagonal.
     /// Paper: rho. Negative means "the rule's default" (default_strength).
@@ -48,6 +54,12 @@ struct EmbedOptions
 [[nodiscard]] inline int payload_bit_count(const EmbedOptions& options) noexcept
 {
     return 3 * options.coefficients;
+}
+
+/// Number of modes that carry the watermark (m r).
+[[nodiscard]] inline int modulated_modes(const EmbedOptions& options) noexcept
+{
+    return options.coefficients * options.repetitions;
 }
 
 /// Identifies the original mesh a key belongs to.
@@ -89,6 +101,7 @@ struct Key
 
 /// \brief The key-derived mask XOR-ed with the payload before embedding (DESIGN.md step 5):
 /// without it, a wrong key reads the mark, because the leading modes barely depend on the centers.
+/// \details One bit per modulated coefficient (3 m r); the first n bits do not depend on n.
 [[nodiscard]] std::vector<std::uint8_t> payload_mask(std::uint64_t seed, int n);
 
 /// Bits as a string of '0'/'1'.

@@ -4,9 +4,13 @@
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 
+#include <cstdio>
 #include <fstream>
 
+#include <nlohmann/json.hpp>
+
 #include "meshmark/core/error.h"
+#include "meshmark/core/rng.h"
 #include "meshmark/geometry/shapes.h"
 #include "support/test_paths.h"
 
@@ -20,6 +24,7 @@ Key sample_key()
     key.options.rule = EmbeddingRule::Paper;
     key.options.basis_size = 80;
     key.options.coefficients = 6;
+    key.options.repetitions = 3;
     key.options.strength = 0.02;
     key.payload = payload_from_message("(c) ACME", 18);
     key.message = "(c) ACME";
@@ -37,10 +42,33 @@ TEST(KeyTest, json_round_trip_keeps_every_field)
     EXPECT_EQ(back.options.rule, key.options.rule);
     EXPECT_EQ(back.options.basis_size, 80);
     EXPECT_EQ(back.options.coefficients, 6);
+    EXPECT_EQ(back.options.repetitions, 3);
     EXPECT_DOUBLE_EQ(back.options.strength, 0.02);
     EXPECT_EQ(back.payload, key.payload);
     EXPECT_EQ(back.message, key.message);
     EXPECT_EQ(back.original, key.original);
+}
+
+// Keys written before spreading existed have no "repetitions": they embedded every bit once.
+TEST(KeyTest, keys_without_repetitions_read_as_one_copy_per_bit)
+{
+    auto content = nlohmann::json::parse(to_json(sample_key()));
+    content.erase("checksum");
+    content["embedding"].erase("repetitions");
+    const std::string text = content.dump();
+    char checksum[17];
+    std::snprintf(checksum, sizeof checksum, "%016llx",
+                  static_cast<unsigned long long>(hash_bytes(text.data(), text.size(), 0x6B6579U)));
+    content["checksum"] = checksum;
+    const Key back = parse_key(content.dump(2), "old.json");
+    EXPECT_EQ(back.options.repetitions, 1);
+    EXPECT_EQ(back.options.coefficients, 6);
+
+    Key bad = sample_key();
+    bad.options.repetitions = 20;  // 6 * 20 > 80 basis functions
+    EXPECT_THROW(bad.options.validate(), InvalidOption);
+    bad.options.repetitions = 0;
+    EXPECT_THROW(bad.options.validate(), InvalidOption);
 }
 
 TEST(KeyTest, tampered_truncated_or_foreign_keys_are_rejected_with_a_clear_message)

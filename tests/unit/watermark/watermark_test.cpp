@@ -48,7 +48,14 @@ TEST(SpectralWatermarkTest, marked_copy_reads_back_all_bits_with_both_rules)
         EXPECT_DOUBLE_EQ(decision.correlation, 1.0) << to_string(rule);
         EXPECT_TRUE(decision.is_present);
         EXPECT_EQ(decision.bits_found, decision.bits_expected);
-        EXPECT_NEAR(decision.false_positive_probability, std::pow(0.5, 24), 1e-20);
+        EXPECT_NEAR(decision.bits_false_positive_probability, std::pow(0.5, 24), 1e-20);
+        // 96 coefficients read back as +-1: z near sqrt(96) (the nuisance fit takes a little),
+        // and the verdict's probability is the score's bound, far below 1e-6.
+        EXPECT_EQ(decision.coefficient_count, 96);
+        EXPECT_GT(decision.score, 6.0) << to_string(rule);
+        EXPECT_LE(decision.score, std::sqrt(96.0) + 1e-9);
+        EXPECT_EQ(decision.false_positive_probability, decision.score_false_positive_probability);
+        EXPECT_LT(decision.false_positive_probability, 1e-8);
         EXPECT_LT(stats.orthogonality_error, 1e-9);
     }
 }
@@ -97,11 +104,98 @@ TEST(SpectralWatermarkTest, unmarked_and_wrong_key_copies_are_not_claimed)
     EXPECT_LT(largest, 0.9);
 }
 
+TEST(SpectralWatermarkTest, each_bit_is_spread_over_r_coefficients_with_independent_signs)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(4);
+    Key key = make_key(mesh, 31);
+    key.options.repetitions = 3;
+    key.payload = random_payload(31, payload_bit_count(key.options));
+    const SpectralWatermark mark(mesh, key);
+    ASSERT_EQ(mark.embedded_signs().rows(), 24);  // m r modes
+    const auto mask = payload_mask(31, 72);
+    int differing_copies = 0;
+    for (int c = 0; c < 72; ++c)
+    {
+        const int bit = key.payload[static_cast<std::size_t>(c % 24)];
+        const double expected = (bit ^ mask[static_cast<std::size_t>(c)]) != 0 ? 1.0 : -1.0;
+        EXPECT_EQ(mark.embedded_signs()(c / 3, c % 3), expected) << c;
+        differing_copies += mark.embedded_signs()(c / 3, c % 3) != mark.embedded_signs()((c % 24) / 3, c % 3);
+    }
+    EXPECT_GT(differing_copies, 10);  // copies of one bit do not share a sign pattern
+    const DetectOptions options;
+    const Extraction e = mark.extract(mesh.V + mark.displacement(), options);
+    ASSERT_EQ(e.normalized_change.size(), 72u);
+    ASSERT_EQ(e.bit_values.size(), 24u);
+    for (std::size_t t = 0; t < 24; ++t)
+    {
+        EXPECT_NEAR(e.bit_values[t], key.payload[t] != 0 ? 1.0 : -1.0, 1e-6) << t;
+    }
+}
+
+// The verdict's bound must hold for suspects that do not carry the key's mark: over many keys,
+// the share of an unmarked (noisy) copy's verdicts with a probability of at most alpha never
+// exceeds alpha (docs/statistics.md has the 10,000-key study on the real meshes).
+TEST(SpectralWatermarkTest, scores_of_unmarked_copies_follow_the_null_model)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(3);
+    const double D = bounding_box(mesh.V).diagonal();
+    Rng rng(11);
+    Positions noisy = mesh.V;
+    for (Eigen::Index i = 0; i < noisy.size(); ++i)
+    {
+        noisy.data()[i] += rng.uniform(-2e-3, 2e-3) * D;
+    }
+    const int trials = 120;
+    double sum = 0.0;
+    int below_half = 0;
+    int below_tenth = 0;
+    int positive = 0;
+    int claimed = 0;
+    for (int t = 0; t < trials; ++t)
+    {
+        const SpectralWatermark mark(mesh, make_key(mesh, 7000 + static_cast<std::uint64_t>(t)));
+        const DetectOptions options;
+        const Decision d = mark.decide(mark.extract(noisy, options), options);
+        sum += d.score;
+        positive += d.score > 0.0 ? 1 : 0;
+        below_half += d.false_positive_probability <= 0.5 ? 1 : 0;
+        below_tenth += d.false_positive_probability <= 0.1 ? 1 : 0;
+        claimed += d.is_present ? 1 : 0;
+    }
+    // The best of three N(0, 1) scores: mean about 0.6 when they are correlated as here.
+    EXPECT_GT(sum / trials, 0.0);
+    EXPECT_LT(sum / trials, 1.2);
+    EXPECT_GT(positive, trials / 3);         // the scores are not degenerate
+    EXPECT_LE(below_half, 60 + 17);          // alpha = 0.5: at most 60 expected, + 3 sigma
+    EXPECT_LE(below_tenth, 12 + 10);         // alpha = 0.1: at most 12 expected, + 3 sigma
+    EXPECT_EQ(claimed, 0);
+}
+
+TEST(SpectralWatermarkTest, bits_verdict_is_the_papers_rule)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(4);
+    const SpectralWatermark mark(mesh, make_key(mesh, 8));
+    DetectOptions options;
+    options.verdict = VerdictRule::Bits;
+    const Decision d = mark.decide(mark.extract(mesh.V + mark.displacement(), options), options);
+    EXPECT_TRUE(d.is_present);
+    EXPECT_EQ(d.verdict, VerdictRule::Bits);
+    EXPECT_EQ(d.false_positive_probability, d.bits_false_positive_probability);
+    options.threshold = 1.0;
+    EXPECT_TRUE(mark.decide(mark.extract(mesh.V + mark.displacement(), options), options).is_present);
+    EXPECT_FALSE(mark.decide(mark.extract(mesh.V, options), options).is_present);
+    EXPECT_EQ(parse_verdict_rule("bits"), VerdictRule::Bits);
+    EXPECT_EQ(parse_verdict_rule(to_string(VerdictRule::Correlation)), VerdictRule::Correlation);
+    EXPECT_THROW((void)parse_verdict_rule("R"), InvalidOption);
+    options.max_false_positive = 0.0;
+    EXPECT_THROW(options.validate(), InvalidOption);
+}
+
 TEST(SpectralWatermarkTest, same_message_under_another_key_is_not_claimed)
 {
     const TriangleMesh mesh = lumpy_ellipsoid(4);
     Key key = make_key(mesh, 5);
-    key.payload = payload_from_message("owner", 24);
+    key.payload = payload_from_message("owner", payload_bit_count(key.options));
     const SpectralWatermark mark(mesh, key);
     double sum = 0.0;
     const int trials = 25;
@@ -178,6 +272,28 @@ TEST(SpectralWatermarkTest, degenerate_inputs_fail_cleanly)
     EXPECT_THROW(SpectralWatermark(line, make_key(line, 1)), NumericalError);
     const TriangleMesh tiny = icosphere(1);  // 42 vertices < 100 basis functions
     EXPECT_THROW(SpectralWatermark(tiny, make_key(tiny, 1)), InvalidMesh);
+}
+
+// For equal weights the sum of n random signs is 2 Bin(n, 1/2) - n, so the exact tail is known:
+// the bound must never fall below it, and must be reasonably tight in the range that matters.
+TEST(RademacherBoundTest, never_below_the_exact_tail_of_equal_weights)
+{
+    for (const int n : {8, 24, 48, 96, 192})
+    {
+        for (int k = n / 2; k <= n; ++k)
+        {
+            const double z = (2.0 * k - n) / std::sqrt(static_cast<double>(n));
+            const double exact = binomial_tail_half(n, k);
+            EXPECT_GE(rademacher_tail_bound(z), exact * (1.0 - 1e-12)) << n << " " << k;
+        }
+    }
+    EXPECT_EQ(rademacher_tail_bound(0.0), 1.0);
+    EXPECT_EQ(rademacher_tail_bound(-3.0), 1.0);
+    EXPECT_NEAR(rademacher_tail_bound(1.0), std::exp(-0.5), 1e-15);  // Hoeffding below z ~ 3.3
+    // Pinelis beyond: (2 e^3 / 9) (1 - Phi(6)) = 4.4634 * 9.866e-10.
+    EXPECT_NEAR(rademacher_tail_bound(6.0) / 4.4036e-9, 1.0, 1e-3);
+    // Within a factor 5 of the normal tail at the default level (z ~ 5).
+    EXPECT_LT(rademacher_tail_bound(5.0), 5.0 * 0.5 * std::erfc(5.0 / std::sqrt(2.0)));
 }
 
 TEST(BinomialTest, tail_matches_direct_sums)
