@@ -5,6 +5,7 @@
 #include <cctype>
 #include <memory>
 #include <string>
+#include <variant>
 
 #include "io/detail/file_layout.h"
 #include "io/detail/formats.h"
@@ -52,9 +53,13 @@ MeshFormat format_from_extension(const std::filesystem::path& path)
     {
         return MeshFormat::Glb;
     }
+    if (ext == ".3mf")
+    {
+        return MeshFormat::ThreeMf;
+    }
     detail::fail_io(path, "unknown mesh file extension " +
                               (ext.empty() ? std::string("(none)") : detail::quoted(ext)) +
-                              "; expected .ply, .obj, .off, .stl, .gltf or .glb");
+                              "; expected .ply, .obj, .off, .stl, .gltf, .glb or .3mf");
 }
 
 const char* to_string(MeshFormat format) noexcept
@@ -73,6 +78,8 @@ const char* to_string(MeshFormat format) noexcept
             return "glTF";
         case MeshFormat::Glb:
             return "GLB";
+        case MeshFormat::ThreeMf:
+            return "3MF";
     }
     return "?";
 }
@@ -120,6 +127,10 @@ MeshFile read_mesh_file(const std::filesystem::path& path)
             file.is_single_precision = true;
             break;
         }
+        case MeshFormat::ThreeMf:
+            file.mesh = detail::read_3mf(path, *layout);
+            file.is_single_precision = true;
+            break;
     }
     file.layout = std::move(layout);
     return file;
@@ -154,6 +165,9 @@ void write_mesh(const std::filesystem::path& path, const TriangleMesh& mesh,
         case MeshFormat::Glb:
             write_bytes(path, detail::gltf_bytes(mesh, format == MeshFormat::Glb));
             break;
+        case MeshFormat::ThreeMf:
+            write_bytes(path, detail::three_mf_bytes(path, mesh));
+            break;
     }
 }
 
@@ -180,6 +194,11 @@ void write_mesh_file(const std::filesystem::path& path, const MeshFile& source,
     {
         detail::write_gltf_preserving(path, format == MeshFormat::Glb, *asset, source.mesh.V,
                                       positions);
+        return;
+    }
+    if (std::holds_alternative<detail::ThreeMfLayout>(source.layout->positions))
+    {
+        write_bytes(path, detail::preserved_3mf_bytes(path, *source.layout, source.mesh.V, positions));
         return;
     }
     write_bytes(path, detail::preserved_bytes(path, *source.layout, source.mesh.V, positions));

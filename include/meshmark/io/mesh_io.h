@@ -23,11 +23,14 @@ enum class MeshFormat
     /// primitive of the scene in world coordinates, coincident vertices welded.
     Gltf,
     Glb,  ///< .glb: binary glTF 2.0, read like Gltf.
+    /// .3mf: every mesh object in the build's world frame (build item and component
+    /// transforms), coincident vertices welded; written back through lib3mf.
+    ThreeMf,
 };
 
 /// \brief Format for a path's extension.
 /// \throws IoError naming the file when the extension is not one of .ply .obj .off .stl
-/// .gltf .glb.
+/// .gltf .glb .3mf.
 [[nodiscard]] MeshFormat format_from_extension(const std::filesystem::path& path);
 
 /// Name of a format as used in messages and --json ("PLY", "OBJ", ...).

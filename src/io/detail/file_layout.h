@@ -60,12 +60,27 @@ struct StlFacets
     std::vector<TextSpan> tokens;               ///< ASCII: 12 per facet (normal, 3 corners).
 };
 
+/// One 3MF mesh object as read: its world transform (build item and components, first
+/// instance) and the welded vertex of each of its vertices.
+struct ThreeMfObject
+{
+    std::uint32_t resource_id = 0;
+    Eigen::Matrix4d to_world = Eigen::Matrix4d::Identity();
+    std::vector<std::int32_t> welded;
+};
+
+/// 3MF: the mesh objects that make up MeshFile::mesh (the package itself is FileLayout::bytes).
+struct ThreeMfLayout
+{
+    std::vector<ThreeMfObject> objects;
+};
+
 /// Everything a preserving writer needs: the original bytes and where the positions sit.
 struct FileLayout
 {
     MeshFormat format = MeshFormat::Ply;
     std::string bytes;  ///< The file exactly as read.
-    std::variant<TextPositions, BinaryPositions, StlFacets, GltfAsset> positions;
+    std::variant<TextPositions, BinaryPositions, StlFacets, GltfAsset, ThreeMfLayout> positions;
 };
 
 }  // namespace meshmark::detail
