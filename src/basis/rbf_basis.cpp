@@ -5,19 +5,20 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
+#include <cstdlib>
 #include <set>
 #include <string>
 
 #include <Eigen/Eigenvalues>
 
+#include "basis/rbf_kernels.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/rng.h"
 
 namespace meshmark {
 namespace {
-
-using RowBlock = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic>;
 
 int resolve_threads(int threads) { return threads > 0 ? threads : omp_get_num_procs(); }
 
@@ -29,7 +30,44 @@ constexpr std::size_t kMinChunkBlocks = 16;
 // double; condition numbers of 1e8-1e10 are normal for k = 100, see DESIGN.md).
 constexpr double kGramRankTolerance = 1e-14;
 
+BasisKernel kernel_from_environment() noexcept
+{
+    const char* value = std::getenv("MESHMARK_BASIS_KERNEL");
+    if (value == nullptr)
+    {
+        return BasisKernel::Automatic;
+    }
+    const std::string_view text(value);
+    if (text == "portable")
+    {
+        return BasisKernel::Portable;
+    }
+    return text == "avx2" ? BasisKernel::Avx2 : BasisKernel::Automatic;
+}
+
+std::atomic<BasisKernel>& kernel_choice() noexcept
+{
+    static std::atomic<BasisKernel> choice{kernel_from_environment()};
+    return choice;
+}
+
+const detail::BlockKernels& selected_kernels() noexcept
+{
+    if (kernel_choice().load() != BasisKernel::Portable)
+    {
+        if (const auto* fast = detail::avx2_kernels())
+        {
+            return *fast;
+        }
+    }
+    return detail::portable_kernels();
+}
+
 }  // namespace
+
+void set_basis_kernel(BasisKernel kernel) noexcept { kernel_choice().store(kernel); }
+
+std::string_view basis_kernel_name() noexcept { return selected_kernels().name; }
 
 std::vector<std::int32_t> random_centers(const Positions& V, const std::vector<std::int32_t>& active,
                                          int k, std::uint64_t seed)
@@ -67,7 +105,8 @@ std::vector<std::int32_t> random_centers(const Positions& V, const std::vector<s
 RbfBasis::RbfBasis(const Positions& V, std::vector<std::int32_t> active,
                    std::vector<std::int32_t> centers, double sigma, const Eigen::Vector3d& origin,
                    int threads)
-    : V_(&V), active_(std::move(active)), sigma_(sigma), origin_(origin), threads_(resolve_threads(threads))
+    : V_(&V), active_(std::move(active)), kernels_(&selected_kernels()), sigma_(sigma), origin_(origin),
+      threads_(resolve_threads(threads))
 {
     if (active_.empty() || centers.empty())
     {
@@ -79,10 +118,19 @@ RbfBasis::RbfBasis(const Positions& V, std::vector<std::int32_t> active,
                             std::to_string(sigma_) + ".");
     }
     const auto k = static_cast<Eigen::Index>(centers.size());
+    const auto ku = centers.size();
+    padded_k_ = (ku + 3) / 4 * 4;
+    stride_ = padded_k_ + 4;
     center_positions_.resize(k, 3);
+    centers_soa_.assign(3 * stride_, 0.0);
     for (Eigen::Index j = 0; j < k; ++j)
     {
         center_positions_.row(j) = V.row(centers[static_cast<std::size_t>(j)]) - origin_.transpose();
+        for (std::size_t d = 0; d < 3; ++d)
+        {
+            centers_soa_[d * stride_ + static_cast<std::size_t>(j)] =
+                center_positions_(j, static_cast<Eigen::Index>(d));
+        }
     }
 
     // Fixed chunking: depends on the number of rows only, never on the thread count.
@@ -95,28 +143,52 @@ RbfBasis::RbfBasis(const Positions& V, std::vector<std::int32_t> active,
         chunks_.push_back({begin, std::min(n, begin + chunk_rows)});
     }
 
-    // Pass 1: G = B^T B (lower triangle), B^T 1 and B^T (P - o), per chunk, reduced in order.
-    const auto chunk_count = chunks_.size();
-    std::vector<Eigen::MatrixXd> gram_parts(chunk_count, Eigen::MatrixXd::Zero(k, k));
-    std::vector<Eigen::MatrixX3d> position_parts(chunk_count, Eigen::MatrixX3d::Zero(k, 3));
-    std::vector<Eigen::VectorXd> ones_parts(chunk_count, Eigen::VectorXd::Zero(k));
-    for_each_block([&](std::size_t chunk, const Eigen::MatrixXd& B, const Positions& P, Eigen::Index rows,
-                       std::size_t /*begin*/) {
-        const auto block = B.topRows(rows);
-        gram_parts[chunk].selfadjointView<Eigen::Lower>().rankUpdate(block.transpose());
-        position_parts[chunk].noalias() += block.transpose() * P.topRows(rows);
-        ones_parts[chunk].noalias() += block.colwise().sum().transpose();
+    // Pass 1: one symmetric rank update per block of the extended block [B, P - o, 1, 0...]:
+    // its lower triangle holds G = B^T B, and the rows past the padded k hold (B^T (P - o))^T
+    // and (B^T 1)^T. Per chunk, reduced in chunk order.
+    const std::size_t ld = stride_;
+    const std::size_t kp = padded_k_;
+    std::vector<std::vector<double>> parts(chunks_.size(), std::vector<double>(ld * ld, 0.0));
+    for_each_block([&](std::size_t chunk, double* B, const double* P, std::size_t rows,
+                       std::size_t /*begin*/, double* /*spare*/) {
+        for (std::size_t r = 0; r < rows; ++r)
+        {
+            double* extra = B + r * ld + kp;
+            extra[0] = P[3 * r];
+            extra[1] = P[3 * r + 1];
+            extra[2] = P[3 * r + 2];
+            extra[3] = 1.0;
+        }
+        kernels_->gram(B, rows, ld, parts[chunk].data());
     });
-    gram_ = Eigen::MatrixXd::Zero(k, k);
-    bt_positions_ = Eigen::MatrixX3d::Zero(k, 3);
-    bt_ones_ = Eigen::VectorXd::Zero(k);
-    for (std::size_t c = 0; c < chunk_count; ++c)
+    std::vector<double> total(ld * ld, 0.0);
+    for (const auto& part : parts)
     {
-        gram_ += gram_parts[c];
-        bt_positions_ += position_parts[c];
-        bt_ones_ += ones_parts[c];
+        for (std::size_t i = 0; i < total.size(); ++i)
+        {
+            total[i] += part[i];
+        }
     }
-    gram_.triangularView<Eigen::StrictlyUpper>() = gram_.transpose();
+    gram_.resize(k, k);
+    for (std::size_t i = 0; i < ku; ++i)
+    {
+        for (std::size_t j = 0; j <= i; ++j)
+        {
+            const double g = total[i * ld + j];
+            gram_(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) = g;
+            gram_(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(i)) = g;
+        }
+    }
+    bt_positions_.resize(k, 3);
+    bt_ones_.resize(k);
+    for (std::size_t j = 0; j < ku; ++j)
+    {
+        for (std::size_t d = 0; d < 3; ++d)
+        {
+            bt_positions_(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(d)) = total[(kp + d) * ld + j];
+        }
+        bt_ones_(static_cast<Eigen::Index>(j)) = total[(kp + 3) * ld + j];
+    }
 
     // G = V W^2 V^T, sorted descending, with the sign convention of the header.
     const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> solver(gram_);
@@ -143,15 +215,21 @@ RbfBasis::RbfBasis(const Positions& V, std::vector<std::int32_t> active,
     }
 }
 
+std::string_view RbfBasis::kernel_name() const noexcept { return kernels_->name; }
+
 template <class BlockFn>
 void RbfBasis::for_each_block(const BlockFn& fn) const
 {
     const auto chunk_count = static_cast<std::ptrdiff_t>(chunks_.size());
     const auto k = center_positions_.rows();
+    const double inv_sigma = 1.0 / sigma_;
 #pragma omp parallel num_threads(threads_)
     {
-        Eigen::MatrixXd B(static_cast<Eigen::Index>(kBasisBlockRows), k);
-        Positions P(static_cast<Eigen::Index>(kBasisBlockRows), 3);
+        // Per thread: the B block, the positions of its rows (minus the origin) and a spare
+        // block for the callbacks.
+        std::vector<double> B(kBasisBlockRows * stride_);
+        std::vector<double> P(kBasisBlockRows * 3);
+        std::vector<double> spare(kBasisBlockRows * stride_);
 #pragma omp for schedule(dynamic, 1)
         for (std::ptrdiff_t c = 0; c < chunk_count; ++c)
         {
@@ -159,46 +237,19 @@ void RbfBasis::for_each_block(const BlockFn& fn) const
             for (std::size_t begin = chunk.begin; begin < chunk.end; begin += kBasisBlockRows)
             {
                 const std::size_t end = std::min(chunk.end, begin + kBasisBlockRows);
-                evaluate_block(begin, end, B, P);
-                fn(static_cast<std::size_t>(c), B, P, static_cast<Eigen::Index>(end - begin), begin);
+                const std::size_t rows = end - begin;
+                for (std::size_t i = 0; i < rows; ++i)
+                {
+                    const auto row = active_[begin + i];
+                    for (Eigen::Index d = 0; d < 3; ++d)
+                    {
+                        P[3 * i + static_cast<std::size_t>(d)] = (*V_)(row, d) - origin_(d);
+                    }
+                }
+                kernels_->evaluate(P.data(), rows, centers_soa_.data(), static_cast<std::size_t>(k),
+                                   stride_, inv_sigma, B.data());
+                fn(static_cast<std::size_t>(c), B.data(), P.data(), rows, begin, spare.data());
             }
-        }
-    }
-}
-
-void RbfBasis::evaluate_block(std::size_t begin, std::size_t end, Eigen::MatrixXd& B, Positions& P) const
-{
-    const auto rows = static_cast<Eigen::Index>(end - begin);
-    for (Eigen::Index i = 0; i < rows; ++i)
-    {
-        P.row(i) = V_->row(active_[begin + static_cast<std::size_t>(i)]) - origin_.transpose();
-    }
-    // Column by column so that the inner loop runs over contiguous rows and vectorizes.
-    const double inv_sigma = 1.0 / sigma_;
-    double px[kBasisBlockRows];
-    double py[kBasisBlockRows];
-    double pz[kBasisBlockRows];
-    for (Eigen::Index i = 0; i < rows; ++i)
-    {
-        px[i] = P(i, 0);
-        py[i] = P(i, 1);
-        pz[i] = P(i, 2);
-    }
-    for (Eigen::Index j = 0; j < center_positions_.rows(); ++j)
-    {
-        const double qx = center_positions_(j, 0);
-        const double qy = center_positions_(j, 1);
-        const double qz = center_positions_(j, 2);
-        double* column = B.col(j).data();
-        for (Eigen::Index i = 0; i < rows; ++i)
-        {
-            const double dx = px[i] - qx;
-            const double dy = py[i] - qy;
-            const double dz = pz[i] - qz;
-            const double r = std::sqrt(dx * dx + dy * dy + dz * dz) * inv_sigma;
-            const double t = r < 1.0 ? 1.0 - r : 0.0;
-            const double t2 = t * t;
-            column[i] = t2 * t2 * (4.0 * r + 1.0);
         }
     }
 }
@@ -254,32 +305,49 @@ std::vector<Eigen::MatrixX3d> RbfBasis::project(const std::vector<Positions>& fi
 {
     const Eigen::MatrixXd T = mode_transform(modes);
     const auto k = static_cast<Eigen::Index>(size());
-    const auto q = static_cast<Eigen::Index>(fields.size());
-    // B^T [X_1 ... X_q] (k x 3q) per chunk, one evaluation of B for all fields.
-    std::vector<Eigen::MatrixXd> parts(chunks_.size(), Eigen::MatrixXd::Zero(k, 3 * q));
-    for_each_block([&](std::size_t chunk, const Eigen::MatrixXd& B, const Positions& /*P*/,
-                       Eigen::Index rows, std::size_t begin) {
-        Eigen::MatrixXd x(rows, 3 * q);
-        for (Eigen::Index i = 0; i < rows; ++i)
+    const std::size_t w = 3 * fields.size();
+    const std::size_t ld = stride_;
+    // (B^T [X_1 ... X_q])^T (3q x ld) per chunk, one evaluation of B for all fields.
+    std::vector<std::vector<double>> parts(chunks_.size(), std::vector<double>(w * ld, 0.0));
+    for_each_block([&](std::size_t chunk, double* B, const double* /*P*/, std::size_t rows,
+                       std::size_t begin, double* spare) {
+        // The spare block holds rows x 3q values when 3q <= ld, else a local buffer does.
+        std::vector<double> local;
+        double* x = spare;
+        if (w > ld)
         {
-            const auto row = active_[begin + static_cast<std::size_t>(i)];
-            for (Eigen::Index f = 0; f < q; ++f)
+            local.resize(rows * w);
+            x = local.data();
+        }
+        for (std::size_t i = 0; i < rows; ++i)
+        {
+            const auto row = active_[begin + i];
+            for (std::size_t f = 0; f < fields.size(); ++f)
             {
-                x.block(i, 3 * f, 1, 3) = fields[static_cast<std::size_t>(f)].row(row);
+                for (Eigen::Index d = 0; d < 3; ++d)
+                {
+                    x[i * w + 3 * f + static_cast<std::size_t>(d)] = fields[f](row, d);
+                }
             }
         }
-        parts[chunk].noalias() += B.topRows(rows).transpose() * x;
+        kernels_->accumulate(B, rows, ld, x, w, parts[chunk].data());
     });
-    Eigen::MatrixXd bt_x = Eigen::MatrixXd::Zero(k, 3 * q);
+    Eigen::MatrixXd bt_x = Eigen::MatrixXd::Zero(k, static_cast<Eigen::Index>(w));
     for (const auto& part : parts)
     {
-        bt_x += part;
+        for (std::size_t col = 0; col < w; ++col)
+        {
+            for (Eigen::Index j = 0; j < k; ++j)
+            {
+                bt_x(j, static_cast<Eigen::Index>(col)) += part[col * ld + static_cast<std::size_t>(j)];
+            }
+        }
     }
     std::vector<Eigen::MatrixX3d> result;
     result.reserve(fields.size());
-    for (Eigen::Index f = 0; f < q; ++f)
+    for (std::size_t f = 0; f < fields.size(); ++f)
     {
-        result.emplace_back(T.transpose() * bt_x.middleCols(3 * f, 3));
+        result.emplace_back(T.transpose() * bt_x.middleCols(3 * static_cast<Eigen::Index>(f), 3));
     }
     return result;
 }
@@ -308,37 +376,54 @@ Eigen::MatrixX3d RbfBasis::project_least_squares(const Positions& X,
     // global and smooth, so they stay well determined by what is left.
     const Eigen::MatrixXd T = mode_transform(modes);
     const auto k = static_cast<Eigen::Index>(size());
-    std::vector<Eigen::MatrixXd> gram_parts(chunks_.size(), Eigen::MatrixXd::Zero(k, k));
-    std::vector<Eigen::MatrixX3d> rhs_parts(chunks_.size(), Eigen::MatrixX3d::Zero(k, 3));
-    for_each_block([&](std::size_t chunk, const Eigen::MatrixXd& B, const Positions& /*P*/,
-                       Eigen::Index rows, std::size_t begin) {
-        Eigen::MatrixXd kept(rows, k);
-        Eigen::Matrix<double, Eigen::Dynamic, 3> x(rows, 3);
-        Eigen::Index count = 0;
-        for (Eigen::Index i = 0; i < rows; ++i)
+    const std::size_t ld = stride_;
+    const std::size_t kp = padded_k_;
+    // As in pass 1: the rank update of [B_S, X_S] gives B_S^T B_S and (B_S^T X_S)^T at once.
+    std::vector<std::vector<double>> parts(chunks_.size(), std::vector<double>(ld * ld, 0.0));
+    for_each_block([&](std::size_t chunk, double* B, const double* /*P*/, std::size_t rows,
+                       std::size_t begin, double* kept) {
+        std::size_t count = 0;
+        for (std::size_t i = 0; i < rows; ++i)
         {
-            const auto row = active_[begin + static_cast<std::size_t>(i)];
+            const auto row = active_[begin + i];
             if (is_kept[static_cast<std::size_t>(row)] != 0)
             {
-                kept.row(count) = B.row(i);
-                x.row(count) = X.row(row);
+                double* out = kept + count * ld;
+                std::copy(B + i * ld, B + i * ld + kp, out);
+                out[kp] = X(row, 0);
+                out[kp + 1] = X(row, 1);
+                out[kp + 2] = X(row, 2);
+                out[kp + 3] = 0.0;
                 ++count;
             }
         }
         if (count > 0)
         {
-            gram_parts[chunk].selfadjointView<Eigen::Lower>().rankUpdate(kept.topRows(count).transpose());
-            rhs_parts[chunk].noalias() += kept.topRows(count).transpose() * x.topRows(count);
+            kernels_->gram(kept, count, ld, parts[chunk].data());
         }
     });
-    Eigen::MatrixXd gram_kept = Eigen::MatrixXd::Zero(k, k);
-    Eigen::MatrixX3d rhs = Eigen::MatrixX3d::Zero(k, 3);
-    for (std::size_t c = 0; c < chunks_.size(); ++c)
+    std::vector<double> total(ld * ld, 0.0);
+    for (const auto& part : parts)
     {
-        gram_kept += gram_parts[c];
-        rhs += rhs_parts[c];
+        for (std::size_t i = 0; i < total.size(); ++i)
+        {
+            total[i] += part[i];
+        }
     }
-    gram_kept.triangularView<Eigen::StrictlyUpper>() = gram_kept.transpose();
+    Eigen::MatrixXd gram_kept(k, k);
+    Eigen::MatrixX3d rhs(k, 3);
+    for (std::size_t i = 0; i < static_cast<std::size_t>(k); ++i)
+    {
+        for (std::size_t j = 0; j <= i; ++j)
+        {
+            gram_kept(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) = total[i * ld + j];
+            gram_kept(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(i)) = total[i * ld + j];
+        }
+        for (std::size_t d = 0; d < 3; ++d)
+        {
+            rhs(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(d)) = total[(kp + d) * ld + i];
+        }
+    }
     const Eigen::MatrixXd normal = T.transpose() * gram_kept * T;  // U_m,S^T U_m,S
     const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> check(normal);
     if (check.info() != Eigen::Success || !(check.eigenvalues()(0) > 1e-8))
@@ -354,34 +439,54 @@ Positions RbfBasis::synthesize(const Eigen::MatrixX3d& c, double* orthogonality_
     const int modes = static_cast<int>(c.rows());
     const Eigen::MatrixXd T = mode_transform(modes);
     const Eigen::MatrixX3d Tc = T * c;
-    Positions result = Positions::Zero(V_->rows(), 3);
-    std::vector<Eigen::MatrixXd> gram_parts;
-    if (orthogonality_error != nullptr)
+    const auto k = static_cast<Eigen::Index>(size());
+    const std::size_t ld = stride_;
+    std::vector<double> tc_t(3 * ld, 0.0);  // (T c)^T, zero on the padding columns
+    for (Eigen::Index j = 0; j < k; ++j)
     {
-        gram_parts.assign(chunks_.size(), Eigen::MatrixXd::Zero(modes, modes));
-    }
-    for_each_block([&](std::size_t chunk, const Eigen::MatrixXd& B, const Positions& /*P*/,
-                       Eigen::Index rows, std::size_t begin) {
-        const Eigen::Matrix<double, Eigen::Dynamic, 3> d = B.topRows(rows) * Tc;
-        for (Eigen::Index i = 0; i < rows; ++i)
+        for (std::size_t d = 0; d < 3; ++d)
         {
-            result.row(active_[begin + static_cast<std::size_t>(i)]) = d.row(i);
+            tc_t[d * ld + static_cast<std::size_t>(j)] = Tc(j, static_cast<Eigen::Index>(d));
         }
-        if (orthogonality_error != nullptr)
+    }
+    Positions result = Positions::Zero(V_->rows(), 3);
+    const bool check = orthogonality_error != nullptr;
+    std::vector<std::vector<double>> parts(check ? chunks_.size() : 0, std::vector<double>(3 * ld, 0.0));
+    for_each_block([&](std::size_t chunk, double* B, const double* /*P*/, std::size_t rows,
+                       std::size_t begin, double* d) {
+        kernels_->multiply(B, rows, ld, tc_t.data(), 3, d);
+        for (std::size_t i = 0; i < rows; ++i)
         {
-            const Eigen::MatrixXd U = B.topRows(rows) * T;
-            gram_parts[chunk].noalias() += U.transpose() * U;
+            const auto row = active_[begin + i];
+            result(row, 0) = d[3 * i];
+            result(row, 1) = d[3 * i + 1];
+            result(row, 2) = d[3 * i + 2];
+        }
+        if (check)
+        {
+            kernels_->accumulate(B, rows, ld, d, 3, parts[chunk].data());
         }
     });
-    if (orthogonality_error != nullptr)
+    if (check)
     {
-        Eigen::MatrixXd utu = Eigen::MatrixXd::Zero(modes, modes);
-        for (const auto& part : gram_parts)
+        // Modes: U_m^T U_m = T^T G T. Field: U_m^T f = T^T (B^T f), against c.
+        const Eigen::MatrixXd utu = T.transpose() * gram_ * T;
+        const double modes_error = (utu - Eigen::MatrixXd::Identity(modes, modes)).cwiseAbs().maxCoeff();
+        Eigen::MatrixX3d bt_f = Eigen::MatrixX3d::Zero(k, 3);
+        for (const auto& part : parts)
         {
-            utu += part;
+            for (std::size_t d = 0; d < 3; ++d)
+            {
+                for (Eigen::Index j = 0; j < k; ++j)
+                {
+                    bt_f(j, static_cast<Eigen::Index>(d)) += part[d * ld + static_cast<std::size_t>(j)];
+                }
+            }
         }
-        *orthogonality_error =
-            (utu - Eigen::MatrixXd::Identity(modes, modes)).cwiseAbs().maxCoeff();
+        const double scale = c.cwiseAbs().maxCoeff();
+        const double field_error =
+            scale > 0.0 ? (T.transpose() * bt_f - c).cwiseAbs().maxCoeff() / scale : 0.0;
+        *orthogonality_error = std::max(modes_error, field_error);
     }
     return result;
 }
@@ -389,10 +494,28 @@ Positions RbfBasis::synthesize(const Eigen::MatrixX3d& c, double* orthogonality_
 Eigen::MatrixXd RbfBasis::modes_dense(int modes) const
 {
     const Eigen::MatrixXd T = mode_transform(modes);
+    const auto m = static_cast<std::size_t>(modes);
+    const std::size_t ld = stride_;
+    std::vector<double> t_t(m * ld, 0.0);
+    for (Eigen::Index j = 0; j < T.rows(); ++j)
+    {
+        for (std::size_t c = 0; c < m; ++c)
+        {
+            t_t[c * ld + static_cast<std::size_t>(j)] = T(j, static_cast<Eigen::Index>(c));
+        }
+    }
     Eigen::MatrixXd U(static_cast<Eigen::Index>(active_.size()), modes);
-    for_each_block([&](std::size_t /*chunk*/, const Eigen::MatrixXd& B, const Positions& /*P*/,
-                       Eigen::Index rows, std::size_t begin) {
-        U.middleRows(static_cast<Eigen::Index>(begin), rows) = B.topRows(rows) * T;
+    for_each_block([&](std::size_t /*chunk*/, double* B, const double* /*P*/, std::size_t rows,
+                       std::size_t begin, double* /*spare*/) {
+        std::vector<double> out(rows * m);
+        kernels_->multiply(B, rows, ld, t_t.data(), m, out.data());
+        for (std::size_t i = 0; i < rows; ++i)
+        {
+            for (std::size_t c = 0; c < m; ++c)
+            {
+                U(static_cast<Eigen::Index>(begin + i), static_cast<Eigen::Index>(c)) = out[i * m + c];
+            }
+        }
     });
     return U;
 }

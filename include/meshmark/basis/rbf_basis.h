@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstdint>
+#include <string_view>
 #include <vector>
 
 #include <Eigen/Core>
@@ -9,6 +10,35 @@
 #include "meshmark/core/triangle_mesh.h"
 
 namespace meshmark {
+
+namespace detail {
+struct BlockKernels;
+}
+
+/// \brief Which implementation of the block arithmetic the basis passes use.
+/// \details Avx2 (AVX2 + FMA, about 3x faster) and Portable (baseline x86-64, i.e. SSE2, or
+/// any other CPU) give results that are bit-identical for any thread count, but differ from
+/// each other in the last bits of the Gram matrix and of the products (FMA rounds once where
+/// mul + add rounds twice, and the summation order differs): relative differences of ~1e-13
+/// in the modes and ~1e-12 in a synthesized field (measured in tests/unit/basis). A watermark
+/// embedded with one path is read back with the other exactly like with the same path:
+/// detection compares coefficient changes against a threshold of 1e-1 of the modulation, ten
+/// orders of magnitude above that. Choose Portable to make marked files byte-identical
+/// across machines with and without AVX2.
+enum class BasisKernel
+{
+    Automatic,  ///< Avx2 when this CPU has AVX2 and FMA, else Portable (the default).
+    Portable,   ///< Baseline instructions only.
+    Avx2,       ///< AVX2 + FMA; falls back to Portable on a CPU without them.
+};
+
+/// \brief Choose the kernel of every RbfBasis built afterwards in this process (thread-safe).
+/// \details The initial choice is Automatic, or what the environment variable
+/// MESHMARK_BASIS_KERNEL says (portable, avx2 or auto).
+void set_basis_kernel(BasisKernel kernel) noexcept;
+
+/// The kernel a basis built now would use: "avx2-fma" or "portable".
+[[nodiscard]] std::string_view basis_kernel_name() noexcept;
 
 /// \brief Wendland's compactly supported RBF, phi(r) = (1 - r)^4 (4 r + 1) for r < 1, else 0
 /// [Wendland 1995; Wu & Kobbelt 2005, Sec. 3].
@@ -67,6 +97,8 @@ public:
     [[nodiscard]] const Eigen::MatrixXd& eigenvectors() const noexcept { return eigenvectors_; }
     /// The Gram matrix G = B^T B (k x k), as accumulated.
     [[nodiscard]] const Eigen::MatrixXd& gram() const noexcept { return gram_; }
+    /// Implementation of the block arithmetic this basis uses ("avx2-fma" or "portable").
+    [[nodiscard]] std::string_view kernel_name() const noexcept;
 
     /// \brief Spectral coefficients of the positions, alpha = U^T (P - o) (k x 3), frame axes.
     [[nodiscard]] Eigen::MatrixX3d position_coefficients() const;
@@ -93,8 +125,14 @@ public:
                                                          int modes) const;
 
     /// \brief Synthesis U_m c (#V x 3, zero on inactive rows) of the first c.rows() modes.
-    /// \param orthogonality_error  If not null, receives max |U_m^T U_m - I| measured on the
-    ///        same pass (a check of the modes actually used).
+    /// \param orthogonality_error  If not null, receives a bound on the departure from
+    ///        orthonormality of the modes used, the larger of two checks: max |U_m^T U_m - I|
+    ///        with U_m^T U_m = T^T G T computed from the k x k Gram matrix G of pass 1
+    ///        (T = V_m W_m^-1; exact algebra, since pass 2 evaluates the same B bit for bit),
+    ///        and the round trip max |U_m^T f - c| / max |c| of the field f actually
+    ///        synthesized, measured on the same pass (f^T B accumulated block by block, as
+    ///        cheap as the synthesis itself). The round trip equals (U_m^T U_m - I) c, so it
+    ///        catches any error of the pass that the k x k check cannot see.
     [[nodiscard]] Positions synthesize(const Eigen::MatrixX3d& c,
                                        double* orthogonality_error = nullptr) const;
 
@@ -110,12 +148,15 @@ private:
     };
     template <class BlockFn>
     void for_each_block(const BlockFn& fn) const;
-    void evaluate_block(std::size_t begin, std::size_t end, Eigen::MatrixXd& B, Positions& P) const;
     [[nodiscard]] Eigen::MatrixXd mode_transform(int modes) const;  // V_m W_m^-1, k x m
 
     const Positions* V_;
     std::vector<std::int32_t> active_;
     Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> center_positions_;  // minus origin
+    const detail::BlockKernels* kernels_;
+    std::size_t padded_k_;      // k rounded up to a multiple of 4
+    std::size_t stride_;        // row length of a B block: padded_k_ + 4 (pass 1: P and 1)
+    std::vector<double> centers_soa_;  // 3 x stride_: x, y, z of the centers
     double sigma_;
     Eigen::Vector3d origin_;
     int threads_;
@@ -127,7 +168,7 @@ private:
     Eigen::MatrixXd eigenvectors_;
 };
 
-/// Rows per block of the streaming passes: a B block of 256 x 100 doubles stays in L2 cache.
+/// Rows per block of the streaming passes: a B block of 256 x 104 doubles stays in L2 cache.
 inline constexpr std::size_t kBasisBlockRows = 256;
 
 }  // namespace meshmark

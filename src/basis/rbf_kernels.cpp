@@ -1,0 +1,80 @@
+// SPDX-License-Identifier: MIT
+// Portable block kernels: the evaluation as a scalar loop, the products through Eigen, which
+// vectorizes them for the baseline target (SSE2 on x86-64).
+#include "basis/rbf_kernels.h"
+
+#include <cmath>
+
+#include <Eigen/Core>
+
+namespace meshmark::detail {
+namespace {
+
+using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+using ConstBlock = Eigen::Map<const RowMajor>;
+using Block = Eigen::Map<RowMajor>;
+
+Eigen::Index as_index(std::size_t n) { return static_cast<Eigen::Index>(n); }
+
+void evaluate(const double* P, std::size_t rows, const double* Q, std::size_t k, std::size_t ld,
+              double inv_sigma, double* B)
+{
+    const double* qx = Q;
+    const double* qy = Q + ld;
+    const double* qz = Q + 2 * ld;
+    for (std::size_t r = 0; r < rows; ++r)
+    {
+        const double px = P[3 * r];
+        const double py = P[3 * r + 1];
+        const double pz = P[3 * r + 2];
+        double* row = B + r * ld;
+        // The operation order is the AVX2 kernel's, lane for lane: keep the two identical.
+        for (std::size_t j = 0; j < k; ++j)
+        {
+            const double dx = px - qx[j];
+            const double dy = py - qy[j];
+            const double dz = pz - qz[j];
+            const double d = std::sqrt(dx * dx + dy * dy + dz * dz) * inv_sigma;
+            const double t = d < 1.0 ? 1.0 - d : 0.0;
+            const double t2 = t * t;
+            row[j] = t2 * t2 * (4.0 * d + 1.0);
+        }
+        for (std::size_t j = k; j < ld; ++j)
+        {
+            row[j] = 0.0;
+        }
+    }
+}
+
+void gram(const double* B, std::size_t rows, std::size_t ld, double* G)
+{
+    const ConstBlock b(B, as_index(rows), as_index(ld));
+    Block g(G, as_index(ld), as_index(ld));
+    g.selfadjointView<Eigen::Lower>().rankUpdate(b.transpose());
+}
+
+void multiply(const double* B, std::size_t rows, std::size_t ld, const double* Mt, std::size_t w,
+              double* out)
+{
+    const ConstBlock b(B, as_index(rows), as_index(ld));
+    const ConstBlock mt(Mt, as_index(w), as_index(ld));
+    Block o(out, as_index(rows), as_index(w));
+    o.noalias() = b * mt.transpose();
+}
+
+void accumulate(const double* B, std::size_t rows, std::size_t ld, const double* X, std::size_t w,
+                double* acc)
+{
+    const ConstBlock b(B, as_index(rows), as_index(ld));
+    const ConstBlock x(X, as_index(rows), as_index(w));
+    Block a(acc, as_index(w), as_index(ld));
+    a.noalias() += x.transpose() * b;
+}
+
+constexpr BlockKernels kPortable{"portable", evaluate, gram, multiply, accumulate};
+
+}  // namespace
+
+const BlockKernels& portable_kernels() noexcept { return kPortable; }
+
+}  // namespace meshmark::detail

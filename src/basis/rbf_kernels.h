@@ -1,0 +1,41 @@
+// SPDX-License-Identifier: MIT
+// Block kernels of the RBF basis passes, in two builds: a portable one (Eigen, whatever the
+// baseline x86-64 target vectorizes, i.e. SSE2) and an AVX2+FMA one (intrinsics, selected at
+// run time). Internal to the basis module.
+#pragma once
+
+#include <cstddef>
+
+namespace meshmark::detail {
+
+/// \brief The four operations of a row block, on row-major blocks.
+/// \details B is rows x ld (ld a multiple of 4, >= k), row r holding phi(|p_r - q_j| / sigma)
+/// for j < k and zeros for k <= j < ld (callers may overwrite the padding columns). Within one
+/// implementation every entry is a fixed sequence of operations over the rows in order, so
+/// the results do not depend on how blocks are distributed over threads.
+struct BlockKernels
+{
+    const char* name;
+    /// B = phi(|P - Q| / sigma): P is rows x 3 (row-major), Q is 3 x ld (x, y and z of the
+    /// centers, structure of arrays). Bit-identical in both implementations (no FMA).
+    void (*evaluate)(const double* P, std::size_t rows, const double* Q, std::size_t k,
+                     std::size_t ld, double inv_sigma, double* B);
+    /// G += B^T B on the lower triangle (G is ld x ld row-major; entries above the diagonal
+    /// may be touched and are meaningless).
+    void (*gram)(const double* B, std::size_t rows, std::size_t ld, double* G);
+    /// out = B M, with M given transposed: Mt is w x ld row-major (zero where B's columns are
+    /// padding); out is rows x w row-major.
+    void (*multiply)(const double* B, std::size_t rows, std::size_t ld, const double* Mt,
+                     std::size_t w, double* out);
+    /// acc += X^T B: X is rows x w row-major, acc is w x ld row-major (acc^T = B^T X).
+    void (*accumulate)(const double* B, std::size_t rows, std::size_t ld, const double* X,
+                       std::size_t w, double* acc);
+};
+
+/// Baseline kernels, any x86-64 (and any other) CPU.
+[[nodiscard]] const BlockKernels& portable_kernels() noexcept;
+
+/// AVX2+FMA kernels, or nullptr when this build or this CPU lacks them.
+[[nodiscard]] const BlockKernels* avx2_kernels() noexcept;
+
+}  // namespace meshmark::detail
