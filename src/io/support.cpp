@@ -37,14 +37,28 @@ private:
 
 }  // namespace
 
+namespace {
+
+// A clause that may end with a library's own period ("...attributes."): one period in all.
+std::string clause(std::string what)
+{
+    while (!what.empty() && (what.back() == '.' || what.back() == ' ' || what.back() == '\n'))
+    {
+        what.pop_back();
+    }
+    return what;
+}
+
+}  // namespace
+
 void fail_io(const std::filesystem::path& path, const std::string& what)
 {
-    throw IoError(path.string() + ": " + what + ".");
+    throw IoError(path.string() + ": " + clause(what) + ".");
 }
 
 void fail_mesh(const std::filesystem::path& path, const std::string& what)
 {
-    throw InvalidMesh(path.string() + ": " + what + ".");
+    throw InvalidMesh(path.string() + ": " + clause(what) + ".");
 }
 
 std::string quoted(std::string_view token)
