@@ -30,6 +30,47 @@ constexpr std::size_t kMinChunkBlocks = 16;
 // double; condition numbers of 1e8-1e10 are normal for k = 100, see DESIGN.md).
 constexpr double kGramRankTolerance = 1e-14;
 
+// Spreads the low 10 bits of v to every third bit (Morton interleaving).
+std::uint32_t spread_bits(std::uint32_t v) noexcept
+{
+    v &= 0x3FFU;
+    v = (v | (v << 16U)) & 0x030000FFU;
+    v = (v | (v << 8U)) & 0x0300F00FU;
+    v = (v | (v << 4U)) & 0x030C30C3U;
+    v = (v | (v << 2U)) & 0x09249249U;
+    return v;
+}
+
+// Column of each center in the B blocks: the centers in Morton order of their positions, so
+// that neighbouring columns hold nearby centers and the evaluation's test "all four centers
+// out of reach" succeeds for whole groups. Only the layout changes: every entry of G, B^T P
+// and the products is the same sum in the same order wherever its column sits.
+std::vector<std::size_t> spatial_columns(const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>& Q)
+{
+    const auto k = static_cast<std::size_t>(Q.rows());
+    const Eigen::RowVector3d low = Q.colwise().minCoeff();
+    const Eigen::RowVector3d extent = (Q.colwise().maxCoeff() - low).cwiseMax(1e-300);
+    std::vector<std::pair<std::uint32_t, std::size_t>> keys(k);
+    for (std::size_t j = 0; j < k; ++j)
+    {
+        std::uint32_t code = 0;
+        for (Eigen::Index d = 0; d < 3; ++d)
+        {
+            const double unit = (Q(static_cast<Eigen::Index>(j), d) - low(d)) / extent(d);
+            const auto cell = static_cast<std::uint32_t>(std::clamp(unit, 0.0, 1.0) * 1023.0);
+            code |= spread_bits(cell) << static_cast<std::uint32_t>(d);
+        }
+        keys[j] = {code, j};
+    }
+    std::sort(keys.begin(), keys.end());
+    std::vector<std::size_t> column(k);
+    for (std::size_t slot = 0; slot < k; ++slot)
+    {
+        column[keys[slot].second] = slot;
+    }
+    return column;
+}
+
 BasisKernel kernel_from_environment() noexcept
 {
     const char* value = std::getenv("MESHMARK_BASIS_KERNEL");
@@ -122,14 +163,18 @@ RbfBasis::RbfBasis(const Positions& V, std::vector<std::int32_t> active,
     padded_k_ = (ku + 3) / 4 * 4;
     stride_ = padded_k_ + 4;
     center_positions_.resize(k, 3);
-    centers_soa_.assign(3 * stride_, 0.0);
     for (Eigen::Index j = 0; j < k; ++j)
     {
         center_positions_.row(j) = V.row(centers[static_cast<std::size_t>(j)]) - origin_.transpose();
+    }
+    column_ = spatial_columns(center_positions_);
+    centers_soa_.assign(3 * stride_, 0.0);
+    for (std::size_t j = 0; j < ku; ++j)
+    {
         for (std::size_t d = 0; d < 3; ++d)
         {
-            centers_soa_[d * stride_ + static_cast<std::size_t>(j)] =
-                center_positions_(j, static_cast<Eigen::Index>(d));
+            centers_soa_[d * stride_ + column_[j]] =
+                center_positions_(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(d));
         }
     }
 
@@ -169,25 +214,17 @@ RbfBasis::RbfBasis(const Positions& V, std::vector<std::int32_t> active,
             total[i] += part[i];
         }
     }
-    gram_.resize(k, k);
-    for (std::size_t i = 0; i < ku; ++i)
-    {
-        for (std::size_t j = 0; j <= i; ++j)
-        {
-            const double g = total[i * ld + j];
-            gram_(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) = g;
-            gram_(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(i)) = g;
-        }
-    }
+    gram_ = unpack_gram(total);
     bt_positions_.resize(k, 3);
     bt_ones_.resize(k);
     for (std::size_t j = 0; j < ku; ++j)
     {
         for (std::size_t d = 0; d < 3; ++d)
         {
-            bt_positions_(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(d)) = total[(kp + d) * ld + j];
+            bt_positions_(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(d)) =
+                total[(kp + d) * ld + column_[j]];
         }
-        bt_ones_(static_cast<Eigen::Index>(j)) = total[(kp + 3) * ld + j];
+        bt_ones_(static_cast<Eigen::Index>(j)) = total[(kp + 3) * ld + column_[j]];
     }
 
     // G = V W^2 V^T, sorted descending, with the sign convention of the header.
@@ -216,6 +253,37 @@ RbfBasis::RbfBasis(const Positions& V, std::vector<std::int32_t> active,
 }
 
 std::string_view RbfBasis::kernel_name() const noexcept { return kernels_->name; }
+
+Eigen::MatrixXd RbfBasis::unpack_gram(const std::vector<double>& total) const
+{
+    const auto k = static_cast<Eigen::Index>(size());
+    Eigen::MatrixXd G(k, k);
+    for (Eigen::Index i = 0; i < k; ++i)
+    {
+        for (Eigen::Index j = 0; j <= i; ++j)
+        {
+            const std::size_t a = column_[static_cast<std::size_t>(i)];
+            const std::size_t b = column_[static_cast<std::size_t>(j)];
+            const double g = a >= b ? total[a * stride_ + b] : total[b * stride_ + a];
+            G(i, j) = g;
+            G(j, i) = g;
+        }
+    }
+    return G;
+}
+
+std::vector<double> RbfBasis::columns_transposed(const Eigen::MatrixXd& M) const
+{
+    std::vector<double> out(static_cast<std::size_t>(M.cols()) * stride_, 0.0);
+    for (Eigen::Index c = 0; c < M.cols(); ++c)
+    {
+        for (Eigen::Index j = 0; j < M.rows(); ++j)
+        {
+            out[static_cast<std::size_t>(c) * stride_ + column_[static_cast<std::size_t>(j)]] = M(j, c);
+        }
+    }
+    return out;
+}
 
 template <class BlockFn>
 void RbfBasis::for_each_block(const BlockFn& fn) const
@@ -339,7 +407,7 @@ std::vector<Eigen::MatrixX3d> RbfBasis::project(const std::vector<Positions>& fi
         {
             for (Eigen::Index j = 0; j < k; ++j)
             {
-                bt_x(j, static_cast<Eigen::Index>(col)) += part[col * ld + static_cast<std::size_t>(j)];
+                bt_x(j, static_cast<Eigen::Index>(col)) += part[col * ld + column_[static_cast<std::size_t>(j)]];
             }
         }
     }
@@ -410,18 +478,13 @@ Eigen::MatrixX3d RbfBasis::project_least_squares(const Positions& X,
             total[i] += part[i];
         }
     }
-    Eigen::MatrixXd gram_kept(k, k);
+    const Eigen::MatrixXd gram_kept = unpack_gram(total);
     Eigen::MatrixX3d rhs(k, 3);
     for (std::size_t i = 0; i < static_cast<std::size_t>(k); ++i)
     {
-        for (std::size_t j = 0; j <= i; ++j)
-        {
-            gram_kept(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) = total[i * ld + j];
-            gram_kept(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(i)) = total[i * ld + j];
-        }
         for (std::size_t d = 0; d < 3; ++d)
         {
-            rhs(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(d)) = total[(kp + d) * ld + i];
+            rhs(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(d)) = total[(kp + d) * ld + column_[i]];
         }
     }
     const Eigen::MatrixXd normal = T.transpose() * gram_kept * T;  // U_m,S^T U_m,S
@@ -441,14 +504,7 @@ Positions RbfBasis::synthesize(const Eigen::MatrixX3d& c, double* orthogonality_
     const Eigen::MatrixX3d Tc = T * c;
     const auto k = static_cast<Eigen::Index>(size());
     const std::size_t ld = stride_;
-    std::vector<double> tc_t(3 * ld, 0.0);  // (T c)^T, zero on the padding columns
-    for (Eigen::Index j = 0; j < k; ++j)
-    {
-        for (std::size_t d = 0; d < 3; ++d)
-        {
-            tc_t[d * ld + static_cast<std::size_t>(j)] = Tc(j, static_cast<Eigen::Index>(d));
-        }
-    }
+    const std::vector<double> tc_t = columns_transposed(Tc);  // (T c)^T, zero on the padding
     Positions result = Positions::Zero(V_->rows(), 3);
     const bool check = orthogonality_error != nullptr;
     std::vector<std::vector<double>> parts(check ? chunks_.size() : 0, std::vector<double>(3 * ld, 0.0));
@@ -479,7 +535,7 @@ Positions RbfBasis::synthesize(const Eigen::MatrixX3d& c, double* orthogonality_
             {
                 for (Eigen::Index j = 0; j < k; ++j)
                 {
-                    bt_f(j, static_cast<Eigen::Index>(d)) += part[d * ld + static_cast<std::size_t>(j)];
+                    bt_f(j, static_cast<Eigen::Index>(d)) += part[d * ld + column_[static_cast<std::size_t>(j)]];
                 }
             }
         }
@@ -496,14 +552,7 @@ Eigen::MatrixXd RbfBasis::modes_dense(int modes) const
     const Eigen::MatrixXd T = mode_transform(modes);
     const auto m = static_cast<std::size_t>(modes);
     const std::size_t ld = stride_;
-    std::vector<double> t_t(m * ld, 0.0);
-    for (Eigen::Index j = 0; j < T.rows(); ++j)
-    {
-        for (std::size_t c = 0; c < m; ++c)
-        {
-            t_t[c * ld + static_cast<std::size_t>(j)] = T(j, static_cast<Eigen::Index>(c));
-        }
-    }
+    const std::vector<double> t_t = columns_transposed(T);
     Eigen::MatrixXd U(static_cast<Eigen::Index>(active_.size()), modes);
     for_each_block([&](std::size_t /*chunk*/, double* B, const double* /*P*/, std::size_t rows,
                        std::size_t begin, double* /*spare*/) {

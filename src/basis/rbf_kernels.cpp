@@ -22,6 +22,7 @@ void evaluate(const double* P, std::size_t rows, const double* Q, std::size_t k,
     const double* qx = Q;
     const double* qy = Q + ld;
     const double* qz = Q + 2 * ld;
+    const double outside_squared = outside_squared_distance(inv_sigma);
     for (std::size_t r = 0; r < rows; ++r)
     {
         const double px = P[3 * r];
@@ -34,7 +35,13 @@ void evaluate(const double* P, std::size_t rows, const double* Q, std::size_t k,
             const double dx = px - qx[j];
             const double dy = py - qy[j];
             const double dz = pz - qz[j];
-            const double d = std::sqrt(dx * dx + dy * dy + dz * dz) * inv_sigma;
+            const double sq = dx * dx + dy * dy + dz * dz;
+            if (sq >= outside_squared)
+            {
+                row[j] = 0.0;
+                continue;
+            }
+            const double d = std::sqrt(sq) * inv_sigma;
             const double t = d < 1.0 ? 1.0 - d : 0.0;
             const double t2 = t * t;
             row[j] = t2 * t2 * (4.0 * d + 1.0);

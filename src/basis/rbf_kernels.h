@@ -8,6 +8,17 @@
 
 namespace meshmark::detail {
 
+/// \brief Squared distance beyond which phi is certainly 0: (sigma (1 + 1e-9))^2.
+/// \details The evaluation skips the square root there. For d = sqrt(s) / sigma with s above
+/// this bound, the computed d is >= 1 whatever the rounding (each of the three roundings is
+/// relative 2^-53 << 1e-9), so the full formula would give t = 0 and phi = +0 as well: the
+/// shortcut does not change a bit.
+[[nodiscard]] inline double outside_squared_distance(double inv_sigma) noexcept
+{
+    const double reach = (1.0 + 1e-9) / inv_sigma;
+    return reach * reach;
+}
+
 /// \brief The four operations of a row block, on row-major blocks.
 /// \details B is rows x ld (ld a multiple of 4, >= k), row r holding phi(|p_r - q_j| / sigma)
 /// for j < k and zeros for k <= j < ld (callers may overwrite the padding columns). Within one

@@ -33,6 +33,8 @@ MESHMARK_AVX2 void evaluate(const double* P, std::size_t rows, const double* Q, 
     const __m256d one = _mm256_set1_pd(1.0);
     const __m256d four = _mm256_set1_pd(4.0);
     const __m256d scale = _mm256_set1_pd(inv_sigma);
+    const __m256d outside = _mm256_set1_pd(outside_squared_distance(inv_sigma));
+    const double outside_squared = outside_squared_distance(inv_sigma);
     const std::size_t k4 = k / 4 * 4;
     for (std::size_t r = 0; r < rows; ++r)
     {
@@ -51,6 +53,12 @@ MESHMARK_AVX2 void evaluate(const double* P, std::size_t rows, const double* Q, 
             const __m256d dz = _mm256_sub_pd(vz, _mm256_loadu_pd(qz + j));
             const __m256d sq = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy)),
                                              _mm256_mul_pd(dz, dz));
+            if (_mm256_movemask_pd(_mm256_cmp_pd(sq, outside, _CMP_LT_OQ)) == 0)
+            {
+                // All four centers out of reach: the formula gives +0 (see kOutsideMargin).
+                _mm256_storeu_pd(row + j, _mm256_setzero_pd());
+                continue;
+            }
             const __m256d d = _mm256_mul_pd(_mm256_sqrt_pd(sq), scale);
             const __m256d inside = _mm256_cmp_pd(d, one, _CMP_LT_OQ);
             const __m256d t = _mm256_and_pd(inside, _mm256_sub_pd(one, d));
@@ -64,7 +72,13 @@ MESHMARK_AVX2 void evaluate(const double* P, std::size_t rows, const double* Q, 
             const double dx = px - qx[j];
             const double dy = py - qy[j];
             const double dz = pz - qz[j];
-            const double d = __builtin_sqrt(dx * dx + dy * dy + dz * dz) * inv_sigma;
+            const double sq = dx * dx + dy * dy + dz * dz;
+            if (sq >= outside_squared)
+            {
+                row[j] = 0.0;
+                continue;
+            }
+            const double d = __builtin_sqrt(sq) * inv_sigma;
             const double t = d < 1.0 ? 1.0 - d : 0.0;
             const double t2 = t * t;
             row[j] = t2 * t2 * (4.0 * d + 1.0);

@@ -149,6 +149,10 @@ private:
     template <class BlockFn>
     void for_each_block(const BlockFn& fn) const;
     [[nodiscard]] Eigen::MatrixXd mode_transform(int modes) const;  // V_m W_m^-1, k x m
+    // k x k Gram matrix from the lower triangle of a stride_ x stride_ block-layout sum.
+    [[nodiscard]] Eigen::MatrixXd unpack_gram(const std::vector<double>& total) const;
+    // M^T (cols x stride_) in the block layout, zero on padding columns.
+    [[nodiscard]] std::vector<double> columns_transposed(const Eigen::MatrixXd& M) const;
 
     const Positions* V_;
     std::vector<std::int32_t> active_;
@@ -156,7 +160,8 @@ private:
     const detail::BlockKernels* kernels_;
     std::size_t padded_k_;      // k rounded up to a multiple of 4
     std::size_t stride_;        // row length of a B block: padded_k_ + 4 (pass 1: P and 1)
-    std::vector<double> centers_soa_;  // 3 x stride_: x, y, z of the centers
+    std::vector<std::size_t> column_;  // column of center j in the blocks (spatial order)
+    std::vector<double> centers_soa_;  // 3 x stride_: x, y, z of the centers, by column
     double sigma_;
     Eigen::Vector3d origin_;
     int threads_;
