@@ -5,6 +5,7 @@
 
 #include "meshmark/core/atomic_file.h"
 #include "meshmark/core/error.h"
+#include "streamed_write.h"
 #include "timer.h"
 
 namespace meshmark {
@@ -90,8 +91,9 @@ EmbedReport embed_file(const std::filesystem::path& input, const std::filesystem
     // Basis (pass 1 + eigen-decomposition) -> synthesis of the displacement (pass 2).
     const SpectralWatermark mark(file.mesh, key, options.threads);
     timer.lap("basis");
-    const Positions field = mark.displacement(&report.stats);
-    const Positions marked = file.mesh.V + field;
+    // The field becomes the marked positions in place: one #V x 3 array, not two.
+    Positions marked = mark.displacement(&report.stats);
+    marked += file.mesh.V;
     timer.lap("embed");
 
     // Both files or neither: the key goes to a staging file next to its target, the mesh is
@@ -102,7 +104,11 @@ EmbedReport embed_file(const std::filesystem::path& input, const std::filesystem
     write_key(staging, key);
     try
     {
-        write_mesh_file(output, file, marked);
+        // A binary PLY streams out of the original bytes (no second copy of the file).
+        if (!detail::write_binary_ply_streamed(output, file, marked))
+        {
+            write_mesh_file(output, file, marked);
+        }
         std::filesystem::rename(staging, key_path);
     }
     catch (const std::filesystem::filesystem_error& e)
