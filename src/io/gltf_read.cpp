@@ -240,6 +240,27 @@ private:
                       std::int32_t group);
     TriangleMesh weld();
     [[noreturn]] void fail(const std::string& what) const { fail_io(path_, what); }
+    // The view's byte range lies inside its (loaded) buffer; no overflow on hostile sizes.
+    [[nodiscard]] bool is_view_in_buffer(const tinygltf::BufferView& view) const
+    {
+        if (view.buffer < 0 || static_cast<std::size_t>(view.buffer) >= asset_.buffers.size())
+        {
+            return false;
+        }
+        const std::uint64_t size = asset_.buffers[static_cast<std::size_t>(view.buffer)].bytes.size();
+        return view.byteOffset <= size && view.byteLength <= size - view.byteOffset;
+    }
+    // n elements of element_size bytes, stride apart from offset, end within length.
+    [[nodiscard]] static bool fits(std::uint64_t offset, std::uint64_t stride, std::uint64_t n,
+                                   std::uint64_t element_size, std::uint64_t length)
+    {
+        if (n == 0)
+        {
+            return offset <= length;
+        }
+        return offset <= length && element_size <= length - offset &&
+               n - 1 <= (length - offset - element_size) / stride;
+    }
 
     const fs::path& path_;
     const tinygltf::Model& model_;
@@ -430,9 +451,7 @@ std::vector<GltfElement> Reader::locate(int accessor_index, int components,
                  " refers to missing bufferView " + std::to_string(view_index));
         }
         const auto& view = model_.bufferViews[static_cast<std::size_t>(view_index)];
-        if (view.buffer < 0 || static_cast<std::size_t>(view.buffer) >= asset_.buffers.size() ||
-            view.byteOffset + view.byteLength > asset_.buffers[static_cast<std::size_t>(view.buffer)].bytes.size() ||
-            (n > 0 && offset + stride * (n - 1) + element_size > view.byteLength))
+        if (!is_view_in_buffer(view) || !fits(offset, stride, n, element_size, view.byteLength))
         {
             fail(what + " accessor " + std::to_string(accessor_index) +
                  " reaches past the end of bufferView " + std::to_string(view_index) +
@@ -482,10 +501,8 @@ std::vector<GltfElement> Reader::locate(int accessor_index, int components,
         }
         const auto& index_view = model_.bufferViews[static_cast<std::size_t>(sparse.indices.bufferView)];
         const auto index_offset = static_cast<std::uint64_t>(sparse.indices.byteOffset);
-        if (index_view.buffer < 0 || static_cast<std::size_t>(index_view.buffer) >= asset_.buffers.size() ||
-            index_view.byteOffset + index_view.byteLength >
-                asset_.buffers[static_cast<std::size_t>(index_view.buffer)].bytes.size() ||
-            index_offset + n * index_size > index_view.byteLength)
+        if (!is_view_in_buffer(index_view) ||
+            !fits(index_offset, index_size, n, index_size, index_view.byteLength))
         {
             fail(what + " accessor " + std::to_string(accessor_index) +
                  " has sparse indices past the end of their bufferView");
@@ -692,9 +709,7 @@ void Reader::add_draco(const tinygltf::Primitive& prim, int mesh, int index,
     else
     {
         const auto& view = model_.bufferViews[static_cast<std::size_t>(view_index)];
-        if (view.buffer < 0 || static_cast<std::size_t>(view.buffer) >= asset_.buffers.size() ||
-            view.byteOffset + view.byteLength >
-                asset_.buffers[static_cast<std::size_t>(view.buffer)].bytes.size())
+        if (!is_view_in_buffer(view))
         {
             fail(where + " has a Draco bufferView past the end of its buffer");
         }

@@ -150,7 +150,9 @@ Json& Writer::doc()
     {
         try
         {
-            doc_ = Json::parse(asset_.json);
+            // GLB JSON chunks are padded with spaces (some writers use NULs): parse without.
+            const auto end = asset_.json.find_last_not_of(std::string(" \t\r\n\0", 5));
+            doc_ = Json::parse(asset_.json.substr(0, end == std::string::npos ? 0 : end + 1));
         }
         catch (const Json::exception& e)
         {
@@ -506,7 +508,15 @@ void write_gltf_preserving(const fs::path& path, bool is_glb, const GltfAsset& a
                            const Positions& original, const Positions& positions)
 {
     Writer writer(path, asset, original, positions);
-    writer.run(is_glb);
+    try
+    {
+        writer.run(is_glb);
+    }
+    catch (const Json::exception& e)
+    {
+        // The reader validated the asset; an unexpected JSON shape is still one clear error.
+        fail_io(path, std::string("cannot update the glTF JSON: ") + e.what());
+    }
 }
 
 std::string gltf_bytes(const TriangleMesh& mesh, bool is_glb)
