@@ -683,6 +683,11 @@ void Reader::add_draco(const tinygltf::Primitive& prim, int mesh, int index,
 {
     const std::string where = "mesh " + std::to_string(mesh) + " primitive " + std::to_string(index);
     const auto& ext = prim.extensions.at(kDracoExtension);
+    // tinygltf::Value::Get asserts an object: check the shape before each lookup.
+    if (!ext.IsObject() || !ext.Has("attributes") || !ext.Get("attributes").IsObject())
+    {
+        fail(where + " has a malformed " + std::string(kDracoExtension) + " extension");
+    }
     const auto& view_value = ext.Get("bufferView");
     const auto& position_value = ext.Get("attributes").Get("POSITION");
     const auto position = prim.attributes.find("POSITION");

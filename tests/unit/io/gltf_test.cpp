@@ -528,6 +528,13 @@ TEST_F(GltfTest, hostile_files_fail_with_one_sentence_naming_the_file)
     d.doc["accessors"][static_cast<std::size_t>(p3)]["count"] = 300;
     d.node({{"mesh", d.mesh(Json::array({{{"attributes", {{"POSITION", p3}}}}}))}});
     expect_error("overrun.glb", d.glb());
+
+    // A Draco extension that is not an object (tinygltf's Value::Get asserts on it).
+    GltfBuilder e;
+    const int p4 = e.positions({0, 0, 0, 1, 0, 0, 0, 1, 0});
+    e.node({{"mesh", e.mesh(Json::array({{{"attributes", {{"POSITION", p4}}},
+                                           {"extensions", {{"KHR_draco_mesh_compression", 5}}}}}))}});
+    expect_error("draco_ext.glb", e.glb());
 }
 
 }  // namespace
