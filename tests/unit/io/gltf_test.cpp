@@ -529,11 +529,11 @@ TEST_F(GltfTest, hostile_files_fail_with_one_sentence_naming_the_file)
     d.node({{"mesh", d.mesh(Json::array({{{"attributes", {{"POSITION", p3}}}}}))}});
     expect_error("overrun.glb", d.glb());
 
-    // A Draco extension that is not an object (tinygltf's Value::Get asserts on it).
+    // A Draco extension whose attributes are not an object (tinygltf::Value::Get asserts).
     GltfBuilder e;
     const int p4 = e.positions({0, 0, 0, 1, 0, 0, 0, 1, 0});
     e.node({{"mesh", e.mesh(Json::array({{{"attributes", {{"POSITION", p4}}},
-                                           {"extensions", {{"KHR_draco_mesh_compression", 5}}}}}))}});
+                                           {"extensions", {{"KHR_draco_mesh_compression", {{"bufferView", 0}, {"attributes", 5}}}}}}}))}});
     expect_error("draco_ext.glb", e.glb());
 }
 
