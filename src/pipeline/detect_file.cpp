@@ -77,26 +77,13 @@ std::vector<std::uint8_t> kept_after_crop(const TriangleMesh& original, const st
     return kept;
 }
 
-}  // namespace
-
-DetectReport detect_file(const std::filesystem::path& suspect_path,
-                         const std::filesystem::path& original_path,
-                         const std::filesystem::path& key_path, const DetectFileOptions& options)
+// Steps 6-10 for a suspect in memory, appending phases to \p timer.
+void detect_into(DetectReport& report, detail::PhaseTimer& timer, const SpectralWatermark& mark,
+                 const TriangleMesh& original, const TriangleMesh& suspect,
+                 const std::filesystem::path& suspect_path, const DetectFileOptions& options)
 {
-    options.decision.validate();
-    DetectReport report;
-    detail::PhaseTimer timer(report.seconds, options.progress);
-
-    const Key key = read_key(key_path);
-    const TriangleMesh original = read_mesh(original_path);
-    check_original(original, key, original_path);
-    const TriangleMesh suspect = read_mesh(suspect_path);
     report.suspect_vertices = suspect.vertex_count();
     report.original_vertices = original.vertex_count();
-    timer.lap("read");
-
-    const SpectralWatermark mark(original, key, options.threads);
-    timer.lap("basis");
 
     // Everything geometric (pose, correspondence, crop) is decided against the ORIGINAL, never
     // against the watermarked mesh: that keeps every step before the correlation independent of
@@ -170,6 +157,37 @@ DetectReport detect_file(const std::filesystem::path& suspect_path,
                                      : mark.extract(aligned, options.decision);
     report.decision = mark.decide(report.extraction, options.decision);
     timer.lap("extract");
+}
+
+}  // namespace
+
+DetectReport detect_mesh(const SpectralWatermark& mark, const TriangleMesh& original, const TriangleMesh& suspect,
+                         const DetectFileOptions& options)
+{
+    options.decision.validate();
+    DetectReport report;
+    detail::PhaseTimer timer(report.seconds, options.progress);
+    detect_into(report, timer, mark, original, suspect, "suspect", options);
+    return report;
+}
+
+DetectReport detect_file(const std::filesystem::path& suspect_path,
+                         const std::filesystem::path& original_path,
+                         const std::filesystem::path& key_path, const DetectFileOptions& options)
+{
+    options.decision.validate();
+    DetectReport report;
+    detail::PhaseTimer timer(report.seconds, options.progress);
+
+    const Key key = read_key(key_path);
+    const TriangleMesh original = read_mesh(original_path);
+    check_original(original, key, original_path);
+    const TriangleMesh suspect = read_mesh(suspect_path);
+    timer.lap("read");
+
+    const SpectralWatermark mark(original, key, options.threads);
+    timer.lap("basis");
+    detect_into(report, timer, mark, original, suspect, suspect_path, options);
     return report;
 }
 

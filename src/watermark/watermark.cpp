@@ -42,6 +42,9 @@ double third_moment(const Positions& V, const std::vector<std::int32_t>& rows,
     return sum;
 }
 
+// Normalized coefficient changes below this are rounding, not signal or attack.
+constexpr double kNegligibleChange = 1e-6;
+
 // Modes used to fit the nuisance: eigenvalue above 1e-8 of the largest (W ratio 1e-4), where
 // projections are still accurate to many digits despite the Gram matrix's conditioning.
 constexpr double kNuisanceModeTolerance = 1e-8;
@@ -362,26 +365,31 @@ Extraction SpectralWatermark::extraction_from(const Eigen::VectorXd& normalized,
 {
     // normalized(c): change of coefficient c divided by its modulation (DESIGN.md step 9,
     // sign-correct). Undo each coefficient's mask and average the r copies of every payload
-    // bit (soft decision); weight each coefficient by its inverse variance for the correlation.
+    // bit weighted by their inverse variances (soft decision); the same weights serve the
+    // correlation.
     const int bit_count = payload_bit_count(key_.options);
     const auto coefficient_count = normalized.size();
     Extraction result;
     result.normalized_change.resize(static_cast<std::size_t>(coefficient_count));
     result.weights.resize(static_cast<std::size_t>(coefficient_count));
     result.bit_values.assign(static_cast<std::size_t>(bit_count), 0.0);
+    std::vector<double> weight_sums(static_cast<std::size_t>(bit_count), 0.0);
     for (Eigen::Index c = 0; c < coefficient_count; ++c)
     {
         const auto slot = static_cast<std::size_t>(c);
-        const double value = std::isfinite(variances(c)) ? normalized(c) : 0.0;
+        const bool is_determined = std::isfinite(variances(c)) && variances(c) > 0.0;
+        const double value = is_determined ? normalized(c) : 0.0;
+        const double weight = is_determined ? 1.0 / variances(c) : 0.0;
         result.normalized_change[slot] = value;
-        result.weights[slot] = variances(c) > 0.0 ? (std::isfinite(variances(c)) ? 1.0 / variances(c) : 0.0) : 1.0;
-        result.bit_values[slot % static_cast<std::size_t>(bit_count)] += mask_[slot] != 0 ? -value : value;
+        result.weights[slot] = weight;
+        const auto bit = slot % static_cast<std::size_t>(bit_count);
+        result.bit_values[bit] += weight * (mask_[slot] != 0 ? -value : value);
+        weight_sums[bit] += weight;
     }
-    const double copies = static_cast<double>(coefficient_count / bit_count);
     result.bits_found.resize(static_cast<std::size_t>(bit_count));
     for (std::size_t t = 0; t < result.bit_values.size(); ++t)
     {
-        const double value = result.bit_values[t] / copies;
+        const double value = weight_sums[t] > 0.0 ? result.bit_values[t] / weight_sums[t] : 0.0;
         result.bit_values[t] = value;
         result.bits_found[t] = value > options.epsilon ? 1 : (value < -options.epsilon ? 0 : 2);
     }
@@ -618,8 +626,11 @@ Decision SpectralWatermark::decide(const Extraction& extraction, const DetectOpt
         double norm_sq = 0.0;
         for (std::size_t c = 0; c < x.size(); ++c)
         {
+            // A change below a millionth of the modulation is rounding (an unmarked original
+            // compared with itself); dropping it keeps such a score at 0 and depends on no sign.
+            const double value = std::abs(x[c]) < kNegligibleChange ? 0.0 : x[c];
             const double weight = power == 0.0 ? 1.0 : std::pow(w[c], power);
-            const double wx = weight * x[c];
+            const double wx = weight * value;
             dot += signs_(static_cast<Eigen::Index>(c / 3), static_cast<Eigen::Index>(c % 3)) * wx;
             norm_sq += wx * wx;
         }

@@ -15,7 +15,7 @@ namespace meshmark {
 /// Options of detect_file.
 struct DetectFileOptions
 {
-    DetectOptions decision;     ///< Threshold R and undecided band epsilon.
+    DetectOptions decision;     ///< Verdict rule and its parameters.
     int threads = 0;            ///< 0 = all cores.
     /// Register and resample suspects whose vertices do not correspond to the original's
     /// (docs/algorithms/detection.md, "General suspects"). False: such suspects are refused.
@@ -32,7 +32,7 @@ struct DetectReport
     double cropped_fraction = 0.0;
     std::string alignment = "none";  ///< How the suspect was put in correspondence.
     Eigen::Matrix4d transform = Eigen::Matrix4d::Identity();  ///< Suspect -> original frame.
-    double registration_rms = 0.0;  ///< RMS distance to the watermarked mesh / bbox diagonal.
+    double registration_rms = 0.0;  ///< RMS distance to the original / its bbox diagonal.
     std::int64_t suspect_vertices = 0;
     std::int64_t original_vertices = 0;
     PhaseTimings seconds;
@@ -43,12 +43,18 @@ struct DetectReport
 /// fingerprint, regenerates the watermark, puts the suspect in vertex correspondence with it,
 /// extracts the bits and decides. A suspect with the original's vertex count is taken vertex
 /// for vertex (after a closed-form similarity); unless allow_registration is off, anything else is
-/// registered onto the watermarked mesh and resampled at the original's vertices, with cropped
+/// registered onto the original and resampled at its vertices, with cropped
 /// vertices left out (least squares).
 /// "Not found" is a result, not an error.
 /// \throws IoError / InvalidMesh for unreadable inputs, InvalidOption when the original does
 /// not belong to the key or the suspect cannot be put in correspondence.
 DetectReport detect_file(const std::filesystem::path& suspect, const std::filesystem::path& original,
                          const std::filesystem::path& key_path, const DetectFileOptions& options);
+
+/// \brief detect_file for meshes in memory and a watermark already built from \p original
+/// (which must be the mesh \p mark was made from): many suspects against one key pay for the
+/// basis once (the robustness benchmark). Same steps, results and errors as detect_file.
+DetectReport detect_mesh(const SpectralWatermark& mark, const TriangleMesh& original, const TriangleMesh& suspect,
+                         const DetectFileOptions& options);
 
 }  // namespace meshmark

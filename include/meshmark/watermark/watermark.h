@@ -43,7 +43,7 @@ struct Extraction
     /// the embedded signs, so the verdict's false-positive bound still holds.
     std::vector<double> weights;
     /// Per payload bit (3m values): the mean over its r coefficients of the change with the key
-    /// mask undone, +1 for an embedded 1 and -1 for a 0 (soft decision).
+    /// mask undone, weighted by `weights`: +1 for an embedded 1 and -1 for a 0 (soft decision).
     std::vector<double> bit_values;
     std::vector<std::uint8_t> bits_found;  ///< Payload bits: 0, 1, or 2 for undecided.
 };
