@@ -5,12 +5,14 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "commands.h"
 #include "meshmark/core/atomic_file.h"
 #include "meshmark/core/error.h"
 #include "meshmark/pipeline/embed_file.h"
+#include "meshmark/pipeline/progress.h"
 #include "report.h"
 
 namespace meshmark::cli {
@@ -85,9 +87,19 @@ int run_embed(const EmbedArgs& args, const GlobalArgs& global)
     }
     options.threads = global.threads;
     options.force = args.force;
-    options.progress = make_progress(global, "embed");
+    // Phases and a running clock on a terminal, after the first second; silent otherwise.
+    std::optional<PhaseProgress> progress;
+    if (PhaseProgress::should_show(global.quiet))
+    {
+        progress.emplace(PhaseProgressOptions{"meshmark embed"});
+        options.progress = progress->callback();
+    }
 
     const EmbedReport report = embed_maybe_in_place(args, options);
+    if (progress)
+    {
+        progress->finish();
+    }
 
     const auto& stats = report.stats;
     if (args.json)
@@ -103,6 +115,7 @@ int run_embed(const EmbedArgs& args, const GlobalArgs& global)
                     {"basis_size", report.key.options.basis_size},
                     {"coefficients", report.key.options.coefficients},
                     {"repetitions", report.key.options.repetitions},
+                    {"first_mode", report.key.options.first_mode},
                     {"bits", to_bit_string(report.key.payload)},
                     {"max_displacement", stats.max_displacement_rel},
                     {"rms_displacement", stats.rms_displacement_rel},
@@ -159,6 +172,10 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     command->add_option("--repetitions", args->options.repetitions,
                         "r, coefficients per payload bit (the mark uses m*r modes, each copy with "
                         "its own key sign; more copies, same distortion, stronger verdict)")
+        ->capture_default_str();
+    command->add_option("--first-mode", args->options.first_mode,
+                        "Index of the first modulated mode (the lowest modes are nearly rigid "
+                        "motions, which detection removes)")
         ->capture_default_str();
     command->add_option("--rule", args->rule,
                         "additive: beta = alpha + b's (default); paper: beta = alpha(1 + b'rho)")

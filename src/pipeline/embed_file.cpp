@@ -60,12 +60,14 @@ EmbedReport embed_file(const std::filesystem::path& input, const std::filesystem
 
     EmbedReport report;
     detail::PhaseTimer timer(report.seconds, options.progress);
+    timer.begin("read");
     const MeshFile file = read_mesh_file(input);
     report.input_format = file.format;
     report.output_format = format_from_extension(output);
     report.vertex_count = file.mesh.vertex_count();
     report.face_count = file.mesh.face_count();
     timer.lap("read");
+    timer.begin("basis");
 
     // Key: seed, parameters, payload (message, hex or random) and the original's fingerprint.
     Key key;
@@ -91,10 +93,12 @@ EmbedReport embed_file(const std::filesystem::path& input, const std::filesystem
     // Basis (pass 1 + eigen-decomposition) -> synthesis of the displacement (pass 2).
     const SpectralWatermark mark(file.mesh, key, options.threads);
     timer.lap("basis");
+    timer.begin("embed");
     // The field becomes the marked positions in place: one #V x 3 array, not two.
     Positions marked = mark.displacement(&report.stats);
     marked += file.mesh.V;
     timer.lap("embed");
+    timer.begin("write");
 
     // Both files or neither: the key goes to a staging file next to its target, the mesh is
     // written atomically, and only then does the key take its place. A failure on the way

@@ -16,6 +16,14 @@ public:
         : timings_(timings), progress_(progress), start_(Clock::now()), last_(start_)
     {
     }
+    // Announces the phase that starts now (progress fraction 0).
+    void begin(const std::string& name)
+    {
+        if (progress_)
+        {
+            progress_(name, 0.0);
+        }
+    }
     // Ends the current phase under \p name and starts the next one.
     void lap(const std::string& name)
     {
