@@ -2,15 +2,15 @@
 // KHR_draco_mesh_compression: decoding and re-encoding with libdraco. The re-encoder keeps
 // every attribute with its unique id and the bitstream's quantization (position grid
 // included when the new positions still fit in it) and its encoding method.
+#include <cmath>
+#include <memory>
+
 #include <draco/attributes/attribute_octahedron_transform.h>
 #include <draco/attributes/attribute_quantization_transform.h>
 #include <draco/compression/decode.h>
 #include <draco/compression/expert_encode.h>
 #include <draco/core/decoder_buffer.h>
 #include <draco/core/encoder_buffer.h>
-
-#include <cmath>
-#include <memory>
 
 #include "io/detail/gltf.h"
 #include "io/detail/support.h"
@@ -32,9 +32,10 @@ std::unique_ptr<draco::Mesh> decode(const fs::path& path, const std::string& byt
     if (skip_transforms)
     {
         // Keeps the quantized values and, with them, each attribute's transform parameters.
-        for (const auto type : {draco::GeometryAttribute::POSITION, draco::GeometryAttribute::NORMAL,
-                                draco::GeometryAttribute::COLOR, draco::GeometryAttribute::TEX_COORD,
-                                draco::GeometryAttribute::GENERIC})
+        for (const auto type :
+             {draco::GeometryAttribute::POSITION, draco::GeometryAttribute::NORMAL,
+              draco::GeometryAttribute::COLOR, draco::GeometryAttribute::TEX_COORD,
+              draco::GeometryAttribute::GENERIC})
         {
             decoder.SetSkipAttributeTransform(type);
         }
@@ -54,7 +55,8 @@ draco::PointAttribute* attribute_by_id(const fs::path& path, draco::Mesh& mesh, 
     for (std::int32_t a = 0; a < mesh.num_attributes(); ++a)
     {
         auto* attribute = mesh.attribute(a);
-        if (attribute != nullptr && id >= 0 && attribute->unique_id() == static_cast<std::uint32_t>(id))
+        if (attribute != nullptr && id >= 0 &&
+            attribute->unique_id() == static_cast<std::uint32_t>(id))
         {
             if (attribute->num_components() != 3)
             {
@@ -120,8 +122,7 @@ DracoGeometry decode_draco(const fs::path& path, const std::string& bytes, std::
         }
     }
     const auto quantized = decode(path, bytes, true);
-    geometry.quantization_bits =
-        quantization_bits(*attribute_by_id(path, *quantized, position_id));
+    geometry.quantization_bits = quantization_bits(*attribute_by_id(path, *quantized, position_id));
     return geometry;
 }
 
@@ -179,7 +180,8 @@ std::string reencode_draco(const fs::path& path, const std::string& bytes, std::
         }
         encoder.SetAttributeQuantization(a, bits);
     }
-    const auto method = bytes.size() > kMethodOffset ? static_cast<unsigned char>(bytes[kMethodOffset]) : 0U;
+    const auto method =
+        bytes.size() > kMethodOffset ? static_cast<unsigned char>(bytes[kMethodOffset]) : 0U;
     encoder.SetEncodingMethod(keep_order || method == 0U ? draco::MESH_SEQUENTIAL_ENCODING
                                                          : draco::MESH_EDGEBREAKER_ENCODING);
     draco::EncoderBuffer out;

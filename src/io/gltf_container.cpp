@@ -54,7 +54,8 @@ GlbChunks split_glb(const fs::path& path, const std::string& bytes)
     }
     if (load_u32(bytes, 4) != kGlbVersion)
     {
-        fail_io(path, "GLB version " + std::to_string(load_u32(bytes, 4)) + " is not supported; expected 2");
+        fail_io(path, "GLB version " + std::to_string(load_u32(bytes, 4)) +
+                          " is not supported; expected 2");
     }
     if (load_u32(bytes, 8) != bytes.size())
     {
@@ -74,7 +75,8 @@ GlbChunks split_glb(const fs::path& path, const std::string& bytes)
         const std::uint32_t type = load_u32(bytes, offset + 4);
         if (length > bytes.size() - offset - kChunkHeaderSize)
         {
-            fail_io(path, "the GLB chunk at byte " + std::to_string(offset) + " reaches past the end of the file");
+            fail_io(path, "the GLB chunk at byte " + std::to_string(offset) +
+                              " reaches past the end of the file");
         }
         const std::size_t payload = offset + kChunkHeaderSize;
         if (is_first)
@@ -136,9 +138,10 @@ std::string base64_encode(const std::string& bytes)
     std::size_t i = 0;
     for (; i + 3 <= bytes.size(); i += 3)
     {
-        const std::uint32_t v = (static_cast<std::uint32_t>(static_cast<unsigned char>(bytes[i])) << 16U) |
-                                (static_cast<std::uint32_t>(static_cast<unsigned char>(bytes[i + 1])) << 8U) |
-                                static_cast<std::uint32_t>(static_cast<unsigned char>(bytes[i + 2]));
+        const std::uint32_t v =
+            (static_cast<std::uint32_t>(static_cast<unsigned char>(bytes[i])) << 16U) |
+            (static_cast<std::uint32_t>(static_cast<unsigned char>(bytes[i + 1])) << 8U) |
+            static_cast<std::uint32_t>(static_cast<unsigned char>(bytes[i + 2]));
         out += kAlphabet[(v >> 18U) & 63U];
         out += kAlphabet[(v >> 12U) & 63U];
         out += kAlphabet[(v >> 6U) & 63U];

@@ -3,9 +3,6 @@
 // this file walks the scene graph, locates every POSITION element's bytes (strides, sparse
 // substitution, KHR_mesh_quantization types), decodes Draco primitives, and welds coincident
 // world-space vertices into one mesh.
-#include <nlohmann/json.hpp>
-#include <tiny_gltf.h>
-
 #include <algorithm>
 #include <array>
 #include <cctype>
@@ -18,6 +15,8 @@
 #include <unordered_set>
 
 #include <Eigen/Geometry>
+#include <nlohmann/json.hpp>
+#include <tiny_gltf.h>
 
 #include "io/detail/gltf.h"
 #include "io/detail/numbers.h"
@@ -52,7 +51,8 @@ std::string percent_decoded(const std::string& uri)
     std::string out;
     for (std::size_t i = 0; i < uri.size(); ++i)
     {
-        if (uri[i] == '%' && i + 2 < uri.size() && std::isxdigit(static_cast<unsigned char>(uri[i + 1])) != 0 &&
+        if (uri[i] == '%' && i + 2 < uri.size() &&
+            std::isxdigit(static_cast<unsigned char>(uri[i + 1])) != 0 &&
             std::isxdigit(static_cast<unsigned char>(uri[i + 2])) != 0)
         {
             out += static_cast<char>(std::stoi(uri.substr(i + 1, 2), nullptr, 16));
@@ -99,8 +99,8 @@ std::string without_draco_indices(const fs::path& path, const std::string& json)
             }
             for (auto& prim : mesh["primitives"])
             {
-                if (prim.is_object() && prim.contains("extensions") && prim["extensions"].is_object() &&
-                    prim["extensions"].contains(kDracoExtension))
+                if (prim.is_object() && prim.contains("extensions") &&
+                    prim["extensions"].is_object() && prim["extensions"].contains(kDracoExtension))
                 {
                     prim.erase("indices");
                 }
@@ -124,7 +124,8 @@ tinygltf::Model load_model(const fs::path& path, const std::string& file_bytes,
         if (is_glb)
         {
             const auto chunks = split_glb(path, file_bytes);
-            patched = assemble_glb(path, patched, chunks.has_bin ? &chunks.bin : nullptr, chunks.tail);
+            patched =
+                assemble_glb(path, patched, chunks.has_bin ? &chunks.bin : nullptr, chunks.tail);
         }
     }
     const std::string& bytes = patched.empty() ? file_bytes : patched;
@@ -211,7 +212,7 @@ ScalarType scalar_of(GltfComponent c)
 // One vertex of one instance before welding.
 struct RawVertices
 {
-    std::vector<double> world;       // 3 per element
+    std::vector<double> world;        // 3 per element
     std::vector<std::int32_t> group;  // transform group per element
 };
 
@@ -247,7 +248,8 @@ private:
         {
             return false;
         }
-        const std::uint64_t size = asset_.buffers[static_cast<std::size_t>(view.buffer)].bytes.size();
+        const std::uint64_t size =
+            asset_.buffers[static_cast<std::size_t>(view.buffer)].bytes.size();
         return view.byteOffset <= size && view.byteLength <= size - view.byteOffset;
     }
     // n elements of element_size bytes, stride apart from offset, end within length.
@@ -266,13 +268,13 @@ private:
     const tinygltf::Model& model_;
     GltfAsset& asset_;
     std::size_t visits_ = 0;
-    std::map<int, std::size_t> accessor_slot_;      // POSITION accessor -> asset_.accessors
-    std::map<int, std::size_t> draco_slot_;         // Draco bufferView -> asset_.draco
-    std::vector<std::size_t> slot_base_;            // first raw element of each accessor slot
-    std::vector<std::size_t> draco_base_;           // first raw element of each Draco slot
-    std::vector<Eigen::Matrix4d> groups_;           // distinct world transforms
+    std::map<int, std::size_t> accessor_slot_;  // POSITION accessor -> asset_.accessors
+    std::map<int, std::size_t> draco_slot_;     // Draco bufferView -> asset_.draco
+    std::vector<std::size_t> slot_base_;        // first raw element of each accessor slot
+    std::vector<std::size_t> draco_base_;       // first raw element of each Draco slot
+    std::vector<Eigen::Matrix4d> groups_;       // distinct world transforms
     RawVertices raw_;
-    std::vector<std::uint64_t> corners_;            // raw element ids, 3 per triangle
+    std::vector<std::uint64_t> corners_;  // raw element ids, 3 per triangle
 };
 
 Eigen::Matrix4d local_matrix(const tinygltf::Node& node)
@@ -368,7 +370,8 @@ void Reader::walk(int node_index, const Eigen::Matrix4d& parent, std::vector<cha
     const auto n = static_cast<std::size_t>(node_index);
     if (on_stack[n] != 0)
     {
-        fail("node " + std::to_string(node_index) + " is its own ancestor (a cycle in the node tree)");
+        fail("node " + std::to_string(node_index) +
+             " is its own ancestor (a cycle in the node tree)");
     }
     if (++visits_ > kMaxNodeVisits)
     {
@@ -433,12 +436,13 @@ std::vector<GltfElement> Reader::locate(int accessor_index, int components,
         fail(what + " accessor " + std::to_string(accessor_index) + " has component type " +
              std::to_string(acc.componentType));
     }
-    const std::size_t element_size = component_size(*component) * static_cast<std::size_t>(components);
+    const std::size_t element_size =
+        component_size(*component) * static_cast<std::size_t>(components);
     const std::uint64_t count = acc.count;
     if (count > kMaxVertices || (acc.bufferView < 0 && count > kMaxImplicitElements))
     {
-        fail(what + " accessor " + std::to_string(accessor_index) + " has " + std::to_string(count) +
-             " elements, more than supported");
+        fail(what + " accessor " + std::to_string(accessor_index) + " has " +
+             std::to_string(count) + " elements, more than supported");
     }
     std::vector<GltfElement> elements(static_cast<std::size_t>(count));
     // Byte range [offset, offset + size) of a bufferView, checked against its buffer.
@@ -464,7 +468,8 @@ std::vector<GltfElement> Reader::locate(int accessor_index, int components,
         std::uint64_t stride = element_size;
         if (static_cast<std::size_t>(acc.bufferView) < model_.bufferViews.size())
         {
-            const auto declared = model_.bufferViews[static_cast<std::size_t>(acc.bufferView)].byteStride;
+            const auto declared =
+                model_.bufferViews[static_cast<std::size_t>(acc.bufferView)].byteStride;
             if (declared != 0)
             {
                 if (declared < element_size)
@@ -497,9 +502,11 @@ std::vector<GltfElement> Reader::locate(int accessor_index, int components,
         if (sparse.indices.bufferView < 0 ||
             static_cast<std::size_t>(sparse.indices.bufferView) >= model_.bufferViews.size())
         {
-            fail(what + " accessor " + std::to_string(accessor_index) + " has invalid sparse indices");
+            fail(what + " accessor " + std::to_string(accessor_index) +
+                 " has invalid sparse indices");
         }
-        const auto& index_view = model_.bufferViews[static_cast<std::size_t>(sparse.indices.bufferView)];
+        const auto& index_view =
+            model_.bufferViews[static_cast<std::size_t>(sparse.indices.bufferView)];
         const auto index_offset = static_cast<std::uint64_t>(sparse.indices.byteOffset);
         if (!is_view_in_buffer(index_view) ||
             !fits(index_offset, index_size, n, index_size, index_view.byteLength))
@@ -507,11 +514,12 @@ std::vector<GltfElement> Reader::locate(int accessor_index, int components,
             fail(what + " accessor " + std::to_string(accessor_index) +
                  " has sparse indices past the end of their bufferView");
         }
-        const char* index_bytes = asset_.buffers[static_cast<std::size_t>(index_view.buffer)].bytes.data() +
-                                  index_view.byteOffset + index_offset;
-        const auto [buffer, first] = view_range(sparse.values.bufferView,
-                                                static_cast<std::uint64_t>(sparse.values.byteOffset),
-                                                element_size, n);
+        const char* index_bytes =
+            asset_.buffers[static_cast<std::size_t>(index_view.buffer)].bytes.data() +
+            index_view.byteOffset + index_offset;
+        const auto [buffer, first] =
+            view_range(sparse.values.bufferView,
+                       static_cast<std::uint64_t>(sparse.values.byteOffset), element_size, n);
         for (std::uint64_t j = 0; j < n; ++j)
         {
             const auto target = static_cast<std::uint64_t>(
@@ -584,7 +592,8 @@ void Reader::add_plain(const tinygltf::Primitive& prim, int mesh, int index,
         const auto component = component_of(acc.componentType);
         if (acc.type != TINYGLTF_TYPE_VEC3 || !component || *component == GltfComponent::UInt32)
         {
-            fail("POSITION accessor " + std::to_string(a) + " is not a VEC3 of float or 8/16-bit integers");
+            fail("POSITION accessor " + std::to_string(a) +
+                 " is not a VEC3 of float or 8/16-bit integers");
         }
         GltfPositionAccessor record;
         record.accessor = a;
@@ -629,7 +638,8 @@ void Reader::add_plain(const tinygltf::Primitive& prim, int mesh, int index,
 void Reader::add_triangles(const tinygltf::Primitive& prim, int mesh, int index, std::size_t base,
                            std::size_t count)
 {
-    const std::string where = "mesh " + std::to_string(mesh) + " primitive " + std::to_string(index);
+    const std::string where =
+        "mesh " + std::to_string(mesh) + " primitive " + std::to_string(index);
     if (prim.indices < 0)
     {
         if (count % 3 != 0)
@@ -665,11 +675,11 @@ void Reader::add_triangles(const tinygltf::Primitive& prim, int mesh, int index,
     for (const auto& el : elements)
     {
         const std::uint64_t i =
-            el.buffer < 0 ? 0
-                          : static_cast<std::uint64_t>(load_integer(
-                                asset_.buffers[static_cast<std::size_t>(el.buffer)].bytes.data() +
-                                    el.offset,
-                                type, false));
+            el.buffer < 0
+                ? 0
+                : static_cast<std::uint64_t>(load_integer(
+                      asset_.buffers[static_cast<std::size_t>(el.buffer)].bytes.data() + el.offset,
+                      type, false));
         if (i >= count)
         {
             fail_mesh(path_, where + " has index " + std::to_string(i) + " " + index_range(count));
@@ -681,7 +691,8 @@ void Reader::add_triangles(const tinygltf::Primitive& prim, int mesh, int index,
 void Reader::add_draco(const tinygltf::Primitive& prim, int mesh, int index,
                        const Eigen::Matrix4d& to_world)
 {
-    const std::string where = "mesh " + std::to_string(mesh) + " primitive " + std::to_string(index);
+    const std::string where =
+        "mesh " + std::to_string(mesh) + " primitive " + std::to_string(index);
     const auto& ext = prim.extensions.at(kDracoExtension);
     // tinygltf::Value::Get asserts an object: check the shape before each lookup.
     if (!ext.IsObject() || !ext.Has("attributes") || !ext.Get("attributes").IsObject())
@@ -692,7 +703,8 @@ void Reader::add_draco(const tinygltf::Primitive& prim, int mesh, int index,
     const auto& position_value = ext.Get("attributes").Get("POSITION");
     const auto position = prim.attributes.find("POSITION");
     if (!view_value.IsInt() || !position_value.IsInt() || position == prim.attributes.end() ||
-        position->second < 0 || static_cast<std::size_t>(position->second) >= model_.accessors.size())
+        position->second < 0 ||
+        static_cast<std::size_t>(position->second) >= model_.accessors.size())
     {
         fail(where + " has a " + std::string(kDracoExtension) +
              " extension without bufferView or POSITION attribute");
@@ -766,16 +778,16 @@ TriangleMesh Reader::weld()
         fail("the asset has more than " + std::to_string(kMaxVertices) + " vertices");
     }
     std::vector<double> xyz;
-    const auto welded = weld_world_positions(raw_.world, raw_.group, groups_.size(),
-                                             kCrossTransformWeldRel, xyz);
+    const auto welded =
+        weld_world_positions(raw_.world, raw_.group, groups_.size(), kCrossTransformWeldRel, xyz);
 
     // Hand the welded ids to the layout, then build the mesh.
     for (std::size_t s = 0; s < asset_.accessors.size(); ++s)
     {
         auto& record = asset_.accessors[s];
-        record.welded.assign(welded.begin() + static_cast<std::ptrdiff_t>(slot_base_[s]),
-                             welded.begin() + static_cast<std::ptrdiff_t>(slot_base_[s] +
-                                                                          record.elements.size()));
+        record.welded.assign(
+            welded.begin() + static_cast<std::ptrdiff_t>(slot_base_[s]),
+            welded.begin() + static_cast<std::ptrdiff_t>(slot_base_[s] + record.elements.size()));
     }
     for (std::size_t s = 0; s < asset_.draco.size(); ++s)
     {

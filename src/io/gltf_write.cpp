@@ -3,8 +3,6 @@
 // original buffers and edits only what positions determine in the JSON (POSITION min/max;
 // for re-encoded Draco data, its bufferView, the views after it and the buffer length):
 // nlohmann::ordered_json keeps every other member, unknown ones included, in its order.
-#include <nlohmann/json.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -12,6 +10,7 @@
 #include <optional>
 
 #include <Eigen/LU>
+#include <nlohmann/json.hpp>
 
 #include "io/detail/gltf.h"
 #include "io/detail/numbers.h"
@@ -166,11 +165,11 @@ void Writer::write_accessor(const GltfPositionAccessor& record)
 {
     const Eigen::Matrix4d to_local = record.to_world.inverse();
     const auto type = scalar_of(record.component);
-    const std::size_t size = record.component == GltfComponent::Float32 ? 4
-                             : (record.component == GltfComponent::Int16 ||
-                                record.component == GltfComponent::UInt16)
-                                 ? 2
-                                 : 1;
+    const std::size_t size =
+        record.component == GltfComponent::Float32 ? 4
+        : (record.component == GltfComponent::Int16 || record.component == GltfComponent::UInt16)
+            ? 2
+            : 1;
     bool is_any_changed = false;
     for (std::size_t e = 0; e < record.elements.size(); ++e)
     {
@@ -192,9 +191,8 @@ void Writer::write_accessor(const GltfPositionAccessor& record)
         for (std::size_t d = 0; d < 3; ++d)
         {
             const double value = quantize(local[static_cast<Eigen::Index>(d)], record);
-            const bool fits = type == ScalarType::Float32
-                                  ? std::isfinite(static_cast<float>(value))
-                                  : true;
+            const bool fits =
+                type == ScalarType::Float32 ? std::isfinite(static_cast<float>(value)) : true;
             if (!fits || !store_scalar(p + d * size, type, false, value))
             {
                 fail("cannot store coordinate " + std::to_string(value) + " of vertex " +
@@ -218,11 +216,10 @@ void Writer::write_accessor(const GltfPositionAccessor& record)
         for (std::size_t d = 0; d < 3; ++d)
         {
             const double v =
-                el.buffer < 0
-                    ? 0.0
-                    : load_scalar(buffers_[static_cast<std::size_t>(el.buffer)].data() + el.offset +
-                                      d * size,
-                                  type, false);
+                el.buffer < 0 ? 0.0
+                              : load_scalar(buffers_[static_cast<std::size_t>(el.buffer)].data() +
+                                                el.offset + d * size,
+                                            type, false);
             lo[d] = std::min(lo[d], v);
             hi[d] = std::max(hi[d], v);
         }
@@ -336,12 +333,14 @@ void Writer::splice(std::int32_t view_index, const std::string& bytes)
     // Shift everything after the view by a multiple of 4 so later data keeps its alignment.
     const auto new_length = static_cast<std::int64_t>(bytes.size());
     const auto difference = new_length - static_cast<std::int64_t>(old_length);
-    const std::int64_t shift = difference >= 0 ? (difference + 3) / 4 * 4 : -((-difference) / 4 * 4);
+    const std::int64_t shift =
+        difference >= 0 ? (difference + 3) / 4 * 4 : -((-difference) / 4 * 4);
     const auto span = static_cast<std::uint64_t>(static_cast<std::int64_t>(old_length) + shift);
     for (std::size_t v = 0; v < views.size(); ++v)
     {
         auto& other = views[v];
-        if (static_cast<std::int32_t>(v) == view_index || other["buffer"].get<std::size_t>() != buffer)
+        if (static_cast<std::int32_t>(v) == view_index ||
+            other["buffer"].get<std::size_t>() != buffer)
         {
             continue;
         }
@@ -471,7 +470,8 @@ void Writer::run(bool is_glb)
         {
             bin = asset_.glb_bin_padding;
         }
-        main = assemble_glb(path_, json_text(), asset_.glb_has_bin ? &bin : nullptr, asset_.glb_tail);
+        main =
+            assemble_glb(path_, json_text(), asset_.glb_has_bin ? &bin : nullptr, asset_.glb_tail);
     }
     else
     {
@@ -484,12 +484,14 @@ void Writer::run(bool is_glb)
     {
         for (const auto& [file, bytes] : files)
         {
-            write_file_atomically(file, [&bytes = bytes](std::ostream& out)
-                                  { out.write(bytes.data(), static_cast<std::streamsize>(bytes.size())); });
+            write_file_atomically(
+                file, [&bytes = bytes](std::ostream& out)
+                { out.write(bytes.data(), static_cast<std::streamsize>(bytes.size())); });
             written.push_back(file);
         }
-        write_file_atomically(path_, [&main](std::ostream& out)
-                              { out.write(main.data(), static_cast<std::streamsize>(main.size())); });
+        write_file_atomically(
+            path_, [&main](std::ostream& out)
+            { out.write(main.data(), static_cast<std::streamsize>(main.size())); });
     }
     catch (...)
     {
@@ -545,7 +547,8 @@ std::string gltf_bytes(const TriangleMesh& mesh, bool is_glb)
     {
         for (std::size_t d = 0; d < 3; ++d)
         {
-            const float v = static_cast<float>(mesh.V(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(d)));
+            const float v = static_cast<float>(
+                mesh.V(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(d)));
             store_float(bin.data() + 12 * i + 4 * d, v, false);
             lo[d] = std::min(lo[d], static_cast<double>(v));
             hi[d] = std::max(hi[d], static_cast<double>(v));

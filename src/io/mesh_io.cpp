@@ -123,7 +123,8 @@ MeshFile read_mesh_file(const std::filesystem::path& path)
         case MeshFormat::Glb:
         {
             auto& asset = layout->positions.emplace<detail::GltfAsset>();
-            file.mesh = detail::read_gltf(path, layout->bytes, file.format == MeshFormat::Glb, asset);
+            file.mesh =
+                detail::read_gltf(path, layout->bytes, file.format == MeshFormat::Glb, asset);
             file.is_single_precision = true;
             break;
         }
@@ -198,7 +199,8 @@ void write_mesh_file(const std::filesystem::path& path, const MeshFile& source,
     }
     if (std::holds_alternative<detail::ThreeMfLayout>(source.layout->positions))
     {
-        write_bytes(path, detail::preserved_3mf_bytes(path, *source.layout, source.mesh.V, positions));
+        write_bytes(path,
+                    detail::preserved_3mf_bytes(path, *source.layout, source.mesh.V, positions));
         return;
     }
     write_bytes(path, detail::preserved_bytes(path, *source.layout, source.mesh.V, positions));

@@ -2,16 +2,14 @@
 // 3MF through lib3mf 1.x (Debian lib3mf-dev): every mesh object in the world frame of the
 // build (build item and component transforms), welded like glTF parts; written back by
 // loading the original package again, setting the moved vertices and letting lib3mf write it.
-#include <Model/COM/NMR_DLLInterfaces.h>
-
 #include <cmath>
 #include <cstring>
 #include <map>
 
-#include <unistd.h>
-
 #include <Eigen/Core>
 #include <Eigen/LU>
+#include <Model/COM/NMR_DLLInterfaces.h>
+#include <unistd.h>
 
 #include "io/detail/formats.h"
 #include "io/detail/support.h"
@@ -62,7 +60,8 @@ std::string last_error(NMR::PLib3MFBase* instance)
     return "lib3mf error code " + std::to_string(code);
 }
 
-void check(const fs::path& path, LIB3MFRESULT result, NMR::PLib3MFBase* instance, const std::string& what)
+void check(const fs::path& path, LIB3MFRESULT result, NMR::PLib3MFBase* instance,
+           const std::string& what)
 {
     if (result != 0)
     {
@@ -171,7 +170,8 @@ private:
             fail_io(path_, "object " + std::to_string(id) + " has a non-finite transform");
         }
         Handle mesh;
-        if (NMR::lib3mf_model_getmeshobjectbyid(model_, id, mesh.out()) == 0 && mesh.get() != nullptr)
+        if (NMR::lib3mf_model_getmeshobjectbyid(model_, id, mesh.out()) == 0 &&
+            mesh.get() != nullptr)
         {
             add_mesh(id, to_world);
             return;
@@ -189,7 +189,8 @@ private:
         for (DWORD c = 0; c < count; ++c)
         {
             Handle component;
-            check(path_, NMR::lib3mf_componentsobject_getcomponent(components.get(), c, component.out()),
+            check(path_,
+                  NMR::lib3mf_componentsobject_getcomponent(components.get(), c, component.out()),
                   components.get(), "cannot read a component of object " + std::to_string(id));
             NMR::MODELTRANSFORM t = identity_transform();
             check(path_, NMR::lib3mf_component_gettransform(component.get(), &t), component.get(),
@@ -226,13 +227,16 @@ private:
         std::vector<NMR::MODELMESHTRIANGLE> triangles(triangle_count);
         if (vertex_count > 0)
         {
-            check(path_, NMR::lib3mf_meshobject_getvertices(mesh.get(), vertices.data(), vertex_count, nullptr),
+            check(path_,
+                  NMR::lib3mf_meshobject_getvertices(mesh.get(), vertices.data(), vertex_count,
+                                                     nullptr),
                   mesh.get(), "cannot read the vertices of mesh object " + std::to_string(id));
         }
         if (triangle_count > 0)
         {
             check(path_,
-                  NMR::lib3mf_meshobject_gettriangleindices(mesh.get(), triangles.data(), triangle_count, nullptr),
+                  NMR::lib3mf_meshobject_gettriangleindices(mesh.get(), triangles.data(),
+                                                            triangle_count, nullptr),
                   mesh.get(), "cannot read the triangles of mesh object " + std::to_string(id));
         }
         slot_[id] = layout_.objects.size();
@@ -353,8 +357,8 @@ std::string model_bytes(const fs::path& path, NMR::PLib3MFBase* model)
     return bytes;
 }
 
-std::string moved_package(const fs::path& path, const FileLayout& layout,
-                          const Positions& original, const Positions& positions);
+std::string moved_package(const fs::path& path, const FileLayout& layout, const Positions& original,
+                          const Positions& positions);
 std::string new_package(const fs::path& path, const TriangleMesh& mesh);
 
 // lib3mf reports most failures as result codes but lets some C++ exceptions escape its C
@@ -404,8 +408,8 @@ std::string three_mf_bytes(const fs::path& path, const TriangleMesh& mesh)
 
 namespace {
 
-std::string moved_package(const fs::path& path, const FileLayout& layout,
-                          const Positions& original, const Positions& positions)
+std::string moved_package(const fs::path& path, const FileLayout& layout, const Positions& original,
+                          const Positions& positions)
 {
     const auto& objects = std::get<ThreeMfLayout>(layout.positions);
     Handle model;
@@ -414,13 +418,15 @@ std::string moved_package(const fs::path& path, const FileLayout& layout,
     for (const auto& object : objects.objects)
     {
         Handle mesh;
-        check(path, NMR::lib3mf_model_getmeshobjectbyid(model.get(), object.resource_id, mesh.out()),
+        check(path,
+              NMR::lib3mf_model_getmeshobjectbyid(model.get(), object.resource_id, mesh.out()),
               model.get(), "cannot open mesh object " + std::to_string(object.resource_id));
         const Eigen::Matrix4d to_local = object.to_world.inverse();
         for (std::size_t i = 0; i < object.welded.size(); ++i)
         {
             const auto w = object.welded[i];
-            if (std::memcmp(original.row(w).data(), positions.row(w).data(), 3 * sizeof(double)) == 0)
+            if (std::memcmp(original.row(w).data(), positions.row(w).data(), 3 * sizeof(double)) ==
+                0)
             {
                 continue;
             }
@@ -432,11 +438,13 @@ std::string moved_package(const fs::path& path, const FileLayout& layout,
                 v.m_fPosition[d] = static_cast<float>(local[d]);
                 if (!std::isfinite(v.m_fPosition[d]))
                 {
-                    fail_io(path, "vertex " + std::to_string(w) + " does not fit a float32 coordinate");
+                    fail_io(path,
+                            "vertex " + std::to_string(w) + " does not fit a float32 coordinate");
                 }
             }
             check(path, NMR::lib3mf_meshobject_setvertex(mesh.get(), static_cast<DWORD>(i), &v),
-                  mesh.get(), "cannot set a vertex of mesh object " + std::to_string(object.resource_id));
+                  mesh.get(),
+                  "cannot set a vertex of mesh object " + std::to_string(object.resource_id));
             is_any_changed = true;
         }
     }
@@ -456,7 +464,8 @@ std::string new_package(const fs::path& path, const TriangleMesh& mesh)
     {
         for (int d = 0; d < 3; ++d)
         {
-            vertices[i].m_fPosition[d] = static_cast<float>(mesh.V(static_cast<Eigen::Index>(i), d));
+            vertices[i].m_fPosition[d] =
+                static_cast<float>(mesh.V(static_cast<Eigen::Index>(i), d));
         }
     }
     std::vector<NMR::MODELMESHTRIANGLE> triangles(static_cast<std::size_t>(mesh.F.rows()));
@@ -464,12 +473,14 @@ std::string new_package(const fs::path& path, const TriangleMesh& mesh)
     {
         for (int c = 0; c < 3; ++c)
         {
-            triangles[f].m_nIndices[c] = static_cast<DWORD>(mesh.F(static_cast<Eigen::Index>(f), c));
+            triangles[f].m_nIndices[c] =
+                static_cast<DWORD>(mesh.F(static_cast<Eigen::Index>(f), c));
         }
     }
     check(path,
-          NMR::lib3mf_meshobject_setgeometry(object.get(), vertices.data(), static_cast<DWORD>(vertices.size()),
-                                             triangles.data(), static_cast<DWORD>(triangles.size())),
+          NMR::lib3mf_meshobject_setgeometry(object.get(), vertices.data(),
+                                             static_cast<DWORD>(vertices.size()), triangles.data(),
+                                             static_cast<DWORD>(triangles.size())),
           object.get(), "cannot set the mesh geometry");
     Handle item;
     check(path, NMR::lib3mf_model_addbuilditem(model.get(), object.get(), nullptr, item.out()),

@@ -29,7 +29,8 @@ namespace meshmark::detail {
 [[nodiscard]] std::string off_bytes(const TriangleMesh& mesh, const WriteOptions& options);
 [[nodiscard]] std::string stl_bytes(const TriangleMesh& mesh, const WriteOptions& options);
 /// A one-object 3MF package; \p path is the target (lib3mf needs a temporary file beside it).
-[[nodiscard]] std::string three_mf_bytes(const std::filesystem::path& path, const TriangleMesh& mesh);
+[[nodiscard]] std::string three_mf_bytes(const std::filesystem::path& path,
+                                         const TriangleMesh& mesh);
 
 /// The 3MF package of \p layout with the moved vertices set (written by lib3mf), or the
 /// original bytes when nothing moved.

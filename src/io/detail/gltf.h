@@ -38,8 +38,8 @@ enum class GltfBufferSource : std::uint8_t
 struct GltfBuffer
 {
     GltfBufferSource source = GltfBufferSource::External;
-    std::string bytes;       ///< Exactly byteLength bytes.
-    std::string uri_prefix;  ///< DataUri: everything up to and including the ','.
+    std::string bytes;           ///< Exactly byteLength bytes.
+    std::string uri_prefix;      ///< DataUri: everything up to and including the ','.
     std::filesystem::path file;  ///< External: the file it was read from.
 };
 
@@ -59,8 +59,8 @@ struct GltfPositionAccessor
     GltfComponent component = GltfComponent::Float32;
     bool is_normalized = false;
     Eigen::Matrix4d to_world = Eigen::Matrix4d::Identity();
-    std::vector<GltfElement> elements;   ///< Per element, after sparse substitution.
-    std::vector<std::int32_t> welded;    ///< Per element: the vertex of MeshFile::mesh.
+    std::vector<GltfElement> elements;  ///< Per element, after sparse substitution.
+    std::vector<std::int32_t> welded;   ///< Per element: the vertex of MeshFile::mesh.
 };
 
 /// A primitive compressed with KHR_draco_mesh_compression.
@@ -71,7 +71,7 @@ struct GltfDracoPrimitive
     std::int32_t buffer_view = 0;
     std::int32_t position_accessor = 0;
     std::int32_t position_attribute_id = 0;  ///< Draco unique id of the position attribute.
-    bool has_foreign_attributes = false;      ///< Attributes or targets outside the Draco data.
+    bool has_foreign_attributes = false;     ///< Attributes or targets outside the Draco data.
     Eigen::Matrix4d to_world = Eigen::Matrix4d::Identity();
     std::vector<std::int32_t> welded;  ///< Per Draco point: the vertex of MeshFile::mesh.
 };

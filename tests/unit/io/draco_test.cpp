@@ -1,15 +1,14 @@
 // SPDX-License-Identifier: MIT
 // KHR_draco_mesh_compression: decode, write back with new positions re-encoded with the
 // input's quantization and attribute ids, the rest of the asset carried through.
+#include <cmath>
+
 #include <draco/attributes/attribute_quantization_transform.h>
 #include <draco/compression/decode.h>
 #include <draco/compression/encode.h>
 #include <draco/mesh/triangle_soup_mesh_builder.h>
-#include <tiny_gltf.h>
-
-#include <cmath>
-
 #include <gtest/gtest.h>
+#include <tiny_gltf.h>
 
 #include "gltf_test_support.h"
 #include "meshmark/core/error.h"
@@ -41,8 +40,9 @@ DracoPatch draco_patch()
     {
         const double x = i / static_cast<double>(kGrid - 1);
         const double y = j / static_cast<double>(kGrid - 1);
-        return std::array<float, 3>{static_cast<float>(x), static_cast<float>(y),
-                                    static_cast<float>(0.1 * std::sin(6.0 * x) * std::cos(4.0 * y))};
+        return std::array<float, 3>{
+            static_cast<float>(x), static_cast<float>(y),
+            static_cast<float>(0.1 * std::sin(6.0 * x) * std::cos(4.0 * y))};
     };
     const int faces = 2 * (kGrid - 1) * (kGrid - 1);
     draco::TriangleSoupMeshBuilder builder;
@@ -64,10 +64,13 @@ DracoPatch draco_patch()
                 {
                     const auto& g = corners[static_cast<std::size_t>(3 * t + c)];
                     p[static_cast<std::size_t>(c)] = at(g[0], g[1]);
-                    u[static_cast<std::size_t>(c)] = {p[static_cast<std::size_t>(c)][0], p[static_cast<std::size_t>(c)][1]};
+                    u[static_cast<std::size_t>(c)] = {p[static_cast<std::size_t>(c)][0],
+                                                      p[static_cast<std::size_t>(c)][1]};
                 }
-                builder.SetAttributeValuesForFace(pos, draco::FaceIndex(f), p[0].data(), p[1].data(), p[2].data());
-                builder.SetAttributeValuesForFace(uv, draco::FaceIndex(f), u[0].data(), u[1].data(), u[2].data());
+                builder.SetAttributeValuesForFace(pos, draco::FaceIndex(f), p[0].data(),
+                                                  p[1].data(), p[2].data());
+                builder.SetAttributeValuesForFace(uv, draco::FaceIndex(f), u[0].data(), u[1].data(),
+                                                  u[2].data());
                 ++f;
             }
         }
@@ -113,16 +116,20 @@ GltfBuilder draco_asset(const DracoPatch& patch)
     b.doc["accessors"][static_cast<std::size_t>(pos)]["min"] = {0.0, 0.0, -0.1};
     b.doc["accessors"][static_cast<std::size_t>(pos)]["max"] = {1.0, 1.0, 0.1};
     const int uv = static_cast<int>(b.doc["accessors"].size());
-    b.doc["accessors"].push_back({{"componentType", 5126}, {"count", patch.points}, {"type", "VEC2"}});
+    b.doc["accessors"].push_back(
+        {{"componentType", 5126}, {"count", patch.points}, {"type", "VEC2"}});
     const int idx = static_cast<int>(b.doc["accessors"].size());
-    b.doc["accessors"].push_back({{"componentType", 5125}, {"count", 6 * (kGrid - 1) * (kGrid - 1)}, {"type", "SCALAR"}});
-    const int mesh = b.mesh(Json::array(
-        {{{"attributes", {{"POSITION", pos}, {"TEXCOORD_0", uv}}},
-          {"indices", idx},
-          {"material", 0},
-          {"extensions",
-           {{"KHR_draco_mesh_compression",
-             {{"bufferView", view}, {"attributes", {{"POSITION", patch.position_id}, {"TEXCOORD_0", patch.uv_id}}}}}}}}}));
+    b.doc["accessors"].push_back(
+        {{"componentType", 5125}, {"count", 6 * (kGrid - 1) * (kGrid - 1)}, {"type", "SCALAR"}});
+    const int mesh = b.mesh(
+        Json::array({{{"attributes", {{"POSITION", pos}, {"TEXCOORD_0", uv}}},
+                      {"indices", idx},
+                      {"material", 0},
+                      {"extensions",
+                       {{"KHR_draco_mesh_compression",
+                         {{"bufferView", view},
+                          {"attributes",
+                           {{"POSITION", patch.position_id}, {"TEXCOORD_0", patch.uv_id}}}}}}}}}));
     b.node({{"mesh", mesh}, {"translation", {0.0, 0.0, 2.0}}});
     const int tri = b.positions({0, 0, 5, 1, 0, 5, 0, 1, 5});
     b.node({{"mesh", b.mesh(Json::array({{{"attributes", {{"POSITION", tri}}}}}))}});
@@ -195,23 +202,29 @@ TEST_F(DracoTest, changed_positions_are_reencoded_with_the_same_ids_and_quantiza
 
     // The new Draco stream: same attribute ids, same position quantization.
     const auto& view = after["bufferViews"][0];
-    const std::string stream = bin_after.substr(view.value("byteOffset", 0U), view["byteLength"].get<std::size_t>());
+    const std::string stream =
+        bin_after.substr(view.value("byteOffset", 0U), view["byteLength"].get<std::size_t>());
     const auto decoded = decode(stream, false);
-    ASSERT_NE(decoded->GetAttributeByUniqueId(static_cast<std::uint32_t>(patch.position_id)), nullptr);
-    EXPECT_EQ(decoded->GetAttributeByUniqueId(static_cast<std::uint32_t>(patch.position_id))->attribute_type(),
+    ASSERT_NE(decoded->GetAttributeByUniqueId(static_cast<std::uint32_t>(patch.position_id)),
+              nullptr);
+    EXPECT_EQ(decoded->GetAttributeByUniqueId(static_cast<std::uint32_t>(patch.position_id))
+                  ->attribute_type(),
               draco::GeometryAttribute::POSITION);
     ASSERT_NE(decoded->GetAttributeByUniqueId(static_cast<std::uint32_t>(patch.uv_id)), nullptr);
-    EXPECT_EQ(decoded->GetAttributeByUniqueId(static_cast<std::uint32_t>(patch.uv_id))->attribute_type(),
-              draco::GeometryAttribute::TEX_COORD);
+    EXPECT_EQ(
+        decoded->GetAttributeByUniqueId(static_cast<std::uint32_t>(patch.uv_id))->attribute_type(),
+        draco::GeometryAttribute::TEX_COORD);
     const auto quantized = decode(stream, true);
     draco::AttributeQuantizationTransform q;
-    ASSERT_TRUE(q.InitFromAttribute(*quantized->GetAttributeByUniqueId(static_cast<std::uint32_t>(patch.position_id))));
+    ASSERT_TRUE(q.InitFromAttribute(
+        *quantized->GetAttributeByUniqueId(static_cast<std::uint32_t>(patch.position_id))));
     EXPECT_EQ(q.quantization_bits(), kPositionBits);
 
     // The plain triangle after the Draco data keeps its bytes at its (shifted) offset.
     const auto& tri_before = before["bufferViews"][before["bufferViews"].size() - 1];
     const auto& tri_after = after["bufferViews"][after["bufferViews"].size() - 1];
-    EXPECT_EQ(bin_after.substr(tri_after["byteOffset"], 36), bin_before.substr(tri_before["byteOffset"], 36));
+    EXPECT_EQ(bin_after.substr(tri_after["byteOffset"], 36),
+              bin_before.substr(tri_before["byteOffset"], 36));
     EXPECT_EQ(tri_after["byteOffset"].get<std::size_t>() % 4, 0U);
 
     // Everything but the Draco view, the views after it, the buffer length and the bounds

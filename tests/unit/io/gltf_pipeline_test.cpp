@@ -25,7 +25,8 @@ using test::Json;
 std::string two_part_glb(const TriangleMesh& shape)
 {
     Eigen::Affine3d t0 = Eigen::Affine3d::Identity();
-    t0.translate(Eigen::Vector3d(0.3, -0.2, 0.1)).rotate(Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()));
+    t0.translate(Eigen::Vector3d(0.3, -0.2, 0.1))
+        .rotate(Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()));
     Eigen::Affine3d t1 = Eigen::Affine3d::Identity();
     t1.translate(Eigen::Vector3d(-1.0, 0.5, 2.0)).scale(1.5);
     const std::array<Eigen::Matrix4d, 2> to_world{t0.matrix(), t1.matrix()};
@@ -38,7 +39,9 @@ std::string two_part_glb(const TriangleMesh& shape)
         const Eigen::Matrix4d to_local = to_world[static_cast<std::size_t>(part)].inverse();
         for (Eigen::Index f = 0; f < shape.F.rows(); ++f)
         {
-            const double cx = (shape.V(shape.F(f, 0), 0) + shape.V(shape.F(f, 1), 0) + shape.V(shape.F(f, 2), 0)) / 3;
+            const double cx = (shape.V(shape.F(f, 0), 0) + shape.V(shape.F(f, 1), 0) +
+                               shape.V(shape.F(f, 2), 0)) /
+                              3;
             if ((cx < 0.0) != (part == 0))
             {
                 continue;
@@ -49,14 +52,19 @@ std::string two_part_glb(const TriangleMesh& shape)
                 if (local_of[v] < 0)
                 {
                     local_of[v] = static_cast<std::int32_t>(xyz.size() / 3);
-                    const Eigen::Vector4d p = to_local * Eigen::Vector4d(shape.V(static_cast<Eigen::Index>(v), 0), shape.V(static_cast<Eigen::Index>(v), 1), shape.V(static_cast<Eigen::Index>(v), 2), 1.0);
-                    xyz.insert(xyz.end(), {static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z())});
+                    const Eigen::Vector4d p =
+                        to_local * Eigen::Vector4d(shape.V(static_cast<Eigen::Index>(v), 0),
+                                                   shape.V(static_cast<Eigen::Index>(v), 1),
+                                                   shape.V(static_cast<Eigen::Index>(v), 2), 1.0);
+                    xyz.insert(xyz.end(), {static_cast<float>(p.x()), static_cast<float>(p.y()),
+                                           static_cast<float>(p.z())});
                 }
                 idx.push_back(static_cast<std::uint16_t>(local_of[v]));
             }
         }
         const int pos = b.positions(xyz);
-        const int mesh = b.mesh(Json::array({{{"attributes", {{"POSITION", pos}}}, {"indices", b.indices(idx)}}}));
+        const int mesh = b.mesh(
+            Json::array({{{"attributes", {{"POSITION", pos}}}, {"indices", b.indices(idx)}}}));
         const auto& m = to_world[static_cast<std::size_t>(part)];
         b.node({{"mesh", mesh}, {"matrix", std::vector<double>(m.data(), m.data() + 16)}});
     }
@@ -79,12 +87,15 @@ TEST(GltfPipelineTest, two_part_glb_detects_after_a_similarity_of_the_whole_asse
     // Spread over 4 coefficients per bit: with r = 1 (24 coefficients) the score of even an
     // intact mark stays below the default 1e-6 false-positive bound.
     options.embed.repetitions = 4;
-    const auto report = embed_file(dir / "asset.glb", dir / "marked.glb", dir / "key.json", options);
+    const auto report =
+        embed_file(dir / "asset.glb", dir / "marked.glb", dir / "key.json", options);
     EXPECT_EQ(report.output_format, MeshFormat::Glb);
 
     // The whole asset rotated, scaled and moved (every accessor's positions).
     Eigen::Affine3d s = Eigen::Affine3d::Identity();
-    s.translate(Eigen::Vector3d(5, -3, 1)).rotate(Eigen::AngleAxisd(1.1, Eigen::Vector3d(0.2, 1, -0.4).normalized())).scale(2.5);
+    s.translate(Eigen::Vector3d(5, -3, 1))
+        .rotate(Eigen::AngleAxisd(1.1, Eigen::Vector3d(0.2, 1, -0.4).normalized()))
+        .scale(2.5);
     const auto moved = [&s](const MeshFile& file)
     {
         Positions V = file.mesh.V;
@@ -101,7 +112,8 @@ TEST(GltfPipelineTest, two_part_glb_detects_after_a_similarity_of_the_whole_asse
 
     DetectFileOptions detect;
     detect.threads = 1;
-    const auto found = detect_file(dir / "suspect.glb", dir / "asset.glb", dir / "key.json", detect);
+    const auto found =
+        detect_file(dir / "suspect.glb", dir / "asset.glb", dir / "key.json", detect);
     EXPECT_TRUE(found.decision.is_present)
         << "R " << found.decision.correlation << " z " << found.decision.score << " matches "
         << found.decision.matches << "/" << found.decision.bit_count << " alignment "

@@ -1,13 +1,12 @@
 // SPDX-License-Identifier: MIT
 // glTF 2.0 / GLB: world-frame welded reading, and the preserving writer (only position bytes
 // and POSITION min/max change; the result stays a valid asset for tinygltf).
-#include <tiny_gltf.h>
-
 #include <cmath>
 #include <set>
 
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
+#include <tiny_gltf.h>
 
 #include "gltf_test_support.h"
 #include "meshmark/core/error.h"
@@ -47,8 +46,8 @@ Glb split(const std::string& bytes)
 
 // The unit box [0,1]^3 as 24 corners (4 per face, so every corner appears 3 times, as a
 // glTF exporter writes a box with per-face normals) and 12 triangles.
-void box_faces(std::vector<float>& xyz, std::vector<float>& normals, std::vector<std::uint16_t>& idx,
-               const Eigen::Matrix4d& place)
+void box_faces(std::vector<float>& xyz, std::vector<float>& normals,
+               std::vector<std::uint16_t>& idx, const Eigen::Matrix4d& place)
 {
     const int axes[6][3] = {{0, 1, 2}, {0, 1, 2}, {1, 2, 0}, {1, 2, 0}, {2, 0, 1}, {2, 0, 1}};
     for (int f = 0; f < 6; ++f)
@@ -112,8 +111,9 @@ TwoBoxes two_boxes()
     std::vector<float> uvs;
     for (std::size_t i = 0; i < xyz.size() / 3; ++i)
     {
-        interleaved.insert(interleaved.end(), {xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2],
-                                               normals[3 * i], normals[3 * i + 1], normals[3 * i + 2]});
+        interleaved.insert(interleaved.end(),
+                           {xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2], normals[3 * i],
+                            normals[3 * i + 1], normals[3 * i + 2]});
         uvs.insert(uvs.end(), {static_cast<float>(i % 2), static_cast<float>((i / 2) % 2)});
     }
     const int view = b.view(GltfBuilder::raw(interleaved), 24);
@@ -122,9 +122,10 @@ TwoBoxes two_boxes()
     const int nrm_a = b.accessor(view, 12, 5126, xyz.size() / 3, "VEC3");
     const int uv_a = b.accessor(b.view(GltfBuilder::raw(uvs)), 0, 5126, uvs.size() / 2, "VEC2");
     const int idx_a = b.indices(idx);
-    const int mesh_a = b.mesh(Json::array({{{"attributes", {{"POSITION", pos_a}, {"NORMAL", nrm_a}, {"TEXCOORD_0", uv_a}}},
-                                            {"indices", idx_a},
-                                            {"material", 0}}}));
+    const int mesh_a = b.mesh(Json::array(
+        {{{"attributes", {{"POSITION", pos_a}, {"NORMAL", nrm_a}, {"TEXCOORD_0", uv_a}}},
+          {"indices", idx_a},
+          {"material", 0}}}));
     b.node({{"name", "A"}, {"mesh", mesh_a}, {"matrix", column_major(t.a_to_world)}});
 
     // Box B under root R (translation) -> child (TRS).
@@ -141,14 +142,18 @@ TwoBoxes two_boxes()
     std::vector<std::uint16_t> idx_b;
     box_faces(xyz_b, normals_b, idx_b, t.b_to_world.inverse() * world_box.matrix());
     const int pos_b = b.positions(xyz_b);
-    const int mesh_b = b.mesh(Json::array({{{"attributes", {{"POSITION", pos_b}}}, {"indices", b.indices(idx_b)}, {"extras", {{"tag", "b"}}}}}));
+    const int mesh_b = b.mesh(Json::array({{{"attributes", {{"POSITION", pos_b}}},
+                                            {"indices", b.indices(idx_b)},
+                                            {"extras", {{"tag", "b"}}}}}));
     const int child = b.node({{"name", "B"},
                               {"mesh", mesh_b},
                               {"translation", {child_t.x(), child_t.y(), child_t.z()}},
                               {"rotation", {q.x(), q.y(), q.z(), q.w()}},
                               {"scale", {0.5, 0.5, 0.5}}},
                              false);
-    b.node({{"name", "R"}, {"translation", {root_t.x(), root_t.y(), root_t.z()}}, {"children", {child}}});
+    b.node({{"name", "R"},
+            {"translation", {root_t.x(), root_t.y(), root_t.z()}},
+            {"children", {child}}});
     b.doc["extensionsUsed"] = {"EXT_unknown_vendor"};
     b.doc["extensions"] = {{"EXT_unknown_vendor", {{"keep", {1, 2, 3}}}}};
     return t;
@@ -184,7 +189,8 @@ std::vector<bool> position_bytes(const Json& doc, std::size_t size)
         const auto& acc = doc["accessors"][static_cast<std::size_t>(a)];
         const auto& view = doc["bufferViews"][acc["bufferView"].get<std::size_t>()];
         const std::size_t stride = view.value("byteStride", std::size_t{12});
-        const std::size_t first = view.value("byteOffset", std::size_t{0}) + acc.value("byteOffset", std::size_t{0});
+        const std::size_t first =
+            view.value("byteOffset", std::size_t{0}) + acc.value("byteOffset", std::size_t{0});
         for (std::size_t e = 0; e < acc["count"].get<std::size_t>(); ++e)
         {
             for (std::size_t k = 0; k < 12; ++k)
@@ -338,7 +344,9 @@ TEST_F(GltfTest, data_uri_gltf_round_trip_keeps_json_and_rewrites_only_the_buffe
     auto before = Json::parse(test::file_bytes(dir / "in.gltf"));
     auto after = Json::parse(test::file_bytes(dir / "out.gltf"));
     EXPECT_NE(after["buffers"][0]["uri"], before["buffers"][0]["uri"]);
-    EXPECT_EQ(after["buffers"][0]["uri"].get<std::string>().rfind("data:application/octet-stream;base64,", 0), 0U);
+    EXPECT_EQ(after["buffers"][0]["uri"].get<std::string>().rfind(
+                  "data:application/octet-stream;base64,", 0),
+              0U);
     after["buffers"][0].erase("uri");
     before["buffers"][0].erase("uri");
     EXPECT_EQ(without_position_bounds(after), without_position_bounds(before));
@@ -382,7 +390,8 @@ TEST_F(GltfTest, instanced_mesh_is_watermarked_once_through_its_first_instance)
     std::vector<std::uint16_t> idx;
     box_faces(xyz, normals, idx, Eigen::Matrix4d::Identity());
     const int pos = b.positions(xyz);
-    const int mesh = b.mesh(Json::array({{{"attributes", {{"POSITION", pos}}}, {"indices", b.indices(idx)}}}));
+    const int mesh =
+        b.mesh(Json::array({{{"attributes", {{"POSITION", pos}}}, {"indices", b.indices(idx)}}}));
     b.node({{"mesh", mesh}, {"translation", {10.0, 0.0, 0.0}}});
     b.node({{"mesh", mesh}, {"translation", {-10.0, 0.0, 0.0}}});
     test::put_bytes(dir / "inst.glb", b.glb());
@@ -413,7 +422,8 @@ TEST_F(GltfTest, sparse_accessor_positions_are_read_and_written_through)
         {"indices", {{"bufferView", index_view}, {"componentType", 5123}}},
         {"values", {{"bufferView", value_view}}}};
     b.set_bounds(pos, {0, 0, 0, 1, 1, 0});
-    const int mesh = b.mesh(Json::array({{{"attributes", {{"POSITION", pos}}}, {"indices", b.indices({0, 1, 2, 0, 2, 3})}}}));
+    const int mesh = b.mesh(Json::array(
+        {{{"attributes", {{"POSITION", pos}}}, {"indices", b.indices({0, 1, 2, 0, 2, 3})}}}));
     b.node({{"mesh", mesh}});
     test::put_bytes(dir / "sparse.glb", b.glb());
     const MeshFile file = read_mesh_file(dir / "sparse.glb");
@@ -421,7 +431,7 @@ TEST_F(GltfTest, sparse_accessor_positions_are_read_and_written_through)
     EXPECT_EQ(file.mesh.V(1, 0), 1.0);
     EXPECT_EQ(file.mesh.V(2, 1), 1.0);
     Positions moved = file.mesh.V;
-    moved(1, 2) = 0.5;  // a sparse element
+    moved(1, 2) = 0.5;   // a sparse element
     moved(3, 2) = -0.5;  // a base element
     write_mesh_file(dir / "sparse_out.glb", file, moved);
     const Glb after = split(test::file_bytes(dir / "sparse_out.glb"));
@@ -450,7 +460,8 @@ TEST_F(GltfTest, quantized_positions_are_dequantized_and_requantized)
     const int pos = b.accessor(view, 0, 5122, 4, "VEC3", true);
     b.doc["accessors"][static_cast<std::size_t>(pos)]["min"] = {0, 0, 0};
     b.doc["accessors"][static_cast<std::size_t>(pos)]["max"] = {32767, 32767, 0};
-    const int mesh = b.mesh(Json::array({{{"attributes", {{"POSITION", pos}}}, {"indices", b.indices({0, 1, 2, 0, 2, 3})}}}));
+    const int mesh = b.mesh(Json::array(
+        {{{"attributes", {{"POSITION", pos}}}, {"indices", b.indices({0, 1, 2, 0, 2, 3})}}}));
     b.node({{"mesh", mesh}, {"scale", {4.0, 4.0, 4.0}}});
     b.doc["extensionsUsed"] = {"KHR_mesh_quantization"};
     b.doc["extensionsRequired"] = {"KHR_mesh_quantization"};
@@ -511,7 +522,8 @@ TEST_F(GltfTest, hostile_files_fail_with_one_sentence_naming_the_file)
     // Index past the end of the positions.
     GltfBuilder b;
     const int pos = b.positions({0, 0, 0, 1, 0, 0, 0, 1, 0});
-    b.node({{"mesh", b.mesh(Json::array({{{"attributes", {{"POSITION", pos}}}, {"indices", b.indices({0, 1, 7})}}}))}});
+    b.node({{"mesh", b.mesh(Json::array({{{"attributes", {{"POSITION", pos}}},
+                                          {"indices", b.indices({0, 1, 7})}}}))}});
     expect_error("index.glb", b.glb());
 
     // A cycle in the node tree.
@@ -533,7 +545,9 @@ TEST_F(GltfTest, hostile_files_fail_with_one_sentence_naming_the_file)
     GltfBuilder e;
     const int p4 = e.positions({0, 0, 0, 1, 0, 0, 0, 1, 0});
     e.node({{"mesh", e.mesh(Json::array({{{"attributes", {{"POSITION", p4}}},
-                                           {"extensions", {{"KHR_draco_mesh_compression", {{"bufferView", 0}, {"attributes", 5}}}}}}}))}});
+                                          {"extensions",
+                                           {{"KHR_draco_mesh_compression",
+                                             {{"bufferView", 0}, {"attributes", 5}}}}}}}))}});
     expect_error("draco_ext.glb", e.glb());
 }
 

@@ -20,7 +20,8 @@ using Json = nlohmann::ordered_json;
 
 inline std::string base64(const std::string& bytes)
 {
-    static const char* kAlphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    static const char* kAlphabet =
+        "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
     std::string out;
     std::size_t i = 0;
     for (; i + 2 < bytes.size(); i += 3)
@@ -56,14 +57,16 @@ struct GltfBuilder
 
     GltfBuilder()
     {
-        doc["asset"] = {{"version", "2.0"}, {"generator", "meshmark tests"}, {"extras", {{"k", 1}}}};
+        doc["asset"] = {
+            {"version", "2.0"}, {"generator", "meshmark tests"}, {"extras", {{"k", 1}}}};
         doc["scene"] = 0;
         doc["scenes"] = Json::array({Json::object({{"nodes", Json::array()}})});
         doc["nodes"] = Json::array();
         doc["meshes"] = Json::array();
         doc["accessors"] = Json::array();
         doc["bufferViews"] = Json::array();
-        doc["materials"] = Json::array({{{"name", "red"}, {"pbrMetallicRoughness", {{"baseColorFactor", {1, 0, 0, 1}}}}}});
+        doc["materials"] = Json::array(
+            {{{"name", "red"}, {"pbrMetallicRoughness", {{"baseColorFactor", {1, 0, 0, 1}}}}}});
     }
 
     void align()
@@ -99,8 +102,11 @@ struct GltfBuilder
     int accessor(int view_index, std::size_t offset, int component, std::size_t count,
                  const char* type, bool normalized = false)
     {
-        Json a = {{"bufferView", view_index}, {"byteOffset", offset}, {"componentType", component},
-                  {"count", count}, {"type", type}};
+        Json a = {{"bufferView", view_index},
+                  {"byteOffset", offset},
+                  {"componentType", component},
+                  {"count", count},
+                  {"type", type}};
         if (normalized)
         {
             a["normalized"] = true;

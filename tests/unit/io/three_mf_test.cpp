@@ -2,11 +2,10 @@
 // 3MF: mesh objects in the build's world frame, welded; the preserving writer changes vertex
 // coordinates only (objects, triangles, materials, metadata, components and build items are
 // compared through lib3mf).
-#include <Model/COM/NMR_DLLInterfaces.h>
-
 #include <cmath>
 #include <memory>
 
+#include <Model/COM/NMR_DLLInterfaces.h>
 #include <gtest/gtest.h>
 
 #include "io_test_support.h"
@@ -85,41 +84,56 @@ void set_box(NMR::PLib3MFBase* mesh)
 std::string two_box_package()
 {
     auto model = make([](NMR::PLib3MFBase** p) { return NMR::lib3mf_createmodel(p); });
-    auto materials = make([&](NMR::PLib3MFBase** p) { return NMR::lib3mf_model_addbasematerialgroup(model.get(), p); });
+    auto materials = make([&](NMR::PLib3MFBase** p)
+                          { return NMR::lib3mf_model_addbasematerialgroup(model.get(), p); });
     DWORD red = 0;
     DWORD blue = 0;
     EXPECT_EQ(NMR::lib3mf_basematerial_addmaterialutf8(materials.get(), "red", 255, 0, 0, &red), 0);
-    EXPECT_EQ(NMR::lib3mf_basematerial_addmaterialutf8(materials.get(), "blue", 0, 0, 255, &blue), 0);
+    EXPECT_EQ(NMR::lib3mf_basematerial_addmaterialutf8(materials.get(), "blue", 0, 0, 255, &blue),
+              0);
     DWORD group = 0;
     EXPECT_EQ(NMR::lib3mf_resource_getresourceid(materials.get(), &group), 0);
 
-    auto a = make([&](NMR::PLib3MFBase** p) { return NMR::lib3mf_model_addmeshobject(model.get(), p); });
+    auto a =
+        make([&](NMR::PLib3MFBase** p) { return NMR::lib3mf_model_addmeshobject(model.get(), p); });
     set_box(a.get());
     EXPECT_EQ(NMR::lib3mf_object_setnameutf8(a.get(), "box A"), 0);
-    auto handler = make([&](NMR::PLib3MFBase** p) { return NMR::lib3mf_meshobject_createpropertyhandler(a.get(), p); });
+    auto handler = make([&](NMR::PLib3MFBase** p)
+                        { return NMR::lib3mf_meshobject_createpropertyhandler(a.get(), p); });
     for (DWORD f = 0; f < 12; ++f)
     {
-        EXPECT_EQ(NMR::lib3mf_propertyhandler_setbasematerial(handler.get(), f, group, f % 2 == 0 ? red : blue), 0);
+        EXPECT_EQ(NMR::lib3mf_propertyhandler_setbasematerial(handler.get(), f, group,
+                                                              f % 2 == 0 ? red : blue),
+                  0);
     }
     // lib3mf refuses to write triangle properties without an object default property.
-    auto defaults = make([&](NMR::PLib3MFBase** p) { return NMR::lib3mf_object_createdefaultpropertyhandler(a.get(), p); });
+    auto defaults = make([&](NMR::PLib3MFBase** p)
+                         { return NMR::lib3mf_object_createdefaultpropertyhandler(a.get(), p); });
     EXPECT_EQ(NMR::lib3mf_defaultpropertyhandler_setbasematerial(defaults.get(), group, red), 0);
-    auto b = make([&](NMR::PLib3MFBase** p) { return NMR::lib3mf_model_addmeshobject(model.get(), p); });
+    auto b =
+        make([&](NMR::PLib3MFBase** p) { return NMR::lib3mf_model_addmeshobject(model.get(), p); });
     set_box(b.get());
     EXPECT_EQ(NMR::lib3mf_object_setnameutf8(b.get(), "box B"), 0);
-    auto parts = make([&](NMR::PLib3MFBase** p) { return NMR::lib3mf_model_addcomponentsobject(model.get(), p); });
+    auto parts = make([&](NMR::PLib3MFBase** p)
+                      { return NMR::lib3mf_model_addcomponentsobject(model.get(), p); });
     NMR::MODELTRANSFORM scale2 = transform(2.0f, 0.0f, 0.0f, 0.0f);
-    auto component = make([&](NMR::PLib3MFBase** p) { return NMR::lib3mf_componentsobject_addcomponent(parts.get(), b.get(), &scale2, p); });
+    auto component = make(
+        [&](NMR::PLib3MFBase** p)
+        { return NMR::lib3mf_componentsobject_addcomponent(parts.get(), b.get(), &scale2, p); });
 
     NMR::MODELTRANSFORM ta = transform(2.0f, 1.0f, 0.0f, 0.0f);
-    auto item_a = make([&](NMR::PLib3MFBase** p) { return NMR::lib3mf_model_addbuilditem(model.get(), a.get(), &ta, p); });
+    auto item_a = make([&](NMR::PLib3MFBase** p)
+                       { return NMR::lib3mf_model_addbuilditem(model.get(), a.get(), &ta, p); });
     NMR::MODELTRANSFORM tb = transform(1.0f, 3.0f, 0.0f, 0.0f);
-    auto item_b = make([&](NMR::PLib3MFBase** p) { return NMR::lib3mf_model_addbuilditem(model.get(), parts.get(), &tb, p); });
+    auto item_b =
+        make([&](NMR::PLib3MFBase** p)
+             { return NMR::lib3mf_model_addbuilditem(model.get(), parts.get(), &tb, p); });
     EXPECT_EQ(NMR::lib3mf_model_addmetadatautf8(model.get(), "Title", "two boxes"), 0);
     EXPECT_EQ(NMR::lib3mf_model_addmetadatautf8(model.get(), "Designer", "meshmark tests"), 0);
 
     // Debian's lib3mf 1.8 cannot write to a buffer: write a file and read it.
-    auto writer = make([&](NMR::PLib3MFBase** p) { return NMR::lib3mf_model_querywriter(model.get(), "3mf", p); });
+    auto writer = make([&](NMR::PLib3MFBase** p)
+                       { return NMR::lib3mf_model_querywriter(model.get(), "3mf", p); });
     const fs::path file = test::temp_dir("three_mf_fixture") / "fixture.3mf";
     EXPECT_EQ(NMR::lib3mf_writer_writetofileutf8(writer.get(), file.string().c_str()), 0);
     return test::file_bytes(file);
@@ -136,7 +150,8 @@ Summary summarize(const fs::path& path)
 {
     Summary s;
     auto model = make([](NMR::PLib3MFBase** p) { return NMR::lib3mf_createmodel(p); });
-    auto reader = make([&](NMR::PLib3MFBase** p) { return NMR::lib3mf_model_queryreader(model.get(), "3mf", p); });
+    auto reader = make([&](NMR::PLib3MFBase** p)
+                       { return NMR::lib3mf_model_queryreader(model.get(), "3mf", p); });
     EXPECT_EQ(NMR::lib3mf_reader_readfromfileutf8(reader.get(), path.string().c_str()), 0);
     DWORD count = 0;
     EXPECT_EQ(NMR::lib3mf_model_getmetadatacount(model.get(), &count), 0);
@@ -149,11 +164,13 @@ Summary summarize(const fs::path& path)
         NMR::lib3mf_model_getmetadatavalueutf8(model.get(), m, value, sizeof(value), &needed);
         s.structure += std::string("meta ") + key + "=" + value + "\n";
     }
-    auto meshes = make([&](NMR::PLib3MFBase** p) { return NMR::lib3mf_model_getmeshobjects(model.get(), p); });
+    auto meshes = make([&](NMR::PLib3MFBase** p)
+                       { return NMR::lib3mf_model_getmeshobjects(model.get(), p); });
     BOOL has = 0;
     while (NMR::lib3mf_resourceiterator_movenext(meshes.get(), &has) == 0 && has != 0)
     {
-        auto mesh = make([&](NMR::PLib3MFBase** p) { return NMR::lib3mf_resourceiterator_getcurrent(meshes.get(), p); });
+        auto mesh = make([&](NMR::PLib3MFBase** p)
+                         { return NMR::lib3mf_resourceiterator_getcurrent(meshes.get(), p); });
         DWORD id = 0;
         DWORD nv = 0;
         DWORD nt = 0;
@@ -163,30 +180,38 @@ Summary summarize(const fs::path& path)
         NMR::lib3mf_object_getnameutf8(mesh.get(), name, sizeof(name), &needed);
         NMR::lib3mf_meshobject_getvertexcount(mesh.get(), &nv);
         NMR::lib3mf_meshobject_gettrianglecount(mesh.get(), &nt);
-        s.structure += "mesh " + std::to_string(id) + " '" + name + "' " + std::to_string(nv) + " " + std::to_string(nt) + "\n";
+        s.structure += "mesh " + std::to_string(id) + " '" + name + "' " + std::to_string(nv) +
+                       " " + std::to_string(nt) + "\n";
         std::vector<NMR::MODELMESHTRIANGLE> t(nt);
         NMR::lib3mf_meshobject_gettriangleindices(mesh.get(), t.data(), nt, nullptr);
-        auto handler = make([&](NMR::PLib3MFBase** p) { return NMR::lib3mf_meshobject_createpropertyhandler(mesh.get(), p); });
+        auto handler =
+            make([&](NMR::PLib3MFBase** p)
+                 { return NMR::lib3mf_meshobject_createpropertyhandler(mesh.get(), p); });
         for (DWORD f = 0; f < nt; ++f)
         {
             DWORD g = 0;
             DWORD i = 0;
             NMR::lib3mf_propertyhandler_getbasematerial(handler.get(), f, &g, &i);
-            s.structure += " t " + std::to_string(t[f].m_nIndices[0]) + " " + std::to_string(t[f].m_nIndices[1]) + " " +
-                           std::to_string(t[f].m_nIndices[2]) + " m " + std::to_string(g) + ":" + std::to_string(i) + "\n";
+            s.structure += " t " + std::to_string(t[f].m_nIndices[0]) + " " +
+                           std::to_string(t[f].m_nIndices[1]) + " " +
+                           std::to_string(t[f].m_nIndices[2]) + " m " + std::to_string(g) + ":" +
+                           std::to_string(i) + "\n";
         }
         std::vector<NMR::MODELMESHVERTEX> v(nv);
         NMR::lib3mf_meshobject_getvertices(mesh.get(), v.data(), nv, nullptr);
         s.vertices.emplace_back();
         for (const auto& x : v)
         {
-            s.vertices.back().insert(s.vertices.back().end(), {x.m_fPosition[0], x.m_fPosition[1], x.m_fPosition[2]});
+            s.vertices.back().insert(s.vertices.back().end(),
+                                     {x.m_fPosition[0], x.m_fPosition[1], x.m_fPosition[2]});
         }
     }
-    auto items = make([&](NMR::PLib3MFBase** p) { return NMR::lib3mf_model_getbuilditems(model.get(), p); });
+    auto items =
+        make([&](NMR::PLib3MFBase** p) { return NMR::lib3mf_model_getbuilditems(model.get(), p); });
     while (NMR::lib3mf_builditemiterator_movenext(items.get(), &has) == 0 && has != 0)
     {
-        auto item = make([&](NMR::PLib3MFBase** p) { return NMR::lib3mf_builditemiterator_getcurrent(items.get(), p); });
+        auto item = make([&](NMR::PLib3MFBase** p)
+                         { return NMR::lib3mf_builditemiterator_getcurrent(items.get(), p); });
         DWORD id = 0;
         NMR::MODELTRANSFORM t{};
         NMR::lib3mf_builditem_getobjectresourceid(item.get(), &id);
