@@ -54,6 +54,7 @@ struct RobustnessArgs
     std::uint64_t seed = 1;
     double strength = -1.0;
     int repetitions = EmbedOptions{}.repetitions;
+    int first_mode = EmbedOptions{}.first_mode;
     std::string rule = "additive";
     std::string markdown;
     std::string json_path;
@@ -128,6 +129,7 @@ Key make_key(const TriangleMesh& original, std::uint64_t seed, const RobustnessA
     key.options.rule = parse_embedding_rule(args.rule);
     key.options.strength = args.strength;
     key.options.repetitions = args.repetitions;
+    key.options.first_mode = args.first_mode;
     key.payload = random_payload(seed, payload_bit_count(key.options));
     key.original = fingerprint(original);
     return key;
@@ -224,7 +226,7 @@ std::string markdown_report(const std::vector<MeshEmbedding>& embeddings, const 
     md << "Keys per mesh: " << args.keys << " (wrong keys per marked copy: " << args.wrong_keys
        << ", keys on unmarked attacked copies: " << args.unmarked_keys << "); rule " << args.rule
        << ", strength " << (args.strength < 0 ? std::string("default") : format_number(args.strength))
-       << ", repetitions " << args.repetitions << "; verdict: correlation bound <= "
+       << ", repetitions " << args.repetitions << ", first mode " << args.first_mode << "; verdict: correlation bound <= "
        << format_number(decision.max_false_positive) << " (bits rule: R >= " << format_number(decision.threshold)
        << ").\n\n";
 
@@ -484,6 +486,7 @@ void register_bench_robustness(CLI::App& bench, GlobalArgs& global, CommandRunne
     command->add_option("--seed", args->seed, "Seed of keys and attacks")->capture_default_str();
     command->add_option("--strength", args->strength, "Embedding strength (default: the rule's default)");
     command->add_option("--repetitions", args->repetitions, "Coefficients per payload bit")->capture_default_str();
+    command->add_option("--first-mode", args->first_mode, "First modulated mode")->capture_default_str();
     command->add_option("--rule", args->rule, "additive or paper")
         ->check(CLI::IsMember({"additive", "paper"}))
         ->capture_default_str();

@@ -84,6 +84,7 @@ Json content_json(const Key& key)
                       {"basis_size", key.options.basis_size},
                       {"coefficients", key.options.coefficients},
                       {"repetitions", key.options.repetitions},
+                      {"first_mode", key.options.first_mode},
                       {"strength", key.options.resolved_strength()},
                       {"sigma_factor", key.options.sigma_factor},
                       {"centers", "random"}};
@@ -179,6 +180,13 @@ void EmbedOptions::validate() const
         throw InvalidOption("repetitions (--repetitions) must be at least 1 and at most the basis size "
                             "divided by the coefficients (" + std::to_string(basis_size) + " / " +
                             std::to_string(coefficients) + "), got " + std::to_string(repetitions) + ".");
+    }
+    if (first_mode < 0 || static_cast<long long>(repetitions) * coefficients + first_mode > basis_size)
+    {
+        throw InvalidOption("the first modulated mode (--first-mode) must be in 0.." +
+                            std::to_string(std::max(0, basis_size - repetitions * coefficients)) +
+                            " (basis size minus coefficients times repetitions), got " +
+                            std::to_string(first_mode) + ".");
     }
     const double s = resolved_strength();
     if (!std::isfinite(s) || s < 0.0 || s > 0.5)
@@ -366,6 +374,8 @@ Key parse_key(const std::string& text, const std::string& source)
     // Absent from keys written before spreading existed: those embedded every bit once.
     key.options.repetitions =
         embedding.contains("repetitions") ? field<int>(embedding, "repetitions", "embedding.", source) : 1;
+    key.options.first_mode =
+        embedding.contains("first_mode") ? field<int>(embedding, "first_mode", "embedding.", source) : 0;
     key.options.strength = field<double>(embedding, "strength", "embedding.", source);
     key.options.sigma_factor = field<double>(embedding, "sigma_factor", "embedding.", source);
     if (field<std::string>(embedding, "centers", "embedding.", source) != "random")

@@ -324,7 +324,7 @@ SpectralWatermark::SpectralWatermark(const TriangleMesh& original, const Key& ke
     }
     else
     {
-        const Eigen::MatrixX3d alpha_file = basis_->position_coefficients().topRows(modes);
+        const Eigen::MatrixX3d alpha_file = basis_->position_coefficients().middleRows(key_.options.first_mode, modes);
         const Eigen::MatrixX3d alpha = alpha_file * frame_.axes.transpose();
         modulation_ = alpha * strength;
         const double largest = alpha.cwiseAbs().maxCoeff();
@@ -335,7 +335,9 @@ SpectralWatermark::SpectralWatermark(const TriangleMesh& original, const Key& ke
 Positions SpectralWatermark::displacement(EmbedStats* stats) const
 {
     // Coefficient change (canonical frame) -> file axes -> synthesis U_m (beta - alpha).
-    const Eigen::MatrixX3d change = signs_.cwiseProduct(modulation_) * frame_.axes;
+    const int first = key_.options.first_mode;
+    Eigen::MatrixX3d change = Eigen::MatrixX3d::Zero(first + signs_.rows(), 3);
+    change.bottomRows(signs_.rows()) = signs_.cwiseProduct(modulation_) * frame_.axes;
     double orthogonality = 0.0;
     Positions field = basis_->synthesize(change, &orthogonality);
     if (stats != nullptr)
@@ -407,6 +409,7 @@ Extraction SpectralWatermark::extract(const Positions& suspect, const DetectOpti
                             std::to_string(original_->V.rows()) + ".");
     }
     const int modes = static_cast<int>(modulation_.rows());
+    const int first = key_.options.first_mode;
     const auto coefficients = static_cast<Eigen::Index>(3 * modes);
     const Positions change = suspect - original_->V;
     auto normalize = [&](const Eigen::MatrixX3d& delta_file) {
@@ -422,13 +425,14 @@ Extraction SpectralWatermark::extract(const Positions& suspect, const DetectOpti
     if (is_kept != nullptr)
     {
         // gamma - alpha by least squares over the kept rows (DESIGN.md step 8).
-        return extraction_from(normalize(basis_->project_least_squares(change, *is_kept, modes)),
-                               Eigen::VectorXd::Ones(coefficients), options);
+        return extraction_from(
+            normalize(basis_->project_least_squares(change, *is_kept, first + modes).bottomRows(modes)),
+            Eigen::VectorXd::Ones(coefficients), options);
     }
-    if (!options.remove_nuisance || nuisance_model().modes <= modes)
+    if (!options.remove_nuisance || nuisance_model().modes <= first + modes)
     {
-        return extraction_from(normalize(basis_->project(change, modes)), Eigen::VectorXd::Ones(coefficients),
-                               options);
+        return extraction_from(normalize(basis_->project(change, first + modes).bottomRows(modes)),
+                               Eigen::VectorXd::Ones(coefficients), options);
     }
     // Joint least squares on the leading r modes: the modulated coefficients are free (one
     // unknown each), the nuisance fields (similarity, smoothing) enter through their responses,
@@ -445,7 +449,7 @@ Extraction SpectralWatermark::extract(const Positions& suspect, const DetectOpti
         for (Eigen::Index b = 0; b < 3; ++b)
         {
             // Canonical axis `axis` in file coordinates is frame_.axes.row(axis).
-            design(mode + r * b, c) = modulation_(mode, axis) * frame_.axes(axis, b);
+            design(first + mode + r * b, c) = modulation_(mode, axis) * frame_.axes(axis, b);
         }
     }
     for (Eigen::Index f = 0; f < q; ++f)
@@ -480,7 +484,8 @@ Extraction SpectralWatermark::extract_resampled(const Positions& resampled, cons
     // r well-conditioned modes and (b', g) solved by least squares. With U_r dense (#active x
     // r) the 3r x (3 m r + q + 1) normal system is accumulated block by block without ever
     // forming a field per unknown: A[(l, b), col] = sum_i U_il (S_i column_i)_b.
-    const int r = std::max(basis_->well_conditioned_modes(kNuisanceModeTolerance), modes);
+    const int first = key_.options.first_mode;
+    const int r = std::max(basis_->well_conditioned_modes(kNuisanceModeTolerance), first + modes);
     const Eigen::MatrixXd U = basis_->modes_dense(r);
     const bool has_normals = !original_->is_point_cloud();
     const Positions normals = has_normals ? vertex_normals(*original_) : Positions();
@@ -528,7 +533,7 @@ Extraction SpectralWatermark::extract_resampled(const Positions& resampled, cons
                 const Eigen::RowVector3d response = sample(i, frame_.axes.row(axis));
                 for (int mode = 0; mode < modes; ++mode)
                 {
-                    const double u = U(begin + a, mode) * modulation_(mode, axis);
+                    const double u = U(begin + a, first + mode) * modulation_(mode, axis);
                     for (int b = 0; b < 3; ++b)
                     {
                         right[static_cast<std::size_t>(b)](a, 3 * mode + axis) = u * response(b);
@@ -573,7 +578,7 @@ const SpectralWatermark::NuisanceModel& SpectralWatermark::nuisance_model() cons
         return *nuisance_;
     }
     NuisanceModel model;
-    const int modes = static_cast<int>(modulation_.rows());
+    const int modes = key_.options.first_mode + static_cast<int>(modulation_.rows());
     model.modes = basis_->well_conditioned_modes(kNuisanceModeTolerance);
     // Enough unmodulated modes to fit the nuisance fields with room to spare.
     const auto fields = nuisance_fields(*original_, basis_->active_rows(), frame_.origin);

@@ -37,7 +37,12 @@ struct EmbedOptions
     /// back by soft-decision correlation. More coefficients at the same distortion make a
     /// verdict with a far smaller false-positive probability possible (docs/statistics.md).
     /// Keys written before this field existed mean 1.
-    int repetitions = 4;
+    int repetitions = 2;
+    /// Index of the first modulated mode: modes first_mode .. first_mode + m r - 1 carry the
+    /// mark. The very first modes are almost rigid motions of the whole model, which detection
+    /// must fit and remove, so a mark there is lost; skipping them keeps the energy where it
+    /// is read back (docs/statistics.md). Keys written before this field existed mean 0.
+    int first_mode = 4;
     EmbeddingRule rule = EmbeddingRule::Additive;
     /// Additive: RMS vertex displacement as a fraction of the principal bbox diagonal.
     /// Paper: rho. Negative means "the rule's default" (default_strength).
@@ -56,7 +61,7 @@ struct EmbedOptions
     return 3 * options.coefficients;
 }
 
-/// Number of modes that carry the watermark (m r).
+/// Number of modes that carry the watermark (m r), from EmbedOptions::first_mode on.
 [[nodiscard]] inline int modulated_modes(const EmbedOptions& options) noexcept
 {
     return options.coefficients * options.repetitions;

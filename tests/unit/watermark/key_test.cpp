@@ -25,6 +25,7 @@ Key sample_key()
     key.options.basis_size = 80;
     key.options.coefficients = 6;
     key.options.repetitions = 3;
+    key.options.first_mode = 5;
     key.options.strength = 0.02;
     key.payload = payload_from_message("(c) ACME", 18);
     key.message = "(c) ACME";
@@ -43,6 +44,7 @@ TEST(KeyTest, json_round_trip_keeps_every_field)
     EXPECT_EQ(back.options.basis_size, 80);
     EXPECT_EQ(back.options.coefficients, 6);
     EXPECT_EQ(back.options.repetitions, 3);
+    EXPECT_EQ(back.options.first_mode, 5);
     EXPECT_DOUBLE_EQ(back.options.strength, 0.02);
     EXPECT_EQ(back.payload, key.payload);
     EXPECT_EQ(back.message, key.message);
@@ -55,6 +57,7 @@ TEST(KeyTest, keys_without_repetitions_read_as_one_copy_per_bit)
     auto content = nlohmann::json::parse(to_json(sample_key()));
     content.erase("checksum");
     content["embedding"].erase("repetitions");
+    content["embedding"].erase("first_mode");
     const std::string text = content.dump();
     char checksum[17];
     std::snprintf(checksum, sizeof checksum, "%016llx",
@@ -62,12 +65,18 @@ TEST(KeyTest, keys_without_repetitions_read_as_one_copy_per_bit)
     content["checksum"] = checksum;
     const Key back = parse_key(content.dump(2), "old.json");
     EXPECT_EQ(back.options.repetitions, 1);
+    EXPECT_EQ(back.options.first_mode, 0);
     EXPECT_EQ(back.options.coefficients, 6);
 
     Key bad = sample_key();
     bad.options.repetitions = 20;  // 6 * 20 > 80 basis functions
     EXPECT_THROW(bad.options.validate(), InvalidOption);
     bad.options.repetitions = 0;
+    EXPECT_THROW(bad.options.validate(), InvalidOption);
+    bad.options.repetitions = 3;
+    bad.options.first_mode = 63;  // 63 + 18 > 80
+    EXPECT_THROW(bad.options.validate(), InvalidOption);
+    bad.options.first_mode = -1;
     EXPECT_THROW(bad.options.validate(), InvalidOption);
 }
 
