@@ -67,10 +67,12 @@ void PhaseProgress::draw_locked()
     shown_ = true;
     std::string line = "\r\033[K" + options_.label + ":";
     char buffer[64];
+    const char* separator = " ";
     for (const auto& [name, seconds] : done_)
     {
-        std::snprintf(buffer, sizeof(buffer), " %.2f s |", seconds);
-        line += " " + name + buffer;
+        std::snprintf(buffer, sizeof(buffer), " %.2f s", seconds);
+        line += separator + name + buffer;
+        separator = " | ";
     }
     if (!current_.empty())
     {
@@ -83,7 +85,7 @@ void PhaseProgress::draw_locked()
         {
             std::snprintf(buffer, sizeof(buffer), " %.1f s", elapsed);
         }
-        line += " " + current_ + "..." + buffer;
+        line += separator + current_ + "..." + buffer;
     }
     std::fputs(line.c_str(), options_.stream);
     std::fflush(options_.stream);

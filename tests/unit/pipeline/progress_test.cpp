@@ -49,7 +49,7 @@ TEST(PhaseProgressTest, shows_finished_phases_with_times_and_ends_the_line)
     const auto last = text.rfind('\r');
     ASSERT_NE(last, std::string::npos);
     const std::string final_line = text.substr(last);
-    EXPECT_NE(final_line.find("read 0.00 s | basis 0.00 s |"), std::string::npos) << final_line;
+    EXPECT_NE(final_line.find("meshmark embed: read 0.00 s | basis 0.00 s\n"), std::string::npos) << final_line;
     EXPECT_EQ(text.back(), '\n');
 }
 
