@@ -56,7 +56,7 @@ bool is_staging_file(const std::string& name, const std::string& key_name)
 // The kind of a staging file, for the summary: its name with the random part replaced by '*'.
 std::string staging_kind(const std::string& name)
 {
-    for (const char* marker : {".tmp-", ".meshmark-embed-", ".partial-"})
+    for (const char* marker : {".meshmark-embed-", ".partial-", ".tmp-"})
     {
         const auto at = name.find(marker);
         if (at != std::string::npos)
