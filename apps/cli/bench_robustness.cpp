@@ -304,8 +304,11 @@ std::string markdown_report(const std::vector<MeshEmbedding>& embeddings, const 
 
 int run_bench_robustness(const RobustnessArgs& args, const GlobalArgs& global)
 {
+    // An empty --attacks "" leaves only the unattacked copies (and wrong keys): the null study.
+    RobustnessArgs run = args;
+    run.attacks.erase(std::remove(run.attacks.begin(), run.attacks.end(), std::string()), run.attacks.end());
     std::vector<std::vector<AttackSpec>> specs;
-    for (const auto& a : args.attacks)
+    for (const auto& a : run.attacks)
     {
         specs.push_back(parse_attack_spec(a));
     }
@@ -316,7 +319,7 @@ int run_bench_robustness(const RobustnessArgs& args, const GlobalArgs& global)
     std::vector<MeshEmbedding> embeddings;
     std::vector<Trial> trials;
     std::vector<std::string> attack_names = {"none"};
-    attack_names.insert(attack_names.end(), args.attacks.begin(), args.attacks.end());
+    attack_names.insert(attack_names.end(), run.attacks.begin(), run.attacks.end());
     const auto bench_start = std::chrono::steady_clock::now();
     for (const auto& path : mesh_paths(args))
     {
@@ -340,7 +343,7 @@ int run_bench_robustness(const RobustnessArgs& args, const GlobalArgs& global)
         {
             try
             {
-                unmarked[a] = apply_attacks(original, specs[a], derive_seed(args.seed, "unmarked/" + args.attacks[a]),
+                unmarked[a] = apply_attacks(original, specs[a], derive_seed(args.seed, "unmarked/" + run.attacks[a]),
                                             global.threads)
                                   .mesh;
             }
@@ -384,7 +387,7 @@ int run_bench_robustness(const RobustnessArgs& args, const GlobalArgs& global)
                 try
                 {
                     const TriangleMesh attacked =
-                        apply_attacks(marked, specs[a], derive_seed(key_seed, "attack/" + args.attacks[a]),
+                        apply_attacks(marked, specs[a], derive_seed(key_seed, "attack/" + run.attacks[a]),
                                       global.threads)
                             .mesh;
                     t = run_trial(mark, original, attacked, detect_options);
@@ -393,7 +396,7 @@ int run_bench_robustness(const RobustnessArgs& args, const GlobalArgs& global)
                 {
                     t.error = e.what();
                 }
-                record(std::move(t), args.attacks[a], "marked");
+                record(std::move(t), run.attacks[a], "marked");
                 if (k < args.unmarked_keys)
                 {
                     Trial u;
@@ -405,7 +408,7 @@ int run_bench_robustness(const RobustnessArgs& args, const GlobalArgs& global)
                     {
                         u.error = "the attack failed on the unmarked original";
                     }
-                    record(std::move(u), args.attacks[a], "unmarked");
+                    record(std::move(u), run.attacks[a], "unmarked");
                 }
             }
             for (int w = 0; w < args.wrong_keys; ++w)

@@ -26,10 +26,10 @@ Key key_for(const TriangleMesh& mesh, std::uint64_t seed, const std::optional<st
     return key;
 }
 
-double correlation(const SpectralWatermark& mark, const Positions& suspect)
+Decision decide(const SpectralWatermark& mark, const Positions& suspect)
 {
     const DetectOptions options;
-    return mark.decide(mark.extract(suspect, options), options).correlation;
+    return mark.decide(mark.extract(suspect, options), options);
 }
 
 class SharedMeshTest : public ::testing::TestWithParam<std::filesystem::path>
@@ -51,7 +51,10 @@ TEST_P(SharedMeshTest, embeds_detects_and_rejects_unmarked_and_wrong_keys)
     write_mesh_file(out, file, marked);
     const TriangleMesh back = read_mesh(out);
     ASSERT_EQ(back.V.rows(), mesh.V.rows());
-    EXPECT_DOUBLE_EQ(correlation(mark, back.V), 1.0);
+    const Decision found = decide(mark, back.V);
+    EXPECT_DOUBLE_EQ(found.correlation, 1.0);
+    EXPECT_TRUE(found.is_present);
+    EXPECT_LT(found.false_positive_probability, 1e-9);
 
     // Zero strength (paper rule, rho = 0) returns the input to within 1e-12 of the diagonal.
     Key zero = key_for(mesh, 0xC0FFEE);
@@ -61,7 +64,9 @@ TEST_P(SharedMeshTest, embeds_detects_and_rejects_unmarked_and_wrong_keys)
     EXPECT_LE((unchanged - mesh.V).cwiseAbs().maxCoeff(), 1e-12 * bounding_box(mesh.V).diagonal());
 
     // Unmarked original: nothing moved, nothing claimed.
-    EXPECT_LT(correlation(mark, mesh.V), 0.5);
+    const Decision unmarked = decide(mark, mesh.V);
+    EXPECT_LT(unmarked.correlation, 0.5);
+    EXPECT_FALSE(unmarked.is_present);
 
     // Copies marked with other keys, with random payloads and with the same message.
     double sum_other = 0.0;
@@ -71,9 +76,13 @@ TEST_P(SharedMeshTest, embeds_detects_and_rejects_unmarked_and_wrong_keys)
     for (int t = 0; t < trials; ++t)
     {
         const SpectralWatermark other(mesh, key_for(mesh, 1000 + static_cast<std::uint64_t>(t)));
-        const double r1 = correlation(mark, mesh.V + other.displacement());
+        const Decision d1 = decide(mark, mesh.V + other.displacement());
         const SpectralWatermark same(mesh, key_for(mesh, 2000 + static_cast<std::uint64_t>(t), "owner"));
-        const double r2 = correlation(mark, mesh.V + same.displacement());
+        const Decision d2 = decide(mark, mesh.V + same.displacement());
+        EXPECT_FALSE(d1.is_present);
+        EXPECT_FALSE(d2.is_present);
+        const double r1 = d1.correlation;
+        const double r2 = d2.correlation;
         EXPECT_LT(r1, 0.75);
         EXPECT_LT(r2, 0.75);
         sum_other += r1;
@@ -92,9 +101,10 @@ TEST_P(SharedMeshTest, embeds_detects_and_rejects_unmarked_and_wrong_keys)
     {
         const AttackResult attacked = apply_attacks(back, parse_attack_spec(spec), 5);
         ASSERT_EQ(attacked.mesh.V.rows(), mesh.V.rows());
-        const double r = correlation(mark, attacked.mesh.V);
-        EXPECT_GE(r, 0.75) << spec;
-        std::printf("[ %s ] %s: R = %.3f\n", path.filename().c_str(), spec, r);
+        const Decision d = decide(mark, attacked.mesh.V);
+        EXPECT_GE(d.correlation, 0.75) << spec;
+        EXPECT_TRUE(d.is_present) << spec << ": z = " << d.score;
+        std::printf("[ %s ] %s: R = %.3f, z = %.2f\n", path.filename().c_str(), spec, d.correlation, d.score);
     }
 }
 

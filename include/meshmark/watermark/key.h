@@ -42,7 +42,7 @@ struct EmbedOptions
     /// mark. The very first modes are almost rigid motions of the whole model, which detection
     /// must fit and remove, so a mark there is lost; skipping them keeps the energy where it
     /// is read back (docs/statistics.md). Keys written before this field existed mean 0.
-    int first_mode = 4;
+    int first_mode = 12;
     EmbeddingRule rule = EmbeddingRule::Additive;
     /// Additive: RMS vertex displacement as a fraction of the principal bbox diagonal.
     /// Paper: rho. Negative means "the rule's default" (default_strength).
