@@ -284,5 +284,32 @@ TEST_F(CliTest, detect_rejects_corrupt_keys_wrong_originals_and_mismatched_suspe
     EXPECT_NE(r.err.find("not the original"), std::string::npos) << r.err;
 }
 
+
+// `bench robustness` end to end on a tiny run: the marked copies are found, the unmarked ones
+// and the wrong keys are not, and every trial is reported.
+TEST_F(CliTest, bench_robustness_reports_every_trial)
+{
+    const auto json_file = dir_ / "trials.json";
+    const auto markdown = dir_ / "table.md";
+    const CliRun r = run("bench robustness -q --mesh " + original_.string() +
+                             " --keys 2 --wrong-keys 2 --unmarked-keys 1 --attacks \"noise=0.001;reorder\""
+                             " --json-file " + json_file.string() + " --markdown " + markdown.string(),
+                         dir_);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const auto trials = nlohmann::json::parse(slurp(json_file))["trials"];
+    // Per key: 3 marked (none + 2 attacks), 2 wrong keys; key 0 also 3 unmarked.
+    ASSERT_EQ(trials.size(), 2u * 3u + 2u * 2u + 3u);
+    int marked = 0;
+    for (const auto& t : trials)
+    {
+        EXPECT_EQ(t["error"].get<std::string>(), "") << t.dump();
+        const bool is_marked = t["kind"] == "marked";
+        EXPECT_EQ(t["detected"].get<bool>(), is_marked) << t.dump();
+        marked += is_marked ? 1 : 0;
+    }
+    EXPECT_EQ(marked, 6);
+    EXPECT_NE(slurp(markdown).find("| `reorder` | 2 | 2/2 |"), std::string::npos) << slurp(markdown);
+}
+
 }  // namespace
 }  // namespace meshmark
