@@ -182,7 +182,8 @@ void register_attack(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
         "attack",
         "Apply a chain of attacks to a mesh (to test a watermark's robustness) and write the "
         "result (format from -o's extension).");
-    command->add_option("INPUT", args->input, "Mesh to attack (.ply .obj .off .stl)")->required();
+    command->add_option("INPUT", args->input, "Mesh to attack (.ply .obj .off .stl .gltf .glb .3mf)")
+        ->required();
     command->add_option("SPEC", args->spec, "Attack chain, e.g. similarity,simplify=0.1,noise=0.001")
         ->required();
     command->add_option("-o,--output", args->output, "Attacked mesh to write (atomically)")

@@ -154,7 +154,8 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
         "Watermark a mesh: writes the marked copy (same format as -o's extension; everything but "
         "vertex positions is preserved when it is the input's format) and a key file (JSON, mode "
         "0600) that, with the original, regenerates and detects the mark.");
-    command->add_option("INPUT", args->input, "Original mesh (.ply .obj .off .stl); never modified")
+    command->add_option("INPUT", args->input,
+                        "Original mesh (.ply .obj .off .stl .gltf .glb .3mf); never modified")
         ->required()
         ->check(CLI::ExistingFile);
     command->add_option("-o,--output", args->output, "Watermarked mesh to write")->required();
