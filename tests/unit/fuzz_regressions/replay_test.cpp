@@ -15,6 +15,15 @@
 
 #include "fuzz_entry.h"
 
+// lib3mf 1.8 leaks a few libzip allocations (~480 bytes) on every package it reads, valid or
+// not; under the sanitizer job (detect_leaks=1) the 3MF replay would fail on that alone. The
+// suppression names only libzip, so a leak in meshmark's own code is still reported.
+extern "C" const char* __lsan_default_suppressions();
+extern "C" const char* __lsan_default_suppressions()
+{
+    return "leak:libzip.so\n";
+}
+
 namespace meshmark {
 namespace {
 
@@ -58,6 +67,9 @@ bool read_ply(const std::uint8_t* d, std::size_t n) { return fuzz::read_mesh_byt
 bool read_obj(const std::uint8_t* d, std::size_t n) { return fuzz::read_mesh_bytes(d, n, ".obj"); }
 bool read_off(const std::uint8_t* d, std::size_t n) { return fuzz::read_mesh_bytes(d, n, ".off"); }
 bool read_stl(const std::uint8_t* d, std::size_t n) { return fuzz::read_mesh_bytes(d, n, ".stl"); }
+bool read_gltf(const std::uint8_t* d, std::size_t n) { return fuzz::read_mesh_bytes(d, n, ".gltf"); }
+bool read_glb(const std::uint8_t* d, std::size_t n) { return fuzz::read_mesh_bytes(d, n, ".glb"); }
+bool read_3mf(const std::uint8_t* d, std::size_t n) { return fuzz::read_mesh_bytes(d, n, ".3mf"); }
 
 class FuzzReplay : public ::testing::TestWithParam<Target>
 {
@@ -90,6 +102,8 @@ TEST_P(FuzzReplay, EveryInputIsReadOrRejectedWithMeshmarkError)
 INSTANTIATE_TEST_SUITE_P(Targets, FuzzReplay,
                          ::testing::Values(Target{"fuzz_read_ply", read_ply}, Target{"fuzz_read_obj", read_obj},
                                            Target{"fuzz_read_off", read_off}, Target{"fuzz_read_stl", read_stl},
+                                           Target{"fuzz_read_gltf", read_gltf}, Target{"fuzz_read_glb", read_glb},
+                                           Target{"fuzz_read_3mf", read_3mf},
                                            Target{"fuzz_parse_key", fuzz::parse_key_bytes},
                                            Target{"fuzz_attack_spec", fuzz::parse_attack_spec_bytes}),
                          [](const ::testing::TestParamInfo<Target>& param_info) { return param_info.param.name; });
