@@ -103,8 +103,13 @@ EmbedReport embed_file(const std::filesystem::path& input, const std::filesystem
     // Both files or neither: the key goes to a staging file next to its target, the mesh is
     // written atomically, and only then does the key take its place. A failure on the way
     // removes the staging file and leaves any existing key untouched.
-    auto staging = key_path;
-    staging += ".partial-" + std::to_string(key.seed % 1000000007ULL);
+    // Hidden (leading dot) so that a run killed in between leaves nothing that looks like a key.
+    // (Built by appending: GCC 12 reports a false -Wrestrict on `"." + std::string`.)
+    std::string staging_name(1, '.');
+    staging_name += key_path.filename().string();
+    staging_name += ".partial-";
+    staging_name += std::to_string(key.seed % 1000000007ULL);
+    const auto staging = key_path.parent_path() / staging_name;
     write_key(staging, key);
     try
     {

@@ -43,13 +43,16 @@ constexpr std::array<const char*, 4> kPhases = {"read", "basis", "embed", "write
 // A staging file a kill may leave: hidden (leading '.'), and never the name of an output.
 // ".<name>.tmp-XXXXXX": write_file_atomically's temporary (src/core/atomic_file.cpp);
 // ".<stem>.meshmark-embed-<pid><ext>": the marked copy of `embed -o INPUT --force`
-// (apps/cli/embed.cpp); "<key>.partial-<n>": the key staged by embed_file until the mesh is
-// written (src/pipeline/embed_file.cpp), and its own ".<key>.partial-<n>.tmp-XXXXXX".
+// (apps/cli/embed.cpp); ".<key>.partial-<n>": the key staged by embed_file until the mesh is
+// written (src/pipeline/embed_file.cpp), and its own "..<key>.partial-<n>.tmp-XXXXXX".
 bool is_staging_file(const std::string& name, const std::string& key_name)
 {
     const bool is_atomic_temp = name.starts_with(".") && name.find(".tmp-") != std::string::npos;
     const bool is_in_place = name.starts_with(".") && name.find(".meshmark-embed-") != std::string::npos;
-    const bool is_key_stage = name.starts_with(key_name + ".partial-");
+    std::string key_stage(1, '.');
+    key_stage += key_name;
+    key_stage += ".partial-";
+    const bool is_key_stage = name.starts_with(key_stage);
     return is_atomic_temp || is_in_place || is_key_stage;
 }
 
