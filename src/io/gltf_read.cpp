@@ -190,25 +190,6 @@ std::size_t component_size(GltfComponent c)
     }
 }
 
-ScalarType scalar_of(GltfComponent c)
-{
-    switch (c)
-    {
-        case GltfComponent::Int8:
-            return ScalarType::Int8;
-        case GltfComponent::UInt8:
-            return ScalarType::UInt8;
-        case GltfComponent::Int16:
-            return ScalarType::Int16;
-        case GltfComponent::UInt16:
-            return ScalarType::UInt16;
-        case GltfComponent::UInt32:
-            return ScalarType::UInt32;
-        default:
-            return ScalarType::Float32;
-    }
-}
-
 // One vertex of one instance before welding.
 struct RawVertices
 {

@@ -35,25 +35,6 @@ bool is_changed(const Positions& a, const Positions& b, std::int32_t row)
     return std::memcmp(a.row(row).data(), b.row(row).data(), 3 * sizeof(double)) != 0;
 }
 
-ScalarType scalar_of(GltfComponent c)
-{
-    switch (c)
-    {
-        case GltfComponent::Int8:
-            return ScalarType::Int8;
-        case GltfComponent::UInt8:
-            return ScalarType::UInt8;
-        case GltfComponent::Int16:
-            return ScalarType::Int16;
-        case GltfComponent::UInt16:
-            return ScalarType::UInt16;
-        case GltfComponent::UInt32:
-            return ScalarType::UInt32;
-        default:
-            return ScalarType::Float32;
-    }
-}
-
 // Inverse of dequantize: the stored value for a coordinate (before rounding).
 double quantize(double value, const GltfPositionAccessor& record)
 {

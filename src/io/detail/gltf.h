@@ -12,6 +12,8 @@
 
 #include "meshmark/core/triangle_mesh.h"
 
+#include "numbers.h"
+
 namespace meshmark::detail {
 
 /// glTF accessor component types that a POSITION accessor may have (core: FLOAT;
@@ -25,6 +27,26 @@ enum class GltfComponent : std::uint16_t
     UInt32 = 5125,
     Float32 = 5126,
 };
+
+/// The scalar type of the io number codecs that stores a component type.
+[[nodiscard]] inline ScalarType scalar_of(GltfComponent c) noexcept
+{
+    switch (c)
+    {
+        case GltfComponent::Int8:
+            return ScalarType::Int8;
+        case GltfComponent::UInt8:
+            return ScalarType::UInt8;
+        case GltfComponent::Int16:
+            return ScalarType::Int16;
+        case GltfComponent::UInt16:
+            return ScalarType::UInt16;
+        case GltfComponent::UInt32:
+            return ScalarType::UInt32;
+        default:
+            return ScalarType::Float32;
+    }
+}
 
 /// Where a buffer came from, which decides how the writer stores it.
 enum class GltfBufferSource : std::uint8_t
