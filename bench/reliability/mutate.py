@@ -17,6 +17,7 @@ the mutant is copied to --findings with the command and its stderr. Python stdli
 
 Usage: bench/reliability/mutate.py --meshmark build/bin/meshmark [--count 2000] [--jobs 2]
        [--seed 1] [--timeout 60] [--mesh-dir DIR] [--findings DIR] [--json FILE]
+       [--from-marked] [--shared MESH ...] [--no-generated]
 """
 import argparse
 import collections
@@ -258,6 +259,11 @@ def main():
     ap.add_argument("--timeout", type=float, default=60.0, help="seconds before a run counts as a hang")
     ap.add_argument("--findings", default="mutate-findings")
     ap.add_argument("--json", help="write counts and findings here")
+    ap.add_argument("--from-marked", action="store_true",
+                    help="mutate each base's marked copy instead (detect then also reaches 'found')")
+    ap.add_argument("--shared", nargs="*", default=SHARED,
+                    help="shared meshes to use (default: the small ones)")
+    ap.add_argument("--no-generated", action="store_true", help="skip the generated copies")
     args = ap.parse_args()
     args.meshmark = os.path.abspath(args.meshmark)
     args.findings = os.path.abspath(args.findings)
@@ -267,9 +273,9 @@ def main():
         rng = random.Random(args.seed)
         jobs = []
         for i in range(args.count):
-            base, key = bases[i % len(bases)]
+            base, key, marked = bases[i % len(bases)]
             ext = os.path.splitext(base)[1]
-            data = open(base, "rb").read()
+            data = open(marked if args.from_marked else base, "rb").read()
             kind, blob = mutate_3mf(rng, data) if ext == ".3mf" else mutate_bytes(rng, ext, data)
             jobs.append((i, base, ext, kind, blob, key))
         counts = collections.defaultdict(collections.Counter)
@@ -300,8 +306,8 @@ def prepare_bases(args):
     """The shared small meshes and generated copies, each with a valid key from a clean embed."""
     gen = os.path.join(args.work, "bases")
     os.makedirs(gen)
-    paths = [os.path.join(args.mesh_dir, m) for m in SHARED]
-    for src, name in GENERATED:
+    paths = [os.path.join(args.mesh_dir, m) for m in args.shared]
+    for src, name in [] if args.no_generated else GENERATED:
         out = os.path.join(gen, name)
         subprocess.run([args.meshmark, "attack", os.path.join(args.mesh_dir, src), "-o", out,
                         "-q", "similarity:scale=1"], check=True)
@@ -312,7 +318,7 @@ def prepare_bases(args):
         marked = os.path.join(gen, "marked_" + os.path.basename(path))
         subprocess.run([args.meshmark, "embed", path, "-o", marked, "--key", key, "--seed", "1",
                         "-q"], check=True)
-        bases.append((path, key))
+        bases.append((path, key, marked))
     return bases
 
 
