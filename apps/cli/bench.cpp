@@ -173,38 +173,13 @@ struct Case
     fs::path input;
 };
 
-fs::path default_mesh_dir()
-{
-    if (const char* env = std::getenv("MESHMARK_MESH_DIR"); env != nullptr && *env != '\0')
-    {
-        return env;
-    }
-    return fs::path("..") / "shared" / "data" / "meshes";
-}
-
 std::vector<Case> shared_cases(const fs::path& dir)
 {
     std::vector<Case> cases;
-    std::error_code error;
-    if (!fs::is_directory(dir, error))
+    for (const auto& path : mesh_files_in(dir))
     {
-        return cases;
+        cases.push_back({path.filename().string(), path});
     }
-    for (const auto& entry : fs::directory_iterator(dir))
-    {
-        if (!entry.is_regular_file())
-        {
-            continue;
-        }
-        std::string ext = entry.path().extension().string();
-        std::transform(ext.begin(), ext.end(), ext.begin(),
-                       [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-        if (ext == ".ply" || ext == ".obj" || ext == ".off" || ext == ".stl")
-        {
-            cases.push_back({entry.path().filename().string(), entry.path()});
-        }
-    }
-    std::sort(cases.begin(), cases.end(), [](const Case& a, const Case& b) { return a.name < b.name; });
     return cases;
 }
 

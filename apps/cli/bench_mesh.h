@@ -2,9 +2,14 @@
 // Generated meshes of a chosen vertex count for `meshmark bench speed` and bench/perf.
 #pragma once
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
+#include <filesystem>
 #include <string>
+#include <vector>
 
 #include "meshmark/core/error.h"
 #include "meshmark/geometry/shapes.h"
@@ -46,6 +51,42 @@ namespace meshmark::cli {
         mesh.V.row(i) = Eigen::RowVector3d(1.0 * x, 0.7 * y, 0.45 * z) * bump;
     }
     return mesh;
+}
+
+/// The folder `meshmark bench` reads meshes from by default: $MESHMARK_MESH_DIR if set and
+/// not empty, else ../shared/data/meshes.
+[[nodiscard]] inline std::filesystem::path default_mesh_dir()
+{
+    if (const char* env = std::getenv("MESHMARK_MESH_DIR"); env != nullptr && *env != '\0')
+    {
+        return env;
+    }
+    return std::filesystem::path("..") / "shared" / "data" / "meshes";
+}
+
+/// The mesh files (.ply .obj .off .stl, any case) directly in \p dir, sorted by file name;
+/// empty if \p dir is not a directory.
+[[nodiscard]] inline std::vector<std::filesystem::path> mesh_files_in(const std::filesystem::path& dir)
+{
+    std::vector<std::filesystem::path> paths;
+    std::error_code error;
+    if (!std::filesystem::is_directory(dir, error))
+    {
+        return paths;
+    }
+    for (const auto& entry : std::filesystem::directory_iterator(dir))
+    {
+        std::string ext = entry.path().extension().string();
+        std::transform(ext.begin(), ext.end(), ext.begin(),
+                       [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+        if (entry.is_regular_file() && (ext == ".ply" || ext == ".obj" || ext == ".off" || ext == ".stl"))
+        {
+            paths.push_back(entry.path());
+        }
+    }
+    std::sort(paths.begin(), paths.end(),
+              [](const auto& a, const auto& b) { return a.filename() < b.filename(); });
+    return paths;
 }
 
 }  // namespace meshmark::cli

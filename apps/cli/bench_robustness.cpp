@@ -23,6 +23,7 @@
 #include "meshmark/core/rng.h"
 #include "meshmark/io/mesh_io.h"
 #include "meshmark/metrics/distortion.h"
+#include "bench_mesh.h"
 #include "meshmark/pipeline/detect_file.h"
 #include "report.h"
 
@@ -100,25 +101,12 @@ std::vector<fs::path> mesh_paths(const RobustnessArgs& args)
     {
         return paths;
     }
-    fs::path dir = args.mesh_dir;
-    if (dir.empty())
-    {
-        const char* env = std::getenv("MESHMARK_MESH_DIR");
-        dir = env != nullptr ? fs::path(env) : fs::path("../shared/data/meshes");
-    }
+    const fs::path dir = args.mesh_dir.empty() ? default_mesh_dir() : fs::path(args.mesh_dir);
     if (!fs::is_directory(dir))
     {
         throw IoError(dir.string() + ": no such mesh directory (use --mesh-dir or MESHMARK_MESH_DIR).");
     }
-    for (const auto& entry : fs::directory_iterator(dir))
-    {
-        const auto ext = entry.path().extension().string();
-        if (entry.is_regular_file() && (ext == ".ply" || ext == ".obj" || ext == ".off" || ext == ".stl"))
-        {
-            paths.push_back(entry.path());
-        }
-    }
-    std::sort(paths.begin(), paths.end());
+    paths = mesh_files_in(dir);
     return paths;
 }
 

@@ -19,15 +19,6 @@
 
 namespace meshmark::test {
 
-/// The whole file as bytes ("" if it cannot be read).
-inline std::string file_bytes(const std::filesystem::path& path)
-{
-    std::ifstream in(path, std::ios::binary);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-}
-
 /// \brief Start the meshmark program with \p arguments; its stdout goes to \p stdout_path
 /// (or /dev/null when empty), its stderr to \p stderr_path (or /dev/null).
 /// \return The child's pid (> 0), or -1 when fork failed.

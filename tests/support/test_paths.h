@@ -2,6 +2,8 @@
 #pragma once
 
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -26,5 +28,14 @@ namespace meshmark::test {
 
 /// A fresh empty temporary folder, removed when the process exits normally.
 [[nodiscard]] std::filesystem::path temp_dir(const std::string& name);
+
+/// The whole file as bytes ("" if it cannot be read).
+inline std::string file_bytes(const std::filesystem::path& path)
+{
+    std::ifstream in(path, std::ios::binary);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+}
 
 }  // namespace meshmark::test
