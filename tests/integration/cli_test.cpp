@@ -309,6 +309,46 @@ TEST_F(CliTest, bench_robustness_reports_every_trial)
     }
     EXPECT_EQ(marked, 6);
     EXPECT_NE(slurp(markdown).find("| `reorder` | 2 | 2/2 |"), std::string::npos) << slurp(markdown);
+    // The per-mesh table: 6 marked copies of one mesh, all found.
+    EXPECT_NE(slurp(markdown).find("| " + original_.filename().string() + " | 6 | 6/6 |"), std::string::npos)
+        << slurp(markdown);
+
+    // A second run (another seed, so other keys) merged with the first: tables of both, no rerun.
+    const auto second = dir_ / "second.json";
+    ASSERT_EQ(run("bench robustness -q --mesh " + original_.string() +
+                      " --keys 1 --wrong-keys 1 --unmarked-keys 0 --attacks reorder --seed 2 --json-file " +
+                      second.string(),
+                  dir_)
+                  .exit_code,
+              0);
+    const CliRun other_seed = run("bench robustness --from-json " + json_file.string() + " --from-json " +
+                                      second.string(),
+                                  dir_);
+    EXPECT_EQ(other_seed.exit_code, 3) << "runs with other settings must not be merged";
+    EXPECT_NE(other_seed.err.find("settings"), std::string::npos) << other_seed.err;
+
+    // The same mesh twice would count the same keys twice: refused.
+    const CliRun twice = run("bench robustness --from-json " + json_file.string() + " --from-json " +
+                                 json_file.string(),
+                             dir_);
+    EXPECT_EQ(twice.exit_code, 3);
+    EXPECT_NE(twice.err.find("already"), std::string::npos) << twice.err;
+
+    const auto copy = dir_ / ("copy" + original_.extension().string());
+    fs::copy_file(original_, copy);
+    const auto third = dir_ / "third.json";
+    ASSERT_EQ(run("bench robustness -q --mesh " + copy.string() +
+                      " --keys 1 --wrong-keys 2 --unmarked-keys 1 --attacks reorder --json-file " + third.string(),
+                  dir_)
+                  .exit_code,
+              0);
+    const CliRun merged =
+        run("bench robustness --from-json " + json_file.string() + " --from-json " + third.string(), dir_);
+    ASSERT_EQ(merged.exit_code, 0) << merged.err;
+    // 2 + 1 keys' reorder copies, all found; 4 + 2 wrong keys, none claimed.
+    EXPECT_NE(merged.out.find("| `reorder` | 3 | 3/3 |"), std::string::npos) << merged.out;
+    EXPECT_NE(merged.out.find("| wrong key on a marked copy | 6 | 0 |"), std::string::npos) << merged.out;
+    EXPECT_NE(merged.out.find("Keys per mesh: 1-2"), std::string::npos) << merged.out;
 }
 
 }  // namespace
