@@ -496,12 +496,15 @@ Extraction SpectralWatermark::extract_resampled(const Positions& resampled, cons
     const auto coefficients = static_cast<Eigen::Index>(3 * modes);
 
     // Model: the observed change o = S (U_M diag(mod) b' + sum_f g_f N_f) + noise, where S is
-    // the sampling operator (per vertex: projection on the original's normal, which is what a
-    // closest-point resampling keeps of a small displacement; zero on cropped rows; identity
-    // for a point cloud) and N_f the nuisance fields. Everything is projected on the leading
-    // r well-conditioned modes and (b', g) solved by least squares. The 3r x (3 m + q + 1)
-    // system A[(l, b), col] = sum_i U_il (S_i column_i)_b is accumulated by the basis block by
-    // block (project_design): neither U_r (#active x r) nor a field per unknown is ever formed.
+    // the sampling operator (per vertex: projection on the original's normal, S_i = n_i n_i^T,
+    // which is what a closest-point resampling keeps of a small displacement; zero on cropped
+    // rows; identity for a point cloud) and N_f the nuisance fields. Everything is projected on
+    // the leading r well-conditioned modes and (b', g) solved by least squares. The 3r x
+    // (3 m + q + 1) system A[(l, b), col] = sum_i U_il (S_i column_i)_b is accumulated by the
+    // basis block by block (project_design): neither U_r (#active x r) nor a field per unknown
+    // is ever formed. A modulated column (mode, axis) is mod * U_mode S_i a_axis, so its 3 file
+    // components come from the 6 distinct products U_mode (S_i)_cb, c <= b: 6 m design columns
+    // instead of 9 m (the accumulation's cost is linear in the width).
     const int first = key_.options.first_mode;
     const int r = std::max(basis_->well_conditioned_modes(kNuisanceModeTolerance), first + modes);
     const int head = first + modes;
@@ -510,7 +513,10 @@ Extraction SpectralWatermark::extract_resampled(const Positions& resampled, cons
     const NuisanceFields nuisance(*original_, basis_->active_rows(), frame_.origin);
     const Eigen::Index q = nuisance.count();
     const Eigen::Index columns = coefficients + q + 1;
-    const auto width = static_cast<std::size_t>(3 * columns);
+    constexpr Eigen::Index kPairs = 6;
+    constexpr std::array<std::array<Eigen::Index, 3>, 3> kPair = {{{0, 1, 2}, {1, 3, 4}, {2, 4, 5}}};
+    const Eigen::Index products = kPairs * modes;  // design columns of the modulated unknowns
+    const auto width = static_cast<std::size_t>(products + 3 * (q + 1));
 
     auto is_row_kept = [&](std::int32_t i) {
         return is_kept == nullptr || (*is_kept)[static_cast<std::size_t>(i)] != 0;
@@ -523,7 +529,9 @@ Extraction SpectralWatermark::extract_resampled(const Positions& resampled, cons
         const Eigen::RowVector3d normal = normals.row(i);
         return v.dot(normal) * normal;
     };
-    // Row a of the block: for file axis b, the values (S_i column_i)_b at X[a][b * columns + col].
+    // Row a of the block: U_mode (S_i)_cb at X[a][kPairs * mode + pair(c, b)], then for file
+    // axis b the nuisance responses (S_i N_f,i)_b and the observed change o_i,b at
+    // X[a][products + b (q + 1) + f] (f = q for the observation).
     auto fill = [&](std::span<const std::int32_t> block, const double* U, double* X) {
         const auto h = static_cast<std::size_t>(head);
         for (std::size_t a = 0; a < block.size(); ++a)
@@ -534,38 +542,56 @@ Extraction SpectralWatermark::extract_resampled(const Positions& resampled, cons
                 continue;
             }
             double* x = X + a * width;
-            for (int axis = 0; axis < 3; ++axis)
+            std::array<double, kPairs> sampling{};
+            for (Eigen::Index c = 0; c < 3; ++c)
             {
-                const Eigen::RowVector3d response = sample(i, frame_.axes.row(axis));
-                for (int mode = 0; mode < modes; ++mode)
+                for (Eigen::Index b = c; b < 3; ++b)
                 {
-                    const double u = U[a * h + static_cast<std::size_t>(first + mode)] * modulation_(mode, axis);
-                    for (int b = 0; b < 3; ++b)
-                    {
-                        x[b * columns + 3 * mode + axis] = u * response(b);
-                    }
+                    sampling[static_cast<std::size_t>(kPair[static_cast<std::size_t>(c)][static_cast<std::size_t>(b)])] =
+                        has_normals ? normals(i, c) * normals(i, b) : (c == b ? 1.0 : 0.0);
+                }
+            }
+            for (int mode = 0; mode < modes; ++mode)
+            {
+                const double u = U[a * h + static_cast<std::size_t>(first + mode)];
+                for (Eigen::Index pair = 0; pair < kPairs; ++pair)
+                {
+                    x[kPairs * mode + pair] = u * sampling[static_cast<std::size_t>(pair)];
                 }
             }
             for (Eigen::Index f = 0; f < q; ++f)
             {
                 const Eigen::RowVector3d response = sample(i, nuisance.row(f, i));
-                for (int b = 0; b < 3; ++b)
+                for (Eigen::Index b = 0; b < 3; ++b)
                 {
-                    x[b * columns + coefficients + f] = response(b);
+                    x[products + b * (q + 1) + f] = response(b);
                 }
             }
             const Eigen::RowVector3d observed = resampled.row(i) - original_->V.row(i);
-            for (int b = 0; b < 3; ++b)
+            for (Eigen::Index b = 0; b < 3; ++b)
             {
-                x[b * columns + columns - 1] = observed(b);
+                x[products + b * (q + 1) + q] = observed(b);
             }
         }
     };
-    const Eigen::MatrixXd projected = basis_->project_design(r, head, width, fill);  // r x 3 columns
+    const Eigen::MatrixXd projected = basis_->project_design(r, head, width, fill);  // r x width
     Eigen::MatrixXd system(3 * r, columns);
     for (Eigen::Index b = 0; b < 3; ++b)
     {
-        system.middleRows(b * r, r) = projected.middleCols(b * columns, columns);
+        for (Eigen::Index c = 0; c < coefficients; ++c)
+        {
+            const Eigen::Index mode = c / 3;
+            const Eigen::Index axis = c % 3;
+            // (S a_axis)_b = sum_d S_bd a_axis,d, with a_axis = frame_.axes.row(axis).
+            Eigen::VectorXd column = Eigen::VectorXd::Zero(r);
+            for (Eigen::Index d = 0; d < 3; ++d)
+            {
+                column += frame_.axes(axis, d) *
+                          projected.col(kPairs * mode + kPair[static_cast<std::size_t>(b)][static_cast<std::size_t>(d)]);
+            }
+            system.block(b * r, c, r, 1) = modulation_(mode, axis) * column;
+        }
+        system.block(b * r, coefficients, r, q + 1) = projected.middleCols(products + b * (q + 1), q + 1);
     }
     const JointSolution solution = solve_jointly(system.leftCols(columns - 1), system.col(columns - 1));
     return extraction_from(solution.amplitudes.head(coefficients), solution.variances.head(coefficients), options);
