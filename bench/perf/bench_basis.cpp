@@ -87,15 +87,16 @@ void BM_Synthesis(benchmark::State& state)
 }
 
 // The resampled extraction's normal system (watermark.cpp, extract_resampled): U_r^T X for a
-// design of 3 x 35 columns built per row block over the well-conditioned modes (~95 on real
-// meshes), 8 of them handed to the fill.
+// design of 81 columns (6 x 8 sampling products, 3 x 11 nuisance and observation columns) built
+// per row block over the well-conditioned modes (~95 on real meshes), 8 of them handed to the
+// fill.
 void BM_ProjectDesign(benchmark::State& state)
 {
     const Setup& s = setup_for(state.range(0));
     const auto threads = static_cast<int>(state.range(1));
     const RbfBasis basis(s.mesh.V, s.active, s.centers, s.sigma, s.origin, threads);
     const int modes = basis.well_conditioned_modes(1e-8);  // as the extraction chooses them
-    constexpr std::size_t kWidth = 105;
+    constexpr std::size_t kWidth = 81;
     const auto fill = [&](std::span<const std::int32_t> rows, const double* U, double* X) {
         for (std::size_t a = 0; a < rows.size(); ++a)
         {
