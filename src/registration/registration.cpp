@@ -14,6 +14,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
+#include <omp.h>
 
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
@@ -345,38 +346,19 @@ RegistrationResult register_to_reference(const TriangleMesh& suspect, const Tria
     Problem p = make_problem(suspect, reference, suspect_rows, reference_rows, options, false);
 
     // Principal axes of both shapes, measured the same way: area-weighted when both have
-    // triangles, vertex-based as soon as one is a point cloud. The two moments and the fine
-    // stage's target (a kd-tree over all the reference's vertices) are three independent serial
-    // computations: they run side by side, each exactly as it would alone.
+    // triangles, vertex-based as soon as one is a point cloud. The moments and the fine stage's
+    // target (a kd-tree over all the reference's vertices) are independent serial computations:
+    // they run side by side, each exactly as it would alone. The target is built by the calling
+    // thread (thread 0 of the team), so that its large arrays come from the same allocator arena
+    // as the rest of the run (with OpenMP sections, where any thread could build it, the peak
+    // RSS of a 1M-vertex detect varied between 483 and 602 MiB from run to run).
     const bool use_area = !suspect.is_point_cloud() && !reference.is_point_cloud();
     Moments ms;
     Moments mr;
-    std::array<std::exception_ptr, 3> failures;
-#pragma omp parallel sections num_threads(std::min(3, detail::resolve_threads(options.threads)))
+    std::array<std::exception_ptr, 2> failures;
+#pragma omp parallel num_threads(std::min(2, detail::resolve_threads(options.threads)))
     {
-#pragma omp section
-        {
-            try
-            {
-                ms = use_area ? detail::area_moments(suspect) : detail::vertex_moments(suspect.V, suspect_rows);
-            }
-            catch (...)
-            {
-                failures[0] = std::current_exception();
-            }
-        }
-#pragma omp section
-        {
-            try
-            {
-                mr = use_area ? detail::area_moments(reference) : detail::vertex_moments(reference.V, reference_rows);
-            }
-            catch (...)
-            {
-                failures[1] = std::current_exception();
-            }
-        }
-#pragma omp section
+        if (omp_get_thread_num() == 0)
         {
             try
             {
@@ -384,7 +366,19 @@ RegistrationResult register_to_reference(const TriangleMesh& suspect, const Tria
             }
             catch (...)
             {
-                failures[2] = std::current_exception();
+                failures[0] = std::current_exception();
+            }
+        }
+        if (omp_get_thread_num() == omp_get_num_threads() - 1)
+        {
+            try
+            {
+                ms = use_area ? detail::area_moments(suspect) : detail::vertex_moments(suspect.V, suspect_rows);
+                mr = use_area ? detail::area_moments(reference) : detail::vertex_moments(reference.V, reference_rows);
+            }
+            catch (...)
+            {
+                failures[1] = std::current_exception();
             }
         }
     }
