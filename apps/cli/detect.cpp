@@ -2,10 +2,12 @@
 // `meshmark detect`: look for a key's watermark in a suspect copy.
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "commands.h"
 #include "meshmark/pipeline/detect_file.h"
+#include "meshmark/pipeline/progress.h"
 #include "meshmark/registration/point_pairs.h"
 #include "report.h"
 
@@ -45,8 +47,18 @@ int run_detect(const DetectArgs& args, const GlobalArgs& global)
     {
         options.pairs = read_point_pairs(args.pairs);
     }
-    options.progress = make_progress(global, "detect");
+    // Phases and a running clock on a terminal, after the first second; silent otherwise.
+    std::optional<PhaseProgress> progress;
+    if (PhaseProgress::should_show(global.quiet))
+    {
+        progress.emplace(PhaseProgressOptions{"meshmark detect"});
+        options.progress = progress->callback();
+    }
     const DetectReport report = detect_file(args.suspect, args.original, args.key, options);
+    if (progress)
+    {
+        progress->finish();
+    }
     const Decision& d = report.decision;
     if (args.json)
     {

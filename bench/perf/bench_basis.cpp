@@ -3,10 +3,12 @@
 // 10K, 100K and 1M vertices, k = 100, 1 and 2 threads:
 //   BM_BasisPass  RbfBasis construction (pass 1: Gram matrix, then the k x k eigenproblem);
 //   BM_Synthesis  synthesize() of m = 8 modes (pass 2), with the orthogonality check as embed
-//                 runs it.
+//                 runs it;
+//   BM_ProjectDesign  project_design() as detect's resampled extraction runs it.
 #include <cstdint>
 #include <map>
 #include <numeric>
+#include <span>
 #include <vector>
 
 #include <benchmark/benchmark.h>
@@ -84,6 +86,38 @@ void BM_Synthesis(benchmark::State& state)
         benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
 
+// The resampled extraction's normal system (watermark.cpp, extract_resampled): U_r^T X for a
+// design of 81 columns (6 x 8 sampling products, 3 x 11 nuisance and observation columns) built
+// per row block over the well-conditioned modes (~95 on real meshes), 8 of them handed to the
+// fill.
+void BM_ProjectDesign(benchmark::State& state)
+{
+    const Setup& s = setup_for(state.range(0));
+    const auto threads = static_cast<int>(state.range(1));
+    const RbfBasis basis(s.mesh.V, s.active, s.centers, s.sigma, s.origin, threads);
+    const int modes = basis.well_conditioned_modes(1e-8);  // as the extraction chooses them
+    constexpr std::size_t kWidth = 81;
+    const auto fill = [&](std::span<const std::int32_t> rows, const double* U, double* X) {
+        for (std::size_t a = 0; a < rows.size(); ++a)
+        {
+            const auto i = rows[a];
+            for (std::size_t c = 0; c < kWidth; ++c)
+            {
+                X[a * kWidth + c] = U[a * kModes + c % kModes] * s.mesh.V(i, static_cast<Eigen::Index>(c % 3));
+            }
+        }
+    };
+    for (auto _ : state)
+    {
+        const Eigen::MatrixXd system = basis.project_design(modes, kModes, kWidth, fill);
+        benchmark::DoNotOptimize(system.data());
+    }
+    state.counters["vertices"] = static_cast<double>(s.mesh.V.rows());
+    state.counters["us_per_vertex"] = benchmark::Counter(
+        static_cast<double>(s.mesh.V.rows()) * 1e-6,
+        benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+}
+
 void sizes_and_threads(benchmark::internal::Benchmark* b)
 {
     for (const std::int64_t n : {10'000, 100'000, 1'000'000})
@@ -100,3 +134,4 @@ void sizes_and_threads(benchmark::internal::Benchmark* b)
 
 BENCHMARK(BM_BasisPass)->Apply(sizes_and_threads);
 BENCHMARK(BM_Synthesis)->Apply(sizes_and_threads);
+BENCHMARK(BM_ProjectDesign)->Apply(sizes_and_threads);

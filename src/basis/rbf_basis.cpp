@@ -420,6 +420,49 @@ std::vector<Eigen::MatrixX3d> RbfBasis::project(const std::vector<Positions>& fi
     return result;
 }
 
+Eigen::MatrixXd RbfBasis::project_design(int modes, int head, std::size_t width, const DesignFill& fill) const
+{
+    const Eigen::MatrixXd T = mode_transform(modes);
+    if (head < 0 || head > modes)
+    {
+        throw InvalidOption("project_design: head = " + std::to_string(head) + " is outside 0.." +
+                            std::to_string(modes) + ".");
+    }
+    const auto k = static_cast<Eigen::Index>(size());
+    const auto h = static_cast<std::size_t>(head);
+    const std::size_t ld = stride_;
+    // The head modes exactly as modes_dense() computes them: the same multiply of B by the
+    // same columns of T (each output column is its own fixed sequence of operations).
+    const std::vector<double> t_head = h > 0 ? columns_transposed(T.leftCols(head)) : std::vector<double>();
+    std::vector<std::vector<double>> parts(chunks_.size(), std::vector<double>(width * ld, 0.0));
+    for_each_block([&](std::size_t chunk, double* B, const double* /*P*/, std::size_t rows,
+                       std::size_t begin, double* /*spare*/) {
+        // Per thread, reused from block to block.
+        thread_local std::vector<double> u;
+        thread_local std::vector<double> x;
+        u.resize(rows * h);
+        x.assign(rows * width, 0.0);
+        if (h > 0)
+        {
+            kernels_->multiply(B, rows, ld, t_head.data(), h, u.data());
+        }
+        fill(std::span<const std::int32_t>(active_.data() + begin, rows), h > 0 ? u.data() : nullptr, x.data());
+        kernels_->accumulate(B, rows, ld, x.data(), width, parts[chunk].data());
+    });
+    Eigen::MatrixXd bt_x = Eigen::MatrixXd::Zero(k, static_cast<Eigen::Index>(width));
+    for (const auto& part : parts)
+    {
+        for (std::size_t col = 0; col < width; ++col)
+        {
+            for (Eigen::Index j = 0; j < k; ++j)
+            {
+                bt_x(j, static_cast<Eigen::Index>(col)) += part[col * ld + column_[static_cast<std::size_t>(j)]];
+            }
+        }
+    }
+    return T.transpose() * bt_x;
+}
+
 int RbfBasis::well_conditioned_modes(double relative_tolerance) const
 {
     const double largest = singular_values_(0) * singular_values_(0);

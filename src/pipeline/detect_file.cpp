@@ -99,6 +99,7 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
     // original [Umeyama 1991].
     bool is_corresponding = false;
     bool is_resampled = false;
+    timer.begin("correspondence");
     if (suspect.vertex_count() == original.vertex_count() && options.pairs.empty())
     {
         // Fitted from the original onto the suspect and inverted: noise in the suspect then
@@ -127,12 +128,14 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
         }
         // Any pose, connectivity or cropping: register onto the original, then take for every
         // vertex of it the closest point of the suspect's surface.
+        timer.begin("register");
         RegistrationOptions registration;
         registration.threads = options.threads;
         const RegistrationResult r = options.pairs.empty()
                                          ? register_to_reference(suspect, original, registration)
                                          : register_to_reference(suspect, original, options.pairs, registration);
         timer.lap("register");
+        timer.begin("correspondence");
         ResamplingOptions resampling;
         resampling.threads = options.threads;
         // Resample at the original's vertices: resampling at the watermarked mesh's vertices would
@@ -153,6 +156,7 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
     }
     timer.lap("correspondence");
 
+    timer.begin("extract");
     report.extraction = is_resampled ? mark.extract_resampled(aligned, options.decision, kept)
                                      : mark.extract(aligned, options.decision);
     report.decision = mark.decide(report.extraction, options.decision);
@@ -179,12 +183,14 @@ DetectReport detect_file(const std::filesystem::path& suspect_path,
     DetectReport report;
     detail::PhaseTimer timer(report.seconds, options.progress);
 
+    timer.begin("read");
     const Key key = read_key(key_path);
     const TriangleMesh original = read_mesh(original_path);
     check_original(original, key, original_path);
     const TriangleMesh suspect = read_mesh(suspect_path);
     timer.lap("read");
 
+    timer.begin("basis");
     const SpectralWatermark mark(original, key, options.threads);
     timer.lap("basis");
     detect_into(report, timer, mark, original, suspect, suspect_path, options);

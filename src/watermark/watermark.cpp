@@ -5,13 +5,13 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <span>
 #include <string>
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <Eigen/QR>
 #include <Eigen/SVD>
-#include <omp.h>
 
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
@@ -53,37 +53,11 @@ constexpr double kNuisanceModeTolerance = 1e-8;
 // of Laplacian (or Taubin) smoothing move a mesh, (I - lambda L)^N P = P - N lambda L P + ...
 constexpr int kLaplacianPowers = 3;
 
-// Fields (#V x 3) whose effect a suspect may show without any watermark: the 7 infinitesimal
-// similarity motions about the centroid (left over by registration) and L P, L^2 P, L^3 P
-// (smoothing). Zero on rows that take no part.
-std::vector<Positions> nuisance_fields(const TriangleMesh& mesh, const std::vector<std::int32_t>& rows,
-                                       const Eigen::Vector3d& origin)
+// L P, L^2 P, L^3 P with the uniform Laplacian (#V x 3 each), zero on rows that take no part.
+std::vector<Positions> laplacian_powers(const TriangleMesh& mesh, const std::vector<std::int32_t>& rows)
 {
     const auto n = mesh.V.rows();
     std::vector<Positions> fields;
-    for (int axis = 0; axis < 3; ++axis)
-    {
-        Positions t = Positions::Zero(n, 3);
-        Positions r = Positions::Zero(n, 3);
-        const Eigen::Vector3d e = Eigen::Vector3d::Unit(axis);
-        for (const auto i : rows)
-        {
-            t(i, axis) = 1.0;
-            r.row(i) = e.cross(mesh.V.row(i).transpose() - origin).transpose();
-        }
-        fields.push_back(std::move(t));
-        fields.push_back(std::move(r));
-    }
-    Positions scale = Positions::Zero(n, 3);
-    for (const auto i : rows)
-    {
-        scale.row(i) = mesh.V.row(i) - origin.transpose();
-    }
-    fields.push_back(std::move(scale));
-    if (mesh.is_point_cloud())
-    {
-        return fields;
-    }
     const VertexAdjacency adjacency = vertex_adjacency(mesh);
     Positions current = mesh.V;
     for (int power = 0; power < kLaplacianPowers; ++power)
@@ -108,6 +82,52 @@ std::vector<Positions> nuisance_fields(const TriangleMesh& mesh, const std::vect
     }
     return fields;
 }
+
+// Fields (#V x 3) whose effect a suspect may show without any watermark: the 7 infinitesimal
+// similarity motions about the centroid (left over by registration) and L P, L^2 P, L^3 P
+// (smoothing), in that order. Evaluated row by row: only the Laplacian powers are stored.
+class NuisanceFields
+{
+public:
+    NuisanceFields(const TriangleMesh& mesh, const std::vector<std::int32_t>& rows, const Eigen::Vector3d& origin)
+        : V_(&mesh.V), origin_(origin)
+    {
+        if (!mesh.is_point_cloud())
+        {
+            laplacians_ = laplacian_powers(mesh, rows);
+        }
+    }
+
+    [[nodiscard]] Eigen::Index count() const noexcept
+    {
+        return kSimilarityFields + static_cast<Eigen::Index>(laplacians_.size());
+    }
+
+    /// Row \p i of field \p f (i among the rows given to the constructor).
+    [[nodiscard]] Eigen::RowVector3d row(Eigen::Index f, std::int32_t i) const
+    {
+        if (f >= kSimilarityFields)
+        {
+            return laplacians_[static_cast<std::size_t>(f - kSimilarityFields)].row(i);
+        }
+        if (f == kSimilarityFields - 1)
+        {
+            return V_->row(i) - origin_.transpose();  // scale
+        }
+        const auto axis = static_cast<int>(f / 2);
+        if (f % 2 == 0)
+        {
+            return Eigen::RowVector3d::Unit(axis);  // translation
+        }
+        return Eigen::Vector3d::Unit(axis).cross(V_->row(i).transpose() - origin_).transpose();  // rotation
+    }
+
+private:
+    static constexpr Eigen::Index kSimilarityFields = 7;
+    const Positions* V_;
+    Eigen::Vector3d origin_;
+    std::vector<Positions> laplacians_;
+};
 
 // Least squares with the variance of every unknown, up to the common noise variance:
 // diag((A^T A)^+) from the SVD of A. Unknowns the data cannot determine get infinite variance.
@@ -474,24 +494,29 @@ Extraction SpectralWatermark::extract_resampled(const Positions& resampled, cons
     }
     const int modes = static_cast<int>(modulation_.rows());
     const auto coefficients = static_cast<Eigen::Index>(3 * modes);
-    const auto& rows = basis_->active_rows();
-    const auto active = static_cast<Eigen::Index>(rows.size());
 
     // Model: the observed change o = S (U_M diag(mod) b' + sum_f g_f N_f) + noise, where S is
-    // the sampling operator (per vertex: projection on the original's normal, which is what a
-    // closest-point resampling keeps of a small displacement; zero on cropped rows; identity
-    // for a point cloud) and N_f the nuisance fields. Everything is projected on the leading
-    // r well-conditioned modes and (b', g) solved by least squares. With U_r dense (#active x
-    // r) the 3r x (3 m r + q + 1) normal system is accumulated block by block without ever
-    // forming a field per unknown: A[(l, b), col] = sum_i U_il (S_i column_i)_b.
+    // the sampling operator (per vertex: projection on the original's normal, S_i = n_i n_i^T,
+    // which is what a closest-point resampling keeps of a small displacement; zero on cropped
+    // rows; identity for a point cloud) and N_f the nuisance fields. Everything is projected on
+    // the leading r well-conditioned modes and (b', g) solved by least squares. The 3r x
+    // (3 m + q + 1) system A[(l, b), col] = sum_i U_il (S_i column_i)_b is accumulated by the
+    // basis block by block (project_design): neither U_r (#active x r) nor a field per unknown
+    // is ever formed. A modulated column (mode, axis) is mod * U_mode S_i a_axis, so its 3 file
+    // components come from the 6 distinct products U_mode (S_i)_cb, c <= b: 6 m design columns
+    // instead of 9 m (the accumulation's cost is linear in the width).
     const int first = key_.options.first_mode;
     const int r = std::max(basis_->well_conditioned_modes(kNuisanceModeTolerance), first + modes);
-    const Eigen::MatrixXd U = basis_->modes_dense(r);
+    const int head = first + modes;
     const bool has_normals = !original_->is_point_cloud();
     const Positions normals = has_normals ? vertex_normals(*original_) : Positions();
-    const std::vector<Positions> nuisance = nuisance_fields(*original_, rows, frame_.origin);
-    const auto q = static_cast<Eigen::Index>(nuisance.size());
+    const NuisanceFields nuisance(*original_, basis_->active_rows(), frame_.origin);
+    const Eigen::Index q = nuisance.count();
     const Eigen::Index columns = coefficients + q + 1;
+    constexpr Eigen::Index kPairs = 6;
+    constexpr std::array<std::array<Eigen::Index, 3>, 3> kPair = {{{0, 1, 2}, {1, 3, 4}, {2, 4, 5}}};
+    const Eigen::Index products = kPairs * modes;  // design columns of the modulated unknowns
+    const auto width = static_cast<std::size_t>(products + 3 * (q + 1));
 
     auto is_row_kept = [&](std::int32_t i) {
         return is_kept == nullptr || (*is_kept)[static_cast<std::size_t>(i)] != 0;
@@ -504,68 +529,69 @@ Extraction SpectralWatermark::extract_resampled(const Positions& resampled, cons
         const Eigen::RowVector3d normal = normals.row(i);
         return v.dot(normal) * normal;
     };
-
-    // Fixed chunks reduced in order: bit-identical for any thread count.
-    constexpr Eigen::Index kChunkRows = 4096;
-    const Eigen::Index chunk_count = std::max<Eigen::Index>(1, (active + kChunkRows - 1) / kChunkRows);
-    std::vector<Eigen::MatrixXd> partial(static_cast<std::size_t>(chunk_count));
-    const int threads = threads_ > 0 ? threads_ : omp_get_num_procs();
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
-    for (Eigen::Index chunk = 0; chunk < chunk_count; ++chunk)
-    {
-        const Eigen::Index begin = chunk * kChunkRows;
-        const Eigen::Index count = std::min(kChunkRows, active - begin);
-        // Right-hand side per file axis b: column values (S_i column_i)_b for every row i.
-        std::array<Eigen::MatrixXd, 3> right;
-        for (auto& m : right)
+    // Row a of the block: U_mode (S_i)_cb at X[a][kPairs * mode + pair(c, b)], then for file
+    // axis b the nuisance responses (S_i N_f,i)_b and the observed change o_i,b at
+    // X[a][products + b (q + 1) + f] (f = q for the observation).
+    auto fill = [&](std::span<const std::int32_t> block, const double* U, double* X) {
+        const auto h = static_cast<std::size_t>(head);
+        for (std::size_t a = 0; a < block.size(); ++a)
         {
-            m = Eigen::MatrixXd::Zero(count, columns);
-        }
-        for (Eigen::Index a = 0; a < count; ++a)
-        {
-            const std::int32_t i = rows[static_cast<std::size_t>(begin + a)];
+            const std::int32_t i = block[a];
             if (!is_row_kept(i))
             {
                 continue;
             }
-            for (int axis = 0; axis < 3; ++axis)
+            double* x = X + a * width;
+            std::array<double, kPairs> sampling{};
+            for (Eigen::Index c = 0; c < 3; ++c)
             {
-                const Eigen::RowVector3d response = sample(i, frame_.axes.row(axis));
-                for (int mode = 0; mode < modes; ++mode)
+                for (Eigen::Index b = c; b < 3; ++b)
                 {
-                    const double u = U(begin + a, first + mode) * modulation_(mode, axis);
-                    for (int b = 0; b < 3; ++b)
-                    {
-                        right[static_cast<std::size_t>(b)](a, 3 * mode + axis) = u * response(b);
-                    }
+                    sampling[static_cast<std::size_t>(kPair[static_cast<std::size_t>(c)][static_cast<std::size_t>(b)])] =
+                        has_normals ? normals(i, c) * normals(i, b) : (c == b ? 1.0 : 0.0);
+                }
+            }
+            for (int mode = 0; mode < modes; ++mode)
+            {
+                const double u = U[a * h + static_cast<std::size_t>(first + mode)];
+                for (Eigen::Index pair = 0; pair < kPairs; ++pair)
+                {
+                    x[kPairs * mode + pair] = u * sampling[static_cast<std::size_t>(pair)];
                 }
             }
             for (Eigen::Index f = 0; f < q; ++f)
             {
-                const Eigen::RowVector3d response = sample(i, nuisance[static_cast<std::size_t>(f)].row(i));
-                for (int b = 0; b < 3; ++b)
+                const Eigen::RowVector3d response = sample(i, nuisance.row(f, i));
+                for (Eigen::Index b = 0; b < 3; ++b)
                 {
-                    right[static_cast<std::size_t>(b)](a, coefficients + f) = response(b);
+                    x[products + b * (q + 1) + f] = response(b);
                 }
             }
             const Eigen::RowVector3d observed = resampled.row(i) - original_->V.row(i);
-            for (int b = 0; b < 3; ++b)
+            for (Eigen::Index b = 0; b < 3; ++b)
             {
-                right[static_cast<std::size_t>(b)](a, columns - 1) = observed(b);
+                x[products + b * (q + 1) + q] = observed(b);
             }
         }
-        Eigen::MatrixXd& sum = partial[static_cast<std::size_t>(chunk)];
-        sum.resize(3 * r, columns);
-        for (int b = 0; b < 3; ++b)
-        {
-            sum.middleRows(b * r, r).noalias() =
-                U.middleRows(begin, count).transpose() * right[static_cast<std::size_t>(b)];
-        }
-    }
-    Eigen::MatrixXd system = partial.front();
-    for (std::size_t chunk = 1; chunk < partial.size(); ++chunk)
+    };
+    const Eigen::MatrixXd projected = basis_->project_design(r, head, width, fill);  // r x width
+    Eigen::MatrixXd system(3 * r, columns);
+    for (Eigen::Index b = 0; b < 3; ++b)
     {
-        system += partial[chunk];
+        for (Eigen::Index c = 0; c < coefficients; ++c)
+        {
+            const Eigen::Index mode = c / 3;
+            const Eigen::Index axis = c % 3;
+            // (S a_axis)_b = sum_d S_bd a_axis,d, with a_axis = frame_.axes.row(axis).
+            Eigen::VectorXd column = Eigen::VectorXd::Zero(r);
+            for (Eigen::Index d = 0; d < 3; ++d)
+            {
+                column += frame_.axes(axis, d) *
+                          projected.col(kPairs * mode + kPair[static_cast<std::size_t>(b)][static_cast<std::size_t>(d)]);
+            }
+            system.block(b * r, c, r, 1) = modulation_(mode, axis) * column;
+        }
+        system.block(b * r, coefficients, r, q + 1) = projected.middleCols(products + b * (q + 1), q + 1);
     }
     const JointSolution solution = solve_jointly(system.leftCols(columns - 1), system.col(columns - 1));
     return extraction_from(solution.amplitudes.head(coefficients), solution.variances.head(coefficients), options);
@@ -581,14 +607,34 @@ const SpectralWatermark::NuisanceModel& SpectralWatermark::nuisance_model() cons
     const int modes = key_.options.first_mode + static_cast<int>(modulation_.rows());
     model.modes = basis_->well_conditioned_modes(kNuisanceModeTolerance);
     // Enough unmodulated modes to fit the nuisance fields with room to spare.
-    const auto fields = nuisance_fields(*original_, basis_->active_rows(), frame_.origin);
-    if (model.modes - modes < 4 * static_cast<int>(fields.size()))
+    const NuisanceFields fields(*original_, basis_->active_rows(), frame_.origin);
+    const Eigen::Index q = fields.count();
+    if (model.modes - modes < 4 * static_cast<int>(q))
     {
         model.modes = 0;
         nuisance_ = model;
         return *nuisance_;
     }
-    model.responses = basis_->project(fields, model.modes);
+    // U_r^T N_f of every field in one pass, the fields evaluated row by row (never stored).
+    const auto width = static_cast<std::size_t>(3 * q);
+    const Eigen::MatrixXd responses = basis_->project_design(
+        model.modes, 0, width, [&](std::span<const std::int32_t> block, const double* /*U*/, double* X) {
+            for (std::size_t a = 0; a < block.size(); ++a)
+            {
+                for (Eigen::Index f = 0; f < q; ++f)
+                {
+                    const Eigen::RowVector3d value = fields.row(f, block[a]);
+                    for (Eigen::Index d = 0; d < 3; ++d)
+                    {
+                        X[a * width + static_cast<std::size_t>(3 * f + d)] = value(d);
+                    }
+                }
+            }
+        });
+    for (Eigen::Index f = 0; f < q; ++f)
+    {
+        model.responses.emplace_back(responses.middleCols(3 * f, 3));
+    }
     nuisance_ = std::move(model);
     return *nuisance_;
 }

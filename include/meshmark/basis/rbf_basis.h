@@ -2,6 +2,8 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
+#include <span>
 #include <string_view>
 #include <vector>
 
@@ -110,6 +112,22 @@ public:
     /// \brief Leading-mode projections of several fields in one pass (each modes x 3).
     [[nodiscard]] std::vector<Eigen::MatrixX3d> project(const std::vector<Positions>& fields,
                                                         int modes) const;
+
+    /// \brief Writes a block of design rows: for the active rows \p rows, given their values on
+    /// the first `head` modes in \p U (rows.size() x head, row-major), fill \p X
+    /// (rows.size() x width, row-major, zero on entry).
+    using DesignFill = std::function<void(std::span<const std::int32_t> rows, const double* U, double* X)>;
+
+    /// \brief U_m^T X (modes x width) for a design X that is never materialized.
+    /// \details X is produced row block by row block by \p fill, which sees the leading \p head
+    /// modes of the block's rows (bit-identical to the columns of modes_dense()), and reduced
+    /// like a projection: B^T X accumulated per chunk, chunks summed in order, then T^T. Memory
+    /// is O(k width) per chunk instead of the #V x modes of modes_dense(); results are
+    /// bit-identical for any thread count. \p fill is called concurrently from several threads
+    /// (each call on its own rows).
+    /// \param head  0..modes; 0 passes no modes (U is null).
+    [[nodiscard]] Eigen::MatrixXd project_design(int modes, int head, std::size_t width,
+                                                 const DesignFill& fill) const;
 
     /// \brief Number of leading modes whose eigenvalue W_j^2 exceeds \p relative_tolerance
     /// times the largest: the modes whose projections are numerically trustworthy.

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <numeric>
 #include <set>
+#include <span>
 
 #include "meshmark/core/error.h"
 #include "meshmark/core/rng.h"
@@ -96,6 +97,54 @@ TEST(RbfBasisTest, leading_modes_are_orthonormal_and_span_B)
     const Positions d = basis.synthesize(Eigen::MatrixX3d::Ones(m, 3), &error);
     EXPECT_LT(error, 1e-9);
     EXPECT_NEAR(d.col(0).squaredNorm(), static_cast<double>(m), 1e-8);
+}
+
+TEST(RbfBasisTest, project_design_equals_the_dense_product_for_any_thread_count)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(4);  // 2562 vertices: several chunks
+    const auto rows = all_rows(mesh);
+    const auto centers = random_centers(mesh.V, rows, 50, 3);
+    const Eigen::Vector3d origin = mesh.V.colwise().mean().transpose();
+    const int modes = 20;
+    const int head = 6;
+    constexpr std::size_t kWidth = 7;
+    // Design row i: products of the head modes with the positions, and a constant column.
+    auto design_row = [&](std::int32_t i, const double* u, double* x) {
+        for (std::size_t c = 0; c + 1 < kWidth; ++c)
+        {
+            x[c] = u[c % static_cast<std::size_t>(head)] * mesh.V(i, static_cast<Eigen::Index>(c % 3));
+        }
+        x[kWidth - 1] = 1.0;
+    };
+    std::vector<Eigen::MatrixXd> results;
+    for (const int threads : {1, 2, 3})
+    {
+        const RbfBasis basis(mesh.V, rows, centers, 1.1, origin, threads);
+        results.push_back(basis.project_design(
+            modes, head, kWidth, [&](std::span<const std::int32_t> block, const double* U, double* X) {
+                for (std::size_t a = 0; a < block.size(); ++a)
+                {
+                    design_row(block[a], U + a * static_cast<std::size_t>(head), X + a * kWidth);
+                }
+            }));
+        if (threads == 1)
+        {
+            // Against the dense modes: the same design, then U^T X.
+            const Eigen::MatrixXd U = basis.modes_dense(modes);
+            Eigen::MatrixXd X(U.rows(), static_cast<Eigen::Index>(kWidth));
+            for (Eigen::Index a = 0; a < U.rows(); ++a)
+            {
+                const Eigen::RowVectorXd u = U.row(a).head(head);
+                Eigen::RowVectorXd x(static_cast<Eigen::Index>(kWidth));
+                design_row(rows[static_cast<std::size_t>(a)], u.data(), x.data());
+                X.row(a) = x;
+            }
+            const Eigen::MatrixXd expected = U.transpose() * X;
+            EXPECT_LT((results.back() - expected).cwiseAbs().maxCoeff(), 1e-9 * expected.cwiseAbs().maxCoeff());
+        }
+    }
+    EXPECT_EQ(results[0], results[1]);
+    EXPECT_EQ(results[0], results[2]);
 }
 
 TEST(RbfBasisTest, projection_inverts_synthesis_and_least_squares_handles_cropping)
