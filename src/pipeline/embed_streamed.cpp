@@ -650,8 +650,9 @@ EmbedReport embed_file_streamed(const std::filesystem::path& input, const std::f
     EmbedReport report;
     report.streamed = true;
     PhaseTimer timer(report.seconds, options.progress);
+    // Fractions within a phase; 1 (the end of a phase) is for the timer's lap alone.
     const auto progress = [&](const char* phase, double fraction) {
-        if (options.progress)
+        if (options.progress && fraction < 1.0)
         {
             options.progress(phase, fraction);
         }
