@@ -223,6 +223,7 @@ TEST(EmbedStreamedTest, matches_in_memory_on_163k_vertices_in_many_windows)
     const auto input = dir / "input.ply";
     write_ply(input, lumpy_ellipsoid(7), PlySpec{});
     expect_streamed_equals_in_memory(input, dir, 64 * 1024);
+    std::filesystem::remove_all(dir);  // ~12 MB of meshes
 }
 
 TEST(EmbedStreamedTest, matches_in_memory_big_endian_double_with_extras)
@@ -238,6 +239,7 @@ TEST(EmbedStreamedTest, matches_in_memory_big_endian_double_with_extras)
         write_ply(input, mesh, spec);
         expect_streamed_equals_in_memory(input, dir, 4096, 1 + variant % 2);
     }
+    std::filesystem::remove_all(dir);
 }
 
 TEST(EmbedStreamedTest, budget_selects_streaming_through_embed_file)
