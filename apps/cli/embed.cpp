@@ -31,6 +31,8 @@ struct EmbedArgs
     bool has_seed = false;
     bool json = false;
     bool force = false;
+    std::int64_t memory_budget = 0;
+    bool stream = false;
     EmbedOptions options;
 };
 
@@ -87,6 +89,8 @@ int run_embed(const EmbedArgs& args, const GlobalArgs& global)
     }
     options.threads = global.threads;
     options.force = args.force;
+    options.memory_budget_mib = args.memory_budget;
+    options.force_stream = args.stream;
     // Phases and a running clock on a terminal, after the first second; silent otherwise.
     std::optional<PhaseProgress> progress;
     if (PhaseProgress::should_show(global.quiet))
@@ -121,7 +125,12 @@ int run_embed(const EmbedArgs& args, const GlobalArgs& global)
                     {"rms_displacement", stats.rms_displacement_rel},
                     {"orthogonality_error", stats.orthogonality_error},
                     {"weak_bits", stats.weak_bits},
+                    {"streamed", report.streamed},
                     {"seconds", to_json(report.seconds)}});
+    }
+    if (!global.quiet && !report.stream_note.empty())
+    {
+        std::fprintf(stderr, "meshmark: note: %s; embedded in memory.\n", report.stream_note.c_str());
     }
     if (!global.quiet)
     {
@@ -190,6 +199,15 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
         ->capture_default_str();
     command->add_option("--seed", args->seed,
                         "Secret seed (centers, payload mask, random payload); random if absent");
+    command->add_option("--memory-budget", args->memory_budget,
+                        "MiB: when the in-memory embed of a binary PLY would need more, stream it "
+                        "from disk in chunks (same output bytes and key; an input that cannot be "
+                        "streamed is embedded in memory with a note). 0 = no budget")
+        ->check(CLI::NonNegativeNumber)
+        ->capture_default_str();
+    command->add_flag("--stream", args->stream,
+                      "Always embed out of core (binary PLY with fixed-size vertex records, "
+                      "written to .ply); any other input is an error");
     command->add_flag("--json", args->json, "Print a JSON report on stdout");
     command->add_flag("--force", args->force,
                       "Replace an existing key file, or the input itself when -o names it "

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <set>
+#include <unordered_map>
 #include <string>
 
 #include <Eigen/Eigenvalues>
@@ -113,23 +114,40 @@ std::string_view basis_kernel_name() noexcept { return selected_kernels().name; 
 std::vector<std::int32_t> random_centers(const Positions& V, const std::vector<std::int32_t>& active,
                                          int k, std::uint64_t seed)
 {
+    return random_centers(
+        active.size(), [&](std::size_t i) { return active[i]; },
+        [&](std::int32_t row) { return std::array<double, 3>{V(row, 0), V(row, 1), V(row, 2)}; }, k, seed);
+}
+
+std::vector<std::int32_t> random_centers(
+    std::size_t count, const std::function<std::int32_t(std::size_t)>& row_at,
+    const std::function<std::array<double, 3>(std::int32_t)>& position_of, int k, std::uint64_t seed)
+{
     if (k <= 0)
     {
         throw InvalidOption("basis size must be positive, got " + std::to_string(k) + ".");
     }
-    std::vector<std::int32_t> pool = active;
+    // The pool is row_at(0..count-1) with the swaps done so far recorded sparsely.
+    std::unordered_map<std::size_t, std::int32_t> swapped;
+    const auto pool = [&](std::size_t i) {
+        const auto found = swapped.find(i);
+        return found == swapped.end() ? row_at(i) : found->second;
+    };
     std::vector<std::int32_t> centers;
     centers.reserve(static_cast<std::size_t>(k));
     std::set<std::array<double, 3>> chosen;
     Rng rng(seed);
     // Partial Fisher-Yates: position i receives a uniform pick among the not yet drawn ones.
-    for (std::size_t i = 0; i < pool.size() && centers.size() < static_cast<std::size_t>(k); ++i)
+    for (std::size_t i = 0; i < count && centers.size() < static_cast<std::size_t>(k); ++i)
     {
-        const auto j = i + static_cast<std::size_t>(rng.below(pool.size() - i));
-        std::swap(pool[i], pool[j]);
-        const auto row = pool[i];
-        const std::array<double, 3> p = {V(row, 0), V(row, 1), V(row, 2)};
-        if (chosen.insert(p).second)
+        const auto j = i + static_cast<std::size_t>(rng.below(count - i));
+        const auto row = pool(j);
+        if (j != i)
+        {
+            swapped[j] = pool(i);
+        }
+        swapped.erase(i);  // position i is never read again
+        if (chosen.insert(position_of(row)).second)
         {
             centers.push_back(row);
         }
@@ -149,6 +167,7 @@ RbfBasis::RbfBasis(const Positions& V, std::vector<std::int32_t> active,
     : V_(&V), active_(std::move(active)), kernels_(&selected_kernels()), sigma_(sigma), origin_(origin),
       threads_(resolve_threads(threads))
 {
+    row_count_ = active_.size();
     if (active_.empty() || centers.empty())
     {
         throw InvalidOption("the RBF basis needs at least one vertex and one center.");
@@ -158,14 +177,41 @@ RbfBasis::RbfBasis(const Positions& V, std::vector<std::int32_t> active,
         throw InvalidOption("the RBF support radius must be positive and finite, got " +
                             std::to_string(sigma_) + ".");
     }
-    const auto k = static_cast<Eigen::Index>(centers.size());
-    const auto ku = centers.size();
+    Eigen::MatrixX3d center_positions(static_cast<Eigen::Index>(centers.size()), 3);
+    for (Eigen::Index j = 0; j < center_positions.rows(); ++j)
+    {
+        center_positions.row(j) = V.row(centers[static_cast<std::size_t>(j)]);
+    }
+    build(center_positions, nullptr);
+}
+
+RbfBasis::RbfBasis(const RowPositionSource& source, const Eigen::MatrixX3d& center_positions,
+                   double sigma, const Eigen::Vector3d& origin, int threads)
+    : V_(nullptr), row_count_(source.size()), kernels_(&selected_kernels()), sigma_(sigma), origin_(origin),
+      threads_(resolve_threads(threads))
+{
+    if (row_count_ == 0 || center_positions.rows() == 0)
+    {
+        throw InvalidOption("the RBF basis needs at least one vertex and one center.");
+    }
+    if (!(sigma_ > 0.0) || !std::isfinite(sigma_))
+    {
+        throw InvalidOption("the RBF support radius must be positive and finite, got " +
+                            std::to_string(sigma_) + ".");
+    }
+    build(center_positions, &source);
+}
+
+void RbfBasis::build(const Eigen::MatrixX3d& centers, const RowPositionSource* rows_source)
+{
+    const auto k = static_cast<Eigen::Index>(centers.rows());
+    const auto ku = static_cast<std::size_t>(k);
     padded_k_ = (ku + 3) / 4 * 4;
     stride_ = padded_k_ + 4;
     center_positions_.resize(k, 3);
     for (Eigen::Index j = 0; j < k; ++j)
     {
-        center_positions_.row(j) = V.row(centers[static_cast<std::size_t>(j)]) - origin_.transpose();
+        center_positions_.row(j) = centers.row(j) - origin_.transpose();
     }
     column_ = spatial_columns(center_positions_);
     centers_soa_.assign(3 * stride_, 0.0);
@@ -179,7 +225,7 @@ RbfBasis::RbfBasis(const Positions& V, std::vector<std::int32_t> active,
     }
 
     // Fixed chunking: depends on the number of rows only, never on the thread count.
-    const std::size_t n = active_.size();
+    const std::size_t n = row_count_;
     const std::size_t min_rows = kMinChunkBlocks * kBasisBlockRows;
     std::size_t chunk_rows = std::max(min_rows, (n + kMaxChunks - 1) / kMaxChunks);
     chunk_rows = (chunk_rows + kBasisBlockRows - 1) / kBasisBlockRows * kBasisBlockRows;
@@ -205,7 +251,7 @@ RbfBasis::RbfBasis(const Positions& V, std::vector<std::int32_t> active,
             extra[3] = 1.0;
         }
         kernels_->gram(B, rows, ld, parts[chunk].data());
-    });
+    }, rows_source);
     std::vector<double> total(ld * ld, 0.0);
     for (const auto& part : parts)
     {
@@ -286,11 +332,17 @@ std::vector<double> RbfBasis::columns_transposed(const Eigen::MatrixXd& M) const
 }
 
 template <class BlockFn>
-void RbfBasis::for_each_block(const BlockFn& fn) const
+void RbfBasis::for_each_block(const BlockFn& fn, const RowPositionSource* source, std::size_t first_chunk,
+                              std::size_t last_chunk) const
 {
-    const auto chunk_count = static_cast<std::ptrdiff_t>(chunks_.size());
+    last_chunk = std::min(last_chunk, chunks_.size());
+    const auto chunk_count = static_cast<std::ptrdiff_t>(last_chunk - std::min(first_chunk, last_chunk));
     const auto k = center_positions_.rows();
     const double inv_sigma = 1.0 / sigma_;
+    if (source == nullptr)
+    {
+        require_positions("this pass");
+    }
 #pragma omp parallel num_threads(threads_)
     {
         // Per thread: the B block, the positions of its rows (minus the origin) and a spare
@@ -301,25 +353,59 @@ void RbfBasis::for_each_block(const BlockFn& fn) const
 #pragma omp for schedule(dynamic, 1)
         for (std::ptrdiff_t c = 0; c < chunk_count; ++c)
         {
-            const auto& chunk = chunks_[static_cast<std::size_t>(c)];
+            const std::size_t index = first_chunk + static_cast<std::size_t>(c);
+            const auto& chunk = chunks_[index];
+            std::unique_ptr<RowPositionCursor> cursor;
+            if (source != nullptr)
+            {
+                cursor = source->cursor(chunk.begin);
+            }
             for (std::size_t begin = chunk.begin; begin < chunk.end; begin += kBasisBlockRows)
             {
                 const std::size_t end = std::min(chunk.end, begin + kBasisBlockRows);
                 const std::size_t rows = end - begin;
-                for (std::size_t i = 0; i < rows; ++i)
+                if (cursor)
                 {
-                    const auto row = active_[begin + i];
-                    for (Eigen::Index d = 0; d < 3; ++d)
+                    cursor->read(rows, P.data());
+                    for (std::size_t i = 0; i < rows; ++i)
                     {
-                        P[3 * i + static_cast<std::size_t>(d)] = (*V_)(row, d) - origin_(d);
+                        for (Eigen::Index d = 0; d < 3; ++d)
+                        {
+                            P[3 * i + static_cast<std::size_t>(d)] -= origin_(d);
+                        }
+                    }
+                }
+                else
+                {
+                    for (std::size_t i = 0; i < rows; ++i)
+                    {
+                        const auto row = active_[begin + i];
+                        for (Eigen::Index d = 0; d < 3; ++d)
+                        {
+                            P[3 * i + static_cast<std::size_t>(d)] = (*V_)(row, d) - origin_(d);
+                        }
                     }
                 }
                 kernels_->evaluate(P.data(), rows, centers_soa_.data(), static_cast<std::size_t>(k),
                                    stride_, inv_sigma, B.data());
-                fn(static_cast<std::size_t>(c), B.data(), P.data(), rows, begin, spare.data());
+                fn(index, B.data(), P.data(), rows, begin, spare.data());
             }
         }
     }
+}
+
+void RbfBasis::require_positions(const char* what) const
+{
+    if (V_ == nullptr)
+    {
+        throw InvalidOption(std::string("RbfBasis: ") + what +
+                            " needs the positions in memory, but this basis was built from a stream.");
+    }
+}
+
+std::size_t RbfBasis::max_chunk_rows() const noexcept
+{
+    return chunks_.empty() ? 0 : chunks_.front().end - chunks_.front().begin;
 }
 
 Eigen::MatrixXd RbfBasis::mode_transform(int modes) const
@@ -542,10 +628,10 @@ Eigen::MatrixX3d RbfBasis::project_least_squares(const Positions& X,
 
 Positions RbfBasis::synthesize(const Eigen::MatrixX3d& c, double* orthogonality_error) const
 {
+    require_positions("synthesize");
     const int modes = static_cast<int>(c.rows());
     const Eigen::MatrixXd T = mode_transform(modes);
     const Eigen::MatrixX3d Tc = T * c;
-    const auto k = static_cast<Eigen::Index>(size());
     const std::size_t ld = stride_;
     const std::vector<double> tc_t = columns_transposed(Tc);  // (T c)^T, zero on the padding
     Positions result = Positions::Zero(V_->rows(), 3);
@@ -568,26 +654,83 @@ Positions RbfBasis::synthesize(const Eigen::MatrixX3d& c, double* orthogonality_
     });
     if (check)
     {
-        // Modes: U_m^T U_m = T^T G T. Field: U_m^T f = T^T (B^T f), against c.
-        const Eigen::MatrixXd utu = T.transpose() * gram_ * T;
-        const double modes_error = (utu - Eigen::MatrixXd::Identity(modes, modes)).cwiseAbs().maxCoeff();
-        Eigen::MatrixX3d bt_f = Eigen::MatrixX3d::Zero(k, 3);
-        for (const auto& part : parts)
-        {
-            for (std::size_t d = 0; d < 3; ++d)
-            {
-                for (Eigen::Index j = 0; j < k; ++j)
-                {
-                    bt_f(j, static_cast<Eigen::Index>(d)) += part[d * ld + column_[static_cast<std::size_t>(j)]];
-                }
-            }
-        }
-        const double scale = c.cwiseAbs().maxCoeff();
-        const double field_error =
-            scale > 0.0 ? (T.transpose() * bt_f - c).cwiseAbs().maxCoeff() / scale : 0.0;
-        *orthogonality_error = std::max(modes_error, field_error);
+        *orthogonality_error = orthogonality(T, c, parts);
     }
     return result;
+}
+
+void RbfBasis::synthesize_streamed(const Eigen::MatrixX3d& c, const RowPositionSource& source,
+                                   std::size_t chunks_in_flight, const FieldSink& sink,
+                                   double* orthogonality_error) const
+{
+    if (source.size() != row_count_)
+    {
+        throw InvalidOption("synthesize_streamed: the source has " + std::to_string(source.size()) +
+                            " rows, the basis " + std::to_string(row_count_) + ".");
+    }
+    const int modes = static_cast<int>(c.rows());
+    const Eigen::MatrixXd T = mode_transform(modes);
+    const Eigen::MatrixX3d Tc = T * c;
+    const std::size_t ld = stride_;
+    const std::vector<double> tc_t = columns_transposed(Tc);
+    const bool check = orthogonality_error != nullptr;
+    std::vector<std::vector<double>> parts(check ? chunks_.size() : 0, std::vector<double>(3 * ld, 0.0));
+    // Rounds of up to chunks_in_flight chunks: computed in parallel into their buffers, then
+    // handed to the sink in order. Each row's field is the same arithmetic as in synthesize().
+    const std::size_t in_flight = std::max<std::size_t>(1, chunks_in_flight);
+    std::vector<std::vector<double>> fields(std::min(in_flight, chunks_.size()));
+    for (std::size_t first = 0; first < chunks_.size(); first += in_flight)
+    {
+        const std::size_t last = std::min(chunks_.size(), first + in_flight);
+        for (std::size_t i = first; i < last; ++i)
+        {
+            fields[i - first].resize(3 * (chunks_[i].end - chunks_[i].begin));
+        }
+        for_each_block(
+            [&](std::size_t chunk, double* B, const double* /*P*/, std::size_t rows, std::size_t begin,
+                double* d) {
+                kernels_->multiply(B, rows, ld, tc_t.data(), 3, d);
+                std::copy(d, d + 3 * rows, fields[chunk - first].data() + 3 * (begin - chunks_[chunk].begin));
+                if (check)
+                {
+                    kernels_->accumulate(B, rows, ld, d, 3, parts[chunk].data());
+                }
+            },
+            &source, first, last);
+        for (std::size_t i = first; i < last; ++i)
+        {
+            sink(chunks_[i].begin, chunks_[i].end - chunks_[i].begin, fields[i - first].data());
+        }
+    }
+    if (check)
+    {
+        *orthogonality_error = orthogonality(T, c, parts);
+    }
+}
+
+double RbfBasis::orthogonality(const Eigen::MatrixXd& T, const Eigen::MatrixX3d& c,
+                               const std::vector<std::vector<double>>& parts) const
+{
+    // Modes: U_m^T U_m = T^T G T. Field: U_m^T f = T^T (B^T f), against c.
+    const auto k = static_cast<Eigen::Index>(size());
+    const std::size_t ld = stride_;
+    const auto modes = c.rows();
+    const Eigen::MatrixXd utu = T.transpose() * gram_ * T;
+    const double modes_error = (utu - Eigen::MatrixXd::Identity(modes, modes)).cwiseAbs().maxCoeff();
+    Eigen::MatrixX3d bt_f = Eigen::MatrixX3d::Zero(k, 3);
+    for (const auto& part : parts)
+    {
+        for (std::size_t d = 0; d < 3; ++d)
+        {
+            for (Eigen::Index j = 0; j < k; ++j)
+            {
+                bt_f(j, static_cast<Eigen::Index>(d)) += part[d * ld + column_[static_cast<std::size_t>(j)]];
+            }
+        }
+    }
+    const double scale = c.cwiseAbs().maxCoeff();
+    const double field_error = scale > 0.0 ? (T.transpose() * bt_f - c).cwiseAbs().maxCoeff() / scale : 0.0;
+    return std::max(modes_error, field_error);
 }
 
 Eigen::MatrixXd RbfBasis::modes_dense(int modes) const

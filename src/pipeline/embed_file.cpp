@@ -5,6 +5,7 @@
 
 #include "meshmark/core/atomic_file.h"
 #include "meshmark/core/error.h"
+#include "embed_streamed.h"
 #include "streamed_write.h"
 #include "timer.h"
 
@@ -49,27 +50,54 @@ void EmbedFileOptions::validate() const
     {
         throw InvalidOption("--threads must be >= 0 (0 = all cores).");
     }
+    if (memory_budget_mib < 0)
+    {
+        throw InvalidOption("--memory-budget must be >= 0 MiB (0 = no budget).");
+    }
 }
 
-EmbedReport embed_file(const std::filesystem::path& input, const std::filesystem::path& output,
-                       const std::filesystem::path& key_path, const EmbedFileOptions& options)
+namespace detail {
+
+void write_mesh_and_key(const std::filesystem::path& key_path, const Key& key,
+                        const std::function<void()>& write_mesh)
 {
-    options.validate();
-    check_paths(input, output, key_path, options.force);
-    (void)format_from_extension(output);  // fail on a bad extension before any work
+    // Both files or neither: the key goes to a staging file next to its target, the mesh is
+    // written atomically, and only then does the key take its place. A failure on the way
+    // removes the staging file and leaves any existing key untouched.
+    // Hidden (leading dot) so that a run killed in between leaves nothing that looks like a key.
+    // (Built by appending: GCC 12 reports a false -Wrestrict on `"." + std::string`.)
+    std::string staging_name(1, '.');
+    staging_name += key_path.filename().string();
+    staging_name += ".partial-";
+    staging_name += std::to_string(key.seed % 1000000007ULL);
+    const auto staging = key_path.parent_path() / staging_name;
+    write_key(staging, key);
+    try
+    {
+        write_mesh();
+        std::filesystem::rename(staging, key_path);
+    }
+    catch (const std::filesystem::filesystem_error& e)
+    {
+        std::error_code ignored;
+        std::filesystem::remove(staging, ignored);
+        throw IoError(key_path.string() + ": cannot write the key file (" + e.code().message() + ").");
+    }
+    catch (...)
+    {
+        std::error_code ignored;
+        std::filesystem::remove(staging, ignored);
+        throw;
+    }
+}
 
-    EmbedReport report;
-    detail::PhaseTimer timer(report.seconds, options.progress);
-    timer.begin("read");
-    const MeshFile file = read_mesh_file(input);
-    report.input_format = file.format;
-    report.output_format = format_from_extension(output);
-    report.vertex_count = file.mesh.vertex_count();
-    report.face_count = file.mesh.face_count();
-    timer.lap("read");
-    timer.begin("basis");
+}  // namespace detail
 
-    // Key: seed, parameters, payload (message, hex or random) and the original's fingerprint.
+namespace {
+
+Key make_key(const EmbedFileOptions& options)
+{
+    // Key: seed, parameters and payload (message, hex or random); the fingerprint comes later.
     Key key;
     key.seed = options.seed ? *options.seed : fresh_seed();
     key.options = options.embed;
@@ -88,6 +116,69 @@ EmbedReport embed_file(const std::filesystem::path& input, const std::filesystem
     {
         key.payload = random_payload(key.seed, bits);
     }
+    return key;
+}
+
+// Whether to embed out of core; a note in *note when the budget asked for it but the input
+// cannot be streamed.
+bool should_stream(const std::filesystem::path& input, const std::filesystem::path& output,
+                   const EmbedFileOptions& options, std::string* note)
+{
+    if (options.force_stream)
+    {
+        const std::string refusal = detail::stream_refusal(input, output);
+        if (!refusal.empty())
+        {
+            throw InvalidOption(input.string() + ": cannot be embedded out of core (--stream): " + refusal + ".");
+        }
+        return true;
+    }
+    if (options.memory_budget_mib <= 0 || format_from_extension(input) != MeshFormat::Ply)
+    {
+        return false;
+    }
+    const auto budget = static_cast<std::uint64_t>(options.memory_budget_mib) << 20U;
+    if (detail::in_memory_embed_bytes(input) <= budget)
+    {
+        return false;
+    }
+    const std::string refusal = detail::stream_refusal(input, output);
+    if (!refusal.empty())
+    {
+        *note = "the in-memory embed exceeds the memory budget, but the input cannot be streamed: " + refusal;
+        return false;
+    }
+    return true;
+}
+
+}  // namespace
+
+EmbedReport embed_file(const std::filesystem::path& input, const std::filesystem::path& output,
+                       const std::filesystem::path& key_path, const EmbedFileOptions& options)
+{
+    options.validate();
+    check_paths(input, output, key_path, options.force);
+    (void)format_from_extension(output);  // fail on a bad extension before any work
+
+    std::string note;
+    if (should_stream(input, output, options, &note))
+    {
+        return detail::embed_file_streamed(input, output, key_path, make_key(options), options);
+    }
+
+    EmbedReport report;
+    report.stream_note = note;
+    detail::PhaseTimer timer(report.seconds, options.progress);
+    timer.begin("read");
+    const MeshFile file = read_mesh_file(input);
+    report.input_format = file.format;
+    report.output_format = format_from_extension(output);
+    report.vertex_count = file.mesh.vertex_count();
+    report.face_count = file.mesh.face_count();
+    timer.lap("read");
+    timer.begin("basis");
+
+    Key key = make_key(options);
     key.original = fingerprint(file.mesh);
 
     // Basis (pass 1 + eigen-decomposition) -> synthesis of the displacement (pass 2).
@@ -99,39 +190,13 @@ EmbedReport embed_file(const std::filesystem::path& input, const std::filesystem
     marked += file.mesh.V;
     timer.lap("embed");
     timer.begin("write");
-
-    // Both files or neither: the key goes to a staging file next to its target, the mesh is
-    // written atomically, and only then does the key take its place. A failure on the way
-    // removes the staging file and leaves any existing key untouched.
-    // Hidden (leading dot) so that a run killed in between leaves nothing that looks like a key.
-    // (Built by appending: GCC 12 reports a false -Wrestrict on `"." + std::string`.)
-    std::string staging_name(1, '.');
-    staging_name += key_path.filename().string();
-    staging_name += ".partial-";
-    staging_name += std::to_string(key.seed % 1000000007ULL);
-    const auto staging = key_path.parent_path() / staging_name;
-    write_key(staging, key);
-    try
-    {
+    detail::write_mesh_and_key(key_path, key, [&]() {
         // A binary PLY streams out of the original bytes (no second copy of the file).
         if (!detail::write_binary_ply_streamed(output, file, marked))
         {
             write_mesh_file(output, file, marked);
         }
-        std::filesystem::rename(staging, key_path);
-    }
-    catch (const std::filesystem::filesystem_error& e)
-    {
-        std::error_code ignored;
-        std::filesystem::remove(staging, ignored);
-        throw IoError(key_path.string() + ": cannot write the key file (" + e.code().message() + ").");
-    }
-    catch (...)
-    {
-        std::error_code ignored;
-        std::filesystem::remove(staging, ignored);
-        throw;
-    }
+    });
     timer.lap("write");
     report.key = std::move(key);
     return report;

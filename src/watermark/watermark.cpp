@@ -30,18 +30,6 @@ constexpr double kCollinearTolerance = 1e-12;
 // paper's multiplicative rule (DESIGN.md, "Evidence": those fail first under noise).
 constexpr double kWeakCoefficientFraction = 0.1;
 
-double third_moment(const Positions& V, const std::vector<std::int32_t>& rows,
-                    const Eigen::Vector3d& origin, const Eigen::Vector3d& axis)
-{
-    double sum = 0.0;
-    for (const auto i : rows)
-    {
-        const double t = (V.row(i).transpose() - origin).dot(axis);
-        sum += t * t * t;
-    }
-    return sum;
-}
-
 // Normalized coefficient changes below this are rounding, not signal or attack.
 constexpr double kNegligibleChange = 1e-6;
 
@@ -173,56 +161,113 @@ JointSolution solve_jointly(const Eigen::MatrixXd& design, const Eigen::VectorXd
 
 }  // namespace
 
+void CanonicalFrameBuilder::add(const Eigen::Vector3d& p)
+{
+    switch (pass_)
+    {
+        case Pass::Centroid:
+            sum_ += p;
+            ++rows_;
+            break;
+        case Pass::Covariance:
+        {
+            const Eigen::Vector3d q = p - frame_.origin;
+            covariance_ += q * q.transpose();
+            break;
+        }
+        case Pass::Moments:
+        {
+            const Eigen::Vector3d q = p - frame_.origin;
+            const double t1 = q.dot(e1_);
+            const double t2 = q.dot(e2_);
+            moment1_ += t1 * t1 * t1;
+            moment2_ += t2 * t2 * t2;
+            break;
+        }
+        case Pass::Extent:
+        {
+            const Eigen::Vector3d q = frame_.axes * (p - frame_.origin);
+            lo_ = lo_.cwiseMin(q);
+            hi_ = hi_.cwiseMax(q);
+            break;
+        }
+        case Pass::Done:
+            break;
+    }
+}
+
+void CanonicalFrameBuilder::next_pass()
+{
+    switch (pass_)
+    {
+        case Pass::Centroid:
+            if (rows_ == 0)
+            {
+                throw NumericalError("the mesh has no vertex to analyse.");
+            }
+            frame_.origin = sum_ / static_cast<double>(rows_);
+            pass_ = Pass::Covariance;
+            break;
+        case Pass::Covariance:
+        {
+            covariance_ /= static_cast<double>(rows_);
+            const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(covariance_);
+            const Eigen::Vector3d eigenvalues = solver.eigenvalues();  // ascending
+            if (!(eigenvalues(2) > 0.0) || eigenvalues(1) <= kCollinearTolerance * eigenvalues(2))
+            {
+                throw NumericalError("the vertices are all collinear or coincident, so the RBF Gram matrix "
+                                     "is degenerate and no watermark can be embedded.");
+            }
+            e1_ = solver.eigenvectors().col(2);
+            e2_ = solver.eigenvectors().col(1);
+            pass_ = Pass::Moments;
+            break;
+        }
+        case Pass::Moments:
+            if (moment1_ < 0.0)
+            {
+                e1_ = -e1_;
+            }
+            if (moment2_ < 0.0)
+            {
+                e2_ = -e2_;
+            }
+            frame_.axes.row(0) = e1_.transpose();
+            frame_.axes.row(1) = e2_.transpose();
+            frame_.axes.row(2) = e1_.cross(e2_).normalized().transpose();
+            lo_ = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+            hi_ = -lo_;
+            pass_ = Pass::Extent;
+            break;
+        case Pass::Extent:
+            frame_.diagonal = (hi_ - lo_).norm();
+            pass_ = Pass::Done;
+            break;
+        case Pass::Done:
+            break;
+    }
+}
+
 CanonicalFrame canonical_frame(const Positions& V, const std::vector<std::int32_t>& rows)
 {
-    if (rows.empty())
+    CanonicalFrameBuilder builder;
+    while (builder.pass() != CanonicalFrameBuilder::Pass::Done)
     {
-        throw NumericalError("the mesh has no vertex to analyse.");
+        for (const auto i : rows)
+        {
+            builder.add(V.row(i).transpose());
+        }
+        builder.next_pass();
     }
-    CanonicalFrame frame;
-    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-    for (const auto i : rows)
-    {
-        sum += V.row(i).transpose();
-    }
-    frame.origin = sum / static_cast<double>(rows.size());
-    Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
-    for (const auto i : rows)
-    {
-        const Eigen::Vector3d p = V.row(i).transpose() - frame.origin;
-        covariance += p * p.transpose();
-    }
-    covariance /= static_cast<double>(rows.size());
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(covariance);
-    const Eigen::Vector3d eigenvalues = solver.eigenvalues();  // ascending
-    if (!(eigenvalues(2) > 0.0) || eigenvalues(1) <= kCollinearTolerance * eigenvalues(2))
-    {
-        throw NumericalError("the vertices are all collinear or coincident, so the RBF Gram matrix "
-                             "is degenerate and no watermark can be embedded.");
-    }
-    Eigen::Vector3d e1 = solver.eigenvectors().col(2);
-    Eigen::Vector3d e2 = solver.eigenvectors().col(1);
-    if (third_moment(V, rows, frame.origin, e1) < 0.0)
-    {
-        e1 = -e1;
-    }
-    if (third_moment(V, rows, frame.origin, e2) < 0.0)
-    {
-        e2 = -e2;
-    }
-    frame.axes.row(0) = e1.transpose();
-    frame.axes.row(1) = e2.transpose();
-    frame.axes.row(2) = e1.cross(e2).normalized().transpose();
-    Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
-    Eigen::Vector3d hi = -lo;
-    for (const auto i : rows)
-    {
-        const Eigen::Vector3d q = frame.axes * (V.row(i).transpose() - frame.origin);
-        lo = lo.cwiseMin(q);
-        hi = hi.cwiseMax(q);
-    }
-    frame.diagonal = (hi - lo).norm();
-    return frame;
+    return builder.frame();
+}
+
+void DisplacementSummary::add(const double* d) noexcept
+{
+    const double sq = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+    max_squared = std::max(max_squared, sq);
+    sum_squared += sq;
+    ++rows;
 }
 
 void DetectOptions::validate() const
@@ -319,7 +364,36 @@ SpectralWatermark::SpectralWatermark(const TriangleMesh& original, const Key& ke
     const double sigma = key_.options.sigma_factor * frame_.diagonal / 2.0;
     const auto analysed = static_cast<double>(active.size());
     basis_.emplace(original.V, std::move(active), centers_, sigma, frame_.origin, threads);
+    init_modulation(analysed);
+}
 
+SpectralWatermark::SpectralWatermark(const Key& key, CanonicalFrame frame, std::vector<std::int32_t> centers,
+                                     RbfBasis basis, std::size_t analysed_rows)
+    : original_(nullptr), key_(key), frame_(std::move(frame)), centers_(std::move(centers)), threads_(0)
+{
+    key_.options.validate();
+    const int bit_count = payload_bit_count(key_.options);
+    if (static_cast<int>(key_.payload.size()) != bit_count)
+    {
+        throw InvalidOption("the payload has " + std::to_string(key_.payload.size()) +
+                            " bits, but the key's parameters need " + std::to_string(bit_count) + ".");
+    }
+    basis_.emplace(std::move(basis));
+    init_modulation(static_cast<double>(analysed_rows));
+}
+
+void SpectralWatermark::require_original(const char* what) const
+{
+    if (original_ == nullptr)
+    {
+        throw InvalidOption(std::string("SpectralWatermark: ") + what +
+                            " needs the original mesh in memory, but this watermark was built from a stream.");
+    }
+}
+
+void SpectralWatermark::init_modulation(double analysed)
+{
+    const int bit_count = payload_bit_count(key_.options);
     // Payload -> key-masked signs b': coefficient c = 3 * mode + axis carries payload bit
     // c mod 3m, with its own mask bit, so the r copies of a bit get independent signs.
     const int modes = modulated_modes(key_.options);
@@ -352,32 +426,42 @@ SpectralWatermark::SpectralWatermark(const TriangleMesh& original, const Key& ke
     }
 }
 
-Positions SpectralWatermark::displacement(EmbedStats* stats) const
+Eigen::MatrixX3d SpectralWatermark::coefficient_change() const
 {
-    // Coefficient change (canonical frame) -> file axes -> synthesis U_m (beta - alpha).
+    // Coefficient change (canonical frame) -> file axes.
     const int first = key_.options.first_mode;
     Eigen::MatrixX3d change = Eigen::MatrixX3d::Zero(first + signs_.rows(), 3);
     change.bottomRows(signs_.rows()) = signs_.cwiseProduct(modulation_) * frame_.axes;
+    return change;
+}
+
+void SpectralWatermark::describe(const DisplacementSummary& summary, double aabb_diagonal,
+                                 double orthogonality_error, EmbedStats* stats) const
+{
+    stats->max_displacement_rel = std::sqrt(summary.max_squared) / aabb_diagonal;
+    stats->rms_displacement_rel = std::sqrt(summary.sum_squared / static_cast<double>(summary.rows)) / aabb_diagonal;
+    stats->orthogonality_error = orthogonality_error;
+    stats->modulation_step = key_.options.rule == EmbeddingRule::Additive ? modulation_(0, 0) : 0.0;
+    stats->weak_bits = weak_bits_;
+    stats->analysed_vertices = static_cast<int>(summary.rows);
+}
+
+Positions SpectralWatermark::displacement(EmbedStats* stats) const
+{
+    require_original("displacement");
+    // Synthesis U_m (beta - alpha) of the coefficient change.
     double orthogonality = 0.0;
-    Positions field = basis_->synthesize(change, &orthogonality);
+    Positions field = basis_->synthesize(coefficient_change(), &orthogonality);
     if (stats != nullptr)
     {
         const auto& rows = basis_->active_rows();
         const double aabb = bounding_box(original_->V, rows).diagonal();
-        double max_sq = 0.0;
-        double sum_sq = 0.0;
+        DisplacementSummary summary;
         for (const auto i : rows)
         {
-            const double sq = field.row(i).squaredNorm();
-            max_sq = std::max(max_sq, sq);
-            sum_sq += sq;
+            summary.add(field.data() + 3 * static_cast<std::size_t>(i));
         }
-        stats->max_displacement_rel = std::sqrt(max_sq) / aabb;
-        stats->rms_displacement_rel = std::sqrt(sum_sq / static_cast<double>(rows.size())) / aabb;
-        stats->orthogonality_error = orthogonality;
-        stats->modulation_step = key_.options.rule == EmbeddingRule::Additive ? modulation_(0, 0) : 0.0;
-        stats->weak_bits = weak_bits_;
-        stats->analysed_vertices = static_cast<int>(rows.size());
+        describe(summary, aabb, orthogonality, stats);
     }
     return field;
 }
@@ -421,6 +505,7 @@ Extraction SpectralWatermark::extraction_from(const Eigen::VectorXd& normalized,
 Extraction SpectralWatermark::extract(const Positions& suspect, const DetectOptions& options,
                                       const std::vector<std::uint8_t>* is_kept) const
 {
+    require_original("extraction");
     options.validate();
     if (suspect.rows() != original_->V.rows())
     {
@@ -486,6 +571,7 @@ Extraction SpectralWatermark::extract(const Positions& suspect, const DetectOpti
 Extraction SpectralWatermark::extract_resampled(const Positions& resampled, const DetectOptions& options,
                                                 const std::vector<std::uint8_t>* is_kept) const
 {
+    require_original("extraction");
     options.validate();
     if (resampled.rows() != original_->V.rows())
     {

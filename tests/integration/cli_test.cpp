@@ -102,6 +102,53 @@ TEST_F(CliTest, embed_then_detect_reports_json_and_exit_codes)
     EXPECT_FALSE(nlohmann::json::parse(r.out)["detected"].get<bool>());
 }
 
+TEST_F(CliTest, memory_budget_streams_a_binary_ply_to_the_same_bytes)
+{
+    const auto memory = dir_ / "memory.ply";
+    const auto streamed = dir_ / "streamed.ply";
+    const std::string common = " --message hello --seed 12 --json";
+    CliRun r = run("embed " + original_.string() + " -o " + memory.string() + " --key " +
+                       (dir_ / "memory.json").string() + common,
+                   dir_);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_FALSE(nlohmann::json::parse(r.out)["streamed"].get<bool>());
+    r = run("embed " + original_.string() + " -o " + streamed.string() + " --key " +
+                (dir_ / "streamed.json").string() + common + " --memory-budget 1",
+            dir_);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const auto j = nlohmann::json::parse(r.out);
+    EXPECT_TRUE(j["streamed"].get<bool>());
+    for (const char* phase : {"scan", "frame", "basis", "write", "total"})
+    {
+        EXPECT_TRUE(j["seconds"].contains(phase)) << phase;
+    }
+    EXPECT_TRUE(slurp(memory) == slurp(streamed));
+    EXPECT_EQ(slurp(dir_ / "memory.json"), slurp(dir_ / "streamed.json"));
+    r = run("detect " + streamed.string() + " --original " + original_.string() + " --key " +
+                (dir_ / "streamed.json").string(),
+            dir_);
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+
+    // An ASCII PLY: embedded in memory with a note under a budget, a usage error with --stream.
+    const auto ascii = dir_ / "ascii.ply";
+    WriteOptions text;
+    text.is_binary = false;
+    write_mesh(ascii, lumpy_ellipsoid(4), text);
+    r = run("embed " + ascii.string() + " -o " + (dir_ / "a.ply").string() + " --key " + (dir_ / "a.json").string() +
+                common + " --memory-budget 1",
+            dir_);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_FALSE(nlohmann::json::parse(r.out)["streamed"].get<bool>());
+    EXPECT_NE(r.err.find("cannot be streamed"), std::string::npos) << r.err;
+    r = run("embed " + ascii.string() + " -o " + (dir_ / "b.ply").string() + " --key " + (dir_ / "b.json").string() +
+                common + " --stream",
+            dir_);
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    EXPECT_NE(r.err.find("ASCII"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(dir_ / "b.ply"));
+    EXPECT_FALSE(fs::exists(dir_ / "b.json"));
+}
+
 TEST_F(CliTest, detects_attacked_copies_and_never_the_same_attacks_on_the_original)
 {
     const auto marked = dir_ / "marked.ply";

@@ -1,9 +1,11 @@
 // SPDX-License-Identifier: MIT
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <span>
+#include <memory>
 #include <string_view>
 #include <vector>
 
@@ -65,6 +67,35 @@ void set_basis_kernel(BasisKernel kernel) noexcept;
                                                        const std::vector<std::int32_t>& active,
                                                        int k, std::uint64_t seed);
 
+/// \brief random_centers over an abstract pool: \p count active rows, the i-th being
+/// \p row_at(i), with positions \p position_of(row). Same draws, same result as the overload
+/// above for row_at(i) = active[i]; the pool is shuffled sparsely (O(k) memory), so an
+/// out-of-core caller needs neither the active list nor the positions in memory.
+[[nodiscard]] std::vector<std::int32_t> random_centers(
+    std::size_t count, const std::function<std::int32_t(std::size_t)>& row_at,
+    const std::function<std::array<double, 3>(std::int32_t)>& position_of, int k, std::uint64_t seed);
+
+/// \brief One thread's sequential reader of active-row positions (see RowPositionSource).
+class RowPositionCursor
+{
+public:
+    virtual ~RowPositionCursor() = default;
+    /// The x, y, z of the next \p count active rows (file frame), into \p xyz (3 per row).
+    virtual void read(std::size_t count, double* xyz) = 0;
+};
+
+/// \brief Positions of the active rows for the streamed passes of RbfBasis (e.g. a file read in
+/// chunks). Must deliver exactly the values the in-memory positions would hold.
+class RowPositionSource
+{
+public:
+    virtual ~RowPositionSource() = default;
+    /// Number of active rows.
+    [[nodiscard]] virtual std::size_t size() const = 0;
+    /// A cursor at active row \p begin, for use by one thread.
+    [[nodiscard]] virtual std::unique_ptr<RowPositionCursor> cursor(std::size_t begin) const = 0;
+};
+
 /// \brief The orthogonalized RBF basis of a mesh [Wu & Kobbelt 2005], never materialized.
 /// \details With B_ij = phi(|p_i - q_j| / sigma) over the active rows (n x k), the Gram matrix
 /// G = B^T B = V W^2 V^T is accumulated in row blocks (pass 1), and the orthonormal basis is
@@ -89,6 +120,28 @@ public:
     /// \throws InvalidOption on empty inputs or sigma <= 0.
     RbfBasis(const Positions& V, std::vector<std::int32_t> active, std::vector<std::int32_t> centers,
              double sigma, const Eigen::Vector3d& origin, int threads);
+
+    /// \brief Build the basis from streamed positions (out-of-core): bit-identical to the
+    /// constructor above for the same active rows, centers and origin. A basis built this way
+    /// holds no positions: only position_coefficients(), synthesize_streamed() and the
+    /// accessors may be used (the rest throw InvalidOption).
+    /// \param center_positions  k x 3 positions of the centers (file frame), in draw order.
+    RbfBasis(const RowPositionSource& source, const Eigen::MatrixX3d& center_positions, double sigma,
+             const Eigen::Vector3d& origin, int threads);
+
+    /// Receives a synthesized field in row order: \p rows rows from active row \p begin,
+    /// 3 doubles per row.
+    using FieldSink = std::function<void(std::size_t begin, std::size_t rows, const double* field)>;
+
+    /// \brief synthesize() over streamed positions: the same field, bit for bit, delivered to
+    /// \p sink chunk by chunk in row order instead of as a #V x 3 array. At most
+    /// \p chunks_in_flight chunks (>= 1) are buffered at once (they run in parallel).
+    void synthesize_streamed(const Eigen::MatrixX3d& c, const RowPositionSource& source,
+                             std::size_t chunks_in_flight, const FieldSink& sink,
+                             double* orthogonality_error = nullptr) const;
+
+    /// Largest number of rows in one chunk of the passes (the unit synthesize_streamed buffers).
+    [[nodiscard]] std::size_t max_chunk_rows() const noexcept;
 
     [[nodiscard]] int size() const noexcept { return static_cast<int>(center_positions_.rows()); }
     [[nodiscard]] const std::vector<std::int32_t>& active_rows() const noexcept { return active_; }
@@ -164,8 +217,15 @@ private:
         std::size_t begin;
         std::size_t end;
     };
+    // Common part of the constructors: centers, chunks, pass 1, eigen-decomposition.
+    void build(const Eigen::MatrixX3d& center_positions, const RowPositionSource* rows_source);
+    // Positions of the passes: source when not null, else V_ at active_.
     template <class BlockFn>
-    void for_each_block(const BlockFn& fn) const;
+    void for_each_block(const BlockFn& fn, const RowPositionSource* source = nullptr,
+                        std::size_t first_chunk = 0, std::size_t last_chunk = SIZE_MAX) const;
+    void require_positions(const char* what) const;
+    [[nodiscard]] double orthogonality(const Eigen::MatrixXd& T, const Eigen::MatrixX3d& c,
+                                       const std::vector<std::vector<double>>& parts) const;
     [[nodiscard]] Eigen::MatrixXd mode_transform(int modes) const;  // V_m W_m^-1, k x m
     // k x k Gram matrix from the lower triangle of a stride_ x stride_ block-layout sum.
     [[nodiscard]] Eigen::MatrixXd unpack_gram(const std::vector<double>& total) const;
@@ -174,6 +234,7 @@ private:
 
     const Positions* V_;
     std::vector<std::int32_t> active_;
+    std::size_t row_count_ = 0;  // active rows (active_.size() unless streamed)
     Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> center_positions_;  // minus origin
     const detail::BlockKernels* kernels_;
     std::size_t padded_k_;      // k rounded up to a multiple of 4

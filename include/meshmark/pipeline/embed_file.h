@@ -34,6 +34,12 @@ struct EmbedFileOptions
     std::optional<std::uint64_t> seed;    ///< Secret seed; drawn from the OS when absent.
     int threads = 0;                      ///< 0 = all cores.
     bool force = false;                   ///< Allow replacing an existing key file.
+    /// \brief Memory budget in MiB, 0 = none. When the in-memory embed of a binary PLY would
+    /// need more, the file is embedded out of core (streamed in chunks, same output bytes);
+    /// an input that cannot be streamed is then embedded in memory anyway.
+    std::int64_t memory_budget_mib = 0;
+    /// Always embed out of core; an input that cannot be streamed is an error (InvalidOption).
+    bool force_stream = false;
     ProgressCallback progress;            ///< Optional.
     /// \throws InvalidOption on conflicting or out-of-range options.
     void validate() const;
@@ -49,6 +55,8 @@ struct EmbedReport
     std::int64_t vertex_count = 0;
     std::int64_t face_count = 0;
     PhaseTimings seconds;
+    bool streamed = false;     ///< Embedded out of core.
+    std::string stream_note;  ///< Why a budget-exceeding input was embedded in memory anyway.
 };
 
 /// \brief Watermark a mesh file end to end: read -> basis -> embed -> write mesh and key.

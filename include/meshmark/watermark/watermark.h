@@ -31,6 +31,44 @@ struct CanonicalFrame
 /// \throws NumericalError if the vertices coincide or are collinear (no 2D extent).
 [[nodiscard]] CanonicalFrame canonical_frame(const Positions& V, const std::vector<std::int32_t>& rows);
 
+/// \brief canonical_frame() in four passes over the rows, for callers that stream positions
+/// (out-of-core embedding). canonical_frame() runs on this builder, so the same positions fed
+/// in the same order give the same frame, bit for bit.
+/// \details Each pass feeds every row with add(), then next_pass(): centroid, covariance (axes),
+/// third moments (axis signs), extent in the principal axes (diagonal D); then frame().
+class CanonicalFrameBuilder
+{
+public:
+    enum class Pass
+    {
+        Centroid,
+        Covariance,
+        Moments,
+        Extent,
+        Done,
+    };
+    [[nodiscard]] Pass pass() const noexcept { return pass_; }
+    /// Feed one row's position to the current pass.
+    void add(const Eigen::Vector3d& p);
+    /// End the current pass. \throws NumericalError (no rows, collinear or coincident rows).
+    void next_pass();
+    /// The frame, once all four passes are done.
+    [[nodiscard]] const CanonicalFrame& frame() const noexcept { return frame_; }
+
+private:
+    Pass pass_ = Pass::Centroid;
+    std::size_t rows_ = 0;
+    Eigen::Vector3d sum_ = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d covariance_ = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d e1_ = Eigen::Vector3d::Zero();
+    Eigen::Vector3d e2_ = Eigen::Vector3d::Zero();
+    double moment1_ = 0.0;
+    double moment2_ = 0.0;
+    Eigen::Vector3d lo_ = Eigen::Vector3d::Zero();
+    Eigen::Vector3d hi_ = Eigen::Vector3d::Zero();
+    CanonicalFrame frame_;
+};
+
 /// What an extraction read from a suspect.
 struct Extraction
 {
@@ -127,6 +165,17 @@ struct EmbedStats
     int analysed_vertices = 0;
 };
 
+/// \brief Running maximum and sum of the squared row displacements (rows in order), as
+/// SpectralWatermark::displacement() accumulates them for EmbedStats.
+struct DisplacementSummary
+{
+    double max_squared = 0.0;
+    double sum_squared = 0.0;
+    std::size_t rows = 0;
+    /// One row's displacement (x, y, z).
+    void add(const double* d) noexcept;
+};
+
 /// \brief A watermark as defined by (original mesh, key): the basis and modulation, built
 /// once and used for embedding, regeneration of the watermarked mesh, and extraction.
 /// \details Centers are drawn from the key's seed among the referenced vertices (all vertices
@@ -139,6 +188,22 @@ public:
     /// \throws InvalidOption (bad key options), InvalidMesh (too few distinct vertices),
     /// NumericalError (degenerate geometry or Gram matrix).
     SpectralWatermark(const TriangleMesh& original, const Key& key, int threads = 0);
+
+    /// \brief For embedding out of core: a watermark from its parts, computed by the caller
+    /// exactly as the constructor above computes them (frame of the referenced rows, keyed
+    /// centers, basis over \p analysed_rows rows). Only embedding queries are available:
+    /// coefficient_change(), describe(), the accessors; displacement() and extraction throw.
+    SpectralWatermark(const Key& key, CanonicalFrame frame, std::vector<std::int32_t> centers,
+                      RbfBasis basis, std::size_t analysed_rows);
+
+    /// Coefficient change beta - alpha in file axes (first_mode + m r rows, zero above): what
+    /// displacement() synthesizes.
+    [[nodiscard]] Eigen::MatrixX3d coefficient_change() const;
+
+    /// \brief EmbedStats of a synthesized field from its summary, as displacement() fills them.
+    /// \param aabb_diagonal  Axis-aligned bbox diagonal of the analysed rows.
+    void describe(const DisplacementSummary& summary, double aabb_diagonal, double orthogonality_error,
+                  EmbedStats* stats) const;
 
     [[nodiscard]] const Key& key() const noexcept { return key_; }
     [[nodiscard]] const CanonicalFrame& frame() const noexcept { return frame_; }
@@ -182,6 +247,8 @@ private:
         std::vector<Eigen::MatrixX3d> responses;  ///< U_r^T N_q per nuisance field (r x 3).
     };
     [[nodiscard]] const NuisanceModel& nuisance_model() const;
+    void init_modulation(double analysed);
+    void require_original(const char* what) const;
     [[nodiscard]] Extraction extraction_from(const Eigen::VectorXd& normalized, const Eigen::VectorXd& variances,
                                              const DetectOptions& options) const;
 

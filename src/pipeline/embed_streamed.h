@@ -1,0 +1,45 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <string>
+
+#include "meshmark/pipeline/embed_file.h"
+
+namespace meshmark::detail {
+
+/// \brief Stage \p key next to \p key_path, run \p write_mesh (which writes the mesh
+/// atomically), then move the key into place: both files or neither (see embed_file).
+void write_mesh_and_key(const std::filesystem::path& key_path, const Key& key,
+                        const std::function<void()>& write_mesh);
+
+/// \brief Why \p input cannot be embedded out of core into \p output, or empty when it can:
+/// a binary PLY (either byte order) whose vertex element has no list property and follows only
+/// fixed-size elements, written to a .ply. Reads the header only.
+/// \throws IoError when the file cannot be read or its header is malformed.
+[[nodiscard]] std::string stream_refusal(const std::filesystem::path& input, const std::filesystem::path& output);
+
+/// \brief Memory the in-memory embed of \p input would need, in bytes (estimate from the file
+/// size and the header's counts: the file, positions and field, triangles, row lists).
+[[nodiscard]] std::uint64_t in_memory_embed_bytes(const std::filesystem::path& input);
+
+/// Tuning of the out-of-core embed (tests shrink the window to force many reads).
+struct StreamTuning
+{
+    std::size_t window_bytes = std::size_t{1} << 20U;  ///< Bytes per read of a vertex pass.
+};
+
+/// \brief Out-of-core embed_file: the same output and key files, byte for byte, as the
+/// in-memory path for the same input, seed and options, with memory O(#V bytes + k^2) plus
+/// a few chunks of the passes (see docs/performance.md, "Out of core").
+/// \details Paths are checked and the key is staged by the caller's rules (embed_file);
+/// \p key.seed, options and payload are given, the fingerprint is computed here.
+/// \pre stream_refusal(input, output) is empty.
+EmbedReport embed_file_streamed(const std::filesystem::path& input, const std::filesystem::path& output,
+                                const std::filesystem::path& key_path, Key key,
+                                const EmbedFileOptions& options, const StreamTuning& tuning = {});
+
+}  // namespace meshmark::detail
