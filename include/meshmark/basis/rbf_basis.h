@@ -7,6 +7,7 @@
 
 #include <Eigen/Core>
 
+#include "meshmark/basis/spectral_basis.h"
 #include "meshmark/core/triangle_mesh.h"
 
 namespace meshmark {
@@ -73,7 +74,7 @@ void set_basis_kernel(BasisKernel kernel) noexcept;
 /// positive sum over the vertices (1^T U_j > 0), falling back to a positive largest component.
 /// All arithmetic happens in the frame centered at \p origin (the caller passes the centroid),
 /// which keeps it independent of where the model sits.
-class RbfBasis
+class RbfBasis final : public SpectralBasis
 {
 public:
     /// \brief Build the basis: pass 1 over the active rows (Gram matrix, B^T 1, B^T (P - o)),
@@ -88,8 +89,8 @@ public:
     RbfBasis(const Positions& V, std::vector<std::int32_t> active, std::vector<std::int32_t> centers,
              double sigma, const Eigen::Vector3d& origin, int threads);
 
-    [[nodiscard]] int size() const noexcept { return static_cast<int>(center_positions_.rows()); }
-    [[nodiscard]] const std::vector<std::int32_t>& active_rows() const noexcept { return active_; }
+    [[nodiscard]] int size() const noexcept override { return static_cast<int>(center_positions_.rows()); }
+    [[nodiscard]] const std::vector<std::int32_t>& active_rows() const noexcept override { return active_; }
     [[nodiscard]] double sigma() const noexcept { return sigma_; }
     /// Singular values of B (k, descending): W in G = V W^2 V^T.
     [[nodiscard]] const Eigen::VectorXd& singular_values() const noexcept { return singular_values_; }
@@ -101,19 +102,19 @@ public:
     [[nodiscard]] std::string_view kernel_name() const noexcept;
 
     /// \brief Spectral coefficients of the positions, alpha = U^T (P - o) (k x 3), frame axes.
-    [[nodiscard]] Eigen::MatrixX3d position_coefficients() const;
+    [[nodiscard]] Eigen::MatrixX3d position_coefficients() const override;
 
     /// \brief Leading-mode projection U_m^T X over the active rows (m x 3).
     /// \param X  #V x 3 (inactive rows ignored), e.g. a displacement field.
-    [[nodiscard]] Eigen::MatrixX3d project(const Positions& X, int modes) const;
+    [[nodiscard]] Eigen::MatrixX3d project(const Positions& X, int modes) const override;
 
     /// \brief Leading-mode projections of several fields in one pass (each modes x 3).
     [[nodiscard]] std::vector<Eigen::MatrixX3d> project(const std::vector<Positions>& fields,
-                                                        int modes) const;
+                                                        int modes) const override;
 
     /// \brief Number of leading modes whose eigenvalue W_j^2 exceeds \p relative_tolerance
     /// times the largest: the modes whose projections are numerically trustworthy.
-    [[nodiscard]] int well_conditioned_modes(double relative_tolerance) const;
+    [[nodiscard]] int well_conditioned_modes(double relative_tolerance) const override;
 
     /// \brief Least-squares coefficients of the leading modes over a subset of rows.
     /// \details Minimizes |U_m,S c - X_S| over the rows S of the active set with
@@ -122,7 +123,7 @@ public:
     /// \throws NumericalError if the kept rows cannot determine the coefficients.
     [[nodiscard]] Eigen::MatrixX3d project_least_squares(const Positions& X,
                                                          const std::vector<std::uint8_t>& is_kept,
-                                                         int modes) const;
+                                                         int modes) const override;
 
     /// \brief Synthesis U_m c (#V x 3, zero on inactive rows) of the first c.rows() modes.
     /// \param orthogonality_error  If not null, receives a bound on the departure from
@@ -134,11 +135,11 @@ public:
     ///        cheap as the synthesis itself). The round trip equals (U_m^T U_m - I) c, so it
     ///        catches any error of the pass that the k x k check cannot see.
     [[nodiscard]] Positions synthesize(const Eigen::MatrixX3d& c,
-                                       double* orthogonality_error = nullptr) const;
+                                       double* orthogonality_error = nullptr) const override;
 
     /// \brief The first \p modes columns of U, explicitly (#active x modes). For tests and
     /// small meshes only: this is exactly what the streaming passes avoid.
-    [[nodiscard]] Eigen::MatrixXd modes_dense(int modes) const;
+    [[nodiscard]] Eigen::MatrixXd modes_dense(int modes) const override;
 
 private:
     struct Chunk
