@@ -38,6 +38,24 @@ void check_paths(const std::filesystem::path& input, const std::filesystem::path
 
 }  // namespace
 
+void check_basis_input(const TriangleMesh& mesh, const EmbedOptions& options, const std::filesystem::path& path)
+{
+    if (!mesh.is_point_cloud())
+    {
+        return;
+    }
+    if (options.basis == BasisType::Laplacian)
+    {
+        throw InvalidMesh(path.string() + ": the Laplacian basis needs triangles, but this file is a "
+                          "point cloud (no faces); use --basis rbf.");
+    }
+    if (options.centers == CenterSelection::Decimate)
+    {
+        throw InvalidMesh(path.string() + ": decimated centers need triangles, but this file is a "
+                          "point cloud (no faces); use --centers random.");
+    }
+}
+
 void EmbedFileOptions::validate() const
 {
     embed.validate();
@@ -89,6 +107,7 @@ EmbedReport embed_file(const std::filesystem::path& input, const std::filesystem
         key.payload = random_payload(key.seed, bits);
     }
     key.original = fingerprint(file.mesh);
+    check_basis_input(file.mesh, key.options, input);
 
     // Basis (pass 1 + eigen-decomposition) -> synthesis of the displacement (pass 2).
     const SpectralWatermark mark(file.mesh, key, options.threads);
