@@ -16,8 +16,10 @@ namespace meshmark
 /// repeat positions; two centers at one position would make the Gram matrix singular), then
 /// decimated with meshoptimizer's quadric simplifier (meshopt_simplify), which only removes
 /// vertices and keeps the survivors' indices. Passes remove half of the remaining excess each,
-/// the last ones one collapse at a time, so the count lands exactly on k. Deterministic (no
-/// seed: the same mesh always gives the same centers); single-threaded.
+/// the last ones one collapse at a time, so the count lands on k. Should the collapses stop
+/// at most 16 vertices above k (no collapse left, or one that would remove two vertices at
+/// once), the survivors of highest index are dropped. Deterministic (no seed: the same mesh
+/// always gives the same centers); single-threaded.
 /// \param mesh    Triangle mesh (faces required).
 /// \param active  Rows taking part (sorted, unique).
 /// \param k       Number of centers, >= 1.

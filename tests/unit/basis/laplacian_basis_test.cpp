@@ -154,6 +154,17 @@ TEST(LaplacianBasisTest, queries_agree_with_the_dense_modes_and_skip_inactive_ro
     EXPECT_THROW((void)basis.project(field, 31), InvalidOption);
 }
 
+TEST(LaplacianBasisTest, two_builds_are_bit_identical)
+{
+    // Embedding and detection rebuild the basis from the original: it must not vary.
+    const TriangleMesh mesh = lumpy_ellipsoid(3);
+    const auto rows = referenced_vertices(mesh);
+    const LaplacianBasis a(mesh, rows, centroid(mesh), {.modes = 20});
+    const LaplacianBasis b(mesh, rows, centroid(mesh), {.modes = 20});
+    EXPECT_EQ(a.eigenvalues(), b.eigenvalues());
+    EXPECT_EQ(a.eigenvectors(), b.eigenvectors());
+}
+
 TEST(LaplacianBasisTest, point_clouds_and_tiny_meshes_are_refused)
 {
     TriangleMesh cloud = icosphere(1);
