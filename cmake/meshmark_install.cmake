@@ -18,6 +18,8 @@ function(meshmark_package_dependencies targets out_var)
     if(NOT libraries)
       continue()
     endif()
+    # Build-only dependencies (header-only libraries used in sources) are not the consumer's.
+    string(REGEX REPLACE "\\$<BUILD_INTERFACE:[^>]*>" "" libraries "${libraries}")
     string(REGEX MATCHALL "[A-Za-z0-9_]+::" found "${libraries}")
     list(APPEND namespaces ${found})
   endforeach()
@@ -113,6 +115,7 @@ function(meshmark_install modules)
     COMPATIBILITY SameMinorVersion)
   install(FILES ${PROJECT_BINARY_DIR}/meshmarkConfig.cmake
                 ${PROJECT_BINARY_DIR}/meshmarkConfigVersion.cmake
+                ${PROJECT_SOURCE_DIR}/cmake/FindCHOLMOD.cmake
           DESTINATION ${MESHMARK_INSTALL_CMAKEDIR}
           COMPONENT meshmark_development)
 

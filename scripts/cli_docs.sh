@@ -8,7 +8,7 @@ m=build/bin/meshmark
   echo
   echo "Generated from \`meshmark ... --help\` (regenerate with \`scripts/cli_docs.sh\`). The contract other programs rely on (exit codes, \`--json\` fields, the attack grammar) is in DESIGN.md, \"Command line\"."
   echo
-  for c in "" demo embed detect attack compare bench "bench speed" "bench robustness"; do
+  for c in "" demo embed detect attack compare bench "bench speed" "bench robustness" "bench approximation"; do
     echo "## meshmark $c"; echo; echo '```'; $m $c --help; echo '```'; echo
   done
 } > docs/cli.md

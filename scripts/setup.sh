@@ -12,6 +12,8 @@ packages=(
   libcgal-dev libgmp-dev libmpfr-dev libboost-dev  # simplification, remeshing, subdivision
   libmeshoptimizer-dev   # fast simplification
   libtinygltf-dev libstb-dev libdraco-dev lib3mf-dev  # glTF/GLB (+ Draco) and 3MF files
+  libspectra-dev         # Laplacian eigenbasis baseline: shift-invert Lanczos (header-only)
+  libsuitesparse-dev     # CHOLMOD sparse Cholesky for the Laplacian eigenbasis
   libgtest-dev libgmock-dev googletest              # tests
   libbenchmark-dev       # micro-benchmarks
 )

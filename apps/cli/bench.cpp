@@ -43,6 +43,8 @@ namespace fs = std::filesystem;
 struct BenchSpeedArgs
 {
     std::string mesh_dir;
+    std::vector<std::string> meshes;
+    std::vector<std::string> bases{"rbf"};
     std::vector<std::int64_t> sizes{10'000, 100'000, 1'000'000};
     std::string work_dir;
     int repeat = 1;
@@ -192,18 +194,19 @@ double phase(const nlohmann::json& report, const char* name)
     return 0.0;
 }
 
-nlohmann::json bench_case(const fs::path& program, const Case& c, const fs::path& work,
+nlohmann::json bench_case(const fs::path& program, const Case& c, const std::string& basis, const fs::path& work,
                           const BenchSpeedArgs& args, const GlobalArgs& global)
 {
-    const fs::path output = work / ("marked-" + c.input.stem().string() + c.input.extension().string());
-    const fs::path key = work / ("key-" + c.input.stem().string() + ".json");
+    const fs::path output =
+        work / ("marked-" + basis + "-" + c.input.stem().string() + c.input.extension().string());
+    const fs::path key = work / ("key-" + basis + "-" + c.input.stem().string() + ".json");
     const std::string threads = std::to_string(global.threads);
     std::optional<ChildRun> best;
     for (int r = 0; r < args.repeat; ++r)
     {
         ChildRun run = run_child(program, {"embed", c.input.string(), "-o", output.string(), "--key",
                                            key.string(), "--seed", "20261122", "--force", "--json",
-                                           "-q", "--threads", threads});
+                                           "-q", "--threads", threads, "--basis", basis});
         if (run.exit_code != 0)
         {
             best = std::move(run);
@@ -214,7 +217,8 @@ nlohmann::json bench_case(const fs::path& program, const Case& c, const fs::path
             best = std::move(run);
         }
     }
-    nlohmann::json row = {{"mesh", c.name}, {"input", c.input.string()}, {"threads", global.threads}};
+    nlohmann::json row = {
+        {"mesh", c.name}, {"input", c.input.string()}, {"basis", basis}, {"threads", global.threads}};
     row["embed_exit_code"] = best->exit_code;
     if (best->exit_code != 0)
     {
@@ -240,6 +244,7 @@ nlohmann::json bench_case(const fs::path& program, const Case& c, const fs::path
         {
             row["detect_seconds"] = detect.report["seconds"];
             row["detect_peak_mib"] = detect.peak_mib;
+            row["detect_cpu_seconds"] = detect.cpu_seconds;
             row["correlation"] = detect.report.value("correlation", 0.0);
         }
     }
@@ -252,21 +257,61 @@ nlohmann::json bench_case(const fs::path& program, const Case& c, const fs::path
     return row;
 }
 
+// Per mesh timed with several bases: each basis against the first one of --basis.
+void print_ratios(const std::vector<nlohmann::json>& rows)
+{
+    bool has_header = false;
+    for (const auto& base : rows)
+    {
+        if (base.value("embed_exit_code", -1) != 0)
+        {
+            continue;
+        }
+        for (const auto& other : rows)
+        {
+            if (&other == &base || other["mesh"] != base["mesh"] || other.value("embed_exit_code", -1) != 0 ||
+                base["basis"] != rows.front()["basis"] || other["basis"] == base["basis"])
+            {
+                continue;
+            }
+            if (!has_header)
+            {
+                std::printf("\n%-24s %-21s %9s %9s %9s %9s %9s\n", "mesh", "ratio", "basis s", "total s",
+                            "cpu s", "peak MB", "detect s");
+                has_header = true;
+            }
+            const auto ratio = [&](double a, double b) { return b > 0.0 ? a / b : 0.0; };
+            const auto get = [](const nlohmann::json& o, const char* k) { return o.value(k, 0.0); };
+            const auto detect = [&](const nlohmann::json& r) {
+                return r.contains("detect_seconds") ? get(r["detect_seconds"], "total") : 0.0;
+            };
+            const std::string name = other["basis"].get<std::string>() + " / " + base["basis"].get<std::string>();
+            std::printf("%-24s %-21s %9.1f %9.1f %9.1f %9.2f %9.1f\n", base["mesh"].get<std::string>().c_str(),
+                        name.c_str(), ratio(get(other["embed_seconds"], "basis"), get(base["embed_seconds"], "basis")),
+                        ratio(get(other["embed_seconds"], "total"), get(base["embed_seconds"], "total")),
+                        ratio(get(other, "embed_cpu_seconds"), get(base, "embed_cpu_seconds")),
+                        ratio(get(other, "embed_peak_mib"), get(base, "embed_peak_mib")),
+                        ratio(detect(other), detect(base)));
+        }
+    }
+}
+
 void print_table(const std::vector<nlohmann::json>& rows)
 {
-    std::printf("%-24s %9s %7s %7s %7s %7s %7s %7s %8s %8s %8s %8s %s\n", "mesh", "vertices", "read", "basis",
-                "embed", "write", "total", "cpu", "us/vert", "peak MB", "detect", "det. MB", "found");
+    std::printf("%-24s %-9s %9s %7s %7s %7s %7s %7s %7s %8s %8s %8s %8s %s\n", "mesh", "basis", "vertices", "read",
+                "basis", "embed", "write", "total", "cpu", "us/vert", "peak MB", "detect", "det. MB", "found");
     for (const auto& row : rows)
     {
         if (row.value("embed_exit_code", -1) != 0)
         {
-            std::printf("%-24s embed failed (exit code %d)\n", row["mesh"].get<std::string>().c_str(),
-                        row.value("embed_exit_code", -1));
+            std::printf("%-24s %-9s embed failed (exit code %d)\n", row["mesh"].get<std::string>().c_str(),
+                        row["basis"].get<std::string>().c_str(), row.value("embed_exit_code", -1));
             continue;
         }
         const auto& s = row["embed_seconds"];
         const auto get = [](const nlohmann::json& o, const char* k) { return o.value(k, 0.0); };
-        std::printf("%-24s %9lld %7.3f %7.3f %7.3f %7.3f %7.3f %7.3f %8.3f %8.1f", row["mesh"].get<std::string>().c_str(),
+        std::printf("%-24s %-9s %9lld %7.3f %7.3f %7.3f %7.3f %7.3f %7.3f %8.3f %8.1f",
+                    row["mesh"].get<std::string>().c_str(), row["basis"].get<std::string>().c_str(),
                     static_cast<long long>(row["vertices"].get<std::int64_t>()), get(s, "read"),
                     get(s, "basis"), get(s, "embed"), get(s, "write"), get(s, "total"),
                     row.value("embed_cpu_seconds", 0.0), row["embed_us_per_vertex"].get<double>(),
@@ -288,6 +333,7 @@ void print_table(const std::vector<nlohmann::json>& rows)
     std::printf("Times in seconds (embed_file's phases, best of --repeat by total); cpu = the embed "
                 "process's user + system time; peak MB = the run's own peak RSS in MiB; detect = "
                 "detect_file on the marked copy.\n");
+    print_ratios(rows);
 }
 
 int run_bench_speed(const BenchSpeedArgs& args, const GlobalArgs& global)
@@ -307,6 +353,18 @@ int run_bench_speed(const BenchSpeedArgs& args, const GlobalArgs& global)
             throw IoError(dir.string() + ": --mesh-dir is not a directory.");
         }
         cases = shared_cases(dir);
+        if (!args.meshes.empty())
+        {
+            cases.clear();
+            for (const auto& m : args.meshes)
+            {
+                if (!fs::is_regular_file(m, error))
+                {
+                    throw IoError(m + ": --mesh is not a readable file.");
+                }
+                cases.push_back({fs::path(m).filename().string(), fs::path(m)});
+            }
+        }
         if (cases.empty() && !global.quiet)
         {
             std::fprintf(stderr, "meshmark bench: no meshes in %s (set --mesh-dir or MESHMARK_MESH_DIR)\n",
@@ -347,11 +405,14 @@ int run_bench_speed(const BenchSpeedArgs& args, const GlobalArgs& global)
     std::vector<nlohmann::json> rows;
     for (const auto& c : cases)
     {
-        if (!global.quiet)
+        for (const auto& basis : args.bases)
         {
-            std::fprintf(stderr, "meshmark bench: %s\n", c.name.c_str());
+            if (!global.quiet)
+            {
+                std::fprintf(stderr, "meshmark bench: %s, %s basis\n", c.name.c_str(), basis.c_str());
+            }
+            rows.push_back(bench_case(program, c, basis, work, args, global));
         }
-        rows.push_back(bench_case(program, c, work, args, global));
     }
     if (!args.keep)
     {
@@ -394,6 +455,13 @@ void register_bench(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     speed->add_option("--mesh-dir", args->mesh_dir,
                       "Meshes to time (.ply .obj .off .stl); default $MESHMARK_MESH_DIR, else "
                       "../shared/data/meshes");
+    speed->add_option("--mesh", args->meshes, "Mesh files to time instead of the whole --mesh-dir (repeatable)");
+    speed->add_option("--basis", args->bases,
+                      "Bases to time on every mesh, comma-separated (rbf, laplacian); with two, a "
+                      "table of ratios against the first follows")
+        ->delimiter(',')
+        ->check(CLI::IsMember({"rbf", "laplacian"}))
+        ->capture_default_str();
     speed->add_flag("--no-shared", args->no_shared, "Only the generated meshes");
     speed->add_flag("--no-generated", args->no_generated, "Only the meshes of --mesh-dir");
     speed->add_option("--sizes", args->sizes,
@@ -415,6 +483,7 @@ void register_bench(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
         runner = [args, &global]() { return run_bench_speed(*args, global); };
     });
     register_bench_robustness(*bench, global, runner);
+    register_bench_approximation(*bench, global, runner);
 }
 
 }  // namespace meshmark::cli

@@ -58,6 +58,8 @@ struct RobustnessArgs
     int repetitions = EmbedOptions{}.repetitions;
     int first_mode = EmbedOptions{}.first_mode;
     std::string rule = "additive";
+    std::string basis = "rbf";
+    std::string centers = "random";
     std::string markdown;
     std::string json_path;
     std::vector<std::string> from_json;
@@ -122,6 +124,8 @@ Key make_key(const TriangleMesh& original, std::uint64_t seed, const RobustnessA
     key.options.strength = args.strength;
     key.options.repetitions = args.repetitions;
     key.options.first_mode = args.first_mode;
+    key.options.basis = parse_basis_type(args.basis);
+    key.options.centers = parse_center_selection(args.centers);
     key.payload = random_payload(seed, payload_bit_count(key.options));
     key.original = fingerprint(original);
     return key;
@@ -288,7 +292,8 @@ std::string markdown_report(const std::vector<MeshEmbedding>& embeddings, const 
        << " (wrong keys per marked copy: " << args.wrong_keys
        << ", keys on unmarked attacked copies: " << args.unmarked_keys << "); rule " << args.rule
        << ", strength " << (args.strength < 0 ? std::string("default") : format_number(args.strength))
-       << ", repetitions " << args.repetitions << ", first mode " << args.first_mode << "; verdict: correlation bound <= "
+       << ", repetitions " << args.repetitions << ", first mode " << args.first_mode << ", basis " << args.basis
+       << (args.basis == "rbf" ? " (" + args.centers + " centers)" : std::string()) << "; verdict: correlation bound <= "
        << format_number(decision.max_false_positive) << " (bits rule: R >= " << format_number(decision.threshold)
        << ").\n\n";
 
@@ -681,6 +686,12 @@ void register_bench_robustness(CLI::App& bench, GlobalArgs& global, CommandRunne
     command->add_option("--first-mode", args->first_mode, "First modulated mode")->capture_default_str();
     command->add_option("--rule", args->rule, "additive or paper")
         ->check(CLI::IsMember({"additive", "paper"}))
+        ->capture_default_str();
+    command->add_option("--basis", args->basis, "rbf or laplacian (the Laplacian eigenbasis baseline)")
+        ->check(CLI::IsMember({"rbf", "laplacian"}))
+        ->capture_default_str();
+    command->add_option("--centers", args->centers, "RBF centers: random or decimate")
+        ->check(CLI::IsMember({"random", "decimate"}))
         ->capture_default_str();
     command->add_option("--markdown", args->markdown, "Also write the tables to this file");
     command->add_option("--json-file", args->json_path, "Also write every trial as JSON to this file");

@@ -29,6 +29,8 @@ void register_compare(CLI::App& app, GlobalArgs& global, CommandRunner& runner);
 void register_bench(CLI::App& app, GlobalArgs& global, CommandRunner& runner);
 /// `bench robustness` (bench_robustness.cpp), added under \p bench by register_bench.
 void register_bench_robustness(CLI::App& bench, GlobalArgs& global, CommandRunner& runner);
+/// `bench approximation` (bench_approximation.cpp), added under \p bench by register_bench.
+void register_bench_approximation(CLI::App& bench, GlobalArgs& global, CommandRunner& runner);
 
 /// Adds --threads, --quiet and --verbose to a subcommand.
 void add_global_flags(CLI::App& command, GlobalArgs& global);

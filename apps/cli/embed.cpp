@@ -26,6 +26,8 @@ struct EmbedArgs
     std::string message;
     std::string bits;
     std::string rule = "additive";
+    std::string basis = "rbf";
+    std::string centers = "random";
     double strength = -1.0;
     std::uint64_t seed = 0;
     bool has_seed = false;
@@ -74,6 +76,8 @@ int run_embed(const EmbedArgs& args, const GlobalArgs& global)
     EmbedFileOptions options;
     options.embed = args.options;
     options.embed.rule = parse_embedding_rule(args.rule);
+    options.embed.basis = parse_basis_type(args.basis);
+    options.embed.centers = parse_center_selection(args.centers);
     options.embed.strength = args.strength;
     if (!args.message.empty())
     {
@@ -116,6 +120,8 @@ int run_embed(const EmbedArgs& args, const GlobalArgs& global)
                     {"analysed_vertices", stats.analysed_vertices},
                     {"rule", to_string(report.key.options.rule)},
                     {"strength", report.key.options.strength},
+                    {"basis", to_string(report.key.options.basis)},
+                    {"centers", to_string(report.key.options.centers)},
                     {"basis_size", report.key.options.basis_size},
                     {"coefficients", report.key.options.coefficients},
                     {"repetitions", report.key.options.repetitions},
@@ -174,7 +180,19 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
                                         "Payload: a text, hashed to the 3m payload bits");
     command->add_option("--bits", args->bits, "Payload: exactly ceil(3m/4) hex digits, MSB first")
         ->excludes(message);
-    command->add_option("--basis-size", args->options.basis_size, "k, RBF basis functions")
+    command->add_option("--basis", args->basis,
+                        "rbf: orthogonalized RBFs (Wu & Kobbelt; fast, any size); laplacian: "
+                        "eigenvectors of the combinatorial mesh Laplacian (the slower baseline; "
+                        "needs faces)")
+        ->check(CLI::IsMember({"rbf", "laplacian"}))
+        ->capture_default_str();
+    command->add_option("--basis-size", args->options.basis_size,
+                        "k, basis functions (RBF centers or Laplacian eigenvectors)")
+        ->capture_default_str();
+    command->add_option("--centers", args->centers,
+                        "RBF centers: random (from the seed) or decimate (survivors of a QEM "
+                        "decimation to k vertices; needs faces)")
+        ->check(CLI::IsMember({"random", "decimate"}))
         ->capture_default_str();
     command->add_option("--coefficients", args->options.coefficients,
                         "m, payload bits per axis (3m payload bits)")

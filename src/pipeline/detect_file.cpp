@@ -10,6 +10,7 @@
 #include "meshmark/core/error.h"
 #include "meshmark/geometry/adjacency.h"
 #include "meshmark/io/mesh_io.h"
+#include "meshmark/pipeline/embed_file.h"
 #include "meshmark/registration/registration.h"
 #include "meshmark/registration/resampling.h"
 #include "timer.h"
@@ -187,6 +188,7 @@ DetectReport detect_file(const std::filesystem::path& suspect_path,
     const Key key = read_key(key_path);
     const TriangleMesh original = read_mesh(original_path);
     check_original(original, key, original_path);
+    check_basis_input(original, key.options, original_path);
     const TriangleMesh suspect = read_mesh(suspect_path);
     timer.lap("read");
 

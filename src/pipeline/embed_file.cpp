@@ -39,6 +39,24 @@ void check_paths(const std::filesystem::path& input, const std::filesystem::path
 
 }  // namespace
 
+void check_basis_input(const TriangleMesh& mesh, const EmbedOptions& options, const std::filesystem::path& path)
+{
+    if (!mesh.is_point_cloud())
+    {
+        return;
+    }
+    if (options.basis == BasisType::Laplacian)
+    {
+        throw InvalidMesh(path.string() + ": the Laplacian basis needs triangles, but this file is a "
+                          "point cloud (no faces); use --basis rbf.");
+    }
+    if (options.centers == CenterSelection::Decimate)
+    {
+        throw InvalidMesh(path.string() + ": decimated centers need triangles, but this file is a "
+                          "point cloud (no faces); use --centers random.");
+    }
+}
+
 void EmbedFileOptions::validate() const
 {
     embed.validate();
@@ -121,12 +139,32 @@ Key make_key(const EmbedFileOptions& options)
 
 // Whether to embed out of core; a note in *note when the budget asked for it but the input
 // cannot be streamed.
+// Why these options cannot be embedded out of core ("" if they can): the streamed passes build
+// the RBF basis with random centers only (the Laplacian basis and the decimation need the whole
+// mesh in memory).
+std::string options_refusal(const EmbedFileOptions& options)
+{
+    if (options.embed.basis != BasisType::Rbf)
+    {
+        return "the Laplacian basis needs the whole mesh in memory";
+    }
+    if (options.embed.centers != CenterSelection::Random)
+    {
+        return "decimated centers need the whole mesh in memory";
+    }
+    return {};
+}
+
 bool should_stream(const std::filesystem::path& input, const std::filesystem::path& output,
                    const EmbedFileOptions& options, std::string* note)
 {
     if (options.force_stream)
     {
-        const std::string refusal = detail::stream_refusal(input, output);
+        std::string refusal = options_refusal(options);
+        if (refusal.empty())
+        {
+            refusal = detail::stream_refusal(input, output);
+        }
         if (!refusal.empty())
         {
             throw InvalidOption(input.string() + ": cannot be embedded out of core (--stream): " + refusal + ".");
@@ -142,7 +180,11 @@ bool should_stream(const std::filesystem::path& input, const std::filesystem::pa
     {
         return false;
     }
-    const std::string refusal = detail::stream_refusal(input, output);
+    std::string refusal = options_refusal(options);
+    if (refusal.empty())
+    {
+        refusal = detail::stream_refusal(input, output);
+    }
     if (!refusal.empty())
     {
         *note = "the in-memory embed exceeds the memory budget, but the input cannot be streamed: " + refusal;
@@ -180,6 +222,7 @@ EmbedReport embed_file(const std::filesystem::path& input, const std::filesystem
 
     Key key = make_key(options);
     key.original = fingerprint(file.mesh);
+    check_basis_input(file.mesh, key.options, input);
 
     // Basis (pass 1 + eigen-decomposition) -> synthesis of the displacement (pass 2).
     const SpectralWatermark mark(file.mesh, key, options.threads);

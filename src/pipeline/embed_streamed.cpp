@@ -785,7 +785,7 @@ EmbedReport embed_file_streamed(const std::filesystem::path& input, const std::f
             copy_range(file, 0, layout.vertex_offset, out);
             VertexWriter writer(file, layout, referenced, output, out, window);
             double orthogonality = 0.0;
-            mark.basis().synthesize_streamed(
+            dynamic_cast<const RbfBasis&>(mark.basis()).synthesize_streamed(
                 change, source, in_flight,
                 [&](std::size_t begin, std::size_t rows, const double* field) {
                     writer.add(rows, field);

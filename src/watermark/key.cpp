@@ -87,7 +87,8 @@ Json content_json(const Key& key)
                       {"first_mode", key.options.first_mode},
                       {"strength", key.options.resolved_strength()},
                       {"sigma_factor", key.options.sigma_factor},
-                      {"centers", "random"}};
+                      {"centers", to_string(key.options.centers)},
+                      {"basis", to_string(key.options.basis)}};
     j["payload"] = {{"bits", to_bit_string(key.payload)}};
     if (key.message)
     {
@@ -153,6 +154,42 @@ EmbeddingRule parse_embedding_rule(const std::string& name)
         return EmbeddingRule::Paper;
     }
     throw InvalidOption("unknown embedding rule '" + name + "' (expected additive or paper).");
+}
+
+const char* to_string(BasisType basis) noexcept
+{
+    return basis == BasisType::Laplacian ? "laplacian" : "rbf";
+}
+
+const char* to_string(CenterSelection centers) noexcept
+{
+    return centers == CenterSelection::Decimate ? "decimate" : "random";
+}
+
+BasisType parse_basis_type(const std::string& name)
+{
+    if (name == "rbf")
+    {
+        return BasisType::Rbf;
+    }
+    if (name == "laplacian")
+    {
+        return BasisType::Laplacian;
+    }
+    throw InvalidOption("unknown basis '" + name + "' (expected rbf or laplacian).");
+}
+
+CenterSelection parse_center_selection(const std::string& name)
+{
+    if (name == "random")
+    {
+        return CenterSelection::Random;
+    }
+    if (name == "decimate")
+    {
+        return CenterSelection::Decimate;
+    }
+    throw InvalidOption("unknown center selection '" + name + "' (expected random or decimate).");
 }
 
 double default_strength(EmbeddingRule rule) noexcept
@@ -378,9 +415,22 @@ Key parse_key(const std::string& text, const std::string& source)
         embedding.contains("first_mode") ? field<int>(embedding, "first_mode", "embedding.", source) : 0;
     key.options.strength = field<double>(embedding, "strength", "embedding.", source);
     key.options.sigma_factor = field<double>(embedding, "sigma_factor", "embedding.", source);
-    if (field<std::string>(embedding, "centers", "embedding.", source) != "random")
+    // Absent from keys written before the Laplacian basis and decimated centers existed.
+    try
     {
-        throw IoError(source + ": key field 'embedding.centers' must be \"random\".");
+        if (embedding.contains("centers"))
+        {
+            key.options.centers =
+                parse_center_selection(field<std::string>(embedding, "centers", "embedding.", source));
+        }
+        if (embedding.contains("basis"))
+        {
+            key.options.basis = parse_basis_type(field<std::string>(embedding, "basis", "embedding.", source));
+        }
+    }
+    catch (const InvalidOption& e)
+    {
+        throw IoError(source + ": invalid key field: " + e.what());
     }
     try
     {

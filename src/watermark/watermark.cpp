@@ -13,6 +13,9 @@
 #include <Eigen/QR>
 #include <Eigen/SVD>
 
+#include "meshmark/basis/decimated_centers.h"
+#include "meshmark/basis/laplacian_basis.h"
+#include "meshmark/basis/rbf_basis.h"
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/rng.h"
@@ -359,11 +362,8 @@ SpectralWatermark::SpectralWatermark(const TriangleMesh& original, const Key& ke
                           " basis functions (use a smaller --basis-size).");
     }
     frame_ = canonical_frame(original.V, active);
-    centers_ = random_centers(original.V, active, key_.options.basis_size,
-                              derive_seed(key_.seed, "centers"));
-    const double sigma = key_.options.sigma_factor * frame_.diagonal / 2.0;
     const auto analysed = static_cast<double>(active.size());
-    basis_.emplace(original.V, std::move(active), centers_, sigma, frame_.origin, threads);
+    basis_ = make_basis(original, std::move(active));
     init_modulation(analysed);
 }
 
@@ -378,7 +378,11 @@ SpectralWatermark::SpectralWatermark(const Key& key, CanonicalFrame frame, std::
         throw InvalidOption("the payload has " + std::to_string(key_.payload.size()) +
                             " bits, but the key's parameters need " + std::to_string(bit_count) + ".");
     }
-    basis_.emplace(std::move(basis));
+    if (key_.options.basis != BasisType::Rbf || key_.options.centers != CenterSelection::Random)
+    {
+        throw InvalidOption("a streamed watermark supports the RBF basis with random centers only.");
+    }
+    basis_ = std::make_unique<RbfBasis>(std::move(basis));
     init_modulation(static_cast<double>(analysed_rows));
 }
 
@@ -424,6 +428,23 @@ void SpectralWatermark::init_modulation(double analysed)
         const double largest = alpha.cwiseAbs().maxCoeff();
         weak_bits_ = static_cast<int>((alpha.array().abs() < kWeakCoefficientFraction * largest).count());
     }
+}
+
+std::unique_ptr<const SpectralBasis> SpectralWatermark::make_basis(const TriangleMesh& original,
+                                                                   std::vector<std::int32_t> active)
+{
+    if (key_.options.basis == BasisType::Laplacian)
+    {
+        LaplacianBasisOptions options;
+        options.modes = key_.options.basis_size;
+        return std::make_unique<LaplacianBasis>(original, std::move(active), frame_.origin, options);
+    }
+    centers_ = key_.options.centers == CenterSelection::Decimate
+                   ? decimated_centers(original, active, key_.options.basis_size)
+                   : random_centers(original.V, active, key_.options.basis_size,
+                                    derive_seed(key_.seed, "centers"));
+    const double sigma = key_.options.sigma_factor * frame_.diagonal / 2.0;
+    return std::make_unique<RbfBasis>(original.V, std::move(active), centers_, sigma, frame_.origin, threads_);
 }
 
 Eigen::MatrixX3d SpectralWatermark::coefficient_change() const

@@ -4,6 +4,7 @@
 #include <sys/stat.h>
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
@@ -399,4 +400,71 @@ TEST_F(CliTest, bench_robustness_reports_every_trial)
 }
 
 }  // namespace
+}  // namespace meshmark
+
+namespace meshmark {
+
+TEST_F(CliTest, laplacian_basis_and_decimated_centers_embed_detect_and_fail_cleanly)
+{
+    // A smaller original than the fixture's: the Laplacian basis is computed three times.
+    const auto original = dir_ / "small.ply";
+    write_mesh(original, lumpy_ellipsoid(4));
+    for (const std::string flags : {"--basis laplacian", "--centers decimate"})
+    {
+        const auto marked = dir_ / "marked.ply";
+        const auto key = dir_ / "key.json";
+        CliRun r = run("embed " + original.string() + " -o " + marked.string() + " --key " + key.string() +
+                           " --seed 5 --json --force " + flags,
+                       dir_);
+        ASSERT_EQ(r.exit_code, 0) << flags << ": " << r.err;
+        const auto report = nlohmann::json::parse(r.out);
+        const auto key_json = nlohmann::json::parse(slurp(key));
+        if (flags == "--basis laplacian")
+        {
+            EXPECT_EQ(report["basis"], "laplacian");
+            EXPECT_EQ(key_json["embedding"]["basis"], "laplacian");
+        }
+        else
+        {
+            EXPECT_EQ(report["centers"], "decimate");
+            EXPECT_EQ(key_json["embedding"]["centers"], "decimate");
+        }
+        EXPECT_EQ(run("detect " + marked.string() + " --original " + original.string() + " --key " + key.string(),
+                      dir_)
+                      .exit_code,
+                  0)
+            << flags;
+        EXPECT_EQ(run("detect " + original.string() + " --original " + original.string() + " --key " +
+                          key.string(),
+                      dir_)
+                      .exit_code,
+                  1)
+            << flags;
+    }
+
+    // A point cloud: one sentence naming the file, exit code 3, no output, no key.
+    TriangleMesh cloud = lumpy_ellipsoid(3);
+    cloud.F.resize(0, 3);
+    const auto cloud_path = dir_ / "cloud.ply";
+    write_mesh(cloud_path, cloud);
+    for (const std::string flags : {"--basis laplacian", "--centers decimate"})
+    {
+        const auto out = dir_ / "cloud_marked.ply";
+        const auto key = dir_ / "cloud_key.json";
+        const CliRun r =
+            run("embed " + cloud_path.string() + " -o " + out.string() + " --key " + key.string() + " " + flags, dir_);
+        EXPECT_EQ(r.exit_code, 3) << flags;
+        EXPECT_NE(r.err.find(cloud_path.string()), std::string::npos) << r.err;
+        EXPECT_NE(r.err.find("point cloud"), std::string::npos) << r.err;
+        EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+        EXPECT_FALSE(fs::exists(out));
+        EXPECT_FALSE(fs::exists(key));
+    }
+    EXPECT_EQ(run("embed " + original_.string() + " -o " + (dir_ / "x.ply").string() + " --key " +
+                      (dir_ / "x.json").string() + " --basis wavelet",
+                  dir_)
+                  .exit_code,
+              2);
+}
+
 }  // namespace meshmark

@@ -11,6 +11,7 @@
 
 #include <Eigen/Core>
 
+#include "meshmark/basis/spectral_basis.h"
 #include "meshmark/core/triangle_mesh.h"
 
 namespace meshmark {
@@ -106,7 +107,7 @@ public:
 /// positive sum over the vertices (1^T U_j > 0), falling back to a positive largest component.
 /// All arithmetic happens in the frame centered at \p origin (the caller passes the centroid),
 /// which keeps it independent of where the model sits.
-class RbfBasis
+class RbfBasis final : public SpectralBasis
 {
 public:
     /// \brief Build the basis: pass 1 over the active rows (Gram matrix, B^T 1, B^T (P - o)),
@@ -143,8 +144,8 @@ public:
     /// Largest number of rows in one chunk of the passes (the unit synthesize_streamed buffers).
     [[nodiscard]] std::size_t max_chunk_rows() const noexcept;
 
-    [[nodiscard]] int size() const noexcept { return static_cast<int>(center_positions_.rows()); }
-    [[nodiscard]] const std::vector<std::int32_t>& active_rows() const noexcept { return active_; }
+    [[nodiscard]] int size() const noexcept override { return static_cast<int>(center_positions_.rows()); }
+    [[nodiscard]] const std::vector<std::int32_t>& active_rows() const noexcept override { return active_; }
     [[nodiscard]] double sigma() const noexcept { return sigma_; }
     /// Singular values of B (k, descending): W in G = V W^2 V^T.
     [[nodiscard]] const Eigen::VectorXd& singular_values() const noexcept { return singular_values_; }
@@ -156,35 +157,22 @@ public:
     [[nodiscard]] std::string_view kernel_name() const noexcept;
 
     /// \brief Spectral coefficients of the positions, alpha = U^T (P - o) (k x 3), frame axes.
-    [[nodiscard]] Eigen::MatrixX3d position_coefficients() const;
+    [[nodiscard]] Eigen::MatrixX3d position_coefficients() const override;
 
     /// \brief Leading-mode projection U_m^T X over the active rows (m x 3).
     /// \param X  #V x 3 (inactive rows ignored), e.g. a displacement field.
-    [[nodiscard]] Eigen::MatrixX3d project(const Positions& X, int modes) const;
+    [[nodiscard]] Eigen::MatrixX3d project(const Positions& X, int modes) const override;
 
     /// \brief Leading-mode projections of several fields in one pass (each modes x 3).
     [[nodiscard]] std::vector<Eigen::MatrixX3d> project(const std::vector<Positions>& fields,
-                                                        int modes) const;
+                                                        int modes) const override;
 
-    /// \brief Writes a block of design rows: for the active rows \p rows, given their values on
-    /// the first `head` modes in \p U (rows.size() x head, row-major), fill \p X
-    /// (rows.size() x width, row-major, zero on entry).
-    using DesignFill = std::function<void(std::span<const std::int32_t> rows, const double* U, double* X)>;
-
-    /// \brief U_m^T X (modes x width) for a design X that is never materialized.
-    /// \details X is produced row block by row block by \p fill, which sees the leading \p head
-    /// modes of the block's rows (bit-identical to the columns of modes_dense()), and reduced
-    /// like a projection: B^T X accumulated per chunk, chunks summed in order, then T^T. Memory
-    /// is O(k width) per chunk instead of the #V x modes of modes_dense(); results are
-    /// bit-identical for any thread count. \p fill is called concurrently from several threads
-    /// (each call on its own rows).
-    /// \param head  0..modes; 0 passes no modes (U is null).
     [[nodiscard]] Eigen::MatrixXd project_design(int modes, int head, std::size_t width,
-                                                 const DesignFill& fill) const;
+                                                 const DesignFill& fill) const override;
 
     /// \brief Number of leading modes whose eigenvalue W_j^2 exceeds \p relative_tolerance
     /// times the largest: the modes whose projections are numerically trustworthy.
-    [[nodiscard]] int well_conditioned_modes(double relative_tolerance) const;
+    [[nodiscard]] int well_conditioned_modes(double relative_tolerance) const override;
 
     /// \brief Least-squares coefficients of the leading modes over a subset of rows.
     /// \details Minimizes |U_m,S c - X_S| over the rows S of the active set with
@@ -193,7 +181,7 @@ public:
     /// \throws NumericalError if the kept rows cannot determine the coefficients.
     [[nodiscard]] Eigen::MatrixX3d project_least_squares(const Positions& X,
                                                          const std::vector<std::uint8_t>& is_kept,
-                                                         int modes) const;
+                                                         int modes) const override;
 
     /// \brief Synthesis U_m c (#V x 3, zero on inactive rows) of the first c.rows() modes.
     /// \param orthogonality_error  If not null, receives a bound on the departure from
@@ -205,11 +193,11 @@ public:
     ///        cheap as the synthesis itself). The round trip equals (U_m^T U_m - I) c, so it
     ///        catches any error of the pass that the k x k check cannot see.
     [[nodiscard]] Positions synthesize(const Eigen::MatrixX3d& c,
-                                       double* orthogonality_error = nullptr) const;
+                                       double* orthogonality_error = nullptr) const override;
 
     /// \brief The first \p modes columns of U, explicitly (#active x modes). For tests and
     /// small meshes only: this is exactly what the streaming passes avoid.
-    [[nodiscard]] Eigen::MatrixXd modes_dense(int modes) const;
+    [[nodiscard]] Eigen::MatrixXd modes_dense(int modes) const override;
 
 private:
     struct Chunk

@@ -59,6 +59,11 @@ struct EmbedReport
     std::string stream_note;  ///< Why a budget-exceeding input was embedded in memory anyway.
 };
 
+/// \brief Refuse, with one sentence naming \p path, a key that \p mesh cannot use: the
+/// Laplacian basis or decimated centers on a point cloud (they need faces).
+/// \throws InvalidMesh in those cases.
+void check_basis_input(const TriangleMesh& mesh, const EmbedOptions& options, const std::filesystem::path& path);
+
 /// \brief Watermark a mesh file end to end: read -> basis -> embed -> write mesh and key.
 /// \details The output is written in the format of its extension; when that is the input's
 /// format everything but the positions is preserved (see write_mesh_file). The input is never

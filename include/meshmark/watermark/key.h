@@ -27,6 +27,28 @@ enum class EmbeddingRule
 /// principal bounding-box diagonal, and the paper's rho.
 [[nodiscard]] double default_strength(EmbeddingRule rule) noexcept;
 
+/// The spectral basis the watermark lives in (docs/algorithms/basis.md).
+enum class BasisType
+{
+    Rbf,        ///< Orthogonalized RBFs [Wu & Kobbelt 2005] (default).
+    Laplacian,  ///< Eigenvectors of the combinatorial Laplacian [Karni & Gotsman 2000] (baseline).
+};
+
+/// How the k RBF centers are chosen (DESIGN.md step 1).
+enum class CenterSelection
+{
+    Random,    ///< Uniformly at random from the key's seed (default).
+    Decimate,  ///< Survivors of a QEM edge-collapse decimation down to k vertices (seed-free).
+};
+
+/// Names used in key files and on the command line: "rbf"/"laplacian", "random"/"decimate".
+[[nodiscard]] const char* to_string(BasisType basis) noexcept;
+[[nodiscard]] const char* to_string(CenterSelection centers) noexcept;
+/// \throws InvalidOption for any other name.
+[[nodiscard]] BasisType parse_basis_type(const std::string& name);
+/// \throws InvalidOption for any other name.
+[[nodiscard]] CenterSelection parse_center_selection(const std::string& name);
+
 /// Parameters that, with the original mesh and the seed, determine the watermark.
 struct EmbedOptions
 {
@@ -48,6 +70,10 @@ struct EmbedOptions
     /// Paper: rho. Negative means "the rule's default" (default_strength).
     double strength = -1.0;
     double sigma_factor = 1.0;  ///< sigma = sigma_factor * diagonal / 2 [Wu & Kobbelt].
+    /// The basis; keys written before this field existed mean Rbf.
+    BasisType basis = BasisType::Rbf;
+    /// RBF centers; ignored by the Laplacian basis. Keys without the field mean Random.
+    CenterSelection centers = CenterSelection::Random;
 
     /// \throws InvalidOption naming the field, value and allowed range.
     void validate() const;

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -9,6 +10,7 @@
 #include <Eigen/Core>
 
 #include "meshmark/basis/rbf_basis.h"
+#include "meshmark/basis/spectral_basis.h"
 #include "meshmark/core/triangle_mesh.h"
 #include "meshmark/watermark/key.h"
 
@@ -178,15 +180,18 @@ struct DisplacementSummary
 
 /// \brief A watermark as defined by (original mesh, key): the basis and modulation, built
 /// once and used for embedding, regeneration of the watermarked mesh, and extraction.
-/// \details Centers are drawn from the key's seed among the referenced vertices (all vertices
-/// of a point cloud); unreferenced vertices take no part and never move.
+/// \details The key chooses the basis: RBF (centers drawn from the key's seed, or the survivors
+/// of a decimation, among the referenced vertices; all vertices of a point cloud) or the
+/// Laplacian eigenbasis (meshes with faces only). Either way unreferenced vertices take no part
+/// and never move, and everything after the basis (modulation, extraction, verdict) is the same.
 /// [Wu & Kobbelt 2005], with the corrections of DESIGN.md: canonical frame, additive rule by
 /// default, key-masked payload, sign-correct decision.
 class SpectralWatermark
 {
 public:
-    /// \throws InvalidOption (bad key options), InvalidMesh (too few distinct vertices),
-    /// NumericalError (degenerate geometry or Gram matrix).
+    /// \throws InvalidOption (bad key options), InvalidMesh (too few distinct vertices, or a
+    /// point cloud with the Laplacian basis), NumericalError (degenerate geometry or Gram
+    /// matrix, eigensolver failure).
     SpectralWatermark(const TriangleMesh& original, const Key& key, int threads = 0);
 
     /// \brief For embedding out of core: a watermark from its parts, computed by the caller
@@ -207,7 +212,8 @@ public:
 
     [[nodiscard]] const Key& key() const noexcept { return key_; }
     [[nodiscard]] const CanonicalFrame& frame() const noexcept { return frame_; }
-    [[nodiscard]] const RbfBasis& basis() const noexcept { return *basis_; }
+    [[nodiscard]] const SpectralBasis& basis() const noexcept { return *basis_; }
+    /// RBF centers (k vertex indices); empty for the Laplacian basis.
     [[nodiscard]] const std::vector<std::int32_t>& centers() const noexcept { return centers_; }
     /// Signs b' in {-1, +1} actually embedded (m r x 3, canonical axes).
     [[nodiscard]] const Eigen::MatrixX3d& embedded_signs() const noexcept { return signs_; }
@@ -249,6 +255,9 @@ private:
     [[nodiscard]] const NuisanceModel& nuisance_model() const;
     void init_modulation(double analysed);
     void require_original(const char* what) const;
+    // The key's basis over the active rows (sets centers_ for the RBF basis).
+    [[nodiscard]] std::unique_ptr<const SpectralBasis> make_basis(const TriangleMesh& original,
+                                                                  std::vector<std::int32_t> active);
     [[nodiscard]] Extraction extraction_from(const Eigen::VectorXd& normalized, const Eigen::VectorXd& variances,
                                              const DetectOptions& options) const;
 
@@ -256,7 +265,7 @@ private:
     Key key_;
     CanonicalFrame frame_;
     std::vector<std::int32_t> centers_;
-    std::optional<RbfBasis> basis_;
+    std::unique_ptr<const SpectralBasis> basis_;
     Eigen::MatrixX3d signs_;
     Eigen::MatrixX3d modulation_;
     std::vector<std::uint8_t> mask_;

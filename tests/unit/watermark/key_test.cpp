@@ -6,6 +6,7 @@
 
 #include <cstdio>
 #include <fstream>
+#include <functional>
 
 #include <nlohmann/json.hpp>
 
@@ -78,6 +79,67 @@ TEST(KeyTest, keys_without_repetitions_read_as_one_copy_per_bit)
     EXPECT_THROW(bad.options.validate(), InvalidOption);
     bad.options.first_mode = -1;
     EXPECT_THROW(bad.options.validate(), InvalidOption);
+}
+
+namespace {
+
+// The key text with \p edit applied to its content and the checksum recomputed (a genuine key
+// of another version, not a tampered one).
+std::string resigned(const Key& key, const std::function<void(nlohmann::json&)>& edit)
+{
+    auto content = nlohmann::json::parse(to_json(key));
+    content.erase("checksum");
+    edit(content);
+    const std::string text = content.dump();
+    char checksum[17];
+    std::snprintf(checksum, sizeof checksum, "%016llx",
+                  static_cast<unsigned long long>(hash_bytes(text.data(), text.size(), 0x6B6579U)));
+    content["checksum"] = checksum;
+    return content.dump(2);
+}
+
+}  // namespace
+
+TEST(KeyTest, basis_and_centers_round_trip_and_old_keys_read_as_rbf_random)
+{
+    Key key = sample_key();
+    EXPECT_EQ(parse_key(to_json(key), "k.json").options.basis, BasisType::Rbf);
+    EXPECT_EQ(parse_key(to_json(key), "k.json").options.centers, CenterSelection::Random);
+    key.options.basis = BasisType::Laplacian;
+    EXPECT_EQ(parse_key(to_json(key), "k.json").options.basis, BasisType::Laplacian);
+    key.options.basis = BasisType::Rbf;
+    key.options.centers = CenterSelection::Decimate;
+    EXPECT_EQ(parse_key(to_json(key), "k.json").options.centers, CenterSelection::Decimate);
+    EXPECT_NE(to_json(key).find("\"basis\": \"rbf\""), std::string::npos);
+
+    // Keys written before the fields existed: no "basis" (RBF), "centers" absent or "random".
+    key.options.centers = CenterSelection::Random;
+    const Key old = parse_key(resigned(key, [](nlohmann::json& j) { j["embedding"].erase("basis"); }), "old.json");
+    EXPECT_EQ(old.options.basis, BasisType::Rbf);
+    EXPECT_EQ(old.options.centers, CenterSelection::Random);
+    const Key older = parse_key(resigned(key, [](nlohmann::json& j) {
+                                    j["embedding"].erase("basis");
+                                    j["embedding"].erase("centers");
+                                }),
+                                "older.json");
+    EXPECT_EQ(older.options.centers, CenterSelection::Random);
+
+    // Unknown names are refused, naming the file.
+    try
+    {
+        (void)parse_key(resigned(key, [](nlohmann::json& j) { j["embedding"]["basis"] = "wavelet"; }), "w.json");
+        FAIL() << "unknown basis accepted";
+    }
+    catch (const IoError& e)
+    {
+        EXPECT_NE(std::string(e.what()).find("w.json"), std::string::npos);
+        EXPECT_NE(std::string(e.what()).find("wavelet"), std::string::npos);
+    }
+    EXPECT_THROW((void)parse_key(resigned(key, [](nlohmann::json& j) { j["embedding"]["centers"] = "grid"; }),
+                                 "g.json"),
+                 IoError);
+    EXPECT_EQ(parse_basis_type("laplacian"), BasisType::Laplacian);
+    EXPECT_THROW((void)parse_center_selection("kmeans"), InvalidOption);
 }
 
 TEST(KeyTest, tampered_truncated_or_foreign_keys_are_rejected_with_a_clear_message)

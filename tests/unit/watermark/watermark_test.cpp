@@ -306,3 +306,83 @@ TEST(BinomialTest, tail_matches_direct_sums)
 }
 
 }  // namespace meshmark
+
+namespace meshmark {
+namespace {
+
+Key laplacian_key(const TriangleMesh& mesh, std::uint64_t seed)
+{
+    Key key = make_key(mesh, seed);
+    key.options.basis = BasisType::Laplacian;
+    return key;
+}
+
+}  // namespace
+
+TEST(LaplacianWatermarkTest, marked_copy_is_found_and_unmarked_or_wrong_key_is_not)
+{
+    TriangleMesh mesh = lumpy_ellipsoid(4);
+    const auto n = mesh.V.rows();
+    mesh.V.conservativeResize(n + 1, 3);
+    mesh.V.row(n) << 9.0, 9.0, 9.0;  // unreferenced: inactive, never moves
+    const SpectralWatermark mark(mesh, laplacian_key(mesh, 42));
+    EXPECT_TRUE(mark.centers().empty());
+    EXPECT_EQ(mark.basis().size(), 100);
+    EmbedStats stats;
+    const Positions displacement = mark.displacement(&stats);
+    EXPECT_EQ(displacement.row(n).squaredNorm(), 0.0);
+    EXPECT_LT(stats.orthogonality_error, 1e-10);
+    EXPECT_NEAR(stats.rms_displacement_rel, 1e-3, 5e-4);  // same strength rule as RBF
+    const Positions marked = mesh.V + displacement;
+    const Decision found = detect_positions(mark, marked);
+    EXPECT_TRUE(found.is_present);
+    EXPECT_DOUBLE_EQ(found.correlation, 1.0);
+    EXPECT_FALSE(detect_positions(mark, mesh.V).is_present);
+    // Through the resampled path (registration's extraction) as well.
+    const DetectOptions options;
+    EXPECT_TRUE(mark.decide(mark.extract_resampled(marked, options), options).is_present);
+    EXPECT_FALSE(mark.decide(mark.extract_resampled(mesh.V, options), options).is_present);
+    for (std::uint64_t seed = 500; seed < 503; ++seed)
+    {
+        const SpectralWatermark other(mesh, laplacian_key(mesh, seed));
+        EXPECT_FALSE(detect_positions(other, marked).is_present) << seed;
+    }
+    // An RBF key with the same seed does not read the Laplacian mark.
+    EXPECT_FALSE(detect_positions(SpectralWatermark(mesh, make_key(mesh, 42)), marked).is_present);
+}
+
+TEST(LaplacianWatermarkTest, noise_keeps_the_mark_and_point_clouds_are_refused)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(4);
+    const SpectralWatermark mark(mesh, laplacian_key(mesh, 7));
+    Positions noisy = mesh.V + mark.displacement();
+    const double D = bounding_box(mesh.V).diagonal();
+    Rng rng(3);
+    for (Eigen::Index i = 0; i < noisy.size(); ++i)
+    {
+        noisy.data()[i] += rng.uniform(-1e-3, 1e-3) * D;
+    }
+    EXPECT_TRUE(detect_positions(mark, noisy).is_present);
+    TriangleMesh cloud = mesh;
+    cloud.F.resize(0, 3);
+    EXPECT_THROW(SpectralWatermark(cloud, laplacian_key(cloud, 7)), InvalidMesh);
+}
+
+TEST(DecimatedCentersWatermarkTest, centers_do_not_depend_on_the_seed_and_the_mark_reads_back)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(4);
+    Key a = make_key(mesh, 1);
+    Key b = make_key(mesh, 2);
+    a.options.centers = CenterSelection::Decimate;
+    b.options.centers = CenterSelection::Decimate;
+    const SpectralWatermark mark_a(mesh, a);
+    const SpectralWatermark mark_b(mesh, b);
+    EXPECT_EQ(mark_a.centers(), mark_b.centers());
+    EXPECT_EQ(static_cast<int>(mark_a.centers().size()), a.options.basis_size);
+    const Positions marked = mesh.V + mark_a.displacement();
+    EXPECT_TRUE(detect_positions(mark_a, marked).is_present);
+    EXPECT_FALSE(detect_positions(mark_b, marked).is_present) << "the payload mask still depends on the key";
+    EXPECT_FALSE(detect_positions(mark_a, mesh.V).is_present);
+}
+
+}  // namespace meshmark
