@@ -56,5 +56,5 @@ for mesh in "${meshes[@]}"; do
 done
 if ((${#files[@]})); then
     "$meshmark" bench robustness "${files[@]}" --markdown "$out/robustness.md" > /dev/null
-    echo "campaign: merged ${#files[@]} meshes into $out/robustness.md" >&2
+    echo "campaign: merged $((${#files[@]} / 2)) meshes into $out/robustness.md" >&2
 fi
