@@ -150,6 +150,32 @@ TEST_F(CliTest, memory_budget_streams_a_binary_ply_to_the_same_bytes)
     EXPECT_FALSE(fs::exists(dir_ / "b.json"));
 }
 
+TEST_F(CliTest, streaming_refuses_the_laplacian_basis_and_decimated_centers)
+{
+    // The streamed passes build the RBF basis with random centers only: --stream is a usage
+    // error naming the reason, a budget falls back to the in-memory embed with a note.
+    for (const char* option : {" --basis laplacian", " --centers decimate"})
+    {
+        const auto out = dir_ / "s.ply";
+        const auto key = dir_ / "s.json";
+        CliRun r = run("embed " + original_.string() + " -o " + out.string() + " --key " + key.string() + option +
+                           " --stream",
+                       dir_);
+        EXPECT_EQ(r.exit_code, 2) << option << ": " << r.err;
+        EXPECT_NE(r.err.find("in memory"), std::string::npos) << r.err;
+        EXPECT_FALSE(fs::exists(out));
+        EXPECT_FALSE(fs::exists(key));
+        r = run("embed " + original_.string() + " -o " + out.string() + " --key " + key.string() + option +
+                    " --memory-budget 1 --json",
+                dir_);
+        ASSERT_EQ(r.exit_code, 0) << option << ": " << r.err;
+        EXPECT_FALSE(nlohmann::json::parse(r.out)["streamed"].get<bool>()) << option;
+        EXPECT_NE(r.err.find("cannot be streamed"), std::string::npos) << r.err;
+        fs::remove(out);
+        fs::remove(key);
+    }
+}
+
 TEST_F(CliTest, detects_attacked_copies_and_never_the_same_attacks_on_the_original)
 {
     const auto marked = dir_ / "marked.ply";
