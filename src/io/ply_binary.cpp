@@ -81,18 +81,6 @@ private:
     bool is_big_endian_;
 };
 
-std::uint64_t min_record_size(const PlyElement& element, bool& is_fixed)
-{
-    std::uint64_t size = 0;
-    is_fixed = true;
-    for (const auto& property : element.properties)
-    {
-        size += scalar_size(property.is_list ? property.count_type : property.type);
-        is_fixed = is_fixed && !property.is_list;
-    }
-    return size;
-}
-
 template <typename T>
 void load_fixed_positions(const char* base, std::size_t stride,
                           const std::array<std::uint64_t, 3>& offsets, bool is_big_endian,
@@ -323,6 +311,18 @@ void skip_binary_element(BinaryReader& in, const PlyElement& element)
 }
 
 }  // namespace
+
+std::uint64_t min_record_size(const PlyElement& element, bool& is_fixed)
+{
+    std::uint64_t size = 0;
+    is_fixed = true;
+    for (const auto& property : element.properties)
+    {
+        size += scalar_size(property.is_list ? property.count_type : property.type);
+        is_fixed = is_fixed && !property.is_list;
+    }
+    return size;
+}
 
 void read_ply_binary_body(const std::filesystem::path& path, const PlyHeader& header,
                           std::string_view bytes, Positions& V, TriangleBuffer& triangles,

@@ -112,18 +112,6 @@ private:
     std::uint64_t size_ = 0;
 };
 
-std::uint64_t record_size(const PlyElement& element, bool& is_fixed)
-{
-    std::uint64_t size = 0;
-    is_fixed = true;
-    for (const auto& property : element.properties)
-    {
-        size += scalar_size(property.is_list ? property.count_type : property.type);
-        is_fixed = is_fixed && !property.is_list;
-    }
-    return size;
-}
-
 // Where things sit in a streamable binary PLY.
 struct Layout
 {
@@ -163,7 +151,7 @@ Layout analyse(const InputFile& file, std::string* refusal)
     {
         const auto& element = layout.header.elements[e];
         bool is_fixed = false;
-        const auto size = record_size(element, is_fixed);
+        const auto size = min_record_size(element, is_fixed);
         if (element.role == Role::Vertex)
         {
             if (!is_fixed)

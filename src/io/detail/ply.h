@@ -155,4 +155,8 @@ void read_ply_ascii_body(const std::filesystem::path& path, const PlyHeader& hea
                          std::string_view bytes, Positions& V, TriangleBuffer& triangles,
                          TextPositions& slots);
 
+/// Bytes of one record of \p element in a binary PLY when its lists are empty; \p is_fixed
+/// tells whether every record has that size (no list property).
+[[nodiscard]] std::uint64_t min_record_size(const PlyElement& element, bool& is_fixed);
+
 }  // namespace meshmark::detail
