@@ -147,6 +147,36 @@ void keep_best(std::vector<Candidate>& candidates, std::size_t count)
     candidates.resize(std::min(count, candidates.size()));
 }
 
+// keep_best, but never drops a whole class: if the best \p count are all mirrored (or all
+// proper), the last of them gives way to the best candidate of the other class. A
+// mirror-symmetric shape (beetle.obj) fits itself both ways about equally well, and the coarse
+// rounds on few samples could otherwise keep only mirrored starts for an unmirrored copy: a
+// reordered copy of beetle.obj then registered as its mirror image for 3 of 30 keys and the
+// mark was lost (kReflectionMargin can only choose between classes that reach the fine stage).
+void keep_best_of_both(std::vector<Candidate>& candidates, std::size_t count)
+{
+    std::stable_sort(candidates.begin(), candidates.end(),
+                     [](const Candidate& a, const Candidate& b) { return a.score < b.score; });
+    if (count == 0 || count >= candidates.size())
+    {
+        return;
+    }
+    for (const bool mirrored : {false, true})
+    {
+        const auto kept_end = candidates.begin() + static_cast<std::ptrdiff_t>(count);
+        const auto is_class = [mirrored](const Candidate& c) { return c.mirrored == mirrored; };
+        if (std::none_of(candidates.begin(), kept_end, is_class))
+        {
+            const auto best_other = std::find_if(kept_end, candidates.end(), is_class);
+            if (best_other != candidates.end() && count >= 2)
+            {
+                std::iter_swap(kept_end - 1, best_other);
+            }
+        }
+    }
+    candidates.resize(count);
+}
+
 /// Starts that map the suspect's principal frame onto a target frame by every rotation in
 /// \p rotations, for the suspect and (when allowed) its mirror image; the scale matches the
 /// RMS radii, the translation the centroids.
@@ -191,7 +221,7 @@ int run_round(const Problem& p, std::vector<Candidate>& candidates, const Round&
         c.transform = c.outcome.transform;
         c.score = score_of(c.outcome);
     }
-    keep_best(candidates, round.survivors);
+    keep_best_of_both(candidates, round.survivors);
     return round.iterations;
 }
 
