@@ -1,7 +1,10 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/pipeline/detect_file.h"
 
+#include <array>
 #include <cmath>
+#include <exception>
+#include <thread>
 
 #include <Eigen/Geometry>
 #include <string>
@@ -186,10 +189,42 @@ DetectReport detect_file(const std::filesystem::path& suspect_path,
 
     timer.begin("read");
     const Key key = read_key(key_path);
-    const TriangleMesh original = read_mesh(original_path);
+    // Both meshes are read side by side (each reader is serial); errors are still reported in
+    // the order of a serial run: the key, the original, its checks, then the suspect.
+    TriangleMesh original;
+    TriangleMesh suspect;
+    std::array<std::exception_ptr, 2> failures;
+    const auto read_into = [&](TriangleMesh& mesh, const std::filesystem::path& path, std::exception_ptr& failure) {
+        try
+        {
+            mesh = read_mesh(path);
+        }
+        catch (...)
+        {
+            failure = std::current_exception();
+        }
+    };
+    if (options.threads == 1)
+    {
+        read_into(original, original_path, failures[0]);
+        read_into(suspect, suspect_path, failures[1]);
+    }
+    else
+    {
+        std::thread reader([&] { read_into(original, original_path, failures[0]); });
+        read_into(suspect, suspect_path, failures[1]);
+        reader.join();
+    }
+    if (failures[0])
+    {
+        std::rethrow_exception(failures[0]);
+    }
     check_original(original, key, original_path);
     check_basis_input(original, key.options, original_path);
-    const TriangleMesh suspect = read_mesh(suspect_path);
+    if (failures[1])
+    {
+        std::rethrow_exception(failures[1]);
+    }
     timer.lap("read");
 
     timer.begin("basis");

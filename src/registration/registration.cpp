@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <exception>
 #include <memory>
 #include <numbers>
@@ -85,11 +86,60 @@ using SampleSets = std::array<Positions, 5>;
 constexpr std::size_t kFineTier = 3;
 constexpr std::size_t kFinalTier = 4;
 
+/// Spreads the low 21 bits of \p x to every third bit (Morton code helper).
+std::uint64_t spread_bits(std::uint64_t x)
+{
+    x &= 0x1fffffU;
+    x = (x | x << 32U) & 0x1f00000000ffffU;
+    x = (x | x << 16U) & 0x1f0000ff0000ffU;
+    x = (x | x << 8U) & 0x100f00f00f00f00fU;
+    x = (x | x << 4U) & 0x10c30c30c30c30c3U;
+    x = (x | x << 2U) & 0x1249249249249249U;
+    return x;
+}
+
+/// \p X's rows in Z (Morton) order of their positions, ties by row: the same sample set, laid
+/// out so that consecutive closest-point queries land near each other in the target's
+/// kd-tree and vertex arrays. On a 1M-vertex reference the fine stage's random samples were
+/// memory-latency bound (about 3 CPU-us per query in shuffled order).
+Positions spatially_sorted(const Positions& X)
+{
+    const Eigen::Index n = X.rows();
+    if (n < 2)
+    {
+        return X;
+    }
+    const Eigen::RowVector3d lo = X.colwise().minCoeff();
+    const Eigen::RowVector3d extent = (X.colwise().maxCoeff() - lo).cwiseMax(1e-300);
+    std::vector<std::pair<std::uint64_t, Eigen::Index>> keys(static_cast<std::size_t>(n));
+    for (Eigen::Index i = 0; i < n; ++i)
+    {
+        std::uint64_t code = 0;
+        for (Eigen::Index k = 0; k < 3; ++k)
+        {
+            const double t = std::clamp((X(i, k) - lo(k)) / extent(k), 0.0, 1.0);
+            code |= spread_bits(static_cast<std::uint64_t>(t * 2097151.0)) << static_cast<unsigned>(k);
+        }
+        keys[static_cast<std::size_t>(i)] = {code, i};
+    }
+    std::sort(keys.begin(), keys.end());
+    Positions Y(n, 3);
+    for (Eigen::Index i = 0; i < n; ++i)
+    {
+        Y.row(i) = X.row(keys[static_cast<std::size_t>(i)].second);
+    }
+    return Y;
+}
+
 SampleSets sample_sets(const Positions& V, const std::vector<std::int32_t>& order,
                        const RegistrationOptions& options, bool mirrored)
 {
-    auto take = [&](int count) {
+    auto take = [&](int count, bool sorted = false) {
         Positions X = gather(V, order, std::min(order.size(), static_cast<std::size_t>(count)));
+        if (sorted)
+        {
+            X = spatially_sorted(X);
+        }
         if (mirrored)
         {
             X.col(0) = -X.col(0);
@@ -97,7 +147,7 @@ SampleSets sample_sets(const Positions& V, const std::vector<std::int32_t>& orde
         return X;
     };
     return {take(options.coarse_samples), take(2 * options.coarse_samples),
-            take(options.refine_samples), take(options.fine_samples), take(options.final_samples)};
+            take(options.refine_samples), take(options.fine_samples, true), take(options.final_samples, true)};
 }
 
 /// One coarse hypothesis and how well it did so far.

@@ -5,6 +5,9 @@
 
 #include <cmath>
 #include <limits>
+#include <numbers>
+#include <numeric>
+#include <vector>
 #include <utility>
 
 #include <CGAL/Simple_cartesian.h>
@@ -170,6 +173,46 @@ TEST(ClosestPointIndexTest, results_are_identical_for_one_and_two_threads)
         ASSERT_EQ(one[i].point, two[i].point) << i;
         // The batch call gives what a single query gives.
         ASSERT_EQ(one[i].distance, index.closest(Eigen::Vector3d(queries.row(static_cast<Eigen::Index>(i)))).distance);
+    }
+}
+
+// A flat fan of 64 triangles around vertex 0, which is every triangle's first corner: a query
+// straight above it is exactly as far from all of them (each returns that corner bit for bit).
+// Whatever order the faces come in (so whatever tree the build makes), the answer is the lowest
+// face index, as ClosestPointIndex documents; a search that keeps the first tie it meets returns
+// whichever face its traversal reaches first.
+TEST(ClosestPointIndexTest, exact_ties_go_to_the_lowest_face_whatever_the_face_order)
+{
+    constexpr int n = 64;
+    TriangleMesh fan;
+    fan.V.resize(n + 1, 3);
+    fan.V.row(0) << 0.0, 0.0, 0.0;
+    for (int i = 0; i < n; ++i)
+    {
+        const double angle = 2.0 * std::numbers::pi * i / n;
+        fan.V.row(i + 1) << std::cos(angle), std::sin(angle), 0.0;
+    }
+    std::vector<int> order(n);
+    std::iota(order.begin(), order.end(), 0);
+    Rng rng(11);
+    for (int trial = 0; trial < 20; ++trial)
+    {
+        for (int i = n - 1; i > 0; --i)
+        {
+            std::swap(order[static_cast<std::size_t>(i)],
+                      order[static_cast<std::size_t>(rng.below(static_cast<std::uint64_t>(i + 1)))]);
+        }
+        fan.F.resize(n, 3);
+        for (int f = 0; f < n; ++f)
+        {
+            const int i = order[static_cast<std::size_t>(f)];
+            fan.F.row(f) << 0, i + 1, (i + 1) % n + 1;
+        }
+        const ClosestPointIndex index(fan);
+        const ClosestPoint hit = index.closest(Eigen::Vector3d(0.0, 0.0, 1.0));
+        EXPECT_EQ(hit.face, 0) << "trial " << trial;
+        EXPECT_EQ(hit.distance, 1.0);
+        EXPECT_EQ(hit.point, Eigen::Vector3d::Zero());
     }
 }
 
