@@ -84,7 +84,11 @@ BasisKernel kernel_from_environment() noexcept
     {
         return BasisKernel::Portable;
     }
-    return text == "avx2" ? BasisKernel::Avx2 : BasisKernel::Automatic;
+    if (text == "avx2")
+    {
+        return BasisKernel::Avx2;
+    }
+    return text == "avx512" ? BasisKernel::Avx512 : BasisKernel::Automatic;
 }
 
 std::atomic<BasisKernel>& kernel_choice() noexcept
@@ -95,7 +99,15 @@ std::atomic<BasisKernel>& kernel_choice() noexcept
 
 const detail::BlockKernels& selected_kernels() noexcept
 {
-    if (kernel_choice().load() != BasisKernel::Portable)
+    const BasisKernel choice = kernel_choice().load();
+    if (choice == BasisKernel::Automatic || choice == BasisKernel::Avx512)
+    {
+        if (const auto* fastest = detail::avx512_kernels())
+        {
+            return *fastest;
+        }
+    }
+    if (choice != BasisKernel::Portable)
     {
         if (const auto* fast = detail::avx2_kernels())
         {

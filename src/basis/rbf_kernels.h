@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: MIT
-// Block kernels of the RBF basis passes, in two builds: a portable one (Eigen, whatever the
-// baseline x86-64 target vectorizes, i.e. SSE2) and an AVX2+FMA one (intrinsics, selected at
-// run time). Internal to the basis module.
+// Block kernels of the RBF basis passes, in three builds: a portable one (Eigen, whatever the
+// baseline x86-64 target vectorizes, i.e. SSE2), an AVX2+FMA one and an AVX-512 one
+// (intrinsics, selected at run time; the AVX-512 set gives the AVX2 set's bits). Internal to
+// the basis module.
 #pragma once
 
 #include <cstddef>
@@ -48,5 +49,9 @@ struct BlockKernels
 
 /// AVX2+FMA kernels, or nullptr when this build or this CPU lacks them.
 [[nodiscard]] const BlockKernels* avx2_kernels() noexcept;
+
+/// AVX-512 kernels (Gram, accumulate on 8 lanes; AVX2's evaluate and multiply), bit-identical to
+/// the AVX2 ones, or nullptr when this build or this CPU lacks AVX-512F, AVX2 or FMA.
+[[nodiscard]] const BlockKernels* avx512_kernels() noexcept;
 
 }  // namespace meshmark::detail

@@ -1,9 +1,11 @@
 // SPDX-License-Identifier: MIT
-// The two implementations of the basis block kernels (portable, AVX2+FMA): each against
-// naive loops, against each other through RbfBasis, and bit-identical for any thread count.
+// The implementations of the basis block kernels (portable, AVX2+FMA, AVX-512): each against
+// naive loops, against each other through RbfBasis (AVX-512 bit for bit like AVX2), and
+// bit-identical for any thread count.
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
 #include <vector>
 
 #include "basis/rbf_kernels.h"
@@ -20,6 +22,10 @@ std::vector<const detail::BlockKernels*> available_kernels()
     if (detail::avx2_kernels() != nullptr)
     {
         kernels.push_back(detail::avx2_kernels());
+    }
+    if (detail::avx512_kernels() != nullptr)
+    {
+        kernels.push_back(detail::avx512_kernels());
     }
     return kernels;
 }
@@ -182,6 +188,56 @@ TEST(BlockKernelsTest, evaluation_is_bit_identical_in_both_kernels)
     EXPECT_TRUE(a == b);
 }
 
+// The AVX-512 Gram update and accumulation run every entry through the same FMA chain over the
+// rows as the AVX2 ones, whatever the tiling: the same bits for every width, including widths
+// that are multiples of 4 but not of 8 (the 4-wide remainder tiles) and all column counts.
+TEST(BlockKernelsTest, avx512_products_are_bit_identical_to_avx2)
+{
+    if (detail::avx512_kernels() == nullptr)
+    {
+        GTEST_SKIP() << "this CPU has no AVX-512F";
+    }
+    const auto& wide = *detail::avx512_kernels();
+    const auto& narrow = *detail::avx2_kernels();
+    Rng rng(2024);
+    for (const std::size_t ld : {4U, 8U, 12U, 20U, 28U, 44U, 104U})
+    {
+        for (const std::size_t rows : {1U, 33U, 77U})
+        {
+            SCOPED_TRACE("ld " + std::to_string(ld) + " rows " + std::to_string(rows));
+            std::vector<double> B(rows * ld);
+            for (auto& b : B)
+            {
+                b = rng.uniform(-1.0, 1.0);
+            }
+            std::vector<double> G_wide(ld * ld, 0.5);
+            std::vector<double> G_narrow(ld * ld, 0.5);
+            wide.gram(B.data(), rows, ld, G_wide.data());
+            narrow.gram(B.data(), rows, ld, G_narrow.data());
+            for (std::size_t i = 0; i < ld; ++i)
+            {
+                for (std::size_t j = 0; j <= i; ++j)
+                {
+                    ASSERT_EQ(G_wide[i * ld + j], G_narrow[i * ld + j]) << i << ", " << j;
+                }
+            }
+            for (const std::size_t w : {1U, 2U, 3U, 4U, 5U, 7U, 8U, 129U})
+            {
+                std::vector<double> X(rows * w);
+                for (auto& x : X)
+                {
+                    x = rng.uniform(-1.0, 1.0);
+                }
+                std::vector<double> acc_wide(w * ld, 0.25);
+                std::vector<double> acc_narrow(w * ld, 0.25);
+                wide.accumulate(B.data(), rows, ld, X.data(), w, acc_wide.data());
+                narrow.accumulate(B.data(), rows, ld, X.data(), w, acc_narrow.data());
+                ASSERT_TRUE(acc_wide == acc_narrow) << "w " << w;
+            }
+        }
+    }
+}
+
 TEST(BasisKernelTest, choice_is_honoured)
 {
     {
@@ -193,8 +249,45 @@ TEST(BasisKernelTest, choice_is_honoured)
                              Eigen::Vector3d::Zero(), 1);
         EXPECT_EQ(basis.kernel_name(), "portable");
     }
-    const KernelChoice choice(BasisKernel::Avx2);
-    EXPECT_EQ(basis_kernel_name(), detail::avx2_kernels() != nullptr ? "avx2-fma" : "portable");
+    {
+        const KernelChoice choice(BasisKernel::Avx2);
+        EXPECT_EQ(basis_kernel_name(), detail::avx2_kernels() != nullptr ? "avx2-fma" : "portable");
+    }
+    const std::string fallback = detail::avx2_kernels() != nullptr ? "avx2-fma" : "portable";
+    const std::string fastest = detail::avx512_kernels() != nullptr ? "avx512" : fallback;
+    {
+        const KernelChoice choice(BasisKernel::Avx512);
+        EXPECT_EQ(basis_kernel_name(), fastest);
+    }
+    const KernelChoice choice(BasisKernel::Automatic);
+    EXPECT_EQ(basis_kernel_name(), fastest);
+}
+
+// Whole passes through RbfBasis: AVX-512 gives AVX2's bits (Gram, modes, synthesis, projections).
+TEST(BasisKernelTest, avx512_basis_is_bit_identical_to_avx2)
+{
+    if (detail::avx512_kernels() == nullptr)
+    {
+        GTEST_SKIP() << "this CPU has no AVX-512F";
+    }
+    const TriangleMesh mesh = lumpy_ellipsoid(5);
+    const auto rows = referenced_vertices(mesh);
+    const auto centers = random_centers(mesh.V, rows, 100, 8);
+    const Eigen::Vector3d origin = mesh.V.colwise().mean().transpose();
+    auto build = [&](BasisKernel kernel) {
+        const KernelChoice choice(kernel);
+        return RbfBasis(mesh.V, rows, centers, 1.0, origin, 2);
+    };
+    const RbfBasis narrow = build(BasisKernel::Avx2);
+    const RbfBasis wide = build(BasisKernel::Avx512);
+    ASSERT_EQ(narrow.kernel_name(), "avx2-fma");
+    ASSERT_EQ(wide.kernel_name(), "avx512");
+    EXPECT_TRUE(narrow.gram() == wide.gram());
+    EXPECT_TRUE(narrow.eigenvectors() == wide.eigenvectors());
+    const Eigen::MatrixX3d c = Eigen::MatrixX3d::Constant(8, 3, -0.5);
+    const Positions field = narrow.synthesize(c);
+    EXPECT_TRUE(field == wide.synthesize(c));
+    EXPECT_TRUE(narrow.project(std::vector<Positions>{field}, 8)[0] == wide.project(std::vector<Positions>{field}, 8)[0]);
 }
 
 // The documented cross-CPU contract: AVX2 and portable results agree to rounding, and a field
@@ -259,7 +352,7 @@ TEST(BasisKernelTest, every_pass_is_bit_identical_for_1_2_3_threads_with_each_ke
         kept[i] = 0;
     }
     const Eigen::MatrixX3d c = Eigen::MatrixX3d::Constant(6, 3, 0.5);
-    for (const BasisKernel kernel : {BasisKernel::Portable, BasisKernel::Avx2})
+    for (const BasisKernel kernel : {BasisKernel::Portable, BasisKernel::Avx2, BasisKernel::Avx512})
     {
         const KernelChoice choice(kernel);
         SCOPED_TRACE(std::string(basis_kernel_name()));
