@@ -199,6 +199,68 @@ void CanonicalFrameBuilder::add(const Eigen::Vector3d& p)
     }
 }
 
+void CanonicalFrameBuilder::add_rows(const Positions& V, std::span<const std::int32_t> rows)
+{
+    // Each loop body is add()'s expression for its pass, so every sum is the same.
+    switch (pass_)
+    {
+        case Pass::Centroid:
+        {
+            Eigen::Vector3d sum = sum_;
+            for (const std::int32_t i : rows)
+            {
+                sum += V.row(i).transpose();
+            }
+            sum_ = sum;
+            rows_ += rows.size();
+            break;
+        }
+        case Pass::Covariance:
+        {
+            Eigen::Matrix3d covariance = covariance_;
+            for (const std::int32_t i : rows)
+            {
+                const Eigen::Vector3d q = V.row(i).transpose() - frame_.origin;
+                covariance += q * q.transpose();
+            }
+            covariance_ = covariance;
+            break;
+        }
+        case Pass::Moments:
+        {
+            double moment1 = moment1_;
+            double moment2 = moment2_;
+            for (const std::int32_t i : rows)
+            {
+                const Eigen::Vector3d q = V.row(i).transpose() - frame_.origin;
+                const double t1 = q.dot(e1_);
+                const double t2 = q.dot(e2_);
+                moment1 += t1 * t1 * t1;
+                moment2 += t2 * t2 * t2;
+            }
+            moment1_ = moment1;
+            moment2_ = moment2;
+            break;
+        }
+        case Pass::Extent:
+        {
+            Eigen::Vector3d lo = lo_;
+            Eigen::Vector3d hi = hi_;
+            for (const std::int32_t i : rows)
+            {
+                const Eigen::Vector3d q = frame_.axes * (V.row(i).transpose() - frame_.origin);
+                lo = lo.cwiseMin(q);
+                hi = hi.cwiseMax(q);
+            }
+            lo_ = lo;
+            hi_ = hi;
+            break;
+        }
+        case Pass::Done:
+            break;
+    }
+}
+
 void CanonicalFrameBuilder::next_pass()
 {
     switch (pass_)
@@ -256,10 +318,7 @@ CanonicalFrame canonical_frame(const Positions& V, const std::vector<std::int32_
     CanonicalFrameBuilder builder;
     while (builder.pass() != CanonicalFrameBuilder::Pass::Done)
     {
-        for (const auto i : rows)
-        {
-            builder.add(V.row(i).transpose());
-        }
+        builder.add_rows(V, rows);
         builder.next_pass();
     }
     return builder.frame();
@@ -475,12 +534,19 @@ Positions SpectralWatermark::displacement(EmbedStats* stats) const
     Positions field = basis_->synthesize(coefficient_change(), &orthogonality);
     if (stats != nullptr)
     {
+        // Two independent serial passes, side by side (each as it would run alone).
         const auto& rows = basis_->active_rows();
-        const double aabb = bounding_box(original_->V, rows).diagonal();
+        double aabb = 0.0;
         DisplacementSummary summary;
-        for (const auto i : rows)
+#pragma omp parallel sections num_threads(threads_ == 1 ? 1 : 2)
         {
-            summary.add(field.data() + 3 * static_cast<std::size_t>(i));
+#pragma omp section
+            aabb = bounding_box(original_->V, rows).diagonal();
+#pragma omp section
+            for (const auto i : rows)
+            {
+                summary.add(field.data() + 3 * static_cast<std::size_t>(i));
+            }
         }
         describe(summary, aabb, orthogonality, stats);
     }
