@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <vector>
+
 #include <cmath>
 
 namespace meshmark {
@@ -64,6 +66,40 @@ TEST(RngTest, derive_seed_separates_purposes_and_is_stable)
     EXPECT_NE(derive_seed(1, "centers"), derive_seed(2, "centers"));
     // Documented hash: a change here changes every key's centers, so it is pinned.
     EXPECT_EQ(splitmix64(0), 0xE220A8397B1DCDAFULL);
+}
+
+// hash_bytes as defined (bytes packed little-endian into words, one splitmix64 per word), the
+// slow way: the word-at-a-time path must give the same value for every length and alignment.
+TEST(HashBytesTest, word_path_equals_the_byte_definition)
+{
+    auto reference = [](const unsigned char* bytes, std::size_t size, std::uint64_t seed) {
+        std::uint64_t h = splitmix64(seed ^ (static_cast<std::uint64_t>(size) * 0x9E3779B97F4A7C15ULL));
+        for (std::size_t i = 0; i < size; i += 8)
+        {
+            std::uint64_t word = 0;
+            for (std::size_t b = 0; b < 8 && i + b < size; ++b)
+            {
+                word |= static_cast<std::uint64_t>(bytes[i + b]) << (8U * b);
+            }
+            h = splitmix64(h ^ word);
+        }
+        return h;
+    };
+    std::vector<unsigned char> buffer(200);
+    Rng rng(3);
+    for (auto& byte : buffer)
+    {
+        byte = static_cast<unsigned char>(rng.below(256));
+    }
+    for (std::size_t offset = 0; offset < 8; ++offset)
+    {
+        for (std::size_t size = 0; size <= 41; ++size)
+        {
+            ASSERT_EQ(hash_bytes(buffer.data() + offset, size, 0x1234U), reference(buffer.data() + offset, size, 0x1234U))
+                << "offset " << offset << " size " << size;
+        }
+    }
+    EXPECT_NE(hash_bytes(buffer.data(), 16, 0), hash_bytes(buffer.data() + 1, 16, 0));
 }
 
 }  // namespace meshmark

@@ -5,6 +5,8 @@
 
 #include <cmath>
 #include <numbers>
+#include <span>
+#include <vector>
 
 #include <Eigen/Geometry>
 
@@ -35,6 +37,33 @@ Decision detect_positions(const SpectralWatermark& mark, const Positions& suspec
 }
 
 }  // namespace
+
+// add_rows is add() with the pass chosen once: the same frame to the bit.
+TEST(CanonicalFrameTest, add_rows_gives_the_frame_of_add_row_by_row)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(4);
+    std::vector<std::int32_t> rows = referenced_vertices(mesh);
+    rows.erase(rows.begin() + 5, rows.begin() + 40);  // not every row, and not from 0 only
+    CanonicalFrameBuilder one_by_one;
+    CanonicalFrameBuilder batched;
+    while (one_by_one.pass() != CanonicalFrameBuilder::Pass::Done)
+    {
+        for (const std::int32_t i : rows)
+        {
+            one_by_one.add(mesh.V.row(i).transpose());
+        }
+        one_by_one.next_pass();
+        // Two batches per pass: the running sums carry over between calls.
+        batched.add_rows(mesh.V, std::span(rows).first(rows.size() / 3));
+        batched.add_rows(mesh.V, std::span(rows).subspan(rows.size() / 3));
+        batched.next_pass();
+    }
+    ASSERT_EQ(batched.pass(), CanonicalFrameBuilder::Pass::Done);
+    EXPECT_EQ(batched.frame().origin, one_by_one.frame().origin);
+    EXPECT_EQ(batched.frame().axes, one_by_one.frame().axes);
+    EXPECT_EQ(batched.frame().diagonal, one_by_one.frame().diagonal);
+    EXPECT_GT(batched.frame().diagonal, 0.0);
+}
 
 TEST(SpectralWatermarkTest, marked_copy_reads_back_all_bits_with_both_rules)
 {
