@@ -217,13 +217,26 @@ void CanonicalFrameBuilder::add_rows(const Positions& V, std::span<const std::in
         }
         case Pass::Covariance:
         {
-            Eigen::Matrix3d covariance = covariance_;
+            // add()'s covariance += q q^T entry by entry (each entry: one product, one sum; the
+            // matrix is symmetric and q_a q_b == q_b q_a exactly), without Eigen's temporary.
+            std::array<double, 6> c = {covariance_(0, 0), covariance_(1, 0), covariance_(2, 0),
+                                       covariance_(1, 1), covariance_(2, 1), covariance_(2, 2)};
+            const double ox = frame_.origin.x();
+            const double oy = frame_.origin.y();
+            const double oz = frame_.origin.z();
             for (const std::int32_t i : rows)
             {
-                const Eigen::Vector3d q = V.row(i).transpose() - frame_.origin;
-                covariance += q * q.transpose();
+                const double x = V(i, 0) - ox;
+                const double y = V(i, 1) - oy;
+                const double z = V(i, 2) - oz;
+                c[0] += x * x;
+                c[1] += y * x;
+                c[2] += z * x;
+                c[3] += y * y;
+                c[4] += z * y;
+                c[5] += z * z;
             }
-            covariance_ = covariance;
+            covariance_ << c[0], c[1], c[2], c[1], c[3], c[4], c[2], c[4], c[5];
             break;
         }
         case Pass::Moments:
