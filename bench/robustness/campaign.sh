@@ -37,7 +37,7 @@ if [[ ${MERGE_ONLY:-0} == 0 ]]; then
     for mesh in "${meshes[@]}"; do
         name=$(basename "$mesh")
         [[ -f $out/$name.json ]] && continue
-        n=$(stat -c %s "$mesh")
+        n=$(stat -L -c %s "$mesh")
         k=$keys
         if [[ $n -gt $large ]]; then k=$large_keys; fi
         echo "campaign: $name ($n bytes, $k keys) started $(date -u +%H:%M:%S)" >&2
