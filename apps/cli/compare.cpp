@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -14,6 +15,7 @@
 #include "meshmark/io/mesh_io.h"
 #include "meshmark/metrics/distortion.h"
 #include "meshmark/metrics/heatmap.h"
+#include "meshmark/pipeline/progress.h"
 #include "report.h"
 
 namespace meshmark::cli {
@@ -128,15 +130,26 @@ int run_compare(const CompareArgs& args, const GlobalArgs& global)
 {
     const auto start = std::chrono::steady_clock::now();
     check_heatmap_path(args);
+    // Phases and a running clock on a terminal, after the first second (as embed and detect);
+    // silent otherwise. The phases are the --json `seconds` keys.
+    std::optional<PhaseProgress> progress;
+    ProgressCallback report_phase = [](std::string_view, double) {};
+    if (PhaseProgress::should_show(global.quiet))
+    {
+        progress.emplace(PhaseProgressOptions{"meshmark compare"});
+        report_phase = progress->callback();
+    }
 
     // Read both meshes, then measure.
+    report_phase("read", 0.0);
     const TriangleMesh a = read_mesh(args.a);
     const TriangleMesh b = read_mesh(args.b);
     const double read_seconds = seconds_since(start);
+    report_phase("read", 1.0);
     CompareOptions options = args.options;
     options.threads = global.threads;
     options.keep_vertex_distances = !args.heatmap.empty();
-    options.progress = make_progress(global, "compare");
+    options.progress = report_phase;
     const DistortionReport report = compare_meshes(a, b, options);
 
     // Optional heatmap of B's vertices.
@@ -144,9 +157,15 @@ int run_compare(const CompareArgs& args, const GlobalArgs& global)
     double heatmap_max = 0.0;
     if (!args.heatmap.empty())
     {
+        report_phase("heatmap", 0.0);
         const auto phase = std::chrono::steady_clock::now();
         heatmap_max = write_heatmap(args.heatmap, b, report.vertex_distances_ba);
         heatmap_seconds = seconds_since(phase);
+        report_phase("heatmap", 1.0);
+    }
+    if (progress)
+    {
+        progress->finish();
     }
 
     if (args.json)

@@ -10,8 +10,6 @@
 
 namespace meshmark::cli {
 
-/// Progress on stderr, only when stderr is a terminal and --quiet is off.
-[[nodiscard]] ProgressCallback make_progress(const GlobalArgs& global, const std::string& command);
 
 /// Phase timings as a JSON object {"read": 0.1, ..., "total": 0.5}.
 [[nodiscard]] nlohmann::json to_json(const PhaseTimings& timings);

@@ -246,24 +246,27 @@ DistortionReport compare_meshes(const TriangleMesh& a, const TriangleMesh& b, co
     }
 
     // Indices: exact closest points on each surface (nearest points for a cloud).
-    report_progress(options, "building closest-point indices", 0.0);
+    report_progress(options, "index", 0.0);
     auto phase = std::chrono::steady_clock::now();
     const ClosestPointIndex index_a(a);
     const ClosestPointIndex index_b(b);
     report.seconds.index = seconds_since(phase);
+    report_progress(options, "index", 1.0);
 
     // A -> B, then B -> A, each with its own random stream.
     const std::int64_t samples_a = options.samples > 0 ? options.samples : auto_sample_count(a);
     const std::int64_t samples_b = options.samples > 0 ? options.samples : auto_sample_count(b);
-    report_progress(options, "measuring A against B", 0.1);
+    report_progress(options, "a_to_b", 0.0);
     phase = std::chrono::steady_clock::now();
     report.a_to_b = one_sided_distance(a, index_b, samples_a, derive_seed(options.seed, "compare:a"), options.threads);
     report.seconds.a_to_b = seconds_since(phase);
-    report_progress(options, "measuring B against A", 0.55);
+    report_progress(options, "a_to_b", 1.0);
+    report_progress(options, "b_to_a", 0.0);
     phase = std::chrono::steady_clock::now();
     report.b_to_a = one_sided_distance(b, index_a, samples_b, derive_seed(options.seed, "compare:b"), options.threads,
                                        options.keep_vertex_distances ? &report.vertex_distances_ba : nullptr);
     report.seconds.b_to_a = seconds_since(phase);
+    report_progress(options, "b_to_a", 1.0);
 
     // Relative figures, and the vertex displacement when the connectivity is shared.
     const double d = report.diagonal;
@@ -280,7 +283,6 @@ DistortionReport compare_meshes(const TriangleMesh& a, const TriangleMesh& b, co
         report.rms_displacement_rel = report.displacement->rms / d;
     }
     report.seconds.total = seconds_since(start);
-    report_progress(options, "done", 1.0);
     return report;
 }
 

@@ -27,8 +27,9 @@ struct CompareOptions
     std::uint64_t seed = 0;              ///< Seed of the stratified sampling.
     int threads = 0;                     ///< Worker threads (0 = all cores); results do not depend on it.
     bool keep_vertex_distances = false;  ///< Fill DistortionReport::vertex_distances_ba (heatmaps).
-    /// Optional progress report: called with a phase name and the fraction done (0..1, the
-    /// last call with 1); same signature as the pipeline's ProgressCallback. The library never prints.
+    /// Optional progress report, the pipeline's ProgressCallback protocol: each phase ("index",
+    /// "a_to_b", "b_to_a", the names of DistortionReport::seconds) is announced with fraction 0
+    /// when it starts and 1 when it ends. The library never prints.
     std::function<void(std::string_view phase, double fraction)> progress;
 
     /// \throws InvalidOption naming the field if samples or threads is negative.
