@@ -39,6 +39,21 @@ struct KernelChoice
     KernelChoice& operator=(const KernelChoice&) = delete;
 };
 
+/// One basis problem (10242 vertices, 3 chunks, k = 100), built with a chosen kernel.
+struct KernelComparison
+{
+    TriangleMesh mesh = lumpy_ellipsoid(5);
+    std::vector<std::int32_t> rows = referenced_vertices(mesh);
+    std::vector<std::int32_t> centers = random_centers(mesh.V, rows, 100, 8);
+    Eigen::Vector3d origin = mesh.V.colwise().mean().transpose();
+
+    [[nodiscard]] RbfBasis build(BasisKernel kernel) const
+    {
+        const KernelChoice choice(kernel);
+        return RbfBasis(mesh.V, rows, centers, 1.0, origin, 2);
+    }
+};
+
 double max_abs(const std::vector<double>& values)
 {
     double largest = 0.0;
@@ -270,14 +285,8 @@ TEST(BasisKernelTest, avx512_basis_is_bit_identical_to_avx2)
     {
         GTEST_SKIP() << "this CPU has no AVX-512F";
     }
-    const TriangleMesh mesh = lumpy_ellipsoid(5);
-    const auto rows = referenced_vertices(mesh);
-    const auto centers = random_centers(mesh.V, rows, 100, 8);
-    const Eigen::Vector3d origin = mesh.V.colwise().mean().transpose();
-    auto build = [&](BasisKernel kernel) {
-        const KernelChoice choice(kernel);
-        return RbfBasis(mesh.V, rows, centers, 1.0, origin, 2);
-    };
+    const KernelComparison bases;
+    const auto build = [&](BasisKernel kernel) { return bases.build(kernel); };
     const RbfBasis narrow = build(BasisKernel::Avx2);
     const RbfBasis wide = build(BasisKernel::Avx512);
     ASSERT_EQ(narrow.kernel_name(), "avx2-fma");
@@ -298,14 +307,8 @@ TEST(BasisKernelTest, avx2_and_portable_agree_to_rounding)
     {
         GTEST_SKIP() << "this CPU has no AVX2+FMA";
     }
-    const TriangleMesh mesh = lumpy_ellipsoid(5);  // 10242 vertices, 3 chunks
-    const auto rows = referenced_vertices(mesh);
-    const auto centers = random_centers(mesh.V, rows, 100, 8);
-    const Eigen::Vector3d origin = mesh.V.colwise().mean().transpose();
-    auto build = [&](BasisKernel kernel) {
-        const KernelChoice choice(kernel);
-        return RbfBasis(mesh.V, rows, centers, 1.0, origin, 2);
-    };
+    const KernelComparison bases;
+    const auto build = [&](BasisKernel kernel) { return bases.build(kernel); };
     const RbfBasis portable = build(BasisKernel::Portable);
     const RbfBasis fast = build(BasisKernel::Avx2);
     ASSERT_EQ(portable.kernel_name(), "portable");
