@@ -11,6 +11,7 @@
 
 #include "meshmark/core/atomic_file.h"
 #include "meshmark/core/error.h"
+#include "meshmark/core/named_choice.h"
 #include "meshmark/core/rng.h"
 
 namespace meshmark {
@@ -145,15 +146,8 @@ const char* to_string(EmbeddingRule rule) noexcept
 
 EmbeddingRule parse_embedding_rule(const std::string& name)
 {
-    if (name == "additive")
-    {
-        return EmbeddingRule::Additive;
-    }
-    if (name == "paper")
-    {
-        return EmbeddingRule::Paper;
-    }
-    throw InvalidOption("unknown embedding rule '" + name + "' (expected additive or paper).");
+    return parse_named_choice<EmbeddingRule>(name, "embedding rule",
+                                             {{"additive", EmbeddingRule::Additive}, {"paper", EmbeddingRule::Paper}});
 }
 
 const char* to_string(BasisType basis) noexcept
@@ -168,28 +162,13 @@ const char* to_string(CenterSelection centers) noexcept
 
 BasisType parse_basis_type(const std::string& name)
 {
-    if (name == "rbf")
-    {
-        return BasisType::Rbf;
-    }
-    if (name == "laplacian")
-    {
-        return BasisType::Laplacian;
-    }
-    throw InvalidOption("unknown basis '" + name + "' (expected rbf or laplacian).");
+    return parse_named_choice<BasisType>(name, "basis", {{"rbf", BasisType::Rbf}, {"laplacian", BasisType::Laplacian}});
 }
 
 CenterSelection parse_center_selection(const std::string& name)
 {
-    if (name == "random")
-    {
-        return CenterSelection::Random;
-    }
-    if (name == "decimate")
-    {
-        return CenterSelection::Decimate;
-    }
-    throw InvalidOption("unknown center selection '" + name + "' (expected random or decimate).");
+    return parse_named_choice<CenterSelection>(name, "center selection",
+                                               {{"random", CenterSelection::Random}, {"decimate", CenterSelection::Decimate}});
 }
 
 double default_strength(EmbeddingRule rule) noexcept

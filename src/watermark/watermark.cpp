@@ -18,6 +18,7 @@
 #include "meshmark/basis/rbf_basis.h"
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
+#include "meshmark/core/named_choice.h"
 #include "meshmark/core/rng.h"
 #include "meshmark/geometry/adjacency.h"
 #include "meshmark/geometry/normals.h"
@@ -369,15 +370,8 @@ const char* to_string(VerdictRule rule) noexcept
 
 VerdictRule parse_verdict_rule(const std::string& name)
 {
-    if (name == "correlation")
-    {
-        return VerdictRule::Correlation;
-    }
-    if (name == "bits")
-    {
-        return VerdictRule::Bits;
-    }
-    throw InvalidOption("unknown verdict rule '" + name + "' (expected correlation or bits).");
+    return parse_named_choice<VerdictRule>(name, "verdict rule",
+                                           {{"correlation", VerdictRule::Correlation}, {"bits", VerdictRule::Bits}});
 }
 
 double rademacher_tail_bound(double z)
