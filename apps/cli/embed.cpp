@@ -58,9 +58,16 @@ EmbedReport embed_maybe_in_place(const EmbedArgs& args, const EmbedFileOptions& 
     const std::filesystem::path staged =
         target.parent_path() / ("." + target.stem().string() + ".meshmark-embed-" +
                                 std::to_string(::getpid()) + target.extension().string());
+    // The input's permissions before the embed: the marked copy that replaces it keeps them
+    // (a fresh file would get the default mode of an atomic write instead).
+    const std::filesystem::perms mode = std::filesystem::status(target).permissions();
     EmbedReport report = embed_file(args.input, staged, args.key, options);
     std::error_code error;
-    std::filesystem::rename(staged, target, error);
+    std::filesystem::permissions(staged, mode, error);
+    if (!error)
+    {
+        std::filesystem::rename(staged, target, error);
+    }
     if (error)
     {
         std::error_code ignored;

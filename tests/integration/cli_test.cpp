@@ -285,6 +285,22 @@ TEST_F(CliTest, never_overwrites_the_input_or_an_existing_key)
     EXPECT_FALSE(fs::exists(dir_ / "b.ply"));
 }
 
+// -o INPUT --force replaces the input with its marked copy, which keeps the input's permissions.
+TEST_F(CliTest, embedding_in_place_keeps_the_input_permissions)
+{
+    const auto input = dir_ / "in_place.ply";
+    fs::copy_file(original_, input);
+    const auto mode = fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read;  // 0640
+    fs::permissions(input, mode);
+    const std::string before = slurp(input);
+    const CliRun r = run("embed " + input.string() + " -o " + input.string() + " --key " + (dir_ / "ip.json").string() +
+                             " --force",
+                         dir_);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_NE(slurp(input), before);
+    EXPECT_EQ(fs::status(input).permissions(), mode);
+}
+
 // Each bad input: one clear sentence naming the file, the right exit code, no output file.
 struct BadInput
 {
