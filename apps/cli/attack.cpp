@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "commands.h"
@@ -11,6 +12,7 @@
 #include "meshmark/core/atomic_file.h"
 #include "meshmark/core/error.h"
 #include "meshmark/io/mesh_io.h"
+#include "meshmark/pipeline/progress.h"
 #include "report.h"
 
 namespace meshmark::cli {
@@ -113,10 +115,23 @@ int run_attack(const AttackArgs& args, const GlobalArgs& global)
     }
     (void)format_from_extension(args.output);
 
+    // Phases and a running clock on a terminal, after the first second (remeshing or simplifying
+    // a large mesh takes several); silent otherwise. The phases are the --json `seconds` keys.
+    std::optional<PhaseProgress> progress;
+    ProgressCallback report_phase = [](std::string_view, double) {};
+    if (PhaseProgress::should_show(global.quiet))
+    {
+        progress.emplace(PhaseProgressOptions{"meshmark attack"});
+        report_phase = progress->callback();
+    }
+
     const auto start = std::chrono::steady_clock::now();
+    report_phase("read", 0.0);
     const TriangleMesh mesh = read_mesh(args.input);
     const double read_seconds = seconds_since(start);
+    report_phase("read", 1.0);
 
+    report_phase("attack", 0.0);
     const auto attack_start = std::chrono::steady_clock::now();
     AttackResult result;
     try
@@ -128,11 +143,18 @@ int run_attack(const AttackArgs& args, const GlobalArgs& global)
         throw InvalidMesh(args.input + ": " + e.what());
     }
     const double attack_seconds = seconds_since(attack_start);
+    report_phase("attack", 1.0);
 
+    report_phase("write", 0.0);
     const auto write_start = std::chrono::steady_clock::now();
     write_mesh(args.output, result.mesh);
     const double write_seconds = seconds_since(write_start);
     const double total_seconds = seconds_since(start);
+    report_phase("write", 1.0);
+    if (progress)
+    {
+        progress->finish();
+    }
 
     const std::string canonical = to_string(specs);
     if (args.json)
