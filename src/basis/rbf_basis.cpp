@@ -16,6 +16,7 @@
 
 #include "basis/rbf_kernels.h"
 #include "meshmark/core/error.h"
+#include "meshmark/core/morton.h"
 #include "meshmark/core/rng.h"
 
 namespace meshmark {
@@ -31,43 +32,17 @@ constexpr std::size_t kMinChunkBlocks = 16;
 // double; condition numbers of 1e8-1e10 are normal for k = 100, see DESIGN.md).
 constexpr double kGramRankTolerance = 1e-14;
 
-// Spreads the low 10 bits of v to every third bit (Morton interleaving).
-std::uint32_t spread_bits(std::uint32_t v) noexcept
+// Column of each center in the B blocks: the centers in Morton order of their positions (10
+// bits per axis), so that neighbouring columns hold nearby centers and the evaluation's test
+// "all four centers out of reach" succeeds for whole groups. Only the layout changes: every
+// entry of G, B^T P and the products is the same sum in the same order wherever its column sits.
+std::vector<std::size_t> spatial_columns(const Positions& Q)
 {
-    v &= 0x3FFU;
-    v = (v | (v << 16U)) & 0x030000FFU;
-    v = (v | (v << 8U)) & 0x0300F00FU;
-    v = (v | (v << 4U)) & 0x030C30C3U;
-    v = (v | (v << 2U)) & 0x09249249U;
-    return v;
-}
-
-// Column of each center in the B blocks: the centers in Morton order of their positions, so
-// that neighbouring columns hold nearby centers and the evaluation's test "all four centers
-// out of reach" succeeds for whole groups. Only the layout changes: every entry of G, B^T P
-// and the products is the same sum in the same order wherever its column sits.
-std::vector<std::size_t> spatial_columns(const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>& Q)
-{
-    const auto k = static_cast<std::size_t>(Q.rows());
-    const Eigen::RowVector3d low = Q.colwise().minCoeff();
-    const Eigen::RowVector3d extent = (Q.colwise().maxCoeff() - low).cwiseMax(1e-300);
-    std::vector<std::pair<std::uint32_t, std::size_t>> keys(k);
-    for (std::size_t j = 0; j < k; ++j)
+    const std::vector<std::size_t> order = morton_order(Q, 10);
+    std::vector<std::size_t> column(order.size());
+    for (std::size_t slot = 0; slot < order.size(); ++slot)
     {
-        std::uint32_t code = 0;
-        for (Eigen::Index d = 0; d < 3; ++d)
-        {
-            const double unit = (Q(static_cast<Eigen::Index>(j), d) - low(d)) / extent(d);
-            const auto cell = static_cast<std::uint32_t>(std::clamp(unit, 0.0, 1.0) * 1023.0);
-            code |= spread_bits(cell) << static_cast<std::uint32_t>(d);
-        }
-        keys[j] = {code, j};
-    }
-    std::sort(keys.begin(), keys.end());
-    std::vector<std::size_t> column(k);
-    for (std::size_t slot = 0; slot < k; ++slot)
-    {
-        column[keys[slot].second] = slot;
+        column[order[slot]] = slot;
     }
     return column;
 }

@@ -207,9 +207,6 @@ MESHMARK_AVX512 void accumulate_columns(const double* B, std::size_t rows, std::
     }
 }
 
-// The AVX2 accumulation, for narrow designs (set in avx512_kernels()).
-void (*narrow_accumulate)(const double*, std::size_t, std::size_t, const double*, std::size_t, double*) = nullptr;
-
 MESHMARK_AVX512 void accumulate(const double* B, std::size_t rows, std::size_t ld, const double* X,
                                 std::size_t w, double* acc)
 {
@@ -217,7 +214,7 @@ MESHMARK_AVX512 void accumulate(const double* B, std::size_t rows, std::size_t l
     {
         // The synthesis's round-trip check (w = 3): 8 lanes gained nothing there and lost
         // ~10% of the synthesis pass (measured with BM_Synthesis); same bits either way.
-        narrow_accumulate(B, rows, ld, X, w, acc);
+        avx2_kernels()->accumulate(B, rows, ld, X, w, acc);
         return;
     }
     // Four design columns per pass: 12 of the 32 registers accumulate.
@@ -252,7 +249,6 @@ const BlockKernels* avx512_kernels() noexcept
         {
             return nullptr;
         }
-        narrow_accumulate = avx2->accumulate;
         static const BlockKernels set{"avx512", avx2->evaluate, gram, avx2->multiply, accumulate};
         return &set;
     }();

@@ -19,6 +19,7 @@
 
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
+#include "meshmark/core/morton.h"
 #include "meshmark/core/rng.h"
 #include "registration/detail/coarse_alignment.h"
 #include "registration/detail/icp.h"
@@ -86,47 +87,17 @@ using SampleSets = std::array<Positions, 5>;
 constexpr std::size_t kFineTier = 3;
 constexpr std::size_t kFinalTier = 4;
 
-/// Spreads the low 21 bits of \p x to every third bit (Morton code helper).
-std::uint64_t spread_bits(std::uint64_t x)
-{
-    x &= 0x1fffffU;
-    x = (x | x << 32U) & 0x1f00000000ffffU;
-    x = (x | x << 16U) & 0x1f0000ff0000ffU;
-    x = (x | x << 8U) & 0x100f00f00f00f00fU;
-    x = (x | x << 4U) & 0x10c30c30c30c30c3U;
-    x = (x | x << 2U) & 0x1249249249249249U;
-    return x;
-}
-
-/// \p X's rows in Z (Morton) order of their positions, ties by row: the same sample set, laid
-/// out so that consecutive closest-point queries land near each other in the target's
-/// kd-tree and vertex arrays. On a 1M-vertex reference the fine stage's random samples were
-/// memory-latency bound (about 3 CPU-us per query in shuffled order).
+/// \p X's rows in Z (Morton) order of their positions (21 bits per axis), ties by row: the same
+/// sample set, laid out so that consecutive closest-point queries land near each other in the
+/// target's kd-tree and vertex arrays. On a 1M-vertex reference the fine stage's random samples
+/// were memory-latency bound (about 3 CPU-us per query in shuffled order).
 Positions spatially_sorted(const Positions& X)
 {
-    const Eigen::Index n = X.rows();
-    if (n < 2)
+    const std::vector<std::size_t> order = morton_order(X, 21);
+    Positions Y(X.rows(), 3);
+    for (std::size_t i = 0; i < order.size(); ++i)
     {
-        return X;
-    }
-    const Eigen::RowVector3d lo = X.colwise().minCoeff();
-    const Eigen::RowVector3d extent = (X.colwise().maxCoeff() - lo).cwiseMax(1e-300);
-    std::vector<std::pair<std::uint64_t, Eigen::Index>> keys(static_cast<std::size_t>(n));
-    for (Eigen::Index i = 0; i < n; ++i)
-    {
-        std::uint64_t code = 0;
-        for (Eigen::Index k = 0; k < 3; ++k)
-        {
-            const double t = std::clamp((X(i, k) - lo(k)) / extent(k), 0.0, 1.0);
-            code |= spread_bits(static_cast<std::uint64_t>(t * 2097151.0)) << static_cast<unsigned>(k);
-        }
-        keys[static_cast<std::size_t>(i)] = {code, i};
-    }
-    std::sort(keys.begin(), keys.end());
-    Positions Y(n, 3);
-    for (Eigen::Index i = 0; i < n; ++i)
-    {
-        Y.row(i) = X.row(keys[static_cast<std::size_t>(i)].second);
+        Y.row(static_cast<Eigen::Index>(i)) = X.row(static_cast<Eigen::Index>(order[i]));
     }
     return Y;
 }
