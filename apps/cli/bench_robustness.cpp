@@ -60,6 +60,7 @@ struct RobustnessArgs
     std::string rule = "additive";
     std::string basis = "rbf";
     std::string centers = "random";
+    std::int64_t gram_rows = EmbedOptions::kDefaultGramRows;
     std::string markdown;
     std::string json_path;
     std::vector<std::string> from_json;
@@ -126,6 +127,7 @@ Key make_key(const TriangleMesh& original, std::uint64_t seed, const RobustnessA
     key.options.first_mode = args.first_mode;
     key.options.basis = parse_basis_type(args.basis);
     key.options.centers = parse_center_selection(args.centers);
+    key.options.gram_rows = args.gram_rows;
     key.payload = random_payload(seed, payload_bit_count(key.options));
     key.original = fingerprint(original);
     return key;
@@ -293,7 +295,13 @@ std::string markdown_report(const std::vector<MeshEmbedding>& embeddings, const 
        << ", keys on unmarked attacked copies: " << args.unmarked_keys << "); rule " << args.rule
        << ", strength " << (args.strength < 0 ? std::string("default") : format_number(args.strength))
        << ", repetitions " << args.repetitions << ", first mode " << args.first_mode << ", basis " << args.basis
-       << (args.basis == "rbf" ? " (" + args.centers + " centers)" : std::string()) << "; verdict: correlation bound <= "
+       << (args.basis == "rbf" ? " (" + args.centers + " centers" +
+                                     (args.gram_rows == EmbedOptions::kDefaultGramRows
+                                          ? std::string()
+                                          : ", Gram rows " + std::to_string(args.gram_rows)) +
+                                     ")"
+                                : std::string())
+       << "; verdict: correlation bound <= "
        << format_number(decision.max_false_positive) << " (bits rule: R >= " << format_number(decision.threshold)
        << ").\n\n";
 
@@ -692,6 +700,10 @@ void register_bench_robustness(CLI::App& bench, GlobalArgs& global, CommandRunne
         ->capture_default_str();
     command->add_option("--centers", args->centers, "RBF centers: random or decimate")
         ->check(CLI::IsMember({"random", "decimate"}))
+        ->capture_default_str();
+    command->add_option("--gram-rows", args->gram_rows,
+                        "RBF Gram matrix from at most this many evenly spaced vertices (0 = all)")
+        ->check(CLI::NonNegativeNumber)
         ->capture_default_str();
     command->add_option("--markdown", args->markdown, "Also write the tables to this file");
     command->add_option("--json-file", args->json_path, "Also write every trial as JSON to this file");

@@ -222,6 +222,12 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     command->add_option("--sigma-factor", args->options.sigma_factor,
                         "RBF support = factor * bbox diagonal / 2")
         ->capture_default_str();
+    command->add_option("--gram-rows", args->options.gram_rows,
+                        "RBF basis: estimate its Gram matrix from at most this many evenly spaced "
+                        "vertices (0 = all); bounds the basis cost of very large meshes, smaller "
+                        "meshes are unaffected (the key records it)")
+        ->check(CLI::NonNegativeNumber)
+        ->capture_default_str();
     command->add_option("--seed", args->seed,
                         "Secret seed (centers, payload mask, random payload); random if absent");
     command->add_option("--memory-budget", args->memory_budget,

@@ -8,6 +8,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstdlib>
+#include <optional>
 #include <set>
 #include <unordered_map>
 #include <string>
@@ -150,7 +151,7 @@ std::vector<std::int32_t> random_centers(
 
 RbfBasis::RbfBasis(const Positions& V, std::vector<std::int32_t> active,
                    std::vector<std::int32_t> centers, double sigma, const Eigen::Vector3d& origin,
-                   int threads)
+                   int threads, std::size_t gram_rows)
     : V_(&V), active_(std::move(active)), kernels_(&selected_kernels()), sigma_(sigma), origin_(origin),
       threads_(resolve_threads(threads))
 {
@@ -169,11 +170,11 @@ RbfBasis::RbfBasis(const Positions& V, std::vector<std::int32_t> active,
     {
         center_positions.row(j) = V.row(centers[static_cast<std::size_t>(j)]);
     }
-    build(center_positions, nullptr);
+    build(center_positions, nullptr, gram_rows);
 }
 
 RbfBasis::RbfBasis(const RowPositionSource& source, const Eigen::MatrixX3d& center_positions,
-                   double sigma, const Eigen::Vector3d& origin, int threads)
+                   double sigma, const Eigen::Vector3d& origin, int threads, std::size_t gram_rows)
     : V_(nullptr), row_count_(source.size()), kernels_(&selected_kernels()), sigma_(sigma), origin_(origin),
       threads_(resolve_threads(threads))
 {
@@ -186,10 +187,69 @@ RbfBasis::RbfBasis(const RowPositionSource& source, const Eigen::MatrixX3d& cent
         throw InvalidOption("the RBF support radius must be positive and finite, got " +
                             std::to_string(sigma_) + ".");
     }
-    build(center_positions, &source);
+    build(center_positions, &source, gram_rows);
 }
 
-void RbfBasis::build(const Eigen::MatrixX3d& centers, const RowPositionSource* rows_source)
+// The rows of a sampled pass 1 out of a source of all active rows: one underlying cursor read
+// sequentially, the rows between two sampled ones read into a scratch buffer and dropped.
+class RbfBasis::SampledRows final : public RowPositionSource
+{
+public:
+    SampledRows(const RbfBasis& basis, const RowPositionSource& all) : basis_(basis), all_(all) {}
+    [[nodiscard]] std::size_t size() const override { return basis_.gram_sample_rows_; }
+    [[nodiscard]] std::unique_ptr<RowPositionCursor> cursor(std::size_t begin) const override
+    {
+        return std::make_unique<Cursor>(basis_, all_, begin);
+    }
+
+private:
+    class Cursor final : public RowPositionCursor
+    {
+    public:
+        Cursor(const RbfBasis& basis, const RowPositionSource& all, std::size_t begin)
+            : basis_(basis), next_(begin), row_(basis.gram_row(begin)), all_(all.cursor(row_))
+        {
+        }
+        void read(std::size_t count, double* xyz) override
+        {
+            for (std::size_t i = 0; i < count; ++i, ++next_)
+            {
+                const std::size_t row = basis_.gram_row(next_);
+                if (row > row_)
+                {
+                    skipped_.resize(3 * (row - row_));
+                    all_->read(row - row_, skipped_.data());
+                }
+                all_->read(1, xyz + 3 * i);
+                row_ = row + 1;
+            }
+        }
+
+    private:
+        const RbfBasis& basis_;
+        std::size_t next_;  // sample index of the next read
+        std::size_t row_;   // active row the underlying cursor is at
+        std::unique_ptr<RowPositionCursor> all_;
+        std::vector<double> skipped_;
+    };
+
+    const RbfBasis& basis_;
+    const RowPositionSource& all_;
+};
+
+std::size_t RbfBasis::gram_row(std::size_t i) const noexcept
+{
+    if (gram_sample_rows_ == row_count_)
+    {
+        return i;
+    }
+    // Midpoints of n / m strides; (2i + 1) n < 2^64 for any n, m < 2^31.
+    return static_cast<std::size_t>((2 * static_cast<std::uint64_t>(i) + 1) * row_count_ /
+                                    (2 * static_cast<std::uint64_t>(gram_sample_rows_)));
+}
+
+void RbfBasis::build(const Eigen::MatrixX3d& centers, const RowPositionSource* rows_source,
+                     std::size_t gram_rows)
 {
     const auto k = static_cast<Eigen::Index>(centers.rows());
     const auto ku = static_cast<std::size_t>(k);
@@ -212,13 +272,29 @@ void RbfBasis::build(const Eigen::MatrixX3d& centers, const RowPositionSource* r
     }
 
     // Fixed chunking: depends on the number of rows only, never on the thread count.
-    const std::size_t n = row_count_;
-    const std::size_t min_rows = kMinChunkBlocks * kBasisBlockRows;
-    std::size_t chunk_rows = std::max(min_rows, (n + kMaxChunks - 1) / kMaxChunks);
-    chunk_rows = (chunk_rows + kBasisBlockRows - 1) / kBasisBlockRows * kBasisBlockRows;
-    for (std::size_t begin = 0; begin < n; begin += chunk_rows)
+    const auto fixed_chunks = [](std::size_t n) {
+        const std::size_t min_rows = kMinChunkBlocks * kBasisBlockRows;
+        std::size_t chunk_rows = std::max(min_rows, (n + kMaxChunks - 1) / kMaxChunks);
+        chunk_rows = (chunk_rows + kBasisBlockRows - 1) / kBasisBlockRows * kBasisBlockRows;
+        std::vector<Chunk> chunks;
+        for (std::size_t begin = 0; begin < n; begin += chunk_rows)
+        {
+            chunks.push_back({begin, std::min(n, begin + chunk_rows)});
+        }
+        return chunks;
+    };
+    chunks_ = fixed_chunks(row_count_);
+    const bool sampled = gram_rows > 0 && gram_rows < row_count_;
+    gram_sample_rows_ = sampled ? gram_rows : row_count_;
+    if (sampled)
     {
-        chunks_.push_back({begin, std::min(n, begin + chunk_rows)});
+        gram_chunks_ = fixed_chunks(gram_sample_rows_);
+    }
+    std::optional<SampledRows> sampled_source;
+    if (sampled && rows_source != nullptr)
+    {
+        sampled_source.emplace(*this, *rows_source);
+        rows_source = &*sampled_source;
     }
 
     // Pass 1: one symmetric rank update per block of the extended block [B, P - o, 1, 0...]:
@@ -226,7 +302,8 @@ void RbfBasis::build(const Eigen::MatrixX3d& centers, const RowPositionSource* r
     // and (B^T 1)^T. Per chunk, reduced in chunk order.
     const std::size_t ld = stride_;
     const std::size_t kp = padded_k_;
-    std::vector<std::vector<double>> parts(chunks_.size(), std::vector<double>(ld * ld, 0.0));
+    std::vector<std::vector<double>> parts((sampled ? gram_chunks_ : chunks_).size(),
+                                           std::vector<double>(ld * ld, 0.0));
     for_each_block([&](std::size_t chunk, double* B, const double* P, std::size_t rows,
                        std::size_t /*begin*/, double* /*spare*/) {
         for (std::size_t r = 0; r < rows; ++r)
@@ -238,13 +315,22 @@ void RbfBasis::build(const Eigen::MatrixX3d& centers, const RowPositionSource* r
             extra[3] = 1.0;
         }
         kernels_->gram(B, rows, ld, parts[chunk].data());
-    }, rows_source);
+    }, rows_source, 0, SIZE_MAX, sampled);
     std::vector<double> total(ld * ld, 0.0);
     for (const auto& part : parts)
     {
         for (std::size_t i = 0; i < total.size(); ++i)
         {
             total[i] += part[i];
+        }
+    }
+    if (sampled)
+    {
+        // Sums over m evenly spaced rows, scaled to the n rows they stand for.
+        const double scale = static_cast<double>(row_count_) / static_cast<double>(gram_sample_rows_);
+        for (double& value : total)
+        {
+            value *= scale;
         }
     }
     gram_ = unpack_gram(total);
@@ -320,9 +406,10 @@ std::vector<double> RbfBasis::columns_transposed(const Eigen::MatrixXd& M) const
 
 template <class BlockFn>
 void RbfBasis::for_each_block(const BlockFn& fn, const RowPositionSource* source, std::size_t first_chunk,
-                              std::size_t last_chunk) const
+                              std::size_t last_chunk, bool sampled) const
 {
-    last_chunk = std::min(last_chunk, chunks_.size());
+    const std::vector<Chunk>& chunks = sampled ? gram_chunks_ : chunks_;
+    last_chunk = std::min(last_chunk, chunks.size());
     const auto chunk_count = static_cast<std::ptrdiff_t>(last_chunk - std::min(first_chunk, last_chunk));
     const auto k = center_positions_.rows();
     const double inv_sigma = 1.0 / sigma_;
@@ -341,7 +428,7 @@ void RbfBasis::for_each_block(const BlockFn& fn, const RowPositionSource* source
         for (std::ptrdiff_t c = 0; c < chunk_count; ++c)
         {
             const std::size_t index = first_chunk + static_cast<std::size_t>(c);
-            const auto& chunk = chunks_[index];
+            const auto& chunk = chunks[index];
             std::unique_ptr<RowPositionCursor> cursor;
             if (source != nullptr)
             {
@@ -366,7 +453,7 @@ void RbfBasis::for_each_block(const BlockFn& fn, const RowPositionSource* source
                 {
                     for (std::size_t i = 0; i < rows; ++i)
                     {
-                        const auto row = active_[begin + i];
+                        const auto row = active_[sampled ? gram_row(begin + i) : begin + i];
                         for (Eigen::Index d = 0; d < 3; ++d)
                         {
                             P[3 * i + static_cast<std::size_t>(d)] = (*V_)(row, d) - origin_(d);

@@ -751,7 +751,8 @@ EmbedReport embed_file_streamed(const std::filesystem::path& input, const std::f
     const CanonicalFrame& canonical = frame.frame();
     const double sigma = key.options.sigma_factor * canonical.diagonal / 2.0;
     const FileRowSource source(file, layout, referenced, window);
-    RbfBasis basis(source, center_positions, sigma, canonical.origin, options.threads);
+    RbfBasis basis(source, center_positions, sigma, canonical.origin, options.threads,
+                   static_cast<std::size_t>(key.options.gram_rows));
     const std::size_t chunk_bytes = basis.max_chunk_rows() * 3 * sizeof(double);
     const SpectralWatermark mark(key, canonical, std::move(centers), std::move(basis),
                                  static_cast<std::size_t>(referenced.active));

@@ -89,7 +89,8 @@ Json content_json(const Key& key)
                       {"strength", key.options.resolved_strength()},
                       {"sigma_factor", key.options.sigma_factor},
                       {"centers", to_string(key.options.centers)},
-                      {"basis", to_string(key.options.basis)}};
+                      {"basis", to_string(key.options.basis)},
+                      {"gram_rows", key.options.gram_rows}};
     j["payload"] = {{"bits", to_bit_string(key.payload)}};
     if (key.message)
     {
@@ -212,6 +213,13 @@ void EmbedOptions::validate() const
     if (!std::isfinite(sigma_factor) || sigma_factor <= 0.0 || sigma_factor > 100.0)
     {
         throw InvalidOption("sigma factor must be in (0, 100], got " + std::to_string(sigma_factor) + ".");
+    }
+    const std::int64_t min_gram_rows = std::int64_t{kMinGramRowsPerCenter} * basis_size;
+    if (gram_rows != 0 && gram_rows < min_gram_rows)
+    {
+        throw InvalidOption("Gram rows (--gram-rows) must be 0 (every row) or at least " +
+                            std::to_string(kMinGramRowsPerCenter) + " times the basis size (" +
+                            std::to_string(min_gram_rows) + "), got " + std::to_string(gram_rows) + ".");
     }
 }
 
@@ -394,6 +402,10 @@ Key parse_key(const std::string& text, const std::string& source)
         embedding.contains("first_mode") ? field<int>(embedding, "first_mode", "embedding.", source) : 0;
     key.options.strength = field<double>(embedding, "strength", "embedding.", source);
     key.options.sigma_factor = field<double>(embedding, "sigma_factor", "embedding.", source);
+    // Absent from keys written before the sampled Gram matrix existed: those used every row.
+    key.options.gram_rows = embedding.contains("gram_rows")
+                                ? field<std::int64_t>(embedding, "gram_rows", "embedding.", source)
+                                : 0;
     // Absent from keys written before the Laplacian basis and decimated centers existed.
     try
     {

@@ -510,7 +510,8 @@ std::unique_ptr<const SpectralBasis> SpectralWatermark::make_basis(const Triangl
                    : random_centers(original.V, active, key_.options.basis_size,
                                     derive_seed(key_.seed, "centers"));
     const double sigma = key_.options.sigma_factor * frame_.diagonal / 2.0;
-    return std::make_unique<RbfBasis>(original.V, std::move(active), centers_, sigma, frame_.origin, threads_);
+    return std::make_unique<RbfBasis>(original.V, std::move(active), centers_, sigma, frame_.origin, threads_,
+                                      static_cast<std::size_t>(key_.options.gram_rows));
 }
 
 Eigen::MatrixX3d SpectralWatermark::coefficient_change() const

@@ -120,9 +120,14 @@ public:
     /// \param sigma    Support radius of phi, > 0.
     /// \param origin   Frame origin (the centroid of the active rows).
     /// \param threads  Worker threads, 0 = all cores.
+    /// \param gram_rows  0, or at most this many rows for pass 1: with n active rows and
+    ///        0 < gram_rows < n, pass 1 runs over the m = gram_rows rows
+    ///        floor((2i + 1) n / 2m), i < m (evenly spaced in row order) and scales its sums
+    ///        by n / m, so G, B^T 1 and B^T (P - o) are estimates and U is orthonormal up to
+    ///        their sampling error (which synthesize()'s check reports). Otherwise every row.
     /// \throws InvalidOption on empty inputs or sigma <= 0.
     RbfBasis(const Positions& V, std::vector<std::int32_t> active, std::vector<std::int32_t> centers,
-             double sigma, const Eigen::Vector3d& origin, int threads);
+             double sigma, const Eigen::Vector3d& origin, int threads, std::size_t gram_rows = 0);
 
     /// \brief Build the basis from streamed positions (out-of-core): bit-identical to the
     /// constructor above for the same active rows, centers and origin. A basis built this way
@@ -130,7 +135,7 @@ public:
     /// accessors may be used (the rest throw InvalidOption).
     /// \param center_positions  k x 3 positions of the centers (file frame), in draw order.
     RbfBasis(const RowPositionSource& source, const Eigen::MatrixX3d& center_positions, double sigma,
-             const Eigen::Vector3d& origin, int threads);
+             const Eigen::Vector3d& origin, int threads, std::size_t gram_rows = 0);
 
     /// Receives a synthesized field in row order: \p rows rows from active row \p begin,
     /// 3 doubles per row.
@@ -149,6 +154,8 @@ public:
     [[nodiscard]] int size() const noexcept override { return static_cast<int>(center_positions_.rows()); }
     [[nodiscard]] const std::vector<std::int32_t>& active_rows() const noexcept override { return active_; }
     [[nodiscard]] double sigma() const noexcept { return sigma_; }
+    /// Rows pass 1 ran over: the number of active rows, or gram_rows when that was smaller.
+    [[nodiscard]] std::size_t gram_sample_rows() const noexcept { return gram_sample_rows_; }
     /// Singular values of B (k, descending): W in G = V W^2 V^T.
     [[nodiscard]] const Eigen::VectorXd& singular_values() const noexcept { return singular_values_; }
     /// Eigenvectors V of G (k x k, columns match singular_values()).
@@ -207,12 +214,18 @@ private:
         std::size_t begin;
         std::size_t end;
     };
+    class SampledRows;
     // Common part of the constructors: centers, chunks, pass 1, eigen-decomposition.
-    void build(const Eigen::MatrixX3d& center_positions, const RowPositionSource* rows_source);
-    // Positions of the passes: source when not null, else V_ at active_.
+    void build(const Eigen::MatrixX3d& center_positions, const RowPositionSource* rows_source,
+               std::size_t gram_rows);
+    // Active-row index of the i-th row of pass 1 (i itself unless sampled).
+    [[nodiscard]] std::size_t gram_row(std::size_t i) const noexcept;
+    // Positions of the passes: source when not null, else V_ at active_ (at gram_row() of the
+    // indices when sampled). Chunks: chunks_, or gram_chunks_ when sampled.
     template <class BlockFn>
     void for_each_block(const BlockFn& fn, const RowPositionSource* source = nullptr,
-                        std::size_t first_chunk = 0, std::size_t last_chunk = SIZE_MAX) const;
+                        std::size_t first_chunk = 0, std::size_t last_chunk = SIZE_MAX,
+                        bool sampled = false) const;
     void require_positions(const char* what) const;
     [[nodiscard]] double orthogonality(const Eigen::MatrixXd& T, const Eigen::MatrixX3d& c,
                                        const std::vector<std::vector<double>>& parts) const;
@@ -235,6 +248,8 @@ private:
     Eigen::Vector3d origin_;
     int threads_;
     std::vector<Chunk> chunks_;
+    std::size_t gram_sample_rows_ = 0;  // rows of pass 1 (row_count_ unless sampled)
+    std::vector<Chunk> gram_chunks_;     // chunks of pass 1 when sampled
     Eigen::MatrixXd gram_;
     Eigen::MatrixX3d bt_positions_;  // B^T (P - o)
     Eigen::VectorXd bt_ones_;        // B^T 1

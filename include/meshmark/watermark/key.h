@@ -74,6 +74,15 @@ struct EmbedOptions
     BasisType basis = BasisType::Rbf;
     /// RBF centers; ignored by the Laplacian basis. Keys without the field mean Random.
     CenterSelection centers = CenterSelection::Random;
+    /// RBF Gram matrix from at most this many rows (0 = every row): above it, G = B^T B,
+    /// B^T 1 and B^T P are estimated from that many evenly spaced rows (RbfBasis), which makes
+    /// the basis pass of very large meshes cost the same as at this size; meshes with fewer
+    /// analysed vertices are unaffected. Ignored by the Laplacian basis. Keys written before
+    /// this field existed mean 0 (docs/performance.md, "Sampled Gram matrix").
+    std::int64_t gram_rows = kDefaultGramRows;
+    static constexpr std::int64_t kDefaultGramRows = std::int64_t{1} << 20;
+    /// Smallest gram_rows other than 0, as a multiple of the basis size.
+    static constexpr int kMinGramRowsPerCenter = 16;
 
     /// \throws InvalidOption naming the field, value and allowed range.
     void validate() const;

@@ -198,6 +198,46 @@ TEST(RbfBasisTest, results_are_bit_identical_for_any_thread_count)
     EXPECT_TRUE(one.synthesize(c) == three.synthesize(c));
 }
 
+TEST(RbfBasisTest, sampled_gram_uses_evenly_spaced_rows_scaled_to_all_of_them)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(5);  // 10242 vertices
+    const auto rows = all_rows(mesh);
+    const auto n = static_cast<Eigen::Index>(rows.size());
+    const auto centers = random_centers(mesh.V, rows, 50, 8);
+    const Eigen::Vector3d origin = mesh.V.colwise().mean().transpose();
+    constexpr std::size_t m = 1500;
+    const RbfBasis sampled(mesh.V, rows, centers, 1.0, origin, 2, m);
+    EXPECT_EQ(sampled.gram_sample_rows(), m);
+
+    // Against the definition: rows floor((2i + 1) n / 2m) of dense B, times n / m.
+    const Eigen::MatrixXd B = dense_B(mesh.V, rows, centers, 1.0);
+    Eigen::MatrixXd G = Eigen::MatrixXd::Zero(B.cols(), B.cols());
+    for (std::size_t i = 0; i < m; ++i)
+    {
+        const auto r = static_cast<Eigen::Index>((2 * i + 1) * rows.size() / (2 * m));
+        G += B.row(r).transpose() * B.row(r);
+    }
+    G *= static_cast<double>(n) / static_cast<double>(m);
+    EXPECT_LT((sampled.gram() - G).cwiseAbs().maxCoeff(), 1e-10 * G.cwiseAbs().maxCoeff());
+
+    // An estimate: U over all rows is orthonormal up to the sampling error, and close to the
+    // exact basis in its leading modes.
+    const RbfBasis exact(mesh.V, rows, centers, 1.0, origin, 2);
+    const Eigen::MatrixXd U = sampled.modes_dense(20);
+    const double error = (U.transpose() * U - Eigen::MatrixXd::Identity(20, 20)).cwiseAbs().maxCoeff();
+    EXPECT_GT(error, 1e-12);
+    EXPECT_LT(error, 1e-2);
+    const Eigen::MatrixXd Ue = exact.modes_dense(20);
+    EXPECT_GT(std::abs(U.col(12).dot(Ue.col(12))), 0.99);
+
+    // Sampled pass 1 is bit-identical for any thread count; gram_rows >= n means every row.
+    const RbfBasis one_thread(mesh.V, rows, centers, 1.0, origin, 1, m);
+    EXPECT_TRUE(one_thread.gram() == sampled.gram());
+    const RbfBasis all(mesh.V, rows, centers, 1.0, origin, 2, rows.size());
+    EXPECT_EQ(all.gram_sample_rows(), rows.size());
+    EXPECT_TRUE(all.gram() == exact.gram());
+}
+
 TEST(RandomCentersTest, deterministic_distinct_and_refuses_too_few_positions)
 {
     TriangleMesh mesh = icosphere(2);

@@ -189,10 +189,12 @@ Key key_for(const EmbedFileOptions& options)
 
 // Embeds \p input in memory and streamed with a \p window-byte read window; expects the same bytes.
 void expect_streamed_equals_in_memory(const std::filesystem::path& input, const std::filesystem::path& dir,
-                                      std::size_t window, int threads = 2)
+                                      std::size_t window, int threads = 2,
+                                      std::int64_t gram_rows = EmbedOptions::kDefaultGramRows)
 {
     EmbedFileOptions options = base_options();
     options.threads = threads;
+    options.embed.gram_rows = gram_rows;
     const EmbedReport memory = embed_file(input, dir / "memory.ply", dir / "memory.json", options);
     EXPECT_FALSE(memory.streamed);
     detail::StreamTuning tuning;
@@ -224,6 +226,36 @@ TEST(EmbedStreamedTest, matches_in_memory_on_163k_vertices_in_many_windows)
     write_ply(input, lumpy_ellipsoid(7), PlySpec{});
     expect_streamed_equals_in_memory(input, dir, 64 * 1024);
     std::filesystem::remove_all(dir);  // ~12 MB of meshes
+}
+
+TEST(EmbedStreamedTest, sampled_gram_matches_in_memory_and_is_recorded_in_the_key)
+{
+    // The Gram matrix from 10007 of the 40962 vertices (stride ~4.09, not an integer), with
+    // unreferenced vertices among the records (they are not rows) and 4 KiB read windows: the
+    // sampled cursor skips rows across window and chunk boundaries.
+    const auto dir = test::temp_dir("embed_streamed_sampled");
+    const auto input = dir / "input.ply";
+    write_ply(input, lumpy_ellipsoid(6), PlySpec{false, false, false, 5, false, false});
+    constexpr std::int64_t kRows = 10007;
+    expect_streamed_equals_in_memory(input, dir, 4096, 2, kRows);
+    const Key key = read_key(dir / "streamed.json");
+    EXPECT_EQ(key.options.gram_rows, kRows);
+    const std::string sampled = test::file_bytes(dir / "streamed.ply");
+
+    // Sampling was in effect (every row gives other bits), and costs little orthogonality.
+    EmbedFileOptions every_row = base_options();
+    every_row.embed.gram_rows = 0;
+    const EmbedReport exact = embed_file(input, dir / "exact.ply", dir / "exact.json", every_row);
+    EXPECT_FALSE(sampled == test::file_bytes(dir / "exact.ply"));
+    EXPECT_EQ(read_key(dir / "exact.json").options.gram_rows, 0);
+    EXPECT_LT(exact.stats.orthogonality_error, 1e-9);
+    every_row.embed.gram_rows = kRows;
+    const EmbedReport approximate = embed_file(input, dir / "again.ply", dir / "again.json", every_row);
+    EXPECT_GT(approximate.stats.orthogonality_error, exact.stats.orthogonality_error);
+    EXPECT_LT(approximate.stats.orthogonality_error, 1e-3);
+    EXPECT_NEAR(approximate.stats.rms_displacement_rel, exact.stats.rms_displacement_rel,
+                1e-3 * exact.stats.rms_displacement_rel);
+    std::filesystem::remove_all(dir);
 }
 
 TEST(EmbedStreamedTest, matches_in_memory_big_endian_double_with_extras)

@@ -142,6 +142,41 @@ TEST(KeyTest, basis_and_centers_round_trip_and_old_keys_read_as_rbf_random)
     EXPECT_THROW((void)parse_center_selection("kmeans"), InvalidOption);
 }
 
+TEST(KeyTest, gram_rows_round_trips_old_keys_mean_every_row_and_tiny_samples_are_refused)
+{
+    Key key = sample_key();
+    EXPECT_EQ(key.options.gram_rows, EmbedOptions::kDefaultGramRows);
+    EXPECT_EQ(parse_key(to_json(key), "k.json").options.gram_rows, EmbedOptions::kDefaultGramRows);
+    key.options.gram_rows = 0;
+    EXPECT_EQ(parse_key(to_json(key), "k.json").options.gram_rows, 0);
+    key.options.gram_rows = 123457;
+    EXPECT_EQ(parse_key(to_json(key), "k.json").options.gram_rows, 123457);
+
+    // Keys written before the field existed built the Gram matrix from every row.
+    const Key old = parse_key(resigned(key, [](nlohmann::json& j) { j["embedding"].erase("gram_rows"); }), "old.json");
+    EXPECT_EQ(old.options.gram_rows, 0);
+
+    // At least 16 rows per basis function (80 here), or 0.
+    key.options.gram_rows = 16 * 80;
+    EXPECT_NO_THROW(key.options.validate());
+    key.options.gram_rows = 16 * 80 - 1;
+    try
+    {
+        key.options.validate();
+        FAIL() << "a 1279-row sample for 80 basis functions was accepted";
+    }
+    catch (const InvalidOption& e)
+    {
+        EXPECT_NE(std::string(e.what()).find("--gram-rows"), std::string::npos);
+        EXPECT_NE(std::string(e.what()).find("1280"), std::string::npos);
+    }
+    key.options.gram_rows = -1;
+    EXPECT_THROW(key.options.validate(), InvalidOption);
+    EXPECT_THROW((void)parse_key(resigned(key, [](nlohmann::json& j) { j["embedding"]["gram_rows"] = 7; }),
+                                 "tiny.json"),
+                 IoError);
+}
+
 TEST(KeyTest, tampered_truncated_or_foreign_keys_are_rejected_with_a_clear_message)
 {
     const std::string text = to_json(sample_key());
