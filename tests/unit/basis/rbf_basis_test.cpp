@@ -220,15 +220,25 @@ TEST(RbfBasisTest, sampled_gram_uses_evenly_spaced_rows_scaled_to_all_of_them)
     G *= static_cast<double>(n) / static_cast<double>(m);
     EXPECT_LT((sampled.gram() - G).cwiseAbs().maxCoeff(), 1e-10 * G.cwiseAbs().maxCoeff());
 
-    // An estimate: U over all rows is orthonormal up to the sampling error, and close to the
-    // exact basis in its leading modes.
+    // An estimate: U over all rows is orthonormal up to the sampling error (3.5% here: a 15%
+    // sample of a mesh whose rows come level by level of a subdivision; without the n / m
+    // scale it would be 5.8, with the first m rows instead of spread ones far above 0.1), and
+    // close to the exact basis.
     const RbfBasis exact(mesh.V, rows, centers, 1.0, origin, 2);
     const Eigen::MatrixXd U = sampled.modes_dense(20);
     const double error = (U.transpose() * U - Eigen::MatrixXd::Identity(20, 20)).cwiseAbs().maxCoeff();
     EXPECT_GT(error, 1e-12);
-    EXPECT_LT(error, 1e-2);
+    EXPECT_LT(error, 0.1);
     const Eigen::MatrixXd Ue = exact.modes_dense(20);
-    EXPECT_GT(std::abs(U.col(12).dot(Ue.col(12))), 0.99);
+    for (const Eigen::Index j : {0, 5, 12, 19})
+    {
+        EXPECT_GT(std::abs(U.col(j).dot(Ue.col(j))), 0.95) << "mode " << j;
+    }
+    // The first m rows alone (a cap of the ellipsoid) would be a far worse estimate.
+    std::vector<std::int32_t> first(rows.begin(), rows.begin() + static_cast<std::ptrdiff_t>(m));
+    const RbfBasis cap(mesh.V, first, centers, 1.0, origin, 2);
+    const Eigen::MatrixXd scaled_cap = cap.gram() * (static_cast<double>(n) / static_cast<double>(m));
+    EXPECT_GT((scaled_cap - exact.gram()).norm(), 3.0 * (sampled.gram() - exact.gram()).norm());
 
     // Sampled pass 1 is bit-identical for any thread count; gram_rows >= n means every row.
     const RbfBasis one_thread(mesh.V, rows, centers, 1.0, origin, 1, m);
