@@ -24,7 +24,9 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
+#include <exception>
 #include <memory>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -656,14 +658,116 @@ EmbedReport embed_file_streamed(const std::filesystem::path& input, const std::f
     {
         throw InvalidOption(input.string() + ": cannot be embedded out of core: " + refusal + ".");
     }
-    const Referenced referenced = scan_faces(file, layout, window);
+    // Fingerprint, finiteness, bounding box and canonical frame: four passes over the vertices
+    // through the flags of the referenced ones.
+    struct FrameResult
+    {
+        std::uint64_t hash = 0;
+        BoundingBox box;
+        CanonicalFrameBuilder frame;
+    };
+    const auto frame_passes = [&](const Referenced& referenced, bool report_progress) {
+        FrameResult result;
+        result.hash = splitmix64(0 ^ (layout.vertex_count * 3 * sizeof(double) * 0x9E3779B97F4A7C15ULL));
+        bool has_box = false;
+        int pass = 0;
+        while (result.frame.pass() != CanonicalFrameBuilder::Pass::Done)
+        {
+            const bool is_first = result.frame.pass() == CanonicalFrameBuilder::Pass::Centroid;
+            for_each_vertex(file, layout, referenced, window,
+                            [&](std::uint64_t v, const std::array<double, 3>& xyz, bool is_active) {
+                                if (is_first)
+                                {
+                                    for (const double value : xyz)
+                                    {
+                                        if (!std::isfinite(value))
+                                        {
+                                            fail_mesh(input, "vertex " + std::to_string(v) +
+                                                                 " has a non-finite coordinate (NaN or infinity)");
+                                        }
+                                        std::uint64_t word = 0;
+                                        std::memcpy(&word, &value, sizeof(word));
+                                        if constexpr (std::endian::native == std::endian::big)
+                                        {
+                                            word = byteswap64(word);  // hash_bytes packs little-endian
+                                        }
+                                        result.hash = splitmix64(result.hash ^ word);
+                                    }
+                                }
+                                if (!is_active)
+                                {
+                                    return;
+                                }
+                                const Eigen::Vector3d p(xyz[0], xyz[1], xyz[2]);
+                                if (is_first)
+                                {
+                                    if (!has_box)
+                                    {
+                                        result.box.min = p;
+                                        result.box.max = p;
+                                        has_box = true;
+                                    }
+                                    result.box.min = result.box.min.cwiseMin(p);
+                                    result.box.max = result.box.max.cwiseMax(p);
+                                }
+                                result.frame.add(p);
+                            });
+            result.frame.next_pass();
+            if (report_progress)
+            {
+                progress("frame", ++pass / 4.0);
+            }
+        }
+        return result;
+    };
+
+    // With two threads or more, the frame passes run beside the face scan on the guess that
+    // every vertex is referenced (the usual case: then they are exactly the passes the flags
+    // would give); when the scan finds unreferenced vertices they run again after it. Errors
+    // keep their order: the scan's, then the basis size, then the vertices'.
+    const bool overlap = options.threads != 1 && std::thread::hardware_concurrency() > 1;
+    Referenced referenced;
+    std::optional<FrameResult> guess;
+    std::exception_ptr guess_error;
+    if (overlap)
+    {
+        std::exception_ptr scan_error;
+        std::thread scanner([&]() {
+            try
+            {
+                referenced = scan_faces(file, layout, window);
+            }
+            catch (...)
+            {
+                scan_error = std::current_exception();
+            }
+        });
+        Referenced everything;  // no flags: every vertex
+        everything.active = layout.vertex_count;
+        try
+        {
+            guess = frame_passes(everything, false);
+        }
+        catch (...)
+        {
+            guess_error = std::current_exception();
+        }
+        scanner.join();
+        if (scan_error)
+        {
+            std::rethrow_exception(scan_error);
+        }
+    }
+    else
+    {
+        referenced = scan_faces(file, layout, window);
+    }
     report.input_format = MeshFormat::Ply;
     report.output_format = MeshFormat::Ply;
     report.vertex_count = static_cast<std::int64_t>(layout.vertex_count);
     report.face_count = static_cast<std::int64_t>(referenced.triangles);
     timer.lap("scan");
 
-    // Fingerprint, finiteness, bounding box and canonical frame: four passes over the vertices.
     timer.begin("frame");
     key.options.validate();
     if (static_cast<std::int64_t>(referenced.active) < key.options.basis_size)
@@ -671,55 +775,17 @@ EmbedReport embed_file_streamed(const std::filesystem::path& input, const std::f
         throw InvalidMesh("the mesh has " + std::to_string(referenced.active) + " usable vertices, fewer than the " +
                           std::to_string(key.options.basis_size) + " basis functions (use a smaller --basis-size).");
     }
-    std::uint64_t hash = splitmix64(0 ^ (layout.vertex_count * 3 * sizeof(double) * 0x9E3779B97F4A7C15ULL));
-    BoundingBox box;
-    bool has_box = false;
-    CanonicalFrameBuilder frame;
-    int pass = 0;
-    while (frame.pass() != CanonicalFrameBuilder::Pass::Done)
+    if (guess_error)
     {
-        const bool is_first = frame.pass() == CanonicalFrameBuilder::Pass::Centroid;
-        for_each_vertex(file, layout, referenced, window,
-                        [&](std::uint64_t v, const std::array<double, 3>& xyz, bool is_active) {
-                            if (is_first)
-                            {
-                                for (const double value : xyz)
-                                {
-                                    if (!std::isfinite(value))
-                                    {
-                                        fail_mesh(input, "vertex " + std::to_string(v) +
-                                                             " has a non-finite coordinate (NaN or infinity)");
-                                    }
-                                    std::uint64_t word = 0;
-                                    std::memcpy(&word, &value, sizeof(word));
-                                    if constexpr (std::endian::native == std::endian::big)
-                                    {
-                                        word = byteswap64(word);  // hash_bytes packs little-endian
-                                    }
-                                    hash = splitmix64(hash ^ word);
-                                }
-                            }
-                            if (!is_active)
-                            {
-                                return;
-                            }
-                            const Eigen::Vector3d p(xyz[0], xyz[1], xyz[2]);
-                            if (is_first)
-                            {
-                                if (!has_box)
-                                {
-                                    box.min = p;
-                                    box.max = p;
-                                    has_box = true;
-                                }
-                                box.min = box.min.cwiseMin(p);
-                                box.max = box.max.cwiseMax(p);
-                            }
-                            frame.add(p);
-                        });
-        frame.next_pass();
-        progress("frame", ++pass / 4.0);
+        std::rethrow_exception(guess_error);
     }
+    if (!guess || referenced.active != layout.vertex_count)
+    {
+        guess = frame_passes(referenced, true);
+    }
+    const std::uint64_t hash = guess->hash;
+    const BoundingBox box = guess->box;
+    const CanonicalFrameBuilder& frame = guess->frame;
     key.original.vertex_count = static_cast<std::int64_t>(layout.vertex_count);
     key.original.face_count = static_cast<std::int64_t>(referenced.triangles);
     key.original.position_hash = hash;

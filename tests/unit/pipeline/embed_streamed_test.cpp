@@ -8,6 +8,7 @@
 #include <bit>
 #include <cstring>
 #include <fstream>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -352,6 +353,48 @@ TEST(EmbedStreamedTest, unstreamable_inputs_fall_back_under_a_budget_and_fail_wh
     }
     // A PLY written as OBJ needs the mesh in memory.
     EXPECT_NE(detail::stream_refusal(dir / "listed.ply", dir / "o.obj"), "");
+}
+
+// The frame passes run beside the face scan (2 threads): a bad vertex is still reported, a bad
+// face index still takes precedence over it (as when the scan ran first), for 1 thread alike.
+TEST(EmbedStreamedTest, non_finite_vertex_and_bad_face_are_reported_in_scan_order)
+{
+    const auto dir = test::temp_dir("embed_streamed_nan");
+    const auto input = dir / "nan.ply";
+    TriangleMesh mesh = lumpy_ellipsoid(3);
+    mesh.V(17, 2) = std::numeric_limits<double>::quiet_NaN();
+    write_ply(input, mesh, PlySpec{});
+    mesh.F(5, 1) = static_cast<std::int32_t>(mesh.V.rows() + 10);
+    write_ply(dir / "both.ply", mesh, PlySpec{});
+    for (const int threads : {1, 2})
+    {
+        EmbedFileOptions options = base_options();
+        options.embed.basis_size = 40;
+        options.force_stream = true;
+        options.threads = threads;
+        try
+        {
+            (void)embed_file(input, dir / "out.ply", dir / "key.json", options);
+            FAIL() << "a NaN coordinate was accepted";
+        }
+        catch (const InvalidMesh& e)
+        {
+            EXPECT_NE(std::string(e.what()).find("vertex 17 has a non-finite coordinate"), std::string::npos)
+                << e.what();
+        }
+        try
+        {
+            (void)embed_file(dir / "both.ply", dir / "out.ply", dir / "key.json", options);
+            FAIL() << "a bad face index was accepted";
+        }
+        catch (const InvalidMesh& e)
+        {
+            EXPECT_EQ(std::string(e.what()).find("non-finite"), std::string::npos) << e.what();
+        }
+        EXPECT_FALSE(std::filesystem::exists(dir / "out.ply"));
+        EXPECT_FALSE(std::filesystem::exists(dir / "key.json"));
+    }
+    std::filesystem::remove_all(dir);
 }
 
 TEST(EmbedStreamedTest, bad_face_index_is_an_invalid_mesh_and_leaves_nothing)
