@@ -8,6 +8,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstdlib>
+#include <future>
 #include <optional>
 #include <set>
 #include <unordered_map>
@@ -749,32 +750,61 @@ void RbfBasis::synthesize_streamed(const Eigen::MatrixX3d& c, const RowPositionS
     const std::vector<double> tc_t = columns_transposed(Tc);
     const bool check = orthogonality_error != nullptr;
     std::vector<std::vector<double>> parts(check ? chunks_.size() : 0, std::vector<double>(3 * ld, 0.0));
-    // Rounds of up to chunks_in_flight chunks: computed in parallel into their buffers, then
-    // handed to the sink in order. Each row's field is the same arithmetic as in synthesize().
+    // Rounds of up to chunks_in_flight chunks, computed in parallel into one of two buffer sets
+    // while the round before is handed to the sink, in order, on a thread of its own (the
+    // sink writes a file: this keeps both cores busy). Each row's field is the same arithmetic
+    // as in synthesize().
     const std::size_t in_flight = std::max<std::size_t>(1, chunks_in_flight);
-    std::vector<std::vector<double>> fields(std::min(in_flight, chunks_.size()));
-    for (std::size_t first = 0; first < chunks_.size(); first += in_flight)
+    std::array<std::vector<std::vector<double>>, 2> fields;
+    fields.fill(std::vector<std::vector<double>>(std::min(in_flight, chunks_.size())));
+    std::future<void> delivering;
+    // Waits for the round being delivered, also when the computation throws (the buffers and
+    // the sink must outlive it).
+    struct Wait
+    {
+        std::future<void>& job;
+        ~Wait()
+        {
+            if (job.valid())
+            {
+                job.wait();
+            }
+        }
+    } wait_on_exit{delivering};
+    std::size_t round = 0;
+    for (std::size_t first = 0; first < chunks_.size(); first += in_flight, ++round)
     {
         const std::size_t last = std::min(chunks_.size(), first + in_flight);
+        auto& buffers = fields[round % 2];
         for (std::size_t i = first; i < last; ++i)
         {
-            fields[i - first].resize(3 * (chunks_[i].end - chunks_[i].begin));
+            buffers[i - first].resize(3 * (chunks_[i].end - chunks_[i].begin));
         }
         for_each_block(
             [&](std::size_t chunk, double* B, const double* /*P*/, std::size_t rows, std::size_t begin,
                 double* d) {
                 kernels_->multiply(B, rows, ld, tc_t.data(), 3, d);
-                std::copy(d, d + 3 * rows, fields[chunk - first].data() + 3 * (begin - chunks_[chunk].begin));
+                std::copy(d, d + 3 * rows, buffers[chunk - first].data() + 3 * (begin - chunks_[chunk].begin));
                 if (check)
                 {
                     kernels_->accumulate(B, rows, ld, d, 3, parts[chunk].data());
                 }
             },
             &source, first, last);
-        for (std::size_t i = first; i < last; ++i)
+        if (delivering.valid())
         {
-            sink(chunks_[i].begin, chunks_[i].end - chunks_[i].begin, fields[i - first].data());
+            delivering.get();  // the previous round is out (or its exception is thrown here)
         }
+        delivering = std::async(std::launch::async, [this, &sink, &buffers, first, last]() {
+            for (std::size_t i = first; i < last; ++i)
+            {
+                sink(chunks_[i].begin, chunks_[i].end - chunks_[i].begin, buffers[i - first].data());
+            }
+        });
+    }
+    if (delivering.valid())
+    {
+        delivering.get();
     }
     if (check)
     {

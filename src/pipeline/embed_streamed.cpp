@@ -830,8 +830,9 @@ EmbedReport embed_file_streamed(const std::filesystem::path& input, const std::f
     const std::size_t budget = options.memory_budget_mib > 0
                                    ? static_cast<std::size_t>(options.memory_budget_mib) << 20U
                                    : std::size_t{256} << 20U;
-    // At most a quarter of the budget for the chunks in flight.
-    const std::size_t in_flight = std::clamp<std::size_t>(budget / 4 / std::max<std::size_t>(chunk_bytes, 1), 1,
+    // At most a quarter of the budget for the chunks in flight: two rounds (one computed, one
+    // written) of in_flight chunks.
+    const std::size_t in_flight = std::clamp<std::size_t>(budget / 8 / std::max<std::size_t>(chunk_bytes, 1), 1,
                                                           static_cast<std::size_t>(threads));
     const Eigen::MatrixX3d change = mark.coefficient_change();
     const auto active = static_cast<double>(referenced.active);

@@ -142,8 +142,11 @@ public:
     using FieldSink = std::function<void(std::size_t begin, std::size_t rows, const double* field)>;
 
     /// \brief synthesize() over streamed positions: the same field, bit for bit, delivered to
-    /// \p sink chunk by chunk in row order instead of as a #V x 3 array. At most
-    /// \p chunks_in_flight chunks (>= 1) are buffered at once (they run in parallel).
+    /// \p sink chunk by chunk in row order instead of as a #V x 3 array. Rounds of
+    /// \p chunks_in_flight chunks (>= 1) are computed in parallel; the sink receives a round
+    /// on a thread of its own while the next one is computed, so at most 2 x chunks_in_flight
+    /// chunks are buffered at once. The sink is called from one thread at a time, in order; an
+    /// exception it throws is passed on once the computation has stopped.
     void synthesize_streamed(const Eigen::MatrixX3d& c, const RowPositionSource& source,
                              std::size_t chunks_in_flight, const FieldSink& sink,
                              double* orthogonality_error = nullptr) const;

@@ -248,6 +248,103 @@ TEST(RbfBasisTest, sampled_gram_uses_evenly_spaced_rows_scaled_to_all_of_them)
     EXPECT_TRUE(all.gram() == exact.gram());
 }
 
+namespace {
+
+// Active rows of an in-memory mesh as a stream.
+class MemoryRows final : public RowPositionSource
+{
+public:
+    MemoryRows(const Positions& V, const std::vector<std::int32_t>& rows) : V_(V), rows_(rows) {}
+    [[nodiscard]] std::size_t size() const override { return rows_.size(); }
+    [[nodiscard]] std::unique_ptr<RowPositionCursor> cursor(std::size_t begin) const override
+    {
+        return std::make_unique<Cursor>(*this, begin);
+    }
+
+private:
+    struct Cursor final : RowPositionCursor
+    {
+        Cursor(const MemoryRows& rows, std::size_t begin) : owner(rows), next(begin) {}
+        void read(std::size_t count, double* xyz) override
+        {
+            for (std::size_t i = 0; i < count; ++i, ++next)
+            {
+                for (Eigen::Index d = 0; d < 3; ++d)
+                {
+                    xyz[3 * i + static_cast<std::size_t>(d)] = owner.V_(owner.rows_[next], d);
+                }
+            }
+        }
+        const MemoryRows& owner;
+        std::size_t next;
+    };
+    const Positions& V_;
+    const std::vector<std::int32_t>& rows_;
+};
+
+}  // namespace
+
+TEST(RbfBasisTest, streamed_synthesis_delivers_the_field_in_order_and_passes_sink_errors_on)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(6);  // 40962 vertices: 11 chunks, 6 rounds of 2
+    const auto rows = all_rows(mesh);
+    const auto centers = random_centers(mesh.V, rows, 40, 4);
+    const Eigen::Vector3d origin = mesh.V.colwise().mean().transpose();
+    Eigen::MatrixX3d center_positions(40, 3);
+    for (Eigen::Index j = 0; j < 40; ++j)
+    {
+        center_positions.row(j) = mesh.V.row(centers[static_cast<std::size_t>(j)]);
+    }
+    const MemoryRows source(mesh.V, rows);
+    const RbfBasis memory(mesh.V, rows, centers, 1.0, origin, 2, 5000);
+    const RbfBasis streamed(source, center_positions, 1.0, origin, 2, 5000);
+    EXPECT_TRUE(memory.gram() == streamed.gram());  // the sampled rows read through the source
+
+    Eigen::MatrixX3d c = Eigen::MatrixX3d::Zero(16, 3);
+    c(12, 0) = 1.0;
+    c(15, 2) = -0.5;
+    double memory_error = 0.0;
+    const Positions expected = memory.synthesize(c, &memory_error);
+    Positions delivered = Positions::Constant(mesh.V.rows(), 3, -7.0);
+    std::size_t next = 0;
+    double streamed_error = 0.0;
+    streamed.synthesize_streamed(
+        c, source, 2,
+        [&](std::size_t begin, std::size_t count, const double* field) {
+            EXPECT_EQ(begin, next);
+            for (std::size_t i = 0; i < count; ++i)
+            {
+                for (Eigen::Index d = 0; d < 3; ++d)
+                {
+                    delivered(rows[begin + i], d) = field[3 * i + static_cast<std::size_t>(d)];
+                }
+            }
+            next = begin + count;
+        },
+        &streamed_error);
+    EXPECT_EQ(next, rows.size());
+    EXPECT_TRUE(delivered == expected);
+    EXPECT_EQ(memory_error, streamed_error);
+
+    // A sink that fails on its fourth chunk: the error comes out, no chunk is delivered after it.
+    int calls = 0;
+    try
+    {
+        streamed.synthesize_streamed(c, source, 2, [&](std::size_t, std::size_t, const double*) {
+            if (++calls == 4)
+            {
+                throw IoError("disk full");
+            }
+        });
+        FAIL() << "the sink's error was lost";
+    }
+    catch (const IoError& e)
+    {
+        EXPECT_STREQ(e.what(), "disk full");
+    }
+    EXPECT_EQ(calls, 4);
+}
+
 TEST(RandomCentersTest, deterministic_distinct_and_refuses_too_few_positions)
 {
     TriangleMesh mesh = icosphere(2);
