@@ -26,7 +26,9 @@
 #include <cstring>
 #include <exception>
 #include <memory>
+#include <numeric>
 #include <optional>
+#include <span>
 #include <string>
 #include <thread>
 #include <vector>
@@ -671,6 +673,17 @@ EmbedReport embed_file_streamed(const std::filesystem::path& input, const std::f
         result.hash = splitmix64(0 ^ (layout.vertex_count * 3 * sizeof(double) * 0x9E3779B97F4A7C15ULL));
         bool has_box = false;
         int pass = 0;
+        // Active rows go to the builder in blocks (add_rows: add()'s sums without its per-row
+        // dispatch).
+        constexpr std::int32_t kBlock = 4096;
+        Positions block(kBlock, 3);
+        std::vector<std::int32_t> block_rows(kBlock);
+        std::iota(block_rows.begin(), block_rows.end(), 0);
+        std::int32_t filled = 0;
+        const auto feed = [&]() {
+            result.frame.add_rows(block, std::span<const std::int32_t>(block_rows.data(), static_cast<std::size_t>(filled)));
+            filled = 0;
+        };
         while (result.frame.pass() != CanonicalFrameBuilder::Pass::Done)
         {
             const bool is_first = result.frame.pass() == CanonicalFrameBuilder::Pass::Centroid;
@@ -698,9 +711,9 @@ EmbedReport embed_file_streamed(const std::filesystem::path& input, const std::f
                                 {
                                     return;
                                 }
-                                const Eigen::Vector3d p(xyz[0], xyz[1], xyz[2]);
                                 if (is_first)
                                 {
+                                    const Eigen::Vector3d p(xyz[0], xyz[1], xyz[2]);
                                     if (!has_box)
                                     {
                                         result.box.min = p;
@@ -710,8 +723,15 @@ EmbedReport embed_file_streamed(const std::filesystem::path& input, const std::f
                                     result.box.min = result.box.min.cwiseMin(p);
                                     result.box.max = result.box.max.cwiseMax(p);
                                 }
-                                result.frame.add(p);
+                                block(filled, 0) = xyz[0];
+                                block(filled, 1) = xyz[1];
+                                block(filled, 2) = xyz[2];
+                                if (++filled == kBlock)
+                                {
+                                    feed();
+                                }
                             });
+            feed();
             result.frame.next_pass();
             if (report_progress)
             {
