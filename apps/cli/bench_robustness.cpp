@@ -703,7 +703,7 @@ void register_bench_robustness(CLI::App& bench, GlobalArgs& global, CommandRunne
         ->capture_default_str();
     command->add_option("--gram-rows", args->gram_rows,
                         "RBF Gram matrix from at most this many evenly spaced vertices (0 = all)")
-        ->check(CLI::NonNegativeNumber)
+        ->check(non_negative())
         ->capture_default_str();
     command->add_option("--markdown", args->markdown, "Also write the tables to this file");
     command->add_option("--json-file", args->json_path, "Also write every trial as JSON to this file");

@@ -32,6 +32,10 @@ void register_bench_robustness(CLI::App& bench, GlobalArgs& global, CommandRunne
 /// `bench approximation` (bench_approximation.cpp), added under \p bench by register_bench.
 void register_bench_approximation(CLI::App& bench, GlobalArgs& global, CommandRunner& runner);
 
+/// Accepts a number >= 0 ("must be 0 or more, got -3"; CLI11's NonNegativeNumber prints the
+/// largest double as the range's end).
+[[nodiscard]] CLI::Validator non_negative();
+
 /// Adds --threads, --quiet and --verbose to a subcommand.
 void add_global_flags(CLI::App& command, GlobalArgs& global);
 

@@ -226,7 +226,7 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
                         "RBF basis: estimate its Gram matrix from at most this many evenly spaced "
                         "vertices (0 = all); bounds the basis cost of very large meshes, smaller "
                         "meshes are unaffected (the key records it)")
-        ->check(CLI::NonNegativeNumber)
+        ->check(non_negative())
         ->capture_default_str();
     command->add_option("--seed", args->seed,
                         "Secret seed (centers, payload mask, random payload); random if absent");
@@ -234,7 +234,7 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
                         "MiB: when the in-memory embed of a binary PLY would need more, stream it "
                         "from disk in chunks (same output bytes and key; an input that cannot be "
                         "streamed is embedded in memory with a note). 0 = no budget")
-        ->check(CLI::NonNegativeNumber)
+        ->check(non_negative())
         ->capture_default_str();
     command->add_flag("--stream", args->stream,
                       "Always embed out of core (binary PLY with fixed-size vertex records, "

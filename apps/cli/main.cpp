@@ -12,6 +12,20 @@
 
 namespace meshmark::cli {
 
+CLI::Validator non_negative()
+{
+    return CLI::Validator(
+        [](std::string& text) -> std::string {
+            double value = 0.0;
+            if (!CLI::detail::lexical_cast(text, value) || !(value >= 0.0))
+            {
+                return "must be a number, 0 or more, got " + text;
+            }
+            return {};
+        },
+        "NONNEGATIVE");
+}
+
 void add_global_flags(CLI::App& command, GlobalArgs& global)
 {
     command.add_option("--threads", global.threads, "Worker threads (0 = all cores); results are "

@@ -359,6 +359,35 @@ TEST_F(CliTest, bad_inputs_fail_cleanly_without_output)
     EXPECT_FALSE(fs::exists(dir_ / "k.json"));
 }
 
+TEST_F(CliTest, gram_rows_is_recorded_and_bad_values_are_usage_errors)
+{
+    const auto output = dir_ / "out.ply";
+    const auto key = dir_ / "key.json";
+    const std::string files = "embed " + original_.string() + " -o " + output.string() + " --key " + key.string();
+    // A 2000-row sample of the 10242 vertices: recorded in the key, and detection rebuilds it.
+    CliRun r = run(files + " --seed 9 --gram-rows 2000 --json", dir_);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_NE(slurp(key).find("\"gram_rows\": 2000"), std::string::npos) << slurp(key);
+    const auto report = nlohmann::json::parse(r.out);
+    EXPECT_GT(report["orthogonality_error"].get<double>(), 1e-9);
+    r = run("detect " + output.string() + " --original " + original_.string() + " --key " + key.string(), dir_);
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    fs::remove(output);
+    fs::remove(key);
+    const std::pair<const char*, const char*> bad[] = {
+        {"-3", "--gram-rows: must be a number, 0 or more, got -3"},
+        {"5", "at least 16 times the basis size (1600), got 5"},
+    };
+    for (const auto& [value, message] : bad)
+    {
+        r = run(files + " --gram-rows " + value, dir_);
+        EXPECT_EQ(r.exit_code, 2) << value << ": " << r.err;
+        EXPECT_NE(r.err.find(message), std::string::npos) << r.err;
+        EXPECT_FALSE(fs::exists(output));
+        EXPECT_FALSE(fs::exists(key));
+    }
+}
+
 TEST_F(CliTest, detect_rejects_corrupt_keys_wrong_originals_and_mismatched_suspects)
 {
     const auto marked = dir_ / "marked.ply";
