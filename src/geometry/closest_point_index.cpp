@@ -14,6 +14,7 @@
 #include <nanoflann.hpp>
 
 #include "meshmark/core/error.h"
+#include "meshmark/core/morton.h"
 
 // Surfaces: a hand-written bounding-volume hierarchy, not CGAL's AABB_tree, because CGAL was
 // measured to be about twice as slow on the queries the metrics, ICP and resampling make. On the
@@ -538,16 +539,52 @@ ClosestPoint ClosestPointIndex::closest(const Eigen::Vector3d& query) const
     return impl_->surface ? impl_->surface->closest(query) : impl_->closest_in_cloud(query);
 }
 
+namespace {
+
+constexpr std::int64_t kScatteredMinimum = 65536;
+
+// True when consecutive queries are far apart on average: over 4096 evenly spread pairs
+// (i, i + 1), a mean step above 2% of the bounding-box diagonal. A mesh file in scan or
+// subdivision order steps by about an edge length (0.1-0.3% of the diagonal at 1M vertices,
+// with a jump per strip); a shuffled one by about half the diagonal.
+bool is_scattered(const Positions& P)
+{
+    const Eigen::Index n = P.rows();
+    constexpr Eigen::Index kPairs = 4096;
+    const double diagonal = (P.colwise().maxCoeff() - P.colwise().minCoeff()).norm();
+    if (n < 2 || !(diagonal > 0.0))
+    {
+        return false;
+    }
+    double steps = 0.0;
+    Eigen::Index pairs = 0;
+    for (Eigen::Index j = 0; j < kPairs; ++j)
+    {
+        const Eigen::Index i = j * (n - 1) / kPairs;
+        steps += (P.row(i + 1) - P.row(i)).norm();
+        ++pairs;
+    }
+    return steps / static_cast<double>(pairs) > 0.02 * diagonal;
+}
+
+}  // namespace
+
 std::vector<ClosestPoint> ClosestPointIndex::closest(const Positions& queries, int threads) const
 {
     const auto count = static_cast<std::int64_t>(queries.rows());
     std::vector<ClosestPoint> results(static_cast<std::size_t>(count));
+    // Queries in a scattered order (a shuffled file) make every search start cold: answer them
+    // in Z order instead (the answers are the same: ties go to the lowest face index whatever
+    // the traversal). Measured on a 1.7M-vertex shuffled original: 6.4 -> 3.7 s; an already
+    // coherent order keeps its own (the sort would cost 5-8% of the queries at 1M).
+    const std::vector<std::size_t> order =
+        count >= kScatteredMinimum && is_scattered(queries) ? morton_order(queries, 10) : std::vector<std::size_t>{};
     // Each query writes only its own slot, so the output does not depend on the schedule.
 #pragma omp parallel for schedule(dynamic, 256) num_threads(resolve_threads(threads))
-    for (std::int64_t i = 0; i < count; ++i)
+    for (std::int64_t k = 0; k < count; ++k)
     {
-        results[static_cast<std::size_t>(i)] =
-            closest(Vec3(queries.row(static_cast<Eigen::Index>(i)).transpose()));
+        const auto i = order.empty() ? static_cast<std::size_t>(k) : order[static_cast<std::size_t>(k)];
+        results[i] = closest(Vec3(queries.row(static_cast<Eigen::Index>(i)).transpose()));
     }
     return results;
 }

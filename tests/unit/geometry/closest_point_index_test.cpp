@@ -15,6 +15,7 @@
 
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
+#include "meshmark/core/morton.h"
 #include "meshmark/core/rng.h"
 #include "meshmark/geometry/shapes.h"
 
@@ -173,6 +174,34 @@ TEST(ClosestPointIndexTest, results_are_identical_for_one_and_two_threads)
         ASSERT_EQ(one[i].point, two[i].point) << i;
         // The batch call gives what a single query gives.
         ASSERT_EQ(one[i].distance, index.closest(Eigen::Vector3d(queries.row(static_cast<Eigen::Index>(i)))).distance);
+    }
+}
+
+// Above 65536 queries in a scattered order the batch answers them in Z order: every answer must
+// still land in its own slot, for a scattered batch and for the same queries in a coherent one.
+TEST(ClosestPointIndexTest, large_scattered_and_coherent_batches_answer_every_query_in_its_slot)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(4);
+    const ClosestPointIndex index(mesh);
+    const Positions scattered = mixed_queries(mesh, 8, 70000);  // random: a scattered order
+    // The same points in Z order: a coherent order, answered as given.
+    const auto order = morton_order(scattered, 10);
+    Positions coherent(scattered.rows(), 3);
+    for (std::size_t k = 0; k < order.size(); ++k)
+    {
+        coherent.row(static_cast<Eigen::Index>(k)) = scattered.row(static_cast<Eigen::Index>(order[k]));
+    }
+    const auto a = index.closest(scattered, 2);
+    const auto b = index.closest(coherent, 2);
+    ASSERT_EQ(a.size(), 70000U);
+    for (std::size_t k = 0; k < order.size(); k += 7)
+    {
+        const auto i = order[k];
+        const auto single = index.closest(Eigen::Vector3d(scattered.row(static_cast<Eigen::Index>(i))));
+        ASSERT_EQ(a[i].face, single.face) << i;
+        ASSERT_EQ(a[i].point, single.point) << i;
+        ASSERT_EQ(b[k].face, single.face) << k;
+        ASSERT_EQ(b[k].distance, single.distance) << k;
     }
 }
 
