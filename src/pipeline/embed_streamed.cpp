@@ -301,8 +301,43 @@ Referenced scan_faces(const InputFile& file, const Layout& layout, std::size_t w
         const auto& element = layout.header.elements[e];
         const bool is_list_element = element.role == Role::Faces || element.role == Role::Strips;
         ListSink sink(file.path(), element, n, triangles);
+        // The usual face record, a 1-byte count 3 and three 4-byte integer indices, is checked
+        // and marked here directly (the generic loop below costs ~20 ns a face: 0.84 s for 40M).
+        // Anything else, including an index out of range, takes the generic loop, which reads
+        // the record again and reports it as before.
+        const bool is_plain_triangles =
+            element.role == Role::Faces && element.properties.size() == 1 && element.properties[0].is_list &&
+            scalar_size(element.properties[0].count_type) == 1 &&
+            (element.properties[0].type == ScalarType::Int32 || element.properties[0].type == ScalarType::UInt32);
+        const bool is_signed = is_plain_triangles && element.properties[0].type == ScalarType::Int32;
+        constexpr std::size_t kPlainTriangle = 13;
         for (std::uint64_t r = 0; r < element.count; ++r)
         {
+            if (is_plain_triangles && in.ensure(kPlainTriangle) && in.data()[0] == 3)
+            {
+                std::array<std::uint32_t, 3> index{};
+                std::memcpy(index.data(), in.data() + 1, sizeof(index));
+                bool in_range = true;
+                for (std::uint32_t& v : index)
+                {
+                    if (layout.is_big_endian != (std::endian::native == std::endian::big))
+                    {
+                        v = __builtin_bswap32(v);
+                    }
+                    // A negative Int32 is a huge uint32: out of range as well.
+                    in_range = in_range && v < n && (!is_signed || v <= 0x7fffffffU);
+                }
+                if (in_range)
+                {
+                    for (const std::uint32_t v : index)
+                    {
+                        flags[v] = 1;
+                    }
+                    ++result.triangles;
+                    in.skip(kPlainTriangle);
+                    continue;
+                }
+            }
             for (std::size_t p = 0; p < element.properties.size(); ++p)
             {
                 const auto& property = element.properties[p];
@@ -660,7 +695,7 @@ EmbedReport embed_file_streamed(const std::filesystem::path& input, const std::f
     {
         throw InvalidOption(input.string() + ": cannot be embedded out of core: " + refusal + ".");
     }
-    // Fingerprint, finiteness, bounding box and canonical frame: four passes over the vertices
+    // Fingerprint, finiteness, bounding box and canonical frame: three passes over the vertices
     // through the flags of the referenced ones.
     struct FrameResult
     {
@@ -735,7 +770,7 @@ EmbedReport embed_file_streamed(const std::filesystem::path& input, const std::f
             result.frame.next_pass();
             if (report_progress)
             {
-                progress("frame", ++pass / 4.0);
+                progress("frame", ++pass / 3.0);
             }
         }
         return result;

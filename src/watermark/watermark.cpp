@@ -186,13 +186,9 @@ void CanonicalFrameBuilder::add(const Eigen::Vector3d& p)
             const double t2 = q.dot(e2_);
             moment1_ += t1 * t1 * t1;
             moment2_ += t2 * t2 * t2;
-            break;
-        }
-        case Pass::Extent:
-        {
-            const Eigen::Vector3d q = frame_.axes * (p - frame_.origin);
-            lo_ = lo_.cwiseMin(q);
-            hi_ = hi_.cwiseMax(q);
+            const Eigen::Vector3d r = unsigned_axes_ * q;
+            lo_ = lo_.cwiseMin(r);
+            hi_ = hi_.cwiseMax(r);
             break;
         }
         case Pass::Done:
@@ -244,6 +240,8 @@ void CanonicalFrameBuilder::add_rows(const Positions& V, std::span<const std::in
         {
             double moment1 = moment1_;
             double moment2 = moment2_;
+            Eigen::Vector3d lo = lo_;
+            Eigen::Vector3d hi = hi_;
             for (const std::int32_t i : rows)
             {
                 const Eigen::Vector3d q = V.row(i).transpose() - frame_.origin;
@@ -251,21 +249,12 @@ void CanonicalFrameBuilder::add_rows(const Positions& V, std::span<const std::in
                 const double t2 = q.dot(e2_);
                 moment1 += t1 * t1 * t1;
                 moment2 += t2 * t2 * t2;
+                const Eigen::Vector3d r = unsigned_axes_ * q;
+                lo = lo.cwiseMin(r);
+                hi = hi.cwiseMax(r);
             }
             moment1_ = moment1;
             moment2_ = moment2;
-            break;
-        }
-        case Pass::Extent:
-        {
-            Eigen::Vector3d lo = lo_;
-            Eigen::Vector3d hi = hi_;
-            for (const std::int32_t i : rows)
-            {
-                const Eigen::Vector3d q = frame_.axes * (V.row(i).transpose() - frame_.origin);
-                lo = lo.cwiseMin(q);
-                hi = hi.cwiseMax(q);
-            }
             lo_ = lo;
             hi_ = hi;
             break;
@@ -299,29 +288,39 @@ void CanonicalFrameBuilder::next_pass()
             }
             e1_ = solver.eigenvectors().col(2);
             e2_ = solver.eigenvectors().col(1);
+            unsigned_axes_.row(0) = e1_.transpose();
+            unsigned_axes_.row(1) = e2_.transpose();
+            unsigned_axes_.row(2) = e1_.cross(e2_).normalized().transpose();
+            lo_ = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+            hi_ = -lo_;
             pass_ = Pass::Moments;
             break;
         }
         case Pass::Moments:
-            if (moment1_ < 0.0)
+        {
+            // Signs: e -> -e negates e's projections exactly, and the cross product of the
+            // signed axes is the unsigned one times both signs, exactly. So the extent along a
+            // negated axis is [-hi, -lo] of the unsigned one, bit for bit what a fourth pass
+            // over the signed axes would find, and hi - lo is the same difference.
+            const std::array<double, 3> sign = {moment1_ < 0.0 ? -1.0 : 1.0, moment2_ < 0.0 ? -1.0 : 1.0,
+                                                (moment1_ < 0.0) != (moment2_ < 0.0) ? -1.0 : 1.0};
+            for (Eigen::Index k = 0; k < 3; ++k)
             {
-                e1_ = -e1_;
+                frame_.axes.row(k) = sign[static_cast<std::size_t>(k)] < 0.0 ? Eigen::RowVector3d(-unsigned_axes_.row(k))
+                                                                             : Eigen::RowVector3d(unsigned_axes_.row(k));
+                if (sign[static_cast<std::size_t>(k)] < 0.0)
+                {
+                    const double lo = lo_(k);
+                    lo_(k) = -hi_(k);
+                    hi_(k) = -lo;
+                }
             }
-            if (moment2_ < 0.0)
-            {
-                e2_ = -e2_;
-            }
-            frame_.axes.row(0) = e1_.transpose();
-            frame_.axes.row(1) = e2_.transpose();
-            frame_.axes.row(2) = e1_.cross(e2_).normalized().transpose();
-            lo_ = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
-            hi_ = -lo_;
-            pass_ = Pass::Extent;
-            break;
-        case Pass::Extent:
+            e1_ = frame_.axes.row(0).transpose();
+            e2_ = frame_.axes.row(1).transpose();
             frame_.diagonal = (hi_ - lo_).norm();
             pass_ = Pass::Done;
             break;
+        }
         case Pass::Done:
             break;
     }

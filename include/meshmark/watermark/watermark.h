@@ -34,11 +34,13 @@ struct CanonicalFrame
 /// \throws NumericalError if the vertices coincide or are collinear (no 2D extent).
 [[nodiscard]] CanonicalFrame canonical_frame(const Positions& V, const std::vector<std::int32_t>& rows);
 
-/// \brief canonical_frame() in four passes over the rows, for callers that stream positions
+/// \brief canonical_frame() in three passes over the rows, for callers that stream positions
 /// (out-of-core embedding). canonical_frame() runs on this builder, so the same positions fed
 /// in the same order give the same frame, bit for bit.
 /// \details Each pass feeds every row with add(), then next_pass(): centroid, covariance (axes),
-/// third moments (axis signs), extent in the principal axes (diagonal D); then frame().
+/// then third moments (axis signs) together with the extent along the unsigned axes, which
+/// the signs turn into the extent along the final axes exactly (negating an axis negates every
+/// projection on it without rounding), for the diagonal D; then frame().
 class CanonicalFrameBuilder
 {
 public:
@@ -46,8 +48,7 @@ public:
     {
         Centroid,
         Covariance,
-        Moments,
-        Extent,
+        Moments,  ///< third moments and extent
         Done,
     };
     [[nodiscard]] Pass pass() const noexcept { return pass_; }
@@ -58,7 +59,7 @@ public:
     void add_rows(const Positions& V, std::span<const std::int32_t> rows);
     /// End the current pass. \throws NumericalError (no rows, collinear or coincident rows).
     void next_pass();
-    /// The frame, once all four passes are done.
+    /// The frame, once all three passes are done.
     [[nodiscard]] const CanonicalFrame& frame() const noexcept { return frame_; }
 
 private:
@@ -68,6 +69,7 @@ private:
     Eigen::Matrix3d covariance_ = Eigen::Matrix3d::Zero();
     Eigen::Vector3d e1_ = Eigen::Vector3d::Zero();
     Eigen::Vector3d e2_ = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d unsigned_axes_ = Eigen::Matrix3d::Identity();  // rows e1, e2, e1 x e2 before the signs
     double moment1_ = 0.0;
     double moment2_ = 0.0;
     Eigen::Vector3d lo_ = Eigen::Vector3d::Zero();
