@@ -29,6 +29,7 @@ struct PlySpec
     int unreferenced_every = 0;     // insert an unreferenced vertex before every n-th vertex
     bool quads = false;             // merge triangle pairs into quads (fan-triangulated back)
     bool trailing_element = false;  // a fixed-size element after the faces
+    bool unsigned_indices = false;  // uint instead of int vertex indices
 };
 
 template <class T>
@@ -101,7 +102,7 @@ void write_ply(const std::filesystem::path& path, const TriangleMesh& mesh, cons
         out += "property " + type + " x\nproperty " + type + " y\nproperty " + type + " z\n";
     }
     out += "element face " + std::to_string(faces.size()) + "\n";
-    out += "property list uchar int vertex_indices\n";
+    out += spec.unsigned_indices ? "property list uchar uint vertex_indices\n" : "property list uchar int vertex_indices\n";
     if (spec.extra_properties)
     {
         out += "property uchar flags\n";
@@ -266,7 +267,8 @@ TEST(EmbedStreamedTest, matches_in_memory_big_endian_double_with_extras)
     int variant = 0;
     for (const PlySpec spec : {PlySpec{true, false, false, 0, false, false}, PlySpec{false, true, false, 0, false, false},
                                PlySpec{true, true, true, 0, false, true}, PlySpec{false, false, true, 7, true, true},
-                               PlySpec{true, true, true, 3, false, false}})
+                               PlySpec{true, true, true, 3, false, false}, PlySpec{true, false, false, 0, true, false, true},
+                               PlySpec{false, false, false, 0, false, false, true}})
     {
         const auto input = dir / ("input-" + std::to_string(variant++) + ".ply");
         write_ply(input, mesh, spec);
@@ -410,6 +412,22 @@ TEST(EmbedStreamedTest, bad_face_index_is_an_invalid_mesh_and_leaves_nothing)
     EXPECT_THROW((void)embed_file(input, dir / "out.ply", dir / "key.json", options), InvalidMesh);
     EXPECT_FALSE(std::filesystem::exists(dir / "out.ply"));
     EXPECT_FALSE(std::filesystem::exists(dir / "key.json"));
+    // A negative index, in an int and in a big-endian file: the same message as the reader's.
+    mesh.F(5, 1) = -2;
+    for (const bool big_endian : {false, true})
+    {
+        write_ply(input, mesh, PlySpec{big_endian, false, false, 0, false, false});
+        try
+        {
+            (void)embed_file(input, dir / "out.ply", dir / "key.json", options);
+            FAIL() << "index -2 accepted";
+        }
+        catch (const InvalidMesh& e)
+        {
+            EXPECT_NE(std::string(e.what()).find("face 5 uses vertex index -2"), std::string::npos) << e.what();
+        }
+        EXPECT_FALSE(std::filesystem::exists(dir / "out.ply"));
+    }
 }
 
 }  // namespace meshmark
