@@ -191,8 +191,19 @@ RbfBasis::RbfBasis(const RowPositionSource& source, const Eigen::MatrixX3d& cent
     build(center_positions, &source, gram_rows);
 }
 
+void RowPositionCursor::skip(std::size_t count)
+{
+    std::vector<double> dropped(3 * std::min<std::size_t>(count, 4096));
+    for (std::size_t done = 0; done < count;)
+    {
+        const std::size_t n = std::min(count - done, dropped.size() / 3);
+        read(n, dropped.data());
+        done += n;
+    }
+}
+
 // The rows of a sampled pass 1 out of a source of all active rows: one underlying cursor read
-// sequentially, the rows between two sampled ones read into a scratch buffer and dropped.
+// sequentially, the rows between two sampled ones skipped.
 class RbfBasis::SampledRows final : public RowPositionSource
 {
 public:
@@ -218,8 +229,7 @@ private:
                 const std::size_t row = basis_.gram_row(next_);
                 if (row > row_)
                 {
-                    skipped_.resize(3 * (row - row_));
-                    all_->read(row - row_, skipped_.data());
+                    all_->skip(row - row_);
                 }
                 all_->read(1, xyz + 3 * i);
                 row_ = row + 1;
@@ -231,7 +241,6 @@ private:
         std::size_t next_;  // sample index of the next read
         std::size_t row_;   // active row the underlying cursor is at
         std::unique_ptr<RowPositionCursor> all_;
-        std::vector<double> skipped_;
     };
 
     const RbfBasis& basis_;

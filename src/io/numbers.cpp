@@ -156,7 +156,7 @@ std::optional<ScalarType> scalar_type_from_name(std::string_view name) noexcept
     return std::nullopt;
 }
 
-double load_scalar(const char* p, ScalarType type, bool is_big_endian) noexcept
+double load_scalar_any(const char* p, ScalarType type, bool is_big_endian) noexcept
 {
     switch (type)
     {

@@ -469,6 +469,14 @@ public:
             }
         }
     }
+    void skip(std::size_t count) override
+    {
+        for (std::size_t i = 0; i < count;)
+        {
+            i += referenced_.is_active(reader_.vertex()) ? 1U : 0U;
+            (void)reader_.next();
+        }
+    }
 
 private:
     const Referenced& referenced_;

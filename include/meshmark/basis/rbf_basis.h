@@ -85,6 +85,8 @@ public:
     virtual ~RowPositionCursor() = default;
     /// The x, y, z of the next \p count active rows (file frame), into \p xyz (3 per row).
     virtual void read(std::size_t count, double* xyz) = 0;
+    /// Pass over the next \p count active rows. The default reads and drops them.
+    virtual void skip(std::size_t count);
 };
 
 /// \brief Positions of the active rows for the streamed passes of RbfBasis (e.g. a file read in

@@ -1,8 +1,10 @@
 // SPDX-License-Identifier: MIT
 #pragma once
 
+#include <bit>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -31,8 +33,22 @@ enum class ScalarType : std::uint8_t
 /// Type for a PLY type name (char, uchar, ..., int8, uint8, ..., float32, float64).
 [[nodiscard]] std::optional<ScalarType> scalar_type_from_name(std::string_view name) noexcept;
 
+/// load_scalar() for any type (out of line).
+[[nodiscard]] double load_scalar_any(const char* p, ScalarType type, bool is_big_endian) noexcept;
+
 /// The value of the binary scalar at \p p (any alignment), widened to double.
-[[nodiscard]] double load_scalar(const char* p, ScalarType type, bool is_big_endian) noexcept;
+/// \details A float32 in the machine's byte order, the usual case, is read inline: a call and
+/// a switch per value were 8% of the CPU time of a 20M-vertex out-of-core embed.
+[[nodiscard]] inline double load_scalar(const char* p, ScalarType type, bool is_big_endian) noexcept
+{
+    if (type == ScalarType::Float32 && is_big_endian == (std::endian::native == std::endian::big))
+    {
+        float value = 0.0F;
+        std::memcpy(&value, p, sizeof(value));
+        return static_cast<double>(value);
+    }
+    return load_scalar_any(p, type, is_big_endian);
+}
 
 /// The value of the binary integer at \p p; \pre is_integer(type).
 [[nodiscard]] std::int64_t load_integer(const char* p, ScalarType type,
