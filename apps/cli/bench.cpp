@@ -20,6 +20,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <memory>
 #include <optional>
 #include <string>
@@ -53,6 +54,10 @@ struct BenchSpeedArgs
     bool no_detect = false;
     bool keep = false;
     bool json = false;
+    std::string attack;                          ///< detect an attacked copy (spec) instead of the marked one
+    std::int64_t max_detect_vertices = 5'000'000;  ///< no detect above this
+    int out_of_core_mib = 0;                     ///< > 0: also embed generated meshes streamed with this budget
+    bool compare_threads = false;                ///< also embed with 1 thread (speedup, identity)
 };
 
 /// One child run: its exit code, JSON report (if any) and peak RSS.
@@ -173,7 +178,57 @@ struct Case
 {
     std::string name;
     fs::path input;
+    bool is_generated = false;
 };
+
+// True when both files hold the same bytes (compared in 1 MiB pieces: the files may be GBs).
+bool same_bytes(const fs::path& a, const fs::path& b)
+{
+    std::error_code error;
+    if (fs::file_size(a, error) != fs::file_size(b, error) || error)
+    {
+        return false;
+    }
+    std::ifstream fa(a, std::ios::binary);
+    std::ifstream fb(b, std::ios::binary);
+    std::vector<char> ba(std::size_t{1} << 20U);
+    std::vector<char> bb(ba.size());
+    while (fa && fb)
+    {
+        fa.read(ba.data(), static_cast<std::streamsize>(ba.size()));
+        fb.read(bb.data(), static_cast<std::streamsize>(bb.size()));
+        if (fa.gcount() != fb.gcount() || !std::equal(ba.begin(), ba.begin() + fa.gcount(), bb.begin()))
+        {
+            return false;
+        }
+    }
+    return fa.eof() && fb.eof();
+}
+
+// A second embed of \p c with \p extra arguments, compared byte for byte with the first one's
+// marked file and key: its phases, peak and CPU time under \p prefix in \p row.
+void bench_variant(const fs::path& program, const Case& c, const fs::path& work, const fs::path& output,
+                   const fs::path& key, const std::string& threads, const std::vector<std::string>& extra,
+                   const std::string& prefix, nlohmann::json& row)
+{
+    const fs::path other = work / (prefix + "-" + c.input.filename().string());
+    const fs::path other_key = work / (prefix + "-key-" + c.input.stem().string() + ".json");
+    std::vector<std::string> command{"embed", c.input.string(), "-o", other.string(), "--key", other_key.string(),
+                                     "--seed", "20261122", "--force", "--json", "-q", "--threads", threads};
+    command.insert(command.end(), extra.begin(), extra.end());
+    const ChildRun run = run_child(program, command);
+    row[prefix + "_exit_code"] = run.exit_code;
+    if (run.exit_code == 0)
+    {
+        row[prefix + "_seconds"] = run.report["seconds"];
+        row[prefix + "_peak_mib"] = run.peak_mib;
+        row[prefix + "_cpu_seconds"] = run.cpu_seconds;
+        row[prefix + "_identical"] = same_bytes(output, other) && same_bytes(key, other_key);
+    }
+    std::error_code ignored;
+    fs::remove(other, ignored);
+    fs::remove(other_key, ignored);
+}
 
 std::vector<Case> shared_cases(const fs::path& dir)
 {
@@ -234,10 +289,37 @@ nlohmann::json bench_case(const fs::path& program, const Case& c, const std::str
     row["embed_cpu_seconds"] = best->cpu_seconds;
     row["embed_us_per_vertex"] = vertices > 0 ? 1e6 * total / static_cast<double>(vertices) : 0.0;
     row["embed_peak_mib"] = best->peak_mib;
-    if (!args.no_detect)
+    if (args.out_of_core_mib > 0 && c.is_generated && basis == "rbf")
     {
-        const ChildRun detect = run_child(program, {"detect", output.string(), "--original", c.input.string(),
+        bench_variant(program, c, work, output, key, threads,
+                      {"--stream", "--memory-budget", std::to_string(args.out_of_core_mib)}, "stream", row);
+    }
+    if (args.compare_threads && basis == "rbf")
+    {
+        bench_variant(program, c, work, output, key, "1", {}, "one_thread", row);
+    }
+    if (!args.no_detect && vertices <= args.max_detect_vertices)
+    {
+        fs::path suspect = output;
+        if (!args.attack.empty())
+        {
+            suspect = work / ("suspect-" + basis + "-" + c.input.stem().string() + ".ply");
+            const ChildRun attack = run_child(program, {"attack", output.string(), "-o", suspect.string(), "--seed",
+                                                        "2", "-q", "--threads", threads, args.attack});
+            if (attack.exit_code != 0)
+            {
+                throw IoError(output.string() + ": `meshmark attack` failed on the marked copy (exit code " +
+                              std::to_string(attack.exit_code) + ").");
+            }
+            row["detect_attack"] = args.attack;
+        }
+        const ChildRun detect = run_child(program, {"detect", suspect.string(), "--original", c.input.string(),
                                                     "--key", key.string(), "--json", "-q", "--threads", threads});
+        if (suspect != output)
+        {
+            std::error_code ignored;
+            fs::remove(suspect, ignored);
+        }
         row["detect_exit_code"] = detect.exit_code;
         row["detected"] = detect.exit_code == 0;
         if (detect.exit_code == 0 || detect.exit_code == 1)
@@ -332,7 +414,60 @@ void print_table(const std::vector<nlohmann::json>& rows)
     }
     std::printf("Times in seconds (embed_file's phases, best of --repeat by total); cpu = the embed "
                 "process's user + system time; peak MB = the run's own peak RSS in MiB; detect = "
-                "detect_file on the marked copy.\n");
+                "detect_file on the marked copy%s.\n",
+                rows.empty() || !rows.front().contains("detect_attack")
+                    ? ""
+                    : (" after `attack " + rows.front()["detect_attack"].get<std::string>() + "`").c_str());
+    const auto get = [](const nlohmann::json& o, const char* k) { return o.value(k, 0.0); };
+    bool has_header = false;
+    for (const auto& row : rows)
+    {
+        if (!row.contains("stream_exit_code"))
+        {
+            continue;
+        }
+        if (!has_header)
+        {
+            std::printf("\nOut of core (--stream --memory-budget), against the in-memory embed above:\n"
+                        "%-24s %9s %7s %7s %7s %7s %8s %8s %10s %s\n",
+                        "mesh", "vertices", "scan", "basis", "write", "total", "cpu", "peak MB", "Mvert/s", "identical");
+            has_header = true;
+        }
+        if (row["stream_exit_code"].get<int>() != 0)
+        {
+            std::printf("%-24s streamed embed failed (exit code %d)\n", row["mesh"].get<std::string>().c_str(),
+                        row["stream_exit_code"].get<int>());
+            continue;
+        }
+        const auto& t = row["stream_seconds"];
+        const double total = get(t, "total");
+        const auto vertices = static_cast<double>(row["vertices"].get<std::int64_t>());
+        std::printf("%-24s %9lld %7.3f %7.3f %7.3f %7.3f %8.3f %8.1f %10.2f %s\n", row["mesh"].get<std::string>().c_str(),
+                    static_cast<long long>(row["vertices"].get<std::int64_t>()), get(t, "scan") + get(t, "frame"),
+                    get(t, "basis"), get(t, "write"), total, get(row, "stream_cpu_seconds"),
+                    get(row, "stream_peak_mib"), total > 0.0 ? vertices / total / 1e6 : 0.0,
+                    row["stream_identical"].get<bool>() ? "yes" : "NO");
+    }
+    has_header = false;
+    for (const auto& row : rows)
+    {
+        if (!row.contains("one_thread_exit_code") || row["one_thread_exit_code"].get<int>() != 0)
+        {
+            continue;
+        }
+        if (!has_header)
+        {
+            std::printf("\nOne thread against --threads of the table above (embed totals):\n"
+                        "%-24s %-9s %9s %9s %9s %9s %s\n", "mesh", "basis", "vertices", "1 thread", "threads",
+                        "speedup", "identical");
+            has_header = true;
+        }
+        const double one = get(row["one_thread_seconds"], "total");
+        const double many = get(row["embed_seconds"], "total");
+        std::printf("%-24s %-9s %9lld %9.3f %9.3f %9.2f %s\n", row["mesh"].get<std::string>().c_str(),
+                    row["basis"].get<std::string>().c_str(), static_cast<long long>(row["vertices"].get<std::int64_t>()),
+                    one, many, many > 0.0 ? one / many : 0.0, row["one_thread_identical"].get<bool>() ? "yes" : "NO");
+    }
     print_ratios(rows);
 }
 
@@ -399,7 +534,7 @@ int run_bench_speed(const BenchSpeedArgs& args, const GlobalArgs& global)
         }
         write_generated(path, n);
         generated.push_back(path);
-        cases.push_back({"generated-" + std::to_string(n), path});
+        cases.push_back({"generated-" + std::to_string(n), path, true});
     }
 
     std::vector<nlohmann::json> rows;
@@ -435,8 +570,11 @@ int run_bench_speed(const BenchSpeedArgs& args, const GlobalArgs& global)
     {
         print_table(rows);
     }
+    // A failed run, a copy not found, or a streamed or 1-thread embed that differs is a failure.
     const bool all_ok = std::all_of(rows.begin(), rows.end(), [](const nlohmann::json& r) {
-        return r.value("embed_exit_code", -1) == 0 && r.value("detect_exit_code", 0) == 0;
+        return r.value("embed_exit_code", -1) == 0 && r.value("detect_exit_code", 0) == 0 &&
+               r.value("stream_exit_code", 0) == 0 && r.value("stream_identical", true) &&
+               r.value("one_thread_exit_code", 0) == 0 && r.value("one_thread_identical", true);
     });
     return all_ok ? 0 : static_cast<int>(ExitCode::Internal);
 }
@@ -477,6 +615,19 @@ void register_bench(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
                       "directory)");
     speed->add_flag("--keep", args->keep, "Keep the generated meshes, marked copies and keys");
     speed->add_flag("--no-detect", args->no_detect, "Time embed only");
+    speed->add_option("--attack", args->attack,
+                      "Detect a copy attacked with this spec (grammar of `meshmark attack`, seed 2), e.g. "
+                      "similarity,reorder for the registration path, instead of the marked copy itself");
+    speed->add_option("--max-detect-vertices", args->max_detect_vertices, "Skip detection on larger meshes")
+        ->check(CLI::Range(std::int64_t{0}, std::int64_t{1'000'000'000}))
+        ->capture_default_str();
+    speed->add_option("--out-of-core", args->out_of_core_mib,
+                      "MiB: also embed every generated mesh out of core (--stream --memory-budget MiB) and "
+                      "compare its output and key with the in-memory embed, byte for byte (0 = no)")
+        ->check(CLI::Range(0, 1 << 20))
+        ->capture_default_str();
+    speed->add_flag("--compare-threads", args->compare_threads,
+                    "Also embed with one thread: speedup of --threads over 1, and whether the outputs are identical");
     speed->add_flag("--json", args->json, "Print one JSON object with every run on stdout");
     add_global_flags(*speed, global);
     speed->callback([args, &global, &runner]() {

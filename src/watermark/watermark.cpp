@@ -129,8 +129,16 @@ struct JointSolution
     Eigen::VectorXd variances;
 };
 
-JointSolution solve_jointly(const Eigen::MatrixXd& design, const Eigen::VectorXd& target)
+JointSolution solve_jointly(const Eigen::MatrixXd& raw_design, const Eigen::VectorXd& target)
 {
+    // Columns scaled to unit norm first, so that the rank cutoff below compares directions, not
+    // units (a nuisance field can be 1e-12 of another column without being any less independent).
+    Eigen::VectorXd scale = raw_design.colwise().norm().transpose();
+    for (Eigen::Index c = 0; c < scale.size(); ++c)
+    {
+        scale(c) = scale(c) > 0.0 ? 1.0 / scale(c) : 1.0;
+    }
+    const Eigen::MatrixXd design = raw_design * scale.asDiagonal();
     const Eigen::JacobiSVD<Eigen::MatrixXd> svd(design, Eigen::ComputeThinU | Eigen::ComputeThinV);
     const Eigen::VectorXd& sv = svd.singularValues();
     const double cutoff = sv.size() > 0 ? 1e-10 * sv(0) : 0.0;
@@ -160,6 +168,9 @@ JointSolution solve_jointly(const Eigen::MatrixXd& design, const Eigen::VectorXd
             }
         }
     }
+    // Back to the unknowns of the raw design.
+    result.amplitudes = result.amplitudes.cwiseProduct(scale);
+    result.variances = result.variances.cwiseProduct(scale.cwiseAbs2());
     return result;
 }
 
