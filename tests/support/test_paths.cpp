@@ -7,7 +7,10 @@
 #include <cstdlib>
 #include <fstream>
 #include <map>
+#include <mutex>
 #include <regex>
+#include <system_error>
+#include <vector>
 
 namespace meshmark::test {
 
@@ -67,12 +70,55 @@ std::vector<std::filesystem::path> shared_meshes_up_to(long max_vertices)
 
 std::filesystem::path cli_path() { return MESHMARK_CLI_PATH; }
 
+namespace {
+
+// The folders temp_dir() made, removed when the process exits normally (static destruction),
+// unless MESHMARK_KEEP_TEST_DIRS is set (to look at what a failing test wrote).
+class TempDirs
+{
+public:
+    void add(const std::filesystem::path& dir)
+    {
+        const std::lock_guard<std::mutex> lock(mutex_);
+        dirs_.push_back(dir);
+    }
+    TempDirs() = default;
+    TempDirs(const TempDirs&) = delete;
+    TempDirs& operator=(const TempDirs&) = delete;
+    ~TempDirs()
+    {
+        const char* keep = std::getenv("MESHMARK_KEEP_TEST_DIRS");
+        if (keep != nullptr && *keep != '\0')
+        {
+            return;
+        }
+        for (const auto& dir : dirs_)
+        {
+            std::error_code ignored;
+            std::filesystem::remove_all(dir, ignored);
+        }
+    }
+
+private:
+    std::mutex mutex_;
+    std::vector<std::filesystem::path> dirs_;
+};
+
+TempDirs& temp_dirs()
+{
+    static TempDirs dirs;
+    return dirs;
+}
+
+}  // namespace
+
 std::filesystem::path temp_dir(const std::string& name)
 {
     auto dir = std::filesystem::temp_directory_path() /
                ("meshmark-test-" + std::to_string(::getpid()) + "-" + name);
     std::filesystem::remove_all(dir);
     std::filesystem::create_directories(dir);
+    temp_dirs().add(dir);
     return dir;
 }
 

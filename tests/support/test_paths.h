@@ -26,7 +26,8 @@ namespace meshmark::test {
 /// Path of the built meshmark program (empty if the CLI is not built).
 [[nodiscard]] std::filesystem::path cli_path();
 
-/// A fresh empty temporary folder, removed when the process exits normally.
+/// A fresh empty temporary folder, removed when the process exits normally (kept when
+/// MESHMARK_KEEP_TEST_DIRS is set).
 [[nodiscard]] std::filesystem::path temp_dir(const std::string& name);
 
 /// The whole file as bytes ("" if it cannot be read).
