@@ -176,6 +176,24 @@ JointSolution solve_jointly(const Eigen::MatrixXd& raw_design, const Eigen::Vect
 
 }  // namespace
 
+namespace {
+
+// One row of the third-moment and extent pass: add() and add_rows() both run exactly this.
+inline void add_moments_row(const Eigen::Vector3d& q, const Eigen::Vector3d& e1, const Eigen::Vector3d& e2,
+                            const Eigen::Matrix3d& unsigned_axes, double& moment1, double& moment2,
+                            Eigen::Vector3d& lo, Eigen::Vector3d& hi)
+{
+    const double t1 = q.dot(e1);
+    const double t2 = q.dot(e2);
+    moment1 += t1 * t1 * t1;
+    moment2 += t2 * t2 * t2;
+    const Eigen::Vector3d r = unsigned_axes * q;
+    lo = lo.cwiseMin(r);
+    hi = hi.cwiseMax(r);
+}
+
+}  // namespace
+
 void CanonicalFrameBuilder::add(const Eigen::Vector3d& p)
 {
     switch (pass_)
@@ -191,17 +209,8 @@ void CanonicalFrameBuilder::add(const Eigen::Vector3d& p)
             break;
         }
         case Pass::Moments:
-        {
-            const Eigen::Vector3d q = p - frame_.origin;
-            const double t1 = q.dot(e1_);
-            const double t2 = q.dot(e2_);
-            moment1_ += t1 * t1 * t1;
-            moment2_ += t2 * t2 * t2;
-            const Eigen::Vector3d r = unsigned_axes_ * q;
-            lo_ = lo_.cwiseMin(r);
-            hi_ = hi_.cwiseMax(r);
+            add_moments_row(p - frame_.origin, e1_, e2_, unsigned_axes_, moment1_, moment2_, lo_, hi_);
             break;
-        }
         case Pass::Done:
             break;
     }
@@ -255,14 +264,8 @@ void CanonicalFrameBuilder::add_rows(const Positions& V, std::span<const std::in
             Eigen::Vector3d hi = hi_;
             for (const std::int32_t i : rows)
             {
-                const Eigen::Vector3d q = V.row(i).transpose() - frame_.origin;
-                const double t1 = q.dot(e1_);
-                const double t2 = q.dot(e2_);
-                moment1 += t1 * t1 * t1;
-                moment2 += t2 * t2 * t2;
-                const Eigen::Vector3d r = unsigned_axes_ * q;
-                lo = lo.cwiseMin(r);
-                hi = hi.cwiseMax(r);
+                add_moments_row(V.row(i).transpose() - frame_.origin, e1_, e2_, unsigned_axes_, moment1, moment2,
+                                lo, hi);
             }
             moment1_ = moment1;
             moment2_ = moment2;
@@ -326,8 +329,6 @@ void CanonicalFrameBuilder::next_pass()
                     hi_(k) = -lo;
                 }
             }
-            e1_ = frame_.axes.row(0).transpose();
-            e2_ = frame_.axes.row(1).transpose();
             frame_.diagonal = (hi_ - lo_).norm();
             pass_ = Pass::Done;
             break;
