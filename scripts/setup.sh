@@ -12,10 +12,14 @@ packages=(
   libcgal-dev libgmp-dev libmpfr-dev libboost-dev  # simplification, remeshing, subdivision
   libmeshoptimizer-dev   # fast simplification
   libtinygltf-dev libstb-dev libdraco-dev lib3mf-dev  # glTF/GLB (+ Draco) and 3MF files
+  libzip-dev libpugixml-dev  # 3MF packages: zip container and model XML, rewritten in place
   libspectra-dev         # Laplacian eigenbasis baseline: shift-invert Lanczos (header-only)
   libsuitesparse-dev     # CHOLMOD sparse Cholesky for the Laplacian eigenbasis
   libgtest-dev libgmock-dev googletest              # tests
   libbenchmark-dev       # micro-benchmarks
+  # Interop tests (label `interop`): the ecosystem's own tools write the inputs and check
+  # the outputs. The npm ones are pinned in tests/interop/package.json (installed below).
+  gltfpack draco prusa-slicer xvfb xauth nodejs npm
 )
 
 sudo=""
@@ -30,5 +34,15 @@ if ((${#missing[@]})); then
   export DEBIAN_FRONTEND=noninteractive
   $sudo apt-get update -qq
   $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+# The pinned npm tools of the interop tests (glTF-Transform, the Khronos validator,
+# gltf-pipeline), into tests/interop/node_modules; skipped when package-lock.json is unchanged
+# since the last install.
+interop="$(cd "$(dirname "$0")/.." && pwd)/tests/interop"
+if [[ ! -f $interop/node_modules/.package-lock.json ]] ||
+   ! cmp -s "$interop/package-lock.json" "$interop/node_modules/.meshmark-lock"; then
+  echo "setup: installing the interop tests' npm packages (tests/interop/package.json)" >&2
+  (cd "$interop" && npm ci --no-audit --no-fund --loglevel=error >/dev/null)
+  cp "$interop/package-lock.json" "$interop/node_modules/.meshmark-lock"
 fi
 echo "setup: all dependencies present" >&2
