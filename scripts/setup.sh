@@ -19,8 +19,10 @@ packages=(
   libbenchmark-dev       # micro-benchmarks
   # Interop tests (label `interop`): the ecosystem's own tools write the inputs and check
   # the outputs. The npm ones are pinned in tests/interop/package.json (installed below).
-  gltfpack draco prusa-slicer xvfb xauth nodejs npm
+  gltfpack draco prusa-slicer xvfb xauth
 )
+# Node.js for the npm tools: Debian's, unless the machine already has a node and npm.
+if ! command -v node >/dev/null || ! command -v npm >/dev/null; then packages+=(nodejs npm); fi
 
 sudo=""
 if [[ $(id -u) -ne 0 ]]; then sudo="sudo"; fi
