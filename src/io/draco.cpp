@@ -2,7 +2,9 @@
 // KHR_draco_mesh_compression: decoding and re-encoding with libdraco. The re-encoder keeps
 // every attribute with its unique id and the bitstream's quantization (position grid
 // included when the new positions still fit in it) and its encoding method.
+#include <array>
 #include <cmath>
+#include <cstdint>
 #include <memory>
 
 #include <draco/attributes/attribute_octahedron_transform.h>
@@ -89,6 +91,91 @@ int quantization_bits(const draco::PointAttribute& quantized)
     return 0;
 }
 
+// The glTF component type of a position attribute's data type (KHR_mesh_quantization
+// allows 8- and 16-bit integers besides float32).
+GltfComponent component_of(const fs::path& path, const draco::PointAttribute& attribute)
+{
+    switch (attribute.data_type())
+    {
+        case draco::DT_FLOAT32:
+            return GltfComponent::Float32;
+        case draco::DT_INT8:
+            return GltfComponent::Int8;
+        case draco::DT_UINT8:
+            return GltfComponent::UInt8;
+        case draco::DT_INT16:
+            return GltfComponent::Int16;
+        case draco::DT_UINT16:
+            return GltfComponent::UInt16;
+        default:
+            fail_io(path, "the Draco position attribute has data type " +
+                              std::to_string(static_cast<int>(attribute.data_type())) +
+                              ", which glTF does not allow for positions");
+    }
+}
+
+// One stored value as a double, without the normalization that ConvertValue would apply to
+// an attribute flagged as normalized (the glTF accessor, not the Draco flag, decides that).
+template <typename T>
+void load_values(const draco::PointAttribute& attribute, draco::AttributeValueIndex index,
+                 double* out)
+{
+    std::array<T, 3> values{};
+    attribute.GetValue(index, values.data());
+    for (std::size_t d = 0; d < 3; ++d)
+    {
+        out[d] = static_cast<double>(values[d]);
+    }
+}
+
+void load_stored(const draco::PointAttribute& attribute, GltfComponent component,
+                 draco::AttributeValueIndex index, double* out)
+{
+    switch (component)
+    {
+        case GltfComponent::Int8:
+            return load_values<std::int8_t>(attribute, index, out);
+        case GltfComponent::UInt8:
+            return load_values<std::uint8_t>(attribute, index, out);
+        case GltfComponent::Int16:
+            return load_values<std::int16_t>(attribute, index, out);
+        case GltfComponent::UInt16:
+            return load_values<std::uint16_t>(attribute, index, out);
+        default:
+            return load_values<float>(attribute, index, out);
+    }
+}
+
+template <typename T>
+void store_values(draco::PointAttribute& attribute, draco::AttributeValueIndex index,
+                  const double* values)
+{
+    std::array<T, 3> typed{};
+    for (std::size_t d = 0; d < 3; ++d)
+    {
+        typed[d] = static_cast<T>(values[d]);  // integers arrive rounded and in range
+    }
+    attribute.SetAttributeValue(index, typed.data());
+}
+
+void store_stored(draco::PointAttribute& attribute, GltfComponent component,
+                  draco::AttributeValueIndex index, const double* values)
+{
+    switch (component)
+    {
+        case GltfComponent::Int8:
+            return store_values<std::int8_t>(attribute, index, values);
+        case GltfComponent::UInt8:
+            return store_values<std::uint8_t>(attribute, index, values);
+        case GltfComponent::Int16:
+            return store_values<std::int16_t>(attribute, index, values);
+        case GltfComponent::UInt16:
+            return store_values<std::uint16_t>(attribute, index, values);
+        default:
+            return store_values<float>(attribute, index, values);
+    }
+}
+
 }  // namespace
 
 DracoGeometry decode_draco(const fs::path& path, const std::string& bytes, std::int32_t position_id)
@@ -97,12 +184,14 @@ DracoGeometry decode_draco(const fs::path& path, const std::string& bytes, std::
     auto* positions = attribute_by_id(path, *mesh, position_id);
     DracoGeometry geometry;
     geometry.point_count = mesh->num_points();
+    geometry.component = component_of(path, *positions);
     geometry.positions.resize(3 * static_cast<std::size_t>(geometry.point_count));
     for (std::uint32_t i = 0; i < geometry.point_count; ++i)
     {
-        float* p = geometry.positions.data() + 3 * static_cast<std::size_t>(i);
-        if (!positions->ConvertValue<float>(positions->mapped_index(draco::PointIndex(i)), 3, p) ||
-            !std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+        double* p = geometry.positions.data() + 3 * static_cast<std::size_t>(i);
+        load_stored(*positions, geometry.component, positions->mapped_index(draco::PointIndex(i)),
+                    p);
+        if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
         {
             fail_mesh(path, "Draco point " + std::to_string(i) + " has no finite position");
         }
@@ -127,24 +216,26 @@ DracoGeometry decode_draco(const fs::path& path, const std::string& bytes, std::
 }
 
 std::string reencode_draco(const fs::path& path, const std::string& bytes, std::int32_t position_id,
-                           const std::vector<float>& positions, bool keep_order)
+                           const std::vector<double>& positions, bool keep_order)
 {
     // The decoded mesh (values) and the same stream decoded without its transforms
     // (quantization parameters of every attribute).
     auto mesh = decode(path, bytes, false);
     const auto quantized = decode(path, bytes, true);
     auto* position = attribute_by_id(path, *mesh, position_id);
+    const GltfComponent component = component_of(path, *position);
     if (positions.size() != 3 * static_cast<std::size_t>(mesh->num_points()))
     {
         fail_io(path, "internal error: Draco positions do not match the point count");
     }
 
-    // New positions: one value per point; points sharing a value index share a vertex, and
-    // the caller gives them identical positions, so writing per point is consistent.
+    // New positions in the attribute's own data type (SetAttributeValue copies raw bytes):
+    // one value per point; points sharing a value index share a vertex, and the caller gives
+    // them identical positions, so writing per point is consistent.
     for (std::uint32_t i = 0; i < mesh->num_points(); ++i)
     {
-        position->SetAttributeValue(position->mapped_index(draco::PointIndex(i)),
-                                    positions.data() + 3 * static_cast<std::size_t>(i));
+        store_stored(*position, component, position->mapped_index(draco::PointIndex(i)),
+                     positions.data() + 3 * static_cast<std::size_t>(i));
     }
 
     draco::ExpertEncoder encoder(*mesh);
@@ -168,8 +259,9 @@ std::string reencode_draco(const fs::path& path, const std::string& bytes, std::
             bool fits = true;
             for (std::size_t k = 0; k < positions.size() && fits; ++k)
             {
+                const auto value = static_cast<float>(positions[k]);
                 const float lo = grid.min_value(static_cast<int>(k % 3));
-                fits = positions[k] >= lo && positions[k] <= lo + grid.range();
+                fits = value >= lo && value <= lo + grid.range();
             }
             if (fits)
             {

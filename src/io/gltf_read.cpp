@@ -9,6 +9,7 @@
 #include <climits>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <map>
 #include <optional>
 #include <unordered_map>
@@ -593,7 +594,8 @@ void Reader::add_plain(const tinygltf::Primitive& prim, int mesh, int index,
             {
                 const char* p = asset_.buffers[static_cast<std::size_t>(el.buffer)].bytes.data() +
                                 el.offset + d * size;
-                local[3 * e + d] = dequantize(load_scalar(p, type, false), record);
+                local[3 * e + d] =
+                    dequantize(load_scalar(p, type, false), record.component, record.is_normalized);
             }
         }
         for (std::size_t k = 0; k < local.size(); ++k)
@@ -732,7 +734,16 @@ void Reader::add_draco(const tinygltf::Primitive& prim, int mesh, int index,
         const auto& buffer = asset_.buffers[static_cast<std::size_t>(view.buffer)].bytes;
         const auto geometry = decode_draco(path_, buffer.substr(view.byteOffset, view.byteLength),
                                            record.position_attribute_id);
-        std::vector<double> local(geometry.positions.begin(), geometry.positions.end());
+        // The decoded values are stored values: with KHR_mesh_quantization, integers that the
+        // accessor's `normalized` maps to [-1, 1] or [0, 1], as for uncompressed data.
+        const auto& accessor = model_.accessors[static_cast<std::size_t>(position->second)];
+        record.component = geometry.component;
+        record.is_normalized = accessor.normalized && geometry.component != GltfComponent::Float32;
+        std::vector<double> local(geometry.positions.size());
+        for (std::size_t k = 0; k < local.size(); ++k)
+        {
+            local[k] = dequantize(geometry.positions[k], record.component, record.is_normalized);
+        }
         slot = asset_.draco.size();
         draco_slot_[view_index] = slot;
         draco_base_.push_back(raw_.group.size());
@@ -788,13 +799,13 @@ TriangleMesh Reader::weld()
 
 }  // namespace
 
-double dequantize(double stored, const GltfPositionAccessor& record)
+double dequantize(double stored, GltfComponent component, bool is_normalized)
 {
-    if (!record.is_normalized)
+    if (!is_normalized)
     {
         return stored;
     }
-    switch (record.component)
+    switch (component)
     {
         case GltfComponent::Int8:
             return std::max(stored / 127.0, -1.0);
@@ -806,6 +817,45 @@ double dequantize(double stored, const GltfPositionAccessor& record)
             return stored / 65535.0;
         default:
             return stored;
+    }
+}
+
+double quantize(double value, GltfComponent component, bool is_normalized)
+{
+    if (!is_normalized)
+    {
+        return value;
+    }
+    switch (component)
+    {
+        case GltfComponent::Int8:
+            return value * 127.0;
+        case GltfComponent::UInt8:
+            return value * 255.0;
+        case GltfComponent::Int16:
+            return value * 32767.0;
+        case GltfComponent::UInt16:
+            return value * 65535.0;
+        default:
+            return value;
+    }
+}
+
+std::pair<double, double> stored_range(GltfComponent component, bool is_normalized)
+{
+    switch (component)
+    {
+        case GltfComponent::Int8:
+            return {is_normalized ? -127.0 : -128.0, 127.0};
+        case GltfComponent::UInt8:
+            return {0.0, 255.0};
+        case GltfComponent::Int16:
+            return {is_normalized ? -32767.0 : -32768.0, 32767.0};
+        case GltfComponent::UInt16:
+            return {0.0, 65535.0};
+        default:
+            return {-std::numeric_limits<double>::infinity(),
+                    std::numeric_limits<double>::infinity()};
     }
 }
 

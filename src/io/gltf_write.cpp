@@ -7,8 +7,11 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <map>
 #include <optional>
+#include <set>
 
+#include <Eigen/Geometry>
 #include <Eigen/LU>
 #include <nlohmann/json.hpp>
 
@@ -35,26 +38,9 @@ bool is_changed(const Positions& a, const Positions& b, std::int32_t row)
     return std::memcmp(a.row(row).data(), b.row(row).data(), 3 * sizeof(double)) != 0;
 }
 
-// Inverse of dequantize: the stored value for a coordinate (before rounding).
-double quantize(double value, const GltfPositionAccessor& record)
+bool is_integer(GltfComponent c)
 {
-    if (!record.is_normalized)
-    {
-        return value;
-    }
-    switch (record.component)
-    {
-        case GltfComponent::Int8:
-            return value * 127.0;
-        case GltfComponent::UInt8:
-            return value * 255.0;
-        case GltfComponent::Int16:
-            return value * 32767.0;
-        case GltfComponent::UInt16:
-            return value * 65535.0;
-        default:
-            return value;
-    }
+    return c != GltfComponent::Float32;
 }
 
 // A float32 bound as the JSON number with the float's shortest digits ("0.1", not
@@ -105,9 +91,35 @@ public:
     void run(bool is_glb);
 
 private:
+    // The new stored values of one POSITION record (a plain accessor or a Draco primitive),
+    // 3 per element, before rounding; `rewrite` marks the elements whose bytes change.
+    struct Plan
+    {
+        bool is_draco = false;
+        std::size_t record = 0;  // index into asset_.accessors or asset_.draco
+        std::int32_t accessor = 0;
+        GltfComponent component = GltfComponent::Float32;
+        bool is_normalized = false;
+        std::vector<double> stored;
+        std::vector<char> rewrite;
+        bool has_implicit = false;  // elements without bytes (read as zero)
+        bool as_float = false;      // rewritten as a float32 accessor
+    };
+
     Json& doc();
-    void write_accessor(const GltfPositionAccessor& record);
-    void write_draco(const GltfDracoPrimitive& record);
+    Plan plan_accessor(std::size_t slot);
+    Plan plan_draco(std::size_t slot);
+    std::string draco_bytes(std::int32_t view);
+    [[nodiscard]] bool overflows(const Plan& plan) const;
+    void fit_range(std::vector<Plan>& plans, std::size_t overflowing);
+    [[nodiscard]] std::vector<std::size_t> sharing_group(const std::vector<Plan>& plans,
+                                                         std::size_t first,
+                                                         std::vector<std::size_t>& nodes);
+    void transform_nodes(const std::vector<std::size_t>& nodes, double scale,
+                         const std::array<double, 3>& shift);
+    void write_accessor(const Plan& plan);
+    void write_float_accessor(const Plan& plan);
+    void write_draco(const Plan& plan);
     void splice(std::int32_t view, const std::string& bytes);
     void set_bounds(std::int32_t accessor, const std::array<double, 3>& lo,
                     const std::array<double, 3>& hi, bool is_float);
@@ -142,43 +154,426 @@ Json& Writer::doc()
     return *doc_;
 }
 
-void Writer::write_accessor(const GltfPositionAccessor& record)
+Writer::Plan Writer::plan_accessor(std::size_t slot)
 {
-    const Eigen::Matrix4d to_local = record.to_world.inverse();
+    const auto& record = asset_.accessors[slot];
+    Plan plan;
+    plan.record = slot;
+    plan.accessor = record.accessor;
+    plan.component = record.component;
+    plan.is_normalized = record.is_normalized;
     const auto type = scalar_of(record.component);
-    const std::size_t size =
-        record.component == GltfComponent::Float32 ? 4
-        : (record.component == GltfComponent::Int16 || record.component == GltfComponent::UInt16)
-            ? 2
-            : 1;
-    bool is_any_changed = false;
-    for (std::size_t e = 0; e < record.elements.size(); ++e)
+    const std::size_t size = scalar_size(type);
+    const std::size_t n = record.elements.size();
+    plan.stored.assign(3 * n, 0.0);
+    plan.rewrite.assign(n, 0);
+    const Eigen::Matrix4d to_local = record.to_world.inverse();
+    for (std::size_t e = 0; e < n; ++e)
     {
+        const auto& el = record.elements[e];
         const std::int32_t w = record.welded[e];
+        plan.has_implicit = plan.has_implicit || el.buffer < 0;
+        if (is_changed(original_, positions_, w))
+        {
+            const Eigen::Vector4d local =
+                to_local * Eigen::Vector4d(positions_(w, 0), positions_(w, 1), positions_(w, 2), 1.0);
+            for (std::size_t d = 0; d < 3; ++d)
+            {
+                plan.stored[3 * e + d] = quantize(local[static_cast<Eigen::Index>(d)],
+                                                  plan.component, plan.is_normalized);
+            }
+            plan.rewrite[e] = 1;
+        }
+        else if (el.buffer >= 0)
+        {
+            const char* p = buffers_[static_cast<std::size_t>(el.buffer)].data() + el.offset;
+            for (std::size_t d = 0; d < 3; ++d)
+            {
+                plan.stored[3 * e + d] = load_scalar(p + d * size, type, false);
+            }
+        }
+    }
+    return plan;
+}
+
+Writer::Plan Writer::plan_draco(std::size_t slot)
+{
+    const auto& record = asset_.draco[slot];
+    Plan plan;
+    plan.is_draco = true;
+    plan.record = slot;
+    plan.accessor = record.position_accessor;
+    plan.component = record.component;
+    plan.is_normalized = record.is_normalized;
+    plan.rewrite.assign(record.welded.size(), 0);
+    bool is_any_changed = false;
+    for (const auto w : record.welded)
+    {
+        is_any_changed = is_any_changed || is_changed(original_, positions_, w);
+    }
+    if (!is_any_changed)
+    {
+        return plan;  // no stored values needed: its bytes stay as they are
+    }
+    // The decoded stored values; the moved points get new ones.
+    plan.stored = decode_draco(path_, draco_bytes(record.buffer_view), record.position_attribute_id)
+                      .positions;
+    const Eigen::Matrix4d to_local = record.to_world.inverse();
+    for (std::size_t i = 0; i < record.welded.size(); ++i)
+    {
+        const std::int32_t w = record.welded[i];
         if (!is_changed(original_, positions_, w))
         {
             continue;
         }
-        const auto& el = record.elements[e];
-        if (el.buffer < 0)
+        const Eigen::Vector4d local =
+            to_local * Eigen::Vector4d(positions_(w, 0), positions_(w, 1), positions_(w, 2), 1.0);
+        for (std::size_t d = 0; d < 3; ++d)
         {
-            fail("cannot move vertex " + std::to_string(w) + ": element " + std::to_string(e) +
-                 " of POSITION accessor " + std::to_string(record.accessor) +
-                 " is an implicit zero with no bytes to store a new value in");
+            plan.stored[3 * i + d] = quantize(local[static_cast<Eigen::Index>(d)], plan.component,
+                                              plan.is_normalized);
         }
-        const Eigen::Vector4d world(positions_(w, 0), positions_(w, 1), positions_(w, 2), 1.0);
-        const Eigen::Vector4d local = to_local * world;
+        plan.rewrite[i] = 1;
+    }
+    return plan;
+}
+
+std::string Writer::draco_bytes(std::int32_t view_index)
+{
+    const auto& view = doc()["bufferViews"][static_cast<std::size_t>(view_index)];
+    const auto buffer = view["buffer"].get<std::size_t>();
+    const auto offset = view.value("byteOffset", std::uint64_t{0});
+    const auto length = view["byteLength"].get<std::uint64_t>();
+    return buffers_[buffer].substr(offset, length);
+}
+
+bool Writer::overflows(const Plan& plan) const
+{
+    const auto [lo, hi] = stored_range(plan.component, plan.is_normalized);
+    for (std::size_t e = 0; e < plan.rewrite.size(); ++e)
+    {
+        if (plan.rewrite[e] == 0)
+        {
+            continue;
+        }
+        if (!plan.is_draco &&
+            asset_.accessors[plan.record].elements[e].buffer < 0)
+        {
+            return true;  // an implicit zero has no bytes to take the new value
+        }
+        for (std::size_t d = 0; d < 3; ++d)
+        {
+            const double v = plan.stored[3 * e + d];
+            if (!is_integer(plan.component))
+            {
+                if (!std::isfinite(static_cast<float>(v)))
+                {
+                    fail("cannot store coordinate " + std::to_string(v) + " of POSITION accessor " +
+                         std::to_string(plan.accessor) + " as a float32");
+                }
+                continue;
+            }
+            const double stored = std::nearbyint(v);
+            if (stored < lo || stored > hi)
+            {
+                return true;
+            }
+        }
+    }
+    return false;
+}
+
+// The plans whose positions one node transform dequantizes together with those of plan
+// `first` (every POSITION accessor of every mesh that shares one with it), when their grid
+// can be widened by changing only those nodes' transforms: the nodes (returned in `nodes`)
+// have no children, camera, skin, extension or animation that the change would also move,
+// the meshes have no morph targets (whose deltas would need the same scale), and every
+// accessor is an integer type of the same kind with bytes for every element. Empty otherwise.
+std::vector<std::size_t> Writer::sharing_group(const std::vector<Plan>& plans, std::size_t first,
+                                               std::vector<std::size_t>& nodes)
+{
+    nodes.clear();
+    const auto& d = doc();
+    std::map<std::int32_t, std::size_t> plan_of;
+    for (std::size_t p = 0; p < plans.size(); ++p)
+    {
+        plan_of.emplace(plans[p].accessor, p);
+    }
+    const auto position_of = [](const Json& primitive) -> std::int64_t
+    {
+        if (!primitive.is_object() || !primitive.contains("attributes") ||
+            !primitive["attributes"].contains("POSITION") ||
+            !primitive["attributes"]["POSITION"].is_number_integer())
+        {
+            return -1;
+        }
+        return primitive["attributes"]["POSITION"].get<std::int64_t>();
+    };
+    const Json empty = Json::array();
+    const Json& meshes = d.contains("meshes") ? d["meshes"] : empty;
+    std::set<std::int64_t> accessors{plans[first].accessor};
+    std::set<std::size_t> group_meshes;
+    for (bool is_grown = true; is_grown;)
+    {
+        is_grown = false;
+        for (std::size_t m = 0; m < meshes.size(); ++m)
+        {
+            if (group_meshes.count(m) != 0 || !meshes[m].contains("primitives"))
+            {
+                continue;
+            }
+            bool is_member = false;
+            for (const auto& primitive : meshes[m]["primitives"])
+            {
+                is_member = is_member || accessors.count(position_of(primitive)) != 0;
+            }
+            if (is_member)
+            {
+                group_meshes.insert(m);
+                for (const auto& primitive : meshes[m]["primitives"])
+                {
+                    if (primitive.contains("targets") && !primitive["targets"].empty())
+                    {
+                        return {};
+                    }
+                    accessors.insert(position_of(primitive));
+                }
+                is_grown = true;
+            }
+        }
+    }
+    std::vector<std::size_t> group;
+    for (const auto a : accessors)
+    {
+        const auto found = plan_of.find(static_cast<std::int32_t>(a));
+        if (a < 0 || found == plan_of.end())
+        {
+            return {};  // positions this file does not read (lines, another scene): untouchable
+        }
+        const Plan& plan = plans[found->second];
+        if (plan.component != plans[first].component ||
+            plan.is_normalized != plans[first].is_normalized || !is_integer(plan.component) ||
+            plan.has_implicit || plan.as_float)
+        {
+            return {};
+        }
+        group.push_back(found->second);
+    }
+    const Json& all_nodes = d.contains("nodes") ? d["nodes"] : empty;
+    for (std::size_t n = 0; n < all_nodes.size(); ++n)
+    {
+        const Json& node = all_nodes[n];
+        if (!node.contains("mesh") || !node["mesh"].is_number_integer() ||
+            group_meshes.count(node["mesh"].get<std::size_t>()) == 0)
+        {
+            continue;
+        }
+        for (const char* member : {"children", "camera", "skin", "extensions", "weights"})
+        {
+            if (node.contains(member) && !node[member].empty())
+            {
+                return {};
+            }
+        }
+        nodes.push_back(n);
+    }
+    if (d.contains("animations"))
+    {
+        for (const auto& animation : d["animations"])
+        {
+            for (const auto& channel : animation.value("channels", empty))
+            {
+                const auto& target = channel.value("target", Json::object());
+                if (target.contains("node") &&
+                    std::find(nodes.begin(), nodes.end(), target["node"].get<std::size_t>()) !=
+                        nodes.end())
+                {
+                    return {};
+                }
+            }
+        }
+    }
+    if (nodes.empty())
+    {
+        return {};
+    }
+    return group;
+}
+
+void Writer::fit_range(std::vector<Plan>& plans, std::size_t overflowing)
+{
+    std::vector<std::size_t> nodes;
+    const auto group = sharing_group(plans, overflowing, nodes);
+    Plan& plan = plans[overflowing];
+    if (group.empty())
+    {
+        if (plan.is_draco)
+        {
+            fail("cannot store the marked positions of mesh " +
+                 std::to_string(asset_.draco[plan.record].mesh) +
+                 "'s Draco primitive in its integer type, and its quantization cannot be widened "
+                 "without changing other data (node children, skins, morph targets or "
+                 "animations); write the output as .ply or use an uncompressed input");
+        }
+        plan.as_float = true;  // float32 holds any position: only this accessor changes
+        return;
+    }
+    // A Draco primitive with no moved point still has to take the new grid.
+    for (const auto p : group)
+    {
+        if (plans[p].is_draco && plans[p].stored.empty())
+        {
+            const auto& record = asset_.draco[plans[p].record];
+            plans[p].stored =
+                decode_draco(path_, draco_bytes(record.buffer_view), record.position_attribute_id)
+                    .positions;
+        }
+    }
+    // The stored values of the whole group per axis, and the affine map s * v + t that puts
+    // them in the type's range: a whole-number shift when the span fits (values that did not
+    // move keep their exact place on the grid), else the largest s that fits, centred.
+    const auto [lo, hi] = stored_range(plan.component, plan.is_normalized);
+    std::array<double, 3> low{};
+    std::array<double, 3> high{};
+    low.fill(std::numeric_limits<double>::infinity());
+    high.fill(-std::numeric_limits<double>::infinity());
+    for (const auto p : group)
+    {
+        for (std::size_t k = 0; k < plans[p].stored.size(); ++k)
+        {
+            low[k % 3] = std::min(low[k % 3], plans[p].stored[k]);
+            high[k % 3] = std::max(high[k % 3], plans[p].stored[k]);
+        }
+    }
+    double scale = 1.0;
+    std::array<double, 3> shift{};
+    bool is_span_fitting = true;
+    for (std::size_t d = 0; d < 3; ++d)
+    {
+        is_span_fitting = is_span_fitting && high[d] - low[d] <= hi - lo - 1.0;
+    }
+    for (std::size_t d = 0; d < 3; ++d)
+    {
+        if (is_span_fitting)
+        {
+            shift[d] = std::nearbyint(low[d]) < lo    ? lo - std::floor(low[d])
+                       : std::nearbyint(high[d]) > hi ? hi - std::ceil(high[d])
+                                                      : 0.0;
+        }
+        else
+        {
+            scale = std::min(scale, (hi - lo - 2.0) / (high[d] - low[d]));
+        }
+    }
+    if (!is_span_fitting)
+    {
+        for (std::size_t d = 0; d < 3; ++d)
+        {
+            shift[d] = 0.5 * (lo + hi) - scale * 0.5 * (low[d] + high[d]);
+        }
+    }
+    for (const auto p : group)
+    {
+        for (std::size_t k = 0; k < plans[p].stored.size(); ++k)
+        {
+            plans[p].stored[k] = scale * plans[p].stored[k] + shift[k % 3];
+        }
+        std::fill(plans[p].rewrite.begin(), plans[p].rewrite.end(), 1);
+    }
+    // The same map in dequantized units, undone by every node that shows these meshes.
+    const double unit = quantize(1.0, plan.component, plan.is_normalized);
+    transform_nodes(nodes, scale, {shift[0] / unit, shift[1] / unit, shift[2] / unit});
+}
+
+// Each node's local transform T becomes T * A^-1 with A(x) = scale * x + shift, the map just
+// applied to the stored positions, so that what the nodes show does not move.
+void Writer::transform_nodes(const std::vector<std::size_t>& nodes, double scale,
+                             const std::array<double, 3>& shift)
+{
+    const Eigen::Vector3d t(shift[0], shift[1], shift[2]);
+    for (const auto n : nodes)
+    {
+        auto& node = doc()["nodes"][n];
+        if (node.contains("matrix"))
+        {
+            Eigen::Matrix4d m;
+            for (int k = 0; k < 16; ++k)
+            {
+                m(k % 4, k / 4) = node["matrix"][static_cast<std::size_t>(k)].get<double>();
+            }
+            Eigen::Matrix4d inverse = Eigen::Matrix4d::Identity();
+            inverse.topLeftCorner<3, 3>() /= scale;
+            inverse.topRightCorner<3, 1>() = -t / scale;
+            const Eigen::Matrix4d updated = m * inverse;
+            for (int k = 0; k < 16; ++k)
+            {
+                node["matrix"][static_cast<std::size_t>(k)] = updated(k % 4, k / 4);
+            }
+        }
+        else
+        {
+            // T R S A^-1 = T' R S' with S' = S / scale, T' = T + R S (-t / scale).
+            Eigen::Vector3d translation = Eigen::Vector3d::Zero();
+            Eigen::Vector3d factors = Eigen::Vector3d::Ones();
+            Eigen::Quaterniond rotation = Eigen::Quaterniond::Identity();
+            if (node.contains("translation"))
+            {
+                for (int d = 0; d < 3; ++d)
+                {
+                    translation[d] = node["translation"][static_cast<std::size_t>(d)].get<double>();
+                }
+            }
+            if (node.contains("scale"))
+            {
+                for (int d = 0; d < 3; ++d)
+                {
+                    factors[d] = node["scale"][static_cast<std::size_t>(d)].get<double>();
+                }
+            }
+            if (node.contains("rotation"))
+            {
+                const auto& q = node["rotation"];
+                rotation = Eigen::Quaterniond(q[3].get<double>(), q[0].get<double>(),
+                                              q[1].get<double>(), q[2].get<double>());
+                if (rotation.norm() > 0.0)
+                {
+                    rotation.normalize();
+                }
+            }
+            translation += rotation * factors.cwiseProduct(-t / scale);
+            factors /= scale;
+            node["translation"] = {translation[0], translation[1], translation[2]};
+            if (scale != 1.0 || node.contains("scale"))
+            {
+                node["scale"] = {factors[0], factors[1], factors[2]};
+            }
+        }
+    }
+    is_json_changed_ = true;
+}
+
+void Writer::write_accessor(const Plan& plan)
+{
+    const auto& record = asset_.accessors[plan.record];
+    const auto type = scalar_of(record.component);
+    const std::size_t size = scalar_size(type);
+    bool is_any_changed = false;
+    for (std::size_t e = 0; e < record.elements.size(); ++e)
+    {
+        if (plan.rewrite[e] == 0)
+        {
+            continue;
+        }
+        const auto& el = record.elements[e];
         char* p = buffers_[static_cast<std::size_t>(el.buffer)].data() + el.offset;
         for (std::size_t d = 0; d < 3; ++d)
         {
-            const double value = quantize(local[static_cast<Eigen::Index>(d)], record);
-            const bool fits =
-                type == ScalarType::Float32 ? std::isfinite(static_cast<float>(value)) : true;
-            if (!fits || !store_scalar(p + d * size, type, false, value))
+            const double value = plan.stored[3 * e + d];
+            if (!store_scalar(p + d * size, type, false, value))
             {
-                fail("cannot store coordinate " + std::to_string(value) + " of vertex " +
-                     std::to_string(w) + " in POSITION accessor " +
-                     std::to_string(record.accessor) + "'s component type");
+                fail("internal error: coordinate " + std::to_string(value) +
+                     " does not fit POSITION accessor " + std::to_string(record.accessor) +
+                     "'s component type after its range was checked");
             }
         }
         is_any_changed = true;
@@ -206,6 +601,81 @@ void Writer::write_accessor(const GltfPositionAccessor& record)
         }
     }
     set_bounds(record.accessor, lo, hi, type == ScalarType::Float32);
+}
+
+// A POSITION accessor whose new values its integer type cannot hold, or that has elements
+// without bytes, becomes a float32 accessor over a new bufferView appended to a buffer; its
+// old bytes stay where they were (other accessors may share them), nothing else changes.
+void Writer::write_float_accessor(const Plan& plan)
+{
+    const auto& record = asset_.accessors[plan.record];
+    const std::size_t n = record.elements.size();
+    std::string bytes(12 * n, '\0');
+    std::array<double, 3> lo{};
+    std::array<double, 3> hi{};
+    lo.fill(std::numeric_limits<double>::infinity());
+    hi.fill(-std::numeric_limits<double>::infinity());
+    for (std::size_t k = 0; k < 3 * n; ++k)
+    {
+        const auto value =
+            static_cast<float>(dequantize(plan.stored[k], plan.component, plan.is_normalized));
+        store_float(bytes.data() + 4 * k, value, false);
+        lo[k % 3] = std::min(lo[k % 3], static_cast<double>(value));
+        hi[k % 3] = std::max(hi[k % 3], static_cast<double>(value));
+    }
+    // The GLB's BIN chunk, else the first buffer that has bytes of its own (not a meshopt
+    // fallback buffer, which only declares a size).
+    auto& json_buffers = doc()["buffers"];
+    std::optional<std::size_t> target;
+    for (std::size_t b = 0; b < asset_.buffers.size() && !target; ++b)
+    {
+        if (asset_.buffers[b].source == GltfBufferSource::GlbBinChunk)
+        {
+            target = b;
+        }
+    }
+    for (std::size_t b = 0; b < asset_.buffers.size() && !target; ++b)
+    {
+        const auto& extensions = json_buffers[b].value("extensions", Json::object());
+        const bool is_fallback =
+            extensions.contains("EXT_meshopt_compression") ||
+            extensions.contains("KHR_meshopt_compression");
+        if (!is_fallback)
+        {
+            target = b;
+        }
+    }
+    if (!target)
+    {
+        fail("cannot store POSITION accessor " + std::to_string(record.accessor) +
+             " as float32: the asset has no buffer to add it to");
+    }
+    std::string& data = buffers_[*target];
+    data.resize((data.size() + 3) / 4 * 4, '\0');
+    const auto offset = data.size();
+    data += bytes;
+    json_buffers[*target]["byteLength"] = data.size();
+    auto& views = doc()["bufferViews"];
+    views.push_back({{"buffer", *target},
+                     {"byteOffset", offset},
+                     {"byteLength", bytes.size()},
+                     {"target", kArrayBuffer}});
+    auto& acc = doc()["accessors"][static_cast<std::size_t>(record.accessor)];
+    acc["bufferView"] = views.size() - 1;
+    acc.erase("byteOffset");
+    acc.erase("sparse");
+    acc.erase("normalized");
+    acc["componentType"] = kFloat;
+    Json min = Json::array();
+    Json max = Json::array();
+    for (std::size_t d = 0; d < 3; ++d)
+    {
+        min.push_back(float_number(lo[d]));
+        max.push_back(float_number(hi[d]));
+    }
+    acc["min"] = min;
+    acc["max"] = max;
+    is_json_changed_ = true;
 }
 
 void Writer::set_bounds(std::int32_t accessor, const std::array<double, 3>& lo,
@@ -237,42 +707,25 @@ void Writer::set_bounds(std::int32_t accessor, const std::array<double, 3>& lo,
     }
 }
 
-void Writer::write_draco(const GltfDracoPrimitive& record)
+void Writer::write_draco(const Plan& plan)
 {
-    bool is_any_changed = false;
-    for (const auto w : record.welded)
-    {
-        is_any_changed = is_any_changed || is_changed(original_, positions_, w);
-    }
-    if (!is_any_changed)
+    if (std::find(plan.rewrite.begin(), plan.rewrite.end(), 1) == plan.rewrite.end())
     {
         return;
     }
-    const auto& view = doc()["bufferViews"][static_cast<std::size_t>(record.buffer_view)];
-    const auto buffer = view["buffer"].get<std::size_t>();
-    const auto offset = view.value("byteOffset", std::uint64_t{0});
-    const auto length = view["byteLength"].get<std::uint64_t>();
-    const std::string old_bytes = buffers_[buffer].substr(offset, length);
-
-    // New local positions of the changed points; the others keep their decoded floats.
-    auto geometry = decode_draco(path_, old_bytes, record.position_attribute_id);
-    const Eigen::Matrix4d to_local = record.to_world.inverse();
-    for (std::size_t i = 0; i < record.welded.size(); ++i)
+    const auto& record = asset_.draco[plan.record];
+    const std::string old_bytes = draco_bytes(record.buffer_view);
+    // Integer positions are rounded here, onto the grid the range check used.
+    std::vector<double> stored = plan.stored;
+    if (is_integer(plan.component))
     {
-        const std::int32_t w = record.welded[i];
-        if (!is_changed(original_, positions_, w))
+        for (auto& v : stored)
         {
-            continue;
-        }
-        const Eigen::Vector4d local =
-            to_local * Eigen::Vector4d(positions_(w, 0), positions_(w, 1), positions_(w, 2), 1.0);
-        for (std::size_t d = 0; d < 3; ++d)
-        {
-            geometry.positions[3 * i + d] = static_cast<float>(local[static_cast<Eigen::Index>(d)]);
+            v = std::nearbyint(v);
         }
     }
     const std::string new_bytes = reencode_draco(path_, old_bytes, record.position_attribute_id,
-                                                 geometry.positions, record.has_foreign_attributes);
+                                                 stored, record.has_foreign_attributes);
     splice(record.buffer_view, new_bytes);
 
     // Point count and position bounds as the new stream decodes.
@@ -283,10 +736,10 @@ void Writer::write_draco(const GltfDracoPrimitive& record)
     hi.fill(-std::numeric_limits<double>::infinity());
     for (std::size_t k = 0; k < decoded.positions.size(); ++k)
     {
-        lo[k % 3] = std::min(lo[k % 3], static_cast<double>(decoded.positions[k]));
-        hi[k % 3] = std::max(hi[k % 3], static_cast<double>(decoded.positions[k]));
+        lo[k % 3] = std::min(lo[k % 3], decoded.positions[k]);
+        hi[k % 3] = std::max(hi[k % 3], decoded.positions[k]);
     }
-    set_bounds(record.position_accessor, lo, hi, true);
+    set_bounds(record.position_accessor, lo, hi, !is_integer(plan.component));
     const auto& prim = doc()["meshes"][static_cast<std::size_t>(record.mesh)]["primitives"]
                             [static_cast<std::size_t>(record.primitive)];
     for (const auto& [name, accessor] : prim["extensions"][kDracoExtension]["attributes"].items())
@@ -422,15 +875,46 @@ std::string Writer::json_text()
 
 void Writer::run(bool is_glb)
 {
-    // Plain accessors first: their byte offsets are those of the original buffers, which
-    // Draco re-encoding may shift.
-    for (const auto& record : asset_.accessors)
+    // New stored values of every POSITION record; a record that a moved vertex pushes past
+    // what its integer type holds gets a wider grid (or float32) before anything is written.
+    std::vector<Plan> plans;
+    for (std::size_t slot = 0; slot < asset_.accessors.size(); ++slot)
     {
-        write_accessor(record);
+        plans.push_back(plan_accessor(slot));
     }
-    for (const auto& record : asset_.draco)
+    for (std::size_t slot = 0; slot < asset_.draco.size(); ++slot)
     {
-        write_draco(record);
+        plans.push_back(plan_draco(slot));
+    }
+    for (std::size_t p = 0; p < plans.size(); ++p)
+    {
+        if (overflows(plans[p]))
+        {
+            fit_range(plans, p);
+        }
+    }
+    // Plain accessors first: their byte offsets are those of the original buffers, which
+    // Draco re-encoding may shift and float32 views appended to a buffer extend.
+    for (const auto& plan : plans)
+    {
+        if (!plan.is_draco && !plan.as_float)
+        {
+            write_accessor(plan);
+        }
+    }
+    for (const auto& plan : plans)
+    {
+        if (plan.is_draco)
+        {
+            write_draco(plan);
+        }
+    }
+    for (const auto& plan : plans)
+    {
+        if (plan.as_float)
+        {
+            write_float_accessor(plan);
+        }
     }
     const auto files = external_files();
     std::string main;

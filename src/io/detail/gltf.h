@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -94,6 +95,10 @@ struct GltfDracoPrimitive
     std::int32_t position_accessor = 0;
     std::int32_t position_attribute_id = 0;  ///< Draco unique id of the position attribute.
     bool has_foreign_attributes = false;     ///< Attributes or targets outside the Draco data.
+    /// How the decoded position values are stored (the Draco attribute's data type; with
+    /// KHR_mesh_quantization an integer type) and whether the accessor normalizes them.
+    GltfComponent component = GltfComponent::Float32;
+    bool is_normalized = false;
     Eigen::Matrix4d to_world = Eigen::Matrix4d::Identity();
     std::vector<std::int32_t> welded;  ///< Per Draco point: the vertex of MeshFile::mesh.
 };
@@ -114,7 +119,13 @@ struct GltfAsset
 
 /// A stored POSITION component as the coordinate a renderer sees (normalized integers
 /// mapped to [-1, 1] or [0, 1] as the glTF spec says).
-[[nodiscard]] double dequantize(double stored, const GltfPositionAccessor& record);
+[[nodiscard]] double dequantize(double stored, GltfComponent component, bool is_normalized);
+/// Inverse of dequantize: the stored value of a coordinate, before rounding.
+[[nodiscard]] double quantize(double value, GltfComponent component, bool is_normalized);
+/// The stored values an integer component type can hold and read back as written: [0, 2^b - 1]
+/// unsigned, [-(2^(b-1) - 1), 2^(b-1) - 1] signed normalized (its most negative value reads as
+/// the next one), the full range signed otherwise; infinite bounds for Float32.
+[[nodiscard]] std::pair<double, double> stored_range(GltfComponent component, bool is_normalized);
 
 /// Read a .gltf or .glb (already in \p bytes) into its welded world-frame mesh.
 [[nodiscard]] TriangleMesh read_gltf(const std::filesystem::path& path, const std::string& bytes,
@@ -146,22 +157,25 @@ struct GlbChunks
 
 // Draco (draco.cpp).
 
-/// A decoded Draco primitive: positions (3 per point, float32 values), triangles, and the
-/// position quantization of the bitstream (0 when positions were not quantized).
+/// A decoded Draco primitive: positions (3 per point) as stored in the attribute's data type
+/// (float32 values, or the integers of a KHR_mesh_quantization attribute, not normalized),
+/// triangles, and the position quantization of the bitstream (0 when not quantized).
 struct DracoGeometry
 {
-    std::vector<float> positions;
+    std::vector<double> positions;
     std::vector<std::uint32_t> triangles;
     std::uint32_t point_count = 0;
     int quantization_bits = 0;
+    GltfComponent component = GltfComponent::Float32;
 };
 [[nodiscard]] DracoGeometry decode_draco(const std::filesystem::path& path,
                                          const std::string& bytes, std::int32_t position_id);
 /// \brief Re-encode \p bytes with the positions of every point replaced by \p positions
-/// (3 per point), keeping every attribute, its unique id and its quantization.
+/// (3 per point, stored values in the attribute's data type: integers for integer types),
+/// keeping every attribute, its unique id and its quantization.
 /// \param keep_order  Use the sequential method, which keeps the point order.
 [[nodiscard]] std::string reencode_draco(const std::filesystem::path& path,
                                          const std::string& bytes, std::int32_t position_id,
-                                         const std::vector<float>& positions, bool keep_order);
+                                         const std::vector<double>& positions, bool keep_order);
 
 }  // namespace meshmark::detail
