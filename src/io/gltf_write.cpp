@@ -615,10 +615,14 @@ void Writer::write_float_accessor(const Plan& plan)
     std::array<double, 3> hi{};
     lo.fill(std::numeric_limits<double>::infinity());
     hi.fill(-std::numeric_limits<double>::infinity());
+    // New values are unclamped stored values (dequantize clamps a normalized -128 or -32768
+    // to -1, which would also clamp a new value beyond the type); unmoved ones read as stored.
+    const double unit = quantize(1.0, plan.component, plan.is_normalized);
     for (std::size_t k = 0; k < 3 * n; ++k)
     {
-        const auto value =
-            static_cast<float>(dequantize(plan.stored[k], plan.component, plan.is_normalized));
+        const auto value = static_cast<float>(
+            plan.rewrite[k / 3] != 0 ? plan.stored[k] / unit
+                                     : dequantize(plan.stored[k], plan.component, plan.is_normalized));
         store_float(bytes.data() + 4 * k, value, false);
         lo[k % 3] = std::min(lo[k % 3], static_cast<double>(value));
         hi[k % 3] = std::max(hi[k % 3], static_cast<double>(value));

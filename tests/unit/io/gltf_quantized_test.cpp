@@ -358,5 +358,100 @@ TEST_F(GltfQuantizedTest, draco_int16_overflow_widens_the_grid_through_the_node)
     }
 }
 
+TEST_F(GltfQuantizedTest, skinned_morphed_multi_scene_asset_changes_only_positions)
+{
+    // Default scene: a skinned, morphed mesh with full-range normalized int16 positions (its
+    // node cannot change: the skin) and a quantized mesh under a plain node. Scene 1: a mesh
+    // that the default scene does not show. Plus an embedded image.
+    GltfBuilder b;
+    const auto q = patch_values(-32767, 32767);
+    const auto points = q.size() / 3;
+    const int skinned = b.accessor(b.view(GltfBuilder::raw(narrowed<std::int16_t>(q))), 0, 5122,
+                                   points, "VEC3", true);
+    set_int_bounds(b, skinned, q);
+    const int joints = b.accessor(b.view(std::string(4 * points, '\0')), 0, 5121, points, "VEC4");
+    std::vector<float> w(4 * points, 0.0f);
+    for (std::size_t i = 0; i < points; ++i)
+    {
+        w[4 * i] = 1.0f;
+    }
+    const int weights = b.accessor(b.view(GltfBuilder::raw(w)), 0, 5126, points, "VEC4");
+    std::vector<float> deltas(3 * points, 0.0f);
+    deltas[2] = 0.25f;
+    const int target = b.accessor(b.view(GltfBuilder::raw(deltas)), 0, 5126, points, "VEC3");
+    b.set_bounds(target, deltas);
+    const std::vector<float> identity{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+    const int ibm = b.accessor(b.view(GltfBuilder::raw(identity)), 0, 5126, 1, "MAT4");
+    const int tris = b.indices(patch_triangles());
+    const int skinned_mesh =
+        b.mesh(Json::array({{{"attributes", {{"POSITION", skinned}, {"JOINTS_0", joints},
+                                             {"WEIGHTS_0", weights}}},
+                             {"targets", Json::array({{{"POSITION", target}}})},
+                             {"indices", tris}}}));
+    const auto u = patch_values(0, 16383);
+    const int packed = b.accessor(b.view(GltfBuilder::raw(narrowed<std::uint16_t>(u))), 0, 5123,
+                                  u.size() / 3, "VEC3");
+    set_int_bounds(b, packed, u);
+    const int packed_mesh =
+        b.mesh(Json::array({{{"attributes", {{"POSITION", packed}}}, {"indices", tris}}}));
+    const int hidden = b.positions({0, 0, 9, 1, 0, 9, 0, 1, 9});
+    const int hidden_mesh = b.mesh(Json::array({{{"attributes", {{"POSITION", hidden}}}}}));
+    const int joint = b.node({{"name", "joint"}});
+    b.node({{"mesh", skinned_mesh}, {"skin", 0}, {"scale", {0.5, 0.5, 0.5}}});
+    b.node({{"mesh", packed_mesh},
+            {"translation", {3.0, 0.0, 0.0}},
+            {"scale", {1e-4, 1e-4, 1e-4}}});
+    const int other = b.node({{"mesh", hidden_mesh}}, false);
+    b.doc["scenes"].push_back({{"nodes", {other}}});
+    b.doc["skins"] = Json::array({{{"joints", {joint}}, {"inverseBindMatrices", ibm}}});
+    const std::string png = "\x89PNG\r\n\x1a\nnot really an image";
+    b.doc["images"] = Json::array({{{"bufferView", b.view(png)}, {"mimeType", "image/png"}}});
+    mark_quantized(b);
+    test::put_bytes(dir / "rig.glb", b.glb());
+
+    const MeshFile file = read_mesh_file(dir / "rig.glb");
+    ASSERT_EQ(file.mesh.V.rows(), 2 * kGrid * kGrid);  // the scene-1 triangle is not read
+    Positions moved = file.mesh.V;
+    for (Eigen::Index i = 0; i < moved.rows(); ++i)
+    {
+        moved.row(i) = 1.001 * moved.row(i) + Eigen::RowVector3d(0.0, 0.0, 1e-3);
+    }
+    // Half a step of the 1e-4 grid of the packed mesh; the skinned one becomes float32.
+    const Json after = write_and_check(file, moved, dir / "rig_out.glb", 0.5e-4 + 1e-9);
+
+    // The skinned accessor became float32 (the skin's node cannot change); the other one kept
+    // its type under a changed node; joints, weights, morph deltas, the inverse bind
+    // matrices, the image, the hidden mesh and every node but the quantizing one are as read.
+    EXPECT_EQ(after["accessors"][static_cast<std::size_t>(skinned)]["componentType"], 5126);
+    EXPECT_EQ(after["accessors"][static_cast<std::size_t>(packed)]["componentType"], 5123);
+    for (const char* member : {"skins", "images", "meshes", "scenes"})
+    {
+        EXPECT_EQ(after[member], b.doc[member]) << member;
+    }
+    for (const int n : {0, 1, 3})
+    {
+        EXPECT_EQ(after["nodes"][static_cast<std::size_t>(n)],
+                  b.doc["nodes"][static_cast<std::size_t>(n)]);
+    }
+    const std::string before_bin = b.bin;
+    std::uint32_t json_length = 0;
+    const std::string bytes = test::file_bytes(dir / "rig_out.glb");
+    std::memcpy(&json_length, bytes.data() + 12, 4);
+    const std::string after_bin = bytes.substr(28 + json_length);
+    ASSERT_GE(after_bin.size(), before_bin.size());
+    for (const int view : {after["accessors"][static_cast<std::size_t>(joints)]["bufferView"].get<int>(),
+                           after["accessors"][static_cast<std::size_t>(weights)]["bufferView"].get<int>(),
+                           after["accessors"][static_cast<std::size_t>(target)]["bufferView"].get<int>(),
+                           after["accessors"][static_cast<std::size_t>(ibm)]["bufferView"].get<int>(),
+                           after["accessors"][static_cast<std::size_t>(hidden)]["bufferView"].get<int>(),
+                           after["images"][0]["bufferView"].get<int>()})
+    {
+        const auto& v = after["bufferViews"][static_cast<std::size_t>(view)];
+        const std::size_t at = v["byteOffset"];
+        const std::size_t length = v["byteLength"];
+        EXPECT_EQ(after_bin.substr(at, length), before_bin.substr(at, length)) << "view " << view;
+    }
+}
+
 }  // namespace
 }  // namespace meshmark
