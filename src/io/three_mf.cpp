@@ -326,21 +326,22 @@ public:
         return part(name, "_rels/.rels");
     }
 
-    /// Model part \p name (a zip entry name), which \p referrer refers to.
+    /// Model part \p name (a zip entry name, any ASCII case), which \p referrer refers to.
     ModelPart& part(const std::string& name, const std::string& referrer)
     {
-        for (const auto& part : parts_)
-        {
-            if (part->name == name)
-            {
-                return *part;
-            }
-        }
         const auto index = zip_.find(name);
         if (!index)
         {
             fail_io(path_, referrer + " refers to the model part /" + name +
                                ", which is not in the package");
+        }
+        const std::string entry = zip_.name(*index);
+        for (const auto& part : parts_)
+        {
+            if (part->name == entry)
+            {
+                return *part;
+            }
         }
         const std::uint64_t size = zip_.size(*index);
         if (size <= kMaxModelPartBytes && size > kMaxModelBytes - model_bytes_)
@@ -349,7 +350,7 @@ public:
                                std::to_string(kMaxModelBytes) + " uncompressed bytes together");
         }
         model_bytes_ += size;
-        parts_.push_back(parse_model_part(path_, name, zip_.read(*index, kMaxModelPartBytes)));
+        parts_.push_back(parse_model_part(path_, entry, zip_.read(*index, kMaxModelPartBytes)));
         return *parts_.back();
     }
 

@@ -155,10 +155,15 @@ std::uint64_t ZipArchive::size(std::uint64_t index) const
     return stat.size;
 }
 
+std::string ZipArchive::name(std::uint64_t index) const
+{
+    const char* name = zip_get_name(archive_, index, 0);
+    return name != nullptr ? name : std::to_string(index);
+}
+
 std::string ZipArchive::read(std::uint64_t index, std::uint64_t max_bytes) const
 {
-    const char* raw_name = zip_get_name(archive_, index, 0);
-    const std::string name = raw_name != nullptr ? raw_name : std::to_string(index);
+    const std::string name = this->name(index);
     const std::uint64_t declared = size(index);
     if (declared > max_bytes)
     {

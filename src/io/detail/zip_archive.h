@@ -35,6 +35,9 @@ public:
     /// declared size and CRC.
     [[nodiscard]] std::string read(std::uint64_t index, std::uint64_t max_bytes) const;
 
+    /// The name of entry \p index as stored.
+    [[nodiscard]] std::string name(std::uint64_t index) const;
+
     /// Declared uncompressed size of entry \p index.
     [[nodiscard]] std::uint64_t size(std::uint64_t index) const;
 

@@ -393,7 +393,8 @@ Parts prusa_parts(const std::string& model)
 }
 
 // A Bambu Studio / Orca style package: the root model holds one components object whose
-// components are two boxes in another model part (production extension p:path).
+// components are two boxes in another model part (production extension p:path; OPC part
+// names are case-insensitive, so both paths name the same part).
 const std::string kProductionRoot = R"(<?xml version="1.0" encoding="UTF-8"?>
 <model unit="millimeter" xml:lang="en-US" xmlns="http://schemas.microsoft.com/3dmanufacturing/core/2015/02" xmlns:BambuStudio="http://schemas.bambulab.com/package/2021" xmlns:p="http://schemas.microsoft.com/3dmanufacturing/production/2015/06" requiredextensions="p">
  <metadata name="Application">BambuStudio-01.08.00.57</metadata>
@@ -402,7 +403,7 @@ const std::string kProductionRoot = R"(<?xml version="1.0" encoding="UTF-8"?>
   <object id="2" p:UUID="00000001-61cb-4c03-9d28-80fed5dfa1dc" type="model">
    <components>
     <component p:path="/3D/Objects/object_1.model" objectid="1" p:UUID="00010000-b206-40ff-9872-83e8017abed1" transform="1 0 0 0 1 0 0 0 1 0 0 0"/>
-    <component p:path="/3D/Objects/object_1.model" objectid="3" p:UUID="00010001-b206-40ff-9872-83e8017abed1" transform="2 0 0 0 2 0 0 0 2 30 0 0"/>
+    <component p:path="/3D/objects/Object_1.model" objectid="3" p:UUID="00010001-b206-40ff-9872-83e8017abed1" transform="2 0 0 0 2 0 0 0 2 30 0 0"/>
    </components>
   </object>
  </resources>
