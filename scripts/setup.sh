@@ -11,7 +11,8 @@ packages=(
   libnanoflann-dev       # kd-tree (welding, nearest neighbours)
   libcgal-dev libgmp-dev libmpfr-dev libboost-dev  # simplification, remeshing, subdivision
   libmeshoptimizer-dev   # fast simplification
-  libtinygltf-dev libstb-dev libdraco-dev lib3mf-dev  # glTF/GLB (+ Draco) and 3MF files
+  libtinygltf-dev libstb-dev libdraco-dev  # glTF/GLB (+ Draco) files
+  lib3mf-dev             # tests only: an independent reader of the 3MF packages meshmark writes
   libzip-dev libpugixml-dev  # 3MF packages: zip container and model XML, rewritten in place
   libspectra-dev         # Laplacian eigenbasis baseline: shift-invert Lanczos (header-only)
   libsuitesparse-dev     # CHOLMOD sparse Cholesky for the Laplacian eigenbasis

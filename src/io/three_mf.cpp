@@ -1,19 +1,25 @@
 // SPDX-License-Identifier: MIT
-// 3MF through lib3mf 1.x (Debian lib3mf-dev): every mesh object in the world frame of the
-// build (build item and component transforms), welded like glTF parts; written back by
-// loading the original package again, setting the moved vertices and letting lib3mf write it.
+// 3MF packages: the zip container through libzip, the model XML through pugixml. Every mesh
+// object reached from the build is read in the build's world frame (build item and component
+// transforms, components in other model parts through the production extension's p:path) and
+// welded like glTF parts. The preserving writer rewrites only the x/y/z attribute values of
+// moved vertices in the model parts' text and replaces those parts in the zip; every other
+// entry, and every other byte of the model parts, stays as it was.
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <map>
+#include <memory>
 
 #include <Eigen/Core>
 #include <Eigen/LU>
-#include <Model/COM/NMR_DLLInterfaces.h>
-#include <unistd.h>
+#include <pugixml.hpp>
 
 #include "io/detail/formats.h"
 #include "io/detail/support.h"
 #include "io/detail/weld.h"
+#include "io/detail/zip_archive.h"
 #include "meshmark/core/error.h"
 
 namespace meshmark::detail {
@@ -21,255 +27,600 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// Component nesting deeper than this (or more object visits) is refused: lib3mf does not
-// reject reference cycles, and a DAG of components can expand exponentially.
+constexpr std::string_view kCoreNamespace =
+    "http://schemas.microsoft.com/3dmanufacturing/core/2015/02";
+constexpr std::string_view kProductionNamespace =
+    "http://schemas.microsoft.com/3dmanufacturing/production/2015/06";
+constexpr std::string_view kModelRelationship =
+    "http://schemas.microsoft.com/3dmanufacturing/2013/01/3dmodel";
+// Where the 3MF specification puts the root model part; used when _rels/.rels names none.
+constexpr std::string_view kDefaultModelPart = "3D/3dmodel.model";
+
+// Component nesting deeper than this (or more object visits) is refused: a reference cycle
+// would recurse forever, and a DAG of components can expand exponentially.
 constexpr int kMaxComponentDepth = 64;
 constexpr std::size_t kMaxObjectVisits = 1U << 20U;
+// Zip entries are inflated into memory only up to these declared sizes (zip bombs): one model
+// part (~6 million vertices with their triangles as slicers write them), all model parts of a
+// package together, and the package relationships.
+constexpr std::uint64_t kMaxModelPartBytes = 1ULL << 30U;
+constexpr std::uint64_t kMaxModelBytes = 2ULL << 30U;
+constexpr std::uint64_t kMaxRelationshipBytes = 16ULL << 20U;
 
-// Owns one lib3mf instance (model, reader, writer, iterator, resource handle).
-class Handle
+// ---------------------------------------------------------------------------------------
+// XML names. pugixml does not resolve namespaces, so elements are matched by local name and
+// the namespace their prefix is bound to (xmlns declarations on the element or an ancestor).
+
+std::string_view local_name(std::string_view qualified)
+{
+    const auto colon = qualified.find(':');
+    return colon == std::string_view::npos ? qualified : qualified.substr(colon + 1);
+}
+
+std::string_view prefix_of(std::string_view qualified)
+{
+    const auto colon = qualified.find(':');
+    return colon == std::string_view::npos ? std::string_view() : qualified.substr(0, colon);
+}
+
+bool declares_namespaces(pugi::xml_node node)
+{
+    for (const auto attribute : node.attributes())
+    {
+        if (std::string_view(attribute.name()).starts_with("xmlns"))
+        {
+            return true;
+        }
+    }
+    return false;
+}
+
+// The namespace bound to \p prefix ("" for the default namespace) at \p node.
+std::string_view namespace_of(pugi::xml_node node, std::string_view prefix)
+{
+    for (; node; node = node.parent())
+    {
+        for (const auto attribute : node.attributes())
+        {
+            const std::string_view name = attribute.name();
+            if (prefix.empty() ? name == "xmlns"
+                               : name.starts_with("xmlns:") && name.substr(6) == prefix)
+            {
+                return attribute.value();
+            }
+        }
+    }
+    return {};
+}
+
+bool is_element(pugi::xml_node node, std::string_view ns, std::string_view local)
+{
+    return node.type() == pugi::node_element && local_name(node.name()) == local &&
+           namespace_of(node, prefix_of(node.name())) == ns;
+}
+
+// The children of one element that are ns:local, resolving each distinct qualified name once
+// (a <vertices> element has millions of <vertex> children); a child that declares namespaces
+// itself is resolved on its own.
+class ChildFilter
 {
 public:
-    Handle() = default;
-    Handle(const Handle&) = delete;
-    Handle& operator=(const Handle&) = delete;
-    ~Handle()
+    ChildFilter(pugi::xml_node parent, std::string_view ns, std::string_view local)
+        : parent_(parent), ns_(ns), local_(local)
     {
-        if (p_ != nullptr)
-        {
-            NMR::lib3mf_release(p_);
-        }
     }
-    NMR::PLib3MFBase** out() { return &p_; }
-    [[nodiscard]] NMR::PLib3MFBase* get() const { return p_; }
+    bool operator()(pugi::xml_node child)
+    {
+        if (child.type() != pugi::node_element)
+        {
+            return false;
+        }
+        const std::string_view name = child.name();
+        if (local_name(name) != local_)
+        {
+            return false;
+        }
+        if (declares_namespaces(child))
+        {
+            return namespace_of(child, prefix_of(name)) == ns_;
+        }
+        if (name != last_name_)
+        {
+            last_name_ = name;
+            last_match_ = namespace_of(parent_, prefix_of(name)) == ns_;
+        }
+        return last_match_;
+    }
 
 private:
-    NMR::PLib3MFBase* p_ = nullptr;
+    pugi::xml_node parent_;
+    std::string_view ns_;
+    std::string_view local_;
+    std::string_view last_name_;
+    bool last_match_ = false;
 };
 
-// The last error of a lib3mf instance as text.
-std::string last_error(NMR::PLib3MFBase* instance)
+pugi::xml_node first_child(pugi::xml_node parent, std::string_view local)
 {
-    DWORD code = 0;
-    LPCSTR message = nullptr;
-    if (instance != nullptr && NMR::lib3mf_getlasterror(instance, &code, &message) == 0 &&
-        message != nullptr && *message != '\0')
+    ChildFilter is_wanted(parent, kCoreNamespace, local);
+    for (const auto child : parent.children())
     {
-        return message;
-    }
-    return "lib3mf error code " + std::to_string(code);
-}
-
-void check(const fs::path& path, LIB3MFRESULT result, NMR::PLib3MFBase* instance,
-           const std::string& what)
-{
-    if (result != 0)
-    {
-        fail_io(path, what + ": " + last_error(instance));
-    }
-}
-
-Eigen::Matrix4d to_matrix(const NMR::MODELTRANSFORM& t)
-{
-    // lib3mf stores the 3x4 affine matrix for column vectors: p' = F[:, 0:3] p + F[:, 3].
-    Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
-    for (int r = 0; r < 3; ++r)
-    {
-        for (int c = 0; c < 4; ++c)
+        if (is_wanted(child))
         {
-            m(r, c) = static_cast<double>(t.m_fFields[r][c]);
+            return child;
         }
+    }
+    return {};
+}
+
+// The p:path attribute of an <item> or <component> (production extension), or null.
+pugi::xml_attribute production_path(pugi::xml_node node)
+{
+    for (const auto attribute : node.attributes())
+    {
+        const std::string_view name = attribute.name();
+        if (local_name(name) == "path" && !prefix_of(name).empty() &&
+            namespace_of(node, prefix_of(name)) == kProductionNamespace)
+        {
+            return attribute;
+        }
+    }
+    return {};
+}
+
+// An attribute value without the white space XML Schema collapses around numbers.
+std::string_view trimmed(const char* value)
+{
+    std::string_view text(value);
+    while (!text.empty() && (text.front() == ' ' || text.front() == '\t' ||
+                             text.front() == '\n' || text.front() == '\r'))
+    {
+        text.remove_prefix(1);
+    }
+    while (!text.empty() && (text.back() == ' ' || text.back() == '\t' || text.back() == '\n' ||
+                             text.back() == '\r'))
+    {
+        text.remove_suffix(1);
+    }
+    return text;
+}
+
+// ---------------------------------------------------------------------------------------
+// Package parts.
+
+// The zip entry name of OPC part \p target, relative to the part \p source_name (a zip entry
+// name; "" for the package root).
+std::string part_entry_name(std::string_view target, std::string_view source_name)
+{
+    if (target.starts_with('/'))
+    {
+        return std::string(target.substr(1));
+    }
+    const auto slash = source_name.rfind('/');
+    std::string name(slash == std::string_view::npos ? std::string_view()
+                                                     : source_name.substr(0, slash + 1));
+    name += target;
+    return name;
+}
+
+/// One model part, parsed in place: the DOM's strings point into \p buffer, a copy of the
+/// part's text, at the same offsets as in the text (pugixml's in-situ parsing shortens values
+/// that hold escapes or line breaks in place but never moves where a value starts).
+struct ModelPart
+{
+    std::string name;    // zip entry name
+    std::string text;    // the part as stored
+    std::string buffer;  // what pugixml parsed in place
+    pugi::xml_document document;
+    pugi::xml_node model;
+    std::map<std::uint32_t, pugi::xml_node> objects;  // <object> by id
+    std::vector<std::uint32_t> object_order;          // ids in document order
+};
+
+std::string describe(const ModelPart& part, std::uint32_t id)
+{
+    return "object " + std::to_string(id) + " in " + part.name;
+}
+
+bool parse_id(const char* value, std::uint32_t& id)
+{
+    std::int64_t parsed = 0;
+    if (!parse_integer(trimmed(value), parsed) || parsed < 0 || parsed > 0xffffffffLL)
+    {
+        return false;
+    }
+    id = static_cast<std::uint32_t>(parsed);
+    return true;
+}
+
+std::unique_ptr<ModelPart> parse_model_part(const fs::path& path, std::string name,
+                                            std::string text)
+{
+    auto part = std::make_unique<ModelPart>();
+    part->name = std::move(name);
+    part->text = std::move(text);
+    part->buffer = part->text;
+    const auto result =
+        part->document.load_buffer_inplace(part->buffer.data(), part->buffer.size(),
+                                           pugi::parse_default, pugi::encoding_utf8);
+    if (!result)
+    {
+        fail_io(path, "the model part " + part->name + " is not well-formed XML: " +
+                          result.description() + " at byte " + std::to_string(result.offset));
+    }
+    part->model = part->document.document_element();
+    if (!is_element(part->model, kCoreNamespace, "model"))
+    {
+        fail_io(path, "the model part " + part->name + " has no 3MF <model> root element");
+    }
+    ChildFilter is_resources(part->model, kCoreNamespace, "resources");
+    for (const auto resources : part->model.children())
+    {
+        if (!is_resources(resources))
+        {
+            continue;
+        }
+        ChildFilter is_object(resources, kCoreNamespace, "object");
+        for (const auto object : resources.children())
+        {
+            if (!is_object(object))
+            {
+                continue;
+            }
+            std::uint32_t id = 0;
+            if (!parse_id(object.attribute("id").value(), id))
+            {
+                fail_io(path, "an object in " + part->name + " has a bad id " +
+                                  quoted(object.attribute("id").value()));
+            }
+            if (!part->objects.emplace(id, object).second)
+            {
+                fail_io(path, describe(*part, id) + " is defined twice");
+            }
+            part->object_order.push_back(id);
+        }
+    }
+    return part;
+}
+
+// The zip archive and its model parts, each read and parsed on first use.
+class Package
+{
+public:
+    Package(const fs::path& path, const std::string& bytes) : path_(path), zip_(path, bytes) {}
+
+    /// The root model part: the target of the 3D model relationship in _rels/.rels.
+    ModelPart& root()
+    {
+        std::string name;
+        if (const auto rels = zip_.find("_rels/.rels"))
+        {
+            const std::string text = zip_.read(*rels, kMaxRelationshipBytes);
+            pugi::xml_document document;
+            const auto result = document.load_buffer(text.data(), text.size(),
+                                                     pugi::parse_default, pugi::encoding_utf8);
+            if (!result)
+            {
+                fail_io(path_, std::string("_rels/.rels is not well-formed XML: ") +
+                                   result.description() + " at byte " +
+                                   std::to_string(result.offset));
+            }
+            for (const auto relationship : document.document_element().children())
+            {
+                if (local_name(relationship.name()) == "Relationship" &&
+                    trimmed(relationship.attribute("Type").value()) == kModelRelationship)
+                {
+                    name = part_entry_name(trimmed(relationship.attribute("Target").value()), "");
+                    break;
+                }
+            }
+        }
+        if (name.empty())
+        {
+            if (!zip_.find(std::string(kDefaultModelPart)))
+            {
+                fail_io(path_, "not a valid 3MF package: _rels/.rels names no 3D model part");
+            }
+            name = kDefaultModelPart;
+        }
+        return part(name, "_rels/.rels");
+    }
+
+    /// Model part \p name (a zip entry name, any ASCII case), which \p referrer refers to.
+    ModelPart& part(const std::string& name, const std::string& referrer)
+    {
+        const auto index = zip_.find(name);
+        if (!index)
+        {
+            fail_io(path_, referrer + " refers to the model part /" + name +
+                               ", which is not in the package");
+        }
+        const std::string entry = zip_.name(*index);
+        for (const auto& part : parts_)
+        {
+            if (part->name == entry)
+            {
+                return *part;
+            }
+        }
+        const std::uint64_t size = zip_.size(*index);
+        if (size <= kMaxModelPartBytes && size > kMaxModelBytes - model_bytes_)
+        {
+            fail_io(path_, "the model parts declare more than " +
+                               std::to_string(kMaxModelBytes) + " uncompressed bytes together");
+        }
+        model_bytes_ += size;
+        parts_.push_back(parse_model_part(path_, entry, zip_.read(*index, kMaxModelPartBytes)));
+        return *parts_.back();
+    }
+
+    [[nodiscard]] const std::vector<std::unique_ptr<ModelPart>>& parts() const { return parts_; }
+
+private:
+    const fs::path& path_;
+    ZipArchive zip_;
+    std::vector<std::unique_ptr<ModelPart>> parts_;
+    std::uint64_t model_bytes_ = 0;
+};
+
+// The 3MF transform "m00 m01 m02 m10 m11 m12 m20 m21 m22 m30 m31 m32" is a 4x3 matrix for
+// row vectors (p' = [p 1] M); as a 4x4 matrix for column vectors, column c holds row c of M.
+Eigen::Matrix4d parse_transform(const fs::path& path, pugi::xml_node node, const std::string& what)
+{
+    Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+    const auto attribute = node.attribute("transform");
+    if (!attribute)
+    {
+        return m;
+    }
+    TokenCursor tokens(attribute.value());
+    std::string_view token;
+    for (int i = 0; i < 12; ++i)
+    {
+        double value = 0.0;
+        if (!tokens.next(token) || !parse_double(token, value))
+        {
+            fail_io(path, "the transform of " + what + " is not 12 numbers: " +
+                              quoted(attribute.value()));
+        }
+        m(i % 3, i / 3) = value;
+    }
+    if (tokens.next(token))
+    {
+        fail_io(path,
+                "the transform of " + what + " is not 12 numbers: " + quoted(attribute.value()));
     }
     return m;
 }
 
-NMR::MODELTRANSFORM identity_transform()
+// Calls f(i, <vertex>) for vertex i of the <mesh> \p mesh, in file order.
+template <typename F>
+void for_each_vertex(pugi::xml_node mesh, F&& f)
 {
-    NMR::MODELTRANSFORM t{};
-    for (int r = 0; r < 3; ++r)
+    const auto vertices = first_child(mesh, "vertices");
+    ChildFilter is_vertex(vertices, kCoreNamespace, "vertex");
+    std::size_t i = 0;
+    for (const auto vertex : vertices.children())
     {
-        for (int c = 0; c < 4; ++c)
+        if (is_vertex(vertex))
         {
-            t.m_fFields[r][c] = r == c ? 1.0f : 0.0f;
+            f(i++, vertex);
         }
     }
-    return t;
 }
 
-void load_model(const fs::path& path, const std::string& bytes, Handle& model)
+constexpr std::array<const char*, 3> kAxes = {"x", "y", "z"};
+
+double parse_coordinate(const fs::path& path, pugi::xml_node vertex, int axis, std::size_t i,
+                        const std::string& object)
 {
-    check(path, NMR::lib3mf_createmodel(model.out()), nullptr, "cannot create a 3MF model");
-    Handle reader;
-    check(path, NMR::lib3mf_model_queryreader(model.get(), "3mf", reader.out()), model.get(),
-          "cannot create a 3MF reader");
-    // lib3mf's reader takes a non-const buffer; it only reads it.
-    std::string copy = bytes;
-    check(path,
-          NMR::lib3mf_reader_readfrombuffer(reader.get(), reinterpret_cast<BYTE*>(copy.data()),
-                                            copy.size()),
-          reader.get(), "not a valid 3MF package");
+    const auto attribute = vertex.attribute(kAxes[static_cast<std::size_t>(axis)]);
+    double value = 0.0;
+    if (!attribute)
+    {
+        fail_io(path, "vertex " + std::to_string(i) + " of " + object + " has no " +
+                          kAxes[static_cast<std::size_t>(axis)] + " coordinate");
+    }
+    if (!parse_double(trimmed(attribute.value()), value))
+    {
+        fail_io(path, "vertex " + std::to_string(i) + " of " + object + " has a bad " +
+                          kAxes[static_cast<std::size_t>(axis)] + " coordinate " +
+                          quoted(attribute.value()));
+    }
+    return value;
 }
+
+// ---------------------------------------------------------------------------------------
+// Reading.
 
 class Reader
 {
 public:
-    Reader(const fs::path& path, NMR::PLib3MFBase* model, ThreeMfLayout& layout)
-        : path_(path), model_(model), layout_(layout)
+    Reader(const fs::path& path, Package& package, ThreeMfLayout& layout)
+        : path_(path), package_(package), layout_(layout)
     {
     }
 
     TriangleMesh run()
     {
         // Build items first (their transforms), then mesh objects no build item reaches.
-        Handle items;
-        check(path_, NMR::lib3mf_model_getbuilditems(model_, items.out()), model_,
-              "cannot list the build items");
-        BOOL has_next = 0;
-        while (NMR::lib3mf_builditemiterator_movenext(items.get(), &has_next) == 0 && has_next != 0)
+        ModelPart& root = package_.root();
+        ChildFilter is_build(root.model, kCoreNamespace, "build");
+        std::size_t count = 0;
+        for (const auto build : root.model.children())
         {
-            Handle item;
-            check(path_, NMR::lib3mf_builditemiterator_getcurrent(items.get(), item.out()),
-                  items.get(), "cannot read a build item");
-            NMR::MODELTRANSFORM t = identity_transform();
-            check(path_, NMR::lib3mf_builditem_getobjecttransform(item.get(), &t), item.get(),
-                  "cannot read a build item transform");
-            DWORD id = 0;
-            check(path_, NMR::lib3mf_builditem_getobjectresourceid(item.get(), &id), item.get(),
-                  "cannot read a build item's object");
-            visit(id, to_matrix(t), 0);
-        }
-        Handle meshes;
-        check(path_, NMR::lib3mf_model_getmeshobjects(model_, meshes.out()), model_,
-              "cannot list the mesh objects");
-        while (NMR::lib3mf_resourceiterator_movenext(meshes.get(), &has_next) == 0 && has_next != 0)
-        {
-            Handle resource;
-            check(path_, NMR::lib3mf_resourceiterator_getcurrent(meshes.get(), resource.out()),
-                  meshes.get(), "cannot read a mesh object");
-            DWORD id = 0;
-            check(path_, NMR::lib3mf_resource_getresourceid(resource.get(), &id), resource.get(),
-                  "cannot read a resource id");
-            if (slot_.count(id) == 0)
+            if (!is_build(build))
             {
-                add_mesh(id, Eigen::Matrix4d::Identity());
+                continue;
+            }
+            ChildFilter is_item(build, kCoreNamespace, "item");
+            for (const auto item : build.children())
+            {
+                if (!is_item(item))
+                {
+                    continue;
+                }
+                const std::string what = "build item " + std::to_string(count++);
+                std::uint32_t id = 0;
+                if (!parse_id(item.attribute("objectid").value(), id))
+                {
+                    fail_io(path_, what + " has a bad objectid " +
+                                       quoted(item.attribute("objectid").value()));
+                }
+                visit(referenced_part(root, item, what), id, parse_transform(path_, item, what), 0,
+                      "the build");
+            }
+        }
+        // Parts are appended while objects are visited; indices stay valid.
+        for (std::size_t p = 0; p < package_.parts().size(); ++p)
+        {
+            const ModelPart& part = *package_.parts()[p];
+            for (const std::uint32_t id : part.object_order)
+            {
+                const auto mesh = first_child(part.objects.at(id), "mesh");
+                if (mesh && slot_.count({&part, id}) == 0)
+                {
+                    add_mesh(part, id, mesh, Eigen::Matrix4d::Identity());
+                }
             }
         }
         return weld();
     }
 
 private:
-    void visit(DWORD id, const Eigen::Matrix4d& to_world, int depth)
+    // The part an <item> or <component> refers to: its p:path, else the part it is in.
+    const ModelPart& referenced_part(const ModelPart& part, pugi::xml_node node,
+                                     const std::string& what)
     {
+        const auto attribute = production_path(node);
+        if (!attribute)
+        {
+            return part;
+        }
+        return package_.part(part_entry_name(trimmed(attribute.value()), part.name),
+                             what + " in " + part.name);
+    }
+
+    void visit(const ModelPart& part, std::uint32_t id, const Eigen::Matrix4d& to_world, int depth,
+               const std::string& referrer)
+    {
+        const std::string object_name = describe(part, id);
         if (depth > kMaxComponentDepth || ++visits_ > kMaxObjectVisits)
         {
-            fail_io(path_, "the components of object " + std::to_string(id) +
+            fail_io(path_, "the components of " + object_name +
                                " nest too deeply (a reference cycle?)");
         }
         if (!to_world.allFinite())
         {
-            fail_io(path_, "object " + std::to_string(id) + " has a non-finite transform");
+            fail_io(path_, object_name + " has a non-finite transform");
         }
-        Handle mesh;
-        if (NMR::lib3mf_model_getmeshobjectbyid(model_, id, mesh.out()) == 0 &&
-            mesh.get() != nullptr)
+        const auto found = part.objects.find(id);
+        if (found == part.objects.end())
         {
-            add_mesh(id, to_world);
+            fail_io(path_, referrer + " refers to " + object_name + ", which does not exist");
+        }
+        if (const auto mesh = first_child(found->second, "mesh"); mesh)
+        {
+            add_mesh(part, id, mesh, to_world);
             return;
         }
-        Handle components;
-        if (NMR::lib3mf_model_getcomponentsobjectbyid(model_, id, components.out()) != 0 ||
-            components.get() == nullptr)
+        const auto components = first_child(found->second, "components");
+        if (!components)
         {
-            fail_io(path_, "the build refers to object " + std::to_string(id) +
+            fail_io(path_, referrer + " refers to " + object_name +
                                ", which is neither a mesh nor a components object");
         }
-        DWORD count = 0;
-        check(path_, NMR::lib3mf_componentsobject_getcomponentcount(components.get(), &count),
-              components.get(), "cannot read the components of object " + std::to_string(id));
-        for (DWORD c = 0; c < count; ++c)
+        ChildFilter is_component(components, kCoreNamespace, "component");
+        std::size_t count = 0;
+        for (const auto component : components.children())
         {
-            Handle component;
-            check(path_,
-                  NMR::lib3mf_componentsobject_getcomponent(components.get(), c, component.out()),
-                  components.get(), "cannot read a component of object " + std::to_string(id));
-            NMR::MODELTRANSFORM t = identity_transform();
-            check(path_, NMR::lib3mf_component_gettransform(component.get(), &t), component.get(),
-                  "cannot read a component transform");
-            DWORD child = 0;
-            check(path_, NMR::lib3mf_component_getobjectresourceid(component.get(), &child),
-                  component.get(), "cannot read a component's object");
-            visit(child, to_world * to_matrix(t), depth + 1);
+            if (!is_component(component))
+            {
+                continue;
+            }
+            const std::string what = "component " + std::to_string(count++) + " of " + object_name;
+            std::uint32_t child = 0;
+            if (!parse_id(component.attribute("objectid").value(), child))
+            {
+                fail_io(path_, what + " has a bad objectid " +
+                                   quoted(component.attribute("objectid").value()));
+            }
+            const Eigen::Matrix4d transform = parse_transform(path_, component, what);
+            visit(referenced_part(part, component, what), child, to_world * transform, depth + 1,
+                  what);
         }
     }
 
-    void add_mesh(DWORD id, const Eigen::Matrix4d& to_world)
+    void add_mesh(const ModelPart& part, std::uint32_t id, pugi::xml_node mesh,
+                  const Eigen::Matrix4d& to_world)
     {
-        if (const auto found = slot_.find(id); found != slot_.end())
+        if (slot_.count({&part, id}) != 0)
         {
             // Another instance: one set of vertices, one displacement (see glTF instancing).
-            static_cast<void>(found);
             return;
         }
         if (std::abs(to_world.topLeftCorner<3, 3>().determinant()) == 0.0)
         {
             return;  // a singular transform: nothing visible to mark
         }
-        Handle mesh;
-        check(path_, NMR::lib3mf_model_getmeshobjectbyid(model_, id, mesh.out()), model_,
-              "cannot open mesh object " + std::to_string(id));
-        DWORD vertex_count = 0;
-        DWORD triangle_count = 0;
-        check(path_, NMR::lib3mf_meshobject_getvertexcount(mesh.get(), &vertex_count), mesh.get(),
-              "cannot read mesh object " + std::to_string(id));
-        check(path_, NMR::lib3mf_meshobject_gettrianglecount(mesh.get(), &triangle_count),
-              mesh.get(), "cannot read mesh object " + std::to_string(id));
-        std::vector<NMR::MODELMESHVERTEX> vertices(vertex_count);
-        std::vector<NMR::MODELMESHTRIANGLE> triangles(triangle_count);
-        if (vertex_count > 0)
-        {
-            check(path_,
-                  NMR::lib3mf_meshobject_getvertices(mesh.get(), vertices.data(), vertex_count,
-                                                     nullptr),
-                  mesh.get(), "cannot read the vertices of mesh object " + std::to_string(id));
-        }
-        if (triangle_count > 0)
-        {
-            check(path_,
-                  NMR::lib3mf_meshobject_gettriangleindices(mesh.get(), triangles.data(),
-                                                            triangle_count, nullptr),
-                  mesh.get(), "cannot read the triangles of mesh object " + std::to_string(id));
-        }
-        slot_[id] = layout_.objects.size();
+        const std::string object_name = describe(part, id);
+        slot_[{&part, id}] = layout_.objects.size();
         ThreeMfObject object;
+        object.part = part.name;
         object.resource_id = id;
         object.to_world = to_world;
-        object.welded.resize(vertex_count);
-        layout_.objects.push_back(std::move(object));
         const std::size_t base = group_.size();
         base_.push_back(base);
         const auto group = group_of(to_world);
-        for (const auto& v : vertices)
+        for_each_vertex(mesh,
+                        [&](std::size_t i, pugi::xml_node vertex)
+                        {
+                            Eigen::Vector4d local(0.0, 0.0, 0.0, 1.0);
+                            for (int d = 0; d < 3; ++d)
+                            {
+                                local[d] = parse_coordinate(path_, vertex, d, i, object_name);
+                            }
+                            if (!local.allFinite())
+                            {
+                                fail_mesh(path_, "vertex " + std::to_string(i) + " of " +
+                                                     object_name +
+                                                     " has a non-finite coordinate");
+                            }
+                            const Eigen::Vector4d w = to_world * local;
+                            world_.insert(world_.end(), {w.x(), w.y(), w.z()});
+                            group_.push_back(group);
+                        });
+        const std::size_t vertex_count = group_.size() - base;
+        object.welded.resize(vertex_count);
+        layout_.objects.push_back(std::move(object));
+
+        const auto triangles = first_child(mesh, "triangles");
+        ChildFilter is_triangle(triangles, kCoreNamespace, "triangle");
+        std::size_t t = 0;
+        for (const auto triangle : triangles.children())
         {
-            const Eigen::Vector4d local(v.m_fPosition[0], v.m_fPosition[1], v.m_fPosition[2], 1.0);
-            if (!local.allFinite())
+            if (!is_triangle(triangle))
             {
-                fail_mesh(path_, "mesh object " + std::to_string(id) + " has a non-finite vertex");
+                continue;
             }
-            const Eigen::Vector4d w = to_world * local;
-            world_.insert(world_.end(), {w.x(), w.y(), w.z()});
-            group_.push_back(group);
-        }
-        for (const auto& t : triangles)
-        {
-            for (const auto i : t.m_nIndices)
+            for (const char* corner : {"v1", "v2", "v3"})
             {
-                if (i >= vertex_count)
+                const char* value = triangle.attribute(corner).value();
+                std::int64_t index = 0;
+                if (!parse_integer(trimmed(value), index))
                 {
-                    fail_mesh(path_, "mesh object " + std::to_string(id) + " has vertex index " +
-                                         std::to_string(i) + " " + index_range(vertex_count));
+                    fail_io(path_, "triangle " + std::to_string(t) + " of " + object_name +
+                                       " has a bad " + corner + " index " + quoted(value));
                 }
-                corners_.push_back(base + i);
+                if (index < 0 || static_cast<std::uint64_t>(index) >= vertex_count)
+                {
+                    fail_mesh(path_, "triangle " + std::to_string(t) + " of " + object_name +
+                                         " uses vertex index " + std::to_string(index) + " " +
+                                         index_range(vertex_count));
+                }
+                corners_.push_back(base + static_cast<std::size_t>(index));
             }
+            ++t;
         }
     }
 
@@ -312,10 +663,10 @@ private:
     }
 
     const fs::path& path_;
-    NMR::PLib3MFBase* model_;
+    Package& package_;
     ThreeMfLayout& layout_;
     std::size_t visits_ = 0;
-    std::map<DWORD, std::size_t> slot_;
+    std::map<std::pair<const ModelPart*, std::uint32_t>, std::size_t> slot_;
     std::vector<std::size_t> base_;
     std::vector<Eigen::Matrix4d> groups_;
     std::vector<double> world_;
@@ -323,46 +674,239 @@ private:
     std::vector<std::size_t> corners_;
 };
 
-// The package lib3mf writes for \p model. Debian's lib3mf 1.8 cannot write to memory (its
-// stream size query returns 0 and callback streams cannot seek), so it writes a temporary file
-// next to \p path, which is read back and removed; the caller then writes atomically.
-std::string model_bytes(const fs::path& path, NMR::PLib3MFBase* model)
+// ---------------------------------------------------------------------------------------
+// Writing.
+
+// A replacement of text[offset, end) by text.
+struct Edit
 {
-    Handle writer;
-    check(path, NMR::lib3mf_model_querywriter(model, "3mf", writer.out()), model,
-          "cannot create a 3MF writer");
-    const fs::path directory = path.has_parent_path() ? path.parent_path() : fs::path(".");
-    // Appended piecewise: GCC 12 at -O3 gives a false -Wrestrict on a + chain (bug 105329).
-    std::string name = ".";
-    name += path.filename().string();
-    name += ".lib3mf-";
-    name += std::to_string(::getpid());
-    name += ".tmp";
-    const fs::path temporary = directory / name;
-    std::string bytes;
-    try
+    std::size_t offset = 0;
+    std::size_t end = 0;
+    std::string text;
+};
+
+// [offset, end) of the raw value of \p attribute in part.text: where pugixml's in-place value
+// starts, up to the closing quote (an attribute value never holds its own quote character).
+std::pair<std::size_t, std::size_t> value_span(const fs::path& path, const ModelPart& part,
+                                               pugi::xml_attribute attribute)
+{
+    const char* value = attribute.value();
+    const char* begin = part.buffer.data();
+    if (value <= begin || value > begin + part.buffer.size())
     {
-        check(path, NMR::lib3mf_writer_writetofileutf8(writer.get(), temporary.string().c_str()),
-              writer.get(), "cannot write the 3MF package");
-        bytes = read_file_bytes(temporary);
+        fail_io(path, "cannot locate a coordinate in " + part.name);  // not in the buffer
     }
-    catch (...)
+    const auto offset = static_cast<std::size_t>(value - begin);
+    const char quote = part.text[offset - 1];
+    const auto end = (quote == '"' || quote == '\'') ? part.text.find(quote, offset)
+                                                     : std::string::npos;
+    if (end == std::string::npos)
     {
-        std::error_code ignored;
-        fs::remove(temporary, ignored);
-        throw;
+        fail_io(path, "cannot locate a coordinate in " + part.name);
     }
-    std::error_code ignored;
-    fs::remove(temporary, ignored);
-    return bytes;
+    return {offset, end};
+}
+
+// The text of \p part with the moved vertices of \p objects rewritten ("" when none moved).
+std::string moved_part_text(const fs::path& path, const ModelPart& part,
+                            const std::vector<const ThreeMfObject*>& objects,
+                            const Positions& original, const Positions& positions)
+{
+    std::vector<Edit> edits;
+    for (const auto* object : objects)
+    {
+        const std::string object_name = describe(part, object->resource_id);
+        const auto found = part.objects.find(object->resource_id);
+        const auto mesh =
+            found == part.objects.end() ? pugi::xml_node() : first_child(found->second, "mesh");
+        if (!mesh)
+        {
+            fail_io(path, "the source package no longer has " + object_name);
+        }
+        const Eigen::Matrix4d to_local = object->to_world.inverse();
+        for_each_vertex(
+            mesh,
+            [&](std::size_t i, pugi::xml_node vertex)
+            {
+                if (i >= object->welded.size())
+                {
+                    fail_io(path, "the source package has changed: " + object_name +
+                                      " has more vertices");
+                }
+                const auto w = object->welded[i];
+                if (std::memcmp(original.row(w).data(), positions.row(w).data(),
+                                3 * sizeof(double)) == 0)
+                {
+                    return;
+                }
+                const Eigen::Vector4d local =
+                    to_local *
+                    Eigen::Vector4d(positions(w, 0), positions(w, 1), positions(w, 2), 1.0);
+                for (int d = 0; d < 3; ++d)
+                {
+                    const double before = parse_coordinate(path, vertex, d, i, object_name);
+                    if (std::memcmp(&before, &local[d], sizeof(double)) == 0)
+                    {
+                        continue;  // this coordinate keeps its text
+                    }
+                    const auto [offset, end] = value_span(
+                        path, part, vertex.attribute(kAxes[static_cast<std::size_t>(d)]));
+                    const std::string_view token(part.text.data() + offset, end - offset);
+                    // Float digits when the original token had float precision, else double
+                    // (see append_like_token); either must be a finite number.
+                    const bool is_float = significant_digits(token) <= 9;
+                    if (!std::isfinite(local[d]) ||
+                        (is_float && !std::isfinite(static_cast<float>(local[d]))))
+                    {
+                        fail_io(path, "vertex " + std::to_string(i) + " of " + object_name +
+                                          " does not fit a " +
+                                          (is_float ? "float32" : "float64") + " coordinate");
+                    }
+                    Edit edit{offset, end, {}};
+                    append_like_token(edit.text, token, local[d]);
+                    edits.push_back(std::move(edit));
+                }
+            });
+    }
+    if (edits.empty())
+    {
+        return {};
+    }
+    std::sort(edits.begin(), edits.end(),
+              [](const Edit& a, const Edit& b) { return a.offset < b.offset; });
+    std::string text;
+    text.reserve(part.text.size() + edits.size() * 4);
+    std::size_t at = 0;
+    for (const auto& edit : edits)
+    {
+        text.append(part.text, at, edit.offset - at);
+        text += edit.text;
+        at = edit.end;
+    }
+    text.append(part.text, at, std::string::npos);
+    return text;
 }
 
 std::string moved_package(const fs::path& path, const FileLayout& layout, const Positions& original,
-                          const Positions& positions);
-std::string new_package(const fs::path& path, const TriangleMesh& mesh);
+                          const Positions& positions)
+{
+    const auto& objects = std::get<ThreeMfLayout>(layout.positions);
+    // The objects with a moved vertex, by model part (in the order parts were read).
+    std::vector<std::pair<std::string, std::vector<const ThreeMfObject*>>> moved;
+    for (const auto& object : objects.objects)
+    {
+        const bool is_moved = std::any_of(
+            object.welded.begin(), object.welded.end(),
+            [&](std::int32_t w)
+            {
+                return std::memcmp(original.row(w).data(), positions.row(w).data(),
+                                   3 * sizeof(double)) != 0;
+            });
+        if (!is_moved)
+        {
+            continue;
+        }
+        auto at = std::find_if(moved.begin(), moved.end(),
+                               [&](const auto& entry) { return entry.first == object.part; });
+        if (at == moved.end())
+        {
+            moved.emplace_back(object.part, std::vector<const ThreeMfObject*>{});
+            at = moved.end() - 1;
+        }
+        at->second.push_back(&object);
+    }
+    if (moved.empty())
+    {
+        return layout.bytes;  // unchanged positions: the package as it was, byte for byte
+    }
+    std::vector<std::pair<std::string, std::string>> replaced;
+    {
+        Package package(path, layout.bytes);
+        for (const auto& [name, part_objects] : moved)
+        {
+            const ModelPart& part = package.part(name, "the source layout");
+            std::string text = moved_part_text(path, part, part_objects, original, positions);
+            if (!text.empty())
+            {
+                replaced.emplace_back(part.name, std::move(text));
+            }
+        }
+    }
+    if (replaced.empty())
+    {
+        return layout.bytes;
+    }
+    return replace_zip_entries(path, layout.bytes, replaced);
+}
 
-// lib3mf reports most failures as result codes but lets some C++ exceptions escape its C
-// interface; both become one IoError naming the file.
+// ---------------------------------------------------------------------------------------
+// The generic writer: hand-written XML (one object, one build item) in a new zip.
+
+std::string new_package(const fs::path& path, const TriangleMesh& mesh)
+{
+    std::string model =
+        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
+        "<model unit=\"millimeter\" xml:lang=\"en-US\" "
+        "xmlns=\"http://schemas.microsoft.com/3dmanufacturing/core/2015/02\">\n"
+        " <resources>\n"
+        "  <object id=\"1\" type=\"model\">\n"
+        "   <mesh>\n"
+        "    <vertices>\n";
+    for (Eigen::Index i = 0; i < mesh.V.rows(); ++i)
+    {
+        model += "     <vertex";
+        for (int d = 0; d < 3; ++d)
+        {
+            const auto value = static_cast<float>(mesh.V(i, d));
+            if (!std::isfinite(value))
+            {
+                fail_io(path, "vertex " + std::to_string(i) + " does not fit a float32 coordinate");
+            }
+            model += ' ';
+            model += kAxes[static_cast<std::size_t>(d)];
+            model += "=\"";
+            append_shortest(model, value);
+            model += '"';
+        }
+        model += "/>\n";
+    }
+    model += "    </vertices>\n    <triangles>\n";
+    for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
+    {
+        model += "     <triangle v1=\"" + std::to_string(mesh.F(f, 0)) + "\" v2=\"" +
+                 std::to_string(mesh.F(f, 1)) + "\" v3=\"" + std::to_string(mesh.F(f, 2)) +
+                 "\"/>\n";
+    }
+    model +=
+        "    </triangles>\n"
+        "   </mesh>\n"
+        "  </object>\n"
+        " </resources>\n"
+        " <build>\n"
+        "  <item objectid=\"1\"/>\n"
+        " </build>\n"
+        "</model>\n";
+    const std::string content_types =
+        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
+        "<Types xmlns=\"http://schemas.openxmlformats.org/package/2006/content-types\">\n"
+        " <Default Extension=\"rels\" "
+        "ContentType=\"application/vnd.openxmlformats-package.relationships+xml\"/>\n"
+        " <Default Extension=\"model\" "
+        "ContentType=\"application/vnd.ms-package.3dmanufacturing-3dmodel+xml\"/>\n"
+        "</Types>\n";
+    const std::string relationships =
+        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
+        "<Relationships xmlns=\"http://schemas.openxmlformats.org/package/2006/relationships\">\n"
+        " <Relationship Target=\"/3D/3dmodel.model\" Id=\"rel0\" "
+        "Type=\"http://schemas.microsoft.com/3dmanufacturing/2013/01/3dmodel\"/>\n"
+        "</Relationships>\n";
+    return new_zip(path, {{"[Content_Types].xml", content_types},
+                          {"_rels/.rels", relationships},
+                          {"3D/3dmodel.model", model}});
+}
+
+// pugixml and libzip report failures as results; a std::bad_alloc or similar from a hostile
+// package becomes one IoError naming the file.
 template <typename F>
 auto guarded(const fs::path& path, F&& body)
 {
@@ -387,10 +931,9 @@ TriangleMesh read_3mf(const fs::path& path, FileLayout& layout)
     return guarded(path,
                    [&]
                    {
-                       Handle model;
-                       load_model(path, layout.bytes, model);
+                       Package package(path, layout.bytes);
                        auto& objects = layout.positions.emplace<ThreeMfLayout>();
-                       Reader reader(path, model.get(), objects);
+                       Reader reader(path, package, objects);
                        return reader.run();
                    });
 }
@@ -405,89 +948,5 @@ std::string three_mf_bytes(const fs::path& path, const TriangleMesh& mesh)
 {
     return guarded(path, [&] { return new_package(path, mesh); });
 }
-
-namespace {
-
-std::string moved_package(const fs::path& path, const FileLayout& layout, const Positions& original,
-                          const Positions& positions)
-{
-    const auto& objects = std::get<ThreeMfLayout>(layout.positions);
-    Handle model;
-    load_model(path, layout.bytes, model);
-    bool is_any_changed = false;
-    for (const auto& object : objects.objects)
-    {
-        Handle mesh;
-        check(path,
-              NMR::lib3mf_model_getmeshobjectbyid(model.get(), object.resource_id, mesh.out()),
-              model.get(), "cannot open mesh object " + std::to_string(object.resource_id));
-        const Eigen::Matrix4d to_local = object.to_world.inverse();
-        for (std::size_t i = 0; i < object.welded.size(); ++i)
-        {
-            const auto w = object.welded[i];
-            if (std::memcmp(original.row(w).data(), positions.row(w).data(), 3 * sizeof(double)) ==
-                0)
-            {
-                continue;
-            }
-            const Eigen::Vector4d local =
-                to_local * Eigen::Vector4d(positions(w, 0), positions(w, 1), positions(w, 2), 1.0);
-            NMR::MODELMESHVERTEX v{};
-            for (int d = 0; d < 3; ++d)
-            {
-                v.m_fPosition[d] = static_cast<float>(local[d]);
-                if (!std::isfinite(v.m_fPosition[d]))
-                {
-                    fail_io(path,
-                            "vertex " + std::to_string(w) + " does not fit a float32 coordinate");
-                }
-            }
-            check(path, NMR::lib3mf_meshobject_setvertex(mesh.get(), static_cast<DWORD>(i), &v),
-                  mesh.get(),
-                  "cannot set a vertex of mesh object " + std::to_string(object.resource_id));
-            is_any_changed = true;
-        }
-    }
-    // Unchanged positions: the package as it was, byte for byte.
-    return is_any_changed ? model_bytes(path, model.get()) : layout.bytes;
-}
-
-std::string new_package(const fs::path& path, const TriangleMesh& mesh)
-{
-    Handle model;
-    check(path, NMR::lib3mf_createmodel(model.out()), nullptr, "cannot create a 3MF model");
-    Handle object;
-    check(path, NMR::lib3mf_model_addmeshobject(model.get(), object.out()), model.get(),
-          "cannot add a mesh object");
-    std::vector<NMR::MODELMESHVERTEX> vertices(static_cast<std::size_t>(mesh.V.rows()));
-    for (std::size_t i = 0; i < vertices.size(); ++i)
-    {
-        for (int d = 0; d < 3; ++d)
-        {
-            vertices[i].m_fPosition[d] =
-                static_cast<float>(mesh.V(static_cast<Eigen::Index>(i), d));
-        }
-    }
-    std::vector<NMR::MODELMESHTRIANGLE> triangles(static_cast<std::size_t>(mesh.F.rows()));
-    for (std::size_t f = 0; f < triangles.size(); ++f)
-    {
-        for (int c = 0; c < 3; ++c)
-        {
-            triangles[f].m_nIndices[c] =
-                static_cast<DWORD>(mesh.F(static_cast<Eigen::Index>(f), c));
-        }
-    }
-    check(path,
-          NMR::lib3mf_meshobject_setgeometry(object.get(), vertices.data(),
-                                             static_cast<DWORD>(vertices.size()), triangles.data(),
-                                             static_cast<DWORD>(triangles.size())),
-          object.get(), "cannot set the mesh geometry");
-    Handle item;
-    check(path, NMR::lib3mf_model_addbuilditem(model.get(), object.get(), nullptr, item.out()),
-          model.get(), "cannot add a build item");
-    return model_bytes(path, model.get());
-}
-
-}  // namespace
 
 }  // namespace meshmark::detail

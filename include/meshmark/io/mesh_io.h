@@ -24,7 +24,8 @@ enum class MeshFormat
     Gltf,
     Glb,  ///< .glb: binary glTF 2.0, read like Gltf.
     /// .3mf: every mesh object in the build's world frame (build item and component
-    /// transforms), coincident vertices welded; written back through lib3mf.
+    /// transforms, production-extension parts included), coincident vertices welded; written
+    /// back as the same package with only the moved vertices' x/y/z values rewritten.
     ThreeMf,
 };
 

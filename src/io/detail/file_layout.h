@@ -60,10 +60,11 @@ struct StlFacets
     std::vector<TextSpan> tokens;               ///< ASCII: 12 per facet (normal, 3 corners).
 };
 
-/// One 3MF mesh object as read: its world transform (build item and components, first
-/// instance) and the welded vertex of each of its vertices.
+/// One 3MF mesh object as read: the model part it is in, its id there, its world transform
+/// (build item and components, first instance) and the welded vertex of each of its vertices.
 struct ThreeMfObject
 {
+    std::string part;  ///< Zip entry name of the model part ("3D/3dmodel.model").
     std::uint32_t resource_id = 0;
     Eigen::Matrix4d to_world = Eigen::Matrix4d::Identity();
     std::vector<std::int32_t> welded;

@@ -20,7 +20,7 @@ namespace meshmark::detail {
                                     bool& is_single_precision);
 [[nodiscard]] TriangleMesh read_stl(const std::filesystem::path& path, FileLayout& layout,
                                     bool& is_single_precision);
-/// 3MF through lib3mf: fills layout.positions with a ThreeMfLayout.
+/// 3MF (libzip + pugixml): fills layout.positions with a ThreeMfLayout.
 [[nodiscard]] TriangleMesh read_3mf(const std::filesystem::path& path, FileLayout& layout);
 
 // Generic writers: the whole file for `mesh` in one string.
@@ -28,12 +28,13 @@ namespace meshmark::detail {
 [[nodiscard]] std::string obj_bytes(const TriangleMesh& mesh, const WriteOptions& options);
 [[nodiscard]] std::string off_bytes(const TriangleMesh& mesh, const WriteOptions& options);
 [[nodiscard]] std::string stl_bytes(const TriangleMesh& mesh, const WriteOptions& options);
-/// A one-object 3MF package; \p path is the target (lib3mf needs a temporary file beside it).
+/// A one-object 3MF package; \p path names the target in errors.
 [[nodiscard]] std::string three_mf_bytes(const std::filesystem::path& path,
                                          const TriangleMesh& mesh);
 
-/// The 3MF package of \p layout with the moved vertices set (written by lib3mf), or the
-/// original bytes when nothing moved.
+/// The 3MF package of \p layout with the x/y/z attribute values of moved vertices rewritten
+/// in their model parts (every other zip entry and byte kept), or the original bytes when
+/// nothing moved.
 [[nodiscard]] std::string preserved_3mf_bytes(const std::filesystem::path& path,
                                               const FileLayout& layout, const Positions& original,
                                               const Positions& positions);

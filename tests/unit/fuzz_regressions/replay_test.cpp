@@ -15,15 +15,6 @@
 
 #include "fuzz_entry.h"
 
-// lib3mf 1.8 leaks a few libzip allocations (~480 bytes) on every package it reads, valid or
-// not; under the sanitizer job (detect_leaks=1) the 3MF replay would fail on that alone. The
-// suppression names only libzip, so a leak in meshmark's own code is still reported.
-extern "C" const char* __lsan_default_suppressions();
-extern "C" const char* __lsan_default_suppressions()
-{
-    return "leak:libzip.so\n";
-}
-
 namespace meshmark {
 namespace {
 
