@@ -83,11 +83,10 @@ std::string first_line(const std::string& text)
 }
 
 constexpr std::array<const char*, 2> kMeshoptExtensions = {"EXT_meshopt_compression",
-                                                            "KHR_meshopt_compression"};
+                                                           "KHR_meshopt_compression"};
 // Required extensions that meshmark decodes (the others are named when reading fails).
 constexpr std::array<const char*, 4> kDecodedExtensions = {
-    kDracoExtension, "EXT_meshopt_compression", "KHR_meshopt_compression",
-    "KHR_mesh_quantization"};
+    kDracoExtension, "EXT_meshopt_compression", "KHR_meshopt_compression", "KHR_mesh_quantization"};
 // The uri given (in tinygltf's copy of the JSON only) to a meshopt fallback buffer that has
 // none, with the buffer index appended; load_model's file callbacks serve it as zeros.
 constexpr std::string_view kFallbackUri = "meshmark-meshopt-fallback:";
@@ -125,9 +124,8 @@ std::string required_note(const fs::path& path, const std::string& json)
         std::vector<std::string> unknown;
         for (const auto& name : doc["extensionsRequired"])
         {
-            if (name.is_string() &&
-                std::find(kDecodedExtensions.begin(), kDecodedExtensions.end(),
-                          name.get<std::string>()) == kDecodedExtensions.end())
+            if (name.is_string() && std::find(kDecodedExtensions.begin(), kDecodedExtensions.end(),
+                                              name.get<std::string>()) == kDecodedExtensions.end())
             {
                 unknown.push_back(name.get<std::string>());
             }
@@ -153,8 +151,7 @@ std::string required_note(const fs::path& path, const std::string& json)
 // The meshopt extension object of a bufferView or buffer, or null.
 const Json* meshopt_extension(const Json& object, std::string* name = nullptr)
 {
-    if (!object.is_object() || !object.contains("extensions") ||
-        !object["extensions"].is_object())
+    if (!object.is_object() || !object.contains("extensions") || !object["extensions"].is_object())
     {
         return nullptr;
     }
@@ -175,8 +172,8 @@ const Json* meshopt_extension(const Json& object, std::string* name = nullptr)
 // What tinygltf is given instead of the file, when the file needs patching.
 struct Prepared
 {
-    std::string bytes;                                // the patched file (empty: none needed)
-    std::map<std::string, std::uint64_t> fallbacks;   // placeholder uri -> byteLength
+    std::string bytes;                               // the patched file (empty: none needed)
+    std::map<std::string, std::uint64_t> fallbacks;  // placeholder uri -> byteLength
 };
 
 // tinygltf 2.7 (built without Draco and meshopt) cannot load two things valid assets contain,
@@ -325,8 +322,7 @@ tinygltf::Model load_model(const fs::path& path, const std::string& file_bytes,
         if (size > kMaxFallbackBytes)
         {
             fail_io(path, "the meshopt fallback buffer " + uri.substr(kFallbackUri.size()) +
-                              " declares " + std::to_string(size) +
-                              " bytes, more than supported");
+                              " declares " + std::to_string(size) + " bytes, more than supported");
         }
     }
     tinygltf::TinyGLTF loader;
@@ -352,7 +348,8 @@ tinygltf::Model load_model(const fs::path& path, const std::string& file_bytes,
     }
     catch (const std::exception& e)
     {
-        fail_io(path, std::string("not a valid glTF 2.0 asset: ") + e.what() + required_note(path, json));
+        fail_io(path,
+                std::string("not a valid glTF 2.0 asset: ") + e.what() + required_note(path, json));
     }
     if (!ok)
     {
@@ -428,8 +425,8 @@ std::vector<GltfMeshoptView> meshopt_views(const fs::path& path, const std::stri
         }
         else
         {
-            record.unsupported = "the " + where + " has mode \"" + mode +
-                                 "\", which meshmark does not know";
+            record.unsupported =
+                "the " + where + " has mode \"" + mode + "\", which meshmark does not know";
         }
         if (filter == "NONE")
         {
@@ -449,8 +446,8 @@ std::vector<GltfMeshoptView> meshopt_views(const fs::path& path, const std::stri
         }
         else if (record.unsupported.empty())
         {
-            record.unsupported = "the " + where + " has filter \"" + filter +
-                                 "\", which meshmark does not support";
+            record.unsupported =
+                "the " + where + " has filter \"" + filter + "\", which meshmark does not support";
         }
         views.push_back(std::move(record));
     }
@@ -493,8 +490,9 @@ void decode_meshopt_views(const fs::path& path, const tinygltf::Model& model, Gl
         if (record.source_length == 0 || record.source_offset > data.size() ||
             record.source_length > data.size() - record.source_offset)
         {
-            fail_io(path, where + " has a compressed range that is empty or past the end of "
-                                  "buffer " + std::to_string(record.source_buffer));
+            fail_io(path, where +
+                              " has a compressed range that is empty or past the end of buffer " +
+                              std::to_string(record.source_buffer));
         }
         const std::string stream = data.substr(record.source_offset, record.source_length);
         if (record.unsupported.empty())

@@ -33,7 +33,7 @@ constexpr int kArrayBuffer = 34962;
 constexpr int kElementArrayBuffer = 34963;
 constexpr const char* kDracoExtension = "KHR_draco_mesh_compression";
 constexpr std::array<const char*, 2> kMeshoptExtensions = {"EXT_meshopt_compression",
-                                                            "KHR_meshopt_compression"};
+                                                           "KHR_meshopt_compression"};
 
 bool is_changed(const Positions& a, const Positions& b, std::int32_t row)
 {
@@ -356,9 +356,9 @@ void Writer::write_meshopt()
             fail("cannot store moved positions in bufferView " + std::to_string(record.view) +
                  ": " + record.unsupported);
         }
-        std::string bytes =
-            encode_meshopt(path_, record, data.substr(static_cast<std::size_t>(first),
-                                                      static_cast<std::size_t>(length)));
+        std::string bytes = encode_meshopt(
+            path_, record,
+            data.substr(static_cast<std::size_t>(first), static_cast<std::size_t>(length)));
         // What every meshopt reader will see (the exponential filter rounds the mantissas).
         const std::string decoded = decode_meshopt(path_, record, bytes);
         std::copy(decoded.begin(), decoded.end(), data.begin() + first);
@@ -384,9 +384,8 @@ void Writer::write_meshopt()
     // Splices last: the fallback ranges above are those of the original buffers.
     for (const auto& [record, bytes] : encoded)
     {
-        auto& ext =
-            doc()["bufferViews"][static_cast<std::size_t>(record->view)]["extensions"]
-                 [record->extension];
+        auto& ext = doc()["bufferViews"][static_cast<std::size_t>(record->view)]["extensions"]
+                         [record->extension];
         splice(ext, ext["buffer"].get<std::size_t>(), ext.value("byteOffset", std::uint64_t{0}),
                bytes, "meshopt stream of bufferView " + std::to_string(record->view));
     }

@@ -132,10 +132,9 @@ std::string meshopt_unsupported(const fs::path& path, const GltfMeshoptView& vie
 {
     const unsigned kind = header & 0xf0U;
     const unsigned version = header & 0x0fU;
-    const std::string library =
-        "the meshoptimizer library meshmark is built with (" +
-        std::to_string(MESHOPTIMIZER_VERSION / 100) + "." +
-        std::to_string(MESHOPTIMIZER_VERSION % 100) + ")";
+    const std::string library = "the meshoptimizer library meshmark is built with (" +
+                                std::to_string(MESHOPTIMIZER_VERSION / 100) + "." +
+                                std::to_string(MESHOPTIMIZER_VERSION % 100) + ")";
     switch (view.mode)
     {
         case MeshoptMode::Attributes:
@@ -144,26 +143,25 @@ std::string meshopt_unsupported(const fs::path& path, const GltfMeshoptView& vie
                 return version <= kMaxVertexVersion
                            ? std::string()
                            : "the " + where(view) + " uses vertex codec version " +
-                                 std::to_string(version) + ", which " + library +
-                                 " cannot decode";
+                                 std::to_string(version) + ", which " + library + " cannot decode";
             }
             break;
         case MeshoptMode::Triangles:
             if (kind == kTrianglesHeader)
             {
-                return version <= 1 ? std::string()
-                                    : "the " + where(view) + " uses index codec version " +
-                                          std::to_string(version) + ", which " + library +
-                                          " cannot decode";
+                return version <= 1
+                           ? std::string()
+                           : "the " + where(view) + " uses index codec version " +
+                                 std::to_string(version) + ", which " + library + " cannot decode";
             }
             break;
         case MeshoptMode::Indices:
             if (kind == kIndicesHeader)
             {
-                return version == 1 ? std::string()
-                                    : "the " + where(view) + " uses index sequence version " +
-                                          std::to_string(version) + ", which " + library +
-                                          " cannot decode";
+                return version == 1
+                           ? std::string()
+                           : "the " + where(view) + " uses index sequence version " +
+                                 std::to_string(version) + ", which " + library + " cannot decode";
             }
             break;
     }
@@ -196,8 +194,8 @@ std::string decode_meshopt(const fs::path& path, const GltfMeshoptView& view,
                                                 stream.size());
             break;
         case MeshoptMode::Triangles:
-            result = meshopt_decodeIndexBuffer(out.data(), view.count, view.stride, data,
-                                               stream.size());
+            result =
+                meshopt_decodeIndexBuffer(out.data(), view.count, view.stride, data, stream.size());
             break;
         case MeshoptMode::Indices:
             result = meshopt_decodeIndexSequence(out.data(), view.count, view.stride, data,
@@ -238,8 +236,9 @@ std::string encode_meshopt(const fs::path& path, const GltfMeshoptView& view,
         (view.filter != MeshoptFilter::None && view.filter != MeshoptFilter::Exponential))
     {
         // Positions are vertex attributes; the other filters hold unit vectors, never them.
-        fail_io(path, "cannot re-encode the " + where(view) + ": only ATTRIBUTES streams with "
-                                                               "filter NONE or EXPONENTIAL are");
+        fail_io(path, "cannot re-encode the " + where(view) +
+                          ": only ATTRIBUTES streams with "
+                          "filter NONE or EXPONENTIAL are");
     }
     if (decoded.size() != view.count * view.stride)
     {

@@ -130,13 +130,13 @@ struct GltfMeshoptView
     MeshoptFilter filter = MeshoptFilter::None;
     std::uint64_t stride = 0;
     std::uint64_t count = 0;
-    std::int32_t buffer = 0;      ///< The bufferView's (fallback) buffer.
-    std::uint64_t offset = 0;     ///< The bufferView's byteOffset in it.
+    std::int32_t buffer = 0;   ///< The bufferView's (fallback) buffer.
+    std::uint64_t offset = 0;  ///< The bufferView's byteOffset in it.
     /// The compressed stream as read (the writer takes its current place from the JSON).
     std::int32_t source_buffer = 0;
     std::uint64_t source_offset = 0;
     std::uint64_t source_length = 0;
-    int exponent_bits = 0;        ///< EXPONENTIAL: mantissa bits the stream was encoded with.
+    int exponent_bits = 0;  ///< EXPONENTIAL: mantissa bits the stream was encoded with.
     /// Why the stream was not decoded (a codec version, mode or filter this build of
     /// meshoptimizer does not know); empty when it was. An undecoded view keeps the
     /// fallback's bytes (zeros without fallback data), and geometry in it is refused.
@@ -215,8 +215,7 @@ struct DracoGeometry
 /// Why this build cannot decode a stream with \p header (its first byte) in \p view's mode,
 /// or empty when it can; a header of no known codec is a malformed stream (IoError).
 [[nodiscard]] std::string meshopt_unsupported(const std::filesystem::path& path,
-                                              const GltfMeshoptView& view,
-                                              unsigned char header);
+                                              const GltfMeshoptView& view, unsigned char header);
 /// \brief Decode \p stream into view.count * view.stride bytes (filter applied).
 /// \param exponent_bits  If not null and the filter is EXPONENTIAL: the mantissa bits the
 ///     stream was encoded with (the most common over its elements).

@@ -107,8 +107,8 @@ VertexData vertex_data(Layout layout)
 std::string encode_vertices(const std::string& bytes, std::size_t count, std::size_t stride)
 {
     std::string out(meshopt_encodeVertexBufferBound(count, stride), '\0');
-    out.resize(meshopt_encodeVertexBuffer(reinterpret_cast<unsigned char*>(out.data()),
-                                          out.size(), bytes.data(), count, stride));
+    out.resize(meshopt_encodeVertexBuffer(reinterpret_cast<unsigned char*>(out.data()), out.size(),
+                                          bytes.data(), count, stride));
     return out;
 }
 
@@ -154,14 +154,13 @@ Asset meshopt_asset(const Options& options)
                                         index_stream.size()),
               0);
     const std::size_t stride = stride_of(options.layout);
-    const auto add = [&](const std::string& decoded, const std::string& encoded,
-                         std::size_t count, std::size_t element, const char* mode, int target)
+    const auto add = [&](const std::string& decoded, const std::string& encoded, std::size_t count,
+                         std::size_t element, const char* mode, int target)
     {
         if (!options.is_compressed)
         {
-            const int v = b.view(decoded, std::string(mode) == "ATTRIBUTES"
-                                              ? static_cast<int>(element)
-                                              : 0);
+            const int v =
+                b.view(decoded, std::string(mode) == "ATTRIBUTES" ? static_cast<int>(element) : 0);
             b.doc["bufferViews"][static_cast<std::size_t>(v)]["target"] = target;
             return v;
         }
@@ -181,9 +180,8 @@ Asset meshopt_asset(const Options& options)
         {
             asset.fallback.push_back('\0');
         }
-        Json view = {{"buffer", 1},
-                     {"byteOffset", asset.fallback.size()},
-                     {"byteLength", decoded.size()}};
+        Json view = {
+            {"buffer", 1}, {"byteOffset", asset.fallback.size()}, {"byteLength", decoded.size()}};
         if (std::string(mode) == "ATTRIBUTES")
         {
             view["byteStride"] = element;
@@ -196,8 +194,7 @@ Asset meshopt_asset(const Options& options)
     };
     asset.position_view = add(vertices.decoded, encode_vertices(vertices.filtered, kPoints, stride),
                               kPoints, stride, "ATTRIBUTES", 34962);
-    asset.index_view =
-        add(index_bytes, index_stream, triangles.size(), 2, "TRIANGLES", 34963);
+    asset.index_view = add(index_bytes, index_stream, triangles.size(), 2, "TRIANGLES", 34963);
     const bool is_short = options.layout == Layout::Short8;
     const int pos = b.accessor(asset.position_view, 0, is_short ? 5122 : 5126, kPoints, "VEC3");
     // Bounds of the stored (decoded) values, as the spec asks.
@@ -225,8 +222,8 @@ Asset meshopt_asset(const Options& options)
     b.doc["accessors"][static_cast<std::size_t>(pos)]["min"] = lo;
     b.doc["accessors"][static_cast<std::size_t>(pos)]["max"] = hi;
     const int idx = b.accessor(asset.index_view, 0, 5123, triangles.size(), "SCALAR");
-    const int mesh = b.mesh(Json::array(
-        {{{"attributes", {{"POSITION", pos}}}, {"indices", idx}, {"material", 0}}}));
+    const int mesh = b.mesh(
+        Json::array({{{"attributes", {{"POSITION", pos}}}, {"indices", idx}, {"material", 0}}}));
     if (is_short)
     {
         b.node({{"mesh", mesh},
@@ -273,8 +270,8 @@ Json glb_json(const std::string& bytes, std::string* bin)
 std::string decode_view(const Json& doc, const std::string& bin, int view_index,
                         const char* extension = "EXT_meshopt_compression")
 {
-    const auto& ext = doc["bufferViews"][static_cast<std::size_t>(view_index)]["extensions"]
-                         [extension];
+    const auto& ext =
+        doc["bufferViews"][static_cast<std::size_t>(view_index)]["extensions"][extension];
     const auto count = ext["count"].get<std::size_t>();
     const auto stride = ext["byteStride"].get<std::size_t>();
     const auto offset = ext.value("byteOffset", std::size_t{0});
@@ -422,9 +419,8 @@ TEST_P(MeshoptTest, moved_positions_are_reencoded_and_decode_to_what_was_written
         EXPECT_EQ(after["bufferViews"][static_cast<std::size_t>(v)]["byteLength"],
                   before["bufferViews"][static_cast<std::size_t>(v)]["byteLength"]);
     }
-    const auto& ext =
-        after["bufferViews"][static_cast<std::size_t>(asset.position_view)]["extensions"]
-             ["EXT_meshopt_compression"];
+    const auto& ext = after["bufferViews"][static_cast<std::size_t>(asset.position_view)]
+                           ["extensions"]["EXT_meshopt_compression"];
     EXPECT_EQ(static_cast<unsigned char>(bin_after[ext["byteOffset"].get<std::size_t>()]), 0xa0)
         << "vertex codec version 0";
     EXPECT_NE(ext["byteLength"],
@@ -615,9 +611,9 @@ TEST_F(MeshoptFileTest, an_unsupported_codec_version_is_named)
 {
     // Vertex codec version 1 (meshoptimizer >= 0.23) in a view without fallback data.
     auto asset = meshopt_asset({});
-    const auto& ext = asset.builder.doc["bufferViews"]
-                                       [static_cast<std::size_t>(asset.position_view)]
-                                       ["extensions"]["EXT_meshopt_compression"];
+    const auto& ext =
+        asset.builder.doc["bufferViews"][static_cast<std::size_t>(asset.position_view)]
+                         ["extensions"]["EXT_meshopt_compression"];
     asset.builder.bin[ext["byteOffset"].get<std::size_t>()] = '\xa1';
     test::put_bytes(dir / "v1.glb", asset.builder.glb());
     const std::string message = read_error(dir / "v1.glb");
@@ -632,20 +628,19 @@ TEST_F(MeshoptFileTest, an_unsupported_codec_version_is_named)
 
     // An unknown filter on a view that holds no geometry does not stop the read.
     auto colors = meshopt_asset({});
-    colors.builder.doc["bufferViews"].push_back(
-        {{"buffer", 1},
-         {"byteOffset", colors.fallback.size()},
-         {"byteLength", 4 * kPoints},
-         {"byteStride", 4},
-         {"extensions",
-          {{"EXT_meshopt_compression",
-            {{"buffer", 0},
-             {"byteOffset", 0},
-             {"byteLength", 8},
-             {"byteStride", 4},
-             {"count", kPoints},
-             {"mode", "ATTRIBUTES"},
-             {"filter", "COLOR"}}}}}});
+    colors.builder.doc["bufferViews"].push_back({{"buffer", 1},
+                                                 {"byteOffset", colors.fallback.size()},
+                                                 {"byteLength", 4 * kPoints},
+                                                 {"byteStride", 4},
+                                                 {"extensions",
+                                                  {{"EXT_meshopt_compression",
+                                                    {{"buffer", 0},
+                                                     {"byteOffset", 0},
+                                                     {"byteLength", 8},
+                                                     {"byteStride", 4},
+                                                     {"count", kPoints},
+                                                     {"mode", "ATTRIBUTES"},
+                                                     {"filter", "COLOR"}}}}}});
     colors.builder.more_buffers[0]["byteLength"] = colors.fallback.size() + 4 * kPoints;
     test::put_bytes(dir / "color.glb", colors.builder.glb());
     EXPECT_EQ(read_error(dir / "color.glb"), "");
