@@ -2,7 +2,8 @@
 // glTF 2.0 / GLB reader: tinygltf parses and validates the container and loads the buffers;
 // this file walks the scene graph, locates every POSITION element's bytes (strides, sparse
 // substitution, KHR_mesh_quantization types), decodes Draco primitives, and welds coincident
-// world-space vertices into one mesh.
+// world-space vertices into one mesh. meshopt-compressed bufferViews are decoded into their
+// (fallback) buffers before the walk, so it reads them like uncompressed data.
 #include <algorithm>
 #include <array>
 #include <cctype>
@@ -12,6 +13,7 @@
 #include <limits>
 #include <map>
 #include <optional>
+#include <string_view>
 #include <unordered_map>
 #include <unordered_set>
 
@@ -39,6 +41,9 @@ constexpr const char* kDracoExtension = "KHR_draco_mesh_compression";
 constexpr std::size_t kMaxNodeVisits = 1U << 20U;
 // Elements of an accessor without any stored data (all implicit zeros).
 constexpr std::uint64_t kMaxImplicitElements = 1U << 24U;
+// A meshopt fallback buffer without data is allocated (zeros, then the decoded views): the
+// same 4 GiB bound as the file.
+constexpr std::uint64_t kMaxFallbackBytes = std::uint64_t{1} << 32U;
 
 // Image data is never decoded: images are carried through as they are.
 bool skip_image(tinygltf::Image*, const int, std::string*, std::string*, int, int,
@@ -78,20 +83,128 @@ std::string first_line(const std::string& text)
     return line.empty() ? std::string("no reason given") : line;
 }
 
-// tinygltf 2.7 (built without Draco) rejects an indices accessor without bufferView, which
-// is how every Draco primitive declares its indices; the copy it validates leaves those
-// out (the triangles come from the Draco data anyway).
-std::string without_draco_indices(const fs::path& path, const std::string& json)
+constexpr std::array<const char*, 2> kMeshoptExtensions = {"EXT_meshopt_compression",
+                                                           "KHR_meshopt_compression"};
+// Required extensions that meshmark decodes (the others are named when reading fails).
+constexpr std::array<const char*, 4> kDecodedExtensions = {
+    kDracoExtension, "EXT_meshopt_compression", "KHR_meshopt_compression", "KHR_mesh_quantization"};
+// The uri given (in tinygltf's copy of the JSON only) to a meshopt fallback buffer that has
+// none, with the buffer index appended; load_model's file callbacks serve it as zeros.
+constexpr std::string_view kFallbackUri = "meshmark-meshopt-fallback:";
+
+using Json = nlohmann::ordered_json;
+
+// The JSON as nlohmann parses it: GLB JSON chunks are padded with spaces (some writers use
+// NULs), which are left out.
+Json parse_json(const fs::path& path, const std::string& json)
 {
-    using Json = nlohmann::ordered_json;
-    Json doc;
     try
     {
-        doc = Json::parse(json);
-        if (!doc.is_object() || !doc.contains("meshes") || !doc["meshes"].is_array())
+        const auto end = json.find_last_not_of(std::string(" \t\r\n\0", 5));
+        return Json::parse(json.substr(0, end == std::string::npos ? 0 : end + 1));
+    }
+    catch (const Json::exception& e)
+    {
+        fail_io(path, std::string("not a valid glTF 2.0 asset: ") + e.what());
+    }
+}
+
+// " (the asset requires extension X, which meshmark does not support)" for every required
+// extension meshmark does not decode, or empty: appended to an error reading the asset, since
+// such an extension (an unknown compression, say) is the likely cause.
+std::string required_note(const fs::path& path, const std::string& json)
+{
+    try
+    {
+        const auto doc = parse_json(path, json);
+        if (!doc.is_object() || !doc.contains("extensionsRequired") ||
+            !doc["extensionsRequired"].is_array())
         {
-            return json;
+            return "";
         }
+        std::vector<std::string> unknown;
+        for (const auto& name : doc["extensionsRequired"])
+        {
+            if (name.is_string() && std::find(kDecodedExtensions.begin(), kDecodedExtensions.end(),
+                                              name.get<std::string>()) == kDecodedExtensions.end())
+            {
+                unknown.push_back(name.get<std::string>());
+            }
+        }
+        if (unknown.empty())
+        {
+            return "";
+        }
+        std::string note = unknown.size() == 1 ? " (the asset requires extension "
+                                               : " (the asset requires extensions ";
+        for (std::size_t i = 0; i < unknown.size(); ++i)
+        {
+            note += (i == 0 ? "" : ", ") + unknown[i];
+        }
+        return note + ", which meshmark does not support)";
+    }
+    catch (const std::exception&)
+    {
+        return "";  // tinygltf's message names the problem
+    }
+}
+
+// The meshopt extension object of a bufferView or buffer, or null.
+const Json* meshopt_extension(const Json& object, std::string* name = nullptr)
+{
+    if (!object.is_object() || !object.contains("extensions") || !object["extensions"].is_object())
+    {
+        return nullptr;
+    }
+    for (const char* ext : kMeshoptExtensions)
+    {
+        if (object["extensions"].contains(ext) && object["extensions"][ext].is_object())
+        {
+            if (name != nullptr)
+            {
+                *name = ext;
+            }
+            return &object["extensions"][ext];
+        }
+    }
+    return nullptr;
+}
+
+// What tinygltf is given instead of the file, when the file needs patching.
+struct Prepared
+{
+    std::string bytes;                               // the patched file (empty: none needed)
+    std::map<std::string, std::uint64_t> fallbacks;  // placeholder uri -> byteLength
+};
+
+// tinygltf 2.7 (built without Draco and meshopt) cannot load two things valid assets contain,
+// so the copy it validates is patched:
+// - it rejects an indices accessor without bufferView, which is how every Draco primitive
+//   declares its indices: those are left out (the triangles come from the Draco data anyway);
+// - a meshopt fallback buffer without uri has no data, which tinygltf refuses ("uri is
+//   missing", or in a GLB it even takes the BIN chunk for it): it gets a placeholder uri that
+//   load_model's file callbacks serve as zeros of its byteLength. This keeps every index and
+//   every other check of tinygltf intact (dropping the buffer or the compressed views would
+//   renumber or unvalidate them), and read_gltf then overwrites the zeros with the decoded
+//   views.
+Prepared prepare(const fs::path& path, const std::string& file_bytes, const std::string& json,
+                 bool is_glb)
+{
+    Prepared prepared;
+    const bool has_draco = json.find(kDracoExtension) != std::string::npos;
+    const bool has_meshopt = json.find("_meshopt_compression") != std::string::npos;
+    if (!has_draco && !has_meshopt)
+    {
+        return prepared;
+    }
+    Json doc = parse_json(path, json);
+    if (!doc.is_object())
+    {
+        return prepared;  // tinygltf names the problem
+    }
+    bool is_patched = false;
+    if (has_draco && doc.contains("meshes") && doc["meshes"].is_array())
+    {
         for (auto& mesh : doc["meshes"])
         {
             if (!mesh.is_object() || !mesh.contains("primitives") || !mesh["primitives"].is_array())
@@ -103,39 +216,124 @@ std::string without_draco_indices(const fs::path& path, const std::string& json)
                 if (prim.is_object() && prim.contains("extensions") &&
                     prim["extensions"].is_object() && prim["extensions"].contains(kDracoExtension))
                 {
-                    prim.erase("indices");
+                    is_patched = prim.erase("indices") > 0 || is_patched;
                 }
             }
         }
-        return doc.dump();
     }
-    catch (const Json::exception& e)
+    if (has_meshopt && doc.contains("buffers") && doc["buffers"].is_array())
     {
-        fail_io(path, std::string("not a valid glTF 2.0 asset: ") + e.what());
+        auto& buffers = doc["buffers"];
+        std::vector<char> is_target(buffers.size(), 0);
+        if (doc.contains("bufferViews") && doc["bufferViews"].is_array())
+        {
+            for (const auto& view : doc["bufferViews"])
+            {
+                if (meshopt_extension(view) != nullptr && view.contains("buffer") &&
+                    view["buffer"].is_number_unsigned() &&
+                    view["buffer"].get<std::uint64_t>() < buffers.size())
+                {
+                    is_target[view["buffer"].get<std::size_t>()] = 1;
+                }
+            }
+        }
+        for (std::size_t b = 0; b < buffers.size(); ++b)
+        {
+            auto& buffer = buffers[b];
+            const Json* ext = meshopt_extension(buffer);
+            const bool is_fallback = ext != nullptr && ext->value("fallback", false);
+            // Buffer 0 of a GLB without uri is the BIN chunk, which has data.
+            if (!buffer.is_object() || buffer.contains("uri") || (is_glb && b == 0) ||
+                (!is_fallback && is_target[b] == 0) || !buffer.contains("byteLength") ||
+                !buffer["byteLength"].is_number_unsigned())
+            {
+                continue;
+            }
+            const std::string uri = std::string(kFallbackUri) + std::to_string(b);
+            buffer["uri"] = uri;
+            prepared.fallbacks[uri] = buffer["byteLength"].get<std::uint64_t>();
+            is_patched = true;
+        }
     }
+    if (!is_patched)
+    {
+        return prepared;
+    }
+    prepared.bytes = doc.dump();
+    if (is_glb)
+    {
+        const auto chunks = split_glb(path, file_bytes);
+        prepared.bytes =
+            assemble_glb(path, prepared.bytes, chunks.has_bin ? &chunks.bin : nullptr, chunks.tail);
+    }
+    return prepared;
 }
+
+// tinygltf file callbacks that serve the placeholder uris of prepare() and leave every other
+// file to tinygltf's own functions.
+struct PlaceholderFiles
+{
+    const std::map<std::string, std::uint64_t>* fallbacks = nullptr;
+
+    // tinygltf joins the uri to the base directory before asking.
+    [[nodiscard]] const std::uint64_t* find(const std::string& file) const
+    {
+        const auto at = file.rfind(kFallbackUri);
+        if (at == std::string::npos || (at > 0 && file[at - 1] != '/'))
+        {
+            return nullptr;
+        }
+        const auto it = fallbacks->find(file.substr(at));
+        return it == fallbacks->end() ? nullptr : &it->second;
+    }
+    static bool exists(const std::string& file, void* self)
+    {
+        return static_cast<PlaceholderFiles*>(self)->find(file) != nullptr ||
+               tinygltf::FileExists(file, nullptr);
+    }
+    static std::string expand(const std::string& file, void* self)
+    {
+        return static_cast<PlaceholderFiles*>(self)->find(file) != nullptr
+                   ? file
+                   : tinygltf::ExpandFilePath(file, nullptr);
+    }
+    static bool read(std::vector<unsigned char>* out, std::string* err, const std::string& file,
+                     void* self)
+    {
+        if (const auto* size = static_cast<PlaceholderFiles*>(self)->find(file))
+        {
+            out->assign(static_cast<std::size_t>(*size), 0);
+            return true;
+        }
+        return tinygltf::ReadWholeFile(out, err, file, nullptr);
+    }
+};
 
 tinygltf::Model load_model(const fs::path& path, const std::string& file_bytes,
                            const std::string& json, bool is_glb)
 {
-    std::string patched;
-    if (json.find(kDracoExtension) != std::string::npos)
-    {
-        patched = without_draco_indices(path, json);
-        if (is_glb)
-        {
-            const auto chunks = split_glb(path, file_bytes);
-            patched =
-                assemble_glb(path, patched, chunks.has_bin ? &chunks.bin : nullptr, chunks.tail);
-        }
-    }
-    const std::string& bytes = patched.empty() ? file_bytes : patched;
+    const Prepared prepared = prepare(path, file_bytes, json, is_glb);
+    const std::string& bytes = prepared.bytes.empty() ? file_bytes : prepared.bytes;
     if (bytes.size() > UINT_MAX)
     {
         fail_io(path, "the file is larger than 4 GiB, which glTF loaders do not support");
     }
+    for (const auto& [uri, size] : prepared.fallbacks)
+    {
+        if (size > kMaxFallbackBytes)
+        {
+            fail_io(path, "the meshopt fallback buffer " + uri.substr(kFallbackUri.size()) +
+                              " declares " + std::to_string(size) + " bytes, more than supported");
+        }
+    }
     tinygltf::TinyGLTF loader;
     loader.SetImageLoader(skip_image, nullptr);
+    PlaceholderFiles files{&prepared.fallbacks};
+    if (!prepared.fallbacks.empty())
+    {
+        loader.SetFsCallbacks({&PlaceholderFiles::exists, &PlaceholderFiles::expand,
+                               &PlaceholderFiles::read, &tinygltf::WriteWholeFile, &files});
+    }
     tinygltf::Model model;
     std::string err;
     std::string warn;
@@ -151,13 +349,171 @@ tinygltf::Model load_model(const fs::path& path, const std::string& file_bytes,
     }
     catch (const std::exception& e)
     {
-        fail_io(path, std::string("not a valid glTF 2.0 asset: ") + e.what());
+        fail_io(path,
+                std::string("not a valid glTF 2.0 asset: ") + e.what() + required_note(path, json));
     }
     if (!ok)
     {
-        fail_io(path, "not a valid glTF 2.0 asset: " + first_line(err));
+        fail_io(path, "not a valid glTF 2.0 asset: " + first_line(err) + required_note(path, json));
     }
     return model;
+}
+
+// The bufferViews compressed with meshopt, as the JSON declares them (checked, not decoded).
+std::vector<GltfMeshoptView> meshopt_views(const fs::path& path, const std::string& json)
+{
+    std::vector<GltfMeshoptView> views;
+    if (json.find("_meshopt_compression") == std::string::npos)
+    {
+        return views;
+    }
+    const auto doc = parse_json(path, json);
+    if (!doc.is_object() || !doc.contains("bufferViews") || !doc["bufferViews"].is_array())
+    {
+        return views;
+    }
+    for (std::size_t v = 0; v < doc["bufferViews"].size(); ++v)
+    {
+        const auto& view = doc["bufferViews"][v];
+        std::string name;
+        const Json* ext = meshopt_extension(view, &name);
+        if (ext == nullptr)
+        {
+            continue;
+        }
+        GltfMeshoptView record;
+        record.view = static_cast<std::int32_t>(v);
+        record.extension = name;
+        const std::string where = name + " of bufferView " + std::to_string(v);
+        for (const char* key : {"buffer", "byteLength", "byteStride", "count"})
+        {
+            if (!ext->contains(key) || !(*ext)[key].is_number_unsigned())
+            {
+                fail_io(path, "the " + where + " has no valid \"" + key + "\"");
+            }
+        }
+        if ((ext->contains("byteOffset") && !(*ext)["byteOffset"].is_number_unsigned()) ||
+            !ext->contains("mode") || !(*ext)["mode"].is_string() ||
+            (ext->contains("filter") && !(*ext)["filter"].is_string()))
+        {
+            fail_io(path, "the " + where + " has an invalid byteOffset, mode or filter");
+        }
+        record.source_buffer = static_cast<std::int32_t>(
+            std::min<std::uint64_t>((*ext)["buffer"].get<std::uint64_t>(), INT32_MAX));
+        record.source_offset = ext->value("byteOffset", std::uint64_t{0});
+        record.source_length = (*ext)["byteLength"].get<std::uint64_t>();
+        record.stride = (*ext)["byteStride"].get<std::uint64_t>();
+        record.count = (*ext)["count"].get<std::uint64_t>();
+        if (record.stride > 256 || record.count > kMaxVertices)
+        {
+            fail_io(path, "the " + where + " has byteStride " + std::to_string(record.stride) +
+                              " and count " + std::to_string(record.count) +
+                              ", more than supported");
+        }
+        const auto mode = (*ext)["mode"].get<std::string>();
+        const auto filter = ext->value("filter", std::string("NONE"));
+        if (mode == "ATTRIBUTES")
+        {
+            record.mode = MeshoptMode::Attributes;
+        }
+        else if (mode == "TRIANGLES")
+        {
+            record.mode = MeshoptMode::Triangles;
+        }
+        else if (mode == "INDICES")
+        {
+            record.mode = MeshoptMode::Indices;
+        }
+        else
+        {
+            record.unsupported =
+                "the " + where + " has mode \"" + mode + "\", which meshmark does not know";
+        }
+        if (filter == "NONE")
+        {
+            record.filter = MeshoptFilter::None;
+        }
+        else if (filter == "OCTAHEDRAL")
+        {
+            record.filter = MeshoptFilter::Octahedral;
+        }
+        else if (filter == "QUATERNION")
+        {
+            record.filter = MeshoptFilter::Quaternion;
+        }
+        else if (filter == "EXPONENTIAL")
+        {
+            record.filter = MeshoptFilter::Exponential;
+        }
+        else if (record.unsupported.empty())
+        {
+            record.unsupported =
+                "the " + where + " has filter \"" + filter + "\", which meshmark does not support";
+        }
+        views.push_back(std::move(record));
+    }
+    return views;
+}
+
+// Decode every meshopt view the build supports into its range of its (fallback) buffer, so
+// that everything downstream reads the decoded bytes like any other buffer data.
+void decode_meshopt_views(const fs::path& path, const tinygltf::Model& model, GltfAsset& asset)
+{
+    for (auto& record : asset.meshopt)
+    {
+        const std::string where =
+            "the " + record.extension + " of bufferView " + std::to_string(record.view);
+        const auto& view = model.bufferViews[static_cast<std::size_t>(record.view)];
+        if (view.buffer < 0 || static_cast<std::size_t>(view.buffer) >= asset.buffers.size())
+        {
+            fail_io(path, where + " belongs to a missing buffer");
+        }
+        record.buffer = view.buffer;
+        record.offset = view.byteOffset;
+        auto& target = asset.buffers[static_cast<std::size_t>(view.buffer)];
+        if (record.count * record.stride > view.byteLength ||
+            view.byteOffset > target.bytes.size() ||
+            view.byteLength > target.bytes.size() - view.byteOffset)
+        {
+            fail_io(path, where + " decodes to " + std::to_string(record.count) + " elements of " +
+                              std::to_string(record.stride) +
+                              " bytes, more than the bufferView or its buffer holds");
+        }
+        if (static_cast<std::size_t>(record.source_buffer) >= asset.buffers.size() ||
+            asset.buffers[static_cast<std::size_t>(record.source_buffer)].source ==
+                GltfBufferSource::MeshoptFallback)
+        {
+            fail_io(path, where + " refers to buffer " + std::to_string(record.source_buffer) +
+                              ", which holds no compressed data");
+        }
+        const auto& source = asset.buffers[static_cast<std::size_t>(record.source_buffer)];
+        const std::string& data = source.has_stored ? source.stored : source.bytes;
+        if (record.source_length == 0 || record.source_offset > data.size() ||
+            record.source_length > data.size() - record.source_offset)
+        {
+            fail_io(path, where +
+                              " has a compressed range that is empty or past the end of buffer " +
+                              std::to_string(record.source_buffer));
+        }
+        const std::string stream = data.substr(record.source_offset, record.source_length);
+        if (record.unsupported.empty())
+        {
+            record.unsupported =
+                meshopt_unsupported(path, record, static_cast<unsigned char>(stream[0]));
+        }
+        if (!record.unsupported.empty())
+        {
+            continue;  // the fallback's bytes stay; Reader refuses geometry without them
+        }
+        const std::string decoded = decode_meshopt(path, record, stream, &record.exponent_bits);
+        if (target.source != GltfBufferSource::MeshoptFallback && !target.has_stored)
+        {
+            target.stored = target.bytes;
+            target.has_stored = true;
+        }
+        std::copy(decoded.begin(), decoded.end(),
+                  target.bytes.begin() + static_cast<std::ptrdiff_t>(view.byteOffset));
+    }
 }
 
 std::optional<GltfComponent> component_of(int type)
@@ -204,6 +560,15 @@ public:
     Reader(const fs::path& path, const tinygltf::Model& model, GltfAsset& asset)
         : path_(path), model_(model), asset_(asset)
     {
+        for (const auto& record : asset.meshopt)
+        {
+            if (!record.unsupported.empty() &&
+                asset.buffers[static_cast<std::size_t>(record.buffer)].source ==
+                    GltfBufferSource::MeshoptFallback)
+            {
+                undecoded_[record.view] = record.unsupported;
+            }
+        }
     }
 
     TriangleMesh run();
@@ -257,6 +622,8 @@ private:
     std::vector<Eigen::Matrix4d> groups_;       // distinct world transforms
     RawVertices raw_;
     std::vector<std::uint64_t> corners_;  // raw element ids, 3 per triangle
+    // meshopt views this build cannot decode and with no fallback data: why.
+    std::map<int, std::string> undecoded_;
 };
 
 Eigen::Matrix4d local_matrix(const tinygltf::Node& node)
@@ -436,6 +803,11 @@ std::vector<GltfElement> Reader::locate(int accessor_index, int components,
             fail(what + " accessor " + std::to_string(accessor_index) +
                  " refers to missing bufferView " + std::to_string(view_index));
         }
+        if (const auto it = undecoded_.find(view_index); it != undecoded_.end())
+        {
+            fail("cannot read " + what + " accessor " + std::to_string(accessor_index) + ": " +
+                 it->second);
+        }
         const auto& view = model_.bufferViews[static_cast<std::size_t>(view_index)];
         if (!is_view_in_buffer(view) || !fits(offset, stride, n, element_size, view.byteLength))
         {
@@ -486,6 +858,11 @@ std::vector<GltfElement> Reader::locate(int accessor_index, int components,
         {
             fail(what + " accessor " + std::to_string(accessor_index) +
                  " has invalid sparse indices");
+        }
+        if (const auto it = undecoded_.find(sparse.indices.bufferView); it != undecoded_.end())
+        {
+            fail("cannot read " + what + " accessor " + std::to_string(accessor_index) + ": " +
+                 it->second);
         }
         const auto& index_view =
             model_.bufferViews[static_cast<std::size_t>(sparse.indices.bufferView)];
@@ -883,11 +1260,16 @@ TriangleMesh read_gltf(const fs::path& path, const std::string& bytes, bool is_g
         const auto& source = model.buffers[b];
         auto& buffer = asset.buffers[b];
         buffer.bytes.assign(source.data.begin(), source.data.end());
-        if (source.uri.empty())
+        if (source.uri.rfind(kFallbackUri, 0) == 0)
+        {
+            buffer.source = GltfBufferSource::MeshoptFallback;  // zeros until decoded below
+        }
+        else if (source.uri.empty())
         {
             if (!is_glb || b != 0)
             {
-                fail_io(path, "buffer " + std::to_string(b) + " has no uri");
+                fail_io(path, "buffer " + std::to_string(b) + " has no uri" +
+                                  required_note(path, asset.json));
             }
             buffer.source = GltfBufferSource::GlbBinChunk;
             if (asset.glb_bin_padding.size() < buffer.bytes.size())
@@ -907,6 +1289,8 @@ TriangleMesh read_gltf(const fs::path& path, const std::string& bytes, bool is_g
             buffer.file = path.parent_path() / percent_decoded(source.uri);
         }
     }
+    asset.meshopt = meshopt_views(path, asset.json);
+    decode_meshopt_views(path, model, asset);
     Reader reader(path, model, asset);
     return reader.run();
 }

@@ -1,9 +1,12 @@
 // SPDX-License-Identifier: MIT
 // glTF 2.0 / GLB writers. The preserving writer patches position bytes in copies of the
 // original buffers and edits only what positions determine in the JSON (POSITION min/max;
-// for re-encoded Draco data, its bufferView, the views after it and the buffer length):
-// nlohmann::ordered_json keeps every other member, unknown ones included, in its order.
+// for re-encoded Draco data, its bufferView, the views after it and the buffer length; for a
+// re-encoded meshopt stream, its extension's byteLength, the streams and views after it and
+// the buffer length): nlohmann::ordered_json keeps every other member, unknown ones included,
+// in its order.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -32,6 +35,8 @@ constexpr int kUnsignedInt = 5125;
 constexpr int kArrayBuffer = 34962;
 constexpr int kElementArrayBuffer = 34963;
 constexpr const char* kDracoExtension = "KHR_draco_mesh_compression";
+constexpr std::array<const char*, 2> kMeshoptExtensions = {"EXT_meshopt_compression",
+                                                           "KHR_meshopt_compression"};
 
 bool is_changed(const Positions& a, const Positions& b, std::int32_t row)
 {
@@ -119,8 +124,11 @@ private:
                          const std::array<double, 3>& shift);
     void write_accessor(const Plan& plan);
     void write_float_accessor(const Plan& plan);
+    void update_bounds(const GltfPositionAccessor& record);
+    void write_meshopt();
     void write_draco(const Plan& plan);
-    void splice(std::int32_t view, const std::string& bytes);
+    void splice(Json& owner, std::size_t buffer, std::uint64_t offset, const std::string& bytes,
+                const std::string& what);
     void set_bounds(std::int32_t accessor, const std::array<double, 3>& lo,
                     const std::array<double, 3>& hi, bool is_float);
     std::vector<std::pair<fs::path, std::string>> external_files();
@@ -578,11 +586,21 @@ void Writer::write_accessor(const Plan& plan)
         }
         is_any_changed = true;
     }
-    if (!is_any_changed)
+    if (is_any_changed)
     {
-        return;
+        update_bounds(record);
     }
-    // Bounds of the stored values after sparse substitution, in the component type.
+}
+
+// Bounds of the stored values after sparse substitution, in the component type.
+void Writer::update_bounds(const GltfPositionAccessor& record)
+{
+    const auto type = scalar_of(record.component);
+    const std::size_t size =
+        record.component == GltfComponent::Float32 ? 4
+        : (record.component == GltfComponent::Int16 || record.component == GltfComponent::UInt16)
+            ? 2
+            : 1;
     std::array<double, 3> lo{};
     std::array<double, 3> hi{};
     lo.fill(std::numeric_limits<double>::infinity());
@@ -730,7 +748,10 @@ void Writer::write_draco(const Plan& plan)
     }
     const std::string new_bytes = reencode_draco(path_, old_bytes, record.position_attribute_id,
                                                  stored, record.has_foreign_attributes);
-    splice(record.buffer_view, new_bytes);
+    auto& view_json = doc()["bufferViews"][static_cast<std::size_t>(record.buffer_view)];
+    splice(view_json, view_json["buffer"].get<std::size_t>(),
+           view_json.value("byteOffset", std::uint64_t{0}), new_bytes,
+           "Draco data of bufferView " + std::to_string(record.buffer_view));
 
     // Point count and position bounds as the new stream decodes.
     const auto decoded = decode_draco(path_, new_bytes, record.position_attribute_id);
@@ -761,26 +782,91 @@ void Writer::write_draco(const Plan& plan)
     }
 }
 
-void Writer::splice(std::int32_t view_index, const std::string& bytes)
+// The meshopt views whose decoded bytes (their range of the materialized fallback buffer, where
+// write_accessor stored the new positions) changed are re-encoded with their mode, filter and
+// stride, and the new streams replace the old ones in the compressed buffers. A fallback
+// buffer with data (a uri or the BIN chunk) keeps its stored bytes except for the re-encoded
+// views, which get the new decoded data: readers without meshopt support see the same
+// positions as the others (and no unmarked copy is left behind). A fallback without data
+// stays as it was: just a byteLength.
+void Writer::write_meshopt()
 {
-    auto& views = doc()["bufferViews"];
-    auto& view = views[static_cast<std::size_t>(view_index)];
-    const auto buffer = view["buffer"].get<std::size_t>();
-    const auto offset = view.value("byteOffset", std::uint64_t{0});
-    const auto old_length = view["byteLength"].get<std::uint64_t>();
-    // Shift everything after the view by a multiple of 4 so later data keeps its alignment.
+    std::vector<std::pair<const GltfMeshoptView*, std::string>> encoded;
+    for (const auto& record : asset_.meshopt)
+    {
+        const auto b = static_cast<std::size_t>(record.buffer);
+        const auto first = static_cast<std::ptrdiff_t>(record.offset);
+        const auto length = static_cast<std::ptrdiff_t>(record.count * record.stride);
+        const auto& source = asset_.buffers[b];
+        std::string& data = buffers_[b];
+        if (std::equal(source.bytes.begin() + first, source.bytes.begin() + first + length,
+                       data.begin() + first))
+        {
+            if (source.has_stored)
+            {
+                std::copy(source.stored.begin() + first, source.stored.begin() + first + length,
+                          data.begin() + first);
+            }
+            continue;
+        }
+        if (!record.unsupported.empty())
+        {
+            fail("cannot store moved positions in bufferView " + std::to_string(record.view) +
+                 ": " + record.unsupported);
+        }
+        std::string bytes = encode_meshopt(
+            path_, record,
+            data.substr(static_cast<std::size_t>(first), static_cast<std::size_t>(length)));
+        // What every meshopt reader will see (the exponential filter rounds the mantissas).
+        const std::string decoded = decode_meshopt(path_, record, bytes);
+        std::copy(decoded.begin(), decoded.end(), data.begin() + first);
+        if (record.filter != MeshoptFilter::None)
+        {
+            for (const auto& accessor : asset_.accessors)
+            {
+                const bool is_inside = std::any_of(
+                    accessor.elements.begin(), accessor.elements.end(),
+                    [&](const GltfElement& el)
+                    {
+                        return el.buffer == record.buffer && el.offset >= record.offset &&
+                               el.offset < record.offset + record.count * record.stride;
+                    });
+                if (is_inside)
+                {
+                    update_bounds(accessor);
+                }
+            }
+        }
+        encoded.emplace_back(&record, std::move(bytes));
+    }
+    // Splices last: the fallback ranges above are those of the original buffers.
+    for (const auto& [record, bytes] : encoded)
+    {
+        auto& ext = doc()["bufferViews"][static_cast<std::size_t>(record->view)]["extensions"]
+                         [record->extension];
+        splice(ext, ext["buffer"].get<std::size_t>(), ext.value("byteOffset", std::uint64_t{0}),
+               bytes, "meshopt stream of bufferView " + std::to_string(record->view));
+    }
+}
+
+// Replaces the bytes [offset, offset + owner's byteLength) of \p buffer with \p bytes, the new
+// data of \p owner (a bufferView, or the meshopt extension object that points at compressed
+// data), whose byteLength follows. Every later bufferView and meshopt stream in the buffer
+// shifts by a multiple of 4, so that it keeps its alignment; the buffer's byteLength follows.
+void Writer::splice(Json& owner, std::size_t buffer, std::uint64_t offset, const std::string& bytes,
+                    const std::string& what)
+{
+    const auto old_length = owner["byteLength"].get<std::uint64_t>();
     const auto new_length = static_cast<std::int64_t>(bytes.size());
     const auto difference = new_length - static_cast<std::int64_t>(old_length);
     const std::int64_t shift =
         difference >= 0 ? (difference + 3) / 4 * 4 : -((-difference) / 4 * 4);
     const auto span = static_cast<std::uint64_t>(static_cast<std::int64_t>(old_length) + shift);
-    for (std::size_t v = 0; v < views.size(); ++v)
+    const auto move = [&](Json& other, const std::string& name)
     {
-        auto& other = views[v];
-        if (static_cast<std::int32_t>(v) == view_index ||
-            other["buffer"].get<std::size_t>() != buffer)
+        if (&other == &owner || other["buffer"].get<std::size_t>() != buffer)
         {
-            continue;
+            return;
         }
         const auto o = other.value("byteOffset", std::uint64_t{0});
         if (o >= offset + old_length)
@@ -789,15 +875,28 @@ void Writer::splice(std::int32_t view_index, const std::string& bytes)
         }
         else if (o + other["byteLength"].get<std::uint64_t>() > offset)
         {
-            fail("bufferView " + std::to_string(v) + " overlaps the Draco data of bufferView " +
-                 std::to_string(view_index) + ", which changes size");
+            fail(name + " overlaps the " + what + ", which changes size");
+        }
+    };
+    auto& views = doc()["bufferViews"];
+    for (std::size_t v = 0; v < views.size(); ++v)
+    {
+        move(views[v], "bufferView " + std::to_string(v));
+        for (const char* name : kMeshoptExtensions)
+        {
+            if (views[v].contains("extensions") && views[v]["extensions"].contains(name) &&
+                views[v]["extensions"][name].is_object())
+            {
+                move(views[v]["extensions"][name],
+                     "the meshopt stream of bufferView " + std::to_string(v));
+            }
         }
     }
     std::string& data = buffers_[buffer];
     std::string replaced = bytes;
     replaced.resize(span, '\0');
     data.replace(offset, old_length, replaced);
-    view["byteLength"] = bytes.size();
+    owner["byteLength"] = bytes.size();
     doc()["buffers"][buffer]["byteLength"] = data.size();
     is_json_changed_ = true;
 }
@@ -898,7 +997,9 @@ void Writer::run(bool is_glb)
         }
     }
     // Plain accessors first: their byte offsets are those of the original buffers, which
-    // Draco re-encoding may shift and float32 views appended to a buffer extend.
+    // meshopt and Draco re-encoding may shift and float32 views appended to a buffer extend.
+    // Positions in meshopt views are written into the decoded data, which write_meshopt then
+    // compresses.
     for (const auto& plan : plans)
     {
         if (!plan.is_draco && !plan.as_float)
@@ -906,6 +1007,7 @@ void Writer::run(bool is_glb)
             write_accessor(plan);
         }
     }
+    write_meshopt();
     for (const auto& plan : plans)
     {
         if (plan.is_draco)

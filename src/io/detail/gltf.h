@@ -55,6 +55,9 @@ enum class GltfBufferSource : std::uint8_t
     GlbBinChunk,  ///< The BIN chunk of a GLB (buffer 0 without a uri).
     DataUri,      ///< A base64 data: URI inside the JSON.
     External,     ///< A file next to the .gltf (written anew beside the output).
+    /// A meshopt fallback buffer without uri: nothing stored in the file, its bytes are the
+    /// decoded meshopt views (zeros elsewhere). The writer leaves it as it is in the JSON.
+    MeshoptFallback,
 };
 
 /// One buffer of the asset: its bytes as loaded and where they came from.
@@ -64,6 +67,10 @@ struct GltfBuffer
     std::string bytes;           ///< Exactly byteLength bytes.
     std::string uri_prefix;      ///< DataUri: everything up to and including the ','.
     std::filesystem::path file;  ///< External: the file it was read from.
+    /// A meshopt fallback buffer with data (a uri or the BIN chunk): its bytes as stored,
+    /// while \c bytes holds the decoded meshopt views. Empty otherwise.
+    std::string stored;
+    bool has_stored = false;
 };
 
 /// Byte location of one accessor element; buffer < 0 means an implicit zero element (an
@@ -103,6 +110,44 @@ struct GltfDracoPrimitive
     std::vector<std::int32_t> welded;  ///< Per Draco point: the vertex of MeshFile::mesh.
 };
 
+/// EXT_meshopt_compression / KHR_meshopt_compression: the modes and filters of a stream.
+enum class MeshoptMode : std::uint8_t
+{
+    Attributes,
+    Triangles,
+    Indices,
+};
+enum class MeshoptFilter : std::uint8_t
+{
+    None,
+    Octahedral,
+    Quaternion,
+    Exponential,
+};
+
+/// A bufferView compressed with EXT_meshopt_compression or KHR_meshopt_compression. Its
+/// decoded bytes are the view's range of its (fallback) buffer in GltfAsset::buffers.
+struct GltfMeshoptView
+{
+    std::int32_t view = 0;
+    std::string extension;  ///< "EXT_meshopt_compression" or "KHR_meshopt_compression".
+    MeshoptMode mode = MeshoptMode::Attributes;
+    MeshoptFilter filter = MeshoptFilter::None;
+    std::uint64_t stride = 0;
+    std::uint64_t count = 0;
+    std::int32_t buffer = 0;   ///< The bufferView's (fallback) buffer.
+    std::uint64_t offset = 0;  ///< The bufferView's byteOffset in it.
+    /// The compressed stream as read (the writer takes its current place from the JSON).
+    std::int32_t source_buffer = 0;
+    std::uint64_t source_offset = 0;
+    std::uint64_t source_length = 0;
+    int exponent_bits = 0;  ///< EXPONENTIAL: mantissa bits the stream was encoded with.
+    /// Why the stream was not decoded (a codec version, mode or filter this build of
+    /// meshoptimizer does not know); empty when it was. An undecoded view keeps the
+    /// fallback's bytes (zeros without fallback data), and geometry in it is refused.
+    std::string unsupported;
+};
+
 /// Everything the preserving glTF/GLB writer needs.
 struct GltfAsset
 {
@@ -115,6 +160,7 @@ struct GltfAsset
     std::string glb_bin_padding;
     std::vector<GltfPositionAccessor> accessors;
     std::vector<GltfDracoPrimitive> draco;
+    std::vector<GltfMeshoptView> meshopt;
 };
 
 /// A stored POSITION component as the coordinate a renderer sees (normalized integers
@@ -177,5 +223,22 @@ struct DracoGeometry
 [[nodiscard]] std::string reencode_draco(const std::filesystem::path& path,
                                          const std::string& bytes, std::int32_t position_id,
                                          const std::vector<double>& positions, bool keep_order);
+
+// meshopt (meshopt.cpp).
+
+/// Why this build cannot decode a stream with \p header (its first byte) in \p view's mode,
+/// or empty when it can; a header of no known codec is a malformed stream (IoError).
+[[nodiscard]] std::string meshopt_unsupported(const std::filesystem::path& path,
+                                              const GltfMeshoptView& view, unsigned char header);
+/// \brief Decode \p stream into view.count * view.stride bytes (filter applied).
+/// \param exponent_bits  If not null and the filter is EXPONENTIAL: the mantissa bits the
+///     stream was encoded with (the most common over its elements).
+[[nodiscard]] std::string decode_meshopt(const std::filesystem::path& path,
+                                         const GltfMeshoptView& view, const std::string& stream,
+                                         int* exponent_bits = nullptr);
+/// Encode \p decoded (view.count * view.stride bytes) with \p view's mode and filter
+/// (vertex codec version 0, which every decoder reads).
+[[nodiscard]] std::string encode_meshopt(const std::filesystem::path& path,
+                                         const GltfMeshoptView& view, const std::string& decoded);
 
 }  // namespace meshmark::detail

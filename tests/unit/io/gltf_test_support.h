@@ -54,6 +54,8 @@ struct GltfBuilder
 {
     Json doc = Json::object();
     std::string bin;
+    /// Buffers 1, 2, ... as JSON objects (buffer 0 is \c bin).
+    Json more_buffers = Json::array();
 
     GltfBuilder()
     {
@@ -167,6 +169,10 @@ struct GltfBuilder
             b.push_back('\0');
         }
         d["buffers"] = Json::array({{{"byteLength", bin.size()}}});
+        for (const auto& extra : more_buffers)
+        {
+            d["buffers"].push_back(extra);
+        }
         std::string json = d.dump();
         while (json.size() % 4 != 0)
         {
@@ -200,6 +206,10 @@ struct GltfBuilder
             {{{"byteLength", bin.size()},
               {"uri", bin_name.empty() ? "data:application/octet-stream;base64," + base64(bin)
                                        : bin_name}}});
+        for (const auto& extra : more_buffers)
+        {
+            d["buffers"].push_back(extra);
+        }
         return d.dump(2);
     }
 };
