@@ -112,8 +112,13 @@ std::string missing_tools(const std::vector<std::string>& needed)
         }
     };
     const Tools& t = tools();
+    std::set<std::string> seen;
     for (const auto& name : needed)
     {
+        if (!seen.insert(name).second)
+        {
+            continue;
+        }
         if (name == "meshmark")
         {
             note(!cli_path().empty() && fs::exists(cli_path()), "the meshmark program (not built)");
@@ -163,7 +168,7 @@ std::string missing_tools(const std::vector<std::string>& needed)
                 GTEST_FAIL() << "missing " << missing_ << " (CI is set: the interop suite must run; " \
                                                           "scripts/setup.sh installs the tools)";    \
             }                                                                                        \
-            GTEST_SKIP() << "missing " << missing_ << " (scripts/setup.sh installs it)";              \
+            GTEST_SKIP() << "missing " << missing_ << " (scripts/setup.sh installs the tools)";     \
         }                                                                                            \
     } while (false)
 
