@@ -315,7 +315,8 @@ struct Variant
     bool draco;  // point order may change when meshmark re-encodes (edgebreaker)
 };
 
-// Position grids (L = the largest extent of the asset's bounding box, world units):
+// Position grids (L = the largest extent of the asset's bounding box in world units, as read by
+// glTF-Transform; every corpus asset has one primitive, so this is the primitive's extent):
 // - gltfpack (default, -c, -cc, -kn): 14-bit positions (-vp 14), stored as unnormalized
 //   integers 0..16383 over the scene's bounds, the node scale L / 16383: a step L / (2^14 - 1).
 //   -c / -cc add EXT_meshopt_compression (lossless on the quantized integers).
