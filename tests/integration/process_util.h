@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
-// Running the meshmark program from tests with fork/exec (POSIX): exit codes, signals, output.
+// Running the meshmark program (and other programs) from tests with fork/exec (POSIX): exit
+// codes, signals, output.
 #pragma once
 
 #include <fcntl.h>
@@ -19,15 +20,13 @@
 
 namespace meshmark::test {
 
-/// \brief Start the meshmark program with \p arguments; its stdout goes to \p stdout_path
-/// (or /dev/null when empty), its stderr to \p stderr_path (or /dev/null).
+/// \brief Start the program \p words[0] (a path, not looked up in PATH) with arguments
+/// \p words[1...]; its stdout goes to \p stdout_path (or /dev/null when empty), its stderr to
+/// \p stderr_path (or /dev/null).
 /// \return The child's pid (> 0), or -1 when fork failed.
-inline pid_t spawn_cli(const std::vector<std::string>& arguments,
-                       const std::filesystem::path& stdout_path = {},
-                       const std::filesystem::path& stderr_path = {})
+inline pid_t spawn_program(std::vector<std::string> words, const std::filesystem::path& stdout_path = {},
+                           const std::filesystem::path& stderr_path = {})
 {
-    std::vector<std::string> words{cli_path().string()};
-    words.insert(words.end(), arguments.begin(), arguments.end());
     std::vector<char*> argv;
     for (auto& word : words)
     {
@@ -50,6 +49,17 @@ inline pid_t spawn_cli(const std::vector<std::string>& arguments,
         ::_exit(127);
     }
     return pid;
+}
+
+/// \brief Start the meshmark program with \p arguments; output as spawn_program.
+/// \return The child's pid (> 0), or -1 when fork failed.
+inline pid_t spawn_cli(const std::vector<std::string>& arguments,
+                       const std::filesystem::path& stdout_path = {},
+                       const std::filesystem::path& stderr_path = {})
+{
+    std::vector<std::string> words{cli_path().string()};
+    words.insert(words.end(), arguments.begin(), arguments.end());
+    return spawn_program(std::move(words), stdout_path, stderr_path);
 }
 
 /// Exit code of a finished child, or 128 + the signal that ended it (like a shell).
@@ -75,20 +85,31 @@ struct CliResult
     double seconds = 0.0;  ///< wall time, start to exit
 };
 
-/// Run the program to completion; \p scratch is a folder for its captured output.
-inline CliResult run_cli(const std::vector<std::string>& arguments, const std::filesystem::path& scratch)
+/// \brief Run \p words (spawn_program) to completion; \p scratch is a folder for its captured
+/// output (file names made unique by \p tag, so that several runs can share the folder).
+inline CliResult run_program(std::vector<std::string> words, const std::filesystem::path& scratch,
+                             const std::string& tag = "cli")
 {
-    const auto out = scratch / "cli_stdout.txt";
-    const auto err = scratch / "cli_stderr.txt";
+    const auto out = scratch / (tag + "_stdout.txt");
+    const auto err = scratch / (tag + "_stderr.txt");
     const auto start = std::chrono::steady_clock::now();
     CliResult result;
-    result.exit_code = wait_for(spawn_cli(arguments, out, err));
+    result.exit_code = wait_for(spawn_program(std::move(words), out, err));
     result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     result.out = file_bytes(out);
     result.err = file_bytes(err);
     std::filesystem::remove(out);
     std::filesystem::remove(err);
     return result;
+}
+
+/// Run the meshmark program with \p arguments to completion; \p scratch is a folder for its
+/// captured output.
+inline CliResult run_cli(const std::vector<std::string>& arguments, const std::filesystem::path& scratch)
+{
+    std::vector<std::string> words{cli_path().string()};
+    words.insert(words.end(), arguments.begin(), arguments.end());
+    return run_program(std::move(words), scratch);
 }
 
 }  // namespace meshmark::test
