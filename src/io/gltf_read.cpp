@@ -583,6 +583,10 @@ private:
     std::vector<GltfElement> locate(int accessor, int components, const std::string& what) const;
     void add_triangles(const tinygltf::Primitive& prim, int mesh, int index, std::size_t base,
                        std::size_t count);
+    void add_triangles(const tinygltf::Primitive& prim, int mesh, int index, std::size_t base,
+                       std::size_t count, std::vector<std::uint64_t>& corners);
+    std::size_t add_instance(std::size_t first, std::size_t count, const Eigen::Matrix4d& from,
+                             const Eigen::Matrix4d& to);
     std::int32_t group_of(const Eigen::Matrix4d& to_world);
     void append_world(const std::vector<double>& local, const Eigen::Matrix4d& to_world,
                       std::int32_t group);
@@ -619,6 +623,9 @@ private:
     std::map<int, std::size_t> draco_slot_;     // Draco bufferView -> asset_.draco
     std::vector<std::size_t> slot_base_;        // first raw element of each accessor slot
     std::vector<std::size_t> draco_base_;       // first raw element of each Draco slot
+    std::vector<std::pair<std::size_t, std::size_t>> draco_corners_;  // its range of corners_
+    std::vector<double> instance_xyz_;             // other instances, world frame, 3 per point
+    std::vector<std::uint64_t> instance_corners_;  // their triangles, into instance_xyz_
     std::vector<Eigen::Matrix4d> groups_;       // distinct world transforms
     RawVertices raw_;
     std::vector<std::uint64_t> corners_;  // raw element ids, 3 per triangle
@@ -939,9 +946,18 @@ void Reader::add_plain(const tinygltf::Primitive& prim, int mesh, int index,
     {
         slot = found->second;
         // Another instance of the same positions under a different transform: its vertices
-        // cannot take a second displacement, so only the first instance is watermarked.
+        // cannot take a second displacement, so only the first instance is watermarked; its
+        // geometry is kept aside for registration (MeshFile::instances).
         if (!same_matrix(asset_.accessors[slot].to_world, to_world))
         {
+            const std::size_t base = add_instance(slot_base_[slot],
+                                                  asset_.accessors[slot].elements.size(),
+                                                  asset_.accessors[slot].to_world, to_world);
+            if (prim.mode == kModeTriangles)
+            {
+                add_triangles(prim, mesh, index, base, asset_.accessors[slot].elements.size(),
+                              instance_corners_);
+            }
             return;
         }
     }
@@ -998,6 +1014,29 @@ void Reader::add_plain(const tinygltf::Primitive& prim, int mesh, int index,
 void Reader::add_triangles(const tinygltf::Primitive& prim, int mesh, int index, std::size_t base,
                            std::size_t count)
 {
+    add_triangles(prim, mesh, index, base, count, corners_);
+}
+
+// The points of another instance of raw elements [first, first + count), first read under
+// \p from, now under \p to; returns the index of its first point in instance_xyz_.
+std::size_t Reader::add_instance(std::size_t first, std::size_t count, const Eigen::Matrix4d& from,
+                                 const Eigen::Matrix4d& to)
+{
+    const Eigen::Matrix4d map = to * from.inverse();
+    const std::size_t base = instance_xyz_.size() / 3;
+    for (std::size_t e = first; e < first + count; ++e)
+    {
+        const Eigen::Vector4d p(raw_.world[3 * e], raw_.world[3 * e + 1], raw_.world[3 * e + 2],
+                                1.0);
+        const Eigen::Vector4d q = map * p;
+        instance_xyz_.insert(instance_xyz_.end(), {q.x(), q.y(), q.z()});
+    }
+    return base;
+}
+
+void Reader::add_triangles(const tinygltf::Primitive& prim, int mesh, int index, std::size_t base,
+                           std::size_t count, std::vector<std::uint64_t>& corners)
+{
     const std::string where =
         "mesh " + std::to_string(mesh) + " primitive " + std::to_string(index);
     if (prim.indices < 0)
@@ -1009,7 +1048,7 @@ void Reader::add_triangles(const tinygltf::Primitive& prim, int mesh, int index,
         }
         for (std::size_t e = 0; e < count; ++e)
         {
-            corners_.push_back(base + e);
+            corners.push_back(base + e);
         }
         return;
     }
@@ -1044,7 +1083,7 @@ void Reader::add_triangles(const tinygltf::Primitive& prim, int mesh, int index,
         {
             fail_mesh(path_, where + " has index " + std::to_string(i) + " " + index_range(count));
         }
-        corners_.push_back(base + i);
+        corners.push_back(base + i);
     }
 }
 
@@ -1080,7 +1119,15 @@ void Reader::add_draco(const tinygltf::Primitive& prim, int mesh, int index,
         slot = found->second;
         if (!same_matrix(asset_.draco[slot].to_world, to_world))
         {
-            return;  // a second instance, see add_plain
+            // A second instance, see add_plain.
+            const std::size_t base = add_instance(draco_base_[slot], asset_.draco[slot].welded.size(),
+                                                  asset_.draco[slot].to_world, to_world);
+            const auto [first, last] = draco_corners_[slot];
+            for (std::size_t k = first; k < last; ++k)
+            {
+                instance_corners_.push_back(base + corners_[k] - draco_base_[slot]);
+            }
+            return;
         }
     }
     else
@@ -1127,6 +1174,7 @@ void Reader::add_draco(const tinygltf::Primitive& prim, int mesh, int index,
         append_world(local, to_world, group_of(to_world));
         record.welded.resize(geometry.point_count);
         asset_.draco.push_back(std::move(record));
+        const std::size_t first_corner = corners_.size();
         if (prim.mode == kModeTriangles)
         {
             for (const auto c : geometry.triangles)
@@ -1134,6 +1182,7 @@ void Reader::add_draco(const tinygltf::Primitive& prim, int mesh, int index,
                 corners_.push_back(draco_base_[slot] + c);
             }
         }
+        draco_corners_.emplace_back(first_corner, corners_.size());
         return;
     }
     // A repeated use under the same transform adds the same triangles again; the Draco data
@@ -1164,6 +1213,17 @@ TriangleMesh Reader::weld()
         const auto first = welded.begin() + static_cast<std::ptrdiff_t>(draco_base_[s]);
         std::copy(first, first + static_cast<std::ptrdiff_t>(record.welded.size()),
                   record.welded.begin());
+    }
+    if (!instance_xyz_.empty())
+    {
+        TriangleBuffer others;
+        for (std::size_t t = 0; t + 2 < instance_corners_.size(); t += 3)
+        {
+            others.push(static_cast<std::int32_t>(instance_corners_[t]),
+                        static_cast<std::int32_t>(instance_corners_[t + 1]),
+                        static_cast<std::int32_t>(instance_corners_[t + 2]));
+        }
+        asset_.instances = make_mesh(instance_xyz_, others);
     }
     TriangleBuffer triangles;
     triangles.reserve(corners_.size() / 3);

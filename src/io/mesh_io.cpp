@@ -125,6 +125,7 @@ MeshFile read_mesh_file(const std::filesystem::path& path)
             auto& asset = layout->positions.emplace<detail::GltfAsset>();
             file.mesh =
                 detail::read_gltf(path, layout->bytes, file.format == MeshFormat::Glb, asset);
+            file.instances = std::move(asset.instances);
             file.is_single_precision = true;
             break;
         }

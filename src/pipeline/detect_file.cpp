@@ -81,10 +81,24 @@ std::vector<std::uint8_t> kept_after_crop(const TriangleMesh& original, const st
     return kept;
 }
 
+// The original's watermarked mesh followed by the other instances, as one mesh.
+TriangleMesh with_instances(const TriangleMesh& original, const TriangleMesh& instances)
+{
+    TriangleMesh shown;
+    shown.V.resize(original.V.rows() + instances.V.rows(), 3);
+    shown.V << original.V, instances.V;
+    shown.F.resize(original.F.rows() + instances.F.rows(), 3);
+    shown.F << original.F, (instances.F.array() + static_cast<std::int32_t>(original.V.rows())).matrix();
+    return shown;
+}
+
 // Steps 6-10 for a suspect in memory, appending phases to \p timer.
+// \p instances: geometry of the original that is shown but not watermarked (other instances
+// of instanced glTF meshes); registration matches the suspect against it too.
 void detect_into(DetectReport& report, detail::PhaseTimer& timer, const SpectralWatermark& mark,
-                 const TriangleMesh& original, const TriangleMesh& suspect,
-                 const std::filesystem::path& suspect_path, const DetectFileOptions& options)
+                 const TriangleMesh& original, const TriangleMesh& instances,
+                 const TriangleMesh& suspect, const std::filesystem::path& suspect_path,
+                 const DetectFileOptions& options)
 {
     report.suspect_vertices = suspect.vertex_count();
     report.original_vertices = original.vertex_count();
@@ -135,9 +149,16 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
         timer.begin("register");
         RegistrationOptions registration;
         registration.threads = options.threads;
+        // A tool that flattens instanced meshes (gltf-transform optimize joins them) leaves a
+        // copy that shows every instance: registered against the first instances alone, the
+        // others are unexplained geometry that can pull the fit away.
+        const bool has_instances =
+            instances.vertex_count() > 0 && instances.is_point_cloud() == original.is_point_cloud();
+        const TriangleMesh shown = has_instances ? with_instances(original, instances) : TriangleMesh{};
+        const TriangleMesh& reference = has_instances ? shown : original;
         const RegistrationResult r = options.pairs.empty()
-                                         ? register_to_reference(suspect, original, registration)
-                                         : register_to_reference(suspect, original, options.pairs, registration);
+                                         ? register_to_reference(suspect, reference, registration)
+                                         : register_to_reference(suspect, reference, options.pairs, registration);
         timer.lap("register");
         timer.begin("correspondence");
         ResamplingOptions resampling;
@@ -175,7 +196,7 @@ DetectReport detect_mesh(const SpectralWatermark& mark, const TriangleMesh& orig
     options.decision.validate();
     DetectReport report;
     detail::PhaseTimer timer(report.seconds, options.progress);
-    detect_into(report, timer, mark, original, suspect, "suspect", options);
+    detect_into(report, timer, mark, original, TriangleMesh{}, suspect, "suspect", options);
     return report;
 }
 
@@ -192,12 +213,19 @@ DetectReport detect_file(const std::filesystem::path& suspect_path,
     // Both meshes are read side by side (each reader is serial); errors are still reported in
     // the order of a serial run: the key, the original, its checks, then the suspect.
     TriangleMesh original;
+    TriangleMesh instances;
     TriangleMesh suspect;
     std::array<std::exception_ptr, 2> failures;
-    const auto read_into = [&](TriangleMesh& mesh, const std::filesystem::path& path, std::exception_ptr& failure) {
+    const auto read_into = [&](TriangleMesh& mesh, const std::filesystem::path& path, std::exception_ptr& failure,
+                               TriangleMesh* others = nullptr) {
         try
         {
-            mesh = read_mesh(path);
+            MeshFile file = read_mesh_file(path);
+            mesh = std::move(file.mesh);
+            if (others != nullptr)
+            {
+                *others = std::move(file.instances);
+            }
         }
         catch (...)
         {
@@ -206,12 +234,12 @@ DetectReport detect_file(const std::filesystem::path& suspect_path,
     };
     if (options.threads == 1)
     {
-        read_into(original, original_path, failures[0]);
+        read_into(original, original_path, failures[0], &instances);
         read_into(suspect, suspect_path, failures[1]);
     }
     else
     {
-        std::thread reader([&] { read_into(original, original_path, failures[0]); });
+        std::thread reader([&] { read_into(original, original_path, failures[0], &instances); });
         read_into(suspect, suspect_path, failures[1]);
         reader.join();
     }
@@ -230,7 +258,7 @@ DetectReport detect_file(const std::filesystem::path& suspect_path,
     timer.begin("basis");
     const SpectralWatermark mark(original, key, options.threads);
     timer.lap("basis");
-    detect_into(report, timer, mark, original, suspect, suspect_path, options);
+    detect_into(report, timer, mark, original, instances, suspect, suspect_path, options);
     return report;
 }
 

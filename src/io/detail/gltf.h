@@ -161,6 +161,9 @@ struct GltfAsset
     std::vector<GltfPositionAccessor> accessors;
     std::vector<GltfDracoPrimitive> draco;
     std::vector<GltfMeshoptView> meshopt;
+    /// The geometry of every instance but the first of instanced meshes, in the world frame
+    /// (not watermarked; see MeshFile::instances).
+    TriangleMesh instances;
 };
 
 /// A stored POSITION component as the coordinate a renderer sees (normalized integers

@@ -399,11 +399,20 @@ TEST_F(GltfTest, instanced_mesh_is_watermarked_once_through_its_first_instance)
     ASSERT_EQ(file.mesh.V.rows(), 8);
     EXPECT_EQ(file.mesh.F.rows(), 12);
     EXPECT_NEAR(file.mesh.V.col(0).minCoeff(), 10.0, 0.0);
+    // The second instance is kept aside, unwelded (one point per element), at x = -10 + local.
+    ASSERT_EQ(file.instances.V.rows(), static_cast<Eigen::Index>(xyz.size() / 3));
+    EXPECT_EQ(file.instances.F.rows(), 12);
+    EXPECT_NEAR(file.instances.V.col(0).maxCoeff(), -10.0 + file.mesh.V.col(0).maxCoeff() - 10.0, 1e-12);
     Positions moved = file.mesh.V;
     moved(0, 2) += 0.25;
     write_mesh_file(dir / "inst_out.glb", file, moved);
     const MeshFile again = read_mesh_file(dir / "inst_out.glb");
     EXPECT_LT((again.mesh.V - moved).cwiseAbs().maxCoeff(), 1e-6);
+    // ... and shows the same local displacement, rigidly moved.
+    ASSERT_EQ(again.instances.V.rows(), file.instances.V.rows());
+    const Positions shift = again.instances.V - file.instances.V;
+    EXPECT_NEAR(shift.col(2).maxCoeff(), 0.25, 1e-6);
+    EXPECT_LT(shift.leftCols(2).cwiseAbs().maxCoeff(), 1e-6);
 }
 
 TEST_F(GltfTest, sparse_accessor_positions_are_read_and_written_through)
