@@ -138,16 +138,6 @@ GltfBuilder draco_asset(const DracoPatch& patch)
     return b;
 }
 
-Json glb_json(const std::string& bytes, std::string* bin)
-{
-    std::uint32_t json_length = 0;
-    std::memcpy(&json_length, bytes.data() + 12, 4);
-    std::uint32_t bin_length = 0;
-    std::memcpy(&bin_length, bytes.data() + 20 + json_length, 4);
-    *bin = bytes.substr(28 + json_length, bin_length);
-    return Json::parse(bytes.substr(20, json_length));
-}
-
 class DracoTest : public ::testing::Test
 {
 protected:
@@ -197,8 +187,8 @@ TEST_F(DracoTest, changed_positions_are_reencoded_with_the_same_ids_and_quantiza
 
     std::string bin_before;
     std::string bin_after;
-    const Json before = glb_json(test::file_bytes(dir / "d.glb"), &bin_before);
-    const Json after = glb_json(test::file_bytes(dir / "out.glb"), &bin_after);
+    const Json before = test::glb_json(test::file_bytes(dir / "d.glb"), &bin_before);
+    const Json after = test::glb_json(test::file_bytes(dir / "out.glb"), &bin_after);
 
     // The new Draco stream: same attribute ids, same position quantization.
     const auto& view = after["bufferViews"][0];

@@ -23,13 +23,6 @@ using test::Json;
 
 constexpr int kGrid = 5;
 
-Json glb_json(const std::string& bytes)
-{
-    std::uint32_t json_length = 0;
-    std::memcpy(&json_length, bytes.data() + 12, 4);
-    return Json::parse(bytes.substr(20, json_length));
-}
-
 // Stored integer positions of a kGrid x kGrid wavy patch spanning [0, top] in x and y.
 std::vector<std::int32_t> patch_values(int low, int top)
 {
@@ -110,7 +103,7 @@ protected:
         {
             EXPECT_LE((again.mesh.V - moved).cwiseAbs().maxCoeff(), step) << out;
         }
-        return glb_json(test::file_bytes(out));
+        return test::glb_json(test::file_bytes(out));
     }
 };
 
@@ -289,12 +282,11 @@ GltfBuilder draco_int16_asset(const std::vector<std::int32_t>& q)
 
 std::vector<std::array<double, 3>> decoded_int16(const std::string& glb)
 {
-    std::uint32_t json_length = 0;
-    std::memcpy(&json_length, glb.data() + 12, 4);
-    const Json doc = Json::parse(glb.substr(20, json_length));
+    std::string bin;
+    const Json doc = test::glb_json(glb, &bin);
     const auto& view = doc["bufferViews"][0];
-    const std::string bytes = glb.substr(28 + json_length + view.value("byteOffset", 0U),
-                                         view["byteLength"].get<std::size_t>());
+    const std::string bytes =
+        bin.substr(view.value("byteOffset", 0U), view["byteLength"].get<std::size_t>());
     draco::DecoderBuffer buffer;
     buffer.Init(bytes.data(), bytes.size());
     draco::Decoder decoder;
@@ -434,10 +426,8 @@ TEST_F(GltfQuantizedTest, skinned_morphed_multi_scene_asset_changes_only_positio
                   b.doc["nodes"][static_cast<std::size_t>(n)]);
     }
     const std::string before_bin = b.bin;
-    std::uint32_t json_length = 0;
-    const std::string bytes = test::file_bytes(dir / "rig_out.glb");
-    std::memcpy(&json_length, bytes.data() + 12, 4);
-    const std::string after_bin = bytes.substr(28 + json_length);
+    std::string after_bin;
+    static_cast<void>(test::glb_json(test::file_bytes(dir / "rig_out.glb"), &after_bin));
     ASSERT_GE(after_bin.size(), before_bin.size());
     for (const int view : {after["accessors"][static_cast<std::size_t>(joints)]["bufferView"].get<int>(),
                            after["accessors"][static_cast<std::size_t>(weights)]["bufferView"].get<int>(),

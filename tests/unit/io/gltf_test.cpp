@@ -27,20 +27,8 @@ struct Glb
 
 Glb split(const std::string& bytes)
 {
-    const auto u32 = [&bytes](std::size_t o)
-    {
-        std::uint32_t v = 0;
-        std::memcpy(&v, bytes.data() + o, 4);
-        return v;
-    };
-    const auto json_length = u32(12);
     Glb glb;
-    glb.json = Json::parse(bytes.substr(20, json_length));
-    const std::size_t bin_at = 20 + json_length;
-    if (bin_at + 8 <= bytes.size())
-    {
-        glb.bin = bytes.substr(bin_at + 8, u32(bin_at));
-    }
+    glb.json = test::glb_json(bytes, &glb.bin);
     return glb;
 }
 

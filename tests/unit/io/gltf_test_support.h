@@ -214,6 +214,25 @@ struct GltfBuilder
     }
 };
 
+/// The JSON chunk of a GLB file's bytes, and its BIN chunk payload in \p bin when asked
+/// (empty when there is none).
+inline Json glb_json(const std::string& bytes, std::string* bin = nullptr)
+{
+    const auto u32 = [&bytes](std::size_t o)
+    {
+        std::uint32_t v = 0;
+        std::memcpy(&v, bytes.data() + o, 4);
+        return v;
+    };
+    const std::size_t json_length = u32(12);
+    if (bin != nullptr)
+    {
+        const std::size_t bin_at = 20 + json_length;
+        *bin = bin_at + 8 <= bytes.size() ? bytes.substr(bin_at + 8, u32(bin_at)) : std::string();
+    }
+    return Json::parse(bytes.substr(20, json_length));
+}
+
 /// Little-endian float32 at byte \p offset of \p bytes.
 inline float float_at(const std::string& bytes, std::size_t offset)
 {

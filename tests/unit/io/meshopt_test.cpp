@@ -256,16 +256,6 @@ Asset meshopt_asset(const Options& options)
     return asset;
 }
 
-Json glb_json(const std::string& bytes, std::string* bin)
-{
-    std::uint32_t json_length = 0;
-    std::memcpy(&json_length, bytes.data() + 12, 4);
-    std::uint32_t bin_length = 0;
-    std::memcpy(&bin_length, bytes.data() + 20 + json_length, 4);
-    *bin = bytes.substr(28 + json_length, bin_length);
-    return Json::parse(bytes.substr(20, json_length));
-}
-
 // The decoded bytes of a compressed view, by meshoptimizer alone (no meshmark code).
 std::string decode_view(const Json& doc, const std::string& bin, int view_index,
                         const char* extension = "EXT_meshopt_compression")
@@ -407,8 +397,8 @@ TEST_P(MeshoptTest, moved_positions_are_reencoded_and_decode_to_what_was_written
 
     std::string bin_before;
     std::string bin_after;
-    const Json before = glb_json(test::file_bytes(dir / "c.glb"), &bin_before);
-    const Json after = glb_json(test::file_bytes(dir / "out.glb"), &bin_after);
+    const Json before = test::glb_json(test::file_bytes(dir / "c.glb"), &bin_before);
+    const Json after = test::glb_json(test::file_bytes(dir / "out.glb"), &bin_after);
     // The fallback buffer is untouched; buffer 0 holds the new streams.
     EXPECT_EQ(after["buffers"][1], before["buffers"][1]);
     EXPECT_EQ(after["buffers"][0]["byteLength"].get<std::size_t>(), bin_after.size());
@@ -494,7 +484,7 @@ TEST_P(MeshoptTest, one_moved_vertex_leaves_the_others_decoding_to_their_old_byt
     moved(w, 2) += 0.01;
     write_mesh_file(dir / "out.glb", file, moved);
     std::string bin;
-    const Json after = glb_json(test::file_bytes(dir / "out.glb"), &bin);
+    const Json after = test::glb_json(test::file_bytes(dir / "out.glb"), &bin);
     const std::string decoded = decode_view(after, bin, asset.position_view);
     const std::size_t stride = stride_of(layout);
     ASSERT_EQ(decoded.size(), kPoints * stride);
@@ -554,7 +544,7 @@ TEST_F(MeshoptFileTest, khr_meshopt_compression_reads_and_writes_like_ext)
     const Positions moved = moved_positions(file.mesh.V);
     write_mesh_file(dir / "out.glb", file, moved);
     std::string bin;
-    const Json after = glb_json(test::file_bytes(dir / "out.glb"), &bin);
+    const Json after = test::glb_json(test::file_bytes(dir / "out.glb"), &bin);
     const std::string decoded =
         decode_view(after, bin, asset.position_view, "KHR_meshopt_compression");
     const std::string& old_decoded = asset.fallback;  // the decoded data of the input
@@ -590,7 +580,7 @@ TEST_F(MeshoptFileTest, a_fallback_with_data_gets_the_new_positions_and_keeps_th
     const Positions moved = moved_positions(file.mesh.V);
     write_mesh_file(dir / "out.glb", file, moved);
     std::string bin;
-    const Json after = glb_json(test::file_bytes(dir / "out.glb"), &bin);
+    const Json after = test::glb_json(test::file_bytes(dir / "out.glb"), &bin);
     EXPECT_EQ(after["buffers"][1]["uri"], "out.bin");
     EXPECT_EQ(after["buffers"][1]["byteLength"], asset.fallback.size());
     const std::string fallback = test::file_bytes(dir / "out.bin");
