@@ -131,6 +131,7 @@ MeshFile read_mesh_file(const std::filesystem::path& path)
         }
         case MeshFormat::ThreeMf:
             file.mesh = detail::read_3mf(path, *layout);
+            file.instances = std::move(std::get<detail::ThreeMfLayout>(layout->positions).instances);
             file.is_single_precision = true;
             break;
     }

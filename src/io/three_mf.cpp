@@ -554,9 +554,27 @@ private:
     void add_mesh(const ModelPart& part, std::uint32_t id, pugi::xml_node mesh,
                   const Eigen::Matrix4d& to_world)
     {
-        if (slot_.count({&part, id}) != 0)
+        if (const auto found = slot_.find({&part, id}); found != slot_.end())
         {
-            // Another instance: one set of vertices, one displacement (see glTF instancing).
+            // Another instance: one set of vertices, one displacement (see glTF instancing);
+            // under another transform its geometry is kept aside for registration.
+            const std::size_t s = found->second;
+            if (layout_.objects[s].to_world != to_world &&
+                std::abs(to_world.topLeftCorner<3, 3>().determinant()) != 0.0)
+            {
+                const Eigen::Matrix4d map = to_world * layout_.objects[s].to_world.inverse();
+                const std::size_t first = instance_xyz_.size() / 3;
+                for (std::size_t e = base_[s]; e < base_[s] + layout_.objects[s].welded.size(); ++e)
+                {
+                    const Eigen::Vector4d q =
+                        map * Eigen::Vector4d(world_[3 * e], world_[3 * e + 1], world_[3 * e + 2], 1.0);
+                    instance_xyz_.insert(instance_xyz_.end(), {q.x(), q.y(), q.z()});
+                }
+                for (std::size_t k = corner_range_[s].first; k < corner_range_[s].second; ++k)
+                {
+                    instance_corners_.push_back(first + corners_[k] - base_[s]);
+                }
+            }
             return;
         }
         if (std::abs(to_world.topLeftCorner<3, 3>().determinant()) == 0.0)
@@ -596,6 +614,7 @@ private:
 
         const auto triangles = first_child(mesh, "triangles");
         ChildFilter is_triangle(triangles, kCoreNamespace, "triangle");
+        corner_range_.emplace_back(corners_.size(), corners_.size());
         std::size_t t = 0;
         for (const auto triangle : triangles.children())
         {
@@ -622,6 +641,7 @@ private:
             }
             ++t;
         }
+        corner_range_.back().second = corners_.size();
     }
 
     std::int32_t group_of(const Eigen::Matrix4d& to_world)
@@ -653,6 +673,17 @@ private:
                       welded.begin() + static_cast<std::ptrdiff_t>(base_[s] + object.welded.size()),
                       object.welded.begin());
         }
+        if (!instance_xyz_.empty())
+        {
+            TriangleBuffer others;
+            for (std::size_t t = 0; t + 2 < instance_corners_.size(); t += 3)
+            {
+                others.push(static_cast<std::int32_t>(instance_corners_[t]),
+                            static_cast<std::int32_t>(instance_corners_[t + 1]),
+                            static_cast<std::int32_t>(instance_corners_[t + 2]));
+            }
+            layout_.instances = make_mesh(instance_xyz_, others);
+        }
         TriangleBuffer triangles;
         triangles.reserve(corners_.size() / 3);
         for (std::size_t t = 0; t + 2 < corners_.size(); t += 3)
@@ -672,6 +703,9 @@ private:
     std::vector<double> world_;
     std::vector<std::int32_t> group_;
     std::vector<std::size_t> corners_;
+    std::vector<std::pair<std::size_t, std::size_t>> corner_range_;  // per slot, into corners_
+    std::vector<double> instance_xyz_;  // other instances, world frame, 3 per point
+    std::vector<std::size_t> instance_corners_;
 };
 
 // ---------------------------------------------------------------------------------------

@@ -55,11 +55,11 @@ struct MeshFile
     /// token had at most 9 significant digits.
     bool is_single_precision = false;
     std::shared_ptr<const detail::FileLayout> layout;  ///< Opaque; used by write_mesh_file.
-    /// glTF: the geometry of the other instances of meshes that several nodes show under
-    /// different transforms, in the world frame. `mesh` holds the first instance only (the
+    /// glTF and 3MF: the geometry of the other instances of meshes that several nodes (build
+    /// items, components) show under different transforms, in the world frame. `mesh` holds the first instance only (the
     /// instances share their stored positions, so only one can take a displacement); a copy
     /// re-exported by a tool that flattens instances shows all of them, and detection registers
-    /// against `mesh` plus these. Empty for other formats and assets without such instances.
+    /// against `mesh` plus these. Empty for other formats and files without such instances.
     TriangleMesh instances;
 };
 

@@ -74,6 +74,7 @@ struct ThreeMfObject
 struct ThreeMfLayout
 {
     std::vector<ThreeMfObject> objects;
+    TriangleMesh instances;  ///< Other instances of objects (see MeshFile::instances).
 };
 
 /// Everything a preserving writer needs: the original bytes and where the positions sit.

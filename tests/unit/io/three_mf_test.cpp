@@ -643,6 +643,32 @@ TEST_F(ThreeMfTest, prusa_package_with_a_missing_thumbnail_is_read_in_the_build_
     EXPECT_EQ(test::file_bytes(dir / "same.3mf"), package);
 }
 
+TEST_F(ThreeMfTest, a_second_build_item_of_an_object_is_kept_aside_as_an_instance)
+{
+    // Two build items place one box object: the first is the watermarked mesh, the second is
+    // returned as MeshFile::instances (world frame) and follows the first's displacement.
+    std::string model = prusa_model(box_object("1", "20"));
+    const std::string item = "  <item objectid=\"1\" transform=\"1 0 0 0 1 0 0 0 1 100 100 10\" printable=\"1\"/>\n";
+    const auto at = model.find(item);
+    ASSERT_NE(at, std::string::npos);
+    model.insert(at + item.size(),
+                 "  <item objectid=\"1\" transform=\"1 0 0 0 1 0 0 0 1 200 100 10\" printable=\"1\"/>\n");
+    test::put_bytes(dir / "two.3mf", make_zip(dir, prusa_parts(model)));
+    const MeshFile file = read_mesh_file(dir / "two.3mf");
+    ASSERT_EQ(file.mesh.V.rows(), 8);
+    ASSERT_EQ(file.instances.V.rows(), 8);
+    EXPECT_EQ(file.instances.F.rows(), 12);
+    EXPECT_EQ(file.instances.V.colwise().minCoeff(), Eigen::RowVector3d(200, 100, 10));
+    Positions moved = file.mesh.V;
+    moved(0, 2) += 0.5;
+    write_mesh_file(dir / "two_out.3mf", file, moved);
+    const MeshFile again = read_mesh_file(dir / "two_out.3mf");
+    EXPECT_EQ(again.mesh.V, moved);
+    const Positions shift = again.instances.V - file.instances.V;
+    EXPECT_EQ(shift.col(2).maxCoeff(), 0.5);
+    EXPECT_EQ(shift.leftCols(2).cwiseAbs().maxCoeff(), 0.0);
+}
+
 TEST_F(ThreeMfTest, writer_changes_only_moved_vertex_values)
 {
     const std::string model = prusa_model(box_object("1", "20"));
