@@ -215,14 +215,51 @@ DracoGeometry decode_draco(const fs::path& path, const std::string& bytes, std::
     return geometry;
 }
 
+// Replaces the integer position attribute \p index of \p mesh by a float32 one with the same
+// unique id and point mapping (values filled in by the caller).
+draco::PointAttribute* make_float_positions(draco::Mesh& mesh, std::int32_t index)
+{
+    const draco::PointAttribute& old = *mesh.attribute(index);
+    draco::GeometryAttribute layout;
+    layout.Init(draco::GeometryAttribute::POSITION, nullptr, 3, draco::DT_FLOAT32, false,
+                3 * sizeof(float), 0);
+    auto fresh = std::make_unique<draco::PointAttribute>(layout);
+    fresh->Reset(old.size());
+    if (old.is_mapping_identity())
+    {
+        fresh->SetIdentityMapping();
+    }
+    else
+    {
+        fresh->SetExplicitMapping(mesh.num_points());
+        for (draco::PointIndex i(0); i < mesh.num_points(); ++i)
+        {
+            fresh->SetPointMapEntry(i, old.mapped_index(i));
+        }
+    }
+    fresh->set_unique_id(old.unique_id());
+    draco::PointAttribute* result = fresh.get();
+    mesh.SetAttribute(index, std::move(fresh));
+    return result;
+}
+
 std::string reencode_draco(const fs::path& path, const std::string& bytes, std::int32_t position_id,
-                           const std::vector<double>& positions, bool keep_order)
+                           const std::vector<double>& positions, bool keep_order, bool as_float)
 {
     // The decoded mesh (values) and the same stream decoded without its transforms
     // (quantization parameters of every attribute).
     auto mesh = decode(path, bytes, false);
     const auto quantized = decode(path, bytes, true);
     auto* position = attribute_by_id(path, *mesh, position_id);
+    std::int32_t position_index = 0;
+    while (mesh->attribute(position_index) != position)
+    {
+        ++position_index;
+    }
+    if (as_float && position->data_type() != draco::DT_FLOAT32)
+    {
+        position = make_float_positions(*mesh, position_index);
+    }
     const GltfComponent component = component_of(path, *position);
     if (positions.size() != 3 * static_cast<std::size_t>(mesh->num_points()))
     {
@@ -243,6 +280,13 @@ std::string reencode_draco(const fs::path& path, const std::string& bytes, std::
     {
         const auto& source = *quantized->attribute(a);
         const int bits = quantization_bits(source);
+        if (a == position_index && as_float && source.data_type() != draco::DT_FLOAT32)
+        {
+            // Integer positions made float32: 16 bits over their new extent, the precision of
+            // the int16 values they replace (unquantized floats would triple the stream).
+            encoder.SetAttributeQuantization(a, 16);
+            continue;
+        }
         if (bits <= 0)
         {
             continue;

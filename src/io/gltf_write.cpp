@@ -415,15 +415,8 @@ void Writer::fit_range(std::vector<Plan>& plans, std::size_t overflowing)
     Plan& plan = plans[overflowing];
     if (group.empty())
     {
-        if (plan.is_draco)
-        {
-            fail("cannot store the marked positions of mesh " +
-                 std::to_string(asset_.draco[plan.record].mesh) +
-                 "'s Draco primitive in its integer type, and its quantization cannot be widened "
-                 "without changing other data (node children, skins, morph targets or "
-                 "animations); write the output as .ply or use an uncompressed input");
-        }
-        plan.as_float = true;  // float32 holds any position: only this accessor changes
+        // float32 holds any position: only this accessor (or Draco attribute) changes.
+        plan.as_float = true;
         return;
     }
     // A Draco primitive with no moved point still has to take the new grid.
@@ -737,17 +730,19 @@ void Writer::write_draco(const Plan& plan)
     }
     const auto& record = asset_.draco[plan.record];
     const std::string old_bytes = draco_bytes(record.buffer_view);
-    // Integer positions are rounded here, onto the grid the range check used.
+    // Integer positions are rounded here, onto the grid the range check used; made float32,
+    // they are dequantized (new values unclamped, as in write_float_accessor).
     std::vector<double> stored = plan.stored;
-    if (is_integer(plan.component))
+    const double unit = quantize(1.0, plan.component, plan.is_normalized);
+    for (std::size_t k = 0; k < stored.size() && is_integer(plan.component); ++k)
     {
-        for (auto& v : stored)
-        {
-            v = std::nearbyint(v);
-        }
+        stored[k] = !plan.as_float                 ? std::nearbyint(stored[k])
+                    : plan.rewrite[k / 3] != 0 ? stored[k] / unit
+                                               : dequantize(stored[k], plan.component, plan.is_normalized);
     }
     const std::string new_bytes = reencode_draco(path_, old_bytes, record.position_attribute_id,
-                                                 stored, record.has_foreign_attributes);
+                                                 stored, record.has_foreign_attributes,
+                                                 plan.as_float);
     auto& view_json = doc()["bufferViews"][static_cast<std::size_t>(record.buffer_view)];
     splice(view_json, view_json["buffer"].get<std::size_t>(),
            view_json.value("byteOffset", std::uint64_t{0}), new_bytes,
@@ -764,7 +759,15 @@ void Writer::write_draco(const Plan& plan)
         lo[k % 3] = std::min(lo[k % 3], decoded.positions[k]);
         hi[k % 3] = std::max(hi[k % 3], decoded.positions[k]);
     }
-    set_bounds(record.position_accessor, lo, hi, !is_integer(plan.component));
+    const bool is_float = plan.as_float || !is_integer(plan.component);
+    if (plan.as_float && is_integer(plan.component))
+    {
+        auto& acc = doc()["accessors"][static_cast<std::size_t>(record.position_accessor)];
+        acc["componentType"] = kFloat;
+        acc.erase("normalized");
+        is_json_changed_ = true;
+    }
+    set_bounds(record.position_accessor, lo, hi, is_float);
     const auto& prim = doc()["meshes"][static_cast<std::size_t>(record.mesh)]["primitives"]
                             [static_cast<std::size_t>(record.primitive)];
     for (const auto& [name, accessor] : prim["extensions"][kDracoExtension]["attributes"].items())
@@ -1017,7 +1020,7 @@ void Writer::run(bool is_glb)
     }
     for (const auto& plan : plans)
     {
-        if (plan.as_float)
+        if (plan.as_float && !plan.is_draco)
         {
             write_float_accessor(plan);
         }

@@ -223,9 +223,12 @@ struct DracoGeometry
 /// (3 per point, stored values in the attribute's data type: integers for integer types),
 /// keeping every attribute, its unique id and its quantization.
 /// \param keep_order  Use the sequential method, which keeps the point order.
+/// \param as_float  Store integer positions as a float32 attribute (same unique id; 16-bit
+/// quantization), \p positions then being dequantized values.
 [[nodiscard]] std::string reencode_draco(const std::filesystem::path& path,
                                          const std::string& bytes, std::int32_t position_id,
-                                         const std::vector<double>& positions, bool keep_order);
+                                         const std::vector<double>& positions, bool keep_order,
+                                         bool as_float = false);
 
 // meshopt (meshopt.cpp).
 

@@ -350,6 +350,38 @@ TEST_F(GltfQuantizedTest, draco_int16_overflow_widens_the_grid_through_the_node)
     }
 }
 
+TEST_F(GltfQuantizedTest, draco_int16_overflow_under_a_parent_node_becomes_float32)
+{
+    // The Draco primitive's node has a child: its transform cannot change, so the position
+    // attribute becomes float32 (same Draco attribute id) and the accessor FLOAT.
+    const auto q = patch_values(-32767, 32767);
+    GltfBuilder b = draco_int16_asset(q);
+    const int leaf = b.positions({3, 0, 0, 4, 0, 0, 3, 1, 0});
+    const int child = b.node(
+        {{"mesh", b.mesh(Json::array({{{"attributes", {{"POSITION", leaf}}}}}))}}, false);
+    b.doc["nodes"][0]["children"] = {child};
+    test::put_bytes(dir / "dparent.glb", b.glb());
+    const MeshFile file = read_mesh_file(dir / "dparent.glb");
+    Positions moved = file.mesh.V;
+    moved.row(0) *= 1.002;
+    moved(3, 1) += 0.001;
+    // 16 bits over the new extent (about 1.8 units): half a step is 1.4e-5.
+    const Json after = write_and_check(file, moved, dir / "dparent_out.glb", 2e-5);
+    EXPECT_EQ(after["nodes"], b.doc["nodes"]);
+    EXPECT_EQ(after["accessors"][0]["componentType"], 5126);
+    EXPECT_FALSE(after["accessors"][0].contains("normalized"));
+    EXPECT_EQ(after["meshes"][0]["primitives"][0]["extensions"], b.doc["meshes"][0]["primitives"][0]["extensions"]);
+    std::string bin;
+    const Json doc = test::glb_json(test::file_bytes(dir / "dparent_out.glb"), &bin);
+    const auto& view = doc["bufferViews"][0];
+    const std::string bytes = bin.substr(view.value("byteOffset", 0U), view["byteLength"].get<std::size_t>());
+    draco::DecoderBuffer buffer;
+    buffer.Init(bytes.data(), bytes.size());
+    draco::Decoder decoder;
+    auto mesh = std::move(decoder.DecodeMeshFromBuffer(&buffer)).value();
+    EXPECT_EQ(mesh->GetNamedAttribute(draco::GeometryAttribute::POSITION)->data_type(), draco::DT_FLOAT32);
+}
+
 TEST_F(GltfQuantizedTest, skinned_morphed_multi_scene_asset_changes_only_positions)
 {
     // Default scene: a skinned, morphed mesh with full-range normalized int16 positions (its
