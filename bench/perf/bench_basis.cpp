@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// The two streaming passes of the RBF basis (DESIGN.md steps 2-4) on generated surfaces of
+// The two streaming passes of the RBF basis (docs/algorithms/basis.md) on generated surfaces of
 // 10K, 100K and 1M vertices, k = 100, 1 and 2 threads:
 //   BM_BasisPass  RbfBasis construction (pass 1: Gram matrix, then the k x k eigenproblem);
 //   BM_Synthesis  synthesize() of m = 8 modes (pass 2), with the orthogonality check as embed

@@ -31,7 +31,7 @@ constexpr std::size_t kMaxChunks = 64;
 constexpr std::size_t kMinChunkBlocks = 16;
 
 // Relative eigenvalue below which a mode of G is numerically absent (G is accumulated in
-// double; condition numbers of 1e8-1e10 are normal for k = 100, see DESIGN.md).
+// double; condition numbers of 1e8-1e10 are normal for k = 100, docs/algorithms/basis.md).
 constexpr double kGramRankTolerance = 1e-14;
 
 // Column of each center in the B blocks: the centers in Morton order of their positions (10

@@ -31,7 +31,7 @@ namespace {
 constexpr double kCollinearTolerance = 1e-12;
 
 // A modulated coefficient below this fraction of the largest one carries a weak bit under the
-// paper's multiplicative rule (DESIGN.md, "Evidence": those fail first under noise).
+// paper's multiplicative rule (docs/algorithms/embedding.md, "Modulation": those fail first under noise).
 constexpr double kWeakCoefficientFraction = 0.1;
 
 // Normalized coefficient changes below this are rounding, not signal or attack.
@@ -575,7 +575,7 @@ Positions SpectralWatermark::displacement(EmbedStats* stats) const
 Extraction SpectralWatermark::extraction_from(const Eigen::VectorXd& normalized, const Eigen::VectorXd& variances,
                                               const DetectOptions& options) const
 {
-    // normalized(c): change of coefficient c divided by its modulation (DESIGN.md step 9,
+    // normalized(c): change of coefficient c divided by its modulation (docs/algorithms/detection.md,
     // sign-correct). Undo each coefficient's mask and average the r copies of every payload
     // bit weighted by their inverse variances (soft decision); the same weights serve the
     // correlation.
@@ -635,7 +635,7 @@ Extraction SpectralWatermark::extract(const Positions& suspect, const DetectOpti
     };
     if (is_kept != nullptr)
     {
-        // gamma - alpha by least squares over the kept rows (DESIGN.md step 8).
+        // gamma - alpha by least squares over the kept rows (cropped copies, docs/algorithms/basis.md).
         return extraction_from(
             normalize(basis_->project_least_squares(change, *is_kept, first + modes).bottomRows(modes)),
             Eigen::VectorXd::Ones(coefficients), options);

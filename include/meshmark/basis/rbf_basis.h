@@ -190,7 +190,7 @@ public:
 
     /// \brief Least-squares coefficients of the leading modes over a subset of rows.
     /// \details Minimizes |U_m,S c - X_S| over the rows S of the active set with
-    /// \p is_kept[i] != 0 (DESIGN.md step 8: the cropped rows are left out of the basis
+    /// \p is_kept[i] != 0 (cropped copies, docs/algorithms/basis.md: the cropped rows are left out of the basis
     /// functions). With every row kept this equals project(X, modes) up to rounding.
     /// \throws NumericalError if the kept rows cannot determine the coefficients.
     [[nodiscard]] Eigen::MatrixX3d project_least_squares(const Positions& X,

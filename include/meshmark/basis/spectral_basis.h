@@ -52,7 +52,7 @@ public:
     [[nodiscard]] virtual int well_conditioned_modes(double relative_tolerance) const = 0;
 
     /// \brief Least-squares coefficients of the leading modes over the rows with
-    /// \p is_kept[i] != 0 (DESIGN.md step 8). With every row kept this equals project().
+    /// \p is_kept[i] != 0 (cropped copies, docs/algorithms/basis.md). With every row kept this equals project().
     /// \throws NumericalError if the kept rows cannot determine the coefficients.
     [[nodiscard]] virtual Eigen::MatrixX3d project_least_squares(
         const Positions& X, const std::vector<std::uint8_t>& is_kept, int modes) const = 0;

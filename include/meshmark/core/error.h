@@ -44,7 +44,7 @@ public:
     using Error::Error;
 };
 
-/// Process exit codes shared by every command (see DESIGN.md, "Command line").
+/// Process exit codes shared by every command (docs/cli.md).
 enum class ExitCode : int
 {
     Ok = 0,            ///< Success; for `detect`: watermark found.

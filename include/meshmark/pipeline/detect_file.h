@@ -38,7 +38,7 @@ struct DetectReport
     PhaseTimings seconds;
 };
 
-/// \brief Look for the watermark of \p key in \p suspect (DESIGN.md steps 6-10).
+/// \brief Look for the watermark of \p key in \p suspect (docs/algorithms/detection.md).
 /// \details Reads the key and the original, checks the original against the key's
 /// fingerprint, regenerates the watermark, puts the suspect in vertex correspondence with it,
 /// extracts the bits and decides. A suspect with the original's vertex count is taken vertex

@@ -11,7 +11,7 @@
 
 namespace meshmark {
 
-/// How coefficients are modulated (DESIGN.md step 5).
+/// How coefficients are modulated (docs/algorithms/embedding.md, "Modulation").
 enum class EmbeddingRule
 {
     Additive,  ///< beta = alpha + b' s, one step s for all modulated coefficients (default).
@@ -34,7 +34,7 @@ enum class BasisType
     Laplacian,  ///< Eigenvectors of the combinatorial Laplacian [Karni & Gotsman 2000] (baseline).
 };
 
-/// How the k RBF centers are chosen (DESIGN.md step 1).
+/// How the k RBF centers are chosen (docs/algorithms/embedding.md, "Centers and basis").
 enum class CenterSelection
 {
     Random,    ///< Uniformly at random from the key's seed (default).
@@ -139,7 +139,7 @@ struct Key
 /// \brief A random payload drawn from the seed's "payload" stream.
 [[nodiscard]] std::vector<std::uint8_t> random_payload(std::uint64_t seed, int n);
 
-/// \brief The key-derived mask XOR-ed with the payload before embedding (DESIGN.md step 5):
+/// \brief The key-derived mask XOR-ed with the payload before embedding (docs/algorithms/embedding.md, "Payload bits"):
 /// without it, a wrong key reads the mark, because the leading modes barely depend on the centers.
 /// \details One bit per modulated coefficient (3 m r); the first n bits do not depend on n.
 [[nodiscard]] std::vector<std::uint8_t> payload_mask(std::uint64_t seed, int n);

@@ -19,7 +19,7 @@ namespace meshmark {
 
 /// \brief The model's canonical frame: centroid and principal axes of the analysed vertices.
 /// \details Embedding happens in this frame so that the watermark does not depend on where the
-/// model sits, how it is oriented or how large it is (DESIGN.md, "The coordinate frame").
+/// model sits, how it is oriented or how large it is (docs/algorithms/embedding.md, "Canonical frame").
 /// Axes are the covariance eigenvectors, largest variance first; the first two point towards
 /// the positive third moment (skewness) and the third is their cross product, so a rotated
 /// model gets the rotated frame.
@@ -111,7 +111,7 @@ enum class VerdictRule
 /// \throws InvalidOption for any other name.
 [[nodiscard]] VerdictRule parse_verdict_rule(const std::string& name);
 
-/// Options of the decision (DESIGN.md steps 9-10).
+/// Options of the decision (docs/algorithms/detection.md, docs/statistics.md).
 struct DetectOptions
 {
     VerdictRule verdict = VerdictRule::Correlation;
@@ -190,7 +190,7 @@ struct DisplacementSummary
 /// of a decimation, among the referenced vertices; all vertices of a point cloud) or the
 /// Laplacian eigenbasis (meshes with faces only). Either way unreferenced vertices take no part
 /// and never move, and everything after the basis (modulation, extraction, verdict) is the same.
-/// [Wu & Kobbelt 2005], with the corrections of DESIGN.md: canonical frame, additive rule by
+/// [Wu & Kobbelt 2005], with the corrections of docs/algorithms: canonical frame, additive rule by
 /// default, key-masked payload, sign-correct decision.
 class SpectralWatermark
 {
@@ -233,7 +233,7 @@ public:
     /// \brief Read the bits from \p suspect, given vertex for vertex in the original's frame.
     /// \param suspect  #V x 3, row i corresponds to vertex i of the original.
     /// \param is_kept  Optional: rows with 0 are cropped and left out (least squares over the
-    ///                 others, DESIGN.md step 8).
+    ///                 others, docs/algorithms/basis.md).
     [[nodiscard]] Extraction extract(const Positions& suspect, const DetectOptions& options,
                                      const std::vector<std::uint8_t>* is_kept = nullptr) const;
 

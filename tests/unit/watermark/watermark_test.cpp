@@ -235,7 +235,7 @@ TEST(SpectralWatermarkTest, same_message_under_another_key_is_not_claimed)
         const SpectralWatermark other(mesh, other_key);
         sum += detect_positions(mark, mesh.V + other.displacement()).correlation;
     }
-    // Without the key-derived mask this would be near 1 (DESIGN.md, "Evidence").
+    // Without the key-derived mask this would be near 1 (docs/algorithms/embedding.md, "Payload bits").
     EXPECT_LT(sum / trials, 0.6);
 }
 
