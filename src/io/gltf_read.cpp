@@ -584,7 +584,7 @@ private:
     void add_triangles(const tinygltf::Primitive& prim, int mesh, int index, std::size_t base,
                        std::size_t count);
     void add_triangles(const tinygltf::Primitive& prim, int mesh, int index, std::size_t base,
-                       std::size_t count, std::vector<std::uint64_t>& corners);
+                       std::size_t count, std::vector<std::size_t>& corners);
     std::size_t add_instance(std::size_t first, std::size_t count, const Eigen::Matrix4d& from,
                              const Eigen::Matrix4d& to);
     std::int32_t group_of(const Eigen::Matrix4d& to_world);
@@ -625,10 +625,10 @@ private:
     std::vector<std::size_t> draco_base_;       // first raw element of each Draco slot
     std::vector<std::pair<std::size_t, std::size_t>> draco_corners_;  // its range of corners_
     std::vector<double> instance_xyz_;             // other instances, world frame, 3 per point
-    std::vector<std::uint64_t> instance_corners_;  // their triangles, into instance_xyz_
+    std::vector<std::size_t> instance_corners_;  // their triangles, into instance_xyz_
     std::vector<Eigen::Matrix4d> groups_;       // distinct world transforms
     RawVertices raw_;
-    std::vector<std::uint64_t> corners_;  // raw element ids, 3 per triangle
+    std::vector<std::size_t> corners_;  // raw element ids, 3 per triangle
     // meshopt views this build cannot decode and with no fallback data: why.
     std::map<int, std::string> undecoded_;
 };
@@ -1035,7 +1035,7 @@ std::size_t Reader::add_instance(std::size_t first, std::size_t count, const Eig
 }
 
 void Reader::add_triangles(const tinygltf::Primitive& prim, int mesh, int index, std::size_t base,
-                           std::size_t count, std::vector<std::uint64_t>& corners)
+                           std::size_t count, std::vector<std::size_t>& corners)
 {
     const std::string where =
         "mesh " + std::to_string(mesh) + " primitive " + std::to_string(index);
@@ -1216,14 +1216,7 @@ TriangleMesh Reader::weld()
     }
     if (!instance_xyz_.empty())
     {
-        TriangleBuffer others;
-        for (std::size_t t = 0; t + 2 < instance_corners_.size(); t += 3)
-        {
-            others.push(static_cast<std::int32_t>(instance_corners_[t]),
-                        static_cast<std::int32_t>(instance_corners_[t + 1]),
-                        static_cast<std::int32_t>(instance_corners_[t + 2]));
-        }
-        asset_.instances = make_mesh(instance_xyz_, others);
+        asset_.instances = make_mesh(instance_xyz_, instance_corners_);
     }
     TriangleBuffer triangles;
     triangles.reserve(corners_.size() / 3);

@@ -216,6 +216,18 @@ std::string_view TokenStream::next() noexcept
     return {start, static_cast<std::size_t>(p - start)};
 }
 
+TriangleMesh make_mesh(const std::vector<double>& xyz, const std::vector<std::size_t>& corners)
+{
+    TriangleBuffer triangles;
+    triangles.reserve(corners.size() / 3);
+    for (std::size_t t = 0; t + 2 < corners.size(); t += 3)
+    {
+        triangles.push(static_cast<std::int32_t>(corners[t]), static_cast<std::int32_t>(corners[t + 1]),
+                       static_cast<std::int32_t>(corners[t + 2]));
+    }
+    return make_mesh(xyz, triangles);
+}
+
 TriangleMesh make_mesh(const std::vector<double>& xyz, TriangleBuffer& triangles)
 {
     TriangleMesh mesh;

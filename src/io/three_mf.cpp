@@ -675,14 +675,7 @@ private:
         }
         if (!instance_xyz_.empty())
         {
-            TriangleBuffer others;
-            for (std::size_t t = 0; t + 2 < instance_corners_.size(); t += 3)
-            {
-                others.push(static_cast<std::int32_t>(instance_corners_[t]),
-                            static_cast<std::int32_t>(instance_corners_[t + 1]),
-                            static_cast<std::int32_t>(instance_corners_[t + 2]));
-            }
-            layout_.instances = make_mesh(instance_xyz_, others);
+            layout_.instances = make_mesh(instance_xyz_, instance_corners_);
         }
         TriangleBuffer triangles;
         triangles.reserve(corners_.size() / 3);

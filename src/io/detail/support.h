@@ -130,6 +130,10 @@ private:
 
 /// A mesh from flat positions \p xyz (3 per vertex) and the triangles of \p triangles.
 [[nodiscard]] TriangleMesh make_mesh(const std::vector<double>& xyz, TriangleBuffer& triangles);
+/// A mesh from flat positions \p xyz and flat corner indices \p corners (3 per triangle, each
+/// below xyz.size() / 3): the other instances of instanced glTF meshes and 3MF objects.
+[[nodiscard]] TriangleMesh make_mesh(const std::vector<double>& xyz,
+                                     const std::vector<std::size_t>& corners);
 
 /// Throw InvalidMesh naming \p path and the vertex if any coordinate is NaN or infinite.
 void check_finite(const std::filesystem::path& path, const Positions& V);
