@@ -1,7 +1,16 @@
 #!/usr/bin/env bash
 # Install every build and test dependency of meshmark from Debian 12 packages.
 # Safe to run again: apt-get skips what is already installed. Needs root (or sudo).
+# --build-only: what building meshmark and its tests needs, without the interop tools (gltfpack,
+# draco, PrusaSlicer, Node.js and the npm packages), for the demo.
 set -euo pipefail
+interop_tools=1
+for arg in "$@"; do
+  case $arg in
+    --build-only) interop_tools=0 ;;
+    *) echo "usage: scripts/setup.sh [--build-only]" >&2; exit 2 ;;
+  esac
+done
 
 packages=(
   build-essential cmake ninja-build pkg-config git
@@ -18,12 +27,14 @@ packages=(
   libsuitesparse-dev     # CHOLMOD sparse Cholesky for the Laplacian eigenbasis
   libgtest-dev libgmock-dev googletest              # tests
   libbenchmark-dev       # micro-benchmarks
+)
+if ((interop_tools)); then
   # Interop tests (label `interop`): the ecosystem's own tools write the inputs and check
   # the outputs. The npm ones are pinned in tests/interop/package.json (installed below).
-  gltfpack draco prusa-slicer xvfb xauth
-)
-# Node.js for the npm tools: Debian's, unless the machine already has a node and npm.
-if ! command -v node >/dev/null || ! command -v npm >/dev/null; then packages+=(nodejs npm); fi
+  packages+=(gltfpack draco prusa-slicer xvfb xauth)
+  # Node.js for the npm tools: Debian's, unless the machine already has a node and npm.
+  if ! command -v node >/dev/null || ! command -v npm >/dev/null; then packages+=(nodejs npm); fi
+fi
 
 sudo=""
 if [[ $(id -u) -ne 0 ]]; then sudo="sudo"; fi
@@ -42,8 +53,8 @@ fi
 # gltf-pipeline), into tests/interop/node_modules; skipped when package-lock.json is unchanged
 # since the last install.
 interop="$(cd "$(dirname "$0")/.." && pwd)/tests/interop"
-if [[ ! -f $interop/node_modules/.package-lock.json ]] ||
-   ! cmp -s "$interop/package-lock.json" "$interop/node_modules/.meshmark-lock"; then
+if ((interop_tools)) && { [[ ! -f $interop/node_modules/.package-lock.json ]] ||
+   ! cmp -s "$interop/package-lock.json" "$interop/node_modules/.meshmark-lock"; }; then
   echo "setup: installing the interop tests' npm packages (tests/interop/package.json)" >&2
   (cd "$interop" && npm ci --no-audit --no-fund --loglevel=error >/dev/null)
   cp "$interop/package-lock.json" "$interop/node_modules/.meshmark-lock"
