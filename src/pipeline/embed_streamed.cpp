@@ -202,6 +202,18 @@ ScanResult scan(const PlyStream& file, std::size_t window, bool overlap)
     return result;
 }
 
+// Chunks of the synthesis computed at once: at most a quarter of the memory budget (256 MiB
+// without one) for two rounds (one computed, one written), at most one per thread.
+std::size_t chunks_in_flight(const EmbedFileOptions& options, std::size_t chunk_bytes)
+{
+    const int threads = options.threads > 0 ? options.threads : static_cast<int>(std::max(1U, std::thread::hardware_concurrency()));
+    const std::size_t budget = options.memory_budget_mib > 0
+                                   ? static_cast<std::size_t>(options.memory_budget_mib) << 20U
+                                   : std::size_t{256} << 20U;
+    return std::clamp<std::size_t>(budget / 8 / std::max<std::size_t>(chunk_bytes, 1), 1,
+                                   static_cast<std::size_t>(threads));
+}
+
 // Why the options cannot be embedded out of core ("" if they can): the streamed passes build
 // the RBF basis with random centers only (the Laplacian basis and the decimation need the whole
 // mesh in memory).
@@ -366,14 +378,7 @@ EmbedReport embed_file_streamed(const PlyStream& file, const std::filesystem::pa
 
     // Synthesis streamed into the output: header, patched vertex records, the rest as is.
     timer.begin("write");
-    const int threads = options.threads > 0 ? options.threads : static_cast<int>(std::max(1U, std::thread::hardware_concurrency()));
-    const std::size_t budget = options.memory_budget_mib > 0
-                                   ? static_cast<std::size_t>(options.memory_budget_mib) << 20U
-                                   : std::size_t{256} << 20U;
-    // At most a quarter of the budget for the chunks in flight: two rounds (one computed, one
-    // written) of in_flight chunks.
-    const std::size_t in_flight = std::clamp<std::size_t>(budget / 8 / std::max<std::size_t>(chunk_bytes, 1), 1,
-                                                          static_cast<std::size_t>(threads));
+    const std::size_t in_flight = chunks_in_flight(options, chunk_bytes);
     const Eigen::MatrixX3d change = mark.coefficient_change();
     const auto active = static_cast<double>(referenced.active);
     write_mesh_and_key(key_path, key, [&]() {
