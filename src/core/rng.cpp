@@ -1,40 +1,10 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/core/rng.h"
 
-#include <bit>
 #include <cmath>
-#include <cstring>
 #include <numbers>
 
 namespace meshmark {
-
-std::uint64_t hash_bytes(const void* data, std::size_t size, std::uint64_t seed) noexcept
-{
-    const auto* bytes = static_cast<const unsigned char*>(data);
-    std::uint64_t h = splitmix64(seed ^ (static_cast<std::uint64_t>(size) * 0x9E3779B97F4A7C15ULL));
-    std::size_t i = 0;
-    if constexpr (std::endian::native == std::endian::little)
-    {
-        // Whole words straight from memory: on a little-endian machine the same value as the
-        // byte loop below packs (4x faster on the 24 MB of a 1M-vertex fingerprint).
-        for (; i + 8 <= size; i += 8)
-        {
-            std::uint64_t word = 0;
-            std::memcpy(&word, bytes + i, 8);
-            h = splitmix64(h ^ word);
-        }
-    }
-    while (i < size)
-    {
-        std::uint64_t word = 0;
-        for (unsigned b = 0; b < 8 && i < size; ++b, ++i)
-        {
-            word |= static_cast<std::uint64_t>(bytes[i]) << (8U * b);
-        }
-        h = splitmix64(h ^ word);
-    }
-    return h;
-}
 
 std::uint64_t derive_seed(std::uint64_t seed, std::string_view purpose) noexcept
 {

@@ -205,7 +205,7 @@ void write_mesh_file(const std::filesystem::path& path, const MeshFile& source,
                     detail::preserved_3mf_bytes(path, *source.layout, source.mesh.V, positions));
         return;
     }
-    write_bytes(path, detail::preserved_bytes(path, *source.layout, source.mesh.V, positions));
+    detail::write_preserved(path, *source.layout, source.mesh.V, positions);
 }
 
 }  // namespace meshmark

@@ -1,22 +1,21 @@
 // SPDX-License-Identifier: MIT
 // Preserving writers for text and binary position layouts: the original bytes with only the
-// changed coordinates replaced (STL facets are handled in stl.cpp).
-#include <cstring>
+// changed coordinates replaced (STL facets are handled in stl.cpp). A binary PLY goes out in
+// slices of at most 1 MiB with the changed coordinates patched in, so the output never
+// occupies memory twice.
+#include <algorithm>
 #include <string>
 #include <variant>
+#include <vector>
 
 #include "io/detail/formats.h"
+#include "io/detail/ply_stream.h"
 #include "io/detail/support.h"
+#include "meshmark/core/atomic_file.h"
 
 namespace meshmark::detail {
 
 namespace {
-
-// Bitwise comparison: a coordinate is rewritten only if its double changed at all.
-bool is_changed(double a, double b) noexcept
-{
-    return std::memcmp(&a, &b, sizeof(double)) != 0;
-}
 
 const char* type_name(ScalarType type) noexcept
 {
@@ -40,15 +39,6 @@ const char* type_name(ScalarType type) noexcept
             return "double";
     }
     return "?";
-}
-
-[[noreturn]] void fail_range(const std::filesystem::path& path, std::size_t vertex, ScalarType type,
-                             double value)
-{
-    std::string text;
-    append_shortest(text, value);
-    fail_io(path, "cannot store coordinate " + text + " of vertex " + std::to_string(vertex) +
-                      " in the file's '" + type_name(type) + "' position property");
 }
 
 std::string preserved_text(const std::filesystem::path& path, const std::string& bytes,
@@ -75,7 +65,7 @@ std::string preserved_text(const std::filesystem::path& path, const std::string&
         {
             if (!append_typed(out, *type, new_values[k]))
             {
-                fail_range(path, k / 3, *type, new_values[k]);
+                fail_coordinate_range(path, k / 3, *type, new_values[k]);
             }
         }
         else
@@ -89,46 +79,89 @@ std::string preserved_text(const std::filesystem::path& path, const std::string&
     return out;
 }
 
-std::string preserved_binary(const std::filesystem::path& path, const std::string& bytes,
-                             const BinaryPositions& slots, const Positions& original,
-                             const Positions& positions)
+constexpr std::size_t kSliceBytes = std::size_t{1} << 20U;
+
+// One past the last byte of vertex i's coordinates.
+std::uint64_t coordinates_end(const BinaryPositions& slots, std::size_t i)
 {
-    std::string out = bytes;
-    const auto n = static_cast<std::size_t>(positions.rows());
-    for (std::size_t i = 0; i < n; ++i)
+    std::uint64_t end = 0;
+    for (std::size_t d = 0; d < 3; ++d)
     {
-        for (std::size_t d = 0; d < 3; ++d)
-        {
-            const double value = positions.data()[3 * i + d];
-            if (!is_changed(original.data()[3 * i + d], value))
-            {
-                continue;
-            }
-            if (!store_scalar(out.data() + slots.offset(i, d), slots.types[d], slots.is_big_endian,
-                              value))
-            {
-                fail_range(path, i, slots.types[d], value);
-            }
-        }
+        end = std::max<std::uint64_t>(end, slots.offset(i, d) + scalar_size(slots.types[d]));
     }
-    return out;
+    return end;
+}
+
+void write_preserved_binary(const std::filesystem::path& path, const std::string& bytes,
+                            const BinaryPositions& slots, const Positions& original,
+                            const Positions& positions)
+{
+    const auto n = static_cast<std::size_t>(positions.rows());
+    const double* old_values = original.data();
+    const double* new_values = positions.data();
+    write_file_atomically(path, [&](std::ostream& out) {
+        std::vector<char> slice;
+        std::size_t cursor = 0;  // bytes before it are written
+        std::size_t vertex = 0;
+        while (vertex < n)
+        {
+            // Whole vertices, at least one, up to about kSliceBytes past the cursor.
+            std::size_t last = vertex;
+            while (last + 1 < n && coordinates_end(slots, last + 1) - cursor <= kSliceBytes)
+            {
+                ++last;
+            }
+            const auto end = static_cast<std::size_t>(coordinates_end(slots, last));
+            slice.assign(bytes.begin() + static_cast<std::ptrdiff_t>(cursor),
+                         bytes.begin() + static_cast<std::ptrdiff_t>(end));
+            for (std::size_t i = vertex; i <= last; ++i)
+            {
+                for (std::size_t d = 0; d < 3; ++d)
+                {
+                    patch_coordinate(slice.data() + (slots.offset(i, d) - cursor), slots.types[d],
+                                     slots.is_big_endian, old_values[3 * i + d],
+                                     new_values[3 * i + d], path, i);
+                }
+            }
+            out.write(slice.data(), static_cast<std::streamsize>(slice.size()));
+            cursor = end;
+            vertex = last + 1;
+        }
+        out.write(bytes.data() + cursor, static_cast<std::streamsize>(bytes.size() - cursor));
+    });
 }
 
 }  // namespace
 
-std::string preserved_bytes(const std::filesystem::path& path, const FileLayout& layout,
-                            const Positions& original, const Positions& positions)
+void fail_coordinate_range(const std::filesystem::path& path, std::uint64_t vertex, ScalarType type,
+                           double value)
 {
+    std::string text;
+    append_shortest(text, value);
+    fail_io(path, "cannot store coordinate " + text + " of vertex " + std::to_string(vertex) +
+                      " in the file's '" + type_name(type) + "' position property");
+}
+
+void write_preserved(const std::filesystem::path& path, const FileLayout& layout,
+                     const Positions& original, const Positions& positions)
+{
+    std::string bytes;
     if (const auto* text = std::get_if<TextPositions>(&layout.positions))
     {
-        return preserved_text(path, layout.bytes, *text, original, positions);
+        bytes = preserved_text(path, layout.bytes, *text, original, positions);
     }
-    if (const auto* binary = std::get_if<BinaryPositions>(&layout.positions))
+    else if (const auto* binary = std::get_if<BinaryPositions>(&layout.positions))
     {
-        return preserved_binary(path, layout.bytes, *binary, original, positions);
+        write_preserved_binary(path, layout.bytes, *binary, original, positions);
+        return;
     }
-    return preserved_stl_bytes(path, layout, std::get<StlFacets>(layout.positions), original,
-                               positions);
+    else
+    {
+        bytes = preserved_stl_bytes(path, layout, std::get<StlFacets>(layout.positions), original,
+                                    positions);
+    }
+    write_file_atomically(path, [&bytes](std::ostream& out)
+                          { out.write(bytes.data(), static_cast<std::streamsize>(bytes.size())); });
 }
 
 }  // namespace meshmark::detail

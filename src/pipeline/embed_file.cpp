@@ -7,7 +7,6 @@
 #include "meshmark/core/atomic_file.h"
 #include "meshmark/core/error.h"
 #include "embed_streamed.h"
-#include "streamed_write.h"
 #include "timer.h"
 
 namespace meshmark {
@@ -138,62 +137,6 @@ Key make_key(const EmbedFileOptions& options)
     return key;
 }
 
-// Whether to embed out of core; a note in *note when the budget asked for it but the input
-// cannot be streamed.
-// Why these options cannot be embedded out of core ("" if they can): the streamed passes build
-// the RBF basis with random centers only (the Laplacian basis and the decimation need the whole
-// mesh in memory).
-std::string options_refusal(const EmbedFileOptions& options)
-{
-    if (options.embed.basis != BasisType::Rbf)
-    {
-        return "the Laplacian basis needs the whole mesh in memory";
-    }
-    if (options.embed.centers != CenterSelection::Random)
-    {
-        return "decimated centers need the whole mesh in memory";
-    }
-    return {};
-}
-
-bool should_stream(const std::filesystem::path& input, const std::filesystem::path& output,
-                   const EmbedFileOptions& options, std::string* note)
-{
-    if (options.force_stream)
-    {
-        std::string refusal = options_refusal(options);
-        if (refusal.empty())
-        {
-            refusal = detail::stream_refusal(input, output);
-        }
-        if (!refusal.empty())
-        {
-            throw InvalidOption(input.string() + ": cannot be embedded out of core (--stream): " + refusal + ".");
-        }
-        return true;
-    }
-    if (options.memory_budget_mib <= 0 || format_from_extension(input) != MeshFormat::Ply)
-    {
-        return false;
-    }
-    const auto budget = static_cast<std::uint64_t>(options.memory_budget_mib) << 20U;
-    if (detail::in_memory_embed_bytes(input) <= budget)
-    {
-        return false;
-    }
-    std::string refusal = options_refusal(options);
-    if (refusal.empty())
-    {
-        refusal = detail::stream_refusal(input, output);
-    }
-    if (!refusal.empty())
-    {
-        *note = "the in-memory embed exceeds the memory budget, but the input cannot be streamed: " + refusal;
-        return false;
-    }
-    return true;
-}
-
 }  // namespace
 
 EmbedReport embed_file(const std::filesystem::path& input, const std::filesystem::path& output,
@@ -204,9 +147,9 @@ EmbedReport embed_file(const std::filesystem::path& input, const std::filesystem
     (void)format_from_extension(output);  // fail on a bad extension before any work
 
     std::string note;
-    if (should_stream(input, output, options, &note))
+    if (const auto streamed = detail::stream_plan(input, output, options, &note))
     {
-        return detail::embed_file_streamed(input, output, key_path, make_key(options), options);
+        return detail::embed_file_streamed(*streamed, output, key_path, make_key(options), options);
     }
 
     EmbedReport report;
@@ -251,13 +194,8 @@ EmbedReport embed_file(const std::filesystem::path& input, const std::filesystem
     marked += file.mesh.V;
     timer.lap("embed");
     timer.begin("write");
-    detail::write_mesh_and_key(key_path, key, [&]() {
-        // A binary PLY streams out of the original bytes (no second copy of the file).
-        if (!detail::write_binary_ply_streamed(output, file, marked))
-        {
-            write_mesh_file(output, file, marked);
-        }
-    });
+    // (A binary PLY goes out in slices of the original bytes: no second copy of the file.)
+    detail::write_mesh_and_key(key_path, key, [&]() { write_mesh_file(output, file, marked); });
     timer.lap("write");
     report.key = std::move(key);
     return report;

@@ -5,8 +5,10 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <string>
 
+#include "meshmark/io/ply_stream.h"
 #include "meshmark/pipeline/embed_file.h"
 
 namespace meshmark::detail {
@@ -16,15 +18,21 @@ namespace meshmark::detail {
 void write_mesh_and_key(const std::filesystem::path& key_path, const Key& key,
                         const std::function<void()>& write_mesh);
 
-/// \brief Why \p input cannot be embedded out of core into \p output, or empty when it can:
-/// a binary PLY (either byte order) whose vertex element has no list property and follows only
-/// fixed-size elements, written to a .ply. Reads the header only.
-/// \throws IoError when the file cannot be read or its header is malformed.
-[[nodiscard]] std::string stream_refusal(const std::filesystem::path& input, const std::filesystem::path& output);
+/// \brief The input, opened and analysed once, when \p options ask for an out-of-core embed:
+/// with --stream (force_stream), or when the in-memory embed would exceed the memory budget
+/// (in_memory_embed_bytes) and the input can be streamed. Otherwise nullopt, with a note in
+/// \p note when the budget asked for streaming but the input or options cannot be streamed.
+/// \details Streamed: a binary PLY (PlyStream::refusal() empty) written to a .ply, with the
+/// RBF basis and random centers.
+/// \throws InvalidOption when --stream is given but the input cannot be streamed; IoError when
+/// the input cannot be read or its header is malformed.
+[[nodiscard]] std::optional<PlyStream> stream_plan(const std::filesystem::path& input,
+                                                   const std::filesystem::path& output,
+                                                   const EmbedFileOptions& options, std::string* note);
 
 /// \brief Memory the in-memory embed of \p input would need, in bytes (estimate from the file
 /// size and the header's counts: the file, positions and field, triangles, row lists).
-[[nodiscard]] std::uint64_t in_memory_embed_bytes(const std::filesystem::path& input);
+[[nodiscard]] std::uint64_t in_memory_embed_bytes(const PlyStream& input);
 
 /// Tuning of the out-of-core embed (tests shrink the window to force many reads).
 struct StreamTuning
@@ -37,8 +45,8 @@ struct StreamTuning
 /// a few chunks of the passes (see docs/performance.md, "Out of core").
 /// \details Paths are checked and the key is staged by the caller's rules (embed_file);
 /// \p key.seed, options and payload are given, the fingerprint is computed here.
-/// \pre stream_refusal(input, output) is empty.
-EmbedReport embed_file_streamed(const std::filesystem::path& input, const std::filesystem::path& output,
+/// \throws InvalidOption unless input.refusal() is empty.
+EmbedReport embed_file_streamed(const PlyStream& input, const std::filesystem::path& output,
                                 const std::filesystem::path& key_path, Key key,
                                 const EmbedFileOptions& options, const StreamTuning& tuning = {});
 

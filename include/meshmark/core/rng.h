@@ -5,22 +5,9 @@
 #include <random>
 #include <string_view>
 
+#include "meshmark/core/hash.h"
+
 namespace meshmark {
-
-/// \brief One step of SplitMix64 [Steele, Lea, Flood 2014]: a bijective 64-bit mixer.
-[[nodiscard]] constexpr std::uint64_t splitmix64(std::uint64_t x) noexcept
-{
-    x += 0x9E3779B97F4A7C15ULL;
-    x = (x ^ (x >> 30U)) * 0xBF58476D1CE4E5B9ULL;
-    x = (x ^ (x >> 27U)) * 0x94D049BB133111EBULL;
-    return x ^ (x >> 31U);
-}
-
-/// \brief 64-bit hash of a byte string: SplitMix64 folded over the bytes, 8 at a time.
-/// \details Documented and platform independent (little-endian packing of each 8-byte word),
-/// so seeds derived from it are the same everywhere. Not a cryptographic hash.
-[[nodiscard]] std::uint64_t hash_bytes(const void* data, std::size_t size,
-                                       std::uint64_t seed = 0) noexcept;
 
 /// \brief Seed of an independent stream: `hash(purpose)` mixed with the key's seed.
 /// \details Each use of randomness (centers, payload mask, random payload, attacks) draws

@@ -39,14 +39,15 @@ namespace meshmark::detail {
                                               const FileLayout& layout, const Positions& original,
                                               const Positions& positions);
 
-/// \brief The original file of \p layout with positions \p original replaced by
-/// \p positions: unchanged coordinates keep their bytes, changed ones follow the
-/// precision rules of mesh_io.h. \p path names the target in errors.
-[[nodiscard]] std::string preserved_bytes(const std::filesystem::path& path,
-                                          const FileLayout& layout, const Positions& original,
-                                          const Positions& positions);
+/// \brief Write the original file of \p layout with positions \p original replaced by
+/// \p positions to \p path, atomically: unchanged coordinates keep their bytes, changed ones
+/// follow the precision rules of mesh_io.h (text, binary PLY, STL layouts; a binary PLY is
+/// written in slices, never as a second whole copy).
+/// \pre the positions are finite (check_finite).
+void write_preserved(const std::filesystem::path& path, const FileLayout& layout,
+                     const Positions& original, const Positions& positions);
 
-/// The STL part of preserved_bytes (facet corners and recomputed normals).
+/// The STL part of write_preserved (facet corners and recomputed normals).
 [[nodiscard]] std::string preserved_stl_bytes(const std::filesystem::path& path,
                                               const FileLayout& layout, const StlFacets& facets,
                                               const Positions& original,

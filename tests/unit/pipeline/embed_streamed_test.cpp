@@ -201,8 +201,8 @@ void expect_streamed_equals_in_memory(const std::filesystem::path& input, const 
     EXPECT_FALSE(memory.streamed);
     detail::StreamTuning tuning;
     tuning.window_bytes = window;
-    const EmbedReport streamed = detail::embed_file_streamed(input, dir / "streamed.ply", dir / "streamed.json",
-                                                             key_for(options), options, tuning);
+    const EmbedReport streamed = detail::embed_file_streamed(PlyStream(input), dir / "streamed.ply",
+                                                             dir / "streamed.json", key_for(options), options, tuning);
     EXPECT_TRUE(streamed.streamed);
     const std::string expected = test::file_bytes(dir / "memory.ply");
     ASSERT_GT(expected.size(), 0U);
@@ -332,9 +332,8 @@ TEST(EmbedStreamedTest, unstreamable_inputs_fall_back_under_a_budget_and_fail_wh
     const auto obj = dir / "mesh.obj";
     write_mesh(obj, lumpy_ellipsoid(3));
 
-    EXPECT_NE(detail::stream_refusal(ascii, dir / "o.ply").find("ASCII"), std::string::npos);
-    EXPECT_NE(detail::stream_refusal(listed, dir / "o.ply").find("list property"), std::string::npos);
-    EXPECT_NE(detail::stream_refusal(obj, dir / "o.ply"), "");
+    EXPECT_NE(PlyStream(ascii).refusal().find("ASCII"), std::string::npos);
+    EXPECT_NE(PlyStream(listed).refusal().find("list property"), std::string::npos);
     int run = 0;
     for (const auto& input : {ascii, listed})
     {
@@ -353,8 +352,12 @@ TEST(EmbedStreamedTest, unstreamable_inputs_fall_back_under_a_budget_and_fail_wh
         EXPECT_THROW((void)embed_file(input, out, key, options), InvalidOption) << input;
         EXPECT_FALSE(std::filesystem::exists(out));
     }
-    // A PLY written as OBJ needs the mesh in memory.
-    EXPECT_NE(detail::stream_refusal(dir / "listed.ply", dir / "o.obj"), "");
+    // An OBJ input, and a PLY written as OBJ, need the mesh in memory.
+    EmbedFileOptions forced = base_options();
+    forced.force_stream = true;
+    forced.force = true;
+    EXPECT_THROW((void)embed_file(obj, dir / "o.ply", dir / "k.json", forced), InvalidOption);
+    EXPECT_THROW((void)embed_file(dir / "listed.ply", dir / "o.obj", dir / "k.json", forced), InvalidOption);
 }
 
 // The frame passes run beside the face scan (2 threads): a bad vertex is still reported, a bad
