@@ -363,47 +363,59 @@ std::vector<char> moved_vertices(const Positions& original, const Positions& pos
     return moved;
 }
 
+// Calls f(facet, its three corner vertices) for each facet with a corner at a moved vertex,
+// in file order.
+template <typename F>
+void for_each_moved_facet(const StlFacets& facets, const std::vector<char>& moved, F&& f)
+{
+    const auto n = facets.corner_vertices.size() / 3;
+    for (std::size_t facet = 0; facet < n; ++facet)
+    {
+        const std::int32_t* corners = &facets.corner_vertices[3 * facet];
+        if (moved[static_cast<std::size_t>(corners[0])] != 0 ||
+            moved[static_cast<std::size_t>(corners[1])] != 0 ||
+            moved[static_cast<std::size_t>(corners[2])] != 0)
+        {
+            f(facet, corners);
+        }
+    }
+}
+
 void patch_binary_facets(std::string& out, const StlFacets& facets, const std::vector<char>& moved,
                          const Positions& positions)
 {
-    const auto n = facets.corner_vertices.size() / 3;
-    for (std::size_t f = 0; f < n; ++f)
-    {
-        const std::int32_t* corners = &facets.corner_vertices[3 * f];
-        if (moved[static_cast<std::size_t>(corners[0])] == 0 &&
-            moved[static_cast<std::size_t>(corners[1])] == 0 &&
-            moved[static_cast<std::size_t>(corners[2])] == 0)
+    for_each_moved_facet(
+        facets, moved,
+        [&](std::size_t f, const std::int32_t* corners)
         {
-            continue;
-        }
-        char* facet = out.data() + kFacetOffset + f * kFacetSize;
-        // The normal is recomputed from the float32 corners as stored.
-        std::array<std::array<double, 3>, 3> stored{};
-        for (std::size_t c = 0; c < 3; ++c)
-        {
+            char* facet = out.data() + kFacetOffset + f * kFacetSize;
+            // The normal is recomputed from the float32 corners as stored.
+            std::array<std::array<double, 3>, 3> stored{};
+            for (std::size_t c = 0; c < 3; ++c)
+            {
+                for (std::size_t d = 0; d < 3; ++d)
+                {
+                    const auto value =
+                        static_cast<float>(positions(corners[c], static_cast<Eigen::Index>(d)));
+                    store_float(facet + 12 + 12 * c + 4 * d, value, false);
+                    stored[c][d] = static_cast<double>(value);
+                }
+            }
+            bool is_zero_normal = true;
             for (std::size_t d = 0; d < 3; ++d)
             {
-                const auto value =
-                    static_cast<float>(positions(corners[c], static_cast<Eigen::Index>(d)));
-                store_float(facet + 12 + 12 * c + 4 * d, value, false);
-                stored[c][d] = static_cast<double>(value);
+                is_zero_normal =
+                    is_zero_normal && load_scalar(facet + 4 * d, ScalarType::Float32, false) == 0.0;
             }
-        }
-        bool is_zero_normal = true;
-        for (std::size_t d = 0; d < 3; ++d)
-        {
-            is_zero_normal =
-                is_zero_normal && load_scalar(facet + 4 * d, ScalarType::Float32, false) == 0.0;
-        }
-        if (!is_zero_normal)
-        {
-            const auto normal = facet_normal(stored);
-            for (std::size_t d = 0; d < 3; ++d)
+            if (!is_zero_normal)
             {
-                store_float(facet + 4 * d, static_cast<float>(normal[d]), false);
+                const auto normal = facet_normal(stored);
+                for (std::size_t d = 0; d < 3; ++d)
+                {
+                    store_float(facet + 4 * d, static_cast<float>(normal[d]), false);
+                }
             }
-        }
-    }
+        });
 }
 
 std::string patched_ascii_facets(const std::string& bytes, const StlFacets& facets,
@@ -420,54 +432,48 @@ std::string patched_ascii_facets(const std::string& bytes, const StlFacets& face
         append_like_token(out, std::string_view(bytes).substr(offset, span.length), value);
         cursor = offset + span.length;
     };
-    const auto n = facets.corner_vertices.size() / 3;
-    for (std::size_t f = 0; f < n; ++f)
-    {
-        const std::int32_t* corners = &facets.corner_vertices[3 * f];
-        if (moved[static_cast<std::size_t>(corners[0])] == 0 &&
-            moved[static_cast<std::size_t>(corners[1])] == 0 &&
-            moved[static_cast<std::size_t>(corners[2])] == 0)
+    for_each_moved_facet(
+        facets, moved,
+        [&](std::size_t f, const std::int32_t* corners)
         {
-            continue;
-        }
-        const TextSpan* spans = &facets.tokens[12 * f];
-        std::array<std::array<double, 3>, 3> corner_positions{};
-        for (std::size_t c = 0; c < 3; ++c)
-        {
-            for (std::size_t d = 0; d < 3; ++d)
+            const TextSpan* spans = &facets.tokens[12 * f];
+            std::array<std::array<double, 3>, 3> corner_positions{};
+            for (std::size_t c = 0; c < 3; ++c)
             {
-                corner_positions[c][d] = positions(corners[c], static_cast<Eigen::Index>(d));
-            }
-        }
-        bool is_zero_normal = true;
-        for (std::size_t d = 0; d < 3; ++d)
-        {
-            double value = 1.0;
-            const auto token = std::string_view(bytes).substr(spans[d].offset, spans[d].length);
-            is_zero_normal = is_zero_normal && parse_double(token, value) && value == 0.0;
-        }
-        if (!is_zero_normal)
-        {
-            const auto normal = facet_normal(corner_positions);
-            for (std::size_t d = 0; d < 3; ++d)
-            {
-                replace(spans[d], normal[d]);
-            }
-        }
-        for (std::size_t c = 0; c < 3; ++c)
-        {
-            for (std::size_t d = 0; d < 3; ++d)
-            {
-                const auto e = static_cast<Eigen::Index>(d);
-                const double before = original(corners[c], e);
-                const double after = positions(corners[c], e);
-                if (std::memcmp(&before, &after, sizeof(double)) != 0)
+                for (std::size_t d = 0; d < 3; ++d)
                 {
-                    replace(spans[3 + 3 * c + d], after);
+                    corner_positions[c][d] = positions(corners[c], static_cast<Eigen::Index>(d));
                 }
             }
-        }
-    }
+            bool is_zero_normal = true;
+            for (std::size_t d = 0; d < 3; ++d)
+            {
+                double value = 1.0;
+                const auto token = std::string_view(bytes).substr(spans[d].offset, spans[d].length);
+                is_zero_normal = is_zero_normal && parse_double(token, value) && value == 0.0;
+            }
+            if (!is_zero_normal)
+            {
+                const auto normal = facet_normal(corner_positions);
+                for (std::size_t d = 0; d < 3; ++d)
+                {
+                    replace(spans[d], normal[d]);
+                }
+            }
+            for (std::size_t c = 0; c < 3; ++c)
+            {
+                for (std::size_t d = 0; d < 3; ++d)
+                {
+                    const auto e = static_cast<Eigen::Index>(d);
+                    const double before = original(corners[c], e);
+                    const double after = positions(corners[c], e);
+                    if (std::memcmp(&before, &after, sizeof(double)) != 0)
+                    {
+                        replace(spans[3 + 3 * c + d], after);
+                    }
+                }
+            }
+        });
     out.append(bytes, cursor);
     return out;
 }

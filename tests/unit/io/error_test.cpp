@@ -81,9 +81,8 @@ TEST(IoErrorTest, rejects_huge_vertex_counts_fast)
 TEST(IoErrorTest, rejects_out_of_range_ply_face_index_naming_the_face)
 {
     const auto dir = test::temp_dir("io_ply_index");
-    auto text = test::file_bytes(fixture("cube_ascii.ply"));
-    text.replace(text.find("4 1 2 6 5"), 9, "4 1 2 8 5");
-    test::put_bytes(dir / "c.ply", text);
+    test::put_bytes(dir / "c.ply", test::replaced_once(test::file_bytes(fixture("cube_ascii.ply")),
+                                                       "4 1 2 6 5", "4 1 2 8 5"));
     expect_read_error<InvalidMesh>(dir / "c.ply", {"face 5", "vertex index 8", "0..7"});
     // The binary fast path names the face the same way.
     auto binary = test::file_bytes(fixture("cube_binary_le.ply"));
@@ -95,9 +94,8 @@ TEST(IoErrorTest, rejects_out_of_range_ply_face_index_naming_the_face)
 TEST(IoErrorTest, rejects_bad_tokens_with_line_numbers)
 {
     const auto dir = test::temp_dir("io_tokens");
-    auto ply = test::file_bytes(fixture("cube_ascii.ply"));
-    ply.replace(ply.find("1 1 1.1"), 7, "1 1 1,1");
-    test::put_bytes(dir / "t.ply", ply);
+    test::put_bytes(dir / "t.ply", test::replaced_once(test::file_bytes(fixture("cube_ascii.ply")),
+                                                       "1 1 1.1", "1 1 1,1"));
     expect_read_error<IoError>(dir / "t.ply", {"line 17", "'1,1'", "vertex 6"});
     test::put_bytes(dir / "t.obj", "v 0 0 0\nv 1 0 0\nv 0 x 0\nf 1 2 3\n");
     expect_read_error<IoError>(dir / "t.obj", {"line 3", "'x'"});

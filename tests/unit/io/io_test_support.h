@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include "meshmark/core/triangle_mesh.h"
+#include "meshmark/io/mesh_io.h"
 #include "support/test_paths.h"
 
 namespace meshmark::test {
@@ -25,6 +26,21 @@ inline void put_bytes(const std::filesystem::path& path, const std::string& byte
 inline std::filesystem::path fixture(const std::string& name)
 {
     return data_dir() / name;
+}
+
+/// Reads \p path and writes it to \p out with its own positions; returns the bytes written.
+inline std::string rewritten_unchanged(const std::filesystem::path& path,
+                                       const std::filesystem::path& out)
+{
+    const MeshFile file = read_mesh_file(path);
+    write_mesh_file(out, file, file.mesh.V);
+    return file_bytes(out);
+}
+
+/// \p text with the first occurrence of \p from (which must occur) replaced by \p to.
+inline std::string replaced_once(std::string text, const std::string& from, const std::string& to)
+{
+    return text.replace(text.find(from), from.size(), to);
 }
 
 using Rows = std::vector<std::array<double, 3>>;
@@ -77,6 +93,13 @@ inline void expect_triangles(const TriangleMesh& mesh, const Triangles& expected
                 << "face " << f << " corner " << c;
         }
     }
+}
+
+/// The fixtures' cube: positions cube_positions(top), triangles cube_triangles().
+inline void expect_cube(const TriangleMesh& mesh, double top)
+{
+    expect_positions(mesh, cube_positions(top));
+    expect_triangles(mesh, cube_triangles());
 }
 
 /// Runs `body`, expects it to throw E with a message containing every one of `parts`.

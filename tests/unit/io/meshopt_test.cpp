@@ -356,6 +356,16 @@ void expect_same_mesh(const TriangleMesh& a, const TriangleMesh& b)
 class MeshoptTest : public ::testing::TestWithParam<Layout>
 {
 protected:
+    /// The asset of this test's layout, saved as dir / "c.glb".
+    Asset saved_asset() const
+    {
+        Options options;
+        options.layout = GetParam();
+        Asset asset = meshopt_asset(options);
+        test::put_bytes(dir / "c.glb", asset.builder.glb());
+        return asset;
+    }
+
     fs::path dir = test::temp_dir("meshopt_test");
 };
 
@@ -375,22 +385,14 @@ TEST_P(MeshoptTest, reads_like_the_uncompressed_asset)
 
 TEST_P(MeshoptTest, unchanged_positions_keep_the_file)
 {
-    Options options;
-    options.layout = GetParam();
-    const std::string glb = meshopt_asset(options).builder.glb();
-    test::put_bytes(dir / "c.glb", glb);
-    const MeshFile file = read_mesh_file(dir / "c.glb");
-    write_mesh_file(dir / "same.glb", file, file.mesh.V);
-    EXPECT_EQ(test::file_bytes(dir / "same.glb"), glb);
+    const std::string glb = saved_asset().builder.glb();
+    EXPECT_EQ(test::rewritten_unchanged(dir / "c.glb", dir / "same.glb"), glb);
 }
 
 TEST_P(MeshoptTest, moved_positions_are_reencoded_and_decode_to_what_was_written)
 {
     const Layout layout = GetParam();
-    Options options;
-    options.layout = layout;
-    const auto asset = meshopt_asset(options);
-    test::put_bytes(dir / "c.glb", asset.builder.glb());
+    const auto asset = saved_asset();
     const MeshFile file = read_mesh_file(dir / "c.glb");
     const Positions moved = moved_positions(file.mesh.V);
     write_mesh_file(dir / "out.glb", file, moved);
@@ -473,10 +475,7 @@ TEST_P(MeshoptTest, one_moved_vertex_leaves_the_others_decoding_to_their_old_byt
     // With the exponential filter this holds only when the re-encoding uses the input's
     // mantissa bits (recovered from the stream): fewer would round the other elements.
     const Layout layout = GetParam();
-    Options options;
-    options.layout = layout;
-    const auto asset = meshopt_asset(options);
-    test::put_bytes(dir / "c.glb", asset.builder.glb());
+    const auto asset = saved_asset();
     const MeshFile file = read_mesh_file(dir / "c.glb");
     Positions moved = file.mesh.V;
     const Eigen::Index w = vertex_at(moved, world_of(layout, asset.fallback, 40));

@@ -42,24 +42,18 @@ TEST(IoTest, reads_ascii_ply)
     EXPECT_EQ(file.format, MeshFormat::Ply);
     EXPECT_TRUE(file.is_single_precision);
     // Typed ASCII: a float property reads as the float it denotes.
-    test::expect_positions(file.mesh, cube_positions(kFloatTop));
-    test::expect_triangles(file.mesh, cube_triangles());
+    test::expect_cube(file.mesh, kFloatTop);
 }
 
-TEST(IoTest, reads_binary_little_endian_ply)
+TEST(IoTest, reads_binary_ply_in_both_byte_orders)
 {
-    const auto file = read_mesh_file(fixture("cube_binary_le.ply"));
-    EXPECT_TRUE(file.is_single_precision);
-    test::expect_positions(file.mesh, cube_positions(kFloatTop));
-    test::expect_triangles(file.mesh, cube_triangles());
-}
-
-TEST(IoTest, reads_binary_big_endian_ply)
-{
-    const auto file = read_mesh_file(fixture("cube_binary_be.ply"));
-    EXPECT_TRUE(file.is_single_precision);
-    test::expect_positions(file.mesh, cube_positions(kFloatTop));
-    test::expect_triangles(file.mesh, cube_triangles());
+    for (const char* name : {"cube_binary_le.ply", "cube_binary_be.ply"})
+    {
+        SCOPED_TRACE(name);
+        const auto file = read_mesh_file(fixture(name));
+        EXPECT_TRUE(file.is_single_precision);
+        test::expect_cube(file.mesh, kFloatTop);
+    }
 }
 
 TEST(IoTest, skips_extra_properties_and_elements_by_declared_type)
@@ -68,8 +62,7 @@ TEST(IoTest, skips_extra_properties_and_elements_by_declared_type)
     // element with lists, and face properties around the index list.
     const auto file = read_mesh_file(fixture("cube_normals_extra_props.ply"));
     EXPECT_FALSE(file.is_single_precision);
-    test::expect_positions(file.mesh, cube_positions(1.1));
-    test::expect_triangles(file.mesh, cube_triangles());
+    test::expect_cube(file.mesh, 1.1);
 }
 
 TEST(IoTest, decodes_triangle_strips_with_restart_and_degenerates)
@@ -115,8 +108,7 @@ TEST(IoTest, reads_off_with_comments_and_polygons)
 {
     const auto file = read_mesh_file(fixture("cube.off"));
     EXPECT_EQ(file.format, MeshFormat::Off);
-    test::expect_positions(file.mesh, cube_positions(1.1));
-    test::expect_triangles(file.mesh, cube_triangles());
+    test::expect_cube(file.mesh, 1.1);
 }
 
 TEST(IoTest, reads_ascii_stl_and_welds_corners)
@@ -254,8 +246,8 @@ TEST(IoTest, reads_ascii_stl_with_several_solids)
     const std::string facet =
         "facet normal 0 0 1\n outer loop\n  vertex 0 0 0\n  vertex 1 0 0\n  vertex 0 1 0\n"
         " endloop\nendfacet\n";
-    test::put_bytes(dir / "s.stl", "solid a\n" + facet + "endsolid a\nSOLID b\n" + facet +
-                                       "ENDSOLID b\n");
+    test::put_bytes(dir / "s.stl",
+                    "solid a\n" + facet + "endsolid a\nSOLID b\n" + facet + "ENDSOLID b\n");
     const auto mesh = read_mesh(dir / "s.stl");
     EXPECT_EQ(mesh.V.rows(), 3);
     test::expect_triangles(mesh, {{0, 1, 2}, {0, 1, 2}});
@@ -264,8 +256,9 @@ TEST(IoTest, reads_ascii_stl_with_several_solids)
 TEST(IoTest, reads_off_counts_on_the_keyword_line)
 {
     const auto dir = test::temp_dir("io_off_counts");
-    test::put_bytes(dir / "c.off", "COFF 3 1 0\n0 0 0 255 0 0 255\n1 0 0 0 255 0 255\n"
-                                   "0 1 0 0 0 255 255\n3 0 1 2\n");
+    test::put_bytes(dir / "c.off",
+                    "COFF 3 1 0\n0 0 0 255 0 0 255\n1 0 0 0 255 0 255\n"
+                    "0 1 0 0 0 255 255\n3 0 1 2\n");
     const auto mesh = read_mesh(dir / "c.off");
     test::expect_positions(mesh, {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}});
     test::expect_triangles(mesh, {{0, 1, 2}});

@@ -1,0 +1,68 @@
+// SPDX-License-Identifier: MIT
+// The pieces of the glTF reader (read_gltf in gltf_read.cpp): where accessor elements lie
+// (gltf_accessors.cpp), the meshopt-compressed bufferViews (gltf_meshopt_views.cpp) and the
+// scene walk that turns the loaded model into one welded mesh (gltf_scene.cpp).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <tiny_gltf.h>
+
+#include "gltf.h"
+
+namespace meshmark::detail {
+
+/// The component type of glTF code \p type, or nullopt for a code glTF does not define.
+[[nodiscard]] std::optional<GltfComponent> component_of(int type);
+/// Bytes of one component.
+[[nodiscard]] std::size_t component_size(GltfComponent c);
+
+/// \brief Where the elements of an asset's accessors lie in its loaded buffers.
+/// \details Checks every range against its bufferView and buffer (no overflow on hostile
+/// sizes) and refuses views that are meshopt streams this build could not decode and that have
+/// no fallback data. Errors name the file.
+class GltfAccessors
+{
+public:
+    GltfAccessors(const std::filesystem::path& path, const tinygltf::Model& model,
+                  const GltfAsset& asset);
+
+    /// \brief The byte location of each element of accessor \p accessor (of \p components
+    /// components), after sparse substitution; \p what names it in errors ("POSITION").
+    [[nodiscard]] std::vector<GltfElement> locate(int accessor, int components,
+                                                  const std::string& what) const;
+
+    /// The view's byte range lies inside its (loaded) buffer.
+    [[nodiscard]] bool is_view_in_buffer(const tinygltf::BufferView& view) const;
+
+private:
+    const std::filesystem::path& path_;
+    const tinygltf::Model& model_;
+    const GltfAsset& asset_;
+    std::map<int, std::string> undecoded_;  // undecoded meshopt views without fallback data: why
+};
+
+/// The bufferViews compressed with meshopt, as the JSON \p json declares them (checked, not
+/// decoded).
+[[nodiscard]] std::vector<GltfMeshoptView> meshopt_views(const std::filesystem::path& path,
+                                                         const std::string& json);
+
+/// \brief Decode every view of asset.meshopt that this build supports into its range of its
+/// (fallback) buffer, so that everything downstream reads the decoded bytes like any other
+/// buffer data; the others get their reason in GltfMeshoptView::unsupported.
+void decode_meshopt_views(const std::filesystem::path& path, const tinygltf::Model& model,
+                          GltfAsset& asset);
+
+/// \brief Walk the scene graph of \p model (buffers and meshopt views already in \p asset)
+/// and return its welded world-frame mesh; fills the accessors, Draco primitives and other
+/// instances of \p asset.
+[[nodiscard]] TriangleMesh read_scene(const std::filesystem::path& path,
+                                      const tinygltf::Model& model, GltfAsset& asset);
+
+}  // namespace meshmark::detail

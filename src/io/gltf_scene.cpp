@@ -1,0 +1,569 @@
+// SPDX-License-Identifier: MIT
+// The glTF scene walk: roots of the default scene (else every scene, else every parentless
+// node), node transforms down the tree, each triangle or point primitive's POSITION accessor
+// or Draco data read into the world frame once per accessor (further instances under other
+// transforms are kept aside, not marked), and coincident world-space vertices welded into the
+// one mesh that meshmark marks.
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+#include <Eigen/Geometry>
+
+#include "io/detail/gltf_json.h"
+#include "io/detail/gltf_reader.h"
+#include "io/detail/numbers.h"
+#include "io/detail/support.h"
+#include "io/detail/weld.h"
+#include "meshmark/core/error.h"
+
+namespace meshmark::detail {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr int kModePoints = 0;
+constexpr int kModeTriangles = 4;
+
+// Node visits allowed while walking the scene graph (a DAG of shared children can otherwise
+// explode exponentially in a hostile file).
+constexpr std::size_t kMaxNodeVisits = 1U << 20U;
+
+// One vertex of one instance before welding.
+struct RawVertices
+{
+    std::vector<double> world;        // 3 per element
+    std::vector<std::int32_t> group;  // transform group per element
+};
+
+class Reader
+{
+public:
+    Reader(const fs::path& path, const tinygltf::Model& model, GltfAsset& asset)
+        : path_(path), model_(model), asset_(asset), accessors_(path, model, asset)
+    {
+    }
+
+    TriangleMesh run();
+
+private:
+    void walk(int node, const Eigen::Matrix4d& parent, std::vector<char>& on_stack);
+    void add_primitive(int mesh, int index, const Eigen::Matrix4d& to_world);
+    void add_plain(const tinygltf::Primitive& prim, int mesh, int index,
+                   const Eigen::Matrix4d& to_world);
+    void add_draco(const tinygltf::Primitive& prim, int mesh, int index,
+                   const Eigen::Matrix4d& to_world);
+    void add_triangles(const tinygltf::Primitive& prim, int mesh, int index, std::size_t base,
+                       std::size_t count);
+    void add_triangles(const tinygltf::Primitive& prim, int mesh, int index, std::size_t base,
+                       std::size_t count, std::vector<std::size_t>& corners);
+    std::size_t add_instance(std::size_t first, std::size_t count, const Eigen::Matrix4d& from,
+                             const Eigen::Matrix4d& to);
+    std::int32_t group_of(const Eigen::Matrix4d& to_world);
+    void append_world(const std::vector<double>& local, const Eigen::Matrix4d& to_world,
+                      std::int32_t group);
+    TriangleMesh weld();
+    [[noreturn]] void fail(const std::string& what) const { fail_io(path_, what); }
+
+    const fs::path& path_;
+    const tinygltf::Model& model_;
+    GltfAsset& asset_;
+    GltfAccessors accessors_;
+    std::size_t visits_ = 0;
+    std::map<int, std::size_t> accessor_slot_;  // POSITION accessor -> asset_.accessors
+    std::map<int, std::size_t> draco_slot_;     // Draco bufferView -> asset_.draco
+    std::vector<std::size_t> slot_base_;        // first raw element of each accessor slot
+    std::vector<std::size_t> draco_base_;       // first raw element of each Draco slot
+    std::vector<std::pair<std::size_t, std::size_t>> draco_corners_;  // its range of corners_
+    std::vector<double> instance_xyz_;           // other instances, world frame, 3 per point
+    std::vector<std::size_t> instance_corners_;  // their triangles, into instance_xyz_
+    std::vector<Eigen::Matrix4d> groups_;        // distinct world transforms
+    RawVertices raw_;
+    std::vector<std::size_t> corners_;  // raw element ids, 3 per triangle
+};
+
+Eigen::Matrix4d local_matrix(const tinygltf::Node& node)
+{
+    Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+    if (node.matrix.size() == 16)
+    {
+        for (int k = 0; k < 16; ++k)
+        {
+            m(k % 4, k / 4) = node.matrix[static_cast<std::size_t>(k)];  // column-major
+        }
+        return m;
+    }
+    Eigen::Affine3d t = Eigen::Affine3d::Identity();
+    if (node.translation.size() == 3)
+    {
+        t.translate(Eigen::Vector3d(node.translation[0], node.translation[1], node.translation[2]));
+    }
+    if (node.rotation.size() == 4)
+    {
+        // glTF stores (x, y, z, w); Eigen's constructor takes (w, x, y, z).
+        Eigen::Quaterniond q(node.rotation[3], node.rotation[0], node.rotation[1],
+                             node.rotation[2]);
+        if (q.norm() > 0.0)
+        {
+            q.normalize();
+        }
+        t.rotate(q);
+    }
+    if (node.scale.size() == 3)
+    {
+        t.scale(Eigen::Vector3d(node.scale[0], node.scale[1], node.scale[2]));
+    }
+    return t.matrix();
+}
+
+bool same_matrix(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b)
+{
+    return std::memcmp(a.data(), b.data(), sizeof(double) * 16) == 0;
+}
+
+TriangleMesh Reader::run()
+{
+    // Roots: the default scene, else every scene, else every node that is no one's child.
+    std::vector<int> roots;
+    const auto scene_count = static_cast<int>(model_.scenes.size());
+    if (model_.defaultScene >= 0 && model_.defaultScene < scene_count)
+    {
+        roots = model_.scenes[static_cast<std::size_t>(model_.defaultScene)].nodes;
+    }
+    else if (scene_count > 0)
+    {
+        for (const auto& scene : model_.scenes)
+        {
+            roots.insert(roots.end(), scene.nodes.begin(), scene.nodes.end());
+        }
+    }
+    else
+    {
+        std::vector<char> is_child(model_.nodes.size(), 0);
+        for (const auto& node : model_.nodes)
+        {
+            for (const int c : node.children)
+            {
+                if (c >= 0 && static_cast<std::size_t>(c) < is_child.size())
+                {
+                    is_child[static_cast<std::size_t>(c)] = 1;
+                }
+            }
+        }
+        for (std::size_t n = 0; n < is_child.size(); ++n)
+        {
+            if (is_child[n] == 0)
+            {
+                roots.push_back(static_cast<int>(n));
+            }
+        }
+    }
+    std::vector<char> on_stack(model_.nodes.size(), 0);
+    for (const int root : roots)
+    {
+        walk(root, Eigen::Matrix4d::Identity(), on_stack);
+    }
+    return weld();
+}
+
+void Reader::walk(int node_index, const Eigen::Matrix4d& parent, std::vector<char>& on_stack)
+{
+    if (node_index < 0 || static_cast<std::size_t>(node_index) >= model_.nodes.size())
+    {
+        fail("node index " + std::to_string(node_index) + " is out of range");
+    }
+    const auto n = static_cast<std::size_t>(node_index);
+    if (on_stack[n] != 0)
+    {
+        fail("node " + std::to_string(node_index) +
+             " is its own ancestor (a cycle in the node tree)");
+    }
+    if (++visits_ > kMaxNodeVisits)
+    {
+        fail("the node graph expands to more than " + std::to_string(kMaxNodeVisits) + " nodes");
+    }
+    const auto& node = model_.nodes[n];
+    const Eigen::Matrix4d to_world = parent * local_matrix(node);
+    if (!to_world.allFinite())
+    {
+        fail("node " + std::to_string(node_index) + " has a non-finite transform");
+    }
+    if (node.mesh >= 0)
+    {
+        if (static_cast<std::size_t>(node.mesh) >= model_.meshes.size())
+        {
+            fail("node " + std::to_string(node_index) + " refers to missing mesh " +
+                 std::to_string(node.mesh));
+        }
+        // A singular transform (zero scale) hides the mesh: it has no world geometry to mark.
+        if (std::abs(to_world.topLeftCorner<3, 3>().determinant()) > 0.0)
+        {
+            const auto& mesh = model_.meshes[static_cast<std::size_t>(node.mesh)];
+            for (std::size_t p = 0; p < mesh.primitives.size(); ++p)
+            {
+                add_primitive(node.mesh, static_cast<int>(p), to_world);
+            }
+        }
+    }
+    on_stack[n] = 1;
+    for (const int child : node.children)
+    {
+        walk(child, to_world, on_stack);
+    }
+    on_stack[n] = 0;
+}
+
+void Reader::add_primitive(int mesh, int index, const Eigen::Matrix4d& to_world)
+{
+    const auto& prim =
+        model_.meshes[static_cast<std::size_t>(mesh)].primitives[static_cast<std::size_t>(index)];
+    if (prim.mode != kModeTriangles && prim.mode != kModePoints)
+    {
+        return;  // lines, strips and fans are carried through untouched
+    }
+    if (prim.extensions.count(kDracoExtension) != 0)
+    {
+        add_draco(prim, mesh, index, to_world);
+    }
+    else
+    {
+        add_plain(prim, mesh, index, to_world);
+    }
+}
+
+std::int32_t Reader::group_of(const Eigen::Matrix4d& to_world)
+{
+    for (std::size_t g = 0; g < groups_.size(); ++g)
+    {
+        if (same_matrix(groups_[g], to_world))
+        {
+            return static_cast<std::int32_t>(g);
+        }
+    }
+    groups_.push_back(to_world);
+    return static_cast<std::int32_t>(groups_.size() - 1);
+}
+
+void Reader::append_world(const std::vector<double>& local, const Eigen::Matrix4d& to_world,
+                          std::int32_t group)
+{
+    const std::size_t n = local.size() / 3;
+    for (std::size_t i = 0; i < n; ++i)
+    {
+        const Eigen::Vector4d p(local[3 * i], local[3 * i + 1], local[3 * i + 2], 1.0);
+        const Eigen::Vector4d w = to_world * p;
+        raw_.world.insert(raw_.world.end(), {w.x(), w.y(), w.z()});
+        raw_.group.push_back(group);
+    }
+}
+
+void Reader::add_plain(const tinygltf::Primitive& prim, int mesh, int index,
+                       const Eigen::Matrix4d& to_world)
+{
+    const auto it = prim.attributes.find("POSITION");
+    if (it == prim.attributes.end())
+    {
+        return;
+    }
+    const int a = it->second;
+    if (a < 0 || static_cast<std::size_t>(a) >= model_.accessors.size())
+    {
+        fail("mesh " + std::to_string(mesh) + " primitive " + std::to_string(index) +
+             " has a missing POSITION accessor");
+    }
+    std::size_t slot = 0;
+    if (const auto found = accessor_slot_.find(a); found != accessor_slot_.end())
+    {
+        slot = found->second;
+        // Another instance of the same positions under a different transform: its vertices
+        // cannot take a second displacement, so only the first instance is watermarked; its
+        // geometry is kept aside for registration (MeshFile::instances).
+        if (!same_matrix(asset_.accessors[slot].to_world, to_world))
+        {
+            const std::size_t base =
+                add_instance(slot_base_[slot], asset_.accessors[slot].elements.size(),
+                             asset_.accessors[slot].to_world, to_world);
+            if (prim.mode == kModeTriangles)
+            {
+                add_triangles(prim, mesh, index, base, asset_.accessors[slot].elements.size(),
+                              instance_corners_);
+            }
+            return;
+        }
+    }
+    else
+    {
+        const auto& acc = model_.accessors[static_cast<std::size_t>(a)];
+        const auto component = component_of(acc.componentType);
+        if (acc.type != TINYGLTF_TYPE_VEC3 || !component || *component == GltfComponent::UInt32)
+        {
+            fail("POSITION accessor " + std::to_string(a) +
+                 " is not a VEC3 of float or 8/16-bit integers");
+        }
+        GltfPositionAccessor record;
+        record.accessor = a;
+        record.component = *component;
+        record.is_normalized = acc.normalized;
+        record.to_world = to_world;
+        record.elements = accessors_.locate(a, 3, "POSITION");
+        // Local positions, decoded and de-normalized as a renderer would.
+        std::vector<double> local(3 * record.elements.size(), 0.0);
+        const auto type = scalar_of(record.component);
+        const std::size_t size = component_size(record.component);
+        for (std::size_t e = 0; e < record.elements.size(); ++e)
+        {
+            const auto& el = record.elements[e];
+            for (std::size_t d = 0; d < 3 && el.buffer >= 0; ++d)
+            {
+                const char* p = asset_.buffers[static_cast<std::size_t>(el.buffer)].bytes.data() +
+                                el.offset + d * size;
+                local[3 * e + d] =
+                    dequantize(load_scalar(p, type, false), record.component, record.is_normalized);
+            }
+        }
+        for (std::size_t k = 0; k < local.size(); ++k)
+        {
+            if (!std::isfinite(local[k]))
+            {
+                fail_mesh(path_, "POSITION accessor " + std::to_string(a) + " element " +
+                                     std::to_string(k / 3) + " has a non-finite coordinate");
+            }
+        }
+        slot = asset_.accessors.size();
+        accessor_slot_[a] = slot;
+        slot_base_.push_back(raw_.group.size());
+        append_world(local, to_world, group_of(to_world));
+        asset_.accessors.push_back(std::move(record));
+    }
+    if (prim.mode == kModeTriangles)
+    {
+        add_triangles(prim, mesh, index, slot_base_[slot], asset_.accessors[slot].elements.size());
+    }
+}
+
+void Reader::add_triangles(const tinygltf::Primitive& prim, int mesh, int index, std::size_t base,
+                           std::size_t count)
+{
+    add_triangles(prim, mesh, index, base, count, corners_);
+}
+
+// The points of another instance of raw elements [first, first + count), first read under
+// \p from, now under \p to; returns the index of its first point in instance_xyz_.
+std::size_t Reader::add_instance(std::size_t first, std::size_t count, const Eigen::Matrix4d& from,
+                                 const Eigen::Matrix4d& to)
+{
+    const Eigen::Matrix4d map = to * from.inverse();
+    const std::size_t base = instance_xyz_.size() / 3;
+    for (std::size_t e = first; e < first + count; ++e)
+    {
+        const Eigen::Vector4d p(raw_.world[3 * e], raw_.world[3 * e + 1], raw_.world[3 * e + 2],
+                                1.0);
+        const Eigen::Vector4d q = map * p;
+        instance_xyz_.insert(instance_xyz_.end(), {q.x(), q.y(), q.z()});
+    }
+    return base;
+}
+
+void Reader::add_triangles(const tinygltf::Primitive& prim, int mesh, int index, std::size_t base,
+                           std::size_t count, std::vector<std::size_t>& corners)
+{
+    const std::string where =
+        "mesh " + std::to_string(mesh) + " primitive " + std::to_string(index);
+    if (prim.indices < 0)
+    {
+        if (count % 3 != 0)
+        {
+            fail_mesh(path_, where + " has " + std::to_string(count) +
+                                 " non-indexed vertices, not a multiple of 3");
+        }
+        for (std::size_t e = 0; e < count; ++e)
+        {
+            corners.push_back(base + e);
+        }
+        return;
+    }
+    if (static_cast<std::size_t>(prim.indices) >= model_.accessors.size())
+    {
+        fail(where + " has a missing indices accessor");
+    }
+    const auto& acc = model_.accessors[static_cast<std::size_t>(prim.indices)];
+    const auto component = component_of(acc.componentType);
+    if (acc.type != TINYGLTF_TYPE_SCALAR || !component ||
+        (*component != GltfComponent::UInt8 && *component != GltfComponent::UInt16 &&
+         *component != GltfComponent::UInt32))
+    {
+        fail(where + " has indices that are not unsigned integer scalars");
+    }
+    const auto elements = accessors_.locate(prim.indices, 1, "indices");
+    if (elements.size() % 3 != 0)
+    {
+        fail_mesh(path_, where + " has " + std::to_string(elements.size()) +
+                             " indices, not a multiple of 3");
+    }
+    const auto type = scalar_of(*component);
+    for (const auto& el : elements)
+    {
+        const std::uint64_t i =
+            el.buffer < 0
+                ? 0
+                : static_cast<std::uint64_t>(load_integer(
+                      asset_.buffers[static_cast<std::size_t>(el.buffer)].bytes.data() + el.offset,
+                      type, false));
+        if (i >= count)
+        {
+            fail_mesh(path_, where + " has index " + std::to_string(i) + " " + index_range(count));
+        }
+        corners.push_back(base + i);
+    }
+}
+
+void Reader::add_draco(const tinygltf::Primitive& prim, int mesh, int index,
+                       const Eigen::Matrix4d& to_world)
+{
+    const std::string where =
+        "mesh " + std::to_string(mesh) + " primitive " + std::to_string(index);
+    const auto& ext = prim.extensions.at(kDracoExtension);
+    // tinygltf::Value::Get asserts an object: check the shape before each lookup.
+    if (!ext.IsObject() || !ext.Has("attributes") || !ext.Get("attributes").IsObject())
+    {
+        fail(where + " has a malformed " + std::string(kDracoExtension) + " extension");
+    }
+    const auto& view_value = ext.Get("bufferView");
+    const auto& position_value = ext.Get("attributes").Get("POSITION");
+    const auto position = prim.attributes.find("POSITION");
+    if (!view_value.IsInt() || !position_value.IsInt() || position == prim.attributes.end() ||
+        position->second < 0 ||
+        static_cast<std::size_t>(position->second) >= model_.accessors.size())
+    {
+        fail(where + " has a " + std::string(kDracoExtension) +
+             " extension without bufferView or POSITION attribute");
+    }
+    const int view_index = view_value.Get<int>();
+    if (view_index < 0 || static_cast<std::size_t>(view_index) >= model_.bufferViews.size())
+    {
+        fail(where + " refers to missing Draco bufferView " + std::to_string(view_index));
+    }
+    std::size_t slot = 0;
+    if (const auto found = draco_slot_.find(view_index); found != draco_slot_.end())
+    {
+        slot = found->second;
+        if (!same_matrix(asset_.draco[slot].to_world, to_world))
+        {
+            // A second instance, see add_plain.
+            const std::size_t base =
+                add_instance(draco_base_[slot], asset_.draco[slot].welded.size(),
+                             asset_.draco[slot].to_world, to_world);
+            const auto [first, last] = draco_corners_[slot];
+            for (std::size_t k = first; k < last; ++k)
+            {
+                instance_corners_.push_back(base + corners_[k] - draco_base_[slot]);
+            }
+            return;
+        }
+    }
+    else
+    {
+        const auto& view = model_.bufferViews[static_cast<std::size_t>(view_index)];
+        if (!accessors_.is_view_in_buffer(view))
+        {
+            fail(where + " has a Draco bufferView past the end of its buffer");
+        }
+        GltfDracoPrimitive record;
+        record.mesh = mesh;
+        record.primitive = index;
+        record.buffer_view = view_index;
+        record.position_accessor = position->second;
+        record.position_attribute_id = position_value.Get<int>();
+        record.to_world = to_world;
+        const auto& draco_attributes = ext.Get("attributes").Keys();
+        record.has_foreign_attributes = !prim.targets.empty();
+        for (const auto& [name, accessor] : prim.attributes)
+        {
+            static_cast<void>(accessor);
+            if (std::find(draco_attributes.begin(), draco_attributes.end(), name) ==
+                draco_attributes.end())
+            {
+                record.has_foreign_attributes = true;
+            }
+        }
+        const auto& buffer = asset_.buffers[static_cast<std::size_t>(view.buffer)].bytes;
+        const auto geometry = decode_draco(path_, buffer.substr(view.byteOffset, view.byteLength),
+                                           record.position_attribute_id);
+        // The decoded values are stored values: with KHR_mesh_quantization, integers that the
+        // accessor's `normalized` maps to [-1, 1] or [0, 1], as for uncompressed data.
+        const auto& accessor = model_.accessors[static_cast<std::size_t>(position->second)];
+        record.component = geometry.component;
+        record.is_normalized = accessor.normalized && geometry.component != GltfComponent::Float32;
+        std::vector<double> local(geometry.positions.size());
+        for (std::size_t k = 0; k < local.size(); ++k)
+        {
+            local[k] = dequantize(geometry.positions[k], record.component, record.is_normalized);
+        }
+        slot = asset_.draco.size();
+        draco_slot_[view_index] = slot;
+        draco_base_.push_back(raw_.group.size());
+        append_world(local, to_world, group_of(to_world));
+        record.welded.resize(geometry.point_count);
+        asset_.draco.push_back(std::move(record));
+        const std::size_t first_corner = corners_.size();
+        if (prim.mode == kModeTriangles)
+        {
+            for (const auto c : geometry.triangles)
+            {
+                corners_.push_back(draco_base_[slot] + c);
+            }
+        }
+        draco_corners_.emplace_back(first_corner, corners_.size());
+        return;
+    }
+    // A repeated use under the same transform adds the same triangles again; the Draco data
+    // has one connectivity, so they are already there.
+}
+
+TriangleMesh Reader::weld()
+{
+    if (raw_.group.size() > kMaxVertices)
+    {
+        fail("the asset has more than " + std::to_string(kMaxVertices) + " vertices");
+    }
+    std::vector<double> xyz;
+    const auto welded =
+        weld_world_positions(raw_.world, raw_.group, groups_.size(), kCrossTransformWeldRel, xyz);
+
+    // Hand the welded ids to the layout, then build the mesh.
+    for (std::size_t s = 0; s < asset_.accessors.size(); ++s)
+    {
+        auto& record = asset_.accessors[s];
+        record.welded.assign(
+            welded.begin() + static_cast<std::ptrdiff_t>(slot_base_[s]),
+            welded.begin() + static_cast<std::ptrdiff_t>(slot_base_[s] + record.elements.size()));
+    }
+    for (std::size_t s = 0; s < asset_.draco.size(); ++s)
+    {
+        auto& record = asset_.draco[s];
+        const auto first = welded.begin() + static_cast<std::ptrdiff_t>(draco_base_[s]);
+        std::copy(first, first + static_cast<std::ptrdiff_t>(record.welded.size()),
+                  record.welded.begin());
+    }
+    if (!instance_xyz_.empty())
+    {
+        asset_.instances = make_mesh(instance_xyz_, instance_corners_);
+    }
+    TriangleBuffer triangles;
+    triangles.reserve(corners_.size() / 3);
+    for (std::size_t t = 0; t + 2 < corners_.size(); t += 3)
+    {
+        triangles.push(welded[corners_[t]], welded[corners_[t + 1]], welded[corners_[t + 2]]);
+    }
+    return make_mesh(xyz, triangles);
+}
+
+}  // namespace
+
+TriangleMesh read_scene(const fs::path& path, const tinygltf::Model& model, GltfAsset& asset)
+{
+    Reader reader(path, model, asset);
+    return reader.run();
+}
+
+}  // namespace meshmark::detail
