@@ -36,7 +36,7 @@
 #include "io/detail/numbers.h"
 #include "io/detail/ply.h"
 #include "io/detail/support.h"
-#include "meshmark/basis/rbf_basis.h"
+#include "meshmark/basis/row_source.h"
 #include "meshmark/core/atomic_file.h"
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
@@ -448,42 +448,58 @@ private:
     std::uint64_t vertex_;
 };
 
-class FileRowCursor : public RowPositionCursor
+class FileRowCursor final : public RowPositionCursor
 {
 public:
-    FileRowCursor(const InputFile& file, const Layout& layout, const Referenced& referenced,
-                  std::uint64_t first_vertex, std::size_t window)
-        : referenced_(referenced), reader_(file, layout, first_vertex, window)
+    FileRowCursor(const InputFile& file, const Layout& layout, const Referenced& referenced, std::size_t begin,
+                  std::size_t window)
+        : referenced_(referenced), reader_(file, layout, referenced.select(begin), window), next_(begin)
     {
     }
-    void read(std::size_t count, double* xyz) override
+    void read(std::size_t count, double* xyz, std::int32_t* rows) override
     {
         for (std::size_t i = 0; i < count;)
         {
-            const auto v = reader_.vertex();
-            const char* record = reader_.next();
-            if (referenced_.is_active(v))
-            {
-                reader_.position(record, xyz + 3 * i);
-                ++i;
-            }
+            i += read_one(xyz + 3 * i, rows + i) ? 1U : 0U;
         }
     }
-    void skip(std::size_t count) override
+    void read_at(std::span<const std::size_t> indices, double* xyz, std::int32_t* rows) override
     {
-        for (std::size_t i = 0; i < count;)
+        for (std::size_t i = 0; i < indices.size(); ++i)
         {
-            i += referenced_.is_active(reader_.vertex()) ? 1U : 0U;
-            (void)reader_.next();
+            while (next_ < indices[i])  // skip the active rows before it
+            {
+                next_ += referenced_.is_active(reader_.vertex()) ? 1U : 0U;
+                (void)reader_.next();
+            }
+            while (!read_one(xyz + 3 * i, rows + i))
+            {
+            }
         }
     }
 
 private:
+    // The next vertex record; true (and its position and index) when it is active.
+    bool read_one(double* xyz, std::int32_t* row)
+    {
+        const auto v = reader_.vertex();
+        const char* record = reader_.next();
+        if (!referenced_.is_active(v))
+        {
+            return false;
+        }
+        reader_.position(record, xyz);
+        *row = static_cast<std::int32_t>(v);
+        ++next_;
+        return true;
+    }
+
     const Referenced& referenced_;
     VertexReader reader_;
+    std::size_t next_;  // active-row index of the next active record
 };
 
-class FileRowSource : public RowPositionSource
+class FileRowSource final : public RowPositionSource
 {
 public:
     FileRowSource(const InputFile& file, const Layout& layout, const Referenced& referenced, std::size_t window)
@@ -491,9 +507,26 @@ public:
     {
     }
     [[nodiscard]] std::size_t size() const override { return static_cast<std::size_t>(referenced_.active); }
+    [[nodiscard]] std::size_t vertex_count() const override { return static_cast<std::size_t>(layout_.vertex_count); }
+    [[nodiscard]] std::int32_t row(std::size_t i) const override
+    {
+        return static_cast<std::int32_t>(referenced_.select(i));
+    }
+    [[nodiscard]] std::array<double, 3> position(std::int32_t row) const override
+    {
+        std::vector<char> record(static_cast<std::size_t>(layout_.stride));
+        file_.read_exactly(layout_.vertex_offset + static_cast<std::uint64_t>(row) * layout_.stride, record.size(),
+                           record.data());
+        std::array<double, 3> xyz{};
+        for (std::size_t d = 0; d < 3; ++d)
+        {
+            xyz[d] = load_scalar(record.data() + layout_.field_offsets[d], layout_.types[d], layout_.is_big_endian);
+        }
+        return xyz;
+    }
     [[nodiscard]] std::unique_ptr<RowPositionCursor> cursor(std::size_t begin) const override
     {
-        return std::make_unique<FileRowCursor>(file_, layout_, referenced_, referenced_.select(begin), window_);
+        return std::make_unique<FileRowCursor>(file_, layout_, referenced_, begin, window_);
     }
 
 private:
@@ -833,11 +866,7 @@ EmbedReport embed_file_streamed(const std::filesystem::path& input, const std::f
 
     timer.begin("frame");
     key.options.validate();
-    if (static_cast<std::int64_t>(referenced.active) < key.options.basis_size)
-    {
-        throw InvalidMesh("the mesh has " + std::to_string(referenced.active) + " usable vertices, fewer than the " +
-                          std::to_string(key.options.basis_size) + " basis functions (use a smaller --basis-size).");
-    }
+    check_analysed_rows(key.options, static_cast<std::size_t>(referenced.active));
     if (guess_error)
     {
         std::rethrow_exception(guess_error);
@@ -854,37 +883,12 @@ EmbedReport embed_file_streamed(const std::filesystem::path& input, const std::f
     key.original.position_hash = hash;
     timer.lap("frame");
 
-    // Centers and basis (pass 1 over the file).
+    // Centers and basis (pass 1 over the file): the watermark reads the active rows' positions
+    // through the file's row source.
     timer.begin("basis");
-    const auto read_position = [&](std::int32_t row) {
-        std::vector<char> record(static_cast<std::size_t>(layout.stride));
-        file.read_exactly(layout.vertex_offset + static_cast<std::uint64_t>(row) * layout.stride, record.size(),
-                          record.data());
-        std::array<double, 3> xyz{};
-        for (std::size_t d = 0; d < 3; ++d)
-        {
-            xyz[d] = load_scalar(record.data() + layout.field_offsets[d], layout.types[d], layout.is_big_endian);
-        }
-        return xyz;
-    };
-    std::vector<std::int32_t> centers = random_centers(
-        static_cast<std::size_t>(referenced.active),
-        [&](std::size_t i) { return static_cast<std::int32_t>(referenced.select(i)); }, read_position,
-        key.options.basis_size, derive_seed(key.seed, "centers"));
-    Eigen::MatrixX3d center_positions(static_cast<Eigen::Index>(centers.size()), 3);
-    for (std::size_t j = 0; j < centers.size(); ++j)
-    {
-        const auto xyz = read_position(centers[j]);
-        center_positions.row(static_cast<Eigen::Index>(j)) = Eigen::RowVector3d(xyz[0], xyz[1], xyz[2]);
-    }
-    const CanonicalFrame& canonical = frame.frame();
-    const double sigma = key.options.sigma_factor * canonical.diagonal / 2.0;
-    const FileRowSource source(file, layout, referenced, window);
-    RbfBasis basis(source, center_positions, sigma, canonical.origin, options.threads,
-                   static_cast<std::size_t>(key.options.gram_rows));
-    const std::size_t chunk_bytes = basis.max_chunk_rows() * 3 * sizeof(double);
-    const SpectralWatermark mark(key, canonical, std::move(centers), std::move(basis),
-                                 static_cast<std::size_t>(referenced.active));
+    const auto source = std::make_shared<const FileRowSource>(file, layout, referenced, window);
+    const SpectralWatermark mark(key, source, frame.frame(), options.threads);
+    const std::size_t chunk_bytes = mark.basis().max_chunk_rows() * 3 * sizeof(double);
     timer.lap("basis");
 
     // Synthesis streamed into the output: header, patched vertex records, the rest as is.
@@ -904,8 +908,8 @@ EmbedReport embed_file_streamed(const std::filesystem::path& input, const std::f
             copy_range(file, 0, layout.vertex_offset, out);
             VertexWriter writer(file, layout, referenced, output, out, window);
             double orthogonality = 0.0;
-            dynamic_cast<const RbfBasis&>(mark.basis()).synthesize_streamed(
-                change, source, in_flight,
+            mark.basis().synthesize_streamed(
+                change, in_flight,
                 [&](std::size_t begin, std::size_t rows, const double* field) {
                     writer.add(rows, field);
                     progress("write", static_cast<double>(begin + rows) / active);

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/watermark/watermark.h"
+#include "meshmark/watermark/detector.h"
 
 #include <gtest/gtest.h>
 
@@ -30,10 +31,10 @@ Key make_key(const TriangleMesh& mesh, std::uint64_t seed, EmbeddingRule rule = 
     return key;
 }
 
-Decision detect_positions(const SpectralWatermark& mark, const Positions& suspect)
+Decision detect_positions(const SpectralWatermark& mark, const TriangleMesh& original, const Positions& suspect)
 {
     const DetectOptions options;
-    return mark.decide(mark.extract(suspect, options), options);
+    return mark.decide(Detector(mark, original).extract(suspect, options), options);
 }
 
 }  // namespace
@@ -73,7 +74,7 @@ TEST(SpectralWatermarkTest, marked_copy_reads_back_all_bits_with_both_rules)
         const SpectralWatermark mark(mesh, make_key(mesh, 42, rule));
         EmbedStats stats;
         const Positions marked = mesh.V + mark.displacement(&stats);
-        const Decision decision = detect_positions(mark, marked);
+        const Decision decision = detect_positions(mark, mesh, marked);
         EXPECT_DOUBLE_EQ(decision.correlation, 1.0) << to_string(rule);
         EXPECT_TRUE(decision.is_present);
         EXPECT_EQ(decision.bits_found, decision.bits_expected);
@@ -115,7 +116,7 @@ TEST(SpectralWatermarkTest, unmarked_and_wrong_key_copies_are_not_claimed)
 {
     const TriangleMesh mesh = lumpy_ellipsoid(4);
     const SpectralWatermark mark(mesh, make_key(mesh, 100));
-    const Decision unmarked = detect_positions(mark, mesh.V);
+    const Decision unmarked = detect_positions(mark, mesh, mesh.V);
     EXPECT_FALSE(unmarked.is_present);
     EXPECT_EQ(unmarked.correlation, 0.0);  // nothing moved: every bit undecided
     double sum = 0.0;
@@ -125,7 +126,7 @@ TEST(SpectralWatermarkTest, unmarked_and_wrong_key_copies_are_not_claimed)
     {
         const SpectralWatermark other(mesh, make_key(mesh, 1000 + static_cast<std::uint64_t>(t)));
         const Positions marked_other = mesh.V + other.displacement();
-        const Decision d = detect_positions(mark, marked_other);
+        const Decision d = detect_positions(mark, mesh, marked_other);
         sum += d.correlation;
         largest = std::max(largest, d.correlation);
     }
@@ -152,7 +153,7 @@ TEST(SpectralWatermarkTest, each_bit_is_spread_over_r_coefficients_with_independ
     }
     EXPECT_GT(differing_copies, 10);  // copies of one bit do not share a sign pattern
     const DetectOptions options;
-    const Extraction e = mark.extract(mesh.V + mark.displacement(), options);
+    const Extraction e = Detector(mark, mesh).extract(mesh.V + mark.displacement(), options);
     ASSERT_EQ(e.normalized_change.size(), 72u);
     ASSERT_EQ(e.bit_values.size(), 24u);
     for (std::size_t t = 0; t < 24; ++t)
@@ -184,7 +185,7 @@ TEST(SpectralWatermarkTest, scores_of_unmarked_copies_follow_the_null_model)
     {
         const SpectralWatermark mark(mesh, make_key(mesh, 7000 + static_cast<std::uint64_t>(t)));
         const DetectOptions options;
-        const Decision d = mark.decide(mark.extract(noisy, options), options);
+        const Decision d = mark.decide(Detector(mark, mesh).extract(noisy, options), options);
         sum += d.score;
         positive += d.score > 0.0 ? 1 : 0;
         below_half += d.false_positive_probability <= 0.5 ? 1 : 0;
@@ -206,13 +207,13 @@ TEST(SpectralWatermarkTest, bits_verdict_is_the_papers_rule)
     const SpectralWatermark mark(mesh, make_key(mesh, 8));
     DetectOptions options;
     options.verdict = VerdictRule::Bits;
-    const Decision d = mark.decide(mark.extract(mesh.V + mark.displacement(), options), options);
+    const Decision d = mark.decide(Detector(mark, mesh).extract(mesh.V + mark.displacement(), options), options);
     EXPECT_TRUE(d.is_present);
     EXPECT_EQ(d.verdict, VerdictRule::Bits);
     EXPECT_EQ(d.false_positive_probability, d.bits_false_positive_probability);
     options.threshold = 1.0;
-    EXPECT_TRUE(mark.decide(mark.extract(mesh.V + mark.displacement(), options), options).is_present);
-    EXPECT_FALSE(mark.decide(mark.extract(mesh.V, options), options).is_present);
+    EXPECT_TRUE(mark.decide(Detector(mark, mesh).extract(mesh.V + mark.displacement(), options), options).is_present);
+    EXPECT_FALSE(mark.decide(Detector(mark, mesh).extract(mesh.V, options), options).is_present);
     EXPECT_EQ(parse_verdict_rule("bits"), VerdictRule::Bits);
     EXPECT_EQ(parse_verdict_rule(to_string(VerdictRule::Correlation)), VerdictRule::Correlation);
     EXPECT_THROW((void)parse_verdict_rule("R"), InvalidOption);
@@ -233,7 +234,7 @@ TEST(SpectralWatermarkTest, same_message_under_another_key_is_not_claimed)
         Key other_key = make_key(mesh, 500 + static_cast<std::uint64_t>(t));
         other_key.payload = key.payload;
         const SpectralWatermark other(mesh, other_key);
-        sum += detect_positions(mark, mesh.V + other.displacement()).correlation;
+        sum += detect_positions(mark, mesh, mesh.V + other.displacement()).correlation;
     }
     // Without the key-derived mask this would be near 1 (docs/algorithms/embedding.md, "Payload bits").
     EXPECT_LT(sum / trials, 0.6);
@@ -272,7 +273,7 @@ TEST(SpectralWatermarkTest, unreferenced_vertices_never_move_and_point_clouds_wo
     TriangleMesh cloud = lumpy_ellipsoid(3);
     cloud.F.resize(0, 3);
     const SpectralWatermark cloud_mark(cloud, make_key(cloud, 2));
-    EXPECT_DOUBLE_EQ(detect_positions(cloud_mark, cloud.V + cloud_mark.displacement()).correlation, 1.0);
+    EXPECT_DOUBLE_EQ(detect_positions(cloud_mark, cloud, cloud.V + cloud_mark.displacement()).correlation, 1.0);
 }
 
 TEST(SpectralWatermarkTest, noise_and_smoothing_keep_the_mark)
@@ -287,7 +288,7 @@ TEST(SpectralWatermarkTest, noise_and_smoothing_keep_the_mark)
     {
         noisy.data()[i] += rng.uniform(-1e-3, 1e-3) * D;
     }
-    EXPECT_TRUE(detect_positions(mark, noisy).is_present);
+    EXPECT_TRUE(detect_positions(mark, mesh, noisy).is_present);
 }
 
 TEST(SpectralWatermarkTest, degenerate_inputs_fail_cleanly)
@@ -363,21 +364,21 @@ TEST(LaplacianWatermarkTest, marked_copy_is_found_and_unmarked_or_wrong_key_is_n
     EXPECT_LT(stats.orthogonality_error, 1e-10);
     EXPECT_NEAR(stats.rms_displacement_rel, 1e-3, 5e-4);  // same strength rule as RBF
     const Positions marked = mesh.V + displacement;
-    const Decision found = detect_positions(mark, marked);
+    const Decision found = detect_positions(mark, mesh, marked);
     EXPECT_TRUE(found.is_present);
     EXPECT_DOUBLE_EQ(found.correlation, 1.0);
-    EXPECT_FALSE(detect_positions(mark, mesh.V).is_present);
+    EXPECT_FALSE(detect_positions(mark, mesh, mesh.V).is_present);
     // Through the resampled path (registration's extraction) as well.
     const DetectOptions options;
-    EXPECT_TRUE(mark.decide(mark.extract_resampled(marked, options), options).is_present);
-    EXPECT_FALSE(mark.decide(mark.extract_resampled(mesh.V, options), options).is_present);
+    EXPECT_TRUE(mark.decide(Detector(mark, mesh).extract_resampled(marked, options), options).is_present);
+    EXPECT_FALSE(mark.decide(Detector(mark, mesh).extract_resampled(mesh.V, options), options).is_present);
     for (std::uint64_t seed = 500; seed < 503; ++seed)
     {
         const SpectralWatermark other(mesh, laplacian_key(mesh, seed));
-        EXPECT_FALSE(detect_positions(other, marked).is_present) << seed;
+        EXPECT_FALSE(detect_positions(other, mesh, marked).is_present) << seed;
     }
     // An RBF key with the same seed does not read the Laplacian mark.
-    EXPECT_FALSE(detect_positions(SpectralWatermark(mesh, make_key(mesh, 42)), marked).is_present);
+    EXPECT_FALSE(detect_positions(SpectralWatermark(mesh, make_key(mesh, 42)), mesh, marked).is_present);
 }
 
 TEST(LaplacianWatermarkTest, noise_keeps_the_mark_and_point_clouds_are_refused)
@@ -391,7 +392,7 @@ TEST(LaplacianWatermarkTest, noise_keeps_the_mark_and_point_clouds_are_refused)
     {
         noisy.data()[i] += rng.uniform(-1e-3, 1e-3) * D;
     }
-    EXPECT_TRUE(detect_positions(mark, noisy).is_present);
+    EXPECT_TRUE(detect_positions(mark, mesh, noisy).is_present);
     TriangleMesh cloud = mesh;
     cloud.F.resize(0, 3);
     EXPECT_THROW(SpectralWatermark(cloud, laplacian_key(cloud, 7)), InvalidMesh);
@@ -409,9 +410,9 @@ TEST(DecimatedCentersWatermarkTest, centers_do_not_depend_on_the_seed_and_the_ma
     EXPECT_EQ(mark_a.centers(), mark_b.centers());
     EXPECT_EQ(static_cast<int>(mark_a.centers().size()), a.options.basis_size);
     const Positions marked = mesh.V + mark_a.displacement();
-    EXPECT_TRUE(detect_positions(mark_a, marked).is_present);
-    EXPECT_FALSE(detect_positions(mark_b, marked).is_present) << "the payload mask still depends on the key";
-    EXPECT_FALSE(detect_positions(mark_a, mesh.V).is_present);
+    EXPECT_TRUE(detect_positions(mark_a, mesh, marked).is_present);
+    EXPECT_FALSE(detect_positions(mark_b, mesh, marked).is_present) << "the payload mask still depends on the key";
+    EXPECT_FALSE(detect_positions(mark_a, mesh, mesh.V).is_present);
 }
 
 }  // namespace meshmark
