@@ -4,9 +4,11 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <numbers>
 #include <span>
+#include <thread>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -37,7 +39,85 @@ Decision detect_positions(const SpectralWatermark& mark, const TriangleMesh& ori
     return mark.decide(Detector(mark, original).extract(suspect, options), options);
 }
 
+// \p P with uniform noise of at most 1e-3 of \p mesh's bounding box diagonal on every coordinate.
+Positions with_noise(const TriangleMesh& mesh, Positions P, std::uint64_t seed)
+{
+    const double D = bounding_box(mesh.V).diagonal();
+    Rng rng(seed);
+    for (Eigen::Index i = 0; i < P.size(); ++i)
+    {
+        P.data()[i] += rng.uniform(-1e-3, 1e-3) * D;
+    }
+    return P;
+}
+
+bool same_extraction(const Extraction& a, const Extraction& b)
+{
+    return a.normalized_change == b.normalized_change && a.weights == b.weights && a.bit_values == b.bit_values &&
+           a.bits_found == b.bits_found;
+}
+
 }  // namespace
+
+// A watermark given the rows and frame (as the out-of-core embedding builds it) is the one
+// built from the mesh, and complete: it embeds and is read back like it.
+TEST(SpectralWatermarkTest, built_from_rows_and_frame_it_is_the_watermark_built_from_the_mesh)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(4);
+    const Key key = make_key(mesh, 12);
+    const SpectralWatermark from_mesh(mesh, key, 2);
+    const std::vector<std::int32_t> active = referenced_vertices(mesh);
+    const SpectralWatermark from_rows(key, position_rows(mesh.V, active), canonical_frame(mesh.V, active), 2);
+    EXPECT_EQ(from_rows.centers(), from_mesh.centers());
+    EXPECT_TRUE(from_rows.coefficient_change() == from_mesh.coefficient_change());
+    const Positions marked = mesh.V + from_rows.displacement();
+    EXPECT_TRUE(marked == mesh.V + from_mesh.displacement());
+    EXPECT_TRUE(detect_positions(from_rows, mesh, marked).is_present);
+
+    // Without the mesh there is no Laplacian basis and no decimation: refused, not half built.
+    Key laplacian = key;
+    laplacian.options.basis = BasisType::Laplacian;
+    EXPECT_THROW(SpectralWatermark(laplacian, position_rows(mesh.V, active), canonical_frame(mesh.V, active)),
+                 InvalidOption);
+    // A detector refuses an original that is not the watermark's.
+    const TriangleMesh other = lumpy_ellipsoid(3);
+    EXPECT_THROW(Detector(from_rows, other), InvalidOption);
+}
+
+// Extraction keeps no state: several threads reading suspects through one Detector at once get
+// what one thread gets.
+TEST(SpectralWatermarkTest, extraction_is_safe_from_several_threads_at_once)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(4);
+    const SpectralWatermark mark(mesh, make_key(mesh, 21), 1);
+    const Detector detector(mark, mesh);
+    const Positions noisy = with_noise(mesh, mesh.V + mark.displacement(), 9);
+    const DetectOptions options;
+    const Extraction expected = detector.extract(noisy, options);
+    const Extraction expected_resampled = detector.extract_resampled(noisy, options);
+    constexpr int kThreads = 4;
+    std::array<Extraction, kThreads> found;
+    std::array<Extraction, kThreads> found_resampled;
+    std::vector<std::thread> threads;
+    for (int t = 0; t < kThreads; ++t)
+    {
+        threads.emplace_back([&, t]() {
+            const auto slot = static_cast<std::size_t>(t);
+            found[slot] = detector.extract(noisy, options);
+            found_resampled[slot] = detector.extract_resampled(noisy, options);
+        });
+    }
+    for (auto& thread : threads)
+    {
+        thread.join();
+    }
+    for (std::size_t t = 0; t < kThreads; ++t)
+    {
+        EXPECT_TRUE(same_extraction(found[t], expected)) << t;
+        EXPECT_TRUE(same_extraction(found_resampled[t], expected_resampled)) << t;
+    }
+    EXPECT_TRUE(mark.decide(expected, options).is_present);
+}
 
 // add_rows is add() with the pass chosen once: the same frame to the bit.
 TEST(CanonicalFrameTest, add_rows_gives_the_frame_of_add_row_by_row)
@@ -280,14 +360,7 @@ TEST(SpectralWatermarkTest, noise_and_smoothing_keep_the_mark)
 {
     const TriangleMesh mesh = lumpy_ellipsoid(5);
     const SpectralWatermark mark(mesh, make_key(mesh, 77));
-    Positions marked = mesh.V + mark.displacement();
-    const double D = bounding_box(mesh.V).diagonal();
-    Rng rng(5);
-    Positions noisy = marked;
-    for (Eigen::Index i = 0; i < noisy.size(); ++i)
-    {
-        noisy.data()[i] += rng.uniform(-1e-3, 1e-3) * D;
-    }
+    const Positions noisy = with_noise(mesh, mesh.V + mark.displacement(), 5);
     EXPECT_TRUE(detect_positions(mark, mesh, noisy).is_present);
 }
 
@@ -385,13 +458,7 @@ TEST(LaplacianWatermarkTest, noise_keeps_the_mark_and_point_clouds_are_refused)
 {
     const TriangleMesh mesh = lumpy_ellipsoid(4);
     const SpectralWatermark mark(mesh, laplacian_key(mesh, 7));
-    Positions noisy = mesh.V + mark.displacement();
-    const double D = bounding_box(mesh.V).diagonal();
-    Rng rng(3);
-    for (Eigen::Index i = 0; i < noisy.size(); ++i)
-    {
-        noisy.data()[i] += rng.uniform(-1e-3, 1e-3) * D;
-    }
+    const Positions noisy = with_noise(mesh, mesh.V + mark.displacement(), 3);
     EXPECT_TRUE(detect_positions(mark, mesh, noisy).is_present);
     TriangleMesh cloud = mesh;
     cloud.F.resize(0, 3);
