@@ -22,14 +22,14 @@ struct BlockKernels;
 }
 
 /// \brief Which implementation of the block arithmetic the basis passes use.
-/// \details Avx2 (AVX2 + FMA, about 3x faster) and Portable (baseline x86-64, i.e. SSE2, or
-/// any other CPU) give results that are bit-identical for any thread count, but differ from
+/// \details Avx2 (AVX2 + FMA, about 3x faster; Avx512 gives the same bits) and Portable
+/// (baseline x86-64, i.e. SSE2, or any other CPU) give results that are bit-identical for any thread count, but differ from
 /// each other in the last bits of the Gram matrix and of the products (FMA rounds once where
 /// mul + add rounds twice, and the summation order differs): relative differences of ~1e-13
 /// in the modes and ~1e-12 in a synthesized field (measured in tests/unit/basis). A watermark
 /// embedded with one path is read back with the other exactly like with the same path:
-/// detection compares coefficient changes against a threshold of 1e-1 of the modulation, ten
-/// orders of magnitude above that. Choose Portable to make marked files byte-identical
+/// detection reads coefficient changes in units of the modulation (a bit's undecided band is
+/// 1e-1 of it), ten orders of magnitude above that. Choose Portable to make marked files byte-identical
 /// across machines with and without AVX2.
 enum class BasisKernel
 {
@@ -127,7 +127,7 @@ public:
     [[nodiscard]] const Eigen::MatrixXd& eigenvectors() const noexcept { return eigenvectors_; }
     /// The Gram matrix G = B^T B (k x k), as accumulated.
     [[nodiscard]] const Eigen::MatrixXd& gram() const noexcept { return gram_; }
-    /// Implementation of the block arithmetic this basis uses ("avx2-fma" or "portable").
+    /// Implementation of the block arithmetic this basis uses ("avx512", "avx2-fma" or "portable").
     [[nodiscard]] std::string_view kernel_name() const noexcept;
 
     /// \brief Spectral coefficients of the positions, alpha = U^T (P - o) (k x 3), frame axes.

@@ -15,8 +15,9 @@ struct Extraction
     /// the embedded sign b'_c was +1, -1 where it was -1, ~0 where nothing was embedded.
     std::vector<double> normalized_change;
     /// Weight of each coefficient in the correlation (3 m r values, >= 0): the inverse of its
-    /// estimated noise variance where the extraction can estimate it, else 1. Never depends on
-    /// the embedded signs, so the verdict's false-positive bound still holds.
+    /// estimated noise variance where the extraction estimates it (joint least squares), else 1;
+    /// 0 for a coefficient the suspect cannot determine (its change is then 0 as well). Never
+    /// depends on the embedded signs, so the verdict's false-positive bound still holds.
     std::vector<double> weights;
     /// Per payload bit (3m values): the mean over its r coefficients of the change with the key
     /// mask undone, weighted by `weights`: +1 for an embedded 1 and -1 for a 0 (soft decision).
@@ -32,7 +33,8 @@ enum class VerdictRule
     /// at most DetectOptions::max_false_positive.
     Correlation,
     /// [Wu & Kobbelt 2005]: R = fraction of payload bits read back, ownership when
-    /// R >= DetectOptions::threshold; binomial false-positive probability.
+    /// R >= DetectOptions::threshold; reported false-positive probability P(X >= matches),
+    /// X ~ Bin(3m, 1/2) (Decision::bits_false_positive_probability).
     Bits,
 };
 
@@ -61,9 +63,12 @@ struct DetectOptions
 /// The verdict on a suspect.
 struct Decision
 {
+    /// The verdict of the rule in use: false-positive bound at most
+    /// DetectOptions::max_false_positive (correlation) or R >= DetectOptions::threshold (bits).
     bool is_present = false;
-    VerdictRule verdict = VerdictRule::Correlation;
-    double correlation = 0.0;  ///< R: fraction of payload bits read back correctly (N/A = wrong).
+    VerdictRule verdict = VerdictRule::Correlation;  ///< The rule in use.
+    /// R: fraction of payload bits read back correctly (an undecided bit counts as wrong).
+    double correlation = 0.0;
     int matches = 0;
     int bit_count = 0;
     /// z = sum_c a_c b'_c x_c / sqrt(sum_c a_c^2 x_c^2) over the 3 m r modulated coefficients,
