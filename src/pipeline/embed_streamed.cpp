@@ -460,8 +460,16 @@ public:
     {
         for (std::size_t i = 0; i < count;)
         {
-            i += read_one(xyz + 3 * i, rows + i) ? 1U : 0U;
+            const auto v = reader_.vertex();
+            const char* record = reader_.next();
+            if (referenced_.is_active(v))
+            {
+                reader_.position(record, xyz + 3 * i);
+                rows[i] = static_cast<std::int32_t>(v);
+                ++i;
+            }
         }
+        next_ += count;
     }
     void read_at(std::span<const std::size_t> indices, double* xyz, std::int32_t* rows) override
     {
