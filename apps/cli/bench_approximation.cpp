@@ -111,7 +111,7 @@ std::vector<Row> rbf_rows(const TriangleMesh& mesh, const std::vector<std::int32
                     : random_centers(
                           mesh.V, rows, k,
                           derive_seed(derive_seed(args.seed, std::to_string(key)), "centers"));
-            const RbfBasis rbf(mesh.V, rows, centers, frame.diagonal / 2.0, frame.origin, threads);
+            const RbfBasis rbf(position_rows(mesh.V, rows), centers, frame.diagonal / 2.0, frame.origin, threads);
             const int present = rbf.well_conditioned_modes(kPresentModeTolerance);
             const Positions field = rbf.synthesize(rbf.position_coefficients().topRows(present));
             row.wall += clock.wall_seconds() / keys;

@@ -17,6 +17,7 @@
 #include "meshmark/pipeline/detect_file.h"
 #include "meshmark/pipeline/embed_file.h"
 #include "meshmark/watermark/key.h"
+#include "meshmark/watermark/detector.h"
 #include "meshmark/watermark/watermark.h"
 
 namespace fs = std::filesystem;
@@ -79,8 +80,9 @@ int main(int argc, char** argv)
         const meshmark::Key key = meshmark::read_key(key_path);
         const meshmark::SpectralWatermark mark(original, key);
         const meshmark::DetectOptions decision_options;
+        const meshmark::Detector detector(mark, original);
         const meshmark::Decision in_memory = mark.decide(
-            mark.extract(meshmark::read_mesh(marked).V, decision_options), decision_options);
+            detector.extract(meshmark::read_mesh(marked).V, decision_options), decision_options);
         print("in memory", in_memory);
 
         const bool is_right = in_marked.decision.is_present && !in_original.decision.is_present &&

@@ -304,6 +304,26 @@ Positions LaplacianBasis::synthesize(const Eigen::MatrixX3d& c, double* orthogon
     return result;
 }
 
+void LaplacianBasis::synthesize_streamed(const Eigen::MatrixX3d& c, std::size_t /*chunks_in_flight*/,
+                                         const FieldSink& sink, double* orthogonality_error) const
+{
+    // The eigenvectors are in memory already: synthesize the field over the active rows at
+    // once (as synthesize() does) and hand it out in chunks.
+    const int modes = static_cast<int>(c.rows());
+    check_modes(modes);
+    using RowMajor3 = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
+    const RowMajor3 field = U_.leftCols(modes) * c;
+    if (orthogonality_error != nullptr)
+    {
+        const Eigen::MatrixXd utu = U_.leftCols(modes).transpose() * U_.leftCols(modes);
+        *orthogonality_error = (utu - Eigen::MatrixXd::Identity(modes, modes)).cwiseAbs().maxCoeff();
+    }
+    for (std::size_t begin = 0; begin < active_.size(); begin += max_chunk_rows())
+    {
+        sink(begin, std::min(max_chunk_rows(), active_.size() - begin), field.data() + 3 * begin);
+    }
+}
+
 Eigen::MatrixXd LaplacianBasis::modes_dense(int modes) const
 {
     check_modes(modes);

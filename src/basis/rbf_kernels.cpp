@@ -1,9 +1,15 @@
 // SPDX-License-Identifier: MIT
 // Portable block kernels: the evaluation as a scalar loop, the products through Eigen, which
-// vectorizes them for the baseline target (SSE2 on x86-64).
+// vectorizes them for the baseline target (SSE2 on x86-64); and the run-time choice among the
+// three builds (set_basis_kernel, MESHMARK_BASIS_KERNEL).
 #include "basis/rbf_kernels.h"
 
+#include "meshmark/basis/rbf_basis.h"
+
+#include <atomic>
 #include <cmath>
+#include <cstdlib>
+#include <string_view>
 
 #include <Eigen/Core>
 
@@ -84,4 +90,61 @@ constexpr BlockKernels kPortable{"portable", evaluate, gram, multiply, accumulat
 
 const BlockKernels& portable_kernels() noexcept { return kPortable; }
 
+namespace {
+
+BasisKernel kernel_from_environment() noexcept
+{
+    const char* value = std::getenv("MESHMARK_BASIS_KERNEL");
+    if (value == nullptr)
+    {
+        return BasisKernel::Automatic;
+    }
+    const std::string_view text(value);
+    if (text == "portable")
+    {
+        return BasisKernel::Portable;
+    }
+    if (text == "avx2")
+    {
+        return BasisKernel::Avx2;
+    }
+    return text == "avx512" ? BasisKernel::Avx512 : BasisKernel::Automatic;
+}
+
+std::atomic<BasisKernel>& kernel_choice() noexcept
+{
+    static std::atomic<BasisKernel> choice{kernel_from_environment()};
+    return choice;
+}
+
+}  // namespace
+
+const BlockKernels& selected_kernels() noexcept
+{
+    const BasisKernel choice = kernel_choice().load();
+    if (choice == BasisKernel::Automatic || choice == BasisKernel::Avx512)
+    {
+        if (const auto* fastest = avx512_kernels())
+        {
+            return *fastest;
+        }
+    }
+    if (choice != BasisKernel::Portable)
+    {
+        if (const auto* fast = avx2_kernels())
+        {
+            return *fast;
+        }
+    }
+    return portable_kernels();
+}
+
 }  // namespace meshmark::detail
+
+namespace meshmark {
+
+void set_basis_kernel(BasisKernel kernel) noexcept { detail::kernel_choice().store(kernel); }
+
+std::string_view basis_kernel_name() noexcept { return detail::selected_kernels().name; }
+
+}  // namespace meshmark

@@ -54,4 +54,8 @@ struct BlockKernels
 /// the AVX2 ones, or nullptr when this build or this CPU lacks AVX-512F, AVX2 or FMA.
 [[nodiscard]] const BlockKernels* avx512_kernels() noexcept;
 
+/// The kernels set_basis_kernel() (or MESHMARK_BASIS_KERNEL) chose, falling back to what this
+/// CPU has: what an RbfBasis built now uses.
+[[nodiscard]] const BlockKernels& selected_kernels() noexcept;
+
 }  // namespace meshmark::detail

@@ -284,15 +284,20 @@ void PlyVertexReader::read(std::size_t count, double* xyz)
     }
 }
 
-void PlyVertexReader::read_active(const ReferencedVertices& referenced, std::size_t count, double* xyz)
+void PlyVertexReader::read_active(const ReferencedVertices& referenced, std::size_t count, double* xyz,
+                                  std::int32_t* rows)
 {
     for (std::size_t i = 0; i < count;)
     {
-        const bool is_active = referenced.is_active(impl_->records.vertex());
+        const auto vertex = impl_->records.vertex();
         const char* record = impl_->records.next();
-        if (is_active)
+        if (referenced.is_active(vertex))
         {
             impl_->layout.load(record, xyz + 3 * i);
+            if (rows != nullptr)
+            {
+                rows[i] = static_cast<std::int32_t>(vertex);
+            }
             ++i;
         }
     }

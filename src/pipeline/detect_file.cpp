@@ -16,6 +16,7 @@
 #include "meshmark/pipeline/embed_file.h"
 #include "meshmark/registration/registration.h"
 #include "meshmark/registration/resampling.h"
+#include "meshmark/watermark/detector.h"
 #include "timer.h"
 
 namespace meshmark {
@@ -182,8 +183,9 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
     timer.lap("correspondence");
 
     timer.begin("extract");
-    report.extraction = is_resampled ? mark.extract_resampled(aligned, options.decision, kept)
-                                     : mark.extract(aligned, options.decision);
+    const Detector detector(mark, original);
+    report.extraction = is_resampled ? detector.extract_resampled(aligned, options.decision, kept)
+                                     : detector.extract(aligned, options.decision);
     report.decision = mark.decide(report.extraction, options.decision);
     timer.lap("extract");
 }

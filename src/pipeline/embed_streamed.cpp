@@ -24,7 +24,7 @@
 #include <thread>
 #include <vector>
 
-#include "meshmark/basis/rbf_basis.h"
+#include "meshmark/basis/row_source.h"
 #include "meshmark/core/atomic_file.h"
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
@@ -35,24 +35,36 @@
 namespace meshmark::detail {
 namespace {
 
-// The active rows of the file for RbfBasis's passes: one sequential reader per cursor.
-class FileRowCursor : public RowPositionCursor
+// The active rows of the file for the basis passes: one sequential reader per cursor.
+class FileRowCursor final : public RowPositionCursor
 {
 public:
-    FileRowCursor(const PlyStream& file, const ReferencedVertices& referenced, std::uint64_t first_vertex,
-                  std::size_t window)
-        : referenced_(referenced), reader_(file, first_vertex, window)
+    FileRowCursor(const PlyStream& file, const ReferencedVertices& referenced, std::size_t begin, std::size_t window)
+        : referenced_(referenced), reader_(file, referenced.select(begin), window), next_(begin)
     {
     }
-    void read(std::size_t count, double* xyz) override { reader_.read_active(referenced_, count, xyz); }
-    void skip(std::size_t count) override { reader_.skip_active(referenced_, count); }
+    void read(std::size_t count, double* xyz, std::int32_t* rows) override
+    {
+        reader_.read_active(referenced_, count, xyz, rows);
+        next_ += count;
+    }
+    void read_at(std::span<const std::size_t> indices, double* xyz, std::int32_t* rows) override
+    {
+        for (std::size_t i = 0; i < indices.size(); ++i)
+        {
+            reader_.skip_active(referenced_, indices[i] - next_);  // the active rows before it
+            reader_.read_active(referenced_, 1, xyz + 3 * i, rows + i);
+            next_ = indices[i] + 1;
+        }
+    }
 
 private:
     const ReferencedVertices& referenced_;
     PlyVertexReader reader_;
+    std::size_t next_;  // active-row index of the next active record
 };
 
-class FileRowSource : public RowPositionSource
+class FileRowSource final : public RowPositionSource
 {
 public:
     FileRowSource(const PlyStream& file, const ReferencedVertices& referenced, std::size_t window)
@@ -60,9 +72,18 @@ public:
     {
     }
     [[nodiscard]] std::size_t size() const override { return static_cast<std::size_t>(referenced_.active); }
+    [[nodiscard]] std::size_t vertex_count() const override { return static_cast<std::size_t>(file_.vertex_count()); }
+    [[nodiscard]] std::int32_t row(std::size_t i) const override
+    {
+        return static_cast<std::int32_t>(referenced_.select(i));
+    }
+    [[nodiscard]] std::array<double, 3> position(std::int32_t row) const override
+    {
+        return file_.position(static_cast<std::uint64_t>(row));
+    }
     [[nodiscard]] std::unique_ptr<RowPositionCursor> cursor(std::size_t begin) const override
     {
-        return std::make_unique<FileRowCursor>(file_, referenced_, referenced_.select(begin), window_);
+        return std::make_unique<FileRowCursor>(file_, referenced_, begin, window_);
     }
 
 private:
@@ -333,11 +354,7 @@ EmbedReport embed_file_streamed(const PlyStream& file, const std::filesystem::pa
     // vertices when the scan found unreferenced ones.
     timer.begin("frame");
     key.options.validate();
-    if (static_cast<std::int64_t>(referenced.active) < key.options.basis_size)
-    {
-        throw InvalidMesh("the mesh has " + std::to_string(referenced.active) + " usable vertices, fewer than the " +
-                          std::to_string(key.options.basis_size) + " basis functions (use a smaller --basis-size).");
-    }
+    check_analysed_rows(key.options, static_cast<std::size_t>(referenced.active));
     if (scanned.guess_error)
     {
         std::rethrow_exception(scanned.guess_error);
@@ -353,27 +370,12 @@ EmbedReport embed_file_streamed(const PlyStream& file, const std::filesystem::pa
     key.original.position_hash = scanned.guess->hash;
     timer.lap("frame");
 
-    // Centers and basis (pass 1 over the file).
+    // Centers and basis (pass 1 over the file): the watermark reads the active rows' positions
+    // through the file's row source.
     timer.begin("basis");
-    const auto read_position = [&](std::int32_t row) { return file.position(static_cast<std::uint64_t>(row)); };
-    std::vector<std::int32_t> centers = random_centers(
-        static_cast<std::size_t>(referenced.active),
-        [&](std::size_t i) { return static_cast<std::int32_t>(referenced.select(i)); }, read_position,
-        key.options.basis_size, derive_seed(key.seed, "centers"));
-    Eigen::MatrixX3d center_positions(static_cast<Eigen::Index>(centers.size()), 3);
-    for (std::size_t j = 0; j < centers.size(); ++j)
-    {
-        const auto xyz = read_position(centers[j]);
-        center_positions.row(static_cast<Eigen::Index>(j)) = Eigen::RowVector3d(xyz[0], xyz[1], xyz[2]);
-    }
-    const CanonicalFrame& canonical = frame.frame();
-    const double sigma = key.options.sigma_factor * canonical.diagonal / 2.0;
-    const FileRowSource source(file, referenced, window);
-    RbfBasis basis(source, center_positions, sigma, canonical.origin, options.threads,
-                   static_cast<std::size_t>(key.options.gram_rows));
-    const std::size_t chunk_bytes = basis.max_chunk_rows() * 3 * sizeof(double);
-    const SpectralWatermark mark(key, canonical, std::move(centers), std::move(basis),
-                                 static_cast<std::size_t>(referenced.active));
+    const auto source = std::make_shared<const FileRowSource>(file, referenced, window);
+    const SpectralWatermark mark(key, source, frame.frame(), options.threads);
+    const std::size_t chunk_bytes = mark.basis().max_chunk_rows() * 3 * sizeof(double);
     timer.lap("basis");
 
     // Synthesis streamed into the output: header, patched vertex records, the rest as is.
@@ -386,8 +388,8 @@ EmbedReport embed_file_streamed(const PlyStream& file, const std::filesystem::pa
             PlyDisplacedCopy writer(file, referenced, output, out, window);
             DisplacementSummary summary;
             double orthogonality = 0.0;
-            dynamic_cast<const RbfBasis&>(mark.basis()).synthesize_streamed(
-                change, source, in_flight,
+            mark.basis().synthesize_streamed(
+                change, in_flight,
                 [&](std::size_t begin, std::size_t rows, const double* field) {
                     for (std::size_t i = 0; i < rows; ++i)
                     {

@@ -9,6 +9,7 @@
 #include "meshmark/attacks/attack_spec.h"
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/io/mesh_io.h"
+#include "meshmark/watermark/detector.h"
 #include "meshmark/watermark/watermark.h"
 #include "support/test_paths.h"
 
@@ -26,10 +27,10 @@ Key key_for(const TriangleMesh& mesh, std::uint64_t seed, const std::optional<st
     return key;
 }
 
-Decision decide(const SpectralWatermark& mark, const Positions& suspect)
+Decision decide(const SpectralWatermark& mark, const TriangleMesh& original, const Positions& suspect)
 {
     const DetectOptions options;
-    return mark.decide(mark.extract(suspect, options), options);
+    return mark.decide(Detector(mark, original).extract(suspect, options), options);
 }
 
 class SharedMeshTest : public ::testing::TestWithParam<std::filesystem::path>
@@ -51,7 +52,7 @@ TEST_P(SharedMeshTest, embeds_detects_and_rejects_unmarked_and_wrong_keys)
     write_mesh_file(out, file, marked);
     const TriangleMesh back = read_mesh(out);
     ASSERT_EQ(back.V.rows(), mesh.V.rows());
-    const Decision found = decide(mark, back.V);
+    const Decision found = decide(mark, mesh, back.V);
     EXPECT_DOUBLE_EQ(found.correlation, 1.0);
     EXPECT_TRUE(found.is_present);
     EXPECT_LT(found.false_positive_probability, 1e-9);
@@ -64,7 +65,7 @@ TEST_P(SharedMeshTest, embeds_detects_and_rejects_unmarked_and_wrong_keys)
     EXPECT_LE((unchanged - mesh.V).cwiseAbs().maxCoeff(), 1e-12 * bounding_box(mesh.V).diagonal());
 
     // Unmarked original: nothing moved, nothing claimed.
-    const Decision unmarked = decide(mark, mesh.V);
+    const Decision unmarked = decide(mark, mesh, mesh.V);
     EXPECT_LT(unmarked.correlation, 0.5);
     EXPECT_FALSE(unmarked.is_present);
 
@@ -76,9 +77,9 @@ TEST_P(SharedMeshTest, embeds_detects_and_rejects_unmarked_and_wrong_keys)
     for (int t = 0; t < trials; ++t)
     {
         const SpectralWatermark other(mesh, key_for(mesh, 1000 + static_cast<std::uint64_t>(t)));
-        const Decision d1 = decide(mark, mesh.V + other.displacement());
+        const Decision d1 = decide(mark, mesh, mesh.V + other.displacement());
         const SpectralWatermark same(mesh, key_for(mesh, 2000 + static_cast<std::uint64_t>(t), "owner"));
-        const Decision d2 = decide(mark, mesh.V + same.displacement());
+        const Decision d2 = decide(mark, mesh, mesh.V + same.displacement());
         EXPECT_FALSE(d1.is_present);
         EXPECT_FALSE(d2.is_present);
         const double r1 = d1.correlation;
@@ -101,7 +102,7 @@ TEST_P(SharedMeshTest, embeds_detects_and_rejects_unmarked_and_wrong_keys)
     {
         const AttackResult attacked = apply_attacks(back, parse_attack_spec(spec), 5);
         ASSERT_EQ(attacked.mesh.V.rows(), mesh.V.rows());
-        const Decision d = decide(mark, attacked.mesh.V);
+        const Decision d = decide(mark, mesh, attacked.mesh.V);
         EXPECT_GE(d.correlation, 0.75) << spec;
         EXPECT_TRUE(d.is_present) << spec << ": z = " << d.score;
         std::printf("[ %s ] %s: R = %.3f, z = %.2f\n", path.filename().c_str(), spec, d.correlation, d.score);

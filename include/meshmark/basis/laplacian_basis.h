@@ -66,10 +66,8 @@ public:
                    const Eigen::Vector3d& origin, const LaplacianBasisOptions& options);
 
     [[nodiscard]] int size() const noexcept override { return static_cast<int>(U_.cols()); }
-    [[nodiscard]] const std::vector<std::int32_t>& active_rows() const noexcept override
-    {
-        return active_;
-    }
+    /// Rows taking part (sorted, unique).
+    [[nodiscard]] const std::vector<std::int32_t>& active_rows() const noexcept { return active_; }
     /// Eigenvalues of L (k, ascending), matching the columns of eigenvectors().
     [[nodiscard]] const Eigen::VectorXd& eigenvalues() const noexcept { return eigenvalues_; }
     /// U (#active x k), orthonormal columns.
@@ -89,6 +87,10 @@ public:
     /// \param orthogonality_error  max |U_m^T U_m - I| over the modes used, computed.
     [[nodiscard]] Positions synthesize(const Eigen::MatrixX3d& c,
                                        double* orthogonality_error = nullptr) const override;
+    /// The field of synthesize() over the active rows, computed at once, delivered in chunks.
+    void synthesize_streamed(const Eigen::MatrixX3d& c, std::size_t chunks_in_flight, const FieldSink& sink,
+                             double* orthogonality_error = nullptr) const override;
+    [[nodiscard]] std::size_t max_chunk_rows() const noexcept override { return std::size_t{1} << 16U; }
     [[nodiscard]] Eigen::MatrixXd modes_dense(int modes) const override;
     /// The rows are visited in order, in blocks, on the calling thread (the eigenvectors are
     /// already materialized, so this is a plain sum U_m^T X).

@@ -11,6 +11,7 @@
 
 #include <Eigen/Core>
 
+#include "meshmark/basis/row_source.h"
 #include "meshmark/basis/spectral_basis.h"
 #include "meshmark/core/triangle_mesh.h"
 
@@ -21,14 +22,14 @@ struct BlockKernels;
 }
 
 /// \brief Which implementation of the block arithmetic the basis passes use.
-/// \details Avx2 (AVX2 + FMA, about 3x faster) and Portable (baseline x86-64, i.e. SSE2, or
-/// any other CPU) give results that are bit-identical for any thread count, but differ from
+/// \details Avx2 (AVX2 + FMA, about 3x faster; Avx512 gives the same bits) and Portable
+/// (baseline x86-64, i.e. SSE2, or any other CPU) give results that are bit-identical for any thread count, but differ from
 /// each other in the last bits of the Gram matrix and of the products (FMA rounds once where
 /// mul + add rounds twice, and the summation order differs): relative differences of ~1e-13
 /// in the modes and ~1e-12 in a synthesized field (measured in tests/unit/basis). A watermark
 /// embedded with one path is read back with the other exactly like with the same path:
-/// detection compares coefficient changes against a threshold of 1e-1 of the modulation, ten
-/// orders of magnitude above that. Choose Portable to make marked files byte-identical
+/// detection reads coefficient changes in units of the modulation (a bit's undecided band is
+/// 1e-1 of it), ten orders of magnitude above that. Choose Portable to make marked files byte-identical
 /// across machines with and without AVX2.
 enum class BasisKernel
 {
@@ -60,65 +61,39 @@ void set_basis_kernel(BasisKernel kernel) noexcept;
     return t2 * t2 * (4.0 * r + 1.0);
 }
 
-/// \brief Choose \p k centers among the rows listed in \p active, driven by \p seed.
-/// \details Uniform sampling without replacement (a partial Fisher-Yates shuffle of
-/// \p active with Rng(seed)); a candidate whose position equals an already chosen center is
-/// skipped, because two equal centers make the Gram matrix singular (seams, STL corners).
+/// \brief Choose \p k centers among the active rows of \p rows, driven by \p seed.
+/// \details Uniform sampling without replacement (a partial Fisher-Yates shuffle of the
+/// active rows with Rng(seed), shuffled sparsely: O(k) memory, positions read one row at a
+/// time); a candidate whose position equals an already chosen center is skipped, because two
+/// equal centers make the Gram matrix singular (seams, STL corners).
 /// \return k vertex indices, in draw order.
-/// \throws InvalidMesh if fewer than k distinct positions exist.
+/// \throws InvalidOption if k <= 0; InvalidMesh if fewer than k distinct positions exist.
+[[nodiscard]] std::vector<std::int32_t> random_centers(const RowPositionSource& rows, int k, std::uint64_t seed);
+
+/// random_centers() over the rows \p active of \p V.
 [[nodiscard]] std::vector<std::int32_t> random_centers(const Positions& V,
                                                        const std::vector<std::int32_t>& active,
                                                        int k, std::uint64_t seed);
-
-/// \brief random_centers over an abstract pool: \p count active rows, the i-th being
-/// \p row_at(i), with positions \p position_of(row). Same draws, same result as the overload
-/// above for row_at(i) = active[i]; the pool is shuffled sparsely (O(k) memory), so an
-/// out-of-core caller needs neither the active list nor the positions in memory.
-[[nodiscard]] std::vector<std::int32_t> random_centers(
-    std::size_t count, const std::function<std::int32_t(std::size_t)>& row_at,
-    const std::function<std::array<double, 3>(std::int32_t)>& position_of, int k, std::uint64_t seed);
-
-/// \brief One thread's sequential reader of active-row positions (see RowPositionSource).
-class RowPositionCursor
-{
-public:
-    virtual ~RowPositionCursor() = default;
-    /// The x, y, z of the next \p count active rows (file frame), into \p xyz (3 per row).
-    virtual void read(std::size_t count, double* xyz) = 0;
-    /// Pass over the next \p count active rows. The default reads and drops them.
-    virtual void skip(std::size_t count);
-};
-
-/// \brief Positions of the active rows for the streamed passes of RbfBasis (e.g. a file read in
-/// chunks). Must deliver exactly the values the in-memory positions would hold.
-class RowPositionSource
-{
-public:
-    virtual ~RowPositionSource() = default;
-    /// Number of active rows.
-    [[nodiscard]] virtual std::size_t size() const = 0;
-    /// A cursor at active row \p begin, for use by one thread.
-    [[nodiscard]] virtual std::unique_ptr<RowPositionCursor> cursor(std::size_t begin) const = 0;
-};
 
 /// \brief The orthogonalized RBF basis of a mesh [Wu & Kobbelt 2005], never materialized.
 /// \details With B_ij = phi(|p_i - q_j| / sigma) over the active rows (n x k), the Gram matrix
 /// G = B^T B = V W^2 V^T is accumulated in row blocks (pass 1), and the orthonormal basis is
 /// U = B V W^-1, singular values descending. U is never stored: projections and syntheses
-/// evaluate B again block by block, so memory is O(n + k^2). Blocks are grouped into a fixed
-/// number of chunks that depends only on n, chunks are reduced in order, so results are
-/// bit-identical for any thread count. Eigenvector signs are fixed so that every mode has a
-/// positive sum over the vertices (1^T U_j > 0), falling back to a positive largest component.
-/// All arithmetic happens in the frame centered at \p origin (the caller passes the centroid),
-/// which keeps it independent of where the model sits.
+/// evaluate B again block by block from the positions of a RowPositionSource (in memory or a
+/// file read in chunks), so memory is O(k^2) beyond the source's own. Blocks are grouped into a
+/// fixed number of chunks that depends only on n, chunks are reduced in order, so results are
+/// bit-identical for any thread count and either kind of source. Eigenvector signs are fixed so
+/// that every mode has a positive sum over the vertices (1^T U_j > 0), falling back to a
+/// positive largest component. All arithmetic happens in the frame centered at \p origin (the
+/// caller passes the centroid), which keeps it independent of where the model sits.
 class RbfBasis final : public SpectralBasis
 {
 public:
     /// \brief Build the basis: pass 1 over the active rows (Gram matrix, B^T 1, B^T (P - o)),
     /// then the eigen-decomposition of the k x k Gram matrix.
-    /// \param V        #V x 3 positions (all vertices of the file).
-    /// \param active   Rows taking part (sorted, unique); others get zero in syntheses.
-    /// \param centers  k row indices of the centers.
+    /// \param rows     Active rows and their positions (e.g. position_rows(V, active)); every
+    ///        later pass reads them again, so the source is kept.
+    /// \param centers  k vertex indices of the centers (positions read from \p rows).
     /// \param sigma    Support radius of phi, > 0.
     /// \param origin   Frame origin (the centroid of the active rows).
     /// \param threads  Worker threads, 0 = all cores.
@@ -128,37 +103,22 @@ public:
     ///        by n / m, so G, B^T 1 and B^T (P - o) are estimates and U is orthonormal up to
     ///        their sampling error (which synthesize()'s check reports). Otherwise every row.
     /// \throws InvalidOption on empty inputs or sigma <= 0.
-    RbfBasis(const Positions& V, std::vector<std::int32_t> active, std::vector<std::int32_t> centers,
-             double sigma, const Eigen::Vector3d& origin, int threads, std::size_t gram_rows = 0);
-
-    /// \brief Build the basis from streamed positions (out-of-core): bit-identical to the
-    /// constructor above for the same active rows, centers and origin. A basis built this way
-    /// holds no positions: only position_coefficients(), synthesize_streamed() and the
-    /// accessors may be used (the rest throw InvalidOption).
-    /// \param center_positions  k x 3 positions of the centers (file frame), in draw order.
-    RbfBasis(const RowPositionSource& source, const Eigen::MatrixX3d& center_positions, double sigma,
+    RbfBasis(std::shared_ptr<const RowPositionSource> rows, const std::vector<std::int32_t>& centers, double sigma,
              const Eigen::Vector3d& origin, int threads, std::size_t gram_rows = 0);
 
-    /// Receives a synthesized field in row order: \p rows rows from active row \p begin,
-    /// 3 doubles per row.
-    using FieldSink = std::function<void(std::size_t begin, std::size_t rows, const double* field)>;
-
-    /// \brief synthesize() over streamed positions: the same field, bit for bit, delivered to
-    /// \p sink chunk by chunk in row order instead of as a #V x 3 array. Rounds of
-    /// \p chunks_in_flight chunks (>= 1) are computed in parallel; the sink receives a round
-    /// on a thread of its own while the next one is computed, so at most 2 x chunks_in_flight
-    /// chunks are buffered at once. The sink is called from one thread at a time, in order; an
-    /// exception it throws is passed on once the computation has stopped.
-    void synthesize_streamed(const Eigen::MatrixX3d& c, const RowPositionSource& source,
-                             std::size_t chunks_in_flight, const FieldSink& sink,
-                             double* orthogonality_error = nullptr) const;
+    /// \brief synthesize() delivered chunk by chunk: rounds of \p chunks_in_flight chunks
+    /// (>= 1) are computed in parallel; the sink receives a round on a thread of its own while
+    /// the next one is computed, so at most 2 x chunks_in_flight chunks are buffered at once.
+    void synthesize_streamed(const Eigen::MatrixX3d& c, std::size_t chunks_in_flight, const FieldSink& sink,
+                             double* orthogonality_error = nullptr) const override;
 
     /// Largest number of rows in one chunk of the passes (the unit synthesize_streamed buffers).
-    [[nodiscard]] std::size_t max_chunk_rows() const noexcept;
+    [[nodiscard]] std::size_t max_chunk_rows() const noexcept override;
 
     [[nodiscard]] int size() const noexcept override { return static_cast<int>(center_positions_.rows()); }
-    [[nodiscard]] const std::vector<std::int32_t>& active_rows() const noexcept override { return active_; }
     [[nodiscard]] double sigma() const noexcept { return sigma_; }
+    /// The active rows and their positions.
+    [[nodiscard]] const RowPositionSource& rows() const noexcept { return *rows_; }
     /// Rows pass 1 ran over: the number of active rows, or gram_rows when that was smaller.
     [[nodiscard]] std::size_t gram_sample_rows() const noexcept { return gram_sample_rows_; }
     /// Singular values of B (k, descending): W in G = V W^2 V^T.
@@ -167,7 +127,7 @@ public:
     [[nodiscard]] const Eigen::MatrixXd& eigenvectors() const noexcept { return eigenvectors_; }
     /// The Gram matrix G = B^T B (k x k), as accumulated.
     [[nodiscard]] const Eigen::MatrixXd& gram() const noexcept { return gram_; }
-    /// Implementation of the block arithmetic this basis uses ("avx2-fma" or "portable").
+    /// Implementation of the block arithmetic this basis uses ("avx512", "avx2-fma" or "portable").
     [[nodiscard]] std::string_view kernel_name() const noexcept;
 
     /// \brief Spectral coefficients of the positions, alpha = U^T (P - o) (k x 3), frame axes.
@@ -219,19 +179,17 @@ private:
         std::size_t begin;
         std::size_t end;
     };
-    class SampledRows;
-    // Common part of the constructors: centers, chunks, pass 1, eigen-decomposition.
-    void build(const Eigen::MatrixX3d& center_positions, const RowPositionSource* rows_source,
-               std::size_t gram_rows);
+    // Pass 1 and the eigen-decomposition.
+    void build(std::size_t gram_rows);
     // Active-row index of the i-th row of pass 1 (i itself unless sampled).
     [[nodiscard]] std::size_t gram_row(std::size_t i) const noexcept;
-    // Positions of the passes: source when not null, else V_ at active_ (at gram_row() of the
-    // indices when sampled). Chunks: chunks_, or gram_chunks_ when sampled.
+    // Runs fn(chunk, B, P, rows, count, begin, spare) on every block of the chunks
+    // [first_chunk, last_chunk), in parallel over chunks: P holds the block's positions minus
+    // the origin, rows their vertex indices, B their RBF values; begin is the active-row index
+    // of the block's first row. Chunks: chunks_, or gram_chunks_ (rows at gram_row()) when sampled.
     template <class BlockFn>
-    void for_each_block(const BlockFn& fn, const RowPositionSource* source = nullptr,
-                        std::size_t first_chunk = 0, std::size_t last_chunk = SIZE_MAX,
+    void for_each_block(const BlockFn& fn, std::size_t first_chunk = 0, std::size_t last_chunk = SIZE_MAX,
                         bool sampled = false) const;
-    void require_positions(const char* what) const;
     [[nodiscard]] double orthogonality(const Eigen::MatrixXd& T, const Eigen::MatrixX3d& c,
                                        const std::vector<std::vector<double>>& parts) const;
     [[nodiscard]] Eigen::MatrixXd mode_transform(int modes) const;  // V_m W_m^-1, k x m
@@ -239,14 +197,15 @@ private:
     [[nodiscard]] Eigen::MatrixXd unpack_gram(const std::vector<double>& total) const;
     // M^T (cols x stride_) in the block layout, zero on padding columns.
     [[nodiscard]] std::vector<double> columns_transposed(const Eigen::MatrixXd& M) const;
+    // B^T X (k x width) from per-chunk accumulations (width x stride_ each), reduced in order.
+    [[nodiscard]] Eigen::MatrixXd reduce_columns(const std::vector<std::vector<double>>& parts, std::size_t width) const;
 
-    const Positions* V_;
-    std::vector<std::int32_t> active_;
-    std::size_t row_count_ = 0;  // active rows (active_.size() unless streamed)
+    std::shared_ptr<const RowPositionSource> rows_;
+    std::size_t row_count_ = 0;  // active rows
     Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> center_positions_;  // minus origin
     const detail::BlockKernels* kernels_;
-    std::size_t padded_k_;      // k rounded up to a multiple of 4
-    std::size_t stride_;        // row length of a B block: padded_k_ + 4 (pass 1: P and 1)
+    std::size_t padded_k_ = 0;  // k rounded up to a multiple of 4
+    std::size_t stride_ = 0;    // row length of a B block: padded_k_ + 4 (pass 1: P and 1)
     std::vector<std::size_t> column_;  // column of center j in the blocks (spatial order)
     std::vector<double> centers_soa_;  // 3 x stride_: x, y, z of the centers, by column
     double sigma_;

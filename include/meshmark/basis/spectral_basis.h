@@ -20,7 +20,8 @@ namespace meshmark
 /// materialized, streamed in row blocks) and LaplacianBasis (eigenvectors of the mesh Laplacian
 /// [Karni & Gotsman 2000; Ohbuchi et al. 2002], materialized as #active x k doubles). The
 /// watermark embeds and detects through this interface only, so both bases share the payload,
-/// modulation, registration, extraction and verdict. Every query is const and thread-safe, and
+/// modulation, registration, extraction and verdict. Which rows are active is the caller's
+/// (SpectralWatermark's) knowledge. Every query is const and thread-safe, and
 /// gives bit-identical results for any thread count. Fields are #V x 3 over all vertices of the
 /// file; inactive rows are ignored on input and zero on output. Coefficients are in the frame
 /// centered at the basis's origin (the centroid of the active rows).
@@ -31,8 +32,6 @@ public:
 
     /// k, the number of modes.
     [[nodiscard]] virtual int size() const noexcept = 0;
-    /// Rows taking part (sorted, unique).
-    [[nodiscard]] virtual const std::vector<std::int32_t>& active_rows() const noexcept = 0;
 
     /// \brief Spectral coefficients of the positions, alpha = U^T (P - o) (k x 3, file axes);
     /// modes that are numerically absent get zero.
@@ -62,6 +61,21 @@ public:
     ///        used, or a bound on it (see the implementations).
     [[nodiscard]] virtual Positions synthesize(const Eigen::MatrixX3d& c,
                                                double* orthogonality_error = nullptr) const = 0;
+
+    /// Receives a synthesized field in active-row order: \p rows rows from active row
+    /// \p begin, 3 doubles per row.
+    using FieldSink = std::function<void(std::size_t begin, std::size_t rows, const double* field)>;
+
+    /// \brief synthesize() delivered to \p sink chunk by chunk in active-row order instead of
+    /// as a #V x 3 array: the same field, bit for bit. The sink is called from one thread at a
+    /// time, in order; an exception it throws is passed on once the computation has stopped.
+    /// \param chunks_in_flight  Chunks (of at most max_chunk_rows() rows) computed before they
+    ///        are delivered, >= 1: the memory of the field is about 2 x chunks_in_flight chunks.
+    virtual void synthesize_streamed(const Eigen::MatrixX3d& c, std::size_t chunks_in_flight,
+                                     const FieldSink& sink, double* orthogonality_error = nullptr) const = 0;
+
+    /// Largest number of rows synthesize_streamed() delivers in one chunk.
+    [[nodiscard]] virtual std::size_t max_chunk_rows() const noexcept = 0;
 
     /// \brief Writes a block of design rows: for the active rows \p rows, given their values on
     /// the first `head` modes in \p U (rows.size() x head, row-major), fill \p X

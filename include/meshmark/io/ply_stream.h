@@ -97,8 +97,10 @@ public:
     /// The positions of the next \p count vertices into \p xyz (3 per vertex).
     void read(std::size_t count, double* xyz);
     /// The positions of the next \p count vertices active in \p referenced into \p xyz (3 per
-    /// row); the inactive vertices on the way are passed over.
-    void read_active(const ReferencedVertices& referenced, std::size_t count, double* xyz);
+    /// row) and, if \p rows is given, their vertex indices into \p rows; the inactive vertices
+    /// on the way are passed over.
+    void read_active(const ReferencedVertices& referenced, std::size_t count, double* xyz,
+                     std::int32_t* rows = nullptr);
     /// Pass over the next \p count active vertices (and the inactive ones on the way).
     void skip_active(const ReferencedVertices& referenced, std::size_t count);
 

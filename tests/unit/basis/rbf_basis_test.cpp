@@ -56,7 +56,7 @@ TEST(RbfBasisTest, gram_matches_dense_computation)
     const auto centers = random_centers(mesh.V, rows, 40, 11);
     const double sigma = 0.9;
     const Eigen::Vector3d origin = mesh.V.colwise().mean().transpose();
-    const RbfBasis basis(mesh.V, rows, centers, sigma, origin, 2);
+    const RbfBasis basis(position_rows(mesh.V, rows), centers, sigma, origin, 2);
     const Eigen::MatrixXd B = dense_B(mesh.V, rows, centers, sigma);
     const Eigen::MatrixXd G = B.transpose() * B;
     EXPECT_LT((basis.gram() - G).cwiseAbs().maxCoeff(), 1e-10 * G.cwiseAbs().maxCoeff());
@@ -78,7 +78,7 @@ TEST(RbfBasisTest, leading_modes_are_orthonormal_and_span_B)
     const auto rows = all_rows(mesh);
     const auto centers = random_centers(mesh.V, rows, 60, 5);
     const Eigen::Vector3d origin = mesh.V.colwise().mean().transpose();
-    const RbfBasis basis(mesh.V, rows, centers, 1.0, origin, 1);
+    const RbfBasis basis(position_rows(mesh.V, rows), centers, 1.0, origin, 1);
     const int m = 8;
     const Eigen::MatrixXd U = basis.modes_dense(m);
     EXPECT_LT((U.transpose() * U - Eigen::MatrixXd::Identity(m, m)).cwiseAbs().maxCoeff(), 1e-9);
@@ -119,7 +119,7 @@ TEST(RbfBasisTest, project_design_equals_the_dense_product_for_any_thread_count)
     std::vector<Eigen::MatrixXd> results;
     for (const int threads : {1, 2, 3})
     {
-        const RbfBasis basis(mesh.V, rows, centers, 1.1, origin, threads);
+        const RbfBasis basis(position_rows(mesh.V, rows), centers, 1.1, origin, threads);
         results.push_back(basis.project_design(
             modes, head, kWidth, [&](std::span<const std::int32_t> block, const double* U, double* X) {
                 for (std::size_t a = 0; a < block.size(); ++a)
@@ -153,7 +153,7 @@ TEST(RbfBasisTest, projection_inverts_synthesis_and_least_squares_handles_croppi
     const auto rows = all_rows(mesh);
     const auto centers = random_centers(mesh.V, rows, 50, 9);
     const Eigen::Vector3d origin = mesh.V.colwise().mean().transpose();
-    const RbfBasis basis(mesh.V, rows, centers, 1.2, origin, 2);
+    const RbfBasis basis(position_rows(mesh.V, rows), centers, 1.2, origin, 2);
     Eigen::MatrixX3d c(6, 3);
     Rng rng(1);
     for (Eigen::Index i = 0; i < c.size(); ++i)
@@ -188,9 +188,9 @@ TEST(RbfBasisTest, results_are_bit_identical_for_any_thread_count)
     const auto rows = all_rows(mesh);
     const auto centers = random_centers(mesh.V, rows, 100, 3);
     const Eigen::Vector3d origin = mesh.V.colwise().mean().transpose();
-    const RbfBasis one(mesh.V, rows, centers, 1.0, origin, 1);
-    const RbfBasis two(mesh.V, rows, centers, 1.0, origin, 2);
-    const RbfBasis three(mesh.V, rows, centers, 1.0, origin, 3);
+    const RbfBasis one(position_rows(mesh.V, rows), centers, 1.0, origin, 1);
+    const RbfBasis two(position_rows(mesh.V, rows), centers, 1.0, origin, 2);
+    const RbfBasis three(position_rows(mesh.V, rows), centers, 1.0, origin, 3);
     EXPECT_TRUE(one.gram() == two.gram());
     EXPECT_TRUE(one.gram() == three.gram());
     const Eigen::MatrixX3d c = Eigen::MatrixX3d::Ones(8, 3);
@@ -206,7 +206,7 @@ TEST(RbfBasisTest, sampled_gram_uses_evenly_spaced_rows_scaled_to_all_of_them)
     const auto centers = random_centers(mesh.V, rows, 50, 8);
     const Eigen::Vector3d origin = mesh.V.colwise().mean().transpose();
     constexpr std::size_t m = 1500;
-    const RbfBasis sampled(mesh.V, rows, centers, 1.0, origin, 2, m);
+    const RbfBasis sampled(position_rows(mesh.V, rows), centers, 1.0, origin, 2, m);
     EXPECT_EQ(sampled.gram_sample_rows(), m);
 
     // Against the definition: rows floor((2i + 1) n / 2m) of dense B, times n / m.
@@ -224,7 +224,7 @@ TEST(RbfBasisTest, sampled_gram_uses_evenly_spaced_rows_scaled_to_all_of_them)
     // sample of a mesh whose rows come level by level of a subdivision; without the n / m
     // scale it would be 5.8, with the first m rows instead of spread ones far above 0.1), and
     // close to the exact basis.
-    const RbfBasis exact(mesh.V, rows, centers, 1.0, origin, 2);
+    const RbfBasis exact(position_rows(mesh.V, rows), centers, 1.0, origin, 2);
     const Eigen::MatrixXd U = sampled.modes_dense(20);
     const double error = (U.transpose() * U - Eigen::MatrixXd::Identity(20, 20)).cwiseAbs().maxCoeff();
     EXPECT_GT(error, 1e-12);
@@ -236,26 +236,40 @@ TEST(RbfBasisTest, sampled_gram_uses_evenly_spaced_rows_scaled_to_all_of_them)
     }
     // The first m rows alone (a cap of the ellipsoid) would be a far worse estimate.
     std::vector<std::int32_t> first(rows.begin(), rows.begin() + static_cast<std::ptrdiff_t>(m));
-    const RbfBasis cap(mesh.V, first, centers, 1.0, origin, 2);
+    const RbfBasis cap(position_rows(mesh.V, first), centers, 1.0, origin, 2);
     const Eigen::MatrixXd scaled_cap = cap.gram() * (static_cast<double>(n) / static_cast<double>(m));
     EXPECT_GT((scaled_cap - exact.gram()).norm(), 3.0 * (sampled.gram() - exact.gram()).norm());
 
     // Sampled pass 1 is bit-identical for any thread count; gram_rows >= n means every row.
-    const RbfBasis one_thread(mesh.V, rows, centers, 1.0, origin, 1, m);
+    const RbfBasis one_thread(position_rows(mesh.V, rows), centers, 1.0, origin, 1, m);
     EXPECT_TRUE(one_thread.gram() == sampled.gram());
-    const RbfBasis all(mesh.V, rows, centers, 1.0, origin, 2, rows.size());
+    const RbfBasis all(position_rows(mesh.V, rows), centers, 1.0, origin, 2, rows.size());
     EXPECT_EQ(all.gram_sample_rows(), rows.size());
     EXPECT_TRUE(all.gram() == exact.gram());
 }
 
 namespace {
 
-// Active rows of an in-memory mesh as a stream.
-class MemoryRows final : public RowPositionSource
+// The active rows as a file-like stream: positions copied out in active-row order, read one
+// record at a time like the out-of-core embedding's source.
+class RecordRows final : public RowPositionSource
 {
 public:
-    MemoryRows(const Positions& V, const std::vector<std::int32_t>& rows) : V_(V), rows_(rows) {}
+    RecordRows(const Positions& V, const std::vector<std::int32_t>& rows) : rows_(rows), vertex_count_(V.rows())
+    {
+        for (const auto row : rows)
+        {
+            records_.push_back({V(row, 0), V(row, 1), V(row, 2)});
+        }
+    }
     [[nodiscard]] std::size_t size() const override { return rows_.size(); }
+    [[nodiscard]] std::size_t vertex_count() const override { return static_cast<std::size_t>(vertex_count_); }
+    [[nodiscard]] std::int32_t row(std::size_t i) const override { return rows_[i]; }
+    [[nodiscard]] std::array<double, 3> position(std::int32_t row) const override
+    {
+        const auto at = std::lower_bound(rows_.begin(), rows_.end(), row);
+        return records_[static_cast<std::size_t>(at - rows_.begin())];
+    }
     [[nodiscard]] std::unique_ptr<RowPositionCursor> cursor(std::size_t begin) const override
     {
         return std::make_unique<Cursor>(*this, begin);
@@ -264,22 +278,30 @@ public:
 private:
     struct Cursor final : RowPositionCursor
     {
-        Cursor(const MemoryRows& rows, std::size_t begin) : owner(rows), next(begin) {}
-        void read(std::size_t count, double* xyz) override
+        Cursor(const RecordRows& rows, std::size_t begin) : owner(rows), next(begin) {}
+        void read(std::size_t count, double* xyz, std::int32_t* rows) override
         {
             for (std::size_t i = 0; i < count; ++i, ++next)
             {
-                for (Eigen::Index d = 0; d < 3; ++d)
-                {
-                    xyz[3 * i + static_cast<std::size_t>(d)] = owner.V_(owner.rows_[next], d);
-                }
+                std::copy_n(owner.records_[next].data(), 3, xyz + 3 * i);
+                rows[i] = owner.rows_[next];
             }
         }
-        const MemoryRows& owner;
+        void read_at(std::span<const std::size_t> indices, double* xyz, std::int32_t* rows) override
+        {
+            for (std::size_t i = 0; i < indices.size(); ++i)
+            {
+                EXPECT_GE(indices[i], next);
+                next = indices[i];
+                read(1, xyz + 3 * i, rows + i);
+            }
+        }
+        const RecordRows& owner;
         std::size_t next;
     };
-    const Positions& V_;
-    const std::vector<std::int32_t>& rows_;
+    std::vector<std::int32_t> rows_;
+    Eigen::Index vertex_count_;
+    std::vector<std::array<double, 3>> records_;
 };
 
 }  // namespace
@@ -290,14 +312,8 @@ TEST(RbfBasisTest, streamed_synthesis_delivers_the_field_in_order_and_passes_sin
     const auto rows = all_rows(mesh);
     const auto centers = random_centers(mesh.V, rows, 40, 4);
     const Eigen::Vector3d origin = mesh.V.colwise().mean().transpose();
-    Eigen::MatrixX3d center_positions(40, 3);
-    for (Eigen::Index j = 0; j < 40; ++j)
-    {
-        center_positions.row(j) = mesh.V.row(centers[static_cast<std::size_t>(j)]);
-    }
-    const MemoryRows source(mesh.V, rows);
-    const RbfBasis memory(mesh.V, rows, centers, 1.0, origin, 2, 5000);
-    const RbfBasis streamed(source, center_positions, 1.0, origin, 2, 5000);
+    const RbfBasis memory(position_rows(mesh.V, rows), centers, 1.0, origin, 2, 5000);
+    const RbfBasis streamed(std::make_shared<RecordRows>(mesh.V, rows), centers, 1.0, origin, 2, 5000);
     EXPECT_TRUE(memory.gram() == streamed.gram());  // the sampled rows read through the source
 
     Eigen::MatrixX3d c = Eigen::MatrixX3d::Zero(16, 3);
@@ -309,7 +325,7 @@ TEST(RbfBasisTest, streamed_synthesis_delivers_the_field_in_order_and_passes_sin
     std::size_t next = 0;
     double streamed_error = 0.0;
     streamed.synthesize_streamed(
-        c, source, 2,
+        c, 2,
         [&](std::size_t begin, std::size_t count, const double* field) {
             EXPECT_EQ(begin, next);
             for (std::size_t i = 0; i < count; ++i)
@@ -325,12 +341,14 @@ TEST(RbfBasisTest, streamed_synthesis_delivers_the_field_in_order_and_passes_sin
     EXPECT_EQ(next, rows.size());
     EXPECT_TRUE(delivered == expected);
     EXPECT_EQ(memory_error, streamed_error);
+    EXPECT_TRUE(streamed.synthesize(c) == expected);  // every query works on any source
+    EXPECT_TRUE(streamed.project(expected, 16) == memory.project(expected, 16));
 
     // A sink that fails on its fourth chunk: the error comes out, no chunk is delivered after it.
     int calls = 0;
     try
     {
-        streamed.synthesize_streamed(c, source, 2, [&](std::size_t, std::size_t, const double*) {
+        streamed.synthesize_streamed(c, 2, [&](std::size_t, std::size_t, const double*) {
             if (++calls == 4)
             {
                 throw IoError("disk full");

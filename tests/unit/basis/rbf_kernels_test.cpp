@@ -50,7 +50,7 @@ struct KernelComparison
     [[nodiscard]] RbfBasis build(BasisKernel kernel) const
     {
         const KernelChoice choice(kernel);
-        return RbfBasis(mesh.V, rows, centers, 1.0, origin, 2);
+        return RbfBasis(position_rows(mesh.V, rows), centers, 1.0, origin, 2);
     }
 };
 
@@ -260,7 +260,7 @@ TEST(BasisKernelTest, choice_is_honoured)
         EXPECT_EQ(basis_kernel_name(), "portable");
         const TriangleMesh mesh = lumpy_ellipsoid(2);
         const auto rows = referenced_vertices(mesh);
-        const RbfBasis basis(mesh.V, rows, random_centers(mesh.V, rows, 10, 1), 1.0,
+        const RbfBasis basis(position_rows(mesh.V, rows), random_centers(mesh.V, rows, 10, 1), 1.0,
                              Eigen::Vector3d::Zero(), 1);
         EXPECT_EQ(basis.kernel_name(), "portable");
     }
@@ -359,13 +359,13 @@ TEST(BasisKernelTest, every_pass_is_bit_identical_for_1_2_3_threads_with_each_ke
     {
         const KernelChoice choice(kernel);
         SCOPED_TRACE(std::string(basis_kernel_name()));
-        const RbfBasis one(mesh.V, rows, centers, 0.8, origin, 1);
+        const RbfBasis one(position_rows(mesh.V, rows), centers, 0.8, origin, 1);
         const Positions field = one.synthesize(c);
         const auto projected = one.project(std::vector<Positions>{field, mesh.V}, 6);
         const Eigen::MatrixX3d least_squares = one.project_least_squares(field, kept, 6);
         for (const int threads : {2, 3})
         {
-            const RbfBasis other(mesh.V, rows, centers, 0.8, origin, threads);
+            const RbfBasis other(position_rows(mesh.V, rows), centers, 0.8, origin, threads);
             EXPECT_TRUE(one.gram() == other.gram());
             EXPECT_TRUE(one.eigenvectors() == other.eigenvectors());
             EXPECT_TRUE(one.position_coefficients() == other.position_coefficients());

@@ -1,11 +1,14 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/watermark/watermark.h"
+#include "meshmark/watermark/detector.h"
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <numbers>
 #include <span>
+#include <thread>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -30,13 +33,91 @@ Key make_key(const TriangleMesh& mesh, std::uint64_t seed, EmbeddingRule rule = 
     return key;
 }
 
-Decision detect_positions(const SpectralWatermark& mark, const Positions& suspect)
+Decision detect_positions(const SpectralWatermark& mark, const TriangleMesh& original, const Positions& suspect)
 {
     const DetectOptions options;
-    return mark.decide(mark.extract(suspect, options), options);
+    return mark.decide(Detector(mark, original).extract(suspect, options), options);
+}
+
+// \p P with uniform noise of at most 1e-3 of \p mesh's bounding box diagonal on every coordinate.
+Positions with_noise(const TriangleMesh& mesh, Positions P, std::uint64_t seed)
+{
+    const double D = bounding_box(mesh.V).diagonal();
+    Rng rng(seed);
+    for (Eigen::Index i = 0; i < P.size(); ++i)
+    {
+        P.data()[i] += rng.uniform(-1e-3, 1e-3) * D;
+    }
+    return P;
+}
+
+bool same_extraction(const Extraction& a, const Extraction& b)
+{
+    return a.normalized_change == b.normalized_change && a.weights == b.weights && a.bit_values == b.bit_values &&
+           a.bits_found == b.bits_found;
 }
 
 }  // namespace
+
+// A watermark given the rows and frame (as the out-of-core embedding builds it) is the one
+// built from the mesh, and complete: it embeds and is read back like it.
+TEST(SpectralWatermarkTest, built_from_rows_and_frame_it_is_the_watermark_built_from_the_mesh)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(4);
+    const Key key = make_key(mesh, 12);
+    const SpectralWatermark from_mesh(mesh, key, 2);
+    const std::vector<std::int32_t> active = referenced_vertices(mesh);
+    const SpectralWatermark from_rows(key, position_rows(mesh.V, active), canonical_frame(mesh.V, active), 2);
+    EXPECT_EQ(from_rows.centers(), from_mesh.centers());
+    EXPECT_TRUE(from_rows.coefficient_change() == from_mesh.coefficient_change());
+    const Positions marked = mesh.V + from_rows.displacement();
+    EXPECT_TRUE(marked == mesh.V + from_mesh.displacement());
+    EXPECT_TRUE(detect_positions(from_rows, mesh, marked).is_present);
+
+    // Without the mesh there is no Laplacian basis and no decimation: refused, not half built.
+    Key laplacian = key;
+    laplacian.options.basis = BasisType::Laplacian;
+    EXPECT_THROW(SpectralWatermark(laplacian, position_rows(mesh.V, active), canonical_frame(mesh.V, active)),
+                 InvalidOption);
+    // A detector refuses an original that is not the watermark's.
+    const TriangleMesh other = lumpy_ellipsoid(3);
+    EXPECT_THROW(Detector(from_rows, other), InvalidOption);
+}
+
+// Extraction keeps no state: several threads reading suspects through one Detector at once get
+// what one thread gets.
+TEST(SpectralWatermarkTest, extraction_is_safe_from_several_threads_at_once)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(4);
+    const SpectralWatermark mark(mesh, make_key(mesh, 21), 1);
+    const Detector detector(mark, mesh);
+    const Positions noisy = with_noise(mesh, mesh.V + mark.displacement(), 9);
+    const DetectOptions options;
+    const Extraction expected = detector.extract(noisy, options);
+    const Extraction expected_resampled = detector.extract_resampled(noisy, options);
+    constexpr int kThreads = 4;
+    std::array<Extraction, kThreads> found;
+    std::array<Extraction, kThreads> found_resampled;
+    std::vector<std::thread> threads;
+    for (int t = 0; t < kThreads; ++t)
+    {
+        threads.emplace_back([&, t]() {
+            const auto slot = static_cast<std::size_t>(t);
+            found[slot] = detector.extract(noisy, options);
+            found_resampled[slot] = detector.extract_resampled(noisy, options);
+        });
+    }
+    for (auto& thread : threads)
+    {
+        thread.join();
+    }
+    for (std::size_t t = 0; t < kThreads; ++t)
+    {
+        EXPECT_TRUE(same_extraction(found[t], expected)) << t;
+        EXPECT_TRUE(same_extraction(found_resampled[t], expected_resampled)) << t;
+    }
+    EXPECT_TRUE(mark.decide(expected, options).is_present);
+}
 
 // add_rows is add() with the pass chosen once: the same frame to the bit.
 TEST(CanonicalFrameTest, add_rows_gives_the_frame_of_add_row_by_row)
@@ -73,7 +154,7 @@ TEST(SpectralWatermarkTest, marked_copy_reads_back_all_bits_with_both_rules)
         const SpectralWatermark mark(mesh, make_key(mesh, 42, rule));
         EmbedStats stats;
         const Positions marked = mesh.V + mark.displacement(&stats);
-        const Decision decision = detect_positions(mark, marked);
+        const Decision decision = detect_positions(mark, mesh, marked);
         EXPECT_DOUBLE_EQ(decision.correlation, 1.0) << to_string(rule);
         EXPECT_TRUE(decision.is_present);
         EXPECT_EQ(decision.bits_found, decision.bits_expected);
@@ -115,7 +196,7 @@ TEST(SpectralWatermarkTest, unmarked_and_wrong_key_copies_are_not_claimed)
 {
     const TriangleMesh mesh = lumpy_ellipsoid(4);
     const SpectralWatermark mark(mesh, make_key(mesh, 100));
-    const Decision unmarked = detect_positions(mark, mesh.V);
+    const Decision unmarked = detect_positions(mark, mesh, mesh.V);
     EXPECT_FALSE(unmarked.is_present);
     EXPECT_EQ(unmarked.correlation, 0.0);  // nothing moved: every bit undecided
     double sum = 0.0;
@@ -125,7 +206,7 @@ TEST(SpectralWatermarkTest, unmarked_and_wrong_key_copies_are_not_claimed)
     {
         const SpectralWatermark other(mesh, make_key(mesh, 1000 + static_cast<std::uint64_t>(t)));
         const Positions marked_other = mesh.V + other.displacement();
-        const Decision d = detect_positions(mark, marked_other);
+        const Decision d = detect_positions(mark, mesh, marked_other);
         sum += d.correlation;
         largest = std::max(largest, d.correlation);
     }
@@ -152,7 +233,7 @@ TEST(SpectralWatermarkTest, each_bit_is_spread_over_r_coefficients_with_independ
     }
     EXPECT_GT(differing_copies, 10);  // copies of one bit do not share a sign pattern
     const DetectOptions options;
-    const Extraction e = mark.extract(mesh.V + mark.displacement(), options);
+    const Extraction e = Detector(mark, mesh).extract(mesh.V + mark.displacement(), options);
     ASSERT_EQ(e.normalized_change.size(), 72u);
     ASSERT_EQ(e.bit_values.size(), 24u);
     for (std::size_t t = 0; t < 24; ++t)
@@ -184,7 +265,7 @@ TEST(SpectralWatermarkTest, scores_of_unmarked_copies_follow_the_null_model)
     {
         const SpectralWatermark mark(mesh, make_key(mesh, 7000 + static_cast<std::uint64_t>(t)));
         const DetectOptions options;
-        const Decision d = mark.decide(mark.extract(noisy, options), options);
+        const Decision d = mark.decide(Detector(mark, mesh).extract(noisy, options), options);
         sum += d.score;
         positive += d.score > 0.0 ? 1 : 0;
         below_half += d.false_positive_probability <= 0.5 ? 1 : 0;
@@ -206,13 +287,13 @@ TEST(SpectralWatermarkTest, bits_verdict_is_the_papers_rule)
     const SpectralWatermark mark(mesh, make_key(mesh, 8));
     DetectOptions options;
     options.verdict = VerdictRule::Bits;
-    const Decision d = mark.decide(mark.extract(mesh.V + mark.displacement(), options), options);
+    const Decision d = mark.decide(Detector(mark, mesh).extract(mesh.V + mark.displacement(), options), options);
     EXPECT_TRUE(d.is_present);
     EXPECT_EQ(d.verdict, VerdictRule::Bits);
     EXPECT_EQ(d.false_positive_probability, d.bits_false_positive_probability);
     options.threshold = 1.0;
-    EXPECT_TRUE(mark.decide(mark.extract(mesh.V + mark.displacement(), options), options).is_present);
-    EXPECT_FALSE(mark.decide(mark.extract(mesh.V, options), options).is_present);
+    EXPECT_TRUE(mark.decide(Detector(mark, mesh).extract(mesh.V + mark.displacement(), options), options).is_present);
+    EXPECT_FALSE(mark.decide(Detector(mark, mesh).extract(mesh.V, options), options).is_present);
     EXPECT_EQ(parse_verdict_rule("bits"), VerdictRule::Bits);
     EXPECT_EQ(parse_verdict_rule(to_string(VerdictRule::Correlation)), VerdictRule::Correlation);
     EXPECT_THROW((void)parse_verdict_rule("R"), InvalidOption);
@@ -233,7 +314,7 @@ TEST(SpectralWatermarkTest, same_message_under_another_key_is_not_claimed)
         Key other_key = make_key(mesh, 500 + static_cast<std::uint64_t>(t));
         other_key.payload = key.payload;
         const SpectralWatermark other(mesh, other_key);
-        sum += detect_positions(mark, mesh.V + other.displacement()).correlation;
+        sum += detect_positions(mark, mesh, mesh.V + other.displacement()).correlation;
     }
     // Without the key-derived mask this would be near 1 (docs/algorithms/embedding.md, "Payload bits").
     EXPECT_LT(sum / trials, 0.6);
@@ -272,22 +353,15 @@ TEST(SpectralWatermarkTest, unreferenced_vertices_never_move_and_point_clouds_wo
     TriangleMesh cloud = lumpy_ellipsoid(3);
     cloud.F.resize(0, 3);
     const SpectralWatermark cloud_mark(cloud, make_key(cloud, 2));
-    EXPECT_DOUBLE_EQ(detect_positions(cloud_mark, cloud.V + cloud_mark.displacement()).correlation, 1.0);
+    EXPECT_DOUBLE_EQ(detect_positions(cloud_mark, cloud, cloud.V + cloud_mark.displacement()).correlation, 1.0);
 }
 
 TEST(SpectralWatermarkTest, noise_and_smoothing_keep_the_mark)
 {
     const TriangleMesh mesh = lumpy_ellipsoid(5);
     const SpectralWatermark mark(mesh, make_key(mesh, 77));
-    Positions marked = mesh.V + mark.displacement();
-    const double D = bounding_box(mesh.V).diagonal();
-    Rng rng(5);
-    Positions noisy = marked;
-    for (Eigen::Index i = 0; i < noisy.size(); ++i)
-    {
-        noisy.data()[i] += rng.uniform(-1e-3, 1e-3) * D;
-    }
-    EXPECT_TRUE(detect_positions(mark, noisy).is_present);
+    const Positions noisy = with_noise(mesh, mesh.V + mark.displacement(), 5);
+    EXPECT_TRUE(detect_positions(mark, mesh, noisy).is_present);
 }
 
 TEST(SpectralWatermarkTest, degenerate_inputs_fail_cleanly)
@@ -363,35 +437,29 @@ TEST(LaplacianWatermarkTest, marked_copy_is_found_and_unmarked_or_wrong_key_is_n
     EXPECT_LT(stats.orthogonality_error, 1e-10);
     EXPECT_NEAR(stats.rms_displacement_rel, 1e-3, 5e-4);  // same strength rule as RBF
     const Positions marked = mesh.V + displacement;
-    const Decision found = detect_positions(mark, marked);
+    const Decision found = detect_positions(mark, mesh, marked);
     EXPECT_TRUE(found.is_present);
     EXPECT_DOUBLE_EQ(found.correlation, 1.0);
-    EXPECT_FALSE(detect_positions(mark, mesh.V).is_present);
+    EXPECT_FALSE(detect_positions(mark, mesh, mesh.V).is_present);
     // Through the resampled path (registration's extraction) as well.
     const DetectOptions options;
-    EXPECT_TRUE(mark.decide(mark.extract_resampled(marked, options), options).is_present);
-    EXPECT_FALSE(mark.decide(mark.extract_resampled(mesh.V, options), options).is_present);
+    EXPECT_TRUE(mark.decide(Detector(mark, mesh).extract_resampled(marked, options), options).is_present);
+    EXPECT_FALSE(mark.decide(Detector(mark, mesh).extract_resampled(mesh.V, options), options).is_present);
     for (std::uint64_t seed = 500; seed < 503; ++seed)
     {
         const SpectralWatermark other(mesh, laplacian_key(mesh, seed));
-        EXPECT_FALSE(detect_positions(other, marked).is_present) << seed;
+        EXPECT_FALSE(detect_positions(other, mesh, marked).is_present) << seed;
     }
     // An RBF key with the same seed does not read the Laplacian mark.
-    EXPECT_FALSE(detect_positions(SpectralWatermark(mesh, make_key(mesh, 42)), marked).is_present);
+    EXPECT_FALSE(detect_positions(SpectralWatermark(mesh, make_key(mesh, 42)), mesh, marked).is_present);
 }
 
 TEST(LaplacianWatermarkTest, noise_keeps_the_mark_and_point_clouds_are_refused)
 {
     const TriangleMesh mesh = lumpy_ellipsoid(4);
     const SpectralWatermark mark(mesh, laplacian_key(mesh, 7));
-    Positions noisy = mesh.V + mark.displacement();
-    const double D = bounding_box(mesh.V).diagonal();
-    Rng rng(3);
-    for (Eigen::Index i = 0; i < noisy.size(); ++i)
-    {
-        noisy.data()[i] += rng.uniform(-1e-3, 1e-3) * D;
-    }
-    EXPECT_TRUE(detect_positions(mark, noisy).is_present);
+    const Positions noisy = with_noise(mesh, mesh.V + mark.displacement(), 3);
+    EXPECT_TRUE(detect_positions(mark, mesh, noisy).is_present);
     TriangleMesh cloud = mesh;
     cloud.F.resize(0, 3);
     EXPECT_THROW(SpectralWatermark(cloud, laplacian_key(cloud, 7)), InvalidMesh);
@@ -409,9 +477,9 @@ TEST(DecimatedCentersWatermarkTest, centers_do_not_depend_on_the_seed_and_the_ma
     EXPECT_EQ(mark_a.centers(), mark_b.centers());
     EXPECT_EQ(static_cast<int>(mark_a.centers().size()), a.options.basis_size);
     const Positions marked = mesh.V + mark_a.displacement();
-    EXPECT_TRUE(detect_positions(mark_a, marked).is_present);
-    EXPECT_FALSE(detect_positions(mark_b, marked).is_present) << "the payload mask still depends on the key";
-    EXPECT_FALSE(detect_positions(mark_a, mesh.V).is_present);
+    EXPECT_TRUE(detect_positions(mark_a, mesh, marked).is_present);
+    EXPECT_FALSE(detect_positions(mark_b, mesh, marked).is_present) << "the payload mask still depends on the key";
+    EXPECT_FALSE(detect_positions(mark_a, mesh, mesh.V).is_present);
 }
 
 }  // namespace meshmark

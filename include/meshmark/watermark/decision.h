@@ -1,0 +1,100 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace meshmark {
+
+/// What an extraction read from a suspect.
+struct Extraction
+{
+    /// Signed coefficient change of each modulated coefficient divided by its modulation
+    /// (3 m r values, coefficient c = 3 * mode + axis carries payload bit c mod 3m): +1 where
+    /// the embedded sign b'_c was +1, -1 where it was -1, ~0 where nothing was embedded.
+    std::vector<double> normalized_change;
+    /// Weight of each coefficient in the correlation (3 m r values, >= 0): the inverse of its
+    /// estimated noise variance where the extraction estimates it (joint least squares), else 1;
+    /// 0 for a coefficient the suspect cannot determine (its change is then 0 as well). Never
+    /// depends on the embedded signs, so the verdict's false-positive bound still holds.
+    std::vector<double> weights;
+    /// Per payload bit (3m values): the mean over its r coefficients of the change with the key
+    /// mask undone, weighted by `weights`: +1 for an embedded 1 and -1 for a 0 (soft decision).
+    std::vector<double> bit_values;
+    std::vector<std::uint8_t> bits_found;  ///< Payload bits: 0, 1, or 2 for undecided.
+};
+
+/// How the verdict is reached (docs/statistics.md).
+enum class VerdictRule
+{
+    /// Default: soft-decision correlation of all 3 m r coefficients with the embedded signs,
+    /// z = sum_c b'_c x_c / |x|; ownership when the bound on P(an unmarked mesh scores z) is
+    /// at most DetectOptions::max_false_positive.
+    Correlation,
+    /// [Wu & Kobbelt 2005]: R = fraction of payload bits read back, ownership when
+    /// R >= DetectOptions::threshold; reported false-positive probability P(X >= matches),
+    /// X ~ Bin(3m, 1/2) (Decision::bits_false_positive_probability).
+    Bits,
+};
+
+/// Name used on the command line and in --json: "correlation" or "bits".
+[[nodiscard]] const char* to_string(VerdictRule rule) noexcept;
+/// \throws InvalidOption for any other name.
+[[nodiscard]] VerdictRule parse_verdict_rule(const std::string& name);
+
+/// Options of the decision (docs/algorithms/detection.md, docs/statistics.md).
+struct DetectOptions
+{
+    VerdictRule verdict = VerdictRule::Correlation;
+    /// Correlation rule: ownership is claimed when the false-positive bound is at most this.
+    double max_false_positive = 1e-6;
+    double threshold = 0.75;  ///< Bits rule: ownership is claimed when R >= threshold.
+    double epsilon = 0.1;     ///< Undecided band of a payload bit, as a fraction of the modulation.
+    /// Remove the attack's predictable part before deciding: the changes of a similarity
+    /// motion and of Laplacian smoothing are fitted on the unmodulated modes (which carry no
+    /// watermark) and subtracted from the modulated ones. See docs/algorithms/detection.md.
+    bool remove_nuisance = true;
+    /// \throws InvalidOption unless threshold is in (0, 1], epsilon in [0, 1) and
+    /// max_false_positive in (0, 1].
+    void validate() const;
+};
+
+/// The verdict on a suspect.
+struct Decision
+{
+    /// The verdict of the rule in use: false-positive bound at most
+    /// DetectOptions::max_false_positive (correlation) or R >= DetectOptions::threshold (bits).
+    bool is_present = false;
+    VerdictRule verdict = VerdictRule::Correlation;  ///< The rule in use.
+    /// R: fraction of payload bits read back correctly (an undecided bit counts as wrong).
+    double correlation = 0.0;
+    int matches = 0;
+    int bit_count = 0;
+    /// z = sum_c a_c b'_c x_c / sqrt(sum_c a_c^2 x_c^2) over the 3 m r modulated coefficients,
+    /// the largest over the weightings a = w^0, w^(1/2), w^1 (w: Extraction::weights): about
+    /// sqrt(3 m r) for an intact mark; for an unmarked mesh, for each weighting, a sum of
+    /// independent random signs (the key mask) with fixed weights, of mean 0 and variance 1.
+    double score = 0.0;
+    int coefficient_count = 0;  ///< 3 m r.
+    /// Bound on P(an unmarked mesh scores at least z): 3 rademacher_tail_bound(z) (union bound
+    /// over the three weightings), at most 1.
+    double score_false_positive_probability = 1.0;
+    /// P(X >= matches), X ~ Bin(3m, 1/2): each decided bit of an unrelated mesh matches the
+    /// key-masked payload with probability 1/2 and an undecided one never does.
+    double bits_false_positive_probability = 1.0;
+    /// The false-positive probability of the rule in use (one of the two above).
+    double false_positive_probability = 1.0;
+    std::string bits_expected;  ///< '0'/'1'.
+    std::string bits_found;     ///< '0'/'1'/'?'.
+};
+
+/// \brief Upper bound on P(sum_i s_i a_i >= z |a|) for independent uniform random signs s_i
+/// and any real weights a_i: min(exp(-z^2/2), (2 e^3 / 9) (1 - Phi(z))) for z > 0, else 1
+/// [Hoeffding 1963; Pinelis 1994, Ann. Statist. 22(1)]. Never optimistic whatever the a_i.
+[[nodiscard]] double rademacher_tail_bound(double z);
+
+/// \brief P(X >= k) for X ~ Binomial(n, 1/2), exact.
+[[nodiscard]] double binomial_tail_half(int n, int k);
+
+}  // namespace meshmark

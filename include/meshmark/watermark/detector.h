@@ -1,0 +1,71 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "meshmark/core/triangle_mesh.h"
+#include "meshmark/watermark/decision.h"
+#include "meshmark/watermark/watermark.h"
+
+namespace meshmark {
+
+/// \brief Reads a watermark back from suspects: the watermark and the ORIGINAL mesh it was
+/// embedded in (not the watermarked one). Everything geometric of an extraction (the change
+/// from the original, its normals, the nuisance fields, the rows a crop keeps) is taken from
+/// the original, never from anything the key's signs shaped, so the verdict's false-positive
+/// bound holds (docs/statistics.md).
+/// \details Construction only checks that the original fits the watermark. Each extraction is
+/// a pure function of its arguments (the nuisance model is built by the call that needs it and
+/// is not cached), so one Detector may be used from several threads at once.
+class Detector
+{
+public:
+    /// \param mark      The watermark (built from \p original and the key); must outlive this.
+    /// \param original  The original mesh; must outlive this.
+    /// \throws InvalidOption unless \p original has the vertex count and analysed rows of the
+    /// mesh the watermark was built on.
+    Detector(const SpectralWatermark& mark, const TriangleMesh& original);
+
+    /// \brief Read the bits from \p suspect, given vertex for vertex in the original's frame.
+    /// \param suspect  #V x 3, row i corresponds to vertex i of the original.
+    /// \param is_kept  Optional: rows with 0 are cropped and left out (least squares over the
+    ///                 others, docs/algorithms/basis.md).
+    /// \details With every row kept and DetectOptions::remove_nuisance, the similarity and
+    /// smoothing nuisance is fitted jointly with the coefficients on the leading modes
+    /// (docs/algorithms/detection.md), when the basis has enough unmodulated modes for it.
+    [[nodiscard]] Extraction extract(const Positions& suspect, const DetectOptions& options,
+                                     const std::vector<std::uint8_t>* is_kept = nullptr) const;
+
+    /// \brief Read the bits from a suspect resampled at the original's vertices.
+    /// \details For a suspect registered and resampled (closest points of its surface to the
+    /// original's vertices), only the normal component of the watermark survives, cropped rows
+    /// carry nothing, and the similarity and smoothing nuisance is present. All of that is
+    /// linear, so the expected response of every bit and every nuisance field is computed
+    /// through the same operator (normal projection, crop mask) and the bits are decoded
+    /// jointly by least squares on the leading modes. With no faces (a point cloud) no normal
+    /// projection is applied.
+    /// \param resampled #V x 3 closest points, original frame. \param is_kept optional crop mask.
+    [[nodiscard]] Extraction extract_resampled(const Positions& resampled, const DetectOptions& options,
+                                               const std::vector<std::uint8_t>* is_kept = nullptr) const;
+
+    /// The watermark's decision on an extraction (SpectralWatermark::decide).
+    [[nodiscard]] Decision decide(const Extraction& extraction, const DetectOptions& options) const
+    {
+        return mark_->decide(extraction, options);
+    }
+
+    [[nodiscard]] const SpectralWatermark& watermark() const noexcept { return *mark_; }
+    [[nodiscard]] const TriangleMesh& original() const noexcept { return *original_; }
+
+private:
+    // Extraction of coefficients normalized by their modulation, with their variances.
+    [[nodiscard]] Extraction extraction_from(const Eigen::VectorXd& normalized, const Eigen::VectorXd& variances,
+                                             const DetectOptions& options) const;
+
+    const SpectralWatermark* mark_;
+    const TriangleMesh* original_;
+    std::vector<std::int32_t> active_;  // the original's referenced vertices: the watermark's rows
+};
+
+}  // namespace meshmark

@@ -1,0 +1,154 @@
+// SPDX-License-Identifier: MIT
+// The verdict: options, tail bounds of the two rules, and SpectralWatermark::decide.
+#include "meshmark/watermark/decision.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <string>
+
+#include "meshmark/core/error.h"
+#include "meshmark/core/named_choice.h"
+#include "meshmark/watermark/watermark.h"
+
+namespace meshmark {
+namespace {
+
+// Normalized coefficient changes below this are rounding, not signal or attack.
+constexpr double kNegligibleChange = 1e-6;
+
+}  // namespace
+
+void DetectOptions::validate() const
+{
+    if (!(threshold > 0.0 && threshold <= 1.0))
+    {
+        throw InvalidOption("detection threshold must be in (0, 1], got " + std::to_string(threshold) + ".");
+    }
+    if (!(epsilon >= 0.0 && epsilon < 1.0))
+    {
+        throw InvalidOption("epsilon must be in [0, 1), got " + std::to_string(epsilon) + ".");
+    }
+    if (!(max_false_positive > 0.0 && max_false_positive <= 1.0))
+    {
+        throw InvalidOption("the largest false-positive probability (--max-fpp) must be in (0, 1], got " +
+                            std::to_string(max_false_positive) + ".");
+    }
+}
+
+const char* to_string(VerdictRule rule) noexcept
+{
+    return rule == VerdictRule::Bits ? "bits" : "correlation";
+}
+
+VerdictRule parse_verdict_rule(const std::string& name)
+{
+    return parse_named_choice<VerdictRule>(name, "verdict rule",
+                                           {{"correlation", VerdictRule::Correlation}, {"bits", VerdictRule::Bits}});
+}
+
+double rademacher_tail_bound(double z)
+{
+    if (!(z > 0.0))
+    {
+        return 1.0;
+    }
+    // Hoeffding: P(S >= z |a|) <= exp(-z^2 / 2). Pinelis: P(S >= z |a|) <= c (1 - Phi(z)) with
+    // c = 2 e^3 / 9 ~ 4.46, tighter beyond z ~ 3.3. Both hold for every weight vector a.
+    const double hoeffding = std::exp(-0.5 * z * z);
+    const double pinelis = 2.0 * std::exp(3.0) / 9.0 * 0.5 * std::erfc(z / std::sqrt(2.0));
+    return std::min({1.0, hoeffding, pinelis});
+}
+
+double binomial_tail_half(int n, int k)
+{
+    if (k <= 0)
+    {
+        return 1.0;
+    }
+    if (k > n)
+    {
+        return 0.0;
+    }
+    // Sum of C(n, i) / 2^n for i >= k, in log space to stay exact enough for any n.
+    double total = 0.0;
+    for (int i = k; i <= n; ++i)
+    {
+        const double log_term = std::lgamma(n + 1.0) - std::lgamma(i + 1.0) - std::lgamma(n - i + 1.0) -
+                                n * std::log(2.0);
+        total += std::exp(log_term);
+    }
+    return std::min(1.0, total);
+}
+
+Decision SpectralWatermark::decide(const Extraction& extraction, const DetectOptions& options) const
+{
+    options.validate();
+    Decision decision;
+    decision.verdict = options.verdict;
+    decision.bit_count = static_cast<int>(key_.payload.size());
+    for (std::size_t t = 0; t < key_.payload.size(); ++t)
+    {
+        const auto found = extraction.bits_found[t];
+        decision.bits_expected.push_back(key_.payload[t] != 0 ? '1' : '0');
+        decision.bits_found.push_back(found == 2 ? '?' : (found != 0 ? '1' : '0'));
+        if (found == key_.payload[t])
+        {
+            ++decision.matches;
+        }
+    }
+    decision.correlation = static_cast<double>(decision.matches) / decision.bit_count;
+    decision.bits_false_positive_probability = binomial_tail_half(decision.bit_count, decision.matches);
+
+    // Soft-decision correlation with the embedded signs. For a mesh that does not carry this
+    // key's mark, x does not depend on the key mask, so sum_c b'_c a_c x_c is a sum of
+    // independent random signs with fixed weights (docs/statistics.md). Three weightings a:
+    // uniform (best when every coefficient is read equally well), inverse variance (best when
+    // the nuisance fit or a crop makes some coefficients far noisier than others) and their
+    // geometric mean; the verdict takes the best and pays for the choice with a union bound.
+    const auto& x = extraction.normalized_change;
+    const auto& w = extraction.weights;
+    constexpr std::array<double, 3> kWeightPowers = {0.0, 0.5, 1.0};
+    decision.coefficient_count = static_cast<int>(x.size());
+    decision.score = 0.0;
+    double best_bound = 1.0;
+    bool is_first = true;
+    for (const double power : kWeightPowers)
+    {
+        double dot = 0.0;
+        double norm_sq = 0.0;
+        for (std::size_t c = 0; c < x.size(); ++c)
+        {
+            // A change below a millionth of the modulation is rounding (an unmarked original
+            // compared with itself); dropping it keeps such a score at 0 and depends on no sign.
+            const double value = std::abs(x[c]) < kNegligibleChange ? 0.0 : x[c];
+            const double weight = power == 0.0 ? 1.0 : std::pow(w[c], power);
+            const double wx = weight * value;
+            dot += signs_(static_cast<Eigen::Index>(c / 3), static_cast<Eigen::Index>(c % 3)) * wx;
+            norm_sq += wx * wx;
+        }
+        const double z = norm_sq > 0.0 ? dot / std::sqrt(norm_sq) : 0.0;
+        if (is_first || z > decision.score)
+        {
+            decision.score = z;
+            best_bound = rademacher_tail_bound(z);
+            is_first = false;
+        }
+    }
+    decision.score_false_positive_probability =
+        std::min(1.0, static_cast<double>(kWeightPowers.size()) * best_bound);
+
+    if (options.verdict == VerdictRule::Bits)
+    {
+        decision.false_positive_probability = decision.bits_false_positive_probability;
+        decision.is_present = decision.correlation >= options.threshold;
+    }
+    else
+    {
+        decision.false_positive_probability = decision.score_false_positive_probability;
+        decision.is_present = decision.score_false_positive_probability <= options.max_false_positive;
+    }
+    return decision;
+}
+
+}  // namespace meshmark

@@ -1,0 +1,139 @@
+// SPDX-License-Identifier: MIT
+#include "watermark/nuisance.h"
+
+#include <limits>
+#include <span>
+
+#include <Eigen/SVD>
+
+#include "meshmark/geometry/adjacency.h"
+
+namespace meshmark::detail {
+namespace {
+
+// Powers of the uniform Laplacian applied to the positions: the directions in which N steps
+// of Laplacian (or Taubin) smoothing move a mesh, (I - lambda L)^N P = P - N lambda L P + ...
+constexpr int kLaplacianPowers = 3;
+
+// L P, L^2 P, L^3 P with the uniform Laplacian (#V x 3 each), zero on rows that take no part.
+std::vector<Positions> laplacian_powers(const TriangleMesh& mesh, const std::vector<std::int32_t>& rows)
+{
+    const auto n = mesh.V.rows();
+    std::vector<Positions> fields;
+    const VertexAdjacency adjacency = vertex_adjacency(mesh);
+    Positions current = mesh.V;
+    for (int power = 0; power < kLaplacianPowers; ++power)
+    {
+        Positions next = Positions::Zero(n, 3);
+        for (const auto i : rows)
+        {
+            const auto neighbors = adjacency.of(static_cast<std::size_t>(i));
+            if (neighbors.empty())
+            {
+                continue;
+            }
+            Eigen::RowVector3d mean = Eigen::RowVector3d::Zero();
+            for (const auto j : neighbors)
+            {
+                mean += current.row(j);
+            }
+            next.row(i) = mean / static_cast<double>(neighbors.size()) - current.row(i);
+        }
+        fields.push_back(next);
+        current = std::move(next);
+    }
+    return fields;
+}
+
+}  // namespace
+
+NuisanceFields::NuisanceFields(const TriangleMesh& mesh, const std::vector<std::int32_t>& rows,
+                               const Eigen::Vector3d& origin)
+    : V_(&mesh.V), origin_(origin)
+{
+    if (!mesh.is_point_cloud())
+    {
+        laplacians_ = laplacian_powers(mesh, rows);
+    }
+}
+
+JointSolution solve_jointly(const Eigen::MatrixXd& raw_design, const Eigen::VectorXd& target)
+{
+    // Columns scaled to unit norm first, so that the rank cutoff below compares directions, not
+    // units (a nuisance field can be 1e-12 of another column without being any less independent).
+    Eigen::VectorXd scale = raw_design.colwise().norm().transpose();
+    for (Eigen::Index c = 0; c < scale.size(); ++c)
+    {
+        scale(c) = scale(c) > 0.0 ? 1.0 / scale(c) : 1.0;
+    }
+    const Eigen::MatrixXd design = raw_design * scale.asDiagonal();
+    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(design, Eigen::ComputeThinU | Eigen::ComputeThinV);
+    const Eigen::VectorXd& sv = svd.singularValues();
+    const double cutoff = sv.size() > 0 ? 1e-10 * sv(0) : 0.0;
+    JointSolution result;
+    result.amplitudes = Eigen::VectorXd::Zero(design.cols());
+    result.variances = Eigen::VectorXd::Zero(design.cols());
+    const Eigen::VectorXd projected = svd.matrixU().transpose() * target;
+    Eigen::Index rank = 0;
+    for (Eigen::Index j = 0; j < sv.size(); ++j)
+    {
+        if (sv(j) > cutoff)
+        {
+            result.amplitudes += svd.matrixV().col(j) * (projected(j) / sv(j));
+            result.variances += svd.matrixV().col(j).cwiseAbs2() / (sv(j) * sv(j));
+            ++rank;
+        }
+    }
+    if (rank < design.cols())
+    {
+        // Directions of the null space: unknowns with a component there are undetermined.
+        const Eigen::MatrixXd null_space = svd.matrixV().rightCols(design.cols() - rank);
+        for (Eigen::Index c = 0; c < design.cols(); ++c)
+        {
+            if (null_space.row(c).norm() > 1e-8)
+            {
+                result.variances(c) = std::numeric_limits<double>::infinity();
+            }
+        }
+    }
+    // Back to the unknowns of the raw design.
+    result.amplitudes = result.amplitudes.cwiseProduct(scale);
+    result.variances = result.variances.cwiseProduct(scale.cwiseAbs2());
+    return result;
+}
+
+NuisanceModel nuisance_model(const SpectralBasis& basis, const NuisanceFields& fields, int modulated_head)
+{
+    NuisanceModel model;
+    model.modes = basis.well_conditioned_modes(kNuisanceModeTolerance);
+    // Enough unmodulated modes to fit the nuisance fields with room to spare.
+    const Eigen::Index q = fields.count();
+    if (model.modes - modulated_head < 4 * static_cast<int>(q))
+    {
+        model.modes = 0;
+        return model;
+    }
+    // U_r^T N_f of every field in one pass, the fields evaluated row by row (never stored).
+    const auto width = static_cast<std::size_t>(3 * q);
+    const Eigen::MatrixXd responses = basis.project_design(
+        model.modes, 0, width, [&](std::span<const std::int32_t> block, const double* /*U*/, double* X) {
+            for (std::size_t a = 0; a < block.size(); ++a)
+            {
+                for (Eigen::Index f = 0; f < q; ++f)
+                {
+                    const Eigen::RowVector3d value = fields.row(f, block[a]);
+                    for (Eigen::Index d = 0; d < 3; ++d)
+                    {
+                        X[a * width + static_cast<std::size_t>(3 * f + d)] = value(d);
+                    }
+                }
+            }
+        });
+    for (Eigen::Index f = 0; f < q; ++f)
+    {
+        model.responses.emplace_back(responses.middleCols(3 * f, 3));
+    }
+    return model;
+}
+
+}  // namespace meshmark::detail
