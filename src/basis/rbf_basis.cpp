@@ -19,12 +19,11 @@
 #include "basis/rbf_kernels.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/morton.h"
+#include "meshmark/core/threads.h"
 #include "meshmark/core/rng.h"
 
 namespace meshmark {
 namespace {
-
-int resolve_threads(int threads) { return threads > 0 ? threads : omp_get_num_procs(); }
 
 // At most this many chunks; each owns a k x k accumulator, so memory stays O(k^2).
 constexpr std::size_t kMaxChunks = 64;

@@ -41,6 +41,7 @@
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/rng.h"
+#include "meshmark/core/threads.h"
 #include "timer.h"
 
 namespace meshmark::detail {
@@ -788,7 +789,7 @@ EmbedReport embed_file_streamed(const std::filesystem::path& input, const std::f
     // every vertex is referenced (the usual case: then they are exactly the passes the flags
     // would give); when the scan finds unreferenced vertices they run again after it. Errors
     // keep their order: the scan's, then the basis size, then the vertices'.
-    const bool overlap = options.threads != 1 && std::thread::hardware_concurrency() > 1;
+    const bool overlap = resolve_threads(options.threads) > 1;
     Referenced referenced;
     std::optional<FrameResult> guess;
     std::exception_ptr guess_error;
@@ -889,7 +890,7 @@ EmbedReport embed_file_streamed(const std::filesystem::path& input, const std::f
 
     // Synthesis streamed into the output: header, patched vertex records, the rest as is.
     timer.begin("write");
-    const int threads = options.threads > 0 ? options.threads : static_cast<int>(std::max(1U, std::thread::hardware_concurrency()));
+    const int threads = resolve_threads(options.threads);
     const std::size_t budget = options.memory_budget_mib > 0
                                    ? static_cast<std::size_t>(options.memory_budget_mib) << 20U
                                    : std::size_t{256} << 20U;
