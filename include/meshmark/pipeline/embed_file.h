@@ -3,27 +3,17 @@
 
 #include <cstdint>
 #include <filesystem>
-#include <functional>
 #include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include "meshmark/io/mesh_io.h"
+#include "meshmark/pipeline/progress.h"
 #include "meshmark/watermark/key.h"
 #include "meshmark/watermark/watermark.h"
 
 namespace meshmark {
-
-/// Progress of a long command: a phase name and the fraction done (0..1) within it.
-using ProgressCallback = std::function<void(std::string_view phase, double fraction)>;
-
-/// Time spent per phase, in seconds (reported by `--json` as "seconds").
-struct PhaseTimings
-{
-    std::vector<std::pair<std::string, double>> phases;
-    double total = 0.0;
-};
 
 /// Options of embed_file: the watermark's parameters plus where its payload comes from.
 struct EmbedFileOptions
