@@ -12,7 +12,7 @@
 #include "meshmark/core/atomic_file.h"
 #include "meshmark/core/error.h"
 #include "meshmark/io/mesh_io.h"
-#include "meshmark/pipeline/progress.h"
+#include "progress.h"
 #include "report.h"
 
 namespace meshmark::cli {

@@ -15,7 +15,7 @@
 #include "meshmark/io/mesh_io.h"
 #include "meshmark/metrics/distortion.h"
 #include "meshmark/metrics/heatmap.h"
-#include "meshmark/pipeline/progress.h"
+#include "progress.h"
 #include "report.h"
 
 namespace meshmark::cli {

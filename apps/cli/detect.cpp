@@ -7,8 +7,8 @@
 
 #include "commands.h"
 #include "meshmark/pipeline/detect_file.h"
-#include "meshmark/pipeline/progress.h"
 #include "meshmark/registration/point_pairs.h"
+#include "progress.h"
 #include "report.h"
 
 namespace meshmark::cli {

@@ -1,18 +1,13 @@
 // SPDX-License-Identifier: MIT
 // `meshmark embed`: watermark a mesh file and write its key.
-#include <unistd.h>
-
 #include <cstdio>
-#include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
 
 #include "commands.h"
-#include "meshmark/core/atomic_file.h"
-#include "meshmark/core/error.h"
 #include "meshmark/pipeline/embed_file.h"
-#include "meshmark/pipeline/progress.h"
+#include "progress.h"
 #include "report.h"
 
 namespace meshmark::cli {
@@ -38,46 +33,6 @@ struct EmbedArgs
     EmbedOptions options;
 };
 
-// -o may name the input only with --force. The marked copy is then written (atomically) to
-// a hidden staging file next to the input, ".<stem>.meshmark-embed-<pid><ext>", and renamed
-// over the input once the mesh and the key are complete: the original is replaced by a whole
-// file or not at all, and is never opened for writing. A kill between the two leaves the
-// staging file (hidden, never an output name) and the original untouched.
-EmbedReport embed_maybe_in_place(const EmbedArgs& args, const EmbedFileOptions& options)
-{
-    if (!is_same_file(args.input, args.output))
-    {
-        return embed_file(args.input, args.output, args.key, options);
-    }
-    if (!args.force)
-    {
-        throw InvalidOption(args.output + ": -o names the input file, which an embed never "
-                            "replaces unless asked; choose another -o or pass --force.");
-    }
-    const std::filesystem::path target = std::filesystem::canonical(args.input);
-    const std::filesystem::path staged =
-        target.parent_path() / ("." + target.stem().string() + ".meshmark-embed-" +
-                                std::to_string(::getpid()) + target.extension().string());
-    // The input's permissions before the embed: the marked copy that replaces it keeps them
-    // (a fresh file would get the default mode of an atomic write instead).
-    const std::filesystem::perms mode = std::filesystem::status(target).permissions();
-    EmbedReport report = embed_file(args.input, staged, args.key, options);
-    std::error_code error;
-    std::filesystem::permissions(staged, mode, error);
-    if (!error)
-    {
-        std::filesystem::rename(staged, target, error);
-    }
-    if (error)
-    {
-        std::error_code ignored;
-        std::filesystem::remove(staged, ignored);
-        throw IoError(args.output + ": cannot replace the input with the marked copy (" +
-                      error.message() + "); the input is unchanged.");
-    }
-    return report;
-}
-
 int run_embed(const EmbedArgs& args, const GlobalArgs& global)
 {
     EmbedFileOptions options;
@@ -100,6 +55,7 @@ int run_embed(const EmbedArgs& args, const GlobalArgs& global)
     }
     options.threads = global.threads;
     options.force = args.force;
+    options.replace_input = args.force;  // -o may name the input only with --force
     options.memory_budget_mib = args.memory_budget;
     options.force_stream = args.stream;
     // Phases and a running clock on a terminal, after the first second; silent otherwise.
@@ -110,7 +66,7 @@ int run_embed(const EmbedArgs& args, const GlobalArgs& global)
         options.progress = progress->callback();
     }
 
-    const EmbedReport report = embed_maybe_in_place(args, options);
+    const EmbedReport report = embed_file(args.input, args.output, args.key, options);
     if (progress)
     {
         progress->finish();

@@ -60,24 +60,11 @@ int main(int argc, char** argv)
     app.require_subcommand(1);
     cli::GlobalArgs global;
     cli::CommandRunner runner;
-#ifndef MESHMARK_CLI_NO_DEMO
-    cli::register_demo(app, global, runner);
-#endif
-#ifndef MESHMARK_CLI_NO_EMBED
-    cli::register_embed(app, global, runner);
-#endif
-#ifndef MESHMARK_CLI_NO_DETECT
-    cli::register_detect(app, global, runner);
-#endif
-#ifndef MESHMARK_CLI_NO_ATTACK
-    cli::register_attack(app, global, runner);
-#endif
-#ifndef MESHMARK_CLI_NO_COMPARE
-    cli::register_compare(app, global, runner);
-#endif
-#ifndef MESHMARK_CLI_NO_BENCH
-    cli::register_bench(app, global, runner);
-#endif
+    for (const auto register_command : {cli::register_demo, cli::register_embed, cli::register_detect,
+                                        cli::register_attack, cli::register_compare, cli::register_bench})
+    {
+        register_command(app, global, runner);
+    }
     try
     {
         app.parse(argc, argv);

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
 // Uses meshmark as an installed library: watermark a mesh, then look for the mark in the
 // marked copy (found) and in the unmarked original (not found), once through the file
-// pipeline and once in memory.
+// pipeline and once in memory, all through the one header meshmark/meshmark.h.
 //
 // Usage: meshmark_example [INPUT] OUTDIR
 //   INPUT   a mesh (.ply .obj .off .stl); without it a 2,562-vertex demo mesh is generated.
@@ -11,14 +11,8 @@
 #include <exception>
 #include <filesystem>
 
-#include "meshmark/core/error.h"
 #include "meshmark/geometry/shapes.h"
-#include "meshmark/io/mesh_io.h"
-#include "meshmark/pipeline/detect_file.h"
-#include "meshmark/pipeline/embed_file.h"
-#include "meshmark/watermark/key.h"
-#include "meshmark/watermark/detector.h"
-#include "meshmark/watermark/watermark.h"
+#include "meshmark/meshmark.h"
 
 namespace fs = std::filesystem;
 
@@ -74,19 +68,17 @@ int main(int argc, char** argv)
         print("marked copy", in_marked.decision);
         print("original", in_original.decision);
 
-        // 3. The same in memory: regenerate the watermark from the original and the key, and
-        //    read the bits from the marked positions (vertex for vertex).
+        // 3. The same in memory: embed the original with the same options (same seed: the
+        //    positions of the marked file and the same key), then detect in the marked mesh.
         const meshmark::TriangleMesh original = meshmark::read_mesh(input);
-        const meshmark::Key key = meshmark::read_key(key_path);
-        const meshmark::SpectralWatermark mark(original, key);
-        const meshmark::DetectOptions decision_options;
-        const meshmark::Detector detector(mark, original);
-        const meshmark::Decision in_memory = mark.decide(
-            detector.extract(meshmark::read_mesh(marked).V, decision_options), decision_options);
-        print("in memory", in_memory);
+        const meshmark::EmbedResult result = meshmark::embed(original, options);
+        meshmark::TriangleMesh marked_mesh = original;
+        marked_mesh.V = result.positions;
+        const meshmark::DetectReport in_memory = meshmark::detect(marked_mesh, original, result.key);
+        print("in memory", in_memory.decision);
 
         const bool is_right = in_marked.decision.is_present && !in_original.decision.is_present &&
-                              in_memory.is_present;
+                              in_memory.decision.is_present;
         std::printf("%s\n", is_right ? "OK" : "WRONG VERDICT");
         return is_right ? 0 : 1;
     }

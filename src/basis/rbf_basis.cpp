@@ -16,11 +16,10 @@
 #include "basis/rbf_passes.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/morton.h"
+#include "meshmark/core/threads.h"
 
 namespace meshmark {
 namespace {
-
-int resolve_threads(int threads) { return threads > 0 ? threads : omp_get_num_procs(); }
 
 // At most this many chunks; each owns a k x k accumulator, so memory stays O(k^2).
 constexpr std::size_t kMaxChunks = 64;

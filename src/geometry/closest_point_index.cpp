@@ -15,6 +15,7 @@
 
 #include "meshmark/core/error.h"
 #include "meshmark/core/morton.h"
+#include "meshmark/core/threads.h"
 
 // Surfaces: a hand-written bounding-volume hierarchy, not CGAL's AABB_tree, because CGAL was
 // measured to be about twice as slow on the queries the metrics, ICP and resampling make. On the
@@ -476,11 +477,6 @@ using CloudTree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adapt
 
 // nanoflann's default leaf size; single-nearest-neighbour queries are not sensitive to it.
 constexpr std::size_t kCloudLeafSize = 10;
-
-int resolve_threads(int threads)
-{
-    return threads > 0 ? threads : omp_get_max_threads();
-}
 
 }  // namespace
 

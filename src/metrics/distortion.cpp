@@ -13,6 +13,7 @@
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/rng.h"
+#include "meshmark/core/threads.h"
 #include "meshmark/metrics/surface_sampling.h"
 
 namespace meshmark {
@@ -52,11 +53,6 @@ struct DistanceSums
         count += other.count;
     }
 };
-
-int resolve_threads(int threads)
-{
-    return threads > 0 ? threads : omp_get_max_threads();
-}
 
 /// Distance of every vertex of \p mesh to the indexed surface.
 Eigen::VectorXd all_vertex_distances(const TriangleMesh& mesh, const ClosestPointIndex& to, int threads)

@@ -10,6 +10,7 @@
 
 #include "meshmark/core/error.h"
 #include "meshmark/core/rng.h"
+#include "meshmark/core/threads.h"
 
 namespace meshmark {
 
@@ -82,7 +83,7 @@ Positions sample_surface(const TriangleMesh& mesh, std::int64_t count, std::uint
     Positions samples(static_cast<Eigen::Index>(count), 3);
     const std::int64_t blocks = (count + kSamplesPerBlock - 1) / kSamplesPerBlock;
     // Blocks are independent streams written to disjoint rows: any schedule gives the same output.
-#pragma omp parallel num_threads(threads > 0 ? threads : omp_get_max_threads())
+#pragma omp parallel num_threads(resolve_threads(threads))
     {
         Positions buffer;
 #pragma omp for schedule(dynamic, 4)

@@ -13,6 +13,7 @@
 #include "meshmark/core/error.h"
 #include "meshmark/geometry/adjacency.h"
 #include "meshmark/io/mesh_io.h"
+#include "meshmark/meshmark.h"
 #include "meshmark/pipeline/embed_file.h"
 #include "meshmark/registration/registration.h"
 #include "meshmark/registration/resampling.h"
@@ -190,7 +191,30 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
     timer.lap("extract");
 }
 
+// The watermark of \p key regenerated from \p original (phase "basis"), then steps 6-10.
+void detect_with_key(DetectReport& report, detail::PhaseTimer& timer, const Key& key, const TriangleMesh& original,
+                     const TriangleMesh& instances, const TriangleMesh& suspect,
+                     const std::filesystem::path& suspect_path, const DetectFileOptions& options)
+{
+    timer.begin("basis");
+    const SpectralWatermark mark(original, key, options.threads);
+    timer.lap("basis");
+    detect_into(report, timer, mark, original, instances, suspect, suspect_path, options);
+}
+
 }  // namespace
+
+DetectReport detect(const TriangleMesh& suspect, const TriangleMesh& original, const Key& key,
+                    const DetectFileOptions& options)
+{
+    options.decision.validate();
+    DetectReport report;
+    detail::PhaseTimer timer(report.seconds, options.progress);
+    check_original(original, key, "original");
+    check_basis_input(original, key.options, "original");
+    detect_with_key(report, timer, key, original, TriangleMesh{}, suspect, "suspect", options);
+    return report;
+}
 
 DetectReport detect_mesh(const SpectralWatermark& mark, const TriangleMesh& original, const TriangleMesh& suspect,
                          const DetectFileOptions& options)
@@ -256,11 +280,7 @@ DetectReport detect_file(const std::filesystem::path& suspect_path,
         std::rethrow_exception(failures[1]);
     }
     timer.lap("read");
-
-    timer.begin("basis");
-    const SpectralWatermark mark(original, key, options.threads);
-    timer.lap("basis");
-    detect_into(report, timer, mark, original, instances, suspect, suspect_path, options);
+    detect_with_key(report, timer, key, original, instances, suspect, suspect_path, options);
     return report;
 }
 

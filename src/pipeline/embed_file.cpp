@@ -1,11 +1,14 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/pipeline/embed_file.h"
 
+#include <unistd.h>
+
 #include <random>
 #include <thread>
 
 #include "meshmark/core/atomic_file.h"
 #include "meshmark/core/error.h"
+#include "meshmark/meshmark.h"
 #include "embed_streamed.h"
 #include "timer.h"
 
@@ -21,11 +24,6 @@ std::uint64_t fresh_seed()
 void check_paths(const std::filesystem::path& input, const std::filesystem::path& output,
                  const std::filesystem::path& key_path, bool force)
 {
-    if (is_same_file(input, output))
-    {
-        throw InvalidOption(output.string() + ": the output would replace the input; an original is "
-                            "never overwritten (choose another -o).");
-    }
     if (is_same_file(input, key_path) || output == key_path)
     {
         throw InvalidOption(key_path.string() + ": the key file must differ from the input and output.");
@@ -57,7 +55,7 @@ void check_basis_input(const TriangleMesh& mesh, const EmbedOptions& options, co
     }
 }
 
-void EmbedFileOptions::validate() const
+void EmbedMeshOptions::validate() const
 {
     embed.validate();
     if (message && bits_hex)
@@ -68,6 +66,11 @@ void EmbedFileOptions::validate() const
     {
         throw InvalidOption("--threads must be >= 0 (0 = all cores).");
     }
+}
+
+void EmbedFileOptions::validate() const
+{
+    EmbedMeshOptions::validate();
     if (memory_budget_mib < 0)
     {
         throw InvalidOption("--memory-budget must be >= 0 MiB (0 = no budget).");
@@ -113,34 +116,65 @@ void write_mesh_and_key(const std::filesystem::path& key_path, const Key& key,
 
 namespace {
 
-Key make_key(const EmbedFileOptions& options)
+// The key of an embed: the options' seed, or one drawn from the OS.
+Key new_key(const EmbedMeshOptions& options)
 {
-    // Key: seed, parameters and payload (message, hex or random); the fingerprint comes later.
-    Key key;
-    key.seed = options.seed ? *options.seed : fresh_seed();
-    key.options = options.embed;
-    key.options.strength = options.embed.resolved_strength();
-    const int bits = payload_bit_count(key.options);
-    if (options.message)
+    return make_key(options.embed, options.seed ? *options.seed : fresh_seed(), options.message, options.bits_hex);
+}
+
+// The in-memory embed of \p mesh (named \p name in errors) into \p result: phases "basis" and
+// "embed" on \p timer.
+void embed_into(EmbedResult& result, detail::PhaseTimer& timer, const TriangleMesh& mesh,
+                const std::filesystem::path& name, const EmbedMeshOptions& options)
+{
+    timer.begin("basis");
+    Key key = new_key(options);
+    check_basis_input(mesh, key.options, name);
+
+    // Basis (pass 1 + eigen-decomposition) -> synthesis of the displacement (pass 2). The
+    // fingerprint (a serial hash of the positions, 15 ms at 1M vertices) is independent of the
+    // basis: it runs on one more thread while the basis starts with its serial canonical frame
+    // (30 ms), and is joined before the key is used. The jthread joins on every path.
+    MeshFingerprint original_fingerprint;
+    std::jthread fingerprinter;
+    if (options.threads != 1)
     {
-        key.payload = payload_from_message(*options.message, bits);
-        key.message = options.message;
-    }
-    else if (options.bits_hex)
-    {
-        key.payload = payload_from_hex(*options.bits_hex, bits);
+        fingerprinter = std::jthread([&] { original_fingerprint = fingerprint(mesh); });
     }
     else
     {
-        key.payload = random_payload(key.seed, bits);
+        original_fingerprint = fingerprint(mesh);
     }
-    return key;
+    const SpectralWatermark mark(mesh, key, options.threads);
+    if (fingerprinter.joinable())
+    {
+        fingerprinter.join();
+    }
+    key.original = original_fingerprint;
+    timer.lap("basis");
+    timer.begin("embed");
+    // The field becomes the marked positions in place: one #V x 3 array, not two.
+    result.positions = mark.displacement(&result.stats);
+    result.positions += mesh.V;
+    timer.lap("embed");
+    result.key = std::move(key);
 }
 
 }  // namespace
 
-EmbedReport embed_file(const std::filesystem::path& input, const std::filesystem::path& output,
-                       const std::filesystem::path& key_path, const EmbedFileOptions& options)
+EmbedResult embed(const TriangleMesh& mesh, const EmbedMeshOptions& options)
+{
+    options.validate();
+    EmbedResult result;
+    detail::PhaseTimer timer(result.seconds, options.progress);
+    embed_into(result, timer, mesh, "mesh", options);
+    return result;
+}
+
+namespace {
+
+EmbedReport embed_to_new_file(const std::filesystem::path& input, const std::filesystem::path& output,
+                              const std::filesystem::path& key_path, const EmbedFileOptions& options)
 {
     options.validate();
     check_paths(input, output, key_path, options.force);
@@ -149,7 +183,7 @@ EmbedReport embed_file(const std::filesystem::path& input, const std::filesystem
     std::string note;
     if (const auto streamed = detail::stream_plan(input, output, options, &note))
     {
-        return detail::embed_file_streamed(*streamed, output, key_path, make_key(options), options);
+        return detail::embed_file_streamed(*streamed, output, key_path, new_key(options), options);
     }
 
     EmbedReport report;
@@ -162,43 +196,65 @@ EmbedReport embed_file(const std::filesystem::path& input, const std::filesystem
     report.vertex_count = file.mesh.vertex_count();
     report.face_count = file.mesh.face_count();
     timer.lap("read");
-    timer.begin("basis");
-
-    Key key = make_key(options);
-    check_basis_input(file.mesh, key.options, input);
-
-    // Basis (pass 1 + eigen-decomposition) -> synthesis of the displacement (pass 2). The
-    // fingerprint (a serial hash of the positions, 15 ms at 1M vertices) is independent of the
-    // basis: it runs on one more thread while the basis starts with its serial canonical frame
-    // (30 ms), and is joined before the key is used. The jthread joins on every path.
-    MeshFingerprint original_fingerprint;
-    std::jthread fingerprinter;
-    if (options.threads != 1)
-    {
-        fingerprinter = std::jthread([&] { original_fingerprint = fingerprint(file.mesh); });
-    }
-    else
-    {
-        original_fingerprint = fingerprint(file.mesh);
-    }
-    const SpectralWatermark mark(file.mesh, key, options.threads);
-    if (fingerprinter.joinable())
-    {
-        fingerprinter.join();
-    }
-    key.original = original_fingerprint;
-    timer.lap("basis");
-    timer.begin("embed");
-    // The field becomes the marked positions in place: one #V x 3 array, not two.
-    Positions marked = mark.displacement(&report.stats);
-    marked += file.mesh.V;
-    timer.lap("embed");
+    EmbedResult marked;
+    embed_into(marked, timer, file.mesh, input, options);
     timer.begin("write");
     // (A binary PLY goes out in slices of the original bytes: no second copy of the file.)
-    detail::write_mesh_and_key(key_path, key, [&]() { write_mesh_file(output, file, marked); });
+    detail::write_mesh_and_key(key_path, marked.key, [&]() { write_mesh_file(output, file, marked.positions); });
     timer.lap("write");
-    report.key = std::move(key);
+    report.key = std::move(marked.key);
+    report.stats = marked.stats;
     return report;
+}
+
+// In place (see EmbedFileOptions::replace_input): embed into a hidden staging file next to the
+// input, give it the input's permissions, then rename it over the input.
+EmbedReport embed_in_place(const std::filesystem::path& input, const std::filesystem::path& output,
+                           const std::filesystem::path& key_path, const EmbedFileOptions& options)
+{
+    const std::filesystem::path target = std::filesystem::canonical(input);
+    // (Built by appending: GCC 12 reports a false -Wrestrict on `"." + std::string`.)
+    std::string staged_name(1, '.');
+    staged_name += target.stem().string();
+    staged_name += ".meshmark-embed-";
+    staged_name += std::to_string(::getpid());
+    staged_name += target.extension().string();
+    const std::filesystem::path staged = target.parent_path() / staged_name;
+    // The input's permissions before the embed: the marked copy that replaces it keeps them
+    // (a fresh file would get the default mode of an atomic write instead).
+    const std::filesystem::perms mode = std::filesystem::status(target).permissions();
+    EmbedReport report = embed_to_new_file(input, staged, key_path, options);
+    std::error_code error;
+    std::filesystem::permissions(staged, mode, error);
+    if (!error)
+    {
+        std::filesystem::rename(staged, target, error);
+    }
+    if (error)
+    {
+        std::error_code ignored;
+        std::filesystem::remove(staged, ignored);
+        throw IoError(output.string() + ": cannot replace the input with the marked copy (" + error.message() +
+                      "); the input is unchanged.");
+    }
+    return report;
+}
+
+}  // namespace
+
+EmbedReport embed_file(const std::filesystem::path& input, const std::filesystem::path& output,
+                       const std::filesystem::path& key_path, const EmbedFileOptions& options)
+{
+    if (!is_same_file(input, output))
+    {
+        return embed_to_new_file(input, output, key_path, options);
+    }
+    if (!options.replace_input)
+    {
+        throw InvalidOption(output.string() + ": -o names the input file, which an embed never "
+                            "replaces unless asked; choose another -o or pass --force.");
+    }
+    return embed_in_place(input, output, key_path, options);
 }
 
 }  // namespace meshmark

@@ -30,6 +30,7 @@
 #include "meshmark/core/error.h"
 #include "meshmark/core/hash.h"
 #include "meshmark/core/rng.h"
+#include "meshmark/core/threads.h"
 #include "timer.h"
 
 namespace meshmark::detail {
@@ -227,7 +228,7 @@ ScanResult scan(const PlyStream& file, std::size_t window, bool overlap)
 // without one) for two rounds (one computed, one written), at most one per thread.
 std::size_t chunks_in_flight(const EmbedFileOptions& options, std::size_t chunk_bytes)
 {
-    const int threads = options.threads > 0 ? options.threads : static_cast<int>(std::max(1U, std::thread::hardware_concurrency()));
+    const int threads = resolve_threads(options.threads);
     const std::size_t budget = options.memory_budget_mib > 0
                                    ? static_cast<std::size_t>(options.memory_budget_mib) << 20U
                                    : std::size_t{256} << 20U;
@@ -341,7 +342,7 @@ EmbedReport embed_file_streamed(const PlyStream& file, const std::filesystem::pa
     {
         throw InvalidOption(file.path().string() + ": cannot be embedded out of core: " + refusal + ".");
     }
-    const bool overlap = options.threads != 1 && std::thread::hardware_concurrency() > 1;
+    const bool overlap = resolve_threads(options.threads) > 1;
     ScanResult scanned = scan(file, window, overlap);
     const ReferencedVertices& referenced = scanned.referenced;
     report.input_format = MeshFormat::Ply;

@@ -4,7 +4,7 @@
 #include <chrono>
 #include <string>
 
-#include "meshmark/pipeline/embed_file.h"
+#include "meshmark/pipeline/progress.h"
 
 namespace meshmark::detail {
 

@@ -13,6 +13,7 @@
 #include <nanoflann.hpp>
 
 #include "meshmark/core/error.h"
+#include "meshmark/core/threads.h"
 
 namespace meshmark::detail {
 namespace {
@@ -270,7 +271,7 @@ double median_neighbor_spacing(const Positions& V, std::size_t max_queries)
 
 int resolve_threads(int threads)
 {
-    return threads > 0 ? threads : omp_get_max_threads();
+    return meshmark::resolve_threads(threads);
 }
 
 }  // namespace meshmark::detail

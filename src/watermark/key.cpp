@@ -292,6 +292,30 @@ std::vector<std::uint8_t> random_payload(std::uint64_t seed, int n)
     return low_bits(rng, n);
 }
 
+Key make_key(const EmbedOptions& options, std::uint64_t seed, const std::optional<std::string>& message,
+             const std::optional<std::string>& bits_hex)
+{
+    Key key;
+    key.seed = seed;
+    key.options = options;
+    key.options.strength = options.resolved_strength();
+    const int bits = payload_bit_count(key.options);
+    if (message)
+    {
+        key.payload = payload_from_message(*message, bits);
+        key.message = message;
+    }
+    else if (bits_hex)
+    {
+        key.payload = payload_from_hex(*bits_hex, bits);
+    }
+    else
+    {
+        key.payload = random_payload(key.seed, bits);
+    }
+    return key;
+}
+
 std::vector<std::uint8_t> payload_mask(std::uint64_t seed, int n)
 {
     Rng rng(derive_seed(seed, "payload-mask"));

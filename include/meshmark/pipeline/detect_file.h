@@ -16,7 +16,7 @@ namespace meshmark {
 struct DetectFileOptions
 {
     DetectOptions decision;     ///< Verdict rule and its parameters.
-    int threads = 0;            ///< 0 = all cores.
+    int threads = 0;            ///< 0 = all cores (resolve_threads).
     /// Register and resample suspects whose vertices do not correspond to the original's
     /// (docs/algorithms/detection.md, "General suspects"). False: such suspects are refused.
     bool allow_registration = true;
@@ -45,9 +45,12 @@ struct DetectReport
 /// for vertex (after a closed-form similarity); unless allow_registration is off, anything else is
 /// registered onto the original and resampled at its vertices, with cropped
 /// vertices left out (least squares).
-/// "Not found" is a result, not an error.
-/// \throws IoError / InvalidMesh for unreadable inputs, InvalidOption when the original does
-/// not belong to the key or the suspect cannot be put in correspondence.
+/// "Not found" is a result, not an error. detect (meshmark.h) is the same without the files.
+/// \throws IoError for an unreadable key or mesh and when the original is not the one the key
+/// was made for (its vertex and face counts or its position hash differ from the key's
+/// fingerprint); InvalidMesh for a malformed mesh or an original the key's basis cannot use;
+/// InvalidOption for bad options or, with allow_registration off, a suspect that does not
+/// correspond to the original; NumericalError.
 DetectReport detect_file(const std::filesystem::path& suspect, const std::filesystem::path& original,
                          const std::filesystem::path& key_path, const DetectFileOptions& options);
 

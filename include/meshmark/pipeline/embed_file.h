@@ -3,44 +3,49 @@
 
 #include <cstdint>
 #include <filesystem>
-#include <functional>
 #include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include "meshmark/io/mesh_io.h"
+#include "meshmark/pipeline/progress.h"
 #include "meshmark/watermark/key.h"
 #include "meshmark/watermark/watermark.h"
 
 namespace meshmark {
 
-/// Progress of a long command: a phase name and the fraction done (0..1) within it.
-using ProgressCallback = std::function<void(std::string_view phase, double fraction)>;
-
-/// Time spent per phase, in seconds (reported by `--json` as "seconds").
-struct PhaseTimings
-{
-    std::vector<std::pair<std::string, double>> phases;
-    double total = 0.0;
-};
-
-/// Options of embed_file: the watermark's parameters plus where its payload comes from.
-struct EmbedFileOptions
+/// \brief Options of the in-memory embed (meshmark.h): the watermark's parameters plus where
+/// its seed and payload come from (see make_key).
+struct EmbedMeshOptions
 {
     EmbedOptions embed;                    ///< k, m, rule, strength, sigma factor.
     std::optional<std::string> message;   ///< Payload from a text (hashed to 3m bits).
     std::optional<std::string> bits_hex;  ///< Payload given directly as hex digits.
     std::optional<std::uint64_t> seed;    ///< Secret seed; drawn from the OS when absent.
-    int threads = 0;                      ///< 0 = all cores.
+    int threads = 0;                      ///< 0 = all cores (resolve_threads).
+    ProgressCallback progress;            ///< Optional.
+    /// \throws InvalidOption on conflicting or out-of-range options.
+    void validate() const;
+};
+
+/// Options of embed_file: those of the in-memory embed plus the files' handling.
+struct EmbedFileOptions : EmbedMeshOptions
+{
     bool force = false;                   ///< Allow replacing an existing key file.
+    /// \brief Allow the output to be the input itself (in-place embedding). The marked copy is
+    /// written to a hidden staging file next to the input, ".<stem>.meshmark-embed-<pid><ext>",
+    /// given the input's permissions and renamed over it once the mesh and the key are complete:
+    /// the input is replaced by a whole marked file or not at all, and never opened for writing.
+    /// A kill between the two leaves the staging file (hidden, never an output name) and the
+    /// input untouched. Without it an output naming the input is refused (InvalidOption).
+    bool replace_input = false;
     /// \brief Memory budget in MiB, 0 = none. When the in-memory embed of a binary PLY would
     /// need more, the file is embedded out of core (streamed in chunks, same output bytes);
     /// an input that cannot be streamed is then embedded in memory anyway.
     std::int64_t memory_budget_mib = 0;
     /// Always embed out of core; an input that cannot be streamed is an error (InvalidOption).
     bool force_stream = false;
-    ProgressCallback progress;            ///< Optional.
     /// \throws InvalidOption on conflicting or out-of-range options.
     void validate() const;
 };
@@ -64,14 +69,17 @@ struct EmbedReport
 /// \throws InvalidMesh in those cases.
 void check_basis_input(const TriangleMesh& mesh, const EmbedOptions& options, const std::filesystem::path& path);
 
-/// \brief Watermark a mesh file end to end: read -> basis -> embed -> write mesh and key.
+/// \brief Watermark a mesh file end to end: read -> the in-memory embed (meshmark.h) -> write
+/// mesh and key; or, for large binary PLY files under a memory budget, the same bytes out of core.
 /// \details The output is written in the format of its extension; when that is the input's
 /// format everything but the positions is preserved (see write_mesh_file). The input is never
-/// opened for writing. Both files are written atomically and together: the key is staged next
-/// to its target and renamed into place only after the mesh is written, so a failure leaves no
-/// new file behind and any existing key untouched.
-/// \throws InvalidOption (output or key path equal to the input, existing key without force,
-/// bad options), IoError, InvalidMesh, NumericalError.
+/// opened for writing (in place, with replace_input, it is replaced by a rename). Both files are
+/// written atomically and together: the key is staged next to its target and renamed into place
+/// only after the mesh is written, so a failure leaves no new file behind and any existing key
+/// (and the input) untouched.
+/// \throws InvalidOption (output naming the input without replace_input, key path equal to the
+/// input or output, existing key without force, bad options), IoError, InvalidMesh,
+/// NumericalError.
 EmbedReport embed_file(const std::filesystem::path& input, const std::filesystem::path& output,
                        const std::filesystem::path& key_path, const EmbedFileOptions& options);
 

@@ -139,6 +139,16 @@ struct Key
 /// \brief A random payload drawn from the seed's "payload" stream.
 [[nodiscard]] std::vector<std::uint8_t> random_payload(std::uint64_t seed, int n);
 
+/// \brief A new key (the one way to make one): \p seed, \p options with the strength resolved
+/// (EmbedOptions::resolved_strength), and the payload from \p message (payload_from_message),
+/// else from \p bits_hex (payload_from_hex), else drawn from the seed (random_payload).
+/// \details The original's fingerprint is left empty: set `key.original = fingerprint(original)`
+/// before the key is used to detect or written (the in-memory embed and embed_file do).
+/// \throws InvalidOption for malformed \p bits_hex.
+[[nodiscard]] Key make_key(const EmbedOptions& options, std::uint64_t seed,
+                           const std::optional<std::string>& message = std::nullopt,
+                           const std::optional<std::string>& bits_hex = std::nullopt);
+
 /// \brief The key-derived mask XOR-ed with the payload before embedding (docs/algorithms/embedding.md, "Payload bits"):
 /// without it, a wrong key reads the mark, because the leading modes barely depend on the centers.
 /// \details One bit per modulated coefficient (3 m r); the first n bits do not depend on n.

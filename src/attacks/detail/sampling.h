@@ -9,13 +9,14 @@
 #include <omp.h>
 
 #include "meshmark/core/rng.h"
+#include "meshmark/core/threads.h"
 
 namespace meshmark::detail {
 
 /// Threads to use for a `threads` argument (0 = all cores).
 inline int thread_count(int threads)
 {
-    return threads > 0 ? threads : omp_get_max_threads();
+    return resolve_threads(threads);
 }
 
 /// Direction uniform on the unit sphere (Archimedes: z uniform in [-1, 1], longitude uniform).

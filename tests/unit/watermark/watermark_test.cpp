@@ -24,11 +24,10 @@ namespace {
 Key make_key(const TriangleMesh& mesh, std::uint64_t seed, EmbeddingRule rule = EmbeddingRule::Additive,
              double strength = -1.0)
 {
-    Key key;
-    key.seed = seed;
-    key.options.rule = rule;
-    key.options.strength = strength;
-    key.payload = random_payload(seed, payload_bit_count(key.options));
+    EmbedOptions options;
+    options.rule = rule;
+    options.strength = strength;
+    Key key = meshmark::make_key(options, seed);
     key.original = fingerprint(mesh);
     return key;
 }

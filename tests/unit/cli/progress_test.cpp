@@ -1,18 +1,40 @@
 // SPDX-License-Identifier: MIT
-#include "meshmark/pipeline/progress.h"
+#include "progress.h"
 
 #include <gtest/gtest.h>
 
 #include <cstdio>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "meshmark/core/error.h"
 
-namespace meshmark {
+namespace meshmark::cli {
 namespace {
 
-std::string contents(std::FILE* file)
+using Updates = std::vector<std::pair<std::string, double>>;
+
+// What a PhaseProgress labelled "meshmark embed" that shows after \p delay seconds writes when
+// fed \p updates and finished (twice: finish() is idempotent).
+std::string shown(double delay, const Updates& updates)
 {
+    std::FILE* file = std::tmpfile();
+    if (file == nullptr)
+    {
+        ADD_FAILURE() << "no temporary file";
+        return {};
+    }
+    {
+        PhaseProgress progress(PhaseProgressOptions{"meshmark embed", delay, 0.01, file});
+        const auto callback = progress.callback();
+        for (const auto& [phase, fraction] : updates)
+        {
+            callback(phase, fraction);
+        }
+        progress.finish();
+        progress.finish();
+    }
     std::fflush(file);
     std::rewind(file);
     std::string text;
@@ -22,6 +44,7 @@ std::string contents(std::FILE* file)
     {
         text.append(buffer, n);
     }
+    std::fclose(file);
     return text;
 }
 
@@ -29,21 +52,8 @@ std::string contents(std::FILE* file)
 
 TEST(PhaseProgressTest, shows_finished_phases_with_times_and_ends_the_line)
 {
-    std::FILE* file = std::tmpfile();
-    ASSERT_NE(file, nullptr);
-    {
-        PhaseProgress progress(PhaseProgressOptions{"meshmark embed", 0.0, 0.01, file});
-        const auto callback = progress.callback();
-        callback("read", 0.0);
-        callback("read", 1.0);
-        callback("basis", 0.0);
-        callback("basis", 0.5);
-        callback("basis", 1.0);
-        progress.finish();
-        progress.finish();  // idempotent
-    }
-    const std::string text = contents(file);
-    std::fclose(file);
+    const std::string text =
+        shown(0.0, {{"read", 0.0}, {"read", 1.0}, {"basis", 0.0}, {"basis", 0.5}, {"basis", 1.0}});
     EXPECT_NE(text.find("meshmark embed:"), std::string::npos) << text;
     EXPECT_NE(text.find(" 50% "), std::string::npos) << text;
     const auto last = text.rfind('\r');
@@ -55,18 +65,9 @@ TEST(PhaseProgressTest, shows_finished_phases_with_times_and_ends_the_line)
 
 TEST(PhaseProgressTest, short_runs_print_nothing)
 {
-    std::FILE* file = std::tmpfile();
-    ASSERT_NE(file, nullptr);
-    {
-        PhaseProgress progress(PhaseProgressOptions{"meshmark embed", 30.0, 0.01, file});
-        const auto callback = progress.callback();
-        callback("read", 0.0);
-        callback("read", 1.0);
-    }
-    EXPECT_TRUE(contents(file).empty());
-    std::fclose(file);
+    EXPECT_TRUE(shown(30.0, {{"read", 0.0}, {"read", 1.0}}).empty());
     EXPECT_FALSE(PhaseProgress::should_show(true));
     EXPECT_THROW(PhaseProgress(PhaseProgressOptions{"x", -1.0, 0.1, stderr}), InvalidOption);
 }
 
-}  // namespace meshmark
+}  // namespace meshmark::cli

@@ -1,11 +1,11 @@
 // SPDX-License-Identifier: MIT
-#include "meshmark/pipeline/progress.h"
+#include "progress.h"
 
 #include <unistd.h>
 
 #include "meshmark/core/error.h"
 
-namespace meshmark {
+namespace meshmark::cli {
 
 void PhaseProgressOptions::validate() const
 {
@@ -126,4 +126,4 @@ void PhaseProgress::finish()
     ticker_.join();
 }
 
-}  // namespace meshmark
+}  // namespace meshmark::cli
