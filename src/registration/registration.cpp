@@ -267,8 +267,9 @@ IcpOutcome refine(const Problem& p, const Positions& X, const Similarity& start,
     return detail::icp_point_to_point(X, *p.fine_target, start, settings);
 }
 
-// Fine stage: each surviving candidate to convergence on the fine samples against the exact
-// reference surface; the best one then gets its last iterations on many points.
+// Fine stage: each surviving candidate to convergence on the fine samples against the whole
+// reference surface (SurfaceMatcher over all its vertices and triangles, where the coarse stage
+// used a vertex subsample); the best one then gets its last iterations on many points.
 RegistrationResult finish(const Problem& p, std::vector<Candidate> candidates, int coarse_iterations)
 {
     // The best few, plus the best proper candidate (see kReflectionMargin).
@@ -463,7 +464,7 @@ RegistrationResult register_to_reference(const TriangleMesh& suspect, const Tria
         iterations += run_round(p, candidates, round);
     }
 
-    // Fine alignment of the survivors: point-to-plane ICP against the exact surface.
+    // Fine alignment of the survivors: point-to-plane ICP against the whole reference surface.
     RegistrationResult result = finish(p, std::move(candidates), iterations);
     result.candidates = tried;
     return result;

@@ -24,12 +24,12 @@ struct Match
 /// (PointKdTree) and, for a mesh, projection onto the triangles around the nearest vertex
 /// (closest_point_on_triangle, without the sliver check).
 /// \details Why not ClosestPointIndex (an exact bounding-volume hierarchy over the triangles)
-/// here: ICP runs against the original, and the kd-tree over its vertices builds in a fraction
-/// of the time of the hierarchy over its triangles. The one-ring projection returns the exact
-/// closest point whenever the closest triangle touches the nearest vertex, which holds for all
-/// but near-tied queries on meshes with obtuse triangles; ICP only needs the correspondence,
-/// and the resampling (which must be exact) uses ClosestPointIndex. Queries are const and
-/// thread-safe.
+/// here: ICP runs against the whole reference, and a kd-tree over its vertices (about half as
+/// many items as triangles, no triangle copies) is the cheaper build. The one-ring projection
+/// returns the exact closest point whenever the closest triangle touches the nearest vertex,
+/// which holds for all but near-tied queries on meshes with obtuse triangles; ICP only needs
+/// the correspondence, and the resampling (which must be exact) uses ClosestPointIndex.
+/// Queries are const and thread-safe.
 class SurfaceMatcher
 {
 public:
