@@ -142,6 +142,17 @@ public:
         return value;
     }
 
+    // The level read as a number or a whole number; nullopt when the step has none.
+    [[nodiscard]] std::optional<double> level_number(std::string_view what) const
+    {
+        return level_ ? std::optional<double>(number(*level_, what)) : std::nullopt;
+    }
+
+    [[nodiscard]] std::optional<int> level_integer(std::string_view what) const
+    {
+        return level_ ? std::optional<int>(integer(*level_, what)) : std::nullopt;
+    }
+
     [[nodiscard]] std::optional<std::string_view> take(std::string_view key)
     {
         for (std::size_t i = 0; i < keys_.size(); ++i)
@@ -184,6 +195,15 @@ public:
             allowed += (allowed.empty() ? "" : ", ") + std::string(name);
         }
         fail(std::string(what) + " " + quoted(word) + " is not one of " + allowed + ".");
+    }
+
+    // The value of `key` read as a word among `choices`; nullopt when the key is absent.
+    template <typename E>
+    [[nodiscard]] std::optional<E> take_choice(std::string_view key,
+                                               std::initializer_list<std::pair<std::string_view, E>> choices)
+    {
+        const auto word = take(key);
+        return word ? std::optional<E>(choice(*word, key, choices)) : std::nullopt;
     }
 
     // Rejects keys that no reader took, listing the ones the attack accepts.
@@ -290,27 +310,18 @@ AttackSpec parse_similarity(StepReader& step)
 AttackSpec parse_noise(StepReader& step)
 {
     NoiseOptions options;
-    if (const auto level = step.level())
-    {
-        options.amplitude = step.number(*level, "the amplitude");
-    }
-    if (const auto word = step.take("dist"))
-    {
-        options.distribution = step.choice<NoiseDistribution>(
-            *word, "dist", {{"uniform", NoiseDistribution::Uniform},
-                            {"gaussian", NoiseDistribution::Gaussian}});
-    }
-    if (const auto word = step.take("dir"))
-    {
-        options.direction = step.choice<NoiseDirection>(
-            *word, "dir", {{"iso", NoiseDirection::Isotropic}, {"normal", NoiseDirection::Normal}});
-    }
-    if (const auto word = step.take("ref"))
-    {
-        options.reference = step.choice<NoiseReference>(
-            *word, "ref", {{"diag", NoiseReference::BboxDiagonal},
-                           {"centroid", NoiseReference::CentroidDistance}});
-    }
+    options.amplitude = step.level_number("the amplitude").value_or(options.amplitude);
+    options.distribution = step.take_choice<NoiseDistribution>(
+                                   "dist", {{"uniform", NoiseDistribution::Uniform},
+                                            {"gaussian", NoiseDistribution::Gaussian}})
+                               .value_or(options.distribution);
+    options.direction = step.take_choice<NoiseDirection>(
+                                "dir", {{"iso", NoiseDirection::Isotropic}, {"normal", NoiseDirection::Normal}})
+                            .value_or(options.direction);
+    options.reference = step.take_choice<NoiseReference>(
+                                "ref", {{"diag", NoiseReference::BboxDiagonal},
+                                        {"centroid", NoiseReference::CentroidDistance}})
+                            .value_or(options.reference);
     step.finish("dist, dir, ref");
     return options;
 }
@@ -318,10 +329,7 @@ AttackSpec parse_noise(StepReader& step)
 AttackSpec parse_smooth(StepReader& step)
 {
     LaplacianSmoothingOptions options;
-    if (const auto level = step.level())
-    {
-        options.iterations = step.integer(*level, "the iteration count");
-    }
+    options.iterations = step.level_integer("the iteration count").value_or(options.iterations);
     options.lambda = step.take_number("lambda").value_or(options.lambda);
     step.finish("lambda");
     return options;
@@ -330,10 +338,7 @@ AttackSpec parse_smooth(StepReader& step)
 AttackSpec parse_taubin(StepReader& step)
 {
     TaubinSmoothingOptions options;
-    if (const auto level = step.level())
-    {
-        options.iterations = step.integer(*level, "the iteration count");
-    }
+    options.iterations = step.level_integer("the iteration count").value_or(options.iterations);
     options.lambda = step.take_number("lambda").value_or(options.lambda);
     options.mu = step.take_number("mu").value_or(options.mu);
     step.finish("lambda, mu");
@@ -343,10 +348,7 @@ AttackSpec parse_taubin(StepReader& step)
 AttackSpec parse_quantize(StepReader& step)
 {
     QuantizationOptions options;
-    if (const auto level = step.level())
-    {
-        options.bits = step.integer(*level, "the bit count");
-    }
+    options.bits = step.level_integer("the bit count").value_or(options.bits);
     step.finish("");
     return options;
 }
@@ -354,22 +356,15 @@ AttackSpec parse_quantize(StepReader& step)
 AttackSpec parse_simplify(StepReader& step)
 {
     SimplificationOptions options;
-    if (const auto level = step.level())
-    {
-        options.vertex_fraction = step.number(*level, "the vertex fraction");
-    }
-    if (const auto word = step.take("policy"))
-    {
-        options.policy = step.choice<SimplificationPolicy>(
-            *word, "policy", {{"gh", SimplificationPolicy::GarlandHeckbert},
-                              {"lt", SimplificationPolicy::LindstromTurk}});
-    }
-    if (const auto word = step.take("method"))
-    {
-        options.method = step.choice<SimplificationMethod>(
-            *word, "method", {{"meshopt", SimplificationMethod::Meshoptimizer},
-                              {"cgal", SimplificationMethod::Cgal}});
-    }
+    options.vertex_fraction = step.level_number("the vertex fraction").value_or(options.vertex_fraction);
+    options.policy = step.take_choice<SimplificationPolicy>(
+                             "policy", {{"gh", SimplificationPolicy::GarlandHeckbert},
+                                        {"lt", SimplificationPolicy::LindstromTurk}})
+                         .value_or(options.policy);
+    options.method = step.take_choice<SimplificationMethod>(
+                             "method", {{"meshopt", SimplificationMethod::Meshoptimizer},
+                                        {"cgal", SimplificationMethod::Cgal}})
+                         .value_or(options.method);
     step.finish("policy, method");
     return options;
 }
@@ -377,10 +372,7 @@ AttackSpec parse_simplify(StepReader& step)
 AttackSpec parse_remesh(StepReader& step)
 {
     RemeshingOptions options;
-    if (const auto level = step.level())
-    {
-        options.vertex_fraction = step.number(*level, "the vertex fraction");
-    }
+    options.vertex_fraction = step.level_number("the vertex fraction").value_or(options.vertex_fraction);
     options.iterations = step.take_integer("iter").value_or(options.iterations);
     step.finish("iter");
     return options;
@@ -404,10 +396,7 @@ AttackSpec parse_subdivide(StepReader& step)
 AttackSpec parse_crop(StepReader& step)
 {
     CropOptions options;
-    if (const auto level = step.level())
-    {
-        options.vertex_fraction = step.number(*level, "the vertex fraction");
-    }
+    options.vertex_fraction = step.level_number("the vertex fraction").value_or(options.vertex_fraction);
     options.direction = take_axis(step);
     step.finish("axis, ax, ay, az");
     return options;
@@ -548,33 +537,6 @@ std::string text_of(const CropOptions& o)
 }
 
 std::string text_of(const ReorderOptions& /*options*/) { return "reorder"; }
-
-// --- Dispatch. ---
-
-AttackResult with_identity(TriangleMesh mesh)
-{
-    AttackResult result;
-    result.source_vertex = identity_correspondence(mesh.V.rows());
-    result.mesh = std::move(mesh);
-    return result;
-}
-
-AttackResult without_correspondence(TriangleMesh mesh)
-{
-    AttackResult result;
-    result.mesh = std::move(mesh);
-    return result;
-}
-
-template <typename... Visitors>
-struct Overloaded : Visitors...
-{
-    using Visitors::operator()...;
-};
-// Explicit guide: clang before 17 lacks C++20 aggregate CTAD (needed by the clang fuzz build).
-template <typename... Visitors>
-Overloaded(Visitors...) -> Overloaded<Visitors...>;
-
 }  // namespace
 
 std::vector<AttackSpec> parse_attack_spec(std::string_view text)
@@ -614,67 +576,6 @@ std::string to_string(const std::vector<AttackSpec>& specs)
 std::string_view attack_name(const AttackSpec& spec)
 {
     return kParsers[spec.index()].name;
-}
-
-AttackResult apply_attack(const TriangleMesh& mesh, const AttackSpec& spec, Rng& rng, int threads)
-{
-    return std::visit(
-        Overloaded{
-            [&](const SimilarityOptions& o) { return apply_similarity(mesh, o, rng); },
-            [&](const NoiseOptions& o) { return with_identity(add_noise(mesh, o, rng, threads)); },
-            [&](const LaplacianSmoothingOptions& o) {
-                return with_identity(smooth_laplacian(mesh, o, threads));
-            },
-            [&](const TaubinSmoothingOptions& o) {
-                return with_identity(smooth_taubin(mesh, o, threads));
-            },
-            [&](const QuantizationOptions& o) { return with_identity(quantize(mesh, o)); },
-            [&](const SimplificationOptions& o) {
-                return without_correspondence(simplify(mesh, o));
-            },
-            [&](const RemeshingOptions& o) { return without_correspondence(remesh(mesh, o)); },
-            [&](const SubdivisionOptions& o) {
-                return without_correspondence(subdivide(mesh, o));
-            },
-            [&](const CropOptions& o) { return crop(mesh, o, rng); },
-            [&](const ReorderOptions& o) { return reorder(mesh, o, rng); },
-        },
-        spec);
-}
-
-AttackResult apply_attacks(const TriangleMesh& mesh, const std::vector<AttackSpec>& specs,
-                           std::uint64_t seed, int threads)
-{
-    AttackResult total = with_identity(mesh);
-    for (std::size_t k = 0; k < specs.size(); ++k)
-    {
-        // Each step draws from its own stream, named by its position and attack.
-        const std::string purpose =
-            "attack/" + std::to_string(k) + "/" + std::string(attack_name(specs[k]));
-        Rng rng(derive_seed(seed, purpose));
-        AttackResult step = apply_attack(total.mesh, specs[k], rng, threads);
-
-        // Compose the similarity and the correspondence with those of the steps before.
-        if (step.similarity)
-        {
-            total.similarity =
-                total.similarity ? total.similarity->then(*step.similarity) : *step.similarity;
-        }
-        if (total.source_vertex && step.source_vertex)
-        {
-            for (auto& source : *step.source_vertex)
-            {
-                source = (*total.source_vertex)[static_cast<std::size_t>(source)];
-            }
-            total.source_vertex = std::move(step.source_vertex);
-        }
-        else
-        {
-            total.source_vertex.reset();
-        }
-        total.mesh = std::move(step.mesh);
-    }
-    return total;
 }
 
 }  // namespace meshmark

@@ -83,7 +83,7 @@ TriangleMesh add_noise(const TriangleMesh& mesh, const NoiseOptions& options, Rn
     TriangleMesh result = mesh;
     const Eigen::Index n = mesh.V.rows();
     const Eigen::Index blocks = (n + kBlockSize - 1) / kBlockSize;
-#pragma omp parallel for num_threads(detail::thread_count(threads)) schedule(static) \
+#pragma omp parallel for num_threads(resolve_threads(threads)) schedule(static) \
     if (blocks >= 4)
     for (Eigen::Index b = 0; b < blocks; ++b)
     {

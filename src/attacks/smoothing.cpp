@@ -68,7 +68,7 @@ TriangleMesh smooth(const TriangleMesh& mesh, std::initializer_list<double> fact
                     int threads)
 {
     const VertexAdjacency adjacency = vertex_adjacency(mesh);
-    const int thread_count = detail::thread_count(threads);
+    const int thread_count = resolve_threads(threads);
     TriangleMesh result = mesh;
     Positions scratch(mesh.V.rows(), 3);
     for (int round = 0; round < rounds; ++round)

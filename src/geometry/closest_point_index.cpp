@@ -11,11 +11,11 @@
 #include <Eigen/Geometry>
 #include <omp.h>
 
-#include <nanoflann.hpp>
-
 #include "meshmark/core/error.h"
 #include "meshmark/core/morton.h"
 #include "meshmark/core/threads.h"
+#include "meshmark/geometry/point_kd_tree.h"
+#include "meshmark/geometry/point_triangle.h"
 
 // Surfaces: a hand-written bounding-volume hierarchy, not CGAL's AABB_tree, because CGAL was
 // measured to be about twice as slow on the queries the metrics, ICP and resampling make. On the
@@ -27,7 +27,7 @@
 // Where the time goes: triangles copied into leaf order (no indirection), both child boxes in
 // one 64-byte node and measured together in SIMD lanes, nearer child first, and no Plane_3
 // construction per triangle.
-// Point clouds: nanoflann's kd-tree (packaged, fast, exact nearest neighbour).
+// Point clouds: PointKdTree (nanoflann's kd-tree: packaged, fast, exact nearest neighbour).
 
 namespace meshmark {
 namespace {
@@ -47,26 +47,10 @@ constexpr std::int32_t kTaskGrain = 1 << 14;
 /// parallel build (value-initializing 2M triangles took 54 ms, serially, on a 1M-vertex suspect).
 struct Triangle
 {
-    Vec3 a;
-    Vec3 ab;
-    Vec3 ac;
+    TriangleEdges shape;
     std::int32_t face;
-    bool is_sliver;  ///< Zero or tiny area: see closest_on_triangle.
+    bool is_sliver;  ///< Zero or tiny area: see closest_point_on_triangle.
 };
-
-// A triangle is a sliver when its smallest altitude is below this fraction of its longest edge.
-constexpr double kSliverAltitude = 1e-3;
-
-Triangle make_triangle(const Vec3& a, const Vec3& b, const Vec3& c, std::int32_t face)
-{
-    const Vec3 ab = b - a;
-    const Vec3 ac = c - a;
-    const double longest2 = std::max({ab.squaredNorm(), ac.squaredNorm(), (c - b).squaredNorm()});
-    // (2 area)^2 <= (altitude * longest)^2, with altitude = kSliverAltitude * longest.
-    const double twice_area2 = ab.cross(ac).squaredNorm();
-    const bool is_sliver = twice_area2 <= kSliverAltitude * kSliverAltitude * longest2 * longest2;
-    return {a, ab, ac, face, is_sliver};
-}
 
 /// Axis-aligned box in single precision, rounded outwards so it contains its triangles exactly:
 /// box distances stay lower bounds and the search stays exact, with half the memory traffic.
@@ -96,98 +80,6 @@ struct alignas(64) Node
         }
     }
 };
-
-/// Closest point to \p p on the segment a + t d, t in [0, 1] (d may be zero).
-Vec3 closest_on_segment(const Vec3& p, const Vec3& a, const Vec3& d)
-{
-    const double dd = d.squaredNorm();
-    if (dd <= 0.0)
-    {
-        return a;
-    }
-    const double t = std::clamp(d.dot(p - a) / dd, 0.0, 1.0);
-    return a + t * d;
-}
-
-/// num / den clamped to [0, 1]; 0 when den is zero (an edge of zero length).
-double ratio(double num, double den)
-{
-    return den > 0.0 ? std::clamp(num / den, 0.0, 1.0) : 0.0;
-}
-
-/// Closest point by Voronoi regions [Ericson 2005, Real-Time Collision Detection, 5.1.5]:
-/// exact for proper triangles, but its region tests can pick the wrong feature when the triangle
-/// is degenerate (collinear corners, a zero-length edge).
-Vec3 closest_by_regions(const Vec3& p, const Triangle& t)
-{
-    const Vec3 ap = p - t.a;
-    const double d1 = t.ab.dot(ap);
-    const double d2 = t.ac.dot(ap);
-    if (d1 <= 0.0 && d2 <= 0.0)
-    {
-        return t.a;  // vertex region a
-    }
-    const Vec3 bp = ap - t.ab;
-    const double d3 = t.ab.dot(bp);
-    const double d4 = t.ac.dot(bp);
-    if (d3 >= 0.0 && d4 <= d3)
-    {
-        return t.a + t.ab;  // vertex region b
-    }
-    const double vc = d1 * d4 - d3 * d2;
-    if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0)
-    {
-        return t.a + ratio(d1, d1 - d3) * t.ab;  // edge ab
-    }
-    const Vec3 cp = ap - t.ac;
-    const double d5 = t.ab.dot(cp);
-    const double d6 = t.ac.dot(cp);
-    if (d6 >= 0.0 && d5 <= d6)
-    {
-        return t.a + t.ac;  // vertex region c
-    }
-    const double vb = d5 * d2 - d1 * d6;
-    if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0)
-    {
-        return t.a + ratio(d2, d2 - d6) * t.ac;  // edge ac
-    }
-    const double va = d3 * d6 - d5 * d4;
-    if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0)
-    {
-        return t.a + t.ab + ratio(d4 - d3, (d4 - d3) + (d5 - d6)) * (t.ac - t.ab);  // edge bc
-    }
-    const double sum = va + vb + vc;
-    if (!(sum > 0.0))
-    {
-        return t.a;  // only reachable for degenerate triangles, which the caller double-checks
-    }
-    return t.a + (vb / sum) * t.ab + (vc / sum) * t.ac;  // interior
-}
-
-/// Exact closest point on a triangle. A degenerate triangle is covered by its edges, so for
-/// slivers the nearest of the region answer and the three edge answers is taken: both are points
-/// of the triangle, and one of them is the closest (the edges for a degenerate triangle, the
-/// regions otherwise).
-Vec3 closest_on_triangle(const Vec3& p, const Triangle& t)
-{
-    Vec3 best = closest_by_regions(p, t);
-    if (!t.is_sliver)
-    {
-        return best;
-    }
-    double best2 = (best - p).squaredNorm();
-    for (const Vec3& c : {closest_on_segment(p, t.a, t.ab), closest_on_segment(p, t.a, t.ac),
-                          closest_on_segment(p, t.a + t.ab, t.ac - t.ab)})
-    {
-        const double c2 = (c - p).squaredNorm();
-        if (c2 < best2)
-        {
-            best = c;
-            best2 = c2;
-        }
-    }
-    return best;
-}
 
 /// Squared distances from \p p to the boxes of both children of \p node.
 Eigen::Array2d child_squared_distances(const Node& node, const Vec3& p)
@@ -327,7 +219,7 @@ private:
         for (std::int32_t i = first; i < first + count; ++i)
         {
             const Triangle& t = triangles_[static_cast<std::size_t>(i)];
-            const Vec3 q = closest_on_triangle(search.p, t);
+            const Vec3 q = closest_point_on_triangle(search.p, t.shape, t.is_sliver);
             const double q2 = (q - search.p).squaredNorm();
             // The smallest (distance, face) pair: see closest().
             if (search.best_face < 0 || q2 < search.best_d2 || (q2 == search.best_d2 && t.face < search.best_face))
@@ -403,7 +295,7 @@ private:
             const Vec3 a = V_->row((*F_)(f, 0)).transpose();
             const Vec3 b = V_->row((*F_)(f, 1)).transpose();
             const Vec3 c = V_->row((*F_)(f, 2)).transpose();
-            triangles_[static_cast<std::size_t>(i)] = make_triangle(a, b, c, f);
+            triangles_[static_cast<std::size_t>(i)] = {{a, b - a, c - a}, f, is_sliver_triangle(a, b, c)};
             lo = lo.cwiseMin(a).cwiseMin(b).cwiseMin(c);
             hi = hi.cwiseMax(a).cwiseMax(b).cwiseMax(c);
         }
@@ -452,39 +344,12 @@ private:
     const Faces* F_ = nullptr;
 };
 
-/// nanoflann dataset adaptor over the rows of a Positions matrix.
-struct CloudAdaptor
-{
-    const Positions* V = nullptr;
-
-    [[nodiscard]] std::size_t kdtree_get_point_count() const
-    {
-        return static_cast<std::size_t>(V->rows());
-    }
-    [[nodiscard]] double kdtree_get_pt(std::size_t i, std::size_t dim) const
-    {
-        return (*V)(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(dim));
-    }
-    template <class Box>
-    bool kdtree_get_bbox(Box& /*box*/) const
-    {
-        return false;  // Let nanoflann compute the bounding box.
-    }
-};
-
-using CloudTree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, CloudAdaptor>,
-                                                      CloudAdaptor, 3, std::uint32_t>;
-
-// nanoflann's default leaf size; single-nearest-neighbour queries are not sensitive to it.
-constexpr std::size_t kCloudLeafSize = 10;
 
 }  // namespace
 
 struct ClosestPointIndex::Impl
 {
-    Positions V;  // Point cloud positions; the address stays fixed behind the unique_ptr.
-    CloudAdaptor cloud_adaptor;
-    std::unique_ptr<CloudTree> cloud;
+    std::unique_ptr<PointKdTree> cloud;
     std::unique_ptr<TriangleBvh> surface;
 
     explicit Impl(const TriangleMesh& mesh)
@@ -494,19 +359,15 @@ struct ClosestPointIndex::Impl
             surface = std::make_unique<TriangleBvh>(mesh.V, mesh.F);
             return;
         }
-        V = mesh.V;
-        cloud_adaptor.V = &V;
-        cloud = std::make_unique<CloudTree>(3, cloud_adaptor,
-                                            nanoflann::KDTreeSingleIndexAdaptorParams(kCloudLeafSize));
+        cloud = std::make_unique<PointKdTree>(mesh.V);
     }
 
     [[nodiscard]] ClosestPoint closest_in_cloud(const Vec3& query) const
     {
-        std::uint32_t index = 0;
         double squared = 0.0;
-        cloud->knnSearch(query.data(), 1, &index, &squared);
+        const std::uint32_t index = cloud->nearest(query, squared);
         ClosestPoint result;
-        result.point = V.row(static_cast<Eigen::Index>(index)).transpose();
+        result.point = cloud->points().row(static_cast<Eigen::Index>(index)).transpose();
         result.distance = (result.point - query).norm();
         result.vertex = static_cast<std::int32_t>(index);
         return result;

@@ -10,6 +10,8 @@
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
 
+#include "meshmark/core/threads.h"
+
 namespace meshmark::detail {
 namespace {
 

@@ -19,6 +19,7 @@
 
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
+#include "meshmark/core/threads.h"
 #include "meshmark/core/morton.h"
 #include "meshmark/core/rng.h"
 #include "registration/detail/coarse_alignment.h"
@@ -232,7 +233,7 @@ void add_frame_candidates(const Problem& p, const Moments& suspect, const Moment
 int run_round(const Problem& p, std::vector<Candidate>& candidates, const Round& round)
 {
     const auto count = static_cast<std::int64_t>(candidates.size());
-#pragma omp parallel for schedule(dynamic, 1) num_threads(detail::resolve_threads(p.options.threads))
+#pragma omp parallel for schedule(dynamic, 1) num_threads(resolve_threads(p.options.threads))
     for (std::int64_t i = 0; i < count; ++i)
     {
         Candidate& c = candidates[static_cast<std::size_t>(i)];
@@ -267,8 +268,9 @@ IcpOutcome refine(const Problem& p, const Positions& X, const Similarity& start,
     return detail::icp_point_to_point(X, *p.fine_target, start, settings);
 }
 
-// Fine stage: each surviving candidate to convergence on the fine samples against the exact
-// reference surface; the best one then gets its last iterations on many points.
+// Fine stage: each surviving candidate to convergence on the fine samples against the whole
+// reference surface (SurfaceMatcher over all its vertices and triangles, where the coarse stage
+// used a vertex subsample); the best one then gets its last iterations on many points.
 RegistrationResult finish(const Problem& p, std::vector<Candidate> candidates, int coarse_iterations)
 {
     // The best few, plus the best proper candidate (see kReflectionMargin).
@@ -407,7 +409,7 @@ RegistrationResult register_to_reference(const TriangleMesh& suspect, const Tria
     Moments ms;
     Moments mr;
     std::array<std::exception_ptr, 2> failures;
-#pragma omp parallel num_threads(std::min(2, detail::resolve_threads(options.threads)))
+#pragma omp parallel num_threads(std::min(2, resolve_threads(options.threads)))
     {
         if (omp_get_thread_num() == 0)
         {
@@ -463,7 +465,7 @@ RegistrationResult register_to_reference(const TriangleMesh& suspect, const Tria
         iterations += run_round(p, candidates, round);
     }
 
-    // Fine alignment of the survivors: point-to-plane ICP against the exact surface.
+    // Fine alignment of the survivors: point-to-plane ICP against the whole reference surface.
     RegistrationResult result = finish(p, std::move(candidates), iterations);
     result.candidates = tried;
     return result;

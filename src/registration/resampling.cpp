@@ -8,6 +8,7 @@
 #include <Eigen/LU>
 
 #include "meshmark/core/error.h"
+#include "meshmark/core/threads.h"
 #include "registration/detail/surface_matcher.h"
 
 namespace meshmark {
@@ -75,7 +76,7 @@ Resampling resample(const TriangleMesh& reference, const ClosestPointIndex& susp
         throw InvalidOption("resampling: the suspect-to-reference transform is singular or not finite.");
     }
     const Eigen::Matrix3d A_inv = A.inverse();
-    const int threads = detail::resolve_threads(options.threads);
+    const int threads = resolve_threads(options.threads);
     const Eigen::Index n = reference.V.rows();
 
     // Reference vertices into the suspect's frame, where its index was built.

@@ -10,59 +10,31 @@
 #include <omp.h>
 
 #include <Eigen/Geometry>
-#include <nanoflann.hpp>
 
 #include "meshmark/core/error.h"
 #include "meshmark/core/threads.h"
+#include "meshmark/geometry/point_kd_tree.h"
+#include "meshmark/geometry/point_triangle.h"
 
 namespace meshmark::detail {
-namespace {
-
-/// nanoflann dataset adaptor over a compact Positions copy.
-struct PointsAdaptor
-{
-    const Positions* points = nullptr;
-
-    [[nodiscard]] std::size_t kdtree_get_point_count() const
-    {
-        return static_cast<std::size_t>(points->rows());
-    }
-    [[nodiscard]] double kdtree_get_pt(std::uint32_t i, std::size_t dim) const
-    {
-        return (*points)(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(dim));
-    }
-    template <class Box>
-    bool kdtree_get_bbox(Box& /*box*/) const
-    {
-        return false;
-    }
-};
-
-using KdTree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, PointsAdaptor>,
-                                                   PointsAdaptor, 3, std::uint32_t>;
-
-}  // namespace
 
 struct SurfaceMatcher::Impl
 {
-    Positions points;                        // kd-tree points (compact).
     std::vector<std::int32_t> vertex_of;     // kd point -> mesh vertex (surface mode).
     Positions V;                             // mesh positions (surface mode).
     Faces F;                                 // mesh faces (surface mode).
     Positions face_normal;                   // unit face normals (surface mode).
     std::vector<std::size_t> ring_offsets;   // vertex -> incident faces, CSR.
     std::vector<std::int32_t> ring_faces;
-    PointsAdaptor adaptor;
-    std::unique_ptr<KdTree> tree;
+    std::unique_ptr<PointKdTree> tree;       // Over the target's (referenced) vertices.
 
-    void build_tree()
+    void build_tree(Positions points)
     {
         if (points.rows() == 0)
         {
             throw InvalidMesh("registration: the target of a closest-point search has no points.");
         }
-        adaptor.points = &points;
-        tree = std::make_unique<KdTree>(3, adaptor, nanoflann::KDTreeSingleIndexAdaptorParams(10));
+        tree = std::make_unique<PointKdTree>(std::move(points));
     }
 
     // Unit normals by the right-hand rule; zero for a degenerate triangle.
@@ -101,40 +73,31 @@ struct SurfaceMatcher::Impl
             }
         }
     }
-
-    [[nodiscard]] std::uint32_t nearest(const Eigen::Vector3d& q, double& squared) const
-    {
-        std::uint32_t index = 0;
-        tree->knnSearch(q.data(), 1, &index, &squared);
-        return index;
-    }
 };
 
 SurfaceMatcher::SurfaceMatcher(Positions points) : impl_(std::make_unique<Impl>())
 {
-    impl_->points = std::move(points);
-    impl_->build_tree();
+    impl_->build_tree(std::move(points));
 }
 
 SurfaceMatcher::SurfaceMatcher(const TriangleMesh& mesh) : impl_(std::make_unique<Impl>())
 {
     if (mesh.F.rows() == 0)
     {
-        impl_->points = mesh.V;
-        impl_->build_tree();
+        impl_->build_tree(mesh.V);
         return;
     }
     impl_->V = mesh.V;
     impl_->F = mesh.F;
     impl_->build_face_normals();
     impl_->vertex_of = referenced_vertices(mesh);
-    impl_->points.resize(static_cast<Eigen::Index>(impl_->vertex_of.size()), 3);
+    Positions points(static_cast<Eigen::Index>(impl_->vertex_of.size()), 3);
     for (std::size_t i = 0; i < impl_->vertex_of.size(); ++i)
     {
-        impl_->points.row(static_cast<Eigen::Index>(i)) = mesh.V.row(impl_->vertex_of[i]);
+        points.row(static_cast<Eigen::Index>(i)) = mesh.V.row(impl_->vertex_of[i]);
     }
     impl_->build_rings();
-    impl_->build_tree();
+    impl_->build_tree(std::move(points));
 }
 
 SurfaceMatcher::~SurfaceMatcher() = default;
@@ -148,9 +111,9 @@ Match SurfaceMatcher::match(const Eigen::Vector3d& query) const
 {
     const Impl& m = *impl_;
     double squared = 0.0;
-    const std::uint32_t k = m.nearest(query, squared);
+    const std::uint32_t k = m.tree->nearest(query, squared);
     Match result;
-    result.point = m.points.row(static_cast<Eigen::Index>(k)).transpose();
+    result.point = m.tree->points().row(static_cast<Eigen::Index>(k)).transpose();
     result.distance = std::sqrt(squared);
     if (m.F.rows() == 0)
     {
@@ -165,9 +128,9 @@ Match SurfaceMatcher::match(const Eigen::Vector3d& query) const
     {
         const std::int32_t f = m.ring_faces[r];
         const auto row = m.F.row(f);
-        const Eigen::Vector3d p = closest_point_on_triangle(query, m.V.row(row(0)).transpose(),
-                                                           m.V.row(row(1)).transpose(),
-                                                           m.V.row(row(2)).transpose());
+        const TriangleCorners t{m.V.row(row(0)).transpose(), m.V.row(row(1)).transpose(),
+                                m.V.row(row(2)).transpose()};
+        const Eigen::Vector3d p = closest_point_on_triangle(query, t);
         const double d2 = (p - query).squaredNorm();
         if (d2 < best)
         {
@@ -193,58 +156,6 @@ void SurfaceMatcher::match_all(const Positions& queries, std::vector<Match>& out
     }
 }
 
-Eigen::Vector3d closest_point_on_triangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
-                                          const Eigen::Vector3d& b, const Eigen::Vector3d& c)
-{
-    // Voronoi-region walk of Ericson, "Real-Time Collision Detection", section 5.1.5.
-    const Eigen::Vector3d ab = b - a;
-    const Eigen::Vector3d ac = c - a;
-    const Eigen::Vector3d ap = p - a;
-    const double d1 = ab.dot(ap);
-    const double d2 = ac.dot(ap);
-    if (d1 <= 0.0 && d2 <= 0.0)
-    {
-        return a;
-    }
-    const Eigen::Vector3d bp = p - b;
-    const double d3 = ab.dot(bp);
-    const double d4 = ac.dot(bp);
-    if (d3 >= 0.0 && d4 <= d3)
-    {
-        return b;
-    }
-    const double vc = d1 * d4 - d3 * d2;
-    if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0)
-    {
-        return a + (d1 / (d1 - d3)) * ab;
-    }
-    const Eigen::Vector3d cp = p - c;
-    const double d5 = ab.dot(cp);
-    const double d6 = ac.dot(cp);
-    if (d6 >= 0.0 && d5 <= d6)
-    {
-        return c;
-    }
-    const double vb = d5 * d2 - d1 * d6;
-    if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0)
-    {
-        return a + (d2 / (d2 - d6)) * ac;
-    }
-    const double va = d3 * d6 - d5 * d4;
-    if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0)
-    {
-        return b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (c - b);
-    }
-    const double sum = va + vb + vc;
-    if (!(sum > 0.0))
-    {
-        return a;  // Degenerate (zero-area) triangle: its corner a is as good as any point.
-    }
-    const double v = vb / sum;
-    const double w = vc / sum;
-    return a + v * ab + w * ac;
-}
-
 double median_neighbor_spacing(const Positions& V, std::size_t max_queries)
 {
     const auto n = static_cast<std::size_t>(V.rows());
@@ -252,8 +163,7 @@ double median_neighbor_spacing(const Positions& V, std::size_t max_queries)
     {
         return 0.0;
     }
-    PointsAdaptor adaptor{&V};
-    const KdTree tree(3, adaptor, nanoflann::KDTreeSingleIndexAdaptorParams(10));
+    const PointKdTree tree(V);
     const std::size_t step = std::max<std::size_t>(1, n / std::max<std::size_t>(max_queries, 1));
     std::vector<double> spacing;
     for (std::size_t i = 0; i < n; i += step)
@@ -261,17 +171,12 @@ double median_neighbor_spacing(const Positions& V, std::size_t max_queries)
         std::array<std::uint32_t, 2> index{};
         std::array<double, 2> squared{};
         const Eigen::Vector3d q = V.row(static_cast<Eigen::Index>(i)).transpose();
-        tree.knnSearch(q.data(), 2, index.data(), squared.data());
+        (void)tree.nearest(q, 2, index.data(), squared.data());
         spacing.push_back(std::sqrt(squared[1]));
     }
     const auto middle = spacing.begin() + static_cast<std::ptrdiff_t>(spacing.size() / 2);
     std::nth_element(spacing.begin(), middle, spacing.end());
     return *middle;
-}
-
-int resolve_threads(int threads)
-{
-    return meshmark::resolve_threads(threads);
 }
 
 }  // namespace meshmark::detail

@@ -31,7 +31,8 @@ struct RemeshingOptions
 /// the result is within 10% of the target on ordinary meshes. Each pass splits, collapses and
 /// flips edges, relaxes vertices tangentially and projects them back onto the input surface.
 /// Messy input is repaired first as for simplify(). No correspondence with the input vertices.
-/// \throws InvalidOption from options.validate(); InvalidMesh for a mesh with no faces.
+/// \throws InvalidOption from options.validate(); InvalidMesh for a mesh with no faces, or
+/// with none left once degenerate and duplicate faces are dropped.
 [[nodiscard]] TriangleMesh remesh(const TriangleMesh& mesh, const RemeshingOptions& options);
 
 }  // namespace meshmark

@@ -52,7 +52,8 @@ struct SimplificationOptions
 /// old ones. With SimplificationMethod::Meshoptimizer, meshopt_simplify runs on the input as
 /// is (vertices kept, not moved; count within 5% of the target, else the CGAL path runs) and
 /// none of the manifold guarantees above hold. [Garland & Heckbert 1997; Lindstrom & Turk 1998; CGAL Surface_mesh_simplification]
-/// \throws InvalidOption from options.validate(); InvalidMesh for a mesh with no faces.
+/// \throws InvalidOption from options.validate(); InvalidMesh for a mesh with no faces, or
+/// with none left once degenerate and duplicate faces are dropped.
 [[nodiscard]] TriangleMesh simplify(const TriangleMesh& mesh, const SimplificationOptions& options);
 
 }  // namespace meshmark

@@ -30,7 +30,8 @@ struct SubdivisionOptions
 /// only every second sqrt(3) step). A closed manifold stays closed and manifold. Messy input is
 /// repaired first as for simplify(). No correspondence is reported (Loop and sqrt(3) move the
 /// old vertices too).
-/// \throws InvalidOption from options.validate(); InvalidMesh for a mesh with no faces.
+/// \throws InvalidOption from options.validate(); InvalidMesh for a mesh with no faces, or
+/// with none left once degenerate and duplicate faces are dropped.
 [[nodiscard]] TriangleMesh subdivide(const TriangleMesh& mesh, const SubdivisionOptions& options);
 
 }  // namespace meshmark

@@ -32,7 +32,8 @@ struct VertexAdjacency
     }
 };
 
-/// \brief Build the vertex adjacency of \p mesh in O(#V + #F).
+/// \brief Build the vertex adjacency of \p mesh: a counting sort of the face edges into rows,
+/// O(#V + #F), then each row sorted, O(#F log d) with d the largest vertex degree.
 /// \param mesh  Triangle mesh; indices must be in range (see validate()). Faces with a
 ///              repeated index contribute only their distinct edges.
 [[nodiscard]] VertexAdjacency vertex_adjacency(const TriangleMesh& mesh);

@@ -19,15 +19,20 @@ struct ClosestPoint
 };
 
 /// \brief Exact closest-point queries on a triangle surface, or nearest-vertex queries on a
-/// point cloud, through a bounding-volume hierarchy built once.
+/// point cloud, through a search structure built once: a bounding-volume hierarchy over the
+/// triangles, or a PointKdTree over the points.
 /// \details Built from a mesh's faces (a triangle soup works); a mesh with no faces is
 /// treated as a point cloud. Queries are const and thread-safe, so callers parallelize over
-/// them. Shared by ICP, resampling and the Hausdorff metrics.
+/// them. On a surface, ties between triangles at exactly the same distance go to the lowest
+/// face index, so answers depend only on the query and the mesh. Used by the resampling of
+/// detection (registration/resampling.h) and the distortion metrics; ICP uses its own lighter
+/// matcher over the same kd-tree and triangle routine (point_kd_tree.h, point_triangle.h).
 class ClosestPointIndex
 {
 public:
-    /// \brief Build the hierarchy. \p mesh is copied; it need not outlive the index.
-    /// \throws InvalidMesh if the mesh has no vertices.
+    /// \brief Build the search structure. \p mesh need not outlive the index (its triangles or
+    /// points are copied).
+    /// \throws InvalidMesh if the mesh has no vertices, or more than 2^30 - 1 faces.
     explicit ClosestPointIndex(const TriangleMesh& mesh);
     ~ClosestPointIndex();
     ClosestPointIndex(ClosestPointIndex&&) noexcept;
@@ -35,7 +40,7 @@ public:
     ClosestPointIndex(const ClosestPointIndex&) = delete;
     ClosestPointIndex& operator=(const ClosestPointIndex&) = delete;
 
-    /// Closest point to \p query (exact point-triangle distance).
+    /// Closest point to \p query (exact point-triangle distance; see closest_point_on_triangle).
     [[nodiscard]] ClosestPoint closest(const Eigen::Vector3d& query) const;
 
     /// \brief Closest points of many queries, in parallel over \p threads (0 = all cores).

@@ -22,6 +22,7 @@ namespace meshmark {
 /// \brief The demo mesh: a lumpy ellipsoid (radii 1, 0.7, 0.45 with smooth bumps), closed,
 /// manifold, with well separated principal axes and no symmetry, 10 * 4^s + 2 vertices.
 /// \details Used by `meshmark demo` and the tests, so that neither needs external data.
+/// \throws InvalidOption if subdivisions is outside 0..10 (see icosphere()).
 [[nodiscard]] TriangleMesh lumpy_ellipsoid(int subdivisions);
 
 }  // namespace meshmark

@@ -101,7 +101,7 @@ struct DistortionReport
 /// \param a, b     The meshes; A defines the unit (its bounding-box diagonal).
 /// \param options  See CompareOptions.
 /// \throws InvalidOption (see CompareOptions::validate); InvalidMesh if a mesh has no
-/// referenced vertex or A's bounding-box diagonal is zero.
+/// referenced vertex or A's bounding-box diagonal is zero or not finite.
 [[nodiscard]] DistortionReport compare_meshes(const TriangleMesh& a, const TriangleMesh& b,
                                               const CompareOptions& options = {});
 

@@ -46,7 +46,9 @@ struct Resampling
 /// of \p suspect_to_reference, results mapped back), so the suspect's index is built once and
 /// never moved. Parallel over vertices with disjoint writes and a serial quantile: the result
 /// is bit-identical for any thread count. Unreferenced reference vertices are resampled too.
-/// \param reference             The watermarked mesh (#V_ref vertices).
+/// \param reference             The mesh to sample at (#V_ref vertices): for detection, the
+///                              original (the unwatermarked mesh the key was made from), so
+///                              that no watermark displacement is copied onto the suspect.
 /// \param suspect               Mesh, triangle soup or point cloud.
 /// \param suspect_to_reference  A similarity, e.g. RegistrationResult::transform.
 /// \throws InvalidMesh if a mesh is empty; InvalidOption if the transform is singular or

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// Private helpers shared by the attacks: thread counts and random directions.
+// Private helpers shared by the attacks: random directions.
 #pragma once
 
 #include <cmath>
@@ -12,12 +12,6 @@
 #include "meshmark/core/threads.h"
 
 namespace meshmark::detail {
-
-/// Threads to use for a `threads` argument (0 = all cores).
-inline int thread_count(int threads)
-{
-    return resolve_threads(threads);
-}
 
 /// Direction uniform on the unit sphere (Archimedes: z uniform in [-1, 1], longitude uniform).
 inline Eigen::Vector3d random_unit_vector(Rng& rng)

@@ -20,15 +20,16 @@ struct Match
     double distance = 0.0;
 };
 
-/// \brief Closest-point queries used inside ICP: a kd-tree over the target's vertices and,
-/// for a mesh, exact projection onto the triangles around the nearest vertex.
-/// \details Why not ClosestPointIndex (CGAL's AABB tree) here: ICP runs against the
-/// reference, and building an AABB tree over the 871K triangles of a large reference costs
-/// more than the whole ICP it would serve; a nanoflann kd-tree over the vertices builds in a
-/// fraction of that. The one-ring projection returns the exact closest point whenever the
-/// closest triangle touches the nearest vertex, which holds for all but near-tied queries on
-/// meshes with obtuse triangles; ICP only needs the correspondence, and the resampling (which
-/// must be exact) uses ClosestPointIndex. Queries are const and thread-safe.
+/// \brief Closest-point queries used inside ICP: a kd-tree over the target's vertices
+/// (PointKdTree) and, for a mesh, projection onto the triangles around the nearest vertex
+/// (closest_point_on_triangle, without the sliver check).
+/// \details Why not ClosestPointIndex (an exact bounding-volume hierarchy over the triangles)
+/// here: ICP runs against the whole reference, and a kd-tree over its vertices (about half as
+/// many items as triangles, no triangle copies) is the cheaper build. The one-ring projection
+/// returns the exact closest point whenever the closest triangle touches the nearest vertex,
+/// which holds for all but near-tied queries on meshes with obtuse triangles; ICP only needs
+/// the correspondence, and the resampling (which must be exact) uses ClosestPointIndex.
+/// Queries are const and thread-safe.
 class SurfaceMatcher
 {
 public:
@@ -57,17 +58,8 @@ private:
     std::unique_ptr<Impl> impl_;
 };
 
-/// \brief Closest point to \p p on triangle (\p a, \p b, \p c) [Ericson 2005, 5.1.5].
-[[nodiscard]] Eigen::Vector3d closest_point_on_triangle(const Eigen::Vector3d& p,
-                                                        const Eigen::Vector3d& a,
-                                                        const Eigen::Vector3d& b,
-                                                        const Eigen::Vector3d& c);
-
 /// \brief Median distance from a point of \p V to its nearest other point (at most
 /// \p max_queries points queried, evenly spaced in row order); 0 with fewer than 2 points.
 [[nodiscard]] double median_neighbor_spacing(const Positions& V, std::size_t max_queries = 10000);
-
-/// Thread count to use: \p threads when positive, else all OpenMP threads.
-[[nodiscard]] int resolve_threads(int threads);
 
 }  // namespace meshmark::detail

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <vector>
 
 #include "meshmark/core/bounding_box.h"
@@ -28,45 +29,45 @@ double alignment_error(const RegistrationResult& result, const Positions& clean_
     return test::rms_distance(transform_points(result.transform, clean_suspect), truth) / diagonal;
 }
 
-TEST(RegistrationTest, recovers_known_similarities_of_lumpy_ellipsoid)
+// Registers two copies of a lumpy ellipsoid, each moved by a random similarity (mirrored when
+// \p mirrored, seeded by \p seed), checks that each converges to the exact alignment with the
+// right reflection flag, and hands the result and the applied transform to \p more_checks.
+template <class Checks>
+void check_random_copies(std::uint64_t seed, bool mirrored, Checks more_checks)
 {
     const TriangleMesh reference = lumpy_ellipsoid(3);
     const double D = bounding_box(reference.V).diagonal();
-    Rng rng(1);
+    Rng rng(seed);
     for (int trial = 0; trial < 2; ++trial)
     {
-        const Eigen::Matrix4d T = test::random_similarity(rng, false);
+        const Eigen::Matrix4d T = test::random_similarity(rng, mirrored);
         TriangleMesh suspect = reference;
         suspect.V = test::apply(T, reference.V);
         const RegistrationResult result = register_to_reference(suspect, reference);
         EXPECT_TRUE(result.converged) << "trial " << trial;
-        EXPECT_FALSE(result.is_reflection);
+        EXPECT_EQ(result.is_reflection, mirrored);
         EXPECT_LT(alignment_error(result, suspect.V, reference.V, D), 1e-9) << "trial " << trial;
+        more_checks(result, T);
+    }
+}
+
+TEST(RegistrationTest, recovers_known_similarities_of_lumpy_ellipsoid)
+{
+    check_random_copies(1, false, [](const RegistrationResult& result, const Eigen::Matrix4d& T) {
         // The recovered transform is the inverse of the applied one, scale included.
         const Eigen::Matrix4d expected = T.inverse();
         EXPECT_LT((result.transform - expected).norm() / expected.norm(), 1e-9);
         EXPECT_NEAR(result.scale * std::cbrt(T.block<3, 3>(0, 0).determinant()), 1.0, 1e-9);
         EXPECT_LT(result.rms_error, 1e-9);
         EXPECT_GT(result.overlap_fraction, 0.99);
-    }
+    });
 }
 
 TEST(RegistrationTest, recovers_mirrored_copy_and_reports_reflection)
 {
-    const TriangleMesh reference = lumpy_ellipsoid(3);
-    const double D = bounding_box(reference.V).diagonal();
-    Rng rng(2);
-    for (int trial = 0; trial < 2; ++trial)
-    {
-        const Eigen::Matrix4d T = test::random_similarity(rng, true);
-        TriangleMesh suspect = reference;
-        suspect.V = test::apply(T, reference.V);
-        const RegistrationResult result = register_to_reference(suspect, reference);
-        EXPECT_TRUE(result.converged);
-        EXPECT_TRUE(result.is_reflection);
+    check_random_copies(2, true, [](const RegistrationResult& result, const Eigen::Matrix4d& /*T*/) {
         EXPECT_LT(linear_det(result.transform), 0.0);
-        EXPECT_LT(alignment_error(result, suspect.V, reference.V, D), 1e-9);
-    }
+    });
 }
 
 TEST(RegistrationTest, refuses_reflection_when_not_allowed)
