@@ -83,7 +83,7 @@ std::vector<std::uint8_t> kept_after_crop(const TriangleMesh& original, const st
     return kept;
 }
 
-// The original's watermarked mesh followed by the other instances, as one mesh.
+// The original followed by its other instances, as one mesh (the registration's reference).
 TriangleMesh with_instances(const TriangleMesh& original, const TriangleMesh& instances)
 {
     TriangleMesh shown;
