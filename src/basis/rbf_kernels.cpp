@@ -35,22 +35,9 @@ void evaluate(const double* P, std::size_t rows, const double* Q, std::size_t k,
         const double py = P[3 * r + 1];
         const double pz = P[3 * r + 2];
         double* row = B + r * ld;
-        // The operation order is the AVX2 kernel's, lane for lane: keep the two identical.
-        for (std::size_t j = 0; j < k; ++j)
+        for (std::size_t j = 0; j < k; ++j)  // the AVX2 kernel's lanes, entry for entry
         {
-            const double dx = px - qx[j];
-            const double dy = py - qy[j];
-            const double dz = pz - qz[j];
-            const double sq = dx * dx + dy * dy + dz * dz;
-            if (sq >= outside_squared)
-            {
-                row[j] = 0.0;
-                continue;
-            }
-            const double d = std::sqrt(sq) * inv_sigma;
-            const double t = d < 1.0 ? 1.0 - d : 0.0;
-            const double t2 = t * t;
-            row[j] = t2 * t2 * (4.0 * d + 1.0);
+            row[j] = wendland_entry(px, py, pz, qx[j], qy[j], qz[j], inv_sigma, outside_squared);
         }
         for (std::size_t j = k; j < ld; ++j)
         {

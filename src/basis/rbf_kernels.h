@@ -20,6 +20,26 @@ namespace meshmark::detail {
     return reach * reach;
 }
 
+/// \brief One entry phi(|p - q| / sigma) of B, in the operation order of one lane of the
+/// vector kernels (they use it for the columns past their last full vector): keep the two
+/// identical, entry for entry.
+[[nodiscard]] inline double wendland_entry(double px, double py, double pz, double qx, double qy, double qz,
+                                           double inv_sigma, double outside_squared) noexcept
+{
+    const double dx = px - qx;
+    const double dy = py - qy;
+    const double dz = pz - qz;
+    const double sq = dx * dx + dy * dy + dz * dz;
+    if (sq >= outside_squared)
+    {
+        return 0.0;
+    }
+    const double d = __builtin_sqrt(sq) * inv_sigma;
+    const double t = d < 1.0 ? 1.0 - d : 0.0;
+    const double t2 = t * t;
+    return t2 * t2 * (4.0 * d + 1.0);
+}
+
 /// \brief The four operations of a row block, on row-major blocks.
 /// \details B is rows x ld (ld a multiple of 4, >= k), row r holding phi(|p_r - q_j| / sigma)
 /// for j < k and zeros for k <= j < ld (callers may overwrite the padding columns). Within one

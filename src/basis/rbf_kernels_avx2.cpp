@@ -69,19 +69,7 @@ MESHMARK_AVX2 void evaluate(const double* P, std::size_t rows, const double* Q, 
         }
         for (; j < k; ++j)
         {
-            const double dx = px - qx[j];
-            const double dy = py - qy[j];
-            const double dz = pz - qz[j];
-            const double sq = dx * dx + dy * dy + dz * dz;
-            if (sq >= outside_squared)
-            {
-                row[j] = 0.0;
-                continue;
-            }
-            const double d = __builtin_sqrt(sq) * inv_sigma;
-            const double t = d < 1.0 ? 1.0 - d : 0.0;
-            const double t2 = t * t;
-            row[j] = t2 * t2 * (4.0 * d + 1.0);
+            row[j] = wendland_entry(px, py, pz, qx[j], qy[j], qz[j], inv_sigma, outside_squared);
         }
         for (; j < ld; ++j)
         {
