@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
-// An independent glTF reader for the interop tests (tests/interop/interop_test.cpp): glTF-Transform
-// with every extension it knows and the Draco and meshopt decoders, so nothing of meshmark's own
-// reader is involved.
+// An independent glTF reader for the interop tests (tests/interop/interop_support.cpp):
+// glTF-Transform with every extension it knows and the Draco and meshopt decoders, so nothing of
+// meshmark's own reader is involved.
 //
 //   node read_positions.mjs IN.glb OUT.bin
 //

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: MIT
-// The Khronos glTF validator for the interop tests (tests/interop/interop_test.cpp).
+// The Khronos glTF validator for the interop tests (tests/interop/interop_support.cpp).
 //
 //   node validate.mjs IN.glb
 //
