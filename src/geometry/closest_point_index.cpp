@@ -128,7 +128,7 @@ public:
         const auto face_count = static_cast<std::int32_t>(F.rows());
         items_.resize(static_cast<std::size_t>(face_count));
         // Parallel: each face writes only its own item.
-#pragma omp parallel for schedule(static) num_threads(omp_get_max_threads())
+#pragma omp parallel for schedule(static) num_threads(resolve_threads(0))
         for (std::int32_t f = 0; f < face_count; ++f)
         {
             const Vec3 sum = V.row(F(f, 0)) + V.row(F(f, 1)) + V.row(F(f, 2));
@@ -139,7 +139,7 @@ public:
         // special case for tiny meshes.
         nodes_.resize(static_cast<std::size_t>(std::max(inner_nodes(face_count), 1)));
         Box root_box;
-#pragma omp parallel num_threads(omp_get_max_threads())
+#pragma omp parallel num_threads(resolve_threads(0))
 #pragma omp single
         build_inner(0, 0, face_count, root_box);
         items_ = {};
