@@ -101,7 +101,7 @@ inline Eigen::Vector3d edge_bc(const TriangleEdges& /*t*/, const Eigen::Vector3d
 /// with p - a; \p own_k, \p other_k: the same dotted with p minus the corner. Sets \p v to the
 /// barycentric numerator of the other corner, and \p answer when p lies in one of the regions.
 template <class Triangle>
-bool in_corner_regions(const Triangle& t, int k, const Eigen::Vector3d& edge, double own_a, double other_a,
+[[gnu::always_inline]] inline bool in_corner_regions(const Triangle& t, int k, const Eigen::Vector3d& edge, double own_a, double other_a,
                        double own_k, double other_k, double& v, Eigen::Vector3d& answer)
 {
     if (own_k >= 0.0 && other_k <= own_k)
@@ -121,8 +121,10 @@ bool in_corner_regions(const Triangle& t, int k, const Eigen::Vector3d& edge, do
 /// Closest point by Voronoi regions [Ericson 2005, Real-Time Collision Detection, 5.1.5]:
 /// exact for proper triangles, but its region tests can pick the wrong feature when the
 /// triangle is degenerate (collinear corners, a zero-length edge).
+// Inlined into the callers' query loops: called once per triangle visited, it is the hot path
+// of the closest-point queries.
 template <class Triangle>
-[[nodiscard]] Eigen::Vector3d closest_by_regions(const Eigen::Vector3d& p, const Triangle& t)
+[[nodiscard, gnu::always_inline]] inline Eigen::Vector3d closest_by_regions(const Eigen::Vector3d& p, const Triangle& t)
 {
     const Eigen::Vector3d ab = edge_ab(t);
     const Eigen::Vector3d ac = edge_ac(t);
@@ -176,7 +178,7 @@ template <class Triangle>
 /// of a triangle round differently in the last bits (see TriangleEdges); each form gives the
 /// same bits for the same inputs on every call.
 template <class Triangle>
-[[nodiscard]] Eigen::Vector3d closest_point_on_triangle(const Eigen::Vector3d& p, const Triangle& t,
+[[nodiscard, gnu::always_inline]] inline Eigen::Vector3d closest_point_on_triangle(const Eigen::Vector3d& p, const Triangle& t,
                                                         bool is_sliver = false)
 {
     using namespace triangle_detail;
