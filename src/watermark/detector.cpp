@@ -23,13 +23,22 @@ using detail::nuisance_model;
 using detail::solve_jointly;
 
 Detector::Detector(const SpectralWatermark& mark, const TriangleMesh& original)
-    : mark_(&mark), original_(&original), active_(referenced_vertices(original))
+    : mark_(&mark), original_(&original)
 {
+    const PositionRows* rows = mark.mesh_rows();
+    if (rows != nullptr && &rows->positions() == &original.V)
+    {
+        borrowed_active_ = &rows->active();  // the scan the watermark made already
+    }
+    else
+    {
+        own_active_ = referenced_vertices(original);
+    }
     if (static_cast<std::size_t>(original.V.rows()) != mark.rows().vertex_count() ||
-        active_.size() != mark.rows().size())
+        active().size() != mark.rows().size())
     {
         throw InvalidOption("the original has " + std::to_string(original.V.rows()) + " vertices (" +
-                            std::to_string(active_.size()) + " referenced), the watermark was built on " +
+                            std::to_string(active().size()) + " referenced), the watermark was built on " +
                             std::to_string(mark.rows().vertex_count()) + " (" +
                             std::to_string(mark.rows().size()) + ").");
     }
@@ -107,7 +116,7 @@ Extraction Detector::extract(const Positions& suspect, const DetectOptions& opti
     // Without it (modes = 0) the coefficients are projected alone.
     const NuisanceModel nuisance =
         options.remove_nuisance
-            ? nuisance_model(mark_->basis(), NuisanceFields(*original_, active_, mark_->frame().origin), first + modes)
+            ? nuisance_model(mark_->basis(), NuisanceFields(*original_, active(), mark_->frame().origin), first + modes)
             : NuisanceModel{};
     if (nuisance.modes <= first + modes)
     {
@@ -170,7 +179,7 @@ Extraction Detector::extract_resampled(const Positions& resampled, const DetectO
     const int head = first + modes;
     const bool has_normals = !original_->is_point_cloud();
     const Positions normals = has_normals ? vertex_normals(*original_) : Positions();
-    const NuisanceFields nuisance(*original_, active_, mark_->frame().origin);
+    const NuisanceFields nuisance(*original_, active(), mark_->frame().origin);
     const Eigen::Index q = nuisance.count();
     const Eigen::Index columns = coefficients + q + 1;
     constexpr Eigen::Index kPairs = 6;

@@ -50,9 +50,9 @@ SpectralWatermark::SpectralWatermark(const TriangleMesh& original, const Key& ke
     std::vector<std::int32_t> active = referenced_vertices(original);
     check_analysed_rows(key_.options, active.size());
     frame_ = canonical_frame(original.V, active);
-    const std::shared_ptr<const PositionRows> rows = position_rows(original.V, std::move(active));
-    rows_ = rows;
-    build(&original, &rows->active());
+    mesh_rows_ = position_rows(original.V, std::move(active));
+    rows_ = mesh_rows_;
+    build(&original, &mesh_rows_->active());
 }
 
 SpectralWatermark::SpectralWatermark(const Key& key, std::shared_ptr<const RowPositionSource> rows,

@@ -65,7 +65,14 @@ private:
 
     const SpectralWatermark* mark_;
     const TriangleMesh* original_;
-    std::vector<std::int32_t> active_;  // the original's referenced vertices: the watermark's rows
+    // The original's referenced vertices (the watermark's rows): the watermark's own list when
+    // it was built from this very mesh (borrowed_), else a scan of our own (own_active_).
+    [[nodiscard]] const std::vector<std::int32_t>& active() const noexcept
+    {
+        return borrowed_active_ != nullptr ? *borrowed_active_ : own_active_;
+    }
+    const std::vector<std::int32_t>* borrowed_active_ = nullptr;
+    std::vector<std::int32_t> own_active_;
 };
 
 }  // namespace meshmark

@@ -89,6 +89,9 @@ public:
     [[nodiscard]] const SpectralBasis& basis() const noexcept { return *basis_; }
     /// The analysed rows and their positions.
     [[nodiscard]] const RowPositionSource& rows() const noexcept { return *rows_; }
+    /// The same rows when the watermark was built from a mesh in memory (its positions and
+    /// referenced vertices); null when it was built from streamed rows.
+    [[nodiscard]] const PositionRows* mesh_rows() const noexcept { return mesh_rows_.get(); }
     /// RBF centers (k vertex indices); empty for the Laplacian basis.
     [[nodiscard]] const std::vector<std::int32_t>& centers() const noexcept { return centers_; }
     /// Signs b' in {-1, +1} actually embedded (m r x 3, canonical axes).
@@ -116,6 +119,7 @@ private:
     Key key_;
     CanonicalFrame frame_;
     std::shared_ptr<const RowPositionSource> rows_;
+    std::shared_ptr<const PositionRows> mesh_rows_;  // rows_ when built from a mesh, else null
     std::vector<std::int32_t> centers_;
     std::unique_ptr<const SpectralBasis> basis_;
     Eigen::MatrixX3d signs_;
