@@ -65,6 +65,7 @@ Key trial_key(const TriangleMesh& original, std::uint64_t seed, const Robustness
     EmbedOptions options;
     options.rule = parse_embedding_rule(args.rule);
     options.strength = args.strength;
+    options.coefficients = args.coefficients;
     options.repetitions = args.repetitions;
     options.first_mode = args.first_mode;
     options.basis = parse_basis_type(args.basis);
@@ -289,6 +290,8 @@ void register_bench_robustness(CLI::App& bench, GlobalArgs& global, CommandRunne
         ->delimiter(';');
     command->add_option("--seed", args->seed, "Seed of keys and attacks")->capture_default_str();
     command->add_option("--strength", args->strength, "Embedding strength (default: the rule's default)");
+    command->add_option("--coefficients", args->coefficients, "m, payload bits per axis (3m bits)")
+        ->capture_default_str();
     command->add_option("--repetitions", args->repetitions, "Coefficients per payload bit")->capture_default_str();
     command->add_option("--first-mode", args->first_mode, "First modulated mode")->capture_default_str();
     command->add_option("--rule", args->rule, "additive or paper")

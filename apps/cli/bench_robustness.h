@@ -36,6 +36,7 @@ struct RobustnessArgs
     std::vector<std::string> attacks = kDefaultAttacks;
     std::uint64_t seed = 1;
     double strength = -1.0;
+    int coefficients = EmbedOptions{}.coefficients;
     int repetitions = EmbedOptions{}.repetitions;
     int first_mode = EmbedOptions{}.first_mode;
     std::string rule = "additive";

@@ -27,7 +27,8 @@ nlohmann::json to_json(const Trial& t)
             {"detected", t.decision.is_present},
             {"score", t.decision.score},
             {"correlation", t.decision.correlation},
-            {"false_positive_probability", t.decision.score_false_positive_probability},
+            {"false_positive_probability", t.decision.false_positive_probability},
+            {"score_false_positive_probability", t.decision.score_false_positive_probability},
             {"bits_false_positive_probability", t.decision.bits_false_positive_probability},
             {"cropped_fraction", t.cropped_fraction},
             {"registration_rms", t.registration_rms},
@@ -48,7 +49,10 @@ Trial trial_from_json(const nlohmann::json& j)
     t.decision.is_present = j.at("detected").get<bool>();
     t.decision.score = j.at("score").get<double>();
     t.decision.correlation = j.at("correlation").get<double>();
-    t.decision.score_false_positive_probability = j.at("false_positive_probability").get<double>();
+    t.decision.false_positive_probability = j.at("false_positive_probability").get<double>();
+    // Files written before the combined verdict hold the correlation rule's probability only.
+    t.decision.score_false_positive_probability =
+        j.value("score_false_positive_probability", t.decision.false_positive_probability);
     t.decision.bits_false_positive_probability = j.at("bits_false_positive_probability").get<double>();
     t.cropped_fraction = j.at("cropped_fraction").get<double>();
     t.registration_rms = j.value("registration_rms", 0.0);
@@ -87,6 +91,7 @@ nlohmann::json settings_json(const RobustnessArgs& args)
 {
     return {{"rule", args.rule},
             {"strength", args.strength},
+            {"coefficients", args.coefficients},
             {"repetitions", args.repetitions},
             {"first_mode", args.first_mode},
             {"seed", args.seed},
@@ -99,7 +104,7 @@ struct Summary
 {
     int trials = 0;
     int errors = 0;
-    int detected = 0;       // correlation verdict (the default)
+    int detected = 0;       // the verdict (default: combined)
     int detected_bits = 0;  // paper's rule, R >= threshold
     double sum_score = 0.0;
     double min_score = 1e300;
@@ -125,8 +130,8 @@ void add(Summary& s, const Trial& t, double threshold)
     s.min_score = std::min(s.min_score, t.decision.score);
     s.max_score = std::max(s.max_score, t.decision.score);
     s.max_r = std::max(s.max_r, t.decision.correlation);
-    s.min_fpp = std::min(s.min_fpp, t.decision.score_false_positive_probability);
-    s.fpp.push_back(t.decision.score_false_positive_probability);
+    s.min_fpp = std::min(s.min_fpp, t.decision.false_positive_probability);
+    s.fpp.push_back(t.decision.false_positive_probability);
 }
 
 double median(std::vector<double> v)
@@ -162,14 +167,14 @@ std::string markdown_report(const std::vector<MeshEmbedding>& embeddings, const 
        << " (wrong keys per marked copy: " << args.wrong_keys
        << ", keys on unmarked attacked copies: " << args.unmarked_keys << "); rule " << args.rule
        << ", strength " << (args.strength < 0 ? std::string("default") : format_number(args.strength))
-       << ", repetitions " << args.repetitions << ", first mode " << args.first_mode << ", basis " << args.basis
+       << ", coefficients " << args.coefficients << ", repetitions " << args.repetitions << ", first mode " << args.first_mode << ", basis " << args.basis
        << (args.basis == "rbf" ? " (" + args.centers + " centers" +
                                      (args.gram_rows == EmbedOptions::kDefaultGramRows
                                           ? std::string()
                                           : ", Gram rows " + std::to_string(args.gram_rows)) +
                                      ")"
                                 : std::string())
-       << "; verdict: correlation bound <= "
+       << "; verdict: " << to_string(decision.verdict) << ", bound <= "
        << format_number(decision.max_false_positive) << " (bits rule: R >= " << format_number(decision.threshold)
        << ").\n\n";
 
@@ -349,6 +354,7 @@ int report_from_json(const RobustnessArgs& args)
     }
     merged.rule = settings->at("rule").get<std::string>();
     merged.strength = settings->at("strength").get<double>();
+    merged.coefficients = settings->value("coefficients", EmbedOptions{}.coefficients);
     merged.repetitions = settings->at("repetitions").get<int>();
     merged.first_mode = settings->at("first_mode").get<int>();
     merged.wrong_keys = settings->at("wrong_keys").get<int>();

@@ -22,7 +22,7 @@ struct DetectArgs
     std::string pairs;
     bool json = false;
     bool no_register = false;
-    std::string verdict = "correlation";
+    std::string verdict = "combined";
     DetectOptions decision;
 };
 
@@ -122,10 +122,10 @@ void register_detect(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
         "keeps the original's vertices in order (noise, smoothing, quantization, any similarity) "
         "is compared vertex for vertex; any other (reordered, simplified, remeshed, subdivided, "
         "cropped, a point cloud) is registered onto the original automatically and resampled. "
-        "The default verdict correlates every modulated coefficient with the key's signs and "
-        "claims ownership only when the probability that an unmarked mesh scores as high is "
-        "at most --max-fpp (a bound that holds whatever the mesh: docs/statistics.md); "
-        "--verdict bits is the paper's rule (R >= --threshold). "
+        "The default verdict correlates every modulated coefficient with the key's signs, counts "
+        "the payload bits read back, and claims ownership only when the probability that an "
+        "unmarked mesh does as well on either is at most --max-fpp (a bound that holds whatever "
+        "the mesh: docs/statistics.md); --verdict bits is the paper's rule (R >= --threshold). "
         "Exit code 0 when the watermark is found, 1 when it is not, >= 2 on errors.");
     command->add_option("SUSPECT", args->suspect, "Suspect mesh")->required()->check(CLI::ExistingFile);
     command->add_option("--original", args->original, "The original (unmarked) mesh the key was made for")
@@ -133,13 +133,14 @@ void register_detect(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
         ->check(CLI::ExistingFile);
     command->add_option("--key", args->key, "Key file written by embed")->required()->check(CLI::ExistingFile);
     command->add_option("--verdict", args->verdict,
-                        "correlation: soft correlation of all modulated coefficients, claim when the "
-                        "false-positive bound <= --max-fpp; bits: the paper's rule, claim when "
-                        "R >= --threshold")
-        ->check(CLI::IsMember({"correlation", "bits"}))
+                        "combined: the stronger of the soft correlation of all modulated coefficients "
+                        "and the count of payload bits read back, claim when the false-positive bound "
+                        "<= --max-fpp; correlation: the soft correlation alone; bits: the paper's rule, "
+                        "claim when R >= --threshold")
+        ->check(CLI::IsMember({"combined", "correlation", "bits"}))
         ->capture_default_str();
     command->add_option("--max-fpp", args->decision.max_false_positive,
-                        "Correlation verdict: largest false-positive probability at which ownership "
+                        "Combined and correlation verdicts: largest false-positive probability at which ownership "
                         "is claimed")
         ->capture_default_str();
     command->add_option("--threshold", args->decision.threshold,

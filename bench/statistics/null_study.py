@@ -23,7 +23,7 @@ def summarize(name, trials):
     print(f"largest z {zs[-1]:.2f}, mean z {sum(zs) / n:.3f}, largest R {max(t['correlation'] for t in trials):.3f}, "
           f"claimed {sum(1 for t in trials if t['detected'])}, "
           f"claimed by the bits rule (R >= 0.75) {sum(1 for t in trials if t['correlation'] >= 0.75)}\n")
-    print("| alpha | share with FPP <= alpha (correlation) | share with binomial FPP <= alpha (bits) | "
+    print("| alpha | share with FPP <= alpha (the verdict) | share with binomial FPP <= alpha (bits) | "
           "3-sigma allowance |")
     print("|---:|---:|---:|---:|")
     for a in LEVELS:

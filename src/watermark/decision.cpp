@@ -16,6 +16,10 @@ namespace {
 
 // Normalized coefficient changes below this are rounding, not signal or attack.
 constexpr double kNegligibleChange = 1e-6;
+// Combined verdict: the share of the false-positive level given to the bit count. 1/16 is the
+// smallest share at which a perfect read of the default 24 bits (2^-24) is claimed at 1e-6;
+// the soft score keeps 15/16 of the level (its threshold moves from z 5.25 to 5.27).
+constexpr double kBitCountShare = 1.0 / 16.0;
 
 }  // namespace
 
@@ -38,13 +42,24 @@ void DetectOptions::validate() const
 
 const char* to_string(VerdictRule rule) noexcept
 {
-    return rule == VerdictRule::Bits ? "bits" : "correlation";
+    switch (rule)
+    {
+    case VerdictRule::Combined:
+        return "combined";
+    case VerdictRule::Correlation:
+        return "correlation";
+    case VerdictRule::Bits:
+        return "bits";
+    }
+    return "combined";
 }
 
 VerdictRule parse_verdict_rule(const std::string& name)
 {
     return parse_named_choice<VerdictRule>(name, "verdict rule",
-                                           {{"correlation", VerdictRule::Correlation}, {"bits", VerdictRule::Bits}});
+                                           {{"combined", VerdictRule::Combined},
+                                            {"correlation", VerdictRule::Correlation},
+                                            {"bits", VerdictRule::Bits}});
 }
 
 double rademacher_tail_bound(double z)
@@ -138,15 +153,25 @@ Decision SpectralWatermark::decide(const Extraction& extraction, const DetectOpt
     decision.score_false_positive_probability =
         std::min(1.0, static_cast<double>(kWeightPowers.size()) * best_bound);
 
-    if (options.verdict == VerdictRule::Bits)
+    switch (options.verdict)
     {
+    case VerdictRule::Bits:
         decision.false_positive_probability = decision.bits_false_positive_probability;
         decision.is_present = decision.correlation >= options.threshold;
-    }
-    else
-    {
+        break;
+    case VerdictRule::Correlation:
         decision.false_positive_probability = decision.score_false_positive_probability;
-        decision.is_present = decision.score_false_positive_probability <= options.max_false_positive;
+        decision.is_present = decision.false_positive_probability <= options.max_false_positive;
+        break;
+    case VerdictRule::Combined:
+        // Two tests of one null hypothesis, the soft score (already paid for its three
+        // weightings) and the bit count (exact for an unmarked mesh), with a weighted union
+        // bound: a share kBitCountShare of the level to the bit count (docs/statistics.md).
+        decision.false_positive_probability =
+            std::min({1.0, decision.score_false_positive_probability / (1.0 - kBitCountShare),
+                      decision.bits_false_positive_probability / kBitCountShare});
+        decision.is_present = decision.false_positive_probability <= options.max_false_positive;
+        break;
     }
     return decision;
 }

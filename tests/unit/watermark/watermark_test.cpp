@@ -159,11 +159,17 @@ TEST(SpectralWatermarkTest, marked_copy_reads_back_all_bits_with_both_rules)
         EXPECT_EQ(decision.bits_found, decision.bits_expected);
         EXPECT_NEAR(decision.bits_false_positive_probability, std::pow(0.5, 24), 1e-20);
         // 3 m r coefficients read back as +-1: the uniform weighting scores sqrt(3 m r), and
-        // the verdict's probability is the score's bound, far below 1e-6.
+        // the combined verdict's probability is the smaller of the score's bound (times 16/15)
+        // and the bit count's tail (times 16), far below 1e-6.
         const int coefficients = 3 * modulated_modes(mark.key().options);
         EXPECT_EQ(decision.coefficient_count, coefficients);
         EXPECT_NEAR(decision.score, std::sqrt(static_cast<double>(coefficients)), 1e-6) << to_string(rule);
-        EXPECT_EQ(decision.false_positive_probability, decision.score_false_positive_probability);
+        EXPECT_EQ(decision.verdict, VerdictRule::Combined);
+        EXPECT_NEAR(decision.false_positive_probability /
+                        std::min(3.0 * rademacher_tail_bound(decision.score) * 16.0 / 15.0,
+                                 16.0 * std::pow(0.5, 24)),
+                    1.0, 1e-12);
+        EXPECT_DOUBLE_EQ(decision.score_false_positive_probability, 3.0 * rademacher_tail_bound(decision.score));
         EXPECT_LT(decision.false_positive_probability, 1e-9);
         EXPECT_LT(stats.orthogonality_error, 1e-9);
     }
@@ -280,6 +286,39 @@ TEST(SpectralWatermarkTest, scores_of_unmarked_copies_follow_the_null_model)
     EXPECT_EQ(claimed, 0);
 }
 
+// Every bit read right but the magnitudes uneven (an attack that leaves a few coefficients far
+// larger than the rest, as a bisection does): the soft correlation alone refuses, the combined
+// verdict claims through the bit count (2^-24, times 16); with one bit wrong it refuses too.
+TEST(SpectralWatermarkTest, combined_verdict_claims_a_perfect_read_with_uneven_magnitudes)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(4);
+    const SpectralWatermark mark(mesh, make_key(mesh, 9));
+    const auto coefficients = static_cast<std::size_t>(mark.embedded_signs().size());
+    Extraction e;
+    e.weights.assign(coefficients, 1.0);
+    for (std::size_t c = 0; c < coefficients; ++c)
+    {
+        const double sign = mark.embedded_signs()(static_cast<Eigen::Index>(c / 3), static_cast<Eigen::Index>(c % 3));
+        e.normalized_change.push_back(sign * (c % 7 == 0 ? 30.0 : 0.2));
+    }
+    for (const std::uint8_t bit : mark.key().payload)
+    {
+        e.bits_found.push_back(bit);
+    }
+    DetectOptions correlation;
+    correlation.verdict = VerdictRule::Correlation;
+    const Decision soft = mark.decide(e, correlation);
+    EXPECT_LT(soft.score, 5.0);
+    EXPECT_FALSE(soft.is_present);
+    const Decision combined = mark.decide(e, DetectOptions{});
+    EXPECT_EQ(combined.score, soft.score);
+    EXPECT_EQ(combined.matches, combined.bit_count);
+    EXPECT_NEAR(combined.false_positive_probability / (16.0 * std::pow(0.5, 24)), 1.0, 1e-12);
+    EXPECT_TRUE(combined.is_present);
+    e.bits_found[0] = 1 - e.bits_found[0];
+    EXPECT_FALSE(mark.decide(e, DetectOptions{}).is_present);  // 25 / 2^24 * 16 > 1e-6
+}
+
 TEST(SpectralWatermarkTest, bits_verdict_is_the_papers_rule)
 {
     const TriangleMesh mesh = lumpy_ellipsoid(4);
@@ -295,6 +334,7 @@ TEST(SpectralWatermarkTest, bits_verdict_is_the_papers_rule)
     EXPECT_FALSE(mark.decide(Detector(mark, mesh).extract(mesh.V, options), options).is_present);
     EXPECT_EQ(parse_verdict_rule("bits"), VerdictRule::Bits);
     EXPECT_EQ(parse_verdict_rule(to_string(VerdictRule::Correlation)), VerdictRule::Correlation);
+    EXPECT_EQ(parse_verdict_rule(to_string(VerdictRule::Combined)), VerdictRule::Combined);
     EXPECT_THROW((void)parse_verdict_rule("R"), InvalidOption);
     options.max_false_positive = 0.0;
     EXPECT_THROW(options.validate(), InvalidOption);
