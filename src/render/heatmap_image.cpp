@@ -208,7 +208,8 @@ void HeatmapImageOptions::validate() const
 HeatmapLayout heatmap_layout(const ImageSize& size)
 {
     HeatmapLayout layout;
-    layout.text_scale = std::max(1, std::min(size.height / 384, size.width / 512));
+    // One font pixel per image pixel up to ~480 rows, two from ~600 (800x600, 1024x768), ...
+    layout.text_scale = static_cast<int>(std::max(1L, std::min(std::lround(size.height / 400.0), std::lround(size.width / 450.0))));
     const int s = layout.text_scale;
     int label_width = detail::text_width(percent_label(-1.23e-05), s);
     for (const char* line : kTitle)
