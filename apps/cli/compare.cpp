@@ -92,13 +92,20 @@ HeatmapImageOptions check_heatmap_args(const CompareArgs& args)
     {
         throw InvalidOption("compare: --heatmap " + args.heatmap + " would overwrite an input mesh.");
     }
-    if (!args.view.empty())
+    try
     {
-        image.view = parse_view(args.view);
+        if (!args.view.empty())
+        {
+            image.view = parse_view(args.view);
+        }
+        if (!args.size.empty())
+        {
+            image.size = parse_image_size(args.size);
+        }
     }
-    if (!args.size.empty())
+    catch (const InvalidOption& e)
     {
-        image.size = parse_image_size(args.size);
+        throw InvalidOption(std::string("compare: ") + e.what());
     }
     return image;
 }
