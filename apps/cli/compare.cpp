@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
 // `meshmark compare`: distortion metrics between two meshes, and an optional distance heatmap.
-#include <cctype>
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -54,7 +54,8 @@ HeatmapKind heatmap_kind(const std::string& path)
         return HeatmapKind::None;
     }
     std::string ext = std::filesystem::path(path).extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+    std::transform(ext.begin(), ext.end(), ext.begin(),
+                   [](unsigned char c) { return std::tolower(c); });
     if (ext == ".ply")
     {
         return HeatmapKind::Ply;
@@ -63,8 +64,9 @@ HeatmapKind heatmap_kind(const std::string& path)
     {
         return HeatmapKind::Png;
     }
-    throw InvalidOption("compare: --heatmap " + path +
-                        " must name a .ply file (the mesh with per-vertex colors) or a .png file (a picture).");
+    throw InvalidOption(
+        "compare: --heatmap " + path +
+        " must name a .ply file (the mesh with per-vertex colors) or a .png file (a picture).");
 }
 
 // The heatmap is a colored PLY or a PNG picture, and never replaces an input; --view and
@@ -75,11 +77,13 @@ HeatmapImageOptions check_heatmap_args(const CompareArgs& args)
     HeatmapImageOptions image;
     if (kind != HeatmapKind::Png)
     {
-        for (const auto& [name, value] : {std::pair{"--view", &args.view}, std::pair{"--size", &args.size}})
+        for (const auto& [name, value] :
+             {std::pair{"--view", &args.view}, std::pair{"--size", &args.size}})
         {
             if (!value->empty())
             {
-                throw InvalidOption(std::string("compare: ") + name + " applies to a .png --heatmap only.");
+                throw InvalidOption(std::string("compare: ") + name +
+                                    " applies to a .png --heatmap only.");
             }
         }
     }
@@ -127,8 +131,9 @@ double write_heatmap(const std::string& path, const TriangleMesh& b, const Eigen
 
 /// The same colors on a picture of B, its colour bar in % of A's diagonal. Returns the
 /// distance drawn in red (as write_heatmap).
-double write_heatmap_png(const std::string& path, const TriangleMesh& b, const Eigen::VectorXd& distances,
-                         HeatmapImageOptions options, double diagonal, int threads)
+double write_heatmap_png(const std::string& path, const TriangleMesh& b,
+                         const Eigen::VectorXd& distances, HeatmapImageOptions options,
+                         double diagonal, int threads)
 {
     options.unit_length = diagonal;
     options.threads = threads;
@@ -228,8 +233,8 @@ int run_compare(const CompareArgs& args, const GlobalArgs& global)
     {
         report_phase("heatmap", 0.0);
         const auto phase = std::chrono::steady_clock::now();
-        heatmap_max = png ? write_heatmap_png(args.heatmap, b, report.vertex_distances_ba, image_options,
-                                              report.diagonal, global.threads)
+        heatmap_max = png ? write_heatmap_png(args.heatmap, b, report.vertex_distances_ba,
+                                              image_options, report.diagonal, global.threads)
                           : write_heatmap(args.heatmap, b, report.vertex_distances_ba);
         heatmap_seconds = seconds_since(phase);
         report_phase("heatmap", 1.0);
@@ -259,12 +264,15 @@ int run_compare(const CompareArgs& args, const GlobalArgs& global)
     if (!args.heatmap.empty())
     {
         const std::string seen =
-            png ? ", seen from azimuth " + format_number(image_options.view.azimuth_deg, 4) + ", elevation " +
-                      format_number(image_options.view.elevation_deg, 4) + " (" + std::to_string(image_options.size.width) +
-                      "x" + std::to_string(image_options.size.height) + ")"
+            png ? ", seen from azimuth " + format_number(image_options.view.azimuth_deg, 4) +
+                      ", elevation " + format_number(image_options.view.elevation_deg, 4) + " (" +
+                      std::to_string(image_options.size.width) + "x" +
+                      std::to_string(image_options.size.height) + ")"
                 : "";
-        std::printf("heatmap: %s (B colored by distance to A%s: blue 0, red %s%% of the diagonal)\n",
-                    args.heatmap.c_str(), seen.c_str(), format_number(100.0 * heatmap_max / report.diagonal, 4).c_str());
+        std::printf(
+            "heatmap: %s (B colored by distance to A%s: blue 0, red %s%% of the diagonal)\n",
+            args.heatmap.c_str(), seen.c_str(),
+            format_number(100.0 * heatmap_max / report.diagonal, 4).c_str());
     }
     if (!global.quiet)
     {
@@ -292,20 +300,23 @@ void register_compare(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
                       "Print one JSON object: hausdorff, hausdorff_ab, hausdorff_ba, rms_ab, rms_ba, mrms, "
                       "mean_ab, mean_ba, max_displacement and rms_displacement (same connectivity only), "
                       "counts, samples, seconds");
-    command->add_option("--heatmap", args->heatmap,
-                        "Show each vertex's distance to A as a color: blue (0) -> cyan -> green -> yellow -> red "
-                        "(the largest distance of B's vertices), linear in distance. A .ply file gets B with "
-                        "per-vertex colors (open it in MeshLab or Blender); a .png file gets a picture of B "
-                        "(shaded, colors interpolated across the triangles, a point cloud as dots) with a color "
-                        "bar in % of A's bounding-box diagonal, drawn without a display or GPU");
-    command->add_option("--view", args->view,
-                        std::string("Direction a .png heatmap shows B from, +Y up and the front facing +Z: ") +
-                            kViewNames +
-                            ", or AZIMUTH,ELEVATION in degrees (azimuth from the front towards the right, "
-                            "elevation above the horizon; front34 is 30,20). The model is fitted to the picture");
-    command->add_option("--size", args->size, "Size of a .png heatmap in pixels, WIDTHxHEIGHT (default 1024x768; " +
-                                                  std::to_string(kMinImageSide) + " to " +
-                                                  std::to_string(kMaxImageSide) + " per side)");
+    command->add_option(
+        "--heatmap", args->heatmap,
+        "Show each vertex's distance to A as a color: blue (0) -> cyan -> green -> yellow -> red "
+        "(the largest distance of B's vertices), linear in distance. A .ply file gets B with "
+        "per-vertex colors (open it in MeshLab or Blender); a .png file gets a picture of B "
+        "(shaded, colors interpolated across the triangles, a point cloud as dots) with a color "
+        "bar in % of A's bounding-box diagonal, drawn without a display or GPU");
+    command->add_option(
+        "--view", args->view,
+        std::string("Direction a .png heatmap shows B from, +Y up and the front facing +Z: ") +
+            kViewNames +
+            ", or AZIMUTH,ELEVATION in degrees (azimuth from the front towards the right, "
+            "elevation above the horizon; front34 is 30,20). The model is fitted to the picture");
+    command->add_option("--size", args->size,
+                        "Size of a .png heatmap in pixels, WIDTHxHEIGHT (default 1024x768; " +
+                            std::to_string(kMinImageSide) + " to " + std::to_string(kMaxImageSide) +
+                            " per side)");
     command->add_option("--samples", args->options.samples,
                         "Area samples per surface on top of the vertices; 0 = automatic: " +
                             std::to_string(kAutoSamplesPerFace) + " per triangle, at least " +

@@ -1,11 +1,11 @@
 // SPDX-License-Identifier: MIT
 // `meshmark demo`: the whole story on a mesh the program makes itself, no external data.
-#include <unistd.h>
-
 #include <cstdio>
 #include <filesystem>
 #include <memory>
 #include <string>
+
+#include <unistd.h>
 
 #include "commands.h"
 #include "meshmark/attacks/attack_spec.h"
@@ -84,8 +84,10 @@ int run_demo(const DemoArgs& args, const GlobalArgs& global)
     picture_options.threads = global.threads;
     const HeatmapPicture picture = render_heatmap(marked_mesh, displacement, picture_options);
     write_png(heatmap, picture.image);
-    say(global, "   picture of the mark: " + heatmap.string() + " (vertex displacement, blue 0 to red " +
-                    format_number(100.0 * picture.max_distance / picture.unit_length) + "% of the bbox diagonal)");
+    say(global, "   picture of the mark: " + heatmap.string() +
+                    " (vertex displacement, blue 0 to red " +
+                    format_number(100.0 * picture.max_distance / picture.unit_length) +
+                    "% of the bbox diagonal)");
 
     // 3. Perturb the marked copy.
     const auto specs = parse_attack_spec(args.attack);
@@ -115,9 +117,11 @@ void register_demo(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     auto args = std::make_shared<DemoArgs>();
     auto* command = app.add_subcommand(
         "demo",
-        "Run the whole pipeline on a mesh meshmark makes itself: make -> embed -> attack -> detect, "
+        "Run the whole pipeline on a mesh meshmark makes itself: make -> embed -> attack -> "
+        "detect, "
         "printing each step and the verdict, and draw the mark (heatmap.png: the displacement "
-        "of each vertex, as `compare --heatmap out.png` draws distances). Exit 0 when the attacked copy is detected and the "
+        "of each vertex, as `compare --heatmap out.png` draws distances). Exit 0 when the attacked "
+        "copy is detected and the "
         "unmarked original is not.");
     command->add_option("--dir", args->dir, "Folder for the demo's files (default: a new temporary folder)");
     command->add_option("--subdivisions", args->subdivisions,

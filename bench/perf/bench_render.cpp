@@ -13,7 +13,8 @@
 #include "meshmark/io/mesh_io.h"
 #include "meshmark/render/heatmap_image.h"
 
-namespace {
+namespace
+{
 
 using namespace meshmark;
 
@@ -33,10 +34,12 @@ Scene scene_of(TriangleMesh mesh)
 
 const std::optional<Scene>& dragon()
 {
-    static const std::optional<Scene> scene = []() -> std::optional<Scene> {
+    static const std::optional<Scene> scene = []() -> std::optional<Scene>
+    {
         const char* env = std::getenv("MESHMARK_MESH_DIR");
         const std::filesystem::path file =
-            std::filesystem::path(env != nullptr ? env : MESHMARK_BENCH_MESH_DIR) / "dragon_vrip.ply";
+            std::filesystem::path(env != nullptr ? env : MESHMARK_BENCH_MESH_DIR) /
+            "dragon_vrip.ply";
         if (!std::filesystem::exists(file))
         {
             return std::nullopt;
@@ -73,10 +76,21 @@ void BM_RenderHeatmapDragon(benchmark::State& state)
     }
     run(state, *dragon());
 }
-BENCHMARK(BM_RenderHeatmapDragon)->ArgName("threads")->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_RenderHeatmapDragon)
+    ->ArgName("threads")
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kMillisecond);
 
-void BM_RenderHeatmapTorus1M(benchmark::State& state) { run(state, torus()); }
-BENCHMARK(BM_RenderHeatmapTorus1M)->ArgName("threads")->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
+void BM_RenderHeatmapTorus1M(benchmark::State& state)
+{
+    run(state, torus());
+}
+BENCHMARK(BM_RenderHeatmapTorus1M)
+    ->ArgName("threads")
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kMillisecond);
 
 void BM_EncodePng(benchmark::State& state)
 {

@@ -17,8 +17,10 @@
 #include "meshmark/render/rasterizer.h"
 #include "render/detail/text.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 constexpr Rgb8 kBackground{255, 255, 255};
 constexpr Rgb8 kInk{40, 40, 40};
@@ -64,15 +66,16 @@ double median_spacing(const Positions& V, const std::vector<std::int32_t>& rows)
     {
         return 0.0;
     }
-    std::nth_element(spacing.begin(), spacing.begin() + static_cast<std::ptrdiff_t>(spacing.size() / 2),
+    std::nth_element(spacing.begin(),
+                     spacing.begin() + static_cast<std::ptrdiff_t>(spacing.size() / 2),
                      spacing.end());
     return spacing[spacing.size() / 2];
 }
 
 /// Screen rows (x, y in supersampled pixels, depth) of every vertex, the model fitted into
 /// the model area with a margin. Returns the scale (supersampled pixels per mesh unit).
-double project(const TriangleMesh& mesh, const std::vector<std::int32_t>& rows, const ViewFrame& frame,
-               int area_width, int area_height, Positions& screen)
+double project(const TriangleMesh& mesh, const std::vector<std::int32_t>& rows,
+               const ViewFrame& frame, int area_width, int area_height, Positions& screen)
 {
     screen.resize(mesh.V.rows(), 3);
     for (Eigen::Index i = 0; i < mesh.V.rows(); ++i)
@@ -133,7 +136,8 @@ struct Shader
             const auto f = mesh.F.row(p);
             const double w = 1.0 - u - v;
             value = w * t[f[0]] + u * t[f[1]] + v * t[f[2]];
-            const Eigen::Vector3d n = w * normals.row(f[0]) + u * normals.row(f[1]) + v * normals.row(f[2]);
+            const Eigen::Vector3d n =
+                w * normals.row(f[0]) + u * normals.row(f[1]) + v * normals.row(f[2]);
             const double length = n.norm();
             light = length > 0.0 ? std::abs(n.dot(toward)) / length : 1.0;
         }
@@ -168,7 +172,8 @@ void draw_colour_bar(RgbImage& image, const HeatmapLayout& layout, double max_pe
         image.fill_rect(layout.bar_x1, y - s / 2, layout.bar_x1 + 3 * s, y - s / 2 + s, kInk);
         if (max_percent > 0.0 || i == 0)
         {
-            detail::draw_text(image, label_x, y - 4 * s, percent_label(fraction * max_percent), s, kInk);
+            detail::draw_text(image, label_x, y - 4 * s, percent_label(fraction * max_percent), s,
+                              kInk);
         }
     }
     int y = layout.bar_y0 - s * (12 * 3 + 6);
@@ -186,18 +191,21 @@ void HeatmapImageOptions::validate() const
     if (size.width < kMinImageSide || size.height < kMinImageSide || size.width > kMaxImageSide ||
         size.height > kMaxImageSide)
     {
-        throw InvalidOption("heatmap image size " + std::to_string(size.width) + "x" + std::to_string(size.height) +
-                            " is outside " + std::to_string(kMinImageSide) + " to " + std::to_string(kMaxImageSide) +
+        throw InvalidOption("heatmap image size " + std::to_string(size.width) + "x" +
+                            std::to_string(size.height) + " is outside " +
+                            std::to_string(kMinImageSide) + " to " + std::to_string(kMaxImageSide) +
                             " pixels per side.");
     }
     if (supersampling < 1 || supersampling > 4)
     {
-        throw InvalidOption("heatmap supersampling must be 1 to 4, not " + std::to_string(supersampling) + ".");
+        throw InvalidOption("heatmap supersampling must be 1 to 4, not " +
+                            std::to_string(supersampling) + ".");
     }
     if (!(max_distance >= 0.0) || !std::isfinite(max_distance) || !(unit_length >= 0.0) ||
         !std::isfinite(unit_length))
     {
-        throw InvalidOption("heatmap max_distance and unit_length must be finite and not negative.");
+        throw InvalidOption(
+            "heatmap max_distance and unit_length must be finite and not negative.");
     }
     if (threads < 0)
     {
@@ -209,7 +217,8 @@ HeatmapLayout heatmap_layout(const ImageSize& size)
 {
     HeatmapLayout layout;
     // One font pixel per image pixel up to ~480 rows, two from ~600 (800x600, 1024x768), ...
-    layout.text_scale = static_cast<int>(std::max(1L, std::min(std::lround(size.height / 400.0), std::lround(size.width / 450.0))));
+    layout.text_scale = static_cast<int>(
+        std::max(1L, std::min(std::lround(size.height / 400.0), std::lround(size.width / 450.0))));
     const int s = layout.text_scale;
     int label_width = detail::text_width(percent_label(-1.23e-05), s);
     for (const char* line : kTitle)
@@ -249,9 +258,10 @@ HeatmapPicture render_heatmap(const TriangleMesh& mesh, const Eigen::VectorXd& d
             out.max_distance = std::max(out.max_distance, distances[r]);
         }
     }
-    out.unit_length = options.unit_length > 0.0 ? options.unit_length : bounding_box(mesh.V, rows).diagonal();
-    const Eigen::VectorXd t =
-        out.max_distance > 0.0 ? Eigen::VectorXd(distances / out.max_distance) : Eigen::VectorXd::Zero(distances.size());
+    out.unit_length =
+        options.unit_length > 0.0 ? options.unit_length : bounding_box(mesh.V, rows).diagonal();
+    const Eigen::VectorXd t = out.max_distance > 0.0 ? Eigen::VectorXd(distances / out.max_distance)
+                                                     : Eigen::VectorXd::Zero(distances.size());
 
     // Rasterize at supersampled resolution.
     const int ss = options.supersampling;
@@ -261,10 +271,12 @@ HeatmapPicture render_heatmap(const TriangleMesh& mesh, const Eigen::VectorXd& d
     Positions screen;
     const double scale = project(mesh, rows, frame, width, height, screen);
     Positions normals;
-    VisibilityBuffer buffer = [&] {
+    VisibilityBuffer buffer = [&]
+    {
         if (mesh.is_point_cloud())
         {
-            const double radius = std::clamp(0.7 * median_spacing(mesh.V, rows) * scale, 0.75, 0.05 * height);
+            const double radius =
+                std::clamp(0.7 * median_spacing(mesh.V, rows) * scale, 0.75, 0.05 * height);
             return rasterize_points(screen, rows, radius, width, height, options.threads);
         }
         normals = vertex_normals(mesh);
@@ -286,12 +298,14 @@ HeatmapPicture render_heatmap(const TriangleMesh& mesh, const Eigen::VectorXd& d
                 for (int sx = 0; sx < ss; ++sx)
                 {
                     Eigen::Vector3d rgb;
-                    sum += shader.shade(buffer.index(x * ss + sx, y * ss + sy), rgb) ? rgb : background;
+                    sum += shader.shade(buffer.index(x * ss + sx, y * ss + sy), rgb) ? rgb
+                                                                                     : background;
                 }
             }
             sum /= ss * ss;
             out.image.set(x, y,
-                          {static_cast<std::uint8_t>(std::lround(sum[0])), static_cast<std::uint8_t>(std::lround(sum[1])),
+                          {static_cast<std::uint8_t>(std::lround(sum[0])),
+                           static_cast<std::uint8_t>(std::lround(sum[1])),
                            static_cast<std::uint8_t>(std::lround(sum[2]))});
         }
     }

@@ -8,11 +8,14 @@
 #include "meshmark/core/atomic_file.h"
 #include "meshmark/core/error.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 RgbImage::RgbImage(int width_, int height_, Rgb8 fill)
-    : width(width_), height(height_), pixels(3 * static_cast<std::size_t>(std::max(width_, 0)) *
-                                             static_cast<std::size_t>(std::max(height_, 0)))
+    : width(width_),
+      height(height_),
+      pixels(3 * static_cast<std::size_t>(std::max(width_, 0)) *
+             static_cast<std::size_t>(std::max(height_, 0)))
 {
     for (std::size_t i = 0; i < pixels.size(); i += 3)
     {
@@ -37,11 +40,13 @@ void RgbImage::fill_rect(int x0, int y0, int x1, int y1, Rgb8 color)
     }
 }
 
-namespace {
+namespace
+{
 
 extern "C" void append_bytes(void* context, void* data, int size)
 {
-    static_cast<std::string*>(context)->append(static_cast<const char*>(data), static_cast<std::size_t>(size));
+    static_cast<std::string*>(context)->append(static_cast<const char*>(data),
+                                               static_cast<std::size_t>(size));
 }
 
 }  // namespace
@@ -49,13 +54,14 @@ extern "C" void append_bytes(void* context, void* data, int size)
 std::string encode_png(const RgbImage& image)
 {
     if (image.width <= 0 || image.height <= 0 ||
-        image.pixels.size() != 3 * static_cast<std::size_t>(image.width) * static_cast<std::size_t>(image.height))
+        image.pixels.size() !=
+            3 * static_cast<std::size_t>(image.width) * static_cast<std::size_t>(image.height))
     {
         throw IoError("cannot encode an empty or inconsistent image as PNG.");
     }
     std::string bytes;
-    if (stbi_write_png_to_func(append_bytes, &bytes, image.width, image.height, 3, image.pixels.data(),
-                               3 * image.width) == 0)
+    if (stbi_write_png_to_func(append_bytes, &bytes, image.width, image.height, 3,
+                               image.pixels.data(), 3 * image.width) == 0)
     {
         throw IoError("the PNG encoder failed on a " + std::to_string(image.width) + "x" +
                       std::to_string(image.height) + " image.");
@@ -66,9 +72,8 @@ std::string encode_png(const RgbImage& image)
 void write_png(const std::filesystem::path& path, const RgbImage& image)
 {
     const std::string bytes = encode_png(image);
-    write_file_atomically(path, [&](std::ostream& out) {
-        out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    });
+    write_file_atomically(path, [&](std::ostream& out)
+                          { out.write(bytes.data(), static_cast<std::streamsize>(bytes.size())); });
 }
 
 }  // namespace meshmark

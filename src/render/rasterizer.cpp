@@ -12,8 +12,10 @@
 
 #include "meshmark/core/threads.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 constexpr int kBandRows = 16;
 
@@ -82,7 +84,8 @@ struct Edge
     double a = 0.0;
     double b = 0.0;
     double c = 0.0;
-    bool owns_ties = false;  ///< Whether a pixel centre exactly on the edge belongs to this triangle.
+    bool owns_ties =
+        false;  ///< Whether a pixel centre exactly on the edge belongs to this triangle.
 
     Edge(const Positions& s, std::int32_t i, std::int32_t j)
     {
@@ -137,12 +140,12 @@ void draw_triangle(const Positions& s, const Faces& faces, std::int32_t f, int r
     e2.decide_ties();
     int y_first = 0;
     int y_last = -1;
-    centre_rows(std::min({s(i0, 1), s(i1, 1), s(i2, 1)}), std::max({s(i0, 1), s(i1, 1), s(i2, 1)}), y_first,
-                y_last);
+    centre_rows(std::min({s(i0, 1), s(i1, 1), s(i2, 1)}), std::max({s(i0, 1), s(i1, 1), s(i2, 1)}),
+                y_first, y_last);
     int x_first = 0;
     int x_last = -1;
-    centre_rows(std::min({s(i0, 0), s(i1, 0), s(i2, 0)}), std::max({s(i0, 0), s(i1, 0), s(i2, 0)}), x_first,
-                x_last);
+    centre_rows(std::min({s(i0, 0), s(i1, 0), s(i2, 0)}), std::max({s(i0, 0), s(i1, 0), s(i2, 0)}),
+                x_first, x_last);
     y_first = std::max(y_first, row_lo);
     y_last = std::min(y_last, row_hi);
     x_first = std::max(x_first, 0);
@@ -178,7 +181,8 @@ void draw_triangle(const Positions& s, const Faces& faces, std::int32_t f, int r
     }
 }
 
-void draw_point(const Positions& s, std::int32_t p, double radius, int row_lo, int row_hi, VisibilityBuffer& out)
+void draw_point(const Positions& s, std::int32_t p, double radius, int row_lo, int row_hi,
+                VisibilityBuffer& out)
 {
     const double cx = s(p, 0);
     const double cy = s(p, 1);
@@ -227,8 +231,8 @@ void draw_bands(const Bins& bins, int height, int threads, Draw draw)
     {
         const int row_lo = b * kBandRows;
         const int row_hi = std::min(row_lo + kBandRows, height) - 1;
-        for (std::size_t k = bins.start[static_cast<std::size_t>(b)]; k < bins.start[static_cast<std::size_t>(b) + 1];
-             ++k)
+        for (std::size_t k = bins.start[static_cast<std::size_t>(b)];
+             k < bins.start[static_cast<std::size_t>(b) + 1]; ++k)
         {
             draw(bins.items[k], row_lo, row_hi);
         }
@@ -248,39 +252,50 @@ VisibilityBuffer::VisibilityBuffer(int width_, int height_)
 {
 }
 
-VisibilityBuffer rasterize_triangles(const Positions& screen, const Faces& faces, int width, int height, int threads)
+VisibilityBuffer rasterize_triangles(const Positions& screen, const Faces& faces, int width,
+                                     int height, int threads)
 {
     VisibilityBuffer out(width, height);
-    const Bins bins = bin_by_band(static_cast<std::size_t>(faces.rows()), height, [&](std::size_t f, int& lo, int& hi) {
-        const auto row = faces.row(static_cast<Eigen::Index>(f));
-        const double y0 = screen(row[0], 1);
-        const double y1 = screen(row[1], 1);
-        const double y2 = screen(row[2], 1);
-        centre_rows(std::min({y0, y1, y2}), std::max({y0, y1, y2}), lo, hi);
-    });
+    const Bins bins =
+        bin_by_band(static_cast<std::size_t>(faces.rows()), height,
+                    [&](std::size_t f, int& lo, int& hi)
+                    {
+                        const auto row = faces.row(static_cast<Eigen::Index>(f));
+                        const double y0 = screen(row[0], 1);
+                        const double y1 = screen(row[1], 1);
+                        const double y2 = screen(row[2], 1);
+                        centre_rows(std::min({y0, y1, y2}), std::max({y0, y1, y2}), lo, hi);
+                    });
     draw_bands(bins, height, threads,
-               [&](std::int32_t f, int row_lo, int row_hi) { draw_triangle(screen, faces, f, row_lo, row_hi, out); });
+               [&](std::int32_t f, int row_lo, int row_hi)
+               { draw_triangle(screen, faces, f, row_lo, row_hi, out); });
     return out;
 }
 
-VisibilityBuffer rasterize_points(const Positions& screen, const std::vector<std::int32_t>& points, double radius,
-                                  int width, int height, int threads)
+VisibilityBuffer rasterize_points(const Positions& screen, const std::vector<std::int32_t>& points,
+                                  double radius, int width, int height, int threads)
 {
     VisibilityBuffer out(width, height);
     radius = std::isfinite(radius) ? std::max(radius, 0.0) : 0.0;
-    const Bins bins = bin_by_band(points.size(), height, [&](std::size_t i, int& lo, int& hi) {
-        const double y = screen(points[i], 1);
-        centre_rows(y - radius, y + radius, lo, hi);
-        if (std::isfinite(y))
-        {
-            const int own = static_cast<int>(std::floor(std::clamp(y, -1e9, 1e9)));
-            lo = std::min(lo, own);
-            hi = std::max(hi, own);
-        }
-    });
-    draw_bands(bins, height, threads, [&](std::int32_t i, int row_lo, int row_hi) {
-        draw_point(screen, points[static_cast<std::size_t>(i)], std::max(radius, 1e-9), row_lo, row_hi, out);
-    });
+    const Bins bins =
+        bin_by_band(points.size(), height,
+                    [&](std::size_t i, int& lo, int& hi)
+                    {
+                        const double y = screen(points[i], 1);
+                        centre_rows(y - radius, y + radius, lo, hi);
+                        if (std::isfinite(y))
+                        {
+                            const int own = static_cast<int>(std::floor(std::clamp(y, -1e9, 1e9)));
+                            lo = std::min(lo, own);
+                            hi = std::max(hi, own);
+                        }
+                    });
+    draw_bands(bins, height, threads,
+               [&](std::int32_t i, int row_lo, int row_hi)
+               {
+                   draw_point(screen, points[static_cast<std::size_t>(i)], std::max(radius, 1e-9),
+                              row_lo, row_hi, out);
+               });
     return out;
 }
 

@@ -8,8 +8,10 @@
 
 #include <stb_easy_font.h>
 
-namespace meshmark::detail {
-namespace {
+namespace meshmark::detail
+{
+namespace
+{
 
 // stb_easy_font takes a mutable string.
 std::vector<char> c_string(const std::string& text)

@@ -10,8 +10,10 @@
 
 #include "meshmark/core/error.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 template <class Number>
 std::optional<Number> parse_number(std::string_view text)
@@ -37,8 +39,9 @@ ViewAngles parse_view(const std::string& text)
     };
     // Elevation of the cube's diagonal: atan(1 / sqrt(2)).
     const double iso_elevation = std::atan(1.0 / std::sqrt(2.0)) * 180.0 / std::numbers::pi;
-    const Named named[] = {{"front34", kDefaultView}, {"front", {0.0, 0.0}},  {"back", {180.0, 0.0}},
-                           {"left", {-90.0, 0.0}},    {"right", {90.0, 0.0}}, {"top", {0.0, 90.0}},
+    const Named named[] = {{"front34", kDefaultView}, {"front", {0.0, 0.0}},
+                           {"back", {180.0, 0.0}},    {"left", {-90.0, 0.0}},
+                           {"right", {90.0, 0.0}},    {"top", {0.0, 90.0}},
                            {"bottom", {0.0, -90.0}},  {"iso", {45.0, iso_elevation}}};
     for (const Named& n : named)
     {
@@ -56,7 +59,8 @@ ViewAngles parse_view(const std::string& text)
         {
             if (std::abs(*elevation) > 90.0)
             {
-                throw InvalidOption("view '" + text + "' has an elevation outside [-90, 90] degrees.");
+                throw InvalidOption("view '" + text +
+                                    "' has an elevation outside [-90, 90] degrees.");
             }
             return {*azimuth, *elevation};
         }
@@ -70,7 +74,8 @@ ViewFrame view_frame(const ViewAngles& view)
     const double az = view.azimuth_deg * std::numbers::pi / 180.0;
     const double el = view.elevation_deg * std::numbers::pi / 180.0;
     ViewFrame frame;
-    frame.toward = Eigen::Vector3d(std::sin(az) * std::cos(el), std::sin(el), std::cos(az) * std::cos(el));
+    frame.toward =
+        Eigen::Vector3d(std::sin(az) * std::cos(el), std::sin(el), std::cos(az) * std::cos(el));
     frame.right = Eigen::Vector3d(std::cos(az), 0.0, -std::sin(az));
     frame.up = frame.toward.cross(frame.right);
     return frame;
@@ -88,8 +93,9 @@ ImageSize parse_image_size(const std::string& text)
             if (*width < kMinImageSide || *height < kMinImageSide || *width > kMaxImageSide ||
                 *height > kMaxImageSide)
             {
-                throw InvalidOption("image size '" + text + "' is outside " + std::to_string(kMinImageSide) +
-                                    " to " + std::to_string(kMaxImageSide) + " pixels per side.");
+                throw InvalidOption("image size '" + text + "' is outside " +
+                                    std::to_string(kMinImageSide) + " to " +
+                                    std::to_string(kMaxImageSide) + " pixels per side.");
             }
             return {*width, *height};
         }

@@ -1,16 +1,16 @@
 // SPDX-License-Identifier: MIT
 // `meshmark demo`: the whole story passes and leaves a picture of the mark.
-#include <gtest/gtest.h>
-#include <sys/wait.h>
-
 #include <cstdlib>
 #include <string>
 
+#include <gtest/gtest.h>
 #include <stb_image.h>
+#include <sys/wait.h>
 
 #include "support/test_paths.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 TEST(DemoTest, demo_succeeds_and_draws_the_mark)
 {
@@ -19,7 +19,8 @@ TEST(DemoTest, demo_succeeds_and_draws_the_mark)
         GTEST_SKIP() << "the CLI is not built";
     }
     const auto dir = test::temp_dir("demo");
-    const std::string command = "\"" + test::cli_path().string() + "\" demo --quiet --subdivisions 4 --threads 2 --dir \"" +
+    const std::string command = "\"" + test::cli_path().string() +
+                                "\" demo --quiet --subdivisions 4 --threads 2 --dir \"" +
                                 dir.string() + "\" > /dev/null 2>&1";
     const int status = std::system(command.c_str());
     ASSERT_TRUE(WIFEXITED(status));

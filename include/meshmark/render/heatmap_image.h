@@ -7,20 +7,23 @@
 #include "meshmark/render/image.h"
 #include "meshmark/render/view.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// Options of render_heatmap.
 struct HeatmapImageOptions
 {
-    ImageSize size;                 ///< Of the whole picture, colour bar included.
+    ImageSize size;                  ///< Of the whole picture, colour bar included.
     ViewAngles view = kDefaultView;  ///< Direction the model is seen from (parse_view).
-    /// Distance drawn in red (the top of the colour bar); 0 = the largest distance of a drawn vertex.
+    /// Distance drawn in red (the top of the colour bar); 0 = the largest distance of a drawn
+    /// vertex.
     double max_distance = 0.0;
     /// Length the colour bar's labels count as 100% (e.g. the bounding-box diagonal of the
     /// reference mesh); 0 = the bounding-box diagonal of the drawn vertices.
     double unit_length = 0.0;
-    int supersampling = 2;  ///< Samples per pixel along each axis (1 to 4), averaged: anti-aliasing.
-    int threads = 0;        ///< Worker threads (0 = all cores); the picture does not depend on it.
+    int supersampling =
+        2;            ///< Samples per pixel along each axis (1 to 4), averaged: anti-aliasing.
+    int threads = 0;  ///< Worker threads (0 = all cores); the picture does not depend on it.
 
     /// \throws InvalidOption naming the field when a value is out of range.
     void validate() const;
@@ -62,7 +65,8 @@ struct HeatmapPicture
 /// \param distances One non-negative distance per vertex of \p mesh.
 /// \throws InvalidOption for bad options or a distance count that is not the vertex count,
 /// InvalidMesh for a mesh with nothing to draw.
-[[nodiscard]] HeatmapPicture render_heatmap(const TriangleMesh& mesh, const Eigen::VectorXd& distances,
+[[nodiscard]] HeatmapPicture render_heatmap(const TriangleMesh& mesh,
+                                            const Eigen::VectorXd& distances,
                                             const HeatmapImageOptions& options = {});
 
 }  // namespace meshmark

@@ -8,7 +8,8 @@
 
 #include "meshmark/metrics/heatmap.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// \brief An 8-bit RGB image, rows top to bottom, three bytes per pixel.
 struct RgbImage
@@ -39,7 +40,8 @@ struct RgbImage
 private:
     [[nodiscard]] std::size_t index(int x, int y) const
     {
-        return 3 * (static_cast<std::size_t>(y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x));
+        return 3 * (static_cast<std::size_t>(y) * static_cast<std::size_t>(width) +
+                    static_cast<std::size_t>(x));
     }
 };
 

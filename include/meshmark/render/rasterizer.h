@@ -6,7 +6,8 @@
 
 #include "meshmark/core/triangle_mesh.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// \brief What is visible at each pixel: the nearest triangle (or point) and where on it.
 /// \details A "visibility buffer": rasterization only decides visibility, and a separate pass
@@ -18,7 +19,8 @@ struct VisibilityBuffer
     /// Per pixel, row-major from the top: depth of the nearest primitive (larger is nearer;
     /// -infinity where nothing was drawn).
     std::vector<float> depth;
-    /// Per pixel: index of the nearest face (rasterize_triangles) or point (rasterize_points), -1 for none.
+    /// Per pixel: index of the nearest face (rasterize_triangles) or point (rasterize_points), -1
+    /// for none.
     std::vector<std::int32_t> primitive;
     /// Per pixel, for triangles: barycentric weights of the face's 2nd and 3rd corners at the
     /// pixel centre (the 1st is 1 - u - v). For points: the pixel centre's offset from the
@@ -29,7 +31,8 @@ struct VisibilityBuffer
     VisibilityBuffer(int width, int height);
     [[nodiscard]] std::size_t index(int x, int y) const
     {
-        return static_cast<std::size_t>(y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x);
+        return static_cast<std::size_t>(y) * static_cast<std::size_t>(width) +
+               static_cast<std::size_t>(x);
     }
 };
 
@@ -43,13 +46,15 @@ struct VisibilityBuffer
 /// parallel (\p threads, 0 = all cores); every band draws its faces in index order, so the
 /// buffer is the same for any thread count.
 /// \param faces  Indices into the rows of \p screen (must be in range).
-[[nodiscard]] VisibilityBuffer rasterize_triangles(const Positions& screen, const Faces& faces, int width,
-                                                   int height, int threads = 0);
+[[nodiscard]] VisibilityBuffer rasterize_triangles(const Positions& screen, const Faces& faces,
+                                                   int width, int height, int threads = 0);
 
 /// \brief Rasterize points as discs of \p radius pixels (at least the pixel under the point)
 /// with a depth buffer; \p screen as for rasterize_triangles, \p points the rows to draw.
 /// \details On equal depth the point listed first stays; the same for any thread count.
-[[nodiscard]] VisibilityBuffer rasterize_points(const Positions& screen, const std::vector<std::int32_t>& points,
-                                                double radius, int width, int height, int threads = 0);
+[[nodiscard]] VisibilityBuffer rasterize_points(const Positions& screen,
+                                                const std::vector<std::int32_t>& points,
+                                                double radius, int width, int height,
+                                                int threads = 0);
 
 }  // namespace meshmark

@@ -5,7 +5,8 @@
 
 #include <Eigen/Core>
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// \brief Direction a model is seen from, with +Y up and the front facing +Z (the convention of
 /// the Stanford scans and most OBJ/PLY models).
@@ -21,7 +22,8 @@ struct ViewAngles
 inline constexpr ViewAngles kDefaultView{30.0, 20.0};
 
 /// The names parse_view accepts, for help texts.
-inline constexpr const char* kViewNames = "front34 (the default), front, back, left, right, top, bottom, iso";
+inline constexpr const char* kViewNames =
+    "front34 (the default), front, back, left, right, top, bottom, iso";
 
 /// \brief A view by name (kViewNames) or as "AZIMUTH,ELEVATION" in degrees (e.g. "30,20").
 /// \details front = 0,0; back = 180,0; left = -90,0; right = 90,0; top = 0,90; bottom = 0,-90;

@@ -5,7 +5,8 @@
 
 #include "meshmark/render/image.h"
 
-namespace meshmark::detail {
+namespace meshmark::detail
+{
 
 /// \brief Width and height in pixels of \p text drawn by draw_text at \p scale.
 [[nodiscard]] int text_width(const std::string& text, int scale);

@@ -1,17 +1,15 @@
 // SPDX-License-Identifier: MIT
 // `meshmark compare` end to end: files in, JSON and a colored PLY out, exit codes.
-#include <sys/wait.h>
-
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
 #include <string>
 
+#include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <stb_image.h>
+#include <sys/wait.h>
 
 #include "meshmark/geometry/shapes.h"
 #include "meshmark/io/mesh_io.h"
@@ -126,8 +124,10 @@ TEST_F(CompareCliTest, png_heatmap_is_a_picture_of_b_with_the_displacement_in_re
     write_mesh(a, sphere);
     write_mesh(b, bumped);
     const auto png = dir_ / "heat.png";
-    const CliRun run = run_cli("compare \"" + a + "\" \"" + b + "\" --samples 2000 --view front --size 640x480 "
-                               "--heatmap \"" + png.string() + "\"",
+    const CliRun run = run_cli("compare \"" + a + "\" \"" + b +
+                                   "\" --samples 2000 --view front --size 640x480 "
+                                   "--heatmap \"" +
+                                   png.string() + "\"",
                                dir_);
     ASSERT_EQ(run.exit_code, 0) << run.err;
     EXPECT_NE(run.out.find("heat.png"), std::string::npos);
@@ -162,10 +162,14 @@ TEST_F(CompareCliTest, png_heatmap_is_a_picture_of_b_with_the_displacement_in_re
 TEST_F(CompareCliTest, png_heatmap_options_are_checked)
 {
     const auto png = dir_ / "heat.png";
-    CliRun run = run_cli("compare \"" + a_ + "\" \"" + b_ + "\" --heatmap \"" + png.string() + "\" --view sideways", dir_);
+    CliRun run = run_cli(
+        "compare \"" + a_ + "\" \"" + b_ + "\" --heatmap \"" + png.string() + "\" --view sideways",
+        dir_);
     EXPECT_EQ(run.exit_code, 2);
     EXPECT_NE(run.err.find("sideways"), std::string::npos);
-    run = run_cli("compare \"" + a_ + "\" \"" + b_ + "\" --heatmap \"" + png.string() + "\" --size 20x20", dir_);
+    run = run_cli(
+        "compare \"" + a_ + "\" \"" + b_ + "\" --heatmap \"" + png.string() + "\" --size 20x20",
+        dir_);
     EXPECT_EQ(run.exit_code, 2);
     EXPECT_NE(run.err.find("20x20"), std::string::npos);
     run = run_cli("compare \"" + a_ + "\" \"" + b_ + "\" --view top", dir_);
@@ -177,7 +181,9 @@ TEST_F(CompareCliTest, png_heatmap_options_are_checked)
     cloud.F.resize(0, 3);
     const auto cloud_path = (dir_ / "cloud.ply").string();
     write_mesh(cloud_path, cloud);
-    run = run_cli("compare \"" + a_ + "\" \"" + cloud_path + "\" --samples 100 --heatmap \"" + png.string() + "\"", dir_);
+    run = run_cli("compare \"" + a_ + "\" \"" + cloud_path + "\" --samples 100 --heatmap \"" +
+                      png.string() + "\"",
+                  dir_);
     EXPECT_EQ(run.exit_code, 0) << run.err;
     EXPECT_TRUE(std::filesystem::exists(png));
 }

@@ -1,22 +1,32 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/render/heatmap_image.h"
 
-#include <gtest/gtest.h>
-
-#include <stb_image.h>
-
 #include <numbers>
+
+#include <gtest/gtest.h>
+#include <stb_image.h>
 
 #include "meshmark/core/error.h"
 #include "meshmark/geometry/shapes.h"
 #include "support/test_paths.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
-bool is_background(Rgb8 c) { return c == Rgb8{255, 255, 255}; }
-bool is_reddish(Rgb8 c) { return c[0] > 120 && c[1] < c[0] / 3 && c[2] < c[0] / 3; }
-bool is_bluish(Rgb8 c) { return c[2] > 100 && c[0] < c[2] / 3 && c[1] < c[2] / 2; }
+bool is_background(Rgb8 c)
+{
+    return c == Rgb8{255, 255, 255};
+}
+bool is_reddish(Rgb8 c)
+{
+    return c[0] > 120 && c[1] < c[0] / 3 && c[2] < c[0] / 3;
+}
+bool is_bluish(Rgb8 c)
+{
+    return c[2] > 100 && c[0] < c[2] / 3 && c[1] < c[2] / 2;
+}
 
 struct Counts
 {
@@ -191,10 +201,12 @@ TEST(HeatmapImageTest, bad_input_is_refused)
     EXPECT_THROW((void)render_heatmap(sphere, Eigen::VectorXd::Zero(3)), InvalidOption);
     HeatmapImageOptions o;
     o.size = {100, 768};
-    EXPECT_THROW((void)render_heatmap(sphere, Eigen::VectorXd::Zero(sphere.vertex_count()), o), InvalidOption);
+    EXPECT_THROW((void)render_heatmap(sphere, Eigen::VectorXd::Zero(sphere.vertex_count()), o),
+                 InvalidOption);
     o = {};
     o.supersampling = 9;
-    EXPECT_THROW((void)render_heatmap(sphere, Eigen::VectorXd::Zero(sphere.vertex_count()), o), InvalidOption);
+    EXPECT_THROW((void)render_heatmap(sphere, Eigen::VectorXd::Zero(sphere.vertex_count()), o),
+                 InvalidOption);
     EXPECT_THROW((void)render_heatmap(TriangleMesh{}, Eigen::VectorXd{}), InvalidMesh);
     // Nothing is left behind when the folder does not exist.
     const auto missing = test::temp_dir("heatmap_missing") / "no" / "picture.png";
@@ -205,7 +217,8 @@ TEST(HeatmapImageTest, bad_input_is_refused)
 TEST(HeatmapImageTest, all_zero_distances_are_blue)
 {
     const TriangleMesh sphere = icosphere(3);
-    const HeatmapPicture p = render_heatmap(sphere, Eigen::VectorXd::Zero(sphere.vertex_count()), small("front"));
+    const HeatmapPicture p =
+        render_heatmap(sphere, Eigen::VectorXd::Zero(sphere.vertex_count()), small("front"));
     EXPECT_EQ(p.max_distance, 0.0);
     const Counts c = count(p, 0, p.layout.model_width);
     EXPECT_EQ(c.red, 0);

@@ -1,16 +1,17 @@
 // SPDX-License-Identifier: MIT
 // The PNG pictures read by an independent decoder: Python's zlib and struct (check_png.py).
-#include <gtest/gtest.h>
-
 #include <cstdio>
 #include <cstdlib>
 #include <string>
+
+#include <gtest/gtest.h>
 
 #include "meshmark/geometry/shapes.h"
 #include "meshmark/render/heatmap_image.h"
 #include "support/test_paths.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 TEST(PngInteropTest, python_reads_the_picture)
 {
@@ -29,7 +30,8 @@ TEST(PngInteropTest, python_reads_the_picture)
         render_heatmap(sphere, Eigen::VectorXd(sphere.V.col(0).array().abs()), options);
     const auto path = test::temp_dir("png_interop") / "picture.png";
     write_png(path, picture.image);
-    const std::string command = "python3 \"" MESHMARK_CHECK_PNG_SCRIPT "\" \"" + path.string() + "\" 2>&1";
+    const std::string command =
+        "python3 \"" MESHMARK_CHECK_PNG_SCRIPT "\" \"" + path.string() + "\" 2>&1";
     FILE* pipe = popen(command.c_str(), "r");
     ASSERT_NE(pipe, nullptr);
     std::string out;

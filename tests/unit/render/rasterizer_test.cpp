@@ -1,12 +1,14 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/render/rasterizer.h"
 
-#include <gtest/gtest.h>
-
 #include <random>
 
-namespace meshmark {
-namespace {
+#include <gtest/gtest.h>
+
+namespace meshmark
+{
+namespace
+{
 
 Positions screen_points(std::initializer_list<std::array<double, 3>> rows)
 {
@@ -92,15 +94,20 @@ TEST(RasterizerTest, triangles_sharing_an_edge_cover_each_pixel_once)
 TEST(RasterizerTest, nearest_triangle_wins_whatever_the_order)
 {
     // Two overlapping triangles, the second nearer (larger depth).
-    const Positions s = screen_points({{0, 0, 1}, {10, 0, 1}, {0, 10, 1}, {0, 0, 2}, {10, 0, 2}, {0, 10, 2}});
-    const VisibilityBuffer far_first = rasterize_triangles(s, faces_of({{0, 1, 2}, {3, 4, 5}}), 10, 10, 1);
-    const VisibilityBuffer near_first = rasterize_triangles(s, faces_of({{3, 4, 5}, {0, 1, 2}}), 10, 10, 1);
+    const Positions s =
+        screen_points({{0, 0, 1}, {10, 0, 1}, {0, 10, 1}, {0, 0, 2}, {10, 0, 2}, {0, 10, 2}});
+    const VisibilityBuffer far_first =
+        rasterize_triangles(s, faces_of({{0, 1, 2}, {3, 4, 5}}), 10, 10, 1);
+    const VisibilityBuffer near_first =
+        rasterize_triangles(s, faces_of({{3, 4, 5}, {0, 1, 2}}), 10, 10, 1);
     EXPECT_EQ(far_first.primitive[far_first.index(2, 2)], 1);
     EXPECT_EQ(near_first.primitive[near_first.index(2, 2)], 0);
     EXPECT_FLOAT_EQ(far_first.depth[far_first.index(2, 2)], 2.0f);
     // A tilted plane crossing the flat one: each pixel shows whichever is nearer there.
-    const Positions tilted = screen_points({{0, 0, 0}, {10, 0, 3}, {0, 10, 0}, {0, 0, 1.5}, {10, 0, 1.5}, {0, 10, 1.5}});
-    const VisibilityBuffer b = rasterize_triangles(tilted, faces_of({{0, 1, 2}, {3, 4, 5}}), 10, 10, 1);
+    const Positions tilted =
+        screen_points({{0, 0, 0}, {10, 0, 3}, {0, 10, 0}, {0, 0, 1.5}, {10, 0, 1.5}, {0, 10, 1.5}});
+    const VisibilityBuffer b =
+        rasterize_triangles(tilted, faces_of({{0, 1, 2}, {3, 4, 5}}), 10, 10, 1);
     EXPECT_EQ(b.primitive[b.index(1, 1)], 1);  // depth 0.45 < 1.5 on the tilted one
     EXPECT_EQ(b.primitive[b.index(7, 1)], 0);  // depth 2.25 > 1.5
 }
@@ -133,7 +140,8 @@ TEST(RasterizerTest, barycentric_weights_reproduce_the_pixel_centre)
 
 TEST(RasterizerTest, degenerate_and_offscreen_triangles_draw_nothing)
 {
-    const Positions s = screen_points({{0, 0, 0}, {5, 5, 0}, {10, 10, 0}, {-50, -50, 0}, {-40, -50, 0}, {-50, -40, 0}});
+    const Positions s = screen_points(
+        {{0, 0, 0}, {5, 5, 0}, {10, 10, 0}, {-50, -50, 0}, {-40, -50, 0}, {-50, -40, 0}});
     EXPECT_EQ(covered(rasterize_triangles(s, faces_of({{0, 1, 2}, {3, 4, 5}}), 16, 16, 1)), 0);
 }
 

@@ -1,13 +1,13 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/render/view.h"
 
-#include <gtest/gtest.h>
-
 #include <Eigen/Geometry>
+#include <gtest/gtest.h>
 
 #include "meshmark/core/error.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 TEST(ViewTest, named_and_numeric_views)
 {
