@@ -20,7 +20,7 @@ packages=(
   libnanoflann-dev       # kd-tree (welding, nearest neighbours)
   libcgal-dev libgmp-dev libmpfr-dev libboost-dev  # simplification, remeshing, subdivision
   libmeshoptimizer-dev   # fast simplification
-  libtinygltf-dev libstb-dev libdraco-dev  # glTF/GLB (+ Draco) files
+  libtinygltf-dev libstb-dev libdraco-dev  # glTF/GLB (+ Draco) files; stb also writes the PNG heatmaps
   lib3mf-dev             # tests only: an independent reader of the 3MF packages meshmark writes
   libzip-dev libpugixml-dev  # 3MF packages: zip container and model XML, rewritten in place
   libspectra-dev         # Laplacian eigenbasis baseline: shift-invert Lanczos (header-only)

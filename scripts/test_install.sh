@@ -26,7 +26,7 @@ config=$(find "$prefix" -name meshmarkConfig.cmake -print -quit)
 for f in meshmarkConfigVersion.cmake meshmarkTargets.cmake; do
     [[ -f $(dirname "$config")/$f ]] || fail "$f was not installed"
 done
-for module in core io geometry basis watermark pipeline; do
+for module in core io geometry basis watermark render pipeline; do
     [[ -n $(find "$prefix" -name "libmeshmark_$module.a" -print -quit) ]] ||
         fail "libmeshmark_$module.a was not installed"
 done

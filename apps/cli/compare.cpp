@@ -1,12 +1,14 @@
 // SPDX-License-Identifier: MIT
 // `meshmark compare`: distortion metrics between two meshes, and an optional distance heatmap.
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "commands.h"
@@ -15,6 +17,7 @@
 #include "meshmark/io/mesh_io.h"
 #include "meshmark/metrics/distortion.h"
 #include "meshmark/metrics/heatmap.h"
+#include "meshmark/render/heatmap_image.h"
 #include "progress.h"
 #include "report.h"
 
@@ -27,6 +30,8 @@ struct CompareArgs
     std::string b;
     bool json = false;
     std::string heatmap;
+    std::string view;  // of a .png heatmap; empty = the default
+    std::string size;  // of a .png heatmap, WxH; empty = the default
     CompareOptions options;
 };
 
@@ -35,23 +40,78 @@ double seconds_since(std::chrono::steady_clock::time_point start)
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-// The heatmap is PLY only (per-vertex colors), and never replaces an input.
-void check_heatmap_path(const CompareArgs& args)
+enum class HeatmapKind
 {
-    if (args.heatmap.empty())
+    None,
+    Ply,  // B with per-vertex colors
+    Png,  // a picture of B
+};
+
+HeatmapKind heatmap_kind(const std::string& path)
+{
+    if (path.empty())
     {
-        return;
+        return HeatmapKind::None;
+    }
+    std::string ext = std::filesystem::path(path).extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(),
+                   [](unsigned char c) { return std::tolower(c); });
+    if (ext == ".ply")
+    {
+        return HeatmapKind::Ply;
+    }
+    if (ext == ".png")
+    {
+        return HeatmapKind::Png;
+    }
+    throw InvalidOption(
+        "compare: --heatmap " + path +
+        " must name a .ply file (the mesh with per-vertex colors) or a .png file (a picture).");
+}
+
+// The heatmap is a colored PLY or a PNG picture, and never replaces an input; --view and
+// --size describe the picture. Returns the picture's options (unused for a PLY).
+HeatmapImageOptions check_heatmap_args(const CompareArgs& args)
+{
+    const HeatmapKind kind = heatmap_kind(args.heatmap);
+    HeatmapImageOptions image;
+    if (kind != HeatmapKind::Png)
+    {
+        for (const auto& [name, value] :
+             {std::pair{"--view", &args.view}, std::pair{"--size", &args.size}})
+        {
+            if (!value->empty())
+            {
+                throw InvalidOption(std::string("compare: ") + name +
+                                    " applies to a .png --heatmap only.");
+            }
+        }
+    }
+    if (kind == HeatmapKind::None)
+    {
+        return image;
     }
     const std::filesystem::path out(args.heatmap);
-    if (format_from_extension(out) != MeshFormat::Ply)
-    {
-        throw InvalidOption("compare: --heatmap " + args.heatmap +
-                            " must name a .ply file (per-vertex colors are written as PLY only).");
-    }
     if (is_same_file(out, args.a) || is_same_file(out, args.b))
     {
         throw InvalidOption("compare: --heatmap " + args.heatmap + " would overwrite an input mesh.");
     }
+    try
+    {
+        if (!args.view.empty())
+        {
+            image.view = parse_view(args.view);
+        }
+        if (!args.size.empty())
+        {
+            image.size = parse_image_size(args.size);
+        }
+    }
+    catch (const InvalidOption& e)
+    {
+        throw InvalidOption(std::string("compare: ") + e.what());
+    }
+    return image;
 }
 
 /// B colored by the distance of each vertex to A: blue at 0, red at the largest distance of a
@@ -67,6 +127,19 @@ double write_heatmap(const std::string& path, const TriangleMesh& b, const Eigen
     // Float positions: the file is for viewing, and every PLY viewer reads float.
     write_mesh(path, b, WriteOptions{.use_single_precision = true, .vertex_colors = &colors});
     return max_distance;
+}
+
+/// The same colors on a picture of B, its colour bar in % of A's diagonal. Returns the
+/// distance drawn in red (as write_heatmap).
+double write_heatmap_png(const std::string& path, const TriangleMesh& b,
+                         const Eigen::VectorXd& distances, HeatmapImageOptions options,
+                         double diagonal, int threads)
+{
+    options.unit_length = diagonal;
+    options.threads = threads;
+    const HeatmapPicture picture = render_heatmap(b, distances, options);
+    write_png(path, picture.image);
+    return picture.max_distance;
 }
 
 nlohmann::json mesh_json(const std::string& path, const TriangleMesh& mesh, const OneSidedDistance& side)
@@ -129,7 +202,8 @@ void print_text(const CompareArgs& args, const TriangleMesh& a, const TriangleMe
 int run_compare(const CompareArgs& args, const GlobalArgs& global)
 {
     const auto start = std::chrono::steady_clock::now();
-    check_heatmap_path(args);
+    const HeatmapImageOptions image_options = check_heatmap_args(args);
+    const bool png = heatmap_kind(args.heatmap) == HeatmapKind::Png;
     // Phases and a running clock on a terminal, after the first second (as embed and detect);
     // silent otherwise. The phases are the --json `seconds` keys.
     std::optional<PhaseProgress> progress;
@@ -159,7 +233,9 @@ int run_compare(const CompareArgs& args, const GlobalArgs& global)
     {
         report_phase("heatmap", 0.0);
         const auto phase = std::chrono::steady_clock::now();
-        heatmap_max = write_heatmap(args.heatmap, b, report.vertex_distances_ba);
+        heatmap_max = png ? write_heatmap_png(args.heatmap, b, report.vertex_distances_ba,
+                                              image_options, report.diagonal, global.threads)
+                          : write_heatmap(args.heatmap, b, report.vertex_distances_ba);
         heatmap_seconds = seconds_since(phase);
         report_phase("heatmap", 1.0);
     }
@@ -187,8 +263,16 @@ int run_compare(const CompareArgs& args, const GlobalArgs& global)
     print_text(args, a, b, report);
     if (!args.heatmap.empty())
     {
-        std::printf("heatmap: %s (B colored by distance to A: blue 0, red %s%% of the diagonal)\n",
-                    args.heatmap.c_str(), format_number(100.0 * heatmap_max / report.diagonal, 4).c_str());
+        const std::string seen =
+            png ? ", seen from azimuth " + format_number(image_options.view.azimuth_deg, 4) +
+                      ", elevation " + format_number(image_options.view.elevation_deg, 4) + " (" +
+                      std::to_string(image_options.size.width) + "x" +
+                      std::to_string(image_options.size.height) + ")"
+                : "";
+        std::printf(
+            "heatmap: %s (B colored by distance to A%s: blue 0, red %s%% of the diagonal)\n",
+            args.heatmap.c_str(), seen.c_str(),
+            format_number(100.0 * heatmap_max / report.diagonal, 4).c_str());
     }
     if (!global.quiet)
     {
@@ -216,10 +300,23 @@ void register_compare(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
                       "Print one JSON object: hausdorff, hausdorff_ab, hausdorff_ba, rms_ab, rms_ba, mrms, "
                       "mean_ab, mean_ba, max_displacement and rms_displacement (same connectivity only), "
                       "counts, samples, seconds");
-    command->add_option("--heatmap", args->heatmap,
-                        "Write B to this .ply with per-vertex colors showing each vertex's distance to A: "
-                        "blue (0) -> cyan -> green -> yellow -> red (the largest distance of B's vertices), "
-                        "linear in distance; open it in MeshLab or Blender");
+    command->add_option(
+        "--heatmap", args->heatmap,
+        "Show each vertex's distance to A as a color: blue (0) -> cyan -> green -> yellow -> red "
+        "(the largest distance of B's vertices), linear in distance. A .ply file gets B with "
+        "per-vertex colors (open it in MeshLab or Blender); a .png file gets a picture of B "
+        "(shaded, colors interpolated across the triangles, a point cloud as dots) with a color "
+        "bar in % of A's bounding-box diagonal, drawn without a display or GPU");
+    command->add_option(
+        "--view", args->view,
+        std::string("Direction a .png heatmap shows B from, +Y up and the front facing +Z: ") +
+            kViewNames +
+            ", or AZIMUTH,ELEVATION in degrees (azimuth from the front towards the right, "
+            "elevation above the horizon; front34 is 30,20). The model is fitted to the picture");
+    command->add_option("--size", args->size,
+                        "Size of a .png heatmap in pixels, WIDTHxHEIGHT (default 1024x768; " +
+                            std::to_string(kMinImageSide) + " to " + std::to_string(kMaxImageSide) +
+                            " per side)");
     command->add_option("--samples", args->options.samples,
                         "Area samples per surface on top of the vertices; 0 = automatic: " +
                             std::to_string(kAutoSamplesPerFace) + " per triangle, at least " +

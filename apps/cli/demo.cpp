@@ -1,18 +1,20 @@
 // SPDX-License-Identifier: MIT
 // `meshmark demo`: the whole story on a mesh the program makes itself, no external data.
-#include <unistd.h>
-
 #include <cstdio>
 #include <filesystem>
 #include <memory>
 #include <string>
 
+#include <unistd.h>
+
 #include "commands.h"
 #include "meshmark/attacks/attack_spec.h"
+#include "meshmark/core/bounding_box.h"
 #include "meshmark/geometry/shapes.h"
 #include "meshmark/io/mesh_io.h"
 #include "meshmark/pipeline/detect_file.h"
 #include "meshmark/pipeline/embed_file.h"
+#include "meshmark/render/heatmap_image.h"
 #include "report.h"
 
 namespace meshmark::cli {
@@ -53,6 +55,7 @@ int run_demo(const DemoArgs& args, const GlobalArgs& global)
     const auto marked = dir / "marked.ply";
     const auto attacked = dir / "attacked.ply";
     const auto key = dir / "key.json";
+    const auto heatmap = dir / "heatmap.png";
 
     // 1. A model of our own: a lumpy ellipsoid.
     const TriangleMesh mesh = lumpy_ellipsoid(args.subdivisions);
@@ -73,9 +76,22 @@ int run_demo(const DemoArgs& args, const GlobalArgs& global)
                     "% of the bbox diagonal, " + format_number(embedded.seconds.total) + " s; key in " +
                     key.string());
 
+    // A picture of the mark: each vertex's displacement, blue (none) to red (the largest).
+    const TriangleMesh marked_mesh = read_mesh(marked);
+    const Eigen::VectorXd displacement = (marked_mesh.V - mesh.V).rowwise().norm();
+    HeatmapImageOptions picture_options;
+    picture_options.unit_length = bounding_box(mesh.V).diagonal();
+    picture_options.threads = global.threads;
+    const HeatmapPicture picture = render_heatmap(marked_mesh, displacement, picture_options);
+    write_png(heatmap, picture.image);
+    say(global, "   picture of the mark: " + heatmap.string() +
+                    " (vertex displacement, blue 0 to red " +
+                    format_number(100.0 * picture.max_distance / picture.unit_length) +
+                    "% of the bbox diagonal)");
+
     // 3. Perturb the marked copy.
     const auto specs = parse_attack_spec(args.attack);
-    const AttackResult result = apply_attacks(read_mesh(marked), specs, 7, global.threads);
+    const AttackResult result = apply_attacks(marked_mesh, specs, 7, global.threads);
     write_mesh(attacked, result.mesh);
     say(global, "3. attacked it with '" + to_string(specs) + "' -> " + attacked.string());
 
@@ -101,8 +117,11 @@ void register_demo(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     auto args = std::make_shared<DemoArgs>();
     auto* command = app.add_subcommand(
         "demo",
-        "Run the whole pipeline on a mesh meshmark makes itself: make -> embed -> attack -> detect, "
-        "printing each step and the verdict. Exit 0 when the attacked copy is detected and the "
+        "Run the whole pipeline on a mesh meshmark makes itself: make -> embed -> attack -> "
+        "detect, "
+        "printing each step and the verdict, and draw the mark (heatmap.png: the displacement "
+        "of each vertex, as `compare --heatmap out.png` draws distances). Exit 0 when the attacked "
+        "copy is detected and the "
         "unmarked original is not.");
     command->add_option("--dir", args->dir, "Folder for the demo's files (default: a new temporary folder)");
     command->add_option("--subdivisions", args->subdivisions,
