@@ -20,6 +20,7 @@ packages=(
   libnanoflann-dev       # kd-tree (welding, nearest neighbours)
   libcgal-dev libgmp-dev libmpfr-dev libboost-dev  # simplification, remeshing, subdivision
   libmeshoptimizer-dev   # fast simplification
+  libopenvdb-dev         # voxel remeshing attack: level set and surface extraction, as Blender's (pulls libtbb-dev)
   libtinygltf-dev libstb-dev libdraco-dev  # glTF/GLB (+ Draco) files
   lib3mf-dev             # tests only: an independent reader of the 3MF packages meshmark writes
   libzip-dev libpugixml-dev  # 3MF packages: zip container and model XML, rewritten in place
