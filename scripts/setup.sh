@@ -20,6 +20,7 @@ packages=(
   libnanoflann-dev       # kd-tree (welding, nearest neighbours)
   libcgal-dev libgmp-dev libmpfr-dev libboost-dev  # simplification, remeshing, subdivision
   libmeshoptimizer-dev   # fast simplification
+  libopenvdb-dev         # voxel remeshing attack: level set and surface extraction, as Blender's (pulls libtbb-dev)
   libtinygltf-dev libstb-dev libdraco-dev  # glTF/GLB (+ Draco) files; stb also writes the PNG heatmaps
   lib3mf-dev             # tests only: an independent reader of the 3MF packages meshmark writes
   libzip-dev libpugixml-dev  # 3MF packages: zip container and model XML, rewritten in place
@@ -32,6 +33,7 @@ if ((interop_tools)); then
   # Interop tests (label `interop`): the ecosystem's own tools write the inputs and check
   # the outputs. The npm ones are pinned in tests/interop/package.json (installed below).
   packages+=(gltfpack draco prusa-slicer xvfb xauth)
+  packages+=(blender)  # the voxel remesh that `meshmark attack voxel=N` must reproduce
   # Node.js for the npm tools: Debian's, unless the machine already has a node and npm.
   if ! command -v node >/dev/null || ! command -v npm >/dev/null; then packages+=(nodejs npm); fi
 fi

@@ -46,6 +46,7 @@ std::string grammar_help()
     const SimplificationOptions simplify;
     const RemeshingOptions remesh;
     const CropOptions crop;
+    const VoxelRemeshingOptions voxel;
     return "SPEC := STEP[,STEP]...  (applied left to right)   STEP := NAME[=LEVEL][:KEY=VALUE]...\n"
            "A missing level takes the default; [..] are the levels of the 3D mesh watermarking\n"
            "benchmark (Wang, Lavoue, Denis, Baskurt 2008).\n"
@@ -83,9 +84,15 @@ std::string grammar_help()
            "                     keys axis=x|y|z or ax=,ay=,az= (normal towards the removed side;\n"
            "                     random from the seed if absent)\n"
            "  reorder            random permutation of the vertices and of the faces\n"
+           "  voxel=N            voxel remesh as in Blender (OpenVDB, adaptivity 0): the surface\n"
+           "                     re-extracted from a signed-distance grid of voxel edge D/N, D the\n"
+           "                     bbox diagonal (default " +
+           number(voxel.resolution) + ") [300 150], N in [10, 2000];\n"
+           "                     Blender's Voxel Size is D/N in object units. The result is closed;\n"
+           "                     detail below a voxel, thin parts and inner surfaces are lost\n"
            "Step k draws from its own stream, derived from --seed, its position and its name.\n"
-           "Simplify, remesh and subdivide need faces; they cut non-manifold edges and vertices\n"
-           "apart and drop unused vertices first. Crop drops the vertices it leaves unused.\n"
+           "Simplify, remesh, subdivide and voxel need faces; the first three cut non-manifold edges\n"
+           "and vertices apart and drop unused vertices first. Crop drops the vertices it leaves unused.\n"
            "Example: meshmark attack in.ply -o out.ply --seed 3 similarity,simplify=0.1,noise=0.001";
 }
 

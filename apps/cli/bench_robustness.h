@@ -22,6 +22,8 @@ inline const std::vector<std::string> kDefaultAttacks = {
     "simplify=0.1",      "simplify=0.02",    "remesh=0.25",      "remesh=0.05",
     "subdivide=loop",    "subdivide=sqrt3",  "crop=0.7",         "crop=0.5",
     "similarity,simplify=0.1,noise=0.001",
+    // Surface refitting (issue 16): voxel remeshing at 1/300 and 1/150 of the diagonal.
+    "voxel=300",         "voxel=150",
 };
 
 /// The options of `bench robustness`.

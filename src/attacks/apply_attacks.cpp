@@ -57,6 +57,9 @@ AttackResult apply_attack(const TriangleMesh& mesh, const AttackSpec& spec, Rng&
             },
             [&](const CropOptions& o) { return crop(mesh, o, rng); },
             [&](const ReorderOptions& o) { return reorder(mesh, o, rng); },
+            [&](const VoxelRemeshingOptions& o) {
+                return without_correspondence(voxel_remesh(mesh, o, threads));
+            },
         },
         spec);
 }

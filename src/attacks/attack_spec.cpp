@@ -14,7 +14,8 @@ namespace meshmark {
 namespace {
 
 constexpr std::string_view kKnownAttacks =
-    "similarity, noise, smooth, taubin, quantize, simplify, remesh, subdivide, crop, reorder";
+    "similarity, noise, smooth, taubin, quantize, simplify, remesh, subdivide, crop, reorder, "
+    "voxel";
 
 std::string_view trim(std::string_view s)
 {
@@ -409,6 +410,14 @@ AttackSpec parse_reorder(StepReader& step)
     return ReorderOptions{};
 }
 
+AttackSpec parse_voxel(StepReader& step)
+{
+    VoxelRemeshingOptions options;
+    options.resolution = step.level_number("the resolution").value_or(options.resolution);
+    step.finish("");
+    return options;
+}
+
 struct AttackParser
 {
     std::string_view name;
@@ -416,7 +425,7 @@ struct AttackParser
 };
 
 // In the order of AttackSpec's alternatives: attack_name() indexes this table by variant index.
-constexpr std::array<AttackParser, 10> kParsers = {{
+constexpr std::array<AttackParser, 11> kParsers = {{
     {"similarity", parse_similarity},
     {"noise", parse_noise},
     {"smooth", parse_smooth},
@@ -427,6 +436,7 @@ constexpr std::array<AttackParser, 10> kParsers = {{
     {"subdivide", parse_subdivide},
     {"crop", parse_crop},
     {"reorder", parse_reorder},
+    {"voxel", parse_voxel},
 }};
 
 static_assert(std::variant_size_v<AttackSpec> == kParsers.size());
@@ -537,6 +547,11 @@ std::string text_of(const CropOptions& o)
 }
 
 std::string text_of(const ReorderOptions& /*options*/) { return "reorder"; }
+
+std::string text_of(const VoxelRemeshingOptions& o)
+{
+    return "voxel=" + detail::format_number(o.resolution);
+}
 }  // namespace
 
 std::vector<AttackSpec> parse_attack_spec(std::string_view text)

@@ -91,6 +91,7 @@ Tools::Tools()
       gltfpack(find_in_path("gltfpack")),
       xvfb_run(find_in_path("xvfb-run")),
       prusa_slicer(find_in_path("prusa-slicer")),
+      blender(find_in_path("blender")),
       gltf_transform(node_bin("gltf-transform")),
       gltf_pipeline(node_bin("gltf-pipeline"))
 {
@@ -145,6 +146,10 @@ std::string missing_tools(const std::vector<std::string>& needed)
         else if (name == "gltf-pipeline")
         {
             note(!t.gltf_pipeline.empty(), "gltf-pipeline (tests/interop/node_modules/.bin)");
+        }
+        else if (name == "blender")
+        {
+            note(!t.blender.empty(), "blender");
         }
         else if (name == "prusa-slicer")
         {

@@ -42,6 +42,7 @@ struct Tools
     fs::path gltfpack;
     fs::path xvfb_run;
     fs::path prusa_slicer;
+    fs::path blender;
     fs::path gltf_transform;
     fs::path gltf_pipeline;
 };

@@ -17,6 +17,7 @@
 #include "meshmark/attacks/simplification.h"
 #include "meshmark/attacks/smoothing.h"
 #include "meshmark/attacks/subdivision.h"
+#include "meshmark/attacks/voxel_remeshing.h"
 #include "meshmark/core/rng.h"
 #include "meshmark/core/triangle_mesh.h"
 
@@ -28,7 +29,8 @@ namespace meshmark {
 using AttackSpec =
     std::variant<SimilarityOptions, NoiseOptions, LaplacianSmoothingOptions,
                  TaubinSmoothingOptions, QuantizationOptions, SimplificationOptions,
-                 RemeshingOptions, SubdivisionOptions, CropOptions, ReorderOptions>;
+                 RemeshingOptions, SubdivisionOptions, CropOptions, ReorderOptions,
+                 VoxelRemeshingOptions>;
 
 /// \brief Parse a chain of attacks written in the attack grammar.
 /// \details
@@ -48,6 +50,7 @@ using AttackSpec =
 /// | subdivide | loop\|midpoint\|sqrt3 | steps=N |
 /// | crop | fraction of the vertices kept | axis=x\|y\|z or ax=,ay=,az= (normal of the cut, towards the removed side) |
 /// | reorder | none | |
+/// | voxel | voxels along the bounding-box diagonal | |
 ///
 /// A missing level takes the default of the options struct. Any explicit similarity key
 /// selects the explicit transform (identity in what is not given); smax and tmax cannot be
@@ -72,8 +75,8 @@ using AttackSpec =
 
 /// \brief Apply one attack.
 /// \details Validates the options, then calls the attack's function (apply_similarity,
-/// add_noise, smooth_laplacian, smooth_taubin, quantize, simplify, remesh, subdivide, crop or
-/// reorder) and fills the result's transform and correspondence as described in AttackResult.
+/// add_noise, smooth_laplacian, smooth_taubin, quantize, simplify, remesh, subdivide, crop,
+/// reorder or voxel_remesh) and fills the result's transform and correspondence as described in AttackResult.
 /// \param rng      Random stream of this step; attacks without randomness do not draw from it.
 /// \param threads  Worker threads for the parallel attacks (0 = all cores); the result does
 ///                 not depend on it.

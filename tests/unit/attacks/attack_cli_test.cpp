@@ -9,6 +9,7 @@
 #include <iterator>
 #include <string>
 
+#include "meshmark/geometry/adjacency.h"
 #include "meshmark/geometry/shapes.h"
 #include "meshmark/io/mesh_io.h"
 #include "support/test_paths.h"
@@ -98,6 +99,34 @@ TEST_F(AttackCliTest, errors_map_to_exit_codes_and_leave_no_output)
     EXPECT_EQ(run((dir_ / "cloud.ply").string() + " -o " + out + " smooth=5"), 3);
     EXPECT_NE(file("stderr.txt").find("cloud.ply"), std::string::npos) << file("stderr.txt");
     EXPECT_FALSE(std::filesystem::exists(out));
+}
+
+TEST_F(AttackCliTest, voxel_remeshing_writes_a_closed_new_mesh_the_same_for_any_thread_count)
+{
+    ASSERT_EQ(run(input_.string() + " -o " + (dir_ / "v1.ply").string() +
+                  " --json --threads 1 voxel=60"),
+              0)
+        << file("stderr.txt");
+    const std::string json = file("stdout.txt");
+    EXPECT_NE(json.find("\"spec\":\"voxel=60\""), std::string::npos) << json;
+    EXPECT_NE(json.find("\"has_correspondence\":false"), std::string::npos) << json;
+    ASSERT_EQ(run(input_.string() + " -o " + (dir_ / "v2.ply").string() + " --threads 2 voxel=60"),
+              0);
+    EXPECT_EQ(file("v1.ply"), file("v2.ply"));
+    const TriangleMesh out = read_mesh(dir_ / "v1.ply");
+    EXPECT_TRUE(edge_statistics(out).is_closed());
+    EXPECT_NE(out.V.rows(), 2562);
+
+    const std::string never = (dir_ / "never.ply").string();
+    EXPECT_EQ(run(input_.string() + " -o " + never + " voxel=5"), 2);
+    EXPECT_NE(file("stderr.txt").find("resolution 5 is outside [10, 2000]"), std::string::npos)
+        << file("stderr.txt");
+    TriangleMesh cloud;
+    cloud.V = lumpy_ellipsoid(2).V;
+    write_mesh(dir_ / "cloud.ply", cloud);
+    EXPECT_EQ(run((dir_ / "cloud.ply").string() + " -o " + never + " voxel=150"), 3);
+    EXPECT_NE(file("stderr.txt").find("cloud.ply"), std::string::npos) << file("stderr.txt");
+    EXPECT_FALSE(std::filesystem::exists(never));
 }
 
 TEST_F(AttackCliTest, refuses_to_overwrite_the_input_unless_forced)

@@ -76,6 +76,10 @@ TEST(AttackSpecTest, to_string_is_canonical_and_round_trips)
     EXPECT_EQ(to_string(parse_attack_spec("similarity:scale=1")), "similarity:scale=1");
     EXPECT_EQ(to_string(parse_attack_spec("crop=0.5:ax=1:ay=2:az=0")), "crop=0.5:ax=1:ay=2:az=0");
     EXPECT_EQ(to_string(parse_attack_spec("subdivide")), "subdivide=loop");
+    EXPECT_EQ(to_string(parse_attack_spec("voxel")), "voxel=150");
+    EXPECT_EQ(to_string(parse_attack_spec("voxel=3e2")), "voxel=300");
+    EXPECT_EQ(std::get<VoxelRemeshingOptions>(parse_attack_spec("voxel=300").front()).resolution,
+              300.0);
 
     // Awkward doubles and every alternative survive text and back bit for bit.
     const std::vector<AttackSpec> specs = {
@@ -95,6 +99,7 @@ TEST(AttackSpecTest, to_string_is_canonical_and_round_trips)
         CropOptions{.vertex_fraction = 0.123456789, .direction = Eigen::Vector3d(0, 0, -1)},
         CropOptions{},
         ReorderOptions{},
+        VoxelRemeshingOptions{.resolution = 1000.0 / 3.0},
     };
     const auto back = parse_attack_spec(to_string(specs));
     ASSERT_EQ(back.size(), specs.size());
@@ -113,6 +118,8 @@ TEST(AttackSpecTest, bad_specs_throw_invalid_option_naming_the_problem)
     EXPECT_NE(parse_error("noise=0.1:foo=1").find("dist, dir, ref"), std::string::npos);
     EXPECT_NE(parse_error("noise=2").find("outside [0, 1]"), std::string::npos);
     EXPECT_NE(parse_error("simplify=0.1,noise=2").find("'noise=2'"), std::string::npos);
+    EXPECT_NE(parse_error("voxel=5").find("resolution 5 is outside [10, 2000]"), std::string::npos);
+    EXPECT_NE(parse_error("voxel=150:adapt=0").find("voxel, which takes no keys"), std::string::npos);
     for (const char* bad :
          {"", " ", ",", "noise,,smooth", "noise,", "noise=", "noise:dist", "noise:=3",
           "noise=-0.1", "noise=nan", "noise=0.1:dist=cauchy", "noise=0.1:dir=up",
@@ -124,7 +131,8 @@ TEST(AttackSpecTest, bad_specs_throw_invalid_option_naming_the_problem)
           "crop=0.5:ax=0:ay=0:az=0", "reorder=1", "reorder:x=1", "similarity=3",
           "similarity:axis=w", "similarity:axis=x:ax=1", "similarity:angle=30:smax=2",
           "similarity:scale=0", "similarity:scale=-2", "similarity:smax=0.5",
-          "similarity:angle=ten", "NOISE=0.1"})
+          "similarity:angle=ten", "NOISE=0.1", "voxel=9.99", "voxel=2001",
+          "voxel=0", "voxel=-150", "voxel=inf", "voxel=nan", "voxel=1/150", "voxel=150:adapt=0"})
     {
         EXPECT_THROW((void)parse_attack_spec(bad), InvalidOption) << "'" << bad << "'";
     }
@@ -133,10 +141,10 @@ TEST(AttackSpecTest, bad_specs_throw_invalid_option_naming_the_problem)
 TEST(AttackSpecTest, names_follow_the_grammar)
 {
     const auto specs = parse_attack_spec(
-        "similarity,noise,smooth,taubin,quantize,simplify,remesh,subdivide,crop,reorder");
+        "similarity,noise,smooth,taubin,quantize,simplify,remesh,subdivide,crop,reorder,voxel");
     const std::vector<std::string> names = {"similarity", "noise",  "smooth",    "taubin",
                                             "quantize",   "simplify", "remesh", "subdivide",
-                                            "crop",       "reorder"};
+                                            "crop",       "reorder", "voxel"};
     ASSERT_EQ(specs.size(), names.size());
     for (std::size_t k = 0; k < specs.size(); ++k)
     {
