@@ -3,10 +3,11 @@
 
 For every attack (marked copies) and for the null trials (wrong keys, unmarked copies), counts
 the copies claimed at --max-fpp by the soft correlation alone (3 weightings, union factor 3)
-and by the combined rule (those 3 and the bit count, factor 4), and how many copies that read
+and by the combined rule (that and the bit count, a share --share of the level to the bit
+count: FPP = min(p_soft / (1 - share), p_bits / share)), and how many copies that read
 R >= 0.9 each rule refuses. Both are recomputed from the recorded score z and the bits'
 binomial tail, so a trials file made under either default gives the same table.
-Usage: verdicts.py [--max-fpp 1e-6] TRIALS.json [...]
+Usage: verdicts.py [--max-fpp 1e-6] [--share 0.0625] TRIALS.json [...]
 """
 import argparse
 import json
@@ -23,6 +24,7 @@ def rademacher_tail(z):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--max-fpp", type=float, default=1e-6)
+    parser.add_argument("--share", type=float, default=1.0 / 16.0)
     parser.add_argument("files", nargs="+")
     args = parser.parse_args()
     trials = []
@@ -33,7 +35,7 @@ def main():
     for t in trials:
         key = t["attack"] if t["kind"] == "marked" else f'({t["kind"]})'
         soft = min(1.0, 3 * rademacher_tail(t["score"]))
-        combined = min(1.0, 4 * min(rademacher_tail(t["score"]), t["bits_false_positive_probability"]))
+        combined = min(1.0, soft / (1.0 - args.share), t["bits_false_positive_probability"] / args.share)
         high = t["correlation"] >= 0.9
         r = rows[key]
         r[0] += 1
