@@ -32,6 +32,7 @@ struct CompareArgs
     std::string heatmap;
     std::string view;  // of a .png heatmap; empty = the default
     std::string size;  // of a .png heatmap, WxH; empty = the default
+    std::string up;    // of a .png heatmap: the model's up axis; empty = +Y
     CompareOptions options;
 };
 
@@ -78,7 +79,7 @@ HeatmapImageOptions check_heatmap_args(const CompareArgs& args)
     if (kind != HeatmapKind::Png)
     {
         for (const auto& [name, value] :
-             {std::pair{"--view", &args.view}, std::pair{"--size", &args.size}})
+             {std::pair{"--view", &args.view}, std::pair{"--size", &args.size}, std::pair{"--up", &args.up}})
         {
             if (!value->empty())
             {
@@ -105,6 +106,10 @@ HeatmapImageOptions check_heatmap_args(const CompareArgs& args)
         if (!args.size.empty())
         {
             image.size = parse_image_size(args.size);
+        }
+        if (!args.up.empty())
+        {
+            image.up = parse_up_axis(args.up);
         }
     }
     catch (const InvalidOption& e)
@@ -309,10 +314,13 @@ void register_compare(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
         "bar in % of A's bounding-box diagonal, drawn without a display or GPU");
     command->add_option(
         "--view", args->view,
-        std::string("Direction a .png heatmap shows B from, +Y up and the front facing +Z: ") +
+        std::string("Direction a .png heatmap shows B from, about its up axis (--up): ") +
             kViewNames +
             ", or AZIMUTH,ELEVATION in degrees (azimuth from the front towards the right, "
             "elevation above the horizon; front34 is 30,20). The model is fitted to the picture");
+    command->add_option("--up", args->up,
+                        "Up axis of B in a .png heatmap: y (default; front +Z: Stanford scans, most "
+                        "OBJ/PLY, glTF), z (front -Y: Blender, CAD, STL/3MF for printing), x, -y, -z, -x");
     command->add_option("--size", args->size,
                         "Size of a .png heatmap in pixels, WIDTHxHEIGHT (default 1024x768; " +
                             std::to_string(kMinImageSide) + " to " + std::to_string(kMaxImageSide) +

@@ -267,7 +267,7 @@ HeatmapPicture render_heatmap(const TriangleMesh& mesh, const Eigen::VectorXd& d
     const int ss = options.supersampling;
     const int width = out.layout.model_width * ss;
     const int height = options.size.height * ss;
-    const ViewFrame frame = view_frame(options.view);
+    const ViewFrame frame = view_frame(options.view, options.up);
     Positions screen;
     const double scale = project(mesh, rows, frame, width, height, screen);
     Positions normals;

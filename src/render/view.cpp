@@ -5,6 +5,7 @@
 #include <cmath>
 #include <numbers>
 #include <optional>
+#include <utility>
 
 #include <Eigen/Geometry>
 
@@ -69,7 +70,47 @@ ViewAngles parse_view(const std::string& text)
                         ", or AZIMUTH,ELEVATION in degrees such as 30,20).");
 }
 
-ViewFrame view_frame(const ViewAngles& view)
+UpAxis parse_up_axis(const std::string& text)
+{
+    const std::string axis = !text.empty() && text.front() == '+' ? text.substr(1) : text;
+    const std::pair<const char*, UpAxis> names[] = {{"y", UpAxis::PosY},   {"z", UpAxis::PosZ},
+                                                    {"x", UpAxis::PosX},   {"-y", UpAxis::NegY},
+                                                    {"-z", UpAxis::NegZ}, {"-x", UpAxis::NegX}};
+    for (const auto& [name, value] : names)
+    {
+        if (axis == name)
+        {
+            return value;
+        }
+    }
+    throw InvalidOption("up axis '" + text + "' is not one of y, z, x, -y, -z, -x.");
+}
+
+namespace {
+
+// The rotation taking the +Y-up, +Z-front convention to \p up and its front: its columns are
+// the images of X (up x front), Y (up) and Z (front).
+Eigen::Matrix3d up_rotation(UpAxis up)
+{
+    Eigen::Vector3d u = Eigen::Vector3d::UnitY();
+    Eigen::Vector3d f = Eigen::Vector3d::UnitZ();
+    switch (up)
+    {
+    case UpAxis::PosY: break;
+    case UpAxis::PosZ: u = Eigen::Vector3d::UnitZ(); f = -Eigen::Vector3d::UnitY(); break;
+    case UpAxis::PosX: u = Eigen::Vector3d::UnitX(); f = Eigen::Vector3d::UnitZ(); break;
+    case UpAxis::NegY: u = -Eigen::Vector3d::UnitY(); f = -Eigen::Vector3d::UnitZ(); break;
+    case UpAxis::NegZ: u = -Eigen::Vector3d::UnitZ(); f = Eigen::Vector3d::UnitY(); break;
+    case UpAxis::NegX: u = -Eigen::Vector3d::UnitX(); f = Eigen::Vector3d::UnitZ(); break;
+    }
+    Eigen::Matrix3d rotation;
+    rotation << u.cross(f), u, f;
+    return rotation;
+}
+
+}  // namespace
+
+ViewFrame view_frame(const ViewAngles& view, UpAxis up)
 {
     const double az = view.azimuth_deg * std::numbers::pi / 180.0;
     const double el = view.elevation_deg * std::numbers::pi / 180.0;
@@ -78,6 +119,13 @@ ViewFrame view_frame(const ViewAngles& view)
         Eigen::Vector3d(std::sin(az) * std::cos(el), std::sin(el), std::cos(az) * std::cos(el));
     frame.right = Eigen::Vector3d(std::cos(az), 0.0, -std::sin(az));
     frame.up = frame.toward.cross(frame.right);
+    if (up != UpAxis::PosY)
+    {
+        const Eigen::Matrix3d rotation = up_rotation(up);
+        frame.toward = rotation * frame.toward;
+        frame.right = rotation * frame.right;
+        frame.up = rotation * frame.up;
+    }
     return frame;
 }
 

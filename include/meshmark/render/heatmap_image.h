@@ -15,6 +15,7 @@ struct HeatmapImageOptions
 {
     ImageSize size;                  ///< Of the whole picture, colour bar included.
     ViewAngles view = kDefaultView;  ///< Direction the model is seen from (parse_view).
+    UpAxis up = UpAxis::PosY;        ///< The model's up axis (parse_up_axis).
     /// Distance drawn in red (the top of the colour bar); 0 = the largest distance of a drawn
     /// vertex.
     double max_distance = 0.0;

@@ -41,7 +41,26 @@ struct ViewFrame
     Eigen::Vector3d up;
     Eigen::Vector3d toward;
 };
-[[nodiscard]] ViewFrame view_frame(const ViewAngles& view);
+/// \brief The model's up axis; the views above are then taken about it. Each axis comes with
+/// the front the usual tools give it: +Y up, front +Z (the default: Stanford scans, most OBJ
+/// and PLY, glTF); +Z up, front -Y (Blender, CAD, 3D printing: STL, 3MF); +X up, front +Z;
+/// -Y up, front -Z; -Z up, front +Y; -X up, front +Z.
+enum class UpAxis
+{
+    PosY,
+    PosZ,
+    PosX,
+    NegY,
+    NegZ,
+    NegX,
+};
+
+/// \brief "y", "z", "x", "-y", "-z" or "-x" (also with a leading '+').
+/// \throws InvalidOption with one sentence naming \p text for anything else.
+[[nodiscard]] UpAxis parse_up_axis(const std::string& text);
+
+/// \brief The camera frame of \p view for a model whose up axis is \p up.
+[[nodiscard]] ViewFrame view_frame(const ViewAngles& view, UpAxis up = UpAxis::PosY);
 
 /// An image size in pixels.
 struct ImageSize

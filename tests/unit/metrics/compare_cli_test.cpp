@@ -175,6 +175,13 @@ TEST_F(CompareCliTest, png_heatmap_options_are_checked)
     run = run_cli("compare \"" + a_ + "\" \"" + b_ + "\" --view top", dir_);
     EXPECT_EQ(run.exit_code, 2);
     EXPECT_NE(run.err.find(".png"), std::string::npos);
+    run = run_cli(
+        "compare \"" + a_ + "\" \"" + b_ + "\" --heatmap \"" + png.string() + "\" --up w", dir_);
+    EXPECT_EQ(run.exit_code, 2);
+    EXPECT_NE(run.err.find("up axis 'w'"), std::string::npos);
+    run = run_cli("compare \"" + a_ + "\" \"" + b_ + "\" --up z", dir_);
+    EXPECT_EQ(run.exit_code, 2);
+    EXPECT_NE(run.err.find("--up applies to a .png"), std::string::npos);
     EXPECT_FALSE(std::filesystem::exists(png));
     // A point cloud B is drawn as dots.
     TriangleMesh cloud = read_mesh(b_);

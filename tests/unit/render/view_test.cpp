@@ -57,6 +57,37 @@ TEST(ViewTest, frames_are_orthonormal_and_follow_the_convention)
     }
 }
 
+// The up axis turns the whole camera: with +Z up the front view looks along +Y (the model's
+// front faces -Y, as in Blender), the image's up is +Z and its right +X.
+TEST(ViewTest, up_axis_turns_the_camera)
+{
+    EXPECT_EQ(parse_up_axis("y"), UpAxis::PosY);
+    EXPECT_EQ(parse_up_axis("+z"), UpAxis::PosZ);
+    EXPECT_EQ(parse_up_axis("-x"), UpAxis::NegX);
+    EXPECT_THROW((void)parse_up_axis("w"), InvalidOption);
+    EXPECT_THROW((void)parse_up_axis(""), InvalidOption);
+    const ViewFrame z = view_frame(parse_view("front"), UpAxis::PosZ);
+    EXPECT_TRUE(z.toward.isApprox(Eigen::Vector3d(0, -1, 0), 1e-12));
+    EXPECT_TRUE(z.up.isApprox(Eigen::Vector3d(0, 0, 1), 1e-12));
+    EXPECT_TRUE(z.right.isApprox(Eigen::Vector3d(1, 0, 0), 1e-12));
+    const ViewFrame top = view_frame(parse_view("top"), UpAxis::PosZ);
+    EXPECT_TRUE(top.toward.isApprox(Eigen::Vector3d(0, 0, 1), 1e-12));
+    // Every axis: a right-handed orthonormal frame whose image-up leans towards that axis.
+    for (const char* name : {"y", "z", "x", "-y", "-z", "-x"})
+    {
+        const UpAxis up = parse_up_axis(name);
+        const ViewFrame f = view_frame(kDefaultView, up);
+        EXPECT_NEAR(f.right.cross(f.up).dot(f.toward), 1.0, 1e-12) << name;
+        EXPECT_NEAR(f.right.norm(), 1.0, 1e-12) << name;
+        EXPECT_NEAR(f.up.dot(f.toward), 0.0, 1e-12) << name;
+        const ViewFrame front = view_frame(parse_view("front"), up);
+        const Eigen::Vector3d axis = front.up;
+        EXPECT_NEAR(axis.cwiseAbs().maxCoeff(), 1.0, 1e-12) << name;  // exactly the up axis
+    }
+    EXPECT_TRUE(view_frame(parse_view("front"), UpAxis::NegZ).up.isApprox(Eigen::Vector3d(0, 0, -1), 1e-12));
+    EXPECT_TRUE(view_frame(parse_view("front"), UpAxis::PosX).up.isApprox(Eigen::Vector3d(1, 0, 0), 1e-12));
+}
+
 TEST(ViewTest, image_sizes)
 {
     const ImageSize s = parse_image_size("640x480");
