@@ -27,6 +27,7 @@ packages=(
   libsuitesparse-dev     # CHOLMOD sparse Cholesky for the Laplacian eigenbasis
   libgtest-dev libgmock-dev googletest              # tests
   libbenchmark-dev       # micro-benchmarks
+  pybind11-dev python3-dev python3-numpy python3-pytest  # the Python package (python/) and its tests
 )
 if ((interop_tools)); then
   # Interop tests (label `interop`): the ecosystem's own tools write the inputs and check
