@@ -33,6 +33,8 @@ if ((interop_tools)); then
   # Interop tests (label `interop`): the ecosystem's own tools write the inputs and check
   # the outputs. The npm ones are pinned in tests/interop/package.json (installed below).
   packages+=(gltfpack draco prusa-slicer xvfb xauth)
+  # The Blender add-on's headless test (python/blender; label `interop`): Debian's Blender 3.4.
+  packages+=(blender)
   # Node.js for the npm tools: Debian's, unless the machine already has a node and npm.
   if ! command -v node >/dev/null || ! command -v npm >/dev/null; then packages+=(nodejs npm); fi
 fi

@@ -66,7 +66,7 @@ if [[ -f $mesh_dir/bunny.off ]]; then
 else
     echo "test_install.sh: $mesh_dir/bunny.off missing; shared-mesh run skipped"
 fi
-# The Python package, when this build made them (MESHMARK_PYTHON): the
+# The Python package and the Blender add-on, when this build made them (MESHMARK_PYTHON): the
 # package imported from the prefix alone, a numpy round trip, and its key read by the installed
 # program (and the program's key by the package).
 if grep -q '^MESHMARK_PYTHON:BOOL=ON' "$build/CMakeCache.txt"; then
@@ -74,6 +74,8 @@ if grep -q '^MESHMARK_PYTHON:BOOL=ON' "$build/CMakeCache.txt"; then
     site=$prefix/lib/python3/dist-packages
     [[ -f $site/meshmark/__init__.py ]] || fail "the Python package was not installed in $site"
     ls "$site"/meshmark/_meshmark*.so >/dev/null 2>&1 || fail "the _meshmark extension was not installed"
+    [[ -f $prefix/share/meshmark/blender/meshmark_blender/__init__.py ]] || fail "the Blender add-on was not installed"
+    [[ -f $prefix/share/meshmark/blender/meshmark_blender.zip ]] || fail "the Blender add-on zip was not installed"
     mkdir -p "$work/python"
     (cd "$work/python" && PYTHONPATH=$site "$python" - "$site" "$work/generated/generated.ply" <<'PY') ||
 import sys, meshmark
@@ -98,6 +100,6 @@ k = meshmark.Key.load(sys.argv[1]); V, F = meshmark.read_mesh(sys.argv[2]); M, _
 assert meshmark.detect(M, F, V, F, k).detected' "$work/generated/example.key.json" \
         "$work/generated/generated.ply" "$(find "$work/generated" -maxdepth 1 -name 'marked.*' -print -quit)" ||
         fail "the installed package did not detect the example's mark with its key"
-    echo "test_install.sh: Python package installed; numpy round trip and keys shared with the program"
+    echo "test_install.sh: Python package and Blender add-on installed; numpy round trip and keys shared with the program"
 fi
 echo "test_install.sh: OK ($headers headers, $(($(date +%s) - start)) s)"
