@@ -70,7 +70,7 @@ fi
 # package imported from the prefix alone, a numpy round trip, and its key read by the installed
 # program (and the program's key by the package).
 if grep -q '^MESHMARK_PYTHON:BOOL=ON' "$build/CMakeCache.txt"; then
-    python=$(sed -n 's/^Python_EXECUTABLE:[A-Z]*=//p' "$build/CMakeCache.txt")
+    python=$(sed -n 's/^_\{0,1\}Python_EXECUTABLE:[A-Z]*=//p' "$build/CMakeCache.txt" | head -1)
     site=$prefix/lib/python3/dist-packages
     [[ -f $site/meshmark/__init__.py ]] || fail "the Python package was not installed in $site"
     ls "$site"/meshmark/_meshmark*.so >/dev/null 2>&1 || fail "the _meshmark extension was not installed"
