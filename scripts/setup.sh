@@ -28,12 +28,15 @@ packages=(
   libsuitesparse-dev     # CHOLMOD sparse Cholesky for the Laplacian eigenbasis
   libgtest-dev libgmock-dev googletest              # tests
   libbenchmark-dev       # micro-benchmarks
+  pybind11-dev python3-dev python3-numpy python3-pytest  # the Python package (python/) and its tests
 )
 if ((interop_tools)); then
   # Interop tests (label `interop`): the ecosystem's own tools write the inputs and check
   # the outputs. The npm ones are pinned in tests/interop/package.json (installed below).
   packages+=(gltfpack draco prusa-slicer xvfb xauth)
-  packages+=(blender)  # the voxel remesh that `meshmark attack voxel=N` must reproduce
+  # Blender 3.4 (Debian): the voxel remesh that `meshmark attack voxel=N` must reproduce, and
+  # the add-on's headless test (python/blender); both label `interop`.
+  packages+=(blender)
   # Node.js for the npm tools: Debian's, unless the machine already has a node and npm.
   if ! command -v node >/dev/null || ! command -v npm >/dev/null; then packages+=(nodejs npm); fi
 fi

@@ -66,4 +66,40 @@ if [[ -f $mesh_dir/bunny.off ]]; then
 else
     echo "test_install.sh: $mesh_dir/bunny.off missing; shared-mesh run skipped"
 fi
+# The Python package and the Blender add-on, when this build made them (MESHMARK_PYTHON): the
+# package imported from the prefix alone, a numpy round trip, and its key read by the installed
+# program (and the program's key by the package).
+if grep -q '^MESHMARK_PYTHON:BOOL=ON' "$build/CMakeCache.txt"; then
+    python=$(sed -n 's/^_\{0,1\}Python_EXECUTABLE:[A-Z]*=//p' "$build/CMakeCache.txt" | head -1)
+    site=$prefix/lib/python3/dist-packages
+    [[ -f $site/meshmark/__init__.py ]] || fail "the Python package was not installed in $site"
+    ls "$site"/meshmark/_meshmark*.so >/dev/null 2>&1 || fail "the _meshmark extension was not installed"
+    [[ -f $prefix/share/meshmark/blender/meshmark_blender/__init__.py ]] || fail "the Blender add-on was not installed"
+    [[ -f $prefix/share/meshmark/blender/meshmark_blender.zip ]] || fail "the Blender add-on zip was not installed"
+    mkdir -p "$work/python"
+    (cd "$work/python" && PYTHONPATH=$site "$python" - "$site" "$work/generated/generated.ply" <<'PY') ||
+import sys, meshmark
+assert meshmark.__file__.startswith(sys.argv[1]), meshmark.__file__
+V, F = meshmark.read_mesh(sys.argv[2])
+key, marked = meshmark.embed(V, F, seed=5, message="installed")
+assert meshmark.detect(marked, F, V, F, key).detected
+assert not meshmark.detect(V, F, V, F, key).detected
+key.save("py.key.json")
+meshmark.write_mesh("marked.ply", marked, F)
+try:
+    meshmark.embed(V[:, :2], F)
+    raise SystemExit("a bad array did not raise")
+except meshmark.InvalidMesh:
+    pass
+PY
+        fail "the installed Python package"
+    "$prefix/bin/meshmark" detect "$work/python/marked.ply" --original "$work/generated/generated.ply" \
+        --key "$work/python/py.key.json" --quiet || fail "the installed meshmark did not detect the package's mark"
+    PYTHONPATH=$site "$python" -c 'import sys, meshmark
+k = meshmark.Key.load(sys.argv[1]); V, F = meshmark.read_mesh(sys.argv[2]); M, _ = meshmark.read_mesh(sys.argv[3])
+assert meshmark.detect(M, F, V, F, k).detected' "$work/generated/example.key.json" \
+        "$work/generated/generated.ply" "$(find "$work/generated" -maxdepth 1 -name 'marked.*' -print -quit)" ||
+        fail "the installed package did not detect the example's mark with its key"
+    echo "test_install.sh: Python package and Blender add-on installed; numpy round trip and keys shared with the program"
+fi
 echo "test_install.sh: OK ($headers headers, $(($(date +%s) - start)) s)"

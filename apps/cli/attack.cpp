@@ -1,6 +1,5 @@
 // SPDX-License-Identifier: MIT
 // `meshmark attack`: apply a chain of attacks (the robustness benchmark's suite) to a mesh file.
-#include <chrono>
 #include <cstdint>
 #include <cstdio>
 #include <memory>
@@ -9,9 +8,7 @@
 
 #include "commands.h"
 #include "meshmark/attacks/attack_spec.h"
-#include "meshmark/core/atomic_file.h"
-#include "meshmark/core/error.h"
-#include "meshmark/io/mesh_io.h"
+#include "meshmark/pipeline/attack_file.h"
 #include "progress.h"
 #include "report.h"
 
@@ -27,11 +24,6 @@ struct AttackArgs
     bool force = false;
     bool json = false;
 };
-
-double seconds_since(std::chrono::steady_clock::time_point start)
-{
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
 
 std::string number(double value) { return format_number(value, 6); }
 
@@ -96,107 +88,57 @@ std::string grammar_help()
            "Example: meshmark attack in.ply -o out.ply --seed 3 similarity,simplify=0.1,noise=0.001";
 }
 
-nlohmann::json transform_json(const AttackResult& result)
+double phase_seconds(const PhaseTimings& timings, const std::string& name)
 {
-    if (!result.similarity)
+    for (const auto& [phase, seconds] : timings.phases)
     {
-        return nullptr;
+        if (phase == name)
+        {
+            return seconds;
+        }
     }
-    nlohmann::json rows = nlohmann::json::array();
-    const Eigen::Matrix4d m = result.similarity->matrix();
-    for (int r = 0; r < 4; ++r)
-    {
-        rows.push_back({m(r, 0), m(r, 1), m(r, 2), m(r, 3)});
-    }
-    return rows;
+    return 0.0;
 }
 
 int run_attack(const AttackArgs& args, const GlobalArgs& global)
 {
-    // Check everything that needs no reading first.
-    const auto specs = parse_attack_spec(args.spec);
-    if (!args.force && is_same_file(args.output, args.input))
-    {
-        throw InvalidOption("attack: the output " + args.output +
-                            " is the input file; write elsewhere or pass --force.");
-    }
-    (void)format_from_extension(args.output);
-
+    AttackFileOptions options;
+    options.seed = args.seed;
+    options.threads = global.threads;
+    options.force = args.force;
     // Phases and a running clock on a terminal, after the first second (remeshing or simplifying
     // a large mesh takes several); silent otherwise. The phases are the --json `seconds` keys.
     std::optional<PhaseProgress> progress;
-    ProgressCallback report_phase = [](std::string_view, double) {};
     if (PhaseProgress::should_show(global.quiet))
     {
         progress.emplace(PhaseProgressOptions{"meshmark attack"});
-        report_phase = progress->callback();
+        options.progress = progress->callback();
     }
-
-    const auto start = std::chrono::steady_clock::now();
-    report_phase("read", 0.0);
-    const TriangleMesh mesh = read_mesh(args.input);
-    const double read_seconds = seconds_since(start);
-    report_phase("read", 1.0);
-
-    report_phase("attack", 0.0);
-    const auto attack_start = std::chrono::steady_clock::now();
-    AttackResult result;
-    try
-    {
-        result = apply_attacks(mesh, specs, args.seed, global.threads);
-    }
-    catch (const InvalidMesh& e)
-    {
-        throw InvalidMesh(args.input + ": " + e.what());
-    }
-    const double attack_seconds = seconds_since(attack_start);
-    report_phase("attack", 1.0);
-
-    report_phase("write", 0.0);
-    const auto write_start = std::chrono::steady_clock::now();
-    write_mesh(args.output, result.mesh);
-    const double write_seconds = seconds_since(write_start);
-    const double total_seconds = seconds_since(start);
-    report_phase("write", 1.0);
+    const AttackFileReport report = attack_file(args.input, args.output, args.spec, options);
     if (progress)
     {
         progress->finish();
     }
 
-    const std::string canonical = to_string(specs);
     if (args.json)
     {
-        print_json({{"input", args.input},
-                    {"output", args.output},
-                    {"spec", canonical},
-                    {"seed", args.seed},
-                    {"vertices_before", mesh.vertex_count()},
-                    {"faces_before", mesh.face_count()},
-                    {"vertices_after", result.mesh.vertex_count()},
-                    {"faces_after", result.mesh.face_count()},
-                    {"has_correspondence", result.source_vertex.has_value()},
-                    {"transform", transform_json(result)},
-                    {"seconds",
-                     {{"read", read_seconds},
-                      {"attack", attack_seconds},
-                      {"write", write_seconds},
-                      {"total", total_seconds}}}});
+        print_json(attack_report_json(report, args.input, args.output));
     }
     if (!global.quiet)
     {
         std::fprintf(stderr,
                      "meshmark: attack %s (seed %llu): %lld vertices, %lld faces -> %lld vertices, "
                      "%lld faces in %.2f s (read %.2f, attack %.2f, write %.2f); wrote %s\n",
-                     canonical.c_str(), static_cast<unsigned long long>(args.seed),
-                     static_cast<long long>(mesh.vertex_count()),
-                     static_cast<long long>(mesh.face_count()),
-                     static_cast<long long>(result.mesh.vertex_count()),
-                     static_cast<long long>(result.mesh.face_count()), total_seconds, read_seconds,
-                     attack_seconds, write_seconds, args.output.c_str());
-        if (global.verbose && result.similarity)
+                     report.spec.c_str(), static_cast<unsigned long long>(args.seed),
+                     static_cast<long long>(report.vertices_before), static_cast<long long>(report.faces_before),
+                     static_cast<long long>(report.vertices_after), static_cast<long long>(report.faces_after),
+                     report.seconds.total, phase_seconds(report.seconds, "read"),
+                     phase_seconds(report.seconds, "attack"), phase_seconds(report.seconds, "write"),
+                     args.output.c_str());
+        if (global.verbose && report.similarity)
         {
             std::fprintf(stderr, "meshmark: similarity applied (input -> output): %s\n",
-                         transform_json(result).dump().c_str());
+                         matrix_json(*report.similarity).dump().c_str());
         }
     }
     return 0;

@@ -26,16 +26,6 @@ struct DetectArgs
     DetectOptions decision;
 };
 
-nlohmann::json transform_json(const Eigen::Matrix4d& m)
-{
-    nlohmann::json rows = nlohmann::json::array();
-    for (int r = 0; r < 4; ++r)
-    {
-        rows.push_back({m(r, 0), m(r, 1), m(r, 2), m(r, 3)});
-    }
-    return rows;
-}
-
 int run_detect(const DetectArgs& args, const GlobalArgs& global)
 {
     DetectFileOptions options;
@@ -62,35 +52,7 @@ int run_detect(const DetectArgs& args, const GlobalArgs& global)
     const Decision& d = report.decision;
     if (args.json)
     {
-        nlohmann::json out = {{"detected", d.is_present},
-                    {"correlation", d.correlation},
-                    {"matches", d.matches},
-                    {"bit_count", d.bit_count},
-                    {"threshold", args.decision.threshold},
-                    {"verdict", to_string(d.verdict)},
-                    {"score", d.score},
-                    {"coefficient_count", d.coefficient_count},
-                    {"max_false_positive_probability", args.decision.max_false_positive},
-                    {"bits_expected", d.bits_expected},
-                    {"bits_found", d.bits_found},
-                    {"false_positive_probability", d.false_positive_probability},
-                    {"score_false_positive_probability", d.score_false_positive_probability},
-                    {"bits_false_positive_probability", d.bits_false_positive_probability},
-                    {"cropped_fraction", report.cropped_fraction},
-                    {"registration",
-                     {{"method", report.alignment},
-                      {"rms_error", report.registration_rms},
-                      {"transform", transform_json(report.transform)}}},
-                    {"suspect_vertices", report.suspect_vertices},
-                    {"original_vertices", report.original_vertices},
-                    {"seconds", to_json(report.seconds)}};
-        if (global.verbose)
-        {
-            out["normalized_change"] = report.extraction.normalized_change;
-            out["coefficient_weights"] = report.extraction.weights;
-            out["bit_values"] = report.extraction.bit_values;
-        }
-        print_json(out);
+        print_json(detect_report_json(report, args.decision, global.verbose));
     }
     else
     {

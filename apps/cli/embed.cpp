@@ -75,27 +75,7 @@ int run_embed(const EmbedArgs& args, const GlobalArgs& global)
     const auto& stats = report.stats;
     if (args.json)
     {
-        print_json({{"input", args.input},
-                    {"output", args.output},
-                    {"key", args.key},
-                    {"vertices", report.vertex_count},
-                    {"faces", report.face_count},
-                    {"analysed_vertices", stats.analysed_vertices},
-                    {"rule", to_string(report.key.options.rule)},
-                    {"strength", report.key.options.strength},
-                    {"basis", to_string(report.key.options.basis)},
-                    {"centers", to_string(report.key.options.centers)},
-                    {"basis_size", report.key.options.basis_size},
-                    {"coefficients", report.key.options.coefficients},
-                    {"repetitions", report.key.options.repetitions},
-                    {"first_mode", report.key.options.first_mode},
-                    {"bits", to_bit_string(report.key.payload)},
-                    {"max_displacement", stats.max_displacement_rel},
-                    {"rms_displacement", stats.rms_displacement_rel},
-                    {"orthogonality_error", stats.orthogonality_error},
-                    {"weak_bits", stats.weak_bits},
-                    {"streamed", report.streamed},
-                    {"seconds", to_json(report.seconds)}});
+        print_json(embed_report_json(report, args.input, args.output, args.key));
     }
     if (!global.quiet && !report.stream_note.empty())
     {

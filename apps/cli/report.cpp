@@ -6,17 +6,6 @@
 
 namespace meshmark::cli {
 
-nlohmann::json to_json(const PhaseTimings& timings)
-{
-    nlohmann::json object = nlohmann::json::object();
-    for (const auto& [name, seconds] : timings.phases)
-    {
-        object[name] = seconds;
-    }
-    object["total"] = timings.total;
-    return object;
-}
-
 void print_json(const nlohmann::json& object)
 {
     std::cout << object.dump() << std::endl;

@@ -7,12 +7,10 @@
 
 #include "commands.h"
 #include "meshmark/pipeline/embed_file.h"
+#include "meshmark/pipeline/report_json.h"  // the --json reports (shared with the Python package)
 
 namespace meshmark::cli {
 
-
-/// Phase timings as a JSON object {"read": 0.1, ..., "total": 0.5}.
-[[nodiscard]] nlohmann::json to_json(const PhaseTimings& timings);
 
 /// Prints a JSON object on stdout (one line per object, for scripts).
 void print_json(const nlohmann::json& object);

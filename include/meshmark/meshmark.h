@@ -15,9 +15,11 @@
 #include "meshmark/core/threads.h"
 #include "meshmark/core/triangle_mesh.h"
 #include "meshmark/io/mesh_io.h"
+#include "meshmark/pipeline/attack_file.h"
 #include "meshmark/pipeline/detect_file.h"
 #include "meshmark/pipeline/embed_file.h"
 #include "meshmark/pipeline/progress.h"
+#include "meshmark/pipeline/report_json.h"
 #include "meshmark/watermark/key.h"
 #include "meshmark/watermark/watermark.h"
 

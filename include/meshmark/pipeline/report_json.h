@@ -1,0 +1,52 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+
+/// \file
+/// \brief The JSON reports of the `meshmark` commands (`--json`), built in one place so that the
+/// program and the Python package (python/) print and return the same fields.
+
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "meshmark/core/triangle_mesh.h"
+#include "meshmark/metrics/distortion.h"
+#include "meshmark/pipeline/attack_file.h"
+#include "meshmark/pipeline/detect_file.h"
+#include "meshmark/pipeline/embed_file.h"
+#include "meshmark/pipeline/progress.h"
+
+namespace meshmark {
+
+/// Phase timings as a JSON object {"read": 0.1, ..., "total": 0.5}.
+[[nodiscard]] nlohmann::json to_json(const PhaseTimings& timings);
+
+/// A 4x4 matrix as four rows of four numbers.
+[[nodiscard]] nlohmann::json matrix_json(const Eigen::Matrix4d& matrix);
+
+/// \brief What an embed made, without the files: the key's parameters, the payload bits and the
+/// distortion (`analysed_vertices`, `rule`, `strength`, `basis`, ..., `weak_bits`).
+[[nodiscard]] nlohmann::json embed_stats_json(const Key& key, const EmbedStats& stats);
+
+/// \brief `meshmark embed --json`: embed_stats_json plus the file names as given, the counts,
+/// `streamed` and `seconds`.
+[[nodiscard]] nlohmann::json embed_report_json(const EmbedReport& report, const std::string& input,
+                                               const std::string& output, const std::string& key);
+
+/// \brief `meshmark detect --json`: the decision, registration and counts of \p report under
+/// \p options (its threshold and bound are echoed). \p diagnostics adds what was read per
+/// coefficient and bit (`normalized_change`, `coefficient_weights`, `bit_values`; `--verbose`).
+[[nodiscard]] nlohmann::json detect_report_json(const DetectReport& report, const DetectOptions& options,
+                                                bool diagnostics = false);
+
+/// `meshmark attack --json`.
+[[nodiscard]] nlohmann::json attack_report_json(const AttackFileReport& report, const std::string& input,
+                                                const std::string& output);
+
+/// \brief `meshmark compare --json` without `seconds` and `heatmap`: the distances of \p report
+/// (A = \p a read from \p a_path, B likewise), the counts and the sampling \p seed.
+[[nodiscard]] nlohmann::json compare_report_json(const std::string& a_path, const std::string& b_path,
+                                                 const TriangleMesh& a, const TriangleMesh& b,
+                                                 const DistortionReport& report, std::uint64_t seed);
+
+}  // namespace meshmark

@@ -1,0 +1,62 @@
+# SPDX-License-Identifier: MIT
+"""meshmark: robust invisible watermarks for 3D meshes, on numpy arrays.
+
+In memory (numpy arrays in and out)::
+
+    import meshmark
+    key, marked = meshmark.embed(V, F, message="(c) studio", seed=42)
+    key.save("model.key.json")
+    result = meshmark.detect(marked, F, V, F, key)
+    result.detected, result.score, result.false_positive_probability, result.to_dict()
+
+V is an (n, 3) array of positions, F an (m, 3) array of vertex indices or None for a point
+cloud. The file functions embed_file, detect_file, attack and compare do what the meshmark
+program's commands do and return its --json report as a dict; the key file is the same.
+Errors are meshmark.Error subclasses (IoError, InvalidMesh, InvalidOption, NumericalError)
+carrying the program's one-sentence message. See docs/library.md, "Python".
+"""
+
+from ._meshmark import (
+    DetectResult,
+    Error,
+    InvalidMesh,
+    InvalidOption,
+    IoError,
+    Key,
+    NumericalError,
+    __version__,
+    attack,
+    attack_mesh,
+    compare,
+    detect,
+    detect_file,
+    embed,
+    embed_file,
+    read_mesh,
+    write_mesh,
+)
+
+__all__ = [
+    "DetectResult",
+    "Error",
+    "InvalidMesh",
+    "InvalidOption",
+    "IoError",
+    "Key",
+    "NumericalError",
+    "__version__",
+    "attack",
+    "attack_mesh",
+    "compare",
+    "detect",
+    "detect_file",
+    "embed",
+    "embed_file",
+    "read_mesh",
+    "write_mesh",
+]
+
+# Shown as meshmark.Error, meshmark.Key, ... in tracebacks and help(), where users import them.
+for _name in ("DetectResult", "Error", "InvalidMesh", "InvalidOption", "IoError", "Key", "NumericalError"):
+    globals()[_name].__module__ = __name__
+del _name

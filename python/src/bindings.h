@@ -1,0 +1,41 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+
+// The parts of the extension module _meshmark, one function per source file.
+
+#include <pybind11/pybind11.h>
+
+#include "meshmark/pipeline/detect_file.h"
+#include "meshmark/pipeline/embed_file.h"
+
+namespace meshmark::python {
+
+namespace py = pybind11;
+
+/// The embed keywords shared by embed() and embed_file() (everything but the files').
+struct EmbedKeywords
+{
+    py::object message, bits, seed, strength;
+    std::string rule, basis, centers;
+    int basis_size, coefficients, repetitions, first_mode;
+    double sigma_factor;
+    std::int64_t gram_rows;
+    int threads;
+};
+
+/// \brief The library's options from the keywords (the CLI's parsing of the same flags).
+/// \throws InvalidOption for unknown names or out-of-range values.
+void fill_embed_options(const EmbedKeywords& keywords, EmbedMeshOptions& options);
+
+/// \brief The detect keywords shared by detect() and detect_file().
+/// \p pairs: None, a point-pair file (the CLI's --pairs) or a (k, 6) array of suspect and
+/// original points.
+DetectFileOptions make_detect_options(const std::string& verdict, double max_fpp, double threshold, double epsilon,
+                                      bool allow_registration, py::handle pairs, int threads);
+
+void bind_errors(py::module_& m);
+void bind_key(py::module_& m);
+void bind_memory(py::module_& m);  ///< embed, detect, DetectResult, attack_mesh
+void bind_files(py::module_& m);   ///< embed_file, detect_file, attack, compare
+
+}  // namespace meshmark::python

@@ -1,0 +1,171 @@
+// SPDX-License-Identifier: MIT
+// The file-level calls, each returning the JSON report of the matching `meshmark` command.
+#include <chrono>
+#include <optional>
+
+#include <pybind11/stl.h>
+#include <pybind11/stl/filesystem.h>
+
+#include "bindings.h"
+#include "convert.h"
+#include "meshmark/io/mesh_io.h"
+#include "meshmark/meshmark.h"
+#include "meshmark/metrics/distortion.h"
+#include "meshmark/pipeline/attack_file.h"
+#include "meshmark/pipeline/report_json.h"
+
+namespace meshmark::python {
+namespace {
+
+using Path = std::filesystem::path;
+
+constexpr const char* kEmbedFileDoc = R"(Watermark a mesh file: `meshmark embed INPUT -o OUTPUT --key KEY_PATH`.
+
+Writes the marked copy (format from output's extension; everything but the positions is kept
+when it is the input's format) and the key file, atomically and together. Returns the report
+of `meshmark embed --json` as a dict. Keywords: those of meshmark.embed, plus
+  force          replace an existing key file, or the input itself when output names it
+  memory_budget  MiB; above it a binary PLY is embedded out of core (0 = no budget)
+  stream         always embed out of core (binary PLY only)
+Raises meshmark.Error subclasses with the program's message.)";
+
+constexpr const char* kDetectFileDoc = R"(Look for a key's mark in a suspect file: `meshmark detect SUSPECT --original ORIGINAL --key KEY_PATH --json`.
+
+Returns the report of `meshmark detect --json` as a dict ('detected', 'score',
+'false_positive_probability', ...). Keywords: those of meshmark.detect.)";
+
+}  // namespace
+
+void bind_files(py::module_& m)
+{
+    m.def(
+        "read_mesh",
+        [](const Path& path) {
+            std::optional<TriangleMesh> mesh;
+            {
+                py::gil_scoped_release release;
+                mesh.emplace(read_mesh(path));
+            }
+            const bool cloud = mesh->is_point_cloud();
+            py::object faces = cloud ? py::object(py::none()) : py::object(to_numpy(std::move(mesh->F)));
+            return py::make_tuple(to_numpy(std::move(mesh->V)), faces);
+        },
+        py::arg("path"),
+        "Read a mesh file (.ply .obj .off .stl .gltf .glb .3mf) as (V, F): (n, 3) float64 positions and "
+        "(m, 3) int32 triangles (polygons fan-triangulated), F None for a point cloud. Raises IoError, "
+        "InvalidMesh.");
+    m.def(
+        "write_mesh",
+        [](const Path& path, py::handle V, py::handle F, bool binary) {
+            const TriangleMesh mesh = mesh_from_arrays(V, F, "");
+            py::gil_scoped_release release;
+            write_mesh(path, mesh, WriteOptions{.is_binary = binary});
+        },
+        py::arg("path"), py::arg("V"), py::arg("F") = py::none(), py::kw_only(), py::arg("binary") = true,
+        "Write (V, F) to a mesh file, format from the extension, atomically; positions in double precision "
+        "where the format allows (binary PLY by default), so a file written here reads back exactly.");
+    m.def(
+        "embed_file",
+        [](const Path& input, const Path& output, const Path& key_path, py::object message, py::object bits,
+           py::object seed, py::object strength, std::string rule, std::string basis, std::string centers,
+           int basis_size, int coefficients, int repetitions, int first_mode, double sigma_factor,
+           std::int64_t gram_rows, int threads, bool force, std::int64_t memory_budget, bool stream) {
+            EmbedFileOptions options;
+            fill_embed_options({message, bits, seed, strength, rule, basis, centers, basis_size, coefficients,
+                                repetitions, first_mode, sigma_factor, gram_rows, threads},
+                               options);
+            options.force = force;
+            options.replace_input = force;  // as the program: the output may name the input only with force
+            options.memory_budget_mib = memory_budget;
+            options.force_stream = stream;
+            std::optional<EmbedReport> report;
+            {
+                py::gil_scoped_release release;
+                report.emplace(embed_file(input, output, key_path, options));
+            }
+            return to_python(embed_report_json(*report, input.string(), output.string(), key_path.string()));
+        },
+        py::arg("input"), py::arg("output"), py::arg("key_path"), py::kw_only(), py::arg("message") = py::none(),
+        py::arg("bits") = py::none(), py::arg("seed") = py::none(), py::arg("strength") = py::none(),
+        py::arg("rule") = "additive", py::arg("basis") = "rbf", py::arg("centers") = "random",
+        py::arg("basis_size") = EmbedOptions{}.basis_size, py::arg("coefficients") = EmbedOptions{}.coefficients,
+        py::arg("repetitions") = EmbedOptions{}.repetitions, py::arg("first_mode") = EmbedOptions{}.first_mode,
+        py::arg("sigma_factor") = EmbedOptions{}.sigma_factor, py::arg("gram_rows") = EmbedOptions{}.gram_rows,
+        py::arg("threads") = 0, py::arg("force") = false, py::arg("memory_budget") = 0, py::arg("stream") = false,
+        kEmbedFileDoc);
+
+    m.def(
+        "detect_file",
+        [](const Path& suspect, const Path& original, const Path& key_path, const std::string& verdict,
+           double max_fpp, double threshold, double epsilon, bool register_suspect, py::handle pairs, int threads,
+           bool verbose) {
+            const DetectFileOptions options =
+                make_detect_options(verdict, max_fpp, threshold, epsilon, register_suspect, pairs, threads);
+            std::optional<DetectReport> report;
+            {
+                py::gil_scoped_release release;
+                report.emplace(detect_file(suspect, original, key_path, options));
+            }
+            return to_python(detect_report_json(*report, options.decision, verbose));
+        },
+        py::arg("suspect"), py::arg("original"), py::arg("key_path"), py::kw_only(), py::arg("verdict") = std::string(to_string(DetectOptions{}.verdict)),
+        py::arg("max_fpp") = DetectOptions{}.max_false_positive, py::arg("threshold") = DetectOptions{}.threshold,
+        py::arg("epsilon") = DetectOptions{}.epsilon, py::arg("register") = true, py::arg("pairs") = py::none(),
+        py::arg("threads") = 0, py::arg("verbose") = false, kDetectFileDoc);
+
+    m.def(
+        "attack",
+        [](const Path& input, const std::string& spec, const Path& output, py::handle seed, bool force, int threads) {
+            AttackFileOptions options;
+            options.seed = seed_from(seed).value_or(0);
+            options.force = force;
+            options.threads = threads;
+            std::optional<AttackFileReport> report;
+            {
+                py::gil_scoped_release release;
+                report.emplace(attack_file(input, output, spec, options));
+            }
+            return to_python(attack_report_json(*report, input.string(), output.string()));
+        },
+        py::arg("input"), py::arg("spec"), py::arg("output"), py::kw_only(), py::arg("seed") = 0,
+        py::arg("force") = false, py::arg("threads") = 0,
+        "Apply an attack chain to a mesh file and write the result: `meshmark attack INPUT SPEC -o OUTPUT "
+        "--seed SEED --json`. spec follows the grammar of `meshmark attack --help`, e.g. "
+        "'similarity,simplify=0.1,noise=0.001'. Returns the program's JSON report as a dict.");
+
+    m.def(
+        "compare",
+        [](const Path& a_path, const Path& b_path, std::int64_t samples, py::handle seed, int threads) {
+            CompareOptions options;
+            options.samples = samples;
+            options.seed = seed_from(seed).value_or(0);
+            options.threads = threads;
+            nlohmann::json out;
+            {
+                py::gil_scoped_release release;
+                using Clock = std::chrono::steady_clock;
+                const auto start = Clock::now();
+                const auto since = [](Clock::time_point t) {
+                    return std::chrono::duration<double>(Clock::now() - t).count();
+                };
+                const TriangleMesh a = read_mesh(a_path);
+                const TriangleMesh b = read_mesh(b_path);
+                const double read_seconds = since(start);
+                const DistortionReport report = compare_meshes(a, b, options);
+                out = compare_report_json(a_path.string(), b_path.string(), a, b, report, options.seed);
+                out["seconds"] = {{"read", read_seconds},
+                                  {"index", report.seconds.index},
+                                  {"a_to_b", report.seconds.a_to_b},
+                                  {"b_to_a", report.seconds.b_to_a},
+                                  {"heatmap", 0.0},
+                                  {"total", since(start)}};
+            }
+            return to_python(out);
+        },
+        py::arg("a"), py::arg("b"), py::kw_only(), py::arg("samples") = 0, py::arg("seed") = 0, py::arg("threads") = 0,
+        "Distortion between two mesh files, relative to the bounding-box diagonal of a: `meshmark compare A B "
+        "--json` (Hausdorff, RMS, MRMS, displacement when they share connectivity). Returns the program's "
+        "JSON report as a dict.");
+}
+
+}  // namespace meshmark::python

@@ -1,0 +1,147 @@
+// SPDX-License-Identifier: MIT
+#include "meshmark/pipeline/report_json.h"
+
+namespace meshmark {
+namespace {
+
+nlohmann::json mesh_json(const std::string& path, const TriangleMesh& mesh, const OneSidedDistance& side)
+{
+    return {{"file", path},
+            {"vertices", mesh.vertex_count()},
+            {"faces", mesh.face_count()},
+            {"vertex_samples", side.vertex_samples},
+            {"area_samples", side.area_samples}};
+}
+
+}  // namespace
+
+nlohmann::json to_json(const PhaseTimings& timings)
+{
+    nlohmann::json object = nlohmann::json::object();
+    for (const auto& [name, seconds] : timings.phases)
+    {
+        object[name] = seconds;
+    }
+    object["total"] = timings.total;
+    return object;
+}
+
+nlohmann::json matrix_json(const Eigen::Matrix4d& matrix)
+{
+    nlohmann::json rows = nlohmann::json::array();
+    for (int r = 0; r < 4; ++r)
+    {
+        rows.push_back({matrix(r, 0), matrix(r, 1), matrix(r, 2), matrix(r, 3)});
+    }
+    return rows;
+}
+
+nlohmann::json embed_stats_json(const Key& key, const EmbedStats& stats)
+{
+    return {{"analysed_vertices", stats.analysed_vertices},
+            {"rule", to_string(key.options.rule)},
+            {"strength", key.options.strength},
+            {"basis", to_string(key.options.basis)},
+            {"centers", to_string(key.options.centers)},
+            {"basis_size", key.options.basis_size},
+            {"coefficients", key.options.coefficients},
+            {"repetitions", key.options.repetitions},
+            {"first_mode", key.options.first_mode},
+            {"bits", to_bit_string(key.payload)},
+            {"max_displacement", stats.max_displacement_rel},
+            {"rms_displacement", stats.rms_displacement_rel},
+            {"orthogonality_error", stats.orthogonality_error},
+            {"weak_bits", stats.weak_bits}};
+}
+
+nlohmann::json embed_report_json(const EmbedReport& report, const std::string& input, const std::string& output,
+                                 const std::string& key)
+{
+    nlohmann::json out = embed_stats_json(report.key, report.stats);
+    out["input"] = input;
+    out["output"] = output;
+    out["key"] = key;
+    out["vertices"] = report.vertex_count;
+    out["faces"] = report.face_count;
+    out["streamed"] = report.streamed;
+    out["seconds"] = to_json(report.seconds);
+    return out;
+}
+
+nlohmann::json detect_report_json(const DetectReport& report, const DetectOptions& options, bool diagnostics)
+{
+    const Decision& d = report.decision;
+    nlohmann::json out = {{"detected", d.is_present},
+                          {"correlation", d.correlation},
+                          {"matches", d.matches},
+                          {"bit_count", d.bit_count},
+                          {"threshold", options.threshold},
+                          {"verdict", to_string(d.verdict)},
+                          {"score", d.score},
+                          {"coefficient_count", d.coefficient_count},
+                          {"max_false_positive_probability", options.max_false_positive},
+                          {"bits_expected", d.bits_expected},
+                          {"bits_found", d.bits_found},
+                          {"false_positive_probability", d.false_positive_probability},
+                          {"score_false_positive_probability", d.score_false_positive_probability},
+                          {"bits_false_positive_probability", d.bits_false_positive_probability},
+                          {"cropped_fraction", report.cropped_fraction},
+                          {"registration",
+                           {{"method", report.alignment},
+                            {"rms_error", report.registration_rms},
+                            {"transform", matrix_json(report.transform)}}},
+                          {"suspect_vertices", report.suspect_vertices},
+                          {"original_vertices", report.original_vertices},
+                          {"seconds", to_json(report.seconds)}};
+    if (diagnostics)
+    {
+        out["normalized_change"] = report.extraction.normalized_change;
+        out["coefficient_weights"] = report.extraction.weights;
+        out["bit_values"] = report.extraction.bit_values;
+    }
+    return out;
+}
+
+nlohmann::json attack_report_json(const AttackFileReport& report, const std::string& input, const std::string& output)
+{
+    return {{"input", input},
+            {"output", output},
+            {"spec", report.spec},
+            {"seed", report.seed},
+            {"vertices_before", report.vertices_before},
+            {"faces_before", report.faces_before},
+            {"vertices_after", report.vertices_after},
+            {"faces_after", report.faces_after},
+            {"has_correspondence", report.has_correspondence},
+            {"transform", report.similarity ? matrix_json(*report.similarity) : nlohmann::json(nullptr)},
+            {"seconds", to_json(report.seconds)}};
+}
+
+nlohmann::json compare_report_json(const std::string& a_path, const std::string& b_path, const TriangleMesh& a,
+                                   const TriangleMesh& b, const DistortionReport& r, std::uint64_t seed)
+{
+    nlohmann::json out = {{"hausdorff", r.hausdorff_rel},
+                          {"hausdorff_ab", r.hausdorff_ab_rel},
+                          {"hausdorff_ba", r.hausdorff_ba_rel},
+                          {"rms_ab", r.rms_ab_rel},
+                          {"rms_ba", r.rms_ba_rel},
+                          {"mrms", r.mrms_rel},
+                          {"mean_ab", r.a_to_b.mean / r.diagonal},
+                          {"mean_ba", r.b_to_a.mean / r.diagonal},
+                          {"same_connectivity", r.displacement.has_value()},
+                          {"unit", "bounding-box diagonal of A"},
+                          {"bbox_diagonal", r.diagonal},
+                          {"a", mesh_json(a_path, a, r.a_to_b)},
+                          {"b", mesh_json(b_path, b, r.b_to_a)},
+                          {"samples", r.a_to_b.vertex_samples + r.a_to_b.area_samples + r.b_to_a.vertex_samples +
+                                          r.b_to_a.area_samples},
+                          {"seed", seed}};
+    if (r.displacement)
+    {
+        out["max_displacement"] = r.max_displacement_rel;
+        out["rms_displacement"] = r.rms_displacement_rel;
+    }
+    return out;
+}
+
+}  // namespace meshmark

@@ -1,0 +1,125 @@
+# SPDX-License-Identifier: MIT
+"""The file-level calls and the key file, shared with the meshmark program both ways."""
+import json
+import subprocess
+
+import numpy as np
+import pytest
+
+import meshmark
+
+
+def run_cli(cli, *args, check=True):
+    done = subprocess.run([cli, *map(str, args)], capture_output=True, text=True)
+    if check and done.returncode not in (0, 1):
+        raise AssertionError(f"meshmark {' '.join(map(str, args))}: exit {done.returncode}: {done.stderr}")
+    return done
+
+
+@pytest.fixture()
+def original(torus, tmp_path):
+    path = tmp_path / "original.ply"
+    meshmark.write_mesh(path, *torus)
+    return path
+
+
+def test_read_write_round_trip(torus, tmp_path):
+    V, F = torus
+    for name in ("m.ply", "m.off", "m.obj"):
+        meshmark.write_mesh(tmp_path / name, V, F)
+        V2, F2 = meshmark.read_mesh(tmp_path / name)
+        assert np.array_equal(V2, V), name
+        assert np.array_equal(F2, F), name
+    meshmark.write_mesh(tmp_path / "cloud.ply", V, None)
+    V3, F3 = meshmark.read_mesh(tmp_path / "cloud.ply")
+    assert F3 is None and np.array_equal(V3, V)
+    with pytest.raises(meshmark.IoError, match="missing.ply"):
+        meshmark.read_mesh(tmp_path / "missing.ply")
+
+
+def test_python_key_detects_through_the_cli(torus, original, tmp_path, cli):
+    V, F = torus
+    key, marked = meshmark.embed(V, F, message="from python", seed=21)
+    key.save(tmp_path / "py.key.json")
+    meshmark.write_mesh(tmp_path / "marked.ply", marked, F)
+    done = run_cli(cli, "detect", tmp_path / "marked.ply", "--original", original,
+                   "--key", tmp_path / "py.key.json", "--json")
+    assert done.returncode == 0, done.stderr
+    report = json.loads(done.stdout)
+    assert report["detected"] is True
+    # The same verdict and statistics as in Python, field for field (timings aside).
+    mine = meshmark.detect(marked, F, V, F, key).to_dict()
+    assert set(mine) == set(report)
+    for field in ("score", "false_positive_probability", "bits_found", "bits_expected", "correlation"):
+        assert mine[field] == report[field], field
+    # And the unmarked original is not claimed.
+    assert run_cli(cli, "detect", original, "--original", original, "--key", tmp_path / "py.key.json").returncode == 1
+
+
+def test_cli_key_detects_in_python(torus, original, tmp_path, cli):
+    V, F = torus
+    done = run_cli(cli, "embed", original, "-o", tmp_path / "cli.ply", "--key", tmp_path / "cli.key.json",
+                   "--seed", 33, "--message", "from the cli", "--quiet")
+    assert done.returncode == 0, done.stderr
+    key = meshmark.Key.load(tmp_path / "cli.key.json")
+    assert key.seed == 33 and key.message == "from the cli"
+    marked, marked_F = meshmark.read_mesh(tmp_path / "cli.ply")
+    assert meshmark.detect(marked, marked_F, V, F, key).detected
+    # The in-memory embed with the same seed and options gives the program's bytes and key.
+    same_key, same = meshmark.embed(V, F, seed=33, message="from the cli")
+    assert np.array_equal(same, marked)
+    assert same_key == key
+
+
+def test_file_reports_match_the_cli(original, tmp_path, cli):
+    report = meshmark.embed_file(original, tmp_path / "m.ply", tmp_path / "k.json", seed=4, message="x")
+    done = run_cli(cli, "embed", original, "-o", tmp_path / "c.ply", "--key", tmp_path / "c.json",
+                   "--seed", 4, "--message", "x", "--json", "--quiet")
+    cli_report = json.loads(done.stdout)
+    assert set(report) == set(cli_report)
+    for field in ("bits", "rms_displacement", "max_displacement", "strength", "vertices", "faces"):
+        assert report[field] == cli_report[field], field
+    assert report["output"] == str(tmp_path / "m.ply")
+    assert (tmp_path / "m.ply").read_bytes() == (tmp_path / "c.ply").read_bytes()
+    with pytest.raises(meshmark.InvalidOption, match="already exists"):
+        meshmark.embed_file(original, tmp_path / "m2.ply", tmp_path / "k.json", seed=4)
+    assert not (tmp_path / "m2.ply").exists()
+
+    found = meshmark.detect_file(tmp_path / "m.ply", original, tmp_path / "k.json")
+    cli_found = json.loads(run_cli(cli, "detect", tmp_path / "m.ply", "--original", original,
+                                   "--key", tmp_path / "k.json", "--json").stdout)
+    assert found["detected"] is True
+    assert set(found) == set(cli_found)
+    assert found["score"] == cli_found["score"]
+    verbose = meshmark.detect_file(tmp_path / "m.ply", original, tmp_path / "k.json", verbose=True)
+    assert len(verbose["bit_values"]) == verbose["bit_count"]
+
+    attacked = meshmark.attack(tmp_path / "m.ply", "similarity,noise=0.0005", tmp_path / "a.ply", seed=3)
+    cli_attacked = json.loads(run_cli(cli, "attack", tmp_path / "m.ply", "similarity,noise=0.0005",
+                                      "-o", tmp_path / "ca.ply", "--seed", 3, "--json", "--quiet").stdout)
+    assert set(attacked) == set(cli_attacked)
+    assert attacked["transform"] == cli_attacked["transform"] and attacked["spec"] == cli_attacked["spec"]
+    assert (tmp_path / "a.ply").read_bytes() == (tmp_path / "ca.ply").read_bytes()
+    assert meshmark.detect_file(tmp_path / "a.ply", original, tmp_path / "k.json")["detected"] is True
+    with pytest.raises(meshmark.InvalidOption, match="input file"):
+        meshmark.attack(tmp_path / "m.ply", "noise", tmp_path / "m.ply")
+    with pytest.raises(meshmark.InvalidOption):
+        meshmark.attack(tmp_path / "m.ply", "explode=3", tmp_path / "b.ply")
+
+    compared = meshmark.compare(original, tmp_path / "m.ply")
+    cli_compared = json.loads(run_cli(cli, "compare", original, tmp_path / "m.ply", "--json").stdout)
+    assert set(compared) == set(cli_compared)
+    assert set(compared["seconds"]) == set(cli_compared["seconds"])
+    for field in ("hausdorff", "rms_ab", "mrms", "max_displacement", "samples", "a", "b"):
+        assert compared[field] == cli_compared[field], field
+    assert 0.0 < compared["rms_displacement"] < 0.01
+
+
+def test_file_errors_carry_the_program_message(original, tmp_path, cli):
+    with pytest.raises(meshmark.IoError) as error:
+        meshmark.detect_file(tmp_path / "nope.ply", original, tmp_path / "k.json")
+    done = run_cli(cli, "embed", original, "-o", tmp_path / "x.ply", "--key", original, "--force", check=False)
+    assert done.returncode == 2
+    with pytest.raises(meshmark.InvalidOption) as error:
+        meshmark.embed_file(original, tmp_path / "x.ply", original, force=True)
+    assert done.stderr.strip() == f"meshmark: {error.value}"
