@@ -91,7 +91,7 @@ Search search_dirs()
     if (!object.empty())
     {
         places.push_back("next to " + object.string());
-        places.push_back("in lib/meshmark/ of its folder or its parents");
+        places.push_back("in lib/meshmark/ of its folder and of its parents");
         fs::path dir = object.parent_path();
         add(dirs, dir);
         for (int level = 0; level <= kParentLevels && !dir.empty(); ++level)
@@ -112,7 +112,7 @@ Search search_dirs()
     }
     for (std::size_t i = 0; i < places.size(); ++i)
     {
-        search.description += (i == 0 ? "" : i + 1 == places.size() ? " or " : ", ") + places[i];
+        search.description += (i == 0 ? "" : i + 1 == places.size() ? ", or " : ", ") + places[i];
     }
     return search;
 }
