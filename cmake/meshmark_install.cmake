@@ -117,4 +117,10 @@ function(meshmark_install modules)
   if(TARGET meshmark_cli)
     install(TARGETS meshmark_cli RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT meshmark_runtime)
   endif()
+  # The voxel remeshing's OpenVDB plugin, where the loader looks from <prefix>/bin and from the
+  # configured prefix (src/attacks/voxel_plugin_loader.cpp); every user of the attacks needs it.
+  if(TARGET meshmark_voxel)
+    install(TARGETS meshmark_voxel LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}/meshmark
+            COMPONENT meshmark_runtime)
+  endif()
 endfunction()

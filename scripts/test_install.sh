@@ -34,6 +34,23 @@ done
 headers=$(find "$prefix/include/meshmark" -name '*.h' | wc -l)
 [[ $headers -eq $(find include/meshmark -name '*.h' | wc -l) ]] || fail "header count differs"
 
+# The voxel remeshing's OpenVDB plugin: installed under <libdir>/meshmark/, not linked by the
+# program, and the one the installed program loads (glibc's LD_DEBUG=files names every object
+# opened) when it runs a voxel attack from the fresh prefix.
+plugin=$(find "$prefix" -path '*/meshmark/libmeshmark_voxel.so' -print -quit)
+[[ -n $plugin ]] || fail "lib/meshmark/libmeshmark_voxel.so was not installed"
+if ldd "$prefix/bin/meshmark" | grep -qE 'openvdb|tbb|blosc'; then
+    fail "bin/meshmark links OpenVDB/TBB (they belong in the plugin only)"
+fi
+LD_DEBUG=files "$prefix/bin/meshmark" attack tests/data/cube.off -o "$work/voxel.ply" -q voxel=40 \
+    2>"$work/voxel.log" ||
+    { grep -v '^ *[0-9]*:' "$work/voxel.log"; fail "the installed meshmark's voxel attack"; }
+grep -q "file=$plugin " "$work/voxel.log" ||
+    fail "the installed meshmark did not load $plugin but:" \
+        "$(grep -o 'file=[^ ]*libmeshmark_voxel[^ ]*' "$work/voxel.log" | head -1)"
+[[ -s $work/voxel.ply ]] || fail "the voxel attack wrote nothing"
+echo "test_install.sh: the installed meshmark ran voxel=40 with $plugin"
+
 # Build the example against the prefix only (no access to the source tree's build).
 cmake -S examples/library -B "$work/example" -G Ninja -DCMAKE_BUILD_TYPE=Release \
     -DCMAKE_PREFIX_PATH="$prefix" -DCMAKE_FIND_USE_PACKAGE_REGISTRY=OFF >"$work/configure.log" ||

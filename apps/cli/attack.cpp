@@ -81,7 +81,10 @@ std::string grammar_help()
            "                     bbox diagonal (default " +
            number(voxel.resolution) + ") [300 150], N in [10, 2000];\n"
            "                     Blender's Voxel Size is D/N in object units. The result is closed;\n"
-           "                     detail below a voxel, thin parts and inner surfaces are lost\n"
+           "                     detail below a voxel, thin parts and inner surfaces are lost.\n"
+           "                     OpenVDB is a plugin: <prefix>/lib/meshmark/libmeshmark_voxel.so for\n"
+           "                     <prefix>/bin/meshmark, or MESHMARK_PLUGIN_DIR (then only there);\n"
+           "                     without it, voxel steps exit with code 5\n"
            "Step k draws from its own stream, derived from --seed, its position and its name.\n"
            "Simplify, remesh, subdivide and voxel need faces; the first three cut non-manifold edges\n"
            "and vertices apart and drop unused vertices first. Crop drops the vertices it leaves unused.\n"

@@ -32,10 +32,12 @@ protected:
         write_mesh(input_, lumpy_ellipsoid(4));  // 2562 vertices
     }
 
-    // Runs `meshmark attack ARGS`, stdout and stderr to files; returns the exit code.
-    int run(const std::string& args) const
+    // Runs `meshmark attack ARGS` (after the environment assignments ENV, if any), stdout and
+    // stderr to files; returns the exit code.
+    int run(const std::string& args, const std::string& env = "") const
     {
-        const std::string command = test::cli_path().string() + " attack " + args + " >" +
+        const std::string command = (env.empty() ? "" : "env " + env + " ") +
+                                    test::cli_path().string() + " attack " + args + " >" +
                                     (dir_ / "stdout.txt").string() + " 2>" +
                                     (dir_ / "stderr.txt").string();
         const int status = std::system(command.c_str());
@@ -127,6 +129,56 @@ TEST_F(AttackCliTest, voxel_remeshing_writes_a_closed_new_mesh_the_same_for_any_
     EXPECT_EQ(run((dir_ / "cloud.ply").string() + " -o " + never + " voxel=150"), 3);
     EXPECT_NE(file("stderr.txt").find("cloud.ply"), std::string::npos) << file("stderr.txt");
     EXPECT_FALSE(std::filesystem::exists(never));
+}
+
+// OpenVDB is in a plugin loaded by the voxel step only: other attacks never load it, and a
+// missing or broken plugin is an installation error (exit 5) that names the file.
+TEST_F(AttackCliTest, voxel_plugin_is_loaded_only_by_the_voxel_step_and_reported_when_missing)
+{
+    const std::string out = (dir_ / "out.ply").string();
+    // glibc's loader lists every object it opens (LD_DEBUG=files).
+    ASSERT_EQ(run(input_.string() + " -o " + out + " noise=0.001", "LD_DEBUG=files"), 0);
+    EXPECT_EQ(file("stderr.txt").find("libopenvdb"), std::string::npos);
+    EXPECT_EQ(file("stderr.txt").find("libmeshmark_voxel.so"), std::string::npos);
+    ASSERT_EQ(run(input_.string() + " -o " + out + " voxel=30", "LD_DEBUG=files"), 0);
+    EXPECT_NE(file("stderr.txt").find("libmeshmark_voxel.so"), std::string::npos);
+    EXPECT_NE(file("stderr.txt").find("libopenvdb"), std::string::npos);
+    const std::string reference = file("out.ply");
+
+    // MESHMARK_PLUGIN_DIR is the only place searched when set: the real plugin is not found
+    // from an empty directory, while the other attacks still run.
+    const std::filesystem::path empty = dir_ / "no_plugin";
+    std::filesystem::create_directories(empty);
+    const std::string in_empty = "MESHMARK_PLUGIN_DIR=" + empty.string();
+    const std::string never = (dir_ / "never.ply").string();
+    EXPECT_EQ(run(input_.string() + " -o " + never + " voxel=30", in_empty), 5);
+    EXPECT_NE(file("stderr.txt").find("needs libmeshmark_voxel.so (OpenVDB), which was not found "
+                                      "in MESHMARK_PLUGIN_DIR (" +
+                                      empty.string() + "): reinstall meshmark."),
+              std::string::npos)
+        << file("stderr.txt");
+    EXPECT_FALSE(std::filesystem::exists(never));
+    EXPECT_EQ(run(input_.string() + " -o " + never + " noise=0.001", in_empty), 0);
+    std::filesystem::remove(never);
+
+    // A file of that name that is no shared object: refused with the loader's reason.
+    const std::filesystem::path broken = empty / "libmeshmark_voxel.so";
+    std::ofstream(broken) << "not a library\n";
+    EXPECT_EQ(run(input_.string() + " -o " + never + " voxel=30", in_empty), 5);
+    EXPECT_NE(file("stderr.txt").find("could not load " + broken.string()),
+              std::string::npos)
+        << file("stderr.txt");
+    EXPECT_FALSE(std::filesystem::exists(never));
+
+    // The directory the build puts it in (lib/meshmark/ beside bin/), named explicitly: the same
+    // mesh as found by the default search.
+    const std::filesystem::path built =
+        test::cli_path().parent_path().parent_path() / "lib" / "meshmark";
+    ASSERT_EQ(run(input_.string() + " -o " + never + " voxel=30",
+                  "MESHMARK_PLUGIN_DIR=" + built.string()),
+              0)
+        << file("stderr.txt");
+    EXPECT_EQ(file("never.ply"), reference);
 }
 
 TEST_F(AttackCliTest, refuses_to_overwrite_the_input_unless_forced)
