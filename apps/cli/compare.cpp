@@ -17,6 +17,7 @@
 #include "meshmark/io/mesh_io.h"
 #include "meshmark/metrics/distortion.h"
 #include "meshmark/metrics/heatmap.h"
+#include "meshmark/pipeline/report_json.h"
 #include "meshmark/render/heatmap_image.h"
 #include "progress.h"
 #include "report.h"
@@ -147,42 +148,6 @@ double write_heatmap_png(const std::string& path, const TriangleMesh& b,
     return picture.max_distance;
 }
 
-nlohmann::json mesh_json(const std::string& path, const TriangleMesh& mesh, const OneSidedDistance& side)
-{
-    return {{"file", path},
-            {"vertices", mesh.vertex_count()},
-            {"faces", mesh.face_count()},
-            {"vertex_samples", side.vertex_samples},
-            {"area_samples", side.area_samples}};
-}
-
-nlohmann::json report_json(const CompareArgs& args, const TriangleMesh& a, const TriangleMesh& b,
-                           const DistortionReport& r)
-{
-    nlohmann::json out = {{"hausdorff", r.hausdorff_rel},
-                          {"hausdorff_ab", r.hausdorff_ab_rel},
-                          {"hausdorff_ba", r.hausdorff_ba_rel},
-                          {"rms_ab", r.rms_ab_rel},
-                          {"rms_ba", r.rms_ba_rel},
-                          {"mrms", r.mrms_rel},
-                          {"mean_ab", r.a_to_b.mean / r.diagonal},
-                          {"mean_ba", r.b_to_a.mean / r.diagonal},
-                          {"same_connectivity", r.displacement.has_value()},
-                          {"unit", "bounding-box diagonal of A"},
-                          {"bbox_diagonal", r.diagonal},
-                          {"a", mesh_json(args.a, a, r.a_to_b)},
-                          {"b", mesh_json(args.b, b, r.b_to_a)},
-                          {"samples", r.a_to_b.vertex_samples + r.a_to_b.area_samples + r.b_to_a.vertex_samples +
-                                          r.b_to_a.area_samples},
-                          {"seed", args.options.seed}};
-    if (r.displacement)
-    {
-        out["max_displacement"] = r.max_displacement_rel;
-        out["rms_displacement"] = r.rms_displacement_rel;
-    }
-    return out;
-}
-
 void print_text(const CompareArgs& args, const TriangleMesh& a, const TriangleMesh& b, const DistortionReport& r)
 {
     const auto pct = [](double rel) { return format_number(100.0 * rel, 4) + "%"; };
@@ -251,7 +216,7 @@ int run_compare(const CompareArgs& args, const GlobalArgs& global)
 
     if (args.json)
     {
-        nlohmann::json out = report_json(args, a, b, report);
+        nlohmann::json out = compare_report_json(args.a, args.b, a, b, report, args.options.seed);
         if (!args.heatmap.empty())
         {
             out["heatmap"] = {{"file", args.heatmap}, {"max_distance", heatmap_max / report.diagonal}};
