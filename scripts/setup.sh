@@ -34,6 +34,9 @@ if ((interop_tools)); then
   # the outputs. The npm ones are pinned in tests/interop/package.json (installed below).
   packages+=(gltfpack draco prusa-slicer xvfb xauth)
   packages+=(blender)  # the voxel remesh that `meshmark attack voxel=N` must reproduce
+  # The re-work bench's other tools (bench/blender/rework.py): Open3D's decimation and
+  # smoothing, MeshLab's quadric edge collapse and Taubin smoothing (meshlabserver).
+  packages+=(python3-open3d meshlab)
   # Node.js for the npm tools: Debian's, unless the machine already has a node and npm.
   if ! command -v node >/dev/null || ! command -v npm >/dev/null; then packages+=(nodejs npm); fi
 fi

@@ -30,6 +30,12 @@ import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ATTACKS = os.path.join(HERE, "attacks.py")
+OPEN3D_ATTACKS = os.path.join(HERE, "open3d_attacks.py")
+BLENDER_NAMES = {"ply", "obj", "gltf", "transform", "merge", "noise", "subdivide", "laplacian", "smooth",
+                 "decimate", "bisect", "voxel"}
+# Other tools' operations (--ops ... or --with-others): gltf-transform, Open3D, MeshLab.
+OTHER_OPERATIONS = ["gt-simplify=0.5", "gt-simplify=0.2", "gt-weld", "o3d-decimate=0.2", "o3d-laplacian=10",
+                    "o3d-taubin=10", "meshlab-decimate=0.2", "meshlab-taubin=10"]
 OPERATIONS = ["ply", "obj", "gltf", "transform", "merge", "noise", "subdivide", "laplacian",
               "smooth", "decimate=0.5", "decimate=0.2", "decimate=0.05", "bisect", "voxel=300",
               "voxel=150"]
@@ -41,6 +47,11 @@ DESCRIPTION = {
     "decimate=0.5": "Decimate collapse 50%", "decimate=0.2": "Decimate collapse 20%",
     "decimate=0.05": "Decimate collapse 5%", "bisect": "bisect in half, keep one side",
     "voxel=300": "voxel remesh, diagonal/300", "voxel=150": "voxel remesh, diagonal/150",
+    "gt-simplify=0.5": "gltf-transform simplify 50% (error 0.1%)",
+    "gt-simplify=0.2": "gltf-transform simplify 20% (error 0.1%)", "gt-weld": "gltf-transform weld",
+    "o3d-decimate=0.2": "Open3D quadric decimation 20%", "o3d-laplacian=10": "Open3D Laplacian x 10",
+    "o3d-taubin=10": "Open3D Taubin x 10", "meshlab-decimate=0.2": "MeshLab quadric edge collapse 20%",
+    "meshlab-taubin=10": "MeshLab Taubin x 10",
 }
 BLENDER_READS = (".ply", ".obj", ".gltf", ".glb", ".stl")
 
@@ -97,6 +108,96 @@ def blender_ops(args, source, out_dir, seed, ops):
         return {entry["op"]: entry for entry in json.load(f)}
 
 
+def mlx(op, value):
+    """A MeshLab filter script for one operation (MeshLab 2020.09's names; meshlabserver
+    wants every parameter, so these are its defaults but for the target)."""
+    if op == "meshlab-decimate":
+        body = ('<filter name="Simplification: Quadric Edge Collapse Decimation">'
+                '<Param type="RichInt" name="TargetFaceNum" value="0"/>'
+                '<Param type="RichFloat" name="TargetPerc" value="%r"/>'
+                '<Param type="RichFloat" name="QualityThr" value="0.3"/>'
+                '<Param type="RichBool" name="PreserveBoundary" value="false"/>'
+                '<Param type="RichFloat" name="BoundaryWeight" value="1"/>'
+                '<Param type="RichBool" name="PreserveNormal" value="false"/>'
+                '<Param type="RichBool" name="PreserveTopology" value="false"/>'
+                '<Param type="RichBool" name="OptimalPlacement" value="true"/>'
+                '<Param type="RichBool" name="PlanarQuadric" value="false"/>'
+                '<Param type="RichFloat" name="PlanarWeight" value="0.001"/>'
+                '<Param type="RichBool" name="QualityWeight" value="false"/>'
+                '<Param type="RichBool" name="AutoClean" value="true"/>'
+                '<Param type="RichBool" name="Selected" value="false"/></filter>' % value)
+    else:  # meshlab-taubin
+        body = ('<filter name="Taubin Smooth"><Param type="RichFloat" name="lambda" value="0.5"/>'
+                '<Param type="RichFloat" name="mu" value="-0.53"/>'
+                '<Param type="RichInt" name="stepSmoothNum" value="%d"/>'
+                '<Param type="RichBool" name="Selected" value="false"/></filter>' % int(value))
+    return "<!DOCTYPE FilterScript>\n<FilterScript>\n%s\n</FilterScript>\n" % body
+
+
+def other_ops(args, source, out_dir, ops):
+    """The operations of gltf-transform (gt-*, on a .glb of the copy written by meshmark) and
+    MeshLab (meshlab-*, meshlabserver under xvfb-run), one process per operation."""
+    os.makedirs(out_dir, exist_ok=True)
+    done = {}
+    for op in ops:
+        name, _, value = op.partition("=")
+        label = op.replace("=", "_")
+        if name in ("gt-simplify", "gt-weld"):
+            gltf_copy = os.path.join(out_dir, "input.glb")
+            if not os.path.exists(gltf_copy):
+                # Shared vertices (Blender's glTF writer splits every vertex of a flat-shaded mesh,
+                # which leaves simplify nothing to collapse); 2^24 levels: below single precision.
+                run([args.meshmark, "attack", source, "quantize=24", "-o", gltf_copy, "-q"],
+                    "meshmark attack quantize=24")
+            target = os.path.join(out_dir, label + ".glb")
+            temporary = os.path.join(out_dir, ".tmp-" + label + ".glb")
+            command = [args.gltf_transform, name[3:], gltf_copy, temporary]
+            if name == "gt-simplify":
+                command += ["--ratio", value or "0.5", "--error", "0.001"]
+        elif name in ("meshlab-decimate", "meshlab-taubin"):
+            target = os.path.join(out_dir, label + ".ply")
+            temporary = os.path.join(out_dir, ".tmp-" + label + ".ply")
+            script = os.path.join(out_dir, label + ".mlx")
+            with open(script, "w") as f:
+                f.write(mlx(name, float(value or (0.5 if name == "meshlab-decimate" else 10))))
+            meshlab_input = source
+            if not source.lower().endswith(".ply"):
+                # MeshLab 2020.09's OBJ reader aborts on some valid files (fandisk.obj): give it PLY.
+                meshlab_input = os.path.join(out_dir, "input.ply")
+                if not os.path.exists(meshlab_input):
+                    run([args.meshmark, "attack", source, "quantize=24", "-o", meshlab_input, "-q"],
+                        "meshmark attack quantize=24")
+            command = ["xvfb-run", "-a", args.meshlabserver, "-i", meshlab_input, "-o", temporary, "-s",
+                       script]
+        else:
+            raise Failure("unknown operation '%s'" % op)
+        run(command, "%s on %s" % (op, source))
+        os.replace(temporary, target)
+        done[op] = {"op": op, "output": target, "vertices": vertex_count(target), "faces": None}
+    return done
+
+
+def rework(args, source, out_dir, seed, ops):
+    """Every operation of ops on source: Blender's in one Blender run, Open3D's in one Python run,
+    the others one by one; {op: {output, vertices, faces}}."""
+    blender = [op for op in ops if op.split("=")[0] in BLENDER_NAMES]
+    open3d = [op for op in ops if op.startswith("o3d-")]
+    others = [op for op in ops if op not in blender and op not in open3d]
+    done = {}
+    if blender:
+        done.update(blender_ops(args, source, os.path.join(out_dir, "blender"), seed, blender))
+    if open3d:
+        where = os.path.join(out_dir, "open3d")
+        os.makedirs(where, exist_ok=True)
+        run([args.open3d_python, OPEN3D_ATTACKS, source, where, "--seed", str(seed)] + open3d,
+            "open3d on %s" % source)
+        with open(os.path.join(where, "attacks.json")) as f:
+            done.update({entry["op"]: entry for entry in json.load(f)})
+    if others:
+        done.update(other_ops(args, source, os.path.join(out_dir, "others"), others))
+    return done
+
+
 def detect(args, suspect, original, key):
     result = run([args.meshmark, "detect", suspect, "--original", original, "--key", key, "--json",
                   "-q"], "meshmark detect %s" % suspect, ok_codes=(0, 1))
@@ -137,16 +238,17 @@ def run_mesh(args, mesh, work):
     if marked_ext not in BLENDER_READS:
         marked_ext = ".ply"
         blender_input = os.path.join(mesh_work, "original.ply")
-        run([args.meshmark, "attack", mesh, "none", "-o", blender_input, "-q"], "meshmark attack none")
+        # 2^24 levels over the bounding box: below single precision, which Blender keeps anyway.
+        run([args.meshmark, "attack", mesh, "quantize=24", "-o", blender_input, "-q"],
+            "meshmark attack quantize=24")
     trials = []
-    unmarked = blender_ops(args, blender_input, os.path.join(mesh_work, "unmarked"), 0, args.ops)
+    unmarked = rework(args, blender_input, os.path.join(mesh_work, "unmarked"), 0, args.ops)
     for key_seed in range(1, args.keys + 1):
         key = os.path.join(mesh_work, "key%d.json" % key_seed)
         marked = os.path.join(mesh_work, "marked%d%s" % (key_seed, marked_ext))
         run([args.meshmark, "embed", mesh, "-o", marked, "--key", key, "--seed", str(key_seed),
              "--force", "-q"], "meshmark embed %s" % mesh)
-        done = blender_ops(args, marked, os.path.join(mesh_work, "marked%d" % key_seed), key_seed,
-                           args.ops)
+        done = rework(args, marked, os.path.join(mesh_work, "marked%d" % key_seed), key_seed, args.ops)
         for op in args.ops:
             trials.append(trial(args, mesh, key_seed, True, op, done[op], mesh, key))
             trials.append(trial(args, mesh, key_seed, False, op, unmarked[op], mesh, key))
@@ -156,7 +258,7 @@ def run_mesh(args, mesh, work):
 def table(trials):
     meshes = list(dict.fromkeys(t["mesh"] for t in trials))
     ops = list(dict.fromkeys(t["op"] for t in trials))
-    lines = ["| Blender operation | " + " | ".join(meshes) + " | unmarked copies claimed |",
+    lines = ["| operation | " + " | ".join(meshes) + " | unmarked copies claimed |",
              "|---|" + "---|" * len(meshes) + "---|"]
     for op in ops:
         cells = []
@@ -195,7 +297,18 @@ def main():
                         "(default: every mesh there with --min-vertices or more)")
     parser.add_argument("--min-vertices", type=int, default=5000)
     parser.add_argument("--keys", type=int, default=2, help="keys (seeds 1..K) per mesh")
-    parser.add_argument("--ops", nargs="+", default=OPERATIONS, help="attacks.py operations")
+    parser.add_argument("--ops", nargs="+", default=OPERATIONS,
+                        help="operations (default: the Blender ones): attacks.py's, open3d_attacks.py's "
+                        "(o3d-*), gltf-transform's gt-simplify=R and gt-weld (on a .glb of the copy "
+                        "written by meshmark), MeshLab's meshlab-decimate=R and meshlab-taubin=N")
+    parser.add_argument("--with-others", action="store_true",
+                        help="add " + " ".join(OTHER_OPERATIONS))
+    parser.add_argument("--open3d-python", default=os.environ.get("OPEN3D_PYTHON", "/usr/bin/python3"),
+                        help="the Python with Debian's python3-open3d")
+    parser.add_argument("--gltf-transform", default=os.environ.get(
+        "GLTF_TRANSFORM", os.path.join(HERE, "..", "..", "tests", "interop", "node_modules", ".bin",
+                                       "gltf-transform")))
+    parser.add_argument("--meshlabserver", default=os.environ.get("MESHLABSERVER", "meshlabserver"))
     parser.add_argument("--mesh-dir", default=os.environ.get("MESHMARK_MESH_DIR", "../shared/data/meshes"))
     parser.add_argument("--meshmark", default=os.environ.get("MESHMARK", "build/bin/meshmark"))
     parser.add_argument("--blender", default=os.environ.get("BLENDER", "blender"))
@@ -207,6 +320,8 @@ def main():
     args = parser.parse_args()
     if args.keys < 1:
         parser.error("--keys must be at least 1")
+    if args.with_others:
+        args.ops = args.ops + [op for op in OTHER_OPERATIONS if op not in args.ops]
 
     if args.from_json:
         trials = []
@@ -214,9 +329,13 @@ def main():
             with open(path) as f:
                 trials += json.load(f)["trials"]
     else:
-        for tool in (args.meshmark, args.blender):
+        needed = [args.meshmark, args.blender]
+        needed += [args.open3d_python] if any(op.startswith("o3d-") for op in args.ops) else []
+        needed += [args.gltf_transform] if any(op.startswith("gt-") for op in args.ops) else []
+        needed += [args.meshlabserver, "xvfb-run"] if any(op.startswith("meshlab-") for op in args.ops) else []
+        for tool in needed:
             if shutil.which(tool) is None:
-                raise Failure("%s: not found (set MESHMARK / BLENDER or --meshmark / --blender)" % tool)
+                raise Failure("%s: not found (see --help for the options and variables naming the tools)" % tool)
         if args.meshes:
             meshes = [m if os.path.exists(m) else os.path.join(args.mesh_dir, m) for m in args.meshes]
         else:
