@@ -13,12 +13,14 @@
 #   o3d-decimate=R   simplify_quadric_decimation to R x the face count
 #   o3d-laplacian=N  filter_smooth_laplacian, N iterations (lambda 0.5, Open3D's default)
 #   o3d-taubin=N     filter_smooth_taubin, N iterations (lambda 0.5, mu -0.53, Open3D's defaults)
+# The two smoothings drop unreferenced vertices first (Open3D would make them NaN).
 import json
 import math
 import os
 import sys
 import time
 
+import numpy
 import open3d
 
 
@@ -66,7 +68,12 @@ def main(args):
         mesh = open3d.io.read_triangle_mesh(source)
         if len(mesh.vertices) == 0 or len(mesh.triangles) == 0:
             raise UsageError("%s: Open3D read no triangles" % source)
+        if name != "o3d-decimate":
+            # Open3D's smoothing divides by the neighbour count: an unreferenced vertex turns NaN.
+            mesh.remove_unreferenced_vertices()
         result = apply_op(mesh, name, value)
+        if not numpy.isfinite(numpy.asarray(result.vertices)).all():
+            raise UsageError("%s: Open3D's %s gave non-finite coordinates" % (source, spec))
         label = spec.replace("=", "_")
         target = os.path.join(out_dir, label + ".ply")
         temporary = os.path.join(out_dir, ".tmp-" + label + ".ply")
