@@ -8,14 +8,16 @@ result against the original; the unmarked original goes through the same operati
 and each result is detected with every key (unmarked copies must not be claimed). Writes a
 markdown table (operation x mesh: marked copies detected / total, smallest score z, mean R;
 unmarked copies claimed) and a JSON file of every trial. Exits 1 on any error (a tool failing,
-an unreadable mesh), 2 on bad arguments.
+an unreadable mesh), 2 on bad arguments. --ops (or --with-others) adds other tools' operations:
+gltf-transform simplify / weld, Open3D (open3d_attacks.py) and MeshLab (meshlabserver).
 
   bench/blender/rework.py --keys 2 --meshes fandisk.obj rocker-arm.obj \\
       --json-file /tmp/rework.json --markdown /tmp/rework.md
   bench/blender/rework.py --from-json a.json b.json --markdown all.md   # merge runs
 
 Environment: MESHMARK_MESH_DIR (default ../shared/data/meshes), MESHMARK (default
-build/bin/meshmark), BLENDER (default blender).
+build/bin/meshmark), BLENDER (default blender), OPEN3D_PYTHON (default /usr/bin/python3),
+GLTF_TRANSFORM (default tests/interop/node_modules/.bin/gltf-transform), MESHLABSERVER.
 """
 import argparse
 import datetime
