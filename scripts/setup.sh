@@ -37,6 +37,9 @@ if ((interop_tools)); then
   # Blender 3.4 (Debian): the voxel remesh that `meshmark attack voxel=N` must reproduce, and
   # the add-on's headless test (python/blender); both label `interop`.
   packages+=(blender)
+  # The re-work bench's other tools (bench/blender/rework.py): Open3D's decimation and
+  # smoothing, MeshLab's quadric edge collapse and Taubin smoothing (meshlabserver).
+  packages+=(python3-open3d meshlab)
   # Node.js for the npm tools: Debian's, unless the machine already has a node and npm.
   if ! command -v node >/dev/null || ! command -v npm >/dev/null; then packages+=(nodejs npm); fi
 fi

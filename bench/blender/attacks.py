@@ -1,0 +1,247 @@
+# SPDX-License-Identifier: MIT
+# Everyday Blender re-work of one mesh, for the robustness bench (docs/robustness.md, "Everyday
+# re-work in Blender"). Runs inside Blender, headless:
+#
+#   blender -b --factory-startup --python-exit-code 2 --python bench/blender/attacks.py -- \
+#       INPUT OUT_DIR [--seed S] OP [OP ...]
+#
+# INPUT is read with Blender's own importer (.ply, .obj, .gltf/.glb, .stl). Each OP starts again
+# from a fresh import of INPUT, applies one operation and writes OUT_DIR/<label>.<ext>: binary PLY
+# (Blender's PLY writer, no normals, UVs or colours, so shared vertices stay shared), except for
+# the round trips, which write through the writer under test with its default options. <label> is
+# the OP with '=' replaced by '_'. OUT_DIR/attacks.json lists what was written (label, op,
+# output, vertices, faces, seconds). Every file is written under a temporary name and renamed, so
+# a failed run leaves no partial output; any error exits 2 with one line on stderr.
+#
+# Operations (fractions are of the bounding-box diagonal):
+#   ply, obj, gltf   round trip: import, write through Blender's PLY / OBJ / glTF (.glb) writer
+#   transform        move by (0.1, -0.2, 0.3), rotate by (20, 30, 40) degrees XYZ, scale by 1.5
+#   merge[=F]        Merge by Distance, distance F (default 1e-4)
+#   noise[=F]        Randomize Vertices (transform.vertex_random), offset F (default 0.002), --seed
+#   subdivide[=L]    Subdivision Surface modifier (Catmull-Clark), L levels (default 1)
+#   laplacian[=N]    Laplacian Smooth modifier, N repeats (default 1), other settings default
+#   smooth[=N]       Smooth modifier, factor 0.5, N repeats (default 10)
+#   decimate=R       Decimate modifier, collapse, ratio R
+#   bisect           bmesh.ops.bisect_plane through the bbox centre, normal along the largest
+#                    extent, the negative side cleared (about half the surface kept)
+#   voxel=N          Remesh modifier, voxel mode, adaptivity 0, voxel size = diagonal / N
+import json
+import math
+import os
+import sys
+import time
+import traceback
+
+import bmesh
+import bpy
+import mathutils
+
+try:  # Debian's glTF importer uses numpy.bool, removed from numpy 1.24.
+    import numpy
+
+    if not hasattr(numpy, "bool"):
+        numpy.bool = bool
+except ImportError:
+    pass
+
+
+class UsageError(Exception):
+    pass
+
+
+DEFAULTS = {"merge": 1e-4, "noise": 0.002, "subdivide": 1, "laplacian": 1, "smooth": 10}
+NEEDS_VALUE = {"decimate", "voxel"}
+NO_VALUE = {"ply", "obj", "gltf", "transform", "bisect"}
+ROUND_TRIP_EXT = {"ply": ".ply", "obj": ".obj", "gltf": ".glb"}
+
+
+def parse_op(text):
+    name, _, value = text.partition("=")
+    if name in NO_VALUE:
+        if value:
+            raise UsageError("operation '%s' takes no value" % name)
+        return name, None
+    if name not in DEFAULTS and name not in NEEDS_VALUE:
+        raise UsageError("unknown operation '%s'" % name)
+    if not value:
+        if name in NEEDS_VALUE:
+            raise UsageError("operation '%s' needs a value (%s=...)" % (name, name))
+        return name, DEFAULTS[name]
+    try:
+        number = float(value)
+    except ValueError:
+        raise UsageError("operation '%s': '%s' is not a number" % (name, value)) from None
+    if not math.isfinite(number) or number <= 0:
+        raise UsageError("operation '%s': the value must be positive" % name)
+    if name == "decimate" and number > 1:
+        raise UsageError("operation 'decimate': the ratio must be in (0, 1]")
+    return name, number
+
+
+def import_mesh(path):
+    """Fresh scene, INPUT imported with Blender's importer; returns the single mesh object."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    ext = os.path.splitext(path)[1].lower()
+    if ext == ".ply":
+        bpy.ops.import_mesh.ply(filepath=path)
+    elif ext == ".obj":
+        # No axis conversion, so the output stays in the input's coordinates.
+        bpy.ops.wm.obj_import(filepath=path, forward_axis="Y", up_axis="Z")
+    elif ext in (".gltf", ".glb"):
+        bpy.ops.import_scene.gltf(filepath=path)
+    elif ext == ".stl":
+        bpy.ops.import_mesh.stl(filepath=path)
+    else:
+        raise UsageError("%s: Blender cannot read '%s' files (use .ply .obj .gltf .glb .stl)" % (path, ext))
+    meshes = [o for o in bpy.context.scene.objects if o.type == "MESH"]
+    if not meshes:
+        raise UsageError("%s: no mesh was imported" % path)
+    bpy.ops.object.select_all(action="DESELECT")
+    for o in meshes:
+        o.select_set(True)
+    bpy.context.view_layer.objects.active = meshes[0]
+    if len(meshes) > 1:
+        bpy.ops.object.join()
+    obj = bpy.context.view_layer.objects.active
+    # Bake the object's transform (the glTF importer's Y-up rotation) into the mesh.
+    bpy.ops.object.transform_apply(location=True, rotation=True, scale=True)
+    if len(obj.data.vertices) == 0:
+        raise UsageError("%s: the mesh has no vertices" % path)
+    return obj
+
+
+def bbox(obj):
+    points = [v.co for v in obj.data.vertices]
+    lo = mathutils.Vector([min(p[i] for p in points) for i in range(3)])
+    hi = mathutils.Vector([max(p[i] for p in points) for i in range(3)])
+    return lo, hi
+
+
+def apply_modifier(obj, kind, **settings):
+    modifier = obj.modifiers.new(kind.lower(), kind)
+    for key, value in settings.items():
+        setattr(modifier, key, value)
+    bpy.ops.object.modifier_apply(modifier=modifier.name)
+
+
+def with_bmesh(obj, change):
+    bm = bmesh.new()
+    bm.from_mesh(obj.data)
+    change(bm)
+    bm.to_mesh(obj.data)
+    bm.free()
+    obj.data.update()
+
+
+def apply_op(obj, name, value, seed):
+    lo, hi = bbox(obj)
+    diagonal = (hi - lo).length
+    centre = (lo + hi) / 2
+    if name in ROUND_TRIP_EXT:
+        return
+    if name == "transform":
+        move = mathutils.Matrix.Translation(mathutils.Vector((0.1, -0.2, 0.3)) * diagonal)
+        turn = mathutils.Euler([math.radians(a) for a in (20, 30, 40)], "XYZ").to_matrix().to_4x4()
+        obj.data.transform(move @ mathutils.Matrix.Scale(1.5, 4) @ turn)
+        obj.data.update()
+    elif name == "merge":
+        with_bmesh(obj, lambda bm: bmesh.ops.remove_doubles(bm, verts=bm.verts, dist=value * diagonal))
+    elif name == "noise":
+        bpy.ops.object.mode_set(mode="EDIT")
+        bpy.ops.mesh.select_all(action="SELECT")
+        bpy.ops.transform.vertex_random(offset=value * diagonal, uniform=0.0, normal=0.0, seed=seed)
+        bpy.ops.object.mode_set(mode="OBJECT")
+    elif name == "subdivide":
+        apply_modifier(obj, "SUBSURF", levels=int(value), render_levels=int(value))
+    elif name == "laplacian":
+        apply_modifier(obj, "LAPLACIANSMOOTH", iterations=int(value))
+    elif name == "smooth":
+        apply_modifier(obj, "SMOOTH", factor=0.5, iterations=int(value))
+    elif name == "decimate":
+        apply_modifier(obj, "DECIMATE", decimate_type="COLLAPSE", ratio=value)
+    elif name == "bisect":
+        extent = hi - lo
+        axis = max(range(3), key=lambda i: extent[i])
+        normal = mathutils.Vector([1.0 if i == axis else 0.0 for i in range(3)])
+
+        def cut(bm):
+            geom = list(bm.verts) + list(bm.edges) + list(bm.faces)
+            bmesh.ops.bisect_plane(bm, geom=geom, plane_co=centre, plane_no=normal, clear_inner=True)
+
+        with_bmesh(obj, cut)
+    elif name == "voxel":
+        apply_modifier(obj, "REMESH", mode="VOXEL", voxel_size=diagonal / value, adaptivity=0.0)
+    else:  # parse_op admits only the names above
+        raise AssertionError(name)
+
+
+def export(obj, name, path):
+    bpy.ops.object.select_all(action="DESELECT")
+    obj.select_set(True)
+    bpy.context.view_layer.objects.active = obj
+    if name == "obj":
+        # The writer's defaults, without its .mtl (no materials here) and the axis conversion.
+        bpy.ops.wm.obj_export(filepath=path, export_selected_objects=True, export_materials=False,
+                              forward_axis="Y", up_axis="Z")
+    elif name == "gltf":
+        bpy.ops.export_scene.gltf(filepath=path, export_format="GLB", use_selection=True)
+    elif name == "ply":
+        bpy.ops.export_mesh.ply(filepath=path)
+    else:
+        bpy.ops.export_mesh.ply(filepath=path, use_ascii=False, use_normals=False,
+                                use_uv_coords=False, use_colors=False)
+
+
+def write_json_atomically(path, value):
+    temporary = path + ".tmp"
+    with open(temporary, "w") as f:
+        json.dump(value, f, indent=1)
+        f.write("\n")
+    os.replace(temporary, path)
+
+
+def main(argv):
+    args = argv[argv.index("--") + 1:] if "--" in argv else []
+    seed = 0
+    if "--seed" in args:
+        i = args.index("--seed")
+        if i + 1 >= len(args) or not args[i + 1].isdigit():
+            raise UsageError("--seed needs a non-negative integer")
+        seed = int(args[i + 1])
+        del args[i:i + 2]
+    if len(args) < 3:
+        raise UsageError("usage: blender -b --python attacks.py -- INPUT OUT_DIR [--seed S] OP [OP ...]")
+    source, out_dir, specs = os.path.abspath(args[0]), os.path.abspath(args[1]), args[2:]
+    if not os.path.isfile(source):
+        raise UsageError("%s: no such file" % source)
+    if not os.path.isdir(out_dir):
+        raise UsageError("%s: no such folder" % out_dir)
+    ops = [(spec, *parse_op(spec)) for spec in specs]  # all checked before any work
+    report = []
+    for spec, name, value in ops:
+        start = time.time()
+        obj = import_mesh(source)
+        apply_op(obj, name, value, seed)
+        label = spec.replace("=", "_")
+        target = os.path.join(out_dir, label + ROUND_TRIP_EXT.get(name, ".ply"))
+        temporary = os.path.join(out_dir, ".tmp-" + os.path.basename(target))
+        export(obj, name, temporary)
+        os.replace(temporary, target)
+        report.append({"label": label, "op": spec, "output": target,
+                       "vertices": len(obj.data.vertices), "faces": len(obj.data.polygons),
+                       "seconds": round(time.time() - start, 3)})
+        print("attacks.py: %s -> %s (%d vertices, %d faces)" %
+              (spec, target, len(obj.data.vertices), len(obj.data.polygons)), flush=True)
+    write_json_atomically(os.path.join(out_dir, "attacks.json"), report)
+
+
+if __name__ == "__main__":
+    try:
+        main(sys.argv)
+    except UsageError as e:
+        print("attacks.py: %s" % e, file=sys.stderr, flush=True)
+        sys.exit(2)
+    except Exception as e:  # Blender's own errors: one line, then the trace for debugging
+        print("attacks.py: %s: %s" % (type(e).__name__, e), file=sys.stderr, flush=True)
+        traceback.print_exc()
+        sys.exit(2)
