@@ -22,6 +22,7 @@ struct DetectArgs
     std::string pairs;
     bool json = false;
     bool no_register = false;
+    bool no_trace = false;
     std::string verdict = "combined";
     DetectOptions decision;
 };
@@ -33,6 +34,7 @@ int run_detect(const DetectArgs& args, const GlobalArgs& global)
     options.decision.verdict = parse_verdict_rule(args.verdict);
     options.threads = global.threads;
     options.allow_registration = !args.no_register;
+    options.trace = !args.no_trace;
     if (!args.pairs.empty())
     {
         options.pairs = read_point_pairs(args.pairs);
@@ -61,6 +63,16 @@ int run_detect(const DetectArgs& args, const GlobalArgs& global)
                     args.suspect.c_str(), d.is_present ? "FOUND" : "not found", d.score,
                     d.coefficient_count, d.correlation, d.matches, d.bit_count,
                     format_number(d.false_positive_probability).c_str());
+        if (report.recipients_traced > 0)
+        {
+            std::printf("  %zu of %zu recipients accused%s\n", report.accused.size(), report.recipients_traced,
+                        report.accused.empty() ? " (the owner's mark above is shared by every copy)" : ":");
+            for (const RecipientScore& r : report.accused)
+            {
+                std::printf("    %s: z = %.2f, false-positive probability %s\n", r.name.c_str(), r.score,
+                            format_number(r.false_positive_probability).c_str());
+            }
+        }
         if (global.verbose)
         {
             std::printf("  expected %s\n  found    %s\n  alignment %s, RMS distance %s of the diagonal, "
@@ -70,7 +82,7 @@ int run_detect(const DetectArgs& args, const GlobalArgs& global)
                         report.seconds.total);
         }
     }
-    return d.is_present ? 0 : 1;
+    return report.detected() ? 0 : 1;
 }
 
 }  // namespace
@@ -88,7 +100,11 @@ void register_detect(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
         "the payload bits read back, and claims ownership only when the probability that an "
         "unmarked mesh does as well on either is at most --max-fpp (a bound that holds whatever "
         "the mesh: docs/statistics.md); --verdict bits is the paper's rule (R >= --threshold). "
-        "Exit code 0 when the watermark is found, 1 when it is not, >= 2 on errors.");
+        "With a family key (embed --recipient) every recipient is scored as well and the suspect "
+        "is traced: the recipients whose copies it was made from are accused when the probability "
+        "that any innocent one of the key scores as high is at most --max-fpp. "
+        "Exit code 0 when the watermark is found (with a family key: when a recipient is accused), "
+        "1 when it is not, >= 2 on errors.");
     command->add_option("SUSPECT", args->suspect, "Suspect mesh")->required()->check(CLI::ExistingFile);
     command->add_option("--original", args->original, "The original (unmarked) mesh the key was made for")
         ->required()
@@ -115,6 +131,9 @@ void register_detect(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
                         "Text file of >= 3 point pairs 'xs ys zs  xo yo zo' (suspect, original) to "
                         "start the registration from, for hard cases")
         ->check(CLI::ExistingFile);
+    command->add_flag("--no-trace", args->no_trace,
+                      "With a family key: decide on the owner's mark alone (shared by every copy), "
+                      "without naming recipients");
     command->add_flag("--no-register", args->no_register,
                       "Only accept a suspect whose vertices correspond to the original's, in order "
                       "(no registration or resampling)");
@@ -122,7 +141,8 @@ void register_detect(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
                       "Print one JSON object: detected, verdict, score, correlation, bits_expected, "
                       "bits_found, false_positive_probability (of the verdict used; also "
                       "score_ and bits_false_positive_probability), cropped_fraction, "
-                      "registration, seconds");
+                      "registration, seconds; with a family key also recipients (the accused: name, score, "
+                      "false_positive_probability, strongest first), recipients_traced, owner_detected");
     add_global_flags(*command, global);
     command->callback([args, &global, &runner]() {
         runner = [args, &global]() { return run_detect(*args, global); };

@@ -1,12 +1,17 @@
 // SPDX-License-Identifier: MIT
 // `meshmark embed`: watermark a mesh file and write its key.
+#include <algorithm>
 #include <cstdio>
+#include <fstream>
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "commands.h"
+#include "meshmark/core/error.h"
 #include "meshmark/pipeline/embed_file.h"
+#include "meshmark/pipeline/embed_recipients.h"
 #include "progress.h"
 #include "report.h"
 
@@ -30,8 +35,95 @@ struct EmbedArgs
     bool force = false;
     std::int64_t memory_budget = 0;
     bool stream = false;
+    std::vector<std::string> recipients;
+    std::string recipients_file;
+    int recipient_modes = RecipientCodes{}.modes;
+    double recipient_share = RecipientCodes{}.energy_share;
     EmbedOptions options;
 };
+
+// Names from a recipients file: one per line; blank lines and lines starting with '#' skipped,
+// spaces around a name dropped.
+std::vector<std::string> read_recipients_file(const std::string& path)
+{
+    std::ifstream in(path);
+    if (!in)
+    {
+        throw IoError(path + ": cannot open the recipients file.");
+    }
+    std::vector<std::string> names;
+    std::string line;
+    while (std::getline(in, line))
+    {
+        const auto first = line.find_first_not_of(" \t\r");
+        if (first == std::string::npos || line[first] == '#')
+        {
+            continue;
+        }
+        const auto last = line.find_last_not_of(" \t\r");
+        names.push_back(line.substr(first, last - first + 1));
+    }
+    if (in.bad())
+    {
+        throw IoError(path + ": cannot read the recipients file.");
+    }
+    return names;
+}
+
+// `meshmark embed --recipient ...`: one copy per recipient and the family key.
+int run_embed_recipients(const EmbedArgs& args, const GlobalArgs& global, EmbedRecipientsOptions options)
+{
+    if (args.stream || args.memory_budget > 0)
+    {
+        throw InvalidOption("recipient copies are embedded in memory; --stream and --memory-budget do not apply.");
+    }
+    if (args.force)
+    {
+        throw InvalidOption("--force does not apply to recipient copies: an existing family key is extended, "
+                            "any other key is refused.");
+    }
+    options.recipients = args.recipients;
+    if (!args.recipients_file.empty())
+    {
+        const std::vector<std::string> listed = read_recipients_file(args.recipients_file);
+        options.recipients.insert(options.recipients.end(), listed.begin(), listed.end());
+    }
+    options.recipient_modes = args.recipient_modes;
+    options.recipient_share = args.recipient_share;
+    std::optional<PhaseProgress> progress;
+    if (PhaseProgress::should_show(global.quiet))
+    {
+        progress.emplace(PhaseProgressOptions{"meshmark embed"});
+        options.progress = progress->callback();
+    }
+    const EmbedRecipientsReport report = embed_recipients(args.input, args.output, args.key, options);
+    if (progress)
+    {
+        progress->finish();
+    }
+    if (args.json)
+    {
+        print_json(embed_recipients_report_json(report, args.input, args.key));
+    }
+    if (!global.quiet)
+    {
+        double largest_rms = 0.0;
+        int added = 0;
+        for (const IssuedCopy& copy : report.copies)
+        {
+            largest_rms = std::max(largest_rms, copy.stats.rms_displacement_rel);
+            added += copy.is_new ? 1 : 0;
+        }
+        std::fprintf(stderr,
+                     "meshmark: issued %zu copies of %s (%lld vertices; %d new recipients, %zu re-issued) in "
+                     "%.3f s; displacement RMS at most %s%% of the bbox diagonal; %s key %s holds %zu recipients\n",
+                     report.copies.size(), args.input.c_str(), static_cast<long long>(report.vertex_count), added,
+                     report.copies.size() - static_cast<std::size_t>(added), report.seconds.total,
+                     format_number(100.0 * largest_rms).c_str(), report.key_created ? "new" : "updated",
+                     args.key.c_str(), report.key.recipients->recipients.size());
+    }
+    return 0;
+}
 
 int run_embed(const EmbedArgs& args, const GlobalArgs& global)
 {
@@ -54,6 +146,12 @@ int run_embed(const EmbedArgs& args, const GlobalArgs& global)
         options.seed = args.seed;
     }
     options.threads = global.threads;
+    if (!args.recipients.empty() || !args.recipients_file.empty())
+    {
+        EmbedRecipientsOptions family;
+        static_cast<EmbedMeshOptions&>(family) = options;
+        return run_embed_recipients(args, global, std::move(family));
+    }
     options.force = args.force;
     options.replace_input = args.force;  // -o may name the input only with --force
     options.memory_budget_mib = args.memory_budget;
@@ -116,7 +214,9 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
                         "Original mesh (.ply .obj .off .stl .gltf .glb .3mf); never modified")
         ->required()
         ->check(CLI::ExistingFile);
-    command->add_option("-o,--output", args->output, "Watermarked mesh to write")->required();
+    command->add_option("-o,--output", args->output,
+                        "Watermarked mesh to write (with --recipient: a pattern containing {recipient})")
+        ->required();
     command->add_option("--key", args->key, "Key file to write (refuses to replace one unless --force)")
         ->required();
     auto* message = command->add_option("--message", args->message,
@@ -175,6 +275,23 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     command->add_flag("--stream", args->stream,
                       "Always embed out of core (binary PLY with fixed-size vertex records, "
                       "written to .ply); any other input is an error");
+    command->add_option("--recipient", args->recipients,
+                        "Issue a copy to this recipient (repeat for several): -o must then contain "
+                        "{recipient}, e.g. out/{recipient}.glb; --key is the family key, created if "
+                        "absent, else extended (a name it holds gets its copy again, byte for byte). "
+                        "detect with that key names the recipients whose copies a suspect was made "
+                        "from (docs/fingerprinting.md)");
+    command->add_option("--recipients", args->recipients_file,
+                        "File of recipient names, one per line ('#' comments), as --recipient")
+        ->check(CLI::ExistingFile);
+    command->add_option("--recipient-modes", args->recipient_modes,
+                        "New family key: M, modes after the owner's that carry each recipient's code "
+                        "(3M coefficients; first mode + m*r + M must not exceed the basis size)")
+        ->capture_default_str();
+    command->add_option("--recipient-share", args->recipient_share,
+                        "New family key: share of the displacement energy given to the recipient codes "
+                        "(the owner's mark keeps the rest; the total stays --strength)")
+        ->capture_default_str();
     command->add_flag("--json", args->json, "Print a JSON report on stdout");
     command->add_flag("--force", args->force,
                       "Replace an existing key file, or the input itself when -o names it "

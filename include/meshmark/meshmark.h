@@ -18,6 +18,7 @@
 #include "meshmark/pipeline/attack_file.h"
 #include "meshmark/pipeline/detect_file.h"
 #include "meshmark/pipeline/embed_file.h"
+#include "meshmark/pipeline/embed_recipients.h"
 #include "meshmark/pipeline/progress.h"
 #include "meshmark/pipeline/report_json.h"
 #include "meshmark/watermark/key.h"

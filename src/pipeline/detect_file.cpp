@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/pipeline/detect_file.h"
 
+#include <algorithm>
+
 #include <array>
 #include <cmath>
 #include <exception>
@@ -188,6 +190,15 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
     report.extraction = is_resampled ? detector.extract_resampled(aligned, options.decision, kept)
                                      : detector.extract(aligned, options.decision);
     report.decision = mark.decide(report.extraction, options.decision);
+    if (options.trace && mark.key().recipients && !mark.key().recipients->recipients.empty())
+    {
+        std::vector<RecipientScore> scores = mark.trace(report.extraction, options.decision);
+        report.recipients_traced = scores.size();
+        std::erase_if(scores, [](const RecipientScore& s) { return !s.is_accused; });
+        std::sort(scores.begin(), scores.end(),
+                  [](const RecipientScore& a, const RecipientScore& b) { return a.score > b.score; });
+        report.accused = std::move(scores);
+    }
     timer.lap("extract");
 }
 

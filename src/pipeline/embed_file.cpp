@@ -114,13 +114,12 @@ void write_mesh_and_key(const std::filesystem::path& key_path, const Key& key,
 
 }  // namespace detail
 
-namespace {
-
-// The key of an embed: the options' seed, or one drawn from the OS.
-Key new_key(const EmbedMeshOptions& options)
+Key detail::new_key(const EmbedMeshOptions& options)
 {
     return make_key(options.embed, options.seed ? *options.seed : fresh_seed(), options.message, options.bits_hex);
 }
+
+namespace {
 
 // The in-memory embed of \p mesh (named \p name in errors) into \p result: phases "basis" and
 // "embed" on \p timer.
@@ -128,7 +127,7 @@ void embed_into(EmbedResult& result, detail::PhaseTimer& timer, const TriangleMe
                 const std::filesystem::path& name, const EmbedMeshOptions& options)
 {
     timer.begin("basis");
-    Key key = new_key(options);
+    Key key = detail::new_key(options);
     check_basis_input(mesh, key.options, name);
 
     // Basis (pass 1 + eigen-decomposition) -> synthesis of the displacement (pass 2). The
@@ -183,7 +182,7 @@ EmbedReport embed_to_new_file(const std::filesystem::path& input, const std::fil
     std::string note;
     if (const auto streamed = detail::stream_plan(input, output, options, &note))
     {
-        return detail::embed_file_streamed(*streamed, output, key_path, new_key(options), options);
+        return detail::embed_file_streamed(*streamed, output, key_path, detail::new_key(options), options);
     }
 
     EmbedReport report;

@@ -13,6 +13,9 @@
 
 namespace meshmark::detail {
 
+/// The key of a new embed: make_key with the options' seed, or one drawn from the OS.
+[[nodiscard]] Key new_key(const EmbedMeshOptions& options);
+
 /// \brief Stage \p key next to \p key_path, run \p write_mesh (which writes the mesh
 /// atomically), then move the key into place: both files or neither (see embed_file).
 void write_mesh_and_key(const std::filesystem::path& key_path, const Key& key,

@@ -54,6 +54,35 @@ nlohmann::json embed_stats_json(const Key& key, const EmbedStats& stats)
             {"weak_bits", stats.weak_bits}};
 }
 
+nlohmann::json embed_recipients_report_json(const EmbedRecipientsReport& report, const std::string& input,
+                                            const std::string& key)
+{
+    nlohmann::json copies = nlohmann::json::array();
+    for (const IssuedCopy& copy : report.copies)
+    {
+        copies.push_back({{"name", copy.name},
+                          {"index", copy.index},
+                          {"output", copy.path.string()},
+                          {"new", copy.is_new},
+                          {"rms_displacement", copy.stats.rms_displacement_rel},
+                          {"max_displacement", copy.stats.max_displacement_rel}});
+    }
+    nlohmann::json out = embed_stats_json(report.key, report.copies.front().stats);
+    out.erase("max_displacement");
+    out.erase("rms_displacement");
+    out["input"] = input;
+    out["key"] = key;
+    out["key_created"] = report.key_created;
+    out["recipient_modes"] = report.key.recipients->modes;
+    out["recipient_share"] = report.key.recipients->energy_share;
+    out["recipients_in_key"] = report.key.recipients->recipients.size();
+    out["copies"] = std::move(copies);
+    out["vertices"] = report.vertex_count;
+    out["faces"] = report.face_count;
+    out["seconds"] = to_json(report.seconds);
+    return out;
+}
+
 nlohmann::json embed_report_json(const EmbedReport& report, const std::string& input, const std::string& output,
                                  const std::string& key)
 {
@@ -71,7 +100,7 @@ nlohmann::json embed_report_json(const EmbedReport& report, const std::string& i
 nlohmann::json detect_report_json(const DetectReport& report, const DetectOptions& options, bool diagnostics)
 {
     const Decision& d = report.decision;
-    nlohmann::json out = {{"detected", d.is_present},
+    nlohmann::json out = {{"detected", report.detected()},
                           {"correlation", d.correlation},
                           {"matches", d.matches},
                           {"bit_count", d.bit_count},
@@ -93,6 +122,18 @@ nlohmann::json detect_report_json(const DetectReport& report, const DetectOption
                           {"suspect_vertices", report.suspect_vertices},
                           {"original_vertices", report.original_vertices},
                           {"seconds", to_json(report.seconds)}};
+    if (report.recipients_traced > 0)
+    {
+        nlohmann::json accused = nlohmann::json::array();
+        for (const RecipientScore& r : report.accused)
+        {
+            accused.push_back({{"name", r.name}, {"score", r.score},
+                               {"false_positive_probability", r.false_positive_probability}});
+        }
+        out["recipients"] = std::move(accused);
+        out["recipients_traced"] = report.recipients_traced;
+        out["owner_detected"] = d.is_present;
+    }
     if (diagnostics)
     {
         out["normalized_change"] = report.extraction.normalized_change;

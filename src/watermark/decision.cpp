@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <string>
+#include <tuple>
 
 #include "meshmark/core/error.h"
 #include "meshmark/core/named_choice.h"
@@ -60,6 +61,53 @@ VerdictRule parse_verdict_rule(const std::string& name)
                                            {{"combined", VerdictRule::Combined},
                                             {"correlation", VerdictRule::Correlation},
                                             {"bits", VerdictRule::Bits}});
+}
+
+SoftCorrelation::SoftCorrelation(const std::vector<double>& x, const std::vector<double>& w) : size_(x.size())
+{
+    constexpr std::array<double, 3> kWeightPowers = {0.0, 0.5, 1.0};
+    for (std::size_t p = 0; p < kWeightPowers.size(); ++p)
+    {
+        weighted_[p].resize(size_);
+        for (std::size_t c = 0; c < size_; ++c)
+        {
+            // A change below a millionth of the modulation is rounding (an unmarked original
+            // compared with itself); dropping it keeps such a score at 0 and depends on no sign.
+            const double value = std::abs(x[c]) < kNegligibleChange ? 0.0 : x[c];
+            const double weight = kWeightPowers[p] == 0.0 ? 1.0 : std::pow(w[c], kWeightPowers[p]);
+            const double wx = weight * value;
+            weighted_[p][c] = wx;
+            norm_[p] += wx * wx;
+        }
+    }
+}
+
+std::vector<RecipientScore> SpectralWatermark::trace(const Extraction& extraction, const DetectOptions& options) const
+{
+    options.validate();
+    std::vector<RecipientScore> scores;
+    if (!key_.recipients || extraction.recipient_change.empty())
+    {
+        return scores;
+    }
+    // Each innocent recipient's code is independent of the suspect (made from the owner's mark
+    // and other recipients' codes), so its score is bounded as the owner's soft score is; the
+    // union over the key's recipients bounds the chance that any innocent is accused.
+    const SoftCorrelation soft(extraction.recipient_change, extraction.recipient_weights);
+    const double recipients = static_cast<double>(key_.recipients->recipients.size());
+    scores.reserve(key_.recipients->recipients.size());
+    for (const Recipient& recipient : key_.recipients->recipients)
+    {
+        const Eigen::MatrixX3d signs = recipient_signs(recipient.index);
+        RecipientScore entry{recipient.name, recipient.index};
+        double bound = 1.0;
+        std::tie(entry.score, bound) = soft.score(
+            [&](std::size_t c) { return signs(static_cast<Eigen::Index>(c / 3), static_cast<Eigen::Index>(c % 3)); });
+        entry.false_positive_probability = std::min(1.0, recipients * bound);
+        entry.is_accused = entry.false_positive_probability <= options.max_false_positive;
+        scores.push_back(std::move(entry));
+    }
+    return scores;
 }
 
 double rademacher_tail_bound(double z)
@@ -121,37 +169,10 @@ Decision SpectralWatermark::decide(const Extraction& extraction, const DetectOpt
     // uniform (best when every coefficient is read equally well), inverse variance (best when
     // the nuisance fit or a crop makes some coefficients far noisier than others) and their
     // geometric mean; the verdict takes the best and pays for the choice with a union bound.
-    const auto& x = extraction.normalized_change;
-    const auto& w = extraction.weights;
-    constexpr std::array<double, 3> kWeightPowers = {0.0, 0.5, 1.0};
-    decision.coefficient_count = static_cast<int>(x.size());
-    decision.score = 0.0;
-    double best_bound = 1.0;
-    bool is_first = true;
-    for (const double power : kWeightPowers)
-    {
-        double dot = 0.0;
-        double norm_sq = 0.0;
-        for (std::size_t c = 0; c < x.size(); ++c)
-        {
-            // A change below a millionth of the modulation is rounding (an unmarked original
-            // compared with itself); dropping it keeps such a score at 0 and depends on no sign.
-            const double value = std::abs(x[c]) < kNegligibleChange ? 0.0 : x[c];
-            const double weight = power == 0.0 ? 1.0 : std::pow(w[c], power);
-            const double wx = weight * value;
-            dot += signs_(static_cast<Eigen::Index>(c / 3), static_cast<Eigen::Index>(c % 3)) * wx;
-            norm_sq += wx * wx;
-        }
-        const double z = norm_sq > 0.0 ? dot / std::sqrt(norm_sq) : 0.0;
-        if (is_first || z > decision.score)
-        {
-            decision.score = z;
-            best_bound = rademacher_tail_bound(z);
-            is_first = false;
-        }
-    }
-    decision.score_false_positive_probability =
-        std::min(1.0, static_cast<double>(kWeightPowers.size()) * best_bound);
+    const SoftCorrelation soft(extraction.normalized_change, extraction.weights);
+    decision.coefficient_count = static_cast<int>(soft.size());
+    std::tie(decision.score, decision.score_false_positive_probability) = soft.score(
+        [&](std::size_t c) { return signs_(static_cast<Eigen::Index>(c / 3), static_cast<Eigen::Index>(c % 3)); });
 
     switch (options.verdict)
     {

@@ -52,8 +52,15 @@ Extraction Detector::extraction_from(const Eigen::VectorXd& normalized, const Ei
     // bit weighted by their inverse variances (soft decision); the same weights serve the
     // correlation.
     const int bit_count = payload_bit_count(mark_->key().options);
-    const auto coefficient_count = normalized.size();
+    // The owner's coefficients first; a family key's recipient code follows them.
+    const auto coefficient_count = static_cast<Eigen::Index>(3 * mark_->embedded_signs().rows());
     Extraction result;
+    for (Eigen::Index c = coefficient_count; c < normalized.size(); ++c)
+    {
+        const bool is_determined = std::isfinite(variances(c)) && variances(c) > 0.0;
+        result.recipient_change.push_back(is_determined ? normalized(c) : 0.0);
+        result.recipient_weights.push_back(is_determined ? 1.0 / variances(c) : 0.0);
+    }
     result.normalized_change.resize(static_cast<std::size_t>(coefficient_count));
     result.weights.resize(static_cast<std::size_t>(coefficient_count));
     result.bit_values.assign(static_cast<std::size_t>(bit_count), 0.0);

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
+#include <set>
 #include <type_traits>
 #include <sstream>
 
@@ -20,8 +21,10 @@ namespace {
 using Json = nlohmann::json;
 
 constexpr const char* kKeyFormat = "meshmark-key";
-// A key is a few hundred bytes; anything far larger is not a key (and is not parsed).
-constexpr std::uintmax_t kMaxKeyBytes = 1U << 20U;
+// A key is a few hundred bytes, a family key about 50 more per recipient; anything far larger
+// is not a key (and is not parsed).
+constexpr std::uintmax_t kMaxKeyBytes = 16U << 20U;
+constexpr std::size_t kMaxRecipientName = 100;
 constexpr int kMaxKeyDepth = 16;  // A key nests 3 levels deep.
 
 std::string hex64(std::uint64_t value)
@@ -99,6 +102,17 @@ Json content_json(const Key& key)
     j["original"] = {{"vertex_count", key.original.vertex_count},
                      {"face_count", key.original.face_count},
                      {"position_hash", hex64(key.original.position_hash)}};
+    if (key.recipients)
+    {
+        Json issued = Json::array();
+        for (const Recipient& r : key.recipients->recipients)
+        {
+            issued.push_back({{"name", r.name}, {"index", r.index}});
+        }
+        j["recipients"] = {{"modes", key.recipients->modes},
+                           {"energy_share", key.recipients->energy_share},
+                           {"issued", std::move(issued)}};
+    }
     return j;
 }
 
@@ -177,6 +191,64 @@ double default_strength(EmbeddingRule rule) noexcept
     // Additive: RMS displacement of 0.1% of the diagonal (the issue's starting point; the
     // robustness benchmark refines it). Paper: rho = 0.01 [Wu & Kobbelt 2005, Sec. 6].
     return rule == EmbeddingRule::Paper ? 0.01 : 1e-3;
+}
+
+const Recipient* RecipientCodes::find(const std::string& name) const noexcept
+{
+    for (const Recipient& r : recipients)
+    {
+        if (r.name == name)
+        {
+            return &r;
+        }
+    }
+    return nullptr;
+}
+
+void RecipientCodes::validate(const EmbedOptions& options) const
+{
+    const int used = options.first_mode + modulated_modes(options);
+    if (modes < 1 || used + modes > options.basis_size)
+    {
+        throw InvalidOption("recipient modes (--recipient-modes) must be in 1.." +
+                            std::to_string(std::max(1, options.basis_size - used)) +
+                            " (the basis size minus the owner's first mode and modes), got " +
+                            std::to_string(modes) + ".");
+    }
+    if (!std::isfinite(energy_share) || energy_share <= 0.0 || energy_share >= 1.0)
+    {
+        throw InvalidOption("the recipients' energy share (--recipient-share) must be in (0, 1), got " +
+                            std::to_string(energy_share) + ".");
+    }
+}
+
+void check_recipient_name(const std::string& name)
+{
+    if (name.empty() || name.size() > kMaxRecipientName)
+    {
+        throw InvalidOption("a recipient name must have 1 to " + std::to_string(kMaxRecipientName) +
+                            " characters, got " + std::to_string(name.size()) + ".");
+    }
+    if (name.front() == '.')
+    {
+        throw InvalidOption("recipient name '" + name + "' starts with '.'; names become part of file names.");
+    }
+    for (const char c : name)
+    {
+        const auto u = static_cast<unsigned char>(c);
+        if (u < 0x20U || u == 0x7FU || c == '/' || c == '\\' || c == '"')
+        {
+            throw InvalidOption("recipient name '" + name +
+                                "' has a control character, a quote or a path separator; names become part "
+                                "of file names.");
+        }
+    }
+}
+
+std::vector<std::uint8_t> recipient_code(std::uint64_t seed, std::uint32_t index, int n)
+{
+    Rng rng(derive_seed(derive_seed(seed, "recipient-code"), std::to_string(index)));
+    return low_bits(rng, n);
 }
 
 void EmbedOptions::validate() const
@@ -477,6 +549,49 @@ Key parse_key(const std::string& text, const std::string& source)
     key.original.position_hash =
         parse_hex64(field<std::string>(original, "position_hash", "original.", source),
                     "original.position_hash", source);
+    if (j.contains("recipients"))
+    {
+        const Json family = field<Json>(j, "recipients", "", source);
+        RecipientCodes codes;
+        codes.modes = field<int>(family, "modes", "recipients.", source);
+        codes.energy_share = field<double>(family, "energy_share", "recipients.", source);
+        const Json issued = field<Json>(family, "issued", "recipients.", source);
+        if (!issued.is_array())
+        {
+            throw IoError(source + ": key field 'recipients.issued' must be a list.");
+        }
+        std::set<std::uint32_t> indices;
+        std::set<std::string> names;
+        for (const Json& entry : issued)
+        {
+            Recipient r;
+            r.name = field<std::string>(entry, "name", "recipients.issued[].", source);
+            r.index = field<std::uint32_t>(entry, "index", "recipients.issued[].", source);
+            try
+            {
+                check_recipient_name(r.name);
+            }
+            catch (const InvalidOption& e)
+            {
+                throw IoError(source + ": invalid key field: " + e.what());
+            }
+            if (!names.insert(r.name).second || !indices.insert(r.index).second)
+            {
+                throw IoError(source + ": recipient '" + r.name + "' (index " + std::to_string(r.index) +
+                              ") appears twice in the key.");
+            }
+            codes.recipients.push_back(std::move(r));
+        }
+        try
+        {
+            codes.validate(key.options);
+        }
+        catch (const InvalidOption& e)
+        {
+            throw IoError(source + ": invalid key parameters: " + e.what());
+        }
+        key.recipients = std::move(codes);
+    }
     return key;
 }
 

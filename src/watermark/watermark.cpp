@@ -72,6 +72,13 @@ void SpectralWatermark::check_key() const
     {
         throw InvalidOption("the payload has " + std::to_string(key_.payload.size()) +
                             " bits, but the key's parameters need " + std::to_string(bit_count) + ".");
+    }    if (key_.recipients)
+    {
+        key_.recipients->validate(key_.options);
+        if (key_.options.rule != EmbeddingRule::Additive)
+        {
+            throw InvalidOption("a family key (recipients) needs the additive embedding rule.");
+        }
     }
 }
 
@@ -110,6 +117,10 @@ void SpectralWatermark::init_modulation(double analysed)
     // c mod 3m, with its own mask bit, so the r copies of a bit get independent signs.
     const int modes = modulated_modes(key_.options);
     const int coefficient_count = 3 * modes;
+    // A family key: the recipient code's M modes follow the owner's, and the two share the
+    // energy (docs/fingerprinting.md). Otherwise the owner has all of it.
+    const int recipient_modes = key_.recipients ? key_.recipients->modes : 0;
+    const double owner_share = key_.recipients ? 1.0 - key_.recipients->energy_share : 1.0;
     mask_ = payload_mask(key_.seed, coefficient_count);
     signs_.resize(modes, 3);
     for (int c = 0; c < coefficient_count; ++c)
@@ -125,8 +136,18 @@ void SpectralWatermark::init_modulation(double analysed)
     {
         // |U b' s|_F^2 = 3 m r s^2 for orthonormal modes, so this s gives an RMS displacement of
         // strength * D over the analysed vertices.
-        const double step = strength * frame_.diagonal * std::sqrt(analysed / static_cast<double>(coefficient_count));
-        modulation_ = Eigen::MatrixX3d::Constant(modes, 3, step);
+        const double step = strength * std::sqrt(owner_share) * frame_.diagonal *
+                             std::sqrt(analysed / static_cast<double>(coefficient_count));
+        modulation_.resize(modes + recipient_modes, 3);
+        modulation_.topRows(modes).setConstant(step);
+        if (recipient_modes > 0)
+        {
+            // The code's 3M coefficients carry the rest of the energy: an RMS displacement of
+            // strength * sqrt(share) * D.
+            modulation_.bottomRows(recipient_modes)
+                .setConstant(strength * std::sqrt(key_.recipients->energy_share) * frame_.diagonal *
+                             std::sqrt(analysed / (3.0 * recipient_modes)));
+        }
     }
     else
     {
@@ -143,8 +164,35 @@ Eigen::MatrixX3d SpectralWatermark::coefficient_change() const
     // Coefficient change (canonical frame) -> file axes.
     const int first = key_.options.first_mode;
     Eigen::MatrixX3d change = Eigen::MatrixX3d::Zero(first + signs_.rows(), 3);
-    change.bottomRows(signs_.rows()) = signs_.cwiseProduct(modulation_) * frame_.axes;
+    change.bottomRows(signs_.rows()) = signs_.cwiseProduct(modulation_.topRows(signs_.rows())) * frame_.axes;
     return change;
+}
+
+int SpectralWatermark::recipient_modes() const noexcept
+{
+    return static_cast<int>(modulation_.rows() - signs_.rows());
+}
+
+Eigen::MatrixX3d SpectralWatermark::recipient_signs(std::uint32_t index) const
+{
+    const int modes = recipient_modes();
+    const std::vector<std::uint8_t> code = recipient_code(key_.seed, index, 3 * modes);
+    Eigen::MatrixX3d signs(modes, 3);
+    for (int c = 0; c < 3 * modes; ++c)
+    {
+        signs(c / 3, c % 3) = code[static_cast<std::size_t>(c)] != 0 ? 1.0 : -1.0;
+    }
+    return signs;
+}
+
+Eigen::MatrixX3d SpectralWatermark::recipient_change(std::uint32_t index) const
+{
+    const int modes = recipient_modes();
+    if (modes == 0)
+    {
+        throw InvalidOption("the key has no recipients: it is not a family key.");
+    }
+    return recipient_signs(index).cwiseProduct(modulation_.bottomRows(modes)) * frame_.axes;
 }
 
 void SpectralWatermark::describe(const DisplacementSummary& summary, double aabb_diagonal,

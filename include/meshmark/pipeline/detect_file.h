@@ -22,6 +22,9 @@ struct DetectFileOptions
     bool allow_registration = true;
     std::vector<PointPair> pairs;    ///< Optional user point pairs (suspect, original) to start from.
     ProgressCallback progress;       ///< Optional.
+    /// Family keys: score every recipient and accuse (docs/fingerprinting.md). False: the
+    /// owner's mark alone decides, as with a single-owner key.
+    bool trace = true;
 };
 
 /// What detect_file found.
@@ -36,6 +39,16 @@ struct DetectReport
     std::int64_t suspect_vertices = 0;
     std::int64_t original_vertices = 0;
     PhaseTimings seconds;
+    /// Family keys traced: the recipients scored (all of the key's), else 0.
+    std::size_t recipients_traced = 0;
+    /// The accused recipients, strongest first (RecipientScore::is_accused).
+    std::vector<RecipientScore> accused;
+    /// The verdict: with recipients traced, whether anyone is accused; otherwise whether the
+    /// mark is present (decision.is_present, which for a family key is the owner's mark).
+    [[nodiscard]] bool detected() const noexcept
+    {
+        return recipients_traced > 0 ? !accused.empty() : decision.is_present;
+    }
 };
 
 /// \brief Look for the watermark of \p key in \p suspect (docs/algorithms/detection.md).

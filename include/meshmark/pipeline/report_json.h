@@ -14,6 +14,7 @@
 #include "meshmark/pipeline/attack_file.h"
 #include "meshmark/pipeline/detect_file.h"
 #include "meshmark/pipeline/embed_file.h"
+#include "meshmark/pipeline/embed_recipients.h"
 #include "meshmark/pipeline/progress.h"
 
 namespace meshmark {
@@ -27,6 +28,11 @@ namespace meshmark {
 /// \brief What an embed made, without the files: the key's parameters, the payload bits and the
 /// distortion (`analysed_vertices`, `rule`, `strength`, `basis`, ..., `weak_bits`).
 [[nodiscard]] nlohmann::json embed_stats_json(const Key& key, const EmbedStats& stats);
+
+/// \brief `meshmark embed --recipient ... --json`: the family's parameters, then one entry
+/// per copy written (name, index, output, new, rms_displacement, max_displacement).
+[[nodiscard]] nlohmann::json embed_recipients_report_json(const EmbedRecipientsReport& report,
+                                                          const std::string& input, const std::string& key);
 
 /// \brief `meshmark embed --json`: embed_stats_json plus the file names as given, the counts,
 /// `streamed` and `seconds`.

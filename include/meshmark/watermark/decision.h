@@ -1,7 +1,9 @@
 // SPDX-License-Identifier: MIT
 #pragma once
 
+#include <cmath>
 #include <cstdint>
+#include <utility>
 #include <string>
 #include <vector>
 
@@ -23,6 +25,43 @@ struct Extraction
     /// mask undone, weighted by `weights`: +1 for an embedded 1 and -1 for a 0 (soft decision).
     std::vector<double> bit_values;
     std::vector<std::uint8_t> bits_found;  ///< Payload bits: 0, 1, or 2 for undecided.
+    /// Family keys: the recipient code's 3M coefficients (coefficient c = 3 * mode + axis of
+    /// the M modes after the owner's), normalized and weighted as above; empty otherwise.
+    std::vector<double> recipient_change;
+    std::vector<double> recipient_weights;
+};
+
+/// \brief The soft correlation of a set of normalized coefficients with a sign vector, over the
+/// three weightings a = w^0, w^(1/2), w^1 (docs/statistics.md): the weighted values are
+/// computed once, so scoring many sign vectors (every recipient of a family key) is one dot
+/// product per weighting each.
+class SoftCorrelation
+{
+public:
+    /// \param x normalized changes; \param w their weights (>= 0), same size.
+    SoftCorrelation(const std::vector<double>& x, const std::vector<double>& w);
+    /// z = the largest of the three scores for signs sign(c) in {-1, +1}, and the bound
+    /// min(1, 3 rademacher_tail_bound(z)) on P(a suspect without these signs scores z).
+    template <class Sign>
+    [[nodiscard]] std::pair<double, double> score(Sign sign) const;
+    [[nodiscard]] std::size_t size() const noexcept { return size_; }
+
+private:
+    std::size_t size_ = 0;
+    std::vector<double> weighted_[3];
+    double norm_[3] = {0.0, 0.0, 0.0};
+};
+
+/// How one recipient of a family key scores on a suspect.
+struct RecipientScore
+{
+    std::string name;
+    std::uint32_t index = 0;
+    double score = 0.0;  ///< z of the recipient code's soft correlation.
+    /// Bound on P(some innocent recipient of the key scores this high): the code's
+    /// min(1, 3 rademacher_tail_bound(z)) times the number of recipients (union bound).
+    double false_positive_probability = 1.0;
+    bool is_accused = false;  ///< false_positive_probability <= DetectOptions::max_false_positive.
 };
 
 /// How the verdict is reached (docs/statistics.md).
@@ -105,5 +144,25 @@ struct Decision
 
 /// \brief P(X >= k) for X ~ Binomial(n, 1/2), exact.
 [[nodiscard]] double binomial_tail_half(int n, int k);
+
+template <class Sign>
+std::pair<double, double> SoftCorrelation::score(Sign sign) const
+{
+    double best = 0.0;
+    for (int p = 0; p < 3; ++p)
+    {
+        double dot = 0.0;
+        for (std::size_t c = 0; c < size_; ++c)
+        {
+            dot += sign(c) * weighted_[p][c];
+        }
+        const double z = norm_[p] > 0.0 ? dot / std::sqrt(norm_[p]) : 0.0;
+        if (p == 0 || z > best)
+        {
+            best = z;
+        }
+    }
+    return {best, std::min(1.0, 3.0 * rademacher_tail_bound(best))};
+}
 
 }  // namespace meshmark

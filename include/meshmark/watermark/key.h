@@ -115,6 +115,42 @@ struct MeshFingerprint
 /// Fingerprint of a mesh's positions and counts.
 [[nodiscard]] MeshFingerprint fingerprint(const TriangleMesh& mesh);
 
+/// One recipient of a family key: its copy carries the code drawn from the key's seed and
+/// its index (recipient_code), so the name and index are all the key records of it.
+struct Recipient
+{
+    std::string name;
+    std::uint32_t index = 0;
+};
+
+/// \brief The per-recipient part of a family key (docs/fingerprinting.md): every copy carries
+/// the owner's mark and, on the M modes after it, a code of its own, one independent keyed
+/// sign per coefficient (3M).
+struct RecipientCodes
+{
+    /// M, the modes after the owner's (first_mode + m r ..) that carry the recipient code.
+    int modes = 64;
+    /// Share of the displacement energy (strength^2) given to the recipient code; the owner's
+    /// mark keeps the rest, so a copy is displaced as much as a single mark of the same strength.
+    double energy_share = 0.64;
+    std::vector<Recipient> recipients;  ///< In the order they were issued; indices unique.
+
+    /// The recipient called \p name, or null.
+    [[nodiscard]] const Recipient* find(const std::string& name) const noexcept;
+    /// \throws InvalidOption for M < 1, a share outside (0, 1), or modes beyond the basis.
+    void validate(const EmbedOptions& options) const;
+};
+
+/// \brief Checks a recipient name: 1-100 characters, none of them '/', '\\', a control
+/// character or a quote, not starting with '.' (a name becomes part of a file name).
+/// \throws InvalidOption naming the problem.
+void check_recipient_name(const std::string& name);
+
+/// \brief The code of recipient \p index: n signs (0/1 for -1/+1) from the seed's
+/// "recipient-code" stream for that index, independent of every other recipient's and of the
+/// owner's mask.
+[[nodiscard]] std::vector<std::uint8_t> recipient_code(std::uint64_t seed, std::uint32_t index, int n);
+
 /// \brief Everything that, with the original mesh, regenerates the watermarked mesh and
 /// detects it: stored as a versioned JSON key file (mode 0600).
 struct Key
@@ -126,6 +162,9 @@ struct Key
     std::vector<std::uint8_t> payload;  ///< 3m bits (0/1), before the key-derived mask.
     std::optional<std::string> message;  ///< The text the payload was derived from, if any.
     MeshFingerprint original;
+    /// A family key (one copy per recipient, `meshmark embed --recipient`): the recipients'
+    /// codes. Absent for a single-owner key.
+    std::optional<RecipientCodes> recipients;
 };
 
 /// \brief Payload bits from a message: the first n bits of Rng(hash_bytes(message)).

@@ -76,8 +76,17 @@ public:
                       int threads = 0);
 
     /// Coefficient change beta - alpha in file axes (first_mode + m r rows, zero above): what
-    /// displacement() synthesizes.
+    /// displacement() synthesizes. For a family key this is the owner's mark, shared by every copy.
     [[nodiscard]] Eigen::MatrixX3d coefficient_change() const;
+
+    /// M, the modes of the recipient code after the owner's m r (0 unless a family key).
+    [[nodiscard]] int recipient_modes() const noexcept;
+    /// Signs (-1/+1, M x 3, canonical axes) of recipient \p index's code (recipient_code).
+    [[nodiscard]] Eigen::MatrixX3d recipient_signs(std::uint32_t index) const;
+    /// \brief Coefficient change of recipient \p index's code in file axes (M x 3): rows
+    /// first_mode + m r .. of the basis; a copy is displaced by the owner's field plus this one's.
+    /// \throws InvalidOption unless the key is a family key.
+    [[nodiscard]] Eigen::MatrixX3d recipient_change(std::uint32_t index) const;
 
     /// \brief EmbedStats of a synthesized field from its summary, as displacement() fills them.
     /// \param aabb_diagonal  Axis-aligned bbox diagonal of the analysed rows.
@@ -96,7 +105,8 @@ public:
     [[nodiscard]] const std::vector<std::int32_t>& centers() const noexcept { return centers_; }
     /// Signs b' in {-1, +1} actually embedded (m r x 3, canonical axes).
     [[nodiscard]] const Eigen::MatrixX3d& embedded_signs() const noexcept { return signs_; }
-    /// Modulation of each coefficient (m r x 3, canonical axes): s, or alpha * rho (signed).
+    /// Modulation of each coefficient (m r + M rows x 3, canonical axes): s, or alpha * rho
+    /// (signed); the last M rows (family keys) are the recipient code's step.
     [[nodiscard]] const Eigen::MatrixX3d& modulation() const noexcept { return modulation_; }
     /// Key mask of each modulated coefficient (3 m r values, coefficient c = 3 * mode + axis).
     [[nodiscard]] const std::vector<std::uint8_t>& mask() const noexcept { return mask_; }
@@ -106,8 +116,12 @@ public:
     [[nodiscard]] Positions displacement(EmbedStats* stats = nullptr) const;
 
     /// \brief Correlation, verdict and false-positive probability of an extraction
-    /// (docs/statistics.md).
+    /// (docs/statistics.md). For a family key: of the owner's mark.
     [[nodiscard]] Decision decide(const Extraction& extraction, const DetectOptions& options) const;
+
+    /// \brief Every recipient of a family key scored on the extraction's recipient
+    /// coefficients, in the key's order (docs/fingerprinting.md); empty for other keys.
+    [[nodiscard]] std::vector<RecipientScore> trace(const Extraction& extraction, const DetectOptions& options) const;
 
 private:
     void check_key() const;
