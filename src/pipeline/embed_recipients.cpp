@@ -3,7 +3,9 @@
 #include "meshmark/pipeline/embed_recipients.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
+#include <future>
 #include <limits>
 #include <set>
 
@@ -172,7 +174,9 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
     // The recipient modes, explicitly: one product per copy instead of a pass over the basis.
     const int head = key.options.first_mode + modulated_modes(key.options);
     const int modes = mark.recipient_modes();
-    const Eigen::MatrixXd code_modes = mark.basis().modes_dense(head + modes).rightCols(modes);
+    // Row-major: each analysed row's M values are contiguous for the products below.
+    const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> code_modes =
+        mark.basis().modes_dense(head + modes).rightCols(modes);
     const std::vector<std::int32_t>& active = mark.mesh_rows()->active();
     const double diagonal = analysed_diagonal(file.mesh.V, active);
     timer.lap("basis");
@@ -185,53 +189,102 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
     using Clock = std::chrono::steady_clock;
     auto seconds_since = [](Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); };
     timer.begin("copies");
-    auto write_copies = [&]() {
-        const int threads = resolve_threads(options.threads);
-        for (std::size_t n = 0; n < report.copies.size(); ++n)
+    const int threads = resolve_threads(options.threads);
+    const auto rows = static_cast<std::int64_t>(active.size());
+    // Copies are made kBatch at a time: each analysed row's M mode values are read once for
+    // all of them, and each coordinate of each copy is its own sum over the modes in mode
+    // order, so a copy's bytes do not depend on the batch (a re-issue reproduces it) nor on the
+    // thread count. The previous batch is written on another thread meanwhile (the writes wait
+    // on the disk, the sums on the CPU).
+    constexpr std::size_t kBatch = 8;
+    auto make_batch = [&](std::size_t first, std::size_t count) {
+        const auto code_start = Clock::now();
+        const std::size_t width = 3 * count;
+        std::vector<double> changes(static_cast<std::size_t>(modes) * width);  // mode-major, then copy, axis
+        for (std::size_t b = 0; b < count; ++b)
         {
-            IssuedCopy& copy = report.copies[n];
-            const auto code_start = Clock::now();
-            // Field of the code: U_M C (file axes), row by row in a fixed order, so the copy is
-            // the same bytes for any thread count and on every re-issue.
-            const Eigen::MatrixX3d change = mark.recipient_change(copy.index);
-            Positions positions = owner;
-            const auto rows = static_cast<std::int64_t>(active.size());
-#pragma omp parallel for num_threads(threads) schedule(static)
-            for (std::int64_t a = 0; a < rows; ++a)
+            const Eigen::MatrixX3d change = mark.recipient_change(report.copies[first + b].index);
+            for (int mode = 0; mode < modes; ++mode)
             {
-                double d[3] = {0.0, 0.0, 0.0};
-                for (int mode = 0; mode < modes; ++mode)
+                for (int axis = 0; axis < 3; ++axis)
                 {
-                    const double u = code_modes(a, mode);
-                    d[0] += u * change(mode, 0);
-                    d[1] += u * change(mode, 1);
-                    d[2] += u * change(mode, 2);
+                    changes[static_cast<std::size_t>(mode) * width + 3 * b + static_cast<std::size_t>(axis)] =
+                        change(mode, axis);
                 }
-                const auto i = active[static_cast<std::size_t>(a)];
-                positions(i, 0) += d[0];
-                positions(i, 1) += d[1];
-                positions(i, 2) += d[2];
             }
+        }
+        std::vector<Positions> positions(count, owner);
+#pragma omp parallel for num_threads(threads) schedule(static)
+        for (std::int64_t a = 0; a < rows; ++a)
+        {
+            std::array<double, 3 * kBatch> d{};
+            const double* u = code_modes.data() + a * modes;
+            for (int mode = 0; mode < modes; ++mode)
+            {
+                const double* c = changes.data() + static_cast<std::size_t>(mode) * width;
+                for (std::size_t j = 0; j < width; ++j)
+                {
+                    d[j] += u[mode] * c[j];
+                }
+            }
+            const auto i = active[static_cast<std::size_t>(a)];
+            for (std::size_t b = 0; b < count; ++b)
+            {
+                for (int axis = 0; axis < 3; ++axis)
+                {
+                    positions[b](i, axis) += d[3 * b + static_cast<std::size_t>(axis)];
+                }
+            }
+        }
+        for (std::size_t b = 0; b < count; ++b)
+        {
             DisplacementSummary summary;
             for (const std::int32_t i : active)
             {
-                const Eigen::RowVector3d d = positions.row(i) - file.mesh.V.row(i);
+                const Eigen::RowVector3d d = positions[b].row(i) - file.mesh.V.row(i);
                 summary.add(d.data());
             }
-            mark.describe(summary, diagonal, owner_stats.orthogonality_error, &copy.stats);
-            code_seconds += seconds_since(code_start);
-            const auto write_start = Clock::now();
+            mark.describe(summary, diagonal, owner_stats.orthogonality_error, &report.copies[first + b].stats);
+        }
+        code_seconds += seconds_since(code_start);
+        return positions;
+    };
+    auto write_batch = [&](std::size_t first, const std::vector<Positions>& positions) {
+        const auto write_start = Clock::now();
+        for (std::size_t b = 0; b < positions.size(); ++b)
+        {
+            const IssuedCopy& copy = report.copies[first + b];
             const bool existed = std::filesystem::exists(copy.path);
-            write_mesh_file(copy.path, file, positions);
+            write_mesh_file(copy.path, file, positions[b]);
             if (!existed)
             {
                 created.push_back(copy.path);
             }
-            write_seconds += seconds_since(write_start);
+        }
+        write_seconds += seconds_since(write_start);
+    };
+    auto write_copies = [&]() {
+        std::future<void> writing;
+        std::vector<Positions> pending;
+        std::size_t pending_first = 0;
+        for (std::size_t first = 0; first < report.copies.size(); first += kBatch)
+        {
+            std::vector<Positions> batch = make_batch(first, std::min(kBatch, report.copies.size() - first));
+            if (writing.valid())
+            {
+                writing.get();  // passes on a write's exception
+            }
+            pending = std::move(batch);
+            pending_first = first;
+            writing = std::async(std::launch::async, [&, pending_first] { write_batch(pending_first, pending); });
             if (options.progress)
             {
-                options.progress("copies", static_cast<double>(n + 1) / static_cast<double>(report.copies.size()));
+                options.progress("copies", static_cast<double>(first) / static_cast<double>(report.copies.size()));
             }
+        }
+        if (writing.valid())
+        {
+            writing.get();
         }
     };
     try

@@ -124,8 +124,9 @@ TEST(HostileInput, DeeplyNestedKeyJsonFailsFast)
 
 TEST(HostileInput, HugeKeyJsonFailsFast)
 {
-    // 2 MiB of valid JSON: a key is < 1 KiB, so this is refused before parsing.
-    const std::string huge = "{\"format\":\"meshmark-key\",\"pad\":\"" + std::string(2U << 20U, 'x') + "\"}";
+    // 17 MiB of valid JSON: a key is < 1 KiB, a family key of 100,000 recipients about 6 MiB,
+    // so this is refused before parsing.
+    const std::string huge = "{\"format\":\"meshmark-key\",\"pad\":\"" + std::string(17U << 20U, 'x') + "\"}";
     expect_fast_error<IoError>([&] { static_cast<void>(parse_key(huge, "huge.key")); }, "too large");
     const fs::path dir = test::temp_dir("hostile_key");
     const auto path = put(dir / "huge.key", huge);

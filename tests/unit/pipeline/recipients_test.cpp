@@ -1,0 +1,253 @@
+// SPDX-License-Identifier: MIT
+// Recipient copies (family keys): the key file, issuing copies, tracing a suspect, collusion
+// by averaging, and the refusals (docs/fingerprinting.md).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "meshmark/core/error.h"
+#include "meshmark/geometry/shapes.h"
+#include "meshmark/meshmark.h"
+#include "support/test_paths.h"
+
+namespace meshmark {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path write_input(const fs::path& dir, int subdivisions = 4)
+{
+    const fs::path path = dir / "input.ply";
+    write_mesh(path, lumpy_ellipsoid(subdivisions));
+    return path;
+}
+
+EmbedRecipientsOptions family(std::vector<std::string> names)
+{
+    EmbedRecipientsOptions options;
+    options.seed = 21;
+    options.message = "owner";
+    options.recipients = std::move(names);
+    return options;
+}
+
+std::vector<std::string> accused_names(const DetectReport& report)
+{
+    std::vector<std::string> names;
+    for (const RecipientScore& r : report.accused)
+    {
+        names.push_back(r.name);
+    }
+    std::sort(names.begin(), names.end());
+    return names;
+}
+
+DetectReport detect_positions(const fs::path& input, const Positions& positions, const Key& key)
+{
+    const TriangleMesh original = read_mesh(input);
+    TriangleMesh suspect = original;
+    suspect.V = positions;
+    return detect(suspect, original, key);
+}
+
+}  // namespace
+
+TEST(RecipientsTest, key_file_round_trips_the_recipients_and_refuses_duplicates)
+{
+    Key key = make_key(EmbedOptions{}, 5, std::string("m"));
+    key.recipients = RecipientCodes{48, 0.5, {{"alice", 0}, {"bob", 7}}};
+    const Key back = parse_key(to_json(key), "k.json");
+    ASSERT_TRUE(back.recipients.has_value());
+    EXPECT_EQ(back.recipients->modes, 48);
+    EXPECT_EQ(back.recipients->energy_share, 0.5);
+    ASSERT_EQ(back.recipients->recipients.size(), 2U);
+    EXPECT_EQ(back.recipients->recipients[1].name, "bob");
+    EXPECT_EQ(back.recipients->recipients[1].index, 7U);
+    EXPECT_FALSE(parse_key(to_json(make_key(EmbedOptions{}, 5)), "k.json").recipients.has_value());
+
+    key.recipients->recipients.push_back({"alice", 9});
+    EXPECT_THROW(static_cast<void>(parse_key(to_json(key), "k.json")), IoError);
+    key.recipients->recipients.back() = {"carol", 7};
+    EXPECT_THROW(static_cast<void>(parse_key(to_json(key), "k.json")), IoError);
+    key.recipients->recipients.pop_back();
+    key.recipients->modes = 90;  // 12 + 16 + 90 > 100 basis functions
+    EXPECT_THROW(static_cast<void>(parse_key(to_json(key), "k.json")), IoError);
+}
+
+TEST(RecipientsTest, names_that_cannot_be_part_of_a_file_name_are_refused)
+{
+    EXPECT_NO_THROW(check_recipient_name("Studio B (contract 12)"));
+    for (const std::string& bad : std::vector<std::string>{"", ".hidden", "a/b", "a\\b", "tab\there", std::string(101, 'x'), "q\"uote"})
+    {
+        EXPECT_THROW(check_recipient_name(bad), InvalidOption) << bad;
+    }
+    EXPECT_EQ(recipient_output("out/{recipient}-{recipient}.ply", "ann"), fs::path("out/ann-ann.ply"));
+    EXPECT_THROW(static_cast<void>(recipient_output("out/copy.ply", "ann")), InvalidOption);
+}
+
+TEST(RecipientsTest, codes_are_keyed_per_recipient_and_do_not_depend_on_their_length)
+{
+    const auto a = recipient_code(3, 0, 192);
+    const auto b = recipient_code(3, 1, 192);
+    const auto other_seed = recipient_code(4, 0, 192);
+    EXPECT_NE(a, b);
+    EXPECT_NE(a, other_seed);
+    const auto prefix = recipient_code(3, 0, 50);
+    EXPECT_TRUE(std::equal(prefix.begin(), prefix.end(), a.begin()));
+    const long ones = std::count(a.begin(), a.end(), std::uint8_t{1});
+    EXPECT_GT(ones, 60);  // about half of 192 (a fair code)
+    EXPECT_LT(ones, 132);
+}
+
+TEST(RecipientsTest, each_copy_accuses_its_recipient_only_and_an_average_accuses_colluders_only)
+{
+    const fs::path dir = test::temp_dir("recipients-issue");
+    const fs::path input = write_input(dir);
+    const std::vector<std::string> names = {"ann", "ben", "cat", "dan", "eve", "fay"};
+    const EmbedRecipientsReport report = embed_recipients(input, (dir / "{recipient}.ply").string(),
+                                                          dir / "family.json", family(names));
+    ASSERT_TRUE(report.key_created);
+    ASSERT_EQ(report.copies.size(), names.size());
+    const Key key = read_key(dir / "family.json");
+    ASSERT_TRUE(key.recipients.has_value());
+    ASSERT_EQ(key.recipients->recipients.size(), names.size());
+
+    // The same distortion as a single mark of the same strength: the energy is shared.
+    EmbedMeshOptions single;
+    single.seed = 21;
+    single.message = "owner";
+    const EmbedResult alone = embed(read_mesh(input), single);
+    for (const IssuedCopy& copy : report.copies)
+    {
+        EXPECT_NEAR(copy.stats.rms_displacement_rel, alone.stats.rms_displacement_rel,
+                    0.1 * alone.stats.rms_displacement_rel)
+            << copy.name;
+    }
+
+    std::vector<Positions> copies;
+    for (const std::string& name : names)
+    {
+        copies.push_back(read_mesh(dir / (name + ".ply")).V);
+        const DetectReport found = detect_positions(input, copies.back(), key);
+        EXPECT_TRUE(found.detected()) << name;
+        EXPECT_TRUE(found.decision.is_present) << name << ": the owner's mark";
+        EXPECT_EQ(found.recipients_traced, names.size());
+        EXPECT_EQ(accused_names(found), std::vector<std::string>{name});
+    }
+
+    const DetectReport unmarked = detect_positions(input, read_mesh(input).V, key);
+    EXPECT_FALSE(unmarked.detected());
+    EXPECT_TRUE(unmarked.accused.empty());
+
+    // Two buyers average their copies: the owner's mark is intact, and only they are accused.
+    const Positions average = (copies[1] + copies[4]) / 2.0;
+    const DetectReport pooled = detect_positions(input, average, key);
+    EXPECT_TRUE(pooled.decision.is_present);
+    ASSERT_FALSE(pooled.accused.empty());
+    for (const std::string& name : accused_names(pooled))
+    {
+        EXPECT_TRUE(name == "ben" || name == "eve") << name << " is innocent";
+    }
+    // Not tracing: the owner's verdict alone.
+    DetectFileOptions owner_only;
+    owner_only.trace = false;
+    TriangleMesh suspect = read_mesh(input);
+    suspect.V = average;
+    const DetectReport untraced = detect(suspect, read_mesh(input), key, owner_only);
+    EXPECT_EQ(untraced.recipients_traced, 0U);
+    EXPECT_TRUE(untraced.detected());
+}
+
+TEST(RecipientsTest, a_later_call_adds_recipients_and_reissues_known_ones_byte_for_byte)
+{
+    const fs::path dir = test::temp_dir("recipients-extend");
+    const fs::path input = write_input(dir, 3);
+    static_cast<void>(embed_recipients(input, (dir / "first-{recipient}.ply").string(), dir / "family.json",
+                                       family({"ann", "ben"})));
+    EmbedRecipientsOptions later = family({"ben", "cat"});
+    later.seed.reset();  // the key's seed decides, not the options
+    const EmbedRecipientsReport report =
+        embed_recipients(input, (dir / "second-{recipient}.ply").string(), dir / "family.json", later);
+    EXPECT_FALSE(report.key_created);
+    ASSERT_EQ(report.copies.size(), 2U);
+    EXPECT_FALSE(report.copies[0].is_new);
+    EXPECT_TRUE(report.copies[1].is_new);
+    EXPECT_EQ(report.copies[1].index, 2U);
+    EXPECT_EQ(test::file_bytes(dir / "first-ben.ply"), test::file_bytes(dir / "second-ben.ply"));
+    const Key key = read_key(dir / "family.json");
+    ASSERT_EQ(key.recipients->recipients.size(), 3U);
+    EXPECT_EQ(key.recipients->recipients[2].name, "cat");
+}
+
+TEST(RecipientsTest, refusals_leave_no_file_behind)
+{
+    const fs::path dir = test::temp_dir("recipients-refuse");
+    const fs::path input = write_input(dir, 3);
+    // A single-owner key is not extended into a family.
+    static_cast<void>(embed_file(input, dir / "single.ply", dir / "single.json", EmbedFileOptions{}));
+    EXPECT_THROW(static_cast<void>(embed_recipients(input, (dir / "{recipient}.ply").string(), dir / "single.json",
+                                                    family({"ann"}))),
+                 IoError);
+    EXPECT_FALSE(fs::exists(dir / "ann.ply"));
+    // A family key belongs to its original.
+    static_cast<void>(
+        embed_recipients(input, (dir / "f-{recipient}.ply").string(), dir / "family.json", family({"ann"})));
+    const fs::path other = dir / "other.ply";
+    write_mesh(other, lumpy_ellipsoid(2));
+    EXPECT_THROW(static_cast<void>(embed_recipients(other, (dir / "o-{recipient}.ply").string(),
+                                                    dir / "family.json", family({"ben"}))),
+                 IoError);
+    EXPECT_FALSE(fs::exists(dir / "o-ben.ply"));
+    // Bad patterns and names, before any work.
+    EXPECT_THROW(static_cast<void>(embed_recipients(input, (dir / "copy.ply").string(), dir / "new.json",
+                                                    family({"ann"}))),
+                 InvalidOption);
+    EXPECT_THROW(static_cast<void>(embed_recipients(input, (dir / "n-{recipient}.ply").string(), dir / "new.json",
+                                                    family({"ann", "ann"}))),
+                 InvalidOption);
+    EXPECT_FALSE(fs::exists(dir / "new.json"));
+    // A copy that cannot be written: the copies written before it are removed, no key appears.
+    fs::create_directories(dir / "blocked");
+    fs::create_directories(dir / "blocked" / "zed.ply");  // a directory where a copy should go
+    EXPECT_ANY_THROW(static_cast<void>(embed_recipients(input, (dir / "blocked" / "{recipient}.ply").string(),
+                                                        dir / "blocked.json", family({"amy", "zed"}))));
+    EXPECT_FALSE(fs::exists(dir / "blocked" / "amy.ply"));
+    EXPECT_FALSE(fs::exists(dir / "blocked.json"));
+}
+
+TEST(RecipientsTest, the_accusation_bound_is_paid_for_every_recipient_of_the_key)
+{
+    // An innocent's z is compared at the level divided by the number of recipients: with one
+    // recipient more than a bound allows, the same score is no longer an accusation.
+    Key key = make_key(EmbedOptions{}, 9);
+    key.recipients = RecipientCodes{};
+    const TriangleMesh mesh = lumpy_ellipsoid(3);
+    key.original = fingerprint(mesh);
+    for (std::uint32_t i = 0; i < 10; ++i)
+    {
+        key.recipients->recipients.push_back({"r" + std::to_string(i), i});
+    }
+    const SpectralWatermark mark(mesh, key);
+    Extraction extraction;
+    const Eigen::MatrixX3d signs = mark.recipient_signs(3);
+    for (Eigen::Index c = 0; c < signs.size(); ++c)
+    {
+        extraction.recipient_change.push_back(signs(c / 3, c % 3));
+        extraction.recipient_weights.push_back(1.0);
+    }
+    const std::vector<RecipientScore> scores = mark.trace(extraction, DetectOptions{});
+    ASSERT_EQ(scores.size(), 10U);
+    EXPECT_NEAR(scores[3].score, std::sqrt(static_cast<double>(signs.size())), 1e-9);
+    EXPECT_TRUE(scores[3].is_accused);
+    EXPECT_DOUBLE_EQ(scores[3].false_positive_probability,
+                     std::min(1.0, 10.0 * 3.0 * rademacher_tail_bound(scores[3].score)));
+    for (const RecipientScore& s : scores)
+    {
+        EXPECT_EQ(s.is_accused, s.index == 3) << s.name << " z " << s.score;
+    }
+}
+
+}  // namespace meshmark
