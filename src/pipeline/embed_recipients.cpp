@@ -197,7 +197,9 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
     // thread count. The previous batch is written on another thread meanwhile (the writes wait
     // on the disk, the sums on the CPU).
     constexpr std::size_t kBatch = 8;
-    auto make_batch = [&](std::size_t first, std::size_t count) {
+    // Two sets of kBatch copies, reused: one being computed while the other is written.
+    std::array<std::vector<Positions>, 2> buffers;
+    auto make_batch = [&](std::size_t first, std::size_t count, std::vector<Positions>& positions) {
         const auto code_start = Clock::now();
         const std::size_t width = 3 * count;
         std::vector<double> changes(static_cast<std::size_t>(modes) * width);  // mode-major, then copy, axis
@@ -213,7 +215,11 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
                 }
             }
         }
-        std::vector<Positions> positions(count, owner);
+        positions.resize(count);
+        for (Positions& p : positions)
+        {
+            p = owner;  // no new allocation after the first batch
+        }
 #pragma omp parallel for num_threads(threads) schedule(static)
         for (std::int64_t a = 0; a < rows; ++a)
         {
@@ -247,7 +253,6 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
             mark.describe(summary, diagonal, owner_stats.orthogonality_error, &report.copies[first + b].stats);
         }
         code_seconds += seconds_since(code_start);
-        return positions;
     };
     auto write_batch = [&](std::size_t first, const std::vector<Positions>& positions) {
         const auto write_start = Clock::now();
@@ -265,18 +270,16 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
     };
     auto write_copies = [&]() {
         std::future<void> writing;
-        std::vector<Positions> pending;
-        std::size_t pending_first = 0;
-        for (std::size_t first = 0; first < report.copies.size(); first += kBatch)
+        std::size_t batch_index = 0;
+        for (std::size_t first = 0; first < report.copies.size(); first += kBatch, ++batch_index)
         {
-            std::vector<Positions> batch = make_batch(first, std::min(kBatch, report.copies.size() - first));
+            std::vector<Positions>& batch = buffers[batch_index % 2];
+            make_batch(first, std::min(kBatch, report.copies.size() - first), batch);
             if (writing.valid())
             {
-                writing.get();  // passes on a write's exception
+                writing.get();  // the other buffer is free again; passes on a write's exception
             }
-            pending = std::move(batch);
-            pending_first = first;
-            writing = std::async(std::launch::async, [&, pending_first] { write_batch(pending_first, pending); });
+            writing = std::async(std::launch::async, [&write_batch, &batch, first] { write_batch(first, batch); });
             if (options.progress)
             {
                 options.progress("copies", static_cast<double>(first) / static_cast<double>(report.copies.size()));
