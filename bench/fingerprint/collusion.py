@@ -10,7 +10,8 @@ post-processing (nobody may be accused).
 
 Colluder attacks (vertex for vertex; the copies share the original's connectivity):
   average   the c copies averaged vertex by vertex;
-  splice    each vertex taken from one copy, the model cut into c slabs along its longest axis.
+  splice    each vertex taken from one copy, the model cut into c slabs along its longest axis;
+  splice-any  the same along a random direction (drawn per trial).
 Post-processing after the attack: none, or any `meshmark attack` chain (e.g. noise=0.001,
 simplify=0.3).
 
@@ -21,6 +22,7 @@ Reads and writes meshes with Open3D (python3-open3d); PLY copies keep the vertex
 """
 import argparse
 import json
+import math
 import os
 import random
 import subprocess
@@ -50,13 +52,26 @@ def write_positions(template, positions, path):
         sys.exit(f"collusion.py: cannot write {path}")
 
 
-def collude(mode, copies, original):
+def tail_bound(z):
+    """The accusation's per-recipient bound before the factor R (docs/fingerprinting.md)."""
+    if z <= 0:
+        return 1.0
+    return min(1.0, 3 * min(math.exp(-z * z / 2), 2 * math.exp(3) / 9 * 0.5 * math.erfc(z / math.sqrt(2))))
+
+
+def collude(mode, copies, original, rng):
     if mode == "average":
         return sum(copies) / len(copies)
-    # splice: slab s of the longest axis comes from copy s
-    axis = int(np.argmax(original.max(0) - original.min(0)))
-    edges = np.quantile(original[:, axis], np.linspace(0, 1, len(copies) + 1))
-    slab = np.clip(np.searchsorted(edges, original[:, axis], side="right") - 1, 0, len(copies) - 1)
+    # splice: slab s along the longest axis (or a random direction) comes from copy s
+    if mode == "splice":
+        direction = np.zeros(3)
+        direction[int(np.argmax(original.max(0) - original.min(0)))] = 1.0
+    else:
+        direction = np.array([rng.gauss(0, 1) for _ in range(3)])
+        direction /= np.linalg.norm(direction)
+    height = original @ direction
+    edges = np.quantile(height, np.linspace(0, 1, len(copies) + 1))
+    slab = np.clip(np.searchsorted(edges, height, side="right") - 1, 0, len(copies) - 1)
     out = np.empty_like(original)
     for s, copy in enumerate(copies):
         out[slab == s] = copy[slab == s]
@@ -64,7 +79,7 @@ def collude(mode, copies, original):
 
 
 def detect(args, suspect, original, key):
-    proc = run([args.meshmark, "detect", suspect, "--original", original, "--key", key, "--json", "-q",
+    proc = run([args.meshmark, "detect", suspect, "--original", original, "--key", key, "--json", "-q", "-v",
                 "--threads", str(args.threads)])
     return json.loads(proc.stdout)
 
@@ -96,6 +111,7 @@ def study_mesh(args, mesh_path, work):
 
     rng = random.Random(args.seed)
     rows = []
+    innocent_scores = []  # every innocent recipient's score in every trial (the null study)
     suspect = os.path.join(work, "suspect.ply")
     attacked = os.path.join(work, "attacked.ply")
     for post in args.post:
@@ -106,8 +122,8 @@ def study_mesh(args, mesh_path, work):
             target = attacked
         report = detect(args, target, original_ply, key)
         rows.append({"mesh": name, "mode": "unmarked", "post": post, "colluders": 0, "trials": 1,
-                     "caught": 0, "innocents_accused": len(report["recipients"]),
-                     "max_innocent_score": None})
+                     "caught": 0, "innocents_accused": len(report["recipients"])})
+        innocent_scores += [r["score"] for r in report["recipient_scores"]]
         for mode in args.mode:
             for c in args.colluders:
                 caught = framed = 0
@@ -115,7 +131,7 @@ def study_mesh(args, mesh_path, work):
                 innocent_max = -1e9
                 for t in range(args.trials):
                     chosen = rng.sample(names, c)
-                    write_positions(template, collude(mode, [copy_of(r) for r in chosen], original), suspect)
+                    write_positions(template, collude(mode, [copy_of(r) for r in chosen], original, rng), suspect)
                     target = suspect
                     if post != "none":
                         run([args.meshmark, "attack", suspect, "-o", attacked, "--seed", str(t + 1), "-q", post])
@@ -124,15 +140,27 @@ def study_mesh(args, mesh_path, work):
                     accused = {r["name"] for r in report["recipients"]}
                     caught += bool(accused & set(chosen))
                     framed += bool(accused - set(chosen))
-                    scores = [r["score"] for r in report["recipients"] if r["name"] in chosen]
-                    colluder_best.append(max(scores) if scores else None)
+                    scores = {r["name"]: r["score"] for r in report["recipient_scores"]}
+                    colluder_best.append(max(scores[r] for r in chosen))
+                    innocent_scores += [z for r, z in scores.items() if r not in chosen]
                 row = {"mesh": name, "mode": mode, "post": post, "colluders": c, "trials": args.trials,
-                       "caught": caught, "innocents_accused": framed}
+                       "caught": caught, "innocents_accused": framed,
+                       "median_best_colluder_score": float(np.median(colluder_best))}
                 rows.append(row)
-                print(f"  {mode:8s} c={c} post={post:14s} at least one colluder accused {caught}/{args.trials}, "
-                      f"trials with an innocent accused {framed}", flush=True)
+                print(f"  {mode:10s} c={c} post={post:14s} at least one colluder accused {caught}/{args.trials}, "
+                      f"trials with an innocent accused {framed}, median best colluder z "
+                      f"{row['median_best_colluder_score']:.2f}", flush=True)
+    # The null study: innocents' per-recipient bounds against their levels.
+    null = {"innocent_scores": len(innocent_scores), "largest_innocent_score": max(innocent_scores),
+            "share_with_bound_at_most": {}}
+    for alpha in (0.5, 0.1, 0.01, 0.001, 1e-4):
+        share = sum(tail_bound(z) <= alpha for z in innocent_scores) / len(innocent_scores)
+        null["share_with_bound_at_most"][str(alpha)] = share
+    print(f"  null: {len(innocent_scores)} innocent scores, largest z {null['largest_innocent_score']:.2f}, "
+          f"share with per-recipient bound <= alpha: " +
+          ", ".join(f"{a}: {v:.4f}" for a, v in null["share_with_bound_at_most"].items()), flush=True)
     return {"mesh": name, "vertices": len(original), "recipients": args.recipients,
-            "issue_seconds": issue_seconds, "max_rms_displacement": rms, "rows": rows}
+            "issue_seconds": issue_seconds, "max_rms_displacement": rms, "rows": rows, "null": null}
 
 
 def main():

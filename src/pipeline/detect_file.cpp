@@ -192,8 +192,9 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
     report.decision = mark.decide(report.extraction, options.decision);
     if (options.trace && mark.key().recipients && !mark.key().recipients->recipients.empty())
     {
-        std::vector<RecipientScore> scores = mark.trace(report.extraction, options.decision);
-        report.recipients_traced = scores.size();
+        report.traced = mark.trace(report.extraction, options.decision);
+        report.recipients_traced = report.traced.size();
+        std::vector<RecipientScore> scores = report.traced;
         std::erase_if(scores, [](const RecipientScore& s) { return !s.is_accused; });
         std::sort(scores.begin(), scores.end(),
                   [](const RecipientScore& a, const RecipientScore& b) { return a.score > b.score; });

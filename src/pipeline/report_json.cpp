@@ -139,6 +139,16 @@ nlohmann::json detect_report_json(const DetectReport& report, const DetectOption
         out["normalized_change"] = report.extraction.normalized_change;
         out["coefficient_weights"] = report.extraction.weights;
         out["bit_values"] = report.extraction.bit_values;
+        if (report.recipients_traced > 0)
+        {
+            // Every recipient's score, in the key's order: what a null study needs.
+            nlohmann::json scores = nlohmann::json::array();
+            for (const RecipientScore& r : report.traced)
+            {
+                scores.push_back({{"name", r.name}, {"score", r.score}});
+            }
+            out["recipient_scores"] = std::move(scores);
+        }
     }
     return out;
 }

@@ -43,6 +43,8 @@ struct DetectReport
     std::size_t recipients_traced = 0;
     /// The accused recipients, strongest first (RecipientScore::is_accused).
     std::vector<RecipientScore> accused;
+    /// Every recipient traced, in the key's order (for diagnosis and null studies).
+    std::vector<RecipientScore> traced;
     /// The verdict: with recipients traced, whether anyone is accused; otherwise whether the
     /// mark is present (decision.is_present, which for a family key is the owner's mark).
     [[nodiscard]] bool detected() const noexcept
