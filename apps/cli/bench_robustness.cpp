@@ -73,6 +73,16 @@ Key trial_key(const TriangleMesh& original, std::uint64_t seed, const Robustness
     options.gram_rows = args.gram_rows;
     Key key = make_key(options, seed);
     key.original = fingerprint(original);
+    if (args.recipients > 0)
+    {
+        key.recipients = RecipientCodes{};
+        for (int r = 0; r < args.recipients; ++r)
+        {
+            std::string name(1, 'r');  // (appended: GCC 12 reports a false -Wrestrict on "r" + string)
+            name += std::to_string(r);
+            key.recipients->recipients.push_back({name, static_cast<std::uint32_t>(r)});
+        }
+    }
     return key;
 }
 
@@ -88,6 +98,19 @@ Trial run_trial(const SpectralWatermark& mark, const TriangleMesh& original, con
         trial.cropped_fraction = report.cropped_fraction;
         trial.registration_rms = report.registration_rms;
         trial.alignment = report.alignment;
+        trial.recipients_traced = report.recipients_traced;
+        for (const RecipientScore& r : report.traced)
+        {
+            if (r.index == 0)
+            {
+                trial.recipient_score = r.score;
+                trial.recipient_accused = r.is_accused;
+            }
+            else
+            {
+                trial.others_accused += r.is_accused ? 1 : 0;
+            }
+        }
     }
     catch (const std::exception& e)
     {
@@ -156,8 +179,21 @@ int run_bench_robustness(const RobustnessArgs& args, const GlobalArgs& global)
             const std::uint64_t key_seed = derive_seed(args.seed, name + "/key/" + std::to_string(k));
             const auto embed_start = std::chrono::steady_clock::now();
             const SpectralWatermark mark(original, trial_key(original, key_seed, args), global.threads);
-            EmbedStats stats;
-            const TriangleMesh marked{original.V + mark.displacement(&stats), original.F};
+            // A family key's marked copy is recipient 0's: the owner's mark and that code.
+            Positions field;
+            if (args.recipients > 0)
+            {
+                const Eigen::MatrixX3d owner = mark.coefficient_change();
+                Eigen::MatrixX3d change = Eigen::MatrixX3d::Zero(owner.rows() + mark.recipient_modes(), 3);
+                change.topRows(owner.rows()) = owner;
+                change.bottomRows(mark.recipient_modes()) = mark.recipient_change(0);
+                field = mark.basis().synthesize(change);
+            }
+            else
+            {
+                field = mark.displacement();
+            }
+            const TriangleMesh marked{original.V + field, original.F};
             embedding.embed_seconds += seconds_since(embed_start);
             CompareOptions compare;
             compare.threads = global.threads;
@@ -309,6 +345,12 @@ void register_bench_robustness(CLI::App& bench, GlobalArgs& global, CommandRunne
         ->capture_default_str();
     command->add_option("--markdown", args->markdown, "Also write the tables to this file");
     command->add_option("--json-file", args->json_path, "Also write every trial as JSON to this file");
+    command->add_option("--recipients", args->recipients,
+                        "Family keys with this many recipients (0: single-owner keys): the marked copies "
+                        "are recipient 0's, every suspect is traced, and a table counts how often its "
+                        "recipient is accused and whether an innocent ever is (docs/fingerprinting.md)")
+        ->check(CLI::Range(0, 100000))
+        ->capture_default_str();
     command->add_option("--from-json", args->from_json,
                         "Only tabulate: read the trials of earlier --json-file runs (repeatable; same settings) "
                         "instead of running")

@@ -49,6 +49,7 @@ struct RobustnessArgs
     std::string json_path;
     std::vector<std::string> from_json;
     bool json = false;
+    int recipients = 0;  // > 0: family keys with this many recipients (docs/fingerprinting.md)
 };
 
 /// One suspect detected with one key.
@@ -64,6 +65,12 @@ struct Trial
     std::string alignment;          // how the suspect was put in correspondence
     double seconds = 0.0;
     std::string error;
+    // Family keys (--recipients): the suspect traced against the key's recipients; the marked
+    // copies are recipient 0's.
+    std::size_t recipients_traced = 0;
+    bool recipient_accused = false;  // recipient 0 accused
+    int others_accused = 0;          // any other recipient accused (never, for a sound bound)
+    double recipient_score = 0.0;    // recipient 0's z
 };
 
 /// The distortion of one mesh's marked copies, averaged over its keys.

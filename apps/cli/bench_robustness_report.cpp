@@ -34,7 +34,11 @@ nlohmann::json to_json(const Trial& t)
             {"registration_rms", t.registration_rms},
             {"alignment", t.alignment},
             {"seconds", t.seconds},
-            {"error", t.error}};
+            {"error", t.error},
+            {"recipients_traced", t.recipients_traced},
+            {"recipient_accused", t.recipient_accused},
+            {"others_accused", t.others_accused},
+            {"recipient_score", t.recipient_score}};
 }
 
 namespace {
@@ -58,6 +62,10 @@ Trial trial_from_json(const nlohmann::json& j)
     t.registration_rms = j.value("registration_rms", 0.0);
     t.alignment = j.value("alignment", std::string());
     t.seconds = j.at("seconds").get<double>();
+    t.recipients_traced = j.value("recipients_traced", std::size_t{0});
+    t.recipient_accused = j.value("recipient_accused", false);
+    t.others_accused = j.value("others_accused", 0);
+    t.recipient_score = j.value("recipient_score", 0.0);
     t.error = j.at("error").get<std::string>();
     return t;
 }
@@ -89,14 +97,19 @@ MeshEmbedding embedding_from_json(const nlohmann::json& j)
 // The settings that make trials comparable: files merged with --from-json must agree on them.
 nlohmann::json settings_json(const RobustnessArgs& args)
 {
-    return {{"rule", args.rule},
-            {"strength", args.strength},
-            {"coefficients", args.coefficients},
-            {"repetitions", args.repetitions},
-            {"first_mode", args.first_mode},
-            {"seed", args.seed},
-            {"wrong_keys", args.wrong_keys},
-            {"unmarked_keys", args.unmarked_keys}};
+    nlohmann::json settings = {{"rule", args.rule},
+                               {"strength", args.strength},
+                               {"coefficients", args.coefficients},
+                               {"repetitions", args.repetitions},
+                               {"first_mode", args.first_mode},
+                               {"seed", args.seed},
+                               {"wrong_keys", args.wrong_keys},
+                               {"unmarked_keys", args.unmarked_keys}};
+    if (args.recipients > 0)
+    {
+        settings["recipients"] = args.recipients;  // absent for single-owner keys (older files)
+    }
+    return settings;
 }
 
 // Per-attack summary of the marked trials.
@@ -145,6 +158,56 @@ double median(std::vector<double> v)
 }
 
 std::string percent(double fraction) { return format_number(100.0 * fraction, 3) + "%"; }
+
+}  // namespace
+
+namespace {
+
+// Family keys: per attack, how often the marked copy's recipient was accused, the owner's mark
+// claimed, either of them; innocents accused over every trial (marked, unmarked, wrong keys).
+std::string recipients_section(const std::vector<Trial>& trials, const std::vector<std::string>& attacks,
+                               int recipients)
+{
+    std::ostringstream md;
+    md << "\n### Recipient copies (family keys of " << recipients
+       << " recipients; the marked copy is recipient 0's)\n\n"
+       << "| attack | marked trials | its recipient accused | owner's mark claimed | either | median z of its "
+          "recipient |\n|---|---:|---:|---:|---:|---:|\n";
+    int innocents = 0;
+    int traced = 0;
+    for (const Trial& t : trials)
+    {
+        innocents += t.others_accused + (t.kind != "marked" && t.recipient_accused ? 1 : 0);
+        traced += t.recipients_traced > 0 ? 1 : 0;
+    }
+    for (const auto& a : attacks)
+    {
+        int n = 0;
+        int accused = 0;
+        int owner = 0;
+        int either = 0;
+        std::vector<double> scores;
+        for (const Trial& t : trials)
+        {
+            if (t.attack != a || t.kind != "marked" || !t.error.empty())
+            {
+                continue;
+            }
+            ++n;
+            accused += t.recipient_accused ? 1 : 0;
+            owner += t.decision.is_present ? 1 : 0;
+            either += (t.recipient_accused || t.decision.is_present) ? 1 : 0;
+            scores.push_back(t.recipient_score);
+        }
+        std::sort(scores.begin(), scores.end());
+        const double median = scores.empty() ? 0.0 : scores[scores.size() / 2];
+        md << "| `" << a << "` | " << n << " | " << accused << " | " << owner << " | " << either << " | "
+           << format_number(median) << " |\n";
+    }
+    md << "\nInnocent recipients accused, over all " << traced
+       << " traced trials (marked, unmarked and wrong keys): " << innocents << ".\n";
+    return md.str();
+}
 
 }  // namespace
 
@@ -276,6 +339,10 @@ std::string markdown_report(const std::vector<MeshEmbedding>& embeddings, const 
     for (const auto& a : attacks)
     {
         row("unmarked, `" + a + "`", unmarked[a]);
+    }
+    if (args.recipients > 0)
+    {
+        md << recipients_section(trials, attacks, args.recipients);
     }
     return md.str();
 }
