@@ -87,7 +87,7 @@ Key trial_key(const TriangleMesh& original, std::uint64_t seed, const Robustness
 }
 
 Trial run_trial(const SpectralWatermark& mark, const TriangleMesh& original, const TriangleMesh& suspect,
-                const DetectFileOptions& options)
+                const DetectFileOptions& options, int colluders = 1)
 {
     Trial trial;
     const auto start = std::chrono::steady_clock::now();
@@ -99,12 +99,13 @@ Trial run_trial(const SpectralWatermark& mark, const TriangleMesh& original, con
         trial.registration_rms = report.registration_rms;
         trial.alignment = report.alignment;
         trial.recipients_traced = report.recipients_traced;
+        trial.recipient_score = -1e300;
         for (const RecipientScore& r : report.traced)
         {
-            if (r.index == 0)
+            if (r.index < static_cast<std::uint32_t>(colluders))
             {
-                trial.recipient_score = r.score;
-                trial.recipient_accused = r.is_accused;
+                trial.recipient_score = std::max(trial.recipient_score, r.score);
+                trial.recipient_accused = trial.recipient_accused || r.is_accused;
             }
             else
             {
@@ -179,14 +180,21 @@ int run_bench_robustness(const RobustnessArgs& args, const GlobalArgs& global)
             const std::uint64_t key_seed = derive_seed(args.seed, name + "/key/" + std::to_string(k));
             const auto embed_start = std::chrono::steady_clock::now();
             const SpectralWatermark mark(original, trial_key(original, key_seed, args), global.threads);
-            // A family key's marked copy is recipient 0's: the owner's mark and that code.
+            // A family key's marked copy is recipient 0's (or the average of the first --colluders
+            // recipients' copies).
             Positions field;
             if (args.recipients > 0)
             {
                 const Eigen::MatrixX3d owner = mark.coefficient_change();
                 Eigen::MatrixX3d change = Eigen::MatrixX3d::Zero(owner.rows() + mark.recipient_modes(), 3);
                 change.topRows(owner.rows()) = owner;
-                change.bottomRows(mark.recipient_modes()) = mark.recipient_change(0);
+                // The average of the colluders' copies: the owner's mark and the mean of their codes.
+                Eigen::MatrixX3d codes = Eigen::MatrixX3d::Zero(mark.recipient_modes(), 3);
+                for (int c = 0; c < args.colluders; ++c)
+                {
+                    codes += mark.recipient_change(static_cast<std::uint32_t>(c));
+                }
+                change.bottomRows(mark.recipient_modes()) = codes / static_cast<double>(args.colluders);
                 field = mark.basis().synthesize(change);
             }
             else
@@ -211,7 +219,7 @@ int run_bench_robustness(const RobustnessArgs& args, const GlobalArgs& global)
                 t.kind = kind;
                 trials.push_back(std::move(t));
             };
-            record(run_trial(mark, original, marked, detect_options), "none", "marked");
+            record(run_trial(mark, original, marked, detect_options, args.colluders), "none", "marked");
             if (k < args.unmarked_keys)
             {
                 record(run_trial(mark, original, original, detect_options), "none", "unmarked");
@@ -225,7 +233,7 @@ int run_bench_robustness(const RobustnessArgs& args, const GlobalArgs& global)
                         apply_attacks(marked, specs[a], derive_seed(key_seed, "attack/" + run.attacks[a]),
                                       global.threads)
                             .mesh;
-                    t = run_trial(mark, original, attacked, detect_options);
+                    t = run_trial(mark, original, attacked, detect_options, args.colluders);
                 }
                 catch (const std::exception& e)
                 {
@@ -350,6 +358,11 @@ void register_bench_robustness(CLI::App& bench, GlobalArgs& global, CommandRunne
                         "are recipient 0's, every suspect is traced, and a table counts how often its "
                         "recipient is accused and whether an innocent ever is (docs/fingerprinting.md)")
         ->check(CLI::Range(0, 100000))
+        ->capture_default_str();
+    command->add_option("--colluders", args->colluders,
+                        "With --recipients: the marked copy is the vertex-by-vertex average of the copies of "
+                        "this many recipients (0 .. N-1), and a trial counts when one of them is accused")
+        ->check(CLI::Range(1, 100000))
         ->capture_default_str();
     command->add_option("--from-json", args->from_json,
                         "Only tabulate: read the trials of earlier --json-file runs (repeatable; same settings) "

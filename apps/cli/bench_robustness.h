@@ -50,6 +50,7 @@ struct RobustnessArgs
     std::vector<std::string> from_json;
     bool json = false;
     int recipients = 0;  // > 0: family keys with this many recipients (docs/fingerprinting.md)
+    int colluders = 1;   // family keys: the marked copy averages the copies of recipients 0 .. colluders-1
 };
 
 /// One suspect detected with one key.
@@ -68,9 +69,9 @@ struct Trial
     // Family keys (--recipients): the suspect traced against the key's recipients; the marked
     // copies are recipient 0's.
     std::size_t recipients_traced = 0;
-    bool recipient_accused = false;  // recipient 0 accused
-    int others_accused = 0;          // any other recipient accused (never, for a sound bound)
-    double recipient_score = 0.0;    // recipient 0's z
+    bool recipient_accused = false;  // a colluder (recipient 0 .. colluders-1) accused
+    int others_accused = 0;          // innocent recipients accused (never, for a sound bound)
+    double recipient_score = 0.0;    // the best colluder's z
 };
 
 /// The distortion of one mesh's marked copies, averaged over its keys.

@@ -108,6 +108,7 @@ nlohmann::json settings_json(const RobustnessArgs& args)
     if (args.recipients > 0)
     {
         settings["recipients"] = args.recipients;  // absent for single-owner keys (older files)
+        settings["colluders"] = args.colluders;
     }
     return settings;
 }
@@ -166,13 +167,16 @@ namespace {
 // Family keys: per attack, how often the marked copy's recipient was accused, the owner's mark
 // claimed, either of them; innocents accused over every trial (marked, unmarked, wrong keys).
 std::string recipients_section(const std::vector<Trial>& trials, const std::vector<std::string>& attacks,
-                               int recipients)
+                               int recipients, int colluders)
 {
     std::ostringstream md;
-    md << "\n### Recipient copies (family keys of " << recipients
-       << " recipients; the marked copy is recipient 0's)\n\n"
-       << "| attack | marked trials | its recipient accused | owner's mark claimed | either | median z of its "
-          "recipient |\n|---|---:|---:|---:|---:|---:|\n";
+    md << "\n### Recipient copies (family keys of " << recipients << " recipients; the marked copy is "
+       << (colluders == 1 ? std::string("recipient 0's") :
+                            "the average of " + std::to_string(colluders) + " recipients' copies")
+       << ")\n\n"
+       << "| attack | marked trials | " << (colluders == 1 ? "its recipient" : "a colluder")
+       << " accused | owner's mark claimed | either | median z of " << (colluders == 1 ? "its recipient" : "the best colluder")
+       << " |\n|---|---:|---:|---:|---:|---:|\n";
     int innocents = 0;
     int traced = 0;
     for (const Trial& t : trials)
@@ -342,7 +346,7 @@ std::string markdown_report(const std::vector<MeshEmbedding>& embeddings, const 
     }
     if (args.recipients > 0)
     {
-        md << recipients_section(trials, attacks, args.recipients);
+        md << recipients_section(trials, attacks, args.recipients, args.colluders);
     }
     return md.str();
 }

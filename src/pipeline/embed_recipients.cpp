@@ -5,7 +5,9 @@
 #include <algorithm>
 #include <array>
 #include <chrono>
+#include <exception>
 #include <future>
+#include <mutex>
 #include <limits>
 #include <set>
 
@@ -254,19 +256,46 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
         }
         code_seconds += seconds_since(code_start);
     };
+    // A batch's files are written by kWriters threads at once: each write ends in an fsync
+    // that waits on the device, so one writer leaves it idle between files.
+    constexpr std::size_t kWriters = 4;
+    std::mutex created_mutex;
     auto write_batch = [&](std::size_t first, const std::vector<Positions>& positions) {
         const auto write_start = Clock::now();
-        for (std::size_t b = 0; b < positions.size(); ++b)
+        std::vector<std::future<void>> writers;
+        for (std::size_t w = 0; w < std::min(kWriters, positions.size()); ++w)
         {
-            const IssuedCopy& copy = report.copies[first + b];
-            const bool existed = std::filesystem::exists(copy.path);
-            write_mesh_file(copy.path, file, positions[b]);
-            if (!existed)
+            writers.push_back(std::async(std::launch::async, [&, w] {
+                for (std::size_t b = w; b < positions.size(); b += kWriters)
+                {
+                    const IssuedCopy& copy = report.copies[first + b];
+                    const bool existed = std::filesystem::exists(copy.path);
+                    write_mesh_file(copy.path, file, positions[b]);
+                    if (!existed)
+                    {
+                        const std::lock_guard lock(created_mutex);
+                        created.push_back(copy.path);
+                    }
+                }
+            }));
+        }
+        std::exception_ptr failure;
+        for (auto& writer : writers)
+        {
+            try
             {
-                created.push_back(copy.path);
+                writer.get();
+            }
+            catch (...)
+            {
+                failure = failure ? failure : std::current_exception();
             }
         }
         write_seconds += seconds_since(write_start);
+        if (failure)
+        {
+            std::rethrow_exception(failure);
+        }
     };
     auto write_copies = [&]() {
         std::future<void> writing;
