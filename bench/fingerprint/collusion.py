@@ -52,11 +52,21 @@ def write_positions(template, positions, path):
         sys.exit(f"collusion.py: cannot write {path}")
 
 
-def tail_bound(z):
-    """The accusation's per-recipient bound before the factor R (docs/fingerprinting.md)."""
+REGIONS = 27  # Detector::kRegionCount
+
+
+def rademacher(z):
     if z <= 0:
         return 1.0
-    return min(1.0, 3 * min(math.exp(-z * z / 2), 2 * math.exp(3) / 9 * 0.5 * math.erfc(z / math.sqrt(2))))
+    return min(1.0, math.exp(-z * z / 2), 2 * math.exp(3) / 9 * 0.5 * math.erfc(z / math.sqrt(2)))
+
+
+def tail_bound(entry):
+    """The accusation's per-recipient bound before the factor R (docs/fingerprinting.md)."""
+    whole = 3 * rademacher(entry["score"])
+    if "region_score" not in entry:
+        return min(1.0, whole)
+    return min(1.0, 2 * whole, 2 * REGIONS * rademacher(entry["region_score"]))
 
 
 def collude(mode, copies, original, rng):
@@ -123,7 +133,7 @@ def study_mesh(args, mesh_path, work):
         report = detect(args, target, original_ply, key)
         rows.append({"mesh": name, "mode": "unmarked", "post": post, "colluders": 0, "trials": 1,
                      "caught": 0, "innocents_accused": len(report["recipients"])})
-        innocent_scores += [r["score"] for r in report["recipient_scores"]]
+        innocent_scores += report["recipient_scores"]
         for mode in args.mode:
             for c in args.colluders:
                 caught = framed = 0
@@ -140,9 +150,9 @@ def study_mesh(args, mesh_path, work):
                     accused = {r["name"] for r in report["recipients"]}
                     caught += bool(accused & set(chosen))
                     framed += bool(accused - set(chosen))
-                    scores = {r["name"]: r["score"] for r in report["recipient_scores"]}
-                    colluder_best.append(max(scores[r] for r in chosen))
-                    innocent_scores += [z for r, z in scores.items() if r not in chosen]
+                    scores = {r["name"]: r for r in report["recipient_scores"]}
+                    colluder_best.append(max(scores[r]["score"] for r in chosen))
+                    innocent_scores += [e for r, e in scores.items() if r not in chosen]
                 row = {"mesh": name, "mode": mode, "post": post, "colluders": c, "trials": args.trials,
                        "caught": caught, "innocents_accused": framed,
                        "median_best_colluder_score": float(np.median(colluder_best))}
@@ -151,12 +161,15 @@ def study_mesh(args, mesh_path, work):
                       f"trials with an innocent accused {framed}, median best colluder z "
                       f"{row['median_best_colluder_score']:.2f}", flush=True)
     # The null study: innocents' per-recipient bounds against their levels.
-    null = {"innocent_scores": len(innocent_scores), "largest_innocent_score": max(innocent_scores),
+    null = {"innocent_scores": len(innocent_scores),
+            "largest_innocent_score": max(e["score"] for e in innocent_scores),
+            "largest_innocent_region_score": max(e.get("region_score", 0.0) for e in innocent_scores),
             "share_with_bound_at_most": {}}
     for alpha in (0.5, 0.1, 0.01, 0.001, 1e-4):
-        share = sum(tail_bound(z) <= alpha for z in innocent_scores) / len(innocent_scores)
+        share = sum(tail_bound(e) <= alpha for e in innocent_scores) / len(innocent_scores)
         null["share_with_bound_at_most"][str(alpha)] = share
-    print(f"  null: {len(innocent_scores)} innocent scores, largest z {null['largest_innocent_score']:.2f}, "
+    print(f"  null: {len(innocent_scores)} innocent scores, largest z {null['largest_innocent_score']:.2f} "
+          f"(regions {null['largest_innocent_region_score']:.2f}), "
           f"share with per-recipient bound <= alpha: " +
           ", ".join(f"{a}: {v:.4f}" for a, v in null["share_with_bound_at_most"].items()), flush=True)
     return {"mesh": name, "vertices": len(original), "recipients": args.recipients,

@@ -192,6 +192,7 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
     report.decision = mark.decide(report.extraction, options.decision);
     if (options.trace && mark.key().recipients && !mark.key().recipients->recipients.empty())
     {
+        report.extraction.region_changes = detector.region_changes(aligned, is_resampled, kept);
         report.traced = mark.trace(report.extraction, options.decision);
         report.recipients_traced = report.traced.size();
         std::vector<RecipientScore> scores = report.traced;

@@ -145,7 +145,7 @@ nlohmann::json detect_report_json(const DetectReport& report, const DetectOption
             nlohmann::json scores = nlohmann::json::array();
             for (const RecipientScore& r : report.traced)
             {
-                scores.push_back({{"name", r.name}, {"score", r.score}});
+                scores.push_back({{"name", r.name}, {"score", r.score}, {"region_score", r.region_score}});
             }
             out["recipient_scores"] = std::move(scores);
         }

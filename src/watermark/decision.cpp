@@ -94,6 +94,25 @@ std::vector<RecipientScore> SpectralWatermark::trace(const Extraction& extractio
     // and other recipients' codes), so its score is bounded as the owner's soft score is; the
     // union over the key's recipients bounds the chance that any innocent is accused.
     const SoftCorrelation soft(extraction.recipient_change, extraction.recipient_weights);
+    // Regions (spliced suspects): one uniform-weight correlation each; the global test and the
+    // regions share the level half and half (a weighted union bound, docs/fingerprinting.md).
+    std::vector<std::vector<double>> regions;  // each region's values scaled to unit norm
+    for (const std::vector<double>& change : extraction.region_changes)
+    {
+        double norm_sq = 0.0;
+        for (const double v : change)
+        {
+            norm_sq += v * v;
+        }
+        std::vector<double> unit(change.size(), 0.0);
+        if (norm_sq > 0.0)
+        {
+            const double scale = 1.0 / std::sqrt(norm_sq);
+            std::transform(change.begin(), change.end(), unit.begin(), [scale](double v) { return v * scale; });
+        }
+        regions.push_back(std::move(unit));
+    }
+    const double region_count = static_cast<double>(regions.size());
     const double recipients = static_cast<double>(key_.recipients->recipients.size());
     scores.reserve(key_.recipients->recipients.size());
     for (const Recipient& recipient : key_.recipients->recipients)
@@ -103,6 +122,20 @@ std::vector<RecipientScore> SpectralWatermark::trace(const Extraction& extractio
         double bound = 1.0;
         std::tie(entry.score, bound) = soft.score(
             [&](std::size_t c) { return signs(static_cast<Eigen::Index>(c / 3), static_cast<Eigen::Index>(c % 3)); });
+        if (!regions.empty())
+        {
+            entry.region_score = 0.0;
+            for (const std::vector<double>& unit : regions)
+            {
+                double z = 0.0;
+                for (std::size_t c = 0; c < unit.size(); ++c)
+                {
+                    z += signs(static_cast<Eigen::Index>(c / 3), static_cast<Eigen::Index>(c % 3)) * unit[c];
+                }
+                entry.region_score = std::max(entry.region_score, z);
+            }
+            bound = std::min(2.0 * bound, 2.0 * region_count * rademacher_tail_bound(entry.region_score));
+        }
         entry.false_positive_probability = std::min(1.0, recipients * bound);
         entry.is_accused = entry.false_positive_probability <= options.max_false_positive;
         scores.push_back(std::move(entry));

@@ -29,6 +29,10 @@ struct Extraction
     /// the M modes after the owner's), normalized and weighted as above; empty otherwise.
     std::vector<double> recipient_change;
     std::vector<double> recipient_weights;
+    /// Family keys, for spliced suspects: per region of the original (Detector::region_changes),
+    /// the recipient code's 3M coefficients of the suspect's change confined to that region,
+    /// normalized; empty when not computed.
+    std::vector<std::vector<double>> region_changes;
 };
 
 /// \brief The soft correlation of a set of normalized coefficients with a sign vector, over the
@@ -58,8 +62,12 @@ struct RecipientScore
     std::string name;
     std::uint32_t index = 0;
     double score = 0.0;  ///< z of the recipient code's soft correlation.
-    /// Bound on P(some innocent recipient of the key scores this high): the code's
-    /// min(1, 3 rademacher_tail_bound(z)) times the number of recipients (union bound).
+    /// The largest z over the regions of Extraction::region_changes (0 without them).
+    double region_score = 0.0;
+    /// Bound on P(some innocent recipient of the key scores this high), a union bound over the
+    /// key's R recipients: R min(3 rademacher_tail_bound(score), ...) without regions, with
+    /// them R min(2 * 3 rademacher_tail_bound(score), 2 K rademacher_tail_bound(region_score))
+    /// for K regions (docs/fingerprinting.md); at most 1.
     double false_positive_probability = 1.0;
     bool is_accused = false;  ///< false_positive_probability <= DetectOptions::max_false_positive.
 };

@@ -49,6 +49,25 @@ public:
     [[nodiscard]] Extraction extract_resampled(const Positions& resampled, const DetectOptions& options,
                                                const std::vector<std::uint8_t>* is_kept = nullptr) const;
 
+    /// Number of regions region_changes() reads: the halves, thirds and quarters of the
+    /// original along each of its three principal axes.
+    static constexpr int kRegionCount = 27;
+
+    /// \brief For a family key: the recipient code's coefficients of the suspect's change,
+    /// confined region by region (kRegionCount regions of the original), for suspects spliced
+    /// from several copies (docs/fingerprinting.md).
+    /// \details The change (minus the owner's field; for a resampled suspect its normal
+    /// components) is zeroed outside the region and projected on the code's modes; each region's
+    /// 3M values are divided by the code's modulation. Everything here comes from the original
+    /// and the suspect, nothing from a recipient's signs, so each region's correlation with an
+    /// innocent recipient's code is bounded as the whole one's. One pass over the rows.
+    /// \param suspect  #V x 3 in the original's frame: vertex for vertex, or resampled.
+    /// \param is_resampled  The suspect was resampled (only normal components are compared).
+    /// \param is_kept  Optional crop mask: rows with 0 are left out.
+    /// \throws InvalidOption unless the watermark has a recipient code.
+    [[nodiscard]] std::vector<std::vector<double>> region_changes(const Positions& suspect, bool is_resampled,
+                                                                  const std::vector<std::uint8_t>* is_kept = nullptr) const;
+
     /// The watermark's decision on an extraction (SpectralWatermark::decide).
     [[nodiscard]] Decision decide(const Extraction& extraction, const DetectOptions& options) const
     {
