@@ -161,6 +161,57 @@ TEST(RecipientsTest, each_copy_accuses_its_recipient_only_and_an_average_accuses
     EXPECT_TRUE(untraced.detected());
 }
 
+TEST(RecipientsTest, a_copy_spliced_from_three_copies_accuses_colluders_only)
+{
+    // Cut-and-splice: each third of the model (along its longest axis) from another copy. The
+    // code of one copy confined to a third reads weakly on the whole model; the regions find it.
+    const fs::path dir = test::temp_dir("recipients-splice");
+    const fs::path input = write_input(dir, 5);
+    const std::vector<std::string> names = {"ann", "ben", "cat", "dan", "eve", "fay", "gus", "hal"};
+    static_cast<void>(
+        embed_recipients(input, (dir / "{recipient}.ply").string(), dir / "family.json", family(names)));
+    const Key key = read_key(dir / "family.json");
+    const TriangleMesh original = read_mesh(input);
+    const Eigen::RowVector3d extent = original.V.colwise().maxCoeff() - original.V.colwise().minCoeff();
+    Eigen::Index axis = 0;
+    static_cast<void>(extent.maxCoeff(&axis));
+    std::vector<double> heights(original.V.col(axis).data(), original.V.col(axis).data() + original.V.rows());
+    std::sort(heights.begin(), heights.end());
+    const double cut1 = heights[heights.size() / 3];
+    const double cut2 = heights[2 * heights.size() / 3];
+    const std::vector<std::string> colluders = {"ben", "dan", "gus"};
+    Positions spliced = original.V;
+    for (std::size_t c = 0; c < colluders.size(); ++c)
+    {
+        const Positions copy = read_mesh(dir / (colluders[c] + ".ply")).V;
+        for (Eigen::Index i = 0; i < spliced.rows(); ++i)
+        {
+            const double h = original.V(i, axis);
+            const std::size_t third = h < cut1 ? 0 : (h < cut2 ? 1 : 2);
+            if (third == c)
+            {
+                spliced.row(i) = copy.row(i);
+            }
+        }
+    }
+    const DetectReport report = detect_positions(input, spliced, key);
+    EXPECT_TRUE(report.decision.is_present) << "the owner's mark is in every third";
+    ASSERT_FALSE(report.accused.empty());
+    for (const RecipientScore& r : report.accused)
+    {
+        EXPECT_TRUE(std::find(colluders.begin(), colluders.end(), r.name) != colluders.end())
+            << r.name << " is innocent";
+    }
+    // Every colluder is found; the middle third's is found by its region alone (its
+    // whole-model z is far below any accusation threshold).
+    EXPECT_EQ(accused_names(report), (std::vector<std::string>{"ben", "dan", "gus"}));
+    ASSERT_EQ(report.traced.size(), names.size());
+    const RecipientScore& middle = report.traced[3];
+    ASSERT_EQ(middle.name, "dan");
+    EXPECT_LT(middle.score, 4.0);
+    EXPECT_GT(middle.region_score, 7.0);
+}
+
 TEST(RecipientsTest, a_later_call_adds_recipients_and_reissues_known_ones_byte_for_byte)
 {
     const fs::path dir = test::temp_dir("recipients-extend");
