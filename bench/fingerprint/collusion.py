@@ -52,7 +52,7 @@ def write_positions(template, positions, path):
         sys.exit(f"collusion.py: cannot write {path}")
 
 
-REGIONS = 27  # Detector::kRegionCount
+REGIONS = 28  # Detector::kRegionCount
 
 
 def rademacher(z):

@@ -86,7 +86,7 @@ std::vector<RecipientScore> SpectralWatermark::trace(const Extraction& extractio
 {
     options.validate();
     std::vector<RecipientScore> scores;
-    if (!key_.recipients || extraction.recipient_change.empty())
+    if (!key_.recipients || (extraction.recipient_change.empty() && extraction.region_changes.empty()))
     {
         return scores;
     }
@@ -120,21 +120,34 @@ std::vector<RecipientScore> SpectralWatermark::trace(const Extraction& extractio
         const Eigen::MatrixX3d signs = recipient_signs(recipient.index);
         RecipientScore entry{recipient.name, recipient.index};
         double bound = 1.0;
-        std::tie(entry.score, bound) = soft.score(
-            [&](std::size_t c) { return signs(static_cast<Eigen::Index>(c / 3), static_cast<Eigen::Index>(c % 3)); });
+        const bool has_whole = soft.size() > 0;
+        if (has_whole)
+        {
+            std::tie(entry.score, bound) = soft.score([&](std::size_t c) {
+                return signs(static_cast<Eigen::Index>(c / 3), static_cast<Eigen::Index>(c % 3));
+            });
+        }
         if (!regions.empty())
         {
             entry.region_score = 0.0;
-            for (const std::vector<double>& unit : regions)
+            for (std::size_t region = 0; region < regions.size(); ++region)
             {
+                const std::vector<double>& unit = regions[region];
                 double z = 0.0;
                 for (std::size_t c = 0; c < unit.size(); ++c)
                 {
                     z += signs(static_cast<Eigen::Index>(c / 3), static_cast<Eigen::Index>(c % 3)) * unit[c];
                 }
                 entry.region_score = std::max(entry.region_score, z);
+                if (region == 0 && !has_whole)
+                {
+                    entry.score = z;  // a cropped suspect: the whole (kept) model's region
+                }
             }
-            bound = std::min(2.0 * bound, 2.0 * region_count * rademacher_tail_bound(entry.region_score));
+            const double regions_bound = region_count * rademacher_tail_bound(entry.region_score);
+            // With the joint reading of the whole model, it and the regions share the level
+            // half and half; without it (cropped suspects) the regions have all of it.
+            bound = has_whole ? std::min(2.0 * bound, 2.0 * regions_bound) : regions_bound;
         }
         entry.false_positive_probability = std::min(1.0, recipients * bound);
         entry.is_accused = entry.false_positive_probability <= options.max_false_positive;

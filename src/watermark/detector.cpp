@@ -44,6 +44,16 @@ Detector::Detector(const SpectralWatermark& mark, const TriangleMesh& original)
     }
 }
 
+int Detector::read_modes(const std::vector<std::uint8_t>* is_kept) const noexcept
+{
+    // A family key's code modes are read jointly with the owner's on the whole model, where the
+    // modes are orthogonal. On a cropped suspect they are not: 64 more free unknowns over part
+    // of the surface would swamp the owner's coefficients, so the owner's are read alone (the
+    // code is then noise to them) and the code is read by region_changes().
+    const auto all = static_cast<int>(mark_->modulation().rows());
+    return is_kept != nullptr && mark_->recipient_modes() > 0 ? all - mark_->recipient_modes() : all;
+}
+
 Extraction Detector::extraction_from(const Eigen::VectorXd& normalized, const Eigen::VectorXd& variances,
                                               const DetectOptions& options) const
 {
@@ -97,7 +107,7 @@ Extraction Detector::extract(const Positions& suspect, const DetectOptions& opti
                             " vertices in correspondence, the original " +
                             std::to_string(original_->V.rows()) + ".");
     }
-    const int modes = static_cast<int>(mark_->modulation().rows());
+    const int modes = read_modes(is_kept);
     const int first = mark_->key().options.first_mode;
     const auto coefficients = static_cast<Eigen::Index>(3 * modes);
     const Positions change = suspect - original_->V;
@@ -168,7 +178,7 @@ Extraction Detector::extract_resampled(const Positions& resampled, const DetectO
         throw InvalidOption("the resampled suspect has " + std::to_string(resampled.rows()) +
                             " rows, the original " + std::to_string(original_->V.rows()) + ".");
     }
-    const int modes = static_cast<int>(mark_->modulation().rows());
+    const int modes = read_modes(is_kept);
     const auto coefficients = static_cast<Eigen::Index>(3 * modes);
 
     // Model: the observed change o = S (U_M diag(mod) b' + sum_f g_f N_f) + noise, where S is

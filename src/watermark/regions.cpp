@@ -90,7 +90,10 @@ std::vector<std::vector<double>> Detector::region_changes(const Positions& suspe
                 r -= owner;
             }
             double* x = X + a * width;
-            int region = 0;
+            x[0] = r(0);  // region 0: every (kept) row
+            x[1] = r(1);
+            x[2] = r(2);
+            int region = 1;
             for (int axis = 0; axis < kAxes; ++axis)
             {
                 for (std::size_t s = 0; s < kSplits.size(); ++s)

@@ -49,9 +49,9 @@ public:
     [[nodiscard]] Extraction extract_resampled(const Positions& resampled, const DetectOptions& options,
                                                const std::vector<std::uint8_t>* is_kept = nullptr) const;
 
-    /// Number of regions region_changes() reads: the halves, thirds and quarters of the
-    /// original along each of its three principal axes.
-    static constexpr int kRegionCount = 27;
+    /// Number of regions region_changes() reads: first every row (kept by the crop mask), then
+    /// the halves, thirds and quarters of the original along each of its three principal axes.
+    static constexpr int kRegionCount = 28;
 
     /// \brief For a family key: the recipient code's coefficients of the suspect's change,
     /// confined region by region (kRegionCount regions of the original), for suspects spliced
@@ -78,6 +78,9 @@ public:
     [[nodiscard]] const TriangleMesh& original() const noexcept { return *original_; }
 
 private:
+    // Modes read by an extraction: every modulated one, or a family key's owner modes alone on
+    // a cropped suspect (\p is_kept not null).
+    [[nodiscard]] int read_modes(const std::vector<std::uint8_t>* is_kept) const noexcept;
     // Extraction of coefficients normalized by their modulation, with their variances.
     [[nodiscard]] Extraction extraction_from(const Eigen::VectorXd& normalized, const Eigen::VectorXd& variances,
                                              const DetectOptions& options) const;
