@@ -192,6 +192,14 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
     report.decision = mark.decide(report.extraction, options.decision);
     if (options.trace && mark.key().recipients && !mark.key().recipients->recipients.empty())
     {
+        if (kept != nullptr && is_resampled)
+        {
+            // The owner's coefficients were read alone (cropped suspect); the code's, read
+            // jointly with them, still serve a slightly cropped one (remeshing, simplification).
+            const Extraction with_code = detector.extract_resampled_with_code(aligned, options.decision, kept);
+            report.extraction.recipient_change = with_code.recipient_change;
+            report.extraction.recipient_weights = with_code.recipient_weights;
+        }
         report.extraction.region_changes = detector.region_changes(aligned, is_resampled, kept);
         report.traced = mark.trace(report.extraction, options.decision);
         report.recipients_traced = report.traced.size();

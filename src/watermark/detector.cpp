@@ -170,7 +170,19 @@ Extraction Detector::extract(const Positions& suspect, const DetectOptions& opti
 }
 
 Extraction Detector::extract_resampled(const Positions& resampled, const DetectOptions& options,
-                                                const std::vector<std::uint8_t>* is_kept) const
+                                       const std::vector<std::uint8_t>* is_kept) const
+{
+    return read_resampled(resampled, options, is_kept, read_modes(is_kept));
+}
+
+Extraction Detector::extract_resampled_with_code(const Positions& resampled, const DetectOptions& options,
+                                                 const std::vector<std::uint8_t>* is_kept) const
+{
+    return read_resampled(resampled, options, is_kept, static_cast<int>(mark_->modulation().rows()));
+}
+
+Extraction Detector::read_resampled(const Positions& resampled, const DetectOptions& options,
+                                    const std::vector<std::uint8_t>* is_kept, int modes) const
 {
     options.validate();
     if (resampled.rows() != original_->V.rows())
@@ -178,7 +190,6 @@ Extraction Detector::extract_resampled(const Positions& resampled, const DetectO
         throw InvalidOption("the resampled suspect has " + std::to_string(resampled.rows()) +
                             " rows, the original " + std::to_string(original_->V.rows()) + ".");
     }
-    const int modes = read_modes(is_kept);
     const auto coefficients = static_cast<Eigen::Index>(3 * modes);
 
     // Model: the observed change o = S (U_M diag(mod) b' + sum_f g_f N_f) + noise, where S is

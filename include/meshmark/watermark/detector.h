@@ -49,6 +49,12 @@ public:
     [[nodiscard]] Extraction extract_resampled(const Positions& resampled, const DetectOptions& options,
                                                const std::vector<std::uint8_t>* is_kept = nullptr) const;
 
+    /// \brief extract_resampled() reading a family key's code modes jointly with the owner's
+    /// even on a cropped suspect (where extract_resampled reads the owner's alone): the code's
+    /// coefficients of a slightly cropped suspect (remeshing, simplification) for tracing.
+    [[nodiscard]] Extraction extract_resampled_with_code(const Positions& resampled, const DetectOptions& options,
+                                                         const std::vector<std::uint8_t>* is_kept) const;
+
     /// Number of regions region_changes() reads: first every row (kept by the crop mask), then
     /// the halves, thirds and quarters of the original along each of its three principal axes.
     static constexpr int kRegionCount = 28;
@@ -81,6 +87,8 @@ private:
     // Modes read by an extraction: every modulated one, or a family key's owner modes alone on
     // a cropped suspect (\p is_kept not null).
     [[nodiscard]] int read_modes(const std::vector<std::uint8_t>* is_kept) const noexcept;
+    [[nodiscard]] Extraction read_resampled(const Positions& resampled, const DetectOptions& options,
+                                            const std::vector<std::uint8_t>* is_kept, int modes) const;
     // Extraction of coefficients normalized by their modulation, with their variances.
     [[nodiscard]] Extraction extraction_from(const Eigen::VectorXd& normalized, const Eigen::VectorXd& variances,
                                              const DetectOptions& options) const;
