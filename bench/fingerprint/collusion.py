@@ -16,7 +16,7 @@ Post-processing after the attack: none, or any `meshmark attack` chain (e.g. noi
 simplify=0.3).
 
 Usage: collusion.py --mesh M.ply [--mesh ...] [--recipients 100] [--colluders 2,3,4,8]
-       [--trials 20] [--post none,noise=0.001,simplify=0.3] [--mode average,splice]
+       [--trials 20] [--post "none;noise=0.001;simplify=0.3"] [--mode average,splice,splice-any]
        [--meshmark build/bin/meshmark] [--json-file out.json]
 Reads and writes meshes with Open3D (python3-open3d); PLY copies keep the vertex order.
 """
@@ -182,7 +182,8 @@ def main():
     parser.add_argument("--recipients", type=int, default=100)
     parser.add_argument("--colluders", default="2,3,4,8")
     parser.add_argument("--trials", type=int, default=20)
-    parser.add_argument("--post", default="none,noise=0.001,simplify=0.3")
+    parser.add_argument("--post", default="none;noise=0.001;simplify=0.3",
+                        help="post-processings separated by ;, each none or a meshmark attack chain")
     parser.add_argument("--mode", default="average,splice")
     parser.add_argument("--seed", type=int, default=17)
     parser.add_argument("--threads", type=int, default=0)
@@ -190,7 +191,7 @@ def main():
     parser.add_argument("--json-file")
     args = parser.parse_args()
     args.colluders = [int(c) for c in args.colluders.split(",")]
-    args.post = args.post.split(",")
+    args.post = args.post.split(";")
     args.mode = args.mode.split(",")
     results = []
     for mesh in args.mesh:

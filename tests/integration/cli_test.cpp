@@ -103,6 +103,67 @@ TEST_F(CliTest, embed_then_detect_reports_json_and_exit_codes)
     EXPECT_FALSE(nlohmann::json::parse(r.out)["detected"].get<bool>());
 }
 
+TEST_F(CliTest, recipient_copies_are_issued_in_any_format_and_traced)
+{
+    const auto key = dir_ / "family.json";
+    const auto names = dir_ / "names.txt";
+    {
+        std::ofstream out(names);
+        out << "# buyers\nalice\n  Studio B  \n\ncarol\n";
+    }
+    const std::string pattern = (dir_ / "copy-{recipient}.glb").string();
+    CliRun r = run("embed " + original_.string() + " -o '" + pattern + "' --key " + key.string() + " --recipients " +
+                       names.string() + " --recipient dave --seed 3 --json",
+                   dir_);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const auto issued = nlohmann::json::parse(r.out);
+    ASSERT_EQ(issued["copies"].size(), 4U);
+    EXPECT_EQ(issued["recipients_in_key"], 4);
+    EXPECT_EQ(issued["copies"][2]["name"], "Studio B");  // --recipient names first, then the file's
+    EXPECT_TRUE(fs::exists(dir_ / "copy-Studio B.glb"));
+
+    r = run("detect '" + (dir_ / "copy-Studio B.glb").string() + "' --original " + original_.string() + " --key " +
+                key.string() + " --json",
+            dir_);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    auto found = nlohmann::json::parse(r.out);
+    EXPECT_TRUE(found["detected"].get<bool>());
+    EXPECT_TRUE(found["owner_detected"].get<bool>());
+    EXPECT_EQ(found["recipients_traced"], 4);
+    ASSERT_EQ(found["recipients"].size(), 1U);
+    EXPECT_EQ(found["recipients"][0]["name"], "Studio B");
+    EXPECT_LE(found["recipients"][0]["false_positive_probability"].get<double>(), 1e-6);
+
+    // The unmarked original accuses nobody (exit 1); the text report says so.
+    r = run("detect " + original_.string() + " --original " + original_.string() + " --key " + key.string(), dir_);
+    EXPECT_EQ(r.exit_code, 1) << r.err;
+    EXPECT_NE(r.out.find("0 of 4 recipients accused"), std::string::npos) << r.out;
+
+    // A later call re-issues a name byte for byte and adds a new one.
+    const std::string before = slurp(dir_ / "copy-alice.glb");
+    r = run("embed " + original_.string() + " -o '" + (dir_ / "again-{recipient}.glb").string() + "' --key " +
+                key.string() + " --recipient alice --recipient erin -q",
+            dir_);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_TRUE(before == slurp(dir_ / "again-alice.glb"));
+    EXPECT_EQ(nlohmann::json::parse(slurp(key))["recipients"]["issued"].size(), 5U);
+
+    // Refusals: one sentence, no file.
+    r = run("embed " + original_.string() + " -o " + (dir_ / "one.ply").string() + " --key " +
+                (dir_ / "k2.json").string() + " --recipient x",
+            dir_);
+    EXPECT_NE(r.exit_code, 0);
+    EXPECT_NE(r.err.find("{recipient}"), std::string::npos) << r.err;
+    r = run("embed " + original_.string() + " -o '" + pattern + "' --key " + (dir_ / "k3.json").string() +
+                " --recipient x --stream",
+            dir_);
+    EXPECT_NE(r.exit_code, 0);
+    EXPECT_NE(r.err.find("--stream"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(dir_ / "copy-x.glb"));
+    EXPECT_FALSE(fs::exists(dir_ / "k2.json"));
+    EXPECT_FALSE(fs::exists(dir_ / "k3.json"));
+}
+
 TEST_F(CliTest, memory_budget_streams_a_binary_ply_to_the_same_bytes)
 {
     const auto memory = dir_ / "memory.ply";
