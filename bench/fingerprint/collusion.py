@@ -15,7 +15,7 @@ Colluder attacks (vertex for vertex; the copies share the original's connectivit
 Post-processing after the attack: none, or any `meshmark attack` chain (e.g. noise=0.001,
 simplify=0.3).
 
-Usage: collusion.py --mesh M.ply [--mesh ...] [--recipients 100] [--colluders 2,3,4,8]
+Usage: collusion.py --mesh M.ply [--mesh ...] [--recipients 100] [--colluders 2,3,4,8] [--embed-args "..."]
        [--trials 20] [--post "none;noise=0.001;simplify=0.3"] [--mode average,splice,splice-any]
        [--meshmark build/bin/meshmark] [--json-file out.json]
 Reads and writes meshes with Open3D (python3-open3d); PLY copies keep the vertex order.
@@ -106,7 +106,8 @@ def study_mesh(args, mesh_path, work):
         f.write("\n".join(names) + "\n")
     start = time.time()
     proc = run([args.meshmark, "embed", original_ply, "-o", os.path.join(work, "{recipient}.ply"), "--key", key,
-                "--recipients", listing, "--seed", str(args.seed), "--json", "-q", "--threads", str(args.threads)])
+                "--recipients", listing, "--seed", str(args.seed), "--json", "-q", "--threads", str(args.threads)]
+               + args.embed_args.split())
     issued = json.loads(proc.stdout)
     issue_seconds = time.time() - start
     rms = max(c["rms_displacement"] for c in issued["copies"])
@@ -186,6 +187,8 @@ def main():
                         help="post-processings separated by ;, each none or a meshmark attack chain")
     parser.add_argument("--mode", default="average,splice")
     parser.add_argument("--seed", type=int, default=17)
+    parser.add_argument("--embed-args", default="",
+                        help="more options of meshmark embed, e.g. \"--basis-size 160 --recipient-modes 120\"")
     parser.add_argument("--threads", type=int, default=0)
     parser.add_argument("--meshmark", default=os.path.join(os.path.dirname(__file__), "../../build/bin/meshmark"))
     parser.add_argument("--json-file")
