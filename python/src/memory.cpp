@@ -192,8 +192,27 @@ void bind_memory(py::module_& m)
     py::class_<DetectResult>(m, "DetectResult",
                              "What detect found: the verdict and its statistics. to_dict() gives the fields "
                              "of `meshmark detect --json`.")
-        .def_property_readonly("detected", [](const DetectResult& r) { return r.report.decision.is_present; },
-                               "True when the verdict claims the mark.")
+        .def_property_readonly("detected", [](const DetectResult& r) { return r.report.detected(); },
+                               "True when the verdict claims the mark (with a family key: when a recipient "
+                               "is accused; see owner_detected).")
+        .def_property_readonly("owner_detected", [](const DetectResult& r) { return r.report.decision.is_present; },
+                               "The owner's mark (with a family key, the part every recipient's copy shares).")
+        .def_property_readonly(
+            "recipients",
+            [](const DetectResult& r) {
+                py::list accused;
+                for (const RecipientScore& s : r.report.accused)
+                {
+                    py::dict entry;
+                    entry["name"] = s.name;
+                    entry["score"] = s.score;
+                    entry["false_positive_probability"] = s.false_positive_probability;
+                    accused.append(entry);
+                }
+                return accused;
+            },
+            "With a family key (meshmark embed --recipient): the accused recipients, strongest first, as "
+            "dicts (name, score, false_positive_probability); empty otherwise.")
         .def_property_readonly("verdict", [](const DetectResult& r) {
             return std::string(to_string(r.report.decision.verdict));
         })
@@ -241,7 +260,7 @@ void bind_memory(py::module_& m)
              "The fields of `meshmark detect --json` (with verbose=True, also those of --verbose).")
         .def("__repr__", [](const DetectResult& r) {
             const Decision& d = r.report.decision;
-            return std::string("<meshmark.DetectResult detected=") + (d.is_present ? "True" : "False") +
+            return std::string("<meshmark.DetectResult detected=") + (r.report.detected() ? "True" : "False") +
                    " score=" + std::to_string(d.score) + " false_positive_probability=" +
                    std::to_string(d.false_positive_probability) + ">";
         });

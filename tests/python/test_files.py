@@ -123,3 +123,24 @@ def test_file_errors_carry_the_program_message(original, tmp_path, cli):
     with pytest.raises(meshmark.InvalidOption) as error:
         meshmark.embed_file(original, tmp_path / "x.ply", original, force=True)
     assert done.stderr.strip() == f"meshmark: {error.value}"
+
+
+def test_family_key_from_the_cli_traces_in_python(torus, original, tmp_path, cli):
+    """Recipient copies issued by the program are traced in Python: the copies of two
+    recipients averaged vertex by vertex accuse one of them and nobody else."""
+    V, F = torus
+    done = run_cli(cli, "embed", original, "-o", tmp_path / "{recipient}.ply", "--key", tmp_path / "family.json",
+                   "--recipient", "ann", "--recipient", "ben", "--recipient", "cat", "--seed", 8, "--quiet")
+    assert done.returncode == 0, done.stderr
+    key = meshmark.Key.load(tmp_path / "family.json")
+    ann, _ = meshmark.read_mesh(tmp_path / "ann.ply")
+    cat, _ = meshmark.read_mesh(tmp_path / "cat.ply")
+    single = meshmark.detect(ann, F, V, F, key)
+    assert single.detected and single.owner_detected
+    assert [r["name"] for r in single.recipients] == ["ann"]
+    pooled = meshmark.detect((ann + cat) / 2, F, V, F, key)
+    assert pooled.owner_detected
+    assert pooled.recipients and {r["name"] for r in pooled.recipients} <= {"ann", "cat"}
+    unmarked = meshmark.detect(V, F, V, F, key)
+    assert not unmarked.detected and unmarked.recipients == []
+    assert unmarked.to_dict()["recipients_traced"] == 3
