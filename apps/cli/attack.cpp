@@ -111,17 +111,9 @@ int run_attack(const AttackArgs& args, const GlobalArgs& global)
     options.force = args.force;
     // Phases and a running clock on a terminal, after the first second (remeshing or simplifying
     // a large mesh takes several); silent otherwise. The phases are the --json `seconds` keys.
-    std::optional<PhaseProgress> progress;
-    if (PhaseProgress::should_show(global.quiet))
-    {
-        progress.emplace(PhaseProgressOptions{"meshmark attack"});
-        options.progress = progress->callback();
-    }
-    const AttackFileReport report = attack_file(args.input, args.output, args.spec, options);
-    if (progress)
-    {
-        progress->finish();
-    }
+    const AttackFileReport report = with_progress("meshmark attack", global.quiet, options.progress, [&] {
+        return attack_file(args.input, args.output, args.spec, options);
+    });
 
     if (args.json)
     {

@@ -40,17 +40,9 @@ int run_detect(const DetectArgs& args, const GlobalArgs& global)
         options.pairs = read_point_pairs(args.pairs);
     }
     // Phases and a running clock on a terminal, after the first second; silent otherwise.
-    std::optional<PhaseProgress> progress;
-    if (PhaseProgress::should_show(global.quiet))
-    {
-        progress.emplace(PhaseProgressOptions{"meshmark detect"});
-        options.progress = progress->callback();
-    }
-    const DetectReport report = detect_file(args.suspect, args.original, args.key, options);
-    if (progress)
-    {
-        progress->finish();
-    }
+    const DetectReport report = with_progress("meshmark detect", global.quiet, options.progress, [&] {
+        return detect_file(args.suspect, args.original, args.key, options);
+    });
     const Decision& d = report.decision;
     if (args.json)
     {

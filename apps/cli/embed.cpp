@@ -90,17 +90,9 @@ int run_embed_recipients(const EmbedArgs& args, const GlobalArgs& global, EmbedR
     }
     options.recipient_modes = args.recipient_modes;
     options.recipient_share = args.recipient_share;
-    std::optional<PhaseProgress> progress;
-    if (PhaseProgress::should_show(global.quiet))
-    {
-        progress.emplace(PhaseProgressOptions{"meshmark embed"});
-        options.progress = progress->callback();
-    }
-    const EmbedRecipientsReport report = embed_recipients(args.input, args.output, args.key, options);
-    if (progress)
-    {
-        progress->finish();
-    }
+    const EmbedRecipientsReport report = with_progress("meshmark embed", global.quiet, options.progress, [&] {
+        return embed_recipients(args.input, args.output, args.key, options);
+    });
     if (args.json)
     {
         print_json(embed_recipients_report_json(report, args.input, args.key));
@@ -157,18 +149,8 @@ int run_embed(const EmbedArgs& args, const GlobalArgs& global)
     options.memory_budget_mib = args.memory_budget;
     options.force_stream = args.stream;
     // Phases and a running clock on a terminal, after the first second; silent otherwise.
-    std::optional<PhaseProgress> progress;
-    if (PhaseProgress::should_show(global.quiet))
-    {
-        progress.emplace(PhaseProgressOptions{"meshmark embed"});
-        options.progress = progress->callback();
-    }
-
-    const EmbedReport report = embed_file(args.input, args.output, args.key, options);
-    if (progress)
-    {
-        progress->finish();
-    }
+    const EmbedReport report = with_progress("meshmark embed", global.quiet, options.progress,
+                                             [&] { return embed_file(args.input, args.output, args.key, options); });
 
     const auto& stats = report.stats;
     if (args.json)

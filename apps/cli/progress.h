@@ -6,6 +6,7 @@
 #include <condition_variable>
 #include <cstdio>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <thread>
@@ -69,5 +70,25 @@ private:
     std::condition_variable wake_;
     std::thread ticker_;
 };
+
+/// \brief Runs \p work (which returns the command's report) with a PhaseProgress titled
+/// \p title when should_show(quiet), its callback stored in \p callback first, and ends the
+/// line once the work is done (the destructor ends it when the work throws).
+template <class Work>
+auto with_progress(const char* title, bool quiet, ProgressCallback& callback, Work&& work)
+{
+    std::optional<PhaseProgress> progress;
+    if (PhaseProgress::should_show(quiet))
+    {
+        progress.emplace(PhaseProgressOptions{title});
+        callback = progress->callback();
+    }
+    auto report = work();
+    if (progress)
+    {
+        progress->finish();
+    }
+    return report;
+}
 
 }  // namespace meshmark::cli
