@@ -58,7 +58,7 @@ int run_detect(const DetectArgs& args, const GlobalArgs& global)
         if (report.recipients_traced > 0)
         {
             std::printf("  %zu of %zu recipients accused%s\n", report.accused.size(), report.recipients_traced,
-                        report.accused.empty() ? " (the owner's mark above is shared by every copy)" : ":");
+                        report.accused.empty() ? "" : ":");
             for (const RecipientScore& r : report.accused)
             {
                 std::printf("    %s: z = %.2f, false-positive probability %s\n", r.name.c_str(), r.score,
