@@ -10,6 +10,8 @@
 #include <mutex>
 #include <limits>
 #include <set>
+#include <string>
+#include <unordered_map>
 
 #include "meshmark/core/atomic_file.h"
 #include "meshmark/core/error.h"
@@ -88,9 +90,14 @@ Key family_key(const std::filesystem::path& key_path, const TriangleMesh& mesh, 
 std::vector<IssuedCopy> assign_indices(Key& key, const std::vector<std::string>& names, const std::string& pattern)
 {
     RecipientCodes& codes = *key.recipients;
+    // One lookup table rather than RecipientCodes::find per name: a call issuing thousands
+    // of copies against a key holding thousands would otherwise be quadratic.
+    std::unordered_map<std::string, std::uint32_t> known;
+    known.reserve(codes.recipients.size() + names.size());
     std::uint32_t next = 0;
     for (const Recipient& r : codes.recipients)
     {
+        known.emplace(r.name, r.index);
         next = std::max(next, r.index + 1);
     }
     std::vector<IssuedCopy> copies;
@@ -99,9 +106,9 @@ std::vector<IssuedCopy> assign_indices(Key& key, const std::vector<std::string>&
         IssuedCopy copy;
         copy.name = name;
         copy.path = recipient_output(pattern, name);
-        if (const Recipient* known = codes.find(name))
+        if (const auto it = known.find(name); it != known.end())
         {
-            copy.index = known->index;
+            copy.index = it->second;
         }
         else
         {
@@ -112,6 +119,7 @@ std::vector<IssuedCopy> assign_indices(Key& key, const std::vector<std::string>&
             copy.index = next++;
             copy.is_new = true;
             codes.recipients.push_back({name, copy.index});
+            known.emplace(name, copy.index);
         }
         copies.push_back(std::move(copy));
     }
