@@ -125,7 +125,23 @@ FrameResult frame_passes(const PlyStream& file, const ReferencedVertices& refere
         for (std::uint64_t first = 0; first < n; first += kBlock)
         {
             const auto count = static_cast<std::size_t>(std::min<std::uint64_t>(kBlock, n - first));
-            reader.read(count, block.data());
+            if (is_first)
+            {
+                // Row by row, each row hashed as soon as it is read: the hash is one long chain
+                // of dependent multiplies, and this lets the processor parse the next record
+                // while the chain runs (hashing the block after reading it was 5% slower
+                // on 20M vertices).
+                double* values = block.data();
+                for (std::size_t i = 0; i < count; ++i)
+                {
+                    reader.read(1, values + 3 * i);
+                    hasher.update(values + 3 * i, 3 * sizeof(double));
+                }
+            }
+            else
+            {
+                reader.read(count, block.data());
+            }
             std::span<const std::int32_t> rows(every_row.data(), count);
             if (!referenced.flags.empty())
             {
@@ -150,7 +166,6 @@ FrameResult frame_passes(const PlyStream& file, const ReferencedVertices& refere
                                           " has a non-finite coordinate (NaN or infinity).");
                     }
                 }
-                hasher.update(values, 3 * count * sizeof(double));
                 for (const std::int32_t i : rows)
                 {
                     const Eigen::Vector3d p = block.row(i).transpose();
