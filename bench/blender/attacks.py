@@ -25,7 +25,6 @@
 #   bisect           bmesh.ops.bisect_plane through the bbox centre, normal along the largest
 #                    extent, the negative side cleared (about half the surface kept)
 #   voxel=N          Remesh modifier, voxel mode, adaptivity 0, voxel size = diagonal / N
-import json
 import math
 import os
 import sys
@@ -45,9 +44,8 @@ except ImportError:
     pass
 
 
-class UsageError(Exception):
-    pass
-
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from attack_contract import UsageError, parse_arguments, write_report  # noqa: E402
 
 DEFAULTS = {"merge": 1e-4, "noise": 0.002, "subdivide": 1, "laplacian": 1, "smooth": 10}
 NEEDS_VALUE = {"decimate", "voxel"}
@@ -192,30 +190,10 @@ def export(obj, name, path):
                                 use_uv_coords=False, use_colors=False)
 
 
-def write_json_atomically(path, value):
-    temporary = path + ".tmp"
-    with open(temporary, "w") as f:
-        json.dump(value, f, indent=1)
-        f.write("\n")
-    os.replace(temporary, path)
-
-
 def main(argv):
     args = argv[argv.index("--") + 1:] if "--" in argv else []
-    seed = 0
-    if "--seed" in args:
-        i = args.index("--seed")
-        if i + 1 >= len(args) or not args[i + 1].isdigit():
-            raise UsageError("--seed needs a non-negative integer")
-        seed = int(args[i + 1])
-        del args[i:i + 2]
-    if len(args) < 3:
-        raise UsageError("usage: blender -b --python attacks.py -- INPUT OUT_DIR [--seed S] OP [OP ...]")
-    source, out_dir, specs = os.path.abspath(args[0]), os.path.abspath(args[1]), args[2:]
-    if not os.path.isfile(source):
-        raise UsageError("%s: no such file" % source)
-    if not os.path.isdir(out_dir):
-        raise UsageError("%s: no such folder" % out_dir)
+    source, out_dir, specs, seed = parse_arguments(
+        args, "blender -b --python attacks.py -- INPUT OUT_DIR [--seed S] OP [OP ...]")
     ops = [(spec, *parse_op(spec)) for spec in specs]  # all checked before any work
     report = []
     for spec, name, value in ops:
@@ -232,7 +210,7 @@ def main(argv):
                        "seconds": round(time.time() - start, 3)})
         print("attacks.py: %s -> %s (%d vertices, %d faces)" %
               (spec, target, len(obj.data.vertices), len(obj.data.polygons)), flush=True)
-    write_json_atomically(os.path.join(out_dir, "attacks.json"), report)
+    write_report(out_dir, report)
 
 
 if __name__ == "__main__":

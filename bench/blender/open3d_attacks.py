@@ -14,7 +14,6 @@
 #   o3d-laplacian=N  filter_smooth_laplacian, N iterations (lambda 0.5, Open3D's default)
 #   o3d-taubin=N     filter_smooth_taubin, N iterations (lambda 0.5, mu -0.53, Open3D's defaults)
 # The two smoothings drop unreferenced vertices first (Open3D would make them NaN).
-import json
 import math
 import os
 import sys
@@ -24,8 +23,8 @@ import numpy
 import open3d
 
 
-class UsageError(Exception):
-    pass
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from attack_contract import UsageError, parse_arguments, write_report  # noqa: E402
 
 
 def parse_op(text):
@@ -51,16 +50,8 @@ def apply_op(mesh, name, value):
 
 
 def main(args):
-    if "--seed" in args:  # accepted for the common contract; these operations use no randomness
-        i = args.index("--seed")
-        del args[i:i + 2]
-    if len(args) < 3:
-        raise UsageError("usage: open3d_attacks.py INPUT OUT_DIR [--seed S] OP [OP ...]")
-    source, out_dir, specs = os.path.abspath(args[0]), os.path.abspath(args[1]), args[2:]
-    if not os.path.isfile(source):
-        raise UsageError("%s: no such file" % source)
-    if not os.path.isdir(out_dir):
-        raise UsageError("%s: no such folder" % out_dir)
+    # --seed is accepted for the common contract; these operations use no randomness.
+    source, out_dir, specs, _ = parse_arguments(args, "open3d_attacks.py INPUT OUT_DIR [--seed S] OP [OP ...]")
     ops = [(spec, *parse_op(spec)) for spec in specs]
     report = []
     for spec, name, value in ops:
@@ -83,10 +74,7 @@ def main(args):
         os.replace(temporary, target)
         report.append({"label": label, "op": spec, "output": target, "vertices": len(result.vertices),
                        "faces": len(result.triangles), "seconds": round(time.time() - start, 3)})
-    with open(os.path.join(out_dir, "attacks.json.tmp"), "w") as f:
-        json.dump(report, f, indent=1)
-    os.replace(os.path.join(out_dir, "attacks.json.tmp"), os.path.join(out_dir, "attacks.json"))
-
+    write_report(out_dir, report)
 
 if __name__ == "__main__":
     try:
