@@ -9,6 +9,7 @@
 
 #include "meshmark/core/rng.h"
 #include "meshmark/geometry/shapes.h"
+#include "meshmark/watermark/detector.h"
 #include "meshmark/watermark/watermark.h"
 
 namespace
@@ -36,6 +37,15 @@ void BM_TraceRecipients(benchmark::State& state)
     {
         extraction.recipient_change.push_back(rng.normal());
         extraction.recipient_weights.push_back(1.0 + rng.uniform());
+    }
+    // As in a detection: the regions' readings too (Detector::kRegionCount of them).
+    extraction.region_changes.resize(static_cast<std::size_t>(Detector::kRegionCount));
+    for (std::vector<double>& region : extraction.region_changes)
+    {
+        for (int c = 0; c < 3 * mark.recipient_modes(); ++c)
+        {
+            region.push_back(rng.normal());
+        }
     }
     for (auto _ : state)
     {

@@ -113,45 +113,86 @@ std::vector<RecipientScore> SpectralWatermark::trace(const Extraction& extractio
         regions.push_back(std::move(unit));
     }
     const double region_count = static_cast<double>(regions.size());
-    const double recipients = static_cast<double>(key_.recipients->recipients.size());
-    scores.reserve(key_.recipients->recipients.size());
-    for (const Recipient& recipient : key_.recipients->recipients)
+    const std::vector<Recipient>& recipients = key_.recipients->recipients;
+    const double recipient_count = static_cast<double>(recipients.size());
+    const auto n = static_cast<std::size_t>(3 * recipient_modes());
+    const bool has_whole = soft.size() > 0;
+    const bool is_sized = (!has_whole || soft.size() == n) &&
+                          std::all_of(regions.begin(), regions.end(), [n](const auto& unit) { return unit.size() == n; });
+    if (!is_sized)
     {
-        const Eigen::MatrixX3d signs = recipient_signs(recipient.index);
-        RecipientScore entry{recipient.name, recipient.index};
-        double bound = 1.0;
-        const bool has_whole = soft.size() > 0;
-        if (has_whole)
+        throw InvalidOption("trace: the extraction's recipient code readings must have " + std::to_string(n) +
+                            " values (3 per code mode).");
+    }
+    // Recipients are scored kLanes at a time: their signs interleaved (code c of lane j at
+    // c * kLanes + j), so each region's dot products run as kLanes independent sums that the
+    // compiler vectorizes; each sum still adds its terms in coefficient order, so every score
+    // is the one a recipient-by-recipient loop gives. (One recipient at a time, the regions'
+    // 28 serial sums were 0.1 s of a trace of 10,000.)
+    constexpr std::size_t kLanes = 8;
+    std::vector<double> signs(n * kLanes);
+    scores.reserve(recipients.size());
+    for (std::size_t first = 0; first < recipients.size(); first += kLanes)
+    {
+        const std::size_t lanes = std::min(kLanes, recipients.size() - first);
+        std::fill(signs.begin(), signs.end(), 0.0);
+        for (std::size_t j = 0; j < lanes; ++j)
         {
-            std::tie(entry.score, bound) = soft.score([&](std::size_t c) {
-                return signs(static_cast<Eigen::Index>(c / 3), static_cast<Eigen::Index>(c % 3));
-            });
-        }
-        if (!regions.empty())
-        {
-            entry.region_score = 0.0;
-            for (std::size_t region = 0; region < regions.size(); ++region)
+            const std::vector<std::uint8_t> code = recipient_code(key_.seed, recipients[first + j].index, static_cast<int>(n));
+            for (std::size_t c = 0; c < n; ++c)
             {
-                const std::vector<double>& unit = regions[region];
-                double z = 0.0;
-                for (std::size_t c = 0; c < unit.size(); ++c)
+                signs[c * kLanes + j] = code[c] != 0 ? 1.0 : -1.0;
+            }
+        }
+        std::array<double, kLanes> best_region{};
+        std::array<double, kLanes> whole_region{};  // region 0: every (kept) row
+        for (std::size_t region = 0; region < regions.size(); ++region)
+        {
+            const std::vector<double>& unit = regions[region];
+            std::array<double, kLanes> z{};
+            for (std::size_t c = 0; c < n; ++c)
+            {
+                const double u = unit[c];
+                const double* s_c = signs.data() + c * kLanes;
+                for (std::size_t j = 0; j < kLanes; ++j)
                 {
-                    z += signs(static_cast<Eigen::Index>(c / 3), static_cast<Eigen::Index>(c % 3)) * unit[c];
-                }
-                entry.region_score = std::max(entry.region_score, z);
-                if (region == 0 && !has_whole)
-                {
-                    entry.score = z;  // a cropped suspect: the whole (kept) model's region
+                    z[j] += s_c[j] * u;
                 }
             }
-            const double regions_bound = region_count * rademacher_tail_bound(entry.region_score);
-            // With the joint reading of the whole model, it and the regions share the level
-            // half and half; without it (cropped suspects) the regions have all of it.
-            bound = has_whole ? std::min(2.0 * bound, 2.0 * regions_bound) : regions_bound;
+            if (region == 0)
+            {
+                whole_region = z;
+            }
+            for (std::size_t j = 0; j < kLanes; ++j)
+            {
+                best_region[j] = region == 0 ? z[j] : std::max(best_region[j], z[j]);
+            }
         }
-        entry.false_positive_probability = std::min(1.0, recipients * bound);
-        entry.is_accused = entry.false_positive_probability <= options.max_false_positive;
-        scores.push_back(std::move(entry));
+        for (std::size_t j = 0; j < lanes; ++j)
+        {
+            const Recipient& recipient = recipients[first + j];
+            RecipientScore entry{recipient.name, recipient.index};
+            double bound = 1.0;
+            if (has_whole)
+            {
+                std::tie(entry.score, bound) = soft.score([&](std::size_t c) { return signs[c * kLanes + j]; });
+            }
+            if (!regions.empty())
+            {
+                entry.region_score = std::max(0.0, best_region[j]);
+                if (!has_whole)
+                {
+                    entry.score = whole_region[j];  // a cropped suspect: the whole (kept) model's region
+                }
+                const double regions_bound = region_count * rademacher_tail_bound(entry.region_score);
+                // With the joint reading of the whole model, it and the regions share the level
+                // half and half; without it (cropped suspects) the regions have all of it.
+                bound = has_whole ? std::min(2.0 * bound, 2.0 * regions_bound) : regions_bound;
+            }
+            entry.false_positive_probability = std::min(1.0, recipient_count * bound);
+            entry.is_accused = entry.false_positive_probability <= options.max_false_positive;
+            scores.push_back(std::move(entry));
+        }
     }
     return scores;
 }
