@@ -207,6 +207,29 @@ TEST(KeyTest, tampered_truncated_or_foreign_keys_are_rejected_with_a_clear_messa
     }
 }
 
+TEST(KeyTest, deep_nesting_is_refused_but_brackets_inside_strings_are_text)
+{
+    // Hostile nesting is refused before parsing, with a message that names the file.
+    const std::string deep = std::string(100000, '[') + std::string(100000, ']');
+    try
+    {
+        (void)parse_key(deep, "deep.json");
+        FAIL() << "deeply nested text accepted";
+    }
+    catch (const IoError& e)
+    {
+        EXPECT_NE(std::string(e.what()).find("deep.json"), std::string::npos);
+        EXPECT_NE(std::string(e.what()).find("levels deep"), std::string::npos);
+    }
+    // A message full of brackets and escaped quotes is a string, not nesting.
+    Key key = sample_key();
+    const std::string message = "[[[[[[[[[[[[[[[[[[[[{{{{{{{{{{{{{{{{{{{{ \"[[[[[[[[[[[[[[[[[[[[";
+    key.message = message;
+    key.payload = payload_from_message(message, 18);
+    const Key back = parse_key(to_json(key), "k.json");
+    EXPECT_EQ(back.message, key.message);
+}
+
 TEST(KeyTest, key_file_is_private_and_reads_back)
 {
     const auto dir = test::temp_dir("key");
