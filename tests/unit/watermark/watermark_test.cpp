@@ -522,3 +522,53 @@ TEST(DecimatedCentersWatermarkTest, centers_do_not_depend_on_the_seed_and_the_ma
 }
 
 }  // namespace meshmark
+
+namespace meshmark {
+
+TEST(SpectralWatermarkTest, tracing_a_large_family_gives_the_same_scores_on_any_thread_count)
+{
+    // 1,000 recipients: enough for the trace to spread them over threads, in groups of 8 with
+    // a last partial group. The readings are synthetic; recipient 517's code is planted in
+    // them (whole model and one region), so it alone must be accused.
+    const TriangleMesh mesh = lumpy_ellipsoid(4);
+    Key key = make_key(mesh, 31);
+    key.recipients = RecipientCodes{};
+    for (std::uint32_t i = 0; i < 1003; ++i)
+    {
+        key.recipients->recipients.push_back({"r" + std::to_string(i), i});
+    }
+    const SpectralWatermark one(mesh, key, 1);
+    const SpectralWatermark two(mesh, key, 2);
+    const auto n = static_cast<std::size_t>(3 * one.recipient_modes());
+    const std::vector<std::uint8_t> planted = recipient_code(key.seed, 517, static_cast<int>(n));
+    Rng rng(8);
+    Extraction extraction;
+    extraction.region_changes.assign(static_cast<std::size_t>(Detector::kRegionCount), {});
+    for (std::size_t c = 0; c < n; ++c)
+    {
+        const double sign = planted[c] != 0 ? 1.0 : -1.0;
+        extraction.recipient_change.push_back(sign + rng.normal());
+        extraction.recipient_weights.push_back(1.0 + rng.uniform());
+        for (std::size_t region = 0; region < extraction.region_changes.size(); ++region)
+        {
+            extraction.region_changes[region].push_back((region == 5 ? sign : 0.0) + rng.normal());
+        }
+    }
+    const DetectOptions options;
+    const std::vector<RecipientScore> a = one.trace(extraction, options);
+    const std::vector<RecipientScore> b = two.trace(extraction, options);
+    ASSERT_EQ(a.size(), key.recipients->recipients.size());
+    ASSERT_EQ(b.size(), a.size());
+    for (std::size_t i = 0; i < a.size(); ++i)
+    {
+        EXPECT_EQ(a[i].name, key.recipients->recipients[i].name);
+        EXPECT_EQ(b[i].name, a[i].name);
+        EXPECT_EQ(b[i].score, a[i].score);
+        EXPECT_EQ(b[i].region_score, a[i].region_score);
+        EXPECT_EQ(b[i].false_positive_probability, a[i].false_positive_probability);
+        EXPECT_EQ(a[i].is_accused, i == 517) << i;
+    }
+    EXPECT_GT(a[517].region_score, 8.0);
+}
+
+}  // namespace meshmark
