@@ -33,7 +33,8 @@ std::vector<std::vector<double>> Detector::region_changes(const Positions& suspe
     }
     const int first = mark.key().options.first_mode;
     const int owner_modes = static_cast<int>(mark.embedded_signs().rows());
-    const int head = first + owner_modes + code_modes;
+    const int modes = first + owner_modes + code_modes;  // rows of the projection
+    const int head = first + owner_modes;                // mode values the owner's field needs
     const std::vector<std::int32_t>& rows = active();
     const auto n = rows.size();
 
@@ -64,7 +65,8 @@ std::vector<std::vector<double>> Detector::region_changes(const Positions& suspe
     const Eigen::MatrixX3d owner_change = mark.coefficient_change();  // rows 0 .. first + owner_modes
     const auto width = static_cast<std::size_t>(3 * kRegionCount);
     // Row a of a block: for every region containing the row, its change minus the owner's
-    // field (the owner's field from the block's own mode values, so no second pass).
+    // field (the owner's field from the block's own mode values, so no second pass; only the
+    // owner's modes are evaluated per row, not the code's).
     auto fill = [&](std::span<const std::int32_t> block, const double* U, double* X) {
         const auto h = static_cast<std::size_t>(head);
         for (std::size_t a = 0; a < block.size(); ++a)
@@ -108,7 +110,7 @@ std::vector<std::vector<double>> Detector::region_changes(const Positions& suspe
             }
         }
     };
-    const Eigen::MatrixXd projected = mark.basis().project_design(head, head, width, fill);  // head x width
+    const Eigen::MatrixXd projected = mark.basis().project_design(modes, head, width, fill);  // modes x width
     std::vector<std::vector<double>> changes(static_cast<std::size_t>(kRegionCount));
     const Eigen::Matrix3d& axes = mark.frame().axes;
     for (int region = 0; region < kRegionCount; ++region)
