@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
 // `meshmark detect`: look for a key's watermark in a suspect copy.
+#include <array>
 #include <cstdio>
 #include <memory>
 #include <optional>
@@ -61,8 +62,14 @@ int run_detect(const DetectArgs& args, const GlobalArgs& global)
                         report.accused.empty() ? "" : ":");
             for (const RecipientScore& r : report.accused)
             {
-                std::printf("    %s: z = %.2f, false-positive probability %s\n", r.name.c_str(), r.score,
-                            format_number(r.false_positive_probability).c_str());
+                // The regions' score too when there is one: it may be what accuses (a splice).
+                std::array<char, 32> regions{};
+                if (r.region_score > 0.0)
+                {
+                    std::snprintf(regions.data(), regions.size(), ", regions z = %.2f", r.region_score);
+                }
+                std::printf("    %s: z = %.2f%s, false-positive probability %s\n", r.name.c_str(), r.score,
+                            regions.data(), format_number(r.false_positive_probability).c_str());
             }
         }
         if (global.verbose)

@@ -205,8 +205,15 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
         report.recipients_traced = report.traced.size();
         std::vector<RecipientScore> scores = report.traced;
         std::erase_if(scores, [](const RecipientScore& s) { return !s.is_accused; });
-        std::sort(scores.begin(), scores.end(),
-                  [](const RecipientScore& a, const RecipientScore& b) { return a.score > b.score; });
+        // Strongest evidence first: the smallest false-positive probability (whichever reading,
+        // whole model or regions, gave it), then the larger score.
+        std::sort(scores.begin(), scores.end(), [](const RecipientScore& a, const RecipientScore& b) {
+            if (a.false_positive_probability != b.false_positive_probability)
+            {
+                return a.false_positive_probability < b.false_positive_probability;
+            }
+            return a.score > b.score;
+        });
         report.accused = std::move(scores);
     }
     timer.lap("extract");

@@ -133,6 +133,13 @@ TEST_F(CliTest, recipient_copies_are_issued_in_any_format_and_traced)
     ASSERT_EQ(found["recipients"].size(), 1U);
     EXPECT_EQ(found["recipients"][0]["name"], "Studio B");
     EXPECT_LE(found["recipients"][0]["false_positive_probability"].get<double>(), 1e-6);
+    // The text report names the accused with both readings (the regions' may be what accuses).
+    r = run("detect '" + (dir_ / "copy-Studio B.glb").string() + "' --original " + original_.string() + " --key " +
+                key.string(),
+            dir_);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_NE(r.out.find("1 of 4 recipients accused:\n    Studio B: z = "), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find(", regions z = "), std::string::npos) << r.out;
 
     // The unmarked original accuses nobody (exit 1); the text report says so.
     r = run("detect " + original_.string() + " --original " + original_.string() + " --key " + key.string(), dir_);

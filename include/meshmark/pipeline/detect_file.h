@@ -41,7 +41,8 @@ struct DetectReport
     PhaseTimings seconds;
     /// Family keys traced: the recipients scored (all of the key's), else 0.
     std::size_t recipients_traced = 0;
-    /// The accused recipients, strongest first (RecipientScore::is_accused).
+    /// The accused recipients (RecipientScore::is_accused), strongest first: the smallest
+    /// false-positive probability first, then the larger score.
     std::vector<RecipientScore> accused;
     /// Every recipient traced, in the key's order (for diagnosis and null studies).
     std::vector<RecipientScore> traced;
