@@ -17,7 +17,7 @@ simplify=0.3).
 
 Usage: collusion.py --mesh M.ply [--mesh ...] [--recipients 100] [--colluders 2,3,4,8] [--embed-args "..."]
        [--trials 20] [--post "none;noise=0.001;simplify=0.3"] [--mode average,splice,splice-any]
-       [--meshmark build/bin/meshmark] [--json-file out.json]
+       [--key-recipients 10000] [--meshmark build/bin/meshmark] [--json-file out.json]
 Reads and writes meshes with Open3D (python3-open3d); PLY copies keep the vertex order.
 """
 import argparse
@@ -113,6 +113,12 @@ def study_mesh(args, mesh_path, work):
     rms = max(c["rms_displacement"] for c in issued["copies"])
     print(f"{name}: {len(original)} vertices, {args.recipients} copies issued in {issue_seconds:.2f} s "
           f"(wall, one call), RMS displacement at most {100 * rms:.4f}% of the diagonal", flush=True)
+    if args.key_recipients > args.recipients:
+        # Never-issued recipients join the key: every one of them is an innocent of every trial.
+        sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+        from grow_key import grow
+        total = grow(key, key, args.key_recipients, prefix="x")
+        print(f"  key grown to {total} recipients ({total - args.recipients} never issued)", flush=True)
     copies = {}
 
     def copy_of(r):
@@ -174,6 +180,7 @@ def study_mesh(args, mesh_path, work):
           f"share with per-recipient bound <= alpha: " +
           ", ".join(f"{a}: {v:.4f}" for a, v in null["share_with_bound_at_most"].items()), flush=True)
     return {"mesh": name, "vertices": len(original), "recipients": args.recipients,
+            "key_recipients": max(args.recipients, args.key_recipients),
             "issue_seconds": issue_seconds, "max_rms_displacement": rms, "rows": rows, "null": null}
 
 
@@ -190,6 +197,9 @@ def main():
     parser.add_argument("--embed-args", default="",
                         help="more options of meshmark embed, e.g. \"--basis-size 160 --recipient-modes 120\"")
     parser.add_argument("--threads", type=int, default=0)
+    parser.add_argument("--key-recipients", type=int, default=0,
+                        help="grow the key to this many recipients after issuing (bench/fingerprint/grow_key.py): "
+                             "tracing and the bound then cover them all, the colluders coming from the issued ones")
     parser.add_argument("--meshmark", default=os.path.join(os.path.dirname(__file__), "../../build/bin/meshmark"))
     parser.add_argument("--json-file")
     args = parser.parse_args()

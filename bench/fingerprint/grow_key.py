@@ -41,6 +41,34 @@ def checksum(content):
     return "%016x" % hash_bytes(text, 0x6B6579)
 
 
+def grow(family, output, total, prefix="r"):
+    """Write OUT = FAMILY with never-issued recipients added up to TOTAL; returns the count."""
+    with open(family) as f:
+        key = json.load(f)
+    stated = key.pop("checksum", None)
+    if stated != checksum(key):
+        sys.exit("grow_key.py: %s: the checksum does not match its content (or this script no longer "
+                 "computes it as meshmark does)" % family)
+    issued = key.get("recipients", {}).get("issued")
+    if issued is None:
+        sys.exit("grow_key.py: %s is not a family key" % family)
+    names = {r["name"] for r in issued}
+    index = max((r["index"] for r in issued), default=-1) + 1
+    while len(issued) < total:
+        name = "%s%05d" % (prefix, index)
+        if name not in names:
+            issued.append({"index": index, "name": name})
+            names.add(name)
+        index += 1
+    key["checksum"] = checksum(key)
+    temporary = output + ".tmp"
+    with open(temporary, "w") as f:
+        json.dump(key, f, indent=2)
+        f.write("\n")
+    os.replace(temporary, output)
+    return len(issued)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("family")
@@ -48,31 +76,7 @@ def main():
     parser.add_argument("--total", type=int, required=True)
     parser.add_argument("--prefix", default="r")
     args = parser.parse_args()
-    with open(args.family) as f:
-        key = json.load(f)
-    stated = key.pop("checksum", None)
-    if stated != checksum(key):
-        sys.exit("grow_key.py: %s: the checksum does not match its content (or this script no longer "
-                 "computes it as meshmark does)" % args.family)
-    issued = key.get("recipients", {}).get("issued")
-    if issued is None:
-        sys.exit("grow_key.py: %s is not a family key" % args.family)
-    names = {r["name"] for r in issued}
-    index = max((r["index"] for r in issued), default=-1) + 1
-    while len(issued) < args.total:
-        name = "%s%05d" % (args.prefix, index)
-        if name not in names:
-            issued.append({"index": index, "name": name})
-            names.add(name)
-        index += 1
-    key["checksum"] = checksum(key)
-    temporary = args.output + ".tmp"
-    with open(temporary, "w") as f:
-        json.dump(key, f, indent=2)
-        f.write("\n")
-    os.replace(temporary, args.output)
-    print("%s: %d recipients" % (args.output, len(issued)))
-
+    print("%s: %d recipients" % (args.output, grow(args.family, args.output, args.total, args.prefix)))
 
 if __name__ == "__main__":
     main()
