@@ -99,6 +99,7 @@ Trial run_trial(const SpectralWatermark& mark, const TriangleMesh& original, con
         trial.registration_rms = report.registration_rms;
         trial.alignment = report.alignment;
         trial.recipients_traced = report.recipients_traced;
+        trial.owner_detected = report.owner_detected;
         trial.recipient_score = report.traced.empty() ? 0.0 : -1e300;
         for (const RecipientScore& r : report.traced)
         {

@@ -72,6 +72,7 @@ struct Trial
     bool recipient_accused = false;  // a colluder (recipient 0 .. colluders-1) accused
     int others_accused = 0;          // innocent recipients accused (never, for a sound bound)
     double recipient_score = 0.0;    // the best colluder's z
+    bool owner_detected = false;     // the owner's claim: its mark alone or jointly with a code
 };
 
 /// The distortion of one mesh's marked copies, averaged over its keys.

@@ -38,7 +38,8 @@ nlohmann::json to_json(const Trial& t)
             {"recipients_traced", t.recipients_traced},
             {"recipient_accused", t.recipient_accused},
             {"others_accused", t.others_accused},
-            {"recipient_score", t.recipient_score}};
+            {"recipient_score", t.recipient_score},
+            {"owner_detected", t.owner_detected}};
 }
 
 namespace {
@@ -66,6 +67,8 @@ Trial trial_from_json(const nlohmann::json& j)
     t.recipient_accused = j.value("recipient_accused", false);
     t.others_accused = j.value("others_accused", 0);
     t.recipient_score = j.value("recipient_score", 0.0);
+    // Files written before the joint ownership reading: the owner's mark alone.
+    t.owner_detected = j.value("owner_detected", t.decision.is_present);
     t.error = j.at("error").get<std::string>();
     return t;
 }
@@ -175,20 +178,28 @@ std::string recipients_section(const std::vector<Trial>& trials, const std::vect
                             "the average of " + std::to_string(colluders) + " recipients' copies")
        << ")\n\n"
        << "| attack | marked trials | " << (colluders == 1 ? "its recipient" : "a colluder")
-       << " accused | owner's mark claimed | either | median z of " << (colluders == 1 ? "its recipient" : "the best colluder")
-       << " |\n|---|---:|---:|---:|---:|---:|\n";
+       << " accused | owner's mark alone | ownership (alone or joint) | accused or ownership | median z of "
+       << (colluders == 1 ? "its recipient" : "the best colluder") << " |\n|---|---:|---:|---:|---:|---:|---:|\n";
     int innocents = 0;
     int traced = 0;
+    int false_ownership = 0;  // ownership shown on an unmarked copy or with a wrong key
+    int unmarked_traced = 0;
     for (const Trial& t : trials)
     {
         innocents += t.others_accused + (t.kind != "marked" && t.recipient_accused ? 1 : 0);
         traced += t.recipients_traced > 0 ? 1 : 0;
+        if (t.kind != "marked" && t.recipients_traced > 0 && t.error.empty())
+        {
+            ++unmarked_traced;
+            false_ownership += t.owner_detected ? 1 : 0;
+        }
     }
     for (const auto& a : attacks)
     {
         int n = 0;
         int accused = 0;
         int owner = 0;
+        int ownership = 0;
         int either = 0;
         std::vector<double> scores;
         for (const Trial& t : trials)
@@ -200,16 +211,18 @@ std::string recipients_section(const std::vector<Trial>& trials, const std::vect
             ++n;
             accused += t.recipient_accused ? 1 : 0;
             owner += t.decision.is_present ? 1 : 0;
-            either += (t.recipient_accused || t.decision.is_present) ? 1 : 0;
+            ownership += t.owner_detected ? 1 : 0;
+            either += (t.recipient_accused || t.owner_detected) ? 1 : 0;
             scores.push_back(t.recipient_score);
         }
         std::sort(scores.begin(), scores.end());
         const double median = scores.empty() ? 0.0 : scores[scores.size() / 2];
-        md << "| `" << a << "` | " << n << " | " << accused << " | " << owner << " | " << either << " | "
+        md << "| `" << a << "` | " << n << " | " << accused << " | " << owner << " | " << ownership << " | " << either << " | "
            << format_number(median) << " |\n";
     }
     md << "\nInnocent recipients accused, over all " << traced
-       << " traced trials (marked, unmarked and wrong keys): " << innocents << ".\n";
+       << " traced trials (marked, unmarked and wrong keys): " << innocents << ". Ownership shown on an "
+       << "unmarked copy or with a wrong key: " << false_ownership << " of " << unmarked_traced << ".\n";
     return md.str();
 }
 

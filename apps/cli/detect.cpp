@@ -58,6 +58,10 @@ int run_detect(const DetectArgs& args, const GlobalArgs& global)
                     format_number(d.false_positive_probability).c_str());
         if (report.recipients_traced > 0)
         {
+            std::printf("  ownership %s (the owner's mark, alone or with a recipient's code), "
+                        "false-positive probability %s\n",
+                        report.owner_detected ? "shown" : "not shown",
+                        format_number(report.owner_false_positive_probability).c_str());
             std::printf("  %zu of %zu recipients accused%s\n", report.accused.size(), report.recipients_traced,
                         report.accused.empty() ? "" : ":");
             for (const RecipientScore& r : report.accused)
@@ -141,7 +145,9 @@ void register_detect(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
                       "bits_found, false_positive_probability (of the verdict used; also "
                       "score_ and bits_false_positive_probability), cropped_fraction, "
                       "registration, seconds; with a family key also recipients (the accused: name, score, "
-                      "false_positive_probability, strongest first), recipients_traced, owner_detected");
+                      "false_positive_probability, strongest first), recipients_traced, owner_detected and "
+                      "owner_false_positive_probability (ownership without naming a recipient: the owner's mark "
+                      "alone or read jointly with a recipient's code)");
     add_global_flags(*command, global);
     command->callback([args, &global, &runner]() {
         runner = [args, &global]() { return run_detect(*args, global); };

@@ -195,8 +195,9 @@ void bind_memory(py::module_& m)
         .def_property_readonly("detected", [](const DetectResult& r) { return r.report.detected(); },
                                "True when the verdict claims the mark (with a family key: when a recipient "
                                "is accused; see owner_detected).")
-        .def_property_readonly("owner_detected", [](const DetectResult& r) { return r.report.decision.is_present; },
-                               "The owner's mark (with a family key, the part every recipient's copy shares).")
+        .def_property_readonly("owner_detected", [](const DetectResult& r) { return r.report.owner_detected; },
+                               "Whether the owner's claim holds (with a family key: its mark alone or read jointly with a "
+                               "recipient's code; docs/fingerprinting.md).")
         .def_property_readonly(
             "recipients",
             [](const DetectResult& r) {

@@ -190,6 +190,8 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
     report.extraction = is_resampled ? detector.extract_resampled(aligned, options.decision, kept)
                                      : detector.extract(aligned, options.decision);
     report.decision = mark.decide(report.extraction, options.decision);
+    report.owner_detected = report.decision.is_present;
+    report.owner_false_positive_probability = report.decision.false_positive_probability;
     if (options.trace && mark.key().recipients && !mark.key().recipients->recipients.empty())
     {
         if (kept != nullptr && is_resampled)
@@ -215,6 +217,16 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
             return a.score > b.score;
         });
         report.accused = std::move(scores);
+        // Ownership: the owner's verdict or the best joint reading of the owner's mark with a
+        // recipient's code, each with half the level (a union bound over both tests).
+        double joint = 1.0;
+        for (const RecipientScore& r : report.traced)
+        {
+            joint = std::min(joint, r.joint_false_positive_probability);
+        }
+        report.owner_false_positive_probability =
+            std::min({1.0, 2.0 * report.decision.false_positive_probability, 2.0 * joint});
+        report.owner_detected = report.owner_false_positive_probability <= options.decision.max_false_positive;
     }
     timer.lap("extract");
 }

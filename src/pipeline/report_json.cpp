@@ -132,7 +132,8 @@ nlohmann::json detect_report_json(const DetectReport& report, const DetectOption
         }
         out["recipients"] = std::move(accused);
         out["recipients_traced"] = report.recipients_traced;
-        out["owner_detected"] = d.is_present;
+        out["owner_detected"] = report.owner_detected;
+        out["owner_false_positive_probability"] = report.owner_false_positive_probability;
     }
     if (diagnostics)
     {

@@ -119,6 +119,14 @@ std::vector<RecipientScore> SpectralWatermark::trace(const Extraction& extractio
     const double recipient_count = static_cast<double>(recipients.size());
     const auto n = static_cast<std::size_t>(3 * recipient_modes());
     const bool has_whole = soft.size() > 0;
+    // The owner's coefficients followed by the code's, for the joint (ownership) score.
+    std::vector<double> joint_x = extraction.normalized_change;
+    std::vector<double> joint_w = extraction.weights;
+    joint_x.insert(joint_x.end(), extraction.recipient_change.begin(), extraction.recipient_change.end());
+    joint_w.insert(joint_w.end(), extraction.recipient_weights.begin(), extraction.recipient_weights.end());
+    const std::size_t owner_count = extraction.normalized_change.size();
+    const bool has_joint = has_whole && owner_count == static_cast<std::size_t>(signs_.size());
+    const SoftCorrelation joint(has_joint ? joint_x : std::vector<double>(), has_joint ? joint_w : std::vector<double>());
     const bool is_sized = (!has_whole || soft.size() == n) &&
                           std::all_of(regions.begin(), regions.end(), [n](const auto& unit) { return unit.size() == n; });
     if (!is_sized)
@@ -183,6 +191,17 @@ std::vector<RecipientScore> SpectralWatermark::trace(const Extraction& extractio
             if (has_whole)
             {
                 std::tie(entry.score, bound) = soft.score([&](std::size_t c) { return signs[c * kLanes + j]; });
+            }
+            if (has_joint)
+            {
+                // Under the null (a suspect without the mark) every sign, the owner's and the
+                // code's, is independent of the readings: one Rademacher sum, bounded as any.
+                double joint_bound = 1.0;
+                std::tie(entry.joint_score, joint_bound) = joint.score([&](std::size_t c) {
+                    return c < owner_count ? signs_(static_cast<Eigen::Index>(c / 3), static_cast<Eigen::Index>(c % 3))
+                                           : signs[(c - owner_count) * kLanes + j];
+                });
+                entry.joint_false_positive_probability = std::min(1.0, recipient_count * joint_bound);
             }
             if (!regions.empty())
             {

@@ -129,6 +129,7 @@ TEST_F(CliTest, recipient_copies_are_issued_in_any_format_and_traced)
     auto found = nlohmann::json::parse(r.out);
     EXPECT_TRUE(found["detected"].get<bool>());
     EXPECT_TRUE(found["owner_detected"].get<bool>());
+    EXPECT_LE(found["owner_false_positive_probability"].get<double>(), 1e-6);
     EXPECT_EQ(found["recipients_traced"], 4);
     ASSERT_EQ(found["recipients"].size(), 1U);
     EXPECT_EQ(found["recipients"][0]["name"], "Studio B");
@@ -145,6 +146,13 @@ TEST_F(CliTest, recipient_copies_are_issued_in_any_format_and_traced)
     r = run("detect " + original_.string() + " --original " + original_.string() + " --key " + key.string(), dir_);
     EXPECT_EQ(r.exit_code, 1) << r.err;
     EXPECT_NE(r.out.find("0 of 4 recipients accused"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("ownership not shown"), std::string::npos) << r.out;
+    r = run("detect " + original_.string() + " --original " + original_.string() + " --key " + key.string() +
+                " --json",
+            dir_);
+    const auto unmarked = nlohmann::json::parse(r.out);
+    EXPECT_FALSE(unmarked["owner_detected"].get<bool>());
+    EXPECT_GT(unmarked["owner_false_positive_probability"].get<double>(), 1e-6);
 
     // A later call re-issues a name byte for byte and adds a new one.
     const std::string before = slurp(dir_ / "copy-alice.glb");

@@ -46,6 +46,15 @@ struct DetectReport
     std::vector<RecipientScore> accused;
     /// Every recipient traced, in the key's order (for diagnosis and null studies).
     std::vector<RecipientScore> traced;
+    /// Whether the owner's claim holds. Single-owner key: decision.is_present. Family key
+    /// traced: the owner's mark alone or read jointly with some recipient's code
+    /// (RecipientScore::joint_score), the two sharing the level half and half
+    /// (docs/fingerprinting.md); it can hold when nobody is accused.
+    bool owner_detected = false;
+    /// Its bound: decision.false_positive_probability for a single-owner key; with a family
+    /// key traced, min(1, 2 decision.false_positive_probability, 2 min_j
+    /// joint_false_positive_probability_j).
+    double owner_false_positive_probability = 1.0;
     /// The verdict: with recipients traced, whether anyone is accused; otherwise whether the
     /// mark is present (decision.is_present, which for a family key is the owner's mark).
     [[nodiscard]] bool detected() const noexcept

@@ -70,6 +70,13 @@ struct RecipientScore
     /// for K regions (docs/fingerprinting.md); at most 1.
     double false_positive_probability = 1.0;
     bool is_accused = false;  ///< false_positive_probability <= DetectOptions::max_false_positive.
+    /// z of the owner's coefficients and this recipient's code read as one mark: the soft
+    /// correlation over both with the owner's signs and this recipient's (0 without a
+    /// whole-model reading of the code). Evidence of ownership when nobody can be accused.
+    double joint_score = 0.0;
+    /// Bound on P(an unmarked suspect gives some recipient this joint score): R min(1, 3
+    /// rademacher_tail_bound(joint_score)), at most 1.
+    double joint_false_positive_probability = 1.0;
 };
 
 /// How the verdict is reached (docs/statistics.md).

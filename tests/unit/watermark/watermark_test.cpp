@@ -572,3 +572,67 @@ TEST(SpectralWatermarkTest, tracing_a_large_family_gives_the_same_scores_on_any_
 }
 
 }  // namespace meshmark
+
+namespace meshmark {
+
+TEST(SpectralWatermarkTest, joint_reading_shows_ownership_that_neither_part_shows_alone)
+{
+    // A weak owner's mark and a weak code of recipient 3 (each too weak for its own test) read
+    // together give a joint score above the level; an unmarked reading gives nobody one.
+    const TriangleMesh mesh = lumpy_ellipsoid(4);
+    Key key = make_key(mesh, 41);
+    key.recipients = RecipientCodes{};
+    for (std::uint32_t i = 0; i < 100; ++i)
+    {
+        key.recipients->recipients.push_back({"r" + std::to_string(i), i});
+    }
+    const SpectralWatermark mark(mesh, key, 1);
+    const Eigen::MatrixX3d& owner = mark.embedded_signs();
+    const auto n = static_cast<std::size_t>(3 * mark.recipient_modes());
+    const std::vector<std::uint8_t> code = recipient_code(key.seed, 3, static_cast<int>(n));
+    const DetectOptions options;
+    for (const double amplitude : {1.0, 0.0})
+    {
+        Rng rng(17);
+        Extraction extraction;
+        extraction.bits_found.assign(key.payload.size(), 2);  // the bits play no part here
+        for (Eigen::Index c = 0; c < owner.size(); ++c)
+        {
+            extraction.normalized_change.push_back(0.75 * amplitude * owner(c / 3, c % 3) + rng.normal());
+            extraction.weights.push_back(1.0);
+        }
+        for (std::size_t c = 0; c < n; ++c)
+        {
+            extraction.recipient_change.push_back(0.55 * amplitude * (code[c] != 0 ? 1.0 : -1.0) + rng.normal());
+            extraction.recipient_weights.push_back(1.0);
+        }
+        const Decision decision = mark.decide(extraction, options);
+        const std::vector<RecipientScore> scores = mark.trace(extraction, options);
+        ASSERT_EQ(scores.size(), 100U);
+        double best_other = 0.0;
+        for (const RecipientScore& s : scores)
+        {
+            EXPECT_FALSE(s.is_accused) << s.name << " z " << s.score;
+            if (s.index != 3)
+            {
+                best_other = std::max(best_other, s.joint_score);
+                EXPECT_GT(s.joint_false_positive_probability, 1e-4) << s.name;
+            }
+        }
+        EXPECT_FALSE(decision.is_present) << "owner's score " << decision.score;
+        if (amplitude > 0.0)
+        {
+            EXPECT_GT(scores[3].joint_score, decision.score);
+            EXPECT_GT(scores[3].joint_score, scores[3].score);
+            EXPECT_LT(scores[3].joint_false_positive_probability, options.max_false_positive)
+                << "joint z " << scores[3].joint_score << ", owner " << decision.score << ", code " << scores[3].score;
+        }
+        else
+        {
+            EXPECT_GT(scores[3].joint_false_positive_probability, 1e-4);
+        }
+        EXPECT_LT(best_other, 5.0);
+    }
+}
+
+}  // namespace meshmark
