@@ -524,6 +524,21 @@ TEST(DecimatedCentersWatermarkTest, centers_do_not_depend_on_the_seed_and_the_ma
 }  // namespace meshmark
 
 namespace meshmark {
+namespace {
+
+// A family key of \p count recipients r0, r1, ... on \p mesh.
+Key family_key(const TriangleMesh& mesh, std::uint64_t seed, std::uint32_t count)
+{
+    Key key = make_key(mesh, seed);
+    key.recipients = RecipientCodes{};
+    for (std::uint32_t i = 0; i < count; ++i)
+    {
+        key.recipients->recipients.push_back({"r" + std::to_string(i), i});
+    }
+    return key;
+}
+
+}  // namespace
 
 TEST(SpectralWatermarkTest, tracing_a_large_family_gives_the_same_scores_on_any_thread_count)
 {
@@ -531,12 +546,7 @@ TEST(SpectralWatermarkTest, tracing_a_large_family_gives_the_same_scores_on_any_
     // a last partial group. The readings are synthetic; recipient 517's code is planted in
     // them (whole model and one region), so it alone must be accused.
     const TriangleMesh mesh = lumpy_ellipsoid(4);
-    Key key = make_key(mesh, 31);
-    key.recipients = RecipientCodes{};
-    for (std::uint32_t i = 0; i < 1003; ++i)
-    {
-        key.recipients->recipients.push_back({"r" + std::to_string(i), i});
-    }
+    const Key key = family_key(mesh, 31, 1003);
     const SpectralWatermark one(mesh, key, 1);
     const SpectralWatermark two(mesh, key, 2);
     const auto n = static_cast<std::size_t>(3 * one.recipient_modes());
@@ -571,21 +581,12 @@ TEST(SpectralWatermarkTest, tracing_a_large_family_gives_the_same_scores_on_any_
     EXPECT_GT(a[517].region_score, 8.0);
 }
 
-}  // namespace meshmark
-
-namespace meshmark {
-
 TEST(SpectralWatermarkTest, joint_reading_shows_ownership_that_neither_part_shows_alone)
 {
     // A weak owner's mark and a weak code of recipient 3 (each too weak for its own test) read
     // together give a joint score above the level; an unmarked reading gives nobody one.
     const TriangleMesh mesh = lumpy_ellipsoid(4);
-    Key key = make_key(mesh, 41);
-    key.recipients = RecipientCodes{};
-    for (std::uint32_t i = 0; i < 100; ++i)
-    {
-        key.recipients->recipients.push_back({"r" + std::to_string(i), i});
-    }
+    const Key key = family_key(mesh, 41, 100);
     const SpectralWatermark mark(mesh, key, 1);
     const Eigen::MatrixX3d& owner = mark.embedded_signs();
     const auto n = static_cast<std::size_t>(3 * mark.recipient_modes());
