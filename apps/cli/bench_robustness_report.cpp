@@ -361,6 +361,33 @@ std::string markdown_report(const std::vector<MeshEmbedding>& embeddings, const 
     {
         md << recipients_section(trials, attacks, args.recipients, args.colluders);
     }
+    // Trials that could not run count in the tables as errors only: say why, once per reason.
+    std::map<std::string, std::pair<int, std::vector<std::string>>> reasons;  // error -> count, attacks
+    for (const Trial& t : trials)
+    {
+        if (!t.error.empty())
+        {
+            auto& [count, where] = reasons[t.error];
+            ++count;
+            if (std::find(where.begin(), where.end(), t.attack) == where.end())
+            {
+                where.push_back(t.attack);
+            }
+        }
+    }
+    if (!reasons.empty())
+    {
+        md << "\n### Trials that could not run\n\n";
+        for (const auto& [error, entry] : reasons)
+        {
+            md << "- " << entry.first << (entry.first == 1 ? " trial (" : " trials (");
+            for (std::size_t i = 0; i < entry.second.size(); ++i)
+            {
+                md << (i > 0 ? ", `" : "`") << entry.second[i] << "`";
+            }
+            md << "): " << error << "\n";
+        }
+    }
     return md.str();
 }
 
