@@ -68,6 +68,7 @@ Key trial_key(const TriangleMesh& original, std::uint64_t seed, const Robustness
     options.coefficients = args.coefficients;
     options.repetitions = args.repetitions;
     options.first_mode = args.first_mode;
+    options.basis_size = args.basis_size;
     options.basis = parse_basis_type(args.basis);
     options.centers = parse_center_selection(args.centers);
     options.gram_rows = args.gram_rows;
@@ -339,6 +340,8 @@ void register_bench_robustness(CLI::App& bench, GlobalArgs& global, CommandRunne
         ->capture_default_str();
     command->add_option("--repetitions", args->repetitions, "Coefficients per payload bit")->capture_default_str();
     command->add_option("--first-mode", args->first_mode, "First modulated mode")->capture_default_str();
+    command->add_option("--basis-size", args->basis_size, "k, basis functions (first mode + m*r must not exceed it)")
+        ->capture_default_str();
     command->add_option("--rule", args->rule, "additive or paper")
         ->check(CLI::IsMember({"additive", "paper"}))
         ->capture_default_str();

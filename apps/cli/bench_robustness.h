@@ -41,6 +41,7 @@ struct RobustnessArgs
     int coefficients = EmbedOptions{}.coefficients;
     int repetitions = EmbedOptions{}.repetitions;
     int first_mode = EmbedOptions{}.first_mode;
+    int basis_size = EmbedOptions{}.basis_size;
     std::string rule = "additive";
     std::string basis = "rbf";
     std::string centers = "random";

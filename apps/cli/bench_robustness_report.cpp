@@ -105,6 +105,7 @@ nlohmann::json settings_json(const RobustnessArgs& args)
                                {"coefficients", args.coefficients},
                                {"repetitions", args.repetitions},
                                {"first_mode", args.first_mode},
+                               {"basis_size", args.basis_size},
                                {"seed", args.seed},
                                {"wrong_keys", args.wrong_keys},
                                {"unmarked_keys", args.unmarked_keys}};
@@ -247,7 +248,8 @@ std::string markdown_report(const std::vector<MeshEmbedding>& embeddings, const 
        << " (wrong keys per marked copy: " << args.wrong_keys
        << ", keys on unmarked attacked copies: " << args.unmarked_keys << "); rule " << args.rule
        << ", strength " << (args.strength < 0 ? std::string("default") : format_number(args.strength))
-       << ", coefficients " << args.coefficients << ", repetitions " << args.repetitions << ", first mode " << args.first_mode << ", basis " << args.basis
+       << ", coefficients " << args.coefficients << ", repetitions " << args.repetitions << ", first mode " << args.first_mode
+       << ", basis size " << args.basis_size << ", basis " << args.basis
        << (args.basis == "rbf" ? " (" + args.centers + " centers" +
                                      (args.gram_rows == EmbedOptions::kDefaultGramRows
                                           ? std::string()
@@ -468,6 +470,7 @@ int report_from_json(const RobustnessArgs& args)
     merged.coefficients = settings->value("coefficients", EmbedOptions{}.coefficients);
     merged.repetitions = settings->at("repetitions").get<int>();
     merged.first_mode = settings->at("first_mode").get<int>();
+    merged.basis_size = settings->value("basis_size", EmbedOptions{}.basis_size);  // absent in older files
     merged.wrong_keys = settings->at("wrong_keys").get<int>();
     merged.unmarked_keys = settings->at("unmarked_keys").get<int>();
     const std::string table = markdown_report(embeddings, trials, attack_names, merged, DetectOptions{});

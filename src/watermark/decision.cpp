@@ -284,8 +284,34 @@ Decision SpectralWatermark::decide(const Extraction& extraction, const DetectOpt
     // geometric mean; the verdict takes the best and pays for the choice with a union bound.
     const SoftCorrelation soft(extraction.normalized_change, extraction.weights);
     decision.coefficient_count = static_cast<int>(soft.size());
-    std::tie(decision.score, decision.score_false_positive_probability) = soft.score(
-        [&](std::size_t c) { return signs_(static_cast<Eigen::Index>(c / 3), static_cast<Eigen::Index>(c % 3)); });
+    auto sign = [&](std::size_t c) { return signs_(static_cast<Eigen::Index>(c / 3), static_cast<Eigen::Index>(c % 3)); };
+    decision.score = soft.score(sign).first;
+    // The damped readings (a crop or a coarse resampling leaves the modulated modes nearly
+    // dependent): uniform weights each, one more statistic each in the union bound.
+    decision.statistic_count = 3;
+    for (const std::vector<double>& damped : extraction.damped_changes)
+    {
+        if (damped.size() != soft.size())
+        {
+            throw InvalidOption("decide: a damped reading has " + std::to_string(damped.size()) + " values, expected " +
+                                std::to_string(soft.size()) + ".");
+        }
+        double dot = 0.0;
+        double norm_sq = 0.0;
+        for (std::size_t c = 0; c < damped.size(); ++c)
+        {
+            const double value = std::abs(damped[c]) < kNegligibleChange ? 0.0 : damped[c];  // as SoftCorrelation
+            dot += sign(c) * value;
+            norm_sq += value * value;
+        }
+        if (norm_sq > 0.0)
+        {
+            decision.score = std::max(decision.score, dot / std::sqrt(norm_sq));
+        }
+        ++decision.statistic_count;
+    }
+    decision.score_false_positive_probability =
+        std::min(1.0, static_cast<double>(decision.statistic_count) * rademacher_tail_bound(decision.score));
 
     switch (options.verdict)
     {

@@ -15,6 +15,7 @@
 
 namespace meshmark {
 
+using detail::damped_readings;
 using detail::JointSolution;
 using detail::kNuisanceModeTolerance;
 using detail::NuisanceFields;
@@ -55,7 +56,7 @@ int Detector::read_modes(const std::vector<std::uint8_t>* is_kept) const noexcep
 }
 
 Extraction Detector::extraction_from(const Eigen::VectorXd& normalized, const Eigen::VectorXd& variances,
-                                              const DetectOptions& options) const
+                                     const DetectOptions& options, const std::vector<Eigen::VectorXd>& damped) const
 {
     // normalized(c): change of coefficient c divided by its modulation (docs/algorithms/detection.md,
     // sign-correct). Undo each coefficient's mask and average the r copies of every payload
@@ -86,6 +87,10 @@ Extraction Detector::extraction_from(const Eigen::VectorXd& normalized, const Ei
         const auto bit = slot % static_cast<std::size_t>(bit_count);
         result.bit_values[bit] += weight * (mark_->mask()[slot] != 0 ? -value : value);
         weight_sums[bit] += weight;
+    }
+    for (const Eigen::VectorXd& reading : damped)
+    {
+        result.damped_changes.emplace_back(reading.data(), reading.data() + coefficient_count);  // the owner's
     }
     result.bits_found.resize(static_cast<std::size_t>(bit_count));
     for (std::size_t t = 0; t < result.bit_values.size(); ++t)
@@ -164,9 +169,10 @@ Extraction Detector::extract(const Positions& suspect, const DetectOptions& opti
             Eigen::Map<const Eigen::VectorXd>(model.responses[static_cast<std::size_t>(f)].data(), 3 * r);
     }
     const Eigen::MatrixX3d projected = mark_->basis().project(change, r);
-    const JointSolution solution =
-        solve_jointly(design, Eigen::Map<const Eigen::VectorXd>(projected.data(), 3 * r));
-    return extraction_from(solution.amplitudes.head(coefficients), solution.variances.head(coefficients), options);
+    const Eigen::Map<const Eigen::VectorXd> target(projected.data(), 3 * r);
+    const JointSolution solution = solve_jointly(design, target);
+    return extraction_from(solution.amplitudes.head(coefficients), solution.variances.head(coefficients), options,
+                           damped_readings(design, coefficients, target));
 }
 
 Extraction Detector::extract_resampled(const Positions& resampled, const DetectOptions& options,
@@ -291,7 +297,8 @@ Extraction Detector::read_resampled(const Positions& resampled, const DetectOpti
         system.block(b * r, coefficients, r, q + 1) = projected.middleCols(products + b * (q + 1), q + 1);
     }
     const JointSolution solution = solve_jointly(system.leftCols(columns - 1), system.col(columns - 1));
-    return extraction_from(solution.amplitudes.head(coefficients), solution.variances.head(coefficients), options);
+    return extraction_from(solution.amplitudes.head(coefficients), solution.variances.head(coefficients), options,
+                           damped_readings(system.leftCols(columns - 1), coefficients, system.col(columns - 1)));
 }
 
 }  // namespace meshmark

@@ -4,6 +4,7 @@
 #include <limits>
 #include <span>
 
+#include <Eigen/Cholesky>
 #include <Eigen/SVD>
 
 #include "meshmark/geometry/adjacency.h"
@@ -100,6 +101,53 @@ JointSolution solve_jointly(const Eigen::MatrixXd& raw_design, const Eigen::Vect
     result.amplitudes = result.amplitudes.cwiseProduct(scale);
     result.variances = result.variances.cwiseProduct(scale.cwiseAbs2());
     return result;
+}
+
+std::vector<Eigen::VectorXd> damped_readings(const Eigen::MatrixXd& design, Eigen::Index modulated,
+                                             const Eigen::VectorXd& target)
+{
+    Eigen::MatrixXd A = design.leftCols(modulated);
+    Eigen::VectorXd o = target;
+    const Eigen::Index q = design.cols() - modulated;
+    if (q > 0)
+    {
+        // An orthonormal basis of the nuisance columns' span, from their SVD with the rank
+        // cutoff of solve_jointly (columns scaled to unit norm first, for the same reason).
+        Eigen::MatrixXd nuisance = design.rightCols(q);
+        for (Eigen::Index f = 0; f < q; ++f)
+        {
+            const double norm = nuisance.col(f).norm();
+            if (norm > 0.0)
+            {
+                nuisance.col(f) /= norm;
+            }
+        }
+        const Eigen::JacobiSVD<Eigen::MatrixXd> svd(nuisance, Eigen::ComputeThinU);
+        const Eigen::VectorXd& sv = svd.singularValues();
+        Eigen::Index rank = 0;
+        while (rank < sv.size() && sv(rank) > 1e-10 * sv(0))
+        {
+            ++rank;
+        }
+        const Eigen::MatrixXd basis = svd.matrixU().leftCols(rank);
+        A -= basis * (basis.transpose() * A);
+        o -= basis * (basis.transpose() * o);
+    }
+    const Eigen::MatrixXd gram = A.transpose() * A;
+    const Eigen::VectorXd correlation = A.transpose() * o;
+    const double mean_eigenvalue = modulated > 0 ? gram.trace() / static_cast<double>(modulated) : 0.0;
+    std::vector<Eigen::VectorXd> readings;
+    if (!(mean_eigenvalue > 0.0))
+    {
+        return readings;
+    }
+    for (const double level : kDampingLevels)
+    {
+        Eigen::MatrixXd damped = gram;
+        damped.diagonal().array() += level * mean_eigenvalue;
+        readings.push_back(damped.ldlt().solve(correlation));
+    }
+    return readings;
 }
 
 NuisanceModel nuisance_model(const SpectralBasis& basis, const NuisanceFields& fields, int modulated_head)

@@ -4,6 +4,7 @@
 // that fits them beside the watermark's coefficients (docs/algorithms/detection.md).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -63,6 +64,20 @@ struct JointSolution
 };
 
 [[nodiscard]] JointSolution solve_jointly(const Eigen::MatrixXd& raw_design, const Eigen::VectorXd& target);
+
+// The damping levels of damped_readings, as fractions of the mean eigenvalue of the modulated
+// unknowns' Gram matrix: light (a half-surface crop) and strong (a coarse resampling).
+inline constexpr std::array<double, 2> kDampingLevels = {1e-2, 1.0};
+
+// Damped (ridge) least squares of the first \p modulated unknowns of design = [modulated |
+// nuisance]: the nuisance columns' span is projected out of the modulated columns A and the
+// target o, then x = (A^T A + lambda I)^-1 A^T o for lambda = level * trace(A^T A) / modulated,
+// one vector per level of kDampingLevels. Where the modulated columns are nearly dependent (a
+// crop leaves half the surface; a coarse remesh samples it sparsely) plain least squares
+// amplifies the noise along the weak directions; damping trades that for a small bias. Depends
+// on the design and the target only, never on the embedded signs. Empty when A is zero.
+[[nodiscard]] std::vector<Eigen::VectorXd> damped_readings(const Eigen::MatrixXd& design, Eigen::Index modulated,
+                                                           const Eigen::VectorXd& target);
 
 /// The responses U_r^T N_f of the nuisance fields on the leading r modes.
 struct NuisanceModel

@@ -25,6 +25,10 @@ struct Extraction
     /// mask undone, weighted by `weights`: +1 for an embedded 1 and -1 for a 0 (soft decision).
     std::vector<double> bit_values;
     std::vector<std::uint8_t> bits_found;  ///< Payload bits: 0, 1, or 2 for undecided.
+    /// The owner's 3 m r coefficients read again by damped least squares, one vector per
+    /// damping level (docs/statistics.md, "Damped readings"), normalized as normalized_change;
+    /// empty where the extraction does not compute them. Never depends on the embedded signs.
+    std::vector<std::vector<double>> damped_changes;
     /// Family keys: the recipient code's 3M coefficients (coefficient c = 3 * mode + axis of
     /// the M modes after the owner's), normalized and weighted as above; empty otherwise.
     std::vector<double> recipient_change;
@@ -134,13 +138,16 @@ struct Decision
     int matches = 0;
     int bit_count = 0;
     /// z = sum_c a_c b'_c x_c / sqrt(sum_c a_c^2 x_c^2) over the 3 m r modulated coefficients,
-    /// the largest over the weightings a = w^0, w^(1/2), w^1 (w: Extraction::weights): about
-    /// sqrt(3 m r) for an intact mark; for an unmarked mesh, for each weighting, a sum of
-    /// independent random signs (the key mask) with fixed weights, of mean 0 and variance 1.
+    /// the largest over the weightings a = w^0, w^(1/2), w^1 (w: Extraction::weights) and over
+    /// the damped readings x of Extraction::damped_changes (a = 1): about sqrt(3 m r) for an
+    /// intact mark; for an unmarked mesh, for each statistic, a sum of independent random signs
+    /// (the key mask) with fixed weights, of mean 0 and variance 1.
     double score = 0.0;
     int coefficient_count = 0;  ///< 3 m r.
-    /// Bound on P(an unmarked mesh scores at least z): 3 rademacher_tail_bound(z) (union bound
-    /// over the three weightings), at most 1.
+    /// The number of statistics z is the best of: 3, plus one per damped reading.
+    int statistic_count = 3;
+    /// Bound on P(an unmarked mesh scores at least z): statistic_count rademacher_tail_bound(z)
+    /// (union bound over the statistics), at most 1.
     double score_false_positive_probability = 1.0;
     /// P(X >= matches), X ~ Bin(3m, 1/2): each decided bit of an unrelated mesh matches the
     /// key-masked payload with probability 1/2 and an undecided one never does.

@@ -89,9 +89,11 @@ private:
     [[nodiscard]] int read_modes(const std::vector<std::uint8_t>* is_kept) const noexcept;
     [[nodiscard]] Extraction read_resampled(const Positions& resampled, const DetectOptions& options,
                                             const std::vector<std::uint8_t>* is_kept, int modes) const;
-    // Extraction of coefficients normalized by their modulation, with their variances.
+    // Extraction of coefficients normalized by their modulation, with their variances and
+    // (where the joint least squares computes them) their damped readings.
     [[nodiscard]] Extraction extraction_from(const Eigen::VectorXd& normalized, const Eigen::VectorXd& variances,
-                                             const DetectOptions& options) const;
+                                             const DetectOptions& options,
+                                             const std::vector<Eigen::VectorXd>& damped = {}) const;
 
     const SpectralWatermark* mark_;
     const TriangleMesh* original_;
