@@ -2,8 +2,9 @@
 """Compare the verdict rules on the trials of `meshmark bench robustness --json-file`.
 
 For every attack (marked copies) and for the null trials (wrong keys, unmarked copies), counts
-the copies claimed at --max-fpp by the soft correlation alone (3 weightings, union factor 3)
-and by the combined rule (that and the bit count, a share --share of the level to the bit
+the copies claimed at --max-fpp by the soft correlation alone (its recorded
+score_false_positive_probability: the union over its statistics, 5 since the damped readings of
+2026-11-25, 3 before; files without the field are taken as 3) and by the combined rule (that and the bit count, a share --share of the level to the bit
 count: FPP = min(p_soft / (1 - share), p_bits / share)), and how many copies that read
 R >= 0.9 each rule refuses. Both are recomputed from the recorded score z and the bits'
 binomial tail, so a trials file made under either default gives the same table.
@@ -34,7 +35,7 @@ def main():
     rows = defaultdict(lambda: [0, 0, 0, 0, 0, 0, 0.0])  # n, soft, combined, R>=.9, refused soft, refused comb, sum R
     for t in trials:
         key = t["attack"] if t["kind"] == "marked" else f'({t["kind"]})'
-        soft = min(1.0, 3 * rademacher_tail(t["score"]))
+        soft = t.get("score_false_positive_probability", min(1.0, 3 * rademacher_tail(t["score"])))
         combined = min(1.0, soft / (1.0 - args.share), t["bits_false_positive_probability"] / args.share)
         high = t["correlation"] >= 0.9
         r = rows[key]

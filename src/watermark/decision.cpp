@@ -21,7 +21,8 @@ namespace {
 constexpr double kNegligibleChange = 1e-6;
 // Combined verdict: the share of the false-positive level given to the bit count. 1/16 is the
 // smallest share at which a perfect read of the default 24 bits (2^-24) is claimed at 1e-6;
-// the soft score keeps 15/16 of the level (its threshold moves from z 5.25 to 5.27).
+// the soft score keeps 15/16 of the level (its threshold moves from z 5.35 to 5.36 with its 5
+// statistics; docs/statistics.md).
 constexpr double kBitCountShare = 1.0 / 16.0;
 
 }  // namespace
