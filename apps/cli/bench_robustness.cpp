@@ -338,7 +338,9 @@ void register_bench_robustness(CLI::App& bench, GlobalArgs& global, CommandRunne
     command->add_option("--strength", args->strength, "Embedding strength (default: the rule's default)");
     command->add_option("--coefficients", args->coefficients, "m, payload bits per axis (3m bits)")
         ->capture_default_str();
-    command->add_option("--repetitions", args->repetitions, "Coefficients per payload bit")->capture_default_str();
+    command->add_option("--repetitions", args->repetitions,
+                        "Coefficients per payload bit (with --recipients: 2 unless given, as a new family key)")
+        ->capture_default_str();
     command->add_option("--first-mode", args->first_mode, "First modulated mode")->capture_default_str();
     command->add_option("--basis-size", args->basis_size, "k, basis functions (first mode + m*r must not exceed it)")
         ->capture_default_str();
@@ -374,7 +376,11 @@ void register_bench_robustness(CLI::App& bench, GlobalArgs& global, CommandRunne
         ->check(CLI::ExistingFile);
     command->add_flag("--json", args->json, "Print every trial as one JSON object instead of the tables");
     add_global_flags(*command, global);
-    command->callback([args, &global, &runner]() {
+    command->callback([args, &global, &runner, command]() {
+        if (args->recipients > 0 && command->count("--repetitions") == 0)
+        {
+            args->repetitions = kFamilyRepetitions;  // the family key's default owner mark, as in `embed`
+        }
         runner = [args, &global]() { return run_bench_robustness(*args, global); };
     });
 }

@@ -31,6 +31,7 @@ struct EmbedArgs
     double strength = -1.0;
     std::uint64_t seed = 0;
     bool has_seed = false;
+    bool has_repetitions = false;  // --repetitions given (else a family key's owner mark takes kFamilyRepetitions)
     bool json = false;
     bool force = false;
     std::int64_t memory_budget = 0;
@@ -142,6 +143,10 @@ int run_embed(const EmbedArgs& args, const GlobalArgs& global)
     {
         EmbedRecipientsOptions family;
         static_cast<EmbedMeshOptions&>(family) = options;
+        if (!args.has_repetitions)
+        {
+            family.embed.repetitions = kFamilyRepetitions;
+        }
         return run_embed_recipients(args, global, std::move(family));
     }
     options.force = args.force;
@@ -224,7 +229,8 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
         ->capture_default_str();
     command->add_option("--repetitions", args->options.repetitions,
                         "r, coefficients per payload bit (the mark uses m*r modes, each copy with "
-                        "its own key sign; more copies, same distortion, stronger verdict)")
+                        "its own key sign; more copies, same distortion, stronger verdict; a new "
+                        "family key's owner mark: 2 unless given, so its recipient modes fit)")
         ->capture_default_str();
     command->add_option("--first-mode", args->options.first_mode,
                         "Index of the first modulated mode (the lowest modes are nearly rigid "
@@ -281,6 +287,7 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     add_global_flags(*command, global);
     command->callback([args, &global, &runner, command]() {
         args->has_seed = command->count("--seed") > 0;
+        args->has_repetitions = command->count("--repetitions") > 0;
         runner = [args, &global]() { return run_embed(*args, global); };
     });
 }

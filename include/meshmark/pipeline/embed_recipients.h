@@ -19,6 +19,8 @@ inline constexpr const char* kRecipientPlaceholder = "{recipient}";
 /// Options of embed_recipients: the in-memory embed's (for a new family key) plus the recipients.
 struct EmbedRecipientsOptions : EmbedMeshOptions
 {
+    EmbedRecipientsOptions() { embed.repetitions = kFamilyRepetitions; }  // the owner's mark of a family key
+
     /// Names to issue a copy to, in order; a name the key already holds gets its copy again,
     /// byte for byte. Each passes check_recipient_name; no name twice.
     std::vector<std::string> recipients;

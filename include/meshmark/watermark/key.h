@@ -58,8 +58,10 @@ struct EmbedOptions
     /// bit t on coefficients t, t + 3m, t + 6m, ...), each with its own key-mask sign, and read
     /// back by soft-decision correlation. More coefficients at the same distortion make a
     /// verdict with a far smaller false-positive probability possible (docs/statistics.md).
-    /// Keys written before this field existed mean 1.
-    int repetitions = 2;
+    /// Default 4: 96 coefficients on modes 12-43, an intact score of sqrt(96) = 9.8 (2 before
+    /// 2026-11-25, and still for a family key's owner mark: kFamilyRepetitions). Keys written
+    /// before this field existed mean 1.
+    int repetitions = 4;
     /// Index of the first modulated mode: modes first_mode .. first_mode + m r - 1 carry the
     /// mark. The very first modes are almost rigid motions of the whole model, which detection
     /// must fit and remove, so a mark there is lost; skipping them keeps the energy where it
@@ -126,6 +128,10 @@ struct Recipient
 /// \brief The per-recipient part of a family key (docs/fingerprinting.md): every copy carries
 /// the owner's mark and, on the M modes after it, a code of its own, one independent keyed
 /// sign per coefficient (3M).
+/// r of a new family key's owner mark unless chosen: 2 (48 coefficients on modes 12-27), so
+/// that the recipient code's 64 modes fit after it in the default basis of 100.
+inline constexpr int kFamilyRepetitions = 2;
+
 struct RecipientCodes
 {
     /// M, the modes after the owner's (first_mode + m r ..) that carry the recipient code.

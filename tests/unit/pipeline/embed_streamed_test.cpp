@@ -339,6 +339,7 @@ TEST(EmbedStreamedTest, unstreamable_inputs_fall_back_under_a_budget_and_fail_wh
     {
         EmbedFileOptions options = base_options();
         options.embed.basis_size = 40;
+        options.embed.repetitions = 2;  // 12 + 8 * 2 modes fit a basis of 40
         options.memory_budget_mib = 1;
         const auto out = dir / ("out" + std::to_string(run) + ".ply");
         const auto key = dir / ("key" + std::to_string(run++) + ".json");
@@ -375,6 +376,7 @@ TEST(EmbedStreamedTest, non_finite_vertex_and_bad_face_are_reported_in_scan_orde
     {
         EmbedFileOptions options = base_options();
         options.embed.basis_size = 40;
+        options.embed.repetitions = 2;  // 12 + 8 * 2 modes fit a basis of 40
         options.force_stream = true;
         options.threads = threads;
         try
@@ -411,6 +413,7 @@ TEST(EmbedStreamedTest, bad_face_index_is_an_invalid_mesh_and_leaves_nothing)
     write_ply(input, mesh, PlySpec{});
     EmbedFileOptions options = base_options();
     options.embed.basis_size = 40;
+    options.embed.repetitions = 2;  // 12 + 8 * 2 modes fit a basis of 40
     options.force_stream = true;
     EXPECT_THROW((void)embed_file(input, dir / "out.ply", dir / "key.json", options), InvalidMesh);
     EXPECT_FALSE(std::filesystem::exists(dir / "out.ply"));

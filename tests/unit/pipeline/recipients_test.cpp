@@ -273,7 +273,9 @@ TEST(RecipientsTest, the_accusation_bound_is_paid_for_every_recipient_of_the_key
 {
     // An innocent's z is compared at the level divided by the number of recipients: with one
     // recipient more than a bound allows, the same score is no longer an accusation.
-    Key key = make_key(EmbedOptions{}, 9);
+    EmbedOptions family;
+    family.repetitions = kFamilyRepetitions;
+    Key key = make_key(family, 9);
     key.recipients = RecipientCodes{};
     const TriangleMesh mesh = lumpy_ellipsoid(3);
     key.original = fingerprint(mesh);

@@ -599,7 +599,10 @@ namespace {
 // A family key of \p count recipients r0, r1, ... on \p mesh.
 Key family_key(const TriangleMesh& mesh, std::uint64_t seed, std::uint32_t count)
 {
-    Key key = make_key(mesh, seed);
+    EmbedOptions options;
+    options.repetitions = kFamilyRepetitions;
+    Key key = meshmark::make_key(options, seed);
+    key.original = fingerprint(mesh);
     key.recipients = RecipientCodes{};
     for (std::uint32_t i = 0; i < count; ++i)
     {
