@@ -76,6 +76,7 @@ TEST_F(CliTest, embed_then_detect_reports_json_and_exit_codes)
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const auto embed_json = nlohmann::json::parse(r.out);
     EXPECT_GT(embed_json["rms_displacement"].get<double>(), 0.0);
+    EXPECT_EQ(nlohmann::json::parse(slurp(key))["embedding"]["repetitions"], 4);  // 96 coefficients by default
     EXPECT_TRUE(embed_json["seconds"].contains("total"));
     struct stat st{};
     ASSERT_EQ(::stat(key.c_str(), &st), 0);
@@ -121,6 +122,14 @@ TEST_F(CliTest, recipient_copies_are_issued_in_any_format_and_traced)
     EXPECT_EQ(issued["recipients_in_key"], 4);
     EXPECT_EQ(issued["copies"][2]["name"], "Studio B");  // --recipient names first, then the file's
     EXPECT_TRUE(fs::exists(dir_ / "copy-Studio B.glb"));
+    // The owner's mark of a new family key takes 2 repetitions unless asked (its code modes
+    // follow it in the basis of 100); --repetitions given is kept.
+    EXPECT_EQ(nlohmann::json::parse(slurp(key))["embedding"]["repetitions"], 2);
+    r = run("embed " + original_.string() + " -o '" + (dir_ / "r3-{recipient}.ply").string() + "' --key " +
+                (dir_ / "r3.json").string() + " --recipient x --repetitions 3 --recipient-modes 40 -q",
+            dir_);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_EQ(nlohmann::json::parse(slurp(dir_ / "r3.json"))["embedding"]["repetitions"], 3);
 
     r = run("detect '" + (dir_ / "copy-Studio B.glb").string() + "' --original " + original_.string() + " --key " +
                 key.string() + " --json",
