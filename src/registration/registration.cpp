@@ -452,6 +452,10 @@ RegistrationResult register_to_reference(const TriangleMesh& suspect, const Tria
     // Coarse alignment: the whole shape's axes, and the axes of plausible cropped parts of
     // the reference; a tournament of short trimmed ICP runs on growing samples.
     std::vector<Candidate> candidates;
+    // The suspect where it stands: a copy cut, bisected or edited in the original's own frame
+    // (what a modelling tool does unless told to move it) needs no alignment at all, while the
+    // moments of an unexpected part can miss it (a bisected open scan: docs/algorithms/registration.md).
+    candidates.push_back(Candidate{});
     add_frame_candidates(p, ms, mr, axis_rotations(), candidates);
     for (const Moments& part : crop_hypotheses(reference, use_area, reference_rows, mr, ms,
                                                derive_seed(options.seed, "crop elements")))
