@@ -66,22 +66,35 @@ VerdictRule parse_verdict_rule(const std::string& name)
                                             {"bits", VerdictRule::Bits}});
 }
 
-SoftCorrelation::SoftCorrelation(const std::vector<double>& x, const std::vector<double>& w) : size_(x.size())
+SoftCorrelation::SoftCorrelation(const std::vector<double>& x, const std::vector<double>& w,
+                                 const std::vector<std::vector<double>>& extra)
+    : size_(x.size())
 {
-    constexpr std::array<double, 3> kWeightPowers = {0.0, 0.5, 1.0};
-    for (std::size_t p = 0; p < kWeightPowers.size(); ++p)
-    {
-        weighted_[p].resize(size_);
+    // A change below a millionth of the modulation is rounding (an unmarked original compared
+    // with itself); dropping it keeps such a score at 0 and depends on no sign.
+    auto add = [&](const std::vector<double>& values, auto weight_of) {
+        std::vector<double> weighted(size_);
+        double norm = 0.0;
         for (std::size_t c = 0; c < size_; ++c)
         {
-            // A change below a millionth of the modulation is rounding (an unmarked original
-            // compared with itself); dropping it keeps such a score at 0 and depends on no sign.
-            const double value = std::abs(x[c]) < kNegligibleChange ? 0.0 : x[c];
-            const double weight = kWeightPowers[p] == 0.0 ? 1.0 : std::pow(w[c], kWeightPowers[p]);
-            const double wx = weight * value;
-            weighted_[p][c] = wx;
-            norm_[p] += wx * wx;
+            const double value = std::abs(values[c]) < kNegligibleChange ? 0.0 : values[c];
+            weighted[c] = weight_of(c) * value;
+            norm += weighted[c] * weighted[c];
         }
+        weighted_.push_back(std::move(weighted));
+        norm_.push_back(norm);
+    };
+    add(x, [](std::size_t) { return 1.0; });
+    add(x, [&](std::size_t c) { return std::sqrt(w[c]); });
+    add(x, [&](std::size_t c) { return w[c]; });
+    for (const std::vector<double>& reading : extra)
+    {
+        if (reading.size() != size_)
+        {
+            throw InvalidOption("a damped reading has " + std::to_string(reading.size()) + " values, expected " +
+                                std::to_string(size_) + ".");
+        }
+        add(reading, [](std::size_t) { return 1.0; });
     }
 }
 
@@ -96,7 +109,8 @@ std::vector<RecipientScore> SpectralWatermark::trace(const Extraction& extractio
     // Each innocent recipient's code is independent of the suspect (made from the owner's mark
     // and other recipients' codes), so its score is bounded as the owner's soft score is; the
     // union over the key's recipients bounds the chance that any innocent is accused.
-    const SoftCorrelation soft(extraction.recipient_change, extraction.recipient_weights);
+    const SoftCorrelation soft(extraction.recipient_change, extraction.recipient_weights,
+                               extraction.damped_recipient_changes);
     // Regions (spliced suspects): one uniform-weight correlation each; the global test and the
     // regions share the level half and half (a weighted union bound, docs/fingerprinting.md).
     std::vector<std::vector<double>> regions;  // each region's values scaled to unit norm
@@ -127,7 +141,20 @@ std::vector<RecipientScore> SpectralWatermark::trace(const Extraction& extractio
     joint_w.insert(joint_w.end(), extraction.recipient_weights.begin(), extraction.recipient_weights.end());
     const std::size_t owner_count = extraction.normalized_change.size();
     const bool has_joint = has_whole && owner_count == static_cast<std::size_t>(signs_.size());
-    const SoftCorrelation joint(has_joint ? joint_x : std::vector<double>(), has_joint ? joint_w : std::vector<double>());
+    // The damped readings of both parts, joined the same way.
+    std::vector<std::vector<double>> joint_damped;
+    if (has_joint && extraction.damped_changes.size() == extraction.damped_recipient_changes.size())
+    {
+        for (std::size_t l = 0; l < extraction.damped_changes.size(); ++l)
+        {
+            std::vector<double> both = extraction.damped_changes[l];
+            both.insert(both.end(), extraction.damped_recipient_changes[l].begin(),
+                        extraction.damped_recipient_changes[l].end());
+            joint_damped.push_back(std::move(both));
+        }
+    }
+    const SoftCorrelation joint(has_joint ? joint_x : std::vector<double>(), has_joint ? joint_w : std::vector<double>(),
+                                joint_damped);
     const bool is_sized = (!has_whole || soft.size() == n) &&
                           std::all_of(regions.begin(), regions.end(), [n](const auto& unit) { return unit.size() == n; });
     if (!is_sized)
@@ -283,36 +310,13 @@ Decision SpectralWatermark::decide(const Extraction& extraction, const DetectOpt
     // uniform (best when every coefficient is read equally well), inverse variance (best when
     // the nuisance fit or a crop makes some coefficients far noisier than others) and their
     // geometric mean; the verdict takes the best and pays for the choice with a union bound.
-    const SoftCorrelation soft(extraction.normalized_change, extraction.weights);
-    decision.coefficient_count = static_cast<int>(soft.size());
-    auto sign = [&](std::size_t c) { return signs_(static_cast<Eigen::Index>(c / 3), static_cast<Eigen::Index>(c % 3)); };
-    decision.score = soft.score(sign).first;
     // The damped readings (a crop or a coarse resampling leaves the modulated modes nearly
-    // dependent): uniform weights each, one more statistic each in the union bound.
-    decision.statistic_count = 3;
-    for (const std::vector<double>& damped : extraction.damped_changes)
-    {
-        if (damped.size() != soft.size())
-        {
-            throw InvalidOption("decide: a damped reading has " + std::to_string(damped.size()) + " values, expected " +
-                                std::to_string(soft.size()) + ".");
-        }
-        double dot = 0.0;
-        double norm_sq = 0.0;
-        for (std::size_t c = 0; c < damped.size(); ++c)
-        {
-            const double value = std::abs(damped[c]) < kNegligibleChange ? 0.0 : damped[c];  // as SoftCorrelation
-            dot += sign(c) * value;
-            norm_sq += value * value;
-        }
-        if (norm_sq > 0.0)
-        {
-            decision.score = std::max(decision.score, dot / std::sqrt(norm_sq));
-        }
-        ++decision.statistic_count;
-    }
-    decision.score_false_positive_probability =
-        std::min(1.0, static_cast<double>(decision.statistic_count) * rademacher_tail_bound(decision.score));
+    // dependent) are further statistics with uniform weights, each paid for in the union bound.
+    const SoftCorrelation soft(extraction.normalized_change, extraction.weights, extraction.damped_changes);
+    decision.coefficient_count = static_cast<int>(soft.size());
+    decision.statistic_count = soft.statistic_count();
+    std::tie(decision.score, decision.score_false_positive_probability) = soft.score(
+        [&](std::size_t c) { return signs_(static_cast<Eigen::Index>(c / 3), static_cast<Eigen::Index>(c % 3)); });
 
     switch (options.verdict)
     {

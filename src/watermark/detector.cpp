@@ -91,6 +91,11 @@ Extraction Detector::extraction_from(const Eigen::VectorXd& normalized, const Ei
     for (const Eigen::VectorXd& reading : damped)
     {
         result.damped_changes.emplace_back(reading.data(), reading.data() + coefficient_count);  // the owner's
+        if (reading.size() > coefficient_count)
+        {
+            result.damped_recipient_changes.emplace_back(reading.data() + coefficient_count,
+                                                         reading.data() + reading.size());  // the code's
+        }
     }
     result.bits_found.resize(static_cast<std::size_t>(bit_count));
     for (std::size_t t = 0; t < result.bit_values.size(); ++t)

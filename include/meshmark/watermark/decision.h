@@ -29,6 +29,9 @@ struct Extraction
     /// damping level (docs/statistics.md, "Damped readings"), normalized as normalized_change;
     /// empty where the extraction does not compute them. Never depends on the embedded signs.
     std::vector<std::vector<double>> damped_changes;
+    /// Family keys: the recipient code's 3M coefficients of the same damped readings (empty
+    /// where the code is not read with the owner's mark, or no damped reading is computed).
+    std::vector<std::vector<double>> damped_recipient_changes;
     /// Family keys: the recipient code's 3M coefficients (coefficient c = 3 * mode + axis of
     /// the M modes after the owner's), normalized and weighted as above; empty otherwise.
     std::vector<double> recipient_change;
@@ -40,24 +43,30 @@ struct Extraction
 };
 
 /// \brief The soft correlation of a set of normalized coefficients with a sign vector, over the
-/// three weightings a = w^0, w^(1/2), w^1 (docs/statistics.md): the weighted values are
+/// three weightings a = w^0, w^(1/2), w^1 (docs/statistics.md) and over any further readings of
+/// the same coefficients with uniform weights (the damped readings): the weighted values are
 /// computed once, so scoring many sign vectors (every recipient of a family key) is one dot
-/// product per weighting each.
+/// product per statistic each.
 class SoftCorrelation
 {
 public:
-    /// \param x normalized changes; \param w their weights (>= 0), same size.
-    SoftCorrelation(const std::vector<double>& x, const std::vector<double>& w);
-    /// z = the largest of the three scores for signs sign(c) in {-1, +1}, and the bound
-    /// min(1, 3 rademacher_tail_bound(z)) on P(a suspect without these signs scores z).
+    /// \param x normalized changes; \param w their weights (>= 0), same size; \param extra
+    /// further readings of the same coefficients, each of that size (else InvalidOption).
+    SoftCorrelation(const std::vector<double>& x, const std::vector<double>& w,
+                    const std::vector<std::vector<double>>& extra = {});
+    /// z = the largest of the statistics' scores for signs sign(c) in {-1, +1}, and the bound
+    /// min(1, statistic_count() rademacher_tail_bound(z)) on P(a suspect without these signs
+    /// scores z).
     template <class Sign>
     [[nodiscard]] std::pair<double, double> score(Sign sign) const;
     [[nodiscard]] std::size_t size() const noexcept { return size_; }
+    /// 3 weightings plus one per extra reading: the union bound's factor.
+    [[nodiscard]] int statistic_count() const noexcept { return static_cast<int>(weighted_.size()); }
 
 private:
     std::size_t size_ = 0;
-    std::vector<double> weighted_[3];
-    double norm_[3] = {0.0, 0.0, 0.0};
+    std::vector<std::vector<double>> weighted_;  // per statistic, the weighted values
+    std::vector<double> norm_;                   // per statistic, their squared norm
 };
 
 /// How one recipient of a family key scores on a suspect.
@@ -69,17 +78,18 @@ struct RecipientScore
     /// The largest z over the regions of Extraction::region_changes (0 without them).
     double region_score = 0.0;
     /// Bound on P(some innocent recipient of the key scores this high), a union bound over the
-    /// key's R recipients: R min(3 rademacher_tail_bound(score), ...) without regions, with
-    /// them R min(2 * 3 rademacher_tail_bound(score), 2 K rademacher_tail_bound(region_score))
-    /// for K regions (docs/fingerprinting.md); at most 1.
+    /// key's R recipients: R S rademacher_tail_bound(score) without regions, with them
+    /// R min(2 S rademacher_tail_bound(score), 2 K rademacher_tail_bound(region_score)) for K
+    /// regions (docs/fingerprinting.md), where S is the number of statistics of the score (3
+    /// weightings, plus one per damped reading); at most 1.
     double false_positive_probability = 1.0;
     bool is_accused = false;  ///< false_positive_probability <= DetectOptions::max_false_positive.
     /// z of the owner's coefficients and this recipient's code read as one mark: the soft
     /// correlation over both with the owner's signs and this recipient's (0 without a
     /// whole-model reading of the code). Evidence of ownership when nobody can be accused.
     double joint_score = 0.0;
-    /// Bound on P(an unmarked suspect gives some recipient this joint score): R min(1, 3
-    /// rademacher_tail_bound(joint_score)), at most 1.
+    /// Bound on P(an unmarked suspect gives some recipient this joint score): R S
+    /// rademacher_tail_bound(joint_score) (S statistics as above), at most 1.
     double joint_false_positive_probability = 1.0;
 };
 
@@ -171,7 +181,7 @@ template <class Sign>
 std::pair<double, double> SoftCorrelation::score(Sign sign) const
 {
     double best = 0.0;
-    for (int p = 0; p < 3; ++p)
+    for (std::size_t p = 0; p < weighted_.size(); ++p)
     {
         double dot = 0.0;
         for (std::size_t c = 0; c < size_; ++c)
@@ -184,7 +194,7 @@ std::pair<double, double> SoftCorrelation::score(Sign sign) const
             best = z;
         }
     }
-    return {best, std::min(1.0, 3.0 * rademacher_tail_bound(best))};
+    return {best, std::min(1.0, static_cast<double>(weighted_.size()) * rademacher_tail_bound(best))};
 }
 
 }  // namespace meshmark

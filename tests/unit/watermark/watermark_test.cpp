@@ -710,3 +710,61 @@ TEST(SpectralWatermarkTest, joint_reading_shows_ownership_that_neither_part_show
 }
 
 }  // namespace meshmark
+
+namespace meshmark {
+
+// A recipient's code read back only by a damped reading (the least squares' values are noise):
+// the trace scores the damped reading as a further statistic, accuses that recipient and pays 5
+// statistics per recipient in the bound; without the damped reading nobody is accused.
+TEST(DampedReadingsTest, a_code_read_only_damped_accuses_its_recipient)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(4);
+    EmbedOptions options;
+    options.repetitions = kFamilyRepetitions;
+    Key key = meshmark::make_key(options, 43);
+    key.original = fingerprint(mesh);
+    key.recipients = RecipientCodes{};
+    for (std::uint32_t i = 0; i < 20; ++i)
+    {
+        key.recipients->recipients.push_back({"r" + std::to_string(i), i});
+    }
+    const SpectralWatermark mark(mesh, key);
+    const auto n = static_cast<std::size_t>(3 * mark.recipient_modes());
+    const std::vector<std::uint8_t> code = recipient_code(key.seed, 7, static_cast<int>(n));
+    Rng rng(3);
+    Extraction extraction;
+    extraction.bits_found.assign(key.payload.size(), 2);
+    for (std::size_t c = 0; c < n; ++c)
+    {
+        extraction.recipient_change.push_back(rng.normal());
+        extraction.recipient_weights.push_back(1.0);
+    }
+    std::vector<double> damped;
+    for (std::size_t c = 0; c < n; ++c)
+    {
+        damped.push_back(0.5 * (code[c] != 0 ? 1.0 : -1.0) + 0.3 * rng.normal());
+    }
+    const DetectOptions detect;
+    for (const bool with_damped : {false, true})
+    {
+        extraction.damped_recipient_changes.clear();
+        if (with_damped)
+        {
+            extraction.damped_recipient_changes = {damped, std::vector<double>(n, 0.0)};
+        }
+        const std::vector<RecipientScore> scores = mark.trace(extraction, detect);
+        ASSERT_EQ(scores.size(), 20U);
+        for (const RecipientScore& s : scores)
+        {
+            EXPECT_EQ(s.is_accused, with_damped && s.index == 7) << s.name << " z " << s.score;
+        }
+        if (with_damped)
+        {
+            EXPECT_GT(scores[7].score, 10.0);
+            EXPECT_NEAR(scores[7].false_positive_probability / (20.0 * 5.0 * rademacher_tail_bound(scores[7].score)),
+                        1.0, 1e-12);
+        }
+    }
+}
+
+}  // namespace meshmark
