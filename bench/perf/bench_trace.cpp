@@ -21,7 +21,9 @@ void BM_TraceRecipients(benchmark::State& state)
 {
     const auto recipients = static_cast<std::uint32_t>(state.range(0));
     const TriangleMesh mesh = lumpy_ellipsoid(4);
-    Key key = make_key(EmbedOptions{}, 11);
+    EmbedOptions options;
+    options.repetitions = kFamilyRepetitions;  // a family key's owner mark, as `embed --recipient` makes it
+    Key key = make_key(options, 11);
     key.original = fingerprint(mesh);
     key.recipients = RecipientCodes{};
     for (std::uint32_t i = 0; i < recipients; ++i)
@@ -38,7 +40,29 @@ void BM_TraceRecipients(benchmark::State& state)
         extraction.recipient_change.push_back(rng.normal());
         extraction.recipient_weights.push_back(1.0 + rng.uniform());
     }
-    // As in a detection: the regions' readings too (Detector::kRegionCount of them).
+    // As in a detection on the registration path: the owner's readings (for the joint score),
+    // the two damped readings of both, and the regions' readings (Detector::kRegionCount).
+    const auto owner = static_cast<int>(mark.embedded_signs().size());
+    for (int c = 0; c < owner; ++c)
+    {
+        extraction.normalized_change.push_back(rng.normal());
+        extraction.weights.push_back(1.0 + rng.uniform());
+    }
+    for (int level = 0; level < 2; ++level)
+    {
+        std::vector<double> damped_owner;
+        std::vector<double> damped_code;
+        for (int c = 0; c < owner; ++c)
+        {
+            damped_owner.push_back(rng.normal());
+        }
+        for (int c = 0; c < 3 * mark.recipient_modes(); ++c)
+        {
+            damped_code.push_back(rng.normal());
+        }
+        extraction.damped_changes.push_back(std::move(damped_owner));
+        extraction.damped_recipient_changes.push_back(std::move(damped_code));
+    }
     extraction.region_changes.resize(static_cast<std::size_t>(Detector::kRegionCount));
     for (std::vector<double>& region : extraction.region_changes)
     {
