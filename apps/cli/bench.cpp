@@ -172,8 +172,26 @@ nlohmann::json bench_case(const fs::path& program, const Case& c, const std::str
     row["embed_peak_mib"] = best->peak_mib;
     if (args.out_of_core_mib > 0 && c.is_generated && basis == "rbf")
     {
-        bench_variant(program, c, work, output, key, threads,
-                      {"--stream", "--memory-budget", std::to_string(args.out_of_core_mib)}, "stream", row);
+        // Out of core the strength is a vertex measure (the surface one needs the faces in
+        // memory): the streamed copy is compared with the in-memory one of that measure.
+        const fs::path reference = work / ("vertex-" + c.input.filename().string());
+        const fs::path reference_key = work / ("vertex-key-" + c.input.stem().string() + ".json");
+        const ChildRun in_memory = run_child(program, {"embed", c.input.string(), "-o", reference.string(), "--key",
+                                                       reference_key.string(), "--seed", "20261122", "--force",
+                                                       "--json", "-q", "--threads", threads, "--strength-measure",
+                                                       "vertex"});
+        if (in_memory.exit_code != 0)
+        {
+            throw IoError(c.input.string() + ": the in-memory embed with --strength-measure vertex failed (exit code " +
+                          std::to_string(in_memory.exit_code) + ").");
+        }
+        bench_variant(program, c, work, reference, reference_key, threads,
+                      {"--stream", "--memory-budget", std::to_string(args.out_of_core_mib), "--strength-measure",
+                       "vertex"},
+                      "stream", row);
+        std::error_code ignored;
+        fs::remove(reference, ignored);
+        fs::remove(reference_key, ignored);
     }
     if (args.compare_threads && basis == "rbf")
     {

@@ -65,6 +65,7 @@ Key trial_key(const TriangleMesh& original, std::uint64_t seed, const Robustness
     EmbedOptions options;
     options.rule = parse_embedding_rule(args.rule);
     options.strength = args.strength;
+    options.measure = parse_strength_measure(args.strength_measure);
     options.coefficients = args.coefficients;
     options.repetitions = args.repetitions;
     options.first_mode = args.first_mode;
@@ -181,10 +182,12 @@ int run_bench_robustness(const RobustnessArgs& args, const GlobalArgs& global)
         {
             const std::uint64_t key_seed = derive_seed(args.seed, name + "/key/" + std::to_string(k));
             const auto embed_start = std::chrono::steady_clock::now();
-            const SpectralWatermark mark(original, trial_key(original, key_seed, args), global.threads);
+            SpectralWatermark mark(original, trial_key(original, key_seed, args), global.threads);
+            // Calibrated as embed calibrates a new key (docs/algorithms/embedding.md, "Strength").
+            Positions field = mark.displacement();
+            mark.calibrate_strength(original, field);
             // A family key's marked copy is recipient 0's (or the average of the first --colluders
             // recipients' copies).
-            Positions field;
             if (args.recipients > 0)
             {
                 const Eigen::MatrixX3d owner = mark.coefficient_change();
@@ -198,10 +201,6 @@ int run_bench_robustness(const RobustnessArgs& args, const GlobalArgs& global)
                 }
                 change.bottomRows(mark.recipient_modes()) = codes / static_cast<double>(args.colluders);
                 field = mark.basis().synthesize(change);
-            }
-            else
-            {
-                field = mark.displacement();
             }
             const TriangleMesh marked{original.V + field, original.F};
             embedding.embed_seconds += seconds_since(embed_start);
@@ -336,6 +335,11 @@ void register_bench_robustness(CLI::App& bench, GlobalArgs& global, CommandRunne
         ->delimiter(';');
     command->add_option("--seed", args->seed, "Seed of keys and attacks")->capture_default_str();
     command->add_option("--strength", args->strength, "Embedding strength (default: the rule's default)");
+    command->add_option("--strength-measure", args->strength_measure,
+                        "What the additive strength measures: surface (RMS surface distance) or vertex "
+                        "(RMS vertex displacement), as embed's option")
+        ->check(CLI::IsMember({"surface", "vertex"}))
+        ->capture_default_str();
     command->add_option("--coefficients", args->coefficients, "m, payload bits per axis (3m bits)")
         ->capture_default_str();
     command->add_option("--repetitions", args->repetitions,

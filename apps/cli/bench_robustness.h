@@ -38,6 +38,7 @@ struct RobustnessArgs
     std::vector<std::string> attacks = kDefaultAttacks;
     std::uint64_t seed = 1;
     double strength = -1.0;
+    std::string strength_measure = "surface";
     int coefficients = EmbedOptions{}.coefficients;
     int repetitions = EmbedOptions{}.repetitions;
     int first_mode = EmbedOptions{}.first_mode;

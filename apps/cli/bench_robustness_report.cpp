@@ -102,6 +102,7 @@ nlohmann::json settings_json(const RobustnessArgs& args)
 {
     nlohmann::json settings = {{"rule", args.rule},
                                {"strength", args.strength},
+                               {"strength_measure", args.strength_measure},
                                {"coefficients", args.coefficients},
                                {"repetitions", args.repetitions},
                                {"first_mode", args.first_mode},
@@ -247,7 +248,8 @@ std::string markdown_report(const std::vector<MeshEmbedding>& embeddings, const 
                                     : std::to_string(fewest_keys) + "-" + std::to_string(most_keys))
        << " (wrong keys per marked copy: " << args.wrong_keys
        << ", keys on unmarked attacked copies: " << args.unmarked_keys << "); rule " << args.rule
-       << ", strength " << (args.strength < 0 ? std::string("default") : format_number(args.strength))
+       << ", strength " << (args.strength < 0 ? std::string("default") : format_number(args.strength)) << " ("
+       << args.strength_measure << ")"
        << ", coefficients " << args.coefficients << ", repetitions " << args.repetitions << ", first mode " << args.first_mode
        << ", basis size " << args.basis_size << ", basis " << args.basis
        << (args.basis == "rbf" ? " (" + args.centers + " centers" +
@@ -467,6 +469,8 @@ int report_from_json(const RobustnessArgs& args)
     }
     merged.rule = settings->at("rule").get<std::string>();
     merged.strength = settings->at("strength").get<double>();
+    // Absent in files written before the surface measure: those measured vertex displacement.
+    merged.strength_measure = settings->value("strength_measure", std::string("vertex"));
     merged.coefficients = settings->value("coefficients", EmbedOptions{}.coefficients);
     merged.repetitions = settings->at("repetitions").get<int>();
     merged.first_mode = settings->at("first_mode").get<int>();

@@ -29,6 +29,7 @@ struct EmbedArgs
     std::string basis = "rbf";
     std::string centers = "random";
     double strength = -1.0;
+    std::string strength_measure = "surface";
     std::uint64_t seed = 0;
     bool has_seed = false;
     bool has_repetitions = false;  // --repetitions given (else a family key's owner mark takes kFamilyRepetitions)
@@ -126,6 +127,7 @@ int run_embed(const EmbedArgs& args, const GlobalArgs& global)
     options.embed.basis = parse_basis_type(args.basis);
     options.embed.centers = parse_center_selection(args.centers);
     options.embed.strength = args.strength;
+    options.embed.measure = parse_strength_measure(args.strength_measure);
     if (!args.message.empty())
     {
         options.message = args.message;
@@ -166,13 +168,20 @@ int run_embed(const EmbedArgs& args, const GlobalArgs& global)
     {
         std::fprintf(stderr, "meshmark: note: %s; embedded in memory.\n", report.stream_note.c_str());
     }
+    if (!global.quiet && !report.strength_note.empty())
+    {
+        std::fprintf(stderr, "meshmark: note: %s.\n", report.strength_note.c_str());
+    }
     if (!global.quiet)
     {
         std::fprintf(stderr,
-                     "meshmark: embedded %zu bits into %s (%lld vertices) in %.3f s; displacement "
+                     "meshmark: embedded %zu bits into %s (%lld vertices) in %.3f s; %sdisplacement "
                      "RMS %s%%, max %s%% of the bbox diagonal; key in %s\n",
                      report.key.payload.size(), args.output.c_str(),
                      static_cast<long long>(report.vertex_count), report.seconds.total,
+                     stats.surface_rms_rel > 0.0
+                         ? ("surface distance RMS " + format_number(100.0 * stats.surface_rms_rel) + "%, vertex ").c_str()
+                         : "",
                      format_number(100.0 * stats.rms_displacement_rel).c_str(),
                      format_number(100.0 * stats.max_displacement_rel).c_str(), args.key.c_str());
         if (stats.weak_bits > 0)
@@ -241,8 +250,16 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
         ->check(CLI::IsMember({"additive", "paper"}))
         ->capture_default_str();
     command->add_option("--strength", args->strength,
-                        "additive: RMS vertex displacement as a fraction of the bbox diagonal "
-                        "(default 0.001); paper: rho (default 0.01)");
+                        "additive: the displacement as a fraction of the bbox diagonal, in "
+                        "--strength-measure (default 0.00059 surface, 0.001 vertex); paper: rho "
+                        "(default 0.01)");
+    command->add_option("--strength-measure", args->strength_measure,
+                        "additive: surface: the RMS distance between the marked and the original "
+                        "surface (what MRMS reads, whatever the sampling; calibrated on the "
+                        "original, out of core applied as its vertex equivalent x sqrt(3)); "
+                        "vertex: the RMS vertex displacement (keys before 2026-11-25)")
+        ->check(CLI::IsMember({"surface", "vertex"}))
+        ->capture_default_str();
     command->add_option("--sigma-factor", args->options.sigma_factor,
                         "RBF support = factor * bbox diagonal / 2")
         ->capture_default_str();

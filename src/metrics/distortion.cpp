@@ -8,6 +8,7 @@
 #include <string_view>
 #include <vector>
 
+#include <Eigen/Geometry>
 #include <omp.h>
 
 #include "meshmark/core/bounding_box.h"
@@ -222,6 +223,40 @@ Displacement vertex_displacement(const TriangleMesh& a, const TriangleMesh& b)
         result.rms = std::sqrt(sum_squares / static_cast<double>(rows.size()));
     }
     return result;
+}
+
+double surface_rms_displacement(const TriangleMesh& mesh, const Positions& field)
+{
+    if (field.rows() != mesh.V.rows())
+    {
+        throw InvalidMesh("surface_rms_displacement: the field has " + std::to_string(field.rows()) +
+                          " rows for " + std::to_string(mesh.V.rows()) + " vertices.");
+    }
+    if (mesh.is_point_cloud())
+    {
+        return mesh.V.rows() > 0 ? std::sqrt(field.squaredNorm() / (3.0 * static_cast<double>(mesh.V.rows()))) : 0.0;
+    }
+    double weighted = 0.0;
+    double area = 0.0;
+    for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
+    {
+        const Eigen::Vector3d p0 = mesh.V.row(mesh.F(f, 0)).transpose();
+        const Eigen::Vector3d e1 = mesh.V.row(mesh.F(f, 1)).transpose() - p0;
+        const Eigen::Vector3d e2 = mesh.V.row(mesh.F(f, 2)).transpose() - p0;
+        const Eigen::Vector3d cross = e1.cross(e2);
+        const double twice_area = cross.norm();
+        if (!(twice_area > 0.0))
+        {
+            continue;
+        }
+        const Eigen::Vector3d n = cross / twice_area;
+        const double a0 = n.dot(field.row(mesh.F(f, 0)).transpose());
+        const double a1 = n.dot(field.row(mesh.F(f, 1)).transpose());
+        const double a2 = n.dot(field.row(mesh.F(f, 2)).transpose());
+        weighted += twice_area * (a0 * a0 + a1 * a1 + a2 * a2 + a0 * a1 + a1 * a2 + a2 * a0) / 6.0;
+        area += twice_area;
+    }
+    return area > 0.0 ? std::sqrt(weighted / area) : 0.0;
 }
 
 DistortionReport compare_meshes(const TriangleMesh& a, const TriangleMesh& b, const CompareOptions& options)

@@ -3,6 +3,8 @@
 
 #include <unistd.h>
 
+#include <cmath>
+#include <limits>
 #include <random>
 #include <thread>
 
@@ -114,6 +116,18 @@ void write_mesh_and_key(const std::filesystem::path& key_path, const Key& key,
 
 }  // namespace detail
 
+double detail::analysed_diagonal(const Positions& V, const std::vector<std::int32_t>& active)
+{
+    Eigen::RowVector3d lo = Eigen::RowVector3d::Constant(std::numeric_limits<double>::infinity());
+    Eigen::RowVector3d hi = -lo;
+    for (const std::int32_t i : active)
+    {
+        lo = lo.cwiseMin(V.row(i));
+        hi = hi.cwiseMax(V.row(i));
+    }
+    return (hi - lo).norm();
+}
+
 Key detail::new_key(const EmbedMeshOptions& options)
 {
     return make_key(options.embed, options.seed ? *options.seed : fresh_seed(), options.message, options.bits_hex);
@@ -144,7 +158,7 @@ void embed_into(EmbedResult& result, detail::PhaseTimer& timer, const TriangleMe
     {
         original_fingerprint = fingerprint(mesh);
     }
-    const SpectralWatermark mark(mesh, key, options.threads);
+    SpectralWatermark mark(mesh, key, options.threads);
     if (fingerprinter.joinable())
     {
         fingerprinter.join();
@@ -154,6 +168,8 @@ void embed_into(EmbedResult& result, detail::PhaseTimer& timer, const TriangleMe
     timer.begin("embed");
     // The field becomes the marked positions in place: one #V x 3 array, not two.
     result.positions = mark.displacement(&result.stats);
+    mark.calibrate_strength(mesh, result.positions, &result.stats);
+    key.options.vertex_strength = mark.key().options.vertex_strength;
     result.positions += mesh.V;
     timer.lap("embed");
     result.key = std::move(key);

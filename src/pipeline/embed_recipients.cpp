@@ -126,19 +126,6 @@ std::vector<IssuedCopy> assign_indices(Key& key, const std::vector<std::string>&
     return copies;
 }
 
-// Axis-aligned bounding-box diagonal of the analysed rows (EmbedStats' unit).
-double analysed_diagonal(const Positions& V, const std::vector<std::int32_t>& active)
-{
-    Eigen::RowVector3d lo = Eigen::RowVector3d::Constant(std::numeric_limits<double>::infinity());
-    Eigen::RowVector3d hi = -lo;
-    for (const std::int32_t i : active)
-    {
-        lo = lo.cwiseMin(V.row(i));
-        hi = hi.cwiseMax(V.row(i));
-    }
-    return (hi - lo).norm();
-}
-
 }  // namespace
 
 EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const std::string& output_pattern,
@@ -177,9 +164,21 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
     timer.begin("basis");
     Key key = family_key(key_path, file.mesh, input, options, &report.key_created);
     report.copies = assign_indices(key, options.recipients, output_pattern);
-    const SpectralWatermark mark(file.mesh, key, options.threads);
+    SpectralWatermark mark(file.mesh, key, options.threads);
     EmbedStats owner_stats;
     Positions owner = mark.displacement(&owner_stats);
+    // A new family key is calibrated on the owner's mark (at its share of the energy); the
+    // codes' steps get the same factor, so their copies' surface distances differ by what the
+    // codes add (docs/algorithms/embedding.md, "Strength").
+    if (key.options.needs_calibration())
+    {
+        mark.calibrate_strength(file.mesh, owner, &owner_stats);
+        key.options.vertex_strength = mark.key().options.vertex_strength;
+        // Synthesized again from the recorded strength, as a later call adding recipients
+        // does: the scaled field may differ from it in the last bit, the copies may not.
+        owner = mark.displacement(&owner_stats);
+    }
+    mark.calibrate_strength(file.mesh, owner, &owner_stats);  // measures only
     owner += file.mesh.V;  // the positions every copy shares
     // The recipient modes, explicitly: one product per copy instead of a pass over the basis.
     const int head = key.options.first_mode + modulated_modes(key.options);
@@ -188,7 +187,7 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
     const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> code_modes =
         mark.basis().modes_dense(head + modes).rightCols(modes);
     const std::vector<std::int32_t>& active = mark.mesh_rows()->active();
-    const double diagonal = analysed_diagonal(file.mesh.V, active);
+    const double diagonal = detail::analysed_diagonal(file.mesh.V, active);
     timer.lap("basis");
 
     std::vector<std::filesystem::path> created;

@@ -369,6 +369,17 @@ EmbedReport embed_file_streamed(const PlyStream& file, const std::filesystem::pa
     // Fingerprint, finiteness, bounding box and canonical frame; again over the referenced
     // vertices when the scan found unreferenced ones.
     timer.begin("frame");
+    if (key.options.needs_calibration())
+    {
+        // The surface measure needs the faces and the whole field in memory: out of core the
+        // strength is applied as its vertex equivalent on a uniformly sampled surface, and the
+        // key says so (docs/algorithms/embedding.md, "Strength").
+        key.options.measure = StrengthMeasure::Vertex;
+        key.options.strength *= std::sqrt(3.0);
+        report.strength_note = "out of core, the strength is applied as an RMS vertex displacement of " +
+                               std::to_string(key.options.strength) +
+                               " of the diagonal (the surface measure needs the mesh in memory)";
+    }
     key.options.validate();
     check_analysed_rows(key.options, static_cast<std::size_t>(referenced.active));
     if (scanned.guess_error)

@@ -41,6 +41,7 @@ nlohmann::json embed_stats_json(const Key& key, const EmbedStats& stats)
     return {{"analysed_vertices", stats.analysed_vertices},
             {"rule", to_string(key.options.rule)},
             {"strength", key.options.strength},
+            {"strength_measure", to_string(key.options.measure)},
             {"basis", to_string(key.options.basis)},
             {"centers", to_string(key.options.centers)},
             {"basis_size", key.options.basis_size},
@@ -50,6 +51,7 @@ nlohmann::json embed_stats_json(const Key& key, const EmbedStats& stats)
             {"bits", to_bit_string(key.payload)},
             {"max_displacement", stats.max_displacement_rel},
             {"rms_displacement", stats.rms_displacement_rel},
+            {"surface_rms_displacement", stats.surface_rms_rel},
             {"orthogonality_error", stats.orthogonality_error},
             {"weak_bits", stats.weak_bits}};
 }
@@ -70,6 +72,7 @@ nlohmann::json embed_recipients_report_json(const EmbedRecipientsReport& report,
     nlohmann::json out = embed_stats_json(report.key, report.copies.front().stats);
     out.erase("max_displacement");
     out.erase("rms_displacement");
+    out.erase("surface_rms_displacement");
     out["input"] = input;
     out["key"] = key;
     out["key_created"] = report.key_created;

@@ -90,10 +90,15 @@ Json content_json(const Key& key)
                       {"repetitions", key.options.repetitions},
                       {"first_mode", key.options.first_mode},
                       {"strength", key.options.resolved_strength()},
+                      {"strength_measure", to_string(key.options.measure)},
                       {"sigma_factor", key.options.sigma_factor},
                       {"centers", to_string(key.options.centers)},
                       {"basis", to_string(key.options.basis)},
                       {"gram_rows", key.options.gram_rows}};
+    if (key.options.rule == EmbeddingRule::Additive && key.options.measure == StrengthMeasure::Surface)
+    {
+        j["embedding"]["vertex_strength"] = key.options.vertex_strength;
+    }
     j["payload"] = {{"bits", to_bit_string(key.payload)}};
     if (key.message)
     {
@@ -235,11 +240,29 @@ CenterSelection parse_center_selection(const std::string& name)
                                                {{"random", CenterSelection::Random}, {"decimate", CenterSelection::Decimate}});
 }
 
-double default_strength(EmbeddingRule rule) noexcept
+const char* to_string(StrengthMeasure measure) noexcept
 {
-    // Additive: RMS displacement of 0.1% of the diagonal (the starting point; the
-    // robustness benchmark refines it). Paper: rho = 0.01 [Wu & Kobbelt 2005, Sec. 6].
-    return rule == EmbeddingRule::Paper ? 0.01 : 1e-3;
+    return measure == StrengthMeasure::Vertex ? "vertex" : "surface";
+}
+
+StrengthMeasure parse_strength_measure(const std::string& name)
+{
+    return parse_named_choice<StrengthMeasure>(name, "strength measure",
+                                               {{"surface", StrengthMeasure::Surface}, {"vertex", StrengthMeasure::Vertex}});
+}
+
+double default_strength(EmbeddingRule rule, StrengthMeasure measure) noexcept
+{
+    // Additive, surface: an RMS surface distance of 0.059% of the diagonal. The sampled MRMS
+    // reads within 0.3% of the first-order measure, so this keeps it below 0.06%, the largest
+    // the robustness targets allow (docs/algorithms/embedding.md, "Strength"). Vertex: 0.1%
+    // of the diagonal, which gives an MRMS of 0.051-0.079% depending on the sampling.
+    // Paper: rho = 0.01 [Wu & Kobbelt 2005, Sec. 6].
+    if (rule == EmbeddingRule::Paper)
+    {
+        return 0.01;
+    }
+    return measure == StrengthMeasure::Surface ? 5.9e-4 : 1e-3;
 }
 
 const Recipient* RecipientCodes::find(const std::string& name) const noexcept
@@ -331,6 +354,11 @@ void EmbedOptions::validate() const
     {
         throw InvalidOption("strength (--strength) must be in 0..0.5, got " + std::to_string(s) + ".");
     }
+    if (vertex_strength >= 0.0 && !(std::isfinite(vertex_strength) && vertex_strength <= 1.0))
+    {
+        throw InvalidOption("the calibrated vertex strength must be in 0..1, got " +
+                            std::to_string(vertex_strength) + ".");
+    }
     if (!std::isfinite(sigma_factor) || sigma_factor <= 0.0 || sigma_factor > 100.0)
     {
         throw InvalidOption("sigma factor must be in (0, 100], got " + std::to_string(sigma_factor) + ".");
@@ -346,7 +374,21 @@ void EmbedOptions::validate() const
 
 double EmbedOptions::resolved_strength() const noexcept
 {
-    return strength < 0.0 ? default_strength(rule) : strength;
+    return strength < 0.0 ? default_strength(rule, measure) : strength;
+}
+
+bool EmbedOptions::needs_calibration() const noexcept
+{
+    return rule == EmbeddingRule::Additive && measure == StrengthMeasure::Surface && vertex_strength < 0.0;
+}
+
+double EmbedOptions::modulation_strength() const noexcept
+{
+    if (rule != EmbeddingRule::Additive || measure == StrengthMeasure::Vertex)
+    {
+        return resolved_strength();
+    }
+    return vertex_strength >= 0.0 ? vertex_strength : std::sqrt(3.0) * resolved_strength();
 }
 
 MeshFingerprint fingerprint(const TriangleMesh& mesh)
@@ -420,6 +462,11 @@ Key make_key(const EmbedOptions& options, std::uint64_t seed, const std::optiona
     key.seed = seed;
     key.options = options;
     key.options.strength = options.resolved_strength();
+    if (key.options.rule != EmbeddingRule::Additive)
+    {
+        key.options.measure = StrengthMeasure::Vertex;  // rho is not a distance
+        key.options.vertex_strength = -1.0;
+    }
     const int bits = payload_bit_count(key.options);
     if (message)
     {
@@ -544,6 +591,8 @@ Key parse_key(const std::string& text, const std::string& source)
     key.options.first_mode =
         embedding.contains("first_mode") ? field<int>(embedding, "first_mode", "embedding.", source) : 0;
     key.options.strength = field<double>(embedding, "strength", "embedding.", source);
+    // Absent from keys written before the surface measure existed: those meant the vertex RMS.
+    key.options.measure = StrengthMeasure::Vertex;
     key.options.sigma_factor = field<double>(embedding, "sigma_factor", "embedding.", source);
     // Absent from keys written before the sampled Gram matrix existed: those used every row.
     key.options.gram_rows = embedding.contains("gram_rows")
@@ -561,10 +610,24 @@ Key parse_key(const std::string& text, const std::string& source)
         {
             key.options.basis = parse_basis_type(field<std::string>(embedding, "basis", "embedding.", source));
         }
+        if (embedding.contains("strength_measure"))
+        {
+            key.options.measure =
+                parse_strength_measure(field<std::string>(embedding, "strength_measure", "embedding.", source));
+        }
     }
     catch (const InvalidOption& e)
     {
         throw IoError(source + ": invalid key field: " + e.what());
+    }
+    if (key.options.rule == EmbeddingRule::Additive && key.options.measure == StrengthMeasure::Surface)
+    {
+        key.options.vertex_strength = field<double>(embedding, "vertex_strength", "embedding.", source);
+        if (!(key.options.vertex_strength >= 0.0))
+        {
+            throw IoError(source + ": the key's surface strength was never calibrated on the original "
+                                   "(embedding.vertex_strength is negative).");
+        }
     }
     try
     {

@@ -13,6 +13,7 @@
 #include "meshmark/basis/rbf_basis.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/rng.h"
+#include "meshmark/metrics/distortion.h"
 
 namespace meshmark {
 namespace {
@@ -131,7 +132,7 @@ void SpectralWatermark::init_modulation(double analysed)
     }
 
     // Modulation per coefficient, in the canonical frame.
-    const double strength = key_.options.resolved_strength();
+    const double strength = key_.options.modulation_strength();
     if (key_.options.rule == EmbeddingRule::Additive)
     {
         // |U b' s|_F^2 = 3 m r s^2 for orthonormal modes, so this s gives an RMS displacement of
@@ -235,6 +236,55 @@ Positions SpectralWatermark::displacement(EmbedStats* stats) const
         describe(summary, (hi - lo).norm(), orthogonality, stats);
     }
     return field;
+}
+
+double SpectralWatermark::calibrate_strength(const TriangleMesh& original, Positions& field, EmbedStats* stats)
+{
+    if (mesh_rows_ == nullptr)
+    {
+        throw InvalidOption("the surface strength measure needs the mesh in memory (its faces).");
+    }
+    Eigen::RowVector3d lo = Eigen::RowVector3d::Constant(std::numeric_limits<double>::infinity());
+    Eigen::RowVector3d hi = -lo;
+    for (const std::int32_t i : mesh_rows_->active())
+    {
+        lo = lo.cwiseMin(original.V.row(i));
+        hi = hi.cwiseMax(original.V.row(i));
+    }
+    const double diagonal = (hi - lo).norm();
+    double surface = surface_rms_displacement(original, field);
+    double factor = 1.0;
+    if (key_.options.needs_calibration())
+    {
+        // The field is linear in the modulation: one synthesis and one scaling suffice. A field
+        // with no normal part at all (no area) keeps the nominal modulation.
+        const double share = key_.recipients ? 1.0 - key_.recipients->energy_share : 1.0;
+        const double target = key_.options.resolved_strength() * std::sqrt(share) * diagonal;
+        factor = surface > 0.0 ? target / surface : 1.0;
+        const double vertex_strength = key_.options.modulation_strength() * factor;
+        if (!(vertex_strength <= 0.5))
+        {
+            throw InvalidOption("the surface strength " + std::to_string(key_.options.resolved_strength()) +
+                                " would need an RMS vertex displacement of " + std::to_string(vertex_strength) +
+                                " of the diagonal on this mesh; use --strength-measure vertex.");
+        }
+        key_.options.vertex_strength = vertex_strength;
+        // Rebuilt from the recorded strength, exactly as a watermark built from the key is.
+        init_modulation(static_cast<double>(rows_->size()));
+        field *= factor;
+        surface *= factor;
+        if (stats != nullptr)
+        {
+            stats->rms_displacement_rel *= factor;
+            stats->max_displacement_rel *= factor;
+            stats->modulation_step *= factor;
+        }
+    }
+    if (stats != nullptr)
+    {
+        stats->surface_rms_rel = diagonal > 0.0 ? surface / diagonal : 0.0;
+    }
+    return factor;
 }
 
 }  // namespace meshmark

@@ -192,7 +192,9 @@ TEST_F(CliTest, memory_budget_streams_a_binary_ply_to_the_same_bytes)
 {
     const auto memory = dir_ / "memory.ply";
     const auto streamed = dir_ / "streamed.ply";
-    const std::string common = " --message hello --seed 12 --json";
+    // The same bytes for the vertex measure; the surface measure is applied out of core as its
+    // vertex equivalent, with a note (below).
+    const std::string common = " --message hello --seed 12 --json --strength-measure vertex";
     CliRun r = run("embed " + original_.string() + " -o " + memory.string() + " --key " +
                        (dir_ / "memory.json").string() + common,
                    dir_);
@@ -214,6 +216,14 @@ TEST_F(CliTest, memory_budget_streams_a_binary_ply_to_the_same_bytes)
                 (dir_ / "streamed.json").string(),
             dir_);
     EXPECT_EQ(r.exit_code, 0) << r.err;
+    r = run("embed " + original_.string() + " -o " + (dir_ / "surface.ply").string() + " --key " +
+                (dir_ / "surface.json").string() + " --memory-budget 1",
+            dir_);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_NE(r.err.find("note: out of core, the strength is applied as an RMS vertex displacement"),
+              std::string::npos)
+        << r.err;
+    EXPECT_NE(slurp(dir_ / "surface.json").find("\"strength_measure\": \"vertex\""), std::string::npos);
 
     // An ASCII PLY: embedded in memory with a note under a budget, a usage error with --stream.
     const auto ascii = dir_ / "ascii.ply";

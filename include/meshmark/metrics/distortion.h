@@ -123,4 +123,21 @@ struct DistortionReport
 /// \throws InvalidMesh if has_same_connectivity(a, b) is false.
 [[nodiscard]] Displacement vertex_displacement(const TriangleMesh& a, const TriangleMesh& b);
 
+/// \brief First-order RMS distance between a surface and the same surface displaced by a small
+/// vertex field: what compare_meshes' RMS distances read of a displacement that is small
+/// against the surface's curvature radius, without sampling or a closest-point search.
+/// \details A displaced point leaves the surface by the normal component of its displacement
+/// (the tangential part slides along it). Over a triangle with unit normal n that component is
+/// the linear interpolation of a_c = n . d_c at its corners, whose mean square over the
+/// triangle is (a_0^2 + a_1^2 + a_2^2 + a_0 a_1 + a_1 a_2 + a_2 a_0) / 6; the result is the
+/// square root of the area-weighted mean of that over the triangles, summed in face order
+/// (deterministic). Second-order terms (curvature, the tilt of the faces) only lower the
+/// sampled distance, so this reads at or slightly above the MRMS of compare_meshes
+/// (docs/algorithms/embedding.md, "Strength"). A point cloud, which has no normals, gets the
+/// expected normal part of an isotropic field: sqrt(mean |d|^2 / 3) over its points.
+/// \param mesh   The surface (its faces and positions).
+/// \param field  #V x 3 displacement.
+/// \return In the mesh's units; 0 for a mesh whose triangles have no area.
+[[nodiscard]] double surface_rms_displacement(const TriangleMesh& mesh, const Positions& field);
+
 }  // namespace meshmark

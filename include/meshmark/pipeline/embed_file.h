@@ -62,6 +62,8 @@ struct EmbedReport
     PhaseTimings seconds;
     bool streamed = false;     ///< Embedded out of core.
     std::string stream_note;  ///< Why a budget-exceeding input was embedded in memory anyway.
+    /// Out of core: how the surface strength was applied (as its vertex equivalent).
+    std::string strength_note;
 };
 
 /// \brief Refuse, with one sentence naming \p path, a key that \p mesh cannot use: the

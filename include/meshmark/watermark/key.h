@@ -23,9 +23,28 @@ enum class EmbeddingRule
 /// \throws InvalidOption for any other name.
 [[nodiscard]] EmbeddingRule parse_embedding_rule(const std::string& name);
 
-/// Default strength of each rule: the additive rule's RMS vertex displacement relative to the
-/// principal bounding-box diagonal, and the paper's rho.
-[[nodiscard]] double default_strength(EmbeddingRule rule) noexcept;
+/// What the additive rule's strength measures (docs/algorithms/embedding.md, "Strength").
+enum class StrengthMeasure
+{
+    /// The RMS distance between the marked and the original surface, to first order: the
+    /// area-weighted RMS of the displacement's normal component (surface_rms_displacement),
+    /// relative to the bounding-box diagonal of the analysed vertices. What a surface metric
+    /// (MRMS) reads, whatever the sampling density (default).
+    Surface,
+    /// The RMS vertex displacement relative to the principal bounding-box diagonal: the same
+    /// number of vertices moves as much wherever they are dense (keys made before 2026-11-25).
+    Vertex,
+};
+
+/// Names used in key files and on the command line: "surface" or "vertex".
+[[nodiscard]] const char* to_string(StrengthMeasure measure) noexcept;
+/// \throws InvalidOption for any other name.
+[[nodiscard]] StrengthMeasure parse_strength_measure(const std::string& name);
+
+/// Default strength of each rule: the additive rule's RMS surface distance (or, with the vertex
+/// measure, RMS vertex displacement) relative to the diagonal, and the paper's rho.
+[[nodiscard]] double default_strength(EmbeddingRule rule,
+                                      StrengthMeasure measure = StrengthMeasure::Surface) noexcept;
 
 /// The spectral basis the watermark lives in (docs/algorithms/basis.md).
 enum class BasisType
@@ -68,9 +87,17 @@ struct EmbedOptions
     /// is read back (docs/statistics.md). Keys written before this field existed mean 0.
     int first_mode = 12;
     EmbeddingRule rule = EmbeddingRule::Additive;
-    /// Additive: RMS vertex displacement as a fraction of the principal bbox diagonal.
+    /// Additive: the displacement as a fraction of the diagonal, in `measure`.
     /// Paper: rho. Negative means "the rule's default" (default_strength).
     double strength = -1.0;
+    /// What the additive strength measures. Keys without the field mean Vertex; the paper's
+    /// rule ignores it.
+    StrengthMeasure measure = StrengthMeasure::Surface;
+    /// The surface measure, once calibrated on the original (the embedding does it when it
+    /// makes the key): the RMS vertex displacement, as a fraction of the principal bbox
+    /// diagonal, that gives `strength`. The modulation, and so detection, are built from it.
+    /// Negative until calibrated.
+    double vertex_strength = -1.0;
     double sigma_factor = 1.0;  ///< sigma = sigma_factor * diagonal / 2 [Wu & Kobbelt].
     /// The basis; keys written before this field existed mean Rbf.
     BasisType basis = BasisType::Rbf;
@@ -90,6 +117,13 @@ struct EmbedOptions
     void validate() const;
     /// The strength actually used (resolves the negative default).
     [[nodiscard]] double resolved_strength() const noexcept;
+    /// True for the additive rule with the surface measure not yet calibrated.
+    [[nodiscard]] bool needs_calibration() const noexcept;
+    /// Additive rule: the RMS vertex displacement (fraction of the principal bbox diagonal) the
+    /// modulation is built from: the strength (vertex measure), the calibrated vertex_strength,
+    /// or before calibration the strength times sqrt(3) (what an isotropic displacement needs
+    /// for that surface distance on a uniformly sampled surface).
+    [[nodiscard]] double modulation_strength() const noexcept;
 };
 
 /// Number of payload bits for \p options (3m).

@@ -22,6 +22,9 @@ struct EmbedStats
 {
     double max_displacement_rel = 0.0;  ///< Max vertex displacement / axis-aligned bbox diagonal.
     double rms_displacement_rel = 0.0;  ///< RMS over the analysed vertices, same unit.
+    /// First-order RMS distance of the marked surface from the original (surface_rms_displacement),
+    /// same unit; 0 where it is not measured (the out-of-core embed, which has no faces in memory).
+    double surface_rms_rel = 0.0;
     double orthogonality_error = 0.0;   ///< max |U_m^T U_m - I| over the modes used.
     double modulation_step = 0.0;       ///< Additive rule: s, in file units.
     int weak_bits = 0;  ///< Paper rule: bits on coefficients below 1/10 of the largest modulated one.
@@ -114,6 +117,20 @@ public:
     /// \brief The watermark's displacement field in file coordinates (#V x 3; zero on
     /// unreferenced vertices). P_w = P + displacement. \param stats receives the distortion.
     [[nodiscard]] Positions displacement(EmbedStats* stats = nullptr) const;
+
+    /// \brief The surface measure's calibration (EmbedOptions::needs_calibration): scales
+    /// \p field, which displacement() just synthesized with the key's nominal modulation, so that
+    /// its first-order RMS surface distance (surface_rms_displacement) is the strength times the
+    /// bbox diagonal of the analysed rows, and scales the modulation (the owner's and a family's
+    /// codes alike) and records the vertex strength that gives it in key() (vertex_strength),
+    /// from which detection and later copies rebuild it (docs/algorithms/embedding.md,
+    /// "Strength"). A family key's owner mark carries its share of the energy only.
+    /// \param original  The mesh this watermark was built from (its faces are read here).
+    /// \param stats     If not null, scaled with the field; surface_rms_rel is filled in either way.
+    /// \return The factor: 1 when the key needs no calibration (it then only measures).
+    /// \throws InvalidOption when the watermark was built from streamed rows, or when the
+    /// calibrated vertex strength would exceed 0.5 of the diagonal.
+    double calibrate_strength(const TriangleMesh& original, Positions& field, EmbedStats* stats = nullptr);
 
     /// \brief Correlation, verdict and false-positive probability of an extraction
     /// (docs/statistics.md). For a family key: of the owner's mark.

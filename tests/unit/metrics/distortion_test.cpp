@@ -242,4 +242,87 @@ TEST(DistortionTest, rejects_bad_options_and_unusable_meshes)
     EXPECT_THROW((void)compare_meshes(point, mesh, with_samples(10)), InvalidMesh);
 }
 
+TEST(SurfaceRmsDisplacementTest, reads_the_normal_part_of_a_field)
+{
+    const TriangleMesh grid = plane_grid(6, 6);  // in z = 0
+    // Along the normal: the whole displacement; in the plane: nothing.
+    Positions along = Positions::Zero(grid.V.rows(), 3);
+    along.col(2).setConstant(0.03);
+    EXPECT_NEAR(surface_rms_displacement(grid, along), 0.03, 1e-15);
+    Positions sliding = Positions::Zero(grid.V.rows(), 3);
+    sliding.col(0).setConstant(0.03);
+    sliding.col(1).setConstant(-0.01);
+    EXPECT_NEAR(surface_rms_displacement(grid, sliding), 0.0, 1e-15);
+
+    // One triangle with corner offsets a: the mean square of their linear interpolation,
+    // here by a fine midpoint quadrature over the triangle rather than the closed form.
+    TriangleMesh triangle;
+    triangle.V.resize(3, 3);
+    triangle.V << 0, 0, 0, 2, 0, 0, 0, 1, 0;
+    triangle.F.resize(1, 3);
+    triangle.F << 0, 1, 2;
+    const double a[3] = {0.02, -0.05, 0.01};
+    Positions field = Positions::Zero(3, 3);
+    for (int c = 0; c < 3; ++c)
+    {
+        field(c, 2) = a[c];
+        field(c, 0) = 0.7 * a[c];  // a tangential part, ignored
+    }
+    const int n = 400;
+    double sum = 0.0;
+    int count = 0;
+    auto add = [&](double u, double v) {
+        const double value = (1.0 - u - v) * a[0] + u * a[1] + v * a[2];
+        sum += value * value;
+        ++count;
+    };
+    // The n^2 equal sub-triangles of a regular subdivision, each at its centroid.
+    for (int i = 0; i < n; ++i)
+    {
+        for (int j = 0; i + j < n; ++j)
+        {
+            add((i + 1.0 / 3.0) / n, (j + 1.0 / 3.0) / n);
+            if (i + j < n - 1)
+            {
+                add((i + 2.0 / 3.0) / n, (j + 2.0 / 3.0) / n);
+            }
+        }
+    }
+    EXPECT_NEAR(surface_rms_displacement(triangle, field), std::sqrt(sum / count), 1e-3 * std::sqrt(sum / count));
+}
+
+TEST(SurfaceRmsDisplacementTest, reads_at_or_just_above_the_sampled_mrms)
+{
+    // A smooth field on a curved surface: the first-order value and the sampled MRMS agree
+    // within a few percent, the first-order one not below (curvature only brings points closer).
+    const TriangleMesh mesh = lumpy_ellipsoid(4);
+    const double diagonal = (mesh.V.colwise().maxCoeff() - mesh.V.colwise().minCoeff()).norm();
+    Positions field(mesh.V.rows(), 3);
+    for (Eigen::Index i = 0; i < mesh.V.rows(); ++i)
+    {
+        const double x = mesh.V(i, 0);
+        const double y = mesh.V(i, 1);
+        const double z = mesh.V(i, 2);
+        field.row(i) << std::sin(3.0 * y), std::cos(2.0 * z + x), std::sin(x - 2.0 * y);
+    }
+    field *= 1e-3 * diagonal;
+    TriangleMesh moved = mesh;
+    moved.V += field;
+    const double first_order = surface_rms_displacement(mesh, field) / diagonal;
+    const DistortionReport sampled = compare_meshes(mesh, moved, with_samples(200000));
+    EXPECT_GE(first_order, 0.995 * sampled.mrms_rel);
+    EXPECT_LE(first_order, 1.05 * sampled.mrms_rel);
+    // Far from the vertex RMS: the measure is not the field's size.
+    EXPECT_LT(first_order, 0.8 * sampled.rms_displacement_rel);
+}
+
+TEST(SurfaceRmsDisplacementTest, a_point_cloud_gets_an_isotropic_fields_normal_part)
+{
+    TriangleMesh cloud;
+    cloud.V = Positions::Random(50, 3);
+    Positions field = Positions::Random(50, 3);
+    EXPECT_NEAR(surface_rms_displacement(cloud, field), std::sqrt(field.squaredNorm() / 150.0), 1e-15);
+    EXPECT_THROW((void)surface_rms_displacement(cloud, Positions::Zero(49, 3)), InvalidMesh);
+}
+
 }  // namespace meshmark

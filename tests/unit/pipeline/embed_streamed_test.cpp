@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include <bit>
 #include <cstring>
 #include <fstream>
@@ -173,6 +175,9 @@ EmbedFileOptions base_options()
     options.message = "out of core";
     options.threads = 2;
     options.embed.basis_size = 60;
+    // Byte for byte with the in-memory path holds for the vertex measure; the surface measure
+    // is applied out of core as its vertex equivalent (surface_strength_is_applied_...).
+    options.embed.measure = StrengthMeasure::Vertex;
     options.force = true;  // tests reuse key paths
     return options;
 }
@@ -292,6 +297,32 @@ TEST(EmbedStreamedTest, budget_selects_streaming_through_embed_file)
     EXPECT_EQ(test::file_bytes(dir / "memory.json"), test::file_bytes(dir / "budget.json"));
     options.memory_budget_mib = 4096;
     EXPECT_FALSE(embed_file(input, dir / "big.ply", dir / "big.json", options).streamed);
+}
+
+TEST(EmbedStreamedTest, surface_strength_is_applied_as_its_vertex_equivalent_and_said)
+{
+    const auto dir = test::temp_dir("embed_streamed_surface");
+    const auto input = dir / "input.ply";
+    write_ply(input, lumpy_ellipsoid(5), PlySpec{false, false, true, 5, false, false});
+    EmbedFileOptions options = base_options();
+    options.embed.measure = StrengthMeasure::Surface;
+    options.embed.strength = 5e-4;
+    options.force_stream = true;
+    const EmbedReport streamed = embed_file(input, dir / "streamed.ply", dir / "streamed.json", options);
+    EXPECT_TRUE(streamed.streamed);
+    EXPECT_NE(streamed.strength_note.find("vertex displacement"), std::string::npos) << streamed.strength_note;
+    const Key key = read_key(dir / "streamed.json");
+    EXPECT_EQ(key.options.measure, StrengthMeasure::Vertex);
+    EXPECT_DOUBLE_EQ(key.options.strength, std::sqrt(3.0) * 5e-4);
+    // The same bytes as the in-memory vertex measure at that strength.
+    options.force_stream = false;
+    options.embed.measure = StrengthMeasure::Vertex;
+    options.embed.strength = std::sqrt(3.0) * 5e-4;
+    const EmbedReport memory = embed_file(input, dir / "memory.ply", dir / "memory.json", options);
+    EXPECT_FALSE(memory.streamed);
+    EXPECT_TRUE(memory.strength_note.empty());
+    EXPECT_TRUE(test::file_bytes(dir / "memory.ply") == test::file_bytes(dir / "streamed.ply"));
+    EXPECT_EQ(test::file_bytes(dir / "memory.json"), test::file_bytes(dir / "streamed.json"));
 }
 
 TEST(EmbedStreamedTest, unstreamable_inputs_fall_back_under_a_budget_and_fail_when_forced)

@@ -5,10 +5,16 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
+#include <map>
+#include <utility>
+#include <vector>
 #include <string>
 
 #include "meshmark/geometry/shapes.h"
+#include "meshmark/metrics/distortion.h"
 #include "support/test_paths.h"
 
 namespace meshmark {
@@ -128,12 +134,91 @@ TEST(FacadeTest, make_key_takes_the_payload_from_the_message_hex_or_seed)
     EXPECT_EQ(from_message.payload, payload_from_message("owner", payload_bit_count(options)));
     EXPECT_EQ(from_message.message, std::optional<std::string>("owner"));
     EXPECT_EQ(from_message.options.strength, default_strength(options.rule));
+    EXPECT_EQ(from_message.options.measure, StrengthMeasure::Surface);
+    EXPECT_TRUE(from_message.options.needs_calibration());  // until an embed calibrates it
     const Key from_seed = make_key(options, 5);
     EXPECT_EQ(from_seed.payload, random_payload(5, payload_bit_count(options)));
     EXPECT_EQ(from_seed.seed, 5U);
     const Key from_hex = make_key(options, 5, std::nullopt, std::string(6, 'f'));
     EXPECT_EQ(from_hex.payload, std::vector<std::uint8_t>(24, 1));
     EXPECT_THROW((void)make_key(options, 5, std::nullopt, std::string("xyz")), InvalidOption);
+}
+
+TEST(FacadeTest, the_default_strength_is_the_surface_distance_whatever_the_sampling)
+{
+    // An ellipsoid whose upper half is sampled 4x finer than the lower (its upper triangles
+    // split in four): the same RMS vertex displacement would move the sparse half more.
+    TriangleMesh mesh = lumpy_ellipsoid(3);
+    {
+        std::vector<Eigen::RowVector3d> V;
+        for (Eigen::Index i = 0; i < mesh.V.rows(); ++i)
+        {
+            V.push_back(mesh.V.row(i));
+        }
+        std::map<std::pair<int, int>, int> midpoint;
+        auto middle = [&](int a, int b) {
+            const auto edge = std::minmax(a, b);
+            const auto [at, added] = midpoint.emplace(edge, static_cast<int>(V.size()));
+            if (added)
+            {
+                V.push_back(0.5 * (V[static_cast<std::size_t>(a)] + V[static_cast<std::size_t>(b)]));
+            }
+            return at->second;
+        };
+        std::vector<Eigen::RowVector3i> F;
+        for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
+        {
+            const int a = mesh.F(f, 0), b = mesh.F(f, 1), c = mesh.F(f, 2);
+            if (mesh.V(a, 2) + mesh.V(b, 2) + mesh.V(c, 2) > 0.0)
+            {
+                const int ab = middle(a, b), bc = middle(b, c), ca = middle(c, a);
+                F.insert(F.end(), {{a, ab, ca}, {ab, b, bc}, {ca, bc, c}, {ab, bc, ca}});
+            }
+            else
+            {
+                F.emplace_back(a, b, c);
+            }
+        }
+        // Edges shared with the coarse half are split on one side only: the T-junctions leave
+        // no hole a surface metric would see.
+        mesh.V.resize(static_cast<Eigen::Index>(V.size()), 3);
+        for (std::size_t i = 0; i < V.size(); ++i)
+        {
+            mesh.V.row(static_cast<Eigen::Index>(i)) = V[i];
+        }
+        mesh.F.resize(static_cast<Eigen::Index>(F.size()), 3);
+        for (std::size_t f = 0; f < F.size(); ++f)
+        {
+            mesh.F.row(static_cast<Eigen::Index>(f)) = F[f];
+        }
+    }
+    const double strength = default_strength(EmbeddingRule::Additive);
+    const EmbedResult surface = embed(mesh, seeded(31));
+    EXPECT_EQ(surface.key.options.measure, StrengthMeasure::Surface);
+    EXPECT_NEAR(surface.stats.surface_rms_rel, strength, 1e-12);
+    EXPECT_GT(surface.key.options.vertex_strength, 0.0);
+    TriangleMesh marked = mesh;
+    marked.V = surface.positions;
+    CompareOptions compare;
+    compare.samples = 200000;
+    const DistortionReport measured = compare_meshes(mesh, marked, compare);
+    EXPECT_LE(measured.mrms_rel, strength * 1.003);
+    EXPECT_GE(measured.mrms_rel, strength * 0.95);
+    // Detection rebuilds the modulation from the recorded vertex strength: a perfect read.
+    const DetectReport found = detect(marked, mesh, surface.key);
+    EXPECT_TRUE(found.detected());
+    EXPECT_GT(found.decision.score, 9.0);
+
+    // The vertex measure at the strength the key recorded gives the same positions: the
+    // calibration is one factor on the field, nothing else.
+    EmbedFileOptions vertex = seeded(31);
+    vertex.embed.measure = StrengthMeasure::Vertex;
+    vertex.embed.strength = surface.key.options.vertex_strength;
+    const EmbedResult same = embed(mesh, vertex);
+    EXPECT_LT((same.positions - surface.positions).cwiseAbs().maxCoeff(), 1e-12 * measured.diagonal);
+    // ... and 1e-3 of the vertex measure moves this mesh's surface by another amount.
+    vertex.embed.strength = 1e-3;
+    EXPECT_GT(std::abs(embed(mesh, vertex).stats.surface_rms_rel - strength), 0.05 * strength);
 }
 
 }  // namespace meshmark

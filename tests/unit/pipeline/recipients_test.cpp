@@ -10,6 +10,7 @@
 
 #include "meshmark/core/error.h"
 #include "meshmark/geometry/shapes.h"
+#include "meshmark/metrics/distortion.h"
 #include "meshmark/meshmark.h"
 #include "support/test_paths.h"
 
@@ -57,7 +58,9 @@ DetectReport detect_positions(const fs::path& input, const Positions& positions,
 
 TEST(RecipientsTest, key_file_round_trips_the_recipients_and_refuses_duplicates)
 {
-    Key key = make_key(EmbedOptions{}, 5, std::string("m"));
+    EmbedOptions options;
+    options.vertex_strength = 1e-3;  // as the embed calibrates it
+    Key key = make_key(options, 5, std::string("m"));
     key.recipients = RecipientCodes{48, 0.5, {{"alice", 0}, {"bob", 7}}};
     const Key back = parse_key(to_json(key), "k.json");
     ASSERT_TRUE(back.recipients.has_value());
@@ -66,7 +69,7 @@ TEST(RecipientsTest, key_file_round_trips_the_recipients_and_refuses_duplicates)
     ASSERT_EQ(back.recipients->recipients.size(), 2U);
     EXPECT_EQ(back.recipients->recipients[1].name, "bob");
     EXPECT_EQ(back.recipients->recipients[1].index, 7U);
-    EXPECT_FALSE(parse_key(to_json(make_key(EmbedOptions{}, 5)), "k.json").recipients.has_value());
+    EXPECT_FALSE(parse_key(to_json(make_key(options, 5)), "k.json").recipients.has_value());
 
     key.recipients->recipients.push_back({"alice", 9});
     EXPECT_THROW(static_cast<void>(parse_key(to_json(key), "k.json")), IoError);
@@ -125,6 +128,18 @@ TEST(RecipientsTest, each_copy_accuses_its_recipient_only_and_an_average_accuses
         EXPECT_NEAR(copy.stats.rms_displacement_rel, alone.stats.rms_displacement_rel,
                     0.1 * alone.stats.rms_displacement_rel)
             << copy.name;
+    }
+
+    // A new family is calibrated on the owner's mark: each copy's surface distance is the
+    // strength's, within what the codes' differences leave.
+    EXPECT_EQ(key.options.measure, StrengthMeasure::Surface);
+    EXPECT_GT(key.options.vertex_strength, 0.0);
+    const TriangleMesh original = read_mesh(input);
+    const double diagonal = (original.V.colwise().maxCoeff() - original.V.colwise().minCoeff()).norm();
+    for (const std::string& name : names)
+    {
+        const double surface = surface_rms_displacement(original, read_mesh(dir / (name + ".ply")).V - original.V);
+        EXPECT_NEAR(surface / diagonal, key.options.strength, 0.1 * key.options.strength) << name;
     }
 
     std::vector<Positions> copies;

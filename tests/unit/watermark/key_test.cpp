@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <functional>
@@ -140,6 +141,52 @@ TEST(KeyTest, basis_and_centers_round_trip_and_old_keys_read_as_rbf_random)
                  IoError);
     EXPECT_EQ(parse_basis_type("laplacian"), BasisType::Laplacian);
     EXPECT_THROW((void)parse_center_selection("kmeans"), InvalidOption);
+}
+
+TEST(KeyTest, strength_measure_round_trips_and_old_keys_read_as_the_vertex_measure)
+{
+    Key key = sample_key();
+    key.options.rule = EmbeddingRule::Additive;
+    key.options.strength = 6e-4;
+    key.options.measure = StrengthMeasure::Surface;
+    key.options.vertex_strength = 9.5e-4;
+    const Key back = parse_key(to_json(key), "k.json");
+    EXPECT_EQ(back.options.measure, StrengthMeasure::Surface);
+    EXPECT_DOUBLE_EQ(back.options.vertex_strength, 9.5e-4);
+    EXPECT_DOUBLE_EQ(back.options.modulation_strength(), 9.5e-4);
+    EXPECT_FALSE(back.options.needs_calibration());
+
+    // A key with the surface measure but no calibration cannot rebuild its modulation.
+    key.options.vertex_strength = -1.0;
+    EXPECT_TRUE(key.options.needs_calibration());
+    EXPECT_DOUBLE_EQ(key.options.modulation_strength(), std::sqrt(3.0) * 6e-4);
+    try
+    {
+        (void)parse_key(to_json(key), "uncalibrated.json");
+        FAIL() << "an uncalibrated surface key was read";
+    }
+    catch (const IoError& e)
+    {
+        EXPECT_NE(std::string(e.what()).find("uncalibrated.json"), std::string::npos);
+        EXPECT_NE(std::string(e.what()).find("calibrated"), std::string::npos);
+    }
+
+    // Keys written before the field existed meant the RMS vertex displacement.
+    key.options.vertex_strength = 9.5e-4;
+    const Key old = parse_key(resigned(key, [](nlohmann::json& j) {
+                                  j["embedding"].erase("strength_measure");
+                                  j["embedding"].erase("vertex_strength");
+                              }),
+                              "old.json");
+    EXPECT_EQ(old.options.measure, StrengthMeasure::Vertex);
+    EXPECT_DOUBLE_EQ(old.options.modulation_strength(), 6e-4);
+    EXPECT_THROW((void)parse_key(resigned(key, [](nlohmann::json& j) { j["embedding"]["strength_measure"] = "area"; }),
+                                 "a.json"),
+                 IoError);
+    EXPECT_EQ(parse_strength_measure("vertex"), StrengthMeasure::Vertex);
+    EXPECT_THROW((void)parse_strength_measure("normal"), InvalidOption);
+    EXPECT_DOUBLE_EQ(default_strength(EmbeddingRule::Additive), 5.9e-4);
+    EXPECT_DOUBLE_EQ(default_strength(EmbeddingRule::Additive, StrengthMeasure::Vertex), 1e-3);
 }
 
 TEST(KeyTest, gram_rows_round_trips_old_keys_mean_every_row_and_tiny_samples_are_refused)

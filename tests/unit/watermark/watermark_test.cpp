@@ -183,10 +183,20 @@ TEST(SpectralWatermarkTest, additive_strength_is_the_rms_displacement_in_diagona
 {
     const TriangleMesh mesh = lumpy_ellipsoid(4);
     Key key = make_key(mesh, 7, EmbeddingRule::Additive, 2e-3);
+    key.options.measure = StrengthMeasure::Vertex;
     const SpectralWatermark mark(mesh, key);
     const Positions d = mark.displacement();
     const double rms = std::sqrt(d.rowwise().squaredNorm().mean());
     EXPECT_NEAR(rms / mark.frame().diagonal, 2e-3, 1e-9);
+    // The surface measure: the calibrated vertex strength, or sqrt(3) times the strength
+    // before the embedding calibrates it (the pipeline's job: FacadeTest).
+    key.options.measure = StrengthMeasure::Surface;
+    key.options.vertex_strength = 1.5e-3;
+    const Positions calibrated = SpectralWatermark(mesh, key).displacement();
+    EXPECT_NEAR(std::sqrt(calibrated.rowwise().squaredNorm().mean()) / mark.frame().diagonal, 1.5e-3, 1e-9);
+    key.options.vertex_strength = -1.0;
+    const Positions nominal = SpectralWatermark(mesh, key).displacement();
+    EXPECT_NEAR(std::sqrt(nominal.rowwise().squaredNorm().mean()) / mark.frame().diagonal, std::sqrt(3.0) * 2e-3, 1e-9);
 }
 
 TEST(SpectralWatermarkTest, zero_strength_reproduces_the_input)
