@@ -16,7 +16,7 @@ namespace py = pybind11;
 struct EmbedKeywords
 {
     py::object message, bits, seed, strength;
-    std::string rule, basis, centers;
+    std::string rule, strength_measure, basis, centers;
     int basis_size, coefficients, repetitions, first_mode;
     double sigma_factor;
     std::int64_t gram_rows;

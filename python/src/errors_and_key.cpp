@@ -69,7 +69,13 @@ void bind_key(py::module_& m)
                                "The payload as a string of '0' and '1' (3m bits).")
         .def_property_readonly("rule", [](const Key& k) { return std::string(to_string(k.options.rule)); })
         .def_property_readonly("strength", [](const Key& k) { return k.options.strength; },
-                               "The strength used (the rule's default resolved).")
+                               "The strength used (the rule's default resolved), in strength_measure.")
+        .def_property_readonly("strength_measure",
+                               [](const Key& k) { return std::string(to_string(k.options.measure)); },
+                               "'surface' (RMS surface distance) or 'vertex' (RMS vertex displacement).")
+        .def_property_readonly("vertex_strength", [](const Key& k) { return k.options.modulation_strength(); },
+                               "The RMS vertex displacement / principal diagonal the mark was built with "
+                               "(the surface measure's calibration on the original).")
         .def_property_readonly("basis", [](const Key& k) { return std::string(to_string(k.options.basis)); })
         .def_property_readonly("centers", [](const Key& k) { return std::string(to_string(k.options.centers)); })
         .def_property_readonly("basis_size", [](const Key& k) { return k.options.basis_size; })

@@ -74,7 +74,10 @@ The keywords are the options of `meshmark embed` (docs/cli.md):
   message      payload from a text (hashed to the 3m payload bits); or
   bits         payload as exactly ceil(3m/4) hex digits; neither: random from the seed
   seed         secret seed (int in [0, 2^64)); drawn from the OS when None
-  strength     additive rule: RMS displacement / bbox diagonal (default 0.001); paper: rho
+  strength     additive rule: the displacement / bbox diagonal in strength_measure (default
+               0.00059 surface, 0.001 vertex); paper: rho
+  strength_measure  'surface' (RMS distance between the marked and original surface) or
+               'vertex' (RMS vertex displacement)
   rule         'additive' or 'paper'
   basis        'rbf' or 'laplacian';  centers: 'random' or 'decimate'
   basis_size (k), coefficients (m), repetitions (r), first_mode, sigma_factor, gram_rows
@@ -105,6 +108,7 @@ Returns a DetectResult (.detected, .score, .false_positive_probability, ..., .to
 void fill_embed_options(const EmbedKeywords& k, EmbedMeshOptions& options)
 {
     options.embed.rule = parse_embedding_rule(k.rule);
+    options.embed.measure = parse_strength_measure(k.strength_measure);
     options.embed.basis = parse_basis_type(k.basis);
     options.embed.centers = parse_center_selection(k.centers);
     options.embed.basis_size = k.basis_size;
@@ -157,11 +161,11 @@ void bind_memory(py::module_& m)
     m.def(
         "embed",
         [](py::handle V, py::handle F, py::object message, py::object bits, py::object seed, py::object strength,
-           std::string rule, std::string basis, std::string centers, int basis_size, int coefficients,
+           std::string rule, std::string strength_measure, std::string basis, std::string centers, int basis_size, int coefficients,
            int repetitions, int first_mode, double sigma_factor, std::int64_t gram_rows, int threads,
            bool report) -> py::object {
             EmbedMeshOptions options;
-            fill_embed_options({message, bits, seed, strength, rule, basis, centers, basis_size, coefficients,
+            fill_embed_options({message, bits, seed, strength, rule, strength_measure, basis, centers, basis_size, coefficients,
                                 repetitions, first_mode, sigma_factor, gram_rows, threads},
                                options);
             TriangleMesh mesh = mesh_from_arrays(V, F, "");
@@ -183,7 +187,7 @@ void bind_memory(py::module_& m)
         },
         py::arg("V"), py::arg("F") = py::none(), py::kw_only(), py::arg("message") = py::none(),
         py::arg("bits") = py::none(), py::arg("seed") = py::none(), py::arg("strength") = py::none(),
-        py::arg("rule") = "additive", py::arg("basis") = "rbf", py::arg("centers") = "random",
+        py::arg("rule") = "additive", py::arg("strength_measure") = "surface", py::arg("basis") = "rbf", py::arg("centers") = "random",
         py::arg("basis_size") = EmbedOptions{}.basis_size, py::arg("coefficients") = EmbedOptions{}.coefficients,
         py::arg("repetitions") = EmbedOptions{}.repetitions, py::arg("first_mode") = EmbedOptions{}.first_mode,
         py::arg("sigma_factor") = EmbedOptions{}.sigma_factor, py::arg("gram_rows") = EmbedOptions{}.gram_rows,

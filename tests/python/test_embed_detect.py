@@ -64,6 +64,14 @@ def test_report_and_options(torus):
     assert "total" in report["seconds"]
     paper_key, _ = meshmark.embed(V, F, seed=3, rule="paper")
     assert paper_key.rule == "paper" and paper_key.strength == pytest.approx(0.01)
+    # The strength is the surface distance by default; the vertex measure on request.
+    assert key.strength_measure == "surface" and report["strength_measure"] == "surface"
+    assert report["surface_rms_displacement"] == pytest.approx(0.002, rel=1e-9)
+    vertex_key, _, vertex = meshmark.embed(V, F, seed=3, strength=0.002, strength_measure="vertex", report=True)
+    assert vertex_key.strength_measure == "vertex" and vertex_key.vertex_strength == pytest.approx(0.002)
+    assert vertex["surface_rms_displacement"] != pytest.approx(0.002, rel=1e-3)
+    with pytest.raises(meshmark.InvalidOption, match="strength measure"):
+        meshmark.embed(V, F, seed=3, strength_measure="area")
 
 
 def test_key_json_round_trip_and_file(torus, tmp_path):
