@@ -190,17 +190,29 @@ int run_bench_robustness(const RobustnessArgs& args, const GlobalArgs& global)
             // recipients' copies).
             if (args.recipients > 0)
             {
-                const Eigen::MatrixX3d owner = mark.coefficient_change();
-                Eigen::MatrixX3d change = Eigen::MatrixX3d::Zero(owner.rows() + mark.recipient_modes(), 3);
-                change.topRows(owner.rows()) = owner;
-                // The average of the colluders' copies: the owner's mark and the mean of their codes.
-                Eigen::MatrixX3d codes = Eigen::MatrixX3d::Zero(mark.recipient_modes(), 3);
+                // The average of the colluders' copies: the owner's mark and the mean of their
+                // codes, each scaled as embed scales it so that its copy has the strength's
+                // surface distance (the surface measure).
+                const Key& key = mark.key();
+                std::optional<SurfaceRmsOfSums> copy_surface;
+                double target = 0.0;
+                if (key.options.rule == EmbeddingRule::Additive && key.options.measure == StrengthMeasure::Surface)
+                {
+                    copy_surface.emplace(original, field);
+                    const Positions active = original.V(mark.mesh_rows()->active(), Eigen::all);
+                    target = key.options.resolved_strength() *
+                             (active.colwise().maxCoeff() - active.colwise().minCoeff()).norm();
+                }
+                const int first_code = static_cast<int>(mark.coefficient_change().rows());
+                Positions codes = Positions::Zero(original.V.rows(), 3);
                 for (int c = 0; c < args.colluders; ++c)
                 {
-                    codes += mark.recipient_change(static_cast<std::uint32_t>(c));
+                    Eigen::MatrixX3d change = Eigen::MatrixX3d::Zero(first_code + mark.recipient_modes(), 3);
+                    change.bottomRows(mark.recipient_modes()) = mark.recipient_change(static_cast<std::uint32_t>(c));
+                    const Positions code = mark.basis().synthesize(change);
+                    codes += (copy_surface ? copy_surface->terms(code).scale_to(target) : 1.0) * code;
                 }
-                change.bottomRows(mark.recipient_modes()) = codes / static_cast<double>(args.colluders);
-                field = mark.basis().synthesize(change);
+                field += codes / static_cast<double>(args.colluders);
             }
             const TriangleMesh marked{original.V + field, original.F};
             embedding.embed_seconds += seconds_since(embed_start);

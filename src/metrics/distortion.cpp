@@ -225,13 +225,30 @@ Displacement vertex_displacement(const TriangleMesh& a, const TriangleMesh& b)
     return result;
 }
 
-double surface_rms_displacement(const TriangleMesh& mesh, const Positions& field)
+namespace {
+
+// Mean over a triangle of the product of two linear functions with corner values a and b.
+double mean_product(const double* a, const double* b)
+{
+    return (a[0] * b[0] + a[1] * b[1] + a[2] * b[2] +
+            0.5 * (a[0] * b[1] + a[1] * b[0] + a[1] * b[2] + a[2] * b[1] + a[2] * b[0] + a[0] * b[2])) /
+           6.0;
+}
+
+void check_field(const TriangleMesh& mesh, const Positions& field)
 {
     if (field.rows() != mesh.V.rows())
     {
         throw InvalidMesh("surface_rms_displacement: the field has " + std::to_string(field.rows()) +
                           " rows for " + std::to_string(mesh.V.rows()) + " vertices.");
     }
+}
+
+}  // namespace
+
+double surface_rms_displacement(const TriangleMesh& mesh, const Positions& field)
+{
+    check_field(mesh, field);
     if (mesh.is_point_cloud())
     {
         return mesh.V.rows() > 0 ? std::sqrt(field.squaredNorm() / (3.0 * static_cast<double>(mesh.V.rows()))) : 0.0;
@@ -250,13 +267,102 @@ double surface_rms_displacement(const TriangleMesh& mesh, const Positions& field
             continue;
         }
         const Eigen::Vector3d n = cross / twice_area;
-        const double a0 = n.dot(field.row(mesh.F(f, 0)).transpose());
-        const double a1 = n.dot(field.row(mesh.F(f, 1)).transpose());
-        const double a2 = n.dot(field.row(mesh.F(f, 2)).transpose());
-        weighted += twice_area * (a0 * a0 + a1 * a1 + a2 * a2 + a0 * a1 + a1 * a2 + a2 * a0) / 6.0;
+        double a[3];
+        for (int c = 0; c < 3; ++c)
+        {
+            a[c] = n.dot(field.row(mesh.F(f, c)).transpose());
+        }
+        weighted += twice_area * mean_product(a, a);
         area += twice_area;
     }
     return area > 0.0 ? std::sqrt(weighted / area) : 0.0;
+}
+
+SurfaceRmsOfSums::SurfaceRmsOfSums(const TriangleMesh& mesh, const Positions& base) : mesh_(&mesh)
+{
+    check_field(mesh, base);
+    if (mesh.is_point_cloud())
+    {
+        bb_ = mesh.V.rows() > 0 ? base.squaredNorm() / (3.0 * static_cast<double>(mesh.V.rows())) : 0.0;
+        base_part_ = base;
+        return;
+    }
+    const Eigen::Index faces = mesh.F.rows();
+    normal_.setZero(faces, 3);
+    weight_.setZero(faces);
+    base_part_.resize(faces, 3);
+    double area = 0.0;
+    for (Eigen::Index f = 0; f < faces; ++f)
+    {
+        const Eigen::Vector3d p0 = mesh.V.row(mesh.F(f, 0)).transpose();
+        const Eigen::Vector3d e1 = mesh.V.row(mesh.F(f, 1)).transpose() - p0;
+        const Eigen::Vector3d e2 = mesh.V.row(mesh.F(f, 2)).transpose() - p0;
+        const Eigen::Vector3d cross = e1.cross(e2);
+        const double twice_area = cross.norm();
+        if (twice_area > 0.0)
+        {
+            normal_.row(f) = (cross / twice_area).transpose();
+            weight_[f] = twice_area;
+            area += twice_area;
+        }
+    }
+    if (area > 0.0)
+    {
+        weight_ /= area;
+    }
+    for (Eigen::Index f = 0; f < faces; ++f)
+    {
+        double a[3];
+        for (int c = 0; c < 3; ++c)
+        {
+            a[c] = base_part_(f, c) = normal_.row(f).dot(base.row(mesh.F(f, c)));
+        }
+        bb_ += weight_[f] * mean_product(a, a);
+    }
+}
+
+SurfaceRmsOfSums::Terms SurfaceRmsOfSums::terms(const Positions& field) const
+{
+    check_field(*mesh_, field);
+    Terms t;
+    t.bb = bb_;
+    if (mesh_->is_point_cloud())
+    {
+        const double n = 3.0 * static_cast<double>(std::max<Eigen::Index>(1, mesh_->V.rows()));
+        t.bf = base_part_.cwiseProduct(field).sum() / n;
+        t.ff = field.squaredNorm() / n;
+        return t;
+    }
+    for (Eigen::Index f = 0; f < mesh_->F.rows(); ++f)
+    {
+        double a[3];
+        double b[3];
+        for (int c = 0; c < 3; ++c)
+        {
+            a[c] = base_part_(f, c);
+            b[c] = normal_.row(f).dot(field.row(mesh_->F(f, c)));
+        }
+        t.bf += weight_[f] * mean_product(a, b);
+        t.ff += weight_[f] * mean_product(b, b);
+    }
+    return t;
+}
+
+double SurfaceRmsOfSums::Terms::rms(double c) const noexcept
+{
+    return std::sqrt(std::max(0.0, bb + 2.0 * c * bf + c * c * ff));
+}
+
+double SurfaceRmsOfSums::Terms::scale_to(double target) const noexcept
+{
+    // bb + 2 c bf + c^2 ff = target^2: the larger root.
+    const double rest = target * target - bb;
+    if (!(ff > 0.0) || !(rest > 0.0))
+    {
+        return 1.0;
+    }
+    const double c = (-bf + std::sqrt(bf * bf + ff * rest)) / ff;
+    return c > 0.0 ? c : 1.0;
 }
 
 DistortionReport compare_meshes(const TriangleMesh& a, const TriangleMesh& b, const CompareOptions& options)

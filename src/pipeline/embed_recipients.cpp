@@ -8,6 +8,7 @@
 #include <exception>
 #include <future>
 #include <mutex>
+#include <optional>
 #include <limits>
 #include <set>
 #include <string>
@@ -16,6 +17,7 @@
 #include "meshmark/core/atomic_file.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/threads.h"
+#include "meshmark/metrics/distortion.h"
 #include "embed_streamed.h"
 #include "timer.h"
 
@@ -179,6 +181,16 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
         owner = mark.displacement(&owner_stats);
     }
     mark.calibrate_strength(file.mesh, owner, &owner_stats);  // measures only
+    // With the surface measure each copy's code is scaled so that the copy (owner's mark plus
+    // code) is displaced by exactly the strength: the codes differ, and so, unscaled, would the
+    // copies' surface distances (by up to 7% on the shared meshes). Only the code is scaled, so
+    // the owner's mark stays the one detection rebuilds from the key; a code's statistics do not
+    // depend on its scale (docs/fingerprinting.md, "Distortion of a copy").
+    std::optional<SurfaceRmsOfSums> copy_surface;
+    if (key.options.rule == EmbeddingRule::Additive && key.options.measure == StrengthMeasure::Surface)
+    {
+        copy_surface.emplace(file.mesh, owner);
+    }
     owner += file.mesh.V;  // the positions every copy shares
     // The recipient modes, explicitly: one product per copy instead of a pass over the basis.
     const int head = key.options.first_mode + modulated_modes(key.options);
@@ -188,6 +200,7 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
         mark.basis().modes_dense(head + modes).rightCols(modes);
     const std::vector<std::int32_t>& active = mark.mesh_rows()->active();
     const double diagonal = detail::analysed_diagonal(file.mesh.V, active);
+    const double copy_target = key.options.resolved_strength() * diagonal;
     timer.lap("basis");
 
     std::vector<std::filesystem::path> created;
@@ -227,7 +240,7 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
         positions.resize(count);
         for (Positions& p : positions)
         {
-            p = owner;  // no new allocation after the first batch
+            p.setZero(owner.rows(), 3);  // the code's field first; no new allocation after the first batch
         }
 #pragma omp parallel for num_threads(threads) schedule(static)
         for (std::int64_t a = 0; a < rows; ++a)
@@ -247,9 +260,25 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
             {
                 for (int axis = 0; axis < 3; ++axis)
                 {
-                    positions[b](i, axis) += d[3 * b + static_cast<std::size_t>(axis)];
+                    positions[b](i, axis) = d[3 * b + static_cast<std::size_t>(axis)];
                 }
             }
+        }
+        // Each copy: its code's scale (1 for the vertex measure, where owner + 1 * code is
+        // owner + code to the bit), then the positions.
+        std::array<double, kBatch> surface{};
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
+        for (std::int64_t b = 0; b < static_cast<std::int64_t>(count); ++b)
+        {
+            Positions& copy = positions[static_cast<std::size_t>(b)];
+            double scale = 1.0;
+            if (copy_surface)
+            {
+                const SurfaceRmsOfSums::Terms terms = copy_surface->terms(copy);
+                scale = terms.scale_to(copy_target);
+                surface[static_cast<std::size_t>(b)] = terms.rms(scale);
+            }
+            copy = owner + scale * copy;
         }
         for (std::size_t b = 0; b < count; ++b)
         {
@@ -260,6 +289,7 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
                 summary.add(d.data());
             }
             mark.describe(summary, diagonal, owner_stats.orthogonality_error, &report.copies[first + b].stats);
+            report.copies[first + b].stats.surface_rms_rel = diagonal > 0.0 ? surface[b] / diagonal : 0.0;
         }
         code_seconds += seconds_since(code_start);
     };

@@ -67,6 +67,7 @@ nlohmann::json embed_recipients_report_json(const EmbedRecipientsReport& report,
                           {"output", copy.path.string()},
                           {"new", copy.is_new},
                           {"rms_displacement", copy.stats.rms_displacement_rel},
+                          {"surface_rms_displacement", copy.stats.surface_rms_rel},
                           {"max_displacement", copy.stats.max_displacement_rel}});
     }
     nlohmann::json out = embed_stats_json(report.key, report.copies.front().stats);

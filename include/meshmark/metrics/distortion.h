@@ -140,4 +140,37 @@ struct DistortionReport
 /// \return In the mesh's units; 0 for a mesh whose triangles have no area.
 [[nodiscard]] double surface_rms_displacement(const TriangleMesh& mesh, const Positions& field);
 
+/// \brief surface_rms_displacement of many fields `base + c * field` that share `base` (a
+/// family's copies: the owner's mark plus each recipient's code): the faces' unit normals and
+/// weights and the base's normal components are computed once, each field then costs one pass
+/// over the faces (3 dot products per face), summed in face order.
+class SurfaceRmsOfSums
+{
+public:
+    /// \param mesh  Must outlive this object. \param base  #V x 3.
+    SurfaceRmsOfSums(const TriangleMesh& mesh, const Positions& base);
+
+    /// Area-weighted first-order mean products of the normal parts:
+    /// surface_rms_displacement(mesh, base + c field)^2 = bb + 2 c bf + c^2 ff.
+    struct Terms
+    {
+        double bb = 0.0;
+        double bf = 0.0;
+        double ff = 0.0;
+        /// surface_rms_displacement of base + c field.
+        [[nodiscard]] double rms(double c) const noexcept;
+        /// \brief The c > 0 for which rms(c) = \p target; 1 when there is none (a field with
+        /// no normal part, or a base already beyond the target).
+        [[nodiscard]] double scale_to(double target) const noexcept;
+    };
+    [[nodiscard]] Terms terms(const Positions& field) const;
+
+private:
+    const TriangleMesh* mesh_;
+    Positions normal_;        // #F x 3 unit normals (zero for a triangle with no area)
+    Eigen::VectorXd weight_;  // #F: area / total area
+    Positions base_part_;     // #F x 3: n_f . base at the face's corners
+    double bb_ = 0.0;
+};
+
 }  // namespace meshmark

@@ -325,4 +325,36 @@ TEST(SurfaceRmsDisplacementTest, a_point_cloud_gets_an_isotropic_fields_normal_p
     EXPECT_THROW((void)surface_rms_displacement(cloud, Positions::Zero(49, 3)), InvalidMesh);
 }
 
+TEST(SurfaceRmsOfSumsTest, gives_the_surface_rms_of_every_sum_and_the_scale_that_hits_a_target)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(3);
+    Positions base(mesh.V.rows(), 3);
+    Positions field(mesh.V.rows(), 3);
+    for (Eigen::Index i = 0; i < mesh.V.rows(); ++i)
+    {
+        base.row(i) << std::sin(2.0 * mesh.V(i, 1)), 0.3, std::cos(mesh.V(i, 0));
+        field.row(i) << std::cos(3.0 * mesh.V(i, 2)), std::sin(mesh.V(i, 0) + mesh.V(i, 1)), -0.2;
+    }
+    base *= 1e-3;
+    field *= 2e-3;
+    const SurfaceRmsOfSums sums(mesh, base);
+    const SurfaceRmsOfSums::Terms terms = sums.terms(field);
+    for (const double c : {0.0, 0.5, 1.0, 1.7})
+    {
+        EXPECT_NEAR(terms.rms(c), surface_rms_displacement(mesh, base + c * field), 1e-12 * terms.rms(1.0)) << c;
+    }
+    const double target = 1.2 * terms.rms(1.0);
+    const double c = terms.scale_to(target);
+    EXPECT_GT(c, 1.0);
+    EXPECT_NEAR(surface_rms_displacement(mesh, base + c * field), target, 1e-12 * target);
+    // No solution: a base already beyond the target, or a field without a normal part.
+    EXPECT_EQ(terms.scale_to(0.5 * terms.bb > 0.0 ? std::sqrt(terms.bb) * 0.5 : 0.0), 1.0);
+    EXPECT_EQ(sums.terms(Positions::Zero(mesh.V.rows(), 3)).scale_to(target), 1.0);
+
+    TriangleMesh cloud;
+    cloud.V = mesh.V;
+    const SurfaceRmsOfSums::Terms points = SurfaceRmsOfSums(cloud, base).terms(field);
+    EXPECT_NEAR(points.rms(0.8), surface_rms_displacement(cloud, base + 0.8 * field), 1e-15);
+}
+
 }  // namespace meshmark
