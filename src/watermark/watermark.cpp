@@ -252,7 +252,7 @@ double SpectralWatermark::calibrate_strength(const TriangleMesh& original, Posit
         hi = hi.cwiseMax(original.V.row(i));
     }
     const double diagonal = (hi - lo).norm();
-    double surface = surface_rms_displacement(original, field);
+    double surface = surface_rms_displacement(original, field, threads_);
     double factor = 1.0;
     if (key_.options.needs_calibration())
     {

@@ -130,15 +130,16 @@ struct DistortionReport
 /// (the tangential part slides along it). Over a triangle with unit normal n that component is
 /// the linear interpolation of a_c = n . d_c at its corners, whose mean square over the
 /// triangle is (a_0^2 + a_1^2 + a_2^2 + a_0 a_1 + a_1 a_2 + a_2 a_0) / 6; the result is the
-/// square root of the area-weighted mean of that over the triangles, summed in face order
-/// (deterministic). Second-order terms (curvature, the tilt of the faces) only lower the
-/// sampled distance, so this reads at or slightly above the MRMS of compare_meshes
-/// (docs/algorithms/embedding.md, "Strength"). A point cloud, which has no normals, gets the
+/// square root of the area-weighted mean of that over the triangles, summed in face order in
+/// fixed blocks (the same result on any thread count). Second-order terms (the curvature, the
+/// tilt of the faces) lower the sampled distance: the MRMS of compare_meshes reads up to 1%
+/// below this, or on it within its sampling noise (docs/algorithms/embedding.md, "Strength"). A point cloud, which has no normals, gets the
 /// expected normal part of an isotropic field: sqrt(mean |d|^2 / 3) over its points.
 /// \param mesh   The surface (its faces and positions).
 /// \param field  #V x 3 displacement.
+/// \param threads  0 = all cores (the result does not depend on it).
 /// \return In the mesh's units; 0 for a mesh whose triangles have no area.
-[[nodiscard]] double surface_rms_displacement(const TriangleMesh& mesh, const Positions& field);
+[[nodiscard]] double surface_rms_displacement(const TriangleMesh& mesh, const Positions& field, int threads = 0);
 
 /// \brief surface_rms_displacement of many fields `base + c * field` that share `base` (a
 /// family's copies: the owner's mark plus each recipient's code): the faces' unit normals and

@@ -316,6 +316,16 @@ TEST(SurfaceRmsDisplacementTest, reads_at_or_just_above_the_sampled_mrms)
     EXPECT_LT(first_order, 0.8 * sampled.rms_displacement_rel);
 }
 
+TEST(SurfaceRmsDisplacementTest, does_not_depend_on_the_thread_count)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(7);  // 327,680 faces: 5 blocks
+    const Positions field = 1e-3 * Positions::Random(mesh.V.rows(), 3);
+    const double one = surface_rms_displacement(mesh, field, 1);
+    EXPECT_GT(one, 0.0);
+    EXPECT_EQ(surface_rms_displacement(mesh, field, 2), one);
+    EXPECT_EQ(surface_rms_displacement(mesh, field, 3), one);
+}
+
 TEST(SurfaceRmsDisplacementTest, a_point_cloud_gets_an_isotropic_fields_normal_part)
 {
     TriangleMesh cloud;
