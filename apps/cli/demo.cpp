@@ -72,8 +72,9 @@ int run_demo(const DemoArgs& args, const GlobalArgs& global)
     const EmbedReport embedded = embed_file(original, marked, key, embed_options);
     say(global, "2. embedded '" + *embed_options.message + "' (" +
                     std::to_string(embedded.key.payload.size()) + " bits) into " + marked.string() +
-                    ": RMS displacement " + format_number(100.0 * embedded.stats.rms_displacement_rel) +
-                    "% of the bbox diagonal, " + format_number(embedded.seconds.total) + " s; key in " +
+                    ": surface distance RMS " + format_number(100.0 * embedded.stats.surface_rms_rel) +
+                    "% (vertex displacement RMS " + format_number(100.0 * embedded.stats.rms_displacement_rel) +
+                    "%) of the bbox diagonal, " + format_number(embedded.seconds.total) + " s; key in " +
                     key.string());
 
     // A picture of the mark: each vertex's displacement, blue (none) to red (the largest).

@@ -20,7 +20,7 @@ namespace {
 // - gltf-transform quantize (and meshopt / optimize, which quantize first): 14 bits over the
 //   mesh's bounds mapped to [-1, 1] in normalized SHORTs; the tool's grid is (L / 2) / 16383, the
 //   SHORT storage (L / 2) / 32767. We allow one 14-bit step over the extent, L / (2^14 - 1):
-//   twice the tool's grid, still 60x below the watermark's 1e-3 D RMS displacement.
+//   twice the tool's grid, and at least 9x below the watermark's RMS surface distance (5.9e-4 D).
 // - gltf-transform draco: Draco's 14-bit position quantization over the primitive's largest
 //   extent, step L / (2^14 - 1). quantize then draco: Draco stores the normalized SHORTs
 //   losslessly, so the grid is quantize's (14 bits).

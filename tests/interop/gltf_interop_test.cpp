@@ -44,7 +44,7 @@ std::vector<std::string> gltf_transform_optimize(const fs::path& in, const fs::p
 }
 
 // MRMS (relative to the diagonal) beyond which a re-processing tool has damaged the unmarked
-// asset itself: 5 times the watermark's own RMS displacement.
+// asset itself: about 5 times the watermark's own RMS displacement (0.06-0.12% of the diagonal).
 constexpr double kToolDamage = 5e-3;
 
 class GltfInterop : public ::testing::TestWithParam<GltfCase>
