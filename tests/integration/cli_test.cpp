@@ -579,6 +579,12 @@ TEST_F(CliTest, bench_robustness_reports_every_trial)
     }
     EXPECT_EQ(marked, 6);
     EXPECT_NE(slurp(markdown).find("| `reorder` | 2 | 2/2 |"), std::string::npos) << slurp(markdown);
+    EXPECT_NE(slurp(markdown).find("strength default (surface)"), std::string::npos) << slurp(markdown);
+    EXPECT_EQ(nlohmann::json::parse(slurp(json_file))["settings"]["strength_measure"], "surface");
+    // The embedding is calibrated as embed calibrates it: the surface distance is the strength.
+    const auto embeddings = nlohmann::json::parse(slurp(json_file))["embeddings"];
+    ASSERT_EQ(embeddings.size(), 1u);
+    EXPECT_NEAR(embeddings[0]["mrms"].get<double>(), 5.9e-4, 0.03 * 5.9e-4);
     // The per-mesh table: 6 marked copies of one mesh, all found.
     EXPECT_NE(slurp(markdown).find("| " + original_.filename().string() + " | 6 | 6/6 |"), std::string::npos)
         << slurp(markdown);
