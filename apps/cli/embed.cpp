@@ -187,10 +187,10 @@ int run_embed(const EmbedArgs& args, const GlobalArgs& global)
         if (stats.weak_bits > 0)
         {
             std::fprintf(stderr,
-                         "meshmark: warning: %d of the %zu bits sit on coefficients below a tenth of "
-                         "the largest; under the paper's rule they are the first to fail (the "
-                         "additive rule has no such bits).\n",
-                         stats.weak_bits, report.key.payload.size());
+                         "meshmark: warning: %d of the %d modulated coefficients are below a tenth of "
+                         "the largest; under the paper's rule the bits they carry are the first to "
+                         "fail (the additive rule has no such coefficients).\n",
+                         stats.weak_bits, 3 * modulated_modes(report.key.options));
         }
     }
     return 0;

@@ -38,7 +38,7 @@ nlohmann::json matrix_json(const Eigen::Matrix4d& matrix)
 
 nlohmann::json embed_stats_json(const Key& key, const EmbedStats& stats)
 {
-    return {{"analysed_vertices", stats.analysed_vertices},
+    nlohmann::json out = {{"analysed_vertices", stats.analysed_vertices},
             {"rule", to_string(key.options.rule)},
             {"strength", key.options.strength},
             {"strength_measure", to_string(key.options.measure)},
@@ -54,6 +54,11 @@ nlohmann::json embed_stats_json(const Key& key, const EmbedStats& stats)
             {"surface_rms_displacement", stats.surface_rms_rel},
             {"orthogonality_error", stats.orthogonality_error},
             {"weak_bits", stats.weak_bits}};
+    if (key.options.rule != EmbeddingRule::Additive)
+    {
+        out.erase("strength_measure");  // rho is not a distance
+    }
+    return out;
 }
 
 nlohmann::json embed_recipients_report_json(const EmbedRecipientsReport& report, const std::string& input,

@@ -90,14 +90,18 @@ Json content_json(const Key& key)
                       {"repetitions", key.options.repetitions},
                       {"first_mode", key.options.first_mode},
                       {"strength", key.options.resolved_strength()},
-                      {"strength_measure", to_string(key.options.measure)},
                       {"sigma_factor", key.options.sigma_factor},
                       {"centers", to_string(key.options.centers)},
                       {"basis", to_string(key.options.basis)},
                       {"gram_rows", key.options.gram_rows}};
-    if (key.options.rule == EmbeddingRule::Additive && key.options.measure == StrengthMeasure::Surface)
+    if (key.options.rule == EmbeddingRule::Additive)
     {
-        j["embedding"]["vertex_strength"] = key.options.vertex_strength;
+        // The paper's rho is not a distance: its keys have no measure.
+        j["embedding"]["strength_measure"] = to_string(key.options.measure);
+        if (key.options.measure == StrengthMeasure::Surface)
+        {
+            j["embedding"]["vertex_strength"] = key.options.vertex_strength;
+        }
     }
     j["payload"] = {{"bits", to_bit_string(key.payload)}};
     if (key.message)
