@@ -68,6 +68,7 @@ check(0 < moved.max() < 0.02 * diagonal, f"displacement {moved.max()} of a diago
 check(tuple(obj.scale) == (2.0, 2.0, 2.0), "the object's transform changed")
 report = json.loads(bpy.context.scene["meshmark_report"])
 check(report["rms_displacement"] > 0, "no distortion reported")
+check(abs(report["surface_rms_displacement"] - 5.9e-4) < 1e-9, "the default strength is not the surface distance")
 key = meshmark.Key.load(key_path)
 check(key.seed == 42 and key.message == "blender", "key content")
 

@@ -103,8 +103,9 @@ class MESHMARK_OT_embed(bpy.types.Operator):
             return {"CANCELLED"}
         set_world_positions(obj, marked)
         context.scene["meshmark_report"] = json.dumps(report)
-        self.report({"INFO"}, f"meshmark: embedded {len(key.payload)} bits into {obj.name}; displacement RMS "
-                    f"{100 * report['rms_displacement']:.3g}%, max {100 * report['max_displacement']:.3g}% of the "
+        self.report({"INFO"}, f"meshmark: embedded {len(key.payload)} bits into {obj.name}; surface distance RMS "
+                    f"{100 * report['surface_rms_displacement']:.3g}% (vertex displacement RMS "
+                    f"{100 * report['rms_displacement']:.3g}%, max {100 * report['max_displacement']:.3g}%) of the "
                     f"bounding-box diagonal; key {key_path}, original {original_path}")
         return {"FINISHED"}
 
