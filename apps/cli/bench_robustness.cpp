@@ -21,6 +21,7 @@
 #include "meshmark/core/error.h"
 #include "meshmark/core/rng.h"
 #include "meshmark/io/mesh_io.h"
+#include "meshmark/core/bounding_box.h"
 #include "meshmark/metrics/distortion.h"
 #include "bench_mesh.h"
 #include "meshmark/pipeline/detect_file.h"
@@ -199,9 +200,8 @@ int run_bench_robustness(const RobustnessArgs& args, const GlobalArgs& global)
                 if (key.options.rule == EmbeddingRule::Additive && key.options.measure == StrengthMeasure::Surface)
                 {
                     copy_surface.emplace(original, field);
-                    const Positions active = original.V(mark.mesh_rows()->active(), Eigen::all);
                     target = key.options.resolved_strength() *
-                             (active.colwise().maxCoeff() - active.colwise().minCoeff()).norm();
+                             bounding_box(original.V, mark.mesh_rows()->active()).diagonal();
                 }
                 const int first_code = static_cast<int>(mark.coefficient_change().rows());
                 Positions codes = Positions::Zero(original.V.rows(), 3);

@@ -3,8 +3,6 @@
 
 #include <unistd.h>
 
-#include <cmath>
-#include <limits>
 #include <random>
 #include <thread>
 
@@ -115,18 +113,6 @@ void write_mesh_and_key(const std::filesystem::path& key_path, const Key& key,
 }
 
 }  // namespace detail
-
-double detail::analysed_diagonal(const Positions& V, const std::vector<std::int32_t>& active)
-{
-    Eigen::RowVector3d lo = Eigen::RowVector3d::Constant(std::numeric_limits<double>::infinity());
-    Eigen::RowVector3d hi = -lo;
-    for (const std::int32_t i : active)
-    {
-        lo = lo.cwiseMin(V.row(i));
-        hi = hi.cwiseMax(V.row(i));
-    }
-    return (hi - lo).norm();
-}
 
 Key detail::new_key(const EmbedMeshOptions& options)
 {

@@ -15,6 +15,7 @@
 #include <unordered_map>
 
 #include "meshmark/core/atomic_file.h"
+#include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/threads.h"
 #include "meshmark/metrics/distortion.h"
@@ -199,7 +200,7 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
     const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> code_modes =
         mark.basis().modes_dense(head + modes).rightCols(modes);
     const std::vector<std::int32_t>& active = mark.mesh_rows()->active();
-    const double diagonal = detail::analysed_diagonal(file.mesh.V, active);
+    const double diagonal = bounding_box(file.mesh.V, active).diagonal();  // EmbedStats' unit
     const double copy_target = key.options.resolved_strength() * diagonal;
     timer.lap("basis");
 

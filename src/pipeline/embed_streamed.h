@@ -17,9 +17,6 @@ namespace meshmark::detail {
 /// The key of a new embed: make_key with the options' seed, or one drawn from the OS.
 [[nodiscard]] Key new_key(const EmbedMeshOptions& options);
 
-/// Axis-aligned bounding-box diagonal of the analysed rows (EmbedStats' unit).
-[[nodiscard]] double analysed_diagonal(const Positions& V, const std::vector<std::int32_t>& active);
-
 /// \brief Stage \p key next to \p key_path, run \p write_mesh (which writes the mesh
 /// atomically), then move the key into place: both files or neither (see embed_file).
 void write_mesh_and_key(const std::filesystem::path& key_path, const Key& key,

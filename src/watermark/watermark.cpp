@@ -11,6 +11,7 @@
 #include "meshmark/basis/decimated_centers.h"
 #include "meshmark/basis/laplacian_basis.h"
 #include "meshmark/basis/rbf_basis.h"
+#include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/rng.h"
 #include "meshmark/metrics/distortion.h"
@@ -244,14 +245,7 @@ double SpectralWatermark::calibrate_strength(const TriangleMesh& original, Posit
     {
         throw InvalidOption("the surface strength measure needs the mesh in memory (its faces).");
     }
-    Eigen::RowVector3d lo = Eigen::RowVector3d::Constant(std::numeric_limits<double>::infinity());
-    Eigen::RowVector3d hi = -lo;
-    for (const std::int32_t i : mesh_rows_->active())
-    {
-        lo = lo.cwiseMin(original.V.row(i));
-        hi = hi.cwiseMax(original.V.row(i));
-    }
-    const double diagonal = (hi - lo).norm();
+    const double diagonal = bounding_box(original.V, mesh_rows_->active()).diagonal();
     double surface = surface_rms_displacement(original, field, threads_);
     double factor = 1.0;
     if (key_.options.needs_calibration())
