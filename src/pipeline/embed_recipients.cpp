@@ -170,9 +170,8 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
     SpectralWatermark mark(file.mesh, key, options.threads);
     EmbedStats owner_stats;
     Positions owner = mark.displacement(&owner_stats);
-    // A new family key is calibrated on the owner's mark (at its share of the energy); the
-    // codes' steps get the same factor, so their copies' surface distances differ by what the
-    // codes add (docs/algorithms/embedding.md, "Strength").
+    // A new family key is calibrated on the owner's mark, at its share of the energy
+    // (docs/algorithms/embedding.md, "Strength"); each copy's code is scaled below.
     if (key.options.needs_calibration())
     {
         mark.calibrate_strength(file.mesh, owner, &owner_stats);
@@ -181,7 +180,6 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
         // does: the scaled field may differ from it in the last bit, the copies may not.
         owner = mark.displacement(&owner_stats);
     }
-    mark.calibrate_strength(file.mesh, owner, &owner_stats);  // measures only
     // With the surface measure each copy's code is scaled so that the copy (owner's mark plus
     // code) is displaced by exactly the strength: the codes differ, and so, unscaled, would the
     // copies' surface distances (by up to 7% on the shared meshes). Only the code is scaled, so
