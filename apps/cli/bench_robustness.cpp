@@ -223,6 +223,7 @@ int run_bench_robustness(const RobustnessArgs& args, const GlobalArgs& global)
             embedding.mrms += distortion.mrms_rel;
             embedding.hausdorff += distortion.hausdorff_rel;
             embedding.rms_displacement += distortion.rms_displacement_rel;
+            embedding.repetitions = mark.key().options.repetitions;
             ++embedding.keys;
 
             auto record = [&](Trial t, const std::string& attack, const char* kind) {
@@ -355,8 +356,11 @@ void register_bench_robustness(CLI::App& bench, GlobalArgs& global, CommandRunne
     command->add_option("--coefficients", args->coefficients, "m, payload bits per axis (3m bits)")
         ->capture_default_str();
     command->add_option("--repetitions", args->repetitions,
-                        "Coefficients per payload bit (with --recipients: 2 unless given, as a new family key)")
-        ->capture_default_str();
+                        "Coefficients per payload bit: auto (as embed chooses it, per mesh) or a number "
+                        "(with --recipients: 2 unless given, as a new family key)")
+        ->transform(repetitions_choice())
+        ->type_name("auto|INT")
+        ->default_str("auto");
     command->add_option("--first-mode", args->first_mode, "First modulated mode")->capture_default_str();
     command->add_option("--basis-size", args->basis_size, "k, basis functions (first mode + m*r must not exceed it)")
         ->capture_default_str();

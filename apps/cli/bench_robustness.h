@@ -87,6 +87,7 @@ struct MeshEmbedding
     double hausdorff = 0.0;  // mean over keys
     double rms_displacement = 0.0;
     double embed_seconds = 0.0;
+    int repetitions = 0;  // r of the mesh's keys (resolved when the run asked for auto)
 };
 
 /// One trial as a JSON object of the trials file.

@@ -81,7 +81,8 @@ nlohmann::json to_json(const MeshEmbedding& e)
             {"mrms", e.mrms},
             {"hausdorff", e.hausdorff},
             {"rms_displacement", e.rms_displacement},
-            {"embed_seconds", e.embed_seconds}};
+            {"embed_seconds", e.embed_seconds},
+            {"repetitions", e.repetitions}};
 }
 
 MeshEmbedding embedding_from_json(const nlohmann::json& j)
@@ -94,6 +95,7 @@ MeshEmbedding embedding_from_json(const nlohmann::json& j)
     e.hausdorff = j.at("hausdorff").get<double>();
     e.rms_displacement = j.at("rms_displacement").get<double>();
     e.embed_seconds = j.at("embed_seconds").get<double>();
+    e.repetitions = j.value("repetitions", 0);  // absent from files before the automatic choice
     return e;
 }
 
@@ -250,7 +252,8 @@ std::string markdown_report(const std::vector<MeshEmbedding>& embeddings, const 
        << ", keys on unmarked attacked copies: " << args.unmarked_keys << "); rule " << args.rule
        << ", strength " << (args.strength < 0 ? std::string("default") : format_number(args.strength)) << " ("
        << args.strength_measure << ")"
-       << ", coefficients " << args.coefficients << ", repetitions " << args.repetitions << ", first mode " << args.first_mode
+       << ", coefficients " << args.coefficients << ", repetitions "
+       << (args.repetitions == EmbedOptions::kAutoRepetitions ? std::string("auto") : std::to_string(args.repetitions)) << ", first mode " << args.first_mode
        << ", basis size " << args.basis_size << ", basis " << args.basis
        << (args.basis == "rbf" ? " (" + args.centers + " centers" +
                                      (args.gram_rows == EmbedOptions::kDefaultGramRows
@@ -263,10 +266,12 @@ std::string markdown_report(const std::vector<MeshEmbedding>& embeddings, const 
        << ").\n\n";
 
     md << "### Embedding distortion (mean over keys, fraction of the bounding-box diagonal)\n\n";
-    md << "| mesh | vertices | keys | MRMS | Hausdorff | RMS displacement | embed s |\n|---|---:|---:|---:|---:|---:|---:|\n";
+    md << "| mesh | vertices | keys | r | MRMS | Hausdorff | RMS displacement | embed s |\n"
+          "|---|---:|---:|---:|---:|---:|---:|---:|\n";
     for (const auto& e : embeddings)
     {
-        md << "| " << e.mesh << " | " << e.vertices << " | " << e.keys << " | " << percent(e.mrms) << " | "
+        md << "| " << e.mesh << " | " << e.vertices << " | " << e.keys << " | "
+           << (e.repetitions > 0 ? std::to_string(e.repetitions) : std::string("-")) << " | " << percent(e.mrms) << " | "
            << percent(e.hausdorff) << " | " << percent(e.rms_displacement) << " | "
            << format_number(e.embed_seconds) << " |\n";
     }

@@ -36,6 +36,10 @@ void register_bench_approximation(CLI::App& bench, GlobalArgs& global, CommandRu
 /// largest double as the range's end).
 [[nodiscard]] CLI::Validator non_negative();
 
+/// \brief --repetitions: "auto" (stored as EmbedOptions::kAutoRepetitions, the watermark chooses
+/// on the original) or a whole number >= 1.
+[[nodiscard]] CLI::Validator repetitions_choice();
+
 /// Adds --threads, --quiet and --verbose to a subcommand.
 void add_global_flags(CLI::App& command, GlobalArgs& global);
 

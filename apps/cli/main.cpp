@@ -9,6 +9,7 @@
 
 #include "commands.h"
 #include "meshmark/core/error.h"
+#include "meshmark/watermark/key.h"
 
 namespace meshmark::cli {
 
@@ -24,6 +25,25 @@ CLI::Validator non_negative()
             return {};
         },
         "NONNEGATIVE");
+}
+
+CLI::Validator repetitions_choice()
+{
+    return CLI::Validator(
+        [](std::string& text) -> std::string {
+            if (text == "auto")
+            {
+                text = std::to_string(EmbedOptions::kAutoRepetitions);
+                return {};
+            }
+            int value = 0;
+            if (!CLI::detail::lexical_cast(text, value) || value < 1)
+            {
+                return "must be auto or a whole number, 1 or more, got " + text;
+            }
+            return {};
+        },
+        "");
 }
 
 void add_global_flags(CLI::App& command, GlobalArgs& global)

@@ -81,6 +81,8 @@ The keywords are the options of `meshmark embed` (docs/cli.md):
   rule         'additive' or 'paper'
   basis        'rbf' or 'laplacian';  centers: 'random' or 'decimate'
   basis_size (k), coefficients (m), repetitions (r), first_mode, sigma_factor, gram_rows
+  repetitions  0 = automatic (5 on meshes of 30,000+ analysed vertices, else 4; the Key
+               records the number chosen)
   threads      worker threads, 0 = all cores (the result does not depend on it)
 The same mesh, seed and options give exactly the positions and key of `meshmark embed`.
 Raises meshmark.InvalidMesh for bad arrays, meshmark.InvalidOption for bad options,

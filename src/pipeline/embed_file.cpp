@@ -155,7 +155,7 @@ void embed_into(EmbedResult& result, detail::PhaseTimer& timer, const TriangleMe
     // The field becomes the marked positions in place: one #V x 3 array, not two.
     result.positions = mark.displacement(&result.stats);
     mark.calibrate_strength(mesh, result.positions, &result.stats);
-    key.options.vertex_strength = mark.key().options.vertex_strength;
+    key.options = mark.key().options;  // the calibrated strength and the automatic repetitions
     result.positions += mesh.V;
     timer.lap("embed");
     result.key = std::move(key);

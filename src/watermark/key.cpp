@@ -340,16 +340,19 @@ void EmbedOptions::validate() const
                             std::to_string(basis_size) + " (the basis size), got " +
                             std::to_string(coefficients) + ".");
     }
-    if (repetitions < 1 || static_cast<long long>(repetitions) * coefficients > basis_size)
+    if (repetitions != kAutoRepetitions &&
+        (repetitions < 1 || static_cast<long long>(repetitions) * coefficients > basis_size))
     {
-        throw InvalidOption("repetitions (--repetitions) must be at least 1 and at most the basis size "
+        throw InvalidOption("repetitions (--repetitions) must be auto or at least 1 and at most the basis size "
                             "divided by the coefficients (" + std::to_string(basis_size) + " / " +
                             std::to_string(coefficients) + "), got " + std::to_string(repetitions) + ".");
     }
-    if (first_mode < 0 || static_cast<long long>(repetitions) * coefficients + first_mode > basis_size)
+    // The automatic choice needs room for one repetition at least.
+    const int r = repetitions == kAutoRepetitions ? 1 : repetitions;
+    if (first_mode < 0 || static_cast<long long>(r) * coefficients + first_mode > basis_size)
     {
         throw InvalidOption("the first modulated mode (--first-mode) must be in 0.." +
-                            std::to_string(std::max(0, basis_size - repetitions * coefficients)) +
+                            std::to_string(std::max(0, basis_size - r * coefficients)) +
                             " (basis size minus coefficients times repetitions), got " +
                             std::to_string(first_mode) + ".");
     }
@@ -592,6 +595,12 @@ Key parse_key(const std::string& text, const std::string& source)
     // Absent from keys written before spreading existed: those embedded every bit once.
     key.options.repetitions =
         embedding.contains("repetitions") ? field<int>(embedding, "repetitions", "embedding.", source) : 1;
+    if (key.options.repetitions == EmbedOptions::kAutoRepetitions)
+    {
+        // The embedding records the number it chose; a key without one cannot be trusted to
+        // rebuild the same mark if the rule ever changes.
+        throw IoError(source + ": the key does not record its repetitions (embedding.repetitions is 0).");
+    }
     key.options.first_mode =
         embedding.contains("first_mode") ? field<int>(embedding, "first_mode", "embedding.", source) : 0;
     key.options.strength = field<double>(embedding, "strength", "embedding.", source);

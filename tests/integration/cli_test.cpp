@@ -245,6 +245,27 @@ TEST_F(CliTest, memory_budget_streams_a_binary_ply_to_the_same_bytes)
     EXPECT_FALSE(fs::exists(dir_ / "b.json"));
 }
 
+// --repetitions takes "auto" (the default; the key records the number chosen) or a whole
+// number >= 1; anything else is a usage error that names the option, before any work.
+TEST_F(CliTest, repetitions_are_auto_or_a_positive_number)
+{
+    const auto out = dir_ / "r.ply";
+    const auto key = dir_ / "r.json";
+    const std::string head = "embed " + original_.string() + " -o " + out.string() + " --key " + key.string();
+    CliRun r = run(head + " --repetitions auto -q", dir_);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_EQ(nlohmann::json::parse(slurp(key))["embedding"]["repetitions"], 4);  // 10,242 vertices: 4
+    for (const char* bad : {"0", "-2", "x", "2.5"})
+    {
+        r = run(head + " --force --repetitions " + bad, dir_);
+        EXPECT_EQ(r.exit_code, 2) << bad << ": " << r.err;
+        EXPECT_NE(r.err.find("--repetitions"), std::string::npos) << r.err;
+        EXPECT_NE(r.err.find("must be auto or a whole number"), std::string::npos) << r.err;
+    }
+    r = run("embed --help", dir_);
+    EXPECT_NE(r.out.find("auto|INT"), std::string::npos) << r.out;
+}
+
 TEST_F(CliTest, streaming_refuses_the_laplacian_basis_and_decimated_centers)
 {
     // The streamed passes build the RBF basis with random centers only: --stream is a usage

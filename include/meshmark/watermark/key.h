@@ -77,10 +77,14 @@ struct EmbedOptions
     /// bit t on coefficients t, t + 3m, t + 6m, ...), each with its own key-mask sign, and read
     /// back by soft-decision correlation. More coefficients at the same distortion make a
     /// verdict with a far smaller false-positive probability possible (docs/statistics.md).
-    /// Default 4: 96 coefficients on modes 12-43, an intact score of sqrt(96) = 9.8 (2 before
-    /// 2026-11-25, and still for a family key's owner mark: kFamilyRepetitions). Keys written
-    /// before this field existed mean 1.
-    int repetitions = 4;
+    /// kAutoRepetitions (the default) lets the watermark choose on the original
+    /// (automatic_repetitions, watermark.h): 5 (120 coefficients on modes 12-51, an intact score
+    /// of sqrt(120) = 10.95) on meshes of 30,000 analysed vertices or more, else 4 (96
+    /// coefficients on modes 12-43, 9.8); 2 for a family key's owner mark (kFamilyRepetitions).
+    /// The key file records the number chosen. Keys written before this field existed mean 1.
+    int repetitions = kAutoRepetitions;
+    /// repetitions value that asks the watermark to choose (never stored in a key file).
+    static constexpr int kAutoRepetitions = 0;
     /// Index of the first modulated mode: modes first_mode .. first_mode + m r - 1 carry the
     /// mark. The very first modes are almost rigid motions of the whole model, which detection
     /// must fit and remove, so a mark there is lost; skipping them keeps the energy where it

@@ -59,7 +59,8 @@ DetectReport detect_positions(const fs::path& input, const Positions& positions,
 TEST(RecipientsTest, key_file_round_trips_the_recipients_and_refuses_duplicates)
 {
     EmbedOptions options;
-    options.vertex_strength = 1e-3;  // as the embed calibrates it
+    options.vertex_strength = 1e-3;            // as the embed calibrates it
+    options.repetitions = kFamilyRepetitions;  // as the watermark resolves it for a family key
     Key key = make_key(options, 5, std::string("m"));
     key.recipients = RecipientCodes{48, 0.5, {{"alice", 0}, {"bob", 7}}};
     const Key back = parse_key(to_json(key), "k.json");

@@ -73,13 +73,39 @@ TEST(KeyTest, keys_without_repetitions_read_as_one_copy_per_bit)
     Key bad = sample_key();
     bad.options.repetitions = 20;  // 6 * 20 > 80 basis functions
     EXPECT_THROW(bad.options.validate(), InvalidOption);
-    bad.options.repetitions = 0;
+    bad.options.repetitions = -1;
     EXPECT_THROW(bad.options.validate(), InvalidOption);
+    bad.options.repetitions = EmbedOptions::kAutoRepetitions;  // the watermark chooses: valid options
+    EXPECT_NO_THROW(bad.options.validate());
     bad.options.repetitions = 3;
     bad.options.first_mode = 63;  // 63 + 18 > 80
     EXPECT_THROW(bad.options.validate(), InvalidOption);
     bad.options.first_mode = -1;
     EXPECT_THROW(bad.options.validate(), InvalidOption);
+}
+
+// The embedding records the repetitions it chose: a key file that asks for the automatic
+// choice (0) is refused, naming the field, rather than resolved again by a rule that may change.
+TEST(KeyTest, a_key_file_without_its_repetitions_is_refused)
+{
+    auto content = nlohmann::json::parse(to_json(sample_key()));
+    content.erase("checksum");
+    content["embedding"]["repetitions"] = 0;
+    const std::string text = content.dump();
+    char checksum[17];
+    std::snprintf(checksum, sizeof checksum, "%016llx",
+                  static_cast<unsigned long long>(hash_bytes(text.data(), text.size(), 0x6B6579U)));
+    content["checksum"] = checksum;
+    try
+    {
+        (void)parse_key(content.dump(2), "auto.json");
+        FAIL() << "a key with repetitions 0 was accepted";
+    }
+    catch (const IoError& e)
+    {
+        EXPECT_NE(std::string(e.what()).find("auto.json"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("embedding.repetitions"), std::string::npos) << e.what();
+    }
 }
 
 namespace {

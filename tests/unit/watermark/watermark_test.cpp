@@ -261,6 +261,42 @@ TEST(SpectralWatermarkTest, each_bit_is_spread_over_r_coefficients_with_independ
     }
 }
 
+// The default repetitions are chosen on the original (docs/statistics.md, "How long a mark"):
+// 5 from 30,000 analysed vertices on, else 4, or what the basis fits; a family key's owner mark
+// 2. The watermark records the choice in its key and reads an intact copy at sqrt(3 m r).
+TEST(SpectralWatermarkTest, automatic_repetitions_lengthen_the_mark_on_large_meshes)
+{
+    EmbedOptions options;  // k = 100, m = 8, first mode 12
+    ASSERT_EQ(options.repetitions, EmbedOptions::kAutoRepetitions);
+    EXPECT_EQ(automatic_repetitions(options, 29'999), 4);
+    EXPECT_EQ(automatic_repetitions(options, 30'000), 5);
+    options.basis_size = 50;  // 12 + 5 * 8 > 50: the longer mark does not fit
+    EXPECT_EQ(automatic_repetitions(options, 1'000'000), 4);
+    options.basis_size = 40;  // 12 + 4 * 8 > 40
+    EXPECT_EQ(automatic_repetitions(options, 1'000'000), 3);
+    options.basis_size = 20;
+    EXPECT_EQ(automatic_repetitions(options, 1'000'000), 1);
+
+    for (const int subdivisions : {5, 6})  // 10,242 and 40,962 vertices
+    {
+        const TriangleMesh mesh = lumpy_ellipsoid(subdivisions);
+        const int expected = mesh.V.rows() >= 30'000 ? 5 : 4;
+        const SpectralWatermark mark(mesh, make_key(mesh, 7));
+        EXPECT_EQ(mark.key().options.repetitions, expected) << mesh.V.rows();
+        EXPECT_EQ(mark.embedded_signs().rows(), 8 * expected);
+        const Decision d = detect_positions(mark, mesh, mesh.V + mark.displacement());
+        EXPECT_TRUE(d.is_present);
+        EXPECT_NEAR(d.score, std::sqrt(24.0 * expected), 1e-6) << mesh.V.rows();
+        if (expected == 5)
+        {
+            Key family = make_key(mesh, 8);
+            family.recipients = RecipientCodes{};
+            family.recipients->recipients.push_back({"a", 0});
+            EXPECT_EQ(SpectralWatermark(mesh, family).key().options.repetitions, kFamilyRepetitions);
+        }
+    }
+}
+
 // The verdict's bound must hold for suspects that do not carry the key's mark: over many keys,
 // the share of an unmarked (noisy) copy's verdicts with a probability of at most alpha never
 // exceeds alpha (docs/statistics.md has the 10,000-key study on the real meshes).
