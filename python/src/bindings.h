@@ -17,7 +17,9 @@ struct EmbedKeywords
 {
     py::object message, bits, seed, strength;
     std::string rule, strength_measure, basis, centers;
-    int basis_size, coefficients, repetitions, first_mode;
+    int basis_size, coefficients;
+    py::object repetitions;  ///< "auto" or an int >= 1
+    int first_mode;
     double sigma_factor;
     std::int64_t gram_rows;
     int threads;

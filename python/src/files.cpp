@@ -68,7 +68,7 @@ void bind_files(py::module_& m)
         "embed_file",
         [](const Path& input, const Path& output, const Path& key_path, py::object message, py::object bits,
            py::object seed, py::object strength, std::string rule, std::string strength_measure, std::string basis, std::string centers,
-           int basis_size, int coefficients, int repetitions, int first_mode, double sigma_factor,
+           int basis_size, int coefficients, py::object repetitions, int first_mode, double sigma_factor,
            std::int64_t gram_rows, int threads, bool force, std::int64_t memory_budget, bool stream) {
             EmbedFileOptions options;
             fill_embed_options({message, bits, seed, strength, rule, strength_measure, basis, centers, basis_size, coefficients,
@@ -89,7 +89,7 @@ void bind_files(py::module_& m)
         py::arg("bits") = py::none(), py::arg("seed") = py::none(), py::arg("strength") = py::none(),
         py::arg("rule") = "additive", py::arg("strength_measure") = "surface", py::arg("basis") = "rbf", py::arg("centers") = "random",
         py::arg("basis_size") = EmbedOptions{}.basis_size, py::arg("coefficients") = EmbedOptions{}.coefficients,
-        py::arg("repetitions") = EmbedOptions{}.repetitions, py::arg("first_mode") = EmbedOptions{}.first_mode,
+        py::arg("repetitions") = "auto", py::arg("first_mode") = EmbedOptions{}.first_mode,
         py::arg("sigma_factor") = EmbedOptions{}.sigma_factor, py::arg("gram_rows") = EmbedOptions{}.gram_rows,
         py::arg("threads") = 0, py::arg("force") = false, py::arg("memory_budget") = 0, py::arg("stream") = false,
         kEmbedFileDoc);

@@ -81,8 +81,8 @@ The keywords are the options of `meshmark embed` (docs/cli.md):
   rule         'additive' or 'paper'
   basis        'rbf' or 'laplacian';  centers: 'random' or 'decimate'
   basis_size (k), coefficients (m), repetitions (r), first_mode, sigma_factor, gram_rows
-  repetitions  0 = automatic (5 on meshes of 30,000+ analysed vertices, else 4; the Key
-               records the number chosen)
+  repetitions  'auto' (default: 5 on meshes of 30,000+ analysed vertices, else 4; the Key
+               records the number chosen) or a whole number >= 1
   threads      worker threads, 0 = all cores (the result does not depend on it)
 The same mesh, seed and options give exactly the positions and key of `meshmark embed`.
 Raises meshmark.InvalidMesh for bad arrays, meshmark.InvalidOption for bad options,
@@ -115,7 +115,20 @@ void fill_embed_options(const EmbedKeywords& k, EmbedMeshOptions& options)
     options.embed.centers = parse_center_selection(k.centers);
     options.embed.basis_size = k.basis_size;
     options.embed.coefficients = k.coefficients;
-    options.embed.repetitions = k.repetitions;
+    // "auto" (or 0, as the library's kAutoRepetitions) lets the watermark choose on the mesh.
+    if (py::isinstance<py::str>(k.repetitions) && k.repetitions.cast<std::string>() == "auto")
+    {
+        options.embed.repetitions = EmbedOptions::kAutoRepetitions;
+    }
+    else if (py::isinstance<py::int_>(k.repetitions) && !py::isinstance<py::bool_>(k.repetitions))
+    {
+        options.embed.repetitions = k.repetitions.cast<int>();
+    }
+    else
+    {
+        throw InvalidOption("repetitions must be 'auto' or a whole number >= 1, got " +
+                            py::repr(k.repetitions).cast<std::string>() + ".");
+    }
     options.embed.first_mode = k.first_mode;
     options.embed.sigma_factor = k.sigma_factor;
     options.embed.gram_rows = k.gram_rows;
@@ -164,7 +177,7 @@ void bind_memory(py::module_& m)
         "embed",
         [](py::handle V, py::handle F, py::object message, py::object bits, py::object seed, py::object strength,
            std::string rule, std::string strength_measure, std::string basis, std::string centers, int basis_size, int coefficients,
-           int repetitions, int first_mode, double sigma_factor, std::int64_t gram_rows, int threads,
+           py::object repetitions, int first_mode, double sigma_factor, std::int64_t gram_rows, int threads,
            bool report) -> py::object {
             EmbedMeshOptions options;
             fill_embed_options({message, bits, seed, strength, rule, strength_measure, basis, centers, basis_size, coefficients,
@@ -191,7 +204,7 @@ void bind_memory(py::module_& m)
         py::arg("bits") = py::none(), py::arg("seed") = py::none(), py::arg("strength") = py::none(),
         py::arg("rule") = "additive", py::arg("strength_measure") = "surface", py::arg("basis") = "rbf", py::arg("centers") = "random",
         py::arg("basis_size") = EmbedOptions{}.basis_size, py::arg("coefficients") = EmbedOptions{}.coefficients,
-        py::arg("repetitions") = EmbedOptions{}.repetitions, py::arg("first_mode") = EmbedOptions{}.first_mode,
+        py::arg("repetitions") = "auto", py::arg("first_mode") = EmbedOptions{}.first_mode,
         py::arg("sigma_factor") = EmbedOptions{}.sigma_factor, py::arg("gram_rows") = EmbedOptions{}.gram_rows,
         py::arg("threads") = 0, py::arg("report") = false, kEmbedDoc);
 

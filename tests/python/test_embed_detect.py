@@ -59,8 +59,12 @@ def test_report_and_options(torus):
     key, marked, report = meshmark.embed(V, F, seed=3, strength=0.002, repetitions=3, report=True)
     assert report["strength"] == pytest.approx(0.002)
     assert report["repetitions"] == 3 and key.repetitions == 3
-    auto_key, _ = meshmark.embed(V, F, seed=3)  # repetitions=0: chosen on the mesh, recorded
+    auto_key, _ = meshmark.embed(V, F, seed=3)  # repetitions='auto': chosen on the mesh, recorded
     assert len(V) < 30000 and auto_key.repetitions == 4
+    assert meshmark.embed(V, F, seed=3, repetitions="auto")[0].repetitions == 4
+    for bad in ("four", 2.5, True, -1):
+        with pytest.raises(meshmark.InvalidOption):
+            meshmark.embed(V, F, seed=3, repetitions=bad)
     assert report["vertices"] == len(V) and report["faces"] == len(F)
     assert 0.0 < report["rms_displacement"] < report["max_displacement"] < 0.05
     assert "total" in report["seconds"]
