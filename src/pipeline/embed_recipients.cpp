@@ -168,7 +168,7 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
     Key key = family_key(key_path, file.mesh, input, options, &report.key_created);
     report.copies = assign_indices(key, options.recipients, output_pattern);
     SpectralWatermark mark(file.mesh, key, options.threads);
-    key.options.repetitions = mark.key().options.repetitions;  // the watermark resolves an automatic choice
+    key.options = mark.key().options;  // the automatic repetitions, as the watermark resolved them
     EmbedStats owner_stats;
     Positions owner = mark.displacement(&owner_stats);
     // A new family key is calibrated on the owner's mark, at its share of the energy

@@ -402,7 +402,7 @@ EmbedReport embed_file_streamed(const PlyStream& file, const std::filesystem::pa
     timer.begin("basis");
     const auto source = std::make_shared<const FileRowSource>(file, referenced, window);
     const SpectralWatermark mark(key, source, frame.frame(), options.threads);
-    key.options.repetitions = mark.key().options.repetitions;  // the watermark resolves an automatic choice
+    key.options = mark.key().options;  // the automatic repetitions, as the watermark resolved them
     const std::size_t chunk_bytes = mark.basis().max_chunk_rows() * 3 * sizeof(double);
     timer.lap("basis");
 
