@@ -6,9 +6,11 @@
 #include <cmath>
 #include <cstdint>
 #include <exception>
+#include <limits>
 #include <memory>
 #include <numbers>
 #include <numeric>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -64,6 +66,13 @@ constexpr int kFinalIterations = 6;
 // The coarse ICP may not leave [0.25, 2] times the initial scale (collapse guard).
 constexpr double kMinScaleFactor = 0.25;
 constexpr double kMaxScaleFactor = 2.0;
+// A suspect whose centroid lies within this fraction of the reference's RMS radius of the
+// reference's, with an RMS radius within this factor of the reference's, may stand where the
+// original stands: its start in place is kept through every round and refined in the fine
+// stage. Loose on purpose: a voxel remesh of a thin-walled part (head.ply, 1/150 of the
+// diagonal) moves the area moments' centroid by 4-11% of the radius and the radius by 8%.
+constexpr double kInPlaceOffset = 0.25;
+constexpr double kInPlaceScale = 1.25;
 
 /// The reflection used for mirrored candidates: x -> -x.
 Mat3 mirror_matrix()
@@ -129,6 +138,7 @@ struct Candidate
     bool mirrored = false;
     double score = 0.0;  // trimmed RMS divided by the scale: the residual in suspect units
     IcpOutcome outcome;
+    bool kept_in_place = false;  // the identity of a suspect that stands in place: never dropped
 };
 
 double score_of(const IcpOutcome& outcome)
@@ -196,7 +206,30 @@ void keep_best_of_both(std::vector<Candidate>& candidates, std::size_t count)
             }
         }
     }
+    // The start kept in place survives as one more (docs/algorithms/registration.md, step 4).
+    const auto in_place = std::find_if(candidates.begin() + static_cast<std::ptrdiff_t>(count), candidates.end(),
+                                       [](const Candidate& c) { return c.kept_in_place; });
+    const std::optional<Candidate> extra =
+        in_place != candidates.end() ? std::optional<Candidate>(*in_place) : std::nullopt;
     candidates.resize(count);
+    if (extra)
+    {
+        candidates.push_back(*extra);
+    }
+}
+
+/// True when the suspect's moments are close to the reference's (kInPlaceOffset, kInPlaceScale):
+/// it may have been re-worked where the original stands (a modelling tool leaves it there), and
+/// the identity is a start that the tournament must not drop. A mirror-symmetric shape that was coarsely resampled in
+/// place (a voxel remesh) fits its mirror image about as well as itself, and the coarse rounds
+/// on few samples then kept only mirrored fits and wrong turns (docs/algorithms/registration.md,
+/// failure modes). A moved copy's moments differ, and its starts are as before.
+bool stands_in_place(const Moments& suspect, const Moments& reference)
+{
+    const double radius2 = reference.covariance.trace();
+    const double ratio2 = suspect.covariance.trace() / radius2;
+    return (suspect.centroid - reference.centroid).squaredNorm() <= kInPlaceOffset * kInPlaceOffset * radius2 &&
+           ratio2 <= kInPlaceScale * kInPlaceScale && ratio2 * kInPlaceScale * kInPlaceScale >= 1.0;
 }
 
 /// Starts that map the suspect's principal frame onto a target frame by every rotation in
@@ -286,12 +319,28 @@ RegistrationResult finish(const Problem& p, std::vector<Candidate> candidates, i
     {
         fine.push_back(*proper);
     }
+    const auto in_place = std::find_if(candidates.begin(), candidates.end(),
+                                       [](const Candidate& c) { return c.kept_in_place; });
+    if (in_place != candidates.end() &&
+        std::none_of(fine.begin(), fine.end(), [](const Candidate& c) { return c.kept_in_place; }))
+    {
+        fine.push_back(*in_place);
+    }
     int iterations = coarse_iterations;
     for (Candidate& c : fine)
     {
         c.outcome = refine(p, p.samples[c.mirrored ? 1 : 0][kFineTier], c.transform, p.options.max_iterations);
         c.transform = c.outcome.transform;
         c.score = score_of(c.outcome);
+        // The fine ICP has no scale clamp: a start far from the right pose can shrink the
+        // suspect onto a point of the reference, where the residual vanishes. The coarse rounds
+        // never leave [kMinScaleFactor, kMaxScaleFactor] times the moments' scale; neither may
+        // the choice.
+        if (!(c.transform.scale >= kMinScaleFactor * p.initial_scale &&
+              c.transform.scale <= kMaxScaleFactor * p.initial_scale))
+        {
+            c.score = std::numeric_limits<double>::infinity();
+        }
         iterations += c.outcome.iterations;
     }
     keep_best(fine, fine.size());
@@ -456,6 +505,7 @@ RegistrationResult register_to_reference(const TriangleMesh& suspect, const Tria
     // (what a modelling tool does unless told to move it) needs no alignment at all, while the
     // moments of an unexpected part can miss it (a bisected open scan: docs/algorithms/registration.md).
     candidates.push_back(Candidate{});
+    candidates.back().kept_in_place = stands_in_place(ms, mr);
     add_frame_candidates(p, ms, mr, axis_rotations(), candidates);
     for (const Moments& part : crop_hypotheses(reference, use_area, reference_rows, mr, ms,
                                                derive_seed(options.seed, "crop elements")))

@@ -84,6 +84,35 @@ TEST(RegistrationTest, refuses_reflection_when_not_allowed)
     EXPECT_GT(result.rms_error, 1e-3);
 }
 
+// A copy turned and slightly scaled about its own centre has the original's centroid and
+// nearly its radius, so the registration keeps the start in place (the identity) through
+// every round, although it is wrong here. Refined without a scale clamp, such a start can
+// shrink the copy onto one point of the reference, where the residual vanishes; the choice
+// must refuse that and keep the right pose.
+TEST(RegistrationTest, copies_turned_about_their_own_centre_are_registered)
+{
+    const TriangleMesh reference = lumpy_ellipsoid(3);
+    const double D = bounding_box(reference.V).diagonal();
+    const Eigen::Vector3d centre = reference.V.colwise().mean().transpose();
+    Rng rng(41);
+    for (int trial = 0; trial < 4; ++trial)
+    {
+        Eigen::Quaterniond q(rng.normal(), rng.normal(), rng.normal(), rng.normal());
+        q.normalize();
+        const double scale = rng.uniform(0.85, 1.15);
+        Eigen::Matrix4d T = Eigen::Matrix4d::Identity();
+        T.block<3, 3>(0, 0) = scale * q.toRotationMatrix();
+        T.block<3, 1>(0, 3) = centre - T.block<3, 3>(0, 0) * centre;
+        TriangleMesh suspect = reference;
+        suspect.V = test::apply(T, reference.V);
+        const RegistrationResult result = register_to_reference(suspect, reference);
+        EXPECT_TRUE(result.converged) << "trial " << trial;
+        EXPECT_FALSE(result.is_reflection) << "trial " << trial;
+        EXPECT_NEAR(result.scale * scale, 1.0, 1e-9) << "trial " << trial;
+        EXPECT_LT(alignment_error(result, suspect.V, reference.V, D), 1e-9) << "trial " << trial;
+    }
+}
+
 TEST(RegistrationTest, converges_on_copy_cropped_to_half_by_a_plane)
 {
     const TriangleMesh reference = lumpy_ellipsoid(3);
