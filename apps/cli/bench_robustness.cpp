@@ -99,6 +99,7 @@ Trial run_trial(const SpectralWatermark& mark, const TriangleMesh& original, con
         const DetectReport report = detect_mesh(mark, original, suspect, options);
         trial.decision = report.decision;
         trial.cropped_fraction = report.cropped_fraction;
+        trial.outlier_fraction = report.outlier_fraction;
         trial.registration_rms = report.registration_rms;
         trial.alignment = report.alignment;
         trial.recipients_traced = report.recipients_traced;

@@ -31,6 +31,7 @@ nlohmann::json to_json(const Trial& t)
             {"score_false_positive_probability", t.decision.score_false_positive_probability},
             {"bits_false_positive_probability", t.decision.bits_false_positive_probability},
             {"cropped_fraction", t.cropped_fraction},
+            {"outlier_fraction", t.outlier_fraction},
             {"registration_rms", t.registration_rms},
             {"alignment", t.alignment},
             {"seconds", t.seconds},
@@ -60,6 +61,7 @@ Trial trial_from_json(const nlohmann::json& j)
         j.value("score_false_positive_probability", t.decision.false_positive_probability);
     t.decision.bits_false_positive_probability = j.at("bits_false_positive_probability").get<double>();
     t.cropped_fraction = j.at("cropped_fraction").get<double>();
+    t.outlier_fraction = j.value("outlier_fraction", 0.0);  // files written before 2026-11-25: none
     t.registration_rms = j.value("registration_rms", 0.0);
     t.alignment = j.value("alignment", std::string());
     t.seconds = j.at("seconds").get<double>();

@@ -79,10 +79,10 @@ int run_detect(const DetectArgs& args, const GlobalArgs& global)
         if (global.verbose)
         {
             std::printf("  expected %s\n  found    %s\n  alignment %s, RMS distance %s of the diagonal, "
-                        "cropped %.1f%%, %.3f s\n",
+                        "cropped %.1f%%, far rows left out %.1f%%, %.3f s\n",
                         d.bits_expected.c_str(), d.bits_found.c_str(), report.alignment.c_str(),
                         format_number(report.registration_rms).c_str(), 100.0 * report.cropped_fraction,
-                        report.seconds.total);
+                        100.0 * report.outlier_fraction, report.seconds.total);
         }
     }
     return report.detected() ? 0 : 1;
@@ -143,7 +143,8 @@ void register_detect(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     command->add_flag("--json", args->json,
                       "Print one JSON object: detected, verdict, score, correlation, bits_expected, "
                       "bits_found, false_positive_probability (of the verdict used; also "
-                      "score_ and bits_false_positive_probability), cropped_fraction, "
+                      "score_ and bits_false_positive_probability), cropped_fraction, outlier_fraction (rows left "
+                      "out because the suspect's surface is far from them), "
                       "registration, seconds; with a family key also recipients (the accused: name, score, "
                       "false_positive_probability, strongest first), recipients_traced, owner_detected and "
                       "owner_false_positive_probability (ownership without naming a recipient: the owner's mark "

@@ -85,6 +85,55 @@ std::vector<std::uint8_t> kept_after_crop(const TriangleMesh& original, const st
     return kept;
 }
 
+// Rows of the original whose resampled point is farther than this many times the median
+// distance from it, and farther than kOutlierFloor times the mark's strength, are left out of
+// the reading (no dilation, and they do not make the suspect "cropped"). A coarse resampling of
+// the surface (a 25% remesh, a voxel remesh that merges thin walls, the band along a cut that
+// the crop threshold misses) leaves some rows several mark amplitudes away from any surface
+// that carries the mark: they measure the attack's error, not the mark, and in a least-squares
+// reading they swamp it. The rule looks only at distances to the ORIGINAL, never at the key's
+// signs, so the false-positive bound holds as for crops (docs/statistics.md). Measured on the
+// robustness grid (docs/robustness.md, "Rows far from the suspect's surface").
+constexpr double kOutlierMedianFactor = 3.0;
+// In units of the mark's RMS displacement (the additive rule's strength, a fraction of the
+// diagonal): 10 x 0.059% = 0.59% of the diagonal at the defaults. A copy that only carries the
+// mark (distances of the order of the strength) loses no row.
+constexpr double kOutlierFloor = 10.0;
+// The floor for keys whose strength is not a distance (the paper's rule): the default mark's.
+constexpr double kOutlierFloorFraction = 0.0059;
+
+/// The rows to read: \p kept_by_crop (null: all) minus the outliers above; \p outliers gets
+/// their number. Serial nearest-rank median, so the result is the same on every run.
+std::vector<std::uint8_t> kept_without_outliers(const Resampling& sampled,
+                                                const std::vector<std::uint8_t>* kept_by_crop, double floor,
+                                                std::size_t& outliers)
+{
+    const auto n = static_cast<std::size_t>(sampled.distance.size());
+    std::vector<double> sorted(sampled.distance.data(), sampled.distance.data() + n);
+    const auto middle = sorted.begin() + static_cast<std::ptrdiff_t>(n / 2);
+    std::nth_element(sorted.begin(), middle, sorted.end());
+    const double threshold = std::max(kOutlierMedianFactor * *middle, floor);
+    std::vector<std::uint8_t> kept = kept_by_crop != nullptr ? *kept_by_crop : std::vector<std::uint8_t>(n, 1);
+    outliers = 0;
+    for (std::size_t i = 0; i < n; ++i)
+    {
+        if (kept[i] != 0 && sampled.distance(static_cast<Eigen::Index>(i)) > threshold)
+        {
+            kept[i] = 0;
+            ++outliers;
+        }
+    }
+    return kept;
+}
+
+/// kOutlierFloor in reference units.
+double outlier_floor(const EmbedOptions& options, double diagonal)
+{
+    const double strength = options.rule == EmbeddingRule::Additive ? options.resolved_strength()
+                                                                     : kOutlierFloorFraction / kOutlierFloor;
+    return kOutlierFloor * strength * diagonal;
+}
+
 // The original followed by its other instances, as one mesh (the registration's reference).
 TriangleMesh with_instances(const TriangleMesh& original, const TriangleMesh& instances)
 {
@@ -121,6 +170,7 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
     // original [Umeyama 1991].
     bool is_corresponding = false;
     bool is_resampled = false;
+    bool is_cropped = false;
     timer.begin("correspondence");
     if (suspect.vertex_count() == original.vertex_count() && options.pairs.empty())
     {
@@ -176,9 +226,17 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
         report.registration_rms = r.rms_error;
         report.cropped_fraction = sampled.cropped_fraction;
         aligned = std::move(sampled.points);
-        if (sampled.cropped_fraction > 0.0)
+        is_cropped = sampled.cropped_fraction > 0.0;
+        if (is_cropped)
         {
             kept_rows = kept_after_crop(original, sampled.is_cropped);
+        }
+        std::size_t outliers = 0;
+        kept_rows = kept_without_outliers(sampled, is_cropped ? &kept_rows : nullptr,
+                                          outlier_floor(mark.key().options, diagonal), outliers);
+        report.outlier_fraction = static_cast<double>(outliers) / static_cast<double>(kept_rows.size());
+        if (is_cropped || outliers > 0)
+        {
             kept = &kept_rows;
         }
         is_resampled = true;
@@ -187,14 +245,17 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
 
     timer.begin("extract");
     const Detector detector(mark, original);
-    report.extraction = is_resampled ? detector.extract_resampled(aligned, options.decision, kept)
-                                     : detector.extract(aligned, options.decision);
+    // A family key's code is read jointly with the owner's mark unless the suspect is cropped
+    // (Detector::extract_resampled); rows left out as outliers alone do not make it cropped.
+    report.extraction = !is_resampled ? detector.extract(aligned, options.decision)
+                        : is_cropped  ? detector.extract_resampled(aligned, options.decision, kept)
+                                      : detector.extract_resampled_with_code(aligned, options.decision, kept);
     report.decision = mark.decide(report.extraction, options.decision);
     report.owner_detected = report.decision.is_present;
     report.owner_false_positive_probability = report.decision.false_positive_probability;
     if (options.trace && mark.key().recipients && !mark.key().recipients->recipients.empty())
     {
-        if (kept != nullptr && is_resampled)
+        if (is_cropped)
         {
             // The owner's coefficients were read alone (cropped suspect); the code's, read
             // jointly with them, still serve a slightly cropped one (remeshing, simplification).

@@ -124,6 +124,7 @@ nlohmann::json detect_report_json(const DetectReport& report, const DetectOption
                           {"score_false_positive_probability", d.score_false_positive_probability},
                           {"bits_false_positive_probability", d.bits_false_positive_probability},
                           {"cropped_fraction", report.cropped_fraction},
+                          {"outlier_fraction", report.outlier_fraction},
                           {"registration",
                            {{"method", report.alignment},
                             {"rms_error", report.registration_rms},

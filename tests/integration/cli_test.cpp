@@ -90,7 +90,8 @@ TEST_F(CliTest, embed_then_detect_reports_json_and_exit_codes)
     EXPECT_TRUE(j["detected"].get<bool>());
     EXPECT_DOUBLE_EQ(j["correlation"].get<double>(), 1.0);
     EXPECT_EQ(j["bits_expected"].get<std::string>(), j["bits_found"].get<std::string>());
-    for (const char* field : {"false_positive_probability", "cropped_fraction", "registration", "seconds"})
+    for (const char* field :
+         {"false_positive_probability", "cropped_fraction", "outlier_fraction", "registration", "seconds"})
     {
         EXPECT_TRUE(j.contains(field)) << field;
     }
@@ -323,6 +324,52 @@ TEST_F(CliTest, reordered_copies_of_a_mirror_symmetric_mesh_are_found)
         // A proper pose: the reordered copy was not moved at all.
         EXPECT_GT(j["registration"]["transform"][0][0].get<double>(), 0.99) << "seed " << seed << ": " << r.out;
     }
+}
+
+TEST_F(CliTest, rows_far_from_a_coarsely_remeshed_copy_are_left_out)
+{
+    // decimated-max.obj (5.3K vertices) remeshed to 25%: about 5% of the original's rows lie
+    // several mark amplitudes from the remeshed surface. Read with the others they swamped the
+    // mark (z 3.4-4.1 for seeds 1-4); left out, it is claimed (z 5.7-6.3). The same remesh of
+    // the unmarked mesh leaves rows out too and is not claimed, and which rows are left out
+    // does not depend on the key.
+    const fs::path mesh = test::mesh_dir() / "decimated-max.obj";
+    if (!fs::exists(mesh))
+    {
+        GTEST_SKIP() << mesh << " is missing";
+    }
+    const auto marked = dir_ / "dm_marked.obj";
+    const auto key = dir_ / "dm.json";
+    const auto other_key = dir_ / "dm_other.json";
+    const auto attacked = dir_ / "dm_remeshed.obj";
+    const auto clean = dir_ / "dm_clean.obj";
+    ASSERT_EQ(run("embed " + mesh.string() + " -o " + marked.string() + " --key " + key.string() + " --seed 1", dir_)
+                  .exit_code,
+              0);
+    ASSERT_EQ(run("embed " + mesh.string() + " -o " + (dir_ / "dm_other.obj").string() + " --key " +
+                      other_key.string() + " --seed 2",
+                  dir_)
+                  .exit_code,
+              0);
+    ASSERT_EQ(run("attack " + marked.string() + " -o " + attacked.string() + " --seed 1 remesh=0.25", dir_).exit_code, 0);
+    ASSERT_EQ(run("attack " + mesh.string() + " -o " + clean.string() + " --seed 1 remesh=0.25", dir_).exit_code, 0);
+    auto detect = [&](const fs::path& suspect, const fs::path& with_key) {
+        const CliRun r = run("detect " + suspect.string() + " --original " + mesh.string() + " --key " +
+                                 with_key.string() + " --json",
+                             dir_);
+        EXPECT_LE(r.exit_code, 1) << r.err;
+        return nlohmann::json::parse(r.out);
+    };
+    const auto found = detect(attacked, key);
+    EXPECT_TRUE(found["detected"].get<bool>()) << found.dump();
+    EXPECT_GT(found["score"].get<double>(), 5.5);
+    EXPECT_GT(found["outlier_fraction"].get<double>(), 0.02);
+    EXPECT_LT(found["outlier_fraction"].get<double>(), 0.15);
+    EXPECT_EQ(found["cropped_fraction"].get<double>(), 0.0);
+    const auto unmarked = detect(clean, key);
+    EXPECT_FALSE(unmarked["detected"].get<bool>()) << unmarked.dump();
+    EXPECT_GT(unmarked["outlier_fraction"].get<double>(), 0.02);
+    EXPECT_EQ(detect(clean, other_key)["outlier_fraction"], unmarked["outlier_fraction"]);
 }
 
 TEST_F(CliTest, detects_attacked_copies_and_never_the_same_attacks_on_the_original)
@@ -596,6 +643,8 @@ TEST_F(CliTest, bench_robustness_reports_every_trial)
         EXPECT_EQ(t["error"].get<std::string>(), "") << t.dump();
         const bool is_marked = t["kind"] == "marked";
         EXPECT_EQ(t["detected"].get<bool>(), is_marked) << t.dump();
+        // Reordered copies are resampled on the whole surface: no row is far from it.
+        EXPECT_EQ(t["outlier_fraction"].get<double>(), 0.0) << t.dump();
         marked += is_marked ? 1 : 0;
     }
     EXPECT_EQ(marked, 6);

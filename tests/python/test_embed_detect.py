@@ -118,6 +118,9 @@ def test_attacked_and_reordered_suspect(torus):
     result = meshmark.detect(moved_V, moved_F, V, F, key)
     assert result.detected
     assert result.alignment != "none"
+    # A reordered copy of the whole surface: no row is far from it, none is left out.
+    assert result.outlier_fraction == 0.0 and result.cropped_fraction == 0.0
+    assert result.to_dict()["outlier_fraction"] == 0.0
     with pytest.raises(meshmark.InvalidOption):
         meshmark.detect(moved_V, moved_F, V, F, key, register=False)
 
