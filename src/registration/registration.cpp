@@ -220,10 +220,11 @@ void keep_best_of_both(std::vector<Candidate>& candidates, std::size_t count)
 
 /// True when the suspect's moments are close to the reference's (kInPlaceOffset, kInPlaceScale):
 /// it may have been re-worked where the original stands (a modelling tool leaves it there), and
-/// the identity is a start that the tournament must not drop. A mirror-symmetric shape that was coarsely resampled in
-/// place (a voxel remesh) fits its mirror image about as well as itself, and the coarse rounds
-/// on few samples then kept only mirrored fits and wrong turns (docs/algorithms/registration.md,
-/// failure modes). A moved copy's moments differ, and its starts are as before.
+/// the identity is a start that the tournament must not drop. A mirror-symmetric shape that
+/// was coarsely resampled in place (a voxel remesh) fits its mirror image about as well as
+/// itself, and the coarse rounds on few samples then kept only mirrored fits and wrong turns
+/// (docs/algorithms/registration.md, failure modes). A moved copy's moments differ, and its
+/// starts are as before.
 bool stands_in_place(const Moments& suspect, const Moments& reference)
 {
     const double radius2 = reference.covariance.trace();
