@@ -99,7 +99,8 @@ constexpr double kOutlierMedianFactor = 3.0;
 // diagonal): 10 x 0.059% = 0.59% of the diagonal at the defaults. A copy that only carries the
 // mark (distances of the order of the strength) loses no row.
 constexpr double kOutlierFloor = 10.0;
-// The floor for keys whose strength is not a distance (the paper's rule): the default mark's.
+// The floor for keys whose strength is not a distance (the paper's rule), as a fraction of the
+// diagonal: the default mark's.
 constexpr double kOutlierFloorFraction = 0.0059;
 
 /// The rows to read: \p kept_by_crop (null: all) minus the outliers above; \p outliers gets
@@ -126,12 +127,12 @@ std::vector<std::uint8_t> kept_without_outliers(const Resampling& sampled,
     return kept;
 }
 
-/// kOutlierFloor in reference units.
+/// The floor of the far rows' threshold in reference units.
 double outlier_floor(const EmbedOptions& options, double diagonal)
 {
-    const double strength = options.rule == EmbeddingRule::Additive ? options.resolved_strength()
-                                                                     : kOutlierFloorFraction / kOutlierFloor;
-    return kOutlierFloor * strength * diagonal;
+    const double fraction = options.rule == EmbeddingRule::Additive ? kOutlierFloor * options.resolved_strength()
+                                                                     : kOutlierFloorFraction;
+    return fraction * diagonal;
 }
 
 // The original followed by its other instances, as one mesh (the registration's reference).
