@@ -22,6 +22,16 @@ using detail::NuisanceFields;
 using detail::NuisanceModel;
 using detail::nuisance_model;
 using detail::solve_jointly;
+using detail::check_weight_scale;
+
+void detail::check_weight_scale(double weight_scale)
+{
+    if (!std::isfinite(weight_scale) || weight_scale < 0.0)
+    {
+        throw InvalidOption("the rows' weight scale must be 0 (no weights) or positive, not " +
+                            std::to_string(weight_scale) + ".");
+    }
+}
 
 Detector::Detector(const SpectralWatermark& mark, const TriangleMesh& original)
     : mark_(&mark), original_(&original)
@@ -181,19 +191,21 @@ Extraction Detector::extract(const Positions& suspect, const DetectOptions& opti
 }
 
 Extraction Detector::extract_resampled(const Positions& resampled, const DetectOptions& options,
-                                       const std::vector<std::uint8_t>* is_kept) const
+                                       const std::vector<std::uint8_t>* is_kept,
+                                       double weight_scale) const
 {
-    return read_resampled(resampled, options, is_kept, read_modes(is_kept));
+    return read_resampled(resampled, options, is_kept, weight_scale, read_modes(is_kept));
 }
 
 Extraction Detector::extract_resampled_with_code(const Positions& resampled, const DetectOptions& options,
-                                                 const std::vector<std::uint8_t>* is_kept) const
+                                                 const std::vector<std::uint8_t>* is_kept,
+                                                 double weight_scale) const
 {
-    return read_resampled(resampled, options, is_kept, static_cast<int>(mark_->modulation().rows()));
+    return read_resampled(resampled, options, is_kept, weight_scale, static_cast<int>(mark_->modulation().rows()));
 }
 
 Extraction Detector::read_resampled(const Positions& resampled, const DetectOptions& options,
-                                    const std::vector<std::uint8_t>* is_kept, int modes) const
+                                    const std::vector<std::uint8_t>* is_kept, double weight_scale, int modes) const
 {
     options.validate();
     if (resampled.rows() != original_->V.rows())
@@ -201,6 +213,7 @@ Extraction Detector::read_resampled(const Positions& resampled, const DetectOpti
         throw InvalidOption("the resampled suspect has " + std::to_string(resampled.rows()) +
                             " rows, the original " + std::to_string(original_->V.rows()) + ".");
     }
+    check_weight_scale(weight_scale);
     const auto coefficients = static_cast<Eigen::Index>(3 * modes);
 
     // Model: the observed change o = S (U_M diag(mod) b' + sum_f g_f N_f) + noise, where S is
@@ -212,7 +225,9 @@ Extraction Detector::read_resampled(const Positions& resampled, const DetectOpti
     // basis block by block (project_design): neither U_r (#active x r) nor a field per unknown
     // is ever formed. A modulated column (mode, axis) is mod * U_mode S_i a_axis, so its 3 file
     // components come from the 6 distinct products U_mode (S_i)_cb, c <= b: 6 m design columns
-    // instead of 9 m (the accumulation's cost is linear in the width).
+    // instead of 9 m (the accumulation's cost is linear in the width). With row weights w_i,
+    // S_i and o_i are scaled by w_i (a weighted projection: a row far from the suspect's
+    // surface counts less; the model still holds row by row, so the estimate stays unbiased).
     const int first = mark_->key().options.first_mode;
     const int r = std::max(mark_->basis().well_conditioned_modes(kNuisanceModeTolerance), first + modes);
     const int head = first + modes;
@@ -250,13 +265,15 @@ Extraction Detector::read_resampled(const Positions& resampled, const DetectOpti
                 continue;
             }
             double* x = X + a * width;
+            const Eigen::RowVector3d change = resampled.row(i) - original_->V.row(i);
+            const double weight = weight_scale > 0.0 ? row_weight(change.norm(), weight_scale) : 1.0;
             std::array<double, kPairs> sampling{};
             for (Eigen::Index c = 0; c < 3; ++c)
             {
                 for (Eigen::Index b = c; b < 3; ++b)
                 {
                     sampling[static_cast<std::size_t>(kPair[static_cast<std::size_t>(c)][static_cast<std::size_t>(b)])] =
-                        has_normals ? normals(i, c) * normals(i, b) : (c == b ? 1.0 : 0.0);
+                        weight * (has_normals ? normals(i, c) * normals(i, b) : (c == b ? 1.0 : 0.0));
                 }
             }
             for (int mode = 0; mode < modes; ++mode)
@@ -269,13 +286,13 @@ Extraction Detector::read_resampled(const Positions& resampled, const DetectOpti
             }
             for (Eigen::Index f = 0; f < q; ++f)
             {
-                const Eigen::RowVector3d response = sample(i, nuisance.row(f, i));
+                const Eigen::RowVector3d response = weight * sample(i, nuisance.row(f, i));
                 for (Eigen::Index b = 0; b < 3; ++b)
                 {
                     x[products + b * (q + 1) + f] = response(b);
                 }
             }
-            const Eigen::RowVector3d observed = resampled.row(i) - original_->V.row(i);
+            const Eigen::RowVector3d observed = weight * change;
             for (Eigen::Index b = 0; b < 3; ++b)
             {
                 x[products + b * (q + 1) + q] = observed(b);

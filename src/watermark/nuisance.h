@@ -55,6 +55,10 @@ private:
     std::vector<Positions> laplacians_;
 };
 
+// Throws InvalidOption unless \p weight_scale, the scale of the resampled rows' weights
+// (Detector::extract_resampled), is 0 or positive and finite.
+void check_weight_scale(double weight_scale);
+
 // Least squares with the variance of every unknown, up to the common noise variance:
 // diag((A^T A)^+) from the SVD of A. Unknowns the data cannot determine get infinite variance.
 struct JointSolution

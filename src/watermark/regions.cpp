@@ -8,6 +8,7 @@
 #include "meshmark/core/error.h"
 #include "meshmark/geometry/normals.h"
 #include "meshmark/watermark/detector.h"
+#include "watermark/nuisance.h"
 
 namespace meshmark {
 namespace {
@@ -18,7 +19,8 @@ constexpr std::array<int, 3> kSplits = {2, 3, 4};
 }  // namespace
 
 std::vector<std::vector<double>> Detector::region_changes(const Positions& suspect, bool is_resampled,
-                                                          const std::vector<std::uint8_t>* is_kept) const
+                                                          const std::vector<std::uint8_t>* is_kept,
+                                                          double weight_scale) const
 {
     const SpectralWatermark& mark = *mark_;
     const int code_modes = mark.recipient_modes();
@@ -31,6 +33,7 @@ std::vector<std::vector<double>> Detector::region_changes(const Positions& suspe
         throw InvalidOption("the suspect has " + std::to_string(suspect.rows()) + " rows, the original " +
                             std::to_string(original_->V.rows()) + ".");
     }
+    detail::check_weight_scale(weight_scale);
     const int first = mark.key().options.first_mode;
     const int owner_modes = static_cast<int>(mark.embedded_signs().rows());
     const int modes = first + owner_modes + code_modes;  // rows of the projection
@@ -82,6 +85,7 @@ std::vector<std::vector<double>> Detector::region_changes(const Positions& suspe
                 owner += U[a * h + static_cast<std::size_t>(mode)] * owner_change.row(mode);
             }
             Eigen::RowVector3d r = suspect.row(i) - original_->V.row(i);
+            const double weight = weight_scale > 0.0 ? row_weight(r.norm(), weight_scale) : 1.0;
             if (normals.rows() > 0)
             {
                 const Eigen::RowVector3d normal = normals.row(i);
@@ -91,6 +95,7 @@ std::vector<std::vector<double>> Detector::region_changes(const Positions& suspe
             {
                 r -= owner;
             }
+            r *= weight;
             double* x = X + a * width;
             x[0] = r(0);  // region 0: every (kept) row
             x[1] = r(1);

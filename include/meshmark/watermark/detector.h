@@ -10,6 +10,14 @@
 
 namespace meshmark {
 
+/// Weight of a resampled row at distance \p distance from the original's vertex, for a weight
+/// scale \p scale > 0 (Detector::extract_resampled): 1 / (1 + (distance / scale)^2).
+[[nodiscard]] inline double row_weight(double distance, double scale) noexcept
+{
+    const double x = distance / scale;
+    return 1.0 / (1.0 + x * x);
+}
+
 /// \brief Reads a watermark back from suspects: the watermark and the ORIGINAL mesh it was
 /// embedded in (not the watermarked one). Everything geometric of an extraction (the change
 /// from the original, its normals, the nuisance fields, the rows a crop keeps) is taken from
@@ -46,14 +54,23 @@ public:
     /// jointly by least squares on the leading modes. With no faces (a point cloud) no normal
     /// projection is applied.
     /// \param resampled #V x 3 closest points, original frame. \param is_kept optional crop mask.
+    /// \param weight_scale  0, or s > 0 to weight the rows by their distance: row i, at
+    ///        d_i = |resampled_i - original_i|, gets w_i = row_weight(d_i, s) = 1 / (1 + (d_i /
+    ///        s)^2), and its design and observation are scaled by w_i before the projection on
+    ///        the modes, so rows an attack moved far from the mark count less. The weights
+    ///        depend on the suspect and the original only, never on a key's signs, so the bound
+    ///        holds.
+    /// \throws InvalidOption if \p weight_scale is negative or not finite.
     [[nodiscard]] Extraction extract_resampled(const Positions& resampled, const DetectOptions& options,
-                                               const std::vector<std::uint8_t>* is_kept = nullptr) const;
+                                               const std::vector<std::uint8_t>* is_kept = nullptr,
+                                               double weight_scale = 0.0) const;
 
     /// \brief extract_resampled() reading a family key's code modes jointly with the owner's
     /// even on a cropped suspect (where extract_resampled reads the owner's alone): the code's
     /// coefficients of a slightly cropped suspect (remeshing, simplification) for tracing.
     [[nodiscard]] Extraction extract_resampled_with_code(const Positions& resampled, const DetectOptions& options,
-                                                         const std::vector<std::uint8_t>* is_kept) const;
+                                                         const std::vector<std::uint8_t>* is_kept,
+                                                         double weight_scale = 0.0) const;
 
     /// Number of regions region_changes() reads: first every row (kept by the crop mask), then
     /// the halves, thirds and quarters of the original along each of its three principal axes.
@@ -70,9 +87,11 @@ public:
     /// \param suspect  #V x 3 in the original's frame: vertex for vertex, or resampled.
     /// \param is_resampled  The suspect was resampled (only normal components are compared).
     /// \param is_kept  Optional crop mask: rows with 0 are left out.
+    /// \param weight_scale  0, or the scale of the rows' weights as for extract_resampled().
     /// \throws InvalidOption unless the watermark has a recipient code.
     [[nodiscard]] std::vector<std::vector<double>> region_changes(const Positions& suspect, bool is_resampled,
-                                                                  const std::vector<std::uint8_t>* is_kept = nullptr) const;
+                                                                  const std::vector<std::uint8_t>* is_kept = nullptr,
+                                                                  double weight_scale = 0.0) const;
 
     /// The watermark's decision on an extraction (SpectralWatermark::decide).
     [[nodiscard]] Decision decide(const Extraction& extraction, const DetectOptions& options) const
@@ -88,7 +107,8 @@ private:
     // a cropped suspect (\p is_kept not null).
     [[nodiscard]] int read_modes(const std::vector<std::uint8_t>* is_kept) const noexcept;
     [[nodiscard]] Extraction read_resampled(const Positions& resampled, const DetectOptions& options,
-                                            const std::vector<std::uint8_t>* is_kept, int modes) const;
+                                            const std::vector<std::uint8_t>* is_kept,
+                                            double weight_scale, int modes) const;
     // Extraction of coefficients normalized by their modulation, with their variances and
     // (where the joint least squares computes them) their damped readings.
     [[nodiscard]] Extraction extraction_from(const Eigen::VectorXd& normalized, const Eigen::VectorXd& variances,
