@@ -338,6 +338,9 @@ def main():
         for tool in needed:
             if shutil.which(tool) is None:
                 raise Failure("%s: not found (see --help for the options and variables naming the tools)" % tool)
+        # Blender runs with this interpreter's folder taken off PATH (blender_env): name it by
+        # its full path first, or a Blender beside that interpreter (/usr/bin) is lost with it.
+        args.blender = shutil.which(args.blender)
         if args.meshes:
             meshes = [m if os.path.exists(m) else os.path.join(args.mesh_dir, m) for m in args.meshes]
         else:
