@@ -227,7 +227,7 @@ Extraction Detector::read_resampled(const Positions& resampled, const DetectOpti
     // components come from the 6 distinct products U_mode (S_i)_cb, c <= b: 6 m design columns
     // instead of 9 m (the accumulation's cost is linear in the width). With row weights w_i,
     // S_i and o_i are scaled by w_i (a weighted projection: a row far from the suspect's
-    // surface counts less; the model still holds row by row, so the estimate stays unbiased).
+    // surface counts less; each row's equation still holds, only scaled).
     const int first = mark_->key().options.first_mode;
     const int r = std::max(mark_->basis().well_conditioned_modes(kNuisanceModeTolerance), first + modes);
     const int head = first + modes;
