@@ -142,6 +142,7 @@ int run_bench_robustness(const RobustnessArgs& args, const GlobalArgs& global)
     }
     DetectFileOptions detect_options;
     detect_options.threads = global.threads;
+    detect_options.match_surface = !args.plain_resampling;
     const bool chatty = !global.quiet;
 
     std::vector<MeshEmbedding> embeddings;
@@ -395,6 +396,9 @@ void register_bench_robustness(CLI::App& bench, GlobalArgs& global, CommandRunne
                         "Only tabulate: read the trials of earlier --json-file runs (repeatable; same settings) "
                         "instead of running")
         ->check(CLI::ExistingFile);
+    command->add_flag("--plain-resampling", args->plain_resampling,
+                      "Ablation: read resampled copies against the original's vertices, not its surface "
+                      "under the copy's triangles (detection before 2026-11-26)");
     command->add_flag("--json", args->json, "Print every trial as one JSON object instead of the tables");
     add_global_flags(*command, global);
     command->callback([args, &global, &runner, command]() {

@@ -50,6 +50,7 @@ struct RobustnessArgs
     std::string markdown;
     std::string json_path;
     std::vector<std::string> from_json;
+    bool plain_resampling = false;  // ablation: DetectFileOptions::match_surface off
     bool json = false;
     int recipients = 0;  // > 0: family keys with this many recipients (docs/fingerprinting.md)
     int colluders = 1;   // family keys: the marked copy averages the copies of recipients 0 .. colluders-1

@@ -60,8 +60,8 @@ void BM_TraceRecipients(benchmark::State& state)
         {
             damped_code.push_back(rng.normal());
         }
-        extraction.damped_changes.push_back(std::move(damped_owner));
-        extraction.damped_recipient_changes.push_back(std::move(damped_code));
+        extraction.further_changes.push_back(std::move(damped_owner));
+        extraction.further_recipient_changes.push_back(std::move(damped_code));
     }
     extraction.region_changes.resize(static_cast<std::size_t>(Detector::kRegionCount));
     for (std::vector<double>& region : extraction.region_changes)

@@ -14,6 +14,7 @@
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
 #include "meshmark/geometry/adjacency.h"
+#include "meshmark/geometry/closest_point_index.h"
 #include "meshmark/io/mesh_io.h"
 #include "meshmark/meshmark.h"
 #include "meshmark/pipeline/embed_file.h"
@@ -178,6 +179,8 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
     const std::vector<std::uint8_t>* kept = nullptr;
     std::vector<std::uint8_t> kept_rows;
     double weight_scale = 0.0;  // resampled suspects: the rows' weights (kWeightScale)
+    Resampling sampled;         // resampled suspects: the suspect's surface at the original's vertices
+    Eigen::Matrix4d to_original = Eigen::Matrix4d::Identity();
 
     // Same vertex count: try the vertices in order, after the closed-form similarity onto the
     // original [Umeyama 1991].
@@ -233,12 +236,12 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
         // Resample at the original's vertices: resampling at the watermarked mesh's vertices would
         // copy the watermark's tangential component onto any unmarked surface (measured: a
         // reordered unmarked bunny read R = 1.0 that way).
-        Resampling sampled = resample(original, suspect, r.transform, resampling);
+        sampled = resample(original, suspect, r.transform, resampling);
+        to_original = r.transform;
         report.alignment = r.converged ? "registration" : "registration (not converged)";
         report.transform = r.transform;
         report.registration_rms = r.rms_error;
         report.cropped_fraction = sampled.cropped_fraction;
-        aligned = std::move(sampled.points);
         is_cropped = sampled.cropped_fraction > 0.0;
         if (is_cropped)
         {
@@ -259,11 +262,40 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
 
     timer.begin("extract");
     const Detector detector(mark, original);
+    const Positions& at = is_resampled ? sampled.points : aligned;
     // A family key's code is read jointly with the owner's mark unless the suspect is cropped
     // (Detector::extract_resampled); rows left out as outliers alone do not make it cropped.
-    report.extraction = !is_resampled ? detector.extract(aligned, options.decision)
-                        : is_cropped  ? detector.extract_resampled(aligned, options.decision, kept, weight_scale)
-                                      : detector.extract_resampled_with_code(aligned, options.decision, kept, weight_scale);
+    auto read = [&] {
+        return !is_resampled ? detector.extract(at, options.decision)
+               : is_cropped  ? detector.extract_resampled(at, options.decision, kept, weight_scale)
+                             : detector.extract_resampled_with_code(at, options.decision, kept, weight_scale);
+    };
+    report.extraction = read();
+    if (is_resampled && options.match_surface)
+    {
+        // Read again against the original's surface under the suspect's triangles
+        // (match_reference_surface): a coarse copy's triangles cut under a curved surface by
+        // many times the mark's amplitude even where they carry nothing, and the same
+        // triangles laid through the closest points of their corners on the ORIGINAL cut the
+        // same way, so the difference keeps what the corners carry. That second reading is
+        // the primary one; the first stays as one further statistic of the verdict, because a
+        // simplifier that places its vertices off the surface (quadric placement) leaves an
+        // error that the chord partly cancels in the first reading and that the second sees
+        // whole (docs/algorithms/detection.md, "Two readings of a resampled suspect"). Only
+        // the original and the suspect enter either reading, so the bound holds with the
+        // union bound's one more statistic.
+        Extraction plain = std::move(report.extraction);
+        timer.lap("extract");
+        timer.begin("match surface");
+        {
+            const ClosestPointIndex original_index(original);
+            match_reference_surface(sampled, original, original_index, suspect, to_original, options.threads);
+        }
+        timer.lap("match surface");
+        timer.begin("extract");
+        report.extraction = read();
+        add_further_reading(report.extraction, plain);
+    }
     report.decision = mark.decide(report.extraction, options.decision);
     report.owner_detected = report.decision.is_present;
     report.owner_false_positive_probability = report.decision.false_positive_probability;
@@ -274,11 +306,11 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
             // The owner's coefficients were read alone (cropped suspect); the code's, read
             // jointly with them, still serve a slightly cropped one (remeshing, simplification).
             const Extraction with_code =
-                detector.extract_resampled_with_code(aligned, options.decision, kept, weight_scale);
+                detector.extract_resampled_with_code(at, options.decision, kept, weight_scale);
             report.extraction.recipient_change = with_code.recipient_change;
             report.extraction.recipient_weights = with_code.recipient_weights;
         }
-        report.extraction.region_changes = detector.region_changes(aligned, is_resampled, kept, weight_scale);
+        report.extraction.region_changes = detector.region_changes(at, is_resampled, kept, weight_scale);
         report.traced = mark.trace(report.extraction, options.decision);
         report.recipients_traced = report.traced.size();
         std::vector<RecipientScore> scores = report.traced;

@@ -2,6 +2,7 @@
 #include "meshmark/registration/resampling.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <string>
 
@@ -27,6 +28,33 @@ double quantile_of(const Eigen::VectorXd& values, double q)
                    static_cast<double>(v.size() - 1)));
     std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
     return v[k];
+}
+
+/// Barycentric coordinates of \p p (a point of the triangle) in (\p a, \p b, \p c): the
+/// least-squares solution in the triangle's plane, clamped to the triangle. A degenerate
+/// triangle (no plane) gives all the weight to its corner nearest to \p p.
+Eigen::Vector3d barycentric(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                            const Eigen::Vector3d& c)
+{
+    const Eigen::Vector3d ab = b - a;
+    const Eigen::Vector3d ac = c - a;
+    const Eigen::Vector3d ap = p - a;
+    const double d00 = ab.dot(ab);
+    const double d01 = ab.dot(ac);
+    const double d11 = ac.dot(ac);
+    const double det = d00 * d11 - d01 * d01;
+    if (!(det > 1e-24 * d00 * d11) || !std::isfinite(det))
+    {
+        const std::array<double, 3> d{ap.squaredNorm(), (p - b).squaredNorm(), (p - c).squaredNorm()};
+        const auto k = std::min_element(d.begin(), d.end()) - d.begin();
+        return Eigen::Vector3d::Unit(k);
+    }
+    const double d20 = ap.dot(ab);
+    const double d21 = ap.dot(ac);
+    const double v = std::clamp((d11 * d20 - d01 * d21) / det, 0.0, 1.0);
+    const double w = std::clamp((d00 * d21 - d01 * d20) / det, 0.0, 1.0);
+    const double sum = v + w;
+    return sum > 1.0 ? Eigen::Vector3d(0.0, v / sum, w / sum) : Eigen::Vector3d(1.0 - sum, v, w);
 }
 
 }  // namespace
@@ -92,12 +120,15 @@ Resampling resample(const TriangleMesh& reference, const ClosestPointIndex& susp
     Resampling result;
     result.points.resize(n, 3);
     result.distance.resize(n);
+    result.element.resize(static_cast<std::size_t>(n));
 #pragma omp parallel for schedule(static) num_threads(threads)
     for (Eigen::Index i = 0; i < n; ++i)
     {
-        const Eigen::Vector3d p = A * closest[static_cast<std::size_t>(i)].point + t;
+        const ClosestPoint& c = closest[static_cast<std::size_t>(i)];
+        const Eigen::Vector3d p = A * c.point + t;
         result.points.row(i) = p.transpose();
         result.distance(i) = (p - reference.V.row(i).transpose()).norm();
+        result.element[static_cast<std::size_t>(i)] = c.face >= 0 ? c.face : c.vertex;
     }
 
     // Crop marking: farther than the threshold (see ResamplingOptions) means no counterpart.
@@ -115,6 +146,87 @@ Resampling resample(const TriangleMesh& reference, const ClosestPointIndex& susp
     }
     result.cropped_fraction = static_cast<double>(cropped) / static_cast<double>(n);
     return result;
+}
+
+void match_reference_surface(Resampling& sampled, const TriangleMesh& reference,
+                             const ClosestPointIndex& reference_index, const TriangleMesh& suspect,
+                             const Eigen::Matrix4d& suspect_to_reference, int threads)
+{
+    const Eigen::Index n = reference.V.rows();
+    if (sampled.points.rows() != n || sampled.element.size() != static_cast<std::size_t>(n))
+    {
+        throw InvalidOption("match_reference_surface: the resampling was not made for this reference.");
+    }
+    threads = resolve_threads(threads);
+    const bool is_cloud = suspect.F.rows() == 0;
+    const Eigen::Matrix3d A = suspect_to_reference.block<3, 3>(0, 0);
+    const Eigen::Vector3d t = suspect_to_reference.block<3, 1>(0, 3);
+
+    // The suspect's vertices that some point lies on (a triangle's corners, or the cloud's
+    // point), in the reference's frame: each one's closest point on the reference is queried once.
+    std::vector<std::int32_t> slot(static_cast<std::size_t>(suspect.V.rows()), -1);
+    std::vector<std::int32_t> used;
+    auto use = [&](std::int32_t v) {
+        if (slot[static_cast<std::size_t>(v)] < 0)
+        {
+            slot[static_cast<std::size_t>(v)] = static_cast<std::int32_t>(used.size());
+            used.push_back(v);
+        }
+    };
+    for (const std::int32_t e : sampled.element)
+    {
+        if (is_cloud)
+        {
+            use(e);
+        }
+        else
+        {
+            for (int k = 0; k < 3; ++k)
+            {
+                use(suspect.F(e, k));
+            }
+        }
+    }
+    Positions corners(static_cast<Eigen::Index>(used.size()), 3);
+#pragma omp parallel for schedule(static) num_threads(threads)
+    for (Eigen::Index j = 0; j < corners.rows(); ++j)
+    {
+        corners.row(j) = (A * suspect.V.row(used[static_cast<std::size_t>(j)]).transpose() + t).transpose();
+    }
+    const std::vector<ClosestPoint> on_reference = reference_index.closest(corners, threads);
+    // Each corner's offset from the reference surface.
+#pragma omp parallel for schedule(static) num_threads(threads)
+    for (Eigen::Index j = 0; j < corners.rows(); ++j)
+    {
+        corners.row(j) -= on_reference[static_cast<std::size_t>(j)].point.transpose();
+    }
+
+#pragma omp parallel for schedule(static) num_threads(threads)
+    for (Eigen::Index i = 0; i < n; ++i)
+    {
+        const std::int32_t e = sampled.element[static_cast<std::size_t>(i)];
+        const Eigen::Vector3d p = sampled.points.row(i).transpose();
+        Eigen::Vector3d offset;
+        if (is_cloud)
+        {
+            offset = corners.row(slot[static_cast<std::size_t>(e)]).transpose();
+        }
+        else
+        {
+            std::array<std::int32_t, 3> j{};
+            std::array<Eigen::Vector3d, 3> x;
+            for (int k = 0; k < 3; ++k)
+            {
+                const std::int32_t v = suspect.F(e, k);
+                j[static_cast<std::size_t>(k)] = slot[static_cast<std::size_t>(v)];
+                x[static_cast<std::size_t>(k)] = A * suspect.V.row(v).transpose() + t;
+            }
+            const Eigen::Vector3d w = barycentric(p, x[0], x[1], x[2]);
+            offset = w(0) * corners.row(j[0]).transpose() + w(1) * corners.row(j[1]).transpose() +
+                     w(2) * corners.row(j[2]).transpose();
+        }
+        sampled.points.row(i) = reference.V.row(i) + offset.transpose();
+    }
 }
 
 double mean_edge_length(const TriangleMesh& mesh)

@@ -66,6 +66,58 @@ VerdictRule parse_verdict_rule(const std::string& name)
                                             {"bits", VerdictRule::Bits}});
 }
 
+namespace {
+
+/// \p x times \p w to the power \p power (0, 1/2 or 1: the verdict's three weightings).
+std::vector<double> weighted_by(const std::vector<double>& x, const std::vector<double>& w, double power)
+{
+    std::vector<double> weighted(x.size());
+    for (std::size_t c = 0; c < x.size(); ++c)
+    {
+        const double a = power == 0.0 ? 1.0 : std::pow(std::max(w[c], 0.0), power);
+        weighted[c] = a * x[c];
+    }
+    return weighted;
+}
+
+}  // namespace
+
+void add_further_reading(Extraction& primary, const Extraction& other)
+{
+    if (other.normalized_change.size() != primary.normalized_change.size() ||
+        other.weights.size() != other.normalized_change.size())
+    {
+        throw InvalidOption("add_further_reading: the two readings do not have the same coefficients.");
+    }
+    const bool is_paired = !primary.recipient_change.empty() &&
+                           primary.further_recipient_changes.size() == primary.further_changes.size();
+    const bool has_code = other.recipient_change.size() == primary.recipient_change.size() &&
+                          other.recipient_weights.size() == other.recipient_change.size() &&
+                          other.further_recipient_changes.size() == other.further_changes.size();
+    const std::vector<double> no_code(primary.recipient_change.size(), 0.0);
+    for (const double power : {0.0, 0.5, 1.0})
+    {
+        primary.further_changes.push_back(weighted_by(other.normalized_change, other.weights, power));
+        if (is_paired)
+        {
+            primary.further_recipient_changes.push_back(
+                has_code ? weighted_by(other.recipient_change, other.recipient_weights, power) : no_code);
+        }
+    }
+    for (std::size_t l = 0; l < other.further_changes.size(); ++l)
+    {
+        if (other.further_changes[l].size() != primary.normalized_change.size())
+        {
+            throw InvalidOption("add_further_reading: the two readings do not have the same coefficients.");
+        }
+        primary.further_changes.push_back(other.further_changes[l]);
+        if (is_paired)
+        {
+            primary.further_recipient_changes.push_back(has_code ? other.further_recipient_changes[l] : no_code);
+        }
+    }
+}
+
 SoftCorrelation::SoftCorrelation(const std::vector<double>& x, const std::vector<double>& w,
                                  const std::vector<std::vector<double>>& extra)
     : size_(x.size())
@@ -110,7 +162,7 @@ std::vector<RecipientScore> SpectralWatermark::trace(const Extraction& extractio
     // and other recipients' codes), so its score is bounded as the owner's soft score is; the
     // union over the key's recipients bounds the chance that any innocent is accused.
     const SoftCorrelation soft(extraction.recipient_change, extraction.recipient_weights,
-                               extraction.damped_recipient_changes);
+                               extraction.further_recipient_changes);
     // Regions (spliced suspects): one uniform-weight correlation each; the global test and the
     // regions share the level half and half (a weighted union bound, docs/fingerprinting.md).
     std::vector<std::vector<double>> regions;  // each region's values scaled to unit norm
@@ -143,13 +195,13 @@ std::vector<RecipientScore> SpectralWatermark::trace(const Extraction& extractio
     const bool has_joint = has_whole && owner_count == static_cast<std::size_t>(signs_.size());
     // The damped readings of both parts, joined the same way.
     std::vector<std::vector<double>> joint_damped;
-    if (has_joint && extraction.damped_changes.size() == extraction.damped_recipient_changes.size())
+    if (has_joint && extraction.further_changes.size() == extraction.further_recipient_changes.size())
     {
-        for (std::size_t l = 0; l < extraction.damped_changes.size(); ++l)
+        for (std::size_t l = 0; l < extraction.further_changes.size(); ++l)
         {
-            std::vector<double> both = extraction.damped_changes[l];
-            both.insert(both.end(), extraction.damped_recipient_changes[l].begin(),
-                        extraction.damped_recipient_changes[l].end());
+            std::vector<double> both = extraction.further_changes[l];
+            both.insert(both.end(), extraction.further_recipient_changes[l].begin(),
+                        extraction.further_recipient_changes[l].end());
             joint_damped.push_back(std::move(both));
         }
     }
@@ -312,7 +364,7 @@ Decision SpectralWatermark::decide(const Extraction& extraction, const DetectOpt
     // geometric mean; the verdict takes the best and pays for the choice with a union bound.
     // The damped readings (a crop or a coarse resampling leaves the modulated modes nearly
     // dependent) are further statistics with uniform weights, each paid for in the union bound.
-    const SoftCorrelation soft(extraction.normalized_change, extraction.weights, extraction.damped_changes);
+    const SoftCorrelation soft(extraction.normalized_change, extraction.weights, extraction.further_changes);
     decision.coefficient_count = static_cast<int>(soft.size());
     decision.statistic_count = soft.statistic_count();
     std::tie(decision.score, decision.score_false_positive_probability) = soft.score(

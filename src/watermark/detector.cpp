@@ -100,10 +100,10 @@ Extraction Detector::extraction_from(const Eigen::VectorXd& normalized, const Ei
     }
     for (const Eigen::VectorXd& reading : damped)
     {
-        result.damped_changes.emplace_back(reading.data(), reading.data() + coefficient_count);  // the owner's
+        result.further_changes.emplace_back(reading.data(), reading.data() + coefficient_count);  // the owner's
         if (reading.size() > coefficient_count)
         {
-            result.damped_recipient_changes.emplace_back(reading.data() + coefficient_count,
+            result.further_recipient_changes.emplace_back(reading.data() + coefficient_count,
                                                          reading.data() + reading.size());  // the code's
         }
     }

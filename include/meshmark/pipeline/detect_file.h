@@ -25,6 +25,10 @@ struct DetectFileOptions
     /// Family keys: score every recipient and accuse (docs/fingerprinting.md). False: the
     /// owner's mark alone decides, as with a single-owner key.
     bool trace = true;
+    /// Resampled suspects: measure each row against the original's surface laid under the
+    /// suspect's own triangles (match_reference_surface), which removes a coarse copy's chord
+    /// error. False: against the original's vertex, as before 2026-11-26 (an ablation).
+    bool match_surface = true;
 };
 
 /// What detect_file found.

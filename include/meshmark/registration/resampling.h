@@ -37,6 +37,8 @@ struct Resampling
     double cropped_fraction = 0.0;        ///< Flagged fraction of the reference's vertices.
     double crop_threshold = 0.0;          ///< The threshold used, reference units.
     double mean_edge_length = 0.0;        ///< `h` above, reference units.
+    /// #V_ref: the suspect's triangle holding each point (its vertex for a point cloud).
+    std::vector<std::int32_t> element;
 };
 
 /// \brief For every vertex of \p reference, the closest point on the registered suspect's
@@ -62,6 +64,25 @@ struct Resampling
                                   const ClosestPointIndex& suspect_index,
                                   const Eigen::Matrix4d& suspect_to_reference,
                                   const ResamplingOptions& options = {});
+
+/// \brief Measure each resampled point against the reference's own surface under the suspect's
+/// triangles: `points` becomes `reference vertex + (point - the same barycentric combination of
+/// the suspect triangle's corners, each moved to its closest point on the reference surface)`;
+/// `distance`, `is_cropped` and the crop threshold are left as they were.
+/// \details A coarse suspect (simplified, remeshed) lies off the reference by the chord error of
+/// its triangles even where it carries nothing: a point in a triangle spanning a curved region
+/// sits below the surface by much more than a watermark's amplitude. That error is the same
+/// for the triangle laid through the closest points of its corners on the reference, so the
+/// difference between the two keeps what the corners carry (their offset from the reference,
+/// interpolated) and drops the chord error. For a suspect that is the reference (same surface,
+/// any connectivity) every offset is 0. Only \p suspect and \p reference are used, never a
+/// watermark, so a detection's false-positive bound is unaffected. Bit-identical for any thread
+/// count.
+/// \param sampled  The result of resample() for the same meshes and transform.
+/// \param reference_index  A ClosestPointIndex of \p reference (its own frame).
+void match_reference_surface(Resampling& sampled, const TriangleMesh& reference,
+                             const ClosestPointIndex& reference_index, const TriangleMesh& suspect,
+                             const Eigen::Matrix4d& suspect_to_reference, int threads = 0);
 
 /// \brief Mean length of the face edges of \p mesh (each face's three edges, so interior
 /// edges count twice); for a point cloud the median nearest-neighbour distance instead.

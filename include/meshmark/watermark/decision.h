@@ -25,13 +25,15 @@ struct Extraction
     /// mask undone, weighted by `weights`: +1 for an embedded 1 and -1 for a 0 (soft decision).
     std::vector<double> bit_values;
     std::vector<std::uint8_t> bits_found;  ///< Payload bits: 0, 1, or 2 for undecided.
-    /// The owner's 3 m r coefficients read again by damped least squares, one vector per
-    /// damping level (docs/statistics.md, "Damped readings"), normalized as normalized_change;
-    /// empty where the extraction does not compute them. Never depends on the embedded signs.
-    std::vector<std::vector<double>> damped_changes;
-    /// Family keys: the recipient code's 3M coefficients of the same damped readings (empty
-    /// where the code is not read with the owner's mark, or no damped reading is computed).
-    std::vector<std::vector<double>> damped_recipient_changes;
+    /// Further readings of the owner's 3 m r coefficients, each one more statistic of the
+    /// verdict with uniform weights a = 1 (docs/statistics.md): the damped least-squares
+    /// readings, one per damping level ("Damped readings"), normalized as normalized_change,
+    /// and for a resampled suspect the reading against the original's vertices
+    /// (add_further_reading). Empty where none is computed. Never depends on the embedded signs.
+    std::vector<std::vector<double>> further_changes;
+    /// Family keys: the recipient code's 3M coefficients of the same further readings (empty
+    /// where the code is not read with the owner's mark, or no further reading is computed).
+    std::vector<std::vector<double>> further_recipient_changes;
     /// Family keys: the recipient code's 3M coefficients (coefficient c = 3 * mode + axis of
     /// the M modes after the owner's), normalized and weighted as above; empty otherwise.
     std::vector<double> recipient_change;
@@ -41,6 +43,15 @@ struct Extraction
     /// normalized; empty when not computed.
     std::vector<std::vector<double>> region_changes;
 };
+
+/// \brief Join \p other, another reading of the same suspect's coefficients for the same key,
+/// to \p primary as further readings, so the verdict scores every statistic of both and pays
+/// for each in its union bound: \p other's changes under the three weightings (each passed as
+/// a x, scored with a = 1) and its own further readings, the owner's to `further_changes` and,
+/// when \p primary pairs those with a family code's, the code's to `further_recipient_changes`
+/// (zeros where \p other did not read the code).
+/// \throws InvalidOption if the two readings do not have the same number of coefficients.
+void add_further_reading(Extraction& primary, const Extraction& other);
 
 /// \brief The soft correlation of a set of normalized coefficients with a sign vector, over the
 /// three weightings a = w^0, w^(1/2), w^1 (docs/statistics.md) and over any further readings of
@@ -149,7 +160,7 @@ struct Decision
     int bit_count = 0;
     /// z = sum_c a_c b'_c x_c / sqrt(sum_c a_c^2 x_c^2) over the 3 m r modulated coefficients,
     /// the largest over the weightings a = w^0, w^(1/2), w^1 (w: Extraction::weights) and over
-    /// the damped readings x of Extraction::damped_changes (a = 1): about sqrt(3 m r) for an
+    /// the damped readings x of Extraction::further_changes (a = 1): about sqrt(3 m r) for an
     /// intact mark; for an unmarked mesh, for each statistic, a sum of independent random signs
     /// (the key mask) with fixed weights, of mean 0 and variance 1.
     double score = 0.0;

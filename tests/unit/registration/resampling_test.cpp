@@ -3,11 +3,14 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <vector>
 
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/rng.h"
+#include "meshmark/geometry/closest_point_index.h"
 #include "meshmark/geometry/shapes.h"
 #include "perturbations.h"
 
@@ -117,6 +120,81 @@ TEST(ResamplingTest, is_bit_identical_for_one_and_two_threads)
     EXPECT_EQ(one.distance, two.distance);
     EXPECT_EQ(one.is_cropped, two.is_cropped);
     EXPECT_EQ(one.crop_threshold, two.crop_threshold);
+}
+
+TEST(ResamplingTest, matching_the_reference_surface_removes_the_chord_error)
+{
+    // The level-2 icosphere's vertices are level-4 vertices: a copy simplified without moving
+    // its vertices. Its triangles cut below the sphere (chord error up to ~1.5% of the radius),
+    // which the plain resampling reports; measured against the reference under the same
+    // triangles, nothing is left.
+    const TriangleMesh reference = icosphere(4);
+    const TriangleMesh coarse = icosphere(2);
+    Rng rng(25);
+    const Eigen::Matrix4d T = test::random_similarity(rng, false);
+    TriangleMesh suspect = coarse;
+    suspect.V = test::apply(T, coarse.V);
+    Resampling r = resample(reference, suspect, T.inverse());
+    const double chord = (r.points - reference.V).rowwise().norm().maxCoeff();
+    EXPECT_GT(chord, 0.005);
+    const ClosestPointIndex index(reference);
+    const Eigen::VectorXd distance = r.distance;
+    match_reference_surface(r, reference, index, suspect, T.inverse());
+    EXPECT_LT((r.points - reference.V).rowwise().norm().maxCoeff(), 1e-9);
+    EXPECT_EQ(r.distance, distance) << "the crop's distances are the plain ones";
+
+    // The same copy carrying a displacement along the normals (each coarse vertex moved
+    // outward by h times a smooth field): every reference vertex then reads the field,
+    // interpolated, and nothing of the chord.
+    const double h = 0.002;
+    TriangleMesh carried = coarse;
+    auto field = [](const Eigen::Vector3d& p) { return 1.0 + 0.5 * p.x(); };
+    for (Eigen::Index v = 0; v < carried.V.rows(); ++v)
+    {
+        const Eigen::Vector3d p = coarse.V.row(v).transpose();
+        carried.V.row(v) = (p + h * field(p) * p.normalized()).transpose();
+    }
+    carried.V = test::apply(T, carried.V);
+    Resampling plain = resample(reference, carried, T.inverse());
+    Resampling matched = plain;
+    match_reference_surface(matched, reference, index, carried, T.inverse(), 1);
+    double plain_error = 0.0;
+    double matched_error = 0.0;
+    for (Eigen::Index i = 0; i < reference.V.rows(); ++i)
+    {
+        const Eigen::Vector3d p = reference.V.row(i).transpose();
+        const double expected = h * field(p);
+        plain_error = std::max(plain_error, std::abs((plain.points.row(i).transpose() - p).dot(p) - expected));
+        matched_error = std::max(matched_error, std::abs((matched.points.row(i).transpose() - p).dot(p) - expected));
+    }
+    EXPECT_GT(plain_error, 2.0 * h);
+    EXPECT_LT(matched_error, 0.2 * h);
+    // Deterministic across thread counts.
+    Resampling two = plain;
+    match_reference_surface(two, reference, index, carried, T.inverse(), 2);
+    EXPECT_EQ(two.points, matched.points);
+}
+
+TEST(ResamplingTest, matching_a_point_cloud_uses_each_point_s_offset)
+{
+    const TriangleMesh reference = icosphere(3);
+    TriangleMesh cloud;
+    cloud.V = 1.01 * icosphere(2).V;  // on the sphere of radius 1.01: 0.01 off the reference's vertices
+    Resampling r = resample(reference, cloud, Eigen::Matrix4d::Identity());
+    const ClosestPointIndex index(reference);
+    match_reference_surface(r, reference, index, cloud, Eigen::Matrix4d::Identity());
+    for (Eigen::Index i = 0; i < reference.V.rows(); ++i)
+    {
+        const Eigen::Vector3d p = reference.V.row(i).transpose();
+        // The nearest point's own offset, 0.01 along its radius (its closest reference point is
+        // the level-3 vertex under it), seen along p's radius: at most half a level-2 edge away.
+        const double along = (r.points.row(i).transpose() - p).dot(p);
+        EXPECT_GT(along, 0.009);
+        EXPECT_LT(along, 0.0100001);
+    }
+    Resampling other = resample(icosphere(2), cloud, Eigen::Matrix4d::Identity());
+    EXPECT_THROW(match_reference_surface(other, reference, index, cloud, Eigen::Matrix4d::Identity()),
+                 InvalidOption);
 }
 
 TEST(ResamplingTest, rejects_singular_transform_and_bad_options)

@@ -424,16 +424,62 @@ TEST(DampedReadingsTest, a_half_model_scores_higher_damped)
     }
     const DetectOptions options;
     Extraction extraction = Detector(mark, mesh).extract_resampled(resampled, options, &is_kept);
-    ASSERT_EQ(extraction.damped_changes.size(), detail::kDampingLevels.size());
+    ASSERT_EQ(extraction.further_changes.size(), detail::kDampingLevels.size());
     const Decision damped = mark.decide(extraction, options);
     EXPECT_EQ(damped.statistic_count, 5);
-    extraction.damped_changes.clear();
+    extraction.further_changes.clear();
     const Decision plain = mark.decide(extraction, options);
     EXPECT_EQ(plain.statistic_count, 3);
     // (Measured: 5.15 against 1.45. The marked positions are kept whole, not projected on the
     // normals as a resampling would, so the tangential part of the mark is noise here.)
     EXPECT_GT(damped.score, plain.score + 2.5) << "damped " << damped.score << ", plain " << plain.score;
     EXPECT_DOUBLE_EQ(damped.score_false_positive_probability, 5.0 * rademacher_tail_bound(damped.score));
+}
+
+// A second reading of the same coefficients (detection's reading of a resampled suspect
+// against the original's vertices) joins the first with all its statistics: its changes
+// under the three weightings and its own further readings, each paid for in the union bound.
+TEST(FurtherReadingTest, another_reading_adds_its_statistics)
+{
+    Extraction primary;
+    primary.normalized_change = {1.0, -1.0, 0.5};
+    primary.weights = {1.0, 1.0, 1.0};
+    Extraction other;
+    other.normalized_change = {2.0, 0.0, -1.0};
+    other.weights = {4.0, 1.0, 0.25};
+    other.further_changes = {{0.5, 0.5, 0.5}};
+    add_further_reading(primary, other);
+    ASSERT_EQ(primary.further_changes.size(), 4U);
+    EXPECT_EQ(primary.further_changes[0], (std::vector<double>{2.0, 0.0, -1.0}));
+    EXPECT_EQ(primary.further_changes[1], (std::vector<double>{4.0, 0.0, -0.5}));
+    EXPECT_EQ(primary.further_changes[2], (std::vector<double>{8.0, 0.0, -0.25}));
+    EXPECT_EQ(primary.further_changes[3], (std::vector<double>{0.5, 0.5, 0.5}));
+    EXPECT_TRUE(primary.further_recipient_changes.empty()) << "no code read, nothing to pair";
+    // The verdict counts them: 3 weightings + 4 further readings.
+    EXPECT_EQ(SoftCorrelation(primary.normalized_change, primary.weights, primary.further_changes).statistic_count(), 7);
+
+    // With a family code read: the code's part is paired, zeros where the other reading has none.
+    Extraction family;
+    family.normalized_change = {1.0, -1.0, 0.5};
+    family.weights = {1.0, 1.0, 1.0};
+    family.recipient_change = {1.0, 1.0};
+    family.recipient_weights = {1.0, 1.0};
+    family.further_changes = {{0.0, 0.0, 0.0}};
+    family.further_recipient_changes = {{0.0, 0.0}};
+    Extraction no_code = other;
+    no_code.further_changes.clear();
+    add_further_reading(family, no_code);
+    ASSERT_EQ(family.further_recipient_changes.size(), 4U);
+    EXPECT_EQ(family.further_recipient_changes[3], (std::vector<double>{0.0, 0.0}));
+    Extraction with_code = no_code;
+    with_code.recipient_change = {-1.0, 3.0};
+    with_code.recipient_weights = {9.0, 0.0};
+    add_further_reading(family, with_code);
+    ASSERT_EQ(family.further_recipient_changes.size(), family.further_changes.size());
+    EXPECT_EQ(family.further_recipient_changes[5], (std::vector<double>{-3.0, 0.0}));
+
+    other.normalized_change.pop_back();
+    EXPECT_THROW(add_further_reading(primary, other), InvalidOption);
 }
 
 // A resampled copy where a quarter of the rows were moved far off by the attack (as a coarse
@@ -836,10 +882,10 @@ TEST(DampedReadingsTest, a_code_read_only_damped_accuses_its_recipient)
     const DetectOptions detect;
     for (const bool with_damped : {false, true})
     {
-        extraction.damped_recipient_changes.clear();
+        extraction.further_recipient_changes.clear();
         if (with_damped)
         {
-            extraction.damped_recipient_changes = {damped, std::vector<double>(n, 0.0)};
+            extraction.further_recipient_changes = {damped, std::vector<double>(n, 0.0)};
         }
         const std::vector<RecipientScore> scores = mark.trace(extraction, detect);
         ASSERT_EQ(scores.size(), 20U);
