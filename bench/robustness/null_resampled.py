@@ -21,9 +21,11 @@ import time
 import meshmark as mm
 
 
-def bound(t):
-    """The verdict's bound on the score alone: 3 statistics, Hoeffding / Pinelis."""
-    return min(1.0, 3 * min(math.exp(-t * t / 2), 2 * math.exp(3) / 9 * 0.5 * math.erfc(t / math.sqrt(2))))
+def bound(t, statistics=10):
+    """The verdict's bound on the score alone for a resampled suspect: 10 statistics (two
+    readings of 3 weightings and 2 damped readings each), Hoeffding / Pinelis."""
+    tail = min(math.exp(-t * t / 2), 2 * math.exp(3) / 9 * 0.5 * math.erfc(t / math.sqrt(2)))
+    return min(1.0, statistics * tail)
 
 
 def main():

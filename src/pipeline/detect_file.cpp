@@ -6,6 +6,8 @@
 #include <array>
 #include <cmath>
 #include <exception>
+#include <iterator>
+#include <optional>
 #include <thread>
 
 #include <Eigen/Geometry>
@@ -14,7 +16,6 @@
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
 #include "meshmark/geometry/adjacency.h"
-#include "meshmark/geometry/closest_point_index.h"
 #include "meshmark/io/mesh_io.h"
 #include "meshmark/meshmark.h"
 #include "meshmark/pipeline/embed_file.h"
@@ -270,7 +271,10 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
                : is_cropped  ? detector.extract_resampled(at, options.decision, kept, weight_scale)
                              : detector.extract_resampled_with_code(at, options.decision, kept, weight_scale);
     };
+    const bool is_tracing = options.trace && mark.key().recipients && !mark.key().recipients->recipients.empty();
     report.extraction = read();
+    std::vector<std::vector<double>> plain_regions;  // a family code's regions, first reading
+    std::optional<Extraction> plain_code;            // a cropped suspect's code, first reading
     if (is_resampled && options.match_surface)
     {
         // Read again against the original's surface under the suspect's triangles
@@ -285,12 +289,18 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
         // the original and the suspect enter either reading, so the bound holds with the
         // union bound's one more statistic.
         Extraction plain = std::move(report.extraction);
+        if (is_tracing)
+        {
+            // The code's regions are read both ways too; the trace's union bound counts them.
+            plain_regions = detector.region_changes(at, is_resampled, kept, weight_scale);
+            if (is_cropped)
+            {
+                plain_code = detector.extract_resampled_with_code(at, options.decision, kept, weight_scale);
+            }
+        }
         timer.lap("extract");
         timer.begin("match surface");
-        {
-            const ClosestPointIndex original_index(original);
-            match_reference_surface(sampled, original, original_index, suspect, to_original, options.threads);
-        }
+        match_reference_surface(sampled, original, suspect, to_original, options.threads);
         timer.lap("match surface");
         timer.begin("extract");
         report.extraction = read();
@@ -299,18 +309,31 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
     report.decision = mark.decide(report.extraction, options.decision);
     report.owner_detected = report.decision.is_present;
     report.owner_false_positive_probability = report.decision.false_positive_probability;
-    if (options.trace && mark.key().recipients && !mark.key().recipients->recipients.empty())
+    if (is_tracing)
     {
         if (is_cropped)
         {
             // The owner's coefficients were read alone (cropped suspect); the code's, read
             // jointly with them, still serve a slightly cropped one (remeshing, simplification).
-            const Extraction with_code =
-                detector.extract_resampled_with_code(at, options.decision, kept, weight_scale);
-            report.extraction.recipient_change = with_code.recipient_change;
-            report.extraction.recipient_weights = with_code.recipient_weights;
+            Extraction with_code = detector.extract_resampled_with_code(at, options.decision, kept, weight_scale);
+            report.extraction.recipient_change = std::move(with_code.recipient_change);
+            report.extraction.recipient_weights = std::move(with_code.recipient_weights);
+            if (plain_code)
+            {
+                // Both readings of the code, as for the owner's coefficients: the code's
+                // further readings (its damped ones, then the first reading's statistics).
+                Extraction code;
+                code.normalized_change = std::move(with_code.normalized_change);
+                code.weights = std::move(with_code.weights);
+                code.recipient_change = report.extraction.recipient_change;
+                code.further_changes = std::move(with_code.further_changes);
+                code.further_recipient_changes = std::move(with_code.further_recipient_changes);
+                add_further_reading(code, *plain_code);
+                report.extraction.further_recipient_changes = std::move(code.further_recipient_changes);
+            }
         }
         report.extraction.region_changes = detector.region_changes(at, is_resampled, kept, weight_scale);
+        std::move(plain_regions.begin(), plain_regions.end(), std::back_inserter(report.extraction.region_changes));
         report.traced = mark.trace(report.extraction, options.decision);
         report.recipients_traced = report.traced.size();
         std::vector<RecipientScore> scores = report.traced;

@@ -10,7 +10,6 @@
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/rng.h"
-#include "meshmark/geometry/closest_point_index.h"
 #include "meshmark/geometry/shapes.h"
 #include "perturbations.h"
 
@@ -137,11 +136,18 @@ TEST(ResamplingTest, matching_the_reference_surface_removes_the_chord_error)
     Resampling r = resample(reference, suspect, T.inverse());
     const double chord = (r.points - reference.V).rowwise().norm().maxCoeff();
     EXPECT_GT(chord, 0.005);
-    const ClosestPointIndex index(reference);
     const Eigen::VectorXd distance = r.distance;
-    match_reference_surface(r, reference, index, suspect, T.inverse());
+    match_reference_surface(r, reference, suspect, T.inverse());
     EXPECT_LT((r.points - reference.V).rowwise().norm().maxCoeff(), 1e-9);
     EXPECT_EQ(r.distance, distance) << "the crop's distances are the plain ones";
+    // The same on a surface that is not convex (the walk over the reference's faces must find
+    // each corner under its bumps): level-2 vertices of the lumpy ellipsoid are level-5 ones.
+    const TriangleMesh lumpy = lumpy_ellipsoid(5);
+    const TriangleMesh lumpy_coarse = lumpy_ellipsoid(2);
+    Resampling l = resample(lumpy, lumpy_coarse, Eigen::Matrix4d::Identity());
+    EXPECT_GT((l.points - lumpy.V).rowwise().norm().maxCoeff(), 1e-3);
+    match_reference_surface(l, lumpy, lumpy_coarse, Eigen::Matrix4d::Identity());
+    EXPECT_LT((l.points - lumpy.V).rowwise().norm().maxCoeff(), 1e-9);
 
     // The same copy carrying a displacement along the normals (each coarse vertex moved
     // outward by h times a smooth field): every reference vertex then reads the field,
@@ -157,7 +163,7 @@ TEST(ResamplingTest, matching_the_reference_surface_removes_the_chord_error)
     carried.V = test::apply(T, carried.V);
     Resampling plain = resample(reference, carried, T.inverse());
     Resampling matched = plain;
-    match_reference_surface(matched, reference, index, carried, T.inverse(), 1);
+    match_reference_surface(matched, reference, carried, T.inverse(), 1);
     double plain_error = 0.0;
     double matched_error = 0.0;
     for (Eigen::Index i = 0; i < reference.V.rows(); ++i)
@@ -171,7 +177,7 @@ TEST(ResamplingTest, matching_the_reference_surface_removes_the_chord_error)
     EXPECT_LT(matched_error, 0.2 * h);
     // Deterministic across thread counts.
     Resampling two = plain;
-    match_reference_surface(two, reference, index, carried, T.inverse(), 2);
+    match_reference_surface(two, reference, carried, T.inverse(), 2);
     EXPECT_EQ(two.points, matched.points);
 }
 
@@ -181,8 +187,7 @@ TEST(ResamplingTest, matching_a_point_cloud_uses_each_point_s_offset)
     TriangleMesh cloud;
     cloud.V = 1.01 * icosphere(2).V;  // on the sphere of radius 1.01: 0.01 off the reference's vertices
     Resampling r = resample(reference, cloud, Eigen::Matrix4d::Identity());
-    const ClosestPointIndex index(reference);
-    match_reference_surface(r, reference, index, cloud, Eigen::Matrix4d::Identity());
+    match_reference_surface(r, reference, cloud, Eigen::Matrix4d::Identity());
     for (Eigen::Index i = 0; i < reference.V.rows(); ++i)
     {
         const Eigen::Vector3d p = reference.V.row(i).transpose();
@@ -193,7 +198,7 @@ TEST(ResamplingTest, matching_a_point_cloud_uses_each_point_s_offset)
         EXPECT_LT(along, 0.0100001);
     }
     Resampling other = resample(icosphere(2), cloud, Eigen::Matrix4d::Identity());
-    EXPECT_THROW(match_reference_surface(other, reference, index, cloud, Eigen::Matrix4d::Identity()),
+    EXPECT_THROW(match_reference_surface(other, reference, cloud, Eigen::Matrix4d::Identity()),
                  InvalidOption);
 }
 
