@@ -6,12 +6,15 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <numeric>
+#include <utility>
 #include <string>
 
 #include <Eigen/LU>
 
 #include "meshmark/core/error.h"
 #include "meshmark/core/threads.h"
+#include "meshmark/geometry/point_kd_tree.h"
 #include "meshmark/geometry/point_triangle.h"
 #include "registration/detail/surface_matcher.h"
 
@@ -153,23 +156,42 @@ Resampling resample(const TriangleMesh& reference, const ClosestPointIndex& susp
 
 namespace {
 
-/// The faces around each vertex of \p mesh in compressed rows: `faces[offsets[v] ..
-/// offsets[v + 1])`, in face order (a counting sort).
-struct VertexFaces
+/// The faces around each point of \p mesh in compressed rows, vertices at the same position
+/// taken as one point (seams, split normals, welded-by-position parts): `point[v]` is the
+/// lowest-indexed vertex at v's position, and the faces around it are `faces[offsets[point[v]]
+/// .. offsets[point[v] + 1])`, in face order.
+struct PointFaces
 {
+    std::vector<std::int32_t> point;
     std::vector<std::uint32_t> offsets;
     std::vector<std::int32_t> faces;
 };
 
-VertexFaces vertex_faces(const TriangleMesh& mesh)
+PointFaces point_faces(const TriangleMesh& mesh)
 {
-    VertexFaces result;
-    result.offsets.assign(static_cast<std::size_t>(mesh.V.rows()) + 1, 0);
+    PointFaces result;
+    const auto n = static_cast<std::size_t>(mesh.V.rows());
+    std::vector<std::int32_t> order(n);
+    std::iota(order.begin(), order.end(), 0);
+    auto position = [&](std::int32_t v) {
+        return std::array<double, 3>{mesh.V(v, 0), mesh.V(v, 1), mesh.V(v, 2)};
+    };
+    std::sort(order.begin(), order.end(), [&](std::int32_t a, std::int32_t b) {
+        return std::pair(position(a), a) < std::pair(position(b), b);
+    });
+    result.point.resize(n);
+    for (std::size_t k = 0; k < n; ++k)
+    {
+        const std::int32_t v = order[k];
+        result.point[static_cast<std::size_t>(v)] =
+            k > 0 && position(order[k - 1]) == position(v) ? result.point[static_cast<std::size_t>(order[k - 1])] : v;
+    }
+    result.offsets.assign(n + 1, 0);
     for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
     {
         for (int k = 0; k < 3; ++k)
         {
-            ++result.offsets[static_cast<std::size_t>(mesh.F(f, k)) + 1];
+            ++result.offsets[static_cast<std::size_t>(result.point[static_cast<std::size_t>(mesh.F(f, k))]) + 1];
         }
     }
     for (std::size_t v = 1; v < result.offsets.size(); ++v)
@@ -182,65 +204,53 @@ VertexFaces vertex_faces(const TriangleMesh& mesh)
     {
         for (int k = 0; k < 3; ++k)
         {
-            result.faces[next[static_cast<std::size_t>(mesh.F(f, k))]++] = static_cast<std::int32_t>(f);
+            const auto p = static_cast<std::size_t>(result.point[static_cast<std::size_t>(mesh.F(f, k))]);
+            result.faces[next[p]++] = static_cast<std::int32_t>(f);
         }
     }
     return result;
 }
 
-/// The closest point to \p q on the faces of \p mesh around \p start, walking on: from the
-/// corner of the best face nearest to that point, while the distance drops (at most
-/// kSteps moves). Exact when the closest point lies on a face around a vertex the walk
-/// visits; a start near \p q (a row whose resampled point lies on a triangle of this
-/// corner) makes that the rule.
+/// The closest point to \p q on the faces of \p mesh around \p start, walking on: the faces
+/// around the three corners of the best face so far, while that face changes (at most kSteps
+/// rounds). Exact when the closest point lies within a ring of a face the walk visits; a
+/// start at the vertex nearest to \p q makes that the rule.
 Eigen::Vector3d closest_near(const Eigen::Vector3d& q, std::int32_t start, const TriangleMesh& mesh,
-                             const VertexFaces& around)
+                             const PointFaces& around)
 {
-    constexpr int kSteps = 16;
+    constexpr int kSteps = 32;
     Eigen::Vector3d best = mesh.V.row(start).transpose();
     double best2 = (best - q).squaredNorm();
     std::int32_t best_face = -1;
-    std::int32_t v = start;
-    for (int step = 0; step < kSteps; ++step)
-    {
-        const double before = best2;
-        for (std::uint32_t k = around.offsets[static_cast<std::size_t>(v)];
-             k < around.offsets[static_cast<std::size_t>(v) + 1]; ++k)
+    auto visit = [&](std::int32_t v) {
+        const auto p = static_cast<std::size_t>(around.point[static_cast<std::size_t>(v)]);
+        for (std::uint32_t k = around.offsets[p]; k < around.offsets[p + 1]; ++k)
         {
             const std::int32_t f = around.faces[k];
             const TriangleCorners t{mesh.V.row(mesh.F(f, 0)).transpose(), mesh.V.row(mesh.F(f, 1)).transpose(),
                                     mesh.V.row(mesh.F(f, 2)).transpose()};
             const Eigen::Vector3d c = closest_point_on_triangle(q, t, is_sliver_triangle(t.a, t.b, t.c));
             const double d2 = (c - q).squaredNorm();
-            if (d2 < best2)
+            if (d2 < best2 || (d2 == best2 && best_face >= 0 && f < best_face))
             {
                 best = c;
                 best2 = d2;
                 best_face = f;
             }
         }
-        if (best_face < 0 || !(best2 < before))
-        {
-            break;
-        }
-        // Move to the best face's corner nearest to the point found.
-        std::int32_t next = v;
-        double next2 = std::numeric_limits<double>::infinity();
+    };
+    visit(start);
+    for (int step = 0; step < kSteps && best_face >= 0; ++step)
+    {
+        const std::int32_t face = best_face;
         for (int k = 0; k < 3; ++k)
         {
-            const std::int32_t u = mesh.F(best_face, k);
-            const double d2 = (mesh.V.row(u).transpose() - best).squaredNorm();
-            if (d2 < next2)
-            {
-                next = u;
-                next2 = d2;
-            }
+            visit(mesh.F(face, k));
         }
-        if (next == v)
+        if (best_face == face)
         {
             break;
         }
-        v = next;
     }
     return best;
 }
@@ -261,20 +271,15 @@ void match_reference_surface(Resampling& sampled, const TriangleMesh& reference,
     const Eigen::Vector3d t = suspect_to_reference.block<3, 1>(0, 3);
 
     // The suspect's vertices that some point lies on (a triangle's corners, or the cloud's
-    // point), in the reference's frame, each with the nearest row that lies on one of its
-    // triangles: where the search for its closest reference point starts.
+    // point), in the reference's frame.
     std::vector<std::int32_t> slot(static_cast<std::size_t>(suspect.V.rows()), -1);
     std::vector<std::int32_t> used;
-    std::vector<std::int32_t> start;
-    std::vector<double> start2;
-    Positions corners;
-    auto corner_of = [&](std::int32_t e, int k) { return is_cloud ? e : suspect.F(e, k); };
     const int corner_count = is_cloud ? 1 : 3;
     for (const std::int32_t e : sampled.element)
     {
         for (int k = 0; k < corner_count; ++k)
         {
-            const std::int32_t v = corner_of(e, k);
+            const std::int32_t v = is_cloud ? e : suspect.F(e, k);
             if (slot[static_cast<std::size_t>(v)] < 0)
             {
                 slot[static_cast<std::size_t>(v)] = static_cast<std::int32_t>(used.size());
@@ -282,39 +287,28 @@ void match_reference_surface(Resampling& sampled, const TriangleMesh& reference,
             }
         }
     }
-    corners.resize(static_cast<Eigen::Index>(used.size()), 3);
+    Positions corners(static_cast<Eigen::Index>(used.size()), 3);
 #pragma omp parallel for schedule(static) num_threads(threads)
     for (Eigen::Index j = 0; j < corners.rows(); ++j)
     {
         corners.row(j) = (A * suspect.V.row(used[static_cast<std::size_t>(j)]).transpose() + t).transpose();
     }
-    start.assign(used.size(), -1);
-    start2.assign(used.size(), std::numeric_limits<double>::infinity());
-    for (Eigen::Index i = 0; i < n; ++i)  // serial: ties go to the lowest row
+    // Each corner's offset from the reference surface: its closest point, found by a walk
+    // from the nearest reference vertex (on the right part of a mesh made of several).
     {
-        const std::int32_t e = sampled.element[static_cast<std::size_t>(i)];
-        for (int k = 0; k < corner_count; ++k)
-        {
-            const auto j = static_cast<std::size_t>(slot[static_cast<std::size_t>(corner_of(e, k))]);
-            const double d2 = (reference.V.row(i) - corners.row(static_cast<Eigen::Index>(j))).squaredNorm();
-            if (d2 < start2[j])
-            {
-                start2[j] = d2;
-                start[j] = static_cast<std::int32_t>(i);
-            }
-        }
-    }
-    // Each corner's offset from the reference surface.
-    const bool has_faces = reference.F.rows() > 0;
-    const VertexFaces around = has_faces ? vertex_faces(reference) : VertexFaces{};
+        const PointKdTree vertices(reference.V);
+        const bool has_faces = reference.F.rows() > 0;
+        const PointFaces around = has_faces ? point_faces(reference) : PointFaces{};
 #pragma omp parallel for schedule(dynamic, 256) num_threads(threads)
-    for (Eigen::Index j = 0; j < corners.rows(); ++j)
-    {
-        const Eigen::Vector3d q = corners.row(j).transpose();
-        const std::int32_t s = start[static_cast<std::size_t>(j)];
-        const Eigen::Vector3d on_reference = has_faces ? closest_near(q, s, reference, around)
-                                                       : Eigen::Vector3d(reference.V.row(s).transpose());
-        corners.row(j) = (q - on_reference).transpose();
+        for (Eigen::Index j = 0; j < corners.rows(); ++j)
+        {
+            const Eigen::Vector3d q = corners.row(j).transpose();
+            double squared = 0.0;
+            const auto s = static_cast<std::int32_t>(vertices.nearest(q, squared));
+            const Eigen::Vector3d on_reference = has_faces ? closest_near(q, s, reference, around)
+                                                           : Eigen::Vector3d(reference.V.row(s).transpose());
+            corners.row(j) = (q - on_reference).transpose();
+        }
     }
 
 #pragma omp parallel for schedule(static) num_threads(threads)

@@ -79,8 +79,8 @@ struct Resampling
 /// watermark, so a detection's false-positive bound is unaffected. Bit-identical for any thread
 /// count.
 /// The closest point of each corner on the reference is found by a walk over the reference's
-/// faces from the reference vertex nearest to the corner among the rows that lie on its
-/// triangles (no search structure over the reference: a 1M-vertex one would cost 190 MB).
+/// faces from the reference vertex nearest to the corner (a kd-tree of the reference's
+/// vertices; a search structure over its triangles would cost 190 MB more on 1M vertices).
 /// \param sampled  The result of resample() for the same meshes and transform.
 /// \throws InvalidOption if \p sampled was not made for \p reference.
 void match_reference_surface(Resampling& sampled, const TriangleMesh& reference, const TriangleMesh& suspect,
