@@ -275,7 +275,24 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
     report.extraction = read();
     std::vector<std::vector<double>> plain_regions;  // a family code's regions, first reading
     std::optional<Extraction> plain_code;            // a cropped suspect's code, first reading
-    if (is_resampled && options.match_surface)
+    // The second reading is skipped when the first alone, paying for the statistics of both,
+    // already claims by its score (not by its bit count, which the second reading would not
+    // repeat): the claim is then one the two readings make too, and a clear copy is read at
+    // the cost of one reading (docs/algorithms/detection.md).
+    bool is_conclusive = false;
+    if (is_resampled && options.match_surface && !is_tracing)
+    {
+        report.extraction.unread_statistics = static_cast<int>(report.extraction.further_changes.size()) + 3;
+        const Decision first = mark.decide(report.extraction, options.decision);
+        const double factor = score_level_factor(options.decision.verdict);
+        is_conclusive = factor > 0.0 &&
+                        first.score_false_positive_probability * factor <= options.decision.max_false_positive;
+        if (!is_conclusive)
+        {
+            report.extraction.unread_statistics = 0;
+        }
+    }
+    if (is_resampled && options.match_surface && !is_conclusive)
     {
         // Read again against the original's surface under the suspect's triangles
         // (match_reference_surface): a coarse copy's triangles cut under a curved surface by

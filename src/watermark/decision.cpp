@@ -82,6 +82,20 @@ std::vector<double> weighted_by(const std::vector<double>& x, const std::vector<
 
 }  // namespace
 
+double score_level_factor(VerdictRule rule) noexcept
+{
+    switch (rule)
+    {
+    case VerdictRule::Combined:
+        return 1.0 / (1.0 - kBitCountShare);
+    case VerdictRule::Correlation:
+        return 1.0;
+    case VerdictRule::Bits:
+        break;
+    }
+    return 0.0;
+}
+
 void add_further_reading(Extraction& primary, const Extraction& other)
 {
     if (other.normalized_change.size() != primary.normalized_change.size() ||
@@ -369,6 +383,13 @@ Decision SpectralWatermark::decide(const Extraction& extraction, const DetectOpt
     decision.statistic_count = soft.statistic_count();
     std::tie(decision.score, decision.score_false_positive_probability) = soft.score(
         [&](std::size_t c) { return signs_(static_cast<Eigen::Index>(c / 3), static_cast<Eigen::Index>(c % 3)); });
+    if (extraction.unread_statistics > 0)
+    {
+        // Paid for as if computed: the score is the best of a subset of them.
+        decision.statistic_count += extraction.unread_statistics;
+        decision.score_false_positive_probability =
+            std::min(1.0, decision.statistic_count * rademacher_tail_bound(decision.score));
+    }
 
     switch (options.verdict)
     {
@@ -385,7 +406,7 @@ Decision SpectralWatermark::decide(const Extraction& extraction, const DetectOpt
         // weightings) and the bit count (exact for an unmarked mesh), with a weighted union
         // bound: a share kBitCountShare of the level to the bit count (docs/statistics.md).
         decision.false_positive_probability =
-            std::min({1.0, decision.score_false_positive_probability / (1.0 - kBitCountShare),
+            std::min({1.0, decision.score_false_positive_probability * score_level_factor(options.verdict),
                       decision.bits_false_positive_probability / kBitCountShare});
         decision.is_present = decision.false_positive_probability <= options.max_false_positive;
         break;

@@ -31,6 +31,10 @@ struct Extraction
     /// and for a resampled suspect the reading against the original's vertices
     /// (add_further_reading). Empty where none is computed. Never depends on the embedded signs.
     std::vector<std::vector<double>> further_changes;
+    /// Statistics the verdict pays for in its union bound without computing them: a
+    /// detection that stopped before a further reading because the score alone was already
+    /// conclusive at the price of all of them (detect_file, resampled suspects).
+    int unread_statistics = 0;
     /// Family keys: the recipient code's 3M coefficients of the same further readings (empty
     /// where the code is not read with the owner's mark, or no further reading is computed).
     std::vector<std::vector<double>> further_recipient_changes;
@@ -123,6 +127,11 @@ enum class VerdictRule
     /// X ~ Bin(3m, 1/2) (Decision::bits_false_positive_probability).
     Bits,
 };
+
+/// The factor by which \p rule's verdict multiplies the score's false-positive probability
+/// before comparing it with the level: 16/15 for Combined (its share of the level), 1 for
+/// Correlation; 0 for Bits, whose verdict does not use the score.
+[[nodiscard]] double score_level_factor(VerdictRule rule) noexcept;
 
 /// Name used on the command line and in --json: "combined", "correlation" or "bits".
 [[nodiscard]] const char* to_string(VerdictRule rule) noexcept;
