@@ -258,6 +258,10 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
             kept = &kept_rows;
         }
         is_resampled = true;
+        // Only the points and, for the second reading, the triangles they lie on are needed
+        // from here on: the rest goes before the extraction's allocations.
+        sampled.distance = Eigen::VectorXd();
+        sampled.is_cropped = std::vector<std::uint8_t>();
     }
     timer.lap("correspondence");
 
@@ -291,6 +295,10 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
         {
             report.extraction.unread_statistics = 0;
         }
+    }
+    if (is_conclusive)
+    {
+        sampled.element = std::vector<std::int32_t>();
     }
     if (is_resampled && options.match_surface && !is_conclusive)
     {

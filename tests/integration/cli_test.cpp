@@ -404,9 +404,19 @@ TEST_F(CliTest, a_coarse_remesh_is_read_against_the_original_surface)
     EXPECT_LT(found["suspect_vertices"].get<int>(), 400);
     EXPECT_TRUE(found["detected"].get<bool>()) << found.dump();
     EXPECT_GT(found["score"].get<double>(), 6.0);
+    // Read both ways: the first reading alone was not conclusive.
+    EXPECT_TRUE(found["seconds"].contains("match surface")) << found.dump();
     const auto unmarked = detect(clean);
     EXPECT_FALSE(unmarked["detected"].get<bool>()) << unmarked.dump();
     EXPECT_LT(unmarked["score"].get<double>(), 4.0);
+    EXPECT_TRUE(unmarked["seconds"].contains("match surface"));
+    // A clear copy (reordered: resampled at its own vertices) is claimed by the first reading
+    // alone, paid for as if both were read: no second reading.
+    const auto reordered = dir_ / "dr_reordered.ply";
+    ASSERT_EQ(run("attack " + marked.string() + " -o " + reordered.string() + " --seed 3 reorder", dir_).exit_code, 0);
+    const auto clear = detect(reordered);
+    EXPECT_TRUE(clear["detected"].get<bool>()) << clear.dump();
+    EXPECT_FALSE(clear["seconds"].contains("match surface")) << clear.dump();
 }
 
 TEST_F(CliTest, detects_attacked_copies_and_never_the_same_attacks_on_the_original)

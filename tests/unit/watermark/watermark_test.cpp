@@ -482,6 +482,28 @@ TEST(FurtherReadingTest, another_reading_adds_its_statistics)
     EXPECT_THROW(add_further_reading(primary, other), InvalidOption);
 }
 
+// Statistics a detection paid for without computing them (it stopped before a further
+// reading) raise the bound as if computed; the score is unchanged.
+TEST(FurtherReadingTest, unread_statistics_are_paid_for)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(4);
+    const SpectralWatermark mark(mesh, make_key(mesh, 5), 1);
+    Extraction extraction =
+        Detector(mark, mesh).extract(with_noise(mesh, mesh.V + mark.displacement(), 3), DetectOptions{});
+    const DetectOptions decide_options;
+    const Decision read = mark.decide(extraction, decide_options);
+    extraction.unread_statistics = 5;
+    const Decision paid = mark.decide(extraction, decide_options);
+    EXPECT_EQ(paid.score, read.score);
+    EXPECT_EQ(paid.statistic_count, read.statistic_count + 5);
+    EXPECT_DOUBLE_EQ(paid.score_false_positive_probability,
+                     std::min(1.0, paid.statistic_count * rademacher_tail_bound(paid.score)));
+    EXPECT_GT(paid.score_false_positive_probability, read.score_false_positive_probability);
+    EXPECT_DOUBLE_EQ(score_level_factor(VerdictRule::Combined), 16.0 / 15.0);
+    EXPECT_EQ(score_level_factor(VerdictRule::Correlation), 1.0);
+    EXPECT_EQ(score_level_factor(VerdictRule::Bits), 0.0);
+}
+
 // A resampled copy where a quarter of the rows were moved far off by the attack (as a coarse
 // remesh cuts corners): each row's distance to the original gives it the weight detection
 // uses (1 / (1 + (d / 3 a)^2) for a mark of RMS amplitude a), and the weighted reading claims
