@@ -286,14 +286,14 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
     bool is_conclusive = false;
     if (is_resampled && options.match_surface && !is_tracing)
     {
-        report.extraction.unread_statistics = static_cast<int>(report.extraction.further_changes.size()) + 3;
+        // The second reading would bring as many statistics as the first has.
         const Decision first = mark.decide(report.extraction, options.decision);
+        const double both = std::min(1.0, 2.0 * first.statistic_count * rademacher_tail_bound(first.score));
         const double factor = score_level_factor(options.decision.verdict);
-        is_conclusive = factor > 0.0 &&
-                        first.score_false_positive_probability * factor <= options.decision.max_false_positive;
-        if (!is_conclusive)
+        is_conclusive = factor > 0.0 && both * factor <= options.decision.max_false_positive;
+        if (is_conclusive)
         {
-            report.extraction.unread_statistics = 0;
+            report.extraction.unread_statistics = first.statistic_count;
         }
     }
     if (is_conclusive)
@@ -307,12 +307,12 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
         // many times the mark's amplitude even where they carry nothing, and the same
         // triangles laid through the closest points of their corners on the ORIGINAL cut the
         // same way, so the difference keeps what the corners carry. That second reading is
-        // the primary one; the first stays as one further statistic of the verdict, because a
-        // simplifier that places its vertices off the surface (quadric placement) leaves an
-        // error that the chord partly cancels in the first reading and that the second sees
-        // whole (docs/algorithms/detection.md, "Two readings of a resampled suspect"). Only
-        // the original and the suspect enter either reading, so the bound holds with the
-        // union bound's one more statistic.
+        // the primary one (bits, R, the family code); the first's statistics stay in the
+        // verdict, because a simplifier that places its vertices off the surface (quadric
+        // placement) leaves an error that the chord partly cancels in the first reading and
+        // that the second sees whole (docs/algorithms/detection.md, "General suspects"). Only
+        // the original and the suspect enter either reading, so the bound holds, paying for
+        // the statistics of both.
         Extraction plain = std::move(report.extraction);
         if (is_tracing)
         {
