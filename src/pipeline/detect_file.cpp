@@ -317,11 +317,12 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
         if (is_tracing)
         {
             // The code's regions are read both ways too; the trace's union bound counts them.
-            plain_regions = detector.region_changes(at, is_resampled, kept, weight_scale);
             if (is_cropped)
             {
                 plain_code = detector.extract_resampled_with_code(at, options.decision, kept, weight_scale);
             }
+            plain_regions = detector.region_changes(at, is_resampled, kept, weight_scale,
+                                                    plain_code ? plain_code->code_sampling : plain.code_sampling);
         }
         timer.lap("extract");
         timer.begin("match surface");
@@ -336,11 +337,13 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
     report.owner_false_positive_probability = report.decision.false_positive_probability;
     if (is_tracing)
     {
+        std::vector<double> cropped_sampling;  // the code's sampling, where the code is read apart
         if (is_cropped)
         {
             // The owner's coefficients were read alone (cropped suspect); the code's, read
             // jointly with them, still serve a slightly cropped one (remeshing, simplification).
             Extraction with_code = detector.extract_resampled_with_code(at, options.decision, kept, weight_scale);
+            cropped_sampling = std::move(with_code.code_sampling);
             report.extraction.recipient_change = std::move(with_code.recipient_change);
             report.extraction.recipient_weights = std::move(with_code.recipient_weights);
             if (plain_code)
@@ -357,7 +360,9 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
                 report.extraction.further_recipient_changes = std::move(code.further_recipient_changes);
             }
         }
-        report.extraction.region_changes = detector.region_changes(at, is_resampled, kept, weight_scale);
+        report.extraction.region_changes =
+            detector.region_changes(at, is_resampled, kept, weight_scale,
+                                    is_cropped ? cropped_sampling : report.extraction.code_sampling);
         std::move(plain_regions.begin(), plain_regions.end(), std::back_inserter(report.extraction.region_changes));
         report.traced = mark.trace(report.extraction, options.decision);
         report.recipients_traced = report.traced.size();

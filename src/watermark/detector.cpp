@@ -319,8 +319,47 @@ Extraction Detector::read_resampled(const Positions& resampled, const DetectOpti
         system.block(b * r, coefficients, r, q + 1) = projected.middleCols(products + b * (q + 1), q + 1);
     }
     const JointSolution solution = solve_jointly(system.leftCols(columns - 1), system.col(columns - 1));
-    return extraction_from(solution.amplitudes.head(coefficients), solution.variances.head(coefficients), options,
-                           damped_readings(system.leftCols(columns - 1), coefficients, system.col(columns - 1)));
+    Extraction result =
+        extraction_from(solution.amplitudes.head(coefficients), solution.variances.head(coefficients), options,
+                        damped_readings(system.leftCols(columns - 1), coefficients, system.col(columns - 1)));
+    const int code_modes = mark_->recipient_modes();
+    const auto owner_modes = static_cast<int>(mark_->embedded_signs().rows());
+    if (has_normals && code_modes > 0 && modes == owner_modes + code_modes)
+    {
+        // How the sampling sees the code (Extraction::code_sampling), from the same products:
+        // K[(l, a'), (k, a)] = sum_b,d axes(a', b) axes(a, d) sum_i U_l U_k w_i (n_i n_i^T)_bd
+        // over the code's modes l, k, canonical axes a', a.
+        const Eigen::Matrix3d& axes = mark_->frame().axes;
+        const auto n = static_cast<std::size_t>(3 * code_modes);
+        result.code_sampling.assign(n * n, 0.0);
+        for (int l = 0; l < code_modes; ++l)
+        {
+            for (int k = 0; k < code_modes; ++k)
+            {
+                Eigen::Matrix3d file;  // (b, d) block in file axes
+                for (Eigen::Index b = 0; b < 3; ++b)
+                {
+                    for (Eigen::Index d = 0; d < 3; ++d)
+                    {
+                        file(b, d) = projected(first + owner_modes + l,
+                                               kPairs * (owner_modes + k) +
+                                                   kPair[static_cast<std::size_t>(b)][static_cast<std::size_t>(d)]);
+                    }
+                }
+                const Eigen::Matrix3d canonical = axes * file * axes.transpose();
+                for (Eigen::Index a = 0; a < 3; ++a)
+                {
+                    for (Eigen::Index c = 0; c < 3; ++c)
+                    {
+                        result.code_sampling[(3 * static_cast<std::size_t>(l) + static_cast<std::size_t>(a)) * n +
+                                             3 * static_cast<std::size_t>(k) + static_cast<std::size_t>(c)] =
+                            canonical(a, c);
+                    }
+                }
+            }
+        }
+    }
+    return result;
 }
 
 }  // namespace meshmark

@@ -42,6 +42,14 @@ struct Extraction
     /// the M modes after the owner's), normalized and weighted as above; empty otherwise.
     std::vector<double> recipient_change;
     std::vector<double> recipient_weights;
+    /// Family keys, resampled suspects read with the code: how the resampling sees the code,
+    /// a 3M x 3M symmetric matrix K (row-major; coefficient c = 3 * mode + axis in the mark's
+    /// canonical axes). A code field with coefficients y (modulation times normalized change)
+    /// that keeps only its normal components at the rows, weighted as the extraction's rows,
+    /// projects back on the code's modes as K y. Detector::region_changes() undoes it (a
+    /// resampled region otherwise reads the code through the normals alone). Computed from the
+    /// original's normals and the rows' weights, never from the signs; empty where not computed.
+    std::vector<double> code_sampling;
     /// Family keys, for spliced suspects: per region of the original (Detector::region_changes),
     /// the recipient code's 3M coefficients of the suspect's change confined to that region,
     /// normalized; empty when not computed.

@@ -88,10 +88,18 @@ public:
     /// \param is_resampled  The suspect was resampled (only normal components are compared).
     /// \param is_kept  Optional crop mask: rows with 0 are left out.
     /// \param weight_scale  0, or the scale of the rows' weights as for extract_resampled().
-    /// \throws InvalidOption unless the watermark has a recipient code.
+    /// \param code_sampling  Empty, or the Extraction::code_sampling of a reading of the same
+    ///        resampled suspect with the same rows and weights: each region's projection y is
+    ///        then replaced by (K + lambda I)^-1 y, lambda = 0.3 trace(K) / 3M, which undoes
+    ///        part of what reading the normal components alone does to the code. K is the
+    ///        whole model's, not the region's, so on a slab it is an approximation; it depends
+    ///        on no recipient's signs, so the bound holds.
+    /// \throws InvalidOption unless the watermark has a recipient code, or if \p code_sampling
+    ///        is neither empty nor 3M x 3M.
     [[nodiscard]] std::vector<std::vector<double>> region_changes(const Positions& suspect, bool is_resampled,
                                                                   const std::vector<std::uint8_t>* is_kept = nullptr,
-                                                                  double weight_scale = 0.0) const;
+                                                                  double weight_scale = 0.0,
+                                                                  const std::vector<double>& code_sampling = {}) const;
 
     /// The watermark's decision on an extraction (SpectralWatermark::decide).
     [[nodiscard]] Decision decide(const Extraction& extraction, const DetectOptions& options) const

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "meshmark/attacks/subdivision.h"
 #include "meshmark/core/error.h"
 #include "meshmark/geometry/shapes.h"
 #include "meshmark/metrics/distortion.h"
@@ -230,6 +231,62 @@ TEST(RecipientsTest, a_copy_spliced_from_three_copies_accuses_colluders_only)
     ASSERT_EQ(middle.name, "dan");
     EXPECT_LT(middle.score, 4.0);
     EXPECT_GT(middle.region_score, 7.0);
+}
+
+TEST(RecipientsTest, a_resampled_splice_is_read_by_its_regions_through_the_normals)
+{
+    // The splice of three copies above, then resampled by a midpoint subdivision (the same
+    // surface, 4x the faces): a resampled suspect keeps only the normal components of the
+    // change, which on this smooth model hide much of each code. The regions undo part of that
+    // with the whole model's sampling matrix (Extraction::code_sampling). Read through the
+    // normals alone the colluders' regions scored 4.87 (ben), 4.69 (dan) and 6.68 (gus), and
+    // only gus was accused; unsampled, 6.34, 4.60 and 7.29 (8.21, 7.78 and 9.20 vertex for
+    // vertex).
+    const fs::path dir = test::temp_dir("recipients-splice-resampled");
+    const fs::path input = write_input(dir, 5);
+    const std::vector<std::string> names = {"ann", "ben", "cat", "dan", "eve", "fay", "gus", "hal"};
+    static_cast<void>(
+        embed_recipients(input, (dir / "{recipient}.ply").string(), dir / "family.json", family(names)));
+    const Key key = read_key(dir / "family.json");
+    const TriangleMesh original = read_mesh(input);
+    const Eigen::RowVector3d extent = original.V.colwise().maxCoeff() - original.V.colwise().minCoeff();
+    Eigen::Index axis = 0;
+    static_cast<void>(extent.maxCoeff(&axis));
+    std::vector<double> heights(original.V.col(axis).data(), original.V.col(axis).data() + original.V.rows());
+    std::sort(heights.begin(), heights.end());
+    const double cut1 = heights[heights.size() / 3];
+    const double cut2 = heights[2 * heights.size() / 3];
+    const std::vector<std::string> colluders = {"ben", "dan", "gus"};
+    TriangleMesh spliced = original;
+    for (std::size_t c = 0; c < colluders.size(); ++c)
+    {
+        const Positions copy = read_mesh(dir / (colluders[c] + ".ply")).V;
+        for (Eigen::Index i = 0; i < spliced.V.rows(); ++i)
+        {
+            const double h = original.V(i, axis);
+            if ((h < cut1 ? 0U : (h < cut2 ? 1U : 2U)) == c)
+            {
+                spliced.V.row(i) = copy.row(i);
+            }
+        }
+    }
+    const DetectReport in_place = detect(spliced, original, key);
+    const DetectReport resampled = detect(subdivide(spliced, SubdivisionOptions{SubdivisionScheme::Midpoint, 1}), original, key);
+    EXPECT_EQ(resampled.extraction.code_sampling.size(), 192U * 192U) << "the subdivided splice is resampled";
+    EXPECT_EQ(accused_names(resampled), (std::vector<std::string>{"ben", "gus"}));
+    ASSERT_EQ(resampled.traced.size(), names.size());
+    ASSERT_EQ(in_place.traced.size(), names.size());
+    EXPECT_GT(resampled.traced[1].region_score, 5.8);  // ben
+    EXPECT_GT(resampled.traced[6].region_score, 7.0);  // gus
+    for (const std::size_t index : {1U, 3U, 6U})
+    {
+        EXPECT_LT(resampled.traced[index].region_score, in_place.traced[index].region_score)
+            << "the normals alone never read more than the whole change";
+    }
+    for (const std::size_t index : {0U, 2U, 4U, 5U, 7U})
+    {
+        EXPECT_LT(resampled.traced[index].region_score, 4.0) << resampled.traced[index].name << " is innocent";
+    }
 }
 
 TEST(RecipientsTest, a_later_call_adds_recipients_and_reissues_known_ones_byte_for_byte)
