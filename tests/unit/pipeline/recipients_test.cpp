@@ -47,6 +47,33 @@ std::vector<std::string> accused_names(const DetectReport& report)
     return names;
 }
 
+// Cut-and-splice: each third of the model along its longest axis taken from another copy
+// (dir / "<name>.ply"), in the order of \p colluders.
+Positions splice_thirds(const TriangleMesh& original, const fs::path& dir, const std::vector<std::string>& colluders)
+{
+    const Eigen::RowVector3d extent = original.V.colwise().maxCoeff() - original.V.colwise().minCoeff();
+    Eigen::Index axis = 0;
+    static_cast<void>(extent.maxCoeff(&axis));
+    std::vector<double> heights(original.V.col(axis).data(), original.V.col(axis).data() + original.V.rows());
+    std::sort(heights.begin(), heights.end());
+    const double cut1 = heights[heights.size() / 3];
+    const double cut2 = heights[2 * heights.size() / 3];
+    Positions spliced = original.V;
+    for (std::size_t c = 0; c < colluders.size(); ++c)
+    {
+        const Positions copy = read_mesh(dir / (colluders[c] + ".ply")).V;
+        for (Eigen::Index i = 0; i < spliced.rows(); ++i)
+        {
+            const double h = original.V(i, axis);
+            if ((h < cut1 ? 0U : (h < cut2 ? 1U : 2U)) == c)
+            {
+                spliced.row(i) = copy.row(i);
+            }
+        }
+    }
+    return spliced;
+}
+
 DetectReport detect_positions(const fs::path& input, const Positions& positions, const Key& key)
 {
     const TriangleMesh original = read_mesh(input);
@@ -193,28 +220,8 @@ TEST(RecipientsTest, a_copy_spliced_from_three_copies_accuses_colluders_only)
         embed_recipients(input, (dir / "{recipient}.ply").string(), dir / "family.json", family(names)));
     const Key key = read_key(dir / "family.json");
     const TriangleMesh original = read_mesh(input);
-    const Eigen::RowVector3d extent = original.V.colwise().maxCoeff() - original.V.colwise().minCoeff();
-    Eigen::Index axis = 0;
-    static_cast<void>(extent.maxCoeff(&axis));
-    std::vector<double> heights(original.V.col(axis).data(), original.V.col(axis).data() + original.V.rows());
-    std::sort(heights.begin(), heights.end());
-    const double cut1 = heights[heights.size() / 3];
-    const double cut2 = heights[2 * heights.size() / 3];
     const std::vector<std::string> colluders = {"ben", "dan", "gus"};
-    Positions spliced = original.V;
-    for (std::size_t c = 0; c < colluders.size(); ++c)
-    {
-        const Positions copy = read_mesh(dir / (colluders[c] + ".ply")).V;
-        for (Eigen::Index i = 0; i < spliced.rows(); ++i)
-        {
-            const double h = original.V(i, axis);
-            const std::size_t third = h < cut1 ? 0 : (h < cut2 ? 1 : 2);
-            if (third == c)
-            {
-                spliced.row(i) = copy.row(i);
-            }
-        }
-    }
+    const Positions spliced = splice_thirds(original, dir, colluders);
     const DetectReport report = detect_positions(input, spliced, key);
     EXPECT_TRUE(report.decision.is_present) << "the owner's mark is in every third";
     ASSERT_FALSE(report.accused.empty());
@@ -249,27 +256,8 @@ TEST(RecipientsTest, a_resampled_splice_is_read_by_its_regions_through_the_norma
         embed_recipients(input, (dir / "{recipient}.ply").string(), dir / "family.json", family(names)));
     const Key key = read_key(dir / "family.json");
     const TriangleMesh original = read_mesh(input);
-    const Eigen::RowVector3d extent = original.V.colwise().maxCoeff() - original.V.colwise().minCoeff();
-    Eigen::Index axis = 0;
-    static_cast<void>(extent.maxCoeff(&axis));
-    std::vector<double> heights(original.V.col(axis).data(), original.V.col(axis).data() + original.V.rows());
-    std::sort(heights.begin(), heights.end());
-    const double cut1 = heights[heights.size() / 3];
-    const double cut2 = heights[2 * heights.size() / 3];
-    const std::vector<std::string> colluders = {"ben", "dan", "gus"};
     TriangleMesh spliced = original;
-    for (std::size_t c = 0; c < colluders.size(); ++c)
-    {
-        const Positions copy = read_mesh(dir / (colluders[c] + ".ply")).V;
-        for (Eigen::Index i = 0; i < spliced.V.rows(); ++i)
-        {
-            const double h = original.V(i, axis);
-            if ((h < cut1 ? 0U : (h < cut2 ? 1U : 2U)) == c)
-            {
-                spliced.V.row(i) = copy.row(i);
-            }
-        }
-    }
+    spliced.V = splice_thirds(original, dir, {"ben", "dan", "gus"});
     const DetectReport in_place = detect(spliced, original, key);
     const DetectReport resampled = detect(subdivide(spliced, SubdivisionOptions{SubdivisionScheme::Midpoint, 1}), original, key);
     EXPECT_EQ(resampled.extraction.code_sampling.size(), 192U * 192U) << "the subdivided splice is resampled";
