@@ -40,15 +40,18 @@ void BM_TraceRecipients(benchmark::State& state)
         extraction.recipient_change.push_back(rng.normal());
         extraction.recipient_weights.push_back(1.0 + rng.uniform());
     }
-    // As in a detection on the registration path: the owner's readings (for the joint score),
-    // the two damped readings of both, and the regions' readings (Detector::kRegionCount).
+    // As in a detection of a resampled suspect, read twice (detect_file): the owner's readings
+    // (for the joint score), the further readings of both (the two damped ones of the primary
+    // reading, then the other reading's three weightings and two damped ones:
+    // add_further_reading), and both readings' regions (2 x Detector::kRegionCount).
     const auto owner = static_cast<int>(mark.embedded_signs().size());
     for (int c = 0; c < owner; ++c)
     {
         extraction.normalized_change.push_back(rng.normal());
         extraction.weights.push_back(1.0 + rng.uniform());
     }
-    for (int level = 0; level < 2; ++level)
+    constexpr int kFurtherReadings = 2 + 3 + 2;
+    for (int level = 0; level < kFurtherReadings; ++level)
     {
         std::vector<double> damped_owner;
         std::vector<double> damped_code;
@@ -63,7 +66,7 @@ void BM_TraceRecipients(benchmark::State& state)
         extraction.further_changes.push_back(std::move(damped_owner));
         extraction.further_recipient_changes.push_back(std::move(damped_code));
     }
-    extraction.region_changes.resize(static_cast<std::size_t>(Detector::kRegionCount));
+    extraction.region_changes.resize(static_cast<std::size_t>(2 * Detector::kRegionCount));
     for (std::vector<double>& region : extraction.region_changes)
     {
         for (int c = 0; c < 3 * mark.recipient_modes(); ++c)
