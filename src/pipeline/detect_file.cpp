@@ -107,12 +107,12 @@ constexpr double kPaperRuleAmplitude = 0.00059;
 
 /// The rows to read: \p kept_by_crop (null: all) minus the outliers above; \p outliers gets
 /// their number. Serial nearest-rank median, so the result is the same on every run.
-std::vector<std::uint8_t> kept_without_outliers(const Resampling& sampled,
+std::vector<std::uint8_t> kept_without_outliers(const Eigen::VectorXd& distance,
                                                 const std::vector<std::uint8_t>* kept_by_crop, double floor,
                                                 std::size_t& outliers)
 {
-    const auto n = static_cast<std::size_t>(sampled.distance.size());
-    std::vector<double> sorted(sampled.distance.data(), sampled.distance.data() + n);
+    const auto n = static_cast<std::size_t>(distance.size());
+    std::vector<double> sorted(distance.data(), distance.data() + n);
     const auto middle = sorted.begin() + static_cast<std::ptrdiff_t>(n / 2);
     std::nth_element(sorted.begin(), middle, sorted.end());
     const double threshold = std::max(kOutlierMedianFactor * *middle, floor);
@@ -120,7 +120,7 @@ std::vector<std::uint8_t> kept_without_outliers(const Resampling& sampled,
     outliers = 0;
     for (std::size_t i = 0; i < n; ++i)
     {
-        if (kept[i] != 0 && sampled.distance(static_cast<Eigen::Index>(i)) > threshold)
+        if (kept[i] != 0 && distance(static_cast<Eigen::Index>(i)) > threshold)
         {
             kept[i] = 0;
             ++outliers;
@@ -203,6 +203,36 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
         report.transform = T;
         is_corresponding = report.registration_rms <= kCorrespondenceTolerance;
         report.alignment = "same-connectivity";
+        if (is_corresponding)
+        {
+            // Rows thrown far away by the tool (the far-rows rule of resampled suspects, on the
+            // vertices' own distances) are left out, and the similarity is fitted again
+            // without them: the closed form has no defence against them.
+            const Eigen::VectorXd distance = (aligned - original.V).rowwise().norm();
+            std::size_t outliers = 0;
+            kept_rows = kept_without_outliers(distance, nullptr,
+                                              kOutlierFloor * mark_amplitude(mark.key().options, diagonal), outliers);
+            if (outliers > 0)
+            {
+                const Eigen::Index count = original.V.rows() - static_cast<Eigen::Index>(outliers);
+                Eigen::Matrix3Xd from(3, count);
+                Eigen::Matrix3Xd to(3, count);
+                for (Eigen::Index i = 0, k = 0; i < original.V.rows(); ++i)
+                {
+                    if (kept_rows[static_cast<std::size_t>(i)] != 0)
+                    {
+                        from.col(k) = original.V.row(i).transpose();
+                        to.col(k) = suspect.V.row(i).transpose();
+                        ++k;
+                    }
+                }
+                const Eigen::Matrix4d refit = Eigen::umeyama(from, to, true).inverse();
+                aligned = transform_points(refit, suspect.V);
+                report.transform = refit;
+                kept = &kept_rows;
+                report.outlier_fraction = static_cast<double>(outliers) / static_cast<double>(original.V.rows());
+            }
+        }
     }
     if (!is_corresponding)
     {
@@ -250,7 +280,8 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
         }
         const double amplitude = mark_amplitude(mark.key().options, diagonal);
         std::size_t outliers = 0;
-        kept_rows = kept_without_outliers(sampled, is_cropped ? &kept_rows : nullptr, kOutlierFloor * amplitude, outliers);
+        kept_rows =
+            kept_without_outliers(sampled.distance, is_cropped ? &kept_rows : nullptr, kOutlierFloor * amplitude, outliers);
         weight_scale = kWeightScale * amplitude;
         report.outlier_fraction = static_cast<double>(outliers) / static_cast<double>(kept_rows.size());
         if (is_cropped || outliers > 0)
@@ -271,7 +302,8 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
     // A family key's code is read jointly with the owner's mark unless the suspect is cropped
     // (Detector::extract_resampled); rows left out as outliers alone do not make it cropped.
     auto read = [&] {
-        return !is_resampled ? detector.extract(at, options.decision)
+        return !is_resampled ? (kept != nullptr ? detector.extract_kept(at, options.decision, *kept)
+                                                : detector.extract(at, options.decision))
                : is_cropped  ? detector.extract_resampled(at, options.decision, kept, weight_scale)
                              : detector.extract_resampled_with_code(at, options.decision, kept, weight_scale);
     };

@@ -204,8 +204,20 @@ Extraction Detector::extract_resampled_with_code(const Positions& resampled, con
     return read_resampled(resampled, options, is_kept, weight_scale, static_cast<int>(mark_->modulation().rows()));
 }
 
+Extraction Detector::extract_kept(const Positions& suspect, const DetectOptions& options,
+                                  const std::vector<std::uint8_t>& is_kept) const
+{
+    if (is_kept.size() != static_cast<std::size_t>(original_->V.rows()))
+    {
+        throw InvalidOption("the kept rows' mask has " + std::to_string(is_kept.size()) + " entries, the original " +
+                            std::to_string(original_->V.rows()) + " vertices.");
+    }
+    return read_resampled(suspect, options, &is_kept, 0.0, static_cast<int>(mark_->modulation().rows()), true);
+}
+
 Extraction Detector::read_resampled(const Positions& resampled, const DetectOptions& options,
-                                    const std::vector<std::uint8_t>* is_kept, double weight_scale, int modes) const
+                                    const std::vector<std::uint8_t>* is_kept, double weight_scale, int modes,
+                                    bool is_whole_change) const
 {
     options.validate();
     if (resampled.rows() != original_->V.rows())
@@ -231,7 +243,9 @@ Extraction Detector::read_resampled(const Positions& resampled, const DetectOpti
     const int first = mark_->key().options.first_mode;
     const int r = std::max(mark_->basis().well_conditioned_modes(kNuisanceModeTolerance), first + modes);
     const int head = first + modes;
-    const bool has_normals = !original_->is_point_cloud();
+    // The sampling S_i: the normal projection, or the identity where the whole change is seen
+    // (a point cloud, whose points carry no normal; a suspect read vertex for vertex).
+    const bool has_normals = !original_->is_point_cloud() && !is_whole_change;
     const Positions normals = has_normals ? vertex_normals(*original_) : Positions();
     const NuisanceFields nuisance(*original_, active(), mark_->frame().origin);
     const Eigen::Index q = nuisance.count();

@@ -65,6 +65,15 @@ public:
                                                const std::vector<std::uint8_t>* is_kept = nullptr,
                                                double weight_scale = 0.0) const;
 
+    /// \brief Read a suspect that keeps the original's vertices in order, except for rows
+    /// \p is_kept leaves out (a tool threw them far away: MeshLab's Taubin smoothing moves a
+    /// few vertices of some meshes by 10% of the diagonal).
+    /// \details The whole change of every kept row is read (no normal projection), jointly with
+    /// the nuisance (similarity, smoothing) and with a family key's code, by the least squares
+    /// of extract_resampled(); the rows left out carry nothing.
+    [[nodiscard]] Extraction extract_kept(const Positions& suspect, const DetectOptions& options,
+                                          const std::vector<std::uint8_t>& is_kept) const;
+
     /// \brief extract_resampled() reading a family key's code modes jointly with the owner's
     /// even on a cropped suspect (where extract_resampled reads the owner's alone): the code's
     /// coefficients of a slightly cropped suspect (remeshing, simplification) for tracing.
@@ -116,7 +125,7 @@ private:
     [[nodiscard]] int read_modes(const std::vector<std::uint8_t>* is_kept) const noexcept;
     [[nodiscard]] Extraction read_resampled(const Positions& resampled, const DetectOptions& options,
                                             const std::vector<std::uint8_t>* is_kept,
-                                            double weight_scale, int modes) const;
+                                            double weight_scale, int modes, bool is_whole_change = false) const;
     // Extraction of coefficients normalized by their modulation, with their variances and
     // (where the joint least squares computes them) their damped readings.
     [[nodiscard]] Extraction extraction_from(const Eigen::VectorXd& normalized, const Eigen::VectorXd& variances,
