@@ -65,7 +65,7 @@ struct Trial
     std::string kind;  // "marked", "unmarked" or "wrong-key"
     Decision decision;
     double cropped_fraction = 0.0;
-    double outlier_fraction = 0.0;  // rows left out for being far from the suspect's surface
+    double outlier_fraction = 0.0;  // rows left out for being far from the suspect
     double registration_rms = 0.0;  // fraction of the original's diagonal
     std::string alignment;          // how the suspect was put in correspondence
     double seconds = 0.0;

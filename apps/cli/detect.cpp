@@ -144,7 +144,7 @@ void register_detect(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
                       "Print one JSON object: detected, verdict, score, correlation, bits_expected, "
                       "bits_found, false_positive_probability (of the verdict used; also "
                       "score_ and bits_false_positive_probability), cropped_fraction, outlier_fraction (rows left "
-                      "out because the suspect's surface is far from them), "
+                      "out because the suspect is far from them), "
                       "registration, seconds; with a family key also recipients (the accused: name, score, "
                       "false_positive_probability, strongest first), recipients_traced, owner_detected and "
                       "owner_false_positive_probability (ownership without naming a recipient: the owner's mark "

@@ -257,8 +257,9 @@ void bind_memory(py::module_& m)
         .def_property_readonly("bits_found", [](const DetectResult& r) { return r.report.decision.bits_found; })
         .def_property_readonly("cropped_fraction", [](const DetectResult& r) { return r.report.cropped_fraction; })
         .def_property_readonly("outlier_fraction", [](const DetectResult& r) { return r.report.outlier_fraction; },
-                               "Fraction of the original's rows left out of a resampled reading because "
-                               "the suspect's surface is far from them (crops aside).")
+                               "Fraction of the original's rows left out of the reading because the suspect "
+                               "is far from them (crops aside): a resampled suspect's surface, or a "
+                               "vertex-for-vertex suspect's own vertices.")
         .def_property_readonly("alignment", [](const DetectResult& r) { return r.report.alignment; },
                                "How the suspect was put in correspondence ('none', 'similarity', "
                                "'registration', ...).")

@@ -37,8 +37,9 @@ struct DetectReport
     Decision decision;
     Extraction extraction;  ///< What was read (per coefficient and per bit), for diagnosis.
     double cropped_fraction = 0.0;
-    /// Fraction of the original's rows left out of a resampled reading because the suspect's
-    /// surface is far from them (beyond 3 x the median distance and 10 x the strength), crops aside.
+    /// Fraction of the original's rows left out of the reading because the suspect is far from
+    /// them (beyond 3 x the median distance and 10 x the strength), crops aside: a resampled
+    /// suspect's surface, or a vertex-for-vertex suspect's own vertices.
     double outlier_fraction = 0.0;
     std::string alignment = "none";  ///< How the suspect was put in correspondence.
     Eigen::Matrix4d transform = Eigen::Matrix4d::Identity();  ///< Suspect -> original frame.
