@@ -47,6 +47,16 @@ std::vector<std::string> accused_names(const DetectReport& report)
     return names;
 }
 
+// The eight recipients of the splice tests, issued on a 5-subdivision lumpy ellipsoid in \p dir.
+const std::vector<std::string> kEight = {"ann", "ben", "cat", "dan", "eve", "fay", "gus", "hal"};
+
+Key issue_eight(const fs::path& dir)
+{
+    static_cast<void>(embed_recipients(write_input(dir, 5), (dir / "{recipient}.ply").string(), dir / "family.json",
+                                       family(kEight)));
+    return read_key(dir / "family.json");
+}
+
 // Cut-and-splice: each third of the model along its longest axis taken from another copy
 // (dir / "<name>.ply"), in the order of \p colluders.
 Positions splice_thirds(const TriangleMesh& original, const fs::path& dir, const std::vector<std::string>& colluders)
@@ -214,12 +224,10 @@ TEST(RecipientsTest, a_copy_spliced_from_three_copies_accuses_colluders_only)
     // Cut-and-splice: each third of the model (along its longest axis) from another copy. The
     // code of one copy confined to a third reads weakly on the whole model; the regions find it.
     const fs::path dir = test::temp_dir("recipients-splice");
-    const fs::path input = write_input(dir, 5);
-    const std::vector<std::string> names = {"ann", "ben", "cat", "dan", "eve", "fay", "gus", "hal"};
-    static_cast<void>(
-        embed_recipients(input, (dir / "{recipient}.ply").string(), dir / "family.json", family(names)));
-    const Key key = read_key(dir / "family.json");
+    const Key key = issue_eight(dir);
+    const fs::path input = dir / "input.ply";
     const TriangleMesh original = read_mesh(input);
+    const std::vector<std::string>& names = kEight;
     const std::vector<std::string> colluders = {"ben", "dan", "gus"};
     const Positions spliced = splice_thirds(original, dir, colluders);
     const DetectReport report = detect_positions(input, spliced, key);
@@ -250,12 +258,9 @@ TEST(RecipientsTest, a_resampled_splice_is_read_by_its_regions_through_the_norma
     // only gus was accused; unsampled, 6.34, 4.60 and 7.29 (8.21, 7.78 and 9.20 vertex for
     // vertex).
     const fs::path dir = test::temp_dir("recipients-splice-resampled");
-    const fs::path input = write_input(dir, 5);
-    const std::vector<std::string> names = {"ann", "ben", "cat", "dan", "eve", "fay", "gus", "hal"};
-    static_cast<void>(
-        embed_recipients(input, (dir / "{recipient}.ply").string(), dir / "family.json", family(names)));
-    const Key key = read_key(dir / "family.json");
-    const TriangleMesh original = read_mesh(input);
+    const Key key = issue_eight(dir);
+    const TriangleMesh original = read_mesh(dir / "input.ply");
+    const std::vector<std::string>& names = kEight;
     TriangleMesh spliced = original;
     spliced.V = splice_thirds(original, dir, {"ben", "dan", "gus"});
     const DetectReport in_place = detect(spliced, original, key);
