@@ -148,6 +148,33 @@ double mark_amplitude(const EmbedOptions& options, double diagonal)
     return (options.rule == EmbeddingRule::Additive ? options.resolved_strength() : kPaperRuleAmplitude) * diagonal;
 }
 
+// The similarity taking a suspect with the original's vertex order onto the original, over
+// the rows \p kept (null: all) [Umeyama 1991]. Fitted from the original onto the suspect and
+// inverted: noise in the suspect then averages out, whereas a fit from the noisy suspect
+// shrinks its scale (errors in the fitted-from variable; measured on rocker-arm.obj with 1%
+// noise: low-mode errors of 20-30 modulation steps that way).
+Eigen::Matrix4d similarity_onto_original(const Positions& original, const Positions& suspect,
+                                         const std::vector<std::uint8_t>* kept)
+{
+    if (kept == nullptr)
+    {
+        return Eigen::umeyama(original.transpose(), suspect.transpose(), true).inverse();
+    }
+    const auto count = static_cast<Eigen::Index>(std::count_if(kept->begin(), kept->end(), [](std::uint8_t k) { return k != 0; }));
+    Eigen::Matrix3Xd from(3, count);
+    Eigen::Matrix3Xd to(3, count);
+    for (Eigen::Index i = 0, k = 0; i < original.rows(); ++i)
+    {
+        if ((*kept)[static_cast<std::size_t>(i)] != 0)
+        {
+            from.col(k) = original.row(i).transpose();
+            to.col(k) = suspect.row(i).transpose();
+            ++k;
+        }
+    }
+    return Eigen::umeyama(from, to, true).inverse();
+}
+
 // The original followed by its other instances, as one mesh (the registration's reference).
 TriangleMesh with_instances(const TriangleMesh& original, const TriangleMesh& instances)
 {
@@ -191,12 +218,7 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
     timer.begin("correspondence");
     if (suspect.vertex_count() == original.vertex_count() && options.pairs.empty())
     {
-        // Fitted from the original onto the suspect and inverted: noise in the suspect then
-        // averages out, whereas a fit from the noisy suspect shrinks its scale (errors in the
-        // fitted-from variable; measured on rocker-arm.obj with 1% noise: low-mode errors of
-        // 20-30 modulation steps that way).
-        const Eigen::Matrix4d T =
-            Eigen::umeyama(original.V.transpose(), suspect.V.transpose(), true).inverse();
+        const Eigen::Matrix4d T = similarity_onto_original(original.V, suspect.V, nullptr);
         aligned = transform_points(T, suspect.V);
         report.registration_rms =
             std::sqrt((aligned - original.V).rowwise().squaredNorm().mean()) / diagonal;
@@ -214,19 +236,7 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
                                               kOutlierFloor * mark_amplitude(mark.key().options, diagonal), outliers);
             if (outliers > 0)
             {
-                const Eigen::Index count = original.V.rows() - static_cast<Eigen::Index>(outliers);
-                Eigen::Matrix3Xd from(3, count);
-                Eigen::Matrix3Xd to(3, count);
-                for (Eigen::Index i = 0, k = 0; i < original.V.rows(); ++i)
-                {
-                    if (kept_rows[static_cast<std::size_t>(i)] != 0)
-                    {
-                        from.col(k) = original.V.row(i).transpose();
-                        to.col(k) = suspect.V.row(i).transpose();
-                        ++k;
-                    }
-                }
-                const Eigen::Matrix4d refit = Eigen::umeyama(from, to, true).inverse();
+                const Eigen::Matrix4d refit = similarity_onto_original(original.V, suspect.V, &kept_rows);
                 aligned = transform_points(refit, suspect.V);
                 report.transform = refit;
                 kept = &kept_rows;
