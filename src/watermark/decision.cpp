@@ -111,6 +111,7 @@ void add_further_reading(Extraction& primary, const Extraction& other)
     const std::vector<double> no_code(primary.recipient_change.size(), 0.0);
     for (const double power : {0.0, 0.5, 1.0})
     {
+        primary.further_weightings.push_back(primary.further_changes.size());
         primary.further_changes.push_back(weighted_by(other.normalized_change, other.weights, power));
         if (is_paired)
         {
@@ -133,7 +134,7 @@ void add_further_reading(Extraction& primary, const Extraction& other)
 }
 
 SoftCorrelation::SoftCorrelation(const std::vector<double>& x, const std::vector<double>& w,
-                                 const std::vector<std::vector<double>>& extra)
+                                 const std::vector<std::vector<double>>& extra, bool with_weightings)
     : size_(x.size())
 {
     // A change below a millionth of the modulation is rounding (an unmarked original compared
@@ -150,9 +151,12 @@ SoftCorrelation::SoftCorrelation(const std::vector<double>& x, const std::vector
         weighted_.push_back(std::move(weighted));
         norm_.push_back(norm);
     };
-    add(x, [](std::size_t) { return 1.0; });
-    add(x, [&](std::size_t c) { return std::sqrt(w[c]); });
-    add(x, [&](std::size_t c) { return w[c]; });
+    if (with_weightings)
+    {
+        add(x, [](std::size_t) { return 1.0; });
+        add(x, [&](std::size_t c) { return std::sqrt(w[c]); });
+        add(x, [&](std::size_t c) { return w[c]; });
+    }
     for (const std::vector<double>& reading : extra)
     {
         if (reading.size() != size_)
@@ -378,7 +382,22 @@ Decision SpectralWatermark::decide(const Extraction& extraction, const DetectOpt
     // geometric mean; the verdict takes the best and pays for the choice with a union bound.
     // The damped readings (a crop or a coarse resampling leaves the modulated modes nearly
     // dependent) are further statistics with uniform weights, each paid for in the union bound.
-    const SoftCorrelation soft(extraction.normalized_change, extraction.weights, extraction.further_changes);
+    // A resampled suspect (Extraction::damped_only) scores its damped readings alone.
+    std::vector<std::vector<double>> damped;
+    if (extraction.damped_only)
+    {
+        for (std::size_t l = 0; l < extraction.further_changes.size(); ++l)
+        {
+            if (std::find(extraction.further_weightings.begin(), extraction.further_weightings.end(), l) ==
+                extraction.further_weightings.end())
+            {
+                damped.push_back(extraction.further_changes[l]);
+            }
+        }
+    }
+    const bool damped_only = !damped.empty();  // else (no damped reading) every statistic
+    const SoftCorrelation soft(extraction.normalized_change, extraction.weights,
+                               damped_only ? damped : extraction.further_changes, !damped_only);
     decision.coefficient_count = static_cast<int>(soft.size());
     decision.statistic_count = soft.statistic_count();
     std::tie(decision.score, decision.score_false_positive_probability) = soft.score(

@@ -31,6 +31,18 @@ struct Extraction
     /// and for a resampled suspect the reading against the original's vertices
     /// (add_further_reading). Empty where none is computed. Never depends on the embedded signs.
     std::vector<std::vector<double>> further_changes;
+    /// Further readings (indices into `further_changes`) that are another reading's three
+    /// weightings rather than damped readings (add_further_reading records them), so that
+    /// `damped_only` can leave them out.
+    std::vector<std::size_t> further_weightings;
+    /// The owner's verdict scores the damped readings alone (`further_changes` but
+    /// `further_weightings`): neither computed nor paid for are the three weightings of the
+    /// least-squares reading. Set for a suspect resampled at the original's vertices, where the
+    /// normal sampling couples the modulated columns and the damped readings are the ones
+    /// that read (docs/statistics.md, "Resampled suspects score their damped readings"). A
+    /// fixed rule of the suspect's kind, never of its signs, so the bound holds. The trace
+    /// (a family key's code) is not affected.
+    bool damped_only = false;
     /// Statistics the verdict pays for in its union bound without computing them: a
     /// detection that stopped before a further reading because the score alone was already
     /// conclusive at the price of all of them (detect_file, resampled suspects).
@@ -75,15 +87,17 @@ class SoftCorrelation
 public:
     /// \param x normalized changes; \param w their weights (>= 0), same size; \param extra
     /// further readings of the same coefficients, each of that size (else InvalidOption).
+    /// \param with_weightings false: only the further readings are statistics (x and w give
+    /// the size alone).
     SoftCorrelation(const std::vector<double>& x, const std::vector<double>& w,
-                    const std::vector<std::vector<double>>& extra = {});
+                    const std::vector<std::vector<double>>& extra = {}, bool with_weightings = true);
     /// z = the largest of the statistics' scores for signs sign(c) in {-1, +1}, and the bound
     /// min(1, statistic_count() rademacher_tail_bound(z)) on P(a suspect without these signs
     /// scores z).
     template <class Sign>
     [[nodiscard]] std::pair<double, double> score(Sign sign) const;
     [[nodiscard]] std::size_t size() const noexcept { return size_; }
-    /// 3 weightings plus one per extra reading: the union bound's factor.
+    /// 3 weightings (unless left out) plus one per extra reading: the union bound's factor.
     [[nodiscard]] int statistic_count() const noexcept { return static_cast<int>(weighted_.size()); }
 
 private:

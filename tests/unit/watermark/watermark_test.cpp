@@ -425,15 +425,34 @@ TEST(DampedReadingsTest, a_half_model_scores_higher_damped)
     const DetectOptions options;
     Extraction extraction = Detector(mark, mesh).extract_resampled(resampled, options, &is_kept);
     ASSERT_EQ(extraction.further_changes.size(), detail::kDampingLevels.size());
+    // A resampled suspect scores its damped readings alone (Extraction::damped_only).
+    ASSERT_TRUE(extraction.damped_only);
     const Decision damped = mark.decide(extraction, options);
-    EXPECT_EQ(damped.statistic_count, 5);
+    EXPECT_EQ(damped.statistic_count, 2);
+    EXPECT_DOUBLE_EQ(damped.score_false_positive_probability, 2.0 * rademacher_tail_bound(damped.score));
+    // Read twice (detection's two readings of a resampled suspect): both readings' damped
+    // readings, 4 statistics, not the 10 of every weighting.
+    Extraction twice = extraction;
+    add_further_reading(twice, extraction);
+    EXPECT_EQ(mark.decide(twice, options).statistic_count, 4);
+    twice.damped_only = false;
+    EXPECT_EQ(mark.decide(twice, options).statistic_count, 10);
+    extraction.damped_only = false;
+    const Decision every = mark.decide(extraction, options);
+    EXPECT_EQ(every.statistic_count, 5);
+    EXPECT_EQ(every.score, damped.score) << "the best statistic is a damped one here";
+    EXPECT_DOUBLE_EQ(every.score_false_positive_probability, 5.0 * rademacher_tail_bound(every.score));
     extraction.further_changes.clear();
     const Decision plain = mark.decide(extraction, options);
     EXPECT_EQ(plain.statistic_count, 3);
     // (Measured: 5.15 against 1.45. The marked positions are kept whole, not projected on the
     // normals as a resampling would, so the tangential part of the mark is noise here.)
     EXPECT_GT(damped.score, plain.score + 2.5) << "damped " << damped.score << ", plain " << plain.score;
-    EXPECT_DOUBLE_EQ(damped.score_false_positive_probability, 5.0 * rademacher_tail_bound(damped.score));
+    // Without a damped reading the flag cannot leave the verdict without statistics.
+    extraction.damped_only = true;
+    const Decision fallback = mark.decide(extraction, options);
+    EXPECT_EQ(fallback.statistic_count, 3);
+    EXPECT_EQ(fallback.score, plain.score);
 }
 
 // A second reading of the same coefficients (detection's reading of a resampled suspect
@@ -457,6 +476,12 @@ TEST(FurtherReadingTest, another_reading_adds_its_statistics)
     EXPECT_TRUE(primary.further_recipient_changes.empty()) << "no code read, nothing to pair";
     // The verdict counts them: 3 weightings + 4 further readings.
     EXPECT_EQ(SoftCorrelation(primary.normalized_change, primary.weights, primary.further_changes).statistic_count(), 7);
+    // The other reading's weightings are recorded, so a verdict on damped readings alone can
+    // leave them out; without the weightings only the further readings count.
+    EXPECT_EQ(primary.further_weightings, (std::vector<std::size_t>{0, 1, 2}));
+    EXPECT_EQ(SoftCorrelation(primary.normalized_change, primary.weights, primary.further_changes, false)
+                  .statistic_count(),
+              4);
 
     // With a family code read: the code's part is paired, zeros where the other reading has none.
     Extraction family;
