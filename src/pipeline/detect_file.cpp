@@ -15,7 +15,9 @@
 
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
+#include "meshmark/core/threads.h"
 #include "meshmark/geometry/adjacency.h"
+#include "meshmark/geometry/point_kd_tree.h"
 #include "meshmark/io/mesh_io.h"
 #include "meshmark/meshmark.h"
 #include "meshmark/pipeline/embed_file.h"
@@ -149,6 +151,10 @@ constexpr double kWeightScale = 3.0;
 // readings alone, so clear copies stop where they did.
 constexpr int kEarlyStopStatistics = 10;
 
+// A registered suspect is read vertex for vertex (match_vertices) when at most this share of
+// the original's vertices finds no suspect vertex standing for it; those rows are left out.
+constexpr double kMaxUnmatched = 0.01;
+
 /// The mark's RMS displacement in reference units: the additive rule's strength (a fraction
 /// of the diagonal) or, for the paper's rule, the default mark's.
 double mark_amplitude(const EmbedOptions& options, double diagonal)
@@ -184,6 +190,48 @@ Eigen::Matrix4d similarity_onto_original(const Positions& original, const Positi
 }
 
 // The original followed by its other instances, as one mesh (the registration's reference).
+// A suspect whose vertices are the original's again, in another order, split where a writer
+// duplicates them (UV seams, hard edges: Blender's PLY and OBJ writers), welded where a tool
+// joins the original's duplicates, or with vertices added between them (midpoint
+// subdivision), is read vertex for vertex rather than through its surface: each original
+// vertex takes the suspect vertex nearest to it after registration, when that one lies within
+// \p tolerance and the original vertex nearest to it is at the same position (mutual nearest
+// neighbours; original vertices at one position count as one). \p match gets, per original
+// vertex, the suspect vertex or -1. Distances to the original only, never the key: the bound
+// holds as for any correspondence. Returns the number matched.
+std::size_t match_vertices(const Positions& original, const Positions& registered, double tolerance,
+                           std::vector<std::int32_t>& match, int threads)
+{
+    const Eigen::Index n = original.rows();
+    match.assign(static_cast<std::size_t>(n), -1);
+    if (registered.rows() == 0 || n == 0)
+    {
+        return 0;
+    }
+    const PointKdTree suspect_tree(registered);
+    const PointKdTree original_tree(original);
+    const double squared_tolerance = tolerance * tolerance;
+    std::size_t matched = 0;
+#pragma omp parallel for schedule(static) num_threads(resolve_threads(threads)) reduction(+ : matched)
+    for (Eigen::Index i = 0; i < n; ++i)
+    {
+        double squared = 0.0;
+        const std::uint32_t j = suspect_tree.nearest(original.row(i).transpose(), squared);
+        if (squared > squared_tolerance)
+        {
+            continue;
+        }
+        double back_squared = 0.0;
+        const std::uint32_t back = original_tree.nearest(registered.row(j).transpose(), back_squared);
+        if (original.row(back) == original.row(i))
+        {
+            match[static_cast<std::size_t>(i)] = static_cast<std::int32_t>(j);
+            ++matched;
+        }
+    }
+    return matched;
+}
+
 TriangleMesh with_instances(const TriangleMesh& original, const TriangleMesh& instances)
 {
     TriangleMesh shown;
@@ -223,6 +271,32 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
     bool is_corresponding = false;
     bool is_resampled = false;
     bool is_cropped = false;
+    const double amplitude = mark_amplitude(mark.key().options, diagonal);
+    // A suspect in the original's vertex order (\p in_order, suspect frame; \p left_out: rows
+    // no suspect vertex stands for, null: none), taken onto the original by the similarity \p T
+    // fitted over all its rows: the rows a tool threw far away (the far-rows rule of resampled
+    // suspects, on the vertices' own distances) are left out too, and the similarity is fitted
+    // again without them, since the closed form has no defence against them.
+    auto take_in_order = [&](const Positions& in_order, const Eigen::Matrix4d& T,
+                             const std::vector<std::uint8_t>* left_out, std::size_t left_out_count) {
+        aligned = transform_points(T, in_order);
+        report.transform = T;
+        const Eigen::VectorXd distance = (aligned - original.V).rowwise().norm();
+        std::size_t outliers = 0;
+        kept_rows = kept_without_outliers(distance, left_out, kOutlierFloor * amplitude, outliers);
+        if (outliers > 0)
+        {
+            const Eigen::Matrix4d refit = similarity_onto_original(original.V, in_order, &kept_rows);
+            aligned = transform_points(refit, in_order);
+            report.transform = refit;
+        }
+        if (outliers + left_out_count > 0)
+        {
+            kept = &kept_rows;
+            report.outlier_fraction =
+                static_cast<double>(outliers + left_out_count) / static_cast<double>(original.V.rows());
+        }
+    };
     timer.begin("correspondence");
     if (suspect.vertex_count() == original.vertex_count() && options.pairs.empty())
     {
@@ -235,23 +309,10 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
         report.alignment = "same-connectivity";
         if (is_corresponding)
         {
-            // Rows thrown far away by the tool (the far-rows rule of resampled suspects, on the
-            // vertices' own distances) are left out, and the similarity is fitted again
-            // without them: the closed form has no defence against them.
-            const Eigen::VectorXd distance = (aligned - original.V).rowwise().norm();
-            std::size_t outliers = 0;
-            kept_rows = kept_without_outliers(distance, nullptr,
-                                              kOutlierFloor * mark_amplitude(mark.key().options, diagonal), outliers);
-            if (outliers > 0)
-            {
-                const Eigen::Matrix4d refit = similarity_onto_original(original.V, suspect.V, &kept_rows);
-                aligned = transform_points(refit, suspect.V);
-                report.transform = refit;
-                kept = &kept_rows;
-                report.outlier_fraction = static_cast<double>(outliers) / static_cast<double>(original.V.rows());
-            }
+            take_in_order(suspect.V, T, nullptr, 0);
         }
     }
+    RegistrationResult registered_to;  // suspects that do not correspond as they are
     if (!is_corresponding)
     {
         if (!options.allow_registration)
@@ -275,11 +336,55 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
             instances.vertex_count() > 0 && instances.is_point_cloud() == original.is_point_cloud();
         const TriangleMesh shown = has_instances ? with_instances(original, instances) : TriangleMesh{};
         const TriangleMesh& reference = has_instances ? shown : original;
-        const RegistrationResult r = options.pairs.empty()
-                                         ? register_to_reference(suspect, reference, registration)
-                                         : register_to_reference(suspect, reference, options.pairs, registration);
+        registered_to = options.pairs.empty()
+                            ? register_to_reference(suspect, reference, registration)
+                            : register_to_reference(suspect, reference, options.pairs, registration);
+        const RegistrationResult& r = registered_to;
         timer.lap("register");
         timer.begin("correspondence");
+        // The original's vertices again, reordered, split, welded or with vertices added
+        // between them: read vertex for vertex (match_vertices), every component of the change
+        // instead of its normal one.
+        if (options.match_vertices && !has_instances && r.converged &&
+            2 * suspect.vertex_count() >= original.vertex_count())
+        {
+            std::vector<std::int32_t> match;
+            const Positions registered = transform_points(r.transform, suspect.V);
+            const std::size_t matched =
+                match_vertices(original.V, registered, kOutlierFloor * amplitude, match, options.threads);
+            const auto n = static_cast<std::size_t>(original.V.rows());
+            if (static_cast<double>(matched) >= (1.0 - kMaxUnmatched) * static_cast<double>(n))
+            {
+                // In the registered frame (a mirrored copy is already unmirrored there, which
+                // the closed-form similarity could not do); rows without a suspect vertex stand
+                // at the original's own position, left out of the fit and of the reading.
+                Positions in_order = original.V;
+                std::vector<std::uint8_t> matched_rows(n, 1);
+                for (std::size_t i = 0; i < n; ++i)
+                {
+                    if (match[i] >= 0)
+                    {
+                        in_order.row(static_cast<Eigen::Index>(i)) = registered.row(match[i]);
+                    }
+                    else
+                    {
+                        matched_rows[i] = 0;
+                    }
+                }
+                const std::vector<std::uint8_t>* left_out = matched < n ? &matched_rows : nullptr;
+                take_in_order(in_order, similarity_onto_original(original.V, in_order, left_out), left_out,
+                              n - matched);
+                report.transform = report.transform * r.transform;  // suspect -> original
+                report.alignment = "registration (vertices matched)";
+                report.registration_rms =
+                    std::sqrt((aligned - original.V).rowwise().squaredNorm().mean()) / diagonal;
+                is_corresponding = true;
+            }
+        }
+    }
+    if (!is_corresponding)
+    {
+        const RegistrationResult& r = registered_to;
         ResamplingOptions resampling;
         resampling.threads = options.threads;
         // Resample at the original's vertices: resampling at the watermarked mesh's vertices would
@@ -296,7 +401,6 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
         {
             kept_rows = kept_after_crop(original, sampled.is_cropped);
         }
-        const double amplitude = mark_amplitude(mark.key().options, diagonal);
         std::size_t outliers = 0;
         kept_rows =
             kept_without_outliers(sampled.distance, is_cropped ? &kept_rows : nullptr, kOutlierFloor * amplitude, outliers);

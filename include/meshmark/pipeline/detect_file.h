@@ -29,6 +29,11 @@ struct DetectFileOptions
     /// suspect's own triangles (match_reference_surface), which removes a coarse copy's chord
     /// error. False: against the original's vertex, as before 2026-11-26 (an ablation).
     bool match_surface = true;
+    /// Registered suspects whose vertices are the original's again (reordered, split at seams,
+    /// welded, or with vertices added between them) are read vertex for vertex, every
+    /// component of the change (match_vertices in detect_file.cpp). False: resampled like any
+    /// other registered suspect, as before 2026-11-26 (an ablation).
+    bool match_vertices = true;
 };
 
 /// What detect_file found.

@@ -251,12 +251,12 @@ TEST(RecipientsTest, a_copy_spliced_from_three_copies_accuses_colluders_only)
 TEST(RecipientsTest, a_resampled_splice_is_read_by_its_regions_through_the_normals)
 {
     // The splice of three copies above, then resampled by a midpoint subdivision (the same
-    // surface, 4x the faces): a resampled suspect keeps only the normal components of the
-    // change, which on this smooth model hide much of each code. The regions undo part of that
-    // with the whole model's sampling matrix (Extraction::code_sampling). Read through the
-    // normals alone the colluders' regions scored 4.87 (ben), 4.69 (dan) and 6.68 (gus), and
-    // only gus was accused; unsampled, 6.34, 4.60 and 7.29 (8.21, 7.78 and 9.20 vertex for
-    // vertex).
+    // surface, 4x the faces), read as a resampled suspect (vertex matching off): a resampled
+    // suspect keeps only the normal components of the change, which on this smooth model hide
+    // much of each code. The regions undo part of that with the whole model's sampling matrix
+    // (Extraction::code_sampling). Read through the normals alone the colluders' regions scored
+    // 4.87 (ben), 4.69 (dan) and 6.68 (gus), and only gus was accused; unsampled, 6.34, 4.60
+    // and 7.29 (8.21, 7.78 and 9.20 vertex for vertex).
     const fs::path dir = test::temp_dir("recipients-splice-resampled");
     const Key key = issue_eight(dir);
     const TriangleMesh original = read_mesh(dir / "input.ply");
@@ -264,7 +264,16 @@ TEST(RecipientsTest, a_resampled_splice_is_read_by_its_regions_through_the_norma
     TriangleMesh spliced = original;
     spliced.V = splice_thirds(original, dir, {"ben", "dan", "gus"});
     const DetectReport in_place = detect(spliced, original, key);
-    const DetectReport resampled = detect(subdivide(spliced, SubdivisionOptions{SubdivisionScheme::Midpoint, 1}), original, key);
+    const TriangleMesh subdivided = subdivide(spliced, SubdivisionOptions{SubdivisionScheme::Midpoint, 1});
+    // By default the subdivided copy keeps the original's vertices, so they are matched and
+    // read vertex for vertex, every component: all three colluders accused, as in place.
+    const DetectReport matched = detect(subdivided, original, key);
+    EXPECT_EQ(matched.alignment, "registration (vertices matched)");
+    EXPECT_EQ(accused_names(matched), (std::vector<std::string>{"ben", "dan", "gus"}));
+    EXPECT_EQ(accused_names(in_place), (std::vector<std::string>{"ben", "dan", "gus"}));
+    DetectFileOptions resample_only;
+    resample_only.match_vertices = false;
+    const DetectReport resampled = detect(subdivided, original, key, resample_only);
     EXPECT_EQ(resampled.extraction.code_sampling.size(), 192U * 192U) << "the subdivided splice is resampled";
     EXPECT_EQ(accused_names(resampled), (std::vector<std::string>{"ben", "gus"}));
     ASSERT_EQ(resampled.traced.size(), names.size());
