@@ -145,7 +145,8 @@ void register_detect(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
                       "bits_found, false_positive_probability (of the verdict used; also "
                       "score_ and bits_false_positive_probability), cropped_fraction, outlier_fraction (rows left "
                       "out because the suspect is far from them), "
-                      "registration, seconds; with a family key also recipients (the accused: name, score, "
+                      "registration (method: same-connectivity, registration (vertices matched), registration "
+                      "or registration (not converged); rms_error; transform), seconds; with a family key also recipients (the accused: name, score, "
                       "false_positive_probability, strongest first), recipients_traced, owner_detected and "
                       "owner_false_positive_probability (ownership without naming a recipient: the owner's mark "
                       "alone or read jointly with a recipient's code)");
