@@ -98,6 +98,16 @@ TEST(FacadeTest, in_memory_detect_gives_the_report_of_detect_file)
     EXPECT_THROW((void)detect(read_mesh(dir / "marked.obj"), other, read_key(dir / "key.json")), IoError);
 }
 
+// A lumpy ellipsoid written to dir/input.ply and marked into dir/marked.ply (key dir/key.json):
+// the original as read back, and the key.
+std::pair<TriangleMesh, Key> marked_ellipsoid(const fs::path& dir, const EmbedFileOptions& options)
+{
+    const fs::path input = dir / "input.ply";
+    write_mesh(input, lumpy_ellipsoid(5));
+    (void)embed_file(input, dir / "marked.ply", dir / "key.json", options);
+    return {read_mesh(input), read_key(dir / "key.json")};
+}
+
 TEST(FacadeTest, vertices_a_tool_throws_far_are_left_out_of_a_vertex_for_vertex_reading)
 {
     // MeshLab's Taubin smoothing crushed the two 96-vertex parts of a game-like asset (moved by
@@ -107,14 +117,10 @@ TEST(FacadeTest, vertices_a_tool_throws_far_are_left_out_of_a_vertex_for_vertex_
     // under the 2% tolerance). Read with every row, the same crush of fertility.off's marked
     // copy scored 2.33; without the crushed rows it reads as intact.
     const fs::path dir = test::temp_dir("facade-outliers");
-    const fs::path input = dir / "input.ply";
-    write_mesh(input, lumpy_ellipsoid(5));
     EmbedFileOptions options;
     options.seed = 5;
     options.message = "owner";
-    (void)embed_file(input, dir / "marked.ply", dir / "key.json", options);
-    const TriangleMesh original = read_mesh(input);
-    const Key key = read_key(dir / "key.json");
+    const auto [original, key] = marked_ellipsoid(dir, options);
     const Eigen::VectorXd from_first = (original.V.rowwise() - original.V.row(0)).rowwise().norm();
     std::vector<double> sorted(from_first.data(), from_first.data() + from_first.size());
     std::sort(sorted.begin(), sorted.end());
@@ -169,13 +175,9 @@ TEST(FacadeTest, vertices_a_tool_throws_far_are_left_out_of_a_vertex_for_vertex_
 TEST(FacadeTest, a_copy_split_at_seams_is_read_vertex_for_vertex)
 {
     const fs::path dir = test::temp_dir("facade-split");
-    const fs::path input = dir / "input.ply";
-    write_mesh(input, lumpy_ellipsoid(5));
     EmbedFileOptions options;
     options.seed = 7;
-    (void)embed_file(input, dir / "marked.ply", dir / "key.json", options);
-    const TriangleMesh original = read_mesh(input);
-    const Key key = read_key(dir / "key.json");
+    const auto [original, key] = marked_ellipsoid(dir, options);
     // Every third face gets corners of its own; the vertices are then stored in reverse and
     // the copy moved, turned and scaled (or mirrored).
     auto split = [](const TriangleMesh& mesh, double mirror) {
