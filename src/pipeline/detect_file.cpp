@@ -192,18 +192,17 @@ Eigen::Matrix4d similarity_onto_original(const Positions& original, const Positi
     return Eigen::umeyama(from, to, true).inverse();
 }
 
-// The original followed by its other instances, as one mesh (the registration's reference).
 // A suspect whose vertices are the original's again, in another order, split where a writer
 // duplicates them (UV seams, hard edges: Blender's PLY and OBJ writers), welded where a tool
 // joins the original's duplicates, or with vertices added between them (midpoint
 // subdivision), is read vertex for vertex rather than through its surface: each original
 // vertex takes the suspect vertex nearest to it after registration, when that one lies within
 // \p tolerance and the original vertex nearest to it is at the same position (mutual nearest
-// neighbours; original vertices at one position count as one: a check that no two positions
-// claim one suspect vertex let wrong pairs through on a dense mesh, z 9.71 -> 7.93 on a
-// reordered 1M-vertex copy). \p match gets, per original vertex, the suspect vertex or -1.
-// Distances to the original only, never the key: the bound holds as for any correspondence.
-// Returns the number matched.
+// neighbours; original vertices at one position count as one). Mutual pairs can still be
+// wrong where the mark moves a vertex nearer a neighbour's place than its own: the caller
+// tries this only on meshes whose spacing is large against the mark (kMatchSpacing). \p match
+// gets, per original vertex, the suspect vertex or -1. Distances to the original only, never
+// the key: the bound holds as for any correspondence. Returns the number matched.
 std::size_t match_vertices(const Positions& original, const Positions& registered, double tolerance,
                            std::vector<std::int32_t>& match, int threads)
 {
@@ -237,6 +236,7 @@ std::size_t match_vertices(const Positions& original, const Positions& registere
     return matched;
 }
 
+// The original followed by its other instances, as one mesh (the registration's reference).
 TriangleMesh with_instances(const TriangleMesh& original, const TriangleMesh& instances)
 {
     TriangleMesh shown;
@@ -349,8 +349,7 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
         timer.begin("correspondence");
         // The original's vertices again, reordered, split, welded or with vertices added
         // between them: read vertex for vertex (match_vertices), every component of the change
-        // instead of its normal one.
-        // Only where the mark moves a vertex by a small part of the spacing (mean edge >=
+        // instead of its normal one. Only where the mark moves a vertex by a small part of the spacing (mean edge >=
         // kMatchSpacing amplitudes): on a denser mesh a marked vertex can come closer to a
         // neighbour's place than to its own, and the pairs mislead (a reordered 1M-vertex
         // copy, mean edge about 3 amplitudes: 97.5% matched, z 7.9 against 9.7 resampled).
