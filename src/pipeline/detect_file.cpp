@@ -277,6 +277,10 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
     bool is_resampled = false;
     bool is_cropped = false;
     const double amplitude = mark_amplitude(mark.key().options, diagonal);
+    // RMS distance of suspect rows in the original's order to the original, over the diagonal.
+    auto relative_rms = [&](const Positions& in_frame) {
+        return std::sqrt((in_frame - original.V).rowwise().squaredNorm().mean()) / diagonal;
+    };
     // A suspect in the original's vertex order (\p in_order, suspect frame; \p left_out: rows
     // no suspect vertex stands for, null: none), taken onto the original by the similarity \p T
     // fitted over all its rows: the rows a tool threw far away (the far-rows rule of resampled
@@ -307,8 +311,7 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
     {
         const Eigen::Matrix4d T = similarity_onto_original(original.V, suspect.V, nullptr);
         aligned = transform_points(T, suspect.V);
-        report.registration_rms =
-            std::sqrt((aligned - original.V).rowwise().squaredNorm().mean()) / diagonal;
+        report.registration_rms = relative_rms(aligned);
         report.transform = T;
         is_corresponding = report.registration_rms <= kCorrespondenceTolerance;
         report.alignment = "same-connectivity";
@@ -353,9 +356,11 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
         // kMatchSpacing amplitudes): on a denser mesh a marked vertex can come closer to a
         // neighbour's place than to its own, and the pairs mislead (a reordered 1M-vertex
         // copy, mean edge about 3 amplitudes: 97.5% matched, z 7.9 against 9.7 resampled).
-        const double spacing = original.F.rows() > 0 ? mean_edge_length(original) : 0.0;
-        if (options.match_vertices && !has_instances && r.converged && spacing >= kMatchSpacing * amplitude &&
-            2 * suspect.vertex_count() >= original.vertex_count())
+        // The mean edge (a pass over the faces) only once the cheap conditions hold.
+        const bool may_match = options.match_vertices && !has_instances && r.converged &&
+                               2 * suspect.vertex_count() >= original.vertex_count() && original.F.rows() > 0;
+        const double spacing = may_match ? mean_edge_length(original) : 0.0;
+        if (may_match && spacing >= kMatchSpacing * amplitude)
         {
             std::vector<std::int32_t> match;
             const Positions registered = transform_points(r.transform, suspect.V);
@@ -385,8 +390,7 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
                               n - matched);
                 report.transform = report.transform * r.transform;  // suspect -> original
                 report.alignment = "registration (vertices matched)";
-                report.registration_rms =
-                    std::sqrt((aligned - original.V).rowwise().squaredNorm().mean()) / diagonal;
+                report.registration_rms = relative_rms(aligned);
                 is_corresponding = true;
             }
         }
