@@ -157,6 +157,19 @@ constexpr int kEarlyStopStatistics = 10;
 // or more) stays with the resampling and its crop marking.
 constexpr double kMaxUnmatched = 0.01;
 constexpr double kMatchSpacing = 10.0;
+// ... and when its vertices stand for the original's unambiguously: the median, over the
+// matched vertices, of the distance to the matched suspect vertex over the distance to the
+// next suspect position is at most this. A copy of the original's vertices puts one suspect
+// vertex where each original vertex was and the next one an edge or half an edge away (median
+// 0.08-0.16 for reorders, seam splits and midpoint subdivisions of fandisk and a game-like
+// asset); a surface sampled afresh (a voxel remesh) has its vertices where the grid put them,
+// the nearest and the next at similar distances (0.63-0.67 at 1/150 and 1/300 of the
+// diagonal), and read vertex for vertex it would take their offsets along the surface for a
+// change (fandisk at 1/300: z 7.54 against 9.33 resampled).
+constexpr double kMaxMatchAmbiguity = 0.4;
+// Neighbours looked at for the next suspect position (a writer's duplicates at one position
+// come first).
+constexpr std::size_t kMatchNeighbours = 8;
 
 /// The mark's RMS displacement in reference units: the additive rule's strength (a fraction
 /// of the diagonal) or, for the paper's rule, the default mark's.
@@ -201,13 +214,16 @@ Eigen::Matrix4d similarity_onto_original(const Positions& original, const Positi
 // neighbours; original vertices at one position count as one). Mutual pairs can still be
 // wrong where the mark moves a vertex nearer a neighbour's place than its own: the caller
 // tries this only on meshes whose spacing is large against the mark (kMatchSpacing). \p match
-// gets, per original vertex, the suspect vertex or -1. Distances to the original only, never
-// the key: the bound holds as for any correspondence. Returns the number matched.
+// gets, per original vertex, the suspect vertex or -1; \p ambiguity the median over the
+// matched vertices of the distance to their suspect vertex over the distance to the next
+// suspect position (kMaxMatchAmbiguity; 1 when none matched). Distances to the original only,
+// never the key: the bound holds as for any correspondence. Returns the number matched.
 std::size_t match_vertices(const Positions& original, const Positions& registered, double tolerance,
-                           std::vector<std::int32_t>& match, int threads)
+                           std::vector<std::int32_t>& match, double& ambiguity, int threads)
 {
     const Eigen::Index n = original.rows();
     match.assign(static_cast<std::size_t>(n), -1);
+    ambiguity = 1.0;
     if (registered.rows() == 0 || n == 0)
     {
         return 0;
@@ -215,23 +231,47 @@ std::size_t match_vertices(const Positions& original, const Positions& registere
     const PointKdTree suspect_tree(registered);
     const PointKdTree original_tree(original);
     const double squared_tolerance = tolerance * tolerance;
+    // Positions closer than this to the matched one are its duplicates, not the next position.
+    const double squared_same = 1e-12 * squared_tolerance;
+    std::vector<float> ratio(static_cast<std::size_t>(n), -1.0F);
     std::size_t matched = 0;
 #pragma omp parallel for schedule(static) num_threads(resolve_threads(threads)) reduction(+ : matched)
     for (Eigen::Index i = 0; i < n; ++i)
     {
-        double squared = 0.0;
-        const std::uint32_t j = suspect_tree.nearest(original.row(i).transpose(), squared);
-        if (squared > squared_tolerance)
+        std::array<std::uint32_t, kMatchNeighbours> index{};
+        std::array<double, kMatchNeighbours> squared{};
+        const std::size_t found =
+            suspect_tree.nearest(original.row(i).transpose(), kMatchNeighbours, index.data(), squared.data());
+        const std::uint32_t j = index[0];
+        if (squared[0] > squared_tolerance)
         {
             continue;
         }
         double back_squared = 0.0;
         const std::uint32_t back = original_tree.nearest(registered.row(j).transpose(), back_squared);
-        if (original.row(back) == original.row(i))
+        if (original.row(back) != original.row(i))
         {
-            match[static_cast<std::size_t>(i)] = static_cast<std::int32_t>(j);
-            ++matched;
+            continue;
         }
+        match[static_cast<std::size_t>(i)] = static_cast<std::int32_t>(j);
+        ++matched;
+        double next = 0.0;  // 0: no other position among the neighbours (ratio 0, unambiguous)
+        for (std::size_t t = 1; t < found; ++t)
+        {
+            if ((registered.row(index[t]) - registered.row(j)).squaredNorm() > squared_same)
+            {
+                next = squared[t];
+                break;
+            }
+        }
+        ratio[static_cast<std::size_t>(i)] = next > 0.0 ? static_cast<float>(std::sqrt(squared[0] / next)) : 0.0F;
+    }
+    ratio.erase(std::remove(ratio.begin(), ratio.end(), -1.0F), ratio.end());
+    if (!ratio.empty())
+    {
+        auto middle = ratio.begin() + static_cast<std::ptrdiff_t>(ratio.size() / 2);
+        std::nth_element(ratio.begin(), middle, ratio.end());
+        ambiguity = *middle;
     }
     return matched;
 }
@@ -364,10 +404,13 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
         {
             std::vector<std::int32_t> match;
             const Positions registered = transform_points(r.transform, suspect.V);
-            const std::size_t matched = match_vertices(
-                original.V, registered, std::min(kOutlierFloor * amplitude, 0.5 * spacing), match, options.threads);
+            double ambiguity = 1.0;
+            const std::size_t matched = match_vertices(original.V, registered,
+                                                       std::min(kOutlierFloor * amplitude, 0.5 * spacing), match,
+                                                       ambiguity, options.threads);
             const auto n = static_cast<std::size_t>(original.V.rows());
-            if (static_cast<double>(matched) >= (1.0 - kMaxUnmatched) * static_cast<double>(n))
+            if (static_cast<double>(matched) >= (1.0 - kMaxUnmatched) * static_cast<double>(n) &&
+                ambiguity <= kMaxMatchAmbiguity)
             {
                 // In the registered frame (a mirrored copy is already unmirrored there, which
                 // the closed-form similarity could not do); rows without a suspect vertex stand

@@ -15,6 +15,7 @@
 #include <vector>
 #include <string>
 
+#include "meshmark/attacks/voxel_remeshing.h"
 #include "meshmark/geometry/shapes.h"
 #include "meshmark/metrics/distortion.h"
 #include "support/test_paths.h"
@@ -244,6 +245,31 @@ TEST(FacadeTest, a_copy_split_at_seams_is_read_vertex_for_vertex)
     noisy.V += 0.01 * diagonal * Positions::Random(noisy.V.rows(), 3) / std::sqrt(3.0);
     const DetectReport rough = detect(split(noisy, 1.0), original, key);
     EXPECT_EQ(rough.alignment, "registration");
+}
+
+// A voxel remesh fine enough to have a vertex near every original vertex (fandisk at 1/300 of
+// the diagonal: 17 times its vertex count, every vertex paired) is a surface sampled afresh:
+// its nearest vertex and the next are at similar distances, so it is not taken for the
+// original's vertices and is read through its surface (fandisk: z 9.37 instead of 7.54 read
+// vertex for vertex). Its unmarked counterpart is resampled as well and not claimed.
+TEST(FacadeTest, a_fine_voxel_remesh_is_read_through_its_surface)
+{
+    const fs::path dir = test::temp_dir("facade-voxel");
+    EmbedFileOptions options;
+    options.seed = 7;
+    const auto [original, key] = marked_ellipsoid(dir, options);
+    const TriangleMesh marked = read_mesh(dir / "marked.ply");
+    const TriangleMesh remeshed = voxel_remesh(marked, {.resolution = 300.0});
+    ASSERT_GT(remeshed.V.rows(), 4 * original.V.rows());
+    const DetectReport found = detect(remeshed, original, key);
+    EXPECT_EQ(found.alignment, "registration");
+    EXPECT_TRUE(found.decision.is_present);
+    DetectFileOptions resample_only;
+    resample_only.match_vertices = false;
+    EXPECT_EQ(found.decision.score, detect(remeshed, original, key, resample_only).decision.score);
+    const DetectReport clean = detect(voxel_remesh(original, {.resolution = 300.0}), original, key);
+    EXPECT_EQ(clean.alignment, "registration");
+    EXPECT_FALSE(clean.decision.is_present);
 }
 
 TEST(FacadeTest, in_place_embed_replaces_the_input_whole_with_the_marked_copy)
