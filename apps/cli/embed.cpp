@@ -239,7 +239,7 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     command->add_option("--repetitions", args->options.repetitions,
                         "r, coefficients per payload bit (the mark uses m*r modes, each copy with "
                         "its own key sign; more copies, same distortion, stronger verdict). auto: 5 "
-                        "(intact z 10.95) on meshes of 30,000+ analysed vertices, else 4 (z 9.8); a new "
+                        "(intact z 10.95) on meshes of 5,000+ analysed vertices, else 4 (z 9.8); a new "
                         "family key's owner mark: 2, so its recipient modes fit. The key records the number chosen")
         ->transform(repetitions_choice())
         ->type_name("auto|INT")

@@ -81,7 +81,7 @@ The keywords are the options of `meshmark embed` (docs/cli.md):
   rule         'additive' or 'paper'
   basis        'rbf' or 'laplacian';  centers: 'random' or 'decimate'
   basis_size (k), coefficients (m), repetitions (r), first_mode, sigma_factor, gram_rows
-  repetitions  'auto' (default: 5 on meshes of 30,000+ analysed vertices, else 4; the Key
+  repetitions  'auto' (default: 5 on meshes of 5,000+ analysed vertices, else 4; the Key
                records the number chosen) or a whole number >= 1
   threads      worker threads, 0 = all cores (the result does not depend on it)
 The same mesh, seed and options give exactly the positions and key of `meshmark embed`.

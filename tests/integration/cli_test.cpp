@@ -76,7 +76,8 @@ TEST_F(CliTest, embed_then_detect_reports_json_and_exit_codes)
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const auto embed_json = nlohmann::json::parse(r.out);
     EXPECT_GT(embed_json["rms_displacement"].get<double>(), 0.0);
-    EXPECT_EQ(nlohmann::json::parse(slurp(key))["embedding"]["repetitions"], 4);  // 96 coefficients by default
+    // 120 coefficients by default from 5,000 vertices on (this mesh: 10,242).
+    EXPECT_EQ(nlohmann::json::parse(slurp(key))["embedding"]["repetitions"], 5);
     EXPECT_TRUE(embed_json["seconds"].contains("total"));
     struct stat st{};
     ASSERT_EQ(::stat(key.c_str(), &st), 0);
@@ -255,7 +256,7 @@ TEST_F(CliTest, repetitions_are_auto_or_a_positive_number)
     const std::string head = "embed " + original_.string() + " -o " + out.string() + " --key " + key.string();
     CliRun r = run(head + " --repetitions auto -q", dir_);
     ASSERT_EQ(r.exit_code, 0) << r.err;
-    EXPECT_EQ(nlohmann::json::parse(slurp(key))["embedding"]["repetitions"], 4);  // 10,242 vertices: 4
+    EXPECT_EQ(nlohmann::json::parse(slurp(key))["embedding"]["repetitions"], 5);  // 10,242 vertices: 5
     for (const char* bad : {"0", "-2", "x", "2.5"})
     {
         r = run(head + " --force --repetitions " + bad, dir_);

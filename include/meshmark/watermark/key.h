@@ -79,7 +79,7 @@ struct EmbedOptions
     /// verdict with a far smaller false-positive probability possible (docs/statistics.md).
     /// kAutoRepetitions (the default) lets the watermark choose on the original
     /// (automatic_repetitions, watermark.h): 5 (120 coefficients on modes 12-51, an intact score
-    /// of sqrt(120) = 10.95) on meshes of 30,000 analysed vertices or more, else 4 (96
+    /// of sqrt(120) = 10.95) on meshes of 5,000 analysed vertices or more, else 4 (96
     /// coefficients on modes 12-43, 9.8); 2 for a family key's owner mark (kFamilyRepetitions).
     /// The key file records the number chosen. Keys written before this field existed mean 1.
     int repetitions = kAutoRepetitions;

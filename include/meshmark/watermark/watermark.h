@@ -48,7 +48,7 @@ void check_analysed_rows(const EmbedOptions& options, std::size_t analysed_rows)
 
 /// \brief The repetitions r a key with EmbedOptions::kAutoRepetitions gets on an original with
 /// \p analysed_rows analysed vertices (docs/statistics.md, "How long a mark"): 5 (120
-/// coefficients, an intact score of 10.95) from 30,000 analysed vertices on if the mark fits the
+/// coefficients, an intact score of 10.95) from 5,000 analysed vertices on if the mark fits the
 /// basis, otherwise 4 (96 coefficients, 9.8), or the largest r the basis fits.
 [[nodiscard]] int automatic_repetitions(const EmbedOptions& options, std::size_t analysed_rows);
 

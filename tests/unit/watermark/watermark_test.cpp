@@ -263,14 +263,14 @@ TEST(SpectralWatermarkTest, each_bit_is_spread_over_r_coefficients_with_independ
 }
 
 // The default repetitions are chosen on the original (docs/statistics.md, "How long a mark"):
-// 5 from 30,000 analysed vertices on, else 4, or what the basis fits; a family key's owner mark
+// 5 from 5,000 analysed vertices on, else 4, or what the basis fits; a family key's owner mark
 // 2. The watermark records the choice in its key and reads an intact copy at sqrt(3 m r).
 TEST(SpectralWatermarkTest, automatic_repetitions_lengthen_the_mark_on_large_meshes)
 {
     EmbedOptions options;  // k = 100, m = 8, first mode 12
     ASSERT_EQ(options.repetitions, EmbedOptions::kAutoRepetitions);
-    EXPECT_EQ(automatic_repetitions(options, 29'999), 4);
-    EXPECT_EQ(automatic_repetitions(options, 30'000), 5);
+    EXPECT_EQ(automatic_repetitions(options, 4'999), 4);
+    EXPECT_EQ(automatic_repetitions(options, 5'000), 5);
     options.basis_size = 50;  // 12 + 5 * 8 > 50: the longer mark does not fit
     EXPECT_EQ(automatic_repetitions(options, 1'000'000), 4);
     options.basis_size = 40;  // 12 + 4 * 8 > 40
@@ -278,10 +278,10 @@ TEST(SpectralWatermarkTest, automatic_repetitions_lengthen_the_mark_on_large_mes
     options.basis_size = 20;
     EXPECT_EQ(automatic_repetitions(options, 1'000'000), 1);
 
-    for (const int subdivisions : {5, 6})  // 10,242 and 40,962 vertices
+    for (const int subdivisions : {4, 5})  // 2,562 and 10,242 vertices
     {
         const TriangleMesh mesh = lumpy_ellipsoid(subdivisions);
-        const int expected = mesh.V.rows() >= 30'000 ? 5 : 4;
+        const int expected = mesh.V.rows() >= 5'000 ? 5 : 4;
         const SpectralWatermark mark(mesh, make_key(mesh, 7));
         EXPECT_EQ(mark.key().options.repetitions, expected) << mesh.V.rows();
         EXPECT_EQ(mark.embedded_signs().rows(), 8 * expected);
