@@ -165,7 +165,7 @@ constexpr double kMatchSpacing = 10.0;
 // asset); a surface sampled afresh (a voxel remesh) has its vertices where the grid put them,
 // the nearest and the next at similar distances (0.63-0.67 at 1/150 and 1/300 of the
 // diagonal), and read vertex for vertex it would take their offsets along the surface for a
-// change (fandisk at 1/300: z 7.54 against 9.33 resampled).
+// change (fandisk at 1/300: z 7.54 against 9.37 resampled).
 constexpr double kMaxMatchAmbiguity = 0.4;
 // Neighbours looked at for the next suspect position (a writer's duplicates at one position
 // come first).
