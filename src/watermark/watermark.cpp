@@ -30,8 +30,9 @@ constexpr std::size_t kReadBlockRows = 4096;
 // many analysed vertices on. Below it the longer mark's top modes (44-51) are what a coarse
 // resampling takes first: on the shared meshes of 1.1K-4.5K vertices it lost remeshed and
 // simplified copies (6 lost, 2 gained of 480). From 5.2K vertices on every attack of the
-// suite scores higher with it, and it claims the same copies but two of 200 simplified to 2%
-// (docs/robustness.md, "120 coefficients from 5K vertices"). From 30K until 2026-11-26.
+// suite scores as high or higher with it, and it claims the same copies but two of 200
+// simplified to 2% (docs/robustness.md, "120 coefficients from 5K vertices"). From 30K until
+// 2026-11-26.
 constexpr std::size_t kLongMarkMinRows = 5000;
 constexpr int kLongMarkRepetitions = 5;
 constexpr int kDefaultRepetitions = 4;
