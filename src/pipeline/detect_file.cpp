@@ -107,6 +107,16 @@ constexpr double kOutlierFloor = 10.0;
 // the diagonal: the default mark's.
 constexpr double kPaperRuleAmplitude = 0.00059;
 
+/// The upper median of \p values (reordered in place; nearest rank, so the same on every run).
+/// \pre \p values is not empty.
+template <typename T>
+T median_in_place(std::vector<T>& values)
+{
+    const auto middle = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
+    std::nth_element(values.begin(), middle, values.end());
+    return *middle;
+}
+
 /// The rows to read: \p kept_by_crop (null: all) minus the outliers above; \p outliers gets
 /// their number. Serial nearest-rank median, so the result is the same on every run.
 std::vector<std::uint8_t> kept_without_outliers(const Eigen::VectorXd& distance,
@@ -115,9 +125,7 @@ std::vector<std::uint8_t> kept_without_outliers(const Eigen::VectorXd& distance,
 {
     const auto n = static_cast<std::size_t>(distance.size());
     std::vector<double> sorted(distance.data(), distance.data() + n);
-    const auto middle = sorted.begin() + static_cast<std::ptrdiff_t>(n / 2);
-    std::nth_element(sorted.begin(), middle, sorted.end());
-    const double threshold = std::max(kOutlierMedianFactor * *middle, floor);
+    const double threshold = std::max(kOutlierMedianFactor * median_in_place(sorted), floor);
     std::vector<std::uint8_t> kept = kept_by_crop != nullptr ? *kept_by_crop : std::vector<std::uint8_t>(n, 1);
     outliers = 0;
     for (std::size_t i = 0; i < n; ++i)
@@ -269,9 +277,7 @@ std::size_t match_vertices(const Positions& original, const Positions& registere
     ratio.erase(std::remove(ratio.begin(), ratio.end(), -1.0F), ratio.end());
     if (!ratio.empty())
     {
-        auto middle = ratio.begin() + static_cast<std::ptrdiff_t>(ratio.size() / 2);
-        std::nth_element(ratio.begin(), middle, ratio.end());
-        ambiguity = *middle;
+        ambiguity = median_in_place(ratio);
     }
     return matched;
 }
@@ -392,8 +398,8 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
         timer.begin("correspondence");
         // The original's vertices again, reordered, split, welded or with vertices added
         // between them: read vertex for vertex (match_vertices), every component of the change
-        // instead of its normal one. Only where the mark moves a vertex by a small part of the spacing (mean edge >=
-        // kMatchSpacing amplitudes): on a denser mesh a marked vertex can come closer to a
+        // instead of its normal one. Only where the mark moves a vertex by a small part of the
+        // spacing (mean edge >= kMatchSpacing amplitudes): on a denser mesh a marked vertex can come closer to a
         // neighbour's place than to its own, and the pairs mislead (a reordered 1M-vertex
         // copy, mean edge about 3 amplitudes: 97.5% matched, z 7.9 against 9.7 resampled).
         // The mean edge (a pass over the faces) only once the cheap conditions hold.
