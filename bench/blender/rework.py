@@ -36,8 +36,8 @@ OPEN3D_ATTACKS = os.path.join(HERE, "open3d_attacks.py")
 BLENDER_NAMES = {"ply", "obj", "gltf", "transform", "merge", "noise", "subdivide", "laplacian", "smooth",
                  "decimate", "bisect", "voxel"}
 # Other tools' operations (--ops ... or --with-others): gltf-transform, Open3D, MeshLab.
-OTHER_OPERATIONS = ["gt-simplify=0.5", "gt-simplify=0.2", "gt-weld", "o3d-decimate=0.2", "o3d-laplacian=10",
-                    "o3d-taubin=10", "meshlab-decimate=0.2", "meshlab-taubin=10"]
+OTHER_OPERATIONS = ["gt-simplify=0.5", "gt-simplify=0.2", "gt-decimate=0.05", "gt-weld", "o3d-decimate=0.2",
+                    "o3d-laplacian=10", "o3d-taubin=10", "meshlab-decimate=0.2", "meshlab-taubin=10"]
 OPERATIONS = ["ply", "obj", "gltf", "transform", "merge", "noise", "subdivide", "laplacian",
               "smooth", "decimate=0.5", "decimate=0.2", "decimate=0.05", "bisect", "voxel=300",
               "voxel=150"]
@@ -51,6 +51,7 @@ DESCRIPTION = {
     "voxel=300": "voxel remesh, diagonal/300", "voxel=150": "voxel remesh, diagonal/150",
     "gt-simplify=0.5": "gltf-transform simplify 50% (error 0.1%)",
     "gt-simplify=0.2": "gltf-transform simplify 20% (error 0.1%)", "gt-weld": "gltf-transform weld",
+    "gt-decimate=0.05": "gltf-transform simplify to 5% (no error bound)",
     "o3d-decimate=0.2": "Open3D quadric decimation 20%", "o3d-laplacian=10": "Open3D Laplacian x 10",
     "o3d-taubin=10": "Open3D Taubin x 10", "meshlab-decimate=0.2": "MeshLab quadric edge collapse 20%",
     "meshlab-taubin=10": "MeshLab Taubin x 10",
@@ -144,7 +145,7 @@ def other_ops(args, source, out_dir, ops):
     for op in ops:
         name, _, value = op.partition("=")
         label = op.replace("=", "_")
-        if name in ("gt-simplify", "gt-weld"):
+        if name in ("gt-simplify", "gt-decimate", "gt-weld"):
             gltf_copy = os.path.join(out_dir, "input.glb")
             if not os.path.exists(gltf_copy):
                 # Shared vertices (Blender's glTF writer splits every vertex of a flat-shaded mesh,
@@ -153,9 +154,13 @@ def other_ops(args, source, out_dir, ops):
                     "meshmark attack quantize=24")
             target = os.path.join(out_dir, label + ".glb")
             temporary = os.path.join(out_dir, ".tmp-" + label + ".glb")
-            command = [args.gltf_transform, name[3:], gltf_copy, temporary]
+            command = [args.gltf_transform, "weld" if name == "gt-weld" else "simplify", gltf_copy, temporary]
             if name == "gt-simplify":
                 command += ["--ratio", value or "0.5", "--error", "0.001"]
+            elif name == "gt-decimate":
+                # The error bound lifted (1 = the whole model): the ratio alone stops it, like
+                # Blender's Decimate ratio (meshoptimizer keeps the vertices it does not remove).
+                command += ["--ratio", value or "0.05", "--error", "1"]
         elif name in ("meshlab-decimate", "meshlab-taubin"):
             target = os.path.join(out_dir, label + ".ply")
             temporary = os.path.join(out_dir, ".tmp-" + label + ".ply")
@@ -301,8 +306,9 @@ def main():
     parser.add_argument("--keys", type=int, default=2, help="keys (seeds 1..K) per mesh")
     parser.add_argument("--ops", nargs="+", default=OPERATIONS,
                         help="operations (default: the Blender ones): attacks.py's, open3d_attacks.py's "
-                        "(o3d-*), gltf-transform's gt-simplify=R and gt-weld (on a .glb of the copy "
-                        "written by meshmark), MeshLab's meshlab-decimate=R and meshlab-taubin=N")
+                        "(o3d-*), gltf-transform's gt-simplify=R (error 0.1%%), gt-decimate=R (no error "
+                        "bound) and gt-weld (on a .glb of the copy written by meshmark), MeshLab's "
+                        "meshlab-decimate=R and meshlab-taubin=N")
     parser.add_argument("--with-others", action="store_true",
                         help="add " + " ".join(OTHER_OPERATIONS))
     parser.add_argument("--open3d-python", default=os.environ.get("OPEN3D_PYTHON", "/usr/bin/python3"),

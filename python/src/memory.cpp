@@ -264,6 +264,10 @@ void bind_memory(py::module_& m)
                                "How the suspect was put in correspondence ('none', 'similarity', "
                                "'registration', ...).")
         .def_property_readonly("registration_rms", [](const DetectResult& r) { return r.report.registration_rms; })
+        .def_property_readonly("mark_strength", [](const DetectResult& r) { return r.report.mark_strength; },
+                               "The mark's RMS amplitude over the original's bounding-box diagonal (the key's "
+                               "strength): registration_rms / mark_strength is how many times further than the "
+                               "mark the suspect lies from the original.")
         .def_property_readonly("transform",
                                [](const DetectResult& r) {
                                    py::array_t<double> matrix({4, 4});

@@ -323,6 +323,7 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
     bool is_resampled = false;
     bool is_cropped = false;
     const double amplitude = mark_amplitude(mark.key().options, diagonal);
+    report.mark_strength = amplitude / diagonal;
     // RMS distance of suspect rows in the original's order to the original, over the diagonal.
     auto relative_rms = [&](const Positions& in_frame) {
         return std::sqrt((in_frame - original.V).rowwise().squaredNorm().mean()) / diagonal;

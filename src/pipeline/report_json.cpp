@@ -129,6 +129,7 @@ nlohmann::json detect_report_json(const DetectReport& report, const DetectOption
                            {{"method", report.alignment},
                             {"rms_error", report.registration_rms},
                             {"transform", matrix_json(report.transform)}}},
+                          {"mark_strength", report.mark_strength},
                           {"suspect_vertices", report.suspect_vertices},
                           {"original_vertices", report.original_vertices},
                           {"seconds", to_json(report.seconds)}};

@@ -453,6 +453,40 @@ TEST_F(CliTest, detects_attacked_copies_and_never_the_same_attacks_on_the_origin
     }
 }
 
+TEST_F(CliTest, a_copy_far_from_the_original_that_is_not_claimed_gets_a_note)
+{
+    const auto marked = dir_ / "marked.ply";
+    const auto key = dir_ / "key.json";
+    ASSERT_EQ(run("embed " + original_.string() + " -o " + marked.string() + " --key " + key.string() + " --seed 4",
+                  dir_)
+                  .exit_code,
+              0);
+    // A simplification to 31 vertices moves the surface by several times the mark (6.5x): not
+    // claimed, and the note says why, with the distance in the mark's strengths.
+    const auto coarse = dir_ / "coarse.ply";
+    ASSERT_EQ(run("attack " + marked.string() + " -o " + coarse.string() + " --seed 4 simplify=0.003", dir_).exit_code,
+              0);
+    CliRun r = run("detect " + coarse.string() + " --original " + original_.string() + " --key " + key.string(), dir_);
+    EXPECT_EQ(r.exit_code, 1) << r.err;
+    EXPECT_NE(r.err.find("times the mark's strength"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("What an attack leaves of the mark"), std::string::npos) << r.err;
+    // --json reports the unit of that ratio: the key's strength (the default, 0.059%).
+    r = run("detect " + coarse.string() + " --original " + original_.string() + " --key " + key.string() + " --json",
+            dir_);
+    const auto report = nlohmann::json::parse(r.out);
+    EXPECT_NEAR(report.at("mark_strength").get<double>(), 0.00059, 1e-9);
+    EXPECT_GE(report.at("registration").at("rms_error").get<double>(), 3.0 * 0.00059);
+    // -q keeps stderr quiet; a claimed copy (registered too) gets no note.
+    r = run("detect " + coarse.string() + " --original " + original_.string() + " --key " + key.string() + " -q", dir_);
+    EXPECT_EQ(r.exit_code, 1);
+    EXPECT_EQ(r.err, "");
+    const auto fine = dir_ / "fine.ply";
+    ASSERT_EQ(run("attack " + marked.string() + " -o " + fine.string() + " --seed 4 simplify=0.5", dir_).exit_code, 0);
+    r = run("detect " + fine.string() + " --original " + original_.string() + " --key " + key.string(), dir_);
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_EQ(r.err.find("note:"), std::string::npos) << r.err;
+}
+
 TEST_F(CliTest, watermarks_a_point_cloud_and_keeps_it_a_point_cloud)
 {
     TriangleMesh cloud = lumpy_ellipsoid(5);

@@ -32,6 +32,8 @@ def test_round_trip(torus):
     assert report["detected"] is True
     assert report["score"] == found.score
     assert report["registration"]["method"] == found.alignment
+    # The unit of registration_rms for "how far from the original": the default strength.
+    assert found.mark_strength == pytest.approx(0.00059) and report["mark_strength"] == found.mark_strength
 
     clean = meshmark.detect(V, F, V, F, key)
     assert not clean.detected

@@ -49,6 +49,11 @@ struct DetectReport
     std::string alignment = "none";  ///< How the suspect was put in correspondence.
     Eigen::Matrix4d transform = Eigen::Matrix4d::Identity();  ///< Suspect -> original frame.
     double registration_rms = 0.0;  ///< RMS distance to the original / its bbox diagonal.
+    /// The mark's RMS amplitude / the original's bbox diagonal: the key's additive strength (the
+    /// default mark's for the paper's rule). registration_rms over it says how many times further
+    /// than the mark a registered suspect lies from the original (docs/robustness.md, "What an
+    /// attack leaves of the mark").
+    double mark_strength = 0.0;
     std::int64_t suspect_vertices = 0;
     std::int64_t original_vertices = 0;
     PhaseTimings seconds;
