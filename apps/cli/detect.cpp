@@ -91,7 +91,7 @@ int run_detect(const DetectArgs& args, const GlobalArgs& global)
                             regions.data(), format_number(r.false_positive_probability).c_str());
             }
         }
-        if (!report.detected() && !global.quiet && is_far_registered_copy(report))
+        if (!report.detected() && !report.owner_detected && !global.quiet && is_far_registered_copy(report))
         {
             std::fprintf(stderr,
                          "meshmark: note: the suspect lies %.3g%% of the diagonal (RMS) from the original, %.1f times "
