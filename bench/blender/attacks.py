@@ -22,6 +22,8 @@
 #   laplacian[=N]    Laplacian Smooth modifier, N repeats (default 1), other settings default
 #   smooth[=N]       Smooth modifier, factor 0.5, N repeats (default 10)
 #   decimate=R       Decimate modifier, collapse, ratio R
+#   merged-decimate=R  Merge by Distance (1e-4) first, then decimate=R: an imported asset split
+#                    at its UV seams and hard edges decimated as one surface
 #   bisect           bmesh.ops.bisect_plane through the bbox centre, normal along the largest
 #                    extent, the negative side cleared (about half the surface kept)
 #   voxel=N          Remesh modifier, voxel mode, adaptivity 0, voxel size = diagonal / N
@@ -48,7 +50,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from attack_contract import UsageError, parse_arguments, write_report  # noqa: E402
 
 DEFAULTS = {"merge": 1e-4, "noise": 0.002, "subdivide": 1, "laplacian": 1, "smooth": 10}
-NEEDS_VALUE = {"decimate", "voxel"}
+NEEDS_VALUE = {"decimate", "merged-decimate", "voxel"}
 NO_VALUE = {"ply", "obj", "gltf", "transform", "bisect"}
 ROUND_TRIP_EXT = {"ply": ".ply", "obj": ".obj", "gltf": ".glb"}
 
@@ -71,8 +73,8 @@ def parse_op(text):
         raise UsageError("operation '%s': '%s' is not a number" % (name, value)) from None
     if not math.isfinite(number) or number <= 0:
         raise UsageError("operation '%s': the value must be positive" % name)
-    if name == "decimate" and number > 1:
-        raise UsageError("operation 'decimate': the ratio must be in (0, 1]")
+    if name in ("decimate", "merged-decimate") and number > 1:
+        raise UsageError("operation '%s': the ratio must be in (0, 1]" % name)
     return name, number
 
 
@@ -156,6 +158,9 @@ def apply_op(obj, name, value, seed):
     elif name == "smooth":
         apply_modifier(obj, "SMOOTH", factor=0.5, iterations=int(value))
     elif name == "decimate":
+        apply_modifier(obj, "DECIMATE", decimate_type="COLLAPSE", ratio=value)
+    elif name == "merged-decimate":
+        with_bmesh(obj, lambda bm: bmesh.ops.remove_doubles(bm, verts=bm.verts, dist=DEFAULTS["merge"] * diagonal))
         apply_modifier(obj, "DECIMATE", decimate_type="COLLAPSE", ratio=value)
     elif name == "bisect":
         extent = hi - lo
