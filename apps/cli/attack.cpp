@@ -65,7 +65,9 @@ std::string grammar_help()
            "  simplify=F         quadric edge collapse to fraction F of the vertices (default " +
            number(simplify.vertex_fraction) + ")\n"
            "                     [0.5 0.25 0.1 0.02 0.01]; key policy=gh|lt (Garland-Heckbert,\n"
-           "                     default; Lindstrom-Turk)\n"
+           "                     default; Lindstrom-Turk); key boundary=" + number(simplify.boundary_weight) +
+           " (gh: weight of the\n"
+           "                     border quadrics; 1 = Open3D's and MeshLab's default)\n"
            "  remesh=F           isotropic remeshing to fraction F of the vertices, F <= 1 (default " +
            number(remesh.vertex_fraction) + ")\n"
            "                     [0.25 0.05]; key iter=" + std::to_string(remesh.iterations) +

@@ -366,7 +366,8 @@ AttackSpec parse_simplify(StepReader& step)
                              "method", {{"meshopt", SimplificationMethod::Meshoptimizer},
                                         {"cgal", SimplificationMethod::Cgal}})
                          .value_or(options.method);
-    step.finish("policy, method");
+    options.boundary_weight = step.take_number("boundary").value_or(options.boundary_weight);
+    step.finish("policy, method, boundary");
     return options;
 }
 
@@ -521,7 +522,8 @@ std::string text_of(const SimplificationOptions& o)
            (o.method == SimplificationOptions{}.method
                 ? ""
                 : (o.method == SimplificationMethod::Meshoptimizer ? ":method=meshopt"
-                                                                    : ":method=cgal"));
+                                                                    : ":method=cgal")) +
+           (o.boundary_weight != SimplificationOptions{}.boundary_weight ? key("boundary", o.boundary_weight) : "");
 }
 
 std::string text_of(const RemeshingOptions& o)

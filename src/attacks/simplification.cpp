@@ -60,7 +60,8 @@ constexpr int kMaxUnblockRounds = 8;
 // 4x4 DontAlign matrices, assigned before use) once they are inlined here.
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-void collapse(SurfaceMesh& surface, std::size_t target_vertices, SimplificationPolicy policy)
+void collapse(SurfaceMesh& surface, std::size_t target_vertices, SimplificationPolicy policy,
+              double boundary_weight)
 {
     const VertexCountStop stop(surface, target_vertices);
     // Both policies are wrapped in Bounded_normal_change_placement, which refuses a collapse
@@ -68,7 +69,7 @@ void collapse(SurfaceMesh& surface, std::size_t target_vertices, SimplificationP
     if (policy == SimplificationPolicy::GarlandHeckbert)
     {
         using Policies = sms::GarlandHeckbert_plane_policies<SurfaceMesh, CgalKernel>;
-        const Policies policies(surface);
+        const Policies policies(surface, boundary_weight);
         const sms::Bounded_normal_change_placement<Policies::Get_placement> placement(
             policies.get_placement());
         sms::edge_collapse(surface, stop,
@@ -127,14 +128,14 @@ std::size_t unblock(SurfaceMesh& surface)
 
 }  // namespace
 
-void simplify_surface(SurfaceMesh& surface, std::size_t target_vertices,
-                      SimplificationPolicy policy)
+void simplify_surface(SurfaceMesh& surface, std::size_t target_vertices, SimplificationPolicy policy,
+                      double boundary_weight)
 {
     if (surface.number_of_vertices() <= target_vertices)
     {
         return;
     }
-    collapse(surface, target_vertices, policy);
+    collapse(surface, target_vertices, policy, boundary_weight);
     // When the collapses run out above the target, what stops them is topological, typically
     // slits and crumbs left by cutting a non-manifold input apart: unblock and go on.
     for (int round = 0; round < kMaxUnblockRounds && surface.number_of_vertices() > target_vertices;
@@ -144,7 +145,7 @@ void simplify_surface(SurfaceMesh& surface, std::size_t target_vertices,
         {
             break;
         }
-        collapse(surface, target_vertices, policy);
+        collapse(surface, target_vertices, policy, boundary_weight);
     }
 }
 
@@ -156,6 +157,17 @@ void SimplificationOptions::validate() const
     {
         throw InvalidOption("simplify: fraction " + detail::format_number(vertex_fraction) +
                             " is outside (0, 1].");
+    }
+    if (!std::isfinite(boundary_weight) || boundary_weight <= 0.0)
+    {
+        throw InvalidOption("simplify: boundary weight " + detail::format_number(boundary_weight) +
+                            " must be positive.");
+    }
+    if (boundary_weight != SimplificationOptions{}.boundary_weight &&
+        (policy != SimplificationPolicy::GarlandHeckbert || method != SimplificationMethod::Cgal))
+    {
+        throw InvalidOption("simplify: boundary= weighs the border quadrics of policy=gh with method=cgal; "
+                            "policy=lt and method=meshopt do not use it.");
     }
 }
 
@@ -174,7 +186,7 @@ TriangleMesh simplify(const TriangleMesh& mesh, const SimplificationOptions& opt
         }
     }
     detail::SurfaceMesh surface = detail::to_surface_mesh(mesh, "simplify");
-    detail::simplify_surface(surface, target, options.policy);
+    detail::simplify_surface(surface, target, options.policy, options.boundary_weight);
     return detail::to_triangle_mesh(surface);
 }
 

@@ -30,8 +30,15 @@ struct SimplificationOptions
     /// Used by the CGAL method (and its fallback) only.
     SimplificationPolicy policy = SimplificationPolicy::GarlandHeckbert;
     SimplificationMethod method = SimplificationMethod::Cgal;
+    /// Garland-Heckbert policy of the CGAL method: weight of the quadrics that hold the
+    /// border edges in place (CGAL's discontinuity multiplier). 100, CGAL's default, keeps
+    /// borders nearly fixed; 1 is the boundary weight of Open3D's and MeshLab's quadric
+    /// decimations. Positive and finite.
+    double boundary_weight = 100.0;
 
-    /// \throws InvalidOption when vertex_fraction is outside (0, 1].
+    /// \throws InvalidOption when vertex_fraction is outside (0, 1], or boundary_weight is not
+    /// positive and finite or differs from its default with the Lindstrom-Turk policy or the
+    /// meshoptimizer method (which do not use it).
     void validate() const;
     bool operator==(const SimplificationOptions&) const = default;
 };
