@@ -28,21 +28,6 @@ struct DetectArgs
     DetectOptions decision;
 };
 
-// A registered suspect that is not claimed gets a note when it lies this many times further
-// from the original (registration RMS) than the mark's strength: marked copies that far are
-// mostly lost. Measured on four robustness runs (docs/robustness.md, "What an attack leaves of
-// the mark", and the whole suite on the meshes below 35K): of 195 marked copies at 3x or more,
-// 35 were claimed (Loop and sqrt3 subdivisions, which shrink the surface but keep the mark;
-// some 1/150 voxel remeshes and Lindstrom-Turk simplifications); of the 218 copies not
-// claimed, 160 were at 3x or more.
-constexpr double kFarCopyStrengths = 3.0;
-
-bool is_far_registered_copy(const DetectReport& report)
-{
-    return report.alignment.starts_with("registration") && report.mark_strength > 0.0 &&
-           report.registration_rms >= kFarCopyStrengths * report.mark_strength;
-}
-
 int run_detect(const DetectArgs& args, const GlobalArgs& global)
 {
     DetectFileOptions options;
@@ -91,7 +76,8 @@ int run_detect(const DetectArgs& args, const GlobalArgs& global)
                             regions.data(), format_number(r.false_positive_probability).c_str());
             }
         }
-        if (!report.detected() && !report.owner_detected && !global.quiet && is_far_registered_copy(report))
+        // Why a "not found" says little here (DetectReport::is_far_copy).
+        if (!report.detected() && !report.owner_detected && !global.quiet && report.is_far_copy())
         {
             std::fprintf(stderr,
                          "meshmark: note: the suspect lies %.3g%% of the diagonal (RMS) from the original, %.1f times "

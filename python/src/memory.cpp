@@ -268,6 +268,10 @@ void bind_memory(py::module_& m)
                                "The mark's RMS amplitude over the original's bounding-box diagonal (the key's "
                                "strength): registration_rms / mark_strength is how many times further than the "
                                "mark the suspect lies from the original.")
+        .def_property_readonly("is_far_copy", [](const DetectResult& r) { return r.report.is_far_copy(); },
+                               "Registered and at least 3 times the mark's strength from the original: marked "
+                               "copies that far are mostly lost, so 'not found' says little about whose copy "
+                               "it is (docs/robustness.md, \"What an attack leaves of the mark\").")
         .def_property_readonly("transform",
                                [](const DetectResult& r) {
                                    py::array_t<double> matrix({4, 4});

@@ -125,6 +125,13 @@ def test_attacked_and_reordered_suspect(torus):
     assert result.to_dict()["outlier_fraction"] == 0.0
     with pytest.raises(meshmark.InvalidOption):
         meshmark.detect(moved_V, moved_F, V, F, key, register=False)
+    # Close to the original: not a far copy. Simplified to a few dozen vertices, it lies
+    # several times the mark's strength away, which is_far_copy says (and why it is not found).
+    assert not result.is_far_copy
+    coarse_V, coarse_F = meshmark.attack_mesh(marked, F, "simplify=0.01", seed=3)
+    coarse = meshmark.detect(coarse_V, coarse_F, V, F, key)
+    assert coarse.registration_rms >= 3 * coarse.mark_strength
+    assert coarse.is_far_copy and not coarse.detected
 
 
 def test_help_shows_the_docstrings():
