@@ -86,6 +86,7 @@ result = bpy.ops.meshmark.detect(original_path=original_path, key_path=key_path)
 check(result == {"FINISHED"}, f"detect: {result}")
 found = json.loads(bpy.context.scene["meshmark_report"])
 check(found["detected"] is True, f"not detected in Blender: {found}")
+check(found["far_copy"] is False, f"the marked object itself reported as a far copy: {found}")
 
 # Export with Blender's PLY exporter (float32, its own vertex order); the program detects it.
 export = os.path.join(work, "export.ply")

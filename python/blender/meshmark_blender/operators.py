@@ -137,8 +137,15 @@ class MESHMARK_OT_detect(bpy.types.Operator):
         except meshmark.Error as error:
             self.report({"ERROR"}, f"meshmark: {error}")
             return {"CANCELLED"}
-        context.scene["meshmark_report"] = json.dumps(result.to_dict())
+        report = result.to_dict()
+        report["far_copy"] = bool(result.is_far_copy)
+        context.scene["meshmark_report"] = json.dumps(report)
         verdict = "FOUND" if result.detected else "not found"
+        why = ""
+        if not result.detected and result.is_far_copy:
+            # As `meshmark detect` notes it (DetectReport::is_far_copy, docs/robustness.md).
+            why = (f"; the mesh lies {result.registration_rms / result.mark_strength:.1f} times the mark's "
+                   "strength from the original, and copies that far often keep too little of the mark")
         self.report({"INFO"}, f"meshmark: watermark {verdict} in {obj.name}: z = {result.score:.2f}, "
-                    f"false-positive probability {result.false_positive_probability:.3g}")
+                    f"false-positive probability {result.false_positive_probability:.3g}{why}")
         return {"FINISHED"}

@@ -54,5 +54,7 @@ class VIEW3D_PT_meshmark(bpy.types.Panel):
             if "detected" in report:
                 box.label(text=("FOUND" if report["detected"] else "not found") +
                           f": z = {report['score']:.2f}, p <= {report['false_positive_probability']:.2g}")
+                if not report["detected"] and report.get("far_copy"):
+                    box.label(text="far from the original: too little of the mark may be left")
             elif "rms_displacement" in report:
                 box.label(text=f"Last embed: RMS {100 * report['rms_displacement']:.3g}% of the diagonal")
