@@ -138,6 +138,18 @@ def mlx(op, value):
     return "<!DOCTYPE FilterScript>\n<FilterScript>\n%s\n</FilterScript>\n" % body
 
 
+def as_ply(args, source, out_dir):
+    """source itself when it is a PLY, else OUT_DIR/input.ply written by meshmark (positions
+    as meshmark reads them, glTF node transforms applied; 2^24 levels: below single precision)."""
+    if source.lower().endswith(".ply"):
+        return source
+    os.makedirs(out_dir, exist_ok=True)
+    path = os.path.join(out_dir, "input.ply")
+    if not os.path.exists(path):
+        run([args.meshmark, "attack", source, "quantize=24", "-o", path, "-q"], "meshmark attack quantize=24")
+    return path
+
+
 def other_ops(args, source, out_dir, ops):
     """The operations of gltf-transform (gt-*, on a .glb of the copy written by meshmark) and
     MeshLab (meshlab-*, meshlabserver under xvfb-run), one process per operation."""
@@ -168,13 +180,8 @@ def other_ops(args, source, out_dir, ops):
             script = os.path.join(out_dir, label + ".mlx")
             with open(script, "w") as f:
                 f.write(mlx(name, float(value or (0.5 if name == "meshlab-decimate" else 10))))
-            meshlab_input = source
-            if not source.lower().endswith(".ply"):
-                # MeshLab 2020.09's OBJ reader aborts on some valid files (fandisk.obj): give it PLY.
-                meshlab_input = os.path.join(out_dir, "input.ply")
-                if not os.path.exists(meshlab_input):
-                    run([args.meshmark, "attack", source, "quantize=24", "-o", meshlab_input, "-q"],
-                        "meshmark attack quantize=24")
+            # MeshLab 2020.09's OBJ reader aborts on some valid files (fandisk.obj): give it PLY.
+            meshlab_input = as_ply(args, source, out_dir)
             command = ["xvfb-run", "-a", args.meshlabserver, "-i", meshlab_input, "-o", temporary, "-s",
                        script]
         else:
@@ -197,7 +204,10 @@ def rework(args, source, out_dir, seed, ops):
     if open3d:
         where = os.path.join(out_dir, "open3d")
         os.makedirs(where, exist_ok=True)
-        run([args.open3d_python, OPEN3D_ATTACKS, source, where, "--seed", str(seed)] + open3d,
+        # Open3D 0.16 reads a glTF's meshes without their node transforms (every part of a
+        # multi-node asset lands at the origin): give it what the other tools see, as PLY.
+        open3d_input = as_ply(args, source, where) if source.lower().endswith((".gltf", ".glb")) else source
+        run([args.open3d_python, OPEN3D_ATTACKS, open3d_input, where, "--seed", str(seed)] + open3d,
             "open3d on %s" % source)
         with open(os.path.join(where, "attacks.json")) as f:
             done.update({entry["op"]: entry for entry in json.load(f)})
