@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <numeric>
 #include <utility>
@@ -141,6 +142,43 @@ std::vector<Moments> crop_hypotheses(const TriangleMesh& reference, bool use_are
     for (std::size_t i = 0; i < std::min(parts.size(), kCropHypotheses); ++i)
     {
         result.push_back(parts[i].second);
+    }
+    // The halves on either side of the bounding box's centre plane along each coordinate axis
+    // (of the sampled elements' centroids), always: a tool's bisection through the centre, which
+    // the signature ranking can miss on an asset of many parts (docs/algorithms/registration.md).
+    Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity());
+    Vec3 hi = -lo;
+    for (const Element& e : elements)
+    {
+        lo = lo.cwiseMin(e.centroid);
+        hi = hi.cwiseMax(e.centroid);
+    }
+    const Vec3 centre = 0.5 * (lo + hi);
+    for (int axis = 0; axis < 3; ++axis)
+    {
+        for (const double side : {1.0, -1.0})
+        {
+            double w = 0.0;
+            Vec3 first = Vec3::Zero();
+            Mat3 second = Mat3::Zero();
+            for (const Element& e : elements)
+            {
+                if (side * (e.centroid(axis) - centre(axis)) >= 0.0)
+                {
+                    w += e.weight;
+                    first += e.first;
+                    second += e.second;
+                }
+            }
+            if (w > 0.0)
+            {
+                Moments m;
+                const Vec3 mean = first / w;
+                m.centroid = o + mean;
+                m.covariance = second / w - mean * mean.transpose();
+                result.push_back(m);
+            }
+        }
     }
     return result;
 }

@@ -73,6 +73,9 @@ constexpr double kMaxScaleFactor = 2.0;
 // diagonal) moves the area moments' centroid by 4-11% of the radius and the radius by 8%.
 constexpr double kInPlaceOffset = 0.25;
 constexpr double kInPlaceScale = 1.25;
+// An overlap fraction at least this high counts as full in the score (score_of): below it, the
+// samples left far from the reference mark a pose that fits only part of the suspect.
+constexpr double kFullOverlap = 0.95;
 
 /// The reflection used for mirrored candidates: x -> -x.
 Mat3 mirror_matrix()
@@ -136,14 +139,26 @@ struct Candidate
 {
     Similarity transform;
     bool mirrored = false;
-    double score = 0.0;  // trimmed RMS divided by the scale: the residual in suspect units
+    double score = 0.0;     // score_of: the residual, raised where the overlap falls short
+    double residual = 0.0;  // trimmed RMS divided by the scale: the residual in suspect units
     IcpOutcome outcome;
     bool kept_in_place = false;  // the identity of a suspect that stands in place: never dropped
 };
 
-double score_of(const IcpOutcome& outcome)
+double residual_of(const IcpOutcome& outcome)
 {
     return outcome.trimmed_rms / outcome.transform.scale;
+}
+
+// The residual (at least \p floor), over the square of the overlap's shortfall from
+// kFullOverlap. The trimmed RMS alone cannot tell an alignment that fits every sample from one
+// that fits just the kept fraction: half of a vehicle turned end for end lays its tyres and
+// body exactly on the other half's and scores as well as the right pose; the part left
+// hanging lowers the overlap.
+double score_of(const IcpOutcome& outcome, double floor)
+{
+    const double shortfall = std::clamp(outcome.overlap_fraction / kFullOverlap, 1e-3, 1.0);
+    return std::max(residual_of(outcome), floor) / (shortfall * shortfall);
 }
 
 /// Everything the stages share.
@@ -275,7 +290,8 @@ int run_round(const Problem& p, std::vector<Candidate>& candidates, const Round&
         const IcpSettings settings = coarse_settings(p, round.iterations, p.initial_scale, 1);
         c.outcome = detail::icp_point_to_point(X, *p.coarse_target, c.transform, settings);
         c.transform = c.outcome.transform;
-        c.score = score_of(c.outcome);
+        c.score = score_of(c.outcome, p.score_floor);
+        c.residual = residual_of(c.outcome);
     }
     keep_best_of_both(candidates, round.survivors);
     return round.iterations;
@@ -332,7 +348,8 @@ RegistrationResult finish(const Problem& p, std::vector<Candidate> candidates, i
     {
         c.outcome = refine(p, p.samples[c.mirrored ? 1 : 0][kFineTier], c.transform, p.options.max_iterations);
         c.transform = c.outcome.transform;
-        c.score = score_of(c.outcome);
+        c.score = score_of(c.outcome, p.score_floor);
+        c.residual = residual_of(c.outcome);
         // The fine ICP has no scale clamp: a start far from the right pose can shrink the
         // suspect onto a point of the reference, where the residual vanishes. The coarse rounds
         // never leave [kMinScaleFactor, kMaxScaleFactor] times the moments' scale; neither may
@@ -348,7 +365,7 @@ RegistrationResult finish(const Problem& p, std::vector<Candidate> candidates, i
     const Candidate* chosen = &fine.front();
     const auto best_proper = std::find_if(fine.begin(), fine.end(), [](const Candidate& c) { return !c.mirrored; });
     if (chosen->mirrored && best_proper != fine.end() &&
-        !(chosen->score < kReflectionMargin * best_proper->score - p.score_floor))
+        !(chosen->residual < kReflectionMargin * best_proper->residual - p.score_floor))
     {
         chosen = &*best_proper;
     }

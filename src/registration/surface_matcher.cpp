@@ -18,9 +18,115 @@
 
 namespace meshmark::detail {
 
+namespace {
+
+struct FacePoint
+{
+    Eigen::Vector3d point;
+    std::int32_t face;
+};
+
+// Median edge length over at most 100,000 evenly spaced faces.
+double median_edge(const TriangleMesh& mesh)
+{
+    const auto faces = static_cast<std::size_t>(mesh.F.rows());
+    const std::size_t step = std::max<std::size_t>(1, faces / 100000);
+    std::vector<double> lengths;
+    for (std::size_t f = 0; f < faces; f += step)
+    {
+        for (int c = 0; c < 3; ++c)
+        {
+            lengths.push_back((mesh.V.row(mesh.F(static_cast<Eigen::Index>(f), c)) -
+                               mesh.V.row(mesh.F(static_cast<Eigen::Index>(f), (c + 1) % 3))).norm());
+        }
+    }
+    const auto middle = lengths.begin() + static_cast<std::ptrdiff_t>(lengths.size() / 2);
+    std::nth_element(lengths.begin(), middle, lengths.end());
+    return *middle;
+}
+
+// Points inside the triangles much larger than the mesh's typical edge: a barycentric lattice
+// about one typical edge apart (k = ceil(longest edge / spacing) steps per side, corners left
+// out), at most \p budget points in all (the spacing grows until they fit). Without them the
+// kd-tree knows only the vertices, and on a mesh of large flat faces beside dense parts (a
+// game vehicle: 96 vertices for its body, 5,120 in its tyres) the nearest vertex to a point
+// above a large face is often another part's: projected on that vertex's triangles, the match
+// is far from the closest point, and ICP settles on a wrong pose (docs/algorithms/registration.md).
+std::vector<FacePoint> face_points(const TriangleMesh& mesh, std::size_t budget)
+{
+    std::vector<FacePoint> result;
+    const auto faces = static_cast<Eigen::Index>(mesh.F.rows());
+    if (faces == 0 || budget == 0)
+    {
+        return result;
+    }
+    std::vector<double> longest(static_cast<std::size_t>(faces));
+    for (Eigen::Index f = 0; f < faces; ++f)
+    {
+        double l = 0.0;
+        for (int c = 0; c < 3; ++c)
+        {
+            l = std::max(l, (mesh.V.row(mesh.F(f, c)) - mesh.V.row(mesh.F(f, (c + 1) % 3))).norm());
+        }
+        longest[static_cast<std::size_t>(f)] = l;
+    }
+    double spacing = median_edge(mesh);
+    if (!(spacing > 0.0))
+    {
+        return result;
+    }
+    // A face gets (k + 1)(k + 2)/2 - 3 lattice points; only faces with k >= 3 (longest edge over
+    // twice the spacing) get any.
+    auto steps = [&](std::size_t f) { return static_cast<std::size_t>(std::ceil(longest[f] / spacing)); };
+    for (int attempt = 0; attempt < 8; ++attempt)
+    {
+        std::size_t total = 0;
+        for (std::size_t f = 0; f < longest.size(); ++f)
+        {
+            const std::size_t k = longest[f] > 2.0 * spacing ? steps(f) : 0;
+            total += k >= 3 ? (k + 1) * (k + 2) / 2 - 3 : 0;
+        }
+        if (total <= budget)
+        {
+            break;
+        }
+        spacing *= std::sqrt(static_cast<double>(total) / static_cast<double>(budget)) * 1.01;
+    }
+    for (std::size_t f = 0; f < longest.size(); ++f)
+    {
+        const std::size_t k = longest[f] > 2.0 * spacing ? steps(f) : 0;
+        if (k < 3 || result.size() + (k + 1) * (k + 2) / 2 > budget + 3)
+        {
+            continue;
+        }
+        const auto row = mesh.F.row(static_cast<Eigen::Index>(f));
+        const Eigen::Vector3d a = mesh.V.row(row(0)).transpose();
+        const Eigen::Vector3d b = mesh.V.row(row(1)).transpose();
+        const Eigen::Vector3d c = mesh.V.row(row(2)).transpose();
+        for (std::size_t i = 0; i <= k; ++i)
+        {
+            for (std::size_t j = 0; i + j <= k; ++j)
+            {
+                const std::size_t l = k - i - j;
+                if (i == k || j == k || l == k)
+                {
+                    continue;  // a corner: the vertex is in the tree already
+                }
+                const double u = static_cast<double>(i) / static_cast<double>(k);
+                const double v = static_cast<double>(j) / static_cast<double>(k);
+                result.push_back({(1.0 - u - v) * a + u * b + v * c, static_cast<std::int32_t>(f)});
+            }
+        }
+    }
+    return result;
+}
+
+}  // namespace
+
 struct SurfaceMatcher::Impl
 {
     std::vector<std::int32_t> vertex_of;     // kd point -> mesh vertex (surface mode).
+    std::vector<std::int32_t> face_of;       // kd point vertex_of.size() + i -> its face.
     Positions V;                             // mesh positions (surface mode).
     Faces F;                                 // mesh faces (surface mode).
     Positions face_normal;                   // unit face normals (surface mode).
@@ -91,10 +197,18 @@ SurfaceMatcher::SurfaceMatcher(const TriangleMesh& mesh) : impl_(std::make_uniqu
     impl_->F = mesh.F;
     impl_->build_face_normals();
     impl_->vertex_of = referenced_vertices(mesh);
-    Positions points(static_cast<Eigen::Index>(impl_->vertex_of.size()), 3);
-    for (std::size_t i = 0; i < impl_->vertex_of.size(); ++i)
+    const std::vector<FacePoint> inside = face_points(mesh, impl_->vertex_of.size());
+    const std::size_t n = impl_->vertex_of.size();
+    Positions points(static_cast<Eigen::Index>(n + inside.size()), 3);
+    for (std::size_t i = 0; i < n; ++i)
     {
         points.row(static_cast<Eigen::Index>(i)) = mesh.V.row(impl_->vertex_of[i]);
+    }
+    impl_->face_of.reserve(inside.size());
+    for (std::size_t i = 0; i < inside.size(); ++i)
+    {
+        points.row(static_cast<Eigen::Index>(n + i)) = inside[i].point.transpose();
+        impl_->face_of.push_back(inside[i].face);
     }
     impl_->build_rings();
     impl_->build_tree(std::move(points));
@@ -119,24 +233,40 @@ Match SurfaceMatcher::match(const Eigen::Vector3d& query) const
     {
         return result;
     }
-    // Project onto every triangle around the nearest vertex; the first strictly closer
-    // triangle in ring order wins, so ties resolve the same way on every run.
-    const auto v = static_cast<std::size_t>(m.vertex_of[k]);
+    // Project onto every triangle around the nearest vertex (around the three corners of the
+    // face when the nearest point lies inside a large face); the first strictly closer triangle
+    // in ring order wins, so ties resolve the same way on every run.
+    const bool on_vertex = k < m.vertex_of.size();
+    const std::int32_t face = on_vertex ? -1 : m.face_of[k - m.vertex_of.size()];
     double best = squared;
-    std::int32_t best_face = m.ring_faces[m.ring_offsets[v]];
-    for (std::size_t r = m.ring_offsets[v]; r < m.ring_offsets[v + 1]; ++r)
-    {
-        const std::int32_t f = m.ring_faces[r];
-        const auto row = m.F.row(f);
-        const TriangleCorners t{m.V.row(row(0)).transpose(), m.V.row(row(1)).transpose(),
-                                m.V.row(row(2)).transpose()};
-        const Eigen::Vector3d p = closest_point_on_triangle(query, t);
-        const double d2 = (p - query).squaredNorm();
-        if (d2 < best)
+    std::int32_t best_face =
+        on_vertex ? m.ring_faces[m.ring_offsets[static_cast<std::size_t>(m.vertex_of[k])]] : face;
+    auto project_ring = [&](std::size_t v) {
+        for (std::size_t r = m.ring_offsets[v]; r < m.ring_offsets[v + 1]; ++r)
         {
-            best = d2;
-            best_face = f;
-            result.point = p;
+            const std::int32_t f = m.ring_faces[r];
+            const auto row = m.F.row(f);
+            const TriangleCorners t{m.V.row(row(0)).transpose(), m.V.row(row(1)).transpose(),
+                                    m.V.row(row(2)).transpose()};
+            const Eigen::Vector3d p = closest_point_on_triangle(query, t);
+            const double d2 = (p - query).squaredNorm();
+            if (d2 < best)
+            {
+                best = d2;
+                best_face = f;
+                result.point = p;
+            }
+        }
+    };
+    if (on_vertex)
+    {
+        project_ring(static_cast<std::size_t>(m.vertex_of[k]));
+    }
+    else
+    {
+        for (int c = 0; c < 3; ++c)
+        {
+            project_ring(static_cast<std::size_t>(m.F(face, c)));
         }
     }
     result.distance = std::sqrt(best);

@@ -36,7 +36,9 @@ struct Moments
                                                            const Eigen::Matrix3d& b);
 
 /// \brief Moments of the parts of \p reference that a plane crop could have left, ranked by
-/// how well their scale-free shape matches \p suspect's; the best few.
+/// how well their scale-free shape matches \p suspect's; the best few, then the 6 halves on
+/// either side of the bounding box's centre plane along each coordinate axis (where modelling
+/// tools cut a model in half), whatever their shape.
 /// \param use_area  Area moments (triangles) or vertex moments (points), as for \p whole.
 /// \param rows      The reference's used vertices (for vertex moments).
 /// \param whole     The whole reference's moments.

@@ -22,7 +22,9 @@ struct Match
 
 /// \brief Closest-point queries used inside ICP: a kd-tree over the target's vertices
 /// (PointKdTree) and, for a mesh, projection onto the triangles around the nearest vertex
-/// (closest_point_on_triangle, without the sliver check).
+/// (closest_point_on_triangle, without the sliver check). Triangles much larger than the
+/// median edge also put a lattice of points into the tree; a query nearest to one is projected
+/// onto the triangles around that triangle's corners.
 /// \details Why not ClosestPointIndex (an exact bounding-volume hierarchy over the triangles)
 /// here: ICP runs against the whole reference, and a kd-tree over its vertices (about half as
 /// many items as triangles, no triangle copies) is the cheaper build. The one-ring projection
