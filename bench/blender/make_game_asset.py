@@ -5,10 +5,18 @@
 # hard edges split (Edge Split at 30 degrees) and UV seams (Smart UV Project), written as .glb,
 # where both split the vertices. Runs inside Blender, headless:
 #
-#   blender -b --factory-startup --python bench/blender/make_game_asset.py -- OUT.glb
+#   blender -b --factory-startup --python bench/blender/make_game_asset.py -- OUT.glb [KIND]
 #
-# Blender 3.4 (Debian): 8,150 distinct positions (meshmark's reader welds the glTF's split
-# vertices back; Blender's own writers keep 10,235), 16,120 triangles, 5 parts.
+# KIND (default suzanne): Blender 3.4 (Debian) gives
+#   suzanne   the asset above: 8,150 distinct positions (meshmark's reader welds the glTF's split
+#             vertices back; Blender's own writers keep 10,235), 16,120 triangles, 5 parts;
+#   vehicle   hard surface: 13 objects kept apart under one node turned 25 degrees and scaled
+#             1.3 (node transforms in the file), bevelled boxes of few vertices (the body has 96)
+#             beside dense tyres (4 x 1,280), hubs, an exhaust and two lamps that interpenetrate
+#             them, sharp edges by auto smooth at 30 degrees, Smart UV seams: 7,148 positions;
+#   creature  organic: a Skin modifier on a mirrored skeleton, subdivided 3 times, with two eyes
+#             and a low-poly spear as separate objects, UV seams: 7,679 positions.
+# (docs/robustness.md, "Two more game-like assets").
 import math
 import sys
 
@@ -18,12 +26,7 @@ numpy.bool = bool  # Debian's Blender 3.4 glTF add-on still uses the alias NumPy
 import bpy  # noqa: E402
 
 
-def main():
-    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
-    if len(argv) != 1 or not argv[0].lower().endswith(".glb"):
-        sys.stderr.write("make_game_asset.py: usage: blender -b --python make_game_asset.py -- OUT.glb\n")
-        sys.exit(2)
-    bpy.ops.wm.read_factory_settings(use_empty=True)
+def suzanne():
     bpy.ops.mesh.primitive_monkey_add(size=2.0)
     head = bpy.context.active_object
     subdivision = head.modifiers.new("subdivision", "SUBSURF")
@@ -51,9 +54,135 @@ def main():
     bpy.ops.uv.smart_project(angle_limit=math.radians(66))
     bpy.ops.object.mode_set(mode="OBJECT")
     bpy.ops.object.shade_smooth()
+    return [asset]
+
+
+def uv_and_smooth(obj, sharp=True):
+    bpy.ops.object.select_all(action="DESELECT")
+    obj.select_set(True)
+    bpy.context.view_layer.objects.active = obj
+    bpy.ops.object.mode_set(mode="EDIT")
+    bpy.ops.mesh.select_all(action="SELECT")
+    bpy.ops.uv.smart_project(angle_limit=math.radians(66))
+    bpy.ops.object.mode_set(mode="OBJECT")
+    bpy.ops.object.shade_smooth()
+    if sharp:
+        obj.data.use_auto_smooth = True
+        obj.data.auto_smooth_angle = math.radians(30)
+
+
+def apply(obj, kind, **settings):
+    bpy.ops.object.select_all(action="DESELECT")
+    obj.select_set(True)
+    bpy.context.view_layer.objects.active = obj
+    m = obj.modifiers.new(kind.lower(), kind)
+    for k, v in settings.items():
+        setattr(m, k, v)
+    bpy.ops.object.modifier_apply(modifier=m.name)
+
+
+def vehicle():
+    objs = []
+    bpy.ops.mesh.primitive_cube_add(size=1.0, location=(0, 0, 0.6))
+    body = bpy.context.active_object
+    body.scale = (2.2, 1.0, 0.5)
+    apply(body, "BEVEL", width=0.04, segments=3)
+    objs.append(body)
+    bpy.ops.mesh.primitive_cube_add(size=1.0, location=(-0.2, 0, 1.05))
+    cabin = bpy.context.active_object
+    cabin.scale = (1.0, 0.85, 0.45)
+    apply(cabin, "BEVEL", width=0.06, segments=4)
+    objs.append(cabin)
+    for i, (x, y) in enumerate([(0.75, 0.55), (0.75, -0.55), (-0.75, 0.55), (-0.75, -0.55)]):
+        bpy.ops.mesh.primitive_torus_add(major_radius=0.24, minor_radius=0.1, major_segments=64,
+                                         minor_segments=20, location=(x, y, 0.32),
+                                         rotation=(math.radians(90), 0, 0))
+        tyre = bpy.context.active_object
+        objs.append(tyre)
+        bpy.ops.mesh.primitive_cylinder_add(vertices=32, radius=0.16, depth=0.12, location=(x, y, 0.32),
+                                            rotation=(math.radians(90), 0, 0))
+        hub = bpy.context.active_object
+        apply(hub, "BEVEL", width=0.01, segments=2)
+        objs.append(hub)
+    bpy.ops.mesh.primitive_cylinder_add(vertices=24, radius=0.05, depth=0.5, location=(-1.15, 0.3, 0.55),
+                                        rotation=(0, math.radians(90), 0))
+    objs.append(bpy.context.active_object)
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=32, ring_count=16, radius=0.12, location=(0.95, 0.35, 0.75))
+    lamp = bpy.context.active_object
+    lamp.scale = (0.6, 1, 1)
+    objs.append(lamp)
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=32, ring_count=16, radius=0.12, location=(0.95, -0.35, 0.75))
+    lamp = bpy.context.active_object
+    lamp.scale = (0.6, 1, 1)
+    objs.append(lamp)
+    for o in objs:
+        uv_and_smooth(o)
+    # a whole-vehicle node transform: rotated and scaled, not applied
+    bpy.ops.object.empty_add(location=(0, 0, 0))
+    root = bpy.context.active_object
+    for o in objs:
+        o.parent = root
+    root.rotation_euler = (0, 0, math.radians(25))
+    root.scale = (1.3, 1.3, 1.3)
+    return objs
+
+
+def creature():
+    verts = [(0, 0, 1.0), (0, 0.5, 1.05), (0, 1.0, 1.0), (0, 1.3, 1.35), (0, 1.55, 1.5), (0, 1.85, 1.45),
+             (0, -0.5, 1.0), (0, -1.0, 1.05), (0, -1.4, 1.2), (0.35, 1.0, 0.6), (0.4, 1.05, 0.15),
+             (0.35, 0.0, 0.6), (0.4, -0.05, 0.15)]
+    edges = [(0, 1), (1, 2), (2, 3), (3, 4), (4, 5), (0, 6), (6, 7), (7, 8), (2, 9), (9, 10), (0, 11), (11, 12)]
+    mesh = bpy.data.meshes.new("creature")
+    mesh.from_pydata(verts, edges, [])
+    obj = bpy.data.objects.new("creature", mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    bpy.context.view_layer.objects.active = obj
+    obj.modifiers.new("mirror", "MIRROR").use_clip = True
+    skin = obj.modifiers.new("skin", "SKIN")
+    skin.use_smooth_shade = True
+    bpy.ops.object.modifier_apply(modifier="mirror")
+    # skin radii: thick body, thin legs and tail tip
+    for i, v in enumerate(obj.data.vertices):
+        sv = obj.data.skin_vertices[0].data[i]
+        y, z = v.co[1], v.co[2]
+        if z < 0.7:
+            sv.radius = (0.12, 0.12)
+        elif y < -0.8:
+            sv.radius = (0.1, 0.1)
+        elif y > 1.4:
+            sv.radius = (0.2, 0.22)
+        else:
+            sv.radius = (0.3, 0.3)
+    bpy.ops.object.modifier_apply(modifier="skin")
+    apply(obj, "SUBSURF", levels=3, render_levels=3)
+    objs = [obj]
+    for x in (0.12, -0.12):
+        bpy.ops.mesh.primitive_uv_sphere_add(segments=16, ring_count=8, radius=0.05, location=(x, 1.98, 1.55))
+        objs.append(bpy.context.active_object)
+    bpy.ops.mesh.primitive_cylinder_add(vertices=8, radius=0.03, depth=2.0, location=(0.7, 0.8, 1.0),
+                                        rotation=(math.radians(70), 0, 0))
+    objs.append(bpy.context.active_object)
+    bpy.ops.mesh.primitive_cone_add(vertices=8, radius1=0.08, depth=0.3, location=(0.7, 1.75, 1.35),
+                                    rotation=(math.radians(-20), 0, 0))
+    objs.append(bpy.context.active_object)
+    for o in objs:
+        uv_and_smooth(o, sharp=o is not obj)
+    return objs
+
+
+def main():
+    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+    if len(argv) not in (1, 2) or not argv[0].lower().endswith(".glb") or (len(argv) == 2 and argv[1] not in ("suzanne", "vehicle", "creature")):
+        sys.stderr.write("make_game_asset.py: usage: blender -b --python make_game_asset.py -- OUT.glb "
+                         "[suzanne|vehicle|creature]\n")
+        sys.exit(2)
+    kind = argv[1] if len(argv) == 2 else "suzanne"
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    objects = {"suzanne": suzanne, "vehicle": vehicle, "creature": creature}[kind]()
     bpy.ops.export_scene.gltf(filepath=argv[0], export_format="GLB", use_selection=False)
-    print("make_game_asset.py: %s: %d vertices, %d faces in Blender" %
-          (argv[0], len(asset.data.vertices), len(asset.data.polygons)))
+    print("make_game_asset.py: %s (%s): %d vertices, %d faces in Blender, %d objects" %
+          (argv[0], kind, sum(len(o.data.vertices) for o in objects),
+           sum(len(o.data.polygons) for o in objects), len(objects)))
 
 
 main()
