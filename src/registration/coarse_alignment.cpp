@@ -83,6 +83,16 @@ Vec3 shape_signature(const Mat3& covariance)
     return l / l.sum();
 }
 
+/// Moments of a part from its elements' summed weight \p w, first and second moments about \p o.
+Moments part_moments(const Vec3& o, double w, const Vec3& first, const Mat3& second)
+{
+    Moments m;
+    const Vec3 mean = first / w;
+    m.centroid = o + mean;
+    m.covariance = second / w - mean * mean.transpose();
+    return m;
+}
+
 }  // namespace
 
 // Crop hypotheses: a copy cropped by a plane has the moments of the part of the reference on
@@ -127,10 +137,7 @@ std::vector<Moments> crop_hypotheses(const TriangleMesh& reference, bool use_are
             second += elements[i].second;
             while (next < kCropFractions.size() && w >= kCropFractions[next] * total)
             {
-                Moments m;
-                const Vec3 mean = first / w;
-                m.centroid = o + mean;
-                m.covariance = second / w - mean * mean.transpose();
+                const Moments m = part_moments(o, w, first, second);
                 parts.emplace_back((shape_signature(m.covariance) - target).lpNorm<1>(), m);
                 ++next;
             }
@@ -172,11 +179,7 @@ std::vector<Moments> crop_hypotheses(const TriangleMesh& reference, bool use_are
             }
             if (w > 0.0)
             {
-                Moments m;
-                const Vec3 mean = first / w;
-                m.centroid = o + mean;
-                m.covariance = second / w - mean * mean.transpose();
-                result.push_back(m);
+                result.push_back(part_moments(o, w, first, second));
             }
         }
     }

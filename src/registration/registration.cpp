@@ -358,6 +358,7 @@ RegistrationResult finish(const Problem& p, std::vector<Candidate> candidates, i
               c.transform.scale <= kMaxScaleFactor * p.initial_scale))
         {
             c.score = std::numeric_limits<double>::infinity();
+            c.residual = std::numeric_limits<double>::infinity();
         }
         iterations += c.outcome.iterations;
     }
