@@ -27,6 +27,8 @@
 #   bisect           bmesh.ops.bisect_plane through the bbox centre, normal along the largest
 #                    extent, the negative side cleared (about half the surface kept)
 #   voxel=N          Remesh modifier, voxel mode, adaptivity 0, voxel size = diagonal / N
+#   pose=F           the scene at animation frame F, every mesh as its modifiers (an armature)
+#                    leave it: a rigged character re-posed by its own animation
 import math
 import os
 import sys
@@ -50,7 +52,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from attack_contract import UsageError, parse_arguments, write_report  # noqa: E402
 
 DEFAULTS = {"merge": 1e-4, "noise": 0.002, "subdivide": 1, "laplacian": 1, "smooth": 10}
-NEEDS_VALUE = {"decimate", "merged-decimate", "voxel"}
+NEEDS_VALUE = {"decimate", "merged-decimate", "voxel", "pose"}
 NO_VALUE = {"ply", "obj", "gltf", "transform", "bisect"}
 ROUND_TRIP_EXT = {"ply": ".ply", "obj": ".obj", "gltf": ".glb"}
 
@@ -78,8 +80,10 @@ def parse_op(text):
     return name, number
 
 
-def import_mesh(path):
-    """Fresh scene, INPUT imported with Blender's importer; returns the single mesh object."""
+def import_mesh(path, frame=None):
+    """Fresh scene, INPUT imported with Blender's importer; returns the single mesh object. With
+    \p frame, the scene is set to that animation frame and every mesh object is converted to
+    the mesh its modifiers give there (an armature's pose) before the join."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     ext = os.path.splitext(path)[1].lower()
     if ext == ".ply":
@@ -100,6 +104,15 @@ def import_mesh(path):
     for o in meshes:
         o.select_set(True)
     bpy.context.view_layer.objects.active = meshes[0]
+    if frame is not None:
+        bpy.context.scene.frame_set(frame)
+        bpy.ops.object.convert(target="MESH")  # applies the modifiers as they stand at the frame
+        meshes = [o for o in bpy.context.scene.objects if o.type == "MESH"]
+        bpy.ops.object.select_all(action="DESELECT")
+        for o in meshes:
+            o.select_set(True)
+        bpy.context.view_layer.objects.active = meshes[0]
+        bpy.ops.object.parent_clear(type="CLEAR_KEEP_TRANSFORM")  # off the armature, posed as seen
     if len(meshes) > 1:
         bpy.ops.object.join()
     obj = bpy.context.view_layer.objects.active
@@ -137,7 +150,7 @@ def apply_op(obj, name, value, seed):
     lo, hi = bbox(obj)
     diagonal = (hi - lo).length
     centre = (lo + hi) / 2
-    if name in ROUND_TRIP_EXT:
+    if name in ROUND_TRIP_EXT or name == "pose":  # pose: done by import_mesh
         return
     if name == "transform":
         move = mathutils.Matrix.Translation(mathutils.Vector((0.1, -0.2, 0.3)) * diagonal)
@@ -203,7 +216,7 @@ def main(argv):
     report = []
     for spec, name, value in ops:
         start = time.time()
-        obj = import_mesh(source)
+        obj = import_mesh(source, int(value) if name == "pose" else None)
         apply_op(obj, name, value, seed)
         label = spec.replace("=", "_")
         target = os.path.join(out_dir, label + ROUND_TRIP_EXT.get(name, ".ply"))

@@ -15,7 +15,9 @@
 #             beside dense tyres (4 x 1,280), hubs, an exhaust and two lamps that interpenetrate
 #             them, sharp edges by auto smooth at 30 degrees, Smart UV seams: 7,148 positions;
 #   creature  organic: a Skin modifier on a mirrored skeleton, subdivided 3 times, with two eyes
-#             and a low-poly spear as separate objects, UV seams: 7,679 positions.
+#             and a low-poly spear as separate objects, UV seams: 7,679 positions;
+#   rigged-creature  the creature skinned to a two-bone armature, with an animation that
+#             turns the front bone by 20 degrees over frames 1-20 (attacks.py's pose=FRAME).
 # (docs/robustness.md, "Two more game-like assets").
 import math
 import sys
@@ -170,15 +172,55 @@ def creature():
     return objs
 
 
+def rigged_creature():
+    """The creature with a two-bone armature (automatic weights) whose front bone turns by 20
+    degrees about x from frame 1 to frame 20: a skinned glTF with an animation, written at
+    frame 1 (the bind pose)."""
+    objects = creature()
+    body = objects[0]
+    bpy.ops.object.armature_add(location=(0, 0, 0))
+    armature = bpy.context.active_object
+    bpy.ops.object.mode_set(mode="EDIT")
+    bones = armature.data.edit_bones
+    back = bones[0]
+    back.name = "back"
+    back.head = (0, -1.4, 1.2)
+    back.tail = (0, 0, 1.0)
+    front = bones.new("front")
+    front.head = (0, 0, 1.0)
+    front.tail = (0, 1.9, 1.5)
+    front.parent = back
+    front.use_connect = True
+    bpy.ops.object.mode_set(mode="OBJECT")
+    bpy.ops.object.select_all(action="DESELECT")
+    body.select_set(True)
+    armature.select_set(True)
+    bpy.context.view_layer.objects.active = armature
+    bpy.ops.object.parent_set(type="ARMATURE_AUTO")
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 1, 20
+    bone = armature.pose.bones["front"]
+    bone.rotation_mode = "XYZ"
+    bone.rotation_euler = (0, 0, 0)
+    bone.keyframe_insert("rotation_euler", frame=1)
+    bone.rotation_euler = (math.radians(20), 0, 0)
+    bone.keyframe_insert("rotation_euler", frame=20)
+    scene.frame_set(1)
+    return objects
+
+
+KINDS = {"suzanne": suzanne, "vehicle": vehicle, "creature": creature, "rigged-creature": rigged_creature}
+
+
 def main():
     argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
-    if len(argv) not in (1, 2) or not argv[0].lower().endswith(".glb") or (len(argv) == 2 and argv[1] not in ("suzanne", "vehicle", "creature")):
+    if len(argv) not in (1, 2) or not argv[0].lower().endswith(".glb") or (len(argv) == 2 and argv[1] not in KINDS):
         sys.stderr.write("make_game_asset.py: usage: blender -b --python make_game_asset.py -- OUT.glb "
-                         "[suzanne|vehicle|creature]\n")
+                         "[%s]\n" % "|".join(KINDS))
         sys.exit(2)
     kind = argv[1] if len(argv) == 2 else "suzanne"
     bpy.ops.wm.read_factory_settings(use_empty=True)
-    objects = {"suzanne": suzanne, "vehicle": vehicle, "creature": creature}[kind]()
+    objects = KINDS[kind]()
     bpy.ops.export_scene.gltf(filepath=argv[0], export_format="GLB", use_selection=False)
     print("make_game_asset.py: %s (%s): %d vertices, %d faces in Blender, %d objects" %
           (argv[0], kind, sum(len(o.data.vertices) for o in objects),
