@@ -75,30 +75,33 @@ std::vector<FacePoint> face_points(const TriangleMesh& mesh, std::size_t budget)
     {
         return result;
     }
-    // A face gets (k + 1)(k + 2)/2 - 3 lattice points; only faces with k >= 3 (longest edge over
-    // twice the spacing) get any.
-    auto steps = [&](std::size_t f) { return static_cast<std::size_t>(std::ceil(longest[f] / spacing)); };
+    // A face gets (k + 1)(k + 2)/2 - 3 lattice points, k = ceil(longest edge / spacing); only
+    // faces whose longest edge exceeds twice the spacing get any. Counted in floating point: a
+    // sliver of a huge triangle beside tiny ones must not overflow the count.
+    auto steps = [&](std::size_t f) { return longest[f] > 2.0 * spacing ? std::ceil(longest[f] / spacing) : 0.0; };
+    auto count = [](double k) { return k >= 3.0 ? (k + 1.0) * (k + 2.0) / 2.0 - 3.0 : 0.0; };
+    const auto allowed = static_cast<double>(budget);
     for (int attempt = 0; attempt < 8; ++attempt)
     {
-        std::size_t total = 0;
+        double total = 0.0;
         for (std::size_t f = 0; f < longest.size(); ++f)
         {
-            const std::size_t k = longest[f] > 2.0 * spacing ? steps(f) : 0;
-            total += k >= 3 ? (k + 1) * (k + 2) / 2 - 3 : 0;
+            total += count(steps(f));
         }
-        if (total <= budget)
+        if (total <= allowed)
         {
             break;
         }
-        spacing *= std::sqrt(static_cast<double>(total) / static_cast<double>(budget)) * 1.01;
+        spacing *= std::sqrt(total / allowed) * 1.01;
     }
     for (std::size_t f = 0; f < longest.size(); ++f)
     {
-        const std::size_t k = longest[f] > 2.0 * spacing ? steps(f) : 0;
-        if (k < 3 || result.size() + (k + 1) * (k + 2) / 2 > budget + 3)
+        const double points = count(steps(f));
+        if (points == 0.0 || static_cast<double>(result.size()) + points > allowed)
         {
-            continue;
+            continue;  // none, or over the budget (a face of a mesh still over it after 8 rounds)
         }
+        const auto k = static_cast<std::size_t>(steps(f));
         const auto row = mesh.F.row(static_cast<Eigen::Index>(f));
         const Eigen::Vector3d a = mesh.V.row(row(0)).transpose();
         const Eigen::Vector3d b = mesh.V.row(row(1)).transpose();
