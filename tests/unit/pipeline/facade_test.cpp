@@ -252,6 +252,75 @@ TEST(FacadeTest, a_copy_split_at_seams_is_read_vertex_for_vertex)
 // its nearest vertex and the next are at similar distances, so it is not taken for the
 // original's vertices and is read through its surface (fandisk: z 9.37 instead of 7.54 read
 // vertex for vertex). Its unmarked counterpart is resampled as well and not claimed.
+// A copy that deletes faces and moves no vertex (a crop, Blender's bisect, Blender's
+// decimation of a faceted asset, which deletes lone triangles) keeps the original's vertices
+// where they were: read vertex for vertex, with the rows no vertex stands for cropped, it reads
+// the whole change of every kept row rather than its normal component. A simplification keeps
+// vertices too, but moves them and builds new triangles: it stays with the resampling.
+TEST(FacadeTest, a_copy_that_only_lost_faces_is_read_vertex_for_vertex)
+{
+    const fs::path dir = test::temp_dir("facade-lost-faces");
+    EmbedFileOptions options;
+    options.seed = 11;
+    const auto [original, key] = marked_ellipsoid(dir, options);
+    const TriangleMesh marked = read_mesh(dir / "marked.ply");
+    // The faces on one side of a plane deleted with the vertices they alone used, the kept
+    // vertices stored in reverse, and the copy moved.
+    auto cut = [](const TriangleMesh& mesh) {
+        std::vector<Eigen::Vector3i> kept;
+        for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
+        {
+            const double x = (mesh.V.row(mesh.F(f, 0)) + mesh.V.row(mesh.F(f, 1)) + mesh.V.row(mesh.F(f, 2)))(0) / 3.0;
+            if (x < 0.2)
+            {
+                kept.push_back(mesh.F.row(f).transpose());
+            }
+        }
+        std::vector<std::int32_t> index(static_cast<std::size_t>(mesh.V.rows()), -1);
+        std::int32_t used = 0;
+        for (const Eigen::Vector3i& face : kept)
+        {
+            for (int c = 0; c < 3; ++c)
+            {
+                auto& k = index[static_cast<std::size_t>(face(c))];
+                k = k < 0 ? used++ : k;
+            }
+        }
+        TriangleMesh out;
+        out.V.resize(used, 3);
+        for (std::size_t v = 0; v < index.size(); ++v)
+        {
+            if (index[v] >= 0)
+            {
+                out.V.row(used - 1 - index[v]) = mesh.V.row(static_cast<Eigen::Index>(v)) + Eigen::RowVector3d(3.0, -1.0, 2.0);
+            }
+        }
+        out.F.resize(static_cast<Eigen::Index>(kept.size()), 3);
+        for (std::size_t f = 0; f < kept.size(); ++f)
+        {
+            for (int c = 0; c < 3; ++c)
+            {
+                out.F(static_cast<Eigen::Index>(f), c) = used - 1 - index[static_cast<std::size_t>(kept[f](c))];
+            }
+        }
+        return out;
+    };
+    const DetectReport found = detect(cut(marked), original, key);
+    EXPECT_EQ(found.alignment, "registration (vertices matched)");
+    EXPECT_GT(found.cropped_fraction, 0.2);
+    EXPECT_LT(found.cropped_fraction, 0.5);
+    EXPECT_TRUE(found.decision.is_present);
+    DetectFileOptions resample_only;
+    resample_only.match_vertices = false;
+    const DetectReport resampled = detect(cut(marked), original, key, resample_only);
+    EXPECT_GT(found.decision.score, resampled.decision.score + 0.5);
+    // The unmarked original cut the same way: matched, not claimed.
+    const DetectReport clean = detect(cut(original), original, key);
+    EXPECT_EQ(clean.alignment, "registration (vertices matched)");
+    EXPECT_FALSE(clean.decision.is_present);
+    EXPECT_LT(std::abs(clean.decision.score), 4.0);
+}
+
 TEST(FacadeTest, a_fine_voxel_remesh_is_read_through_its_surface)
 {
     const fs::path dir = test::temp_dir("facade-voxel");
