@@ -335,7 +335,6 @@ double original_triangle_share(const TriangleMesh& original, const TriangleMesh&
     }
     std::sort(faces.begin(), faces.end());
     // Each suspect vertex at the position of a matched one stands for that original vertex.
-    std::vector<std::array<double, 3>> at;
     std::vector<std::pair<std::array<double, 3>, std::int32_t>> matched;
     for (std::size_t i = 0; i < n; ++i)
     {
