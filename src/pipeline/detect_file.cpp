@@ -297,11 +297,11 @@ std::size_t match_vertices(const Positions& original, const Positions& registere
 // Of the suspect's triangles whose three corners stand for original vertices (\p match, from
 // match_vertices), the share that are triangles of the original (corners compared by
 // position, so that a writer's duplicates count as one vertex); -1 when they are fewer than
-// half of the suspect's triangles. A
-// copy that deletes faces and moves no vertex (a crop, a bisection, Blender's decimation of a
-// faceted asset) keeps the original's triangles; a simplification builds new ones between the
-// vertices it keeps and moves, and read vertex for vertex its moved vertices would be taken
-// for the change (a 50% simplification of a 10K ellipsoid: claimed resampled, lost so).
+// half of the suspect's triangles. A copy that deletes faces and moves no vertex (a crop, a
+// bisection, Blender's decimation of a faceted asset) keeps the original's triangles; a
+// simplification builds new ones between the vertices it keeps and moves, and read vertex for
+// vertex its moved vertices would be taken for the change (a 50% simplification of a 10K
+// ellipsoid: claimed resampled, lost so).
 double original_triangle_share(const TriangleMesh& original, const TriangleMesh& suspect, const Positions& registered,
                                const std::vector<std::int32_t>& match)
 {
