@@ -17,7 +17,8 @@
 #   creature  organic: a Skin modifier on a mirrored skeleton, subdivided 3 times, with two eyes
 #             and a low-poly spear as separate objects, UV seams: 7,679 positions;
 #   rigged-creature  the creature skinned to a two-bone armature, with an animation that
-#             turns the front bone by 20 degrees over frames 1-20 (attacks.py's pose=FRAME).
+#             turns the front bone by 20 degrees over frames 1-20 (attacks.py's pose=FRAME);
+#   faceted-creature  the creature flat shaded: every triangle has vertices of its own.
 # (docs/robustness.md, "Two more game-like assets").
 import math
 import sys
@@ -209,7 +210,18 @@ def rigged_creature():
     return objects
 
 
-KINDS = {"suzanne": suzanne, "vehicle": vehicle, "creature": creature, "rigged-creature": rigged_creature}
+def faceted_creature():
+    """The creature flat shaded: every face with vertices of its own in the file (low-poly art)."""
+    objects = creature()
+    for o in objects:
+        o.data.use_auto_smooth = False
+        for polygon in o.data.polygons:
+            polygon.use_smooth = False
+    return objects
+
+
+KINDS = {"suzanne": suzanne, "vehicle": vehicle, "creature": creature, "rigged-creature": rigged_creature,
+         "faceted-creature": faceted_creature}
 
 
 def main():
