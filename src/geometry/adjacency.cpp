@@ -2,6 +2,8 @@
 #include "meshmark/geometry/adjacency.h"
 
 #include <algorithm>
+#include <array>
+#include <numeric>
 #include <utility>
 
 namespace meshmark {
@@ -125,6 +127,24 @@ EdgeStatistics edge_statistics(const TriangleMesh& mesh)
         begin += counts[v];
     }
     return stats;
+}
+
+std::vector<std::int32_t> position_ids(const Positions& V)
+{
+    const auto n = static_cast<std::size_t>(V.rows());
+    std::vector<std::int32_t> order(n);
+    std::iota(order.begin(), order.end(), 0);
+    auto position = [&](std::int32_t v) { return std::array<double, 3>{V(v, 0), V(v, 1), V(v, 2)}; };
+    std::sort(order.begin(), order.end(),
+              [&](std::int32_t a, std::int32_t b) { return std::pair(position(a), a) < std::pair(position(b), b); });
+    std::vector<std::int32_t> id(n);
+    for (std::size_t k = 0; k < n; ++k)
+    {
+        const std::int32_t v = order[k];
+        id[static_cast<std::size_t>(v)] =
+            k > 0 && position(order[k - 1]) == position(v) ? id[static_cast<std::size_t>(order[k - 1])] : v;
+    }
+    return id;
 }
 
 }  // namespace meshmark

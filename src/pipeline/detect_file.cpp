@@ -308,20 +308,7 @@ double original_triangle_share(const TriangleMesh& original, const TriangleMesh&
     using Key = std::array<std::int32_t, 3>;
     // One id per original position: the lowest index there.
     const auto n = static_cast<std::size_t>(original.V.rows());
-    std::vector<std::int32_t> order(n);
-    std::iota(order.begin(), order.end(), 0);
-    auto position = [&](std::int32_t v) {
-        return std::array<double, 3>{original.V(v, 0), original.V(v, 1), original.V(v, 2)};
-    };
-    std::sort(order.begin(), order.end(),
-              [&](std::int32_t a, std::int32_t b) { return std::pair(position(a), a) < std::pair(position(b), b); });
-    std::vector<std::int32_t> id(n);
-    for (std::size_t k = 0; k < n; ++k)
-    {
-        const std::int32_t v = order[k];
-        id[static_cast<std::size_t>(v)] =
-            k > 0 && position(order[k - 1]) == position(v) ? id[static_cast<std::size_t>(order[k - 1])] : v;
-    }
+    const std::vector<std::int32_t> id = position_ids(original.V);
     auto key = [](std::array<std::int32_t, 3> k) {
         std::sort(k.begin(), k.end());
         return k;

@@ -14,6 +14,7 @@
 
 #include "meshmark/core/error.h"
 #include "meshmark/core/threads.h"
+#include "meshmark/geometry/adjacency.h"
 #include "meshmark/geometry/point_kd_tree.h"
 #include "meshmark/geometry/point_triangle.h"
 #include "registration/detail/surface_matcher.h"
@@ -171,21 +172,7 @@ PointFaces point_faces(const TriangleMesh& mesh)
 {
     PointFaces result;
     const auto n = static_cast<std::size_t>(mesh.V.rows());
-    std::vector<std::int32_t> order(n);
-    std::iota(order.begin(), order.end(), 0);
-    auto position = [&](std::int32_t v) {
-        return std::array<double, 3>{mesh.V(v, 0), mesh.V(v, 1), mesh.V(v, 2)};
-    };
-    std::sort(order.begin(), order.end(), [&](std::int32_t a, std::int32_t b) {
-        return std::pair(position(a), a) < std::pair(position(b), b);
-    });
-    result.point.resize(n);
-    for (std::size_t k = 0; k < n; ++k)
-    {
-        const std::int32_t v = order[k];
-        result.point[static_cast<std::size_t>(v)] =
-            k > 0 && position(order[k - 1]) == position(v) ? result.point[static_cast<std::size_t>(order[k - 1])] : v;
-    }
+    result.point = position_ids(mesh.V);
     result.offsets.assign(n + 1, 0);
     for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
     {

@@ -67,4 +67,11 @@ struct EdgeStatistics
 /// \param mesh  Triangle mesh; indices must be in range (see validate()).
 [[nodiscard]] EdgeStatistics edge_statistics(const TriangleMesh& mesh);
 
+/// \brief One id per position of \p V: each vertex gets the lowest index of the vertices at
+/// exactly its position (the same coordinates, bit for bit), so a writer's duplicates (seams,
+/// split normals, faceted exports) count as one point.
+/// \details A sort of the vertices by position, O(#V log #V); deterministic. `id[v] <= v`, and
+/// `id[v] == v` for the first vertex at each position.
+[[nodiscard]] std::vector<std::int32_t> position_ids(const Positions& V);
+
 }  // namespace meshmark

@@ -75,4 +75,28 @@ TEST(AdjacencyTest, edge_statistics_classify_closed_open_flipped_and_non_manifol
     EXPECT_FALSE(fin_stats.is_edge_manifold());
 }
 
+TEST(AdjacencyTest, position_ids_join_vertices_at_one_position_under_the_lowest_index)
+{
+    // A seam split: vertices 3 and 5 repeat 1 and 0; vertex 4 is at a nearby, different place.
+    Positions V(6, 3);
+    V << 0, 0, 0,  //
+        1, 0, 0,   //
+        0, 1, 0,   //
+        1, 0, 0,   //
+        1, 1e-12, 0, //
+        0, 0, 0;
+    const std::vector<std::int32_t> id = position_ids(V);
+    EXPECT_EQ(id, (std::vector<std::int32_t>{0, 1, 2, 1, 4, 0}));
+    // A seam-split icosphere: every copy maps back to its first vertex.
+    const TriangleMesh sphere = icosphere(1);
+    Positions doubled(2 * sphere.V.rows(), 3);
+    doubled << sphere.V, sphere.V;
+    const std::vector<std::int32_t> ids = position_ids(doubled);
+    for (Eigen::Index v = 0; v < sphere.V.rows(); ++v)
+    {
+        EXPECT_EQ(ids[static_cast<std::size_t>(v)], v);
+        EXPECT_EQ(ids[static_cast<std::size_t>(v + sphere.V.rows())], v);
+    }
+}
+
 }  // namespace meshmark
