@@ -79,11 +79,11 @@ TEST(AdjacencyTest, position_ids_join_vertices_at_one_position_under_the_lowest_
 {
     // A seam split: vertices 3 and 5 repeat 1 and 0; vertex 4 is at a nearby, different place.
     Positions V(6, 3);
-    V << 0, 0, 0,  //
-        1, 0, 0,   //
-        0, 1, 0,   //
-        1, 0, 0,   //
-        1, 1e-12, 0, //
+    V << 0, 0, 0,     //
+        1, 0, 0,      //
+        0, 1, 0,      //
+        1, 0, 0,      //
+        1, 1e-12, 0,  //
         0, 0, 0;
     const std::vector<std::int32_t> id = position_ids(V);
     EXPECT_EQ(id, (std::vector<std::int32_t>{0, 1, 2, 1, 4, 0}));
