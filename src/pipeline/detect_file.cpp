@@ -485,8 +485,12 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
         // spacing (mean edge >= kMatchSpacing amplitudes): on a denser mesh a marked vertex can come closer to a
         // neighbour's place than to its own, and the pairs mislead (a reordered 1M-vertex
         // copy, mean edge about 3 amplitudes: 97.5% matched, z 7.9 against 9.7 resampled).
-        // The mean edge (a pass over the faces) only once the cheap conditions hold.
-        const bool may_match = options.match_vertices && !has_instances && r.converged &&
+        // The mean edge (a pass over the faces) only once the cheap conditions hold. The
+        // registration need not have met its stopping tolerance: the pairs below are their own
+        // test of the pose (mutual nearest within a small part of an edge, nearly all of them or
+        // whole original triangles), and a small thin mesh whose residual is the mark itself can
+        // keep jittering between trimmed sets (Blender's glTF copy of a 762-vertex spider).
+        const bool may_match = options.match_vertices && !has_instances &&
                                2 * suspect.vertex_count() >= original.vertex_count() && original.F.rows() > 0;
         const double spacing = may_match ? mean_edge_length(original) : 0.0;
         if (may_match && spacing >= kMatchSpacing * amplitude)

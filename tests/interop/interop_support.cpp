@@ -151,6 +151,11 @@ std::string missing_tools(const std::vector<std::string>& needed)
         {
             note(!t.blender.empty(), "blender");
         }
+        else if (name == "assimp-testmodels")
+        {
+            // Debian's assimp-testmodels: other people's models (real_assets_test.cpp).
+            note(fs::exists("/usr/share/assimp/models/OBJ/spider.obj"), "assimp-testmodels (/usr/share/assimp/models)");
+        }
         else if (name == "prusa-slicer")
         {
             note(!t.xvfb_run.empty(), "xvfb-run");
