@@ -99,6 +99,36 @@ TEST(RealAssetsInterop, MarksKhronosEngineAsGlbAndAsDracoGltf)
     }
 }
 
+// The engine voxel-remeshed (meshmark's voxel step reproduces Blender's Remesh modifier) and
+// turned from Y up to Z up, as Blender writes it: the voxel surface keeps the outer shell of
+// the assembly and drops its inner parts, so its moments (RMS radius, principal axes) are no
+// longer the original's; every start from them registered it at scale 0.91 (z 0.49). The
+// starts at the original's scale on its coordinate axes find it.
+TEST(RealAssetsInterop, AVoxelRemeshOfTheEngineWrittenZUpIsRegisteredAndClaimed)
+{
+    INTEROP_REQUIRE_TOOLS("meshmark", "assimp-testmodels");
+    const fs::path scratch = temp_dir("interop-real-engine-voxel");
+    const fs::path original = kModels / "glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb";
+    const fs::path marked = scratch / "marked.glb";
+    const fs::path key = scratch / "key.json";
+    const ToolRun embed = meshmark(
+        {"embed", original.string(), "-o", marked.string(), "--key", key.string(), "--seed", "1", "-q"}, scratch);
+    ASSERT_TRUE(embed.ok()) << embed.describe();
+    const fs::path copy = scratch / "voxel.ply";
+    const ToolRun attack = meshmark({"attack", marked.string(), "-o", copy.string(), "--seed", "1",
+                                     "voxel=150,similarity:axis=x:angle=-90:tx=5", "-q"},
+                                    scratch);
+    ASSERT_TRUE(attack.ok()) << attack.describe();
+    int exit_code = -1;
+    const nlohmann::json report = detect_json(copy, original, key, scratch, &exit_code);
+    ASSERT_TRUE(report.is_object());
+    EXPECT_EQ(exit_code, 0) << report.dump();
+    const auto& T = report["registration"]["transform"];
+    const double scale = std::hypot(T[0][0].get<double>(), T[1][0].get<double>(), T[2][0].get<double>());
+    EXPECT_NEAR(scale, 1.0, 0.01) << report.dump();
+    EXPECT_GE(report.value("score", 0.0), 5.5) << report.dump();
+}
+
 // A low-poly game model through Blender: the OBJ importer keeps the spider's 762 vertices, its
 // glTF writer and Merge by Distance join the 40 repeated positions (722 vertices). Such copies
 // are the original's vertices and must be read vertex for vertex; the registration of this
