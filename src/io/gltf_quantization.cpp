@@ -40,9 +40,12 @@ GltfWriter::Plan GltfWriter::plan_accessor(std::size_t slot)
         plan.has_implicit = plan.has_implicit || el.buffer < 0;
         if (is_changed(original_, positions_, w))
         {
+            // A skinned element was read through its own blended joint matrix (affine, so the
+            // new world position maps back exactly through its inverse).
+            const Eigen::Vector4d world(positions_(w, 0), positions_(w, 1), positions_(w, 2), 1.0);
             const Eigen::Vector4d local =
-                to_local *
-                Eigen::Vector4d(positions_(w, 0), positions_(w, 1), positions_(w, 2), 1.0);
+                record.skinning.empty() ? Eigen::Vector4d(to_local * world)
+                                        : Eigen::Vector4d(record.skinning[e].inverse() * world);
             for (std::size_t d = 0; d < 3; ++d)
             {
                 plan.stored[3 * e + d] = quantize(local[static_cast<Eigen::Index>(d)],

@@ -48,9 +48,14 @@ public:
 
 private:
     void walk(int node, const Eigen::Matrix4d& parent, std::vector<char>& on_stack);
-    void add_primitive(int mesh, int index, const Eigen::Matrix4d& to_world);
+    void add_primitive(int mesh, int index, const Eigen::Matrix4d& to_world, int skin);
     void add_plain(const tinygltf::Primitive& prim, int mesh, int index,
-                   const Eigen::Matrix4d& to_world);
+                   const Eigen::Matrix4d& to_world, int skin);
+    std::vector<Eigen::Matrix4d> skinning(const tinygltf::Primitive& prim, int skin, std::size_t count,
+                                          const Eigen::Matrix4d& to_world);
+    std::vector<double> read_vectors(int accessor, int components, const std::string& what,
+                                     bool integers_only);
+    void compute_globals();
     void add_draco(const tinygltf::Primitive& prim, int mesh, int index,
                    const Eigen::Matrix4d& to_world);
     void add_triangles(const tinygltf::Primitive& prim, int mesh, int index, std::size_t base,
@@ -80,6 +85,7 @@ private:
     std::vector<Eigen::Matrix4d> groups_;        // distinct world transforms
     RawVertices raw_;
     std::vector<std::size_t> corners_;  // raw element ids, 3 per triangle
+    std::vector<Eigen::Matrix4d> globals_;  // every node's world matrix (skins' joints)
 };
 
 Eigen::Matrix4d local_matrix(const tinygltf::Node& node)
@@ -201,7 +207,7 @@ void Reader::walk(int node_index, const Eigen::Matrix4d& parent, std::vector<cha
             const auto& mesh = model_.meshes[static_cast<std::size_t>(node.mesh)];
             for (std::size_t p = 0; p < mesh.primitives.size(); ++p)
             {
-                add_primitive(node.mesh, static_cast<int>(p), to_world);
+                add_primitive(node.mesh, static_cast<int>(p), to_world, node.skin);
             }
         }
     }
@@ -213,7 +219,7 @@ void Reader::walk(int node_index, const Eigen::Matrix4d& parent, std::vector<cha
     on_stack[n] = 0;
 }
 
-void Reader::add_primitive(int mesh, int index, const Eigen::Matrix4d& to_world)
+void Reader::add_primitive(int mesh, int index, const Eigen::Matrix4d& to_world, int skin)
 {
     const auto& prim =
         model_.meshes[static_cast<std::size_t>(mesh)].primitives[static_cast<std::size_t>(index)];
@@ -227,7 +233,7 @@ void Reader::add_primitive(int mesh, int index, const Eigen::Matrix4d& to_world)
     }
     else
     {
-        add_plain(prim, mesh, index, to_world);
+        add_plain(prim, mesh, index, to_world, skin);
     }
 }
 
@@ -258,8 +264,14 @@ void Reader::append_world(const std::vector<double>& local, const Eigen::Matrix4
 }
 
 void Reader::add_plain(const tinygltf::Primitive& prim, int mesh, int index,
-                       const Eigen::Matrix4d& to_world)
+                       const Eigen::Matrix4d& to_world, int skin)
 {
+    // A skinned use: JOINTS_0 and WEIGHTS_0 under a node with a skin (glTF then places the
+    // vertices by the joints and ignores the node's transform).
+    if (skin >= 0 && (prim.attributes.count("JOINTS_0") == 0 || prim.attributes.count("WEIGHTS_0") == 0))
+    {
+        skin = -1;
+    }
     const auto it = prim.attributes.find("POSITION");
     if (it == prim.attributes.end())
     {
@@ -278,6 +290,17 @@ void Reader::add_plain(const tinygltf::Primitive& prim, int mesh, int index,
         // Another instance of the same positions under a different transform: its vertices
         // cannot take a second displacement, so only the first instance is watermarked; its
         // geometry is kept aside for registration (MeshFile::instances).
+        const auto& first = asset_.accessors[slot];
+        if (first.skin >= 0 || skin >= 0)
+        {
+            // Skinned: the same skin shows the same vertices (the node's transform does not
+            // count); a use under another skin is not marked and not kept aside.
+            if (first.skin == skin && prim.mode == kModeTriangles)
+            {
+                add_triangles(prim, mesh, index, slot_base_[slot], first.elements.size());
+            }
+            return;
+        }
         if (!same_matrix(asset_.accessors[slot].to_world, to_world))
         {
             const std::size_t base =
@@ -332,7 +355,26 @@ void Reader::add_plain(const tinygltf::Primitive& prim, int mesh, int index,
         slot = asset_.accessors.size();
         accessor_slot_[a] = slot;
         slot_base_.push_back(raw_.group.size());
-        append_world(local, to_world, group_of(to_world));
+        if (skin >= 0)
+        {
+            record.skin = skin;
+            record.skinning = skinning(prim, skin, record.elements.size(), to_world);
+            // A group of its own: positions of other parts that meet it within float rounding
+            // are welded to it, its own distinct positions never.
+            groups_.push_back(to_world);
+            const auto group = static_cast<std::int32_t>(groups_.size() - 1);
+            for (std::size_t e = 0; e < record.elements.size(); ++e)
+            {
+                const Eigen::Vector4d w =
+                    record.skinning[e] * Eigen::Vector4d(local[3 * e], local[3 * e + 1], local[3 * e + 2], 1.0);
+                raw_.world.insert(raw_.world.end(), {w.x(), w.y(), w.z()});
+                raw_.group.push_back(group);
+            }
+        }
+        else
+        {
+            append_world(local, to_world, group_of(to_world));
+        }
         asset_.accessors.push_back(std::move(record));
     }
     if (prim.mode == kModeTriangles)
@@ -518,6 +560,180 @@ void Reader::add_draco(const tinygltf::Primitive& prim, int mesh, int index,
     }
     // A repeated use under the same transform adds the same triangles again; the Draco data
     // has one connectivity, so they are already there.
+}
+
+void Reader::compute_globals()
+{
+    // glTF nodes form a forest (a node has at most one parent); walk it from every parentless
+    // node. A node left unvisited (a cycle, which walk() reports) keeps the identity.
+    const std::size_t n = model_.nodes.size();
+    globals_.assign(n, Eigen::Matrix4d::Identity());
+    std::vector<char> has_parent(n, 0);
+    for (const auto& node : model_.nodes)
+    {
+        for (const int c : node.children)
+        {
+            if (c >= 0 && static_cast<std::size_t>(c) < n)
+            {
+                has_parent[static_cast<std::size_t>(c)] = 1;
+            }
+        }
+    }
+    std::vector<char> seen(n, 0);
+    std::vector<int> stack;
+    for (std::size_t r = 0; r < n; ++r)
+    {
+        if (has_parent[r] != 0)
+        {
+            continue;
+        }
+        globals_[r] = local_matrix(model_.nodes[r]);
+        seen[r] = 1;
+        stack.push_back(static_cast<int>(r));
+        while (!stack.empty())
+        {
+            const auto k = static_cast<std::size_t>(stack.back());
+            stack.pop_back();
+            for (const int c : model_.nodes[k].children)
+            {
+                if (c < 0 || static_cast<std::size_t>(c) >= n || seen[static_cast<std::size_t>(c)] != 0)
+                {
+                    continue;
+                }
+                const auto child = static_cast<std::size_t>(c);
+                seen[child] = 1;
+                globals_[child] = globals_[k] * local_matrix(model_.nodes[child]);
+                stack.push_back(c);
+            }
+        }
+    }
+}
+
+std::vector<double> Reader::read_vectors(int accessor, int components, const std::string& what,
+                                         bool integers_only)
+{
+    if (accessor < 0 || static_cast<std::size_t>(accessor) >= model_.accessors.size())
+    {
+        fail(what + " accessor " + std::to_string(accessor) + " is missing");
+    }
+    const auto& acc = model_.accessors[static_cast<std::size_t>(accessor)];
+    const auto component = component_of(acc.componentType);
+    if (!component || (integers_only && (*component == GltfComponent::Float32 || acc.normalized)))
+    {
+        fail(what + " accessor " + std::to_string(accessor) + " has an unsupported component type");
+    }
+    const std::vector<GltfElement> elements = accessors_.locate(accessor, components, what);
+    const auto type = scalar_of(*component);
+    const std::size_t size = component_size(*component);
+    std::vector<double> values(elements.size() * static_cast<std::size_t>(components), 0.0);
+    for (std::size_t e = 0; e < elements.size(); ++e)
+    {
+        const auto& el = elements[e];
+        for (std::size_t d = 0; d < static_cast<std::size_t>(components) && el.buffer >= 0; ++d)
+        {
+            const char* p = asset_.buffers[static_cast<std::size_t>(el.buffer)].bytes.data() + el.offset + d * size;
+            const double v = dequantize(load_scalar(p, type, false), *component, acc.normalized);
+            if (!std::isfinite(v))
+            {
+                fail(what + " accessor " + std::to_string(accessor) + " has a non-finite value");
+            }
+            values[e * static_cast<std::size_t>(components) + d] = v;
+        }
+    }
+    return values;
+}
+
+std::vector<Eigen::Matrix4d> Reader::skinning(const tinygltf::Primitive& prim, int skin, std::size_t count,
+                                              const Eigen::Matrix4d& to_world)
+{
+    if (static_cast<std::size_t>(skin) >= model_.skins.size())
+    {
+        fail("a node refers to missing skin " + std::to_string(skin));
+    }
+    if (globals_.empty())
+    {
+        compute_globals();
+    }
+    const auto& s = model_.skins[static_cast<std::size_t>(skin)];
+    std::vector<double> inverse_binds;
+    if (s.inverseBindMatrices >= 0)
+    {
+        inverse_binds = read_vectors(s.inverseBindMatrices, 16, "inverseBindMatrices", false);
+        if (inverse_binds.size() < 16 * s.joints.size())
+        {
+            fail("skin " + std::to_string(skin) + " has fewer inverse bind matrices than joints");
+        }
+    }
+    std::vector<Eigen::Matrix4d> joint(s.joints.size(), Eigen::Matrix4d::Identity());
+    for (std::size_t k = 0; k < s.joints.size(); ++k)
+    {
+        const int node = s.joints[k];
+        if (node < 0 || static_cast<std::size_t>(node) >= model_.nodes.size())
+        {
+            fail("skin " + std::to_string(skin) + " has joint node " + std::to_string(node) + " out of range");
+        }
+        Eigen::Matrix4d inverse_bind = Eigen::Matrix4d::Identity();
+        if (!inverse_binds.empty())
+        {
+            inverse_bind = Eigen::Map<const Eigen::Matrix4d>(inverse_binds.data() + 16 * k);  // column-major
+        }
+        joint[k] = globals_[static_cast<std::size_t>(node)] * inverse_bind;
+    }
+    std::vector<Eigen::Matrix4d> result(count, Eigen::Matrix4d::Zero());
+    std::vector<double> total(count, 0.0);
+    for (int set = 0;; ++set)
+    {
+        const auto j = prim.attributes.find("JOINTS_" + std::to_string(set));
+        const auto w = prim.attributes.find("WEIGHTS_" + std::to_string(set));
+        if (j == prim.attributes.end() || w == prim.attributes.end())
+        {
+            break;
+        }
+        const std::vector<double> joints = read_vectors(j->second, 4, "JOINTS_" + std::to_string(set), true);
+        const std::vector<double> weights = read_vectors(w->second, 4, "WEIGHTS_" + std::to_string(set), false);
+        if (joints.size() < 4 * count || weights.size() < 4 * count)
+        {
+            fail("JOINTS_" + std::to_string(set) + " or WEIGHTS_" + std::to_string(set) +
+                 " has fewer elements than POSITION");
+        }
+        for (std::size_t e = 0; e < count; ++e)
+        {
+            for (std::size_t c = 0; c < 4; ++c)
+            {
+                const double weight = weights[4 * e + c];
+                if (weight == 0.0)
+                {
+                    continue;
+                }
+                const double index = joints[4 * e + c];
+                if (index >= static_cast<double>(joint.size()))
+                {
+                    fail("JOINTS_" + std::to_string(set) + " element " + std::to_string(e) + " refers to joint " +
+                         std::to_string(static_cast<long long>(index)) + " of a skin with " +
+                         std::to_string(joint.size()));
+                }
+                result[e] += weight * joint[static_cast<std::size_t>(index)];
+                total[e] += weight;
+            }
+        }
+    }
+    // Weights that do not sum to 1 are normalized, as Blender's armature and three.js do; an
+    // element without weight or whose joints collapse it (no inverse, so no displacement can
+    // be written back) keeps the node's transform.
+    for (std::size_t e = 0; e < count; ++e)
+    {
+        if (total[e] > 0.0)
+        {
+            result[e] /= total[e];
+        }
+        const double det = result[e].topLeftCorner<3, 3>().determinant();
+        const double scale = result[e].topLeftCorner<3, 3>().squaredNorm() / 3.0;  // mean squared column norm
+        if (!(total[e] > 0.0) || !result[e].allFinite() || !(std::abs(det) > 1e-9 * std::pow(scale, 1.5)))
+        {
+            result[e] = to_world;
+        }
+    }
+    return result;
 }
 
 TriangleMesh Reader::weld()

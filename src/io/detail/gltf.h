@@ -91,6 +91,12 @@ struct GltfPositionAccessor
     Eigen::Matrix4d to_world = Eigen::Matrix4d::Identity();
     std::vector<GltfElement> elements;  ///< Per element, after sparse substitution.
     std::vector<std::int32_t> welded;   ///< Per element: the vertex of MeshFile::mesh.
+    /// The skin of a skinned use (a node with a skin, and JOINTS_0 / WEIGHTS_0), else -1.
+    std::int32_t skin = -1;
+    /// Skinned: per element, the matrix that places it where a viewer shows the scene's pose,
+    /// sum_k w_k (joint k's world matrix x its inverse bind matrix); glTF ignores the node's
+    /// own transform then, and so does to_world's role. Empty when not skinned.
+    std::vector<Eigen::Matrix4d> skinning;
 };
 
 /// A primitive compressed with KHR_draco_mesh_compression.
