@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 
 #include <Eigen/Geometry>
 
@@ -28,6 +29,10 @@ constexpr int kModeTriangles = 4;
 // Node visits allowed while walking the scene graph (a DAG of shared children can otherwise
 // explode exponentially in a hostile file).
 constexpr std::size_t kMaxNodeVisits = 1U << 20U;
+
+// A skinned primitive whose joints place every vertex within this fraction of its extent of
+// where its node's transform does is read through the node (the bind pose).
+constexpr double kBindPoseTolerance = 1e-6;
 
 // One vertex of one instance before welding.
 struct RawVertices
@@ -359,6 +364,28 @@ void Reader::add_plain(const tinygltf::Primitive& prim, int mesh, int index,
         {
             record.skin = skin;
             record.skinning = skinning(prim, skin, record.elements.size(), to_world);
+            // A rig shown in its bind pose under a node placed like it (what most exporters
+            // write) puts every vertex where the node's transform does, up to the float32
+            // rounding of its inverse bind matrices: read it through the node, to the bit as
+            // before skins were applied, so that keys made then still match.
+            Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+            Eigen::Vector3d hi = -lo;
+            double largest = 0.0;
+            for (std::size_t e = 0; e < record.elements.size(); ++e)
+            {
+                const Eigen::Vector4d p(local[3 * e], local[3 * e + 1], local[3 * e + 2], 1.0);
+                const Eigen::Vector3d by_node = (to_world * p).head<3>();
+                lo = lo.cwiseMin(by_node);
+                hi = hi.cwiseMax(by_node);
+                largest = std::max(largest, ((record.skinning[e] * p).head<3>() - by_node).norm());
+            }
+            if (record.elements.empty() || largest <= kBindPoseTolerance * (hi - lo).norm())
+            {
+                record.skinning.clear();
+            }
+        }
+        if (!record.skinning.empty())
+        {
             // A group of its own: positions of other parts that meet it within float rounding
             // are welded to it, its own distinct positions never.
             groups_.push_back(to_world);

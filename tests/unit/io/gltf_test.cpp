@@ -499,6 +499,59 @@ TEST_F(GltfTest, skinned_mesh_is_read_in_the_scene_pose_and_written_back_through
     EXPECT_EQ(out.json["nodes"], b.doc["nodes"]);
 }
 
+// A rig in its bind pose (what most exporters write) places each vertex where its node does,
+// up to the float32 rounding of the inverse bind matrices: it is read through the node, to the
+// bit, as before skins were applied, so keys made then still match.
+TEST_F(GltfTest, skinned_mesh_in_its_bind_pose_reads_exactly_as_through_its_node)
+{
+    GltfBuilder b;
+    std::vector<float> xyz;
+    std::vector<float> normals;
+    std::vector<std::uint16_t> idx;
+    box_faces(xyz, normals, idx, Eigen::Matrix4d::Identity());
+    const std::size_t n = xyz.size() / 3;
+    const std::vector<std::uint8_t> joints(4 * n, 0);
+    std::vector<float> weights(4 * n, 0.0f);
+    for (std::size_t v = 0; v < n; ++v)
+    {
+        weights[4 * v] = 1.0f;
+    }
+    // The joint turned by 30 degrees and moved; its inverse bind matrix undoes that, in float32.
+    const double angle = 30.0 * std::numbers::pi / 180.0;
+    const Eigen::Affine3d joint_world =
+        Eigen::Translation3d(0.3, -0.2, 0.1) * Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitZ());
+    const Eigen::Matrix4d inverse = joint_world.inverse().matrix();
+    std::vector<float> ibm(16);
+    for (int k = 0; k < 16; ++k)
+    {
+        ibm[static_cast<std::size_t>(k)] = static_cast<float>(inverse(k % 4, k / 4));  // column-major
+    }
+    const int pos = b.positions(xyz);
+    const int mesh = b.mesh(Json::array(
+        {{{"attributes",
+           {{"POSITION", pos},
+            {"JOINTS_0", b.accessor(b.view(GltfBuilder::raw(joints)), 0, 5121, n, "VEC4")},
+            {"WEIGHTS_0", b.accessor(b.view(GltfBuilder::raw(weights)), 0, 5126, n, "VEC4")}}},
+          {"indices", b.indices(idx)}}}));
+    const int joint = b.node({{"translation", {0.3, -0.2, 0.1}},
+                              {"rotation", {0.0, 0.0, std::sin(angle / 2), std::cos(angle / 2)}}});
+    b.node({{"mesh", mesh}, {"skin", 0}});
+    b.doc["skins"] = Json::array(
+        {{{"joints", {joint}}, {"inverseBindMatrices", b.accessor(b.view(GltfBuilder::raw(ibm)), 0, 5126, 1, "MAT4")}}});
+    test::put_bytes(dir / "bind.glb", b.glb());
+    const MeshFile file = read_mesh_file(dir / "bind.glb");
+    ASSERT_EQ(file.mesh.V.rows(), 8);
+    for (Eigen::Index v = 0; v < 8; ++v)
+    {
+        for (int d = 0; d < 3; ++d)
+        {
+            // The box's corners are 0 or 1 exactly; through the joints they would be off by
+            // about 1e-7.
+            EXPECT_TRUE(file.mesh.V(v, d) == 0.0 || file.mesh.V(v, d) == 1.0) << file.mesh.V(v, d);
+        }
+    }
+}
+
 TEST_F(GltfTest, sparse_accessor_positions_are_read_and_written_through)
 {
     // Base positions in a view; the sparse part replaces elements 1 and 2.
