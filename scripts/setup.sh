@@ -41,8 +41,9 @@ if ((interop_tools)); then
   # smoothing, MeshLab's quadric edge collapse and Taubin smoothing (meshlabserver).
   packages+=(python3-open3d meshlab)
   # Other people's models for the real-assets interop tests: Khronos' glTF samples (one
-  # Draco-compressed) and game models in OBJ (/usr/share/assimp/models).
-  packages+=(assimp-testmodels)
+  # Draco-compressed) and game models in OBJ and DirectX (/usr/share/assimp/models), and
+  # assimp's converter (`assimp export`), which turns game formats into glTF.
+  packages+=(assimp-testmodels assimp-utils)
   # Node.js for the npm tools: Debian's, unless the machine already has a node and npm.
   if ! command -v node >/dev/null || ! command -v npm >/dev/null; then packages+=(nodejs npm); fi
 fi

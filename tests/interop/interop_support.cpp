@@ -92,6 +92,7 @@ Tools::Tools()
       xvfb_run(find_in_path("xvfb-run")),
       prusa_slicer(find_in_path("prusa-slicer")),
       blender(find_in_path("blender")),
+      assimp(find_in_path("assimp")),
       gltf_transform(node_bin("gltf-transform")),
       gltf_pipeline(node_bin("gltf-pipeline"))
 {
@@ -150,6 +151,10 @@ std::string missing_tools(const std::vector<std::string>& needed)
         else if (name == "blender")
         {
             note(!t.blender.empty(), "blender");
+        }
+        else if (name == "assimp")
+        {
+            note(!t.assimp.empty(), "assimp (Debian assimp-utils)");
         }
         else if (name == "assimp-testmodels")
         {

@@ -43,6 +43,7 @@ struct Tools
     fs::path xvfb_run;
     fs::path prusa_slicer;
     fs::path blender;
+    fs::path assimp;  // Debian's assimp-utils: converts game formats (X, MD2, COB, ...) to glTF
     fs::path gltf_transform;
     fs::path gltf_pipeline;
 };
