@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -46,6 +47,39 @@ std::pair<double, double> nearest_distances(const Positions& A, const Positions&
     return {worst / diagonal, std::sqrt(squares / static_cast<double>(A.rows())) / diagonal};
 }
 
+// `meshmark embed ORIGINAL -o MARKED --key KEY --seed SEED -q`.
+ToolRun embed(const fs::path& original, const fs::path& marked, const fs::path& key, const std::string& seed,
+              const fs::path& scratch)
+{
+    return meshmark({"embed", original.string(), "-o", marked.string(), "--key", key.string(), "--seed", seed, "-q"},
+                    scratch);
+}
+
+// Blender runs the re-work bench's operations \p ops on \p input, writing into \p out.
+ToolRun blender_attacks(const fs::path& input, const fs::path& out, const std::vector<std::string>& ops,
+                        const fs::path& scratch)
+{
+    fs::create_directories(out);
+    std::vector<std::string> words = {tools().blender.string(), "-b", "--factory-startup", "--python-exit-code", "2",
+                                      "--python", (fs::path(MESHMARK_BENCH_BLENDER_DIR) / "attacks.py").string(),
+                                      "--", input.string(), out.string(), "--seed", "1"};
+    words.insert(words.end(), ops.begin(), ops.end());
+    return run(words, scratch);
+}
+
+// `assimp export MODEL OUT -tri -jiv`: a model of assimp-testmodels as .glb.
+ToolRun assimp_to_glb(const fs::path& model, const fs::path& out, const fs::path& scratch)
+{
+    return run({tools().assimp.string(), "export", model.string(), out.string(), "-tri", "-jiv"}, scratch);
+}
+
+// The uniform scale of the registration's transform in a `detect --json` report.
+double registration_scale(const nlohmann::json& report)
+{
+    const auto& T = report["registration"]["transform"];
+    return std::hypot(T[0][0].get<double>(), T[1][0].get<double>(), T[2][0].get<double>());
+}
+
 }  // namespace
 
 // Khronos' engine, 115 primitives under a node tree: the marked .glb and the marked Draco
@@ -61,10 +95,8 @@ TEST(RealAssetsInterop, MarksKhronosEngineAsGlbAndAsDracoGltf)
         const bool is_draco = input.extension() == ".gltf";
         const fs::path marked = scratch / (is_draco ? "marked.gltf" : "marked.glb");
         const fs::path key = scratch / (is_draco ? "key_draco.json" : "key_glb.json");
-        const ToolRun embed = meshmark({"embed", input.string(), "-o", marked.string(), "--key", key.string(),
-                                        "--seed", kSeed, "-q"},
-                                       scratch);
-        ASSERT_TRUE(embed.ok()) << embed.describe();
+        const ToolRun marking = embed(input, marked, key, kSeed, scratch);
+        ASSERT_TRUE(marking.ok()) << marking.describe();
 
         std::string error;
         const Validation validation = validate(marked, scratch, &error);
@@ -111,9 +143,8 @@ TEST(RealAssetsInterop, AVoxelRemeshOfTheEngineWrittenZUpIsRegisteredAndClaimed)
     const fs::path original = kModels / "glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb";
     const fs::path marked = scratch / "marked.glb";
     const fs::path key = scratch / "key.json";
-    const ToolRun embed = meshmark(
-        {"embed", original.string(), "-o", marked.string(), "--key", key.string(), "--seed", "1", "-q"}, scratch);
-    ASSERT_TRUE(embed.ok()) << embed.describe();
+    const ToolRun marking = embed(original, marked, key, "1", scratch);
+    ASSERT_TRUE(marking.ok()) << marking.describe();
     const fs::path copy = scratch / "voxel.ply";
     const ToolRun attack = meshmark({"attack", marked.string(), "-o", copy.string(), "--seed", "1",
                                      "voxel=150,similarity:axis=x:angle=-90:tx=5", "-q"},
@@ -123,9 +154,7 @@ TEST(RealAssetsInterop, AVoxelRemeshOfTheEngineWrittenZUpIsRegisteredAndClaimed)
     const nlohmann::json report = detect_json(copy, original, key, scratch, &exit_code);
     ASSERT_TRUE(report.is_object());
     EXPECT_EQ(exit_code, 0) << report.dump();
-    const auto& T = report["registration"]["transform"];
-    const double scale = std::hypot(T[0][0].get<double>(), T[1][0].get<double>(), T[2][0].get<double>());
-    EXPECT_NEAR(scale, 1.0, 0.01) << report.dump();
+    EXPECT_NEAR(registration_scale(report), 1.0, 0.01) << report.dump();
     EXPECT_GE(report.value("score", 0.0), 5.5) << report.dump();
 }
 
@@ -140,15 +169,12 @@ TEST(RealAssetsInterop, AVoxelRemeshOfABuildingRegistersAtItsOwnScale)
     INTEROP_REQUIRE_TOOLS("meshmark", "assimp-testmodels", "assimp");
     const fs::path scratch = temp_dir("interop-real-building");
     const fs::path original = scratch / "building.glb";
-    const ToolRun convert = run({tools().assimp.string(), "export", (kModels / "IFC/AC14-FZK-Haus.ifc").string(),
-                                 original.string(), "-tri", "-jiv"},
-                                scratch);
+    const ToolRun convert = assimp_to_glb(kModels / "IFC/AC14-FZK-Haus.ifc", original, scratch);
     ASSERT_TRUE(convert.ok() && fs::exists(original)) << convert.describe();
     const fs::path marked = scratch / "marked.glb";
     const fs::path key = scratch / "key.json";
-    const ToolRun embed = meshmark(
-        {"embed", original.string(), "-o", marked.string(), "--key", key.string(), "--seed", "1", "-q"}, scratch);
-    ASSERT_TRUE(embed.ok()) << embed.describe();
+    const ToolRun marking = embed(original, marked, key, "1", scratch);
+    ASSERT_TRUE(marking.ok()) << marking.describe();
     for (const std::string voxel : {"voxel=300", "voxel=150"})
     {
         const fs::path copy = scratch / "voxel.ply";
@@ -159,9 +185,7 @@ TEST(RealAssetsInterop, AVoxelRemeshOfABuildingRegistersAtItsOwnScale)
         int exit_code = -1;
         const nlohmann::json report = detect_json(copy, original, key, scratch, &exit_code);
         ASSERT_TRUE(report.is_object()) << voxel;
-        const auto& T = report["registration"]["transform"];
-        const double scale = std::hypot(T[0][0].get<double>(), T[1][0].get<double>(), T[2][0].get<double>());
-        EXPECT_NEAR(scale, 1.0, 0.01) << voxel << ": " << report.dump();
+        EXPECT_NEAR(registration_scale(report), 1.0, 0.01) << voxel << ": " << report.dump();
         EXPECT_LT(report["registration"].value("rms_error", 1.0), 0.005) << voxel << ": " << report.dump();
     }
 }
@@ -178,17 +202,11 @@ TEST(RealAssetsInterop, BlenderCopiesOfALowPolyGameModelAreReadVertexForVertex)
     const fs::path original = kModels / "OBJ/spider.obj";
     const fs::path marked = scratch / "marked.obj";
     const fs::path key = scratch / "key.json";
-    const ToolRun embed = meshmark(
-        {"embed", original.string(), "-o", marked.string(), "--key", key.string(), "--seed", "1", "-q"}, scratch);
-    ASSERT_TRUE(embed.ok()) << embed.describe();
+    const ToolRun marking = embed(original, marked, key, "1", scratch);
+    ASSERT_TRUE(marking.ok()) << marking.describe();
 
     const fs::path out = scratch / "blender";
-    fs::create_directories(out);
-    const ToolRun blender =
-        run({tools().blender.string(), "-b", "--factory-startup", "--python-exit-code", "2", "--python",
-             (fs::path(MESHMARK_BENCH_BLENDER_DIR) / "attacks.py").string(), "--", marked.string(), out.string(),
-             "--seed", "1", "gltf", "merge"},
-            scratch);
+    const ToolRun blender = blender_attacks(marked, out, {"gltf", "merge"}, scratch);
     ASSERT_TRUE(blender.ok()) << blender.describe();
     for (const char* copy : {"gltf.glb", "merge.ply"})
     {
@@ -213,22 +231,14 @@ TEST(RealAssetsInterop, BlenderRoundTripsOfAConvertedRiggedCharacterAreClaimed)
     INTEROP_REQUIRE_TOOLS("meshmark", "blender", "assimp-testmodels", "assimp");
     const fs::path scratch = temp_dir("interop-real-rig");
     const fs::path original = scratch / "character.glb";
-    const ToolRun convert = run({tools().assimp.string(), "export", (kModels / "X/BCN_Epileptic.X").string(),
-                                 original.string(), "-tri", "-jiv"},
-                                scratch);
+    const ToolRun convert = assimp_to_glb(kModels / "X/BCN_Epileptic.X", original, scratch);
     ASSERT_TRUE(convert.ok() && fs::exists(original)) << convert.describe();
     const fs::path marked = scratch / "marked.glb";
     const fs::path key = scratch / "key.json";
-    const ToolRun embed = meshmark(
-        {"embed", original.string(), "-o", marked.string(), "--key", key.string(), "--seed", "1", "-q"}, scratch);
-    ASSERT_TRUE(embed.ok()) << embed.describe();
+    const ToolRun marking = embed(original, marked, key, "1", scratch);
+    ASSERT_TRUE(marking.ok()) << marking.describe();
     const fs::path out = scratch / "blender";
-    fs::create_directories(out);
-    const ToolRun blender =
-        run({tools().blender.string(), "-b", "--factory-startup", "--python-exit-code", "2", "--python",
-             (fs::path(MESHMARK_BENCH_BLENDER_DIR) / "attacks.py").string(), "--", marked.string(), out.string(),
-             "--seed", "1", "gltf", "ply"},
-            scratch);
+    const ToolRun blender = blender_attacks(marked, out, {"gltf", "ply"}, scratch);
     ASSERT_TRUE(blender.ok()) << blender.describe();
     for (const char* copy : {"gltf.glb", "ply.ply"})
     {
