@@ -644,6 +644,11 @@ std::vector<double> Reader::read_vectors(int accessor, int components, const std
         fail(what + " accessor " + std::to_string(accessor) + " is missing");
     }
     const auto& acc = model_.accessors[static_cast<std::size_t>(accessor)];
+    const int expected_type = components == 16 ? TINYGLTF_TYPE_MAT4 : TINYGLTF_TYPE_VEC4;
+    if (acc.type != expected_type)
+    {
+        fail(what + " accessor " + std::to_string(accessor) + " is not a " + (components == 16 ? "MAT4" : "VEC4"));
+    }
     const auto component = component_of(acc.componentType);
     if (!component || (integers_only && (*component == GltfComponent::Float32 || acc.normalized)))
     {
@@ -736,8 +741,8 @@ std::vector<Eigen::Matrix4d> Reader::skinning(const tinygltf::Primitive& prim, i
                 if (index >= static_cast<double>(joint.size()))
                 {
                     fail("JOINTS_" + std::to_string(set) + " element " + std::to_string(e) + " refers to joint " +
-                         std::to_string(static_cast<long long>(index)) + " of a skin with " +
-                         std::to_string(joint.size()));
+                         std::to_string(static_cast<long long>(index)) + ", but skin " + std::to_string(skin) +
+                         " has " + std::to_string(joint.size()) + " joint(s)");
                 }
                 result[e] += weight * joint[static_cast<std::size_t>(index)];
                 total[e] += weight;

@@ -695,6 +695,24 @@ TEST_F(GltfTest, hostile_files_fail_with_one_sentence_naming_the_file)
                                            {{"KHR_draco_mesh_compression",
                                              {{"bufferView", 0}, {"attributes", 5}}}}}}}))}});
     expect_error("draco_ext.glb", e.glb());
+
+    // Skins: a joint index past the skin's joints, a JOINTS_0 that is not a VEC4, a skin that
+    // does not exist.
+    for (const std::string bad : {"joint_index", "joints_type", "missing_skin"})
+    {
+        GltfBuilder f;
+        const int p5 = f.positions({0, 0, 0, 1, 0, 0, 0, 1, 0});
+        const std::vector<std::uint8_t> joints{0, 0, 0, 0, 0, 0, 0, 0, static_cast<std::uint8_t>(bad == "joint_index" ? 3 : 0), 0, 0, 0};
+        const std::vector<float> weights{1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0};
+        const int j = f.accessor(f.view(GltfBuilder::raw(joints)), 0, 5121, bad == "joints_type" ? 4 : 3,
+                                 bad == "joints_type" ? "VEC3" : "VEC4");
+        const int w = f.accessor(f.view(GltfBuilder::raw(weights)), 0, 5126, 3, "VEC4");
+        const int joint = f.node({{"name", "joint"}, {"translation", {0.0, 1.0, 0.0}}});
+        f.node({{"mesh", f.mesh(Json::array({{{"attributes", {{"POSITION", p5}, {"JOINTS_0", j}, {"WEIGHTS_0", w}}}}}))},
+                {"skin", bad == "missing_skin" ? 4 : 0}});
+        f.doc["skins"] = Json::array({{{"joints", {joint}}}});
+        expect_error("skin_" + bad + ".glb", f.glb());
+    }
 }
 
 }  // namespace
