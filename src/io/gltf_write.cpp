@@ -173,6 +173,7 @@ void GltfWriter::run(bool is_glb)
             fit_range(plans, p);
         }
     }
+    keep_vertices_apart(plans);
     // Plain accessors first: their byte offsets are those of the original buffers, which
     // meshopt and Draco re-encoding may shift and float32 views appended to a buffer extend.
     // Positions in meshopt views are written into the decoded data, which write_meshopt then

@@ -66,6 +66,7 @@ private:
     Plan plan_draco(std::size_t slot);
     [[nodiscard]] bool overflows(const Plan& plan) const;
     void fit_range(std::vector<Plan>& plans, std::size_t overflowing);
+    void keep_vertices_apart(std::vector<Plan>& plans) const;
     [[nodiscard]] std::vector<std::size_t> sharing_group(const std::vector<Plan>& plans,
                                                          std::size_t first,
                                                          std::vector<std::size_t>& nodes);

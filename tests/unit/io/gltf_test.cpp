@@ -552,6 +552,30 @@ TEST_F(GltfTest, skinned_mesh_in_its_bind_pose_reads_exactly_as_through_its_node
     }
 }
 
+// Two vertices a float32 step apart (a CAD model's repeated corners) moved alike must stay two:
+// written as float32 their new coordinates would round to the same floats, and the reader
+// would weld them (an IFC building lost 182 of its 16,942 vertices so, and its marked copy was
+// no longer read vertex for vertex). The writer moves the later one on by float32 steps.
+TEST_F(GltfTest, vertices_a_float_step_apart_stay_apart_when_moved_alike)
+{
+    const float a = 0.3F;
+    const float b = std::nextafter(a, 1.0F);
+    GltfBuilder g;
+    const int pos = g.positions({a, 0, 0, b, 0, 0, 0, 1, 0, 0, 0, 1});
+    g.node({{"mesh", g.mesh(Json::array({{{"attributes", {{"POSITION", pos}}}, {"indices", g.indices({0, 2, 3, 1, 3, 2})}}}))}});
+    test::put_bytes(dir / "close.glb", g.glb());
+    const MeshFile file = read_mesh_file(dir / "close.glb");
+    ASSERT_EQ(file.mesh.V.rows(), 4);
+    Positions moved = file.mesh.V;
+    moved.col(0).array() += 0.3;  // both land on 0.6000000238 in float32
+    ASSERT_EQ(static_cast<float>(moved(0, 0)), static_cast<float>(moved(1, 0)));
+    write_mesh_file(dir / "close_out.glb", file, moved);
+    const MeshFile again = read_mesh_file(dir / "close_out.glb");
+    ASSERT_EQ(again.mesh.V.rows(), 4);
+    EXPECT_LT((again.mesh.V - moved).cwiseAbs().maxCoeff(), 1e-6);
+    EXPECT_NE(again.mesh.V(0, 0), again.mesh.V(1, 0));
+}
+
 TEST_F(GltfTest, sparse_accessor_positions_are_read_and_written_through)
 {
     // Base positions in a view; the sparse part replaces elements 1 and 2.
