@@ -498,44 +498,6 @@ std::vector<std::int32_t> usable_vertices(const TriangleMesh& mesh, const char* 
 }
 
 // The fine stage's target is left out when \p build_fine_target is false (the caller builds it).
-/// \p count points spread uniformly over the area of \p mesh's triangles (seeded).
-Positions surface_samples(const TriangleMesh& mesh, std::size_t count, std::uint64_t seed)
-{
-    std::vector<double> cumulative(static_cast<std::size_t>(mesh.F.rows()), 0.0);
-    double total = 0.0;
-    for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
-    {
-        const Eigen::Vector3d a = mesh.V.row(mesh.F(f, 0)).transpose();
-        const Eigen::Vector3d b = mesh.V.row(mesh.F(f, 1)).transpose();
-        const Eigen::Vector3d c = mesh.V.row(mesh.F(f, 2)).transpose();
-        total += 0.5 * (b - a).cross(c - a).norm();
-        cumulative[static_cast<std::size_t>(f)] = total;
-    }
-    if (!(total > 0.0))
-    {
-        return Positions(0, 3);
-    }
-    Rng rng(seed);
-    Positions X(static_cast<Eigen::Index>(count), 3);
-    for (Eigen::Index i = 0; i < X.rows(); ++i)
-    {
-        const double target = rng.uniform() * total;
-        const auto k = static_cast<std::size_t>(std::upper_bound(cumulative.begin(), cumulative.end(), target) -
-                                                cumulative.begin());
-        const auto f = static_cast<Eigen::Index>(std::min(k, cumulative.size() - 1));
-        double u = rng.uniform();
-        double v = rng.uniform();
-        if (u + v > 1.0)
-        {
-            u = 1.0 - u;
-            v = 1.0 - v;
-        }
-        X.row(i) = (1.0 - u - v) * mesh.V.row(mesh.F(f, 0)) + u * mesh.V.row(mesh.F(f, 1)) +
-                   v * mesh.V.row(mesh.F(f, 2));
-    }
-    return X;
-}
-
 Problem make_problem(const TriangleMesh& suspect, const TriangleMesh& reference,
                      const std::vector<std::int32_t>& suspect_rows,
                      const std::vector<std::int32_t>& reference_rows, const RegistrationOptions& options,
@@ -550,19 +512,9 @@ Problem make_problem(const TriangleMesh& suspect, const TriangleMesh& reference,
     }
     const std::vector<std::int32_t> reference_order =
         shuffled(reference_rows, derive_seed(options.seed, "reference samples"));
-    const auto coarse_count =
-        std::min(reference_order.size(), static_cast<std::size_t>(options.reference_samples));
-    Positions coarse = gather(reference.V, reference_order, coarse_count);
-    if (reference.F.rows() > 0)
-    {
-        // As many points again spread over the surface by area: a CAD model's or a building's
-        // vertices crowd in its details and leave its large faces empty.
-        const Positions spread =
-            surface_samples(reference, coarse_count, derive_seed(options.seed, "reference surface samples"));
-        coarse.conservativeResize(coarse.rows() + spread.rows(), 3);
-        coarse.bottomRows(spread.rows()) = spread;
-    }
-    p.coarse_target = std::make_unique<SurfaceMatcher>(coarse);
+    p.coarse_target = std::make_unique<SurfaceMatcher>(gather(
+        reference.V, reference_order,
+        std::min(reference_order.size(), static_cast<std::size_t>(options.reference_samples))));
     if (build_fine_target)
     {
         p.fine_target = std::make_unique<SurfaceMatcher>(reference);
