@@ -196,12 +196,12 @@ void GltfWriter::keep_vertices_apart(std::vector<Plan>& plans) const
         const auto by_key = [](const Entry& x, const Entry& y)
         { return std::tie(x.key, y.is_fixed, x.vertex) < std::tie(y.key, x.is_fixed, y.vertex); };
         std::sort(entries.begin(), entries.end(), by_key);
-        std::vector<std::int32_t> crowded;  // moved vertices that land on another's floats
+        std::vector<Entry> crowded;  // moved vertices that land on another's floats (one entry each)
         for (std::size_t i = 1; i < entries.size(); ++i)
         {
             if (entries[i].key == entries[i - 1].key && entries[i].vertex != entries[i - 1].vertex && !entries[i].is_fixed)
             {
-                crowded.push_back(entries[i].vertex);
+                crowded.push_back(entries[i]);
             }
         }
         if (crowded.empty())
@@ -214,20 +214,15 @@ void GltfWriter::keep_vertices_apart(std::vector<Plan>& plans) const
             used.insert(entry.key);
         }
         std::map<std::int32_t, Key> moved_on;
-        for (const std::int32_t w : crowded)
+        for (const Entry& entry : crowded)
         {
-            if (moved_on.count(w) != 0)
-            {
-                continue;
-            }
-            const auto it = std::find_if(entries.begin(), entries.end(), [&](const Entry& x) { return x.vertex == w && !x.is_fixed; });
-            Key k = it->key;
+            Key k = entry.key;
             while (used.count(k) != 0)
             {
                 k[0] = std::nextafter(k[0], std::numeric_limits<float>::infinity());
             }
             used.insert(k);
-            moved_on.emplace(w, k);
+            moved_on.emplace(entry.vertex, k);
         }
         for (const std::size_t p : members[g])
         {
