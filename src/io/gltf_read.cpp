@@ -251,6 +251,57 @@ struct PlaceholderFiles
     }
 };
 
+// The advice for an asset written to the glTF 1.0 specification (2015-2016: its collections
+// are objects keyed by name, which tinygltf either refuses or reads as an empty scene).
+constexpr const char* kUpgradeAdvice =
+    "; meshmark reads glTF 2.0 (gltf-pipeline -i IN -o OUT.gltf upgrades a 1.0 asset)";
+
+// The version an asset declares ("asset": {"version": ...}, a string in 2.0, a number in some
+// 1.0 writers), or "1.0" for an asset without one whose meshes are an object (the 1.0 layout);
+// empty when neither says anything.
+std::string declared_version(const fs::path& path, const std::string& json)
+{
+    try
+    {
+        const auto doc = parse_asset_json(path, json);
+        if (!doc.is_object())
+        {
+            return "";
+        }
+        if (doc.contains("asset") && doc["asset"].is_object() && doc["asset"].contains("version"))
+        {
+            const auto& version = doc["asset"]["version"];
+            if (version.is_string())
+            {
+                return version.get<std::string>();
+            }
+            if (version.is_number())
+            {
+                return version.dump();
+            }
+        }
+        if (doc.contains("meshes") && doc["meshes"].is_object())
+        {
+            return "1.0";
+        }
+    }
+    catch (const std::exception&)
+    {
+        // not JSON: tinygltf names the problem
+    }
+    return "";
+}
+
+[[noreturn]] void fail_version(const fs::path& path, const std::string& version)
+{
+    fail_io(path, "glTF " + version + " is not supported" + kUpgradeAdvice);
+}
+
+bool is_version_2(const std::string& version)
+{
+    return version.rfind("2.", 0) == 0 || version == "2";
+}
+
 tinygltf::Model load_model(const fs::path& path, const std::string& file_bytes,
                            const std::string& json, bool is_glb)
 {
@@ -296,7 +347,15 @@ tinygltf::Model load_model(const fs::path& path, const std::string& file_bytes,
     }
     if (!ok)
     {
+        if (const std::string version = declared_version(path, json); !version.empty() && !is_version_2(version))
+        {
+            fail_version(path, version);
+        }
         fail_io(path, "not a valid glTF 2.0 asset: " + first_line(err) + required_note(path, json));
+    }
+    if (!is_version_2(model.asset.version))  // (tinygltf refuses an asset without a version)
+    {
+        fail_version(path, model.asset.version);
     }
     return model;
 }

@@ -55,6 +55,18 @@ void check_basis_input(const TriangleMesh& mesh, const EmbedOptions& options, co
     }
 }
 
+SpectralWatermark watermark_of(const TriangleMesh& mesh, const Key& key, const std::filesystem::path& path, int threads)
+{
+    try
+    {
+        return SpectralWatermark(mesh, key, threads);
+    }
+    catch (const InvalidMesh& e)
+    {
+        throw InvalidMesh(path.string() + ": " + e.what());
+    }
+}
+
 void EmbedMeshOptions::validate() const
 {
     embed.validate();
@@ -144,7 +156,7 @@ void embed_into(EmbedResult& result, detail::PhaseTimer& timer, const TriangleMe
     {
         original_fingerprint = fingerprint(mesh);
     }
-    SpectralWatermark mark(mesh, key, options.threads);
+    SpectralWatermark mark = watermark_of(mesh, key, name, options.threads);
     if (fingerprinter.joinable())
     {
         fingerprinter.join();

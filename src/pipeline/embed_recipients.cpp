@@ -167,7 +167,7 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
     timer.begin("basis");
     Key key = family_key(key_path, file.mesh, input, options, &report.key_created);
     report.copies = assign_indices(key, options.recipients, output_pattern);
-    SpectralWatermark mark(file.mesh, key, options.threads);
+    SpectralWatermark mark = watermark_of(file.mesh, key, input, options.threads);
     key.options = mark.key().options;  // the automatic repetitions, as the watermark resolved them
     EmbedStats owner_stats;
     Positions owner = mark.displacement(&owner_stats);

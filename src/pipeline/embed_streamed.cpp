@@ -381,7 +381,7 @@ EmbedReport embed_file_streamed(const PlyStream& file, const std::filesystem::pa
                                " of the diagonal (the surface measure needs the mesh in memory)";
     }
     key.options.validate();
-    check_analysed_rows(key.options, static_cast<std::size_t>(referenced.active));
+    check_analysed_rows(key.options, static_cast<std::size_t>(referenced.active), file.path().string());
     if (scanned.guess_error)
     {
         std::rethrow_exception(scanned.guess_error);

@@ -67,12 +67,20 @@ void DisplacementSummary::add(const double* d) noexcept
     ++rows;
 }
 
-void check_analysed_rows(const EmbedOptions& options, std::size_t analysed_rows)
+void check_analysed_rows(const EmbedOptions& options, std::size_t analysed_rows, const std::string& source)
 {
     if (analysed_rows < static_cast<std::size_t>(std::max(0, options.basis_size)))
     {
-        throw InvalidMesh("the mesh has " + std::to_string(analysed_rows) + " usable vertices, fewer than the " +
-                          std::to_string(options.basis_size) + " basis functions (use a smaller --basis-size).");
+        const std::string prefix = source.empty() ? std::string("the mesh") : source + ": the mesh";
+        if (analysed_rows == 0)
+        {
+            throw InvalidMesh(prefix + " has nothing to watermark: no triangles and no points.");
+        }
+        throw InvalidMesh(prefix + " has " + std::to_string(analysed_rows) +
+                          (analysed_rows == 1 ? " usable vertex" : " usable vertices") + ", fewer than the " +
+                          std::to_string(options.basis_size) +
+                          " basis functions a mark needs (a smaller --basis-size, with --first-mode and "
+                          "--coefficients to match, marks it weakly).");
     }
 }
 

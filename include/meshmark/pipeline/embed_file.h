@@ -71,6 +71,11 @@ struct EmbedReport
 /// \throws InvalidMesh in those cases.
 void check_basis_input(const TriangleMesh& mesh, const EmbedOptions& options, const std::filesystem::path& path);
 
+/// \brief The watermark of \p key on \p mesh (SpectralWatermark), its InvalidMesh errors (a
+/// mesh with fewer usable vertices than the basis has functions, say) naming \p path.
+[[nodiscard]] SpectralWatermark watermark_of(const TriangleMesh& mesh, const Key& key, const std::filesystem::path& path,
+                                             int threads);
+
 /// \brief Watermark a mesh file end to end: read -> the in-memory embed (meshmark.h) -> write
 /// mesh and key; or, for large binary PLY files under a memory budget, the same bytes out of core.
 /// \details The output is written in the format of its extension; when that is the input's

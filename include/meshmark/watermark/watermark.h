@@ -4,6 +4,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -43,8 +44,8 @@ struct DisplacementSummary
 };
 
 /// \brief Refuse a key whose basis has more functions than the original has analysed rows.
-/// \throws InvalidMesh naming both counts.
-void check_analysed_rows(const EmbedOptions& options, std::size_t analysed_rows);
+/// \throws InvalidMesh naming both counts (and \p source, the file, when given).
+void check_analysed_rows(const EmbedOptions& options, std::size_t analysed_rows, const std::string& source = {});
 
 /// \brief The repetitions r a key with EmbedOptions::kAutoRepetitions gets on an original with
 /// \p analysed_rows analysed vertices (docs/statistics.md, "How long a mark"): 5 (120

@@ -668,6 +668,60 @@ TEST_F(GltfTest, generic_writer_makes_valid_glb_and_gltf)
     }
 }
 
+// glTF 1.0 assets (2015-2016: collections keyed by name, a "version" string or number) are
+// either refused by tinygltf with an unrelated reason or read as an empty scene; both are
+// refused naming the version and the upgrade.
+TEST_F(GltfTest, gltf_1_0_assets_are_refused_naming_the_version_and_the_upgrade)
+{
+    const auto expect_refused = [&](const std::string& name, const std::string& bytes, const std::string& version)
+    {
+        test::put_bytes(dir / name, bytes);
+        try
+        {
+            static_cast<void>(read_mesh_file(dir / name));
+            ADD_FAILURE() << name << " was accepted";
+        }
+        catch (const IoError& e)
+        {
+            const std::string what = e.what();
+            EXPECT_NE(what.find(name), std::string::npos) << what;
+            EXPECT_NE(what.find("glTF " + version + " is not supported"), std::string::npos) << what;
+            EXPECT_NE(what.find("gltf-pipeline"), std::string::npos) << what;
+        }
+    };
+    // The 1.0 layout, as collada2gltf wrote it (tinygltf reads it as a scene without meshes).
+    const std::string v1 = R"({"asset": {"version": "1.0"}, "scene": "defaultScene",
+        "scenes": {"defaultScene": {"nodes": ["node"]}}, "nodes": {"node": {"meshes": ["box"]}},
+        "meshes": {"box": {"primitives": [{"attributes": {"POSITION": "pos"}, "mode": 4}]}},
+        "accessors": {"pos": {"bufferView": "view", "byteOffset": 0, "componentType": 5126, "count": 3,
+                              "type": "VEC3"}},
+        "bufferViews": {"view": {"buffer": "buf", "byteOffset": 0, "byteLength": 36}},
+        "buffers": {"buf": {"byteLength": 36, "uri": "data:application/octet-stream;base64,)" +
+                           test::base64(std::string(36, '\0')) + R"("}}})";
+    expect_refused("v1.gltf", v1, "1.0");
+    // A numeric version (tinygltf refuses the asset object).
+    std::string numeric = v1;
+    numeric.replace(numeric.find(R"("version": "1.0")"), 16, R"("version": 1)");
+    expect_refused("v1_number.gltf", numeric, "1");
+    // No version at all, the 1.0 layout.
+    std::string unversioned = v1;
+    unversioned.replace(unversioned.find(R"("version": "1.0")"), 16, R"("generator": "x")");
+    expect_refused("v1_unversioned.gltf", unversioned, "1.0");
+    // A GLB container of version 1 (KHR_binary_glTF).
+    std::string glb1 = two_boxes().builder.glb();
+    glb1[4] = 1;
+    try
+    {
+        test::put_bytes(dir / "v1.glb", glb1);
+        static_cast<void>(read_mesh_file(dir / "v1.glb"));
+        ADD_FAILURE() << "v1.glb was accepted";
+    }
+    catch (const IoError& e)
+    {
+        EXPECT_NE(std::string(e.what()).find("glTF 1.0 binary"), std::string::npos) << e.what();
+    }
+}
+
 TEST_F(GltfTest, hostile_files_fail_with_one_sentence_naming_the_file)
 {
     const auto t = two_boxes();

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <utility>
 #include <vector>
@@ -370,6 +371,42 @@ TEST(FacadeTest, in_place_embed_replaces_the_input_whole_with_the_marked_copy)
     EXPECT_EQ(fs::status(input).permissions() & fs::perms::all,
               fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read);
     EXPECT_EQ(hidden_files(dir), 0);
+}
+
+// A mesh with fewer usable vertices than the basis has functions (a box, a lone triangle, a
+// glTF whose primitives are lines) is refused in one sentence naming the file, by embed and by
+// the recipients' embed, with nothing written.
+TEST(FacadeTest, a_mesh_too_small_for_the_basis_is_refused_naming_the_file)
+{
+    const fs::path dir = test::temp_dir("facade-small");
+    write_mesh(dir / "small.obj", icosphere(1));
+    std::ofstream(dir / "nothing.obj") << "o empty\n";
+    const auto expect_refused = [&](const auto& run, const std::string& name, const std::string& reason) {
+        try
+        {
+            run();
+            ADD_FAILURE() << name << " was accepted";
+        }
+        catch (const InvalidMesh& e)
+        {
+            const std::string what = e.what();
+            EXPECT_EQ(what.rfind((dir / name).string() + ": ", 0), 0U) << what;
+            EXPECT_NE(what.find(reason), std::string::npos) << what;
+        }
+        EXPECT_FALSE(fs::exists(dir / "marked.obj"));
+        EXPECT_FALSE(fs::exists(dir / "key.json"));
+    };
+    expect_refused([&] { (void)embed_file(dir / "small.obj", dir / "marked.obj", dir / "key.json", seeded(3)); },
+                   "small.obj", "42 usable vertices, fewer than the 60 basis functions");
+    expect_refused([&] { (void)embed_file(dir / "nothing.obj", dir / "marked.obj", dir / "key.json", seeded(3)); },
+                   "nothing.obj", "nothing to watermark");
+    EmbedRecipientsOptions family;
+    family.seed = 3;
+    family.recipients = {"ann"};
+    expect_refused(
+        [&] { (void)embed_recipients(dir / "small.obj", (dir / "{recipient}.obj").string(), dir / "key.json", family); },
+        "small.obj", "42 usable vertices, fewer than the");
+    EXPECT_FALSE(fs::exists(dir / "ann.obj"));
 }
 
 TEST(FacadeTest, make_key_takes_the_payload_from_the_message_hex_or_seed)
