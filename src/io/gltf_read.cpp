@@ -34,26 +34,6 @@ bool skip_image(tinygltf::Image*, const int, std::string*, std::string*, int, in
     return true;
 }
 
-std::string percent_decoded(const std::string& uri)
-{
-    std::string out;
-    for (std::size_t i = 0; i < uri.size(); ++i)
-    {
-        if (uri[i] == '%' && i + 2 < uri.size() &&
-            std::isxdigit(static_cast<unsigned char>(uri[i + 1])) != 0 &&
-            std::isxdigit(static_cast<unsigned char>(uri[i + 2])) != 0)
-        {
-            out += static_cast<char>(std::stoi(uri.substr(i + 1, 2), nullptr, 16));
-            i += 2;
-        }
-        else
-        {
-            out += uri[i];
-        }
-    }
-    return out;
-}
-
 std::string first_line(const std::string& text)
 {
     const auto end = text.find('\n');
@@ -362,10 +342,31 @@ tinygltf::Model load_model(const fs::path& path, const std::string& file_bytes,
 
 }  // namespace
 
+std::string percent_decoded(const std::string& uri)
+{
+    std::string out;
+    for (std::size_t i = 0; i < uri.size(); ++i)
+    {
+        if (uri[i] == '%' && i + 2 < uri.size() &&
+            std::isxdigit(static_cast<unsigned char>(uri[i + 1])) != 0 &&
+            std::isxdigit(static_cast<unsigned char>(uri[i + 2])) != 0)
+        {
+            out += static_cast<char>(std::stoi(uri.substr(i + 1, 2), nullptr, 16));
+            i += 2;
+        }
+        else
+        {
+            out += uri[i];
+        }
+    }
+    return out;
+}
+
 TriangleMesh read_gltf(const fs::path& path, const std::string& bytes, bool is_glb,
                        GltfAsset& asset)
 {
     asset.is_glb = is_glb;
+    asset.folder = path.parent_path();
     // The container first (GLB chunks), then tinygltf's parse and buffer loading.
     if (is_glb)
     {

@@ -10,6 +10,7 @@
 #include <array>
 #include <cctype>
 #include <cstring>
+#include <fstream>
 #include <limits>
 #include <string_view>
 
@@ -126,6 +127,66 @@ std::vector<std::pair<fs::path, std::string>> GltfWriter::external_files()
     return files;
 }
 
+// Images with relative URIs resolve against the asset's folder. Written to another folder,
+// the marked asset would show no textures, so each image the source has is copied beside the
+// output under the same relative path (the folders made as needed), unless a file with the same
+// bytes is already there (copies for several recipients in one folder share them). An image
+// whose path would leave the output's folder ("../x.png") or whose place holds another file
+// keeps the source's image instead: its URI is rewritten to reach it from the output. A
+// missing image is left as it was (the source shows none either). Returns (from, to) pairs.
+std::vector<std::pair<fs::path, fs::path>> GltfWriter::image_copies()
+{
+    std::vector<std::pair<fs::path, fs::path>> copies;
+    const fs::path from_folder = asset_.folder.empty() ? fs::path(".") : asset_.folder;
+    const fs::path to_folder = path_.parent_path().empty() ? fs::path(".") : path_.parent_path();
+    if (is_same_file(from_folder, to_folder) || !doc().contains("images") || !doc()["images"].is_array())
+    {
+        return copies;
+    }
+    for (auto& image : doc()["images"])
+    {
+        if (!image.is_object() || !image.contains("uri") || !image["uri"].is_string())
+        {
+            continue;
+        }
+        const std::string uri = image["uri"].get<std::string>();
+        if (uri.rfind("data:", 0) == 0 || uri.find(':') != std::string::npos)
+        {
+            continue;  // embedded, or an absolute URI (a scheme): resolves anywhere
+        }
+        const fs::path relative = fs::path(percent_decoded(uri)).lexically_normal();
+        const fs::path from = from_folder / relative;
+        std::error_code error;
+        if (!fs::is_regular_file(from, error))
+        {
+            continue;
+        }
+        const fs::path to = to_folder / relative;
+        const bool stays_inside = relative.is_relative() && !relative.empty() && *relative.begin() != "..";
+        if (stays_inside && !fs::exists(to, error))
+        {
+            copies.emplace_back(from, to);
+            continue;
+        }
+        if (stays_inside && fs::is_regular_file(to, error) && read_file_bytes(to) == read_file_bytes(from))
+        {
+            continue;
+        }
+        const fs::path reach = fs::relative(fs::absolute(from, error), fs::absolute(to_folder, error), error);
+        if (!error && !reach.empty())
+        {
+            std::string encoded;
+            for (const auto& part : reach)
+            {
+                encoded += (encoded.empty() ? "" : "/") + percent_encoded(part.string());
+            }
+            image["uri"] = encoded;
+            is_json_changed_ = true;
+        }
+    }
+    return copies;
+}
+
 std::string GltfWriter::json_text()
 {
     for (std::size_t b = 0; b < asset_.buffers.size(); ++b)
@@ -201,6 +262,7 @@ void GltfWriter::run(bool is_glb)
         }
     }
     const auto files = external_files();
+    const auto images = image_copies();
     std::string main;
     if (is_glb)
     {
@@ -227,10 +289,24 @@ void GltfWriter::run(bool is_glb)
         main = json_text();
     }
 
-    // Buffers beside the output first, then the asset; on failure nothing new is left.
+    // Buffers and images beside the output first, then the asset; on failure nothing new is
+    // left (the files written and the folders made for images).
     std::vector<fs::path> written;
+    std::vector<fs::path> made;
     try
     {
+        for (const auto& [from, to] : images)
+        {
+            for (fs::path folder = to.parent_path(); !folder.empty() && !fs::exists(folder);
+                 folder = folder.parent_path())
+            {
+                made.push_back(folder);
+            }
+            fs::create_directories(to.parent_path());
+            write_file_atomically(to, [&from = from](std::ostream& out)
+                                  { out << std::ifstream(from, std::ios::binary).rdbuf(); });
+            written.push_back(to);
+        }
         for (const auto& [file, bytes] : files)
         {
             write_file_atomically(
@@ -248,6 +324,12 @@ void GltfWriter::run(bool is_glb)
         for (const auto& file : written)
         {
             fs::remove(file, ignored);
+        }
+        std::sort(made.begin(), made.end(), [](const fs::path& a, const fs::path& b)
+                  { return a.native().size() > b.native().size(); });
+        for (const auto& folder : made)  // deepest first; each only if empty
+        {
+            fs::remove(folder, ignored);
         }
         throw;
     }

@@ -131,6 +131,40 @@ TEST(RealAssetsInterop, MarksKhronosEngineAsGlbAndAsDracoGltf)
     }
 }
 
+// Khronos' ClearCoatTest, a .gltf whose six textures are files beside it, marked into another
+// folder: the validator finds every texture (before, six IO_ERRORs: "not found") and the same
+// issues as in the source, and the independent reader the same positions up to the mark.
+TEST(RealAssetsInterop, ATexturedGltfMarkedIntoAnotherFolderKeepsItsTextures)
+{
+    INTEROP_REQUIRE_TOOLS("meshmark", "node", "assimp-testmodels");
+    const fs::path scratch = temp_dir("interop-real-textures");
+    const fs::path input = kModels / "glTF2/ClearCoat-glTF/ClearCoatTest.gltf";
+    const fs::path marked = scratch / "out" / "marked.gltf";
+    fs::create_directories(marked.parent_path());
+    const ToolRun marking = embed(input, marked, scratch / "key.json", kSeed, scratch);
+    ASSERT_TRUE(marking.ok()) << marking.describe();
+
+    std::string error;
+    const Validation source = validate(input, scratch, &error);
+    ASSERT_TRUE(error.empty()) << error;
+    const Validation validation = validate(marked, scratch, &error);
+    ASSERT_TRUE(error.empty()) << error;
+    EXPECT_EQ(validation.codes.find("IO_ERROR"), std::string::npos) << validation.messages;
+    EXPECT_EQ(validation.errors, source.errors) << validation.messages;
+    EXPECT_EQ(validation.codes, source.codes);
+    for (const char* image : {"ClearCoatLabels.png", "PartialCoating.png", "PlasticWrap_normals.jpg"})
+    {
+        EXPECT_EQ(file_bytes(marked.parent_path() / image), file_bytes(input.parent_path() / image)) << image;
+    }
+    const Positions before = independent_read(input, scratch, &error);
+    ASSERT_TRUE(error.empty()) << error;
+    const Positions after = independent_read(marked, scratch, &error);
+    ASSERT_TRUE(error.empty()) << error;
+    ASSERT_EQ(before.rows(), after.rows());
+    EXPECT_GT((after - before).rowwise().norm().maxCoeff(), 0.0);
+    EXPECT_LT((after - before).rowwise().norm().maxCoeff() / bounds(before).diagonal(), 5e-3);
+}
+
 // The engine voxel-remeshed (meshmark's voxel step reproduces Blender's Remesh modifier) and
 // turned from Y up to Z up, as Blender writes it: the voxel surface keeps the outer shell of
 // the assembly and drops its inner parts, so its moments (RMS radius, principal axes) are no

@@ -159,6 +159,7 @@ struct GltfAsset
 {
     bool is_glb = false;
     std::string json;                 ///< The JSON text exactly as read.
+    std::filesystem::path folder;     ///< The source's folder, which relative URIs resolve against.
     std::vector<GltfBuffer> buffers;  ///< Indexed like the JSON "buffers".
     std::string glb_tail;             ///< GLB: chunks after the BIN chunk, verbatim.
     bool glb_has_bin = false;         ///< GLB: the file has a BIN chunk.
@@ -181,6 +182,9 @@ struct GltfAsset
 /// unsigned, [-(2^(b-1) - 1), 2^(b-1) - 1] signed normalized (its most negative value reads as
 /// the next one), the full range signed otherwise; infinite bounds for Float32.
 [[nodiscard]] std::pair<double, double> stored_range(GltfComponent component, bool is_normalized);
+
+/// A URI with its %XX escapes decoded (the file name of a relative URI).
+[[nodiscard]] std::string percent_decoded(const std::string& uri);
 
 /// Read a .gltf or .glb (already in \p bytes) into its welded world-frame mesh.
 [[nodiscard]] TriangleMesh read_gltf(const std::filesystem::path& path, const std::string& bytes,

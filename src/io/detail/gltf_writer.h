@@ -58,6 +58,7 @@ private:
     // gltf_write.cpp
     GltfJson& doc();
     std::vector<std::pair<std::filesystem::path, std::string>> external_files();
+    std::vector<std::pair<std::filesystem::path, std::filesystem::path>> image_copies();
     std::string json_text();
     [[noreturn]] void fail(const std::string& what) const;
 

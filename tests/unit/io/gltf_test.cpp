@@ -372,6 +372,59 @@ TEST_F(GltfTest, external_buffer_is_written_beside_the_output_and_the_input_is_u
               "scene_wm.bin");
 }
 
+// Images with relative URIs: written to another folder, the marked asset must still show its
+// textures. Each image is copied beside the output (same relative path), unless the same bytes
+// are there already; one whose path leaves the output's folder or whose place holds another
+// file is reached from the output instead; a missing image, a data: URI and an output in the
+// source's folder change nothing; a failed write leaves no image or folder behind.
+TEST_F(GltfTest, images_are_copied_beside_an_output_in_another_folder_or_reached_from_it)
+{
+    auto t = two_boxes();
+    t.builder.doc["images"] = Json::array({{{"uri", "tex/a%20b.png"}},
+                                           {{"uri", "../shared.png"}},
+                                           {{"uri", "clash.png"}},
+                                           {{"uri", "same.png"}},
+                                           {{"uri", "missing.png"}},
+                                           {{"uri", "data:image/png;base64,AAAA"}}});
+    fs::create_directories(dir / "src" / "tex");
+    fs::create_directories(dir / "out" / "dst");
+    test::put_bytes(dir / "src" / "scene.gltf", t.builder.gltf());
+    test::put_bytes(dir / "src" / "tex" / "a b.png", "A");
+    test::put_bytes(dir / "shared.png", "S");
+    test::put_bytes(dir / "src" / "clash.png", "C");
+    test::put_bytes(dir / "src" / "same.png", "M");
+    test::put_bytes(dir / "out" / "dst" / "clash.png", "another file");
+    test::put_bytes(dir / "out" / "dst" / "same.png", "M");
+    const std::string source = test::file_bytes(dir / "src" / "scene.gltf");
+    const MeshFile file = read_mesh_file(dir / "src" / "scene.gltf");
+    const Positions moved = displaced(file.mesh.V);
+
+    write_mesh_file(dir / "out" / "dst" / "marked.gltf", file, moved);
+    const Json images = Json::parse(test::file_bytes(dir / "out" / "dst" / "marked.gltf"))["images"];
+    EXPECT_EQ(images[0]["uri"], "tex/a%20b.png");
+    EXPECT_EQ(test::file_bytes(dir / "out" / "dst" / "tex" / "a b.png"), "A");
+    EXPECT_EQ(images[1]["uri"], "../../shared.png");
+    EXPECT_EQ(images[2]["uri"], "../../src/clash.png");
+    EXPECT_EQ(test::file_bytes(dir / "out" / "dst" / "clash.png"), "another file");
+    EXPECT_EQ(images[3]["uri"], "same.png");
+    EXPECT_EQ(images[4]["uri"], "missing.png");
+    EXPECT_FALSE(fs::exists(dir / "out" / "dst" / "missing.png"));
+    EXPECT_EQ(images[5]["uri"], "data:image/png;base64,AAAA");
+    EXPECT_FALSE(fs::exists(dir / "out" / "dst" / "shared.png"));
+    EXPECT_EQ(test::file_bytes(dir / "src" / "scene.gltf"), source);
+    EXPECT_LT((read_mesh_file(dir / "out" / "dst" / "marked.gltf").mesh.V - moved).cwiseAbs().maxCoeff(), 1e-6);
+
+    // In the source's folder every URI already resolves: the images are left as they are.
+    write_mesh_file(dir / "src" / "marked.gltf", file, moved);
+    EXPECT_EQ(Json::parse(test::file_bytes(dir / "src" / "marked.gltf"))["images"], t.builder.doc["images"]);
+
+    // The asset cannot be written (its name is a folder): no image and no folder are left.
+    fs::create_directories(dir / "fail" / "m.gltf");
+    EXPECT_THROW(write_mesh_file(dir / "fail" / "m.gltf", file, moved), Error);
+    EXPECT_FALSE(fs::exists(dir / "fail" / "tex"));
+    EXPECT_FALSE(fs::exists(dir / "fail" / "same.png"));
+}
+
 TEST_F(GltfTest, instanced_mesh_is_watermarked_once_through_its_first_instance)
 {
     GltfBuilder b;
