@@ -156,29 +156,25 @@ std::vector<std::pair<fs::path, fs::path>> GltfWriter::image_copies()
         }
         const fs::path relative = fs::path(percent_decoded(uri)).lexically_normal();
         const fs::path from = from_folder / relative;
-        std::error_code error;
-        if (!fs::is_regular_file(from, error))
-        {
-            continue;
-        }
         const fs::path to = to_folder / relative;
         const bool stays_inside = relative.is_relative() && !relative.empty() && *relative.begin() != "..";
-        if (stays_inside && !fs::exists(to, error))
+        std::error_code error;
+        if (stays_inside && fs::is_regular_file(from, error) && !fs::exists(to, error))
         {
             copies.emplace_back(from, to);
             continue;
         }
-        if (stays_inside && fs::is_regular_file(to, error) && read_file_bytes(to) == read_file_bytes(from))
-        {
-            continue;
-        }
-        const fs::path reach = fs::relative(fs::absolute(from, error), fs::absolute(to_folder, error), error);
-        if (!error && !reach.empty())
+        const auto reach = relinked(from_folder, to_folder, relative);
+        if (reach && !reach->empty())
         {
             std::string encoded;
-            for (const auto& part : reach)
+            for (const auto& part : *reach)
             {
-                encoded += (encoded.empty() ? "" : "/") + percent_encoded(part.string());
+                if (!encoded.empty())
+                {
+                    encoded += '/';
+                }
+                encoded += percent_encoded(part.string());
             }
             image["uri"] = encoded;
             is_json_changed_ = true;

@@ -205,7 +205,7 @@ void write_mesh_file(const std::filesystem::path& path, const MeshFile& source,
                     detail::preserved_3mf_bytes(path, *source.layout, source.mesh.V, positions));
         return;
     }
-    detail::write_preserved(path, *source.layout, source.mesh.V, positions);
+    detail::write_preserved(path, *source.layout, source.mesh.V, positions, source.path.parent_path());
 }
 
 }  // namespace meshmark

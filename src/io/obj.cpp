@@ -4,6 +4,7 @@
 // preserving writer. Hand-written: the packaged OBJ loaders do not report where each
 // coordinate token sits, which the byte-exact rewrite needs.
 #include <charconv>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -176,6 +177,80 @@ TriangleMesh read_obj(const std::filesystem::path& path, FileLayout& layout,
     is_single_precision = state.is_single_precision;
     layout.positions = std::move(state.slots);
     return mesh;
+}
+
+// `mtllib` names its libraries relative to the OBJ's folder, and a library names its textures
+// relative to itself: relinking the library (rather than copying it) keeps both resolvable
+// without parsing the MTL's texture options. The rest of the line names one file when the
+// source has a file by that whole name (exporters write names with spaces), else each token
+// names one, as the format says.
+std::string relinked_material_libraries(std::string bytes, const std::filesystem::path& source_folder,
+                                        const std::filesystem::path& output_folder)
+{
+    std::string out;
+    std::size_t copied = 0;  // bytes before it are in `out`
+    LineCursor lines(bytes);
+    std::string_view line;
+    while (lines.next(line))
+    {
+        TokenCursor tokens(line);
+        std::string_view keyword;
+        if (!tokens.next(keyword) || keyword != "mtllib")
+        {
+            continue;
+        }
+        auto first = static_cast<std::size_t>(keyword.data() + keyword.size() - line.data());
+        auto last = line.size();
+        while (first < last && is_blank(line[first]))
+        {
+            ++first;
+        }
+        while (last > first && is_blank(line[last - 1]))
+        {
+            --last;
+        }
+        const std::string_view rest = line.substr(first, last - first);
+        std::vector<std::string_view> names;
+        std::error_code error;
+        if (std::filesystem::is_regular_file(source_folder / std::string(rest), error))
+        {
+            names.push_back(rest);
+        }
+        else
+        {
+            TokenCursor parts(rest);
+            for (std::string_view name; parts.next(name);)
+            {
+                names.push_back(name);
+            }
+        }
+        std::string replaced;
+        bool is_changed = false;
+        for (const std::string_view name : names)
+        {
+            const auto reach = relinked(source_folder, output_folder, std::string(name));
+            const bool moves = reach && !reach->empty();
+            if (!replaced.empty())
+            {
+                replaced += ' ';
+            }
+            replaced += moves ? reach->generic_string() : std::string(name);
+            is_changed = is_changed || moves;
+        }
+        if (is_changed)
+        {
+            const auto at = static_cast<std::size_t>(line.data() - bytes.data());
+            out.append(bytes, copied, at + first - copied);
+            out += replaced;
+            copied = at + last;
+        }
+    }
+    if (copied == 0)
+    {
+        return bytes;
+    }
+    out.append(bytes, copied, std::string::npos);
+    return out;
 }
 
 std::string obj_bytes(const TriangleMesh& mesh, const WriteOptions& options)

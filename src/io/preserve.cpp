@@ -143,12 +143,17 @@ void fail_coordinate_range(const std::filesystem::path& path, std::uint64_t vert
 }
 
 void write_preserved(const std::filesystem::path& path, const FileLayout& layout,
-                     const Positions& original, const Positions& positions)
+                     const Positions& original, const Positions& positions,
+                     const std::filesystem::path& source_folder)
 {
     std::string bytes;
     if (const auto* text = std::get_if<TextPositions>(&layout.positions))
     {
         bytes = preserved_text(path, layout.bytes, *text, original, positions);
+        if (layout.format == MeshFormat::Obj)
+        {
+            bytes = relinked_material_libraries(std::move(bytes), source_folder, path.parent_path());
+        }
     }
     else if (const auto* binary = std::get_if<BinaryPositions>(&layout.positions))
     {

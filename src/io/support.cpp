@@ -88,6 +88,28 @@ std::string quoted(std::string_view token)
     return result;
 }
 
+std::optional<std::filesystem::path> relinked(const std::filesystem::path& source_folder,
+                                              const std::filesystem::path& output_folder,
+                                              const std::filesystem::path& name)
+{
+    namespace fs = std::filesystem;
+    const fs::path from_folder = source_folder.empty() ? fs::path(".") : source_folder;
+    const fs::path to_folder = output_folder.empty() ? fs::path(".") : output_folder;
+    std::error_code error;
+    const fs::path from = from_folder / name;
+    if (fs::equivalent(from_folder, to_folder, error) || !fs::is_regular_file(from, error))
+    {
+        return std::nullopt;
+    }
+    const fs::path there = to_folder / name;
+    if (fs::is_regular_file(there, error) && read_file_bytes(there) == read_file_bytes(from))
+    {
+        return std::nullopt;
+    }
+    fs::path reach = fs::relative(fs::absolute(from, error), fs::absolute(to_folder, error), error);
+    return error ? fs::path() : reach;
+}
+
 // POSIX open/fstat/read rather than iostreams: one allocation of the exact size and one
 // read call (looped only if the kernel returns less), which is what the speed target needs.
 std::string read_file_bytes(const std::filesystem::path& path)

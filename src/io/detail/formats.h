@@ -43,9 +43,18 @@ namespace meshmark::detail {
 /// \p positions to \p path, atomically: unchanged coordinates keep their bytes, changed ones
 /// follow the precision rules of mesh_io.h (text, binary PLY, STL layouts; a binary PLY is
 /// written in slices, never as a second whole copy).
+/// An OBJ's material libraries are relinked when \p path is in another folder than the
+/// source's, \p source_folder (relinked_material_libraries).
 /// \pre the positions are finite (check_finite).
 void write_preserved(const std::filesystem::path& path, const FileLayout& layout,
-                     const Positions& original, const Positions& positions);
+                     const Positions& original, const Positions& positions,
+                     const std::filesystem::path& source_folder);
+
+/// \brief \p bytes, an OBJ's text, with each `mtllib` file name that does not resolve from
+/// \p output_folder as it does from \p source_folder replaced by the relative path from the
+/// output's folder to the source's library (see relinked); \p bytes unchanged when none.
+[[nodiscard]] std::string relinked_material_libraries(std::string bytes, const std::filesystem::path& source_folder,
+                                                      const std::filesystem::path& output_folder);
 
 /// The STL part of write_preserved (facet corners and recomputed normals).
 [[nodiscard]] std::string preserved_stl_bytes(const std::filesystem::path& path,

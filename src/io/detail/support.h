@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -23,6 +24,15 @@ namespace meshmark::detail {
 
 /// The whole file, read with one read into memory; IoError when missing or unreadable.
 [[nodiscard]] std::string read_file_bytes(const std::filesystem::path& path);
+
+/// \brief Where a file written into \p output_folder finds \p resource, a file that its source
+/// in \p source_folder names by the relative \p name (a glTF's image, an OBJ's material
+/// library): std::nullopt when \p name still resolves from there (the same folder, a file with
+/// the same bytes at that place, or no such resource to reach), else the relative path from
+/// \p output_folder to the source's file (empty when there is none).
+[[nodiscard]] std::optional<std::filesystem::path> relinked(const std::filesystem::path& source_folder,
+                                                            const std::filesystem::path& output_folder,
+                                                            const std::filesystem::path& name);
 
 /// Spaces that separate tokens within a line (everything but '\n').
 [[nodiscard]] constexpr bool is_blank(char c) noexcept

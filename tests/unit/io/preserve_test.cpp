@@ -283,6 +283,37 @@ TEST(PreserveTest, writes_in_place_over_the_source)
     EXPECT_EQ(read_mesh(dir / "c.ply").V(3, 1), as_float(moved(3, 1)));
 }
 
+// An OBJ's `mtllib` names resolve against its folder (and the library's textures against the
+// library's): written to another folder, a library that is not there with the same bytes is
+// named by its path from the output, a name with spaces included; one already there, one the
+// source lacks and an output in the source's folder keep their lines; nothing else changes.
+TEST(PreserveTest, obj_material_libraries_are_reached_from_an_output_in_another_folder)
+{
+    const auto dir = test::temp_dir("preserve_mtllib");
+    std::filesystem::create_directories(dir / "src");
+    std::filesystem::create_directories(dir / "out" / "dst");
+    const std::string body = test::file_bytes(fixture("quad_faces.obj"));
+    const std::string head = "mtllib scene.mtl\nmtllib my materials.mtl\r\nmtllib same.mtl missing.mtl\n";
+    test::put_bytes(dir / "src" / "scene.obj", head + body);
+    test::put_bytes(dir / "src" / "scene.mtl", "newmtl a\n");
+    test::put_bytes(dir / "src" / "my materials.mtl", "newmtl b\n");
+    test::put_bytes(dir / "src" / "same.mtl", "newmtl c\n");
+    test::put_bytes(dir / "out" / "dst" / "same.mtl", "newmtl c\n");
+    const auto file = read_mesh_file(dir / "src" / "scene.obj");
+    const auto moved = perturbed(file.mesh.V);
+
+    write_mesh_file(dir / "out" / "dst" / "marked.obj", file, moved);
+    const std::string written = test::file_bytes(dir / "out" / "dst" / "marked.obj");
+    const std::string expected_head =
+        "mtllib ../../src/scene.mtl\nmtllib ../../src/my materials.mtl\r\nmtllib same.mtl missing.mtl\n";
+    ASSERT_EQ(written.substr(0, expected_head.size()), expected_head);
+    write_mesh_file(dir / "src" / "same_folder.obj", file, moved);
+    const std::string beside = test::file_bytes(dir / "src" / "same_folder.obj");
+    EXPECT_EQ(beside.substr(0, head.size()), head);
+    EXPECT_EQ(written.substr(expected_head.size()), beside.substr(head.size()));
+    EXPECT_EQ(read_mesh(dir / "out" / "dst" / "marked.obj").V, read_mesh(dir / "src" / "same_folder.obj").V);
+}
+
 TEST(PreserveTest, other_format_target_writes_the_generic_file)
 {
     const auto dir = test::temp_dir("preserve_other");
