@@ -184,11 +184,17 @@ TriangleMesh read_obj(const std::filesystem::path& path, FileLayout& layout,
 // without parsing the MTL's texture options. The rest of the line names one file when the
 // source has a file by that whole name (exporters write names with spaces), else each token
 // names one, as the format says.
-std::string relinked_material_libraries(std::string bytes, const std::filesystem::path& source_folder,
-                                        const std::filesystem::path& output_folder)
+std::vector<TextEdit> material_library_edits(std::string_view bytes, const std::filesystem::path& source_folder,
+                                             const std::filesystem::path& output_folder)
 {
-    std::string out;
-    std::size_t copied = 0;  // bytes before it are in `out`
+    std::vector<TextEdit> edits;
+    std::error_code error;
+    if (bytes.find("mtllib") == std::string_view::npos ||
+        std::filesystem::equivalent(source_folder.empty() ? "." : source_folder,
+                                    output_folder.empty() ? "." : output_folder, error))
+    {
+        return edits;  // (the usual cases: no scan of the lines)
+    }
     LineCursor lines(bytes);
     std::string_view line;
     while (lines.next(line))
@@ -211,7 +217,6 @@ std::string relinked_material_libraries(std::string bytes, const std::filesystem
         }
         const std::string_view rest = line.substr(first, last - first);
         std::vector<std::string_view> names;
-        std::error_code error;
         if (std::filesystem::is_regular_file(source_folder / std::string(rest), error))
         {
             names.push_back(rest);
@@ -240,17 +245,10 @@ std::string relinked_material_libraries(std::string bytes, const std::filesystem
         if (is_changed)
         {
             const auto at = static_cast<std::size_t>(line.data() - bytes.data());
-            out.append(bytes, copied, at + first - copied);
-            out += replaced;
-            copied = at + last;
+            edits.push_back({at + first, last - first, std::move(replaced)});
         }
     }
-    if (copied == 0)
-    {
-        return bytes;
-    }
-    out.append(bytes, copied, std::string::npos);
-    return out;
+    return edits;
 }
 
 std::string obj_bytes(const TriangleMesh& mesh, const WriteOptions& options)

@@ -152,7 +152,19 @@ void write_preserved(const std::filesystem::path& path, const FileLayout& layout
         bytes = preserved_text(path, layout.bytes, *text, original, positions);
         if (layout.format == MeshFormat::Obj)
         {
-            bytes = relinked_material_libraries(std::move(bytes), source_folder, path.parent_path());
+            // Streamed around the edits: no second copy of the text.
+            const auto edits = material_library_edits(bytes, source_folder, path.parent_path());
+            write_file_atomically(path, [&](std::ostream& out) {
+                std::size_t cursor = 0;
+                for (const TextEdit& edit : edits)
+                {
+                    out.write(bytes.data() + cursor, static_cast<std::streamsize>(edit.offset - cursor));
+                    out << edit.text;
+                    cursor = edit.offset + edit.length;
+                }
+                out.write(bytes.data() + cursor, static_cast<std::streamsize>(bytes.size() - cursor));
+            });
+            return;
         }
     }
     else if (const auto* binary = std::get_if<BinaryPositions>(&layout.positions))

@@ -4,6 +4,8 @@
 #include <filesystem>
 #include <ostream>
 #include <string>
+#include <string_view>
+#include <vector>
 
 #include "io/detail/file_layout.h"
 #include "meshmark/io/mesh_io.h"
@@ -44,17 +46,27 @@ namespace meshmark::detail {
 /// follow the precision rules of mesh_io.h (text, binary PLY, STL layouts; a binary PLY is
 /// written in slices, never as a second whole copy).
 /// An OBJ's material libraries are relinked when \p path is in another folder than the
-/// source's, \p source_folder (relinked_material_libraries).
+/// source's, \p source_folder (material_library_edits).
 /// \pre the positions are finite (check_finite).
 void write_preserved(const std::filesystem::path& path, const FileLayout& layout,
                      const Positions& original, const Positions& positions,
                      const std::filesystem::path& source_folder);
 
-/// \brief \p bytes, an OBJ's text, with each `mtllib` file name that does not resolve from
-/// \p output_folder as it does from \p source_folder replaced by the relative path from the
-/// output's folder to the source's library (see relinked); \p bytes unchanged when none.
-[[nodiscard]] std::string relinked_material_libraries(std::string bytes, const std::filesystem::path& source_folder,
-                                                      const std::filesystem::path& output_folder);
+/// A replacement of \p length bytes at \p offset of a text by \p text.
+struct TextEdit
+{
+    std::size_t offset = 0;
+    std::size_t length = 0;
+    std::string text;
+};
+
+/// \brief The edits of an OBJ's text \p bytes that name each `mtllib` file that does not
+/// resolve from \p output_folder as it does from \p source_folder by the relative path from
+/// the output's folder to the source's library (see relinked), in file order; none in the
+/// usual cases (no `mtllib`, the same folder).
+[[nodiscard]] std::vector<TextEdit> material_library_edits(std::string_view bytes,
+                                                           const std::filesystem::path& source_folder,
+                                                           const std::filesystem::path& output_folder);
 
 /// The STL part of write_preserved (facet corners and recomputed normals).
 [[nodiscard]] std::string preserved_stl_bytes(const std::filesystem::path& path,
