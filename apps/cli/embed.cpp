@@ -204,8 +204,10 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     auto* command = app.add_subcommand(
         "embed",
         "Watermark a mesh: writes the marked copy (same format as -o's extension; everything but "
-        "vertex positions is preserved when it is the input's format) and a key file (JSON, mode "
-        "0600) that, with the original, regenerates and detects the mark.");
+        "vertex positions is preserved when it is the input's format; written into another folder, "
+        "a .gltf's image files are copied beside it and an OBJ's material libraries are named by "
+        "their path from there) and a key file (JSON, mode 0600) that, with the original, "
+        "regenerates and detects the mark.");
     command->add_option("INPUT", args->input,
                         "Original mesh (.ply .obj .off .stl .gltf .glb .3mf); never modified")
         ->required()
