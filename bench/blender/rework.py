@@ -8,7 +8,7 @@ result against the original; the unmarked original goes through the same operati
 and each result is detected with every key (unmarked copies must not be claimed). Writes a
 markdown table (operation x mesh: marked copies detected / total, smallest score z, mean R;
 unmarked copies claimed) and a JSON file of every trial. Exits 1 on any error (a tool failing,
-an unreadable mesh; with --keep-going a gltf-transform or MeshLab failure is recorded, the run
+an unreadable mesh; with --keep-going a Blender, gltf-transform or MeshLab failure is recorded, the run
 goes on and exits 1 at the end), 2 on bad arguments. --ops (or --with-others) adds other tools' operations:
 gltf-transform simplify / weld, Open3D (open3d_attacks.py) and MeshLab (meshlabserver).
 
@@ -210,7 +210,16 @@ def rework(args, source, out_dir, seed, ops):
     others = [op for op in ops if op not in blender and op not in open3d]
     done = {}
     if blender:
-        done.update(blender_ops(args, source, os.path.join(out_dir, "blender"), seed, blender))
+        try:
+            done.update(blender_ops(args, source, os.path.join(out_dir, "blender"), seed, blender))
+        except Failure as e:
+            if not args.keep_going:
+                raise
+            # Blender 3.4's glTF writer raises on some real assets (an IndexError in its colour
+            # attribute export): every Blender operation of this run is recorded as failed.
+            print("rework.py: %s (--keep-going: recorded, going on)" % str(e).splitlines()[0], file=sys.stderr,
+                  flush=True)
+            done.update({op: {"op": op, "failed": str(e).splitlines()[0][:300]} for op in blender})
     if open3d:
         where = os.path.join(out_dir, "open3d")
         os.makedirs(where, exist_ok=True)
@@ -288,9 +297,9 @@ def run_mesh(args, mesh, work):
 
 def table(trials):
     failed = [t for t in trials if "tool_failed" in t]
-    trials = [t for t in trials if "tool_failed" not in t]
-    meshes = list(dict.fromkeys(t["mesh"] for t in trials))
+    meshes = list(dict.fromkeys(t["mesh"] for t in trials))  # a mesh every tool failed on included
     ops = list(dict.fromkeys(t["op"] for t in trials))
+    trials = [t for t in trials if "tool_failed" not in t]
     lines = ["| operation | " + " | ".join(meshes) + " | unmarked copies claimed |",
              "|---|" + "---|" * len(meshes) + "---|"]
     for op in ops:
@@ -355,8 +364,9 @@ def main():
     parser.add_argument("--markdown", help="write the table here (default: stdout)")
     parser.add_argument("--from-json", nargs="+", help="no runs: the table of these JSON files' trials")
     parser.add_argument("--keep-going", action="store_true",
-                        help="when gltf-transform or MeshLab fails on one operation, record it (the "
-                        "table's cell says 'tool failed') and go on; the exit code is still 1")
+                        help="when Blender, gltf-transform or MeshLab fails, record it (the table's "
+                        "cell says 'tool failed'; a Blender failure fails all its operations on that "
+                        "copy) and go on; the exit code is still 1")
     parser.add_argument("-q", "--quiet", action="store_true")
     args = parser.parse_args()
     if args.keys < 1:
