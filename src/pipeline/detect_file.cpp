@@ -7,6 +7,7 @@
 #include <cmath>
 #include <exception>
 #include <iterator>
+#include <numbers>
 #include <numeric>
 #include <optional>
 #include <thread>
@@ -718,8 +719,14 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
 // and lay a sample of its vertices on its own surface within kSymmetryTolerance mark
 // amplitudes RMS. Returned as 4x4 transforms in the original's frame.
 constexpr double kSymmetryTolerance = 2.0;
+constexpr double kSymmetryOnVertices = 0.25;  // mark amplitudes RMS, vertex to nearest vertex
+// Orders of the turns tried about each axis (2 pi j / k), and the most poses read besides the
+// registered one (the false-positive probability is multiplied by the poses read).
+constexpr std::array<int, 10> kSymmetryOrders = {3, 5, 6, 8, 10, 12, 16, 20, 24, 32};
+constexpr std::size_t kMaxSymmetries = 47;
 constexpr double kSymmetryMoments = 0.02;   // of the RMS radius squared / cubed
 constexpr Eigen::Index kSymmetrySample = 2048;
+constexpr std::size_t kSymmetryMomentRows = 65536;
 
 // The 24 proper rotations that map the coordinate axes onto signed coordinate axes.
 std::vector<Eigen::Matrix3d> signed_axis_rotations()
@@ -751,12 +758,16 @@ std::vector<Eigen::Matrix4d> self_symmetries(const TriangleMesh& original, doubl
     {
         return found;
     }
+    // The moments from at most kSymmetryMomentRows evenly spaced vertices (their sampling error,
+    // about 1/sqrt(rows) of the radius' powers, stays well inside kSymmetryMoments): a large
+    // asymmetric original is turned away in a few milliseconds.
     const std::vector<std::int32_t> rows = referenced_vertices(original);
-    const auto n = static_cast<Eigen::Index>(rows.size());
+    const auto stride = std::max<std::size_t>(1, rows.size() / kSymmetryMomentRows);
+    const auto n = static_cast<Eigen::Index>((rows.size() + stride - 1) / stride);
     Eigen::MatrixX3d X(n, 3);
     for (Eigen::Index i = 0; i < n; ++i)
     {
-        X.row(i) = original.V.row(rows[static_cast<std::size_t>(i)]);
+        X.row(i) = original.V.row(rows[static_cast<std::size_t>(i) * stride]);
     }
     const Eigen::RowVector3d centroid = X.colwise().mean();
     X.rowwise() -= centroid;
@@ -820,18 +831,43 @@ std::vector<Eigen::Matrix4d> self_symmetries(const TriangleMesh& original, doubl
     {
         P.col(0) = -P.col(0);
     }
-    std::vector<Eigen::Matrix3d> rotations;
+    // The coordinate-axis rotations (tested against the surface), and the turns by 2 pi j / k
+    // about each axis (tested vertex on vertex: a surface of revolution fits its own surface at
+    // any angle, but a registration settles only where its vertices land on vertices, as a UV
+    // sphere's 12 meridians do every 30 degrees).
+    struct Rotation
+    {
+        Eigen::Matrix3d R;
+        bool on_vertices = false;
+    };
+    std::vector<Rotation> rotations;
+    const auto add = [&](const Eigen::Matrix3d& R, bool on_vertices) {
+        const bool is_new = !R.isIdentity(1e-9) && std::none_of(rotations.begin(), rotations.end(), [&](const auto& Q) {
+            return (Q.R - R).norm() < 1e-6;
+        });
+        if (is_new && keeps_moments(R))
+        {
+            rotations.push_back({R, on_vertices});
+        }
+    };
     for (const Eigen::Matrix3d& frame : {Eigen::Matrix3d(Eigen::Matrix3d::Identity()), P})
     {
         for (const Eigen::Matrix3d& A : signed_axis_rotations())
         {
-            const Eigen::Matrix3d R = frame * A * frame.transpose();
-            const bool is_new = !R.isIdentity(1e-9) && std::none_of(rotations.begin(), rotations.end(), [&](const auto& Q) {
-                return (Q - R).norm() < 1e-6;
-            });
-            if (is_new && keeps_moments(R))
+            add(frame * A * frame.transpose(), false);
+        }
+    }
+    for (const Eigen::Matrix3d& frame : {Eigen::Matrix3d(Eigen::Matrix3d::Identity()), P})
+    {
+        for (int axis = 0; axis < 3; ++axis)
+        {
+            for (const int k : kSymmetryOrders)
             {
-                rotations.push_back(R);
+                for (int j = 1; j < k; ++j)
+                {
+                    const double angle = 2.0 * std::numbers::pi * static_cast<double>(j) / static_cast<double>(k);
+                    add(Eigen::AngleAxisd(angle, frame.col(axis)).toRotationMatrix(), true);
+                }
             }
         }
     }
@@ -840,21 +876,48 @@ std::vector<Eigen::Matrix4d> self_symmetries(const TriangleMesh& original, doubl
         return found;
     }
     const ClosestPointIndex surface(original);
+    std::optional<PointKdTree> vertices;
     const Eigen::Index step = std::max<Eigen::Index>(1, n / kSymmetrySample);
     Positions sample((n + step - 1) / step, 3);
     for (Eigen::Index i = 0; i < sample.rows(); ++i)
     {
         sample.row(i) = X.row(i * step);
     }
-    for (const Eigen::Matrix3d& R : rotations)
+    for (const auto& [R, on_vertices] : rotations)
     {
+        if (found.size() >= kMaxSymmetries)
+        {
+            break;
+        }
         Positions moved = (sample * R.transpose()).rowwise() + centroid;
         double squares = 0.0;
-        for (const ClosestPoint& c : surface.closest(moved, threads))
+        if (on_vertices)
         {
-            squares += c.distance * c.distance;
+            if (!vertices)
+            {
+                Positions all(static_cast<Eigen::Index>(rows.size()), 3);
+                for (std::size_t i = 0; i < rows.size(); ++i)
+                {
+                    all.row(static_cast<Eigen::Index>(i)) = original.V.row(rows[i]);
+                }
+                vertices.emplace(std::move(all));
+            }
+            for (Eigen::Index i = 0; i < moved.rows(); ++i)
+            {
+                double squared = 0.0;
+                (void)vertices->nearest(moved.row(i).transpose(), squared);
+                squares += squared;
+            }
         }
-        if (std::sqrt(squares / static_cast<double>(sample.rows())) <= kSymmetryTolerance * amplitude)
+        else
+        {
+            for (const ClosestPoint& c : surface.closest(moved, threads))
+            {
+                squares += c.distance * c.distance;
+            }
+        }
+        const double tolerance = on_vertices ? kSymmetryOnVertices : kSymmetryTolerance;
+        if (std::sqrt(squares / static_cast<double>(sample.rows())) <= tolerance * amplitude)
         {
             Eigen::Matrix4d S = Eigen::Matrix4d::Identity();
             S.topLeftCorner<3, 3>() = R;
