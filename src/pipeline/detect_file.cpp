@@ -1018,6 +1018,7 @@ DetectReport detect_mesh(const SpectralWatermark& mark, const TriangleMesh& orig
     DetectReport report;
     detail::PhaseTimer timer(report.seconds, options.progress);
     detect_into(report, timer, mark, original, TriangleMesh{}, suspect, "suspect", options);
+    read_symmetric_poses(report, timer, mark, original, TriangleMesh{}, suspect, "suspect", options);
     return report;
 }
 
