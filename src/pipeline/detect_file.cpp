@@ -971,16 +971,12 @@ void read_symmetric_poses(DetectReport& report, detail::PhaseTimer& timer, const
         }
         const Eigen::Matrix4d pose = S.inverse() * registered;
         DetectReport other;
-        other.seconds = report.seconds;
         detect_into(other, timer, mark, original, instances, suspect, suspect_path, options, &pose);
         bounded(other);
         if (other.decision.false_positive_probability < report.decision.false_positive_probability)
         {
+            other.seconds = std::move(report.seconds);  // (the timer writes into the first report's)
             report = std::move(other);
-        }
-        else
-        {
-            report.seconds = other.seconds;
         }
     }
 }

@@ -20,7 +20,9 @@ nlohmann::json to_json(const PhaseTimings& timings)
     nlohmann::json object = nlohmann::json::object();
     for (const auto& [name, seconds] : timings.phases)
     {
-        object[name] = seconds;
+        // A phase that ran more than once (a symmetric original's poses each register, match
+        // and read) reports its whole time.
+        object[name] = object.value(name, 0.0) + seconds;
     }
     object["total"] = timings.total;
     return object;
