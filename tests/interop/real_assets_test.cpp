@@ -80,6 +80,35 @@ double registration_scale(const nlohmann::json& report)
     return std::hypot(T[0][0].get<double>(), T[1][0].get<double>(), T[2][0].get<double>());
 }
 
+// A model of assimp-testmodels converted to \p scratch / \p name (.glb) and marked with key
+// seed 1 into scratch / marked.glb and scratch / key.json; empty when a step failed (the
+// failure recorded in \p error).
+struct ConvertedAndMarked
+{
+    fs::path original;
+    fs::path marked;
+    fs::path key;
+};
+
+ConvertedAndMarked convert_and_mark(const fs::path& model, const std::string& name, const fs::path& scratch,
+                                    std::string* error)
+{
+    ConvertedAndMarked files{scratch / name, scratch / "marked.glb", scratch / "key.json"};
+    const ToolRun convert = assimp_to_glb(kModels / model, files.original, scratch);
+    if (!convert.ok() || !fs::exists(files.original))
+    {
+        *error = convert.describe();
+        return {};
+    }
+    const ToolRun marking = embed(files.original, files.marked, files.key, "1", scratch);
+    if (!marking.ok())
+    {
+        *error = marking.describe();
+        return {};
+    }
+    return files;
+}
+
 }  // namespace
 
 // Khronos' engine, 115 primitives under a node tree: the marked .glb and the marked Draco
@@ -232,13 +261,9 @@ TEST(RealAssetsInterop, BlenderRoundTripsOfAConvertedRiggedCharacterAreClaimed)
 {
     INTEROP_REQUIRE_TOOLS("meshmark", "blender", "assimp-testmodels", "assimp");
     const fs::path scratch = temp_dir("interop-real-rig");
-    const fs::path original = scratch / "character.glb";
-    const ToolRun convert = assimp_to_glb(kModels / "X/BCN_Epileptic.X", original, scratch);
-    ASSERT_TRUE(convert.ok() && fs::exists(original)) << convert.describe();
-    const fs::path marked = scratch / "marked.glb";
-    const fs::path key = scratch / "key.json";
-    const ToolRun marking = embed(original, marked, key, "1", scratch);
-    ASSERT_TRUE(marking.ok()) << marking.describe();
+    std::string error;
+    const auto [original, marked, key] = convert_and_mark("X/BCN_Epileptic.X", "character.glb", scratch, &error);
+    ASSERT_TRUE(error.empty()) << error;
     const fs::path out = scratch / "blender";
     const ToolRun blender = blender_attacks(marked, out, {"gltf", "ply"}, scratch);
     ASSERT_TRUE(blender.ok()) << blender.describe();
@@ -262,13 +287,9 @@ TEST(RealAssetsInterop, ABlenderCopyOfASymmetricEggIsReadInItsTwinPoses)
 {
     INTEROP_REQUIRE_TOOLS("meshmark", "blender", "assimp-testmodels", "assimp");
     const fs::path scratch = temp_dir("interop-real-egg");
-    const fs::path original = scratch / "egg.glb";
-    const ToolRun convert = assimp_to_glb(kModels / "DXF/PinkEggFromLW.dxf", original, scratch);
-    ASSERT_TRUE(convert.ok() && fs::exists(original)) << convert.describe();
-    const fs::path marked = scratch / "marked.glb";
-    const fs::path key = scratch / "key.json";
-    const ToolRun marking = embed(original, marked, key, "1", scratch);
-    ASSERT_TRUE(marking.ok()) << marking.describe();
+    std::string error;
+    const auto [original, marked, key] = convert_and_mark("DXF/PinkEggFromLW.dxf", "egg.glb", scratch, &error);
+    ASSERT_TRUE(error.empty()) << error;
     for (const auto& [input, folder] : {std::pair{marked, scratch / "marked"}, std::pair{original, scratch / "clean"}})
     {
         const ToolRun blender = blender_attacks(input, folder, {"ply"}, scratch);
