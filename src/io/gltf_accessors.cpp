@@ -4,6 +4,8 @@
 // normalized integers (KHR_mesh_quantization) to the coordinates a renderer sees.
 #include <algorithm>
 #include <limits>
+#include <cmath>
+#include <utility>
 
 #include "io/detail/gltf_reader.h"
 #include "io/detail/numbers.h"
@@ -84,6 +86,53 @@ bool GltfAccessors::is_view_in_buffer(const tinygltf::BufferView& view) const
     }
     const std::uint64_t size = asset_.buffers[static_cast<std::size_t>(view.buffer)].bytes.size();
     return view.byteOffset <= size && view.byteLength <= size - view.byteOffset;
+}
+
+std::vector<double> GltfAccessors::values(int accessor, int components, const std::string& what,
+                                          bool integers_only) const
+{
+    if (accessor < 0 || static_cast<std::size_t>(accessor) >= model_.accessors.size())
+    {
+        fail_io(path_, what + " accessor " + std::to_string(accessor) + " is missing");
+    }
+    const auto& acc = model_.accessors[static_cast<std::size_t>(accessor)];
+    const auto [expected_type, type_name] = [&]() -> std::pair<int, const char*> {
+        switch (components)
+        {
+            case 1: return {TINYGLTF_TYPE_SCALAR, "SCALAR"};
+            case 3: return {TINYGLTF_TYPE_VEC3, "VEC3"};
+            case 4: return {TINYGLTF_TYPE_VEC4, "VEC4"};
+            default: return {TINYGLTF_TYPE_MAT4, "MAT4"};
+        }
+    }();
+    if (acc.type != expected_type)
+    {
+        fail_io(path_, what + " accessor " + std::to_string(accessor) + " is not a " + type_name);
+    }
+    const auto component = component_of(acc.componentType);
+    if (!component || (integers_only && (*component == GltfComponent::Float32 || acc.normalized)))
+    {
+        fail_io(path_, what + " accessor " + std::to_string(accessor) + " has an unsupported component type");
+    }
+    const std::vector<GltfElement> elements = locate(accessor, components, what);
+    const auto type = scalar_of(*component);
+    const std::size_t size = component_size(*component);
+    std::vector<double> values(elements.size() * static_cast<std::size_t>(components), 0.0);
+    for (std::size_t e = 0; e < elements.size(); ++e)
+    {
+        const auto& el = elements[e];
+        for (std::size_t d = 0; d < static_cast<std::size_t>(components) && el.buffer >= 0; ++d)
+        {
+            const char* p = asset_.buffers[static_cast<std::size_t>(el.buffer)].bytes.data() + el.offset + d * size;
+            const double v = dequantize(load_scalar(p, type, false), *component, acc.normalized);
+            if (!std::isfinite(v))
+            {
+                fail_io(path_, what + " accessor " + std::to_string(accessor) + " has a non-finite value");
+            }
+            values[e * static_cast<std::size_t>(components) + d] = v;
+        }
+    }
+    return values;
 }
 
 std::vector<GltfElement> GltfAccessors::locate(int accessor_index, int components,

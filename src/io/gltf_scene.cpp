@@ -19,79 +19,6 @@
 #include "meshmark/core/error.h"
 
 namespace meshmark::detail {
-namespace {
-
-namespace fs = std::filesystem;
-
-constexpr int kModePoints = 0;
-constexpr int kModeTriangles = 4;
-
-// Node visits allowed while walking the scene graph (a DAG of shared children can otherwise
-// explode exponentially in a hostile file).
-constexpr std::size_t kMaxNodeVisits = 1U << 20U;
-
-// A skinned primitive whose joints place every vertex within this fraction of its extent of
-// where its node's transform does is read through the node (the bind pose).
-constexpr double kBindPoseTolerance = 1e-6;
-
-// One vertex of one instance before welding.
-struct RawVertices
-{
-    std::vector<double> world;        // 3 per element
-    std::vector<std::int32_t> group;  // transform group per element
-};
-
-class Reader
-{
-public:
-    Reader(const fs::path& path, const tinygltf::Model& model, GltfAsset& asset)
-        : path_(path), model_(model), asset_(asset), accessors_(path, model, asset)
-    {
-    }
-
-    TriangleMesh run();
-
-private:
-    void walk(int node, const Eigen::Matrix4d& parent, std::vector<char>& on_stack);
-    void add_primitive(int mesh, int index, const Eigen::Matrix4d& to_world, int skin);
-    void add_plain(const tinygltf::Primitive& prim, int mesh, int index,
-                   const Eigen::Matrix4d& to_world, int skin);
-    std::vector<Eigen::Matrix4d> skinning(const tinygltf::Primitive& prim, int skin, std::size_t count,
-                                          const Eigen::Matrix4d& to_world);
-    std::vector<double> read_vectors(int accessor, int components, const std::string& what,
-                                     bool integers_only);
-    void compute_globals();
-    void add_draco(const tinygltf::Primitive& prim, int mesh, int index,
-                   const Eigen::Matrix4d& to_world);
-    void add_triangles(const tinygltf::Primitive& prim, int mesh, int index, std::size_t base,
-                       std::size_t count);
-    void add_triangles(const tinygltf::Primitive& prim, int mesh, int index, std::size_t base,
-                       std::size_t count, std::vector<std::size_t>& corners);
-    std::size_t add_instance(std::size_t first, std::size_t count, const Eigen::Matrix4d& from,
-                             const Eigen::Matrix4d& to);
-    std::int32_t group_of(const Eigen::Matrix4d& to_world);
-    void append_world(const std::vector<double>& local, const Eigen::Matrix4d& to_world,
-                      std::int32_t group);
-    TriangleMesh weld();
-    [[noreturn]] void fail(const std::string& what) const { fail_io(path_, what); }
-
-    const fs::path& path_;
-    const tinygltf::Model& model_;
-    GltfAsset& asset_;
-    GltfAccessors accessors_;
-    std::size_t visits_ = 0;
-    std::map<int, std::size_t> accessor_slot_;  // POSITION accessor -> asset_.accessors
-    std::map<int, std::size_t> draco_slot_;     // Draco bufferView -> asset_.draco
-    std::vector<std::size_t> slot_base_;        // first raw element of each accessor slot
-    std::vector<std::size_t> draco_base_;       // first raw element of each Draco slot
-    std::vector<std::pair<std::size_t, std::size_t>> draco_corners_;  // its range of corners_
-    std::vector<double> instance_xyz_;           // other instances, world frame, 3 per point
-    std::vector<std::size_t> instance_corners_;  // their triangles, into instance_xyz_
-    std::vector<Eigen::Matrix4d> groups_;        // distinct world transforms
-    RawVertices raw_;
-    std::vector<std::size_t> corners_;  // raw element ids, 3 per triangle
-    std::vector<Eigen::Matrix4d> globals_;  // every node's world matrix (skins' joints)
-};
 
 Eigen::Matrix4d local_matrix(const tinygltf::Node& node)
 {
@@ -126,6 +53,97 @@ Eigen::Matrix4d local_matrix(const tinygltf::Node& node)
     }
     return t.matrix();
 }
+
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr int kModePoints = 0;
+constexpr int kModeTriangles = 4;
+
+// Node visits allowed while walking the scene graph (a DAG of shared children can otherwise
+// explode exponentially in a hostile file).
+constexpr std::size_t kMaxNodeVisits = 1U << 20U;
+
+// A skinned primitive whose joints place every vertex within this fraction of its extent of
+// where its node's transform does is read through the node (the bind pose).
+constexpr double kBindPoseTolerance = 1e-6;
+
+// One vertex of one instance before welding.
+struct RawVertices
+{
+    std::vector<double> world;        // 3 per element
+    std::vector<std::int32_t> group;  // transform group per element
+};
+
+class Reader
+{
+public:
+    Reader(const fs::path& path, const tinygltf::Model& model, GltfAsset& asset)
+        : path_(path), model_(model), asset_(asset), accessors_(path, model, asset)
+    {
+    }
+
+    TriangleMesh run();
+
+private:
+    // A node's world matrix as stored, and in the shown pose (the same when not animated).
+    struct Placement
+    {
+        Eigen::Matrix4d to_world;
+        Eigen::Matrix4d posed;
+    };
+
+    void walk(int node, const Placement& parent, std::vector<char>& on_stack);
+    void add_primitive(int mesh, int index, const Placement& place, int skin);
+    void add_plain(const tinygltf::Primitive& prim, int mesh, int index, const Placement& place, int skin);
+    std::vector<Eigen::Matrix4d> skinning(const tinygltf::Primitive& prim, int skin, std::size_t count,
+                                          const Eigen::Matrix4d& to_world,
+                                          const std::vector<Eigen::Matrix4d>& globals);
+    void pose_from_first_animation();
+    void add_posed(const Eigen::Vector4d& local, const Eigen::Matrix4d& rest, const Eigen::Matrix4d& posed);
+    void keep_shown_pose(const std::vector<std::int32_t>& welded, const std::vector<double>& xyz);
+    std::vector<double> read_vectors(int accessor, int components, const std::string& what,
+                                     bool integers_only);
+    std::vector<Eigen::Matrix4d> world_matrices(const std::vector<Eigen::Matrix4d>& locals) const;
+    void add_draco(const tinygltf::Primitive& prim, int mesh, int index, const Placement& place);
+    void add_triangles(const tinygltf::Primitive& prim, int mesh, int index, std::size_t base,
+                       std::size_t count);
+    void add_triangles(const tinygltf::Primitive& prim, int mesh, int index, std::size_t base,
+                       std::size_t count, std::vector<std::size_t>& corners);
+    std::size_t add_instance(std::size_t first, std::size_t count, const Eigen::Matrix4d& from,
+                             const Eigen::Matrix4d& to);
+    std::int32_t group_of(const Eigen::Matrix4d& to_world);
+    void append_world(const std::vector<double>& local, const Placement& place, std::int32_t group);
+    TriangleMesh weld();
+    [[noreturn]] void fail(const std::string& what) const { fail_io(path_, what); }
+
+    const fs::path& path_;
+    const tinygltf::Model& model_;
+    GltfAsset& asset_;
+    GltfAccessors accessors_;
+    std::size_t visits_ = 0;
+    std::map<int, std::size_t> accessor_slot_;  // POSITION accessor -> asset_.accessors
+    std::map<int, std::size_t> draco_slot_;     // Draco bufferView -> asset_.draco
+    std::vector<std::size_t> slot_base_;        // first raw element of each accessor slot
+    std::vector<std::size_t> draco_base_;       // first raw element of each Draco slot
+    std::vector<std::pair<std::size_t, std::size_t>> draco_corners_;  // its range of corners_
+    std::vector<double> instance_xyz_;           // other instances, world frame, 3 per point
+    std::vector<std::size_t> instance_corners_;  // their triangles, into instance_xyz_
+    std::vector<Eigen::Matrix4d> groups_;        // distinct world transforms
+    RawVertices raw_;
+    std::vector<std::size_t> corners_;  // raw element ids, 3 per triangle
+    std::vector<Eigen::Matrix4d> globals_;  // every node's world matrix (skins' joints)
+    // The shown pose of an animated asset (all empty when it has none that moves a node):
+    // every node's local and world matrix in it, and every raw element's place in it (3 per
+    // element) with the linear map taking a displacement there back to the stored frame.
+    std::string pose_name_;
+    std::vector<Eigen::Matrix4d> posed_locals_;
+    std::vector<Eigen::Matrix4d> posed_globals_;
+    std::vector<double> posed_world_;
+    std::vector<Eigen::Matrix3d> to_rest_;
+};
+
 
 bool same_matrix(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b)
 {
@@ -169,15 +187,65 @@ TriangleMesh Reader::run()
             }
         }
     }
+    pose_from_first_animation();
     std::vector<char> on_stack(model_.nodes.size(), 0);
     for (const int root : roots)
     {
-        walk(root, Eigen::Matrix4d::Identity(), on_stack);
+        walk(root, {Eigen::Matrix4d::Identity(), Eigen::Matrix4d::Identity()}, on_stack);
     }
     return weld();
 }
 
-void Reader::walk(int node_index, const Eigen::Matrix4d& parent, std::vector<char>& on_stack)
+// Blender shows an animated asset at frame 1 of its first animation, and every copy made from
+// that import (its writers, modifiers) carries the pose: detection reads such copies through
+// it (MeshFile::shown_pose). A malformed animation only means no pose.
+void Reader::pose_from_first_animation()
+{
+    if (model_.animations.empty())
+    {
+        return;
+    }
+    std::vector<Eigen::Matrix4d> locals;
+    try
+    {
+        locals = animated_local_matrices(model_, accessors_, 0, kShownAnimationTime);
+    }
+    catch (const IoError&)
+    {
+        return;
+    }
+    bool moves = false;
+    for (std::size_t n = 0; n < locals.size() && !moves; ++n)
+    {
+        moves = !locals[n].allFinite() ? false : !same_matrix(locals[n], local_matrix(model_.nodes[n]));
+    }
+    for (const auto& m : locals)
+    {
+        moves = moves && m.allFinite();
+    }
+    if (!moves)
+    {
+        return;
+    }
+    const std::string& name = model_.animations.front().name;
+    pose_name_ = (name.empty() ? std::string("animation 0") : "animation '" + name + "'") + " at 1/24 s";
+    posed_globals_ = world_matrices(locals);
+    posed_locals_ = std::move(locals);
+}
+
+void Reader::add_posed(const Eigen::Vector4d& local, const Eigen::Matrix4d& rest, const Eigen::Matrix4d& posed)
+{
+    const Eigen::Vector4d w = posed * local;
+    posed_world_.insert(posed_world_.end(), {w.x(), w.y(), w.z()});
+    const Eigen::Matrix3d p = posed.topLeftCorner<3, 3>();
+    // A part the pose collapses (zero scale) has no way back: its displacements read as noise.
+    const double det = p.determinant();
+    const double scale = p.squaredNorm() / 3.0;
+    to_rest_.push_back(std::abs(det) > 1e-9 * std::pow(scale, 1.5) ? Eigen::Matrix3d(rest.topLeftCorner<3, 3>() * p.inverse())
+                                                                   : Eigen::Matrix3d::Identity());
+}
+
+void Reader::walk(int node_index, const Placement& parent, std::vector<char>& on_stack)
 {
     if (node_index < 0 || static_cast<std::size_t>(node_index) >= model_.nodes.size())
     {
@@ -194,7 +262,8 @@ void Reader::walk(int node_index, const Eigen::Matrix4d& parent, std::vector<cha
         fail("the node graph expands to more than " + std::to_string(kMaxNodeVisits) + " nodes");
     }
     const auto& node = model_.nodes[n];
-    const Eigen::Matrix4d to_world = parent * local_matrix(node);
+    const Eigen::Matrix4d to_world = parent.to_world * local_matrix(node);
+    const Placement place{to_world, posed_locals_.empty() ? to_world : Eigen::Matrix4d(parent.posed * posed_locals_[n])};
     if (!to_world.allFinite())
     {
         fail("node " + std::to_string(node_index) + " has a non-finite transform");
@@ -212,19 +281,19 @@ void Reader::walk(int node_index, const Eigen::Matrix4d& parent, std::vector<cha
             const auto& mesh = model_.meshes[static_cast<std::size_t>(node.mesh)];
             for (std::size_t p = 0; p < mesh.primitives.size(); ++p)
             {
-                add_primitive(node.mesh, static_cast<int>(p), to_world, node.skin);
+                add_primitive(node.mesh, static_cast<int>(p), place, node.skin);
             }
         }
     }
     on_stack[n] = 1;
     for (const int child : node.children)
     {
-        walk(child, to_world, on_stack);
+        walk(child, place, on_stack);
     }
     on_stack[n] = 0;
 }
 
-void Reader::add_primitive(int mesh, int index, const Eigen::Matrix4d& to_world, int skin)
+void Reader::add_primitive(int mesh, int index, const Placement& place, int skin)
 {
     const auto& prim =
         model_.meshes[static_cast<std::size_t>(mesh)].primitives[static_cast<std::size_t>(index)];
@@ -234,11 +303,11 @@ void Reader::add_primitive(int mesh, int index, const Eigen::Matrix4d& to_world,
     }
     if (prim.extensions.count(kDracoExtension) != 0)
     {
-        add_draco(prim, mesh, index, to_world);
+        add_draco(prim, mesh, index, place);
     }
     else
     {
-        add_plain(prim, mesh, index, to_world, skin);
+        add_plain(prim, mesh, index, place, skin);
     }
 }
 
@@ -255,22 +324,25 @@ std::int32_t Reader::group_of(const Eigen::Matrix4d& to_world)
     return static_cast<std::int32_t>(groups_.size() - 1);
 }
 
-void Reader::append_world(const std::vector<double>& local, const Eigen::Matrix4d& to_world,
-                          std::int32_t group)
+void Reader::append_world(const std::vector<double>& local, const Placement& place, std::int32_t group)
 {
     const std::size_t n = local.size() / 3;
     for (std::size_t i = 0; i < n; ++i)
     {
         const Eigen::Vector4d p(local[3 * i], local[3 * i + 1], local[3 * i + 2], 1.0);
-        const Eigen::Vector4d w = to_world * p;
+        const Eigen::Vector4d w = place.to_world * p;
         raw_.world.insert(raw_.world.end(), {w.x(), w.y(), w.z()});
         raw_.group.push_back(group);
+        if (!posed_globals_.empty())
+        {
+            add_posed(p, place.to_world, place.posed);
+        }
     }
 }
 
-void Reader::add_plain(const tinygltf::Primitive& prim, int mesh, int index,
-                       const Eigen::Matrix4d& to_world, int skin)
+void Reader::add_plain(const tinygltf::Primitive& prim, int mesh, int index, const Placement& place, int skin)
 {
+    const Eigen::Matrix4d& to_world = place.to_world;
     // A skinned use: JOINTS_0 and WEIGHTS_0 under a node with a skin (glTF then places the
     // vertices by the joints and ignores the node's transform).
     if (skin >= 0 && (prim.attributes.count("JOINTS_0") == 0 || prim.attributes.count("WEIGHTS_0") == 0))
@@ -363,7 +435,7 @@ void Reader::add_plain(const tinygltf::Primitive& prim, int mesh, int index,
         if (skin >= 0)
         {
             record.skin = skin;
-            record.skinning = skinning(prim, skin, record.elements.size(), to_world);
+            record.skinning = skinning(prim, skin, record.elements.size(), to_world, globals_);
             // A rig shown in its bind pose under a node placed like it (what most exporters
             // write) puts every vertex where the node's transform does, up to the float32
             // rounding of its inverse bind matrices: read it through the node, to the bit as
@@ -384,6 +456,17 @@ void Reader::add_plain(const tinygltf::Primitive& prim, int mesh, int index,
                 record.skinning.clear();
             }
         }
+        if (skin >= 0 && !posed_globals_.empty())
+        {
+            // Skinned and animated: every element's own way into the pose.
+            const std::vector<Eigen::Matrix4d> posed =
+                skinning(prim, skin, record.elements.size(), place.posed, posed_globals_);
+            for (std::size_t e = 0; e < record.elements.size(); ++e)
+            {
+                add_posed(Eigen::Vector4d(local[3 * e], local[3 * e + 1], local[3 * e + 2], 1.0),
+                          record.skinning.empty() ? to_world : record.skinning[e], posed[e]);
+            }
+        }
         if (!record.skinning.empty())
         {
             // A group of its own: positions of other parts that meet it within float rounding
@@ -398,9 +481,20 @@ void Reader::add_plain(const tinygltf::Primitive& prim, int mesh, int index,
                 raw_.group.push_back(group);
             }
         }
+        else if (skin >= 0 && !posed_globals_.empty())
+        {
+            // (its posed places added above)
+            const auto group = group_of(to_world);
+            for (std::size_t e = 0; e < record.elements.size(); ++e)
+            {
+                const Eigen::Vector4d w = to_world * Eigen::Vector4d(local[3 * e], local[3 * e + 1], local[3 * e + 2], 1.0);
+                raw_.world.insert(raw_.world.end(), {w.x(), w.y(), w.z()});
+                raw_.group.push_back(group);
+            }
+        }
         else
         {
-            append_world(local, to_world, group_of(to_world));
+            append_world(local, place, group_of(to_world));
         }
         asset_.accessors.push_back(std::move(record));
     }
@@ -486,9 +580,9 @@ void Reader::add_triangles(const tinygltf::Primitive& prim, int mesh, int index,
     }
 }
 
-void Reader::add_draco(const tinygltf::Primitive& prim, int mesh, int index,
-                       const Eigen::Matrix4d& to_world)
+void Reader::add_draco(const tinygltf::Primitive& prim, int mesh, int index, const Placement& place)
 {
+    const Eigen::Matrix4d& to_world = place.to_world;
     const std::string where =
         "mesh " + std::to_string(mesh) + " primitive " + std::to_string(index);
     const auto& ext = prim.extensions.at(kDracoExtension);
@@ -571,7 +665,7 @@ void Reader::add_draco(const tinygltf::Primitive& prim, int mesh, int index,
         slot = asset_.draco.size();
         draco_slot_[view_index] = slot;
         draco_base_.push_back(raw_.group.size());
-        append_world(local, to_world, group_of(to_world));
+        append_world(local, place, group_of(to_world));
         record.welded.resize(geometry.point_count);
         asset_.draco.push_back(std::move(record));
         const std::size_t first_corner = corners_.size();
@@ -589,12 +683,12 @@ void Reader::add_draco(const tinygltf::Primitive& prim, int mesh, int index,
     // has one connectivity, so they are already there.
 }
 
-void Reader::compute_globals()
+std::vector<Eigen::Matrix4d> Reader::world_matrices(const std::vector<Eigen::Matrix4d>& locals) const
 {
     // glTF nodes form a forest (a node has at most one parent); walk it from every parentless
     // node. A node left unvisited (a cycle, which walk() reports) keeps the identity.
     const std::size_t n = model_.nodes.size();
-    globals_.assign(n, Eigen::Matrix4d::Identity());
+    std::vector<Eigen::Matrix4d> globals(n, Eigen::Matrix4d::Identity());
     std::vector<char> has_parent(n, 0);
     for (const auto& node : model_.nodes)
     {
@@ -614,7 +708,7 @@ void Reader::compute_globals()
         {
             continue;
         }
-        globals_[r] = local_matrix(model_.nodes[r]);
+        globals[r] = locals[r];
         seen[r] = 1;
         stack.push_back(static_cast<int>(r));
         while (!stack.empty())
@@ -629,54 +723,23 @@ void Reader::compute_globals()
                 }
                 const auto child = static_cast<std::size_t>(c);
                 seen[child] = 1;
-                globals_[child] = globals_[k] * local_matrix(model_.nodes[child]);
+                globals[child] = globals[k] * locals[child];
                 stack.push_back(c);
             }
         }
     }
+    return globals;
 }
 
 std::vector<double> Reader::read_vectors(int accessor, int components, const std::string& what,
                                          bool integers_only)
 {
-    if (accessor < 0 || static_cast<std::size_t>(accessor) >= model_.accessors.size())
-    {
-        fail(what + " accessor " + std::to_string(accessor) + " is missing");
-    }
-    const auto& acc = model_.accessors[static_cast<std::size_t>(accessor)];
-    const int expected_type = components == 16 ? TINYGLTF_TYPE_MAT4 : TINYGLTF_TYPE_VEC4;
-    if (acc.type != expected_type)
-    {
-        fail(what + " accessor " + std::to_string(accessor) + " is not a " + (components == 16 ? "MAT4" : "VEC4"));
-    }
-    const auto component = component_of(acc.componentType);
-    if (!component || (integers_only && (*component == GltfComponent::Float32 || acc.normalized)))
-    {
-        fail(what + " accessor " + std::to_string(accessor) + " has an unsupported component type");
-    }
-    const std::vector<GltfElement> elements = accessors_.locate(accessor, components, what);
-    const auto type = scalar_of(*component);
-    const std::size_t size = component_size(*component);
-    std::vector<double> values(elements.size() * static_cast<std::size_t>(components), 0.0);
-    for (std::size_t e = 0; e < elements.size(); ++e)
-    {
-        const auto& el = elements[e];
-        for (std::size_t d = 0; d < static_cast<std::size_t>(components) && el.buffer >= 0; ++d)
-        {
-            const char* p = asset_.buffers[static_cast<std::size_t>(el.buffer)].bytes.data() + el.offset + d * size;
-            const double v = dequantize(load_scalar(p, type, false), *component, acc.normalized);
-            if (!std::isfinite(v))
-            {
-                fail(what + " accessor " + std::to_string(accessor) + " has a non-finite value");
-            }
-            values[e * static_cast<std::size_t>(components) + d] = v;
-        }
-    }
-    return values;
+    return accessors_.values(accessor, components, what, integers_only);
 }
 
 std::vector<Eigen::Matrix4d> Reader::skinning(const tinygltf::Primitive& prim, int skin, std::size_t count,
-                                              const Eigen::Matrix4d& to_world)
+                                              const Eigen::Matrix4d& to_world,
+                                              const std::vector<Eigen::Matrix4d>& globals)
 {
     if (static_cast<std::size_t>(skin) >= model_.skins.size())
     {
@@ -684,7 +747,12 @@ std::vector<Eigen::Matrix4d> Reader::skinning(const tinygltf::Primitive& prim, i
     }
     if (globals_.empty())
     {
-        compute_globals();
+        std::vector<Eigen::Matrix4d> locals(model_.nodes.size());
+        for (std::size_t n = 0; n < locals.size(); ++n)
+        {
+            locals[n] = local_matrix(model_.nodes[n]);
+        }
+        globals_ = world_matrices(locals);
     }
     const auto& s = model_.skins[static_cast<std::size_t>(skin)];
     std::vector<double> inverse_binds;
@@ -709,7 +777,7 @@ std::vector<Eigen::Matrix4d> Reader::skinning(const tinygltf::Primitive& prim, i
         {
             inverse_bind = Eigen::Map<const Eigen::Matrix4d>(inverse_binds.data() + 16 * k);  // column-major
         }
-        joint[k] = globals_[static_cast<std::size_t>(node)] * inverse_bind;
+        joint[k] = globals[static_cast<std::size_t>(node)] * inverse_bind;
     }
     std::vector<Eigen::Matrix4d> result(count, Eigen::Matrix4d::Zero());
     std::vector<double> total(count, 0.0);
@@ -768,6 +836,43 @@ std::vector<Eigen::Matrix4d> Reader::skinning(const tinygltf::Primitive& prim, i
     return result;
 }
 
+// The shown pose of every welded vertex (its first element's), kept unless the pose only moves
+// the asset as a whole (a similarity, which registration undoes anyway).
+void Reader::keep_shown_pose(const std::vector<std::int32_t>& welded, const std::vector<double>& xyz)
+{
+    const std::size_t n = xyz.size() / 3;
+    ShownPose pose;
+    pose.name = pose_name_;
+    pose.V.resize(static_cast<Eigen::Index>(n), 3);
+    pose.to_rest.assign(n, Eigen::Matrix3d::Identity());
+    std::vector<char> is_set(n, 0);
+    for (std::size_t e = 0; e < welded.size(); ++e)
+    {
+        const auto v = static_cast<std::size_t>(welded[e]);
+        if (is_set[v] == 0)
+        {
+            is_set[v] = 1;
+            pose.V.row(static_cast<Eigen::Index>(v)) << posed_world_[3 * e], posed_world_[3 * e + 1], posed_world_[3 * e + 2];
+            pose.to_rest[v] = to_rest_[e];
+        }
+    }
+    if (n < 3 || !pose.V.allFinite())
+    {
+        return;
+    }
+    const Eigen::Map<const Eigen::Matrix<double, 3, Eigen::Dynamic>> rest(xyz.data(), 3, static_cast<Eigen::Index>(n));
+    const Eigen::Matrix<double, 3, Eigen::Dynamic> posed = pose.V.transpose();
+    const Eigen::Matrix4d similarity = Eigen::umeyama(rest, posed, true);
+    const Eigen::Matrix<double, 3, Eigen::Dynamic> fitted =
+        (similarity.topLeftCorner<3, 3>() * rest).colwise() + similarity.topRightCorner<3, 1>();
+    const double extent = (posed.rowwise().maxCoeff() - posed.rowwise().minCoeff()).norm();
+    if ((fitted - posed).colwise().norm().maxCoeff() <= kBindPoseTolerance * extent)
+    {
+        return;
+    }
+    asset_.shown_pose = std::move(pose);
+}
+
 TriangleMesh Reader::weld()
 {
     if (raw_.group.size() > kMaxVertices)
@@ -796,6 +901,10 @@ TriangleMesh Reader::weld()
     if (!instance_xyz_.empty())
     {
         asset_.instances = make_mesh(instance_xyz_, instance_corners_);
+    }
+    if (!posed_globals_.empty())
+    {
+        keep_shown_pose(welded, xyz);
     }
     TriangleBuffer triangles;
     triangles.reserve(corners_.size() / 3);

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "meshmark/core/triangle_mesh.h"
@@ -41,6 +42,20 @@ namespace detail {
 struct FileLayout;  // Everything a preserving writer needs: the original bytes and where positions sit.
 }
 
+/// \brief Where an animated file's mesh stands when a tool shows it posed rather than as stored.
+/// \details glTF: Blender's importer shows the first animation at frame 1 (1/24 s), and its
+/// writers, modifiers and exports then hand on that pose, not the stored (rest) one the mark was
+/// embedded in. Each vertex of the pose is an affine image of its stored place (rigid node
+/// animation, skinning); `to_rest` carries a displacement made in the pose back.
+struct ShownPose
+{
+    std::string name;  ///< What the pose is, for messages ("animation 'Run' at 1/24 s").
+    Positions V;       ///< MeshFile::mesh's vertices in the pose, row for row; empty: no such pose.
+    /// Per row: the linear map taking a displacement near the posed vertex back to the stored
+    /// frame (the inverse of the pose's linear part at that vertex).
+    std::vector<Eigen::Matrix3d> to_rest;
+};
+
 /// \brief A mesh as read from a file, with what is needed to write it back unchanged except
 /// for its vertex positions.
 struct MeshFile
@@ -61,6 +76,9 @@ struct MeshFile
     /// re-exported by a tool that flattens instances shows all of them, and detection registers
     /// against `mesh` plus these. Empty for other formats and files without such instances.
     TriangleMesh instances;
+    /// glTF with animations that move the mesh other than as a whole: the pose Blender shows it
+    /// in (see ShownPose); empty otherwise.
+    ShownPose shown_pose;
 };
 
 /// \brief Read a mesh file, keeping everything needed for a preserving write.

@@ -11,6 +11,8 @@
 
 #include <Eigen/Core>
 
+#include "meshmark/io/mesh_io.h"
+
 #include "meshmark/core/triangle_mesh.h"
 
 #include "numbers.h"
@@ -171,6 +173,8 @@ struct GltfAsset
     /// The geometry of every instance but the first of instanced meshes, in the world frame
     /// (not watermarked; see MeshFile::instances).
     TriangleMesh instances;
+    /// The pose an importer shows an animated asset in (see MeshFile::shown_pose).
+    ShownPose shown_pose;
 };
 
 /// A stored POSITION component as the coordinate a renderer sees (normalized integers

@@ -38,6 +38,13 @@ public:
     [[nodiscard]] std::vector<GltfElement> locate(int accessor, int components,
                                                   const std::string& what) const;
 
+    /// \brief The values of accessor \p accessor of \p components components (1: SCALAR, 3:
+    /// VEC3, 4: VEC4, 16: MAT4, checked), de-normalized as a renderer would, \p components per
+    /// element; \p integers_only refuses float and normalized components (joint indices).
+    /// Errors name the file and \p what.
+    [[nodiscard]] std::vector<double> values(int accessor, int components, const std::string& what,
+                                             bool integers_only) const;
+
     /// The view's byte range lies inside its (loaded) buffer.
     [[nodiscard]] bool is_view_in_buffer(const tinygltf::BufferView& view) const;
 
@@ -58,6 +65,21 @@ private:
 /// buffer data; the others get their reason in GltfMeshoptView::unsupported.
 void decode_meshopt_views(const std::filesystem::path& path, const tinygltf::Model& model,
                           GltfAsset& asset);
+
+/// A node's local matrix: its `matrix`, else its translation, rotation and scale composed.
+[[nodiscard]] Eigen::Matrix4d local_matrix(const tinygltf::Node& node);
+
+/// The time at which Blender shows an animated asset after importing it: frame 1 of the first
+/// animation, its keys placed at t times 24 frames per second (Blender 3.4's importer).
+inline constexpr double kShownAnimationTime = 1.0 / 24.0;
+
+/// \brief The local matrix of every node of \p model at time \p t of animation \p animation:
+/// the translations, rotations and scales its channels give there (before a channel's first key
+/// its first value, after the last its last) over the node's own; the nodes it does not
+/// animate, and every node when there is no such animation, keep local_matrix().
+[[nodiscard]] std::vector<Eigen::Matrix4d> animated_local_matrices(const tinygltf::Model& model,
+                                                                   const GltfAccessors& accessors,
+                                                                   std::size_t animation, double t);
 
 /// \brief Walk the scene graph of \p model (buffers and meshopt views already in \p asset)
 /// and return its welded world-frame mesh; fills the accessors, Draco primitives and other

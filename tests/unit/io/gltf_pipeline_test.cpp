@@ -123,5 +123,64 @@ TEST(GltfPipelineTest, two_part_glb_detects_after_a_similarity_of_the_whole_asse
     EXPECT_FALSE(clean.decision.is_present);
 }
 
+// A rigged asset Blender shows bent (its first animation turns the elbow 41 degrees by frame
+// 1): every copy made from the import carries the bend, which no similarity undoes. The copy,
+// written as a PLY with its vertices in another order, is read through the pose the original
+// is shown in (docs/algorithms/detection.md, General suspects, step 1c) and claimed; the
+// unmarked asset through the same steps is not.
+TEST(GltfPipelineTest, a_copy_of_an_animated_asset_in_the_pose_blender_shows_is_claimed)
+{
+    const fs::path dir = test::temp_dir("gltf_pipeline_animated");
+    TriangleMesh shape = lumpy_ellipsoid(4);
+    shape.V.col(0) *= 2.0;
+    std::vector<float> xyz;
+    for (Eigen::Index v = 0; v < shape.V.rows(); ++v)
+    {
+        xyz.insert(xyz.end(), {static_cast<float>(shape.V(v, 0)), static_cast<float>(shape.V(v, 1)),
+                               static_cast<float>(shape.V(v, 2))});
+    }
+    std::vector<std::uint16_t> idx;
+    for (Eigen::Index f = 0; f < shape.F.rows(); ++f)
+    {
+        for (Eigen::Index c = 0; c < 3; ++c)
+        {
+            idx.push_back(static_cast<std::uint16_t>(shape.F(f, c)));
+        }
+    }
+    const test::BendingArm arm;
+    test::put_bytes(dir / "arm.glb", arm.glb(xyz, idx));
+    EmbedFileOptions options;
+    options.seed = 11;
+    options.threads = 1;
+    (void)embed_file(dir / "arm.glb", dir / "marked.glb", dir / "key.json", options);
+
+    // Blender's copy: every vertex where the pose puts it (skinned with the stored weights),
+    // the vertices in reverse order.
+    const auto shown_copy = [&](const fs::path& file, const fs::path& out) {
+        const TriangleMesh stored = read_mesh(file);
+        const Eigen::Index n = stored.V.rows();
+        TriangleMesh copy;
+        copy.V.resize(n, 3);
+        for (Eigen::Index v = 0; v < n; ++v)
+        {
+            copy.V.row(n - 1 - v) =
+                arm.shown(stored.V.row(v).transpose(), arm.weight(xyz[static_cast<std::size_t>(3 * v)])).transpose();
+        }
+        copy.F = (n - 1) - stored.F.array();
+        write_mesh(out, copy);
+    };
+    shown_copy(dir / "marked.glb", dir / "marked_shown.ply");
+    shown_copy(dir / "arm.glb", dir / "clean_shown.ply");
+
+    DetectFileOptions detect;
+    detect.threads = 1;
+    const DetectReport found = detect_file(dir / "marked_shown.ply", dir / "arm.glb", dir / "key.json", detect);
+    EXPECT_TRUE(found.decision.is_present) << "z " << found.decision.score << " alignment " << found.alignment;
+    EXPECT_GT(found.decision.score, 9.0);
+    EXPECT_NE(found.alignment.find("animation 'bend'"), std::string::npos) << found.alignment;
+    const DetectReport clean = detect_file(dir / "clean_shown.ply", dir / "arm.glb", dir / "key.json", detect);
+    EXPECT_FALSE(clean.decision.is_present) << "z " << clean.decision.score;
+}
+
 }  // namespace
 }  // namespace meshmark

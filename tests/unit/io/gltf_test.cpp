@@ -552,6 +552,63 @@ TEST_F(GltfTest, skinned_mesh_is_read_in_the_scene_pose_and_written_back_through
     EXPECT_EQ(out.json["nodes"], b.doc["nodes"]);
 }
 
+// Blender shows an animated asset at frame 1 of its first animation (1/24 s after its start)
+// and hands that pose on to every copy made from the import (its PLY and OBJ writers, its
+// modifiers): the reader gives that pose beside the stored mesh, each vertex placed by the
+// joints as the animation moves them (a STEP key already passed, a LINEAR turn interpolated as
+// Blender does, its second key brought into the first one's hemisphere), and the linear map
+// that takes a displacement made there back to the stored frame. An animation that only moves
+// the asset as a whole, and an asset without animations, give no pose.
+TEST_F(GltfTest, an_animated_rig_gives_the_pose_blender_shows_it_in)
+{
+    std::vector<float> xyz;
+    std::vector<std::uint16_t> idx;
+    for (int i = 0; i <= 16; ++i)
+    {
+        for (int j = 0; j <= 1; ++j)
+        {
+            xyz.insert(xyz.end(), {-1.0f + 0.125f * static_cast<float>(i), 0.2f * static_cast<float>(j),
+                                   0.05f * static_cast<float>(i % 3)});
+        }
+    }
+    for (std::uint16_t i = 0; i < 16; ++i)
+    {
+        const auto a = static_cast<std::uint16_t>(2 * i);
+        idx.insert(idx.end(), {a, static_cast<std::uint16_t>(a + 2), static_cast<std::uint16_t>(a + 1),
+                               static_cast<std::uint16_t>(a + 1), static_cast<std::uint16_t>(a + 2),
+                               static_cast<std::uint16_t>(a + 3)});
+    }
+    const auto n = static_cast<Eigen::Index>(xyz.size() / 3);
+    const test::BendingArm arm;
+    test::put_bytes(dir / "arm.glb", arm.glb(xyz, idx));
+    const MeshFile file = read_mesh_file(dir / "arm.glb");
+    ASSERT_EQ(file.mesh.V.rows(), n);
+    const ShownPose& pose = file.shown_pose;
+    ASSERT_EQ(pose.V.rows(), n);
+    ASSERT_EQ(pose.to_rest.size(), static_cast<std::size_t>(n));
+    EXPECT_EQ(pose.name, "animation 'bend' at 1/24 s");
+    double largest_bend = 0.0;
+    for (Eigen::Index v = 0; v < n; ++v)
+    {
+        const Eigen::Vector3d p(xyz[3 * v], xyz[3 * v + 1], xyz[3 * v + 2]);
+        EXPECT_LT((file.mesh.V.row(v).transpose() - p).norm(), 1e-6) << v;  // stored straight
+        EXPECT_LT((pose.V.row(v).transpose() - arm.shown(p)).norm(), 1e-6) << v;
+        largest_bend = std::max(largest_bend, (arm.shown(p) - p - Eigen::Vector3d(0.0, arm.lift, 0.0)).norm());
+        // A displacement d made in the pose comes back as the stored displacement.
+        const Eigen::Vector3d d(1e-3, -2e-3, 1.5e-3);
+        const double w = arm.weight(p.x());
+        EXPECT_LT((pose.to_rest[static_cast<std::size_t>(v)] * (arm.shown(p + d, w) - arm.shown(p, w)) - d).norm(), 1e-9)
+            << v;
+    }
+    EXPECT_GT(largest_bend, 0.3);  // the pose is not the stored shape lifted
+
+    test::BendingArm lifted_only = arm;
+    lifted_only.turn = 0.0;
+    test::put_bytes(dir / "lifted.glb", lifted_only.glb(xyz, idx));
+    EXPECT_EQ(read_mesh_file(dir / "lifted.glb").shown_pose.V.rows(), 0);
+    EXPECT_EQ(read_mesh_file(dir / "lifted.glb").mesh.V.rows(), n);
+}
+
 // A rig in its bind pose (what most exporters write) places each vertex where its node does,
 // up to the float32 rounding of the inverse bind matrices: it is read through the node, to the
 // bit, as before skins were applied, so keys made then still match.

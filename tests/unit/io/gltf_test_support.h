@@ -3,6 +3,8 @@
 // saved as .glb, as .gltf with a data: URI, or as .gltf with an external .bin.
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <array>
 #include <cstdint>
 #include <cstring>
@@ -10,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Geometry>
 #include <nlohmann/json.hpp>
 
 #include "io_test_support.h"
@@ -240,5 +243,92 @@ inline float float_at(const std::string& bytes, std::size_t offset)
     std::memcpy(&v, bytes.data() + offset, sizeof(float));
     return v;
 }
+
+/// \brief An arm that bends: the triangles \p idx over positions \p xyz, skinned to a shoulder
+/// joint at the origin and an elbow joint at x = \p elbow (weights blending linearly from the
+/// shoulder to the elbow over x in [elbow - blend, elbow + blend]), stored straight (the scene
+/// pose is the bind pose). Its first animation lifts the shoulder by \p lift in y (a STEP key at
+/// 0.02 s) and turns the elbow about z from 0 at t = 0 to \p turn radians at t = 0.1 s
+/// (LINEAR; the second key stored as the negated quaternion, which an importer must bring into
+/// the first key's hemisphere). A second animation would straighten everything again.
+struct BendingArm
+{
+    double elbow = 0.0;
+    double blend = 0.4;
+    double turn = 100.0 * 3.14159265358979323846 / 180.0;
+    double lift = 0.3;
+
+    /// The elbow's weight at \p x.
+    [[nodiscard]] double weight(double x) const
+    {
+        return std::clamp((x - (elbow - blend)) / (2.0 * blend), 0.0, 1.0);
+    }
+
+    [[nodiscard]] std::string glb(const std::vector<float>& xyz, const std::vector<std::uint16_t>& idx) const
+    {
+        GltfBuilder b;
+        const std::size_t n = xyz.size() / 3;
+        std::vector<std::uint8_t> joints(4 * n, 0);
+        std::vector<float> weights(4 * n, 0.0f);
+        for (std::size_t v = 0; v < n; ++v)
+        {
+            const double w = weight(xyz[3 * v]);
+            joints[4 * v + 1] = 1;
+            weights[4 * v] = static_cast<float>(1.0 - w);
+            weights[4 * v + 1] = static_cast<float>(w);
+        }
+        const int pos = b.positions(xyz);
+        const int joint_acc = b.accessor(b.view(GltfBuilder::raw(joints)), 0, 5121, n, "VEC4");
+        const int weight_acc = b.accessor(b.view(GltfBuilder::raw(weights)), 0, 5126, n, "VEC4");
+        const auto e = static_cast<float>(elbow);
+        const std::vector<float> ibm{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1,   //
+                                     1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, -e, 0, 0, 1};  // column-major
+        const int ibm_acc = b.accessor(b.view(GltfBuilder::raw(ibm)), 0, 5126, 2, "MAT4");
+        const int mesh = b.mesh(Json::array({{{"attributes", {{"POSITION", pos}, {"JOINTS_0", joint_acc}, {"WEIGHTS_0", weight_acc}}},
+                                              {"indices", b.indices(idx)}}}));
+        const int elbow_node = b.node({{"name", "elbow"}, {"translation", {elbow, 0.0, 0.0}}}, false);
+        const int shoulder = b.node({{"name", "shoulder"}, {"children", {elbow_node}}});
+        b.node({{"mesh", mesh}, {"skin", 0}});
+        b.doc["skins"] = Json::array({{{"joints", {shoulder, elbow_node}}, {"inverseBindMatrices", ibm_acc}}});
+        const auto floats = [&](const std::vector<float>& values, const char* type) {
+            const std::size_t width = std::string(type) == "SCALAR" ? 1 : std::string(type) == "VEC3" ? 3 : 4;
+            return b.accessor(b.view(GltfBuilder::raw(values)), 0, 5126, values.size() / width, type);
+        };
+        const std::vector<float> times{0.0f, 0.02f};
+        const std::vector<float> turn_times{0.0f, 0.1f};
+        const auto h = static_cast<float>(turn / 2.0);
+        const int lift_at = floats(times, "SCALAR");
+        const int lifts = floats({0.0f, 0.0f, 0.0f, 0.0f, static_cast<float>(lift), 0.0f}, "VEC3");
+        const int turn_at = floats(turn_times, "SCALAR");
+        const int turns = floats({0.0f, 0.0f, 0.0f, 1.0f, 0.0f, 0.0f, -std::sin(h), -std::cos(h)}, "VEC4");
+        const int straight = floats({0.0f, 0.0f, 0.0f, 1.0f, 0.0f, 0.0f, 0.0f, 1.0f}, "VEC4");
+        b.doc["animations"] = Json::array(
+            {{{"name", "bend"},
+              {"samplers", {{{"input", lift_at}, {"output", lifts}, {"interpolation", "STEP"}},
+                            {{"input", turn_at}, {"output", turns}}}},
+              {"channels", {{{"sampler", 0}, {"target", {{"node", shoulder}, {"path", "translation"}}}},
+                            {{"sampler", 1}, {"target", {{"node", elbow_node}, {"path", "rotation"}}}}}}},
+             {{"name", "straight"},
+              {"samplers", {{{"input", turn_at}, {"output", straight}}}},
+              {"channels", {{{"sampler", 0}, {"target", {{"node", elbow_node}, {"path", "rotation"}}}}}}}});
+        return b.glb();
+    }
+
+    /// Where Blender shows a stored point \p p after import (1/24 s into the first animation):
+    /// the elbow's turn interpolated as Blender does (quaternion components, then normalized).
+    [[nodiscard]] Eigen::Vector3d shown(const Eigen::Vector3d& p) const { return shown(p, weight(p.x())); }
+
+    /// The same for a point \p p skinned with elbow weight \p w.
+    [[nodiscard]] Eigen::Vector3d shown(const Eigen::Vector3d& p, double w) const
+    {
+        const double s = (1.0 / 24.0) / 0.1;
+        const double angle = 2.0 * std::atan2(s * std::sin(turn / 2.0), (1.0 - s) + s * std::cos(turn / 2.0));
+        const Eigen::Affine3d shoulder(Eigen::Translation3d(0.0, lift, 0.0));
+        const Eigen::Affine3d elbow_world = shoulder * Eigen::Translation3d(elbow, 0.0, 0.0) *
+                                            Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitZ()) *
+                                            Eigen::Translation3d(-elbow, 0.0, 0.0);
+        return (1.0 - w) * (shoulder * p) + w * (elbow_world * p);
+    }
+};
 
 }  // namespace meshmark::test
