@@ -439,7 +439,8 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
         }
     };
     timer.begin("correspondence");
-    if (suspect.vertex_count() == original.vertex_count() && options.pairs.empty())
+    // (A given pose is the caller's: the vertices are not taken in order without it.)
+    if (suspect.vertex_count() == original.vertex_count() && options.pairs.empty() && pose == nullptr)
     {
         const Eigen::Matrix4d T = similarity_onto_original(original.V, suspect.V, nullptr);
         aligned = transform_points(T, suspect.V);
@@ -1019,12 +1020,12 @@ void read_shown_pose(DetectReport& report, detail::PhaseTimer& timer, const Spec
     posed.F = original.F;
     RegistrationOptions registration;
     registration.threads = options.threads;
-    const RegistrationResult r = register_to_reference(suspect, posed, registration);
+    const Eigen::Matrix4d to_pose = register_to_reference(suspect, posed, registration).transform;
     timer.lap("register");
     timer.begin("unpose");
     const PointKdTree tree(shown.V);
     TriangleMesh unposed;
-    unposed.V = transform_points(r.transform, suspect.V);
+    unposed.V = transform_points(to_pose, suspect.V);
     unposed.F = suspect.F;
     for (Eigen::Index j = 0; j < unposed.V.rows(); ++j)
     {
@@ -1043,7 +1044,7 @@ void read_shown_pose(DetectReport& report, detail::PhaseTimer& timer, const Spec
     if (other.decision.false_positive_probability < report.decision.false_positive_probability)
     {
         other.seconds = std::move(report.seconds);  // (the timer writes into the first report's)
-        other.transform = other.transform * r.transform;
+        other.transform = other.transform * to_pose;
         other.alignment = "registration (" + shown.name + ")";
         report = std::move(other);
     }
