@@ -109,6 +109,33 @@ ConvertedAndMarked convert_and_mark(const fs::path& model, const std::string& na
     return files;
 }
 
+// \p model converted to \p name and marked (convert_and_mark), then the marked copy and the
+// unmarked original each written by Blender's PLY writer: the marked copy is claimed with
+// z >= 9, the unmarked one is not.
+void expect_blender_ply_copy_claimed(const fs::path& model, const std::string& name, const fs::path& scratch)
+{
+    std::string error;
+    const auto [original, marked, key] = convert_and_mark(model, name, scratch, &error);
+    ASSERT_TRUE(error.empty()) << error;
+    for (const auto& [input, folder] : {std::pair{marked, scratch / "marked"}, std::pair{original, scratch / "clean"}})
+    {
+        const ToolRun blender = blender_attacks(input, folder, {"ply"}, scratch);
+        ASSERT_TRUE(blender.ok()) << blender.describe();
+        int exit_code = -1;
+        const nlohmann::json report = detect_json(folder / "ply.ply", original, key, scratch, &exit_code);
+        ASSERT_TRUE(report.is_object()) << folder;
+        if (input == marked)
+        {
+            EXPECT_EQ(exit_code, 0) << report.dump();
+            EXPECT_GE(report.value("score", 0.0), 9.0) << report.dump();
+        }
+        else
+        {
+            EXPECT_EQ(exit_code, 1) << report.dump();
+        }
+    }
+}
+
 }  // namespace
 
 // Khronos' engine, 115 primitives under a node tree: the marked .glb and the marked Draco
@@ -287,26 +314,7 @@ TEST(RealAssetsInterop, ABlenderCopyOfASymmetricEggIsReadInItsTwinPoses)
 {
     INTEROP_REQUIRE_TOOLS("meshmark", "blender", "assimp-testmodels", "assimp");
     const fs::path scratch = temp_dir("interop-real-egg");
-    std::string error;
-    const auto [original, marked, key] = convert_and_mark("DXF/PinkEggFromLW.dxf", "egg.glb", scratch, &error);
-    ASSERT_TRUE(error.empty()) << error;
-    for (const auto& [input, folder] : {std::pair{marked, scratch / "marked"}, std::pair{original, scratch / "clean"}})
-    {
-        const ToolRun blender = blender_attacks(input, folder, {"ply"}, scratch);
-        ASSERT_TRUE(blender.ok()) << blender.describe();
-        int exit_code = -1;
-        const nlohmann::json report = detect_json(folder / "ply.ply", original, key, scratch, &exit_code);
-        ASSERT_TRUE(report.is_object()) << folder;
-        if (input == marked)
-        {
-            EXPECT_EQ(exit_code, 0) << report.dump();
-            EXPECT_GE(report.value("score", 0.0), 9.0) << report.dump();
-        }
-        else
-        {
-            EXPECT_EQ(exit_code, 1) << report.dump();
-        }
-    }
+    expect_blender_ply_copy_claimed("DXF/PinkEggFromLW.dxf", "egg.glb", scratch);
 }
 
 // DirectX's Wuson (`X/Testwuson.X`, converted to .glb by assimp: 2,124 positions skinned to 38
@@ -318,26 +326,7 @@ TEST(RealAssetsInterop, ABlenderCopyOfAnAnimatedCharacterIsReadInThePoseBlenderS
 {
     INTEROP_REQUIRE_TOOLS("meshmark", "blender", "assimp-testmodels", "assimp");
     const fs::path scratch = temp_dir("interop-real-wuson");
-    std::string error;
-    const auto [original, marked, key] = convert_and_mark("X/Testwuson.X", "wuson.glb", scratch, &error);
-    ASSERT_TRUE(error.empty()) << error;
-    for (const auto& [input, folder] : {std::pair{marked, scratch / "marked"}, std::pair{original, scratch / "clean"}})
-    {
-        const ToolRun blender = blender_attacks(input, folder, {"ply"}, scratch);
-        ASSERT_TRUE(blender.ok()) << blender.describe();
-        int exit_code = -1;
-        const nlohmann::json report = detect_json(folder / "ply.ply", original, key, scratch, &exit_code);
-        ASSERT_TRUE(report.is_object()) << folder;
-        if (input == marked)
-        {
-            EXPECT_EQ(exit_code, 0) << report.dump();
-            EXPECT_GE(report.value("score", 0.0), 9.0) << report.dump();
-        }
-        else
-        {
-            EXPECT_EQ(exit_code, 1) << report.dump();
-        }
-    }
+    expect_blender_ply_copy_claimed("X/Testwuson.X", "wuson.glb", scratch);
 }
 
 }  // namespace meshmark::test::interop
