@@ -215,13 +215,13 @@ void Reader::pose_from_first_animation()
         return;
     }
     bool moves = false;
-    for (std::size_t n = 0; n < locals.size() && !moves; ++n)
+    for (std::size_t n = 0; n < locals.size(); ++n)
     {
-        moves = !locals[n].allFinite() ? false : !same_matrix(locals[n], local_matrix(model_.nodes[n]));
-    }
-    for (const auto& m : locals)
-    {
-        moves = moves && m.allFinite();
+        if (!locals[n].allFinite())
+        {
+            return;  // (a non-finite key: no pose)
+        }
+        moves = moves || !same_matrix(locals[n], local_matrix(model_.nodes[n]));
     }
     if (!moves)
     {
