@@ -806,7 +806,8 @@ std::vector<Eigen::Matrix4d> Reader::skinning(const tinygltf::Primitive& prim, i
                     continue;
                 }
                 const double index = joints[4 * e + c];
-                if (index >= static_cast<double>(joint.size()))
+                // (glTF's joints are unsigned; a signed accessor's negative index is refused too)
+                if (index < 0.0 || index >= static_cast<double>(joint.size()))
                 {
                     fail("JOINTS_" + std::to_string(set) + " element " + std::to_string(e) + " refers to joint " +
                          std::to_string(static_cast<long long>(index)) + ", but skin " + std::to_string(skin) +
