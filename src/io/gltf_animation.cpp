@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: MIT
-// glTF animations sampled at one time: the translation, rotation and scale every channel of
-// one animation gives its node (STEP; LINEAR, rotations as Blender interpolates them;
-// CUBICSPLINE as the specification's Hermite form, where Blender instead fits its own
-// automatic Bezier handles through the keys), composed into the nodes' local matrices.
+// Nodes' local matrices: as stored (local_matrix), and as one animation gives them at one time,
+// the translation, rotation and scale each of its channels gives its node (STEP; LINEAR,
+// rotations as Blender interpolates them; CUBICSPLINE as the specification's Hermite form, where
+// Blender instead fits its own automatic Bezier handles through the keys), composed the same way.
 // Written here rather than taken from a library: tinygltf loads the samplers but does not
 // evaluate them, and the few lines below are the specification's formulas. Morph target
 // weights are not sampled (meshmark reads the base positions).
@@ -130,6 +130,20 @@ std::vector<double> sample(const GltfAccessors& accessors, const tinygltf::Anima
 }
 
 }  // namespace
+
+Eigen::Matrix4d local_matrix(const tinygltf::Node& node)
+{
+    if (node.matrix.size() == 16)
+    {
+        Eigen::Matrix4d m;
+        for (int k = 0; k < 16; ++k)
+        {
+            m(k % 4, k / 4) = node.matrix[static_cast<std::size_t>(k)];  // column-major
+        }
+        return m;
+    }
+    return matrix_of(trs_of(node));
+}
 
 std::vector<Eigen::Matrix4d> animated_local_matrices(const tinygltf::Model& model, const GltfAccessors& accessors,
                                                      std::size_t animation, double t)

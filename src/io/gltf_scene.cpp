@@ -20,40 +20,6 @@
 
 namespace meshmark::detail {
 
-Eigen::Matrix4d local_matrix(const tinygltf::Node& node)
-{
-    Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
-    if (node.matrix.size() == 16)
-    {
-        for (int k = 0; k < 16; ++k)
-        {
-            m(k % 4, k / 4) = node.matrix[static_cast<std::size_t>(k)];  // column-major
-        }
-        return m;
-    }
-    Eigen::Affine3d t = Eigen::Affine3d::Identity();
-    if (node.translation.size() == 3)
-    {
-        t.translate(Eigen::Vector3d(node.translation[0], node.translation[1], node.translation[2]));
-    }
-    if (node.rotation.size() == 4)
-    {
-        // glTF stores (x, y, z, w); Eigen's constructor takes (w, x, y, z).
-        Eigen::Quaterniond q(node.rotation[3], node.rotation[0], node.rotation[1],
-                             node.rotation[2]);
-        if (q.norm() > 0.0)
-        {
-            q.normalize();
-        }
-        t.rotate(q);
-    }
-    if (node.scale.size() == 3)
-    {
-        t.scale(Eigen::Vector3d(node.scale[0], node.scale[1], node.scale[2]));
-    }
-    return t.matrix();
-}
-
 namespace {
 
 namespace fs = std::filesystem;
@@ -114,7 +80,10 @@ private:
     std::size_t add_instance(std::size_t first, std::size_t count, const Eigen::Matrix4d& from,
                              const Eigen::Matrix4d& to);
     std::int32_t group_of(const Eigen::Matrix4d& to_world);
-    void append_world(const std::vector<double>& local, const Placement& place, std::int32_t group);
+    // The elements of \p local placed by \p place into \p group, and into the shown pose unless
+    // \p with_pose is false (the caller placed them there).
+    void append_world(const std::vector<double>& local, const Placement& place, std::int32_t group,
+                      bool with_pose = true);
     TriangleMesh weld();
     [[noreturn]] void fail(const std::string& what) const { fail_io(path_, what); }
 
@@ -324,7 +293,8 @@ std::int32_t Reader::group_of(const Eigen::Matrix4d& to_world)
     return static_cast<std::int32_t>(groups_.size() - 1);
 }
 
-void Reader::append_world(const std::vector<double>& local, const Placement& place, std::int32_t group)
+void Reader::append_world(const std::vector<double>& local, const Placement& place, std::int32_t group,
+                          bool with_pose)
 {
     const std::size_t n = local.size() / 3;
     for (std::size_t i = 0; i < n; ++i)
@@ -333,7 +303,7 @@ void Reader::append_world(const std::vector<double>& local, const Placement& pla
         const Eigen::Vector4d w = place.to_world * p;
         raw_.world.insert(raw_.world.end(), {w.x(), w.y(), w.z()});
         raw_.group.push_back(group);
-        if (!posed_globals_.empty())
+        if (with_pose && !posed_globals_.empty())
         {
             add_posed(p, place.to_world, place.posed);
         }
@@ -481,20 +451,9 @@ void Reader::add_plain(const tinygltf::Primitive& prim, int mesh, int index, con
                 raw_.group.push_back(group);
             }
         }
-        else if (skin >= 0 && !posed_globals_.empty())
-        {
-            // (its posed places added above)
-            const auto group = group_of(to_world);
-            for (std::size_t e = 0; e < record.elements.size(); ++e)
-            {
-                const Eigen::Vector4d w = to_world * Eigen::Vector4d(local[3 * e], local[3 * e + 1], local[3 * e + 2], 1.0);
-                raw_.world.insert(raw_.world.end(), {w.x(), w.y(), w.z()});
-                raw_.group.push_back(group);
-            }
-        }
         else
         {
-            append_world(local, place, group_of(to_world));
+            append_world(local, place, group_of(to_world), skin < 0);  // (a skinned one's pose: above)
         }
         asset_.accessors.push_back(std::move(record));
     }

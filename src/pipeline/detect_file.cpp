@@ -929,6 +929,27 @@ std::vector<Eigen::Matrix4d> self_symmetries(const TriangleMesh& original, doubl
     return found;
 }
 
+// One of k readings of a copy (several poses): each of its false-positive probabilities times
+// k (a union bound over the k, docs/statistics.md, "Several poses"), and the verdict again.
+void charge_readings(Decision& d, double readings, const DetectOptions& decision)
+{
+    d.score_false_positive_probability = std::min(1.0, readings * d.score_false_positive_probability);
+    d.bits_false_positive_probability = std::min(1.0, readings * d.bits_false_positive_probability);
+    d.false_positive_probability = std::min(1.0, readings * d.false_positive_probability);
+    d.is_present = d.false_positive_probability <= decision.max_false_positive;
+}
+
+// \p report becomes \p other when that reading is the more significant; the phase times stay
+// (the timer writes into the first report's).
+void keep_more_significant(DetectReport& report, DetectReport& other)
+{
+    if (other.decision.false_positive_probability < report.decision.false_positive_probability)
+    {
+        other.seconds = std::move(report.seconds);
+        report = std::move(other);
+    }
+}
+
 // A registered copy of a symmetric original (an egg, a sphere, a torus, a vase) fits it as well
 // in every pose the original's symmetries relate, and registration picks one of them: the
 // mark is read only in the right one (Blender's PLY copy of an egg registered turned half a
@@ -955,13 +976,7 @@ void read_symmetric_poses(DetectReport& report, detail::PhaseTimer& timer, const
         return;
     }
     const double readings = static_cast<double>(symmetries.size() + 1);
-    const auto bounded = [&](DetectReport& r) {
-        Decision& d = r.decision;
-        d.score_false_positive_probability = std::min(1.0, readings * d.score_false_positive_probability);
-        d.bits_false_positive_probability = std::min(1.0, readings * d.bits_false_positive_probability);
-        d.false_positive_probability = std::min(1.0, readings * d.false_positive_probability);
-        d.is_present = d.false_positive_probability <= options.decision.max_false_positive;
-    };
+    const auto bounded = [&](DetectReport& r) { charge_readings(r.decision, readings, options.decision); };
     bounded(report);
     const Eigen::Matrix4d registered = report.transform;
     for (const Eigen::Matrix4d& S : symmetries)
@@ -974,11 +989,7 @@ void read_symmetric_poses(DetectReport& report, detail::PhaseTimer& timer, const
         DetectReport other;
         detect_into(other, timer, mark, original, instances, suspect, suspect_path, options, &pose);
         bounded(other);
-        if (other.decision.false_positive_probability < report.decision.false_positive_probability)
-        {
-            other.seconds = std::move(report.seconds);  // (the timer writes into the first report's)
-            report = std::move(other);
-        }
+        keep_more_significant(report, other);
     }
 }
 
@@ -1002,13 +1013,7 @@ void read_shown_pose(DetectReport& report, detail::PhaseTimer& timer, const Spec
     {
         return;
     }
-    const auto bounded = [&](DetectReport& r) {
-        Decision& d = r.decision;
-        d.score_false_positive_probability = std::min(1.0, 2.0 * d.score_false_positive_probability);
-        d.bits_false_positive_probability = std::min(1.0, 2.0 * d.bits_false_positive_probability);
-        d.false_positive_probability = std::min(1.0, 2.0 * d.false_positive_probability);
-        d.is_present = d.false_positive_probability <= options.decision.max_false_positive;
-    };
+    const auto bounded = [&](DetectReport& r) { charge_readings(r.decision, 2.0, options.decision); };
     bounded(report);
     if (report.decision.is_present)
     {
@@ -1041,13 +1046,9 @@ void read_shown_pose(DetectReport& report, detail::PhaseTimer& timer, const Spec
     const Eigen::Matrix4d in_place = Eigen::Matrix4d::Identity();
     detect_into(other, timer, mark, original, instances, unposed, suspect_path, options, &in_place);
     bounded(other);
-    if (other.decision.false_positive_probability < report.decision.false_positive_probability)
-    {
-        other.seconds = std::move(report.seconds);  // (the timer writes into the first report's)
-        other.transform = other.transform * to_pose;
-        other.alignment = "registration (" + shown.name + ")";
-        report = std::move(other);
-    }
+    other.transform = other.transform * to_pose;
+    other.alignment = "registration (" + shown.name + ")";
+    keep_more_significant(report, other);
 }
 
 // The watermark of \p key regenerated from \p original (phase "basis"), then steps 6-10.
