@@ -8,6 +8,7 @@
 // weights are not sampled (meshmark reads the base positions).
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <string>
 
 #include <Eigen/Geometry>
@@ -129,7 +130,66 @@ std::vector<double> sample(const GltfAccessors& accessors, const tinygltf::Anima
     return result;
 }
 
+// The numbers a channel of \p a sets on its node (3: translation or scale, 4: rotation), or 0
+// for a channel that is not read: morph weights (not sampled), a node given as a matrix (the
+// specification forbids animating it), a target or sampler out of range.
+int channel_components(const tinygltf::Model& model, const tinygltf::Animation& a,
+                       const tinygltf::AnimationChannel& channel)
+{
+    const auto& path = channel.target_path;
+    const int components = path == "rotation" ? 4 : (path == "translation" || path == "scale") ? 3 : 0;
+    if (components == 0 || channel.target_node < 0 ||
+        static_cast<std::size_t>(channel.target_node) >= model.nodes.size() || channel.sampler < 0 ||
+        static_cast<std::size_t>(channel.sampler) >= a.samplers.size() ||
+        model.nodes[static_cast<std::size_t>(channel.target_node)].matrix.size() == 16)
+    {
+        return 0;
+    }
+    return components;
+}
+
 }  // namespace
+
+std::optional<AnimationSpan> animation_span(const tinygltf::Model& model, const GltfAccessors& accessors,
+                                            std::size_t animation)
+{
+    if (animation >= model.animations.size())
+    {
+        return std::nullopt;
+    }
+    const auto& a = model.animations[animation];
+    AnimationSpan span;
+    span.name = a.name.empty() ? "animation " + std::to_string(animation) : a.name;
+    bool any = false;
+    for (std::size_t k = 0; k < a.channels.size(); ++k)
+    {
+        if (channel_components(model, a, a.channels[k]) == 0)
+        {
+            continue;
+        }
+        const std::vector<double> times =
+            accessors.values(a.samplers[static_cast<std::size_t>(a.channels[k].sampler)].input, 1,
+                             "animation " + std::to_string(animation) + " channel " + std::to_string(k) + " input",
+                             false);
+        if (times.empty())
+        {
+            continue;
+        }
+        const auto [lo, hi] = std::minmax_element(times.begin(), times.end());
+        if (!std::isfinite(*lo) || !std::isfinite(*hi))
+        {
+            return std::nullopt;
+        }
+        span.first_key = any ? std::min(span.first_key, *lo) : *lo;
+        span.last_key = any ? std::max(span.last_key, *hi) : *hi;
+        any = true;
+    }
+    if (!any)
+    {
+        return std::nullopt;
+    }
+    return span;
+}
 
 Eigen::Matrix4d local_matrix(const tinygltf::Node& node)
 {
@@ -164,20 +224,12 @@ std::vector<Eigen::Matrix4d> animated_local_matrices(const tinygltf::Model& mode
     {
         const auto& channel = a.channels[k];
         const auto& path = channel.target_path;
-        const int components = path == "rotation" ? 4 : (path == "translation" || path == "scale") ? 3 : 0;
-        // Morph weights are not sampled; a node given as a matrix cannot be animated (the
-        // specification forbids it; such a channel is left out).
-        if (components == 0 || channel.target_node < 0 ||
-            static_cast<std::size_t>(channel.target_node) >= model.nodes.size() || channel.sampler < 0 ||
-            static_cast<std::size_t>(channel.sampler) >= a.samplers.size())
+        const int components = channel_components(model, a, channel);
+        if (components == 0)
         {
             continue;
         }
         const auto n = static_cast<std::size_t>(channel.target_node);
-        if (model.nodes[n].matrix.size() == 16)
-        {
-            continue;
-        }
         const std::vector<double> v =
             sample(accessors, a.samplers[static_cast<std::size_t>(channel.sampler)], components, t,
                    "animation " + std::to_string(animation) + " channel " + std::to_string(k));

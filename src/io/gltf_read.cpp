@@ -362,8 +362,11 @@ std::string percent_decoded(const std::string& uri)
     return out;
 }
 
-TriangleMesh read_gltf(const fs::path& path, const std::string& bytes, bool is_glb,
-                       GltfAsset& asset)
+namespace {
+
+// The container (GLB chunks), tinygltf's parse and buffer loading, meshopt views decoded: what
+// read_gltf and visit_gltf_poses walk the scene of.
+tinygltf::Model load_asset(const fs::path& path, const std::string& bytes, bool is_glb, GltfAsset& asset)
 {
     asset.is_glb = is_glb;
     asset.folder = path.parent_path();
@@ -418,7 +421,33 @@ TriangleMesh read_gltf(const fs::path& path, const std::string& bytes, bool is_g
     }
     asset.meshopt = meshopt_views(path, asset.json);
     decode_meshopt_views(path, model, asset);
+    return model;
+}
+
+}  // namespace
+
+TriangleMesh read_gltf(const fs::path& path, const std::string& bytes, bool is_glb, GltfAsset& asset)
+{
+    const tinygltf::Model model = load_asset(path, bytes, is_glb, asset);
     return read_scene(path, model, asset);
+}
+
+void visit_gltf_poses(const fs::path& path, const std::string& bytes, bool is_glb, std::span<const double> times,
+                      const std::function<void(ShownPose&&)>& visit)
+{
+    GltfAsset loaded;
+    const tinygltf::Model model = load_asset(path, bytes, is_glb, loaded);
+    for (const double t : times)
+    {
+        // The scene walk fills the asset's lists of accessors, Draco primitives and instances:
+        // each time gets them afresh over the same loaded buffers.
+        loaded.accessors.clear();
+        loaded.draco.clear();
+        loaded.instances = TriangleMesh{};
+        loaded.shown_pose = ShownPose{};
+        (void)read_scene(path, model, loaded, t);
+        visit(std::move(loaded.shown_pose));
+    }
 }
 
 }  // namespace meshmark::detail

@@ -8,6 +8,8 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <sstream>
+#include <string>
 
 #include <Eigen/Geometry>
 
@@ -45,8 +47,8 @@ struct RawVertices
 class Reader
 {
 public:
-    Reader(const fs::path& path, const tinygltf::Model& model, GltfAsset& asset)
-        : path_(path), model_(model), asset_(asset), accessors_(path, model, asset)
+    Reader(const fs::path& path, const tinygltf::Model& model, GltfAsset& asset, double animation_time)
+        : path_(path), model_(model), asset_(asset), accessors_(path, model, asset), animation_time_(animation_time)
     {
     }
 
@@ -91,6 +93,7 @@ private:
     const tinygltf::Model& model_;
     GltfAsset& asset_;
     GltfAccessors accessors_;
+    double animation_time_;  // where the first animation is sampled for the shown pose
     std::size_t visits_ = 0;
     std::map<int, std::size_t> accessor_slot_;  // POSITION accessor -> asset_.accessors
     std::map<int, std::size_t> draco_slot_;     // Draco bufferView -> asset_.draco
@@ -113,6 +116,20 @@ private:
     std::vector<Eigen::Matrix3d> to_rest_;
 };
 
+
+// A time of an animation as Blender's frames show it ("10/24 s": frame 10 at 24 frames per
+// second), or in seconds when it falls between frames.
+std::string time_name(double t)
+{
+    const double frame = std::round(t * 24.0);
+    if (std::abs(t * 24.0 - frame) <= 1e-6 * std::max(1.0, std::abs(frame)))  // (float32 key times)
+    {
+        return std::to_string(static_cast<long long>(frame)) + "/24 s";
+    }
+    std::ostringstream out;
+    out << t << " s";
+    return out.str();
+}
 
 bool same_matrix(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b)
 {
@@ -177,10 +194,12 @@ void Reader::pose_from_first_animation()
     std::vector<Eigen::Matrix4d> locals;
     try
     {
-        locals = animated_local_matrices(model_, accessors_, 0, kShownAnimationTime);
+        asset_.animation = animation_span(model_, accessors_, 0);
+        locals = animated_local_matrices(model_, accessors_, 0, animation_time_);
     }
     catch (const IoError&)
     {
+        asset_.animation.reset();
         return;
     }
     bool moves = false;
@@ -197,7 +216,8 @@ void Reader::pose_from_first_animation()
         return;
     }
     const std::string& name = model_.animations.front().name;
-    pose_name_ = (name.empty() ? std::string("animation 0") : "animation '" + name + "'") + " at 1/24 s";
+    pose_name_ = (name.empty() ? std::string("animation 0") : "animation '" + name + "'") + " at " +
+                 time_name(animation_time_);
     posed_globals_ = world_matrices(locals);
     posed_locals_ = std::move(locals);
 }
@@ -803,6 +823,7 @@ void Reader::keep_shown_pose(const std::vector<std::int32_t>& welded, const std:
     const std::size_t n = xyz.size() / 3;
     ShownPose pose;
     pose.name = pose_name_;
+    pose.time = animation_time_;
     pose.V.resize(static_cast<Eigen::Index>(n), 3);
     pose.to_rest.assign(n, Eigen::Matrix3d::Identity());
     std::vector<char> is_set(n, 0);
@@ -877,9 +898,9 @@ TriangleMesh Reader::weld()
 
 }  // namespace
 
-TriangleMesh read_scene(const fs::path& path, const tinygltf::Model& model, GltfAsset& asset)
+TriangleMesh read_scene(const fs::path& path, const tinygltf::Model& model, GltfAsset& asset, double animation_time)
 {
-    Reader reader(path, model, asset);
+    Reader reader(path, model, asset, animation_time);
     return reader.run();
 }
 

@@ -127,6 +127,7 @@ MeshFile read_mesh_file(const std::filesystem::path& path)
                 detail::read_gltf(path, layout->bytes, file.format == MeshFormat::Glb, asset);
             file.instances = std::move(asset.instances);
             file.shown_pose = std::move(asset.shown_pose);
+            file.animation = std::move(asset.animation);
             file.is_single_precision = true;
             break;
         }
@@ -138,6 +139,21 @@ MeshFile read_mesh_file(const std::filesystem::path& path)
     }
     file.layout = std::move(layout);
     return file;
+}
+
+void for_each_animation_pose(const std::filesystem::path& path, std::span<const double> times,
+                             const std::function<void(ShownPose&&)>& visit)
+{
+    const MeshFormat format = format_from_extension(path);
+    if (format != MeshFormat::Gltf && format != MeshFormat::Glb)
+    {
+        for (std::size_t k = 0; k < times.size(); ++k)
+        {
+            visit(ShownPose{});
+        }
+        return;
+    }
+    detail::visit_gltf_poses(path, detail::read_file_bytes(path), format == MeshFormat::Glb, times, visit);
 }
 
 TriangleMesh read_mesh(const std::filesystem::path& path)

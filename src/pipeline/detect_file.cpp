@@ -7,6 +7,7 @@
 #include <cmath>
 #include <exception>
 #include <iterator>
+#include <limits>
 #include <numbers>
 #include <numeric>
 #include <optional>
@@ -993,21 +994,79 @@ void read_symmetric_poses(DetectReport& report, detail::PhaseTimer& timer, const
     }
 }
 
+// The animation of an animated original, where detection may read a copy through its poses.
+struct AnimatedOriginal
+{
+    std::filesystem::path path;  // the original's file, read again at other times
+    AnimationSpan span;
+};
+
+// The frames of the first animation a re-posed copy is compared with: Blender's frames (t =
+// F/24 s) over its span, frame 1 (what Blender shows after importing) always among them; at
+// most kMaxAnimationFrames, spread evenly over a longer span.
+constexpr int kMaxAnimationFrames = 120;
+// How a frame is compared with the copy: the copy registered onto the original posed there,
+// with these samples and iterations (a quarter to a half of a full registration's), and the
+// trimmed RMS residual of the fit. A full registration (the coarse stage too) on at most
+// kPoseGrid frames spread over the animation, then, started from the best of them, the frames
+// between its neighbours on that grid (register_from): a copy's pose is found within a frame.
+constexpr int kPoseRefineSamples = 512;
+constexpr int kPoseFineSamples = 1024;
+constexpr int kPoseFinalSamples = 2048;
+constexpr int kPoseIterations = 15;
+constexpr std::size_t kPoseGrid = 12;
+constexpr std::size_t kPoseCells = 2;
+
+std::vector<double> animation_frame_times(const AnimationSpan& span)
+{
+    const auto first = static_cast<long long>(std::floor(span.first_key * 24.0));
+    const auto last = static_cast<long long>(std::ceil(span.last_key * 24.0));
+    std::vector<long long> frames;
+    const long long count = last - first + 1;
+    if (count <= kMaxAnimationFrames)
+    {
+        for (long long f = first; f <= last; ++f)
+        {
+            frames.push_back(f);
+        }
+    }
+    else
+    {
+        for (int k = 0; k < kMaxAnimationFrames; ++k)
+        {
+            frames.push_back(first + (count - 1) * k / (kMaxAnimationFrames - 1));
+        }
+    }
+    frames.push_back(1);
+    std::vector<double> times;
+    for (const long long f : frames)
+    {
+        times.push_back(std::clamp(static_cast<double>(f) / 24.0, span.first_key, span.last_key));
+    }
+    std::sort(times.begin(), times.end());
+    times.erase(std::unique(times.begin(), times.end()), times.end());
+    return times;
+}
+
 // An animated original (a rigged glTF character, a machine whose parts move) is shown by
 // Blender in the pose of its first animation at frame 1, and every copy made from that import
-// (its PLY and OBJ writers, its modifiers) carries the pose: a rigid registration can fit only
-// part of it, and the mark reads noise (assimp's BVH and FBX samples: z -0.2 to 1.8). Such a
-// copy is registered onto the original in that pose, each of its vertices taken back to the
-// stored frame through the pose of the original's vertex nearest to it (MeshFile::shown_pose;
-// everything from the original, nothing from the key), and read again. Two readings: each is
-// claimed at twice its false-positive probabilities (a union bound, as for the symmetric poses).
-void read_shown_pose(DetectReport& report, detail::PhaseTimer& timer, const SpectralWatermark& mark,
-                     const TriangleMesh& original, const TriangleMesh& instances, const ShownPose& shown,
-                     const TriangleMesh& suspect, const std::filesystem::path& suspect_path,
-                     const DetectFileOptions& options)
+// (its PLY and OBJ writers, its modifiers) carries the pose; a user may also export it at
+// another frame (a character posed for a print or a render). A rigid registration can fit only
+// part of such a copy, and the mark reads noise (assimp's BVH and FBX samples: z -0.2 to 1.8).
+// The frames of the animation are compared with the copy (animation_frame_times: each posed
+// original against the copy by a short ICP from the stored pose's registration) and the one it
+// fits best is taken, if it fits better than the stored pose: the copy is registered onto the
+// original in that pose, each of its vertices taken back to the stored frame through the pose of
+// the original's vertex nearest to it (for_each_animation_pose; everything from the original
+// and the copy, nothing from the key: the choice is the same for every key), and read again.
+// Two readings: each is claimed at twice its false-positive probabilities (a union bound, as
+// for the symmetric poses).
+void read_animation_pose(DetectReport& report, detail::PhaseTimer& timer, const SpectralWatermark& mark,
+                         const TriangleMesh& original, const TriangleMesh& instances, const AnimatedOriginal& animated,
+                         const TriangleMesh& suspect, const std::filesystem::path& suspect_path,
+                         const DetectFileOptions& options)
 {
-    if (shown.V.rows() != original.V.rows() ||
-        (report.alignment.rfind("registration", 0) != 0 && report.alignment != "same-connectivity") ||
+    if ((report.alignment.rfind("registration", 0) != 0 && report.alignment != "same-connectivity") ||
         (mark.key().recipients && !mark.key().recipients->recipients.empty()) ||
         options.decision.verdict == VerdictRule::Bits || !options.pairs.empty())
     {
@@ -1020,15 +1079,105 @@ void read_shown_pose(DetectReport& report, detail::PhaseTimer& timer, const Spec
         return;
     }
     timer.begin("register");
-    TriangleMesh posed;
-    posed.V = shown.V;
-    posed.F = original.F;
     RegistrationOptions registration;
     registration.threads = options.threads;
-    const Eigen::Matrix4d to_pose = register_to_reference(suspect, posed, registration).transform;
+    RegistrationOptions quick = registration;
+    quick.refine_samples = kPoseRefineSamples;
+    quick.fine_samples = kPoseFineSamples;
+    quick.final_samples = kPoseFinalSamples;
+    quick.max_iterations = kPoseIterations;
+    const auto mesh_in = [&](const Positions& V) {
+        TriangleMesh posed;
+        posed.V = V;
+        posed.F = original.F;
+        return posed;
+    };
+    // The whole's motion from the stored pose into \p V (a walk carries the character forward).
+    const auto whole_into = [&](const Positions& V) -> Eigen::Matrix4d {
+        return Eigen::umeyama(original.V.transpose(), V.transpose(), true);
+    };
+    const std::vector<double> times = animation_frame_times(animated.span);
+    std::vector<std::size_t> grid;
+    const std::size_t grid_size = std::min(kPoseGrid, times.size());
+    for (std::size_t k = 0; k < grid_size; ++k)
+    {
+        grid.push_back(grid_size == 1 ? 0 : k * (times.size() - 1) / (grid_size - 1));
+    }
+    grid.erase(std::unique(grid.begin(), grid.end()), grid.end());
+    std::vector<double> grid_times;
+    for (const std::size_t k : grid)
+    {
+        grid_times.push_back(times[k]);
+    }
+    // Every grid frame's fit, then the frames between the neighbours of the best kPoseCells.
+    struct Fit
+    {
+        double residual = std::numeric_limits<double>::infinity();
+        std::size_t index = 0;
+        Eigen::Matrix4d transform = Eigen::Matrix4d::Identity();
+        Eigen::Matrix4d whole = Eigen::Matrix4d::Identity();
+    };
+    std::vector<Fit> fits;
+    Fit chosen;
+    ShownPose best;
+    const auto keep = [&](const RegistrationResult& fit, ShownPose& pose, std::size_t index) {
+        const Fit f{fit.rms_error, index, fit.transform, whole_into(pose.V)};
+        fits.push_back(f);
+        if (f.residual < chosen.residual)
+        {
+            chosen = f;
+            best = std::move(pose);
+        }
+    };
+    std::size_t at = 0;
+    for_each_animation_pose(animated.path, grid_times, [&](ShownPose&& pose) {
+        const std::size_t index = grid[at++];
+        if (pose.V.rows() == original.V.rows())  // (else the stored pose, already read, or none)
+        {
+            keep(register_to_reference(suspect, mesh_in(pose.V), quick), pose, index);
+        }
+    });
+    if (best.V.rows() == 0)
+    {
+        timer.lap("register");
+        return;
+    }
+    std::sort(fits.begin(), fits.end(), [](const Fit& a, const Fit& b) { return a.residual < b.residual; });
+    const std::vector<Fit> cells(fits.begin(), fits.begin() + static_cast<std::ptrdiff_t>(std::min(fits.size(), kPoseCells)));
+    std::vector<double> window;
+    std::vector<const Fit*> window_start;
+    std::vector<std::size_t> window_index;
+    for (const Fit& cell : cells)
+    {
+        const auto g = std::find(grid.begin(), grid.end(), cell.index);
+        const std::size_t from = g == grid.begin() ? 0 : *std::prev(g) + 1;
+        const std::size_t to = std::next(g) == grid.end() ? times.size() : *std::next(g);
+        for (std::size_t k = from; k < to; ++k)
+        {
+            if (std::find(grid.begin(), grid.end(), k) == grid.end() &&
+                std::find(window_index.begin(), window_index.end(), k) == window_index.end())
+            {
+                window.push_back(times[k]);
+                window_start.push_back(&cell);
+                window_index.push_back(k);
+            }
+        }
+    }
+    at = 0;
+    for_each_animation_pose(animated.path, window, [&](ShownPose&& pose) {
+        const Fit& start = *window_start[at];
+        const std::size_t index = window_index[at++];
+        if (pose.V.rows() == original.V.rows())
+        {
+            keep(register_from(suspect, mesh_in(pose.V), whole_into(pose.V) * start.whole.inverse() * start.transform,
+                               quick),
+                 pose, index);
+        }
+    });
+    const Eigen::Matrix4d to_pose = register_from(suspect, mesh_in(best.V), chosen.transform, registration).transform;
     timer.lap("register");
     timer.begin("unpose");
-    const PointKdTree tree(shown.V);
+    const PointKdTree tree(best.V);
     TriangleMesh unposed;
     unposed.V = transform_points(to_pose, suspect.V);
     unposed.F = suspect.F;
@@ -1038,7 +1187,7 @@ void read_shown_pose(DetectReport& report, detail::PhaseTimer& timer, const Spec
         const Eigen::Vector3d s = unposed.V.row(j).transpose();
         const auto i = static_cast<Eigen::Index>(tree.nearest(s, squared));
         unposed.V.row(j) = (original.V.row(i).transpose() +
-                            shown.to_rest[static_cast<std::size_t>(i)] * (s - shown.V.row(i).transpose()))
+                            best.to_rest[static_cast<std::size_t>(i)] * (s - best.V.row(i).transpose()))
                                .transpose();
     }
     timer.lap("unpose");
@@ -1047,7 +1196,7 @@ void read_shown_pose(DetectReport& report, detail::PhaseTimer& timer, const Spec
     detect_into(other, timer, mark, original, instances, unposed, suspect_path, options, &in_place);
     bounded(other);
     other.transform = other.transform * to_pose;
-    other.alignment = "registration (" + shown.name + ")";
+    other.alignment = "registration (" + best.name + ")";
     keep_more_significant(report, other);
 }
 
@@ -1055,16 +1204,16 @@ void read_shown_pose(DetectReport& report, detail::PhaseTimer& timer, const Spec
 void detect_with_key(DetectReport& report, detail::PhaseTimer& timer, const Key& key, const TriangleMesh& original,
                      const TriangleMesh& instances, const TriangleMesh& suspect,
                      const std::filesystem::path& suspect_path, const DetectFileOptions& options,
-                     const ShownPose* shown = nullptr)
+                     const AnimatedOriginal* animated = nullptr)
 {
     timer.begin("basis");
     const SpectralWatermark mark(original, key, options.threads);
     timer.lap("basis");
     detect_into(report, timer, mark, original, instances, suspect, suspect_path, options);
     read_symmetric_poses(report, timer, mark, original, instances, suspect, suspect_path, options);
-    if (shown != nullptr)
+    if (animated != nullptr)
     {
-        read_shown_pose(report, timer, mark, original, instances, *shown, suspect, suspect_path, options);
+        read_animation_pose(report, timer, mark, original, instances, *animated, suspect, suspect_path, options);
     }
 }
 
@@ -1107,7 +1256,7 @@ DetectReport detect_file(const std::filesystem::path& suspect_path,
     // the order of a serial run: the key, the original, its checks, then the suspect.
     TriangleMesh original;
     TriangleMesh instances;
-    ShownPose shown;
+    std::optional<AnimationSpan> animation;
     TriangleMesh suspect;
     std::array<std::exception_ptr, 2> failures;
     const auto read_into = [&](TriangleMesh& mesh, const std::filesystem::path& path, std::exception_ptr& failure,
@@ -1119,7 +1268,7 @@ DetectReport detect_file(const std::filesystem::path& suspect_path,
             if (others != nullptr)
             {
                 *others = std::move(file.instances);
-                shown = std::move(file.shown_pose);
+                animation = std::move(file.animation);
             }
         }
         catch (...)
@@ -1149,7 +1298,9 @@ DetectReport detect_file(const std::filesystem::path& suspect_path,
         std::rethrow_exception(failures[1]);
     }
     timer.lap("read");
-    detect_with_key(report, timer, key, original, instances, suspect, suspect_path, options, &shown);
+    const AnimatedOriginal animated{original_path, animation.value_or(AnimationSpan{})};
+    detect_with_key(report, timer, key, original, instances, suspect, suspect_path, options,
+                    animation ? &animated : nullptr);
     return report;
 }
 

@@ -677,6 +677,37 @@ RegistrationResult register_to_reference(const TriangleMesh& suspect, const Tria
     return result;
 }
 
+RegistrationResult register_from(const TriangleMesh& suspect, const TriangleMesh& reference,
+                                 const Eigen::Matrix4d& start, const RegistrationOptions& options)
+{
+    options.validate();
+    const auto suspect_rows = usable_vertices(suspect, "suspect mesh");
+    const auto reference_rows = usable_vertices(reference, "reference mesh");
+    // The start as scale * rotation (* mirror: the samples are mirrored, x -> -x, as the coarse
+    // stage's mirrored candidates are).
+    const Mat3 A = start.block<3, 3>(0, 0);
+    Candidate c;
+    c.mirrored = A.determinant() < 0.0;
+    const Mat3 B = c.mirrored ? Mat3(A * mirror_matrix()) : A;
+    c.transform.scale = std::cbrt(B.determinant());
+    if (!(c.transform.scale > 0.0) || !std::isfinite(c.transform.scale) ||
+        !(B / c.transform.scale).isUnitary(1e-6))
+    {
+        throw InvalidOption("register_from: the start is not a similarity transform.");
+    }
+    c.transform.rotation = B / c.transform.scale;
+    c.transform.translation = start.block<3, 1>(0, 3);
+    RegistrationOptions own = options;
+    own.allow_reflection = c.mirrored;  // only the start's own handedness is sampled
+    Problem p = make_problem(suspect, reference, suspect_rows, reference_rows, own);
+    p.initial_scale = c.transform.scale;
+    std::vector<Candidate> candidates{c};
+    const int iterations = run_round(p, candidates, kRounds.back());
+    RegistrationResult result = finish(p, std::move(candidates), iterations);
+    result.candidates = 1;
+    return result;
+}
+
 Eigen::Matrix4d similarity_from_pairs(std::span<const PointPair> pairs, bool allow_reflection)
 {
     if (pairs.size() < 3)

@@ -4,7 +4,10 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <memory>
+#include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -50,10 +53,19 @@ struct FileLayout;  // Everything a preserving writer needs: the original bytes 
 struct ShownPose
 {
     std::string name;  ///< What the pose is, for messages ("animation 'Run' at 1/24 s").
+    double time = 0.0; ///< Seconds into the first animation (1/24: what Blender shows).
     Positions V;       ///< MeshFile::mesh's vertices in the pose, row for row; empty: no such pose.
     /// Per row: the linear map taking a displacement near the posed vertex back to the stored
     /// frame (the inverse of the pose's linear part at that vertex).
     std::vector<Eigen::Matrix3d> to_rest;
+};
+
+/// \brief The animation an importer plays: a glTF file's first one, when it moves a node.
+struct AnimationSpan
+{
+    std::string name;       ///< Its name in the file ("animation 0" when it has none).
+    double first_key = 0.0; ///< Time of its earliest key, seconds.
+    double last_key = 0.0;  ///< Time of its latest key, seconds.
 };
 
 /// \brief A mesh as read from a file, with what is needed to write it back unchanged except
@@ -79,6 +91,9 @@ struct MeshFile
     /// glTF with animations that move the mesh other than as a whole: the pose Blender shows it
     /// in (see ShownPose); empty otherwise.
     ShownPose shown_pose;
+    /// glTF whose first animation moves a node: its span, to sample other poses of it
+    /// (for_each_animation_pose), whether or not its pose at 1/24 s differs from the stored one.
+    std::optional<AnimationSpan> animation;
 };
 
 /// \brief Read a mesh file, keeping everything needed for a preserving write.
@@ -87,6 +102,16 @@ struct MeshFile
 /// \throws IoError (missing, unreadable, truncated, malformed; names the file and the line
 /// or byte offset) or InvalidMesh (non-finite coordinate, index out of range).
 [[nodiscard]] MeshFile read_mesh_file(const std::filesystem::path& path);
+
+/// \brief The mesh of a glTF file posed by its first animation at each of \p times (seconds),
+/// one call of \p visit per time, in order, the file parsed once.
+/// \details Each pose is what MeshFile::shown_pose is at 1/24 s (the same rows, the same maps
+/// back), with an empty `V` where the pose is only a similarity of the stored one. Other
+/// formats, and files without an animation, call \p visit with empty poses. A copy re-posed by
+/// a user (a rigged character exported at another frame) is read through these.
+/// \throws the errors of read_mesh_file.
+void for_each_animation_pose(const std::filesystem::path& path, std::span<const double> times,
+                             const std::function<void(ShownPose&&)>& visit);
 
 /// \brief Read only the geometry of a mesh file. Same errors as read_mesh_file.
 [[nodiscard]] TriangleMesh read_mesh(const std::filesystem::path& path);

@@ -100,6 +100,16 @@ struct RegistrationResult
                                                        std::span<const PointPair> pairs,
                                                        const RegistrationOptions& options = {});
 
+/// \brief Same, started from a known transform instead of the coarse stage.
+/// \details For a suspect whose pose is known roughly: the reference is one of several
+/// near-alike ones (the frames of an animation) and the suspect was registered onto another.
+/// The last coarse round and the fine stage run from \p start (suspect -> reference; a mirrored
+/// one stays mirrored), which costs a small part of a full registration.
+/// \throws InvalidMesh as above; InvalidOption from options.validate() or when the linear
+/// part of \p start is not a similarity.
+[[nodiscard]] RegistrationResult register_from(const TriangleMesh& suspect, const TriangleMesh& reference,
+                                               const Eigen::Matrix4d& start, const RegistrationOptions& options = {});
+
 /// \brief Least-squares similarity mapping each pair's suspect point to its reference point
 /// [Umeyama 1991].
 /// \param allow_reflection  Also fit a mirrored map and return it when its residual is

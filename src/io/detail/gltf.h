@@ -175,6 +175,8 @@ struct GltfAsset
     TriangleMesh instances;
     /// The pose an importer shows an animated asset in (see MeshFile::shown_pose).
     ShownPose shown_pose;
+    /// The first animation's span when it moves a node (see MeshFile::animation).
+    std::optional<AnimationSpan> animation;
 };
 
 /// A stored POSITION component as the coordinate a renderer sees (normalized integers
@@ -193,6 +195,10 @@ struct GltfAsset
 /// Read a .gltf or .glb (already in \p bytes) into its welded world-frame mesh.
 [[nodiscard]] TriangleMesh read_gltf(const std::filesystem::path& path, const std::string& bytes,
                                      bool is_glb, GltfAsset& asset);
+
+/// \brief read_gltf's parse, then the scene posed at each of \p times (for_each_animation_pose).
+void visit_gltf_poses(const std::filesystem::path& path, const std::string& bytes, bool is_glb,
+                      std::span<const double> times, const std::function<void(ShownPose&&)>& visit);
 
 /// \brief Write \p asset with welded positions \p original replaced by \p positions to
 /// \p path (a .gltf or .glb; external buffers are written beside it), atomically.

@@ -81,10 +81,15 @@ inline constexpr double kShownAnimationTime = 1.0 / 24.0;
                                                                    const GltfAccessors& accessors,
                                                                    std::size_t animation, double t);
 
+/// \brief The span of animation \p animation (its channels that move a node), or nothing when
+/// it has none or a key time is not finite.
+[[nodiscard]] std::optional<AnimationSpan> animation_span(const tinygltf::Model& model,
+                                                          const GltfAccessors& accessors, std::size_t animation);
+
 /// \brief Walk the scene graph of \p model (buffers and meshopt views already in \p asset)
 /// and return its welded world-frame mesh; fills the accessors, Draco primitives and other
-/// instances of \p asset.
-[[nodiscard]] TriangleMesh read_scene(const std::filesystem::path& path,
-                                      const tinygltf::Model& model, GltfAsset& asset);
+/// instances of \p asset, and its shown pose: the first animation at \p animation_time.
+[[nodiscard]] TriangleMesh read_scene(const std::filesystem::path& path, const tinygltf::Model& model,
+                                      GltfAsset& asset, double animation_time = kShownAnimationTime);
 
 }  // namespace meshmark::detail

@@ -156,7 +156,7 @@ TEST(GltfPipelineTest, a_copy_of_an_animated_asset_in_the_pose_blender_shows_is_
 
     // Blender's copy: every vertex where the pose puts it (skinned with the stored weights),
     // the vertices in reverse order.
-    const auto shown_copy = [&](const fs::path& file, const fs::path& out) {
+    const auto shown_copy = [&](const fs::path& file, const fs::path& out, double t = 1.0 / 24.0) {
         const TriangleMesh stored = read_mesh(file);
         const Eigen::Index n = stored.V.rows();
         TriangleMesh copy;
@@ -164,7 +164,8 @@ TEST(GltfPipelineTest, a_copy_of_an_animated_asset_in_the_pose_blender_shows_is_
         for (Eigen::Index v = 0; v < n; ++v)
         {
             copy.V.row(n - 1 - v) =
-                arm.shown(stored.V.row(v).transpose(), arm.weight(xyz[static_cast<std::size_t>(3 * v)])).transpose();
+                arm.shown(stored.V.row(v).transpose(), arm.weight(xyz[static_cast<std::size_t>(3 * v)]), t)
+                    .transpose();
         }
         copy.F = (n - 1) - stored.F.array();
         write_mesh(out, copy);
@@ -180,6 +181,18 @@ TEST(GltfPipelineTest, a_copy_of_an_animated_asset_in_the_pose_blender_shows_is_
     EXPECT_NE(found.alignment.find("animation 'bend'"), std::string::npos) << found.alignment;
     const DetectReport clean = detect_file(dir / "clean_shown.ply", dir / "arm.glb", dir / "key.json", detect);
     EXPECT_FALSE(clean.decision.is_present) << "z " << clean.decision.score;
+
+    // Exported at the animation's end (Blender's frame 3 and after: the elbow turned by 100
+    // degrees, not 41): read through that frame, found among the animation's frames by how
+    // well the copy fits each.
+    shown_copy(dir / "marked.glb", dir / "marked_end.ply", 0.1);
+    shown_copy(dir / "arm.glb", dir / "clean_end.ply", 0.1);
+    const DetectReport at_end = detect_file(dir / "marked_end.ply", dir / "arm.glb", dir / "key.json", detect);
+    EXPECT_TRUE(at_end.decision.is_present) << "z " << at_end.decision.score << " alignment " << at_end.alignment;
+    EXPECT_GT(at_end.decision.score, 9.0);
+    EXPECT_NE(at_end.alignment.find("animation 'bend' at 0.1 s"), std::string::npos) << at_end.alignment;
+    const DetectReport clean_end = detect_file(dir / "clean_end.ply", dir / "arm.glb", dir / "key.json", detect);
+    EXPECT_FALSE(clean_end.decision.is_present) << "z " << clean_end.decision.score;
 }
 
 }  // namespace

@@ -602,6 +602,32 @@ TEST_F(GltfTest, an_animated_rig_gives_the_pose_blender_shows_it_in)
     }
     EXPECT_GT(largest_bend, 0.3);  // the pose is not the stored shape lifted
 
+    // The animation's span, and its poses at other times (a copy exported at another frame).
+    ASSERT_TRUE(file.animation.has_value());
+    EXPECT_EQ(file.animation->name, "bend");
+    EXPECT_EQ(file.animation->first_key, 0.0);
+    EXPECT_NEAR(file.animation->last_key, 0.1, 1e-7);
+    const std::vector<double> times{0.0, 0.05, 1.0 / 24.0, 2.0 / 24.0, 0.1};
+    std::vector<ShownPose> poses;
+    for_each_animation_pose(dir / "arm.glb", times, [&](ShownPose&& p) { poses.push_back(std::move(p)); });
+    ASSERT_EQ(poses.size(), times.size());
+    EXPECT_EQ(poses[0].V.rows(), 0);  // at its start the animation only keeps the stored pose
+    EXPECT_EQ(poses[1].name, "animation 'bend' at 0.05 s");
+    EXPECT_EQ(poses[2].name, "animation 'bend' at 1/24 s");
+    EXPECT_EQ(poses[3].name, "animation 'bend' at 2/24 s");
+    for (std::size_t k = 1; k < times.size(); ++k)
+    {
+        ASSERT_EQ(poses[k].V.rows(), n) << k;
+        EXPECT_EQ(poses[k].time, times[k]);
+        for (Eigen::Index v = 0; v < n; ++v)
+        {
+            const Eigen::Vector3d p(xyz[3 * v], xyz[3 * v + 1], xyz[3 * v + 2]);
+            EXPECT_LT((poses[k].V.row(v).transpose() - arm.shown(p, arm.weight(p.x()), times[k])).norm(), 1e-6)
+                << k << " " << v;
+        }
+    }
+    EXPECT_EQ(poses[2].V, pose.V);  // the same pose as the reader's shown one
+
     test::BendingArm lifted_only = arm;
     lifted_only.turn = 0.0;
     test::put_bytes(dir / "lifted.glb", lifted_only.glb(xyz, idx));

@@ -318,12 +318,12 @@ struct BendingArm
     /// the elbow's turn interpolated as Blender does (quaternion components, then normalized).
     [[nodiscard]] Eigen::Vector3d shown(const Eigen::Vector3d& p) const { return shown(p, weight(p.x())); }
 
-    /// The same for a point \p p skinned with elbow weight \p w.
-    [[nodiscard]] Eigen::Vector3d shown(const Eigen::Vector3d& p, double w) const
+    /// The same for a point \p p skinned with elbow weight \p w, at \p t seconds into the animation.
+    [[nodiscard]] Eigen::Vector3d shown(const Eigen::Vector3d& p, double w, double t = 1.0 / 24.0) const
     {
-        const double s = (1.0 / 24.0) / 0.1;
+        const double s = std::clamp(t / 0.1, 0.0, 1.0);
         const double angle = 2.0 * std::atan2(s * std::sin(turn / 2.0), (1.0 - s) + s * std::cos(turn / 2.0));
-        const Eigen::Affine3d shoulder(Eigen::Translation3d(0.0, lift, 0.0));
+        const Eigen::Affine3d shoulder(Eigen::Translation3d(0.0, t >= 0.02 ? lift : 0.0, 0.0));
         const Eigen::Affine3d elbow_world = shoulder * Eigen::Translation3d(elbow, 0.0, 0.0) *
                                             Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitZ()) *
                                             Eigen::Translation3d(-elbow, 0.0, 0.0);

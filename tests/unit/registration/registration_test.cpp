@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
+
 #include <cmath>
 #include <numbers>
 #include <cstdint>
@@ -83,6 +85,35 @@ TEST(RegistrationTest, refuses_reflection_when_not_allowed)
     EXPECT_GT(linear_det(result.transform), 0.0);
     // A proper map cannot fit a mirrored asymmetric shape.
     EXPECT_GT(result.rms_error, 1e-3);
+}
+
+// Started near the answer (the copy's true pose turned by 8 degrees and moved by 3% of the
+// diagonal), register_from lands on it, mirrored copies included, and keeps the start's
+// handedness; a start that is no similarity is refused.
+TEST(RegistrationTest, registers_from_a_start_near_the_answer)
+{
+    const TriangleMesh reference = lumpy_ellipsoid(3);
+    const double D = bounding_box(reference.V).diagonal();
+    Rng rng(7);
+    for (const bool mirrored : {false, true})
+    {
+        const Eigen::Matrix4d T = test::random_similarity(rng, mirrored);
+        TriangleMesh suspect = reference;
+        suspect.V = test::apply(T, reference.V);
+        Eigen::Matrix4d nudge = Eigen::Matrix4d::Identity();
+        nudge.topLeftCorner<3, 3>() =
+            Eigen::AngleAxisd(8.0 * std::numbers::pi / 180.0, Eigen::Vector3d(1.0, 2.0, 0.5).normalized()).matrix();
+        nudge.topRightCorner<3, 1>() = Eigen::Vector3d(0.03 * D, 0.0, -0.01 * D);
+        const RegistrationResult result = register_from(suspect, reference, nudge * T.inverse());
+        EXPECT_EQ(result.is_reflection, mirrored);
+        EXPECT_EQ(linear_det(result.transform) < 0.0, mirrored);
+        EXPECT_LT(alignment_error(result, suspect.V, reference.V, D), 1e-9) << mirrored;
+        EXPECT_LT(result.rms_error, 1e-9);
+        EXPECT_EQ(result.candidates, 1);
+    }
+    Eigen::Matrix4d sheared = Eigen::Matrix4d::Identity();
+    sheared(0, 1) = 0.5;
+    EXPECT_THROW((void)register_from(reference, reference, sheared), InvalidOption);
 }
 
 // A copy turned and slightly scaled about its own centre has the original's centroid and
