@@ -1007,15 +1007,17 @@ struct AnimatedOriginal
 constexpr int kMaxAnimationFrames = 120;
 // How a frame is compared with the copy: the copy registered onto the original posed there,
 // with these samples and iterations (a quarter to a half of a full registration's), and the
-// trimmed RMS residual of the fit. A full registration (the coarse stage too) on at most
-// kPoseGrid frames spread over the animation, then, started from the best of them, the frames
-// between its neighbours on that grid (register_from): a copy's pose is found within a frame.
+// trimmed RMS residual of the fit. A full registration (the coarse stage too) on kPoseGrid
+// frames spread over the animation and on the kSpreadFrames frames whose principal spread is
+// the copy's closest, then, started from the best kPoseCells of them, the frames between their
+// neighbours among those (register_from).
 constexpr int kPoseRefineSamples = 512;
 constexpr int kPoseFineSamples = 1024;
 constexpr int kPoseFinalSamples = 2048;
 constexpr int kPoseIterations = 15;
 constexpr std::size_t kPoseGrid = 12;
 constexpr std::size_t kPoseCells = 2;
+constexpr std::size_t kSpreadFrames = 2;
 
 std::vector<double> animation_frame_times(const AnimationSpan& span)
 {
@@ -1103,6 +1105,24 @@ void read_animation_pose(DetectReport& report, detail::PhaseTimer& timer, const 
     {
         grid.push_back(grid_size == 1 ? 0 : k * (times.size() - 1) / (grid_size - 1));
     }
+    // And the frames whose spread along their principal axes is closest to the copy's (a
+    // shaking animation fits a copy well only at its own frame, which an even grid can miss).
+    {
+        const Eigen::Vector3d copy_spread = principal_spread(suspect);
+        std::vector<std::pair<double, std::size_t>> by_spread;
+        std::size_t frame = 0;
+        for_each_animation_pose(animated.path, times, [&](ShownPose&& pose) {
+            const std::size_t index = frame++;
+            if (pose.V.rows() == original.V.rows())
+            {
+                by_spread.emplace_back((principal_spread(mesh_in(pose.V)) - copy_spread).norm(), index);
+            }
+        });
+        const auto closest = by_spread.begin() + static_cast<std::ptrdiff_t>(std::min(by_spread.size(), kSpreadFrames));
+        std::partial_sort(by_spread.begin(), closest, by_spread.end());
+        std::for_each(by_spread.begin(), closest, [&](const auto& f) { grid.push_back(f.second); });
+    }
+    std::sort(grid.begin(), grid.end());
     grid.erase(std::unique(grid.begin(), grid.end()), grid.end());
     std::vector<double> grid_times;
     for (const std::size_t k : grid)

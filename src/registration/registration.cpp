@@ -708,6 +708,18 @@ RegistrationResult register_from(const TriangleMesh& suspect, const TriangleMesh
     return result;
 }
 
+Eigen::Vector3d principal_spread(const TriangleMesh& mesh)
+{
+    const Moments m = mesh.is_point_cloud() ? detail::vertex_moments(mesh.V, usable_vertices(mesh, "mesh"))
+                                            : detail::area_moments(mesh);
+    const Eigen::Vector3d e = Eigen::SelfAdjointEigenSolver<Mat3>(m.covariance).eigenvalues();
+    if (!(e.sum() > 0.0))
+    {
+        throw InvalidMesh("principal_spread: the mesh has no extent.");
+    }
+    return e / e.sum();
+}
+
 Eigen::Matrix4d similarity_from_pairs(std::span<const PointPair> pairs, bool allow_reflection)
 {
     if (pairs.size() < 3)

@@ -110,6 +110,15 @@ struct RegistrationResult
 [[nodiscard]] RegistrationResult register_from(const TriangleMesh& suspect, const TriangleMesh& reference,
                                                const Eigen::Matrix4d& start, const RegistrationOptions& options = {});
 
+/// \brief The shape's spread along its principal axes: the eigenvalues of the area-weighted
+/// second moments of its surface (vertex moments for a point cloud), smallest first, as shares
+/// of their sum.
+/// \details Unchanged by any similarity and by the triangulation, changed by a pose that moves
+/// parts against each other: detection compares a copy with the frames of an animation by it
+/// before registering onto the closest ones.
+/// \throws InvalidMesh when the mesh has no area (or, as a point cloud, no extent).
+[[nodiscard]] Eigen::Vector3d principal_spread(const TriangleMesh& mesh);
+
 /// \brief Least-squares similarity mapping each pair's suspect point to its reference point
 /// [Umeyama 1991].
 /// \param allow_reflection  Also fit a mirrored map and return it when its residual is
