@@ -116,6 +116,30 @@ TEST(RegistrationTest, registers_from_a_start_near_the_answer)
     EXPECT_THROW((void)register_from(reference, reference, sheared), InvalidOption);
 }
 
+// The principal spread sees the shape, not its place, size or handedness: a moved, scaled,
+// mirrored copy has the same; stretching one axis changes it.
+TEST(RegistrationTest, principal_spread_is_the_same_for_every_similar_copy)
+{
+    const TriangleMesh reference = lumpy_ellipsoid(3);
+    const Eigen::Vector3d spread = principal_spread(reference);
+    EXPECT_NEAR(spread.sum(), 1.0, 1e-12);
+    EXPECT_LE(spread(0), spread(1));
+    EXPECT_LE(spread(1), spread(2));
+    Rng rng(9);
+    for (const bool mirrored : {false, true})
+    {
+        TriangleMesh copy = reference;
+        copy.V = test::apply(test::random_similarity(rng, mirrored), reference.V);
+        EXPECT_LT((principal_spread(copy) - spread).norm(), 1e-9) << mirrored;
+    }
+    TriangleMesh stretched = reference;
+    stretched.V.col(0) *= 1.2;
+    EXPECT_GT((principal_spread(stretched) - spread).norm(), 1e-2);
+    TriangleMesh flat = reference;
+    flat.V.setZero();
+    EXPECT_THROW((void)principal_spread(flat), InvalidMesh);
+}
+
 // A copy turned and slightly scaled about its own centre has the original's centroid and
 // nearly its radius, so the registration keeps the start in place (the identity) through
 // every round, although it is wrong here. Refined without a scale clamp, such a start can
