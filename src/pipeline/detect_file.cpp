@@ -1006,18 +1006,18 @@ struct AnimatedOriginal
 // most kMaxAnimationFrames, spread evenly over a longer span.
 constexpr int kMaxAnimationFrames = 120;
 // How a frame is compared with the copy: the copy registered onto the original posed there,
-// with these samples and iterations (a quarter to a half of a full registration's), and the
-// trimmed RMS residual of the fit. A full registration (the coarse stage too) on kPoseGrid
-// frames spread over the animation and on the kSpreadFrames frames whose principal spread is
-// the copy's closest, then, started from the best kPoseCells of them, the frames between their
-// neighbours among those (register_from).
+// with these samples and iterations (a quarter to a half of a detection's registration), and
+// the trimmed RMS residual of the fit. Registered in full (the coarse stage too): frame 1 and
+// the kSpreadFrames frames whose principal spread is the copy's closest; then, started from the
+// best kPoseCells of those, the frames within kPoseWindow of them (register_from).
 constexpr int kPoseRefineSamples = 512;
 constexpr int kPoseFineSamples = 1024;
 constexpr int kPoseFinalSamples = 2048;
 constexpr int kPoseIterations = 15;
-constexpr std::size_t kPoseGrid = 12;
+constexpr std::size_t kSpreadFrames = 3;
 constexpr std::size_t kPoseCells = 2;
-constexpr std::size_t kSpreadFrames = 2;
+constexpr std::size_t kPoseWindow = 2;
+constexpr double kBlenderFrameOne = 1.0 / 24.0;
 
 std::vector<double> animation_frame_times(const AnimationSpan& span)
 {
@@ -1099,14 +1099,13 @@ void read_animation_pose(DetectReport& report, detail::PhaseTimer& timer, const 
         return Eigen::umeyama(original.V.transpose(), V.transpose(), true);
     };
     const std::vector<double> times = animation_frame_times(animated.span);
-    std::vector<std::size_t> grid;
-    const std::size_t grid_size = std::min(kPoseGrid, times.size());
-    for (std::size_t k = 0; k < grid_size; ++k)
-    {
-        grid.push_back(grid_size == 1 ? 0 : k * (times.size() - 1) / (grid_size - 1));
-    }
-    // And the frames whose spread along their principal axes is closest to the copy's (a
-    // shaking animation fits a copy well only at its own frame, which an even grid can miss).
+    // The frames registered in full: Blender's frame 1 (what a copy of its import shows unless
+    // the user moved the timeline) and the kSpreadFrames frames whose spread along their
+    // principal axes is closest to the copy's (a copy exported at another frame; exact on the
+    // copies measured, a shaking animation's included).
+    std::vector<std::size_t> first{static_cast<std::size_t>(
+        std::lower_bound(times.begin(), times.end(), std::clamp(kBlenderFrameOne, times.front(), times.back())) -
+        times.begin())};
     {
         const Eigen::Vector3d copy_spread = principal_spread(suspect);
         std::vector<std::pair<double, std::size_t>> by_spread;
@@ -1120,16 +1119,16 @@ void read_animation_pose(DetectReport& report, detail::PhaseTimer& timer, const 
         });
         const auto closest = by_spread.begin() + static_cast<std::ptrdiff_t>(std::min(by_spread.size(), kSpreadFrames));
         std::partial_sort(by_spread.begin(), closest, by_spread.end());
-        std::for_each(by_spread.begin(), closest, [&](const auto& f) { grid.push_back(f.second); });
+        std::for_each(by_spread.begin(), closest, [&](const auto& f) { first.push_back(f.second); });
     }
-    std::sort(grid.begin(), grid.end());
-    grid.erase(std::unique(grid.begin(), grid.end()), grid.end());
-    std::vector<double> grid_times;
-    for (const std::size_t k : grid)
+    std::sort(first.begin(), first.end());
+    first.erase(std::unique(first.begin(), first.end()), first.end());
+    std::vector<double> first_times;
+    for (const std::size_t k : first)
     {
-        grid_times.push_back(times[k]);
+        first_times.push_back(times[k]);
     }
-    // Every grid frame's fit, then the frames between the neighbours of the best kPoseCells.
+    // Their fits, then the frames within kPoseWindow of the best kPoseCells, started from those.
     struct Fit
     {
         double residual = std::numeric_limits<double>::infinity();
@@ -1150,8 +1149,8 @@ void read_animation_pose(DetectReport& report, detail::PhaseTimer& timer, const 
         }
     };
     std::size_t at = 0;
-    for_each_animation_pose(animated.path, grid_times, [&](ShownPose&& pose) {
-        const std::size_t index = grid[at++];
+    for_each_animation_pose(animated.path, first_times, [&](ShownPose&& pose) {
+        const std::size_t index = first[at++];
         if (pose.V.rows() == original.V.rows())  // (else the stored pose, already read, or none)
         {
             keep(register_to_reference(suspect, mesh_in(pose.V), quick), pose, index);
@@ -1169,12 +1168,11 @@ void read_animation_pose(DetectReport& report, detail::PhaseTimer& timer, const 
     std::vector<std::size_t> window_index;
     for (const Fit& cell : cells)
     {
-        const auto g = std::find(grid.begin(), grid.end(), cell.index);
-        const std::size_t from = g == grid.begin() ? 0 : *std::prev(g) + 1;
-        const std::size_t to = std::next(g) == grid.end() ? times.size() : *std::next(g);
+        const std::size_t from = cell.index >= kPoseWindow ? cell.index - kPoseWindow : 0;
+        const std::size_t to = std::min(times.size(), cell.index + kPoseWindow + 1);
         for (std::size_t k = from; k < to; ++k)
         {
-            if (std::find(grid.begin(), grid.end(), k) == grid.end() &&
+            if (std::find(first.begin(), first.end(), k) == first.end() &&
                 std::find(window_index.begin(), window_index.end(), k) == window_index.end())
             {
                 window.push_back(times[k]);
