@@ -12,6 +12,8 @@ In memory (numpy arrays in and out)::
 V is an (n, 3) array of positions, F an (m, 3) array of vertex indices or None for a point
 cloud. The file functions embed_file, detect_file, attack and compare do what the meshmark
 program's commands do and return its --json report as a dict; the key file is the same.
+detect_against_file looks in a mesh in memory with the original and the key as files (the
+original's instances and animation used as detect_file uses them).
 Errors are meshmark.Error subclasses (IoError, InvalidMesh, InvalidOption, NumericalError)
 carrying the program's one-sentence message. See docs/library.md, "Python".
 """
@@ -29,6 +31,7 @@ from ._meshmark import (
     attack_mesh,
     compare,
     detect,
+    detect_against_file,
     detect_file,
     embed,
     embed_file,
@@ -49,6 +52,7 @@ __all__ = [
     "attack_mesh",
     "compare",
     "detect",
+    "detect_against_file",
     "detect_file",
     "embed",
     "embed_file",

@@ -105,6 +105,12 @@ Keywords (the options of `meshmark detect`):
 Returns a DetectResult (.detected, .score, .false_positive_probability, ..., .to_dict()).
 "Not found" is a result, not an error.)";
 
+constexpr const char* kDetectAgainstFileDoc = R"(detect() with the original and the key as files.
+
+V_suspect, F_suspect: the suspect (an editor's current mesh); original: the original's file, read
+as `meshmark detect` reads it, so its other instances and its animation (a copy posed at a frame
+of it) are used; key_path: the key file. Keywords and result as detect().)";
+
 }  // namespace
 
 void fill_embed_options(const EmbedKeywords& k, EmbedMeshOptions& options)
@@ -320,6 +326,29 @@ void bind_memory(py::module_& m)
         py::arg("max_fpp") = DetectOptions{}.max_false_positive, py::arg("threshold") = DetectOptions{}.threshold,
         py::arg("epsilon") = DetectOptions{}.epsilon, py::arg("register") = true, py::arg("pairs") = py::none(),
         py::arg("threads") = 0, py::arg("verbose") = false, kDetectDoc);
+
+    m.def(
+        "detect_against_file",
+        [](py::handle V_suspect, py::handle F_suspect, const std::filesystem::path& original,
+           const std::filesystem::path& key_path, const std::string& verdict, double max_fpp, double threshold,
+           double epsilon, bool register_suspect, py::handle pairs, int threads, bool verbose) {
+            const DetectFileOptions options =
+                make_detect_options(verdict, max_fpp, threshold, epsilon, register_suspect, pairs, threads);
+            const TriangleMesh suspect = mesh_from_arrays(V_suspect, F_suspect, "suspect");
+            DetectResult result;
+            result.options = options.decision;
+            result.verbose = verbose;
+            {
+                py::gil_scoped_release release;
+                result.report = detect_against_file(suspect, original, key_path, options);
+            }
+            return result;
+        },
+        py::arg("V_suspect"), py::arg("F_suspect"), py::arg("original"), py::arg("key_path"), py::kw_only(),
+        py::arg("verdict") = std::string(to_string(DetectOptions{}.verdict)),
+        py::arg("max_fpp") = DetectOptions{}.max_false_positive, py::arg("threshold") = DetectOptions{}.threshold,
+        py::arg("epsilon") = DetectOptions{}.epsilon, py::arg("register") = true, py::arg("pairs") = py::none(),
+        py::arg("threads") = 0, py::arg("verbose") = false, kDetectAgainstFileDoc);
 
     m.def(
         "attack_mesh",

@@ -1260,9 +1260,13 @@ DetectReport detect_mesh(const SpectralWatermark& mark, const TriangleMesh& orig
     return report;
 }
 
-DetectReport detect_file(const std::filesystem::path& suspect_path,
-                         const std::filesystem::path& original_path,
-                         const std::filesystem::path& key_path, const DetectFileOptions& options)
+namespace {
+
+// What detect_file and detect_against_file share: the key and the original read and checked,
+// the suspect read from \p suspect_path beside them unless \p given holds it, the detection.
+DetectReport detect_with_files(const TriangleMesh* given, const std::filesystem::path& suspect_path,
+                               const std::filesystem::path& original_path, const std::filesystem::path& key_path,
+                               const DetectFileOptions& options)
 {
     options.decision.validate();
     DetectReport report;
@@ -1275,34 +1279,43 @@ DetectReport detect_file(const std::filesystem::path& suspect_path,
     TriangleMesh original;
     TriangleMesh instances;
     std::optional<AnimationSpan> animation;
-    TriangleMesh suspect;
     std::array<std::exception_ptr, 2> failures;
-    const auto read_into = [&](TriangleMesh& mesh, const std::filesystem::path& path, std::exception_ptr& failure,
-                               TriangleMesh* others = nullptr) {
+    const auto read_original = [&] {
         try
         {
-            MeshFile file = read_mesh_file(path);
-            mesh = std::move(file.mesh);
-            if (others != nullptr)
+            MeshFile file = read_mesh_file(original_path);
+            original = std::move(file.mesh);
+            instances = std::move(file.instances);
+            animation = std::move(file.animation);
+        }
+        catch (...)
+        {
+            failures[0] = std::current_exception();
+        }
+    };
+    TriangleMesh read;
+    const auto read_copy = [&] {
+        try
+        {
+            if (given == nullptr)
             {
-                *others = std::move(file.instances);
-                animation = std::move(file.animation);
+                read = read_mesh(suspect_path);
             }
         }
         catch (...)
         {
-            failure = std::current_exception();
+            failures[1] = std::current_exception();
         }
     };
-    if (options.threads == 1)
+    if (options.threads == 1 || given != nullptr)
     {
-        read_into(original, original_path, failures[0], &instances);
-        read_into(suspect, suspect_path, failures[1]);
+        read_original();
+        read_copy();
     }
     else
     {
-        std::thread reader([&] { read_into(original, original_path, failures[0], &instances); });
-        read_into(suspect, suspect_path, failures[1]);
+        std::thread reader(read_original);
+        read_copy();
         reader.join();
     }
     if (failures[0])
@@ -1317,9 +1330,24 @@ DetectReport detect_file(const std::filesystem::path& suspect_path,
     }
     timer.lap("read");
     const AnimatedOriginal animated{original_path, animation.value_or(AnimationSpan{})};
-    detect_with_key(report, timer, key, original, instances, suspect, suspect_path, options,
+    detect_with_key(report, timer, key, original, instances, given != nullptr ? *given : read, suspect_path, options,
                     animation ? &animated : nullptr);
     return report;
+}
+
+}  // namespace
+
+DetectReport detect_file(const std::filesystem::path& suspect_path, const std::filesystem::path& original_path,
+                         const std::filesystem::path& key_path, const DetectFileOptions& options)
+{
+    return detect_with_files(nullptr, suspect_path, original_path, key_path, options);
+}
+
+DetectReport detect_against_file(const TriangleMesh& suspect, const std::filesystem::path& original_path,
+                                 const std::filesystem::path& key_path, const DetectFileOptions& options)
+{
+    validate(suspect, "suspect");
+    return detect_with_files(&suspect, "suspect", original_path, key_path, options);
 }
 
 }  // namespace meshmark

@@ -56,6 +56,23 @@ def test_python_key_detects_through_the_cli(torus, original, tmp_path, cli):
     assert run_cli(cli, "detect", original, "--original", original, "--key", tmp_path / "py.key.json").returncode == 1
 
 
+def test_detect_against_file_is_detect_file_for_a_mesh_in_memory(torus, original, tmp_path):
+    V, F = torus
+    key, marked = meshmark.embed(V, F, seed=8)
+    key.save(tmp_path / "k.json")
+    moved = marked @ np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]).T * 2.0 + 0.5
+    meshmark.write_mesh(tmp_path / "moved.ply", moved, F)
+    from_file = meshmark.detect_file(tmp_path / "moved.ply", original, tmp_path / "k.json")
+    held = meshmark.detect_against_file(moved, F, original, tmp_path / "k.json")
+    assert held.detected and from_file["detected"]
+    assert held.score == from_file["score"]
+    assert held.to_dict()["registration"]["method"] == from_file["registration"]["method"]
+    clean = meshmark.detect_against_file(V, F, original, tmp_path / "k.json")
+    assert not clean.detected
+    with pytest.raises(meshmark.IoError, match="missing.json"):
+        meshmark.detect_against_file(moved, F, original, tmp_path / "missing.json")
+
+
 def test_cli_key_detects_in_python(torus, original, tmp_path, cli):
     V, F = torus
     done = run_cli(cli, "embed", original, "-o", tmp_path / "cli.ply", "--key", tmp_path / "cli.key.json",

@@ -111,6 +111,12 @@ struct DetectReport
 DetectReport detect_file(const std::filesystem::path& suspect, const std::filesystem::path& original,
                          const std::filesystem::path& key_path, const DetectFileOptions& options);
 
+/// \brief detect_file with the suspect in memory (the mesh an editor holds): the original and
+/// the key are read from their files, so the original's other instances and animation are used
+/// as detect_file uses them (the Blender add-on's Detect). Same steps, results and errors.
+DetectReport detect_against_file(const TriangleMesh& suspect, const std::filesystem::path& original,
+                                 const std::filesystem::path& key_path, const DetectFileOptions& options);
+
 /// \brief detect_file for meshes in memory and a watermark already built from \p original
 /// (which must be the mesh \p mark was made from): many suspects against one key pay for the
 /// basis once (the robustness benchmark). Same steps, results and errors as detect_file.

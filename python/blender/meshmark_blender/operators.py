@@ -131,9 +131,10 @@ class MESHMARK_OT_detect(bpy.types.Operator):
             return {"CANCELLED"}
         V, F = world_mesh(obj)
         try:
-            key = meshmark.Key.load(bpy.path.abspath(self.key_path))
-            V_o, F_o = meshmark.read_mesh(bpy.path.abspath(self.original_path))
-            result = meshmark.detect(V, F, V_o, F_o, key)
+            # The original as a file, as `meshmark detect` reads it: its other instances and its
+            # animation (a character posed at one of its frames) are used too.
+            result = meshmark.detect_against_file(V, F, bpy.path.abspath(self.original_path),
+                                                  bpy.path.abspath(self.key_path))
         except meshmark.Error as error:
             self.report({"ERROR"}, f"meshmark: {error}")
             return {"CANCELLED"}

@@ -9,6 +9,7 @@
 #include "gltf_test_support.h"
 #include "meshmark/geometry/shapes.h"
 #include "meshmark/io/mesh_io.h"
+#include "meshmark/meshmark.h"
 #include "meshmark/pipeline/detect_file.h"
 #include "meshmark/pipeline/embed_file.h"
 
@@ -193,6 +194,16 @@ TEST(GltfPipelineTest, a_copy_of_an_animated_asset_in_the_pose_blender_shows_is_
     EXPECT_NE(at_end.alignment.find("animation 'bend' at 0.1 s"), std::string::npos) << at_end.alignment;
     const DetectReport clean_end = detect_file(dir / "clean_end.ply", dir / "arm.glb", dir / "key.json", detect);
     EXPECT_FALSE(clean_end.decision.is_present) << "z " << clean_end.decision.score;
+
+    // The same copy held in memory (the Blender add-on's Detect): against the original's file it
+    // is read through its frame too; against the original's mesh alone it cannot be.
+    const TriangleMesh held = read_mesh(dir / "marked_end.ply");
+    const DetectReport in_memory = detect_against_file(held, dir / "arm.glb", dir / "key.json", detect);
+    EXPECT_TRUE(in_memory.decision.is_present) << "z " << in_memory.decision.score;
+    EXPECT_EQ(in_memory.decision.score, at_end.decision.score);
+    const DetectReport arrays_only =
+        meshmark::detect(held, read_mesh(dir / "arm.glb"), read_key(dir / "key.json"), detect);
+    EXPECT_FALSE(arrays_only.decision.is_present) << "z " << arrays_only.decision.score;
 }
 
 }  // namespace
