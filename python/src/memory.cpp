@@ -111,6 +111,20 @@ V_suspect, F_suspect: the suspect (an editor's current mesh); original: the orig
 as `meshmark detect` reads it, so its other instances and its animation (a copy posed at a frame
 of it) are used; key_path: the key file. Keywords and result as detect().)";
 
+// A DetectResult of \p run (a detection, run without the GIL) under \p options.
+template <class Run>
+DetectResult detect_result(const DetectFileOptions& options, bool verbose, Run&& run)
+{
+    DetectResult result;
+    result.options = options.decision;
+    result.verbose = verbose;
+    {
+        py::gil_scoped_release release;
+        result.report = run();
+    }
+    return result;
+}
+
 }  // namespace
 
 void fill_embed_options(const EmbedKeywords& k, EmbedMeshOptions& options)
@@ -312,14 +326,7 @@ void bind_memory(py::module_& m)
                 make_detect_options(verdict, max_fpp, threshold, epsilon, register_suspect, pairs, threads);
             const TriangleMesh suspect = mesh_from_arrays(V_suspect, F_suspect, "suspect");
             const TriangleMesh original = mesh_from_arrays(V_original, F_original, "original");
-            DetectResult result;
-            result.options = options.decision;
-            result.verbose = verbose;
-            {
-                py::gil_scoped_release release;
-                result.report = detect(suspect, original, key, options);
-            }
-            return result;
+            return detect_result(options, verbose, [&] { return detect(suspect, original, key, options); });
         },
         py::arg("V_suspect"), py::arg("F_suspect"), py::arg("V_original"), py::arg("F_original"), py::arg("key"),
         py::kw_only(), py::arg("verdict") = std::string(to_string(DetectOptions{}.verdict)),
@@ -335,14 +342,8 @@ void bind_memory(py::module_& m)
             const DetectFileOptions options =
                 make_detect_options(verdict, max_fpp, threshold, epsilon, register_suspect, pairs, threads);
             const TriangleMesh suspect = mesh_from_arrays(V_suspect, F_suspect, "suspect");
-            DetectResult result;
-            result.options = options.decision;
-            result.verbose = verbose;
-            {
-                py::gil_scoped_release release;
-                result.report = detect_against_file(suspect, original, key_path, options);
-            }
-            return result;
+            return detect_result(options, verbose,
+                                 [&] { return detect_against_file(suspect, original, key_path, options); });
         },
         py::arg("V_suspect"), py::arg("F_suspect"), py::arg("original"), py::arg("key_path"), py::kw_only(),
         py::arg("verdict") = std::string(to_string(DetectOptions{}.verdict)),

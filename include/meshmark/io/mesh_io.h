@@ -60,7 +60,8 @@ struct ShownPose
     std::vector<Eigen::Matrix3d> to_rest;
 };
 
-/// \brief The animation an importer plays: a glTF file's first one, when it moves a node.
+/// \brief The animation an importer plays: a glTF file's first one, when one of its channels
+/// animates a node (its translation, rotation or scale).
 struct AnimationSpan
 {
     std::string name;       ///< Its name in the file ("animation 0" when it has none).
@@ -91,7 +92,7 @@ struct MeshFile
     /// glTF with animations that move the mesh other than as a whole: the pose Blender shows it
     /// in (see ShownPose); empty otherwise.
     ShownPose shown_pose;
-    /// glTF whose first animation moves a node: its span, to sample other poses of it
+    /// glTF whose first animation animates a node: its span, to sample other poses of it
     /// (for_each_animation_pose), whether or not its pose at 1/24 s differs from the stored one.
     std::optional<AnimationSpan> animation;
 };

@@ -175,7 +175,7 @@ struct GltfAsset
     TriangleMesh instances;
     /// The pose an importer shows an animated asset in (see MeshFile::shown_pose).
     ShownPose shown_pose;
-    /// The first animation's span when it moves a node (see MeshFile::animation).
+    /// The first animation's span when it animates a node (see MeshFile::animation).
     std::optional<AnimationSpan> animation;
 };
 

@@ -171,29 +171,28 @@ TEST(GltfPipelineTest, a_copy_of_an_animated_asset_in_the_pose_blender_shows_is_
         copy.F = (n - 1) - stored.F.array();
         write_mesh(out, copy);
     };
-    shown_copy(dir / "marked.glb", dir / "marked_shown.ply");
-    shown_copy(dir / "arm.glb", dir / "clean_shown.ply");
-
     DetectFileOptions detect;
     detect.threads = 1;
-    const DetectReport found = detect_file(dir / "marked_shown.ply", dir / "arm.glb", dir / "key.json", detect);
-    EXPECT_TRUE(found.decision.is_present) << "z " << found.decision.score << " alignment " << found.alignment;
-    EXPECT_GT(found.decision.score, 9.0);
-    EXPECT_NE(found.alignment.find("animation 'bend'"), std::string::npos) << found.alignment;
-    const DetectReport clean = detect_file(dir / "clean_shown.ply", dir / "arm.glb", dir / "key.json", detect);
-    EXPECT_FALSE(clean.decision.is_present) << "z " << clean.decision.score;
-
+    // The marked copy posed at \p t is claimed, read through the frame named \p frame; the unmarked
+    // one is not. Returns the marked copy's report.
+    const auto expect_claimed_at = [&](double t, const std::string& name, const std::string& frame) {
+        shown_copy(dir / "marked.glb", dir / ("marked_" + name + ".ply"), t);
+        shown_copy(dir / "arm.glb", dir / ("clean_" + name + ".ply"), t);
+        const DetectReport found =
+            detect_file(dir / ("marked_" + name + ".ply"), dir / "arm.glb", dir / "key.json", detect);
+        EXPECT_TRUE(found.decision.is_present) << name << " z " << found.decision.score << " " << found.alignment;
+        EXPECT_GT(found.decision.score, 9.0) << name;
+        EXPECT_NE(found.alignment.find(frame), std::string::npos) << found.alignment;
+        const DetectReport clean =
+            detect_file(dir / ("clean_" + name + ".ply"), dir / "arm.glb", dir / "key.json", detect);
+        EXPECT_FALSE(clean.decision.is_present) << name << " z " << clean.decision.score;
+        return found;
+    };
+    (void)expect_claimed_at(1.0 / 24.0, "shown", "animation 'bend' at 1/24 s");
     // Exported at the animation's end (Blender's frame 3 and after: the elbow turned by 100
     // degrees, not 41): read through that frame, found among the animation's frames by how
     // well the copy fits each.
-    shown_copy(dir / "marked.glb", dir / "marked_end.ply", 0.1);
-    shown_copy(dir / "arm.glb", dir / "clean_end.ply", 0.1);
-    const DetectReport at_end = detect_file(dir / "marked_end.ply", dir / "arm.glb", dir / "key.json", detect);
-    EXPECT_TRUE(at_end.decision.is_present) << "z " << at_end.decision.score << " alignment " << at_end.alignment;
-    EXPECT_GT(at_end.decision.score, 9.0);
-    EXPECT_NE(at_end.alignment.find("animation 'bend' at 0.1 s"), std::string::npos) << at_end.alignment;
-    const DetectReport clean_end = detect_file(dir / "clean_end.ply", dir / "arm.glb", dir / "key.json", detect);
-    EXPECT_FALSE(clean_end.decision.is_present) << "z " << clean_end.decision.score;
+    const DetectReport at_end = expect_claimed_at(0.1, "end", "animation 'bend' at 0.1 s");
 
     // The same copy held in memory (the Blender add-on's Detect): against the original's file it
     // is read through its frame too; against the original's mesh alone it cannot be.
