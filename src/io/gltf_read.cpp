@@ -444,9 +444,9 @@ void visit_gltf_poses(const fs::path& path, const std::string& bytes, bool is_gl
         loaded.accessors.clear();
         loaded.draco.clear();
         loaded.instances = TriangleMesh{};
-        loaded.shown_pose = ShownPose{};
+        loaded.pose = ShownPose{};
         (void)read_scene(path, model, loaded, t);
-        visit(std::move(loaded.shown_pose));
+        visit(std::move(loaded.pose));
     }
 }
 

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <optional>
 #include <sstream>
 #include <string>
 
@@ -47,7 +48,7 @@ struct RawVertices
 class Reader
 {
 public:
-    Reader(const fs::path& path, const tinygltf::Model& model, GltfAsset& asset, double animation_time)
+    Reader(const fs::path& path, const tinygltf::Model& model, GltfAsset& asset, std::optional<double> animation_time)
         : path_(path), model_(model), asset_(asset), accessors_(path, model, asset), animation_time_(animation_time)
     {
     }
@@ -70,7 +71,7 @@ private:
                                           const std::vector<Eigen::Matrix4d>& globals);
     void pose_from_first_animation();
     void add_posed(const Eigen::Vector4d& local, const Eigen::Matrix4d& rest, const Eigen::Matrix4d& posed);
-    void keep_shown_pose(const std::vector<std::int32_t>& welded, const std::vector<double>& xyz);
+    void keep_pose(const std::vector<std::int32_t>& welded, const std::vector<double>& xyz);
     std::vector<double> read_vectors(int accessor, int components, const std::string& what,
                                      bool integers_only);
     std::vector<Eigen::Matrix4d> world_matrices(const std::vector<Eigen::Matrix4d>& locals) const;
@@ -93,7 +94,7 @@ private:
     const tinygltf::Model& model_;
     GltfAsset& asset_;
     GltfAccessors accessors_;
-    double animation_time_;  // where the first animation is sampled for the shown pose
+    std::optional<double> animation_time_;  // where the first animation is posed; none: not posed
     std::size_t visits_ = 0;
     std::map<int, std::size_t> accessor_slot_;  // POSITION accessor -> asset_.accessors
     std::map<int, std::size_t> draco_slot_;     // Draco bufferView -> asset_.draco
@@ -182,9 +183,9 @@ TriangleMesh Reader::run()
     return weld();
 }
 
-// Blender shows an animated asset at frame 1 of its first animation, and every copy made from
-// that import (its writers, modifiers) carries the pose: detection reads such copies through
-// it (MeshFile::shown_pose). A malformed animation only means no pose.
+// The first animation's span (MeshFile::animation) and, when a time is asked for, every node's
+// local and world matrix at that time (for_each_animation_pose: detection reads a copy posed
+// by the animation through it). A malformed animation only means no animation.
 void Reader::pose_from_first_animation()
 {
     if (model_.animations.empty())
@@ -195,7 +196,11 @@ void Reader::pose_from_first_animation()
     try
     {
         asset_.animation = animation_span(model_, accessors_, 0);
-        locals = animated_local_matrices(model_, accessors_, 0, animation_time_);
+        if (!animation_time_)
+        {
+            return;
+        }
+        locals = animated_local_matrices(model_, accessors_, 0, *animation_time_);
     }
     catch (const IoError&)
     {
@@ -217,7 +222,7 @@ void Reader::pose_from_first_animation()
     }
     const std::string& name = model_.animations.front().name;
     pose_name_ = (name.empty() ? std::string("animation 0") : "animation '" + name + "'") + " at " +
-                 time_name(animation_time_);
+                 time_name(*animation_time_);
     posed_globals_ = world_matrices(locals);
     posed_locals_ = std::move(locals);
 }
@@ -818,12 +823,12 @@ std::vector<Eigen::Matrix4d> Reader::skinning(const tinygltf::Primitive& prim, i
 
 // The shown pose of every welded vertex (its first element's), kept unless the pose only moves
 // the asset as a whole (a similarity, which registration undoes anyway).
-void Reader::keep_shown_pose(const std::vector<std::int32_t>& welded, const std::vector<double>& xyz)
+void Reader::keep_pose(const std::vector<std::int32_t>& welded, const std::vector<double>& xyz)
 {
     const std::size_t n = xyz.size() / 3;
     ShownPose pose;
     pose.name = pose_name_;
-    pose.time = animation_time_;
+    pose.time = *animation_time_;
     pose.V.resize(static_cast<Eigen::Index>(n), 3);
     pose.to_rest.assign(n, Eigen::Matrix3d::Identity());
     std::vector<char> is_set(n, 0);
@@ -851,7 +856,7 @@ void Reader::keep_shown_pose(const std::vector<std::int32_t>& welded, const std:
     {
         return;
     }
-    asset_.shown_pose = std::move(pose);
+    asset_.pose = std::move(pose);
 }
 
 TriangleMesh Reader::weld()
@@ -885,7 +890,7 @@ TriangleMesh Reader::weld()
     }
     if (!posed_globals_.empty())
     {
-        keep_shown_pose(welded, xyz);
+        keep_pose(welded, xyz);
     }
     TriangleBuffer triangles;
     triangles.reserve(corners_.size() / 3);
@@ -898,7 +903,8 @@ TriangleMesh Reader::weld()
 
 }  // namespace
 
-TriangleMesh read_scene(const fs::path& path, const tinygltf::Model& model, GltfAsset& asset, double animation_time)
+TriangleMesh read_scene(const fs::path& path, const tinygltf::Model& model, GltfAsset& asset,
+                        std::optional<double> animation_time)
 {
     Reader reader(path, model, asset, animation_time);
     return reader.run();

@@ -126,7 +126,6 @@ MeshFile read_mesh_file(const std::filesystem::path& path)
             file.mesh =
                 detail::read_gltf(path, layout->bytes, file.format == MeshFormat::Glb, asset);
             file.instances = std::move(asset.instances);
-            file.shown_pose = std::move(asset.shown_pose);
             file.animation = std::move(asset.animation);
             file.is_single_precision = true;
             break;

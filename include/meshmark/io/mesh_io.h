@@ -45,11 +45,13 @@ namespace detail {
 struct FileLayout;  // Everything a preserving writer needs: the original bytes and where positions sit.
 }
 
-/// \brief Where an animated file's mesh stands when a tool shows it posed rather than as stored.
+/// \brief Where an animated file's mesh stands at one time of its first animation
+/// (for_each_animation_pose).
 /// \details glTF: Blender's importer shows the first animation at frame 1 (1/24 s), and its
-/// writers, modifiers and exports then hand on that pose, not the stored (rest) one the mark was
-/// embedded in. Each vertex of the pose is an affine image of its stored place (rigid node
-/// animation, skinning); `to_rest` carries a displacement made in the pose back.
+/// writers, modifiers and exports then hand on that pose (or another frame's, when the user
+/// moved the timeline), not the stored (rest) one the mark was embedded in. Each vertex of the
+/// pose is an affine image of its stored place (rigid node animation, skinning); `to_rest`
+/// carries a displacement made in the pose back.
 struct ShownPose
 {
     std::string name;  ///< What the pose is, for messages ("animation 'Run' at 1/24 s").
@@ -89,9 +91,6 @@ struct MeshFile
     /// re-exported by a tool that flattens instances shows all of them, and detection registers
     /// against `mesh` plus these. Empty for other formats and files without such instances.
     TriangleMesh instances;
-    /// glTF with animations that move the mesh other than as a whole: the pose Blender shows it
-    /// in (see ShownPose); empty otherwise.
-    ShownPose shown_pose;
     /// glTF whose first animation animates a node: its span, to sample other poses of it
     /// (for_each_animation_pose), whether or not its pose at 1/24 s differs from the stored one.
     std::optional<AnimationSpan> animation;
@@ -106,8 +105,8 @@ struct MeshFile
 
 /// \brief The mesh of a glTF file posed by its first animation at each of \p times (seconds),
 /// one call of \p visit per time, in order, the file parsed once.
-/// \details Each pose is what MeshFile::shown_pose is at 1/24 s (the same rows, the same maps
-/// back), with an empty `V` where the pose is only a similarity of the stored one. Other
+/// \details Each pose has MeshFile::mesh's rows and the maps back (ShownPose), with an empty
+/// `V` where the pose is only a similarity of the stored one (or the animation is malformed). Other
 /// formats, and files without an animation, call \p visit with empty poses. A copy re-posed by
 /// a user (a rigged character exported at another frame) is read through these.
 /// \throws the errors of read_mesh_file.

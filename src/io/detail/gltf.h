@@ -173,8 +173,8 @@ struct GltfAsset
     /// The geometry of every instance but the first of instanced meshes, in the world frame
     /// (not watermarked; see MeshFile::instances).
     TriangleMesh instances;
-    /// The pose an importer shows an animated asset in (see MeshFile::shown_pose).
-    ShownPose shown_pose;
+    /// The first animation's pose at the time read_scene was asked for (for_each_animation_pose).
+    ShownPose pose;
     /// The first animation's span when it animates a node (see MeshFile::animation).
     std::optional<AnimationSpan> animation;
 };

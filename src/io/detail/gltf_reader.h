@@ -69,10 +69,6 @@ void decode_meshopt_views(const std::filesystem::path& path, const tinygltf::Mod
 /// A node's local matrix: its `matrix`, else its translation, rotation and scale composed.
 [[nodiscard]] Eigen::Matrix4d local_matrix(const tinygltf::Node& node);
 
-/// The time at which Blender shows an animated asset after importing it: frame 1 of the first
-/// animation, its keys placed at t times 24 frames per second (Blender 3.4's importer).
-inline constexpr double kShownAnimationTime = 1.0 / 24.0;
-
 /// \brief The local matrix of every node of \p model at time \p t of animation \p animation:
 /// the translations, rotations and scales its channels give there (before a channel's first key
 /// its first value, after the last its last) over the node's own; the nodes it does not
@@ -88,8 +84,9 @@ inline constexpr double kShownAnimationTime = 1.0 / 24.0;
 
 /// \brief Walk the scene graph of \p model (buffers and meshopt views already in \p asset)
 /// and return its welded world-frame mesh; fills the accessors, Draco primitives and other
-/// instances of \p asset, and its shown pose: the first animation at \p animation_time.
+/// instances of \p asset and its first animation's span, and, given \p animation_time, the pose
+/// of the first animation at that time (GltfAsset::pose).
 [[nodiscard]] TriangleMesh read_scene(const std::filesystem::path& path, const tinygltf::Model& model,
-                                      GltfAsset& asset, double animation_time = kShownAnimationTime);
+                                      GltfAsset& asset, std::optional<double> animation_time = std::nullopt);
 
 }  // namespace meshmark::detail
