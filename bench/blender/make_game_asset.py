@@ -18,7 +18,9 @@
 #             and a low-poly spear as separate objects, UV seams: 7,679 positions;
 #   rigged-creature  the creature skinned to a two-bone armature, with an animation that
 #             turns the front bone by 20 degrees over frames 1-20 (attacks.py's pose=FRAME);
-#   faceted-creature  the creature flat shaded: every triangle has vertices of its own.
+#   faceted-creature  the creature flat shaded: every triangle has vertices of its own;
+#   turntable-vehicle  the vehicle on a display turntable: its root turns once about z over
+#             frames 1-96, an animation that moves the asset only as a whole.
 # (docs/robustness.md, "Two more game-like assets").
 import math
 import sys
@@ -130,6 +132,20 @@ def vehicle():
     return objs
 
 
+def turntable_vehicle():
+    """The vehicle on a display turntable: its root node turns once about z over frames 1-96
+    (4 s), as shop and viewer models often do; no frame bends it."""
+    objects = vehicle()
+    root = objects[0].parent
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 1, 96
+    root.keyframe_insert("rotation_euler", frame=1)
+    root.rotation_euler = (0, 0, math.radians(25 + 360))
+    root.keyframe_insert("rotation_euler", frame=96)
+    scene.frame_set(1)
+    return objects
+
+
 def creature():
     verts = [(0, 0, 1.0), (0, 0.5, 1.05), (0, 1.0, 1.0), (0, 1.3, 1.35), (0, 1.55, 1.5), (0, 1.85, 1.45),
              (0, -0.5, 1.0), (0, -1.0, 1.05), (0, -1.4, 1.2), (0.35, 1.0, 0.6), (0.4, 1.05, 0.15),
@@ -221,7 +237,7 @@ def faceted_creature():
 
 
 KINDS = {"suzanne": suzanne, "vehicle": vehicle, "creature": creature, "rigged-creature": rigged_creature,
-         "faceted-creature": faceted_creature}
+         "faceted-creature": faceted_creature, "turntable-vehicle": turntable_vehicle}
 
 
 def main():

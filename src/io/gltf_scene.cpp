@@ -175,10 +175,25 @@ TriangleMesh Reader::run()
         }
     }
     pose_from_first_animation();
+    if (animation_time_ && posed_globals_.empty())
+    {
+        return TriangleMesh{};  // (only the pose was asked for, and at that time nothing moves)
+    }
     std::vector<char> on_stack(model_.nodes.size(), 0);
     for (const int root : roots)
     {
         walk(root, {Eigen::Matrix4d::Identity(), Eigen::Matrix4d::Identity()}, on_stack);
+    }
+    if (asset_.animation)
+    {
+        try
+        {
+            asset_.animation->moves_only_as_a_whole = moves_only_as_a_whole(model_, accessors_, 0, roots);
+        }
+        catch (const IoError&)
+        {
+            // (a scale key that cannot be read: the animation may bend the mesh)
+        }
     }
     return weld();
 }
@@ -865,6 +880,20 @@ TriangleMesh Reader::weld()
     {
         fail("the asset has more than " + std::to_string(kMaxVertices) + " vertices");
     }
+    if (animation_time_)
+    {
+        // Only the pose is wanted (for_each_animation_pose): the welding is the same at every time.
+        if (asset_.pose_welded.size() != raw_.group.size())
+        {
+            asset_.pose_welded =
+                weld_world_positions(raw_.world, raw_.group, groups_.size(), kCrossTransformWeldRel, asset_.pose_rest);
+        }
+        if (!posed_globals_.empty())
+        {
+            keep_pose(asset_.pose_welded, asset_.pose_rest);
+        }
+        return TriangleMesh{};
+    }
     std::vector<double> xyz;
     const auto welded =
         weld_world_positions(raw_.world, raw_.group, groups_.size(), kCrossTransformWeldRel, xyz);
@@ -887,10 +916,6 @@ TriangleMesh Reader::weld()
     if (!instance_xyz_.empty())
     {
         asset_.instances = make_mesh(instance_xyz_, instance_corners_);
-    }
-    if (!posed_globals_.empty())
-    {
-        keep_pose(welded, xyz);
     }
     TriangleBuffer triangles;
     triangles.reserve(corners_.size() / 3);

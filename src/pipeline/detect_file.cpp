@@ -1074,41 +1074,20 @@ void read_animation_pose(DetectReport& report, detail::PhaseTimer& timer, const 
     {
         return;
     }
-    const auto bounded = [&](DetectReport& r) { charge_readings(r.decision, 2.0, options.decision); };
-    bounded(report);
-    if (report.decision.is_present)
-    {
-        return;
-    }
-    timer.begin("register");
-    RegistrationOptions registration;
-    registration.threads = options.threads;
-    RegistrationOptions quick = registration;
-    quick.refine_samples = kPoseRefineSamples;
-    quick.fine_samples = kPoseFineSamples;
-    quick.final_samples = kPoseFinalSamples;
-    quick.max_iterations = kPoseIterations;
+    // The frames where the animation bends the mesh (the reader leaves out those that only move
+    // it as a whole, which the stored pose's registration already read), each with how far its
+    // spread along its principal axes is from the copy's.
+    timer.begin("poses");
     const auto mesh_in = [&](const Positions& V) {
         TriangleMesh posed;
         posed.V = V;
         posed.F = original.F;
         return posed;
     };
-    // The whole's motion from the stored pose into \p V (a walk carries the character forward).
-    const auto whole_into = [&](const Positions& V) -> Eigen::Matrix4d {
-        return Eigen::umeyama(original.V.transpose(), V.transpose(), true);
-    };
     const std::vector<double> times = animation_frame_times(animated.span);
-    // The frames registered in full: Blender's frame 1 (what a copy of its import shows unless
-    // the user moved the timeline) and the kSpreadFrames frames whose spread along their
-    // principal axes is closest to the copy's (a copy exported at another frame; exact on the
-    // copies measured, a shaking animation's included).
-    std::vector<std::size_t> first{static_cast<std::size_t>(
-        std::lower_bound(times.begin(), times.end(), std::clamp(kBlenderFrameOne, times.front(), times.back())) -
-        times.begin())};
+    std::vector<std::pair<double, std::size_t>> by_spread;  // (distance to the copy's spread, frame)
     {
         const Eigen::Vector3d copy_spread = principal_spread(suspect);
-        std::vector<std::pair<double, std::size_t>> by_spread;
         std::size_t frame = 0;
         for_each_animation_pose(animated.path, times, [&](ShownPose&& pose) {
             const std::size_t index = frame++;
@@ -1117,10 +1096,43 @@ void read_animation_pose(DetectReport& report, detail::PhaseTimer& timer, const 
                 by_spread.emplace_back((principal_spread(mesh_in(pose.V)) - copy_spread).norm(), index);
             }
         });
-        const auto closest = by_spread.begin() + static_cast<std::ptrdiff_t>(std::min(by_spread.size(), kSpreadFrames));
-        std::partial_sort(by_spread.begin(), closest, by_spread.end());
-        std::for_each(by_spread.begin(), closest, [&](const auto& f) { first.push_back(f.second); });
     }
+    timer.lap("poses");
+    // An animation that only turns, moves or scales the asset (a turntable) gives no second
+    // reading, so nothing is charged for one; which frames bend the mesh depends on the original
+    // alone, so the charge is the same for every key and every copy.
+    if (by_spread.empty())
+    {
+        return;
+    }
+    const auto bounded = [&](DetectReport& r) { charge_readings(r.decision, 2.0, options.decision); };
+    bounded(report);
+    if (report.decision.is_present)
+    {
+        return;
+    }
+    timer.begin("register");
+    // The frames registered in full: Blender's frame 1 (what a copy of its import shows unless
+    // the user moved the timeline) and the kSpreadFrames frames whose spread is closest to the
+    // copy's (a copy exported at another frame; exact on the copies measured, a shaking
+    // animation's included).
+    std::vector<std::size_t> first{static_cast<std::size_t>(
+        std::lower_bound(times.begin(), times.end(), std::clamp(kBlenderFrameOne, times.front(), times.back())) -
+        times.begin())};
+    const auto closest = by_spread.begin() + static_cast<std::ptrdiff_t>(std::min(by_spread.size(), kSpreadFrames));
+    std::partial_sort(by_spread.begin(), closest, by_spread.end());
+    std::for_each(by_spread.begin(), closest, [&](const auto& f) { first.push_back(f.second); });
+    RegistrationOptions registration;
+    registration.threads = options.threads;
+    RegistrationOptions quick = registration;
+    quick.refine_samples = kPoseRefineSamples;
+    quick.fine_samples = kPoseFineSamples;
+    quick.final_samples = kPoseFinalSamples;
+    quick.max_iterations = kPoseIterations;
+    // The whole's motion from the stored pose into \p V (a walk carries the character forward).
+    const auto whole_into = [&](const Positions& V) -> Eigen::Matrix4d {
+        return Eigen::umeyama(original.V.transpose(), V.transpose(), true);
+    };
     std::sort(first.begin(), first.end());
     first.erase(std::unique(first.begin(), first.end()), first.end());
     std::vector<double> first_times;
@@ -1330,8 +1342,9 @@ DetectReport detect_with_files(const TriangleMesh* given, const std::filesystem:
     }
     timer.lap("read");
     const AnimatedOriginal animated{original_path, animation.value_or(AnimationSpan{})};
+    // (an animation that only moves the whole asset, a turntable, shows no other pose to read through)
     detect_with_key(report, timer, key, original, instances, given != nullptr ? *given : read, suspect_path, options,
-                    animation ? &animated : nullptr);
+                    animation && !animation->moves_only_as_a_whole ? &animated : nullptr);
     return report;
 }
 

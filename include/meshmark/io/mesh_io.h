@@ -69,6 +69,10 @@ struct AnimationSpan
     std::string name;       ///< Its name in the file ("animation 0" when it has none).
     double first_key = 0.0; ///< Time of its earliest key, seconds.
     double last_key = 0.0;  ///< Time of its latest key, seconds.
+    /// It only turns, moves or uniformly scales the asset as a whole (a turntable): every node
+    /// it animates lies above every mesh of the scene (none skinned), with similarities on the
+    /// way, so no time of it poses the mesh (for_each_animation_pose gives empty poses throughout).
+    bool moves_only_as_a_whole = false;
 };
 
 /// \brief A mesh as read from a file, with what is needed to write it back unchanged except

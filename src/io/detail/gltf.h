@@ -177,6 +177,11 @@ struct GltfAsset
     ShownPose pose;
     /// The first animation's span when it animates a node (see MeshFile::animation).
     std::optional<AnimationSpan> animation;
+    /// for_each_animation_pose: the welded vertex of every element and the welded stored
+    /// positions, from the first time's walk; the others reuse them (the stored positions do
+    /// not depend on the time).
+    std::vector<std::int32_t> pose_welded;
+    std::vector<double> pose_rest;
 };
 
 /// A stored POSITION component as the coordinate a renderer sees (normalized integers

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <map>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -82,10 +83,19 @@ void decode_meshopt_views(const std::filesystem::path& path, const tinygltf::Mod
 [[nodiscard]] std::optional<AnimationSpan> animation_span(const tinygltf::Model& model,
                                                           const GltfAccessors& accessors, std::size_t animation);
 
+/// \brief Whether animation \p animation only turns, moves or uniformly scales everything the
+/// scene under \p roots shows (AnimationSpan::moves_only_as_a_whole): each node it animates is an
+/// ancestor (or itself) of every mesh node, the nodes down to the deepest of them have
+/// similarities as local matrices, and every scale it keys is uniform. False when in doubt (a
+/// skinned mesh, a node reached twice).
+[[nodiscard]] bool moves_only_as_a_whole(const tinygltf::Model& model, const GltfAccessors& accessors,
+                                         std::size_t animation, std::span<const int> roots);
+
 /// \brief Walk the scene graph of \p model (buffers and meshopt views already in \p asset)
 /// and return its welded world-frame mesh; fills the accessors, Draco primitives and other
-/// instances of \p asset and its first animation's span, and, given \p animation_time, the pose
-/// of the first animation at that time (GltfAsset::pose).
+/// instances of \p asset and its first animation's span. Given \p animation_time, only the
+/// pose of the first animation at that time (GltfAsset::pose; the mesh returned is empty), the
+/// welding kept in the asset for the next time.
 [[nodiscard]] TriangleMesh read_scene(const std::filesystem::path& path, const tinygltf::Model& model,
                                       GltfAsset& asset, std::optional<double> animation_time = std::nullopt);
 

@@ -12,6 +12,7 @@
 #include "meshmark/meshmark.h"
 #include "meshmark/pipeline/detect_file.h"
 #include "meshmark/pipeline/embed_file.h"
+#include "meshmark/registration/registration.h"
 
 namespace meshmark {
 namespace {
@@ -124,16 +125,17 @@ TEST(GltfPipelineTest, two_part_glb_detects_after_a_similarity_of_the_whole_asse
     EXPECT_FALSE(clean.decision.is_present);
 }
 
-// A rigged asset Blender shows bent (its first animation turns the elbow 41 degrees by frame
-// 1): every copy made from the import carries the bend, which no similarity undoes. The copy,
-// written as a PLY with its vertices in another order, is read through the pose the original
-// is shown in (docs/algorithms/detection.md, General suspects, step 1c) and claimed; the
-// unmarked asset through the same steps is not.
-TEST(GltfPipelineTest, a_copy_of_an_animated_asset_in_the_pose_blender_shows_is_claimed)
+// A lumpy ellipsoid twice as long in x (an arm's shape).
+TriangleMesh long_lumpy_ellipsoid()
 {
-    const fs::path dir = test::temp_dir("gltf_pipeline_animated");
     TriangleMesh shape = lumpy_ellipsoid(4);
     shape.V.col(0) *= 2.0;
+    return shape;
+}
+
+// \p shape's positions (float32) and triangles as a glTF primitive stores them.
+std::pair<std::vector<float>, std::vector<std::uint16_t>> glb_arrays(const TriangleMesh& shape)
+{
     std::vector<float> xyz;
     for (Eigen::Index v = 0; v < shape.V.rows(); ++v)
     {
@@ -148,6 +150,18 @@ TEST(GltfPipelineTest, a_copy_of_an_animated_asset_in_the_pose_blender_shows_is_
             idx.push_back(static_cast<std::uint16_t>(shape.F(f, c)));
         }
     }
+    return {xyz, idx};
+}
+
+// A rigged asset Blender shows bent (its first animation turns the elbow 41 degrees by frame
+// 1): every copy made from the import carries the bend, which no similarity undoes. The copy,
+// written as a PLY with its vertices in another order, is read through the pose the original
+// is shown in (docs/algorithms/detection.md, General suspects, step 1c) and claimed; the
+// unmarked asset through the same steps is not.
+TEST(GltfPipelineTest, a_copy_of_an_animated_asset_in_the_pose_blender_shows_is_claimed)
+{
+    const fs::path dir = test::temp_dir("gltf_pipeline_animated");
+    const auto [xyz, idx] = glb_arrays(long_lumpy_ellipsoid());
     const test::BendingArm arm;
     test::put_bytes(dir / "arm.glb", arm.glb(xyz, idx));
     EmbedFileOptions options;
@@ -203,6 +217,69 @@ TEST(GltfPipelineTest, a_copy_of_an_animated_asset_in_the_pose_blender_shows_is_
     const DetectReport arrays_only =
         meshmark::detect(held, read_mesh(dir / "arm.glb"), read_key(dir / "key.json"), detect);
     EXPECT_FALSE(arrays_only.decision.is_present) << "z " << arrays_only.decision.score;
+}
+
+// A turntable: the first animation only turns the asset as a whole, so no frame bends the mesh
+// and there is no second reading to pay for (the reader says so from the node tree); nor when
+// it only moves a camera (every pose found empty). A turned copy of the marked asset is claimed
+// with the same score and false-positive probability as against the asset without an animation
+// (a second reading would double the probability), and the unmarked one is not.
+TEST(GltfPipelineTest, an_animation_that_only_turns_the_asset_costs_no_second_reading)
+{
+    const fs::path dir = test::temp_dir("gltf_pipeline_turntable");
+    const auto [xyz, idx] = glb_arrays(long_lumpy_ellipsoid());
+    enum class Turning { nothing, model, camera };
+    const auto asset = [&](Turning turning) {
+        GltfBuilder b;
+        const int mesh = b.mesh(Json::array({{{"attributes", {{"POSITION", b.positions(xyz)}}}, {"indices", b.indices(idx)}}}));
+        const int model = b.node({{"mesh", mesh}, {"name", "model"}});
+        const int camera = b.node({{"name", "camera"}, {"translation", {0.0, 1.0, 5.0}}});
+        if (turning != Turning::nothing)
+        {
+            const std::vector<float> times{0.0f, 1.0f, 2.0f};
+            const float h = std::sqrt(0.5f);
+            const std::vector<float> turns{0, 0, 0, 1, 0, h, 0, h, 0, 1, 0, 0};  // about y: 0, 90, 180 degrees
+            const int at = b.accessor(b.view(GltfBuilder::raw(times)), 0, 5126, times.size(), "SCALAR");
+            const int to = b.accessor(b.view(GltfBuilder::raw(turns)), 0, 5126, turns.size() / 4, "VEC4");
+            b.doc["animations"] = Json::array(
+                {{{"name", "turntable"},
+                  {"samplers", {{{"input", at}, {"output", to}}}},
+                  {"channels", {{{"sampler", 0},
+                                 {"target", {{"node", turning == Turning::model ? model : camera}, {"path", "rotation"}}}}}}}});
+        }
+        return b.glb();
+    };
+    test::put_bytes(dir / "turning.glb", asset(Turning::model));
+    test::put_bytes(dir / "filmed.glb", asset(Turning::camera));
+    test::put_bytes(dir / "still.glb", asset(Turning::nothing));
+    ASSERT_TRUE(read_mesh_file(dir / "turning.glb").animation->moves_only_as_a_whole);
+    ASSERT_FALSE(read_mesh_file(dir / "filmed.glb").animation->moves_only_as_a_whole);
+    EmbedFileOptions options;
+    options.seed = 5;
+    options.threads = 1;
+    (void)embed_file(dir / "turning.glb", dir / "marked.glb", dir / "key.json", options);
+
+    // Copies as Blender writes them at frame 12: turned by 0.5 s of the animation (45 degrees).
+    const Eigen::Affine3d turned(Eigen::AngleAxisd(0.25 * 3.14159265358979323846, Eigen::Vector3d::UnitY()));
+    for (const char* name : {"marked", "turning"})
+    {
+        TriangleMesh copy = read_mesh(dir / (std::string(name) + ".glb"));
+        copy.V = transform_points(turned.matrix(), copy.V);
+        write_mesh(dir / (std::string(name) + "_copy.ply"), copy);
+    }
+    DetectFileOptions detect;
+    detect.threads = 1;
+    const DetectReport still = detect_file(dir / "marked_copy.ply", dir / "still.glb", dir / "key.json", detect);
+    EXPECT_TRUE(still.decision.is_present) << "z " << still.decision.score;
+    EXPECT_GT(still.decision.false_positive_probability, 0.0);
+    for (const char* original : {"turning.glb", "filmed.glb"})
+    {
+        const DetectReport found = detect_file(dir / "marked_copy.ply", dir / original, dir / "key.json", detect);
+        EXPECT_EQ(found.decision.false_positive_probability, still.decision.false_positive_probability) << original;
+        EXPECT_EQ(found.decision.score, still.decision.score) << original;
+        const DetectReport clean = detect_file(dir / "turning_copy.ply", dir / original, dir / "key.json", detect);
+        EXPECT_FALSE(clean.decision.is_present) << original << " z " << clean.decision.score;
+    }
 }
 
 }  // namespace

@@ -641,6 +641,69 @@ TEST_F(GltfTest, an_animated_rig_gives_the_pose_blender_shows_it_in)
     EXPECT_EQ(read_mesh_file(dir / "lifted.glb").mesh.V.rows(), n);
 }
 
+// Which animations only move the asset as a whole (a turntable: no frame poses the mesh, so
+// detection has nothing to read a copy through) and which may bend it: two boxes, the second
+// under the first's node, both under a stand, with one channel at a time on a node of the tree.
+TEST_F(GltfTest, an_animation_that_only_moves_the_whole_asset_is_told_apart)
+{
+    struct Case
+    {
+        const char* name;
+        int target;                      // 0: the first box's node, 1: the second box's, 2: a camera beside them
+        const char* path;
+        std::vector<float> values;       // two keys
+        std::vector<double> stand_scale; // the stand's scale
+        bool is_whole;
+    };
+    const float h = std::sqrt(0.5f);
+    const std::vector<Case> cases{
+        {"turntable", 0, "rotation", {0, 0, 0, 1, 0, h, 0, h}, {1, 1, 1}, true},
+        {"turntable on a larger stand", 0, "rotation", {0, 0, 0, 1, 0, h, 0, h}, {2, 2, 2}, true},
+        // (a scale of 1.3 as Blender writes it: uniform to float32 rounding)
+        {"turntable on Blender's stand", 0, "rotation", {0, 0, 0, 1, 0, h, 0, h},
+         {1.2999998331069946, 1.2999999523162842, 1.2999998331069946}, true},
+        {"grow", 0, "scale", {1, 1, 1, 2, 2, 2}, {1, 1, 1}, true},
+        {"squash", 0, "scale", {1, 1, 1, 1, 0.5f, 1}, {1, 1, 1}, false},
+        {"turn on a stretched stand", 0, "rotation", {0, 0, 0, 1, 0, h, 0, h}, {3, 1, 1}, false},
+        {"door", 1, "rotation", {0, 0, 0, 1, 0, h, 0, h}, {1, 1, 1}, false},
+        {"camera", 2, "translation", {0, 0, 0, 0, 0, 5}, {1, 1, 1}, false},
+    };
+    for (const Case& c : cases)
+    {
+        GltfBuilder b;
+        const auto box = [&] {
+            std::vector<float> xyz;
+            std::vector<float> normals;
+            std::vector<std::uint16_t> idx;
+            box_faces(xyz, normals, idx, Eigen::Matrix4d::Identity());
+            return b.mesh(Json::array({{{"attributes", {{"POSITION", b.positions(xyz)}}}, {"indices", b.indices(idx)}}}));
+        };
+        const int second = b.node({{"mesh", box()}, {"translation", {2.5, 0.0, 0.0}}}, false);
+        const int first = b.node({{"mesh", box()}, {"children", {second}}}, false);
+        (void)b.node({{"name", "stand"}, {"children", {first}}, {"scale", c.stand_scale}});
+        const int camera = b.node({{"name", "camera"}});
+        const std::vector<float> times{0.0f, 1.0f};
+        const int at = b.accessor(b.view(GltfBuilder::raw(times)), 0, 5126, 2, "SCALAR");
+        const int to = b.accessor(b.view(GltfBuilder::raw(c.values)), 0, 5126, 2,
+                                  std::string(c.path) == "rotation" ? "VEC4" : "VEC3");
+        const int target = std::array{first, second, camera}[static_cast<std::size_t>(c.target)];
+        b.doc["animations"] = Json::array({{{"samplers", {{{"input", at}, {"output", to}}}},
+                                            {"channels", {{{"sampler", 0}, {"target", {{"node", target}, {"path", c.path}}}}}}}});
+        test::put_bytes(dir / "moving.glb", b.glb());
+        const MeshFile file = read_mesh_file(dir / "moving.glb");
+        ASSERT_EQ(file.mesh.V.rows(), 16) << c.name;
+        ASSERT_TRUE(file.animation.has_value()) << c.name;
+        EXPECT_EQ(file.animation->moves_only_as_a_whole, c.is_whole) << c.name;
+        // What the poses say halfway: none where the whole only moves (nor where only the camera
+        // does); the door and the squash bend the asset, and the turn on a stretched stand shears it.
+        const std::vector<double> halfway{0.5};
+        Eigen::Index rows = -1;
+        for_each_animation_pose(dir / "moving.glb", halfway, [&](ShownPose&& p) { rows = p.V.rows(); });
+        const bool is_bent = std::string(c.name) != "camera" && !c.is_whole;
+        EXPECT_EQ(rows, is_bent ? 16 : 0) << c.name;
+    }
+}
+
 // A rig in its bind pose (what most exporters write) places each vertex where its node does,
 // up to the float32 rounding of the inverse bind matrices: it is read through the node, to the
 // bit, as before skins were applied, so keys made then still match.
