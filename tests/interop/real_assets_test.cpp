@@ -343,4 +343,39 @@ TEST(RealAssetsInterop, ABlenderCopyOfAnAnimatedCharacterExportedAtAnotherFrameI
     expect_blender_ply_copy_claimed("X/Testwuson.X", "wuson.glb", scratch, "pose=20");
 }
 
+// A shop or viewer model on a display turntable (bench/blender/make_game_asset.py
+// turntable-vehicle: Blender turns the vehicle's root once over frames 1-96): the animation
+// only moves the asset as a whole, so detection does not search its frames (no "poses" phase)
+// and charges nothing for a second reading. Blender's PLY copy exported at frame 30 (turned by
+// 110 degrees) is claimed; the unmarked model through the same steps is not.
+TEST(RealAssetsInterop, ABlenderTurntableIsReadAsOneAssetWithoutAFrameSearch)
+{
+    INTEROP_REQUIRE_TOOLS("meshmark", "blender");
+    const fs::path scratch = temp_dir("interop-real-turntable");
+    const fs::path original = scratch / "turntable.glb";
+    const ToolRun making = run({tools().blender.string(), "-b", "--factory-startup", "--python-exit-code", "2",
+                                "--python", (fs::path(MESHMARK_BENCH_BLENDER_DIR) / "make_game_asset.py").string(),
+                                "--", original.string(), "turntable-vehicle"},
+                               scratch);
+    ASSERT_TRUE(making.ok()) << making.describe();
+    const fs::path marked = scratch / "marked.glb";
+    const fs::path key = scratch / "key.json";
+    const ToolRun marking = embed(original, marked, key, kSeed, scratch);
+    ASSERT_TRUE(marking.ok()) << marking.describe();
+    for (const auto& [input, folder] : {std::pair{marked, scratch / "marked"}, std::pair{original, scratch / "clean"}})
+    {
+        const ToolRun blender = blender_attacks(input, folder, {"pose=30"}, scratch);
+        ASSERT_TRUE(blender.ok()) << blender.describe();
+        int exit_code = -1;
+        const nlohmann::json report = detect_json(folder / "pose_30.ply", original, key, scratch, &exit_code);
+        ASSERT_TRUE(report.is_object()) << folder;
+        EXPECT_FALSE(report["seconds"].contains("poses")) << report.dump();
+        EXPECT_EQ(exit_code, input == marked ? 0 : 1) << report.dump();
+        if (input == marked)
+        {
+            EXPECT_GE(report.value("score", 0.0), 10.0) << report.dump();
+        }
+    }
+}
+
 }  // namespace meshmark::test::interop
