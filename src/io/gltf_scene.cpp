@@ -649,8 +649,26 @@ void Reader::add_draco(const tinygltf::Primitive& prim, int mesh, int index, con
             }
         }
         const auto& buffer = asset_.buffers[static_cast<std::size_t>(view.buffer)].bytes;
-        const auto geometry = decode_draco(path_, buffer.substr(view.byteOffset, view.byteLength),
-                                           record.position_attribute_id);
+        const auto decode = [&] {
+            return decode_draco(path_, buffer.substr(view.byteOffset, view.byteLength), record.position_attribute_id);
+        };
+        // (posing at many times, for_each_animation_pose: each view is decoded once)
+        DracoGeometry decoded;
+        const DracoGeometry* cached = nullptr;
+        if (animation_time_)
+        {
+            auto decoded_before = asset_.pose_draco.find(view_index);
+            if (decoded_before == asset_.pose_draco.end())
+            {
+                decoded_before = asset_.pose_draco.emplace(view_index, decode()).first;
+            }
+            cached = &decoded_before->second;
+        }
+        else
+        {
+            decoded = decode();
+        }
+        const DracoGeometry& geometry = cached != nullptr ? *cached : decoded;
         // The decoded values are stored values: with KHR_mesh_quantization, integers that the
         // accessor's `normalized` maps to [-1, 1] or [0, 1], as for uncompressed data.
         const auto& accessor = model_.accessors[static_cast<std::size_t>(position->second)];

@@ -1062,7 +1062,8 @@ std::vector<double> animation_frame_times(const AnimationSpan& span)
 // the original's vertex nearest to it (for_each_animation_pose; everything from the original
 // and the copy, nothing from the key: the choice is the same for every key), and read again.
 // Two readings: each is claimed at twice its false-positive probabilities (a union bound, as
-// for the symmetric poses).
+// for the symmetric poses), unless no frame bends the mesh (then there is no second reading;
+// an animation the reader sees only moves the whole, a turntable, never comes here).
 void read_animation_pose(DetectReport& report, detail::PhaseTimer& timer, const SpectralWatermark& mark,
                          const TriangleMesh& original, const TriangleMesh& instances, const AnimatedOriginal& animated,
                          const TriangleMesh& suspect, const std::filesystem::path& suspect_path,

@@ -5,6 +5,7 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <map>
 #include <string>
 #include <utility>
 #include <vector>
@@ -156,6 +157,18 @@ struct GltfMeshoptView
     std::string unsupported;
 };
 
+/// A decoded Draco primitive: positions (3 per point) as stored in the attribute's data type
+/// (float32 values, or the integers of a KHR_mesh_quantization attribute, not normalized),
+/// triangles, and the position quantization of the bitstream (0 when not quantized).
+struct DracoGeometry
+{
+    std::vector<double> positions;
+    std::vector<std::uint32_t> triangles;
+    std::uint32_t point_count = 0;
+    int quantization_bits = 0;
+    GltfComponent component = GltfComponent::Float32;
+};
+
 /// Everything the preserving glTF/GLB writer needs.
 struct GltfAsset
 {
@@ -182,6 +195,8 @@ struct GltfAsset
     /// not depend on the time).
     std::vector<std::int32_t> pose_welded;
     std::vector<double> pose_rest;
+    /// for_each_animation_pose: each Draco bufferView decoded at the first time, by view.
+    std::map<int, DracoGeometry> pose_draco;
 };
 
 /// A stored POSITION component as the coordinate a renderer sees (normalized integers
@@ -231,17 +246,6 @@ struct GlbChunks
 
 // Draco (draco.cpp).
 
-/// A decoded Draco primitive: positions (3 per point) as stored in the attribute's data type
-/// (float32 values, or the integers of a KHR_mesh_quantization attribute, not normalized),
-/// triangles, and the position quantization of the bitstream (0 when not quantized).
-struct DracoGeometry
-{
-    std::vector<double> positions;
-    std::vector<std::uint32_t> triangles;
-    std::uint32_t point_count = 0;
-    int quantization_bits = 0;
-    GltfComponent component = GltfComponent::Float32;
-};
 [[nodiscard]] DracoGeometry decode_draco(const std::filesystem::path& path,
                                          const std::string& bytes, std::int32_t position_id);
 /// \brief Re-encode \p bytes with the positions of every point replaced by \p positions

@@ -3,6 +3,8 @@
 // input's quantization and attribute ids, the rest of the asset carried through.
 #include <cmath>
 
+#include <Eigen/Geometry>
+
 #include <draco/attributes/attribute_quantization_transform.h>
 #include <draco/compression/decode.h>
 #include <draco/compression/encode.h>
@@ -156,6 +158,45 @@ TEST_F(DracoTest, reads_decoded_world_positions)
     EXPECT_NEAR(file.mesh.V.col(0).maxCoeff(), 1.0, step);
     EXPECT_NEAR(file.mesh.V.topRows(kGrid * kGrid).col(2).minCoeff(), 1.9, 0.02);
     EXPECT_NEAR(file.mesh.V.col(2).maxCoeff(), 5.0, 0.0);
+}
+
+// An animation that turns the Draco part about z (90 degrees over 1 s) while the plain
+// triangle stays: posed at several times from one parse (the Draco data decoded once), every
+// vertex of the part is where the turn puts it and the triangle's are where they were.
+TEST_F(DracoTest, an_animated_draco_part_is_posed_at_every_time)
+{
+    const auto patch = draco_patch();
+    GltfBuilder b = draco_asset(patch);
+    const std::vector<float> times{0.0f, 1.0f};
+    const float h = std::sqrt(0.5f);
+    const std::vector<float> turns{0, 0, 0, 1, 0, 0, h, h};
+    const int at = b.accessor(b.view(GltfBuilder::raw(times)), 0, 5126, 2, "SCALAR");
+    const int to = b.accessor(b.view(GltfBuilder::raw(turns)), 0, 5126, 2, "VEC4");
+    b.doc["animations"] = Json::array({{{"samplers", {{{"input", at}, {"output", to}}}},
+                                        {"channels", {{{"sampler", 0}, {"target", {{"node", 0}, {"path", "rotation"}}}}}}}});
+    test::put_bytes(dir / "turning.glb", b.glb());
+    const MeshFile file = read_mesh_file(dir / "turning.glb");
+    ASSERT_TRUE(file.animation.has_value());
+    EXPECT_FALSE(file.animation->moves_only_as_a_whole);  // (the triangle does not turn)
+    const std::vector<double> at_times{0.0, 0.5, 1.0, 0.5};
+    const std::vector<double> angles{0.0, 0.25 * 3.14159265358979323846, 0.5 * 3.14159265358979323846,
+                                     0.25 * 3.14159265358979323846};
+    std::vector<ShownPose> poses;
+    for_each_animation_pose(dir / "turning.glb", at_times, [&](ShownPose&& p) { poses.push_back(std::move(p)); });
+    ASSERT_EQ(poses.size(), at_times.size());
+    EXPECT_EQ(poses[0].V.rows(), 0);  // (at the first key: the stored pose)
+    for (std::size_t k = 1; k < poses.size(); ++k)
+    {
+        ASSERT_EQ(poses[k].V.rows(), file.mesh.V.rows()) << k;
+        const Eigen::Matrix3d turn = Eigen::AngleAxisd(angles[k], Eigen::Vector3d::UnitZ()).toRotationMatrix();
+        for (Eigen::Index v = 0; v < file.mesh.V.rows(); ++v)
+        {
+            const Eigen::Vector3d stored = file.mesh.V.row(v).transpose();
+            const bool is_patch = stored.z() < 3.0;
+            const Eigen::Vector3d expected = is_patch ? Eigen::Vector3d(turn * stored) : stored;
+            EXPECT_LT((poses[k].V.row(v).transpose() - expected).norm(), 1e-6) << k << " " << v;
+        }
+    }
 }
 
 TEST_F(DracoTest, unchanged_positions_keep_the_file)
