@@ -178,7 +178,8 @@ void store_stored(draco::PointAttribute& attribute, GltfComponent component,
 
 }  // namespace
 
-DracoGeometry decode_draco(const fs::path& path, const std::string& bytes, std::int32_t position_id)
+DracoGeometry decode_draco(const fs::path& path, const std::string& bytes, std::int32_t position_id,
+                           std::span<const std::int32_t> more_ids)
 {
     auto mesh = decode(path, bytes, false);
     auto* positions = attribute_by_id(path, *mesh, position_id);
@@ -208,6 +209,32 @@ DracoGeometry decode_draco(const fs::path& path, const std::string& bytes, std::
                                     std::to_string(p) + " " + index_range(geometry.point_count));
             }
             geometry.triangles.push_back(p);
+        }
+    }
+    for (const std::int32_t id : more_ids)
+    {
+        const draco::PointAttribute* attribute = nullptr;
+        for (std::int32_t a = 0; a < mesh->num_attributes() && attribute == nullptr; ++a)
+        {
+            if (mesh->attribute(a) != nullptr && id >= 0 && mesh->attribute(a)->unique_id() == static_cast<std::uint32_t>(id))
+            {
+                attribute = mesh->attribute(a);
+            }
+        }
+        if (attribute == nullptr || attribute->num_components() < 1 || attribute->num_components() > 4)
+        {
+            fail_io(path, "the Draco data has no attribute " + std::to_string(id) + " of 1 to 4 components");
+        }
+        std::vector<double>& values = geometry.more.emplace_back(4 * static_cast<std::size_t>(geometry.point_count), 0.0);
+        for (std::uint32_t i = 0; i < geometry.point_count; ++i)
+        {
+            if (!attribute->ConvertValue<double>(attribute->mapped_index(draco::PointIndex(i)),
+                                                 static_cast<std::int8_t>(attribute->num_components()),
+                                                 values.data() + 4 * static_cast<std::size_t>(i)))
+            {
+                fail_io(path, "Draco attribute " + std::to_string(id) + " has a value that cannot be read at point " +
+                                  std::to_string(i));
+            }
         }
     }
     const auto quantized = decode(path, bytes, true);

@@ -66,7 +66,14 @@ private:
     void walk(int node, const Placement& parent, std::vector<char>& on_stack);
     void add_primitive(int mesh, int index, const Placement& place, int skin);
     void add_plain(const tinygltf::Primitive& prim, int mesh, int index, const Placement& place, int skin);
-    std::vector<Eigen::Matrix4d> skinning(const tinygltf::Primitive& prim, int skin, std::size_t count,
+    // JOINTS_n and WEIGHTS_n of a primitive, set by set, 4 values per element.
+    struct SkinSets
+    {
+        std::vector<std::vector<double>> joints;
+        std::vector<std::vector<double>> weights;
+    };
+    SkinSets skin_sets(const tinygltf::Primitive& prim);
+    std::vector<Eigen::Matrix4d> skinning(const SkinSets& sets, int skin, std::size_t count,
                                           const Eigen::Matrix4d& to_world,
                                           const std::vector<Eigen::Matrix4d>& globals);
     void pose_from_first_animation();
@@ -75,7 +82,7 @@ private:
     std::vector<double> read_vectors(int accessor, int components, const std::string& what,
                                      bool integers_only);
     std::vector<Eigen::Matrix4d> world_matrices(const std::vector<Eigen::Matrix4d>& locals) const;
-    void add_draco(const tinygltf::Primitive& prim, int mesh, int index, const Placement& place);
+    void add_draco(const tinygltf::Primitive& prim, int mesh, int index, const Placement& place, int skin);
     void add_triangles(const tinygltf::Primitive& prim, int mesh, int index, std::size_t base,
                        std::size_t count);
     void add_triangles(const tinygltf::Primitive& prim, int mesh, int index, std::size_t base,
@@ -130,6 +137,26 @@ std::string time_name(double t)
     std::ostringstream out;
     out << t << " s";
     return out.str();
+}
+
+// The Draco attribute ids of a skinned primitive's JOINTS_n and WEIGHTS_n, in pairs, set by set
+// while both the primitive and its Draco extension have them.
+std::vector<std::int32_t> draco_skin_ids(const tinygltf::Primitive& prim, const tinygltf::Value& draco)
+{
+    std::vector<std::int32_t> ids;
+    const auto& attributes = draco.Get("attributes");
+    for (int set = 0;; ++set)
+    {
+        const std::string joints = "JOINTS_" + std::to_string(set);
+        const std::string weights = "WEIGHTS_" + std::to_string(set);
+        if (prim.attributes.count(joints) == 0 || prim.attributes.count(weights) == 0 || !attributes.Has(joints) ||
+            !attributes.Has(weights) || !attributes.Get(joints).IsInt() || !attributes.Get(weights).IsInt())
+        {
+            return ids;
+        }
+        ids.push_back(attributes.Get(joints).Get<int>());
+        ids.push_back(attributes.Get(weights).Get<int>());
+    }
 }
 
 bool same_matrix(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b)
@@ -312,7 +339,7 @@ void Reader::add_primitive(int mesh, int index, const Placement& place, int skin
     }
     if (prim.extensions.count(kDracoExtension) != 0)
     {
-        add_draco(prim, mesh, index, place);
+        add_draco(prim, mesh, index, place, skin);
     }
     else
     {
@@ -442,10 +469,11 @@ void Reader::add_plain(const tinygltf::Primitive& prim, int mesh, int index, con
         slot = asset_.accessors.size();
         accessor_slot_[a] = slot;
         slot_base_.push_back(raw_.group.size());
+        const SkinSets sets = skin >= 0 ? skin_sets(prim) : SkinSets{};
         if (skin >= 0)
         {
             record.skin = skin;
-            record.skinning = skinning(prim, skin, record.elements.size(), to_world, globals_);
+            record.skinning = skinning(sets, skin, record.elements.size(), to_world, globals_);
             // A rig shown in its bind pose under a node placed like it (what most exporters
             // write) puts every vertex where the node's transform does, up to the float32
             // rounding of its inverse bind matrices: read it through the node, to the bit as
@@ -470,7 +498,7 @@ void Reader::add_plain(const tinygltf::Primitive& prim, int mesh, int index, con
         {
             // Skinned and animated: every element's own way into the pose.
             const std::vector<Eigen::Matrix4d> posed =
-                skinning(prim, skin, record.elements.size(), place.posed, posed_globals_);
+                skinning(sets, skin, record.elements.size(), place.posed, posed_globals_);
             for (std::size_t e = 0; e < record.elements.size(); ++e)
             {
                 add_posed(Eigen::Vector4d(local[3 * e], local[3 * e + 1], local[3 * e + 2], 1.0),
@@ -579,7 +607,7 @@ void Reader::add_triangles(const tinygltf::Primitive& prim, int mesh, int index,
     }
 }
 
-void Reader::add_draco(const tinygltf::Primitive& prim, int mesh, int index, const Placement& place)
+void Reader::add_draco(const tinygltf::Primitive& prim, int mesh, int index, const Placement& place, int skin)
 {
     const Eigen::Matrix4d& to_world = place.to_world;
     const std::string where =
@@ -649,8 +677,16 @@ void Reader::add_draco(const tinygltf::Primitive& prim, int mesh, int index, con
             }
         }
         const auto& buffer = asset_.buffers[static_cast<std::size_t>(view.buffer)].bytes;
+        // Skinned and posed: the joints and weights too (the stored mesh is read through the
+        // node, since the writer re-encodes positions only: a rig in its bind pose reads the same).
+        std::vector<std::int32_t> skin_ids;
+        if (skin >= 0 && !posed_globals_.empty())
+        {
+            skin_ids = draco_skin_ids(prim, ext);
+        }
         const auto decode = [&] {
-            return decode_draco(path_, buffer.substr(view.byteOffset, view.byteLength), record.position_attribute_id);
+            return decode_draco(path_, buffer.substr(view.byteOffset, view.byteLength), record.position_attribute_id,
+                                skin_ids);
         };
         // (posing at many times, for_each_animation_pose: each view is decoded once)
         DracoGeometry decoded;
@@ -658,8 +694,9 @@ void Reader::add_draco(const tinygltf::Primitive& prim, int mesh, int index, con
         if (animation_time_)
         {
             auto decoded_before = asset_.pose_draco.find(view_index);
-            if (decoded_before == asset_.pose_draco.end())
+            if (decoded_before == asset_.pose_draco.end() || decoded_before->second.more.size() < skin_ids.size())
             {
+                asset_.pose_draco.erase(view_index);
                 decoded_before = asset_.pose_draco.emplace(view_index, decode()).first;
             }
             cached = &decoded_before->second;
@@ -682,7 +719,22 @@ void Reader::add_draco(const tinygltf::Primitive& prim, int mesh, int index, con
         slot = asset_.draco.size();
         draco_slot_[view_index] = slot;
         draco_base_.push_back(raw_.group.size());
-        append_world(local, place, group_of(to_world));
+        if (!skin_ids.empty())
+        {
+            SkinSets sets;
+            for (std::size_t k = 0; k + 1 < skin_ids.size(); k += 2)
+            {
+                sets.joints.push_back(geometry.more[k]);
+                sets.weights.push_back(geometry.more[k + 1]);
+            }
+            const std::vector<Eigen::Matrix4d> posed =
+                skinning(sets, skin, geometry.point_count, place.posed, posed_globals_);
+            for (std::size_t e = 0; e < geometry.point_count; ++e)
+            {
+                add_posed(Eigen::Vector4d(local[3 * e], local[3 * e + 1], local[3 * e + 2], 1.0), to_world, posed[e]);
+            }
+        }
+        append_world(local, place, group_of(to_world), skin_ids.empty());
         record.welded.resize(geometry.point_count);
         asset_.draco.push_back(std::move(record));
         const std::size_t first_corner = corners_.size();
@@ -754,7 +806,23 @@ std::vector<double> Reader::read_vectors(int accessor, int components, const std
     return accessors_.values(accessor, components, what, integers_only);
 }
 
-std::vector<Eigen::Matrix4d> Reader::skinning(const tinygltf::Primitive& prim, int skin, std::size_t count,
+Reader::SkinSets Reader::skin_sets(const tinygltf::Primitive& prim)
+{
+    SkinSets sets;
+    for (int set = 0;; ++set)
+    {
+        const auto j = prim.attributes.find("JOINTS_" + std::to_string(set));
+        const auto w = prim.attributes.find("WEIGHTS_" + std::to_string(set));
+        if (j == prim.attributes.end() || w == prim.attributes.end())
+        {
+            return sets;
+        }
+        sets.joints.push_back(read_vectors(j->second, 4, "JOINTS_" + std::to_string(set), true));
+        sets.weights.push_back(read_vectors(w->second, 4, "WEIGHTS_" + std::to_string(set), false));
+    }
+}
+
+std::vector<Eigen::Matrix4d> Reader::skinning(const SkinSets& sets, int skin, std::size_t count,
                                               const Eigen::Matrix4d& to_world,
                                               const std::vector<Eigen::Matrix4d>& globals)
 {
@@ -798,16 +866,10 @@ std::vector<Eigen::Matrix4d> Reader::skinning(const tinygltf::Primitive& prim, i
     }
     std::vector<Eigen::Matrix4d> result(count, Eigen::Matrix4d::Zero());
     std::vector<double> total(count, 0.0);
-    for (int set = 0;; ++set)
+    for (std::size_t set = 0; set < sets.joints.size(); ++set)
     {
-        const auto j = prim.attributes.find("JOINTS_" + std::to_string(set));
-        const auto w = prim.attributes.find("WEIGHTS_" + std::to_string(set));
-        if (j == prim.attributes.end() || w == prim.attributes.end())
-        {
-            break;
-        }
-        const std::vector<double> joints = read_vectors(j->second, 4, "JOINTS_" + std::to_string(set), true);
-        const std::vector<double> weights = read_vectors(w->second, 4, "WEIGHTS_" + std::to_string(set), false);
+        const std::vector<double>& joints = sets.joints[set];
+        const std::vector<double>& weights = sets.weights[set];
         if (joints.size() < 4 * count || weights.size() < 4 * count)
         {
             fail("JOINTS_" + std::to_string(set) + " or WEIGHTS_" + std::to_string(set) +

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <map>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
@@ -167,6 +168,10 @@ struct DracoGeometry
     std::uint32_t point_count = 0;
     int quantization_bits = 0;
     GltfComponent component = GltfComponent::Float32;
+    /// The attributes asked for besides the positions (decode_draco's \p more_ids), in that
+    /// order: 4 values per point (fewer components padded with 0), converted as the attribute
+    /// declares (a normalized integer to [0, 1]).
+    std::vector<std::vector<double>> more;
 };
 
 /// Everything the preserving glTF/GLB writer needs.
@@ -246,8 +251,8 @@ struct GlbChunks
 
 // Draco (draco.cpp).
 
-[[nodiscard]] DracoGeometry decode_draco(const std::filesystem::path& path,
-                                         const std::string& bytes, std::int32_t position_id);
+[[nodiscard]] DracoGeometry decode_draco(const std::filesystem::path& path, const std::string& bytes,
+                                         std::int32_t position_id, std::span<const std::int32_t> more_ids = {});
 /// \brief Re-encode \p bytes with the positions of every point replaced by \p positions
 /// (3 per point, stored values in the attribute's data type: integers for integer types),
 /// keeping every attribute, its unique id and its quantization.

@@ -199,6 +199,105 @@ TEST_F(DracoTest, an_animated_draco_part_is_posed_at_every_time)
     }
 }
 
+// A rigged arm whose skinned primitive is Draco-compressed (JOINTS_0 and WEIGHTS_0 inside the
+// Draco data, as gltf-transform and gltf-pipeline write characters): the stored mesh is read
+// through its node (the writer re-encodes positions only), and its poses are skinned as those of
+// an uncompressed rig, the joints and weights decoded from the Draco data: at 1/24 s and at the
+// animation's end every vertex is where the bent arm puts it.
+TEST_F(DracoTest, a_skinned_draco_primitive_is_posed_by_its_joints)
+{
+    const test::BendingArm arm;
+    // A strip along x from -2 to 2, bent at the elbow (x = 0).
+    constexpr int kAlong = 33;
+    const auto at = [](int i, int j) {
+        return std::array<float, 3>{-2.0f + 0.125f * static_cast<float>(i), 0.25f * static_cast<float>(j),
+                                    0.05f * static_cast<float>(i % 3)};
+    };
+    draco::TriangleSoupMeshBuilder builder;
+    builder.Start(2 * (kAlong - 1));
+    const int pos = builder.AddAttribute(draco::GeometryAttribute::POSITION, 3, draco::DT_FLOAT32);
+    const int joints = builder.AddAttribute(draco::GeometryAttribute::GENERIC, 4, draco::DT_UINT8);
+    const int weights = builder.AddAttribute(draco::GeometryAttribute::GENERIC, 4, draco::DT_FLOAT32);
+    int f = 0;
+    for (int i = 0; i + 1 < kAlong; ++i)
+    {
+        const std::array<std::array<int, 2>, 6> corners{{{i, 0}, {i + 1, 0}, {i + 1, 1}, {i, 0}, {i + 1, 1}, {i, 1}}};
+        for (int t = 0; t < 2; ++t)
+        {
+            std::array<std::array<float, 3>, 3> p{};
+            std::array<std::array<std::uint8_t, 4>, 3> j{};
+            std::array<std::array<float, 4>, 3> w{};
+            for (std::size_t c = 0; c < 3; ++c)
+            {
+                const auto& g = corners[3 * static_cast<std::size_t>(t) + c];
+                p[c] = at(g[0], g[1]);
+                const auto elbow_weight = static_cast<float>(arm.weight(p[c][0]));
+                j[c] = {0, 1, 0, 0};
+                w[c] = {1.0f - elbow_weight, elbow_weight, 0.0f, 0.0f};
+            }
+            builder.SetAttributeValuesForFace(pos, draco::FaceIndex(f), p[0].data(), p[1].data(), p[2].data());
+            builder.SetAttributeValuesForFace(joints, draco::FaceIndex(f), j[0].data(), j[1].data(), j[2].data());
+            builder.SetAttributeValuesForFace(weights, draco::FaceIndex(f), w[0].data(), w[1].data(), w[2].data());
+            ++f;
+        }
+    }
+    auto mesh = builder.Finalize();
+    draco::Encoder encoder;
+    encoder.SetAttributeQuantization(draco::GeometryAttribute::POSITION, 28);  // (the weights follow x closely)
+    encoder.SetEncodingMethod(draco::MESH_EDGEBREAKER_ENCODING);
+    draco::EncoderBuffer out;
+    ASSERT_TRUE(encoder.EncodeMeshToBuffer(*mesh, &out).ok());
+    const std::string bytes(out.data(), out.size());
+
+    GltfBuilder b;
+    const int view = b.view(bytes);
+    const auto attribute = [&](int component, const char* type) {
+        b.doc["accessors"].push_back({{"componentType", component}, {"count", mesh->num_points()}, {"type", type}});
+        return static_cast<int>(b.doc["accessors"].size() - 1);
+    };
+    const int position_acc = attribute(5126, "VEC3");
+    b.doc["accessors"][static_cast<std::size_t>(position_acc)]["min"] = {-2.0, 0.0, 0.0};
+    b.doc["accessors"][static_cast<std::size_t>(position_acc)]["max"] = {2.0, 0.25, 0.1};
+    const int joints_acc = attribute(5121, "VEC4");
+    const int weights_acc = attribute(5126, "VEC4");
+    const int index_acc = static_cast<int>(b.doc["accessors"].size());
+    b.doc["accessors"].push_back({{"componentType", 5125}, {"count", 3 * mesh->num_faces()}, {"type", "SCALAR"}});
+    const auto id = [&](int a) { return static_cast<int>(mesh->attribute(a)->unique_id()); };
+    const int arm_mesh = b.mesh(Json::array(
+        {{{"attributes", {{"POSITION", position_acc}, {"JOINTS_0", joints_acc}, {"WEIGHTS_0", weights_acc}}},
+          {"indices", index_acc},
+          {"extensions",
+           {{"KHR_draco_mesh_compression",
+             {{"bufferView", view}, {"attributes", {{"POSITION", id(pos)}, {"JOINTS_0", id(joints)}, {"WEIGHTS_0", id(weights)}}}}}}}}}));
+    b.doc["extensionsUsed"] = {"KHR_draco_mesh_compression"};
+    b.doc["extensionsRequired"] = {"KHR_draco_mesh_compression"};
+    test::put_bytes(dir / "arm.glb", arm.rig(b, arm_mesh));
+
+    const MeshFile file = read_mesh_file(dir / "arm.glb");
+    ASSERT_EQ(file.mesh.V.rows(), 2 * kAlong);
+    EXPECT_NEAR(file.mesh.V.col(0).minCoeff(), -2.0, 1e-6);  // stored straight, through the node
+    EXPECT_NEAR(file.mesh.V.col(0).maxCoeff(), 2.0, 1e-6);
+    ASSERT_TRUE(file.animation.has_value());
+    EXPECT_FALSE(file.animation->moves_only_as_a_whole);
+    const std::vector<double> times{1.0 / 24.0, 0.1};
+    std::vector<ShownPose> poses;
+    for_each_animation_pose(dir / "arm.glb", times, [&](ShownPose&& p) { poses.push_back(std::move(p)); });
+    ASSERT_EQ(poses.size(), times.size());
+    for (std::size_t k = 0; k < times.size(); ++k)
+    {
+        ASSERT_EQ(poses[k].V.rows(), file.mesh.V.rows()) << k;
+        double largest_bend = 0.0;
+        for (Eigen::Index v = 0; v < file.mesh.V.rows(); ++v)
+        {
+            const Eigen::Vector3d p = file.mesh.V.row(v).transpose();
+            const Eigen::Vector3d shown = arm.shown(p, arm.weight(p.x()), times[k]);
+            EXPECT_LT((poses[k].V.row(v).transpose() - shown).norm(), 1e-5) << k << " " << v;
+            largest_bend = std::max(largest_bend, (shown - p - Eigen::Vector3d(0.0, arm.lift, 0.0)).norm());
+        }
+        EXPECT_GT(largest_bend, 0.3) << k;  // (a bend, not the stored shape lifted)
+    }
+}
+
 TEST_F(DracoTest, unchanged_positions_keep_the_file)
 {
     const auto patch = draco_patch();

@@ -280,12 +280,19 @@ struct BendingArm
         const int pos = b.positions(xyz);
         const int joint_acc = b.accessor(b.view(GltfBuilder::raw(joints)), 0, 5121, n, "VEC4");
         const int weight_acc = b.accessor(b.view(GltfBuilder::raw(weights)), 0, 5126, n, "VEC4");
+        const int mesh = b.mesh(Json::array({{{"attributes", {{"POSITION", pos}, {"JOINTS_0", joint_acc}, {"WEIGHTS_0", weight_acc}}},
+                                              {"indices", b.indices(idx)}}}));
+        return rig(b, mesh);
+    }
+
+    /// The skeleton, its skin on mesh \p mesh of \p b (a primitive with JOINTS_0 and WEIGHTS_0
+    /// as glb() makes them) and the animations: the asset as a GLB.
+    [[nodiscard]] std::string rig(GltfBuilder& b, int mesh) const
+    {
         const auto e = static_cast<float>(elbow);
         const std::vector<float> ibm{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1,   //
                                      1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, -e, 0, 0, 1};  // column-major
         const int ibm_acc = b.accessor(b.view(GltfBuilder::raw(ibm)), 0, 5126, 2, "MAT4");
-        const int mesh = b.mesh(Json::array({{{"attributes", {{"POSITION", pos}, {"JOINTS_0", joint_acc}, {"WEIGHTS_0", weight_acc}}},
-                                              {"indices", b.indices(idx)}}}));
         const int elbow_node = b.node({{"name", "elbow"}, {"translation", {elbow, 0.0, 0.0}}}, false);
         const int shoulder = b.node({{"name", "shoulder"}, {"children", {elbow_node}}});
         b.node({{"mesh", mesh}, {"skin", 0}});
