@@ -1075,9 +1075,12 @@ void read_animation_pose(DetectReport& report, detail::PhaseTimer& timer, const 
     {
         return;
     }
-    // The frames where the animation bends the mesh (the reader leaves out those that only move
-    // it as a whole, which the stored pose's registration already read), each with how far its
-    // spread along its principal axes is from the copy's.
+    // Whether the animation bends the mesh at any of its frames (the reader gives no pose where
+    // it only moves the whole, which the stored pose's registration already read): frame 1, the
+    // middle frame and the last first, the others only when none of those does. Which frames bend
+    // the mesh depends on the original alone, so the charge below is the same for every key and
+    // every copy; an animation that bends none (an animated camera, a skinned turntable) gives no
+    // second reading, and nothing is charged for one.
     timer.begin("poses");
     const auto mesh_in = [&](const Positions& V) {
         TriangleMesh posed;
@@ -1086,6 +1089,40 @@ void read_animation_pose(DetectReport& report, detail::PhaseTimer& timer, const 
         return posed;
     };
     const std::vector<double> times = animation_frame_times(animated.span);
+    const auto frame_one = static_cast<std::size_t>(
+        std::lower_bound(times.begin(), times.end(), std::clamp(kBlenderFrameOne, times.front(), times.back())) -
+        times.begin());
+    {
+        std::vector<double> probe{times[frame_one], times[times.size() / 2], times.back()};
+        std::sort(probe.begin(), probe.end());
+        probe.erase(std::unique(probe.begin(), probe.end()), probe.end());
+        bool bends = false;
+        const auto bent = [&](ShownPose&& pose) { bends = bends || pose.V.rows() == original.V.rows(); };
+        for_each_animation_pose(animated.path, probe, bent);
+        if (!bends)
+        {
+            std::vector<double> others;
+            std::set_difference(times.begin(), times.end(), probe.begin(), probe.end(), std::back_inserter(others));
+            for_each_animation_pose(animated.path, others, bent);
+        }
+        timer.lap("poses");
+        if (!bends)
+        {
+            return;
+        }
+    }
+    const auto bounded = [&](DetectReport& r) { charge_readings(r.decision, 2.0, options.decision); };
+    bounded(report);
+    if (report.decision.is_present)
+    {
+        return;
+    }
+    timer.begin("register");
+    // Each bending frame's distance from the copy in principal spread (the eigenvalues of the
+    // surface's second moments over their sum); the frames registered in full: Blender's frame 1
+    // (what a copy of its import shows unless the user moved the timeline) and the kSpreadFrames
+    // frames whose spread is closest to the copy's (a copy exported at another frame; exact on
+    // the copies measured, a shaking animation's included).
     std::vector<std::pair<double, std::size_t>> by_spread;  // (distance to the copy's spread, frame)
     {
         const Eigen::Vector3d copy_spread = principal_spread(suspect);
@@ -1098,28 +1135,7 @@ void read_animation_pose(DetectReport& report, detail::PhaseTimer& timer, const 
             }
         });
     }
-    timer.lap("poses");
-    // An animation that only turns, moves or scales the asset (a turntable) gives no second
-    // reading, so nothing is charged for one; which frames bend the mesh depends on the original
-    // alone, so the charge is the same for every key and every copy.
-    if (by_spread.empty())
-    {
-        return;
-    }
-    const auto bounded = [&](DetectReport& r) { charge_readings(r.decision, 2.0, options.decision); };
-    bounded(report);
-    if (report.decision.is_present)
-    {
-        return;
-    }
-    timer.begin("register");
-    // The frames registered in full: Blender's frame 1 (what a copy of its import shows unless
-    // the user moved the timeline) and the kSpreadFrames frames whose spread is closest to the
-    // copy's (a copy exported at another frame; exact on the copies measured, a shaking
-    // animation's included).
-    std::vector<std::size_t> first{static_cast<std::size_t>(
-        std::lower_bound(times.begin(), times.end(), std::clamp(kBlenderFrameOne, times.front(), times.back())) -
-        times.begin())};
+    std::vector<std::size_t> first{frame_one};
     const auto closest = by_spread.begin() + static_cast<std::ptrdiff_t>(std::min(by_spread.size(), kSpreadFrames));
     std::partial_sort(by_spread.begin(), closest, by_spread.end());
     std::for_each(by_spread.begin(), closest, [&](const auto& f) { first.push_back(f.second); });
