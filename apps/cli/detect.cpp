@@ -157,7 +157,7 @@ void register_detect(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
                       "out because the suspect is far from them), "
                       "registration (method: same-connectivity, registration (vertices matched), registration, "
                       "registration (not converged), or, for a copy of an animated glTF read through a frame of "
-                      "its first animation, registration (animation 'NAME' at F/24 s: Blender's frame F; T s "
+                      "one of its animations, registration (animation 'NAME' at F/24 s: Blender's frame F; T s "
                       "between frames); rms_error; transform), mark_strength (the mark's RMS amplitude "
                       "over the diagonal, the unit of rms_error), seconds; with a family key also recipients (the accused: name, score, "
                       "false_positive_probability, strongest first), recipients_traced, owner_detected and "

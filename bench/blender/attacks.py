@@ -29,6 +29,9 @@
 #   voxel=N          Remesh modifier, voxel mode, adaptivity 0, voxel size = diagonal / N
 #   pose=F           the scene at animation frame F, every mesh as its modifiers (an armature)
 #                    leave it: a rigged character re-posed by its own animation
+#   second-action=F  pose=F after switching every animated object to the file's second glTF
+#                    animation (Blender imports each as an action; the first plays, the others
+#                    wait muted in NLA tracks a user may switch to)
 import math
 import os
 import sys
@@ -52,7 +55,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from attack_contract import UsageError, parse_arguments, write_report  # noqa: E402
 
 DEFAULTS = {"merge": 1e-4, "noise": 0.002, "subdivide": 1, "laplacian": 1, "smooth": 10}
-NEEDS_VALUE = {"decimate", "merged-decimate", "voxel", "pose"}
+NEEDS_VALUE = {"decimate", "merged-decimate", "voxel", "pose", "second-action"}
 NO_VALUE = {"ply", "obj", "gltf", "transform", "bisect"}
 ROUND_TRIP_EXT = {"ply": ".ply", "obj": ".obj", "gltf": ".glb"}
 
@@ -80,10 +83,11 @@ def parse_op(text):
     return name, number
 
 
-def import_mesh(path, frame=None):
+def import_mesh(path, frame=None, action=0):
     """Fresh scene, INPUT imported with Blender's importer; returns the single mesh object. With
     \p frame, the scene is set to that animation frame and every mesh object is converted to
-    the mesh its modifiers give there (an armature's pose) before the join."""
+    the mesh its modifiers give there (an armature's pose) before the join; \p action: which of
+    the file's animations plays (0: the first, as imported)."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     ext = os.path.splitext(path)[1].lower()
     if ext == ".ply":
@@ -104,6 +108,17 @@ def import_mesh(path, frame=None):
     for o in meshes:
         o.select_set(True)
     bpy.context.view_layer.objects.active = meshes[0]
+    if action > 0:
+        # The importer keeps each animation in an NLA track of every object it animates, the
+        # file's first on top (created last): the file's animation K is track count - 1 - K.
+        switched = 0
+        for o in bpy.context.scene.objects:
+            tracks = o.animation_data.nla_tracks if o.animation_data else []
+            if len(tracks) > action:
+                o.animation_data.action = tracks[len(tracks) - 1 - action].strips[0].action
+                switched += 1
+        if switched == 0:
+            raise UsageError("%s: no object has an animation %d" % (path, action + 1))
     if frame is not None:
         bpy.context.scene.frame_set(frame)
         bpy.ops.object.convert(target="MESH")  # applies the modifiers as they stand at the frame
@@ -150,7 +165,7 @@ def apply_op(obj, name, value, seed):
     lo, hi = bbox(obj)
     diagonal = (hi - lo).length
     centre = (lo + hi) / 2
-    if name in ROUND_TRIP_EXT or name == "pose":  # pose: done by import_mesh
+    if name in ROUND_TRIP_EXT or name in ("pose", "second-action"):  # pose: done by import_mesh
         return
     if name == "transform":
         move = mathutils.Matrix.Translation(mathutils.Vector((0.1, -0.2, 0.3)) * diagonal)
@@ -216,7 +231,8 @@ def main(argv):
     report = []
     for spec, name, value in ops:
         start = time.time()
-        obj = import_mesh(source, int(value) if name == "pose" else None)
+        obj = import_mesh(source, int(value) if name in ("pose", "second-action") else None,
+                          1 if name == "second-action" else 0)
         apply_op(obj, name, value, seed)
         label = spec.replace("=", "_")
         target = os.path.join(out_dir, label + ROUND_TRIP_EXT.get(name, ".ply"))

@@ -20,7 +20,9 @@
 #             turns the front bone by 20 degrees over frames 1-20 (attacks.py's pose=FRAME);
 #   faceted-creature  the creature flat shaded: every triangle has vertices of its own;
 #   turntable-vehicle  the vehicle on a display turntable: its root turns once about z over
-#             frames 1-96, an animation that moves the asset only as a whole.
+#             frames 1-96, an animation that moves the asset only as a whole;
+#   two-action-creature  the rigged creature with a second action (the back bone bowing by 25
+#             degrees over frames 1-30): two glTF animations, "bow" (written first) and "turn".
 # (docs/robustness.md, "Two more game-like assets").
 import math
 import sys
@@ -226,6 +228,34 @@ def rigged_creature():
     return objects
 
 
+def two_action_creature():
+    """The rigged creature with a second action, "bow": the back bone turned by -25 degrees
+    about x over frames 1-30. Both are kept in NLA tracks, so the glTF writer exports two
+    animations (Blender 3.4 writes "bow" first); Blender plays the first after importing."""
+    objects = rigged_creature()
+    armature = next(o for o in bpy.context.scene.objects if o.type == "ARMATURE")
+    turn = armature.animation_data.action
+    turn.name = "turn"
+    bow = bpy.data.actions.new("bow")
+    armature.animation_data.action = bow
+    bone = armature.pose.bones["back"]
+    bone.rotation_mode = "XYZ"
+    bone.rotation_euler = (0, 0, 0)
+    bone.keyframe_insert("rotation_euler", frame=1)
+    bone.rotation_euler = (math.radians(-25), 0, 0)
+    bone.keyframe_insert("rotation_euler", frame=30)
+    bone.rotation_euler = (0, 0, 0)
+    armature.pose.bones["front"].rotation_euler = (0, 0, 0)
+    armature.animation_data.action = None
+    for action in (bow, turn):
+        track = armature.animation_data.nla_tracks.new()
+        track.name = action.name
+        track.strips.new(action.name, 1, action)
+    bpy.context.scene.frame_end = 30
+    bpy.context.scene.frame_set(1)
+    return objects
+
+
 def faceted_creature():
     """The creature flat shaded: every face with vertices of its own in the file (low-poly art)."""
     objects = creature()
@@ -237,7 +267,8 @@ def faceted_creature():
 
 
 KINDS = {"suzanne": suzanne, "vehicle": vehicle, "creature": creature, "rigged-creature": rigged_creature,
-         "faceted-creature": faceted_creature, "turntable-vehicle": turntable_vehicle}
+         "faceted-creature": faceted_creature, "turntable-vehicle": turntable_vehicle,
+         "two-action-creature": two_action_creature}
 
 
 def main():

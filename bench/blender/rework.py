@@ -35,7 +35,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ATTACKS = os.path.join(HERE, "attacks.py")
 OPEN3D_ATTACKS = os.path.join(HERE, "open3d_attacks.py")
 BLENDER_NAMES = {"ply", "obj", "gltf", "transform", "merge", "noise", "subdivide", "laplacian", "smooth",
-                 "decimate", "merged-decimate", "bisect", "voxel", "pose"}
+                 "decimate", "merged-decimate", "bisect", "voxel", "pose", "second-action"}
 # Other tools' operations (--ops ... or --with-others): gltf-transform, Open3D, MeshLab.
 OTHER_OPERATIONS = ["gt-simplify=0.5", "gt-simplify=0.2", "gt-decimate=0.05", "gt-weld", "o3d-decimate=0.2",
                     "o3d-laplacian=10", "o3d-taubin=10", "meshlab-decimate=0.2", "meshlab-taubin=10"]
@@ -51,6 +51,8 @@ DESCRIPTION = {
     "decimate=0.05": "Decimate collapse 5%", "merged-decimate=0.05": "Merge by Distance, then Decimate 5%",
     "bisect": "bisect in half, keep one side",
     "pose=10": "posed by its animation, frame 10", "pose=20": "posed by its animation, frame 20",
+    "second-action=10": "posed by its second animation, frame 10",
+    "second-action=20": "posed by its second animation, frame 20",
     "voxel=300": "voxel remesh, diagonal/300", "voxel=150": "voxel remesh, diagonal/150",
     "gt-simplify=0.5": "gltf-transform simplify 50% (error 0.1%)",
     "gt-simplify=0.2": "gltf-transform simplify 20% (error 0.1%)", "gt-weld": "gltf-transform weld",

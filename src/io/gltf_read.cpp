@@ -433,7 +433,7 @@ TriangleMesh read_gltf(const fs::path& path, const std::string& bytes, bool is_g
 }
 
 void visit_gltf_poses(const fs::path& path, const std::string& bytes, bool is_glb, std::span<const double> times,
-                      const std::function<void(ShownPose&&)>& visit)
+                      const std::function<void(ShownPose&&)>& visit, std::size_t animation)
 {
     GltfAsset loaded;
     const tinygltf::Model model = load_asset(path, bytes, is_glb, loaded);
@@ -445,7 +445,7 @@ void visit_gltf_poses(const fs::path& path, const std::string& bytes, bool is_gl
         loaded.draco.clear();
         loaded.instances = TriangleMesh{};
         loaded.pose = ShownPose{};
-        (void)read_scene(path, model, loaded, t);
+        (void)read_scene(path, model, loaded, t, animation);
         visit(std::move(loaded.pose));
     }
 }

@@ -48,8 +48,14 @@ struct RawVertices
 class Reader
 {
 public:
-    Reader(const fs::path& path, const tinygltf::Model& model, GltfAsset& asset, std::optional<double> animation_time)
-        : path_(path), model_(model), asset_(asset), accessors_(path, model, asset), animation_time_(animation_time)
+    Reader(const fs::path& path, const tinygltf::Model& model, GltfAsset& asset, std::optional<double> animation_time,
+           std::size_t animation)
+        : path_(path),
+          model_(model),
+          asset_(asset),
+          accessors_(path, model, asset),
+          animation_time_(animation_time),
+          animation_(animation)
     {
     }
 
@@ -76,7 +82,8 @@ private:
     std::vector<Eigen::Matrix4d> skinning(const SkinSets& sets, int skin, std::size_t count,
                                           const Eigen::Matrix4d& to_world,
                                           const std::vector<Eigen::Matrix4d>& globals);
-    void pose_from_first_animation();
+    void animation_spans();
+    void pose_from_animation();
     void add_posed(const Eigen::Vector4d& local, const Eigen::Matrix4d& rest, const Eigen::Matrix4d& posed);
     void keep_pose(const std::vector<std::int32_t>& welded, const std::vector<double>& xyz);
     std::vector<double> read_vectors(int accessor, int components, const std::string& what,
@@ -101,7 +108,8 @@ private:
     const tinygltf::Model& model_;
     GltfAsset& asset_;
     GltfAccessors accessors_;
-    std::optional<double> animation_time_;  // where the first animation is posed; none: not posed
+    std::optional<double> animation_time_;  // where animation_ is posed; none: not posed
+    std::size_t animation_ = 0;
     std::size_t visits_ = 0;
     std::map<int, std::size_t> accessor_slot_;  // POSITION accessor -> asset_.accessors
     std::map<int, std::size_t> draco_slot_;     // Draco bufferView -> asset_.draco
@@ -201,7 +209,11 @@ TriangleMesh Reader::run()
             }
         }
     }
-    pose_from_first_animation();
+    if (!animation_time_)
+    {
+        animation_spans();
+    }
+    pose_from_animation();
     if (animation_time_ && posed_globals_.empty())
     {
         return TriangleMesh{};  // (only the pose was asked for, and at that time nothing moves)
@@ -211,11 +223,11 @@ TriangleMesh Reader::run()
     {
         walk(root, {Eigen::Matrix4d::Identity(), Eigen::Matrix4d::Identity()}, on_stack);
     }
-    if (asset_.animation)
+    for (AnimationSpan& span : asset_.animations)
     {
         try
         {
-            asset_.animation->moves_only_as_a_whole = moves_only_as_a_whole(model_, accessors_, 0, roots);
+            span.moves_only_as_a_whole = moves_only_as_a_whole(model_, accessors_, span.index, roots);
         }
         catch (const IoError&)
         {
@@ -225,28 +237,42 @@ TriangleMesh Reader::run()
     return weld();
 }
 
-// The first animation's span (MeshFile::animation) and, when a time is asked for, every node's
-// local and world matrix at that time (for_each_animation_pose: detection reads a copy posed
-// by the animation through it). A malformed animation only means no animation.
-void Reader::pose_from_first_animation()
+// The span of every animation that animates a node (MeshFile::animations); a malformed one is
+// left out (it only means no animation).
+void Reader::animation_spans()
 {
-    if (model_.animations.empty())
+    for (std::size_t a = 0; a < model_.animations.size(); ++a)
+    {
+        try
+        {
+            if (auto span = animation_span(model_, accessors_, a))
+            {
+                span->index = a;
+                asset_.animations.push_back(std::move(*span));
+            }
+        }
+        catch (const IoError&)
+        {
+        }
+    }
+}
+
+// When a time is asked for, every node's local and world matrix at that time of animation_
+// (for_each_animation_pose: detection reads a copy posed by the animation through it). A
+// malformed animation only means no pose.
+void Reader::pose_from_animation()
+{
+    if (!animation_time_ || animation_ >= model_.animations.size())
     {
         return;
     }
     std::vector<Eigen::Matrix4d> locals;
     try
     {
-        asset_.animation = animation_span(model_, accessors_, 0);
-        if (!animation_time_)
-        {
-            return;
-        }
-        locals = animated_local_matrices(model_, accessors_, 0, *animation_time_);
+        locals = animated_local_matrices(model_, accessors_, animation_, *animation_time_);
     }
     catch (const IoError&)
     {
-        asset_.animation.reset();
         return;
     }
     bool moves = false;
@@ -262,8 +288,8 @@ void Reader::pose_from_first_animation()
     {
         return;
     }
-    const std::string& name = model_.animations.front().name;
-    pose_name_ = (name.empty() ? std::string("animation 0") : "animation '" + name + "'") + " at " +
+    const std::string& name = model_.animations[animation_].name;
+    pose_name_ = (name.empty() ? "animation " + std::to_string(animation_) : "animation '" + name + "'") + " at " +
                  time_name(*animation_time_);
     posed_globals_ = world_matrices(locals);
     posed_locals_ = std::move(locals);
@@ -1009,9 +1035,9 @@ TriangleMesh Reader::weld()
 }  // namespace
 
 TriangleMesh read_scene(const fs::path& path, const tinygltf::Model& model, GltfAsset& asset,
-                        std::optional<double> animation_time)
+                        std::optional<double> animation_time, std::size_t animation)
 {
-    Reader reader(path, model, asset, animation_time);
+    Reader reader(path, model, asset, animation_time, animation);
     return reader.run();
 }
 

@@ -126,7 +126,7 @@ MeshFile read_mesh_file(const std::filesystem::path& path)
             file.mesh =
                 detail::read_gltf(path, layout->bytes, file.format == MeshFormat::Glb, asset);
             file.instances = std::move(asset.instances);
-            file.animation = std::move(asset.animation);
+            file.animations = std::move(asset.animations);
             file.is_single_precision = true;
             break;
         }
@@ -141,7 +141,7 @@ MeshFile read_mesh_file(const std::filesystem::path& path)
 }
 
 void for_each_animation_pose(const std::filesystem::path& path, std::span<const double> times,
-                             const std::function<void(ShownPose&&)>& visit)
+                             const std::function<void(ShownPose&&)>& visit, std::size_t animation)
 {
     const MeshFormat format = format_from_extension(path);
     if (format != MeshFormat::Gltf && format != MeshFormat::Glb)
@@ -152,7 +152,7 @@ void for_each_animation_pose(const std::filesystem::path& path, std::span<const 
         }
         return;
     }
-    detail::visit_gltf_poses(path, detail::read_file_bytes(path), format == MeshFormat::Glb, times, visit);
+    detail::visit_gltf_poses(path, detail::read_file_bytes(path), format == MeshFormat::Glb, times, visit, animation);
 }
 
 TriangleMesh read_mesh(const std::filesystem::path& path)

@@ -7,7 +7,9 @@
 #include <cmath>
 #include <exception>
 #include <iterator>
+#include <functional>
 #include <limits>
+#include <map>
 #include <numbers>
 #include <numeric>
 #include <optional>
@@ -994,17 +996,20 @@ void read_symmetric_poses(DetectReport& report, detail::PhaseTimer& timer, const
     }
 }
 
-// The animation of an animated original, where detection may read a copy through its poses.
+// The animations of an animated original, where detection may read a copy through their poses.
 struct AnimatedOriginal
 {
-    std::filesystem::path path;  // the original's file, read again at other times
-    AnimationSpan span;
+    std::filesystem::path path;               // the original's file, read again at other times
+    std::vector<AnimationSpan> animations;   // those that may bend the mesh, the file's first first
 };
 
-// The frames of the first animation a re-posed copy is compared with: Blender's frames (t =
-// F/24 s) over its span, frame 1 (what Blender shows after importing) always among them; at
-// most kMaxAnimationFrames, spread evenly over a longer span.
+// The frames of each animation a re-posed copy is compared with: Blender's frames (t = F/24 s)
+// over its span, frame 1 (what Blender shows after importing, in the first) always among them;
+// at most kMaxAnimationFrames, spread evenly over a longer span, and fewer when there are many
+// animations (kMaxFramesInAll over all of them, but never fewer than kMinAnimationFrames each).
 constexpr int kMaxAnimationFrames = 120;
+constexpr int kMaxFramesInAll = 480;
+constexpr int kMinAnimationFrames = 24;
 // How a frame is compared with the copy: the copy registered onto the original posed there,
 // with these samples and iterations (a quarter to a half of a detection's registration), and
 // the trimmed RMS residual of the fit. Registered in full (the coarse stage too): frame 1 and
@@ -1019,13 +1024,13 @@ constexpr std::size_t kPoseCells = 2;
 constexpr std::size_t kPoseWindow = 2;
 constexpr double kBlenderFrameOne = 1.0 / 24.0;
 
-std::vector<double> animation_frame_times(const AnimationSpan& span)
+std::vector<double> animation_frame_times(const AnimationSpan& span, int max_frames)
 {
     const auto first = static_cast<long long>(std::floor(span.first_key * 24.0));
     const auto last = static_cast<long long>(std::ceil(span.last_key * 24.0));
     std::vector<long long> frames;
     const long long count = last - first + 1;
-    if (count <= kMaxAnimationFrames)
+    if (count <= max_frames)
     {
         for (long long f = first; f <= last; ++f)
         {
@@ -1034,9 +1039,9 @@ std::vector<double> animation_frame_times(const AnimationSpan& span)
     }
     else
     {
-        for (int k = 0; k < kMaxAnimationFrames; ++k)
+        for (int k = 0; k < max_frames; ++k)
         {
-            frames.push_back(first + (count - 1) * k / (kMaxAnimationFrames - 1));
+            frames.push_back(first + (count - 1) * k / (max_frames - 1));
         }
     }
     frames.push_back(1);
@@ -1050,14 +1055,60 @@ std::vector<double> animation_frame_times(const AnimationSpan& span)
     return times;
 }
 
+// One frame of one animation (AnimationSpan::index).
+struct AnimationFrame
+{
+    std::size_t animation = 0;
+    double time = 0.0;
+};
+
+// Every animation's frames (animation_frame_times), animation after animation, in time order.
+std::vector<AnimationFrame> animation_frames(const std::vector<AnimationSpan>& animations)
+{
+    const int per_animation = std::clamp(kMaxFramesInAll / std::max(1, static_cast<int>(animations.size())),
+                                         kMinAnimationFrames, kMaxAnimationFrames);
+    std::vector<AnimationFrame> frames;
+    for (const AnimationSpan& span : animations)
+    {
+        for (const double t : animation_frame_times(span, per_animation))
+        {
+            frames.push_back({span.index, t});
+        }
+    }
+    return frames;
+}
+
+// \p visit(pose, k) for each k of \p which: frames[k] posed, the frames of one animation from
+// one parse of the file (for_each_animation_pose), animation after animation.
+void for_each_frame(const std::filesystem::path& path, const std::vector<AnimationFrame>& frames,
+                    const std::vector<std::size_t>& which, const std::function<void(ShownPose&&, std::size_t)>& visit)
+{
+    std::vector<std::size_t> order = which;
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::size_t a, std::size_t b) { return frames[a].animation < frames[b].animation; });
+    for (std::size_t begin = 0; begin < order.size();)
+    {
+        std::size_t end = begin;
+        std::vector<double> times;
+        while (end < order.size() && frames[order[end]].animation == frames[order[begin]].animation)
+        {
+            times.push_back(frames[order[end++]].time);
+        }
+        std::size_t at = begin;
+        for_each_animation_pose(path, times, [&](ShownPose&& pose) { visit(std::move(pose), order[at++]); },
+                                frames[order[begin]].animation);
+        begin = end;
+    }
+}
+
 // An animated original (a rigged glTF character, a machine whose parts move) is shown by
 // Blender in the pose of its first animation at frame 1, and every copy made from that import
 // (its PLY and OBJ writers, its modifiers) carries the pose; a user may also export it at
-// another frame (a character posed for a print or a render). A rigid registration can fit only
-// part of such a copy, and the mark reads noise (assimp's BVH and FBX samples: z -0.2 to 1.8).
-// The frames of the animation are compared with the copy (animation_frame_times: each posed
-// original against the copy by a short ICP from the stored pose's registration) and the one it
-// fits best is taken, if it fits better than the stored pose: the copy is registered onto the
+// another frame, or of another animation (Blender keeps the others as actions; a character
+// posed for a print or a render). A rigid registration can fit only part of such a copy, and the
+// mark reads noise (assimp's BVH and FBX samples: z -0.2 to 1.8). The frames of the animations
+// are compared with the copy (animation_frames: by principal spread, then registration) and the
+// one it fits best is taken: the copy is registered onto the
 // original in that pose, each of its vertices taken back to the stored frame through the pose of
 // the original's vertex nearest to it (for_each_animation_pose; everything from the original
 // and the copy, nothing from the key: the choice is the same for every key), and read again.
@@ -1088,22 +1139,39 @@ void read_animation_pose(DetectReport& report, detail::PhaseTimer& timer, const 
         posed.F = original.F;
         return posed;
     };
-    const std::vector<double> times = animation_frame_times(animated.span);
-    const auto frame_one = static_cast<std::size_t>(
-        std::lower_bound(times.begin(), times.end(), std::clamp(kBlenderFrameOne, times.front(), times.back())) -
-        times.begin());
+    const std::vector<AnimationFrame> frames = animation_frames(animated.animations);
+    if (frames.empty())
     {
-        std::vector<double> probe{times[frame_one], times[times.size() / 2], times.back()};
+        timer.lap("poses");
+        return;
+    }
+    // (the first animation's frames come first; frame 1 of it is what Blender shows)
+    const AnimationSpan& shown = animated.animations.front();
+    const std::size_t shown_frames = static_cast<std::size_t>(
+        std::count_if(frames.begin(), frames.end(), [&](const AnimationFrame& f) { return f.animation == shown.index; }));
+    const auto frame_one = static_cast<std::size_t>(
+        std::lower_bound(frames.begin(), frames.begin() + static_cast<std::ptrdiff_t>(shown_frames),
+                         std::clamp(kBlenderFrameOne, shown.first_key, shown.last_key),
+                         [](const AnimationFrame& f, double t) { return f.time < t; }) -
+        frames.begin());
+    {
+        std::vector<std::size_t> probe{std::min(frame_one, shown_frames - 1), shown_frames / 2, shown_frames - 1};
         std::sort(probe.begin(), probe.end());
         probe.erase(std::unique(probe.begin(), probe.end()), probe.end());
         bool bends = false;
-        const auto bent = [&](ShownPose&& pose) { bends = bends || pose.V.rows() == original.V.rows(); };
-        for_each_animation_pose(animated.path, probe, bent);
+        const auto bent = [&](ShownPose&& pose, std::size_t) { bends = bends || pose.V.rows() == original.V.rows(); };
+        for_each_frame(animated.path, frames, probe, bent);
         if (!bends)
         {
-            std::vector<double> others;
-            std::set_difference(times.begin(), times.end(), probe.begin(), probe.end(), std::back_inserter(others));
-            for_each_animation_pose(animated.path, others, bent);
+            std::vector<std::size_t> others;
+            for (std::size_t k = 0; k < frames.size(); ++k)
+            {
+                if (std::find(probe.begin(), probe.end(), k) == probe.end())
+                {
+                    others.push_back(k);
+                }
+            }
+            for_each_frame(animated.path, frames, others, bent);
         }
         timer.lap("poses");
         if (!bends)
@@ -1126,9 +1194,9 @@ void read_animation_pose(DetectReport& report, detail::PhaseTimer& timer, const 
     std::vector<std::pair<double, std::size_t>> by_spread;  // (distance to the copy's spread, frame)
     {
         const Eigen::Vector3d copy_spread = principal_spread(suspect);
-        std::size_t frame = 0;
-        for_each_animation_pose(animated.path, times, [&](ShownPose&& pose) {
-            const std::size_t index = frame++;
+        std::vector<std::size_t> every(frames.size());
+        std::iota(every.begin(), every.end(), std::size_t{0});
+        for_each_frame(animated.path, frames, every, [&](ShownPose&& pose, std::size_t index) {
             if (pose.V.rows() == original.V.rows())
             {
                 by_spread.emplace_back((principal_spread(mesh_in(pose.V)) - copy_spread).norm(), index);
@@ -1152,11 +1220,6 @@ void read_animation_pose(DetectReport& report, detail::PhaseTimer& timer, const 
     };
     std::sort(first.begin(), first.end());
     first.erase(std::unique(first.begin(), first.end()), first.end());
-    std::vector<double> first_times;
-    for (const std::size_t k : first)
-    {
-        first_times.push_back(times[k]);
-    }
     // Their fits, then the frames within kPoseWindow of the best kPoseCells, started from those.
     struct Fit
     {
@@ -1177,9 +1240,7 @@ void read_animation_pose(DetectReport& report, detail::PhaseTimer& timer, const 
             best = std::move(pose);
         }
     };
-    std::size_t at = 0;
-    for_each_animation_pose(animated.path, first_times, [&](ShownPose&& pose) {
-        const std::size_t index = first[at++];
+    for_each_frame(animated.path, frames, first, [&](ShownPose&& pose, std::size_t index) {
         if (pose.V.rows() == original.V.rows())  // (else the stored pose, already read, or none)
         {
             keep(register_to_reference(suspect, mesh_in(pose.V), quick), pose, index);
@@ -1192,28 +1253,25 @@ void read_animation_pose(DetectReport& report, detail::PhaseTimer& timer, const 
     }
     std::sort(fits.begin(), fits.end(), [](const Fit& a, const Fit& b) { return a.residual < b.residual; });
     const std::vector<Fit> cells(fits.begin(), fits.begin() + static_cast<std::ptrdiff_t>(std::min(fits.size(), kPoseCells)));
-    std::vector<double> window;
-    std::vector<const Fit*> window_start;
-    std::vector<std::size_t> window_index;
+    // (the frames of the same animation within kPoseWindow of each cell, each started from its cell)
+    std::vector<std::size_t> window;
+    std::map<std::size_t, const Fit*> window_start;
     for (const Fit& cell : cells)
     {
         const std::size_t from = cell.index >= kPoseWindow ? cell.index - kPoseWindow : 0;
-        const std::size_t to = std::min(times.size(), cell.index + kPoseWindow + 1);
+        const std::size_t to = std::min(frames.size(), cell.index + kPoseWindow + 1);
         for (std::size_t k = from; k < to; ++k)
         {
-            if (std::find(first.begin(), first.end(), k) == first.end() &&
-                std::find(window_index.begin(), window_index.end(), k) == window_index.end())
+            if (frames[k].animation == frames[cell.index].animation &&
+                std::find(first.begin(), first.end(), k) == first.end() && window_start.count(k) == 0)
             {
-                window.push_back(times[k]);
-                window_start.push_back(&cell);
-                window_index.push_back(k);
+                window.push_back(k);
+                window_start[k] = &cell;
             }
         }
     }
-    at = 0;
-    for_each_animation_pose(animated.path, window, [&](ShownPose&& pose) {
-        const Fit& start = *window_start[at];
-        const std::size_t index = window_index[at++];
+    for_each_frame(animated.path, frames, window, [&](ShownPose&& pose, std::size_t index) {
+        const Fit& start = *window_start.at(index);
         if (pose.V.rows() == original.V.rows())
         {
             keep(register_from(suspect, mesh_in(pose.V), whole_into(pose.V) * start.whole.inverse() * start.transform,
@@ -1307,7 +1365,7 @@ DetectReport detect_with_files(const TriangleMesh* given, const std::filesystem:
     // the order of a serial run: the key, the original, its checks, then the suspect.
     TriangleMesh original;
     TriangleMesh instances;
-    std::optional<AnimationSpan> animation;
+    std::vector<AnimationSpan> animations;
     std::array<std::exception_ptr, 2> failures;
     const auto read_original = [&] {
         try
@@ -1315,7 +1373,7 @@ DetectReport detect_with_files(const TriangleMesh* given, const std::filesystem:
             MeshFile file = read_mesh_file(original_path);
             original = std::move(file.mesh);
             instances = std::move(file.instances);
-            animation = std::move(file.animation);
+            animations = std::move(file.animations);
         }
         catch (...)
         {
@@ -1358,10 +1416,12 @@ DetectReport detect_with_files(const TriangleMesh* given, const std::filesystem:
         std::rethrow_exception(failures[1]);
     }
     timer.lap("read");
-    const AnimatedOriginal animated{original_path, animation.value_or(AnimationSpan{})};
     // (an animation that only moves the whole asset, a turntable, shows no other pose to read through)
+    AnimatedOriginal animated{original_path, {}};
+    std::copy_if(animations.begin(), animations.end(), std::back_inserter(animated.animations),
+                 [](const AnimationSpan& a) { return !a.moves_only_as_a_whole; });
     detect_with_key(report, timer, key, original, instances, given != nullptr ? *given : read, suspect_path, options,
-                    animation && !animation->moves_only_as_a_whole ? &animated : nullptr);
+                    animated.animations.empty() ? nullptr : &animated);
     return report;
 }
 

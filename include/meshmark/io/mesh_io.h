@@ -45,28 +45,31 @@ namespace detail {
 struct FileLayout;  // Everything a preserving writer needs: the original bytes and where positions sit.
 }
 
-/// \brief Where an animated file's mesh stands at one time of its first animation
+/// \brief Where an animated file's mesh stands at one time of one of its animations
 /// (for_each_animation_pose).
 /// \details glTF: Blender's importer shows the first animation at frame 1 (1/24 s), and its
-/// writers, modifiers and exports then hand on that pose (or another frame's, when the user
-/// moved the timeline), not the stored (rest) one the mark was embedded in. Each vertex of the
+/// writers, modifiers and exports then hand on that pose (or another frame's, or another
+/// animation's, when the user moved the timeline or switched the action), not the stored
+/// (rest) one the mark was embedded in. Each vertex of the
 /// pose is an affine image of its stored place (rigid node animation, skinning); `to_rest`
 /// carries a displacement made in the pose back.
 struct ShownPose
 {
     std::string name;  ///< What the pose is, for messages ("animation 'Run' at 1/24 s").
-    double time = 0.0; ///< Seconds into the first animation (1/24: what Blender shows).
+    double time = 0.0; ///< Seconds into the animation (1/24 in the first: what Blender shows).
     Positions V;       ///< MeshFile::mesh's vertices in the pose, row for row; empty: no such pose.
     /// Per row: the linear map taking a displacement near the posed vertex back to the stored
     /// frame (the inverse of the pose's linear part at that vertex).
     std::vector<Eigen::Matrix3d> to_rest;
 };
 
-/// \brief The animation an importer plays: a glTF file's first one, when one of its channels
-/// animates a node (its translation, rotation or scale).
+/// \brief An animation of a glTF file one of whose channels animates a node (its translation,
+/// rotation or scale). Blender's importer plays the file's first one and keeps the others as
+/// actions a user may switch to.
 struct AnimationSpan
 {
-    std::string name;       ///< Its name in the file ("animation 0" when it has none).
+    std::size_t index = 0;  ///< Its place in the file's list of animations.
+    std::string name;       ///< Its name in the file ("animation K" when it has none).
     double first_key = 0.0; ///< Time of its earliest key, seconds.
     double last_key = 0.0;  ///< Time of its latest key, seconds.
     /// It only turns, moves or uniformly scales the asset as a whole (a turntable): every node
@@ -95,9 +98,10 @@ struct MeshFile
     /// re-exported by a tool that flattens instances shows all of them, and detection registers
     /// against `mesh` plus these. Empty for other formats and files without such instances.
     TriangleMesh instances;
-    /// glTF whose first animation animates a node: its span, to sample other poses of it
-    /// (for_each_animation_pose), whether or not its pose at 1/24 s differs from the stored one.
-    std::optional<AnimationSpan> animation;
+    /// glTF: every animation that animates a node, in the file's order, to sample its poses
+    /// (for_each_animation_pose), whether or not they differ from the stored one. Empty for
+    /// other formats and files without such animations.
+    std::vector<AnimationSpan> animations;
 };
 
 /// \brief Read a mesh file, keeping everything needed for a preserving write.
@@ -107,15 +111,16 @@ struct MeshFile
 /// or byte offset) or InvalidMesh (non-finite coordinate, index out of range).
 [[nodiscard]] MeshFile read_mesh_file(const std::filesystem::path& path);
 
-/// \brief The mesh of a glTF file posed by its first animation at each of \p times (seconds),
-/// one call of \p visit per time, in order, the file parsed once.
+/// \brief The mesh of a glTF file posed by its animation \p animation (AnimationSpan::index; 0:
+/// the first) at each of \p times (seconds), one call of \p visit per time, in order, the file
+/// parsed once.
 /// \details Each pose has MeshFile::mesh's rows and the maps back (ShownPose), with an empty
 /// `V` where the pose is only a similarity of the stored one (or the animation is malformed). Other
 /// formats, and files without an animation, call \p visit with empty poses. A copy re-posed by
 /// a user (a rigged character exported at another frame) is read through these.
 /// \throws the errors of read_mesh_file.
 void for_each_animation_pose(const std::filesystem::path& path, std::span<const double> times,
-                             const std::function<void(ShownPose&&)>& visit);
+                             const std::function<void(ShownPose&&)>& visit, std::size_t animation = 0);
 
 /// \brief Read only the geometry of a mesh file. Same errors as read_mesh_file.
 [[nodiscard]] TriangleMesh read_mesh(const std::filesystem::path& path);

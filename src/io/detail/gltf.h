@@ -191,10 +191,10 @@ struct GltfAsset
     /// The geometry of every instance but the first of instanced meshes, in the world frame
     /// (not watermarked; see MeshFile::instances).
     TriangleMesh instances;
-    /// The first animation's pose at the time read_scene was asked for (for_each_animation_pose).
+    /// The pose of the animation at the time read_scene was asked for (for_each_animation_pose).
     ShownPose pose;
-    /// The first animation's span when it animates a node (see MeshFile::animation).
-    std::optional<AnimationSpan> animation;
+    /// The animations that animate a node (see MeshFile::animations).
+    std::vector<AnimationSpan> animations;
     /// for_each_animation_pose: the welded vertex of every element and the welded stored
     /// positions, from the first time's walk; the others reuse them (the stored positions do
     /// not depend on the time).
@@ -221,9 +221,11 @@ struct GltfAsset
 [[nodiscard]] TriangleMesh read_gltf(const std::filesystem::path& path, const std::string& bytes,
                                      bool is_glb, GltfAsset& asset);
 
-/// \brief read_gltf's parse, then the scene posed at each of \p times (for_each_animation_pose).
+/// \brief read_gltf's parse, then the scene posed by animation \p animation at each of \p times
+/// (for_each_animation_pose).
 void visit_gltf_poses(const std::filesystem::path& path, const std::string& bytes, bool is_glb,
-                      std::span<const double> times, const std::function<void(ShownPose&&)>& visit);
+                      std::span<const double> times, const std::function<void(ShownPose&&)>& visit,
+                      std::size_t animation);
 
 /// \brief Write \p asset with welded positions \p original replaced by \p positions to
 /// \p path (a .gltf or .glb; external buffers are written beside it), atomically.

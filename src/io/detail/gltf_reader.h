@@ -93,10 +93,11 @@ void decode_meshopt_views(const std::filesystem::path& path, const tinygltf::Mod
 
 /// \brief Walk the scene graph of \p model (buffers and meshopt views already in \p asset)
 /// and return its welded world-frame mesh; fills the accessors, Draco primitives and other
-/// instances of \p asset and its first animation's span. Given \p animation_time, only the
-/// pose of the first animation at that time (GltfAsset::pose; the mesh returned is empty), the
-/// welding kept in the asset for the next time.
+/// instances of \p asset and the spans of its animations. Given \p animation_time, only the
+/// pose of animation \p animation at that time (GltfAsset::pose; the mesh returned is empty),
+/// the welding kept in the asset for the next time.
 [[nodiscard]] TriangleMesh read_scene(const std::filesystem::path& path, const tinygltf::Model& model,
-                                      GltfAsset& asset, std::optional<double> animation_time = std::nullopt);
+                                      GltfAsset& asset, std::optional<double> animation_time = std::nullopt,
+                                      std::size_t animation = 0);
 
 }  // namespace meshmark::detail

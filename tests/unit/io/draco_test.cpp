@@ -176,8 +176,8 @@ TEST_F(DracoTest, an_animated_draco_part_is_posed_at_every_time)
                                         {"channels", {{{"sampler", 0}, {"target", {{"node", 0}, {"path", "rotation"}}}}}}}});
     test::put_bytes(dir / "turning.glb", b.glb());
     const MeshFile file = read_mesh_file(dir / "turning.glb");
-    ASSERT_TRUE(file.animation.has_value());
-    EXPECT_FALSE(file.animation->moves_only_as_a_whole);  // (the triangle does not turn)
+    ASSERT_FALSE(file.animations.empty());
+    EXPECT_FALSE(file.animations.front().moves_only_as_a_whole);  // (the triangle does not turn)
     const std::vector<double> at_times{0.0, 0.5, 1.0, 0.5};
     const std::vector<double> angles{0.0, 0.25 * 3.14159265358979323846, 0.5 * 3.14159265358979323846,
                                      0.25 * 3.14159265358979323846};
@@ -277,8 +277,8 @@ TEST_F(DracoTest, a_skinned_draco_primitive_is_posed_by_its_joints)
     ASSERT_EQ(file.mesh.V.rows(), 2 * kAlong);
     EXPECT_NEAR(file.mesh.V.col(0).minCoeff(), -2.0, 1e-6);  // stored straight, through the node
     EXPECT_NEAR(file.mesh.V.col(0).maxCoeff(), 2.0, 1e-6);
-    ASSERT_TRUE(file.animation.has_value());
-    EXPECT_FALSE(file.animation->moves_only_as_a_whole);
+    ASSERT_FALSE(file.animations.empty());
+    EXPECT_FALSE(file.animations.front().moves_only_as_a_whole);
     const std::vector<double> times{1.0 / 24.0, 0.1};
     std::vector<ShownPose> poses;
     for_each_animation_pose(dir / "arm.glb", times, [&](ShownPose&& p) { poses.push_back(std::move(p)); });

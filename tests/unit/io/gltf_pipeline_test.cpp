@@ -219,6 +219,44 @@ TEST(GltfPipelineTest, a_copy_of_an_animated_asset_in_the_pose_blender_shows_is_
     EXPECT_FALSE(arrays_only.decision.is_present) << "z " << arrays_only.decision.score;
 }
 
+// The bend kept as the file's second animation (Blender imports it as an action the user may
+// switch to; its first, "straight", keeps the arm still): a copy the user exported from the
+// bend at its end is read through that animation's frame and claimed; the unmarked one is not.
+TEST(GltfPipelineTest, a_copy_posed_by_another_animation_than_the_first_is_claimed)
+{
+    const fs::path dir = test::temp_dir("gltf_pipeline_second_animation");
+    const auto [xyz, idx] = glb_arrays(long_lumpy_ellipsoid());
+    test::BendingArm arm;
+    arm.is_bend_first = false;
+    test::put_bytes(dir / "arm.glb", arm.glb(xyz, idx));
+    const MeshFile file = read_mesh_file(dir / "arm.glb");
+    ASSERT_EQ(file.animations.size(), 2u);
+    EXPECT_EQ(file.animations[1].name, "bend");
+    EmbedFileOptions options;
+    options.seed = 12;
+    options.threads = 1;
+    (void)embed_file(dir / "arm.glb", dir / "marked.glb", dir / "key.json", options);
+    for (const char* name : {"marked", "arm"})
+    {
+        const TriangleMesh stored = read_mesh(dir / (std::string(name) + ".glb"));
+        TriangleMesh copy = stored;
+        for (Eigen::Index v = 0; v < copy.V.rows(); ++v)
+        {
+            copy.V.row(v) =
+                arm.shown(stored.V.row(v).transpose(), arm.weight(xyz[static_cast<std::size_t>(3 * v)]), 0.1).transpose();
+        }
+        write_mesh(dir / (std::string(name) + "_bent.ply"), copy);
+    }
+    DetectFileOptions detect;
+    detect.threads = 1;
+    const DetectReport found = detect_file(dir / "marked_bent.ply", dir / "arm.glb", dir / "key.json", detect);
+    EXPECT_TRUE(found.decision.is_present) << "z " << found.decision.score << " " << found.alignment;
+    EXPECT_GT(found.decision.score, 9.0);
+    EXPECT_NE(found.alignment.find("animation 'bend' at 0.1 s"), std::string::npos) << found.alignment;
+    const DetectReport clean = detect_file(dir / "arm_bent.ply", dir / "arm.glb", dir / "key.json", detect);
+    EXPECT_FALSE(clean.decision.is_present) << "z " << clean.decision.score;
+}
+
 // A turntable: the first animation only turns the asset as a whole, so no frame bends the mesh
 // and there is no second reading to pay for (the reader says so from the node tree); nor when
 // it only moves a camera (every pose found empty). A turned copy of the marked asset is claimed
@@ -252,8 +290,8 @@ TEST(GltfPipelineTest, an_animation_that_only_turns_the_asset_costs_no_second_re
     test::put_bytes(dir / "turning.glb", asset(Turning::model));
     test::put_bytes(dir / "filmed.glb", asset(Turning::camera));
     test::put_bytes(dir / "still.glb", asset(Turning::nothing));
-    ASSERT_TRUE(read_mesh_file(dir / "turning.glb").animation->moves_only_as_a_whole);
-    ASSERT_FALSE(read_mesh_file(dir / "filmed.glb").animation->moves_only_as_a_whole);
+    ASSERT_TRUE(read_mesh_file(dir / "turning.glb").animations.front().moves_only_as_a_whole);
+    ASSERT_FALSE(read_mesh_file(dir / "filmed.glb").animations.front().moves_only_as_a_whole);
     EmbedFileOptions options;
     options.seed = 5;
     options.threads = 1;

@@ -606,10 +606,13 @@ TEST_F(GltfTest, an_animated_rig_gives_the_pose_blender_shows_it_in)
     EXPECT_GT(largest_bend, 0.3);  // the pose is not the stored shape lifted
 
     // The animation's span, and its poses at other times (a copy exported at another frame).
-    ASSERT_TRUE(file.animation.has_value());
-    EXPECT_EQ(file.animation->name, "bend");
-    EXPECT_EQ(file.animation->first_key, 0.0);
-    EXPECT_NEAR(file.animation->last_key, 0.1, 1e-7);
+    ASSERT_FALSE(file.animations.empty());
+    ASSERT_EQ(file.animations.size(), 2u);  // (the second, "straight", keeps the elbow still)
+    EXPECT_EQ(file.animations.front().name, "bend");
+    EXPECT_EQ(file.animations[1].name, "straight");
+    EXPECT_EQ(file.animations[1].index, 1u);
+    EXPECT_EQ(file.animations.front().first_key, 0.0);
+    EXPECT_NEAR(file.animations.front().last_key, 0.1, 1e-7);
     const std::vector<double> times{0.0, 0.05, 1.0 / 24.0, 2.0 / 24.0, 0.1};
     std::vector<ShownPose> poses;
     for_each_animation_pose(dir / "arm.glb", times, [&](ShownPose&& p) { poses.push_back(std::move(p)); });
@@ -692,8 +695,8 @@ TEST_F(GltfTest, an_animation_that_only_moves_the_whole_asset_is_told_apart)
         test::put_bytes(dir / "moving.glb", b.glb());
         const MeshFile file = read_mesh_file(dir / "moving.glb");
         ASSERT_EQ(file.mesh.V.rows(), 16) << c.name;
-        ASSERT_TRUE(file.animation.has_value()) << c.name;
-        EXPECT_EQ(file.animation->moves_only_as_a_whole, c.is_whole) << c.name;
+        ASSERT_FALSE(file.animations.empty()) << c.name;
+        EXPECT_EQ(file.animations.front().moves_only_as_a_whole, c.is_whole) << c.name;
         // What the poses say halfway: none where the whole only moves (nor where only the camera
         // does); the door and the squash bend the asset, and the turn on a stretched stand shears it.
         const std::vector<double> halfway{0.5};

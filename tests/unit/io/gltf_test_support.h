@@ -257,6 +257,7 @@ struct BendingArm
     double blend = 0.4;
     double turn = 100.0 * 3.14159265358979323846 / 180.0;
     double lift = 0.3;
+    bool is_bend_first = true;  // "bend" is the file's first animation, else its second (after "straight")
 
     /// The elbow's weight at \p x.
     [[nodiscard]] double weight(double x) const
@@ -309,15 +310,15 @@ struct BendingArm
         const int turn_at = floats(turn_times, "SCALAR");
         const int turns = floats({0.0f, 0.0f, 0.0f, 1.0f, 0.0f, 0.0f, -std::sin(h), -std::cos(h)}, "VEC4");
         const int straight = floats({0.0f, 0.0f, 0.0f, 1.0f, 0.0f, 0.0f, 0.0f, 1.0f}, "VEC4");
-        b.doc["animations"] = Json::array(
-            {{{"name", "bend"},
-              {"samplers", {{{"input", lift_at}, {"output", lifts}, {"interpolation", "STEP"}},
-                            {{"input", turn_at}, {"output", turns}}}},
-              {"channels", {{{"sampler", 0}, {"target", {{"node", shoulder}, {"path", "translation"}}}},
-                            {{"sampler", 1}, {"target", {{"node", elbow_node}, {"path", "rotation"}}}}}}},
-             {{"name", "straight"},
-              {"samplers", {{{"input", turn_at}, {"output", straight}}}},
-              {"channels", {{{"sampler", 0}, {"target", {{"node", elbow_node}, {"path", "rotation"}}}}}}}});
+        const Json bend = {{"name", "bend"},
+                           {"samplers", {{{"input", lift_at}, {"output", lifts}, {"interpolation", "STEP"}},
+                                         {{"input", turn_at}, {"output", turns}}}},
+                           {"channels", {{{"sampler", 0}, {"target", {{"node", shoulder}, {"path", "translation"}}}},
+                                         {{"sampler", 1}, {"target", {{"node", elbow_node}, {"path", "rotation"}}}}}}};
+        const Json still = {{"name", "straight"},
+                            {"samplers", {{{"input", turn_at}, {"output", straight}}}},
+                            {"channels", {{{"sampler", 0}, {"target", {{"node", elbow_node}, {"path", "rotation"}}}}}}};
+        b.doc["animations"] = is_bend_first ? Json::array({bend, still}) : Json::array({still, bend});
         return b.glb();
     }
 
