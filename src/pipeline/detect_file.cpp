@@ -6,8 +6,8 @@
 #include <array>
 #include <cmath>
 #include <exception>
-#include <iterator>
 #include <functional>
+#include <iterator>
 #include <limits>
 #include <map>
 #include <numbers>
