@@ -343,6 +343,38 @@ TEST(RealAssetsInterop, ABlenderCopyOfAnAnimatedCharacterExportedAtAnotherFrameI
     expect_blender_ply_copy_claimed("X/Testwuson.X", "wuson.glb", scratch, "pose=20");
 }
 
+// The same character after the user switched Blender's action to its second animation (its
+// walk; Blender plays the first, the run, and keeps the others in muted NLA tracks) and exported
+// it at frame 20 (`attacks.py second-action=20`): read through the walk's frame 20 and claimed
+// (z 9.79; 0.87 when only the first animation was searched), the unmarked one not.
+TEST(RealAssetsInterop, ABlenderCopyPosedByAnotherAnimationIsReadThroughIt)
+{
+    INTEROP_REQUIRE_TOOLS("meshmark", "blender", "assimp-testmodels", "assimp");
+    const fs::path scratch = temp_dir("interop-real-wuson-walk");
+    std::string error;
+    const auto [original, marked, key] = convert_and_mark("X/Testwuson.X", "wuson.glb", scratch, &error);
+    ASSERT_TRUE(error.empty()) << error;
+    for (const auto& [input, folder] : {std::pair{marked, scratch / "marked"}, std::pair{original, scratch / "clean"}})
+    {
+        const ToolRun blender = blender_attacks(input, folder, {"second-action=20"}, scratch);
+        ASSERT_TRUE(blender.ok()) << blender.describe();
+        int exit_code = -1;
+        const nlohmann::json report = detect_json(folder / "second-action_20.ply", original, key, scratch, &exit_code);
+        ASSERT_TRUE(report.is_object()) << folder;
+        if (input == marked)
+        {
+            EXPECT_EQ(exit_code, 0) << report.dump();
+            EXPECT_GE(report.value("score", 0.0), 9.0) << report.dump();
+            EXPECT_EQ(report["registration"].value("method", ""), "registration (animation 'Wuson_Walk' at 20/24 s)")
+                << report.dump();
+        }
+        else
+        {
+            EXPECT_EQ(exit_code, 1) << report.dump();
+        }
+    }
+}
+
 // A shop or viewer model on a display turntable (bench/blender/make_game_asset.py
 // turntable-vehicle: Blender turns the vehicle's root once over frames 1-96): the animation
 // only moves the asset as a whole, so detection does not search its frames (no "poses" phase)
