@@ -52,23 +52,32 @@ std::unique_ptr<draco::Mesh> decode(const fs::path& path, const std::string& byt
     return std::move(result).value();
 }
 
-draco::PointAttribute* attribute_by_id(const fs::path& path, draco::Mesh& mesh, std::int32_t id)
+// The attribute of \p mesh with unique id \p id, or null.
+draco::PointAttribute* find_attribute(draco::Mesh& mesh, std::int32_t id)
 {
     for (std::int32_t a = 0; a < mesh.num_attributes(); ++a)
     {
         auto* attribute = mesh.attribute(a);
-        if (attribute != nullptr && id >= 0 &&
-            attribute->unique_id() == static_cast<std::uint32_t>(id))
+        if (attribute != nullptr && id >= 0 && attribute->unique_id() == static_cast<std::uint32_t>(id))
         {
-            if (attribute->num_components() != 3)
-            {
-                fail_io(path, "Draco position attribute " + std::to_string(id) +
-                                  " does not have 3 components");
-            }
             return attribute;
         }
     }
-    fail_io(path, "the Draco data has no attribute with the POSITION id " + std::to_string(id));
+    return nullptr;
+}
+
+draco::PointAttribute* attribute_by_id(const fs::path& path, draco::Mesh& mesh, std::int32_t id)
+{
+    auto* attribute = find_attribute(mesh, id);
+    if (attribute == nullptr)
+    {
+        fail_io(path, "the Draco data has no attribute with the POSITION id " + std::to_string(id));
+    }
+    if (attribute->num_components() != 3)
+    {
+        fail_io(path, "Draco position attribute " + std::to_string(id) + " does not have 3 components");
+    }
+    return attribute;
 }
 
 int quantization_bits(const draco::PointAttribute& quantized)
@@ -213,14 +222,7 @@ DracoGeometry decode_draco(const fs::path& path, const std::string& bytes, std::
     }
     for (const std::int32_t id : more_ids)
     {
-        const draco::PointAttribute* attribute = nullptr;
-        for (std::int32_t a = 0; a < mesh->num_attributes() && attribute == nullptr; ++a)
-        {
-            if (mesh->attribute(a) != nullptr && id >= 0 && mesh->attribute(a)->unique_id() == static_cast<std::uint32_t>(id))
-            {
-                attribute = mesh->attribute(a);
-            }
-        }
+        const draco::PointAttribute* attribute = find_attribute(*mesh, id);
         if (attribute == nullptr || attribute->num_components() < 1 || attribute->num_components() > 4)
         {
             fail_io(path, "the Draco data has no attribute " + std::to_string(id) + " of 1 to 4 components");

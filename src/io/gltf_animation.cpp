@@ -225,13 +225,8 @@ bool are_uniform(const std::vector<double>& xyz)
 
 }  // namespace
 
-bool moves_only_as_a_whole(const tinygltf::Model& model, const GltfAccessors& accessors, std::size_t animation,
-                           std::span<const int> roots)
+std::optional<std::vector<int>> shared_mesh_path(const tinygltf::Model& model, std::span<const int> roots)
 {
-    if (animation >= model.animations.size())
-    {
-        return false;
-    }
     const std::size_t count = model.nodes.size();
     const auto in_range = [count](int n) { return n >= 0 && static_cast<std::size_t>(n) < count; };
     // Each reached node's parent (-1 for a root), and the nodes with a mesh. A skinned mesh is
@@ -245,7 +240,7 @@ bool moves_only_as_a_whole(const tinygltf::Model& model, const GltfAccessors& ac
     {
         if (!in_range(root) || reached[static_cast<std::size_t>(root)] != 0)
         {
-            return false;
+            return std::nullopt;
         }
         reached[static_cast<std::size_t>(root)] = 1;
         stack.push_back(root);
@@ -259,7 +254,7 @@ bool moves_only_as_a_whole(const tinygltf::Model& model, const GltfAccessors& ac
         {
             if (node.skin >= 0)
             {
-                return false;
+                return std::nullopt;
             }
             mesh_nodes.push_back(n);
         }
@@ -267,7 +262,7 @@ bool moves_only_as_a_whole(const tinygltf::Model& model, const GltfAccessors& ac
         {
             if (!in_range(c) || reached[static_cast<std::size_t>(c)] != 0)
             {
-                return false;  // (a node with two parents or a cycle: no single path to it)
+                return std::nullopt;  // (a node with two parents or a cycle: no single path to it)
             }
             reached[static_cast<std::size_t>(c)] = 1;
             parent[static_cast<std::size_t>(c)] = n;
@@ -279,10 +274,6 @@ bool moves_only_as_a_whole(const tinygltf::Model& model, const GltfAccessors& ac
     bool first = true;
     for (const int p : mesh_nodes)
     {
-        if (!in_range(p) || reached[static_cast<std::size_t>(p)] == 0)
-        {
-            return false;
-        }
         std::vector<int> path;
         for (int n = p; n >= 0; n = parent[static_cast<std::size_t>(n)])
         {
@@ -300,7 +291,17 @@ bool moves_only_as_a_whole(const tinygltf::Model& model, const GltfAccessors& ac
             common.erase(end, common.end());
         }
     }
-    // Every animated node on that shared path; every scale uniform down to the deepest of them.
+    return common;
+}
+
+bool moves_only_as_a_whole(const tinygltf::Model& model, const GltfAccessors& accessors, std::size_t animation,
+                           std::span<const int> common)
+{
+    if (animation >= model.animations.size())
+    {
+        return false;
+    }
+    // Every animated node on the shared path; every scale uniform down to the deepest of them.
     const auto& a = model.animations[animation];
     std::ptrdiff_t deepest = -1;
     for (std::size_t k = 0; k < a.channels.size(); ++k)

@@ -223,11 +223,12 @@ TriangleMesh Reader::run()
     {
         walk(root, {Eigen::Matrix4d::Identity(), Eigen::Matrix4d::Identity()}, on_stack);
     }
+    const auto common = asset_.animations.empty() ? std::nullopt : shared_mesh_path(model_, roots);
     for (AnimationSpan& span : asset_.animations)
     {
         try
         {
-            span.moves_only_as_a_whole = moves_only_as_a_whole(model_, accessors_, span.index, roots);
+            span.moves_only_as_a_whole = common && moves_only_as_a_whole(model_, accessors_, span.index, *common);
         }
         catch (const IoError&)
         {

@@ -83,13 +83,19 @@ void decode_meshopt_views(const std::filesystem::path& path, const tinygltf::Mod
 [[nodiscard]] std::optional<AnimationSpan> animation_span(const tinygltf::Model& model,
                                                           const GltfAccessors& accessors, std::size_t animation);
 
-/// \brief Whether animation \p animation only turns, moves or uniformly scales everything the
-/// scene under \p roots shows (AnimationSpan::moves_only_as_a_whole): each node it animates is an
-/// ancestor (or itself) of every mesh node, the nodes down to the deepest of them have
-/// similarities as local matrices, and every scale it keys is uniform. False when in doubt (a
-/// skinned mesh, a node reached twice).
+/// \brief The nodes every mesh node of the scene under \p roots lies under (from the root down,
+/// a mesh node itself when there is one), for moves_only_as_a_whole; nothing when that cannot be
+/// told (a skinned mesh, which follows its joints and may be stored in another pose than the
+/// skin's rest; a node reached twice).
+[[nodiscard]] std::optional<std::vector<int>> shared_mesh_path(const tinygltf::Model& model,
+                                                               std::span<const int> roots);
+
+/// \brief Whether animation \p animation only turns, moves or uniformly scales everything under
+/// the shared mesh path \p common (AnimationSpan::moves_only_as_a_whole): each node it animates
+/// is on it, the nodes down to the deepest of them have similarities as local matrices, and
+/// every scale it keys is uniform.
 [[nodiscard]] bool moves_only_as_a_whole(const tinygltf::Model& model, const GltfAccessors& accessors,
-                                         std::size_t animation, std::span<const int> roots);
+                                         std::size_t animation, std::span<const int> common);
 
 /// \brief Walk the scene graph of \p model (buffers and meshopt views already in \p asset)
 /// and return its welded world-frame mesh; fills the accessors, Draco primitives and other
