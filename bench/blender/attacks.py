@@ -167,6 +167,13 @@ def apply_op(obj, name, value, seed):
     centre = (lo + hi) / 2
     if name in ROUND_TRIP_EXT or name in ("pose", "second-action"):  # pose: done by import_mesh
         return
+    if obj.data.shape_keys:  # morph targets: edit the shape shown (Blender applies no modifier to
+        mix = obj.shape_key_add(name="mix", from_mix=True)  # a mesh with shape keys)
+        shown = [point.co.copy() for point in mix.data]
+        obj.shape_key_clear()
+        for vertex, point in zip(obj.data.vertices, shown):
+            vertex.co = point
+        obj.data.update()
     if name == "transform":
         move = mathutils.Matrix.Translation(mathutils.Vector((0.1, -0.2, 0.3)) * diagonal)
         turn = mathutils.Euler([math.radians(a) for a in (20, 30, 40)], "XYZ").to_matrix().to_4x4()

@@ -23,6 +23,10 @@
 #             frames 1-96, an animation that moves the asset only as a whole;
 #   two-action-creature  the rigged creature with a second action (the back bone bowing by 25
 #             degrees over frames 1-30): two glTF animations, "bow" (written first) and "turn".
+#   morph-creature  the creature with a shape key (a morph target in the file): "puff" swells
+#             the head along its normals by 0.06 (1.7% of the diagonal), set to 0.6 in the file
+#             (the mesh's default weights: what viewers and Blender show) and animated from 0.6
+#             at frame 1 to 0 at frame 10 and 1 at frame 20 (a weights channel).
 # (docs/robustness.md, "Two more game-like assets").
 import math
 import sys
@@ -256,6 +260,28 @@ def two_action_creature():
     return objects
 
 
+def morph_creature():
+    """The creature with a shape key "puff" (the head swollen along its normals) at 0.6, and an
+    animation of that key's value: 0.6 at frame 1, 0 at frame 10, 1 at frame 20."""
+    objects = creature()
+    body = objects[0]
+    body.shape_key_add(name="Basis")
+    puff = body.shape_key_add(name="puff")
+    for vertex, point in zip(body.data.vertices, puff.data):
+        if vertex.co[1] > 1.3:
+            point.co = vertex.co + 0.06 * vertex.normal
+    puff.value = 0.6
+    puff.keyframe_insert("value", frame=1)
+    puff.value = 0.0
+    puff.keyframe_insert("value", frame=10)
+    puff.value = 1.0
+    puff.keyframe_insert("value", frame=20)
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 1, 20
+    scene.frame_set(1)
+    return objects
+
+
 def faceted_creature():
     """The creature flat shaded: every face with vertices of its own in the file (low-poly art)."""
     objects = creature()
@@ -268,7 +294,7 @@ def faceted_creature():
 
 KINDS = {"suzanne": suzanne, "vehicle": vehicle, "creature": creature, "rigged-creature": rigged_creature,
          "faceted-creature": faceted_creature, "turntable-vehicle": turntable_vehicle,
-         "two-action-creature": two_action_creature}
+         "two-action-creature": two_action_creature, "morph-creature": morph_creature}
 
 
 def main():

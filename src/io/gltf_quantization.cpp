@@ -97,8 +97,9 @@ GltfWriter::Plan GltfWriter::plan_draco(std::size_t slot)
         {
             continue;
         }
-        const Eigen::Vector4d local =
-            to_local * Eigen::Vector4d(positions_(w, 0), positions_(w, 1), positions_(w, 2), 1.0);
+        const Eigen::Vector4d world(positions_(w, 0), positions_(w, 1), positions_(w, 2), 1.0);
+        const Eigen::Vector4d local = record.skinning.empty() ? Eigen::Vector4d(to_local * world)
+                                                              : Eigen::Vector4d(record.skinning[i].inverse() * world);
         for (std::size_t d = 0; d < 3; ++d)
         {
             plan.stored[3 * i + d] =

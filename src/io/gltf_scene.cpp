@@ -82,6 +82,8 @@ private:
     std::vector<Eigen::Matrix4d> skinning(const SkinSets& sets, int skin, std::size_t count,
                                           const Eigen::Matrix4d& to_world,
                                           const std::vector<Eigen::Matrix4d>& globals);
+    std::vector<Eigen::Matrix4d> add_skinned(const std::vector<double>& local, const SkinSets& sets, int skin,
+                                             const Placement& place);
     void animation_spans();
     void pose_from_animation();
     void add_posed(const Eigen::Vector4d& local, const Eigen::Matrix4d& rest, const Eigen::Matrix4d& posed);
@@ -496,59 +498,14 @@ void Reader::add_plain(const tinygltf::Primitive& prim, int mesh, int index, con
         slot = asset_.accessors.size();
         accessor_slot_[a] = slot;
         slot_base_.push_back(raw_.group.size());
-        const SkinSets sets = skin >= 0 ? skin_sets(prim) : SkinSets{};
         if (skin >= 0)
         {
             record.skin = skin;
-            record.skinning = skinning(sets, skin, record.elements.size(), to_world, globals_);
-            // A rig shown in its bind pose under a node placed like it (what most exporters
-            // write) puts every vertex where the node's transform does, up to the float32
-            // rounding of its inverse bind matrices: read it through the node, to the bit as
-            // before skins were applied, so that keys made then still match.
-            Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
-            Eigen::Vector3d hi = -lo;
-            double largest = 0.0;
-            for (std::size_t e = 0; e < record.elements.size(); ++e)
-            {
-                const Eigen::Vector4d p(local[3 * e], local[3 * e + 1], local[3 * e + 2], 1.0);
-                const Eigen::Vector3d by_node = (to_world * p).head<3>();
-                lo = lo.cwiseMin(by_node);
-                hi = hi.cwiseMax(by_node);
-                largest = std::max(largest, ((record.skinning[e] * p).head<3>() - by_node).norm());
-            }
-            if (record.elements.empty() || largest <= kBindPoseTolerance * (hi - lo).norm())
-            {
-                record.skinning.clear();
-            }
-        }
-        if (skin >= 0 && !posed_globals_.empty())
-        {
-            // Skinned and animated: every element's own way into the pose.
-            const std::vector<Eigen::Matrix4d> posed =
-                skinning(sets, skin, record.elements.size(), place.posed, posed_globals_);
-            for (std::size_t e = 0; e < record.elements.size(); ++e)
-            {
-                add_posed(Eigen::Vector4d(local[3 * e], local[3 * e + 1], local[3 * e + 2], 1.0),
-                          record.skinning.empty() ? to_world : record.skinning[e], posed[e]);
-            }
-        }
-        if (!record.skinning.empty())
-        {
-            // A group of its own: positions of other parts that meet it within float rounding
-            // are welded to it, its own distinct positions never.
-            groups_.push_back(to_world);
-            const auto group = static_cast<std::int32_t>(groups_.size() - 1);
-            for (std::size_t e = 0; e < record.elements.size(); ++e)
-            {
-                const Eigen::Vector4d w =
-                    record.skinning[e] * Eigen::Vector4d(local[3 * e], local[3 * e + 1], local[3 * e + 2], 1.0);
-                raw_.world.insert(raw_.world.end(), {w.x(), w.y(), w.z()});
-                raw_.group.push_back(group);
-            }
+            record.skinning = add_skinned(local, skin_sets(prim), skin, place);
         }
         else
         {
-            append_world(local, place, group_of(to_world), skin < 0);  // (a skinned one's pose: above)
+            append_world(local, place, group_of(to_world));
         }
         asset_.accessors.push_back(std::move(record));
     }
@@ -556,6 +513,60 @@ void Reader::add_plain(const tinygltf::Primitive& prim, int mesh, int index, con
     {
         add_triangles(prim, mesh, index, slot_base_[slot], asset_.accessors[slot].elements.size());
     }
+}
+
+// A skinned primitive's elements (\p local, 3 per element), placed where a viewer shows the
+// scene: each by its own blend of joint matrices, in a group of its own (positions of other
+// parts that meet it within float rounding are welded to it, its own distinct positions
+// never), and into the shown pose. A rig shown in its bind pose under a node placed like it
+// (what most exporters write) puts every vertex where the node's transform does, up to the
+// float32 rounding of its inverse bind matrices: it is read through the node, to the bit as
+// before skins were applied, so that keys made then still match. Returns the matrices (empty
+// when read through the node).
+std::vector<Eigen::Matrix4d> Reader::add_skinned(const std::vector<double>& local, const SkinSets& sets, int skin,
+                                                 const Placement& place)
+{
+    const Eigen::Matrix4d& to_world = place.to_world;
+    const std::size_t count = local.size() / 3;
+    const auto at = [&](std::size_t e) { return Eigen::Vector4d(local[3 * e], local[3 * e + 1], local[3 * e + 2], 1.0); };
+    std::vector<Eigen::Matrix4d> scene = skinning(sets, skin, count, to_world, globals_);
+    Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+    Eigen::Vector3d hi = -lo;
+    double largest = 0.0;
+    for (std::size_t e = 0; e < count; ++e)
+    {
+        const Eigen::Vector3d by_node = (to_world * at(e)).head<3>();
+        lo = lo.cwiseMin(by_node);
+        hi = hi.cwiseMax(by_node);
+        largest = std::max(largest, ((scene[e] * at(e)).head<3>() - by_node).norm());
+    }
+    if (count == 0 || largest <= kBindPoseTolerance * (hi - lo).norm())
+    {
+        scene.clear();
+    }
+    if (!posed_globals_.empty())
+    {
+        // Animated: every element's own way into the pose.
+        const std::vector<Eigen::Matrix4d> posed = skinning(sets, skin, count, place.posed, posed_globals_);
+        for (std::size_t e = 0; e < count; ++e)
+        {
+            add_posed(at(e), scene.empty() ? to_world : scene[e], posed[e]);
+        }
+    }
+    if (scene.empty())
+    {
+        append_world(local, place, group_of(to_world), false);
+        return scene;
+    }
+    groups_.push_back(to_world);
+    const auto group = static_cast<std::int32_t>(groups_.size() - 1);
+    for (std::size_t e = 0; e < count; ++e)
+    {
+        const Eigen::Vector4d w = scene[e] * at(e);
+        raw_.world.insert(raw_.world.end(), {w.x(), w.y(), w.z()});
+        raw_.group.push_back(group);
+    }
+    return scene;
 }
 
 void Reader::add_triangles(const tinygltf::Primitive& prim, int mesh, int index, std::size_t base,
@@ -664,6 +675,10 @@ void Reader::add_draco(const tinygltf::Primitive& prim, int mesh, int index, con
     if (const auto found = draco_slot_.find(view_index); found != draco_slot_.end())
     {
         slot = found->second;
+        if (asset_.draco[slot].skin >= 0 || (skin >= 0 && !draco_skin_ids(prim, ext).empty()))
+        {
+            return;  // skinned: the same skin shows the same vertices, another is not marked (add_plain)
+        }
         if (!same_matrix(asset_.draco[slot].to_world, to_world))
         {
             // A second instance, see add_plain.
@@ -704,13 +719,8 @@ void Reader::add_draco(const tinygltf::Primitive& prim, int mesh, int index, con
             }
         }
         const auto& buffer = asset_.buffers[static_cast<std::size_t>(view.buffer)].bytes;
-        // Skinned and posed: the joints and weights too (the stored mesh is read through the
-        // node, since the writer re-encodes positions only: a rig in its bind pose reads the same).
-        std::vector<std::int32_t> skin_ids;
-        if (skin >= 0 && !posed_globals_.empty())
-        {
-            skin_ids = draco_skin_ids(prim, ext);
-        }
+        // Skinned: the joints and weights too, decoded from the same Draco data.
+        const std::vector<std::int32_t> skin_ids = skin >= 0 ? draco_skin_ids(prim, ext) : std::vector<std::int32_t>{};
         const auto decode = [&] {
             return decode_draco(path_, buffer.substr(view.byteOffset, view.byteLength), record.position_attribute_id,
                                 skin_ids);
@@ -754,14 +764,13 @@ void Reader::add_draco(const tinygltf::Primitive& prim, int mesh, int index, con
                 sets.joints.push_back(geometry.more[k]);
                 sets.weights.push_back(geometry.more[k + 1]);
             }
-            const std::vector<Eigen::Matrix4d> posed =
-                skinning(sets, skin, geometry.point_count, place.posed, posed_globals_);
-            for (std::size_t e = 0; e < geometry.point_count; ++e)
-            {
-                add_posed(Eigen::Vector4d(local[3 * e], local[3 * e + 1], local[3 * e + 2], 1.0), to_world, posed[e]);
-            }
+            record.skin = skin;
+            record.skinning = add_skinned(local, sets, skin, place);
         }
-        append_world(local, place, group_of(to_world), skin_ids.empty());
+        else
+        {
+            append_world(local, place, group_of(to_world));
+        }
         record.welded.resize(geometry.point_count);
         asset_.draco.push_back(std::move(record));
         const std::size_t first_corner = corners_.size();

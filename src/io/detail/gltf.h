@@ -118,6 +118,10 @@ struct GltfDracoPrimitive
     bool is_normalized = false;
     Eigen::Matrix4d to_world = Eigen::Matrix4d::Identity();
     std::vector<std::int32_t> welded;  ///< Per Draco point: the vertex of MeshFile::mesh.
+    /// Skinned (JOINTS_n / WEIGHTS_n in the Draco data): as GltfPositionAccessor::skin and
+    /// ::skinning, per Draco point.
+    std::int32_t skin = -1;
+    std::vector<Eigen::Matrix4d> skinning;
 };
 
 /// EXT_meshopt_compression / KHR_meshopt_compression: the modes and filters of a stream.

@@ -2,6 +2,7 @@
 // KHR_draco_mesh_compression: decode, write back with new positions re-encoded with the
 // input's quantization and attribute ids, the rest of the asset carried through.
 #include <cmath>
+#include <limits>
 
 #include <Eigen/Geometry>
 
@@ -296,6 +297,96 @@ TEST_F(DracoTest, a_skinned_draco_primitive_is_posed_by_its_joints)
         }
         EXPECT_GT(largest_bend, 0.3) << k;  // (a bend, not the stored shape lifted)
     }
+}
+
+// A skinned Draco primitive is read where a viewer shows it, as an uncompressed one is (its
+// joints and weights decoded from the Draco data), and a moved position is written back
+// through its own matrix's inverse. Read through its node instead (as before the twelfth
+// session), a Draco rig whose scene pose is not its bind pose was marked in a shape no viewer
+// shows, and a still copy of it (Blender's) was read against the wrong shape.
+TEST_F(DracoTest, a_skinned_draco_primitive_is_read_in_the_scene_pose_and_written_back_through_its_joints)
+{
+    const test::KneeRig rig;
+    draco::TriangleSoupMeshBuilder builder;
+    builder.Start(static_cast<int>(rig.idx.size() / 3));
+    const int pos = builder.AddAttribute(draco::GeometryAttribute::POSITION, 3, draco::DT_FLOAT32);
+    const int joints = builder.AddAttribute(draco::GeometryAttribute::GENERIC, 4, draco::DT_UINT8);
+    const int weights = builder.AddAttribute(draco::GeometryAttribute::GENERIC, 4, draco::DT_FLOAT32);
+    for (std::size_t f = 0; 3 * f < rig.idx.size(); ++f)
+    {
+        const auto corner = [&](std::size_t c) { return static_cast<std::size_t>(rig.idx[3 * f + c]); };
+        const auto face = draco::FaceIndex(static_cast<std::uint32_t>(f));
+        builder.SetAttributeValuesForFace(pos, face, &rig.xyz[3 * corner(0)], &rig.xyz[3 * corner(1)], &rig.xyz[3 * corner(2)]);
+        builder.SetAttributeValuesForFace(joints, face, &rig.joints[4 * corner(0)], &rig.joints[4 * corner(1)],
+                                          &rig.joints[4 * corner(2)]);
+        builder.SetAttributeValuesForFace(weights, face, &rig.weights[4 * corner(0)], &rig.weights[4 * corner(1)],
+                                          &rig.weights[4 * corner(2)]);
+    }
+    auto mesh = builder.Finalize();
+    draco::Encoder encoder;
+    encoder.SetAttributeQuantization(draco::GeometryAttribute::POSITION, 28);
+    encoder.SetEncodingMethod(draco::MESH_EDGEBREAKER_ENCODING);
+    draco::EncoderBuffer out;
+    ASSERT_TRUE(encoder.EncodeMeshToBuffer(*mesh, &out).ok());
+
+    GltfBuilder b;
+    const int view = b.view(std::string(out.data(), out.size()));
+    const auto attribute = [&](int component, const char* type) {
+        b.doc["accessors"].push_back({{"componentType", component}, {"count", mesh->num_points()}, {"type", type}});
+        return static_cast<int>(b.doc["accessors"].size() - 1);
+    };
+    const int position_acc = attribute(5126, "VEC3");
+    b.doc["accessors"][static_cast<std::size_t>(position_acc)]["min"] = {0.0, 0.0, 0.0};
+    b.doc["accessors"][static_cast<std::size_t>(position_acc)]["max"] = {2.0, 0.2, 0.1};
+    const int joints_acc = attribute(5121, "VEC4");
+    const int weights_acc = attribute(5126, "VEC4");
+    const int index_acc = static_cast<int>(b.doc["accessors"].size());
+    b.doc["accessors"].push_back({{"componentType", 5125}, {"count", 3 * mesh->num_faces()}, {"type", "SCALAR"}});
+    const auto id = [&](int a) { return static_cast<int>(mesh->attribute(a)->unique_id()); };
+    const int rig_mesh = b.mesh(Json::array(
+        {{{"attributes", {{"POSITION", position_acc}, {"JOINTS_0", joints_acc}, {"WEIGHTS_0", weights_acc}}},
+          {"indices", index_acc},
+          {"extensions",
+           {{"KHR_draco_mesh_compression",
+             {{"bufferView", view}, {"attributes", {{"POSITION", id(pos)}, {"JOINTS_0", id(joints)}, {"WEIGHTS_0", id(weights)}}}}}}}}}));
+    b.doc["extensionsUsed"] = {"KHR_draco_mesh_compression"};
+    b.doc["extensionsRequired"] = {"KHR_draco_mesh_compression"};
+    rig.add_skeleton(b, rig_mesh);
+    test::put_bytes(dir / "rig.glb", b.glb());
+
+    // (Draco stores its points in an order of its own, and a re-encoding may change it.)
+    const auto distance_to = [](const Positions& V, const Eigen::Vector3d& p) {
+        double nearest = std::numeric_limits<double>::infinity();
+        for (Eigen::Index i = 0; i < V.rows(); ++i)
+        {
+            nearest = std::min(nearest, (V.row(i).transpose() - p).norm());
+        }
+        return nearest;
+    };
+    const MeshFile file = read_mesh_file(dir / "rig.glb");
+    ASSERT_EQ(file.mesh.V.rows(), static_cast<Eigen::Index>(rig.size()));
+    for (std::size_t v = 0; v < rig.size(); ++v)
+    {
+        EXPECT_LT(distance_to(file.mesh.V, rig.shown(v)), 1e-6) << v;
+    }
+
+    // Moved by a small field, written, read again: the same field, in the scene pose.
+    Positions moved = file.mesh.V;
+    for (Eigen::Index i = 0; i < moved.rows(); ++i)
+    {
+        moved.row(i) += Eigen::RowVector3d(1e-3 * std::sin(static_cast<double>(i)), 2e-3, -1e-3 * static_cast<double>(i % 2));
+    }
+    write_mesh_file(dir / "rig_out.glb", file, moved);
+    const MeshFile again = read_mesh_file(dir / "rig_out.glb");
+    ASSERT_EQ(again.mesh.V.rows(), moved.rows());
+    for (Eigen::Index i = 0; i < moved.rows(); ++i)
+    {
+        EXPECT_LT(distance_to(again.mesh.V, moved.row(i).transpose()), 1e-6) << i;
+    }
+    // Only the positions changed: the skin, its joints and every node are as they were.
+    const Json after = test::glb_json(test::file_bytes(dir / "rig_out.glb"));
+    EXPECT_EQ(after["skins"], b.doc["skins"]);
+    EXPECT_EQ(after["nodes"], b.doc["nodes"]);
 }
 
 TEST_F(DracoTest, unchanged_positions_keep_the_file)

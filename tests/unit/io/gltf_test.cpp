@@ -466,71 +466,20 @@ TEST_F(GltfTest, instanced_mesh_is_watermarked_once_through_its_first_instance)
 // plain PLY round trip). A moved position is written back through its own matrix's inverse.
 TEST_F(GltfTest, skinned_mesh_is_read_in_the_scene_pose_and_written_back_through_its_joints)
 {
+    const test::KneeRig rig;
     GltfBuilder b;
-    // A strip along x from 0 to 2: 9 x 2 vertices.
-    std::vector<float> xyz;
-    std::vector<std::uint16_t> idx;
-    for (int i = 0; i <= 8; ++i)
-    {
-        for (int j = 0; j <= 1; ++j)
-        {
-            xyz.insert(xyz.end(), {0.25f * static_cast<float>(i), 0.2f * static_cast<float>(j), 0.05f * static_cast<float>(i % 3)});
-        }
-    }
-    for (std::uint16_t i = 0; i < 8; ++i)
-    {
-        const auto a = static_cast<std::uint16_t>(2 * i);
-        idx.insert(idx.end(), {a, static_cast<std::uint16_t>(a + 2), static_cast<std::uint16_t>(a + 1),
-                               static_cast<std::uint16_t>(a + 1), static_cast<std::uint16_t>(a + 2),
-                               static_cast<std::uint16_t>(a + 3)});
-    }
-    const std::size_t n = xyz.size() / 3;
-    // Joint 0 (hip) below x = 0.75, joint 1 (knee) beyond 1.25, blended between; the weights
-    // sum to 2 on purpose (an exporter that does not normalize them).
-    std::vector<std::uint8_t> joints(4 * n, 0);
-    std::vector<float> weights(4 * n, 0.0f);
-    for (std::size_t v = 0; v < n; ++v)
-    {
-        const double x = xyz[3 * v];
-        const double t = std::clamp((x - 0.75) / 0.5, 0.0, 1.0);
-        joints[4 * v] = 0;
-        joints[4 * v + 1] = 1;
-        weights[4 * v] = static_cast<float>(2.0 * (1.0 - t));
-        weights[4 * v + 1] = static_cast<float>(2.0 * t);
-    }
-    const int pos = b.positions(xyz);
-    const int joint_acc = b.accessor(b.view(GltfBuilder::raw(joints)), 0, 5121, n, "VEC4");
-    const int weight_acc = b.accessor(b.view(GltfBuilder::raw(weights)), 0, 5126, n, "VEC4");
-    // Bind pose: hip at the origin, knee at x = 1; the inverse bind matrices undo those.
-    const std::vector<float> ibm{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1,   //
-                                 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, -1, 0, 0, 1};  // column-major
-    const int ibm_acc = b.accessor(b.view(GltfBuilder::raw(ibm)), 0, 5126, 2, "MAT4");
+    const std::size_t n = rig.size();
+    const int pos = b.positions(rig.xyz);
+    const int joint_acc = b.accessor(b.view(GltfBuilder::raw(rig.joints)), 0, 5121, n, "VEC4");
+    const int weight_acc = b.accessor(b.view(GltfBuilder::raw(rig.weights)), 0, 5126, n, "VEC4");
     const int mesh = b.mesh(Json::array({{{"attributes", {{"POSITION", pos}, {"JOINTS_0", joint_acc}, {"WEIGHTS_0", weight_acc}}},
-                                          {"indices", b.indices(idx)}}}));
-    // Scene pose: the hip moved up by 0.5 and the knee bent by 40 degrees about z. The mesh
-    // node's own scale and translation must be ignored.
-    const double angle = 40.0 * std::numbers::pi / 180.0;
-    const int knee = b.node({{"name", "knee"}, {"translation", {1.0, 0.0, 0.0}},
-                             {"rotation", {0.0, 0.0, std::sin(angle / 2), std::cos(angle / 2)}}},
-                            false);
-    const int hip = b.node({{"name", "hip"}, {"translation", {0.0, 0.5, 0.0}}, {"children", {knee}}});
-    b.node({{"mesh", mesh}, {"skin", 0}, {"scale", {3.0, 3.0, 3.0}}, {"translation", {7.0, 0.0, 0.0}}});
-    b.doc["skins"] = Json::array({{{"joints", {hip, knee}}, {"inverseBindMatrices", ibm_acc}}});
+                                          {"indices", b.indices(rig.idx)}}}));
+    rig.add_skeleton(b, mesh);
     test::put_bytes(dir / "rig.glb", b.glb());
-
-    // Where each vertex must be, computed here from the same definitions.
-    const Eigen::Affine3d hip_world(Eigen::Translation3d(0.0, 0.5, 0.0));
-    const Eigen::Affine3d knee_world =
-        hip_world * Eigen::Translation3d(1.0, 0.0, 0.0) * Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitZ());
-    const Eigen::Affine3d knee_inverse_bind(Eigen::Translation3d(-1.0, 0.0, 0.0));
     Positions expected(static_cast<Eigen::Index>(n), 3);
     for (std::size_t v = 0; v < n; ++v)
     {
-        const Eigen::Vector3d p(xyz[3 * v], xyz[3 * v + 1], xyz[3 * v + 2]);
-        const double w0 = weights[4 * v] / 2.0;
-        const double w1 = weights[4 * v + 1] / 2.0;
-        expected.row(static_cast<Eigen::Index>(v)) =
-            (w0 * (hip_world * p) + w1 * (knee_world * (knee_inverse_bind * p))).transpose();
+        expected.row(static_cast<Eigen::Index>(v)) = rig.shown(v).transpose();
     }
     const MeshFile file = read_mesh_file(dir / "rig.glb");
     ASSERT_EQ(file.mesh.V.rows(), static_cast<Eigen::Index>(n));

@@ -339,4 +339,76 @@ struct BendingArm
     }
 };
 
+/// A skinned strip whose scene pose is not its bind pose (a converted character: the knee
+/// bent): 9 x 2 vertices along x from 0 to 2, joint 0 (hip) below x = 0.75, joint 1 (knee)
+/// beyond 1.25, blended between, the weights summing to 2 on purpose (an exporter that does not
+/// normalize them). Bind pose: hip at the origin, knee at x = 1. Scene pose: the hip moved up by
+/// 0.5 and the knee bent by 40 degrees about z; the mesh node's own scale and translation, which
+/// glTF ignores for a skinned mesh, are 3 and (7, 0, 0).
+struct KneeRig
+{
+    std::vector<float> xyz;
+    std::vector<std::uint16_t> idx;
+    std::vector<std::uint8_t> joints;
+    std::vector<float> weights;
+    double angle = 40.0 * 3.14159265358979323846 / 180.0;
+
+    KneeRig()
+    {
+        for (int i = 0; i <= 8; ++i)
+        {
+            for (int j = 0; j <= 1; ++j)
+            {
+                xyz.insert(xyz.end(), {0.25f * static_cast<float>(i), 0.2f * static_cast<float>(j),
+                                       0.05f * static_cast<float>(i % 3)});
+            }
+        }
+        for (std::uint16_t i = 0; i < 8; ++i)
+        {
+            const auto a = static_cast<std::uint16_t>(2 * i);
+            idx.insert(idx.end(), {a, static_cast<std::uint16_t>(a + 2), static_cast<std::uint16_t>(a + 1),
+                                   static_cast<std::uint16_t>(a + 1), static_cast<std::uint16_t>(a + 2),
+                                   static_cast<std::uint16_t>(a + 3)});
+        }
+        joints.assign(4 * size(), 0);
+        weights.assign(4 * size(), 0.0f);
+        for (std::size_t v = 0; v < size(); ++v)
+        {
+            const double t = std::clamp((xyz[3 * v] - 0.75) / 0.5, 0.0, 1.0);
+            joints[4 * v + 1] = 1;
+            weights[4 * v] = static_cast<float>(2.0 * (1.0 - t));
+            weights[4 * v + 1] = static_cast<float>(2.0 * t);
+        }
+    }
+
+    [[nodiscard]] std::size_t size() const { return xyz.size() / 3; }
+
+    /// The skeleton in its scene pose and the skin, for mesh \p mesh of \p b.
+    void add_skeleton(GltfBuilder& b, int mesh) const
+    {
+        const std::vector<float> ibm{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1,   //
+                                     1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, -1, 0, 0, 1};  // column-major
+        const int ibm_acc = b.accessor(b.view(GltfBuilder::raw(ibm)), 0, 5126, 2, "MAT4");
+        const int knee = b.node({{"name", "knee"}, {"translation", {1.0, 0.0, 0.0}},
+                                 {"rotation", {0.0, 0.0, std::sin(angle / 2), std::cos(angle / 2)}}},
+                                false);
+        const int hip = b.node({{"name", "hip"}, {"translation", {0.0, 0.5, 0.0}}, {"children", {knee}}});
+        b.node({{"mesh", mesh}, {"skin", 0}, {"scale", {3.0, 3.0, 3.0}}, {"translation", {7.0, 0.0, 0.0}}});
+        b.doc["skins"] = Json::array({{{"joints", {hip, knee}}, {"inverseBindMatrices", ibm_acc}}});
+    }
+
+    /// Where a viewer shows vertex \p v, computed here from the definitions above.
+    [[nodiscard]] Eigen::Vector3d shown(std::size_t v) const
+    {
+        const Eigen::Affine3d hip_world(Eigen::Translation3d(0.0, 0.5, 0.0));
+        const Eigen::Affine3d knee_world =
+            hip_world * Eigen::Translation3d(1.0, 0.0, 0.0) * Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitZ());
+        const Eigen::Affine3d knee_inverse_bind(Eigen::Translation3d(-1.0, 0.0, 0.0));
+        const Eigen::Vector3d p(xyz[3 * v], xyz[3 * v + 1], xyz[3 * v + 2]);
+        const double w0 = weights[4 * v] / 2.0;
+        const double w1 = weights[4 * v + 1] / 2.0;
+        return w0 * (hip_world * p) + w1 * (knee_world * (knee_inverse_bind * p));
+    }
+};
+
 }  // namespace meshmark::test
