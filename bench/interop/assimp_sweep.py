@@ -11,6 +11,13 @@ independent reader) must find as many positions in both, moved by the mark only.
 
     python3 bench/interop/assimp_sweep.py --meshmark build/bin/meshmark --work /tmp/sweep
 
+With --draco each converted model is compressed by `gltf-transform draco` first and the
+compressed file is the original (the skinned characters among them carry their joints and
+weights inside the Draco data). meshmark re-encodes a moved Draco primitive, and edgebreaker
+may renumber its points, so the positions are then matched to their nearest (Open3D's k-d tree:
+run it with a Python that has open3d and numpy, Debian's /usr/bin/python3): the largest such
+distance is a lower bound of the largest move, and a wrong or scrambled position still shows.
+
 Needs assimp-utils, assimp-testmodels, node and the interop suite's npm packages
 (scripts/setup.sh installs them). Prints one line per model and a summary; --json-file keeps
 every row. Exit status 1 when a marked copy is not claimed, the validator's report changes, or
@@ -57,6 +64,16 @@ def positions(path, scratch):
     return [struct.unpack_from("<3d", data, 24 * i) for i in range(len(data) // 24)]
 
 
+def nearest_distances(before, after, diagonal):
+    """Each position of \p after to its nearest of \p before, over \p diagonal."""
+    import numpy
+    import open3d
+
+    cloud = open3d.geometry.PointCloud(open3d.utility.Vector3dVector(numpy.asarray(before, dtype=float)))
+    tree = open3d.geometry.KDTreeFlann(cloud)
+    return [math.sqrt(tree.search_knn_vector_3d(numpy.asarray(q, dtype=float), 1)[2][0]) / diagonal for q in after]
+
+
 def validation(path):
     report = last_json(run(["node", str(INTEROP / "validate.mjs"), str(path)]).stdout)
     return {key: report[key] for key in ("errors", "warnings", "codes")}
@@ -67,6 +84,7 @@ def main():
     parser.add_argument("--meshmark", default="build/bin/meshmark", help="the meshmark binary")
     parser.add_argument("--work", required=True, help="scratch folder (emptied first)")
     parser.add_argument("--json-file", help="write every row as JSON here")
+    parser.add_argument("--draco", action="store_true", help="compress each converted model with gltf-transform draco first")
     args = parser.parse_args()
     meshmark = str(pathlib.Path(args.meshmark).resolve())
     work = pathlib.Path(args.work)
@@ -83,8 +101,12 @@ def main():
         marked = scratch / "marked.glb"
         key = scratch / "key.json"
         run(["assimp", "export", str(model), str(source), "-tri", "-jiv"], timeout=120)
+        if args.draco and source.exists() and source.stat().st_size > 0:
+            compressed = scratch / "in_draco.glb"
+            run([str(INTEROP / "node_modules" / ".bin" / "gltf-transform"), "draco", str(source), str(compressed)])
+            source = compressed
         if not source.exists() or source.stat().st_size == 0:
-            row["result"] = "assimp cannot convert it"
+            row["result"] = "assimp cannot convert it" if not args.draco else "assimp or gltf-transform draco cannot convert it"
         else:
             embed = run([meshmark, "embed", str(source), "-o", str(marked), "--key", str(key), "--seed", "7", "-q"])
             if embed.returncode != 0:
@@ -108,7 +130,8 @@ def main():
                     lo = [min(p[d] for p in before) for d in range(3)]
                     hi = [max(p[d] for p in before) for d in range(3)]
                     diagonal = math.dist(lo, hi)
-                    moves = [math.dist(p, q) / diagonal for p, q in zip(before, after)]
+                    moves = ([math.dist(p, q) / diagonal for p, q in zip(before, after)] if not args.draco
+                             else nearest_distances(before, after, diagonal))
                     row["max_move"] = max(moves)
                     row["rms_move"] = math.sqrt(sum(m * m for m in moves) / len(moves))
                 same_positions = (before == [] and after == []) or (

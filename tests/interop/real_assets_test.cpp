@@ -395,6 +395,46 @@ TEST(RealAssetsInterop, ABlenderTurntableIsReadAsOneAssetWithoutAFrameSearch)
     }
 }
 
+// \p original (Draco-compressed) and its \p marked copy each decoded by glTF-Transform
+// (decode_draco.mjs: what a Draco-enabled importer sees; Debian's Blender is built without
+// Draco), then put through Blender's \p operations; every copy (each operation's PLY output, and
+// the decoded file itself when \p with_decoded) detected against the original: the marked
+// ones claimed with z >= \p min_score, the unmarked ones not.
+void expect_decoded_blender_copies_claimed(const fs::path& original, const fs::path& marked, const fs::path& key,
+                                           const std::vector<std::string>& operations, bool with_decoded,
+                                           double min_score, const fs::path& scratch)
+{
+    for (const auto& [input, name] : {std::pair{marked, std::string("marked")}, std::pair{original, std::string("clean")}})
+    {
+        const fs::path decoded = scratch / (name + "_decoded.glb");
+        const ToolRun decode = node_helper("decode_draco.mjs", {input.string(), decoded.string()}, scratch);
+        ASSERT_TRUE(decode.ok()) << decode.describe();
+        const ToolRun blender = blender_attacks(decoded, scratch / name, operations, scratch);
+        ASSERT_TRUE(blender.ok()) << blender.describe();
+        std::vector<fs::path> copies;
+        if (with_decoded)
+        {
+            copies.push_back(decoded);
+        }
+        for (std::string operation : operations)
+        {
+            std::replace(operation.begin(), operation.end(), '=', '_');
+            copies.push_back(scratch / name / (operation + ".ply"));
+        }
+        for (const fs::path& copy : copies)
+        {
+            int exit_code = -1;
+            const nlohmann::json report = detect_json(copy, original, key, scratch, &exit_code);
+            ASSERT_TRUE(report.is_object()) << copy;
+            EXPECT_EQ(exit_code, input == marked ? 0 : 1) << copy << " " << report.dump();
+            if (input == marked)
+            {
+                EXPECT_GE(report.value("score", 0.0), min_score) << copy << " " << report.dump();
+            }
+        }
+    }
+}
+
 // The same character compressed by `gltf-transform draco` (its JOINTS_0 and WEIGHTS_0 inside the
 // Draco data, as web pipelines ship characters), marked, and imported by a Blender that decodes
 // Draco (Debian's does not: glTF-Transform decodes it first, decode_draco.mjs) and exported at
@@ -414,25 +454,7 @@ TEST(RealAssetsInterop, BlenderCopiesOfADracoCompressedCharacterAreClaimed)
     const fs::path key = scratch / "key.json";
     const ToolRun marking = embed(original, marked, key, kSeed, scratch);
     ASSERT_TRUE(marking.ok()) << marking.describe();
-    for (const auto& [input, name] : {std::pair{marked, std::string("marked")}, std::pair{original, std::string("clean")}})
-    {
-        const fs::path decoded = scratch / (name + "_decoded.glb");
-        const ToolRun decode = node_helper("decode_draco.mjs", {input.string(), decoded.string()}, scratch);
-        ASSERT_TRUE(decode.ok()) << decode.describe();
-        const ToolRun blender = blender_attacks(decoded, scratch / name, {"ply", "pose=20"}, scratch);
-        ASSERT_TRUE(blender.ok()) << blender.describe();
-        for (const char* copy : {"ply.ply", "pose_20.ply"})
-        {
-            int exit_code = -1;
-            const nlohmann::json report = detect_json(scratch / name / copy, original, key, scratch, &exit_code);
-            ASSERT_TRUE(report.is_object()) << name << " " << copy;
-            EXPECT_EQ(exit_code, input == marked ? 0 : 1) << copy << " " << report.dump();
-            if (input == marked)
-            {
-                EXPECT_GE(report.value("score", 0.0), 9.0) << copy << " " << report.dump();
-            }
-        }
-    }
+    expect_decoded_blender_copies_claimed(original, marked, key, {"ply", "pose=20"}, false, 9.0, scratch);
 }
 
 // The converted DirectX character above without its animations (strip_animations.mjs) and
@@ -459,25 +481,7 @@ TEST(RealAssetsInterop, AStillDracoCompressedRigIsMarkedInThePoseViewersShow)
     const fs::path key = scratch / "key.json";
     const ToolRun marking = embed(original, marked, key, kSeed, scratch);
     ASSERT_TRUE(marking.ok()) << marking.describe();
-    for (const auto& [input, name] : {std::pair{marked, std::string("marked")}, std::pair{original, std::string("clean")}})
-    {
-        const fs::path decoded = scratch / (name + "_decoded.glb");
-        const ToolRun decode = node_helper("decode_draco.mjs", {input.string(), decoded.string()}, scratch);
-        ASSERT_TRUE(decode.ok()) << decode.describe();
-        const ToolRun blender = blender_attacks(decoded, scratch / name, {"ply"}, scratch);
-        ASSERT_TRUE(blender.ok()) << blender.describe();
-        for (const fs::path& copy : {decoded, scratch / name / "ply.ply"})
-        {
-            int exit_code = -1;
-            const nlohmann::json report = detect_json(copy, original, key, scratch, &exit_code);
-            ASSERT_TRUE(report.is_object()) << copy;
-            EXPECT_EQ(exit_code, input == marked ? 0 : 1) << copy << " " << report.dump();
-            if (input == marked)
-            {
-                EXPECT_GE(report.value("score", 0.0), 9.0) << copy << " " << report.dump();
-            }
-        }
-    }
+    expect_decoded_blender_copies_claimed(original, marked, key, {"ply"}, true, 9.0, scratch);
 }
 
 }  // namespace meshmark::test::interop

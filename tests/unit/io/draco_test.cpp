@@ -200,9 +200,74 @@ TEST_F(DracoTest, an_animated_draco_part_is_posed_at_every_time)
     }
 }
 
+// One corner of a skinned triangle soup.
+struct SkinnedCorner
+{
+    std::array<float, 3> position;
+    std::array<std::uint8_t, 4> joints;
+    std::array<float, 4> weights;
+};
+
+// A skinned triangle soup (3 corners per triangle) Draco-encoded as gltf-transform and
+// gltf-pipeline write characters (edgebreaker, 28-bit positions, JOINTS_0 and WEIGHTS_0 inside the
+// Draco data), added to \p b as a mesh of one primitive; returns the mesh.
+int add_skinned_draco_mesh(GltfBuilder& b, const std::vector<SkinnedCorner>& corners)
+{
+    draco::TriangleSoupMeshBuilder builder;
+    builder.Start(static_cast<int>(corners.size() / 3));
+    const int pos = builder.AddAttribute(draco::GeometryAttribute::POSITION, 3, draco::DT_FLOAT32);
+    const int joints = builder.AddAttribute(draco::GeometryAttribute::GENERIC, 4, draco::DT_UINT8);
+    const int weights = builder.AddAttribute(draco::GeometryAttribute::GENERIC, 4, draco::DT_FLOAT32);
+    Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+    Eigen::Vector3d hi = -lo;
+    for (std::size_t f = 0; 3 * f < corners.size(); ++f)
+    {
+        const auto face = draco::FaceIndex(static_cast<std::uint32_t>(f));
+        const SkinnedCorner* c = &corners[3 * f];
+        builder.SetAttributeValuesForFace(pos, face, c[0].position.data(), c[1].position.data(), c[2].position.data());
+        builder.SetAttributeValuesForFace(joints, face, c[0].joints.data(), c[1].joints.data(), c[2].joints.data());
+        builder.SetAttributeValuesForFace(weights, face, c[0].weights.data(), c[1].weights.data(), c[2].weights.data());
+        for (std::size_t k = 0; k < 3; ++k)
+        {
+            const Eigen::Vector3d p(c[k].position[0], c[k].position[1], c[k].position[2]);
+            lo = lo.cwiseMin(p);
+            hi = hi.cwiseMax(p);
+        }
+    }
+    auto mesh = builder.Finalize();
+    draco::Encoder encoder;
+    encoder.SetAttributeQuantization(draco::GeometryAttribute::POSITION, 28);  // (the weights follow x closely)
+    encoder.SetEncodingMethod(draco::MESH_EDGEBREAKER_ENCODING);
+    draco::EncoderBuffer out;
+    EXPECT_TRUE(encoder.EncodeMeshToBuffer(*mesh, &out).ok());
+
+    const int view = b.view(std::string(out.data(), out.size()));
+    const auto attribute = [&](int component, const char* type) {
+        b.doc["accessors"].push_back({{"componentType", component}, {"count", mesh->num_points()}, {"type", type}});
+        return static_cast<int>(b.doc["accessors"].size() - 1);
+    };
+    const int position_acc = attribute(5126, "VEC3");
+    b.doc["accessors"][static_cast<std::size_t>(position_acc)]["min"] = {lo.x(), lo.y(), lo.z()};
+    b.doc["accessors"][static_cast<std::size_t>(position_acc)]["max"] = {hi.x(), hi.y(), hi.z()};
+    const int joints_acc = attribute(5121, "VEC4");
+    const int weights_acc = attribute(5126, "VEC4");
+    const int index_acc = static_cast<int>(b.doc["accessors"].size());
+    b.doc["accessors"].push_back({{"componentType", 5125}, {"count", 3 * mesh->num_faces()}, {"type", "SCALAR"}});
+    const auto id = [&](int a) { return static_cast<int>(mesh->attribute(a)->unique_id()); };
+    b.doc["extensionsUsed"] = {"KHR_draco_mesh_compression"};
+    b.doc["extensionsRequired"] = {"KHR_draco_mesh_compression"};
+    return b.mesh(Json::array(
+        {{{"attributes", {{"POSITION", position_acc}, {"JOINTS_0", joints_acc}, {"WEIGHTS_0", weights_acc}}},
+          {"indices", index_acc},
+          {"extensions",
+           {{"KHR_draco_mesh_compression",
+             {{"bufferView", view},
+              {"attributes", {{"POSITION", id(pos)}, {"JOINTS_0", id(joints)}, {"WEIGHTS_0", id(weights)}}}}}}}}}));
+}
+
 // A rigged arm whose skinned primitive is Draco-compressed (JOINTS_0 and WEIGHTS_0 inside the
-// Draco data, as gltf-transform and gltf-pipeline write characters): the stored mesh is read
-// through its node (the writer re-encodes positions only), and its poses are skinned as those of
+// Draco data, as gltf-transform and gltf-pipeline write characters): the stored mesh, in its
+// bind pose, reads as through its node, and its poses are skinned as those of
 // an uncompressed rig, the joints and weights decoded from the Draco data: at 1/24 s and at the
 // animation's end every vertex is where the bent arm puts it.
 TEST_F(DracoTest, a_skinned_draco_primitive_is_posed_by_its_joints)
@@ -214,64 +279,18 @@ TEST_F(DracoTest, a_skinned_draco_primitive_is_posed_by_its_joints)
         return std::array<float, 3>{-2.0f + 0.125f * static_cast<float>(i), 0.25f * static_cast<float>(j),
                                     0.05f * static_cast<float>(i % 3)};
     };
-    draco::TriangleSoupMeshBuilder builder;
-    builder.Start(2 * (kAlong - 1));
-    const int pos = builder.AddAttribute(draco::GeometryAttribute::POSITION, 3, draco::DT_FLOAT32);
-    const int joints = builder.AddAttribute(draco::GeometryAttribute::GENERIC, 4, draco::DT_UINT8);
-    const int weights = builder.AddAttribute(draco::GeometryAttribute::GENERIC, 4, draco::DT_FLOAT32);
-    int f = 0;
+    std::vector<SkinnedCorner> corners;
     for (int i = 0; i + 1 < kAlong; ++i)
     {
-        const std::array<std::array<int, 2>, 6> corners{{{i, 0}, {i + 1, 0}, {i + 1, 1}, {i, 0}, {i + 1, 1}, {i, 1}}};
-        for (int t = 0; t < 2; ++t)
+        for (const auto& g : std::array<std::array<int, 2>, 6>{{{i, 0}, {i + 1, 0}, {i + 1, 1}, {i, 0}, {i + 1, 1}, {i, 1}}})
         {
-            std::array<std::array<float, 3>, 3> p{};
-            std::array<std::array<std::uint8_t, 4>, 3> j{};
-            std::array<std::array<float, 4>, 3> w{};
-            for (std::size_t c = 0; c < 3; ++c)
-            {
-                const auto& g = corners[3 * static_cast<std::size_t>(t) + c];
-                p[c] = at(g[0], g[1]);
-                const auto elbow_weight = static_cast<float>(arm.weight(p[c][0]));
-                j[c] = {0, 1, 0, 0};
-                w[c] = {1.0f - elbow_weight, elbow_weight, 0.0f, 0.0f};
-            }
-            builder.SetAttributeValuesForFace(pos, draco::FaceIndex(f), p[0].data(), p[1].data(), p[2].data());
-            builder.SetAttributeValuesForFace(joints, draco::FaceIndex(f), j[0].data(), j[1].data(), j[2].data());
-            builder.SetAttributeValuesForFace(weights, draco::FaceIndex(f), w[0].data(), w[1].data(), w[2].data());
-            ++f;
+            const auto p = at(g[0], g[1]);
+            const auto elbow_weight = static_cast<float>(arm.weight(p[0]));
+            corners.push_back({p, {0, 1, 0, 0}, {1.0f - elbow_weight, elbow_weight, 0.0f, 0.0f}});
         }
     }
-    auto mesh = builder.Finalize();
-    draco::Encoder encoder;
-    encoder.SetAttributeQuantization(draco::GeometryAttribute::POSITION, 28);  // (the weights follow x closely)
-    encoder.SetEncodingMethod(draco::MESH_EDGEBREAKER_ENCODING);
-    draco::EncoderBuffer out;
-    ASSERT_TRUE(encoder.EncodeMeshToBuffer(*mesh, &out).ok());
-    const std::string bytes(out.data(), out.size());
-
     GltfBuilder b;
-    const int view = b.view(bytes);
-    const auto attribute = [&](int component, const char* type) {
-        b.doc["accessors"].push_back({{"componentType", component}, {"count", mesh->num_points()}, {"type", type}});
-        return static_cast<int>(b.doc["accessors"].size() - 1);
-    };
-    const int position_acc = attribute(5126, "VEC3");
-    b.doc["accessors"][static_cast<std::size_t>(position_acc)]["min"] = {-2.0, 0.0, 0.0};
-    b.doc["accessors"][static_cast<std::size_t>(position_acc)]["max"] = {2.0, 0.25, 0.1};
-    const int joints_acc = attribute(5121, "VEC4");
-    const int weights_acc = attribute(5126, "VEC4");
-    const int index_acc = static_cast<int>(b.doc["accessors"].size());
-    b.doc["accessors"].push_back({{"componentType", 5125}, {"count", 3 * mesh->num_faces()}, {"type", "SCALAR"}});
-    const auto id = [&](int a) { return static_cast<int>(mesh->attribute(a)->unique_id()); };
-    const int arm_mesh = b.mesh(Json::array(
-        {{{"attributes", {{"POSITION", position_acc}, {"JOINTS_0", joints_acc}, {"WEIGHTS_0", weights_acc}}},
-          {"indices", index_acc},
-          {"extensions",
-           {{"KHR_draco_mesh_compression",
-             {{"bufferView", view}, {"attributes", {{"POSITION", id(pos)}, {"JOINTS_0", id(joints)}, {"WEIGHTS_0", id(weights)}}}}}}}}}));
-    b.doc["extensionsUsed"] = {"KHR_draco_mesh_compression"};
-    b.doc["extensionsRequired"] = {"KHR_draco_mesh_compression"};
+    const int arm_mesh = add_skinned_draco_mesh(b, corners);
     test::put_bytes(dir / "arm.glb", arm.rig(b, arm_mesh));
 
     const MeshFile file = read_mesh_file(dir / "arm.glb");
@@ -307,50 +326,16 @@ TEST_F(DracoTest, a_skinned_draco_primitive_is_posed_by_its_joints)
 TEST_F(DracoTest, a_skinned_draco_primitive_is_read_in_the_scene_pose_and_written_back_through_its_joints)
 {
     const test::KneeRig rig;
-    draco::TriangleSoupMeshBuilder builder;
-    builder.Start(static_cast<int>(rig.idx.size() / 3));
-    const int pos = builder.AddAttribute(draco::GeometryAttribute::POSITION, 3, draco::DT_FLOAT32);
-    const int joints = builder.AddAttribute(draco::GeometryAttribute::GENERIC, 4, draco::DT_UINT8);
-    const int weights = builder.AddAttribute(draco::GeometryAttribute::GENERIC, 4, draco::DT_FLOAT32);
-    for (std::size_t f = 0; 3 * f < rig.idx.size(); ++f)
+    std::vector<SkinnedCorner> corners;
+    for (const auto v : rig.idx)
     {
-        const auto corner = [&](std::size_t c) { return static_cast<std::size_t>(rig.idx[3 * f + c]); };
-        const auto face = draco::FaceIndex(static_cast<std::uint32_t>(f));
-        builder.SetAttributeValuesForFace(pos, face, &rig.xyz[3 * corner(0)], &rig.xyz[3 * corner(1)], &rig.xyz[3 * corner(2)]);
-        builder.SetAttributeValuesForFace(joints, face, &rig.joints[4 * corner(0)], &rig.joints[4 * corner(1)],
-                                          &rig.joints[4 * corner(2)]);
-        builder.SetAttributeValuesForFace(weights, face, &rig.weights[4 * corner(0)], &rig.weights[4 * corner(1)],
-                                          &rig.weights[4 * corner(2)]);
+        const std::size_t k = v;
+        corners.push_back({{rig.xyz[3 * k], rig.xyz[3 * k + 1], rig.xyz[3 * k + 2]},
+                           {rig.joints[4 * k], rig.joints[4 * k + 1], rig.joints[4 * k + 2], rig.joints[4 * k + 3]},
+                           {rig.weights[4 * k], rig.weights[4 * k + 1], rig.weights[4 * k + 2], rig.weights[4 * k + 3]}});
     }
-    auto mesh = builder.Finalize();
-    draco::Encoder encoder;
-    encoder.SetAttributeQuantization(draco::GeometryAttribute::POSITION, 28);
-    encoder.SetEncodingMethod(draco::MESH_EDGEBREAKER_ENCODING);
-    draco::EncoderBuffer out;
-    ASSERT_TRUE(encoder.EncodeMeshToBuffer(*mesh, &out).ok());
-
     GltfBuilder b;
-    const int view = b.view(std::string(out.data(), out.size()));
-    const auto attribute = [&](int component, const char* type) {
-        b.doc["accessors"].push_back({{"componentType", component}, {"count", mesh->num_points()}, {"type", type}});
-        return static_cast<int>(b.doc["accessors"].size() - 1);
-    };
-    const int position_acc = attribute(5126, "VEC3");
-    b.doc["accessors"][static_cast<std::size_t>(position_acc)]["min"] = {0.0, 0.0, 0.0};
-    b.doc["accessors"][static_cast<std::size_t>(position_acc)]["max"] = {2.0, 0.2, 0.1};
-    const int joints_acc = attribute(5121, "VEC4");
-    const int weights_acc = attribute(5126, "VEC4");
-    const int index_acc = static_cast<int>(b.doc["accessors"].size());
-    b.doc["accessors"].push_back({{"componentType", 5125}, {"count", 3 * mesh->num_faces()}, {"type", "SCALAR"}});
-    const auto id = [&](int a) { return static_cast<int>(mesh->attribute(a)->unique_id()); };
-    const int rig_mesh = b.mesh(Json::array(
-        {{{"attributes", {{"POSITION", position_acc}, {"JOINTS_0", joints_acc}, {"WEIGHTS_0", weights_acc}}},
-          {"indices", index_acc},
-          {"extensions",
-           {{"KHR_draco_mesh_compression",
-             {{"bufferView", view}, {"attributes", {{"POSITION", id(pos)}, {"JOINTS_0", id(joints)}, {"WEIGHTS_0", id(weights)}}}}}}}}}));
-    b.doc["extensionsUsed"] = {"KHR_draco_mesh_compression"};
-    b.doc["extensionsRequired"] = {"KHR_draco_mesh_compression"};
+    const int rig_mesh = add_skinned_draco_mesh(b, corners);
     rig.add_skeleton(b, rig_mesh);
     test::put_bytes(dir / "rig.glb", b.glb());
 
@@ -371,11 +356,7 @@ TEST_F(DracoTest, a_skinned_draco_primitive_is_read_in_the_scene_pose_and_writte
     }
 
     // Moved by a small field, written, read again: the same field, in the scene pose.
-    Positions moved = file.mesh.V;
-    for (Eigen::Index i = 0; i < moved.rows(); ++i)
-    {
-        moved.row(i) += Eigen::RowVector3d(1e-3 * std::sin(static_cast<double>(i)), 2e-3, -1e-3 * static_cast<double>(i % 2));
-    }
+    const Positions moved = test::nudged(file.mesh.V);
     write_mesh_file(dir / "rig_out.glb", file, moved);
     const MeshFile again = read_mesh_file(dir / "rig_out.glb");
     ASSERT_EQ(again.mesh.V.rows(), moved.rows());

@@ -486,11 +486,7 @@ TEST_F(GltfTest, skinned_mesh_is_read_in_the_scene_pose_and_written_back_through
     EXPECT_LT((file.mesh.V - expected).cwiseAbs().maxCoeff(), 1e-6);
 
     // Moved by a small field, written, read again: the same field, in the scene pose.
-    Positions moved = file.mesh.V;
-    for (Eigen::Index i = 0; i < moved.rows(); ++i)
-    {
-        moved.row(i) += Eigen::RowVector3d(1e-3 * std::sin(static_cast<double>(i)), 2e-3, -1e-3 * static_cast<double>(i % 2));
-    }
+    const Positions moved = test::nudged(file.mesh.V);
     write_mesh_file(dir / "rig_out.glb", file, moved);
     const MeshFile again = read_mesh_file(dir / "rig_out.glb");
     ASSERT_EQ(again.mesh.V.rows(), moved.rows());
@@ -510,23 +506,7 @@ TEST_F(GltfTest, skinned_mesh_is_read_in_the_scene_pose_and_written_back_through
 // the asset as a whole, and an asset without animations, give no pose.
 TEST_F(GltfTest, an_animated_rig_gives_the_pose_blender_shows_it_in)
 {
-    std::vector<float> xyz;
-    std::vector<std::uint16_t> idx;
-    for (int i = 0; i <= 16; ++i)
-    {
-        for (int j = 0; j <= 1; ++j)
-        {
-            xyz.insert(xyz.end(), {-1.0f + 0.125f * static_cast<float>(i), 0.2f * static_cast<float>(j),
-                                   0.05f * static_cast<float>(i % 3)});
-        }
-    }
-    for (std::uint16_t i = 0; i < 16; ++i)
-    {
-        const auto a = static_cast<std::uint16_t>(2 * i);
-        idx.insert(idx.end(), {a, static_cast<std::uint16_t>(a + 2), static_cast<std::uint16_t>(a + 1),
-                               static_cast<std::uint16_t>(a + 1), static_cast<std::uint16_t>(a + 2),
-                               static_cast<std::uint16_t>(a + 3)});
-    }
+    const auto [xyz, idx] = test::strip(16, -1.0f, 0.125f);
     const auto n = static_cast<Eigen::Index>(xyz.size() / 3);
     const test::BendingArm arm;
     test::put_bytes(dir / "arm.glb", arm.glb(xyz, idx));

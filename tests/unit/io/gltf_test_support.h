@@ -10,6 +10,8 @@
 #include <cstring>
 #include <filesystem>
 #include <string>
+#include <tuple>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -339,6 +341,40 @@ struct BendingArm
     }
 };
 
+/// A strip of 2 x (segments + 1) vertices along x from \p x0 in steps of \p dx, 0.2 wide, its z
+/// zigzagging by 0.05 (not flat), two triangles per segment: positions (3 per vertex) and indices.
+inline std::pair<std::vector<float>, std::vector<std::uint16_t>> strip(int segments, float x0, float dx)
+{
+    std::vector<float> xyz;
+    std::vector<std::uint16_t> idx;
+    for (int i = 0; i <= segments; ++i)
+    {
+        for (int j = 0; j <= 1; ++j)
+        {
+            xyz.insert(xyz.end(), {x0 + dx * static_cast<float>(i), 0.2f * static_cast<float>(j),
+                                   0.05f * static_cast<float>(i % 3)});
+        }
+    }
+    for (int i = 0; i < segments; ++i)
+    {
+        const auto a = static_cast<std::uint16_t>(2 * i);
+        idx.insert(idx.end(), {a, static_cast<std::uint16_t>(a + 2), static_cast<std::uint16_t>(a + 1),
+                               static_cast<std::uint16_t>(a + 1), static_cast<std::uint16_t>(a + 2),
+                               static_cast<std::uint16_t>(a + 3)});
+    }
+    return {xyz, idx};
+}
+
+/// \p V moved by a small field (1e-3 to 2e-3 per vertex), as a mark moves a mesh.
+inline Positions nudged(Positions V)
+{
+    for (Eigen::Index i = 0; i < V.rows(); ++i)
+    {
+        V.row(i) += Eigen::RowVector3d(1e-3 * std::sin(static_cast<double>(i)), 2e-3, -1e-3 * static_cast<double>(i % 2));
+    }
+    return V;
+}
+
 /// A skinned strip whose scene pose is not its bind pose (a converted character: the knee
 /// bent): 9 x 2 vertices along x from 0 to 2, joint 0 (hip) below x = 0.75, joint 1 (knee)
 /// beyond 1.25, blended between, the weights summing to 2 on purpose (an exporter that does not
@@ -355,21 +391,7 @@ struct KneeRig
 
     KneeRig()
     {
-        for (int i = 0; i <= 8; ++i)
-        {
-            for (int j = 0; j <= 1; ++j)
-            {
-                xyz.insert(xyz.end(), {0.25f * static_cast<float>(i), 0.2f * static_cast<float>(j),
-                                       0.05f * static_cast<float>(i % 3)});
-            }
-        }
-        for (std::uint16_t i = 0; i < 8; ++i)
-        {
-            const auto a = static_cast<std::uint16_t>(2 * i);
-            idx.insert(idx.end(), {a, static_cast<std::uint16_t>(a + 2), static_cast<std::uint16_t>(a + 1),
-                                   static_cast<std::uint16_t>(a + 1), static_cast<std::uint16_t>(a + 2),
-                                   static_cast<std::uint16_t>(a + 3)});
-        }
+        std::tie(xyz, idx) = strip(8, 0.0f, 0.25f);
         joints.assign(4 * size(), 0);
         weights.assign(4 * size(), 0.0f);
         for (std::size_t v = 0; v < size(); ++v)
