@@ -148,14 +148,16 @@ void register_detect(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
                       "With a family key: decide on the owner's mark alone (shared by every copy), "
                       "without naming recipients");
     command->add_flag("--no-register", args->no_register,
-                      "Only accept a suspect whose vertices correspond to the original's, in order "
-                      "(no registration or resampling)");
+                      "Only accept a suspect whose vertices correspond to the original's, in order or "
+                      "renumbered where they stand (no registration or resampling)");
     command->add_flag("--json", args->json,
                       "Print one JSON object: detected, verdict, score, correlation, bits_expected, "
                       "bits_found, false_positive_probability (of the verdict used; also "
                       "score_ and bits_false_positive_probability), cropped_fraction, outlier_fraction (rows left "
                       "out because the suspect is far from them), "
-                      "registration (method: same-connectivity, registration (vertices matched), registration, "
+                      "registration (method: same-connectivity (the original's vertices in its order, or "
+                      "renumbered where they stand, as a re-encoded Draco file is), registration (vertices "
+                      "matched), registration, "
                       "registration (not converged), or, for a copy of an animated glTF read through a frame of "
                       "one of its animations, registration (animation 'NAME' at F/24 s: Blender's frame F; T s "
                       "between frames); rms_error; transform), mark_strength (the mark's RMS amplitude "
