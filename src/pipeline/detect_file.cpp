@@ -391,7 +391,8 @@ constexpr double kMaxStartRatio = 0.5;
 // reached, each original vertex once, and every suspect triangle is a triangle of the
 // original; else the copy is registered as before (a dense scan, whose vertices the mark moves
 // by a good part of their spacing, is). Positions and triangles only, never the key.
-std::optional<Positions> renumbered_in_place(const TriangleMesh& original, const TriangleMesh& suspect, double tolerance)
+std::optional<Positions> renumbered_in_place(const TriangleMesh& original, const TriangleMesh& suspect, double tolerance,
+                                             int threads)
 {
     const auto n = static_cast<std::size_t>(original.V.rows());
     if (suspect.V.rows() != original.V.rows() || suspect.F.rows() != original.F.rows() || original.F.rows() == 0)
@@ -404,12 +405,13 @@ std::optional<Positions> renumbered_in_place(const TriangleMesh& original, const
     {
         const PointKdTree suspect_tree(suspect.V);
         const PointKdTree original_tree(original.V);
-        for (std::size_t i = 0; i < n; ++i)
+        std::vector<std::int32_t> start(n, -1);  // per original vertex: its suspect vertex, if beyond doubt
+#pragma omp parallel for schedule(static) num_threads(resolve_threads(threads))
+        for (Eigen::Index i = 0; i < original.V.rows(); ++i)
         {
             std::array<std::uint32_t, 2> index{};
             std::array<double, 2> squared{};
-            const auto row = static_cast<Eigen::Index>(i);
-            if (suspect_tree.nearest(original.V.row(row).transpose(), 2, index.data(), squared.data()) < 2 ||
+            if (suspect_tree.nearest(original.V.row(i).transpose(), 2, index.data(), squared.data()) < 2 ||
                 squared[0] > squared_tolerance || squared[0] > kMaxStartRatio * kMaxStartRatio * squared[1])
             {
                 continue;
@@ -417,10 +419,17 @@ std::optional<Positions> renumbered_in_place(const TriangleMesh& original, const
             std::array<std::uint32_t, 2> back{};
             std::array<double, 2> back_squared{};
             if (original_tree.nearest(suspect.V.row(index[0]).transpose(), 2, back.data(), back_squared.data()) == 2 &&
-                back[0] == i && back_squared[0] <= kMaxStartRatio * kMaxStartRatio * back_squared[1] &&
-                to_original[index[0]] < 0)
+                back[0] == static_cast<std::uint32_t>(i) &&
+                back_squared[0] <= kMaxStartRatio * kMaxStartRatio * back_squared[1])
             {
-                to_original[index[0]] = static_cast<std::int32_t>(i);
+                start[static_cast<std::size_t>(i)] = static_cast<std::int32_t>(index[0]);
+            }
+        }
+        for (std::size_t i = 0; i < n; ++i)
+        {
+            if (start[i] >= 0 && to_original[static_cast<std::size_t>(start[i])] < 0)
+            {
+                to_original[static_cast<std::size_t>(start[i])] = static_cast<std::int32_t>(i);
                 taken[i] = 1;
             }
         }
@@ -637,7 +646,7 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
             suspect.F.rows() == original.F.rows() && (suspect.F.array() == original.F.array()).all();
         const std::optional<Positions> renumbered =
             same_triangles ? std::nullopt
-                           : renumbered_in_place(original, suspect, kOutlierFloor * amplitude);
+                           : renumbered_in_place(original, suspect, kOutlierFloor * amplitude, options.threads);
         const Positions& in_order = renumbered ? *renumbered : suspect.V;
         const Eigen::Matrix4d T = similarity_onto_original(original.V, in_order, nullptr);
         aligned = transform_points(T, in_order);
