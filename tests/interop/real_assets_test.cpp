@@ -395,6 +395,26 @@ TEST(RealAssetsInterop, ABlenderTurntableIsReadAsOneAssetWithoutAFrameSearch)
     }
 }
 
+// \p plain (.glb) compressed by `gltf-transform draco` into \p scratch / draco.glb and marked
+// with key kSeed (marked.glb, key.json); \p error is set if a step fails.
+ConvertedAndMarked compress_and_mark(const fs::path& plain, const fs::path& scratch, std::string* error)
+{
+    ConvertedAndMarked files{scratch / "draco.glb", scratch / "marked.glb", scratch / "key.json"};
+    const ToolRun compress = run({tools().gltf_transform.string(), "draco", plain.string(), files.original.string()}, scratch);
+    if (!compress.ok())
+    {
+        *error = compress.describe();
+        return {};
+    }
+    const ToolRun marking = embed(files.original, files.marked, files.key, kSeed, scratch);
+    if (!marking.ok())
+    {
+        *error = marking.describe();
+        return {};
+    }
+    return files;
+}
+
 // \p original (Draco-compressed) and its \p marked copy each decoded by glTF-Transform
 // (decode_draco.mjs: what a Draco-enabled importer sees; Debian's Blender is built without
 // Draco), then put through Blender's \p operations; every copy (each operation's PLY output, and
@@ -447,13 +467,9 @@ TEST(RealAssetsInterop, BlenderCopiesOfADracoCompressedCharacterAreClaimed)
     const fs::path plain = scratch / "wuson.glb";
     const ToolRun convert = assimp_to_glb(kModels / "X/Testwuson.X", plain, scratch);
     ASSERT_TRUE(convert.ok()) << convert.describe();
-    const fs::path original = scratch / "wuson_draco.glb";
-    const ToolRun compress = run({tools().gltf_transform.string(), "draco", plain.string(), original.string()}, scratch);
-    ASSERT_TRUE(compress.ok()) << compress.describe();
-    const fs::path marked = scratch / "marked.glb";
-    const fs::path key = scratch / "key.json";
-    const ToolRun marking = embed(original, marked, key, kSeed, scratch);
-    ASSERT_TRUE(marking.ok()) << marking.describe();
+    std::string error;
+    const auto [original, marked, key] = compress_and_mark(plain, scratch, &error);
+    ASSERT_TRUE(error.empty()) << error;
     expect_decoded_blender_copies_claimed(original, marked, key, {"ply", "pose=20"}, false, 9.0, scratch);
 }
 
@@ -474,13 +490,9 @@ TEST(RealAssetsInterop, AStillDracoCompressedRigIsMarkedInThePoseViewersShow)
     const fs::path still = scratch / "still.glb";
     const ToolRun strip = node_helper("strip_animations.mjs", {converted.string(), still.string()}, scratch);
     ASSERT_TRUE(strip.ok()) << strip.describe();
-    const fs::path original = scratch / "still_draco.glb";
-    const ToolRun compress = run({tools().gltf_transform.string(), "draco", still.string(), original.string()}, scratch);
-    ASSERT_TRUE(compress.ok()) << compress.describe();
-    const fs::path marked = scratch / "marked.glb";
-    const fs::path key = scratch / "key.json";
-    const ToolRun marking = embed(original, marked, key, kSeed, scratch);
-    ASSERT_TRUE(marking.ok()) << marking.describe();
+    std::string error;
+    const auto [original, marked, key] = compress_and_mark(still, scratch, &error);
+    ASSERT_TRUE(error.empty()) << error;
     expect_decoded_blender_copies_claimed(original, marked, key, {"ply"}, true, 9.0, scratch);
 }
 
@@ -499,13 +511,9 @@ TEST(RealAssetsInterop, AMarkedDracoFileIsReadAsTheSameMeshWhateverItsPointOrder
         const fs::path plain = scratch / "plain.glb";
         const ToolRun convert = assimp_to_glb(kModels / model, plain, scratch);
         ASSERT_TRUE(convert.ok()) << convert.describe();
-        const fs::path original = scratch / "draco.glb";
-        const ToolRun compress = run({tools().gltf_transform.string(), "draco", plain.string(), original.string()}, scratch);
-        ASSERT_TRUE(compress.ok()) << compress.describe();
-        const fs::path marked = scratch / "marked.glb";
-        const fs::path key = scratch / "key.json";
-        const ToolRun marking = embed(original, marked, key, kSeed, scratch);
-        ASSERT_TRUE(marking.ok()) << marking.describe();
+        std::string error;
+        const auto [original, marked, key] = compress_and_mark(plain, scratch, &error);
+        ASSERT_TRUE(error.empty()) << error;
         int exit_code = -1;
         const nlohmann::json report = detect_json(marked, original, key, scratch, &exit_code);
         ASSERT_TRUE(report.is_object()) << model;
