@@ -412,7 +412,7 @@ std::optional<Positions> renumbered_in_place(const TriangleMesh& original, const
             std::array<std::uint32_t, 2> index{};
             std::array<double, 2> squared{};
             if (suspect_tree.nearest(original.V.row(i).transpose(), 2, index.data(), squared.data()) < 2 ||
-                squared[0] > squared_tolerance || squared[0] > kMaxStartRatio * kMaxStartRatio * squared[1])
+                squared[0] > squared_tolerance || squared[0] >= kMaxStartRatio * kMaxStartRatio * squared[1])
             {
                 continue;
             }
@@ -420,7 +420,7 @@ std::optional<Positions> renumbered_in_place(const TriangleMesh& original, const
             std::array<double, 2> back_squared{};
             if (original_tree.nearest(suspect.V.row(index[0]).transpose(), 2, back.data(), back_squared.data()) == 2 &&
                 back[0] == static_cast<std::uint32_t>(i) &&
-                back_squared[0] <= kMaxStartRatio * kMaxStartRatio * back_squared[1])
+                back_squared[0] < kMaxStartRatio * kMaxStartRatio * back_squared[1])  // (two at one place: left)
             {
                 start[static_cast<std::size_t>(i)] = static_cast<std::int32_t>(index[0]);
             }
