@@ -75,6 +75,30 @@ VertexAdjacency vertex_adjacency(const TriangleMesh& mesh)
     return adjacency;
 }
 
+VertexFaces vertex_faces(const TriangleMesh& mesh)
+{
+    std::vector<std::size_t> counts(static_cast<std::size_t>(mesh.V.rows()), 0);
+    for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
+    {
+        for (int c = 0; c < 3; ++c)
+        {
+            ++counts[static_cast<std::size_t>(mesh.F(f, c))];
+        }
+    }
+    VertexFaces incidence;
+    incidence.offsets = row_offsets(counts);
+    incidence.faces.resize(incidence.offsets.back());
+    std::vector<std::size_t> cursor(incidence.offsets.begin(), incidence.offsets.end() - 1);
+    for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
+    {
+        for (int c = 0; c < 3; ++c)
+        {
+            incidence.faces[cursor[static_cast<std::size_t>(mesh.F(f, c))]++] = f;
+        }
+    }
+    return incidence;
+}
+
 EdgeStatistics edge_statistics(const TriangleMesh& mesh)
 {
     // Bucket every face edge under its smaller end, remembering the larger end and whether the

@@ -449,27 +449,7 @@ std::optional<Positions> renumbered_in_place(const TriangleMesh& original, const
         }
     }
     std::sort(by_edge.begin(), by_edge.end());
-    // The suspect's triangles by vertex (compressed rows).
-    std::vector<std::size_t> first(n + 1, 0);
-    for (Eigen::Index f = 0; f < suspect.F.rows(); ++f)
-    {
-        for (int c = 0; c < 3; ++c)
-        {
-            ++first[static_cast<std::size_t>(suspect.F(f, c)) + 1];
-        }
-    }
-    std::partial_sum(first.begin(), first.end(), first.begin());
-    std::vector<Eigen::Index> around(first.back());
-    {
-        std::vector<std::size_t> filled(first.begin(), first.end() - 1);
-        for (Eigen::Index f = 0; f < suspect.F.rows(); ++f)
-        {
-            for (int c = 0; c < 3; ++c)
-            {
-                around[filled[static_cast<std::size_t>(suspect.F(f, c))]++] = f;
-            }
-        }
-    }
+    const VertexFaces faces_of = vertex_faces(suspect);  // the suspect's triangles by vertex
     // A triangle with two corners known is the original's triangle on their edge whose third
     // corner is the nearest untaken one, when the next is at least twice as far (else another
     // of its triangles decides later).
@@ -526,9 +506,8 @@ std::optional<Positions> renumbered_in_place(const TriangleMesh& original, const
         {
             to_original[static_cast<std::size_t>(v)] = best;
             taken[static_cast<std::size_t>(best)] = 1;
-            const auto at = static_cast<std::size_t>(v);
-            queue.insert(queue.end(), around.begin() + static_cast<std::ptrdiff_t>(first[at]),
-                         around.begin() + static_cast<std::ptrdiff_t>(first[at + 1]));
+            const auto around = faces_of.of(static_cast<std::size_t>(v));
+            queue.insert(queue.end(), around.begin(), around.end());
         }
     }
     // Every vertex reached, and every triangle the original's.

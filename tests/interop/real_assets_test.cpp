@@ -395,10 +395,30 @@ TEST(RealAssetsInterop, ABlenderTurntableIsReadAsOneAssetWithoutAFrameSearch)
     }
 }
 
-// \p plain (.glb) compressed by `gltf-transform draco` into \p scratch / draco.glb and marked
-// with key kSeed (marked.glb, key.json); \p error is set if a step fails.
-ConvertedAndMarked compress_and_mark(const fs::path& plain, const fs::path& scratch, std::string* error)
+// \p model of assimp-testmodels converted to .glb (without its animations when \p still:
+// strip_animations.mjs), compressed by `gltf-transform draco` into \p scratch / draco.glb and
+// marked with key kSeed (marked.glb, key.json); \p error is set if a step fails.
+ConvertedAndMarked convert_compress_and_mark(const fs::path& model, bool still, const fs::path& scratch,
+                                             std::string* error)
 {
+    fs::path plain = scratch / "plain.glb";
+    const ToolRun convert = assimp_to_glb(kModels / model, plain, scratch);
+    if (!convert.ok())
+    {
+        *error = convert.describe();
+        return {};
+    }
+    if (still)
+    {
+        const fs::path stripped = scratch / "still.glb";
+        const ToolRun strip = node_helper("strip_animations.mjs", {plain.string(), stripped.string()}, scratch);
+        if (!strip.ok())
+        {
+            *error = strip.describe();
+            return {};
+        }
+        plain = stripped;
+    }
     ConvertedAndMarked files{scratch / "draco.glb", scratch / "marked.glb", scratch / "key.json"};
     const ToolRun compress = run({tools().gltf_transform.string(), "draco", plain.string(), files.original.string()}, scratch);
     if (!compress.ok())
@@ -464,11 +484,8 @@ TEST(RealAssetsInterop, BlenderCopiesOfADracoCompressedCharacterAreClaimed)
 {
     INTEROP_REQUIRE_TOOLS("meshmark", "blender", "assimp-testmodels", "assimp", "node", "gltf-transform");
     const fs::path scratch = temp_dir("interop-real-wuson-draco");
-    const fs::path plain = scratch / "wuson.glb";
-    const ToolRun convert = assimp_to_glb(kModels / "X/Testwuson.X", plain, scratch);
-    ASSERT_TRUE(convert.ok()) << convert.describe();
     std::string error;
-    const auto [original, marked, key] = compress_and_mark(plain, scratch, &error);
+    const auto [original, marked, key] = convert_compress_and_mark("X/Testwuson.X", false, scratch, &error);
     ASSERT_TRUE(error.empty()) << error;
     expect_decoded_blender_copies_claimed(original, marked, key, {"ply", "pose=20"}, false, 9.0, scratch);
 }
@@ -484,14 +501,8 @@ TEST(RealAssetsInterop, AStillDracoCompressedRigIsMarkedInThePoseViewersShow)
 {
     INTEROP_REQUIRE_TOOLS("meshmark", "blender", "assimp-testmodels", "assimp", "node", "gltf-transform");
     const fs::path scratch = temp_dir("interop-real-still-draco-rig");
-    const fs::path converted = scratch / "character.glb";
-    const ToolRun convert = assimp_to_glb(kModels / "X/BCN_Epileptic.X", converted, scratch);
-    ASSERT_TRUE(convert.ok()) << convert.describe();
-    const fs::path still = scratch / "still.glb";
-    const ToolRun strip = node_helper("strip_animations.mjs", {converted.string(), still.string()}, scratch);
-    ASSERT_TRUE(strip.ok()) << strip.describe();
     std::string error;
-    const auto [original, marked, key] = compress_and_mark(still, scratch, &error);
+    const auto [original, marked, key] = convert_compress_and_mark("X/BCN_Epileptic.X", true, scratch, &error);
     ASSERT_TRUE(error.empty()) << error;
     expect_decoded_blender_copies_claimed(original, marked, key, {"ply"}, true, 9.0, scratch);
 }
@@ -508,11 +519,8 @@ TEST(RealAssetsInterop, AMarkedDracoFileIsReadAsTheSameMeshWhateverItsPointOrder
     for (const char* model : {"Collada/anims_with_full_rotations_between_keys.DAE", "Collada/teapot_instancenodes.DAE"})
     {
         const fs::path scratch = temp_dir("interop-real-draco-renumbered");
-        const fs::path plain = scratch / "plain.glb";
-        const ToolRun convert = assimp_to_glb(kModels / model, plain, scratch);
-        ASSERT_TRUE(convert.ok()) << convert.describe();
         std::string error;
-        const auto [original, marked, key] = compress_and_mark(plain, scratch, &error);
+        const auto [original, marked, key] = convert_compress_and_mark(model, false, scratch, &error);
         ASSERT_TRUE(error.empty()) << error;
         int exit_code = -1;
         const nlohmann::json report = detect_json(marked, original, key, scratch, &exit_code);

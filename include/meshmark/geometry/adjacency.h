@@ -38,6 +38,26 @@ struct VertexAdjacency
 ///              repeated index contribute only their distinct edges.
 [[nodiscard]] VertexAdjacency vertex_adjacency(const TriangleMesh& mesh);
 
+/// \brief Vertex-to-face incidence of a triangle mesh in compressed rows (CSR).
+/// \details The faces using vertex `v` are `faces[offsets[v] .. offsets[v + 1])`, in face
+/// order; a face with a repeated index is listed once per corner.
+struct VertexFaces
+{
+    std::vector<std::size_t> offsets;  ///< #V + 1 row starts; offsets.back() == faces.size().
+    std::vector<Eigen::Index> faces;   ///< Concatenated face lists.
+
+    /// Faces using vertex \p v. \pre v < #V.
+    [[nodiscard]] std::span<const Eigen::Index> of(std::size_t v) const noexcept
+    {
+        return {faces.data() + offsets[v], offsets[v + 1] - offsets[v]};
+    }
+};
+
+/// \brief Build the vertex-to-face incidence of \p mesh: a counting sort of the face corners
+/// into rows, O(#V + #F).
+/// \param mesh  Triangle mesh; indices must be in range (see validate()).
+[[nodiscard]] VertexFaces vertex_faces(const TriangleMesh& mesh);
+
 /// Counts describing how the edges of a triangle mesh are shared by its faces.
 struct EdgeStatistics
 {

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <vector>
 
 #include "meshmark/geometry/shapes.h"
 
@@ -29,6 +30,30 @@ TEST(AdjacencyTest, icosphere_neighbours_are_symmetric_sorted_and_match_euler)
     // Euler: V - E + F = 2 for a sphere, and each edge appears in two rows.
     const auto edges = static_cast<Eigen::Index>(adjacency.neighbors.size() / 2);
     EXPECT_EQ(mesh.V.rows() - edges + mesh.F.rows(), 2);
+}
+
+TEST(AdjacencyTest, vertex_faces_list_every_face_of_each_vertex_in_face_order)
+{
+    TriangleMesh mesh = icosphere(1);
+    mesh.V.conservativeResize(mesh.V.rows() + 1, 3);  // an unreferenced vertex
+    mesh.V.row(mesh.V.rows() - 1).setZero();
+    const VertexFaces incidence = vertex_faces(mesh);
+    ASSERT_EQ(incidence.offsets.size(), static_cast<std::size_t>(mesh.V.rows()) + 1);
+    EXPECT_EQ(incidence.faces.size(), static_cast<std::size_t>(3 * mesh.F.rows()));
+    for (Eigen::Index v = 0; v < mesh.V.rows(); ++v)
+    {
+        std::vector<Eigen::Index> expected;
+        for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
+        {
+            if ((mesh.F.row(f).array() == v).any())
+            {
+                expected.push_back(f);
+            }
+        }
+        const auto row = incidence.of(static_cast<std::size_t>(v));
+        EXPECT_EQ(std::vector<Eigen::Index>(row.begin(), row.end()), expected) << "vertex " << v;
+    }
+    EXPECT_TRUE(incidence.of(static_cast<std::size_t>(mesh.V.rows() - 1)).empty());
 }
 
 TEST(AdjacencyTest, unreferenced_vertex_and_point_cloud_have_no_neighbours)
