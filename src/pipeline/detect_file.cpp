@@ -795,7 +795,7 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
         // for more (kEarlyStopStatistics), which implies the claim.
         const Decision first = mark.decide(report.extraction, options.decision);
         const int paid = std::max(2 * first.statistic_count, kEarlyStopStatistics);
-        const double both = std::min(1.0, paid * rademacher_tail_bound(first.score));
+        const double both = std::min(1.0, paid * first.score_tail);
         const double factor = score_level_factor(options.decision.verdict);
         is_conclusive = factor > 0.0 && both * factor <= options.decision.max_false_positive;
         if (is_conclusive)

@@ -148,6 +148,7 @@ SoftCorrelation::SoftCorrelation(const std::vector<double>& x, const std::vector
             weighted[c] = weight_of(c) * value;
             norm += weighted[c] * weighted[c];
         }
+        tails_.emplace_back(weighted);
         weighted_.push_back(std::move(weighted));
         norm_.push_back(norm);
     };
@@ -288,18 +289,20 @@ std::vector<RecipientScore> SpectralWatermark::trace(const Extraction& extractio
             double bound = 1.0;
             if (has_whole)
             {
-                std::tie(entry.score, bound) = soft.score([&](std::size_t c) { return signs[c * kLanes + j]; });
+                const SoftScore whole = soft.score([&](std::size_t c) { return signs[c * kLanes + j]; });
+                entry.score = whole.z;
+                bound = whole.probability;
             }
             if (has_joint)
             {
                 // Under the null (a suspect without the mark) every sign, the owner's and the
                 // code's, is independent of the readings: one Rademacher sum, bounded as any.
-                double joint_bound = 1.0;
-                std::tie(entry.joint_score, joint_bound) = joint.score([&](std::size_t c) {
+                const SoftScore both = joint.score([&](std::size_t c) {
                     return c < owner_count ? signs_(static_cast<Eigen::Index>(c / 3), static_cast<Eigen::Index>(c % 3))
                                            : signs[(c - owner_count) * kLanes + j];
                 });
-                entry.joint_false_positive_probability = std::min(1.0, recipient_count * joint_bound);
+                entry.joint_score = both.z;
+                entry.joint_false_positive_probability = std::min(1.0, recipient_count * both.probability);
             }
             if (!regions.empty())
             {
@@ -319,6 +322,108 @@ std::vector<RecipientScore> SpectralWatermark::trace(const Extraction& extractio
         }
     }
     return scores;
+}
+
+RademacherTail::RademacherTail(const std::vector<double>& weights, double resolution)
+{
+    if (!(resolution > 0.0))
+    {
+        throw InvalidOption("RademacherTail: the resolution must be positive.");
+    }
+    double norm_sq = 0.0;
+    std::size_t nonzero = 0;
+    for (const double a : weights)
+    {
+        norm_sq += a * a;
+        nonzero += a != 0.0 ? 1 : 0;
+    }
+    if (!(norm_sq > 0.0) || !std::isfinite(norm_sq))
+    {
+        return;  // no weight: the sum is 0, every tail above 0 is 0 and reported as 1
+    }
+    const double norm = std::sqrt(norm_sq);
+    double sum = 0.0;  // sum_i |a_i| / |a|, at most sqrt(n)
+    for (const double a : weights)
+    {
+        sum += std::abs(a) / norm;
+    }
+    // Rounding to the nearest multiple of h errs by at most h / 2 per weight: h = 2 resolution / n
+    // keeps the shift e within the resolution. The table has Q ~ sum / h entries and the
+    // counting costs about n Q / 2: beyond kMaxWork (some 470 equal weights at the default
+    // resolution) nothing is counted and the formula bound stands alone.
+    const auto n = static_cast<double>(nonzero);
+    const double step = 2.0 * resolution / n;
+    if (n * sum / step / 2.0 > kMaxWork)
+    {
+        return;
+    }
+    inverse_step_ = 1.0 / step;
+    std::vector<std::int64_t> units;
+    units.reserve(nonzero);
+    std::int64_t total = 0;
+    for (const double a : weights)
+    {
+        const double u = std::abs(a) / norm;
+        const auto q = static_cast<std::int64_t>(std::llround(u * inverse_step_));
+        slack_ += std::abs(u - static_cast<double>(q) * step);
+        if (q > 0)
+        {
+            units.push_back(q);
+            total += q;
+        }
+    }
+    // The distribution of the sum of q_i over the positive signs, one weight at a time:
+    // P_next(s) = (P(s) + P(s - q)) / 2 over the sums reachable so far (0 .. top + q). Both
+    // buffers start at 0 and each step writes 0 .. its new top, so past the current top the
+    // source still holds zeros.
+    std::vector<double> mass(static_cast<std::size_t>(total) + 1, 0.0);
+    std::vector<double> next(mass.size(), 0.0);
+    mass[0] = 1.0;
+    std::size_t top = 0;
+    for (const std::int64_t q64 : units)
+    {
+        const auto q = static_cast<std::size_t>(q64);
+        for (std::size_t s = 0; s < q; ++s)
+        {
+            next[s] = 0.5 * mass[s];
+        }
+        for (std::size_t s = q; s <= top + q; ++s)
+        {
+            next[s] = 0.5 * (mass[s] + mass[s - q]);
+        }
+        top += q;
+        mass.swap(next);
+    }
+    // Tails summed from the largest sum down, the small terms first.
+    at_least_.assign(mass.size() + 1, 0.0);
+    for (std::size_t k = mass.size(); k-- > 0;)
+    {
+        at_least_[k] = at_least_[k + 1] + mass[k];
+    }
+}
+
+double RademacherTail::operator()(double z) const
+{
+    if (!(z > 0.0) || at_least_.empty())
+    {
+        return 1.0;
+    }
+    // sum_i s_i a_i / |a| >= z implies h sum_i s_i q_i >= z - e, i.e. (with Q = sum_i q_i and
+    // S the sum of q_i over the positive signs, sum_i s_i q_i = 2 S - Q) S >= ((z - e) / h + Q) / 2.
+    const auto total = static_cast<double>(at_least_.size() - 2);
+    const double at = 0.5 * ((z - slack_) * inverse_step_ + total);
+    // A hair lower: a threshold that lands on an integer by rounding must not skip it.
+    const double k = std::ceil(at - 1e-9 * std::max(1.0, std::abs(at)));
+    if (k <= 0.0)
+    {
+        return 1.0;
+    }
+    if (k > total)
+    {
+        return 0.0;
+    }
+    // The recursion's sums of halves round by a few ulps per step: a relative margin covers them.
+    return std::min(1.0, at_least_[static_cast<std::size_t>(k)] * (1.0 + 1e-12));
 }
 
 double rademacher_tail_bound(double z)
@@ -400,14 +505,16 @@ Decision SpectralWatermark::decide(const Extraction& extraction, const DetectOpt
                                damped_only ? damped : extraction.further_changes, !damped_only);
     decision.coefficient_count = static_cast<int>(soft.size());
     decision.statistic_count = soft.statistic_count();
-    std::tie(decision.score, decision.score_false_positive_probability) = soft.score(
+    const SoftScore scored = soft.score(
         [&](std::size_t c) { return signs_(static_cast<Eigen::Index>(c / 3), static_cast<Eigen::Index>(c % 3)); });
+    decision.score = scored.z;
+    decision.score_tail = scored.tail;
+    decision.score_false_positive_probability = scored.probability;
     if (extraction.unread_statistics > 0)
     {
         // Paid for as if computed: the score is the best of a subset of them.
         decision.statistic_count += extraction.unread_statistics;
-        decision.score_false_positive_probability =
-            std::min(1.0, decision.statistic_count * rademacher_tail_bound(decision.score));
+        decision.score_false_positive_probability = std::min(1.0, decision.statistic_count * scored.tail);
     }
 
     switch (options.verdict)

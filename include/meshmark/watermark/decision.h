@@ -77,11 +77,62 @@ struct Extraction
 /// \throws InvalidOption if the two readings do not have the same number of coefficients.
 void add_further_reading(Extraction& primary, const Extraction& other);
 
+/// \brief The tail of a weighted sum of random signs, computed for the weights at hand:
+/// P(sum_i s_i a_i >= z |a|) for independent uniform signs s_i and fixed weights a_i.
+///
+/// The formula bound (rademacher_tail_bound) holds for every weight vector and so pays for the
+/// worst one, up to 4.46 times the normal tail; the distribution of the sum for *these*
+/// weights is known exactly up to rounding. Each |a_i| / |a| is rounded to the nearest
+/// multiple q_i h of a step h, the distribution of sum_i s_i q_i is counted exactly (a
+/// subset-sum recursion, O(n Q) for Q = sum_i q_i), and the rounding is paid for whole: the
+/// sum can exceed h sum_i s_i q_i by at most e = sum_i |a_i / |a| - q_i h|, so
+/// P(sum_i s_i a_i >= z |a|) <= P(sum_i s_i q_i >= (z - e) / h). The result is never below the
+/// exact tail, and at most the exact tail at z - resolution (e <= resolution by the choice of
+/// h). Weights so many that the counting would cost more than kMaxWork are not counted: the
+/// tail is then 1 and the formula bound stands alone where the two are combined.
+/// (Written here: a convolution of n two-point distributions, not something a library offers.)
+class RademacherTail
+{
+public:
+    /// The most counting work (about n Q / 2 additions, Q the table's size) spent on one tail:
+    /// about 470 equal weights at the default resolution, 20-30 ms.
+    static constexpr double kMaxWork = 6e7;
+    /// \param weights any real weights (signs and zeros allowed); \param resolution the largest
+    /// shift in z the rounding may cost (> 0).
+    explicit RademacherTail(const std::vector<double>& weights, double resolution = 0.02);
+    /// Upper bound on P(sum_i s_i a_i >= z |a|): 1 for z <= 0, where every weight is 0 and
+    /// where the weights were too many to count.
+    [[nodiscard]] double operator()(double z) const;
+    /// Whether the distribution was counted (some weight is not 0 and the work was within
+    /// kMaxWork).
+    [[nodiscard]] bool is_counted() const noexcept { return !at_least_.empty(); }
+    /// The rounding's largest shift e in z (in units of |a|).
+    [[nodiscard]] double slack() const noexcept { return slack_; }
+
+private:
+    double inverse_step_ = 0.0;     // 1 / h, h in units of |a|
+    double slack_ = 0.0;            // e
+    std::vector<double> at_least_;  // at_least_[k] = P(sum over the positive signs of q_i >= k)
+};
+
+/// One score of a SoftCorrelation: the best statistic's z and the smallest tail.
+struct SoftScore
+{
+    double z = 0.0;  ///< The largest of the statistics' scores.
+    /// The smallest over the statistics of P(a suspect without these signs scores at least
+    /// that statistic's score), each bounded by min(rademacher_tail_bound, RademacherTail):
+    /// may be another statistic's than z's, where that one's weights make its score rarer.
+    double tail = 1.0;
+    /// min(1, statistic count x tail): the union bound over the statistics.
+    double probability = 1.0;
+};
+
 /// \brief The soft correlation of a set of normalized coefficients with a sign vector, over the
 /// three weightings a = w^0, w^(1/2), w^1 (docs/statistics.md) and over any further readings of
-/// the same coefficients with uniform weights (the damped readings): the weighted values are
+/// the same coefficients with uniform weights (the damped readings): the weighted values and
+/// each statistic's tail (RademacherTail: they depend on the weights, not on the signs) are
 /// computed once, so scoring many sign vectors (every recipient of a family key) is one dot
-/// product per statistic each.
+/// product and one table lookup per statistic each.
 class SoftCorrelation
 {
 public:
@@ -91,11 +142,10 @@ public:
     /// the size alone).
     SoftCorrelation(const std::vector<double>& x, const std::vector<double>& w,
                     const std::vector<std::vector<double>>& extra = {}, bool with_weightings = true);
-    /// z = the largest of the statistics' scores for signs sign(c) in {-1, +1}, and the bound
-    /// min(1, statistic_count() rademacher_tail_bound(z)) on P(a suspect without these signs
-    /// scores z).
+    /// The statistics' best z for signs sign(c) in {-1, +1}, their smallest tail and the
+    /// union bound over them on P(a suspect without these signs scores so).
     template <class Sign>
-    [[nodiscard]] std::pair<double, double> score(Sign sign) const;
+    [[nodiscard]] SoftScore score(Sign sign) const;
     [[nodiscard]] std::size_t size() const noexcept { return size_; }
     /// 3 weightings (unless left out) plus one per extra reading: the union bound's factor.
     [[nodiscard]] int statistic_count() const noexcept { return static_cast<int>(weighted_.size()); }
@@ -104,6 +154,7 @@ private:
     std::size_t size_ = 0;
     std::vector<std::vector<double>> weighted_;  // per statistic, the weighted values
     std::vector<double> norm_;                   // per statistic, their squared norm
+    std::vector<RademacherTail> tails_;          // per statistic, the tail of its weights
 };
 
 /// How one recipient of a family key scores on a suspect.
@@ -115,18 +166,19 @@ struct RecipientScore
     /// The largest z over the regions of Extraction::region_changes (0 without them).
     double region_score = 0.0;
     /// Bound on P(some innocent recipient of the key scores this high), a union bound over the
-    /// key's R recipients: R S rademacher_tail_bound(score) without regions, with them
-    /// R min(2 S rademacher_tail_bound(score), 2 K rademacher_tail_bound(region_score)) for K
-    /// regions (docs/fingerprinting.md), where S is the number of statistics of the score (3
-    /// weightings, plus one per damped reading); at most 1.
+    /// key's R recipients: R S t without regions, with them
+    /// R min(2 S t, 2 K rademacher_tail_bound(region_score)) for K regions
+    /// (docs/fingerprinting.md), where S is the number of statistics of the score (3
+    /// weightings, plus one per damped reading) and t their smallest tail (SoftScore::tail);
+    /// at most 1.
     double false_positive_probability = 1.0;
     bool is_accused = false;  ///< false_positive_probability <= DetectOptions::max_false_positive.
     /// z of the owner's coefficients and this recipient's code read as one mark: the soft
     /// correlation over both with the owner's signs and this recipient's (0 without a
     /// whole-model reading of the code). Evidence of ownership when nobody can be accused.
     double joint_score = 0.0;
-    /// Bound on P(an unmarked suspect gives some recipient this joint score): R S
-    /// rademacher_tail_bound(joint_score) (S statistics as above), at most 1.
+    /// Bound on P(an unmarked suspect gives some recipient this joint score): R S t, with S
+    /// and t the joint statistics' count and smallest tail as above, at most 1.
     double joint_false_positive_probability = 1.0;
 };
 
@@ -196,11 +248,16 @@ struct Decision
     /// (the key mask) with fixed weights, of mean 0 and variance 1.
     double score = 0.0;
     int coefficient_count = 0;  ///< 3 m r.
-    /// The number of statistics z is the best of: 3, plus one per damped reading.
+    /// The number of statistics z is the best of: 3, plus one per damped reading (plus the
+    /// statistics paid for unread, Extraction::unread_statistics).
     int statistic_count = 3;
-    /// Bound on P(an unmarked mesh scores at least z): statistic_count rademacher_tail_bound(z)
-    /// (union bound over the statistics), at most 1.
+    /// Bound on P(an unmarked mesh scores so): statistic_count x score_tail (union bound over
+    /// the statistics), at most 1.
     double score_false_positive_probability = 1.0;
+    /// The smallest over the statistics of the tail of its score (SoftScore::tail): for each,
+    /// P(a sum of random signs with its weights reaches its score), bounded by
+    /// min(rademacher_tail_bound, RademacherTail).
+    double score_tail = 1.0;
     /// P(X >= matches), X ~ Bin(3m, 1/2): each decided bit of an unrelated mesh matches the
     /// key-masked payload with probability 1/2 and an undecided one never does.
     double bits_false_positive_probability = 1.0;
@@ -220,9 +277,9 @@ struct Decision
 [[nodiscard]] double binomial_tail_half(int n, int k);
 
 template <class Sign>
-std::pair<double, double> SoftCorrelation::score(Sign sign) const
+SoftScore SoftCorrelation::score(Sign sign) const
 {
-    double best = 0.0;
+    SoftScore result;
     for (std::size_t p = 0; p < weighted_.size(); ++p)
     {
         double dot = 0.0;
@@ -231,12 +288,12 @@ std::pair<double, double> SoftCorrelation::score(Sign sign) const
             dot += sign(c) * weighted_[p][c];
         }
         const double z = norm_[p] > 0.0 ? dot / std::sqrt(norm_[p]) : 0.0;
-        if (p == 0 || z > best)
-        {
-            best = z;
-        }
+        const double tail = std::min(rademacher_tail_bound(z), tails_[p](z));
+        result.z = p == 0 ? z : std::max(result.z, z);
+        result.tail = std::min(result.tail, tail);
     }
-    return {best, std::min(1.0, static_cast<double>(weighted_.size()) * rademacher_tail_bound(best))};
+    result.probability = std::min(1.0, static_cast<double>(weighted_.size()) * result.tail);
+    return result;
 }
 
 }  // namespace meshmark
