@@ -792,10 +792,13 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
     if (is_resampled && options.match_surface && !is_tracing)
     {
         // The second reading would bring as many statistics as the first has; the stop asks
-        // for more (kEarlyStopStatistics), which implies the claim.
+        // for more (kEarlyStopStatistics), which implies the claim. It asks it of the formula
+        // bound, not of the tail counted for the first reading's weights: that one claims
+        // copies from z ~ 5 whose second reading scores 9-10, and a clear copy should report
+        // the score it has (the claim is the same either way).
         const Decision first = mark.decide(report.extraction, options.decision);
         const int paid = std::max(2 * first.statistic_count, kEarlyStopStatistics);
-        const double both = std::min(1.0, paid * first.score_tail);
+        const double both = std::min(1.0, paid * rademacher_tail_bound(first.score));
         const double factor = score_level_factor(options.decision.verdict);
         is_conclusive = factor > 0.0 && both * factor <= options.decision.max_false_positive;
         if (is_conclusive)
