@@ -394,11 +394,15 @@ RademacherTail::RademacherTail(const std::vector<double>& weights, double resolu
         top += q;
         mass.swap(next);
     }
-    // Tails summed from the largest sum down, the small terms first.
-    at_least_.assign(mass.size() + 1, 0.0);
-    for (std::size_t k = mass.size(); k-- > 0;)
+    // Tails summed from the largest sum down, the small terms first. Only the upper half is
+    // kept (a score z > 0 asks for k > Q / 2 but for the rounding's slack, which below half
+    // reads as 1): a family key's trace keeps 20 such tables.
+    total_ = static_cast<std::size_t>(total);
+    first_ = total_ / 2;
+    at_least_.assign(total_ - first_ + 2, 0.0);
+    for (std::size_t k = total_ + 1; k-- > first_;)
     {
-        at_least_[k] = at_least_[k + 1] + mass[k];
+        at_least_[k - first_] = at_least_[k - first_ + 1] + mass[k];
     }
 }
 
@@ -410,11 +414,11 @@ double RademacherTail::operator()(double z) const
     }
     // sum_i s_i a_i / |a| >= z implies h sum_i s_i q_i >= z - e, i.e. (with Q = sum_i q_i and
     // S the sum of q_i over the positive signs, sum_i s_i q_i = 2 S - Q) S >= ((z - e) / h + Q) / 2.
-    const auto total = static_cast<double>(at_least_.size() - 2);
+    const auto total = static_cast<double>(total_);
     const double at = 0.5 * ((z - slack_) * inverse_step_ + total);
     // A hair lower: a threshold that lands on an integer by rounding must not skip it.
     const double k = std::ceil(at - 1e-9 * std::max(1.0, std::abs(at)));
-    if (k <= 0.0)
+    if (k <= static_cast<double>(first_))
     {
         return 1.0;
     }
@@ -423,7 +427,7 @@ double RademacherTail::operator()(double z) const
         return 0.0;
     }
     // The recursion's sums of halves round by a few ulps per step: a relative margin covers them.
-    return std::min(1.0, at_least_[static_cast<std::size_t>(k)] * (1.0 + 1e-12));
+    return std::min(1.0, at_least_[static_cast<std::size_t>(k) - first_] * (1.0 + 1e-12));
 }
 
 double rademacher_tail_bound(double z)

@@ -112,7 +112,10 @@ public:
 private:
     double inverse_step_ = 0.0;     // 1 / h, h in units of |a|
     double slack_ = 0.0;            // e
-    std::vector<double> at_least_;  // at_least_[k] = P(sum over the positive signs of q_i >= k)
+    std::size_t total_ = 0;         // Q = sum_i q_i
+    std::size_t first_ = 0;         // Q / 2: the first sum kept below
+    // at_least_[k - first_] = P(sum over the positive signs of q_i >= k), k = first_ .. Q + 1
+    std::vector<double> at_least_;
 };
 
 /// One score of a SoftCorrelation: the best statistic's z and the smallest tail.
