@@ -344,18 +344,26 @@ TEST(SpectralWatermarkTest, scores_of_unmarked_copies_follow_the_null_model)
 // coefficients far larger than the rest, as a bisection does): the score stays below 5, which
 // the formula bound refuses whatever the weights, but a sum of random signs with these weights
 // reaches it only when nearly every sign agrees, and the counted tail claims.
-TEST(SpectralWatermarkTest, soft_verdict_claims_every_sign_right_with_uneven_magnitudes)
+// An extraction of \p mark's coefficients with unit weights and changes value(c, embedded sign).
+template <class Value>
+Extraction unit_weight_extraction(const SpectralWatermark& mark, Value value)
 {
-    const TriangleMesh mesh = lumpy_ellipsoid(4);
-    const SpectralWatermark mark(mesh, make_key(mesh, 9));
     const auto coefficients = static_cast<std::size_t>(mark.embedded_signs().size());
     Extraction e;
     e.weights.assign(coefficients, 1.0);
     for (std::size_t c = 0; c < coefficients; ++c)
     {
-        const double sign = mark.embedded_signs()(static_cast<Eigen::Index>(c / 3), static_cast<Eigen::Index>(c % 3));
-        e.normalized_change.push_back(sign * (c % 7 == 0 ? 30.0 : 0.2));
+        e.normalized_change.push_back(
+            value(c, mark.embedded_signs()(static_cast<Eigen::Index>(c / 3), static_cast<Eigen::Index>(c % 3))));
     }
+    return e;
+}
+
+TEST(SpectralWatermarkTest, soft_verdict_claims_every_sign_right_with_uneven_magnitudes)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(4);
+    const SpectralWatermark mark(mesh, make_key(mesh, 9));
+    Extraction e = unit_weight_extraction(mark, [](std::size_t c, double sign) { return sign * (c % 7 == 0 ? 30.0 : 0.2); });
     e.bits_found.assign(mark.key().payload.size(), 2);  // no bit decided: the score alone
     DetectOptions correlation;
     correlation.verdict = VerdictRule::Correlation;
@@ -374,14 +382,8 @@ TEST(SpectralWatermarkTest, combined_verdict_claims_a_perfect_bit_read_the_score
 {
     const TriangleMesh mesh = lumpy_ellipsoid(4);
     const SpectralWatermark mark(mesh, make_key(mesh, 9));
-    const auto coefficients = static_cast<std::size_t>(mark.embedded_signs().size());
-    Extraction e;
-    e.weights.assign(coefficients, 1.0);
     Rng rng(4);
-    for (std::size_t c = 0; c < coefficients; ++c)
-    {
-        e.normalized_change.push_back(rng.normal());
-    }
+    Extraction e = unit_weight_extraction(mark, [&](std::size_t, double) { return rng.normal(); });
     for (const std::uint8_t bit : mark.key().payload)
     {
         e.bits_found.push_back(bit);
