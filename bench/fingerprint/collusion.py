@@ -62,7 +62,10 @@ def rademacher(z):
 
 
 def tail_bound(entry):
-    """The accusation's per-recipient bound before the factor R (docs/fingerprinting.md)."""
+    """The accusation's per-recipient bound before the factor R (docs/fingerprinting.md), from the
+    formula alone. Since 2026-11-27 the trace counts the whole-model statistics' tails for their
+    weights (smaller, docs/statistics.md, "The tail counted for the weights at hand"), which the
+    recorded scores cannot recompute: this null check is of the formula's bound, the looser one."""
     whole = 3 * rademacher(entry["score"])
     if "region_score" not in entry:
         return min(1.0, whole)
