@@ -737,17 +737,17 @@ TEST(RademacherTailTest, is_the_binomial_tail_for_equal_weights)
             const double z = (2.0 * k - n) / std::sqrt(static_cast<double>(n));
             const double exact = binomial_tail_half(n, k);
             EXPECT_GE(tail(z), exact * (1.0 - 1e-12)) << n << " " << k;
-            EXPECT_LE(tail(z), binomial_tail_half(n, k - 1) * (1.0 + 1e-9)) << n << " " << k;
+            EXPECT_LE(tail(z), binomial_tail_half(n, k - 1) * (1.0 + 1e-8)) << n << " " << k;
             if (k < n)
             {
-                EXPECT_NEAR(tail(z + 0.03) / binomial_tail_half(n, k + 1), 1.0, 1e-9) << n << " " << k;
+                EXPECT_NEAR(tail(z + 0.03) / binomial_tail_half(n, k + 1), 1.0, 1e-8) << n << " " << k;
             }
         }
         EXPECT_EQ(tail(std::sqrt(static_cast<double>(n)) + 0.03), 0.0) << "beyond every sign agreeing";
     }
     // 120 coefficients at z = 5: P(Bin(120, 1/2) >= 88) = 1.5e-7 against the formula's 1.3e-6.
     const RademacherTail tail(std::vector<double>(120, 1.0));
-    EXPECT_NEAR(tail(5.0) / binomial_tail_half(120, 88), 1.0, 1e-9);
+    EXPECT_NEAR(tail(5.0) / binomial_tail_half(120, 88), 1.0, 1e-8);
     EXPECT_LT(tail(5.0), rademacher_tail_bound(5.0) / 4.0);
     EXPECT_EQ(tail(0.0), 1.0);
     EXPECT_EQ(tail(-2.0), 1.0);
@@ -791,7 +791,7 @@ TEST(RademacherTailTest, brackets_the_exact_tail_of_any_weights)
         for (double z = 0.25; z < 4.2; z += 0.05)
         {
             EXPECT_GE(tail(z), exact(z) * (1.0 - 1e-12)) << trial << " " << z;
-            EXPECT_LE(tail(z), exact(z - 0.02 - 1e-9) * (1.0 + 1e-9)) << trial << " " << z;
+            EXPECT_LE(tail(z), exact(z - 0.02 - 1e-9) * (1.0 + 1e-8)) << trial << " " << z;
         }
         // Each attainable sum: its own tail is at least 2^-16 (the sign vector that gave it).
         EXPECT_GE(tail(*std::max_element(sums.begin(), sums.end())), std::pow(0.5, 16));
