@@ -134,7 +134,7 @@ void add_further_reading(Extraction& primary, const Extraction& other)
 }
 
 SoftCorrelation::SoftCorrelation(const std::vector<double>& x, const std::vector<double>& w,
-                                 const std::vector<std::vector<double>>& extra, bool with_weightings)
+                                 const std::vector<std::vector<double>>& extra, bool with_weightings, int threads)
     : size_(x.size())
 {
     // A change below a millionth of the modulation is rounding (an unmarked original compared
@@ -148,7 +148,6 @@ SoftCorrelation::SoftCorrelation(const std::vector<double>& x, const std::vector
             weighted[c] = weight_of(c) * value;
             norm += weighted[c] * weighted[c];
         }
-        tails_.emplace_back(weighted);
         weighted_.push_back(std::move(weighted));
         norm_.push_back(norm);
     };
@@ -167,6 +166,16 @@ SoftCorrelation::SoftCorrelation(const std::vector<double>& x, const std::vector
         }
         add(reading, [](std::size_t) { return 1.0; });
     }
+    // The tails are independent of one another and each costs up to a few milliseconds (a
+    // family key's trace counts 20): one statistic per thread at a time.
+    tails_.resize(weighted_.size());
+    const auto count = static_cast<std::int64_t>(weighted_.size());
+    const int workers = count > 1 ? std::min(resolve_threads(threads), static_cast<int>(count)) : 1;
+#pragma omp parallel for num_threads(workers) schedule(dynamic, 1) if (workers > 1)
+    for (std::int64_t s = 0; s < count; ++s)
+    {
+        tails_[static_cast<std::size_t>(s)] = RademacherTail(weighted_[static_cast<std::size_t>(s)]);
+    }
 }
 
 std::vector<RecipientScore> SpectralWatermark::trace(const Extraction& extraction, const DetectOptions& options) const
@@ -180,8 +189,9 @@ std::vector<RecipientScore> SpectralWatermark::trace(const Extraction& extractio
     // Each innocent recipient's code is independent of the suspect (made from the owner's mark
     // and other recipients' codes), so its score is bounded as the owner's soft score is; the
     // union over the key's recipients bounds the chance that any innocent is accused.
+    const int threads = resolve_threads(threads_);
     const SoftCorrelation soft(extraction.recipient_change, extraction.recipient_weights,
-                               extraction.further_recipient_changes);
+                               extraction.further_recipient_changes, true, threads);
     // Regions (spliced suspects): one uniform-weight correlation each; the global test and the
     // regions share the level half and half (a weighted union bound, docs/fingerprinting.md).
     std::vector<std::vector<double>> regions;  // each region's values scaled to unit norm
@@ -225,7 +235,7 @@ std::vector<RecipientScore> SpectralWatermark::trace(const Extraction& extractio
         }
     }
     const SoftCorrelation joint(has_joint ? joint_x : std::vector<double>(), has_joint ? joint_w : std::vector<double>(),
-                                joint_damped);
+                                joint_damped, true, threads);
     const bool is_sized = (!has_whole || soft.size() == n) &&
                           std::all_of(regions.begin(), regions.end(), [n](const auto& unit) { return unit.size() == n; });
     if (!is_sized)
@@ -243,8 +253,8 @@ std::vector<RecipientScore> SpectralWatermark::trace(const Extraction& extractio
     constexpr std::size_t kLanes = 8;
     scores.resize(recipients.size());
     const auto groups = static_cast<std::int64_t>((recipients.size() + kLanes - 1) / kLanes);
-    const int threads = recipients.size() >= 512 ? resolve_threads(threads_) : 1;
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 8)
+    const int score_threads = recipients.size() >= 512 ? threads : 1;
+#pragma omp parallel for num_threads(score_threads) schedule(dynamic, 8)
     for (std::int64_t group = 0; group < groups; ++group)
     {
         const std::size_t first = static_cast<std::size_t>(group) * kLanes;
@@ -513,7 +523,8 @@ Decision SpectralWatermark::decide(const Extraction& extraction, const DetectOpt
     }
     const bool damped_only = !damped.empty();  // else (no damped reading) every statistic
     const SoftCorrelation soft(extraction.normalized_change, extraction.weights,
-                               damped_only ? damped : extraction.further_changes, !damped_only);
+                               damped_only ? damped : extraction.further_changes, !damped_only,
+                               resolve_threads(threads_));
     decision.coefficient_count = static_cast<int>(soft.size());
     decision.statistic_count = soft.statistic_count();
     const SoftScore scored = soft.score(

@@ -100,6 +100,8 @@ public:
     /// \param weights any real weights (signs and zeros allowed); \param resolution the largest
     /// shift in z the rounding may cost (> 0).
     explicit RademacherTail(const std::vector<double>& weights, double resolution = 0.02);
+    /// No weights: every tail is 1 (what the formula bound alone gives).
+    RademacherTail() = default;
     /// Upper bound on P(sum_i s_i a_i >= z |a|): 1 for z <= 0, where every weight is 0 and
     /// where the weights were too many to count.
     [[nodiscard]] double operator()(double z) const;
@@ -142,9 +144,11 @@ public:
     /// \param x normalized changes; \param w their weights (>= 0), same size; \param extra
     /// further readings of the same coefficients, each of that size (else InvalidOption).
     /// \param with_weightings false: only the further readings are statistics (x and w give
-    /// the size alone).
+    /// the size alone). \param threads counts the statistics' tails on that many threads
+    /// (resolve_threads; 1 by default): the same tables for any value.
     SoftCorrelation(const std::vector<double>& x, const std::vector<double>& w,
-                    const std::vector<std::vector<double>>& extra = {}, bool with_weightings = true);
+                    const std::vector<std::vector<double>>& extra = {}, bool with_weightings = true,
+                    int threads = 1);
     /// The statistics' best z for signs sign(c) in {-1, +1}, their smallest tail and the
     /// union bound over them on P(a suspect without these signs scores so).
     template <class Sign>

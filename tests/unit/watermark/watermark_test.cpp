@@ -869,6 +869,37 @@ TEST(RademacherTailTest, leaves_too_many_weights_to_the_formula)
     EXPECT_DOUBLE_EQ(scored.probability, 3.0 * rademacher_tail_bound(scored.z));
 }
 
+// The statistics' tails are counted on several threads: the same score, tail and probability
+// as on one, bit for bit, for uneven weights, several readings and signs mostly right.
+TEST(SoftCorrelationTest, counts_the_same_tails_on_any_number_of_threads)
+{
+    Rng rng(0x7A11);
+    const std::size_t n = 120;
+    std::vector<double> x(n);
+    std::vector<double> w(n);
+    std::vector<std::vector<double>> damped(4, std::vector<double>(n));
+    for (std::size_t c = 0; c < n; ++c)
+    {
+        x[c] = 1.0 + rng.normal();
+        w[c] = 0.1 + rng.uniform() * 4.0;
+        for (std::vector<double>& reading : damped)
+        {
+            reading[c] = 0.8 + 1.5 * rng.normal();
+        }
+    }
+    const auto sign = [](std::size_t c) { return c % 7 == 3 ? -1.0 : 1.0; };
+    const SoftScore one = SoftCorrelation(x, w, damped, true, 1).score(sign);
+    EXPECT_GT(one.z, 4.0);
+    EXPECT_LT(one.tail, 0.1 * rademacher_tail_bound(one.z)) << "the counted tail, not the formula";
+    for (const int threads : {2, 3, 7})
+    {
+        const SoftScore many = SoftCorrelation(x, w, damped, true, threads).score(sign);
+        EXPECT_EQ(many.z, one.z) << threads;
+        EXPECT_EQ(many.tail, one.tail) << threads;
+        EXPECT_EQ(many.probability, one.probability) << threads;
+    }
+}
+
 TEST(BinomialTest, tail_matches_direct_sums)
 {
     EXPECT_DOUBLE_EQ(binomial_tail_half(24, 0), 1.0);
