@@ -159,7 +159,8 @@ std::vector<std::uint8_t> kept_without_outliers(const Eigen::VectorXd& distance,
 constexpr double kWeightScale = 3.0;
 
 // The first reading of a resampled suspect ends the detection when its score alone would claim
-// at the price of this many statistics, more than the 4 the two readings' verdict pays: a copy
+// at the price of this many statistics, more than the 7 the two readings' verdict pays (the
+// damped readings of each, 2 + 2, and the three joined, add_further_reading): a copy
 // the first reading claims only narrowly is read again, so its reported score and R are the
 // better reading's (ogre's 5% remesh: 5.38 and R 0.71 from the first reading, 9.51 and R 1.0
 // from the second). 10 is the level of the early stop before the verdict scored the damped
@@ -791,19 +792,22 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
     bool is_conclusive = false;
     if (is_resampled && options.match_surface && !is_tracing)
     {
-        // The second reading would bring as many statistics as the first has; the stop asks
-        // for more (kEarlyStopStatistics), which implies the claim. It asks it of the formula
+        // The second reading would bring as many statistics as the first has and the joined
+        // ones; the stop asks for more (kEarlyStopStatistics), which implies the claim. It asks it of the formula
         // bound, not of the tail counted for the first reading's weights: that one claims
         // copies from z ~ 5 whose second reading scores 9-10, and a clear copy should report
         // the score it has (the claim is the same either way).
         const Decision first = mark.decide(report.extraction, options.decision);
-        const int paid = std::max(2 * first.statistic_count, kEarlyStopStatistics);
+        // Unread: the second reading's own statistics and the two readings joined.
+        const int unread = first.statistic_count +
+                           joined_reading_count(static_cast<int>(report.extraction.further_changes.size()));
+        const int paid = std::max(first.statistic_count + unread, kEarlyStopStatistics);
         const double both = std::min(1.0, paid * rademacher_tail_bound(first.score));
         const double factor = score_level_factor(options.decision.verdict);
         is_conclusive = factor > 0.0 && both * factor <= options.decision.max_false_positive;
         if (is_conclusive)
         {
-            report.extraction.unread_statistics = first.statistic_count;
+            report.extraction.unread_statistics = unread;
         }
     }
     if (is_conclusive)

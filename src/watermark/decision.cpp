@@ -80,6 +80,29 @@ std::vector<double> weighted_by(const std::vector<double>& x, const std::vector<
     return weighted;
 }
 
+/// The sum of \p readings[i] for i in \p group, each scaled to unit norm (a zero one adds nothing).
+std::vector<double> sum_of_units(const std::vector<std::vector<double>>& readings, const std::vector<std::size_t>& group)
+{
+    std::vector<double> sum(readings[group.front()].size(), 0.0);
+    for (const std::size_t i : group)
+    {
+        double norm_sq = 0.0;
+        for (const double v : readings[i])
+        {
+            norm_sq += v * v;
+        }
+        if (norm_sq > 0.0)
+        {
+            const double scale = 1.0 / std::sqrt(norm_sq);
+            for (std::size_t c = 0; c < sum.size(); ++c)
+            {
+                sum[c] += scale * readings[i][c];
+            }
+        }
+    }
+    return sum;
+}
+
 }  // namespace
 
 double score_level_factor(VerdictRule rule) noexcept
@@ -109,6 +132,10 @@ void add_further_reading(Extraction& primary, const Extraction& other)
                           other.recipient_weights.size() == other.recipient_change.size() &&
                           other.further_recipient_changes.size() == other.further_changes.size();
     const std::vector<double> no_code(primary.recipient_change.size(), 0.0);
+    // Both readings' own damped readings, before anything is added, for the joined statistics.
+    const std::size_t own = primary.further_changes.size();
+    const bool is_joined = own > 0 && own == other.further_changes.size() && primary.further_weightings.empty() &&
+                           other.further_weightings.empty();
     for (const double power : {0.0, 0.5, 1.0})
     {
         primary.further_weightings.push_back(primary.further_changes.size());
@@ -131,6 +158,40 @@ void add_further_reading(Extraction& primary, const Extraction& other)
             primary.further_recipient_changes.push_back(has_code ? other.further_recipient_changes[l] : no_code);
         }
     }
+    if (!is_joined)
+    {
+        return;
+    }
+    // The joined readings: at each damping level l the primary's (l) and the other's (the
+    // last `own` further changes), then all of them; the code's parts joined alike.
+    const std::size_t others = primary.further_changes.size() - own;
+    std::vector<std::vector<std::size_t>> groups;
+    for (std::size_t l = 0; l < own; ++l)
+    {
+        groups.push_back({l, others + l});
+    }
+    if (own >= 2)
+    {
+        groups.emplace_back();
+        for (std::size_t l = 0; l < own; ++l)
+        {
+            groups.back().push_back(l);
+            groups.back().push_back(others + l);
+        }
+    }
+    for (const std::vector<std::size_t>& group : groups)
+    {
+        primary.further_changes.push_back(sum_of_units(primary.further_changes, group));
+        if (is_paired)
+        {
+            primary.further_recipient_changes.push_back(sum_of_units(primary.further_recipient_changes, group));
+        }
+    }
+}
+
+int joined_reading_count(int damped) noexcept
+{
+    return damped < 1 ? 0 : damped + (damped >= 2 ? 1 : 0);
 }
 
 SoftCorrelation::SoftCorrelation(const std::vector<double>& x, const std::vector<double>& w,

@@ -74,8 +74,19 @@ struct Extraction
 /// a x, scored with a = 1) and its own further readings, the owner's to `further_changes` and,
 /// when \p primary pairs those with a family code's, the code's to `further_recipient_changes`
 /// (zeros where \p other did not read the code).
+/// When both readings bring the same number k >= 1 of damped readings of their own (and no
+/// weightings yet), the two are also joined (joined_reading_count): each pair at the same
+/// damping level, and for k >= 2 all 2k together, as the sum of the readings each scaled to
+/// unit norm, one further statistic each. The two readings of a resampled suspect see
+/// different errors of the attack (their noise correlates by 0.0-0.3 after a coarse
+/// decimation) and the same mark, so their sum scores higher than either (docs/statistics.md,
+/// "The two readings joined"). Fixed functions of the suspect, so the bound holds.
 /// \throws InvalidOption if the two readings do not have the same number of coefficients.
 void add_further_reading(Extraction& primary, const Extraction& other);
+
+/// The further statistics add_further_reading joins for two readings of \p damped damped
+/// readings each: one per damping level, plus one of all of them where \p damped >= 2.
+[[nodiscard]] int joined_reading_count(int damped) noexcept;
 
 /// \brief The tail of a weighted sum of random signs, computed for the weights at hand:
 /// P(sum_i s_i a_i >= z |a|) for independent uniform signs s_i and fixed weights a_i.

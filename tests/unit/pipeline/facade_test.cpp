@@ -18,6 +18,7 @@
 #include <string>
 
 #include "meshmark/attacks/attack_spec.h"
+#include "meshmark/attacks/simplification.h"
 #include "meshmark/attacks/voxel_remeshing.h"
 #include "meshmark/geometry/shapes.h"
 #include "meshmark/metrics/distortion.h"
@@ -391,6 +392,35 @@ TEST(FacadeTest, a_fine_voxel_remesh_is_read_through_its_surface)
     const DetectReport clean = detect(voxel_remesh(original, {.resolution = 300.0}), original, key);
     EXPECT_EQ(clean.alignment, "registration");
     EXPECT_FALSE(clean.decision.is_present);
+}
+
+// A resampled suspect is read twice and its verdict pays for 7 statistics: each reading's two
+// damped readings and the three that join them (add_further_reading). A copy the first reading
+// already claims pays for the same 7 without the second reading; a simplification to 1%,
+// which the first reading does not claim alone (a 5% one it does), is read twice.
+TEST(FacadeTest, a_resampled_copy_pays_for_both_readings_and_their_joins)
+{
+    const fs::path dir = test::temp_dir("facade-joined");
+    EmbedFileOptions options;
+    options.seed = 7;
+    const auto [original, key] = marked_ellipsoid(dir, options);
+    const TriangleMesh marked = read_mesh(dir / "marked.ply");
+    const DetectReport clear = detect(voxel_remesh(marked, {.resolution = 300.0}), original, key);
+    ASSERT_EQ(clear.alignment, "registration");
+    EXPECT_TRUE(clear.decision.is_present);
+    EXPECT_EQ(clear.extraction.unread_statistics, 5) << "stopped after the first reading";
+    EXPECT_EQ(clear.decision.statistic_count, 7);
+    EXPECT_DOUBLE_EQ(clear.decision.score_false_positive_probability,
+                     std::min(1.0, 7.0 * clear.decision.score_tail));
+    SimplificationOptions coarse;
+    coarse.vertex_fraction = 0.01;
+    const DetectReport twice = detect(simplify(marked, coarse), original, key);
+    ASSERT_EQ(twice.alignment, "registration");
+    EXPECT_EQ(twice.extraction.unread_statistics, 0) << "read twice";
+    EXPECT_EQ(twice.decision.statistic_count, 7);
+    EXPECT_EQ(twice.extraction.further_changes.size(), 2U + 3U + 2U + 3U) << "own, other's weightings, other's, joined";
+    EXPECT_DOUBLE_EQ(twice.decision.score_false_positive_probability,
+                     std::min(1.0, 7.0 * twice.decision.score_tail));
 }
 
 // A symmetric original (an ellipsoid on a subdivided icosahedron: a half turn about each axis
