@@ -44,16 +44,17 @@ void BM_TraceRecipients(benchmark::State& state)
     }
     // As in a detection of a resampled suspect, read twice (detect_file): the owner's readings
     // (for the joint score), the further readings of both (the two damped ones of the primary
-    // reading, then the other reading's three weightings and two damped ones:
-    // add_further_reading), and both readings' regions (2 x Detector::kRegionCount).
+    // reading, then the other reading's three weightings and two damped ones, then the three
+    // joining the two readings' damped ones: add_further_reading), and both readings' regions
+    // (2 x Detector::kRegionCount).
     const auto owner = static_cast<int>(mark.embedded_signs().size());
     for (int c = 0; c < owner; ++c)
     {
         extraction.normalized_change.push_back(rng.normal());
         extraction.weights.push_back(1.0 + rng.uniform());
     }
-    constexpr int kFurtherReadings = 2 + 3 + 2;
-    for (int level = 0; level < kFurtherReadings; ++level)
+    const int further_readings = 2 + 3 + 2 + joined_reading_count(2);
+    for (int level = 0; level < further_readings; ++level)
     {
         std::vector<double> damped_owner;
         std::vector<double> damped_code;
