@@ -113,6 +113,22 @@ std::pair<TriangleMesh, Key> marked_ellipsoid(const fs::path& dir, const EmbedFi
     return {read_mesh(input), read_key(dir / "key.json")};
 }
 
+struct MarkedCopy
+{
+    TriangleMesh original;
+    Key key;
+    TriangleMesh marked;  // as embed_file wrote it
+};
+
+// marked_ellipsoid with the default options but the seed, and the marked copy read back.
+MarkedCopy marked_ellipsoid_copy(const fs::path& dir, std::uint64_t seed)
+{
+    EmbedFileOptions options;
+    options.seed = seed;
+    auto [original, key] = marked_ellipsoid(dir, options);
+    return {std::move(original), std::move(key), read_mesh(dir / "marked.ply")};
+}
+
 TEST(FacadeTest, vertices_a_tool_throws_far_are_left_out_of_a_vertex_for_vertex_reading)
 {
     // MeshLab's Taubin smoothing crushed the two 96-vertex parts of a game-like asset (moved by
@@ -264,10 +280,7 @@ TEST(FacadeTest, a_copy_split_at_seams_is_read_vertex_for_vertex)
 TEST(FacadeTest, a_copy_that_only_lost_faces_is_read_vertex_for_vertex)
 {
     const fs::path dir = test::temp_dir("facade-lost-faces");
-    EmbedFileOptions options;
-    options.seed = 11;
-    const auto [original, key] = marked_ellipsoid(dir, options);
-    const TriangleMesh marked = read_mesh(dir / "marked.ply");
+    const auto [original, key, marked] = marked_ellipsoid_copy(dir, 11);
     // The faces on one side of a plane deleted with the vertices they alone used, the kept
     // vertices stored in reverse, and the copy moved.
     auto cut = [](const TriangleMesh& mesh) {
@@ -377,10 +390,7 @@ TEST(FacadeTest, the_original_renumbered_where_it_stands_is_read_as_the_same_mes
 TEST(FacadeTest, a_fine_voxel_remesh_is_read_through_its_surface)
 {
     const fs::path dir = test::temp_dir("facade-voxel");
-    EmbedFileOptions options;
-    options.seed = 7;
-    const auto [original, key] = marked_ellipsoid(dir, options);
-    const TriangleMesh marked = read_mesh(dir / "marked.ply");
+    const auto [original, key, marked] = marked_ellipsoid_copy(dir, 7);
     const TriangleMesh remeshed = voxel_remesh(marked, {.resolution = 300.0});
     ASSERT_GT(remeshed.V.rows(), 4 * original.V.rows());
     const DetectReport found = detect(remeshed, original, key);
@@ -401,10 +411,7 @@ TEST(FacadeTest, a_fine_voxel_remesh_is_read_through_its_surface)
 TEST(FacadeTest, a_resampled_copy_pays_for_both_readings_and_their_joins)
 {
     const fs::path dir = test::temp_dir("facade-joined");
-    EmbedFileOptions options;
-    options.seed = 7;
-    const auto [original, key] = marked_ellipsoid(dir, options);
-    const TriangleMesh marked = read_mesh(dir / "marked.ply");
+    const auto [original, key, marked] = marked_ellipsoid_copy(dir, 7);
     const DetectReport clear = detect(voxel_remesh(marked, {.resolution = 300.0}), original, key);
     ASSERT_EQ(clear.alignment, "registration");
     EXPECT_TRUE(clear.decision.is_present);
