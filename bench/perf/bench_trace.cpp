@@ -111,6 +111,7 @@ BENCHMARK(BM_CountedTail)->ArgName("n")->Arg(48)->Arg(96)->Arg(120)->Arg(312)->U
 BENCHMARK(BM_TraceRecipients)
     ->ArgNames({"recipients", "threads"})
     ->Args({100, 1})
+    ->Args({100, 2})
     ->Args({1000, 1})
     ->Args({10000, 1})
     ->Args({10000, 2})
