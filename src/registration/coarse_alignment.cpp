@@ -214,6 +214,7 @@ Moments area_moments(const TriangleMesh& mesh)
     {
         return m;
     }
+    m.weight = area;
     const Vec3 mean = first / area;
     m.centroid = o + mean;
     m.covariance = second / area - mean * mean.transpose();
@@ -233,6 +234,7 @@ Moments vertex_moments(const Positions& V, const std::vector<std::int32_t>& rows
     }
     const auto n = static_cast<double>(rows.size());
     Moments m;
+    m.weight = n;
     const Vec3 mean = first / n;
     m.centroid = o + mean;
     m.covariance = second / n - mean * mean.transpose();

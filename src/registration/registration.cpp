@@ -73,6 +73,13 @@ constexpr double kMaxScaleFactor = 2.0;
 // diagonal) moves the area moments' centroid by 4-11% of the radius and the radius by 8%.
 constexpr double kInPlaceOffset = 0.25;
 constexpr double kInPlaceScale = 1.25;
+// A suspect whose triangles cover less than this share of the area the reference's cover, at the
+// same size, is measured by its vertices (has_collapsed_triangles): no decimation, remesh or crop
+// comes near (they keep the area per squared extent within a few times: a screw's Blender
+// decimation to 5% 0.99, its bisection 1.56), while a soup whose triangles were shrunk to
+// slivers keeps almost none (the screw's STL smoothed by Open3D without welding: 1.6e-15 to
+// 2.6e-6).
+constexpr double kCollapsedArea = 0.01;
 // A suspect whose bounding box has the reference's extents within this factor, in some order of
 // the axes, is also started on the reference's coordinate axes at scale 1 (add_axis_candidates).
 constexpr double kAxisExtentRatio = 1.1;
@@ -257,6 +264,25 @@ bool stands_in_place(const Moments& suspect, const Moments& reference)
     const double ratio2 = suspect.covariance.trace() / radius2;
     return (suspect.centroid - reference.centroid).squaredNorm() <= kInPlaceOffset * kInPlaceOffset * radius2 &&
            ratio2 <= kInPlaceScale * kInPlaceScale && ratio2 * kInPlaceScale * kInPlaceScale >= 1.0;
+}
+
+/// True when the suspect's triangles cover (almost) none of the area its vertices span: its
+/// area over its bounding box's squared diagonal is below kCollapsedArea times the reference's
+/// (a triangle soup smoothed triangle by triangle, Open3D's Taubin filter on an STL read
+/// without welding, shrinks every triangle to a sliver). Its area moments are then noise.
+bool has_collapsed_triangles(const TriangleMesh& suspect, const std::vector<std::int32_t>& suspect_rows,
+                             const Moments& ms, const TriangleMesh& reference,
+                             const std::vector<std::int32_t>& reference_rows, const Moments& mr)
+{
+    const double suspect_span = bounding_box(suspect.V, suspect_rows).diagonal();
+    const double reference_span = bounding_box(reference.V, reference_rows).diagonal();
+    if (!(suspect_span > 0.0) || !(reference_span > 0.0) || !(mr.weight > 0.0))
+    {
+        return false;
+    }
+    const double suspect_cover = ms.weight / (suspect_span * suspect_span);
+    const double reference_cover = mr.weight / (reference_span * reference_span);
+    return suspect_cover < kCollapsedArea * reference_cover;
 }
 
 /// Starts that map the suspect's principal frame onto a target frame by every rotation in
@@ -564,7 +590,7 @@ RegistrationResult register_to_reference(const TriangleMesh& suspect, const Tria
     // thread (thread 0 of the team), so that its large arrays come from the same allocator arena
     // as the rest of the run (with OpenMP sections, where any thread could build it, the peak
     // RSS of a 1M-vertex detect varied between 483 and 602 MiB from run to run).
-    const bool use_area = !suspect.is_point_cloud() && !reference.is_point_cloud();
+    bool use_area = !suspect.is_point_cloud() && !reference.is_point_cloud();
     Moments ms;
     Moments mr;
     std::array<std::exception_ptr, 2> failures;
@@ -600,6 +626,14 @@ RegistrationResult register_to_reference(const TriangleMesh& suspect, const Tria
         {
             std::rethrow_exception(failure);
         }
+    }
+    if (use_area && has_collapsed_triangles(suspect, suspect_rows, ms, reference, reference_rows, mr))
+    {
+        // Its vertices still stand on the surface, but the triangles no longer cover it: the
+        // area weighting measures numerical dust. Both shapes are measured by their vertices.
+        use_area = false;
+        ms = detail::vertex_moments(suspect.V, suspect_rows);
+        mr = detail::vertex_moments(reference.V, reference_rows);
     }
     if (!(ms.covariance.trace() > 0.0) || !(mr.covariance.trace() > 0.0))
     {

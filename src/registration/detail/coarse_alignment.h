@@ -15,6 +15,7 @@ struct Moments
 {
     Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
     Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+    double weight = 0.0;  ///< The total area (area_moments) or vertex count (vertex_moments).
 };
 
 /// Moments of the uniform distribution on the triangles of \p mesh (area-weighted).

@@ -432,6 +432,39 @@ TEST(RegistrationTest, converges_on_point_cloud_and_triangle_soup)
     EXPECT_LT(alignment_error(from_soup, soup.V, soup_truth, D), 1e-9);
 }
 
+// A triangle soup whose triangles were shrunk to slivers about their centroids (Open3D's
+// Taubin filter on an STL read without welding: the copy's vertices still lie on the surface,
+// its triangles cover none of it). Here the slivers of one end keep 10^4 times the size
+// of the rest (its last 5% along x), so area moments would put the copy's centre, axes and
+// scale at that end (the moved copy then lands 0.21 of the diagonal off); its vertices
+// measure it instead (has_collapsed_triangles), in place and moved.
+TEST(RegistrationTest, converges_on_a_soup_of_collapsed_triangles)
+{
+    const TriangleMesh reference = lumpy_ellipsoid(4);
+    const double D = bounding_box(reference.V).diagonal();
+    TriangleMesh soup = test::triangle_soup(reference);
+    const double end = reference.V.col(0).maxCoeff() - 0.05 * (reference.V.col(0).maxCoeff() - reference.V.col(0).minCoeff());
+    for (Eigen::Index f = 0; f < soup.F.rows(); ++f)
+    {
+        const Eigen::RowVector3d centre = (soup.V.row(3 * f) + soup.V.row(3 * f + 1) + soup.V.row(3 * f + 2)) / 3.0;
+        const double shrink = centre(0) > end ? 1e-4 : 1e-8;
+        for (Eigen::Index c = 0; c < 3; ++c)
+        {
+            soup.V.row(3 * f + c) = centre + shrink * (soup.V.row(3 * f + c) - centre);
+        }
+    }
+    const Positions truth = soup.V;
+    const RegistrationResult in_place = register_to_reference(soup, reference);
+    EXPECT_TRUE(in_place.converged);
+    EXPECT_LT(alignment_error(in_place, soup.V, truth, D), 1e-4);
+    Rng rng(8);
+    const Eigen::Matrix4d T = test::random_similarity(rng, false);
+    soup.V = test::apply(T, truth);
+    const RegistrationResult moved = register_to_reference(soup, reference);
+    EXPECT_TRUE(moved.converged);
+    EXPECT_LT(alignment_error(moved, soup.V, truth, D), 1e-4);
+}
+
 TEST(RegistrationTest, point_cloud_reference_works)
 {
     TriangleMesh reference = lumpy_ellipsoid(3);
