@@ -93,6 +93,10 @@ Tools::Tools()
       prusa_slicer(find_in_path("prusa-slicer")),
       blender(find_in_path("blender")),
       assimp(find_in_path("assimp")),
+      // Debian's interpreter, not the first python3 on PATH (a pyenv one lacks Debian's modules).
+      open3d_python(fs::exists("/usr/bin/python3") && fs::exists("/usr/lib/python3/dist-packages/open3d")
+                        ? fs::path("/usr/bin/python3")
+                        : fs::path()),
       gltf_transform(node_bin("gltf-transform")),
       gltf_pipeline(node_bin("gltf-pipeline"))
 {
@@ -155,6 +159,16 @@ std::string missing_tools(const std::vector<std::string>& needed)
         else if (name == "assimp")
         {
             note(!t.assimp.empty(), "assimp (Debian assimp-utils)");
+        }
+        else if (name == "open3d")
+        {
+            note(!t.open3d_python.empty(), "Open3D (Debian python3-open3d for /usr/bin/python3)");
+        }
+        else if (name == "prusa-slicer-shapes")
+        {
+            // PrusaSlicer's sample shapes: a CAD part nothing in meshmark was tuned on.
+            note(fs::exists("/usr/share/PrusaSlicer/shapes/M3x10_screw.stl"),
+                 "PrusaSlicer's shapes (/usr/share/PrusaSlicer/shapes)");
         }
         else if (name == "assimp-testmodels")
         {

@@ -44,6 +44,7 @@ struct Tools
     fs::path prusa_slicer;
     fs::path blender;
     fs::path assimp;  // Debian's assimp-utils: converts game formats (X, MD2, COB, ...) to glTF
+    fs::path open3d_python;  // Debian's python3 with python3-open3d (/usr/bin/python3)
     fs::path gltf_transform;
     fs::path gltf_pipeline;
 };
