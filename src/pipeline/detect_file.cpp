@@ -793,8 +793,8 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
     if (is_resampled && options.match_surface && !is_tracing)
     {
         // The second reading would bring as many statistics as the first has and the joined
-        // ones; the stop asks for more (kEarlyStopStatistics), which implies the claim. It asks it of the formula
-        // bound, not of the tail counted for the first reading's weights: that one claims
+        // ones; the stop asks for more (kEarlyStopStatistics), which implies the claim. It asks
+        // it of the formula bound, not of the tail counted for the first reading's weights: that one claims
         // copies from z ~ 5 whose second reading scores 9-10, and a clear copy should report
         // the score it has (the claim is the same either way).
         const Decision first = mark.decide(report.extraction, options.decision);

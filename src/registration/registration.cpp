@@ -270,13 +270,12 @@ bool stands_in_place(const Moments& suspect, const Moments& reference)
 /// area over its bounding box's squared diagonal is below kCollapsedArea times the reference's
 /// (a triangle soup smoothed triangle by triangle, Open3D's Taubin filter on an STL read
 /// without welding, shrinks every triangle to a sliver). Its area moments are then noise.
-bool has_collapsed_triangles(const TriangleMesh& suspect, const std::vector<std::int32_t>& suspect_rows,
-                             const Moments& ms, const TriangleMesh& reference,
-                             const std::vector<std::int32_t>& reference_rows, const Moments& mr)
+bool has_collapsed_triangles(const Problem& p, const TriangleMesh& suspect,
+                             const std::vector<std::int32_t>& suspect_rows, const Moments& ms, const Moments& mr)
 {
     const double suspect_span = bounding_box(suspect.V, suspect_rows).diagonal();
-    const double reference_span = bounding_box(reference.V, reference_rows).diagonal();
-    if (!(suspect_span > 0.0) || !(reference_span > 0.0) || !(mr.weight > 0.0))
+    const double reference_span = p.reference_diagonal;
+    if (!(suspect_span > 0.0) || !(mr.weight > 0.0))
     {
         return false;
     }
@@ -627,7 +626,7 @@ RegistrationResult register_to_reference(const TriangleMesh& suspect, const Tria
             std::rethrow_exception(failure);
         }
     }
-    if (use_area && has_collapsed_triangles(suspect, suspect_rows, ms, reference, reference_rows, mr))
+    if (use_area && has_collapsed_triangles(p, suspect, suspect_rows, ms, mr))
     {
         // Its vertices still stand on the surface, but the triangles no longer cover it: the
         // area weighting measures numerical dust. Both shapes are measured by their vertices.

@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <tuple>
 
@@ -80,25 +81,31 @@ std::vector<double> weighted_by(const std::vector<double>& x, const std::vector<
     return weighted;
 }
 
-/// The sum of \p readings[i] for i in \p group, each scaled to unit norm (a zero one adds nothing).
+/// \p values scaled to unit norm (all zeros where their norm is 0).
+std::vector<double> scaled_to_unit(const std::vector<double>& values)
+{
+    double norm_sq = 0.0;
+    for (const double v : values)
+    {
+        norm_sq += v * v;
+    }
+    std::vector<double> unit(values.size(), 0.0);
+    if (norm_sq > 0.0)
+    {
+        const double scale = 1.0 / std::sqrt(norm_sq);
+        std::transform(values.begin(), values.end(), unit.begin(), [scale](double v) { return v * scale; });
+    }
+    return unit;
+}
+
+/// The sum of \p readings[i] for i in \p group, each scaled to unit norm.
 std::vector<double> sum_of_units(const std::vector<std::vector<double>>& readings, const std::vector<std::size_t>& group)
 {
     std::vector<double> sum(readings[group.front()].size(), 0.0);
     for (const std::size_t i : group)
     {
-        double norm_sq = 0.0;
-        for (const double v : readings[i])
-        {
-            norm_sq += v * v;
-        }
-        if (norm_sq > 0.0)
-        {
-            const double scale = 1.0 / std::sqrt(norm_sq);
-            for (std::size_t c = 0; c < sum.size(); ++c)
-            {
-                sum[c] += scale * readings[i][c];
-            }
-        }
+        const std::vector<double> unit = scaled_to_unit(readings[i]);
+        std::transform(sum.begin(), sum.end(), unit.begin(), sum.begin(), std::plus<>());
     }
     return sum;
 }
@@ -228,7 +235,7 @@ SoftCorrelation::SoftCorrelation(const std::vector<double>& x, const std::vector
         add(reading, [](std::size_t) { return 1.0; });
     }
     // The tails are independent of one another and each costs up to a few milliseconds (a
-    // family key's trace counts 20): one statistic per thread at a time.
+    // family key's trace of a resampled suspect counts 26): one statistic per thread at a time.
     tails_.resize(weighted_.size());
     const auto count = static_cast<std::int64_t>(weighted_.size());
     const int workers = count > 1 ? std::min(resolve_threads(threads), static_cast<int>(count)) : 1;
@@ -256,20 +263,10 @@ std::vector<RecipientScore> SpectralWatermark::trace(const Extraction& extractio
     // Regions (spliced suspects): one uniform-weight correlation each; the global test and the
     // regions share the level half and half (a weighted union bound, docs/fingerprinting.md).
     std::vector<std::vector<double>> regions;  // each region's values scaled to unit norm
+    regions.reserve(extraction.region_changes.size());
     for (const std::vector<double>& change : extraction.region_changes)
     {
-        double norm_sq = 0.0;
-        for (const double v : change)
-        {
-            norm_sq += v * v;
-        }
-        std::vector<double> unit(change.size(), 0.0);
-        if (norm_sq > 0.0)
-        {
-            const double scale = 1.0 / std::sqrt(norm_sq);
-            std::transform(change.begin(), change.end(), unit.begin(), [scale](double v) { return v * scale; });
-        }
-        regions.push_back(std::move(unit));
+        regions.push_back(scaled_to_unit(change));
     }
     const double region_count = static_cast<double>(regions.size());
     const std::vector<Recipient>& recipients = key_.recipients->recipients;
@@ -472,7 +469,7 @@ RademacherTail::RademacherTail(const std::vector<double>& weights, double resolu
     }
     // Tails summed from the largest sum down, the small terms first. Only the upper half is
     // kept (a score z > 0 asks for k > Q / 2 but for the rounding's slack, which below half
-    // reads as 1): a family key's trace keeps 20 such tables.
+    // reads as 1): a family key's trace of a resampled suspect keeps 26 such tables.
     total_ = static_cast<std::size_t>(total);
     first_ = total_ / 2;
     at_least_.assign(total_ - first_ + 2, 0.0);
@@ -584,8 +581,7 @@ Decision SpectralWatermark::decide(const Extraction& extraction, const DetectOpt
     }
     const bool damped_only = !damped.empty();  // else (no damped reading) every statistic
     const SoftCorrelation soft(extraction.normalized_change, extraction.weights,
-                               damped_only ? damped : extraction.further_changes, !damped_only,
-                               resolve_threads(threads_));
+                               damped_only ? damped : extraction.further_changes, !damped_only, threads_);
     decision.coefficient_count = static_cast<int>(soft.size());
     decision.statistic_count = soft.statistic_count();
     const SoftScore scored = soft.score(
