@@ -906,8 +906,9 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
     timer.lap("extract");
 }
 
-// Rotations S about the original's centroid that map its surface onto itself: among the 23
-// other coordinate-axis rotations of its principal frame and of the file's axes, those that
+// Rotations and mirror images S about the original's centroid that map its surface onto
+// itself: among the 23 other coordinate-axis rotations and the 24 coordinate-axis mirror maps
+// of its principal frame and of the file's axes, and the turns described below, those that
 // keep its second and third moments (a cheap test that rejects an asymmetric mesh at once)
 // and lay a sample of its vertices on its own surface within kSymmetryTolerance mark
 // amplitudes RMS. Returned as 4x4 transforms in the original's frame.
@@ -920,9 +921,14 @@ constexpr std::size_t kMaxSymmetries = 47;
 constexpr double kSymmetryMoments = 0.02;   // of the RMS radius squared / cubed
 constexpr Eigen::Index kSymmetrySample = 2048;
 constexpr std::size_t kSymmetryMomentRows = 65536;
+// A map this close to one already found (Frobenius norm of the difference, about 4 degrees) is
+// the same symmetry seen from the other frame: the registration from either pose lands in the
+// same place, so it is not read (nor paid for) twice.
+constexpr double kSameSymmetry = 0.1;
 
-// The 24 proper rotations that map the coordinate axes onto signed coordinate axes.
-std::vector<Eigen::Matrix3d> signed_axis_rotations()
+// The 24 orthogonal maps of determinant \p sign (+1: rotations, -1: mirror images) that map
+// the coordinate axes onto signed coordinate axes.
+std::vector<Eigen::Matrix3d> signed_axis_maps(double sign)
 {
     std::vector<Eigen::Matrix3d> out;
     std::array<int, 3> order = {0, 1, 2};
@@ -935,7 +941,7 @@ std::vector<Eigen::Matrix3d> signed_axis_rotations()
             {
                 R(row, order[static_cast<std::size_t>(row)]) = (signs >> row & 1) != 0 ? -1.0 : 1.0;
             }
-            if (R.determinant() > 0.0)
+            if (R.determinant() * sign > 0.0)
             {
                 out.push_back(R);
             }
@@ -1045,7 +1051,7 @@ std::vector<Eigen::Matrix4d> self_symmetries(const TriangleMesh& original, doubl
     };
     for (const Eigen::Matrix3d& frame : {Eigen::Matrix3d(Eigen::Matrix3d::Identity()), P})
     {
-        for (const Eigen::Matrix3d& A : signed_axis_rotations())
+        for (const Eigen::Matrix3d& A : signed_axis_maps(1.0))
         {
             add(frame * A * frame.transpose(), false);
         }
@@ -1062,6 +1068,15 @@ std::vector<Eigen::Matrix4d> self_symmetries(const TriangleMesh& original, doubl
                     add(Eigen::AngleAxisd(angle, frame.col(axis)).toRotationMatrix(), true);
                 }
             }
+        }
+    }
+    // Last the mirror images (a plane of symmetry, as most animals, vehicles and teapots have):
+    // after the rotations, so a shape with many of those keeps them within kMaxSymmetries.
+    for (const Eigen::Matrix3d& frame : {Eigen::Matrix3d(Eigen::Matrix3d::Identity()), P})
+    {
+        for (const Eigen::Matrix3d& A : signed_axis_maps(-1.0))
+        {
+            add(frame * A * frame.transpose(), false);
         }
     }
     if (rotations.empty())
@@ -1081,6 +1096,12 @@ std::vector<Eigen::Matrix4d> self_symmetries(const TriangleMesh& original, doubl
         if (found.size() >= kMaxSymmetries)
         {
             break;
+        }
+        if (std::any_of(found.begin(), found.end(), [&](const Eigen::Matrix4d& S) {
+                return (S.topLeftCorner<3, 3>() - R).norm() < kSameSymmetry;
+            }))
+        {
+            continue;
         }
         Positions moved = (sample * R.transpose()).rowwise() + centroid;
         double squares = 0.0;
@@ -1142,18 +1163,26 @@ void keep_more_significant(DetectReport& report, DetectReport& other)
     }
 }
 
-// A registered copy of a symmetric original (an egg, a sphere, a torus, a vase) fits it as well
-// in every pose the original's symmetries relate, and registration picks one of them: the
-// mark is read only in the right one (Blender's PLY copy of an egg registered turned half a
-// turn about its axis: z 0.71). Every such pose is read, and the verdict takes the best
-// reading at k times its false-positive probability for k readings (a union bound: each
-// reading alone keeps the bound, docs/statistics.md), so the poses cost nothing in validity.
-// Owner keys only: a family key's tracing keeps the registered pose.
+// A registered copy of a symmetric original (an egg, a sphere, a torus, a vase, a teapot, most
+// animals and vehicles) fits it as well in every pose the original's symmetries relate, and
+// registration picks one of them: the mark is read only in the right one (Blender's PLY copy
+// of an egg registered turned half a turn about its axis: z 0.71; a 5% remesh of the teapot
+// registered as its mirror image: z 3.37). A copy whose vertices were matched where they stand
+// without registration (renumbered_in_place) can be matched the same wrong way: a mirrored
+// copy of a mirror-symmetric mesh puts each vertex where its mirror partner was. Every such
+// pose is read, and the verdict takes the best reading at k times its false-positive
+// probability for k readings (a union bound: each reading alone keeps the bound,
+// docs/statistics.md), so the poses cost nothing in validity. Owner keys only: a family key's
+// tracing keeps the registered pose.
 void read_symmetric_poses(DetectReport& report, detail::PhaseTimer& timer, const SpectralWatermark& mark,
                           const TriangleMesh& original, const TriangleMesh& instances, const TriangleMesh& suspect,
                           const std::filesystem::path& suspect_path, const DetectFileOptions& options)
 {
-    if (report.alignment.rfind("registration", 0) != 0 || (mark.key().recipients && !mark.key().recipients->recipients.empty()) ||
+    // A copy in the original's vertex order is read by index: it has no other pose.
+    const bool in_order = report.alignment == "same-connectivity" && suspect.F.rows() == original.F.rows() &&
+                          (suspect.F.array() == original.F.array()).all();
+    const bool placed = report.alignment.rfind("registration", 0) == 0 || report.alignment == "same-connectivity";
+    if (!placed || in_order || (mark.key().recipients && !mark.key().recipients->recipients.empty()) ||
         options.decision.verdict == VerdictRule::Bits || instances.vertex_count() > 0)
     {
         return;
