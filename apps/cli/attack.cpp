@@ -47,7 +47,9 @@ std::string grammar_help()
            number(similarity.max_scale) + " tmax=" + number(similarity.max_translation_radii) +
            ".\n"
            "                     explicit (about the origin), identity where not given: axis=x|y|z\n"
-           "                     or ax=,ay=,az= ; angle=DEG ; scale=S ; tx=,ty=,tz=\n"
+           "                     or ax=,ay=,az= ; angle=DEG ; scale=S ; tx=,ty=,tz= ;\n"
+           "                     mirror=x|y|z (mirrored first in that coordinate plane, as\n"
+           "                     Blender's Mirror; the faces keep facing out)\n"
            "  noise=A            random displacement, A a fraction of the reference length\n"
            "                     (default " + number(noise.amplitude) +
            ") [0.0005 0.001 0.003 0.005 0.01]; keys dist=uniform|gaussian\n"

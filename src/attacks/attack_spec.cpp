@@ -290,10 +290,11 @@ AttackSpec parse_similarity(StepReader& step)
     const auto tx = step.take_number("tx");
     const auto ty = step.take_number("ty");
     const auto tz = step.take_number("tz");
+    const auto mirror = step.take("mirror");
     const auto smax = step.take_number("smax");
     const auto tmax = step.take_number("tmax");
-    step.finish("axis, ax, ay, az, angle, scale, tx, ty, tz (explicit); smax, tmax (random)");
-    options.is_random = !(axis || angle || scale || tx || ty || tz);
+    step.finish("axis, ax, ay, az, angle, scale, tx, ty, tz, mirror (explicit); smax, tmax (random)");
+    options.is_random = !(axis || angle || scale || tx || ty || tz || mirror);
     if (!options.is_random && (smax || tmax))
     {
         step.fail("smax and tmax shape a random similarity and cannot be mixed with explicit "
@@ -303,6 +304,10 @@ AttackSpec parse_similarity(StepReader& step)
     options.angle_deg = angle.value_or(options.angle_deg);
     options.scale = scale.value_or(options.scale);
     options.translation = {tx.value_or(0.0), ty.value_or(0.0), tz.value_or(0.0)};
+    if (mirror)
+    {
+        options.mirror = step.choice<int>(*mirror, "the mirror", {{"x", 0}, {"y", 1}, {"z", 2}});
+    }
     options.max_scale = smax.value_or(options.max_scale);
     options.max_translation_radii = tmax.value_or(options.max_translation_radii);
     return options;
@@ -485,6 +490,7 @@ std::string text_of(const SimilarityOptions& o)
     keys += o.translation.x() != 0.0 ? key("tx", o.translation.x()) : "";
     keys += o.translation.y() != 0.0 ? key("ty", o.translation.y()) : "";
     keys += o.translation.z() != 0.0 ? key("tz", o.translation.z()) : "";
+    keys += o.mirror >= 0 ? std::string(":mirror=") + "xyz"[o.mirror] : "";
     // An explicit identity still needs one explicit key to read back as explicit.
     return text + (keys.empty() ? key("scale", 1.0) : keys);
 }

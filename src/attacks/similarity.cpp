@@ -35,6 +35,10 @@ AppliedSimilarity explicit_transform(const SimilarityOptions& options)
     AppliedSimilarity transform;
     const double angle_rad = options.angle_deg * std::numbers::pi / 180.0;
     transform.rotation = Eigen::AngleAxisd(angle_rad, options.axis.normalized()).toRotationMatrix();
+    if (options.mirror >= 0)
+    {
+        transform.rotation.col(options.mirror) *= -1.0;  // R * M: the mirror first
+    }
     transform.scale = options.scale;
     transform.translation = options.translation;
     return transform;
@@ -72,6 +76,10 @@ void SimilarityOptions::validate() const
         throw InvalidOption("similarity: scale " + detail::format_number(scale) +
                             " must be a finite number > 0.");
     }
+    if (mirror < -1 || mirror > 2)
+    {
+        throw InvalidOption("similarity: mirror " + std::to_string(mirror) + " is not -1 (none), 0 (x), 1 (y) or 2 (z).");
+    }
     if (!is_finite(translation))
     {
         throw InvalidOption("similarity: the translation must be finite.");
@@ -100,6 +108,10 @@ TriangleMesh transformed(const TriangleMesh& mesh, const AppliedSimilarity& tran
 {
     TriangleMesh result;
     result.F = mesh.F;
+    if (transform.rotation.determinant() < 0.0)
+    {
+        result.F.col(1).swap(result.F.col(2));
+    }
     // Row-vector form of s R p + t for all rows at once.
     result.V = (mesh.V * (transform.scale * transform.rotation).transpose()).rowwise() +
                transform.translation.transpose();

@@ -17,7 +17,7 @@ namespace meshmark {
 /// `registration`; matrix() gives the 4×4 homogeneous form both sides understand.
 struct AppliedSimilarity
 {
-    Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  ///< Proper rotation (det +1).
+    Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  ///< Orthogonal: det +1, or -1 mirrored.
     double scale = 1.0;                                      ///< Uniform scale factor, > 0.
     Eigen::Vector3d translation = Eigen::Vector3d::Zero();   ///< Applied after rotation and scale.
 

@@ -15,11 +15,15 @@ struct SimilarityOptions
     /// Draw a random similarity (the default) instead of the explicit one below.
     bool is_random = true;
 
-    // Explicit transform `p -> scale * R(axis, angle) * p + translation`, about the origin.
+    // Explicit transform `p -> scale * R(axis, angle) * M * p + translation`, about the origin,
+    // M the mirror image in the coordinate plane normal to `mirror` (identity when none).
     Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();       ///< Rotation axis (any length > 0).
     double angle_deg = 0.0;                                ///< Rotation angle, degrees.
     double scale = 1.0;                                    ///< Uniform scale, > 0.
     Eigen::Vector3d translation = Eigen::Vector3d::Zero();  ///< In the mesh's units.
+    /// Mirror first in the plane x = 0 (0), y = 0 (1) or z = 0 (2); -1: no mirror. A mirrored
+    /// copy keeps its faces facing out (their corners are taken in the other order).
+    int mirror = -1;
 
     // Random transform, about the centre of the bounding box.
     double max_scale = 10.0;  ///< Scale is log-uniform in [1 / max_scale, max_scale]; >= 1.
@@ -41,7 +45,8 @@ struct SimilarityOptions
 [[nodiscard]] AppliedSimilarity similarity_transform(const TriangleMesh& mesh,
                                                      const SimilarityOptions& options, Rng& rng);
 
-/// \brief Apply \p transform to every vertex (faces unchanged).
+/// \brief Apply \p transform to every vertex; the faces unchanged, or, when \p transform
+/// mirrors (det < 0), with their corners in the other order so that they keep facing out.
 [[nodiscard]] TriangleMesh transformed(const TriangleMesh& mesh,
                                        const AppliedSimilarity& transform);
 

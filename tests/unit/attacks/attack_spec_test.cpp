@@ -74,6 +74,8 @@ TEST(AttackSpecTest, to_string_is_canonical_and_round_trips)
     EXPECT_EQ(to_string(parse_attack_spec("simplify=0.10,noise=1e-3:dist=uniform")),
               "simplify=0.1,noise=0.001");
     EXPECT_EQ(to_string(parse_attack_spec("similarity:scale=1")), "similarity:scale=1");
+    EXPECT_EQ(to_string(parse_attack_spec("similarity:mirror=y")), "similarity:mirror=y");
+    EXPECT_EQ(to_string(parse_attack_spec("similarity:mirror=x:angle=90")), "similarity:angle=90:mirror=x");
     EXPECT_EQ(to_string(parse_attack_spec("crop=0.5:ax=1:ay=2:az=0")), "crop=0.5:ax=1:ay=2:az=0");
     EXPECT_EQ(to_string(parse_attack_spec("subdivide")), "subdivide=loop");
     EXPECT_EQ(to_string(parse_attack_spec("voxel")), "voxel=150");
@@ -130,7 +132,8 @@ TEST(AttackSpecTest, bad_specs_throw_invalid_option_naming_the_problem)
           "subdivide=loop:steps=0", "crop=0", "crop=1.5", "crop=0.5:axis=w",
           "crop=0.5:ax=0:ay=0:az=0", "reorder=1", "reorder:x=1", "similarity=3",
           "similarity:axis=w", "similarity:axis=x:ax=1", "similarity:angle=30:smax=2",
-          "similarity:scale=0", "similarity:scale=-2", "similarity:smax=0.5",
+          "similarity:scale=0", "similarity:scale=-2", "similarity:smax=0.5", "similarity:mirror=w",
+          "similarity:mirror=x:smax=2",
           "similarity:angle=ten", "NOISE=0.1", "voxel=9.99", "voxel=2001",
           "voxel=0", "voxel=-150", "voxel=inf", "voxel=nan", "voxel=1/150", "voxel=150:adapt=0"})
     {

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <numbers>
 
 #include <Eigen/Geometry>
 
@@ -72,6 +73,46 @@ TEST(SimilarityTest, random_transform_is_recovered_exactly_from_the_output)
         // The inverse maps the output back onto the input.
         const TriangleMesh back = transformed(result.mesh, t.inverse());
         EXPECT_LT((back.V - mesh.V).cwiseAbs().maxCoeff(), 1e-9);
+    }
+}
+
+// mirror=x|y|z reflects first in that coordinate plane (p -> s R M p + t), the faces turned so
+// that they still face out: the signed volume keeps its sign, scaled by s^3.
+TEST(SimilarityTest, a_mirror_reflects_first_and_keeps_the_faces_facing_out)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(1);
+    const auto volume = [](const TriangleMesh& m) {
+        double v = 0.0;
+        for (Eigen::Index f = 0; f < m.F.rows(); ++f)
+        {
+            const Eigen::Vector3d a = m.V.row(m.F(f, 0));
+            const Eigen::Vector3d b = m.V.row(m.F(f, 1));
+            const Eigen::Vector3d c = m.V.row(m.F(f, 2));
+            v += a.dot(b.cross(c)) / 6.0;
+        }
+        return v;
+    };
+    for (int axis = 0; axis < 3; ++axis)
+    {
+        const SimilarityOptions options{.is_random = false, .axis = Eigen::Vector3d::UnitZ(), .angle_deg = 90.0,
+                                        .scale = 2.0, .translation = Eigen::Vector3d(1.0, 2.0, 3.0), .mirror = axis};
+        Rng rng(1);
+        const AttackResult result = apply_similarity(mesh, options, rng);
+        const AppliedSimilarity& t = *result.similarity;
+        EXPECT_NEAR(t.rotation.determinant(), -1.0, 1e-12) << axis;
+        Eigen::Matrix3d M = Eigen::Matrix3d::Identity();
+        M(axis, axis) = -1.0;
+        const Eigen::Matrix3d R = Eigen::AngleAxisd(std::numbers::pi / 2.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+        for (Eigen::Index i = 0; i < mesh.V.rows(); i += 17)
+        {
+            const Eigen::Vector3d expected = 2.0 * (R * (M * mesh.V.row(i).transpose())) + Eigen::Vector3d(1.0, 2.0, 3.0);
+            EXPECT_LT((result.mesh.V.row(i).transpose() - expected).norm(), 1e-12) << axis << " " << i;
+        }
+        EXPECT_NEAR(volume(result.mesh), 8.0 * volume(mesh), 1e-9 * std::abs(volume(mesh))) << axis;
+        EXPECT_GT(volume(mesh), 0.0);
+        const TriangleMesh back = transformed(result.mesh, t.inverse());
+        EXPECT_LT((back.V - mesh.V).cwiseAbs().maxCoeff(), 1e-9) << axis;
+        EXPECT_EQ(back.F, mesh.F) << axis;
     }
 }
 
