@@ -16,6 +16,8 @@
 # Operations (fractions are of the bounding-box diagonal):
 #   ply, obj, gltf   round trip: import, write through Blender's PLY / OBJ / glTF (.glb) writer
 #   transform        move by (0.1, -0.2, 0.3), rotate by (20, 30, 40) degrees XYZ, scale by 1.5
+#   mirror           mirror in x about the bbox centre, the faces reversed so they face out (what
+#                    Object > Mirror > X and Apply Scale leave)
 #   merge[=F]        Merge by Distance, distance F (default 1e-4)
 #   noise[=F]        Randomize Vertices (transform.vertex_random), offset F (default 0.002), --seed
 #   subdivide[=L]    Subdivision Surface modifier (Catmull-Clark), L levels (default 1)
@@ -56,7 +58,7 @@ from attack_contract import UsageError, parse_arguments, write_report  # noqa: E
 
 DEFAULTS = {"merge": 1e-4, "noise": 0.002, "subdivide": 1, "laplacian": 1, "smooth": 10}
 NEEDS_VALUE = {"decimate", "merged-decimate", "voxel", "pose", "second-action"}
-NO_VALUE = {"ply", "obj", "gltf", "transform", "bisect"}
+NO_VALUE = {"ply", "obj", "gltf", "transform", "mirror", "bisect"}
 ROUND_TRIP_EXT = {"ply": ".ply", "obj": ".obj", "gltf": ".glb"}
 
 
@@ -179,6 +181,15 @@ def apply_op(obj, name, value, seed):
         turn = mathutils.Euler([math.radians(a) for a in (20, 30, 40)], "XYZ").to_matrix().to_4x4()
         obj.data.transform(move @ mathutils.Matrix.Scale(1.5, 4) @ turn)
         obj.data.update()
+    elif name == "mirror":
+        flip = mathutils.Matrix.Translation(centre) @ mathutils.Matrix.Scale(-1.0, 4, (1.0, 0.0, 0.0)) \
+            @ mathutils.Matrix.Translation(-centre)
+
+        def mirrored(bm):
+            bmesh.ops.transform(bm, matrix=flip, verts=bm.verts)
+            bmesh.ops.reverse_faces(bm, faces=bm.faces)
+
+        with_bmesh(obj, mirrored)
     elif name == "merge":
         with_bmesh(obj, lambda bm: bmesh.ops.remove_doubles(bm, verts=bm.verts, dist=value * diagonal))
     elif name == "noise":

@@ -34,17 +34,18 @@ import time
 HERE = os.path.dirname(os.path.abspath(__file__))
 ATTACKS = os.path.join(HERE, "attacks.py")
 OPEN3D_ATTACKS = os.path.join(HERE, "open3d_attacks.py")
-BLENDER_NAMES = {"ply", "obj", "gltf", "transform", "merge", "noise", "subdivide", "laplacian", "smooth",
+BLENDER_NAMES = {"ply", "obj", "gltf", "transform", "mirror", "merge", "noise", "subdivide", "laplacian", "smooth",
                  "decimate", "merged-decimate", "bisect", "voxel", "pose", "second-action"}
 # Other tools' operations (--ops ... or --with-others): gltf-transform, Open3D, MeshLab.
 OTHER_OPERATIONS = ["gt-simplify=0.5", "gt-simplify=0.2", "gt-decimate=0.05", "gt-weld", "o3d-decimate=0.2",
                     "o3d-laplacian=10", "o3d-taubin=10", "meshlab-decimate=0.2", "meshlab-taubin=10"]
-OPERATIONS = ["ply", "obj", "gltf", "transform", "merge", "noise", "subdivide", "laplacian",
+OPERATIONS = ["ply", "obj", "gltf", "transform", "mirror", "merge", "noise", "subdivide", "laplacian",
               "smooth", "decimate=0.5", "decimate=0.2", "decimate=0.05", "bisect", "voxel=300",
               "voxel=150"]
 DESCRIPTION = {
     "ply": "round trip, PLY writer", "obj": "round trip, OBJ writer", "gltf": "round trip, glTF writer (.glb)",
-    "transform": "move, rotate 20/30/40 deg, scale 1.5", "merge": "merge by distance (1e-4)",
+    "transform": "move, rotate 20/30/40 deg, scale 1.5", "mirror": "mirror in x (faces reversed)",
+    "merge": "merge by distance (1e-4)",
     "noise": "Randomize Vertices 0.2%", "subdivide": "Subdivision Surface, 1 level",
     "laplacian": "Laplacian Smooth (defaults)", "smooth": "Smooth, factor 0.5 x 10",
     "decimate=0.5": "Decimate collapse 50%", "decimate=0.2": "Decimate collapse 20%",

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: MIT
 // The interop suite's check of the Blender re-work bench (bench/blender/attacks.py, docs/robustness.md):
-// three of its cheap operations on a small generated mesh, run by Blender itself, each output read
+// four of its cheap operations on a small generated mesh, run by Blender itself, each output read
 // back by meshmark and compared with what the operation must do; and an unknown operation refused
 // before anything is written.
 #include <gtest/gtest.h>
@@ -43,7 +43,7 @@ TEST(BlenderInterop, ReworkBenchOperationsDoWhatTheySay)
     write_mesh(input, original);
     const fs::path out = scratch / "out";
     fs::create_directories(out);
-    const ToolRun blender = blender_attacks(input, out, {"decimate=0.5", "transform", "bisect"}, scratch);
+    const ToolRun blender = blender_attacks(input, out, {"decimate=0.5", "transform", "mirror", "bisect"}, scratch);
     ASSERT_TRUE(blender.ok()) << blender.describe();
     ASSERT_TRUE(fs::exists(out / "attacks.json")) << blender.describe();
 
@@ -77,6 +77,30 @@ TEST(BlenderInterop, ReworkBenchOperationsDoWhatTheySay)
         worst = std::max(worst, c.distance);
     }
     EXPECT_LT(worst, 1e-5 * diagonal);
+
+    // Mirror in x about the bbox centre, the faces reversed so that they still face out: every
+    // vertex where its mirror image is expected, and the enclosed volume as positive as before.
+    const TriangleMesh mirrored = read_mesh(out / "mirror.ply");
+    ASSERT_EQ(mirrored.V.rows(), original.V.rows());
+    Positions mirror_expected = original.V;
+    mirror_expected.col(0) = (box.lo.x() + box.hi.x()) - original.V.col(0).array();
+    worst = 0.0;
+    for (const ClosestPoint& c : cloud_index(mirrored.V).closest(mirror_expected))
+    {
+        worst = std::max(worst, c.distance);
+    }
+    EXPECT_LT(worst, 1e-5 * diagonal);
+    const auto volume = [](const TriangleMesh& m) {
+        double v = 0.0;
+        for (Eigen::Index f = 0; f < m.F.rows(); ++f)
+        {
+            const Eigen::Vector3d a = m.V.row(m.F(f, 0));
+            v += a.dot(Eigen::Vector3d(m.V.row(m.F(f, 1))).cross(Eigen::Vector3d(m.V.row(m.F(f, 2))))) / 6.0;
+        }
+        return v;
+    };
+    EXPECT_GT(volume(original), 0.0);
+    EXPECT_NEAR(volume(mirrored), volume(original), 1e-4 * volume(original));
 
     // Bisect through the bbox centre across the largest extent, one side cleared: about half the
     // vertices remain, all on the kept side of the plane.
