@@ -911,7 +911,8 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
 // of its principal frame and of the file's axes, and the turns described below, those that
 // keep its second and third moments (a cheap test that rejects an asymmetric mesh at once)
 // and lay a sample of its vertices on its own surface within kSymmetryTolerance mark
-// amplitudes RMS. Returned as 4x4 transforms in the original's frame.
+// amplitudes RMS, or, for a plane's mirror image, nearly (near_mirror). Returned as 4x4
+// transforms in the original's frame.
 constexpr double kSymmetryTolerance = 2.0;
 constexpr double kSymmetryOnVertices = 0.25;  // mark amplitudes RMS, vertex to nearest vertex
 // Orders of the turns tried about each axis (2 pi j / k), and the most poses read besides the
@@ -1090,19 +1091,19 @@ std::vector<Eigen::Matrix4d> self_symmetries(const TriangleMesh& original, doubl
     // about each axis (tested vertex on vertex: a surface of revolution fits its own surface at
     // any angle, but a registration settles only where its vertices land on vertices, as a UV
     // sphere's 12 meridians do every 30 degrees).
-    struct Rotation
+    struct Candidate
     {
         Eigen::Matrix3d R;
         bool on_vertices = false;
     };
-    std::vector<Rotation> rotations;
+    std::vector<Candidate> candidates;  // rotations, then mirror images
     const auto add = [&](const Eigen::Matrix3d& R, bool on_vertices) {
-        const bool is_new = !R.isIdentity(1e-9) && std::none_of(rotations.begin(), rotations.end(), [&](const auto& Q) {
+        const bool is_new = !R.isIdentity(1e-9) && std::none_of(candidates.begin(), candidates.end(), [&](const auto& Q) {
             return (Q.R - R).norm() < 1e-6;
         });
         if (is_new && keeps_moments(R))
         {
-            rotations.push_back({R, on_vertices});
+            candidates.push_back({R, on_vertices});
         }
     };
     for (const Eigen::Matrix3d& frame : {Eigen::Matrix3d(Eigen::Matrix3d::Identity()), P})
@@ -1135,7 +1136,7 @@ std::vector<Eigen::Matrix4d> self_symmetries(const TriangleMesh& original, doubl
             add(frame * A * frame.transpose(), false);
         }
     }
-    if (rotations.empty())
+    if (candidates.empty())
     {
         return found;
     }
@@ -1147,7 +1148,7 @@ std::vector<Eigen::Matrix4d> self_symmetries(const TriangleMesh& original, doubl
     {
         sample.row(i) = X.row(i * step);
     }
-    for (const auto& [R, on_vertices] : rotations)
+    for (const auto& [R, on_vertices] : candidates)
     {
         if (found.size() >= kMaxSymmetries)
         {
