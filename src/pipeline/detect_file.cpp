@@ -557,6 +557,34 @@ TriangleMesh with_instances(const TriangleMesh& original, const TriangleMesh& in
 // Steps 6-10 for a suspect in memory, appending phases to \p timer.
 // \p instances: geometry of the original that is shown but not watermarked (other instances
 // of instanced glTF meshes); registration matches the suspect against it too.
+// A traced report's accused (from report.traced) and ownership (report.decision and the
+// joint readings): what its probabilities conclude at the level of \p decision.
+void conclude_trace(DetectReport& report, const DetectOptions& decision)
+{
+    std::vector<RecipientScore> scores = report.traced;
+    std::erase_if(scores, [](const RecipientScore& s) { return !s.is_accused; });
+    // Strongest evidence first: the smallest false-positive probability (whichever reading,
+    // whole model or regions, gave it), then the larger score.
+    std::sort(scores.begin(), scores.end(), [](const RecipientScore& a, const RecipientScore& b) {
+        if (a.false_positive_probability != b.false_positive_probability)
+        {
+            return a.false_positive_probability < b.false_positive_probability;
+        }
+        return a.score > b.score;
+    });
+    report.accused = std::move(scores);
+    // Ownership: the owner's verdict or the best joint reading of the owner's mark with a
+    // recipient's code, each with half the level (a union bound over both tests).
+    double joint = 1.0;
+    for (const RecipientScore& r : report.traced)
+    {
+        joint = std::min(joint, r.joint_false_positive_probability);
+    }
+    report.owner_false_positive_probability =
+        std::min({1.0, 2.0 * report.decision.false_positive_probability, 2.0 * joint});
+    report.owner_detected = report.owner_false_positive_probability <= decision.max_false_positive;
+}
+
 void detect_into(DetectReport& report, detail::PhaseTimer& timer, const SpectralWatermark& mark,
                  const TriangleMesh& original, const TriangleMesh& instances,
                  const TriangleMesh& suspect, const std::filesystem::path& suspect_path,
@@ -880,28 +908,7 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
         std::move(plain_regions.begin(), plain_regions.end(), std::back_inserter(report.extraction.region_changes));
         report.traced = mark.trace(report.extraction, options.decision);
         report.recipients_traced = report.traced.size();
-        std::vector<RecipientScore> scores = report.traced;
-        std::erase_if(scores, [](const RecipientScore& s) { return !s.is_accused; });
-        // Strongest evidence first: the smallest false-positive probability (whichever reading,
-        // whole model or regions, gave it), then the larger score.
-        std::sort(scores.begin(), scores.end(), [](const RecipientScore& a, const RecipientScore& b) {
-            if (a.false_positive_probability != b.false_positive_probability)
-            {
-                return a.false_positive_probability < b.false_positive_probability;
-            }
-            return a.score > b.score;
-        });
-        report.accused = std::move(scores);
-        // Ownership: the owner's verdict or the best joint reading of the owner's mark with a
-        // recipient's code, each with half the level (a union bound over both tests).
-        double joint = 1.0;
-        for (const RecipientScore& r : report.traced)
-        {
-            joint = std::min(joint, r.joint_false_positive_probability);
-        }
-        report.owner_false_positive_probability =
-            std::min({1.0, 2.0 * report.decision.false_positive_probability, 2.0 * joint});
-        report.owner_detected = report.owner_false_positive_probability <= options.decision.max_false_positive;
+        conclude_trace(report, options.decision);
     }
     timer.lap("extract");
 }
@@ -1222,11 +1229,45 @@ void charge_readings(Decision& d, double readings, const DetectOptions& decision
     d.is_present = d.false_positive_probability <= decision.max_false_positive;
 }
 
+// The same for a whole report: with a family key traced, every recipient's probabilities too,
+// and the accused and the ownership again.
+void charge_readings(DetectReport& report, double readings, const DetectOptions& decision)
+{
+    charge_readings(report.decision, readings, decision);
+    if (report.recipients_traced == 0)
+    {
+        return;
+    }
+    for (RecipientScore& r : report.traced)
+    {
+        r.false_positive_probability = std::min(1.0, readings * r.false_positive_probability);
+        r.joint_false_positive_probability = std::min(1.0, readings * r.joint_false_positive_probability);
+        r.is_accused = r.false_positive_probability <= decision.max_false_positive;
+    }
+    conclude_trace(report, decision);
+}
+
+// The smallest false-positive probability a report rests on: its verdict's, or with a family key
+// traced, the ownership's or the first accused recipient's.
+double strongest_evidence(const DetectReport& report)
+{
+    if (report.recipients_traced == 0)
+    {
+        return report.decision.false_positive_probability;
+    }
+    double p = report.owner_false_positive_probability;
+    for (const RecipientScore& r : report.traced)
+    {
+        p = std::min(p, r.false_positive_probability);
+    }
+    return p;
+}
+
 // \p report becomes \p other when that reading is the more significant; the phase times stay
 // (the timer writes into the first report's).
 void keep_more_significant(DetectReport& report, DetectReport& other)
 {
-    if (other.decision.false_positive_probability < report.decision.false_positive_probability)
+    if (strongest_evidence(other) < strongest_evidence(report))
     {
         other.seconds = std::move(report.seconds);
         report = std::move(other);
@@ -1242,8 +1283,9 @@ void keep_more_significant(DetectReport& report, DetectReport& other)
 // copy of a mirror-symmetric mesh puts each vertex where its mirror partner was. Every such
 // pose is read, and the verdict takes the best reading at k times its false-positive
 // probability for k readings (a union bound: each reading alone keeps the bound,
-// docs/statistics.md), so the poses cost nothing in validity. Owner keys only: a family key's
-// tracing keeps the registered pose.
+// docs/statistics.md), so the poses cost nothing in validity. A family key's copy is traced in
+// each pose, every recipient's probabilities charged the same way (a buyer's mirrored copy of
+// a symmetric asset accuses the buyer).
 void read_symmetric_poses(DetectReport& report, detail::PhaseTimer& timer, const SpectralWatermark& mark,
                           const TriangleMesh& original, const TriangleMesh& instances, const TriangleMesh& suspect,
                           const std::filesystem::path& suspect_path, const DetectFileOptions& options)
@@ -1252,8 +1294,7 @@ void read_symmetric_poses(DetectReport& report, detail::PhaseTimer& timer, const
     const bool in_order = report.alignment == "same-connectivity" && suspect.F.rows() == original.F.rows() &&
                           (suspect.F.array() == original.F.array()).all();
     const bool placed = report.alignment.rfind("registration", 0) == 0 || report.alignment == "same-connectivity";
-    if (!placed || in_order || (mark.key().recipients && !mark.key().recipients->recipients.empty()) ||
-        options.decision.verdict == VerdictRule::Bits || instances.vertex_count() > 0)
+    if (!placed || in_order || options.decision.verdict == VerdictRule::Bits || instances.vertex_count() > 0)
     {
         return;
     }
@@ -1267,12 +1308,12 @@ void read_symmetric_poses(DetectReport& report, detail::PhaseTimer& timer, const
         return;
     }
     const double readings = static_cast<double>(symmetries.size() + 1);
-    const auto bounded = [&](DetectReport& r) { charge_readings(r.decision, readings, options.decision); };
+    const auto bounded = [&](DetectReport& r) { charge_readings(r, readings, options.decision); };
     bounded(report);
     const Eigen::Matrix4d registered = report.transform;
     for (const Eigen::Matrix4d& S : symmetries)
     {
-        if (report.decision.is_present)
+        if (report.detected())
         {
             break;
         }

@@ -3,11 +3,14 @@
 // by averaging, and the refusals (docs/fingerprinting.md).
 #include <gtest/gtest.h>
 
+#include <Eigen/LU>
+
 #include <algorithm>
 #include <filesystem>
 #include <string>
 #include <vector>
 
+#include "meshmark/attacks/attack_spec.h"
 #include "meshmark/attacks/subdivision.h"
 #include "meshmark/core/error.h"
 #include "meshmark/geometry/shapes.h"
@@ -288,6 +291,49 @@ TEST(RecipientsTest, a_resampled_splice_is_read_by_its_regions_through_the_norma
     for (const std::size_t index : {0U, 2U, 4U, 5U, 7U})
     {
         EXPECT_LT(resampled.traced[index].region_score, 4.0) << resampled.traced[index].name << " is innocent";
+    }
+}
+
+// A buyer's mirrored copy of a mirror-symmetric asset (an icosphere bent in its y-z plane:
+// the mirror image in x maps it onto itself, vertices onto vertices) is matched where it
+// stands, each vertex taken for its mirror partner, or, moved, registers unmirrored: the
+// trace is read in the mirrored pose too and accuses that buyer only, with the probability
+// of the unmirrored copy (each pays for the two poses); the unmarked original mirrored so
+// accuses nobody.
+TEST(RecipientsTest, a_mirrored_copy_of_a_mirror_symmetric_original_accuses_its_recipient)
+{
+    const fs::path dir = test::temp_dir("recipients-mirror");
+    TriangleMesh bent = icosphere(4);
+    for (Eigen::Index i = 0; i < bent.V.rows(); ++i)
+    {
+        const Eigen::Vector3d p = bent.V.row(i);
+        bent.V.row(i) = Eigen::RowVector3d(p.x(), 1.5 * p.y() + 0.4 * p.z() * p.z(), 2.0 * p.z() + 0.3 * p.y());
+    }
+    write_mesh(dir / "bent.ply", bent);
+    static_cast<void>(embed_recipients(dir / "bent.ply", (dir / "{recipient}.ply").string(), dir / "family.json",
+                                       family({"ann", "ben", "cat"})));
+    const Key key = read_key(dir / "family.json");
+    const TriangleMesh bens = read_mesh(dir / "ben.ply");
+    const DetectReport unmirrored = detect(apply_attacks(bens, parse_attack_spec("reorder"), 3, 1).mesh, bent, key);
+    ASSERT_EQ(accused_names(unmirrored), std::vector<std::string>{"ben"});
+    for (const std::string moved : {"reorder", "reorder,similarity"})
+    {
+        const auto mirrored = [&](TriangleMesh mesh) {
+            mesh.V.col(0) = -mesh.V.col(0);
+            mesh.F.col(1).swap(mesh.F.col(2));
+            return apply_attacks(mesh, parse_attack_spec(moved), 3, 1).mesh;
+        };
+        const DetectReport found = detect(mirrored(bens), bent, key);
+        EXPECT_EQ(accused_names(found), std::vector<std::string>{"ben"}) << moved;
+        EXPECT_TRUE(found.owner_detected) << moved;
+        EXPECT_LT((found.transform.topLeftCorner<3, 3>().determinant()), 0.0) << moved;
+        ASSERT_FALSE(found.accused.empty());
+        EXPECT_NEAR(found.accused.front().false_positive_probability, unmirrored.accused.front().false_positive_probability,
+                    1e-6 * unmirrored.accused.front().false_positive_probability)
+            << moved << ": the same reading as the unmirrored copy's, both paying for two poses";
+        const DetectReport clean = detect(mirrored(bent), bent, key);
+        EXPECT_TRUE(clean.accused.empty()) << moved;
+        EXPECT_FALSE(clean.owner_detected) << moved;
     }
 }
 
