@@ -7,6 +7,8 @@
 #include <cmath>
 #include <cstring>
 
+#include <Eigen/Geometry>
+
 #include "meshmark/core/triangle_mesh.h"
 
 namespace meshmark::test {
@@ -30,6 +32,20 @@ inline bool bit_identical(const TriangleMesh& a, const TriangleMesh& b)
 inline double mean_radius(const TriangleMesh& mesh)
 {
     return mesh.V.rowwise().norm().mean();
+}
+
+/// Signed volume enclosed by the faces: positive when they face outwards.
+inline double signed_volume(const TriangleMesh& mesh)
+{
+    double volume = 0.0;
+    for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
+    {
+        const Eigen::Vector3d a = mesh.V.row(mesh.F(f, 0));
+        const Eigen::Vector3d b = mesh.V.row(mesh.F(f, 1));
+        const Eigen::Vector3d c = mesh.V.row(mesh.F(f, 2));
+        volume += a.dot(b.cross(c)) / 6.0;
+    }
+    return volume;
 }
 
 /// Relative deviation of \p actual from \p target.

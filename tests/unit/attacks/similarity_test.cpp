@@ -81,17 +81,6 @@ TEST(SimilarityTest, random_transform_is_recovered_exactly_from_the_output)
 TEST(SimilarityTest, a_mirror_reflects_first_and_keeps_the_faces_facing_out)
 {
     const TriangleMesh mesh = lumpy_ellipsoid(1);
-    const auto volume = [](const TriangleMesh& m) {
-        double v = 0.0;
-        for (Eigen::Index f = 0; f < m.F.rows(); ++f)
-        {
-            const Eigen::Vector3d a = m.V.row(m.F(f, 0));
-            const Eigen::Vector3d b = m.V.row(m.F(f, 1));
-            const Eigen::Vector3d c = m.V.row(m.F(f, 2));
-            v += a.dot(b.cross(c)) / 6.0;
-        }
-        return v;
-    };
     for (int axis = 0; axis < 3; ++axis)
     {
         const SimilarityOptions options{.is_random = false, .axis = Eigen::Vector3d::UnitZ(), .angle_deg = 90.0,
@@ -108,8 +97,8 @@ TEST(SimilarityTest, a_mirror_reflects_first_and_keeps_the_faces_facing_out)
             const Eigen::Vector3d expected = 2.0 * (R * (M * mesh.V.row(i).transpose())) + Eigen::Vector3d(1.0, 2.0, 3.0);
             EXPECT_LT((result.mesh.V.row(i).transpose() - expected).norm(), 1e-12) << axis << " " << i;
         }
-        EXPECT_NEAR(volume(result.mesh), 8.0 * volume(mesh), 1e-9 * std::abs(volume(mesh))) << axis;
-        EXPECT_GT(volume(mesh), 0.0);
+        EXPECT_NEAR(test::signed_volume(result.mesh), 8.0 * test::signed_volume(mesh), 1e-9 * std::abs(test::signed_volume(mesh))) << axis;
+        EXPECT_GT(test::signed_volume(mesh), 0.0);
         const TriangleMesh back = transformed(result.mesh, t.inverse());
         EXPECT_LT((back.V - mesh.V).cwiseAbs().maxCoeff(), 1e-9) << axis;
         EXPECT_EQ(back.F, mesh.F) << axis;

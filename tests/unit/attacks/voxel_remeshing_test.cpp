@@ -17,20 +17,6 @@
 namespace meshmark {
 namespace {
 
-// Signed volume enclosed by the faces: positive when they face outwards.
-double signed_volume(const TriangleMesh& mesh)
-{
-    double volume = 0.0;
-    for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
-    {
-        const Eigen::Vector3d a = mesh.V.row(mesh.F(f, 0));
-        const Eigen::Vector3d b = mesh.V.row(mesh.F(f, 1));
-        const Eigen::Vector3d c = mesh.V.row(mesh.F(f, 2));
-        volume += a.dot(b.cross(c)) / 6.0;
-    }
-    return volume;
-}
-
 double voxel_edge(const TriangleMesh& mesh, double resolution)
 {
     return bounding_box(mesh.V).diagonal() / resolution;
@@ -50,7 +36,7 @@ TEST(VoxelRemeshingTest, sphere_stays_a_closed_outward_sphere_within_a_fraction_
         const EdgeStatistics edges = edge_statistics(r);
         EXPECT_TRUE(edges.is_closed()) << resolution;
         EXPECT_TRUE(edges.is_consistently_oriented()) << resolution;
-        EXPECT_NEAR(signed_volume(r), 4.0 / 3.0 * std::numbers::pi, 0.04) << resolution;
+        EXPECT_NEAR(test::signed_volume(r), 4.0 / 3.0 * std::numbers::pi, 0.04) << resolution;
         EXPECT_EQ(referenced_vertices(r).size(), static_cast<std::size_t>(r.V.rows()));
     }
 }

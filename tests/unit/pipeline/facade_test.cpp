@@ -503,10 +503,8 @@ TEST(FacadeTest, a_mirrored_copy_of_a_mirror_symmetric_original_is_read_in_its_m
     const Key key = read_key(dir / "key.json");
     for (const std::string moved : {"reorder", "reorder,similarity"})
     {
-        const auto mirrored = [&](TriangleMesh mesh) {
-            mesh.V.col(0) = -mesh.V.col(0);
-            mesh.F.col(1).swap(mesh.F.col(2));  // the faces still facing out
-            return apply_attacks(mesh, parse_attack_spec(moved), 3, 1).mesh;
+        const auto mirrored = [&](const TriangleMesh& mesh) {
+            return apply_attacks(mesh, parse_attack_spec("similarity:mirror=x," + moved), 3, 1).mesh;
         };
         const DetectReport marked = detect(mirrored(read_mesh(dir / "marked.ply")), bent, key);
         EXPECT_EQ(marked.alignment, "registration (vertices matched)") << moved;
@@ -532,10 +530,8 @@ TEST(FacadeTest, a_mirrored_copy_of_a_nearly_mirror_symmetric_original_is_read_i
     write_mesh(dir / "horned.ply", horned);
     (void)embed_file(dir / "horned.ply", dir / "marked.ply", dir / "key.json", seeded(5));
     const Key key = read_key(dir / "key.json");
-    const auto mirrored = [&](TriangleMesh mesh) {
-        mesh.V.col(0) = -mesh.V.col(0);
-        mesh.F.col(1).swap(mesh.F.col(2));
-        return apply_attacks(mesh, parse_attack_spec("reorder,similarity"), 3, 1).mesh;
+    const auto mirrored = [](const TriangleMesh& mesh) {
+        return apply_attacks(mesh, parse_attack_spec("similarity:mirror=x,reorder,similarity"), 3, 1).mesh;
     };
     const DetectReport marked = detect(mirrored(read_mesh(dir / "marked.ply")), horned, key);
     EXPECT_TRUE(marked.decision.is_present) << marked.decision.score;

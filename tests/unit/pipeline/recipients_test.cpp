@@ -318,10 +318,8 @@ TEST(RecipientsTest, a_mirrored_copy_of_a_mirror_symmetric_original_accuses_its_
     ASSERT_EQ(accused_names(unmirrored), std::vector<std::string>{"ben"});
     for (const std::string moved : {"reorder", "reorder,similarity"})
     {
-        const auto mirrored = [&](TriangleMesh mesh) {
-            mesh.V.col(0) = -mesh.V.col(0);
-            mesh.F.col(1).swap(mesh.F.col(2));
-            return apply_attacks(mesh, parse_attack_spec(moved), 3, 1).mesh;
+        const auto mirrored = [&](const TriangleMesh& mesh) {
+            return apply_attacks(mesh, parse_attack_spec("similarity:mirror=x," + moved), 3, 1).mesh;
         };
         const DetectReport found = detect(mirrored(bens), bent, key);
         EXPECT_EQ(accused_names(found), std::vector<std::string>{"ben"}) << moved;
