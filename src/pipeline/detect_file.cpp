@@ -967,13 +967,14 @@ std::vector<Eigen::Matrix3d> signed_axis_maps(double sign)
 // closest points on the original, on the kNearMirrorShare of pairs nearest, while the
 // farthest of those pairs shrinks each round to less than kNearMirrorStall of the last (an
 // asymmetric shape stalls at once: fertility 11.5 -> 11.3 amplitudes, and the search stops)
-// and is not yet settled, for at most kNearMirrorRounds. The refitted map counts when that share
+// and is not yet settled (within kNearMirrorSettled of the tolerance: a twin pose that close
+// matches vertices as the exact one would), for at most kNearMirrorRounds. The refitted map counts when that share
 // of the sample then lies within kSymmetryTolerance amplitudes of the surface (the creature
 // from 1.9, Blender's vehicle from 7.1, both below 2 after 5 rounds). \p sample is centred on
 // \p centroid.
 constexpr double kNearMirrorShare = 0.9;
 constexpr double kNearMirrorStall = 0.9;
-constexpr double kNearMirrorSettled = 0.1;  // of kSymmetryTolerance
+constexpr double kNearMirrorSettled = 0.25;  // of kSymmetryTolerance
 constexpr int kNearMirrorRounds = 12;
 
 std::optional<Eigen::Matrix4d> near_mirror(const ClosestPointIndex& surface, const Positions& sample,
