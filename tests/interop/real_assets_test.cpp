@@ -326,6 +326,20 @@ TEST(RealAssetsInterop, ABlenderCopyOfASymmetricEggIsReadInItsTwinPoses)
     expect_blender_ply_copy_claimed("DXF/PinkEggFromLW.dxf", "egg.glb", scratch);
 }
 
+// Blender's Suzanne (`BLEND/Suzanne_248.blend`, converted to .glb by assimp: 11,616 positions,
+// mirror-symmetric vertex for vertex), marked, then mirrored in Blender (bench/blender/
+// attacks.py `mirror`: Object > Mirror > X and Apply Scale). The mirrored copy puts each vertex
+// where its mirror partner stood, so registration matches it unmirrored and the mark read
+// nothing (z 0.55 before the original's mirror images were read as twin poses); read in the
+// mirrored pose it is claimed. The unmarked Suzanne mirrored the same way is not.
+TEST(RealAssetsInterop, ABlenderMirroredCopyOfSuzanneIsReadInItsMirroredPose)
+{
+    INTEROP_REQUIRE_TOOLS("meshmark", "blender", "assimp-testmodels", "assimp");
+    const fs::path scratch = temp_dir("interop-real-suzanne");
+    expect_blender_ply_copy_claimed("BLEND/Suzanne_248.blend", "suzanne.glb", scratch, "mirror",
+                                    "registration (vertices matched)");
+}
+
 // DirectX's Wuson (`X/Testwuson.X`, converted to .glb by assimp: 2,124 positions skinned to 38
 // joints, three animations): Blender shows it at frame 1 of its first animation (a run), and
 // its PLY writer hands that pose on. Read against the stored pose, the mark was noise (z 1.78);
