@@ -557,6 +557,12 @@ TriangleMesh with_instances(const TriangleMesh& original, const TriangleMesh& in
 // Steps 6-10 for a suspect in memory, appending phases to \p timer.
 // \p instances: geometry of the original that is shown but not watermarked (other instances
 // of instanced glTF meshes); registration matches the suspect against it too.
+// The same triangles over the same vertex numbers: a copy in the original's vertex order.
+bool has_same_triangles(const TriangleMesh& a, const TriangleMesh& b)
+{
+    return a.F.rows() == b.F.rows() && (a.F.array() == b.F.array()).all();
+}
+
 // A traced report's accused (from report.traced) and ownership (report.decision and the
 // joint readings): what its probabilities conclude at the level of \p decision.
 void conclude_trace(DetectReport& report, const DetectOptions& decision)
@@ -650,8 +656,7 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
         // Other triangles over as many vertices: perhaps the same mesh renumbered where it stands
         // (a re-encoded Draco primitive), then read in the original's order without registration
         // (renumbered_in_place).
-        const bool same_triangles =
-            suspect.F.rows() == original.F.rows() && (suspect.F.array() == original.F.array()).all();
+        const bool same_triangles = has_same_triangles(suspect, original);
         const std::optional<Positions> renumbered =
             same_triangles ? std::nullopt
                            : renumbered_in_place(original, suspect, kOutlierFloor * amplitude, options.threads);
@@ -977,13 +982,23 @@ constexpr double kNearMirrorStall = 0.9;
 constexpr double kNearMirrorSettled = 0.25;  // of kSymmetryTolerance
 constexpr int kNearMirrorRounds = 12;
 
-std::optional<Eigen::Matrix4d> near_mirror(const ClosestPointIndex& surface, const Positions& sample,
-                                           const Eigen::RowVector3d& centroid, const Eigen::Matrix3d& R,
-                                           double amplitude, int threads)
+// The map x -> R (x - centroid) + centroid of the original's frame, as a 4x4 transform.
+Eigen::Matrix4d about_centroid(const Eigen::Matrix3d& R, const Eigen::RowVector3d& centroid)
 {
-    Eigen::Matrix4d S = Eigen::Matrix4d::Identity();  // original -> original
+    Eigen::Matrix4d S = Eigen::Matrix4d::Identity();
     S.topLeftCorner<3, 3>() = R;
     S.topRightCorner<3, 1>() = centroid.transpose() - R * centroid.transpose();
+    return S;
+}
+
+// \p moved and \p closest: the sample mirrored by \p R and its closest points, as the exact
+// test found them (the first round's).
+std::optional<Eigen::Matrix4d> near_mirror(const ClosestPointIndex& surface, const Positions& sample,
+                                           const Eigen::RowVector3d& centroid, const Eigen::Matrix3d& R,
+                                           Positions moved, std::vector<ClosestPoint> closest, double amplitude,
+                                           int threads)
+{
+    Eigen::Matrix4d S = about_centroid(R, centroid);  // original -> original
     const Positions points = sample.rowwise() + centroid;
     const auto kept_count = static_cast<Eigen::Index>(kNearMirrorShare * static_cast<double>(points.rows()));
     if (kept_count < 3)
@@ -995,8 +1010,11 @@ std::optional<Eigen::Matrix4d> near_mirror(const ClosestPointIndex& surface, con
     double previous = std::numeric_limits<double>::infinity();
     for (int round = 0;; ++round)
     {
-        const Positions moved = transform_points(S, points);
-        const std::vector<ClosestPoint> closest = surface.closest(moved, threads);
+        if (round > 0)
+        {
+            moved = transform_points(S, points);
+            closest = surface.closest(moved, threads);
+        }
         std::iota(order.begin(), order.end(), Eigen::Index{0});
         const auto kth = order.begin() + kept_count - 1;
         std::nth_element(order.begin(), kth, order.end(), [&](Eigen::Index a, Eigen::Index b) {
@@ -1175,6 +1193,7 @@ std::vector<Eigen::Matrix4d> self_symmetries(const TriangleMesh& original, doubl
             continue;
         }
         Positions moved = (sample * R.transpose()).rowwise() + centroid;
+        std::vector<ClosestPoint> closest;  // on the surface (not on_vertices)
         double squares = 0.0;
         if (on_vertices)
         {
@@ -1196,7 +1215,8 @@ std::vector<Eigen::Matrix4d> self_symmetries(const TriangleMesh& original, doubl
         }
         else
         {
-            for (const ClosestPoint& c : surface.closest(moved, threads))
+            closest = surface.closest(moved, threads);
+            for (const ClosestPoint& c : closest)
             {
                 squares += c.distance * c.distance;
             }
@@ -1204,14 +1224,12 @@ std::vector<Eigen::Matrix4d> self_symmetries(const TriangleMesh& original, doubl
         const double tolerance = on_vertices ? kSymmetryOnVertices : kSymmetryTolerance;
         if (std::sqrt(squares / static_cast<double>(sample.rows())) <= tolerance * amplitude)
         {
-            Eigen::Matrix4d S = Eigen::Matrix4d::Identity();
-            S.topLeftCorner<3, 3>() = R;
-            S.topRightCorner<3, 1>() = centroid.transpose() - R * centroid.transpose();
-            found.push_back(S);
+            found.push_back(about_centroid(R, centroid));
         }
         else if (R.determinant() < 0.0 && std::abs(R.trace() - 1.0) < 1e-6)  // a plane's mirror image
         {
-            if (const std::optional<Eigen::Matrix4d> S = near_mirror(surface, sample, centroid, R, amplitude, threads))
+            if (const std::optional<Eigen::Matrix4d> S = near_mirror(surface, sample, centroid, R, std::move(moved),
+                                                                     std::move(closest), amplitude, threads))
             {
                 found.push_back(*S);
             }
@@ -1292,8 +1310,7 @@ void read_symmetric_poses(DetectReport& report, detail::PhaseTimer& timer, const
                           const std::filesystem::path& suspect_path, const DetectFileOptions& options)
 {
     // A copy in the original's vertex order is read by index: it has no other pose.
-    const bool in_order = report.alignment == "same-connectivity" && suspect.F.rows() == original.F.rows() &&
-                          (suspect.F.array() == original.F.array()).all();
+    const bool in_order = report.alignment == "same-connectivity" && has_same_triangles(suspect, original);
     const bool placed = report.alignment.rfind("registration", 0) == 0 || report.alignment == "same-connectivity";
     if (!placed || in_order || options.decision.verdict == VerdictRule::Bits || instances.vertex_count() > 0)
     {
