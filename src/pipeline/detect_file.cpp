@@ -595,7 +595,8 @@ void conclude_trace(DetectReport& report, const DetectOptions& decision)
 void detect_into(DetectReport& report, detail::PhaseTimer& timer, const SpectralWatermark& mark,
                  const TriangleMesh& original, const TriangleMesh& instances,
                  const TriangleMesh& suspect, const std::filesystem::path& suspect_path,
-                 const DetectFileOptions& options, const Eigen::Matrix4d* pose = nullptr)
+                 const DetectFileOptions& options, const Eigen::Matrix4d* pose = nullptr,
+                 std::optional<Eigen::Matrix4d>* other_handedness = nullptr)
 {
     report.suspect_vertices = suspect.vertex_count();
     report.original_vertices = original.vertex_count();
@@ -697,7 +698,7 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
             instances.vertex_count() > 0 && instances.is_point_cloud() == original.is_point_cloud();
         const TriangleMesh shown = has_instances ? with_instances(original, instances) : TriangleMesh{};
         const TriangleMesh& reference = has_instances ? shown : original;
-        if (pose != nullptr)  // another pose of a symmetric original (read_symmetric_poses)
+        if (pose != nullptr)  // another pose of a symmetric original (read_other_poses)
         {
             registered_to.transform = *pose;
             registered_to.converged = true;
@@ -709,6 +710,10 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
                                 : register_to_reference(suspect, reference, options.pairs, registration);
         }
         const RegistrationResult& r = registered_to;
+        if (other_handedness != nullptr)
+        {
+            *other_handedness = r.other_handedness;
+        }
         timer.lap("register");
         timer.begin("correspondence");
         // The original's vertices again, reordered, split, welded or with vertices added
@@ -1353,49 +1358,80 @@ void keep_more_significant(DetectReport& report, DetectReport& other)
     }
 }
 
+// Whether two suspect -> original maps are one pose found twice (a symmetry's twin pose that
+// the registration's other handedness already is): within kSameSymmetry in their linear parts
+// (over the scale) and in where they take the suspect's bounding-box centre \p centre (over the
+// original's \p diagonal).
+bool same_pose(const Eigen::Matrix4d& A, const Eigen::Matrix4d& B, const Eigen::Vector3d& centre, double diagonal)
+{
+    const double scale = std::cbrt(std::abs(A.topLeftCorner<3, 3>().determinant()));
+    const Eigen::Vector4d c(centre.x(), centre.y(), centre.z(), 1.0);
+    return (A.topLeftCorner<3, 3>() - B.topLeftCorner<3, 3>()).norm() <= kSameSymmetry * scale &&
+           ((A - B) * c).norm() <= kSameSymmetry * diagonal;
+}
+
 // A registered copy of a symmetric original (an egg, a sphere, a torus, a vase, a teapot, most
 // animals and vehicles) fits it as well in every pose the original's symmetries relate, and
 // registration picks one of them: the mark is read only in the right one (Blender's PLY copy
 // of an egg registered turned half a turn about its axis: z 0.71; a 5% remesh of the teapot
 // registered as its mirror image: z 3.37). A copy whose vertices were matched where they stand
 // without registration (renumbered_in_place) can be matched the same wrong way: a mirrored
-// copy of a mirror-symmetric mesh puts each vertex where its mirror partner was. Every such
-// pose is read, and the verdict takes the best reading at k times its false-positive
-// probability for k readings (a union bound: each reading alone keeps the bound,
-// docs/statistics.md), so the poses cost nothing in validity. A family key's copy is traced in
-// each pose, every recipient's probabilities charged the same way (a buyer's mirrored copy of
-// a symmetric asset accuses the buyer).
-void read_symmetric_poses(DetectReport& report, detail::PhaseTimer& timer, const SpectralWatermark& mark,
-                          const TriangleMesh& original, const TriangleMesh& instances, const TriangleMesh& suspect,
-                          const std::filesystem::path& suspect_path, const DetectFileOptions& options)
+// copy of a mirror-symmetric mesh puts each vertex where its mirror partner was. A nearly
+// mirror-symmetric original whose near mirror self_symmetries does not find (a small part on
+// one side can change its third moments by more than kSymmetryMoments) fits a mirrored copy
+// about as well both ways too: the registration then gives its fit of the other handedness
+// (\p other_handedness), read first. Every such pose is read, and the verdict takes the best
+// reading at k times its false-positive probability for k readings (a union bound: each
+// reading alone keeps the bound, docs/statistics.md), so the poses cost nothing in validity.
+// A family key's copy is traced in each pose, every recipient's probabilities charged the same
+// way (a buyer's mirrored copy of a symmetric asset accuses the buyer).
+void read_other_poses(DetectReport& report, detail::PhaseTimer& timer, const SpectralWatermark& mark,
+                      const TriangleMesh& original, const TriangleMesh& instances, const TriangleMesh& suspect,
+                      const std::filesystem::path& suspect_path, const DetectFileOptions& options,
+                      const std::optional<Eigen::Matrix4d>& other_handedness)
 {
     // A copy in the original's vertex order is read by index: it has no other pose.
     const bool in_order = report.alignment == "same-connectivity" && has_same_triangles(suspect, original);
     const bool placed = report.alignment.rfind("registration", 0) == 0 || report.alignment == "same-connectivity";
-    if (!placed || in_order || options.decision.verdict == VerdictRule::Bits || instances.vertex_count() > 0)
+    if (!placed || in_order || options.decision.verdict == VerdictRule::Bits)
     {
         return;
     }
-    timer.begin("symmetry");
-    const double diagonal = bounding_box(original.V).diagonal();
-    const std::vector<Eigen::Matrix4d> symmetries =
-        self_symmetries(original, mark_amplitude(mark.key().options, diagonal), options.threads);
-    timer.lap("symmetry");
-    if (symmetries.empty())
+    std::vector<Eigen::Matrix4d> poses;  // suspect -> original
+    if (other_handedness)
+    {
+        poses.push_back(*other_handedness);
+    }
+    if (instances.vertex_count() == 0)
+    {
+        timer.begin("symmetry");
+        const double diagonal = bounding_box(original.V).diagonal();
+        const std::vector<Eigen::Matrix4d> symmetries =
+            self_symmetries(original, mark_amplitude(mark.key().options, diagonal), options.threads);
+        const Eigen::Vector3d centre = bounding_box(suspect.V).center();
+        for (const Eigen::Matrix4d& S : symmetries)
+        {
+            const Eigen::Matrix4d pose = S.inverse() * report.transform;
+            if (!other_handedness || !same_pose(pose, *other_handedness, centre, diagonal))
+            {
+                poses.push_back(pose);
+            }
+        }
+        timer.lap("symmetry");
+    }
+    if (poses.empty())
     {
         return;
     }
-    const double readings = static_cast<double>(symmetries.size() + 1);
+    const double readings = static_cast<double>(poses.size() + 1);
     const auto bounded = [&](DetectReport& r) { charge_readings(r, readings, options.decision); };
     bounded(report);
-    const Eigen::Matrix4d registered = report.transform;
-    for (const Eigen::Matrix4d& S : symmetries)
+    for (const Eigen::Matrix4d& pose : poses)
     {
         if (report.detected())
         {
             break;
         }
-        const Eigen::Matrix4d pose = S.inverse() * registered;
         DetectReport other;
         detect_into(other, timer, mark, original, instances, suspect, suspect_path, options, &pose);
         bounded(other);
@@ -1721,8 +1757,9 @@ void detect_with_key(DetectReport& report, detail::PhaseTimer& timer, const Key&
     timer.begin("basis");
     const SpectralWatermark mark(original, key, options.threads);
     timer.lap("basis");
-    detect_into(report, timer, mark, original, instances, suspect, suspect_path, options);
-    read_symmetric_poses(report, timer, mark, original, instances, suspect, suspect_path, options);
+    std::optional<Eigen::Matrix4d> other_handedness;
+    detect_into(report, timer, mark, original, instances, suspect, suspect_path, options, nullptr, &other_handedness);
+    read_other_poses(report, timer, mark, original, instances, suspect, suspect_path, options, other_handedness);
     if (animated != nullptr)
     {
         read_animation_pose(report, timer, mark, original, instances, *animated, suspect, suspect_path, options);
@@ -1749,8 +1786,9 @@ DetectReport detect_mesh(const SpectralWatermark& mark, const TriangleMesh& orig
     options.decision.validate();
     DetectReport report;
     detail::PhaseTimer timer(report.seconds, options.progress);
-    detect_into(report, timer, mark, original, TriangleMesh{}, suspect, "suspect", options);
-    read_symmetric_poses(report, timer, mark, original, TriangleMesh{}, suspect, "suspect", options);
+    std::optional<Eigen::Matrix4d> other_handedness;
+    detect_into(report, timer, mark, original, TriangleMesh{}, suspect, "suspect", options, nullptr, &other_handedness);
+    read_other_poses(report, timer, mark, original, TriangleMesh{}, suspect, "suspect", options, other_handedness);
     return report;
 }
 

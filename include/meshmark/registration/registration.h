@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <span>
 
 #include <Eigen/Core>
@@ -62,6 +63,11 @@ struct RegistrationResult
     /// the trimmed RMS distance): near 1 for cropped copies too, low for a wrong alignment.
     double overlap_fraction = 0.0;
     int candidates = 0;       ///< Coarse starting transforms that were tried.
+    /// The best fit of the other handedness (unmirrored when `transform` is mirrored, and the
+    /// reverse), given when it fitted nearly as well as the chosen one (within 1.5 times its
+    /// score): a nearly mirror-symmetric reference fits a copy about as well both ways, and the
+    /// choice between them is then no evidence of which is right. Empty otherwise.
+    std::optional<Eigen::Matrix4d> other_handedness;
 };
 
 /// \brief Bring a suspect copy into the reference's frame with a similarity transform.
