@@ -66,9 +66,10 @@ constexpr double kReflectionMargin = 0.95;
 // copy about as well both ways, and the margin above then picks a handedness by a hair: the
 // best fit of the other handedness is returned too (RegistrationResult::other_handedness) when
 // its fine score is within this factor of the chosen one's. It reaches the fine stage when its
-// coarse score is within kHandednessCoarse of the best coarse score. Measured on the held-out
-// assets' re-work copies (docs/algorithms/registration.md): nearly symmetric characters and
-// vehicles 0.93-1.26, the walker 1.01-1.05 for its mirrored copies, an asymmetric engine 3.2-4.1.
+// coarse score is within kHandednessCoarse of the best coarse score. The ratio measured on
+// the held-out assets' re-work copies (docs/algorithms/registration.md, step 6): medians
+// 1.00-1.16 on nearly symmetric characters and vehicles, the walker's mirrored copies 1.02 and
+// 1.05, an asymmetric engine 3.2-4.1.
 constexpr double kHandednessTie = 1.5;
 constexpr double kHandednessCoarse = 1.5;
 constexpr int kFinalIterations = 6;

@@ -535,7 +535,7 @@ TEST(FacadeTest, a_mirrored_copy_of_a_nearly_mirror_symmetric_original_is_read_i
 // A game vehicle that is mirror-symmetric but for a box on one side of its roof (2.7% of its
 // vertices): enough to change its third moments by 4-10% of the radius cubed, so no mirror map
 // passes self_symmetries' moment test, and too little for the registration to tell a mirrored
-// copy from its unmirrored fit (it chose unmirrored: z 0.37 for a mirrored and reordered copy,
+// copy from its unmirrored fit (it chose unmirrored: z 2.23 for a mirrored and reordered copy,
 // 1.85 for one remeshed to half). The registration's fit of the other handedness is read too
 // and claims them; the unmarked vehicle through the same steps is not claimed.
 TEST(FacadeTest, a_mirrored_copy_of_a_nearly_mirror_symmetric_vehicle_is_read_in_its_other_handedness)
