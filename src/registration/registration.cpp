@@ -481,7 +481,8 @@ RegistrationResult finish(const Problem& p, std::vector<Candidate> candidates, i
     }
     const Candidate& best = *chosen;
     const auto other = std::find_if(fine.begin(), fine.end(), [&](const Candidate& c) { return c.mirrored != best.mirrored; });
-    const bool tied = other != fine.end() && other->score <= kHandednessTie * std::max(best.score, p.score_floor);
+    const bool tied = other != fine.end() && std::isfinite(other->score) &&
+                      other->score <= kHandednessTie * std::max(best.score, p.score_floor);
     const Positions& last = p.samples[best.mirrored ? 1 : 0][kFinalTier];
     const IcpOutcome final_run = refine(p, last, best.transform, kFinalIterations);
     iterations += final_run.iterations;
