@@ -1418,7 +1418,8 @@ void read_other_poses(DetectReport& report, detail::PhaseTimer& timer, const Spe
         const double diagonal = bounding_box(original.V).diagonal();
         const std::vector<Eigen::Matrix4d> symmetries =
             self_symmetries(original, mark_amplitude(mark.key().options, diagonal), options.threads);
-        const Eigen::Vector3d centre = bounding_box(suspect.V).center();
+        const Eigen::Vector3d centre = other_handedness && !symmetries.empty() ? bounding_box(suspect.V).center()
+                                                                                : Eigen::Vector3d::Zero();
         for (const Eigen::Matrix4d& S : symmetries)
         {
             const Eigen::Matrix4d pose = S.inverse() * report.transform;
