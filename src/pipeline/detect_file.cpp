@@ -24,7 +24,6 @@
 #include "meshmark/core/error.h"
 #include "meshmark/core/threads.h"
 #include "meshmark/geometry/adjacency.h"
-#include "meshmark/geometry/closest_point_index.h"
 #include "meshmark/geometry/point_kd_tree.h"
 #include "meshmark/io/mesh_io.h"
 #include "meshmark/meshmark.h"
@@ -602,11 +601,24 @@ void conclude_trace(DetectReport& report, const DetectOptions& decision)
     report.owner_detected = report.owner_false_positive_probability <= decision.max_false_positive;
 }
 
+std::vector<Eigen::Matrix4d> self_symmetries(const TriangleMesh& original, double amplitude, int threads,
+                                             const SurfaceMatcher* given_surface = nullptr);
+
+// What the first reading of a copy learns for the others (read_other_poses): the
+// registration's fit of the other handedness, and the original's symmetries when they were
+// searched right after the registration, over its closest-point structure (kept for that, and
+// dropped before the correspondence: 150 MB on a 1M-vertex original).
+struct PoseHints
+{
+    std::optional<Eigen::Matrix4d> other_handedness;
+    std::optional<std::vector<Eigen::Matrix4d>> symmetries;
+};
+
 void detect_into(DetectReport& report, detail::PhaseTimer& timer, const SpectralWatermark& mark,
                  const TriangleMesh& original, const TriangleMesh& instances,
                  const TriangleMesh& suspect, const std::filesystem::path& suspect_path,
                  const DetectFileOptions& options, const Eigen::Matrix4d* pose = nullptr,
-                 std::optional<Eigen::Matrix4d>* other_handedness = nullptr)
+                 PoseHints* hints = nullptr)
 {
     report.suspect_vertices = suspect.vertex_count();
     report.original_vertices = original.vertex_count();
@@ -701,6 +713,10 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
         timer.begin("register");
         RegistrationOptions registration;
         registration.threads = options.threads;
+        // The poses read_other_poses will read need the original's symmetries.
+        const bool wants_symmetries = hints != nullptr && pose == nullptr && instances.vertex_count() == 0 &&
+                                      options.decision.verdict != VerdictRule::Bits;
+        registration.keep_reference_surface = wants_symmetries;
         // A tool that flattens instanced meshes (gltf-transform optimize joins them) leaves a
         // copy that shows every instance: registered against the first instances alone, the
         // others are unexplained geometry that can pull the fit away.
@@ -720,11 +736,18 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
                                 : register_to_reference(suspect, reference, options.pairs, registration);
         }
         const RegistrationResult& r = registered_to;
-        if (other_handedness != nullptr)
-        {
-            *other_handedness = r.other_handedness;
-        }
         timer.lap("register");
+        if (hints != nullptr)
+        {
+            hints->other_handedness = r.other_handedness;
+        }
+        if (wants_symmetries)
+        {
+            timer.begin("symmetry");
+            hints->symmetries = self_symmetries(original, amplitude, options.threads, r.reference_surface.get());
+            registered_to.reference_surface.reset();
+            timer.lap("symmetry");
+        }
         timer.begin("correspondence");
         // The original's vertices again, reordered, split, welded or with vertices added
         // between them: read vertex for vertex (match_vertices), every component of the change
@@ -1013,13 +1036,12 @@ Eigen::Matrix4d about_centroid(const Eigen::Matrix3d& R, const Eigen::RowVector3
 // \p moved and \p closest: the sample mirrored by \p R and its closest points, as the exact
 // test found them (the first round's).
 // One Gauss-Newton step of the rigid map that lays the rows of \p moved listed in \p kept onto
-// the planes of their closest triangles of \p original (\p closest, by row of \p moved): the
+// the planes of their closest triangles of the original (\p closest, by row of \p moved): the
 // linearized point-to-plane residuals [Chen & Medioni 1992; Low 2004], centred on the kept
 // points and the rotation scaled by their RMS radius (all six unknowns lengths), a little
 // damping for directions the surface leaves free, as the registration's ICP does
 // (icp_point_to_plane). Nullopt when the step is not finite.
-std::optional<Eigen::Matrix4d> rigid_step(const TriangleMesh& original, const Positions& moved,
-                                          const std::vector<ClosestPoint>& closest,
+std::optional<Eigen::Matrix4d> rigid_step(const Positions& moved, const std::vector<SurfaceMatch>& closest,
                                           std::span<const Eigen::Index> kept)
 {
     using Vec6 = Eigen::Matrix<double, 6, 1>;
@@ -1039,13 +1061,8 @@ std::optional<Eigen::Matrix4d> rigid_step(const TriangleMesh& original, const Po
     Vec6 Jtr = Vec6::Zero();
     for (const Eigen::Index i : kept)
     {
-        const ClosestPoint& q = closest[static_cast<std::size_t>(i)];
-        const auto corner = [&](int k) { return Eigen::Vector3d(original.V.row(original.F(q.face, k))); };
-        const Eigen::Vector3d normal = (corner(1) - corner(0)).cross(corner(2) - corner(0)).normalized();
-        if (!normal.allFinite())  // a degenerate triangle: no plane
-        {
-            continue;
-        }
+        const SurfaceMatch& q = closest[static_cast<std::size_t>(i)];
+        const Eigen::Vector3d& normal = q.normal;  // zero for a degenerate triangle: no plane, no term
         const Eigen::Vector3d y = moved.row(i).transpose();
         Vec6 J;
         J << ((y - c) / L).cross(normal), normal;
@@ -1069,10 +1086,10 @@ std::optional<Eigen::Matrix4d> rigid_step(const TriangleMesh& original, const Po
     return step;
 }
 
-std::optional<Eigen::Matrix4d> near_mirror(const TriangleMesh& original, const ClosestPointIndex& surface,
-                                           const Positions& sample, const Eigen::RowVector3d& centroid,
-                                           const Eigen::Matrix3d& R, Positions moved, std::vector<ClosestPoint> closest,
-                                           double amplitude, int threads)
+std::optional<Eigen::Matrix4d> near_mirror(const SurfaceMatcher& surface, const Positions& sample,
+                                           const Eigen::RowVector3d& centroid, const Eigen::Matrix3d& R,
+                                           Positions moved, std::vector<SurfaceMatch> closest, double amplitude,
+                                           int threads)
 {
     Eigen::Matrix4d S = about_centroid(R, centroid);  // original -> original
     const Positions points = sample.rowwise() + centroid;
@@ -1089,7 +1106,7 @@ std::optional<Eigen::Matrix4d> near_mirror(const TriangleMesh& original, const C
         if (round > 0)
         {
             moved = transform_points(S, points);
-            closest = surface.closest(moved, threads);
+            surface.match_all(moved, closest, threads);
         }
         std::iota(order.begin(), order.end(), Eigen::Index{0});
         const auto kth = order.begin() + kept_count - 1;
@@ -1104,7 +1121,7 @@ std::optional<Eigen::Matrix4d> near_mirror(const TriangleMesh& original, const C
         }
         previous = farthest;
         const std::optional<Eigen::Matrix4d> step =
-            rigid_step(original, moved, closest, std::span<const Eigen::Index>(order.data(), static_cast<std::size_t>(kept_count)));
+            rigid_step(moved, closest, std::span<const Eigen::Index>(order.data(), static_cast<std::size_t>(kept_count)));
         if (!step)
         {
             return std::nullopt;
@@ -1113,7 +1130,8 @@ std::optional<Eigen::Matrix4d> near_mirror(const TriangleMesh& original, const C
     }
 }
 
-std::vector<Eigen::Matrix4d> self_symmetries(const TriangleMesh& original, double amplitude, int threads)
+std::vector<Eigen::Matrix4d> self_symmetries(const TriangleMesh& original, double amplitude, int threads,
+                                             const SurfaceMatcher* given_surface)
 {
     std::vector<Eigen::Matrix4d> found;
     if (original.is_point_cloud() || original.V.rows() < 4)
@@ -1246,7 +1264,15 @@ std::vector<Eigen::Matrix4d> self_symmetries(const TriangleMesh& original, doubl
     {
         return found;
     }
-    const ClosestPointIndex surface(original);
+    // The original's surface: the registration's own when it kept it (no second structure over
+    // the original: on the generated 1M-vertex mesh, whose mirror maps keep its moments, a
+    // bounding-volume hierarchy of its 2M triangles took 0.18 s of a 3 s detection).
+    std::unique_ptr<SurfaceMatcher> built;
+    if (given_surface == nullptr)
+    {
+        built = std::make_unique<SurfaceMatcher>(original);
+    }
+    const SurfaceMatcher& surface = given_surface != nullptr ? *given_surface : *built;
     std::optional<PointKdTree> vertices;
     const Eigen::Index step = std::max<Eigen::Index>(1, n / kSymmetrySample);
     Positions sample((n + step - 1) / step, 3);
@@ -1267,7 +1293,7 @@ std::vector<Eigen::Matrix4d> self_symmetries(const TriangleMesh& original, doubl
             continue;
         }
         Positions moved = (sample * R.transpose()).rowwise() + centroid;
-        std::vector<ClosestPoint> closest;  // on the surface (not on_vertices)
+        std::vector<SurfaceMatch> closest;  // on the surface (not on_vertices)
         double squares = 0.0;
         if (on_vertices)
         {
@@ -1289,8 +1315,8 @@ std::vector<Eigen::Matrix4d> self_symmetries(const TriangleMesh& original, doubl
         }
         else
         {
-            closest = surface.closest(moved, threads);
-            for (const ClosestPoint& c : closest)
+            surface.match_all(moved, closest, threads);
+            for (const SurfaceMatch& c : closest)
             {
                 squares += c.distance * c.distance;
             }
@@ -1302,9 +1328,8 @@ std::vector<Eigen::Matrix4d> self_symmetries(const TriangleMesh& original, doubl
         }
         else if (R.determinant() < 0.0 && std::abs(R.trace() - 1.0) < 1e-6)  // a plane's mirror image
         {
-            if (const std::optional<Eigen::Matrix4d> S = near_mirror(original, surface, sample, centroid, R,
-                                                                     std::move(moved), std::move(closest), amplitude,
-                                                                     threads))
+            if (const std::optional<Eigen::Matrix4d> S = near_mirror(surface, sample, centroid, R, std::move(moved),
+                                                                     std::move(closest), amplitude, threads))
             {
                 found.push_back(*S);
             }
@@ -1390,7 +1415,7 @@ bool same_pose(const Eigen::Matrix4d& A, const Eigen::Matrix4d& B, const Eigen::
 // mirror-symmetric original whose near mirror self_symmetries does not find (a small part on
 // one side can change its third moments by more than kSymmetryMoments) fits a mirrored copy
 // about as well both ways too: the registration then gives its fit of the other handedness
-// (\p other_handedness), read first. Every such pose is read, and the verdict takes the best
+// (\p hints), read first. Every such pose is read, and the verdict takes the best
 // reading at k times its false-positive probability for k readings (a union bound: each
 // reading alone keeps the bound, docs/statistics.md), so the poses cost nothing in validity.
 // A family key's copy is traced in each pose, every recipient's probabilities charged the same
@@ -1398,8 +1423,9 @@ bool same_pose(const Eigen::Matrix4d& A, const Eigen::Matrix4d& B, const Eigen::
 void read_other_poses(DetectReport& report, detail::PhaseTimer& timer, const SpectralWatermark& mark,
                       const TriangleMesh& original, const TriangleMesh& instances, const TriangleMesh& suspect,
                       const std::filesystem::path& suspect_path, const DetectFileOptions& options,
-                      const std::optional<Eigen::Matrix4d>& other_handedness)
+                      const PoseHints& hints)
 {
+    const std::optional<Eigen::Matrix4d>& other_handedness = hints.other_handedness;
     // A copy in the original's vertex order is read by index: it has no other pose.
     const bool in_order = report.alignment == "same-connectivity" && has_same_triangles(suspect, original);
     const bool placed = report.alignment.rfind("registration", 0) == 0 || report.alignment == "same-connectivity";
@@ -1414,10 +1440,18 @@ void read_other_poses(DetectReport& report, detail::PhaseTimer& timer, const Spe
     }
     if (instances.vertex_count() == 0)
     {
-        timer.begin("symmetry");
         const double diagonal = bounding_box(original.V).diagonal();
-        const std::vector<Eigen::Matrix4d> symmetries =
-            self_symmetries(original, mark_amplitude(mark.key().options, diagonal), options.threads);
+        std::vector<Eigen::Matrix4d> symmetries;
+        if (hints.symmetries)  // searched after the registration
+        {
+            symmetries = *hints.symmetries;
+        }
+        else  // a copy matched without registration (renumbered_in_place)
+        {
+            timer.begin("symmetry");
+            symmetries = self_symmetries(original, mark_amplitude(mark.key().options, diagonal), options.threads);
+            timer.lap("symmetry");
+        }
         const Eigen::Vector3d centre = other_handedness && !symmetries.empty() ? bounding_box(suspect.V).center()
                                                                                 : Eigen::Vector3d::Zero();
         for (const Eigen::Matrix4d& S : symmetries)
@@ -1428,7 +1462,6 @@ void read_other_poses(DetectReport& report, detail::PhaseTimer& timer, const Spe
                 poses.push_back(pose);
             }
         }
-        timer.lap("symmetry");
     }
     if (poses.empty())
     {
@@ -1768,9 +1801,9 @@ void detect_with_key(DetectReport& report, detail::PhaseTimer& timer, const Key&
     timer.begin("basis");
     const SpectralWatermark mark(original, key, options.threads);
     timer.lap("basis");
-    std::optional<Eigen::Matrix4d> other_handedness;
-    detect_into(report, timer, mark, original, instances, suspect, suspect_path, options, nullptr, &other_handedness);
-    read_other_poses(report, timer, mark, original, instances, suspect, suspect_path, options, other_handedness);
+    PoseHints hints;
+    detect_into(report, timer, mark, original, instances, suspect, suspect_path, options, nullptr, &hints);
+    read_other_poses(report, timer, mark, original, instances, suspect, suspect_path, options, hints);
     if (animated != nullptr)
     {
         read_animation_pose(report, timer, mark, original, instances, *animated, suspect, suspect_path, options);
@@ -1797,9 +1830,9 @@ DetectReport detect_mesh(const SpectralWatermark& mark, const TriangleMesh& orig
     options.decision.validate();
     DetectReport report;
     detail::PhaseTimer timer(report.seconds, options.progress);
-    std::optional<Eigen::Matrix4d> other_handedness;
-    detect_into(report, timer, mark, original, TriangleMesh{}, suspect, "suspect", options, nullptr, &other_handedness);
-    read_other_poses(report, timer, mark, original, TriangleMesh{}, suspect, "suspect", options, other_handedness);
+    PoseHints hints;
+    detect_into(report, timer, mark, original, TriangleMesh{}, suspect, "suspect", options, nullptr, &hints);
+    read_other_poses(report, timer, mark, original, TriangleMesh{}, suspect, "suspect", options, hints);
     return report;
 }
 

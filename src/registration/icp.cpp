@@ -33,7 +33,7 @@ double standard_error(double trimmed_rms, std::size_t kept)
 struct Matching
 {
     Positions Y;                 // transformed samples
-    std::vector<Match> matches;  // their closest target points
+    std::vector<SurfaceMatch> matches;  // their closest target points
     double threshold = 0.0;      // largest kept distance
     double trimmed_rms = 0.0;
     double overlap_fraction = 0.0;
@@ -41,7 +41,7 @@ struct Matching
 
 // The k-th smallest distance (k = ceil(keep * n), at least 3) is the trimming threshold;
 // nth_element on a copy gives the same value on every run.
-double trim_threshold(const std::vector<Match>& matches, double keep)
+double trim_threshold(const std::vector<SurfaceMatch>& matches, double keep)
 {
     std::vector<double> d(matches.size());
     for (std::size_t i = 0; i < matches.size(); ++i)
@@ -66,7 +66,7 @@ Matching match_and_trim(const Positions& X, const SurfaceMatcher& target, const 
     // Sums run serially in sample order: identical for any thread count.
     double sum = 0.0;
     std::size_t kept = 0;
-    for (const Match& match : m.matches)
+    for (const SurfaceMatch& match : m.matches)
     {
         if (match.distance <= m.threshold)
         {
@@ -77,7 +77,7 @@ Matching match_and_trim(const Positions& X, const SurfaceMatcher& target, const 
     m.trimmed_rms = kept > 0 ? std::sqrt(sum / static_cast<double>(kept)) : 0.0;
     const double overlap_limit = std::max(3.0 * m.trimmed_rms, settings.distance_floor);
     std::size_t inside = 0;
-    for (const Match& match : m.matches)
+    for (const SurfaceMatch& match : m.matches)
     {
         inside += match.distance <= overlap_limit ? 1U : 0U;
     }
@@ -221,7 +221,7 @@ IcpOutcome icp_point_to_plane(const Positions& X, const SurfaceMatcher& target,
         Vec7 Jtr = Vec7::Zero();
         for (std::size_t i = 0; i < m.matches.size(); ++i)
         {
-            const Match& match = m.matches[i];
+            const SurfaceMatch& match = m.matches[i];
             if (match.distance > m.threshold)
             {
                 continue;

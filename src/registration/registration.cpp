@@ -42,7 +42,6 @@ using detail::Moments;
 using detail::principal_frame;
 using detail::shuffled;
 using detail::Similarity;
-using detail::SurfaceMatcher;
 
 /// One round of the coarse tournament: every candidate runs `iterations` of trimmed
 /// point-to-point ICP on the sample tier `tier`, then the best `survivors` go on.
@@ -505,10 +504,10 @@ RegistrationResult finish(const Problem& p, std::vector<Candidate> candidates, i
         const IcpOutcome part = tight_run(fine_samples, final_state.transform, kPartIterations);
         const double within = std::max(3.0 * part.trimmed_rms, 1e-9 * p.reference_diagonal);
         auto laid_on = [&](const Similarity& T) {
-            std::vector<detail::Match> matches;
+            std::vector<SurfaceMatch> matches;
             p.fine_target->match_all(detail::apply(T, fine_samples, p.options.threads), matches, p.options.threads);
             const auto count = std::count_if(matches.begin(), matches.end(),
-                                             [&](const detail::Match& m) { return m.distance <= within; });
+                                             [&](const SurfaceMatch& m) { return m.distance <= within; });
             return static_cast<double>(count) / static_cast<double>(std::max<std::size_t>(matches.size(), 1));
         };
         if (laid_on(part.transform) > kPartGain * laid_on(final_state.transform) + kPartMargin)
@@ -703,6 +702,10 @@ RegistrationResult register_to_reference(const TriangleMesh& suspect, const Tria
     // Fine alignment of the survivors: point-to-plane ICP against the whole reference surface.
     RegistrationResult result = finish(p, std::move(candidates), iterations);
     result.candidates = tried;
+    if (options.keep_reference_surface)
+    {
+        result.reference_surface = std::move(p.fine_target);
+    }
     return result;
 }
 
@@ -743,6 +746,10 @@ RegistrationResult register_to_reference(const TriangleMesh& suspect, const Tria
     const int iterations = run_round(p, candidates, kRounds.back());
     RegistrationResult result = finish(p, std::move(candidates), iterations);
     result.candidates = static_cast<int>(options.allow_reflection ? 2 : 1);
+    if (options.keep_reference_surface)
+    {
+        result.reference_surface = std::move(p.fine_target);
+    }
     return result;
 }
 

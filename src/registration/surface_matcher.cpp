@@ -16,7 +16,7 @@
 #include "meshmark/geometry/point_kd_tree.h"
 #include "meshmark/geometry/point_triangle.h"
 
-namespace meshmark::detail {
+namespace meshmark {
 
 namespace {
 
@@ -224,12 +224,12 @@ bool SurfaceMatcher::has_normals() const noexcept
     return impl_->F.rows() > 0;
 }
 
-Match SurfaceMatcher::match(const Eigen::Vector3d& query) const
+SurfaceMatch SurfaceMatcher::match(const Eigen::Vector3d& query) const
 {
     const Impl& m = *impl_;
     double squared = 0.0;
     const std::uint32_t k = m.tree->nearest(query, squared);
-    Match result;
+    SurfaceMatch result;
     result.point = m.tree->points().row(static_cast<Eigen::Index>(k)).transpose();
     result.distance = std::sqrt(squared);
     if (m.F.rows() == 0)
@@ -277,7 +277,7 @@ Match SurfaceMatcher::match(const Eigen::Vector3d& query) const
     return result;
 }
 
-void SurfaceMatcher::match_all(const Positions& queries, std::vector<Match>& out, int threads) const
+void SurfaceMatcher::match_all(const Positions& queries, std::vector<SurfaceMatch>& out, int threads) const
 {
     const auto count = static_cast<std::int64_t>(queries.rows());
     out.resize(static_cast<std::size_t>(count));
@@ -288,6 +288,8 @@ void SurfaceMatcher::match_all(const Positions& queries, std::vector<Match>& out
             match(queries.row(static_cast<Eigen::Index>(i)).transpose());
     }
 }
+
+namespace detail {
 
 double median_neighbor_spacing(const Positions& V, std::size_t max_queries)
 {
@@ -312,4 +314,6 @@ double median_neighbor_spacing(const Positions& V, std::size_t max_queries)
     return *middle;
 }
 
-}  // namespace meshmark::detail
+}  // namespace detail
+
+}  // namespace meshmark

@@ -2,12 +2,14 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <span>
 
 #include <Eigen/Core>
 
 #include "meshmark/core/triangle_mesh.h"
+#include "meshmark/registration/surface_matcher.h"
 
 namespace meshmark {
 
@@ -41,6 +43,11 @@ struct RegistrationOptions
     double max_rms_rel = 0.05;
     std::uint64_t seed = 0x5245474953544552ULL;  ///< Seed of the deterministic subsampling.
     int threads = 0;                              ///< 0 = all cores.
+    /// Return the fine stage's closest-point structure over the reference
+    /// (RegistrationResult::reference_surface) instead of dropping it, for a caller that queries
+    /// the reference's surface next (detection's symmetry search). It holds a copy of the
+    /// reference, its face normals and a kd-tree: about 150 MB for a 1M-vertex reference.
+    bool keep_reference_surface = false;
 
     /// \throws InvalidOption naming the field, its value and the allowed range.
     void validate() const;
@@ -68,6 +75,9 @@ struct RegistrationResult
     /// score): a nearly mirror-symmetric reference fits a copy about as well both ways, and the
     /// choice between them is then no evidence of which is right. Empty otherwise.
     std::optional<Eigen::Matrix4d> other_handedness;
+    /// The fine stage's closest points on the reference's surface, when
+    /// RegistrationOptions::keep_reference_surface asked for it; null otherwise.
+    std::shared_ptr<const SurfaceMatcher> reference_surface;
 };
 
 /// \brief Bring a suspect copy into the reference's frame with a similarity transform.

@@ -54,7 +54,7 @@ struct IcpOutcome
 [[nodiscard]] IcpOutcome icp_point_to_plane(const Positions& X, const SurfaceMatcher& target,
                                             const Similarity& start, const IcpSettings& settings);
 
-/// \brief Match once and report trimmed RMS and overlap of \p T, without updating it.
+/// \brief SurfaceMatch once and report trimmed RMS and overlap of \p T, without updating it.
 [[nodiscard]] IcpOutcome evaluate(const Positions& X, const SurfaceMatcher& target,
                                   const Similarity& T, const IcpSettings& settings);
 

@@ -88,6 +88,45 @@ TEST(RegistrationTest, refuses_reflection_when_not_allowed)
     EXPECT_GT(result.rms_error, 1e-3);
 }
 
+// The fine stage's structure over the reference is handed out only when asked for (detection's
+// symmetry search reuses it), by both entry points, and answers on the reference's surface:
+// every vertex lies on it, and a face's centroid lifted along its normal is that far above it.
+TEST(RegistrationTest, keeps_the_reference_surface_only_when_asked)
+{
+    const TriangleMesh reference = lumpy_ellipsoid(3);
+    const double D = bounding_box(reference.V).diagonal();
+    Rng rng(4);
+    TriangleMesh suspect = reference;
+    suspect.V = test::apply(test::random_similarity(rng, false), reference.V);
+    EXPECT_EQ(register_to_reference(suspect, reference).reference_surface, nullptr);
+    const RegistrationResult result = register_to_reference(suspect, reference, {.keep_reference_surface = true});
+    ASSERT_NE(result.reference_surface, nullptr);
+    const std::vector<PointPair> pairs = {{suspect.V.row(0).transpose(), reference.V.row(0).transpose()},
+                                          {suspect.V.row(50).transpose(), reference.V.row(50).transpose()},
+                                          {suspect.V.row(100).transpose(), reference.V.row(100).transpose()},
+                                          {suspect.V.row(150).transpose(), reference.V.row(150).transpose()}};
+    EXPECT_EQ(register_to_reference(suspect, reference, pairs).reference_surface, nullptr);
+    EXPECT_NE(register_to_reference(suspect, reference, pairs, {.keep_reference_surface = true}).reference_surface,
+              nullptr);
+    const SurfaceMatcher& surface = *result.reference_surface;
+    ASSERT_TRUE(surface.has_normals());
+    for (Eigen::Index v = 0; v < reference.V.rows(); v += 37)
+    {
+        EXPECT_LT(surface.match(reference.V.row(v).transpose()).distance, 1e-12 * D);
+    }
+    for (Eigen::Index f = 0; f < reference.F.rows(); f += 53)
+    {
+        const Eigen::Vector3d a = reference.V.row(reference.F(f, 0)).transpose();
+        const Eigen::Vector3d b = reference.V.row(reference.F(f, 1)).transpose();
+        const Eigen::Vector3d c = reference.V.row(reference.F(f, 2)).transpose();
+        const Eigen::Vector3d n = (b - a).cross(c - a).normalized();
+        const double lift = 1e-4 * D;  // far below the ellipsoid's curvature radius
+        const SurfaceMatch m = surface.match((a + b + c) / 3.0 + lift * n);
+        EXPECT_NEAR(m.distance, lift, 1e-3 * lift) << "face " << f;
+        EXPECT_GT(m.normal.dot(n), 0.999) << "face " << f;
+    }
+}
+
 // Started near the answer (the copy's true pose turned by 8 degrees and moved by 3% of the
 // diagonal), register_from lands on it, mirrored copies included, and keeps the start's
 // handedness; a start that is no similarity is refused.
