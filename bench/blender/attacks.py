@@ -17,7 +17,8 @@
 #   ply, obj, gltf   round trip: import, write through Blender's PLY / OBJ / glTF (.glb) writer
 #   transform        move by (0.1, -0.2, 0.3), rotate by (20, 30, 40) degrees XYZ, scale by 1.5
 #   mirror           mirror in x about the bbox centre, the faces reversed so they face out (what
-#                    Object > Mirror > X and Apply Scale leave)
+#                    Object > Mirror > X and Apply Scale leave); a rigged mesh is mirrored as shown
+#                    (its modifiers applied first, off the armature), as mirroring the whole rig does
 #   merge[=F]        Merge by Distance, distance F (default 1e-4)
 #   noise[=F]        Randomize Vertices (transform.vertex_random), offset F (default 0.002), --seed
 #   subdivide[=L]    Subdivision Surface modifier (Catmull-Clark), L levels (default 1)
@@ -163,12 +164,24 @@ def with_bmesh(obj, change):
     obj.data.update()
 
 
+def bake_shown(obj):
+    """The mesh of obj as its modifiers leave it at the current frame, off its parent, with its
+    transform applied; returns the converted object."""
+    bpy.ops.object.select_all(action="DESELECT")
+    obj.select_set(True)
+    bpy.context.view_layer.objects.active = obj
+    bpy.ops.object.convert(target="MESH")
+    bpy.ops.object.parent_clear(type="CLEAR_KEEP_TRANSFORM")
+    bpy.ops.object.transform_apply(location=True, rotation=True, scale=True)
+    return bpy.context.view_layer.objects.active
+
+
 def apply_op(obj, name, value, seed):
     lo, hi = bbox(obj)
     diagonal = (hi - lo).length
     centre = (lo + hi) / 2
     if name in ROUND_TRIP_EXT or name in ("pose", "second-action"):  # pose: done by import_mesh
-        return
+        return obj
     if obj.data.shape_keys:  # morph targets: edit the shape shown (Blender applies no modifier to
         mix = obj.shape_key_add(name="mix", from_mix=True)  # a mesh with shape keys)
         shown = [point.co.copy() for point in mix.data]
@@ -182,6 +195,14 @@ def apply_op(obj, name, value, seed):
         obj.data.transform(move @ mathutils.Matrix.Scale(1.5, 4) @ turn)
         obj.data.update()
     elif name == "mirror":
+        if obj.modifiers or obj.parent is not None:
+            # A rigged mesh: its armature deforms the data it is given, so mirrored data under
+            # unmirrored bones is no mirror image of any pose. Mirror what is shown instead, as a
+            # user does who mirrors the object (or the whole rig): the mesh as its modifiers leave
+            # it, off the armature.
+            obj = bake_shown(obj)
+            lo, hi = bbox(obj)
+            centre = (lo + hi) / 2
         flip = mathutils.Matrix.Translation(centre) @ mathutils.Matrix.Scale(-1.0, 4, (1.0, 0.0, 0.0)) \
             @ mathutils.Matrix.Translation(-centre)
 
@@ -222,6 +243,7 @@ def apply_op(obj, name, value, seed):
         apply_modifier(obj, "REMESH", mode="VOXEL", voxel_size=diagonal / value, adaptivity=0.0)
     else:  # parse_op admits only the names above
         raise AssertionError(name)
+    return obj
 
 
 def export(obj, name, path):
@@ -251,7 +273,7 @@ def main(argv):
         start = time.time()
         obj = import_mesh(source, int(value) if name in ("pose", "second-action") else None,
                           1 if name == "second-action" else 0)
-        apply_op(obj, name, value, seed)
+        obj = apply_op(obj, name, value, seed)
         label = spec.replace("=", "_")
         target = os.path.join(out_dir, label + ROUND_TRIP_EXT.get(name, ".ply"))
         temporary = os.path.join(out_dir, ".tmp-" + os.path.basename(target))
