@@ -17,8 +17,9 @@
 #   ply, obj, gltf   round trip: import, write through Blender's PLY / OBJ / glTF (.glb) writer
 #   transform        move by (0.1, -0.2, 0.3), rotate by (20, 30, 40) degrees XYZ, scale by 1.5
 #   mirror           mirror in x about the bbox centre, the faces reversed so they face out (what
-#                    Object > Mirror > X and Apply Scale leave); a rigged mesh is mirrored as shown
-#                    (its modifiers applied first, off the armature), as mirroring the whole rig does
+#                    Object > Mirror > X and Apply Scale leave)
+#                    transform and mirror take a rigged (or parented) mesh as shown: its modifiers
+#                    applied first, off its parent, as moving or mirroring the whole rig does
 #   merge[=F]        Merge by Distance, distance F (default 1e-4)
 #   noise[=F]        Randomize Vertices (transform.vertex_random), offset F (default 0.002), --seed
 #   subdivide[=L]    Subdivision Surface modifier (Catmull-Clark), L levels (default 1)
@@ -189,20 +190,21 @@ def apply_op(obj, name, value, seed):
         for vertex, point in zip(obj.data.vertices, shown):
             vertex.co = point
         obj.data.update()
+    if name in ("transform", "mirror") and (obj.modifiers or obj.parent is not None):
+        # A rigged mesh: its armature deforms the data it is given, so data moved or mirrored
+        # under bones that were not is no similarity of any pose. Move or mirror what is shown
+        # instead, as a user does who moves or mirrors the object with its rig: the mesh as its
+        # modifiers leave it, off the armature.
+        obj = bake_shown(obj)
+        lo, hi = bbox(obj)
+        diagonal = (hi - lo).length
+        centre = (lo + hi) / 2
     if name == "transform":
         move = mathutils.Matrix.Translation(mathutils.Vector((0.1, -0.2, 0.3)) * diagonal)
         turn = mathutils.Euler([math.radians(a) for a in (20, 30, 40)], "XYZ").to_matrix().to_4x4()
         obj.data.transform(move @ mathutils.Matrix.Scale(1.5, 4) @ turn)
         obj.data.update()
     elif name == "mirror":
-        if obj.modifiers or obj.parent is not None:
-            # A rigged mesh: its armature deforms the data it is given, so mirrored data under
-            # unmirrored bones is no mirror image of any pose. Mirror what is shown instead, as a
-            # user does who mirrors the object (or the whole rig): the mesh as its modifiers leave
-            # it, off the armature.
-            obj = bake_shown(obj)
-            lo, hi = bbox(obj)
-            centre = (lo + hi) / 2
         flip = mathutils.Matrix.Translation(centre) @ mathutils.Matrix.Scale(-1.0, 4, (1.0, 0.0, 0.0)) \
             @ mathutils.Matrix.Translation(-centre)
 

@@ -362,16 +362,24 @@ TEST(RealAssetsInterop, ABlenderCopyOfAnAnimatedCharacterExportedAtAnotherFrameI
     expect_blender_ply_copy_claimed("X/Testwuson.X", "wuson.glb", scratch, "pose=20");
 }
 
-// The same character mirrored in Blender as it is shown (the re-work's `mirror` bakes a rigged
-// mesh's pose before it mirrors): read through the pose Blender shows it in, in its mirrored
-// handedness, it is claimed. Until the seventeenth session the re-work mirrored the mesh data
-// under bones that were not mirrored, which is no mirror image of any pose (a held-out copy of
-// this character read z 0.46 and 2.55 that way, 9.78 and 9.79 now).
+// The same character moved (turned, scaled) and mirrored in Blender as it is shown (the
+// re-work's `transform` and `mirror` bake a rigged mesh's pose first): read through the pose
+// Blender shows it in, each is claimed. Until the seventeenth session the re-work moved or
+// mirrored the mesh data under bones that were not, which is no similarity of any pose (held-out
+// copies of this character read z 1.77 / 2.15 moved and 0.46 / 2.55 mirrored that way; 9.78 /
+// 9.79 both now).
 TEST(RealAssetsInterop, ABlenderMirroredCopyOfAnAnimatedCharacterIsClaimed)
 {
     INTEROP_REQUIRE_TOOLS("meshmark", "blender", "assimp-testmodels", "assimp");
     const fs::path scratch = temp_dir("interop-real-wuson-mirror");
     expect_blender_ply_copy_claimed("X/Testwuson.X", "wuson.glb", scratch, "mirror");
+}
+
+TEST(RealAssetsInterop, ABlenderMovedCopyOfAnAnimatedCharacterIsClaimed)
+{
+    INTEROP_REQUIRE_TOOLS("meshmark", "blender", "assimp-testmodels", "assimp");
+    const fs::path scratch = temp_dir("interop-real-wuson-transform");
+    expect_blender_ply_copy_claimed("X/Testwuson.X", "wuson.glb", scratch, "transform");
 }
 
 // The same character after the user switched Blender's action to its second animation (its
