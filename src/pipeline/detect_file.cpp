@@ -28,6 +28,7 @@
 #include "meshmark/io/mesh_io.h"
 #include "meshmark/meshmark.h"
 #include "meshmark/pipeline/embed_file.h"
+#include "meshmark/registration/point_to_plane.h"
 #include "meshmark/registration/registration.h"
 #include "meshmark/registration/resampling.h"
 #include "meshmark/watermark/detector.h"
@@ -1033,59 +1034,32 @@ Eigen::Matrix4d about_centroid(const Eigen::Matrix3d& R, const Eigen::RowVector3
     return S;
 }
 
-// \p moved and \p closest: the sample mirrored by \p R and its closest points, as the exact
-// test found them (the first round's).
 // One Gauss-Newton step of the rigid map that lays the rows of \p moved listed in \p kept onto
-// the planes of their closest triangles of the original (\p closest, by row of \p moved): the
-// linearized point-to-plane residuals [Chen & Medioni 1992; Low 2004], centred on the kept
-// points and the rotation scaled by their RMS radius (all six unknowns lengths), a little
-// damping for directions the surface leaves free, as the registration's ICP does
-// (icp_point_to_plane). Nullopt when the step is not finite.
+// the planes of their closest triangles of the original (\p closest, by row of \p moved), as
+// the registration's fine stage steps without its scale (point_to_plane_step), as a 4x4
+// transform. Nullopt when the step is not finite.
 std::optional<Eigen::Matrix4d> rigid_step(const Positions& moved, const std::vector<SurfaceMatch>& closest,
                                           std::span<const Eigen::Index> kept)
 {
-    using Vec6 = Eigen::Matrix<double, 6, 1>;
-    Eigen::Vector3d c = Eigen::Vector3d::Zero();
-    for (const Eigen::Index i : kept)
-    {
-        c += moved.row(i).transpose();
-    }
-    c /= static_cast<double>(kept.size());
-    double r2 = 0.0;
-    for (const Eigen::Index i : kept)
-    {
-        r2 += (moved.row(i).transpose() - c).squaredNorm();
-    }
-    const double L = std::max(std::sqrt(r2 / static_cast<double>(kept.size())), 1e-300);
-    Eigen::Matrix<double, 6, 6> JtJ = Eigen::Matrix<double, 6, 6>::Zero();
-    Vec6 Jtr = Vec6::Zero();
-    for (const Eigen::Index i : kept)
-    {
-        const SurfaceMatch& q = closest[static_cast<std::size_t>(i)];
-        const Eigen::Vector3d& normal = q.normal;  // zero for a degenerate triangle: no plane, no term
-        const Eigen::Vector3d y = moved.row(i).transpose();
-        Vec6 J;
-        J << ((y - c) / L).cross(normal), normal;
-        JtJ.noalias() += J * J.transpose();
-        Jtr += normal.dot(y - q.point) * J;
-    }
-    const double damping = 1e-9 * JtJ.trace() / 6.0 + 1e-300;
-    const Vec6 delta = -(JtJ + damping * Eigen::Matrix<double, 6, 6>::Identity()).ldlt().solve(Jtr);
-    if (!delta.allFinite())
+    const std::optional<PointToPlaneStep<6>> update = point_to_plane_step<6>(moved, closest, kept);
+    if (!update)
     {
         return std::nullopt;
     }
-    const Eigen::Vector3d omega = delta.head<3>() / L;
+    const Eigen::Vector3d omega = update->delta.head<3>() / update->radius;
     const double angle = omega.norm();
     const Eigen::Matrix3d dR =
         angle > 0.0 ? Eigen::AngleAxisd(angle, omega / angle).toRotationMatrix() : Eigen::Matrix3d::Identity();
     // y' = c + dR (y - c) + tau
+    const Eigen::Vector3d& c = update->centre;
     Eigen::Matrix4d step = Eigen::Matrix4d::Identity();
     step.topLeftCorner<3, 3>() = dR;
-    step.topRightCorner<3, 1>() = c - dR * c + delta.tail<3>();
+    step.topRightCorner<3, 1>() = c - dR * c + update->delta.tail<3>();
     return step;
 }
 
+// \p moved and \p closest: the sample mirrored by \p R and its closest points, as the surface
+// test found them (the first round's).
 std::optional<Eigen::Matrix4d> near_mirror(const SurfaceMatcher& surface, const Positions& sample,
                                            const Eigen::RowVector3d& centroid, const Eigen::Matrix3d& R,
                                            Positions moved, std::vector<SurfaceMatch> closest, double amplitude,

@@ -11,6 +11,7 @@
 #include <Eigen/SVD>
 
 #include "meshmark/core/threads.h"
+#include "meshmark/registration/point_to_plane.h"
 
 namespace meshmark::detail {
 namespace {
@@ -183,65 +184,33 @@ IcpOutcome icp_point_to_plane(const Positions& X, const SurfaceMatcher& target,
                               const Similarity& start, const IcpSettings& settings)
 {
     using Vec7 = Eigen::Matrix<double, 7, 1>;
-    using Mat7 = Eigen::Matrix<double, 7, 7>;
     Similarity T = start;
     Matching m;
     for (int iteration = 1; iteration <= settings.max_iterations; ++iteration)
     {
         m = match_and_trim(X, target, T, settings);
-        // Centre and radius of the kept samples: the rotation and scale unknowns are
-        // multiplied by the radius so that all seven columns are lengths (conditioning).
-        Vec3 c = Vec3::Zero();
-        std::size_t kept = 0;
+        std::vector<Eigen::Index> kept;  // in sample order, so the sums are too
         for (std::size_t i = 0; i < m.matches.size(); ++i)
         {
             if (m.matches[i].distance <= m.threshold)
             {
-                c += m.Y.row(static_cast<Eigen::Index>(i)).transpose();
-                ++kept;
+                kept.push_back(static_cast<Eigen::Index>(i));
             }
         }
-        if (kept < 7)
+        if (kept.size() < 7)
         {
             return outcome_of(m, T, iteration, false);
         }
-        c /= static_cast<double>(kept);
-        double r2 = 0.0;
-        for (std::size_t i = 0; i < m.matches.size(); ++i)
-        {
-            if (m.matches[i].distance <= m.threshold)
-            {
-                r2 += (m.Y.row(static_cast<Eigen::Index>(i)).transpose() - c).squaredNorm();
-            }
-        }
-        const double L = std::max(std::sqrt(r2 / static_cast<double>(kept)), 1e-300);
-        // Normal equations of r_i + J_i delta, J_i = [(y_i - c)/L x n_i, n_i.(y_i - c)/L, n_i],
-        // r_i = n_i.(y_i - q_i); accumulated in sample order.
-        Mat7 JtJ = Mat7::Zero();
-        Vec7 Jtr = Vec7::Zero();
-        for (std::size_t i = 0; i < m.matches.size(); ++i)
-        {
-            const SurfaceMatch& match = m.matches[i];
-            if (match.distance > m.threshold)
-            {
-                continue;
-            }
-            const Vec3 y = m.Y.row(static_cast<Eigen::Index>(i)).transpose();
-            const Vec3 u = (y - c) / L;
-            Vec7 J;
-            J << u.cross(match.normal), match.normal.dot(u), match.normal;
-            const double r = match.normal.dot(y - match.point);
-            JtJ.noalias() += J * J.transpose();
-            Jtr += r * J;
-        }
-        // A little damping keeps directions the surface does not constrain (the rotation of a
-        // sphere, sliding along a cylinder) where they are instead of letting them drift.
-        const double damping = 1e-9 * JtJ.trace() / 7.0 + 1e-300;
-        const Vec7 delta = -(JtJ + damping * Mat7::Identity()).ldlt().solve(Jtr);
-        if (!delta.allFinite())
+        // Rotation, scale and translation, the first four times the kept samples' RMS radius L
+        // about their centre c (point_to_plane_step).
+        const std::optional<PointToPlaneStep<7>> update = point_to_plane_step<7>(m.Y, m.matches, kept);
+        if (!update)
         {
             return outcome_of(m, T, iteration, false);
         }
+        const Vec3& c = update->centre;
+        const double L = update->radius;
+        const Vec7& delta = update->delta;
         const Vec3 omega = delta.head<3>() / L;
         const double sigma = delta(3) / L;
         const Vec3 tau = delta.tail<3>();
@@ -262,7 +231,7 @@ IcpOutcome icp_point_to_plane(const Positions& X, const SurfaceMatcher& target,
         // Stop when the update is negligible, or below the fit's standard error (noisy data:
         // further updates only chase the trimming's jitter).
         const double step = (angle + std::abs(sigma)) * L + tau.norm();
-        if (step < settings.tolerance * L || step < kNoiseFraction * standard_error(m.trimmed_rms, kept))
+        if (step < settings.tolerance * L || step < kNoiseFraction * standard_error(m.trimmed_rms, kept.size()))
         {
             return outcome_of(m, T, iteration, true);
         }
