@@ -608,7 +608,7 @@ std::vector<Eigen::Matrix4d> self_symmetries(const TriangleMesh& original, doubl
 // What the first reading of a copy learns for the others (read_other_poses): the
 // registration's fit of the other handedness, and the original's symmetries when they were
 // searched right after the registration, over its closest-point structure (kept for that, and
-// dropped before the correspondence: 150 MB on a 1M-vertex original).
+// dropped before the correspondence: about 150 MB of arrays on a 1M-vertex original).
 struct PoseHints
 {
     std::optional<Eigen::Matrix4d> other_handedness;

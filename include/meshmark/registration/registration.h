@@ -46,7 +46,8 @@ struct RegistrationOptions
     /// Return the fine stage's closest-point structure over the reference
     /// (RegistrationResult::reference_surface) instead of dropping it, for a caller that queries
     /// the reference's surface next (detection's symmetry search). It holds a copy of the
-    /// reference, its face normals and a kd-tree: about 150 MB for a 1M-vertex reference.
+    /// reference, its face normals, its vertex-to-face rings and a kd-tree: about 150 MB of arrays
+    /// for a 1M-vertex reference.
     bool keep_reference_surface = false;
 
     /// \throws InvalidOption naming the field, its value and the allowed range.
