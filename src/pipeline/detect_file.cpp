@@ -1415,17 +1415,14 @@ void read_other_poses(DetectReport& report, detail::PhaseTimer& timer, const Spe
     if (instances.vertex_count() == 0)
     {
         const double diagonal = bounding_box(original.V).diagonal();
-        std::vector<Eigen::Matrix4d> symmetries;
-        if (hints.symmetries)  // searched after the registration
-        {
-            symmetries = *hints.symmetries;
-        }
-        else  // a copy matched without registration (renumbered_in_place)
+        std::vector<Eigen::Matrix4d> searched;  // unless searched after the registration already
+        if (!hints.symmetries)                   // a copy matched without registration (renumbered_in_place)
         {
             timer.begin("symmetry");
-            symmetries = self_symmetries(original, mark_amplitude(mark.key().options, diagonal), options.threads);
+            searched = self_symmetries(original, mark_amplitude(mark.key().options, diagonal), options.threads);
             timer.lap("symmetry");
         }
+        const std::vector<Eigen::Matrix4d>& symmetries = hints.symmetries ? *hints.symmetries : searched;
         const Eigen::Vector3d centre = other_handedness && !symmetries.empty() ? bounding_box(suspect.V).center()
                                                                                 : Eigen::Vector3d::Zero();
         for (const Eigen::Matrix4d& S : symmetries)

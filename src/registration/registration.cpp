@@ -378,8 +378,6 @@ void add_axis_candidates(const Problem& p, const BoundingBox& suspect, const Bou
     }
 }
 
-// Each round runs its candidates in parallel (each run is single-threaded and writes only its
-// own slot, so the schedule cannot change the result), then keeps the best.
 // Whether two candidates start from exactly the same place: the same handedness and the same
 // transform, bit for bit. Point-to-point ICP settles on a transform computed from its pairs
 // alone, so different starts that reach the same pairs reach the same transform exactly, and
@@ -422,6 +420,9 @@ void copy_run(const Candidate& from, Candidate& to)
     to.residual = from.residual;
 }
 
+// Each round runs its distinct starts in parallel (each run is single-threaded and writes only
+// its own slot, so the schedule cannot change the result), copies their outcomes to the repeated
+// ones, then keeps the best.
 int run_round(const Problem& p, std::vector<Candidate>& candidates, const Round& round)
 {
     const std::vector<std::size_t> leader = first_same_start(candidates);
