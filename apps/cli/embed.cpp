@@ -256,8 +256,9 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
         ->capture_default_str();
     command->add_option("--strength", args->strength,
                         "additive: the displacement as a fraction of the bbox diagonal, in "
-                        "--strength-measure (default 0.00059 surface, 0.001 vertex); paper: rho "
-                        "(default 0.01)");
+                        "--strength-measure (default 0.00059 surface, 0.001 vertex; 0.001 surface "
+                        "for assets that will be decimated to a few percent: docs/robustness.md); "
+                        "paper: rho (default 0.01)");
     command->add_option("--strength-measure", args->strength_measure,
                         "additive: surface: the RMS distance between the marked and the original "
                         "surface (what MRMS reads, whatever the sampling; calibrated on the "

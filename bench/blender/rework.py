@@ -2,8 +2,8 @@
 # SPDX-License-Identifier: MIT
 """Everyday Blender re-work against the watermark (docs/robustness.md, "Everyday re-work in Blender").
 
-For each mesh and each of K keys (seeds 1..K): `meshmark embed` with the defaults, every Blender
-operation of bench/blender/attacks.py on the marked copy, and `meshmark detect --json` of each
+For each mesh and each of K keys (seeds 1..K): `meshmark embed` with the defaults (or --strength),
+every Blender operation of bench/blender/attacks.py on the marked copy, and `meshmark detect --json` of each
 result against the original; the unmarked original goes through the same operations once per mesh
 and each result is detected with every key (unmarked copies must not be claimed). Writes a
 markdown table (operation x mesh: marked copies detected / total, smallest score z, mean R;
@@ -15,6 +15,7 @@ gltf-transform simplify / weld, Open3D (open3d_attacks.py) and MeshLab (meshlabs
   bench/blender/rework.py --keys 2 --meshes fandisk.obj rocker-arm.obj \\
       --json-file /tmp/rework.json --markdown /tmp/rework.md
   bench/blender/rework.py --from-json a.json b.json --markdown all.md   # merge runs
+  bench/blender/rework.py --strength 0.001 --ops decimate=0.05 --meshes asset.glb   # a stronger mark
 
 Environment: MESHMARK_MESH_DIR (default ../shared/data/meshes), MESHMARK (default
 build/bin/meshmark), BLENDER (default blender), OPEN3D_PYTHON (default /usr/bin/python3),
@@ -290,11 +291,17 @@ def run_mesh(args, mesh, work):
         key = os.path.join(mesh_work, "key%d.json" % key_seed)
         marked = os.path.join(mesh_work, "marked%d%s" % (key_seed, marked_ext))
         run([args.meshmark, "embed", mesh, "-o", marked, "--key", key, "--seed", str(key_seed),
-             "--force", "-q"], "meshmark embed %s" % mesh)
+             "--force", "-q"] + (["--strength", repr(args.strength)] if args.strength else []),
+            "meshmark embed %s" % mesh)
+        # The embedding's own distortion (MRMS over the diagonal), for the tables' strength column.
+        mark_mrms = json.loads(run([args.meshmark, "compare", mesh, marked, "--json"],
+                                   "meshmark compare %s" % mesh).stdout)["mrms"]
         done = rework(args, marked, os.path.join(mesh_work, "marked%d" % key_seed), key_seed, args.ops)
         for op in args.ops:
-            trials.append(trial(args, mesh, key_seed, True, op, done[op], mesh, key))
-            trials.append(trial(args, mesh, key_seed, False, op, unmarked[op], mesh, key))
+            for is_marked, entry in ((True, done[op]), (False, unmarked[op])):
+                result = trial(args, mesh, key_seed, is_marked, op, entry, mesh, key)
+                result["mark_mrms"] = mark_mrms
+                trials.append(result)
     return trials
 
 
@@ -346,6 +353,7 @@ def main():
                         "(default: every mesh there with --min-vertices or more)")
     parser.add_argument("--min-vertices", type=int, default=5000)
     parser.add_argument("--keys", type=int, default=2, help="keys (seeds 1..K) per mesh")
+    parser.add_argument("--strength", type=float, help="meshmark embed --strength (default: embed's own)")
     parser.add_argument("--ops", nargs="+", default=OPERATIONS,
                         help="operations (default: the Blender ones): attacks.py's, open3d_attacks.py's "
                         "(o3d-*), gltf-transform's gt-simplify=R (error 0.1%%), gt-decimate=R (no error "
@@ -414,7 +422,7 @@ def main():
         if args.json_file:
             write_atomically(args.json_file, json.dumps({
                 "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-                "command": " ".join(sys.argv), "keys": args.keys, "trials": trials}, indent=1) + "\n")
+                "command": " ".join(sys.argv), "keys": args.keys, "strength": args.strength, "trials": trials}, indent=1) + "\n")
     text = table(trials)
     if args.markdown:
         write_atomically(args.markdown, text)

@@ -75,7 +75,8 @@ The keywords are the options of `meshmark embed` (docs/cli.md):
   bits         payload as exactly ceil(3m/4) hex digits; neither: random from the seed
   seed         secret seed (int in [0, 2^64)); drawn from the OS when None
   strength     additive rule: the displacement / bbox diagonal in strength_measure (default
-               0.00059 surface, 0.001 vertex); paper: rho
+               0.00059 surface, 0.001 vertex; 0.001 surface for assets that will be
+               decimated to a few percent, docs/robustness.md); paper: rho
   strength_measure  'surface' (RMS distance between the marked and original surface) or
                'vertex' (RMS vertex displacement)
   rule         'additive' or 'paper'
