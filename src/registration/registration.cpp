@@ -58,6 +58,13 @@ constexpr std::array<Round, 3> kRounds = {Round{0, 8, 48}, Round{1, 20, 8}, Roun
 constexpr double kCoarseTolerance = 1e-6;
 // Candidates that go on to the fine stage: the best two, plus the best proper one.
 constexpr std::size_t kFineCandidates = 2;
+// Two candidates whose poses lie within this fraction of the reference's diagonal of each other
+// (RMS over the first sample tier) are one pose to a round's choice of survivors
+// (distinct_poses_first). The repeats of the turned vehicle's pose (below) lay within 0.05% of
+// each other; 2% merged, after the first round's 8 iterations, starts that would still have
+// settled apart, and a half vehicle then lost its right pose to its mirror image
+// (RegistrationTest.registers_a_half_cut_through_the_bounding_box_centre_along_an_axis).
+constexpr double kSamePose = 0.005;
 // A mirrored result must beat the best proper one by this factor: a mirror-symmetric shape
 // (a cow, a teapot) fits itself both ways, and a copy is far more often unmirrored.
 constexpr double kReflectionMargin = 0.95;
@@ -232,13 +239,55 @@ void keep_best(std::vector<Candidate>& candidates, std::size_t count)
     candidates.resize(std::min(count, candidates.size()));
 }
 
-// keep_best, but never drops a whole class: if the best \p count are all mirrored (or all
-// proper), the last of them gives way to the best candidate of the other class. A
-// mirror-symmetric shape (beetle.obj) fits itself both ways about equally well, and the coarse
-// rounds on few samples could otherwise keep only mirrored starts for an unmirrored copy: a
-// reordered copy of beetle.obj then registered as its mirror image for 3 of 30 keys and the
-// mark was lost (kReflectionMargin can only choose between classes that reach the fine stage).
-void keep_best_of_both(std::vector<Candidate>& candidates, std::size_t count)
+// RMS distance between where two similarities put the points \p X.
+double pose_distance(const Positions& X, const Similarity& a, const Similarity& b)
+{
+    const Eigen::Matrix3d linear = a.scale * a.rotation - b.scale * b.rotation;
+    const Eigen::Vector3d shift = a.translation - b.translation;
+    double sum = 0.0;
+    for (Eigen::Index i = 0; i < X.rows(); ++i)
+    {
+        sum += (linear * X.row(i).transpose() + shift).squaredNorm();
+    }
+    return std::sqrt(sum / static_cast<double>(std::max<Eigen::Index>(X.rows(), 1)));
+}
+
+// Candidates sorted by score, rearranged so that the first \p count are distinct poses where
+// there are that many: a candidate whose pose lies within kSamePose of the reference's diagonal
+// of a better one of its handedness (on the first sample tier) is a repeat and goes behind, the
+// rest keeping their order by score. Starts of one basin converge to the same pose in a round,
+// and the survivors' places could all go to it: a Blender voxel remesh of the game-like vehicle,
+// which is nearly the same turned end for end, kept seven copies of the turned pose among the
+// eight survivors of the last round and not the right pose, whose fine score would have been a
+// third of it (docs/algorithms/registration.md, step 4). Stops comparing once it has \p count.
+void distinct_poses_first(const Problem& p, std::vector<Candidate>& candidates, std::size_t count)
+{
+    const double tolerance = kSamePose * p.reference_diagonal;
+    std::vector<Candidate> distinct;
+    std::vector<Candidate> rest;
+    for (Candidate& c : candidates)
+    {
+        const Positions& X = p.samples[c.mirrored ? 1 : 0][0];
+        const bool is_repeat = distinct.size() >= count ||
+                               std::any_of(distinct.begin(), distinct.end(), [&](const Candidate& kept) {
+                                   return kept.mirrored == c.mirrored &&
+                                          pose_distance(X, kept.transform, c.transform) <= tolerance;
+                               });
+        (is_repeat ? rest : distinct).push_back(std::move(c));
+    }
+    std::stable_sort(rest.begin(), rest.end(), [](const Candidate& a, const Candidate& b) { return a.score < b.score; });
+    candidates = std::move(distinct);
+    candidates.insert(candidates.end(), std::make_move_iterator(rest.begin()), std::make_move_iterator(rest.end()));
+}
+
+// keep_best, each pose before its repeats (distinct_poses_first), but never drops a whole class:
+// if the best \p count are all mirrored (or all proper), the last of them gives way to the best
+// candidate of the other class. A mirror-symmetric shape (beetle.obj) fits itself both ways
+// about equally well, and the coarse rounds on few samples could otherwise keep only mirrored
+// starts for an unmirrored copy: a reordered copy of beetle.obj then registered as its mirror
+// image for 3 of 30 keys and the mark was lost (kReflectionMargin can only choose between
+// classes that reach the fine stage).
+void keep_best_of_both(const Problem& p, std::vector<Candidate>& candidates, std::size_t count)
 {
     std::stable_sort(candidates.begin(), candidates.end(),
                      [](const Candidate& a, const Candidate& b) { return a.score < b.score; });
@@ -246,6 +295,7 @@ void keep_best_of_both(std::vector<Candidate>& candidates, std::size_t count)
     {
         return;
     }
+    distinct_poses_first(p, candidates, count);
     for (const bool mirrored : {false, true})
     {
         const auto kept_end = candidates.begin() + static_cast<std::ptrdiff_t>(count);
@@ -449,7 +499,7 @@ int run_round(const Problem& p, std::vector<Candidate>& candidates, const Round&
             copy_run(candidates[leader[i]], candidates[i]);
         }
     }
-    keep_best_of_both(candidates, round.survivors);
+    keep_best_of_both(p, candidates, round.survivors);
     return round.iterations;
 }
 
