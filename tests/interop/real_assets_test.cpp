@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -65,6 +66,32 @@ ToolRun blender_attacks(const fs::path& input, const fs::path& out, const std::v
                                       "--", input.string(), out.string(), "--seed", "1"};
     words.insert(words.end(), ops.begin(), ops.end());
     return run(words, scratch);
+}
+
+// bench/blender/make_game_asset.py's model \p kind, made by Blender into \p out (.glb).
+ToolRun make_game_asset(const fs::path& out, const std::string& kind, const fs::path& scratch)
+{
+    return run({tools().blender.string(), "-b", "--factory-startup", "--python-exit-code", "2", "--python",
+                (fs::path(MESHMARK_BENCH_BLENDER_DIR) / "make_game_asset.py").string(), "--", out.string(), kind},
+               scratch);
+}
+
+// Blender's re-work operation \p op on \p marked and on \p original, each result (\p output in
+// the operation's folder) detected against \p original with \p key; \p check gets each report, its
+// exit code and whether it came from the marked copy.
+void check_marked_and_clean(const fs::path& original, const fs::path& marked, const fs::path& key, const std::string& op,
+                            const std::string& output, const fs::path& scratch,
+                            const std::function<void(const nlohmann::json&, int, bool)>& check)
+{
+    for (const auto& [input, folder] : {std::pair{marked, scratch / "marked"}, std::pair{original, scratch / "clean"}})
+    {
+        const ToolRun blender = blender_attacks(input, folder, {op}, scratch);
+        ASSERT_TRUE(blender.ok()) << blender.describe();
+        int exit_code = -1;
+        const nlohmann::json report = detect_json(folder / output, original, key, scratch, &exit_code);
+        ASSERT_TRUE(report.is_object()) << folder;
+        check(report, exit_code, input == marked);
+    }
 }
 
 // `assimp export MODEL OUT -tri -jiv`: a model of assimp-testmodels as .glb.
@@ -404,46 +431,35 @@ TEST(RealAssetsInterop, ABlenderTurntableIsReadAsOneAssetWithoutAFrameSearch)
     INTEROP_REQUIRE_TOOLS("meshmark", "blender");
     const fs::path scratch = temp_dir("interop-real-turntable");
     const fs::path original = scratch / "turntable.glb";
-    const ToolRun making = run({tools().blender.string(), "-b", "--factory-startup", "--python-exit-code", "2",
-                                "--python", (fs::path(MESHMARK_BENCH_BLENDER_DIR) / "make_game_asset.py").string(),
-                                "--", original.string(), "turntable-vehicle"},
-                               scratch);
+    const ToolRun making = make_game_asset(original, "turntable-vehicle", scratch);
     ASSERT_TRUE(making.ok()) << making.describe();
     const fs::path marked = scratch / "marked.glb";
     const fs::path key = scratch / "key.json";
     const ToolRun marking = embed(original, marked, key, kSeed, scratch);
     ASSERT_TRUE(marking.ok()) << marking.describe();
-    for (const auto& [input, folder] : {std::pair{marked, scratch / "marked"}, std::pair{original, scratch / "clean"}})
-    {
-        const ToolRun blender = blender_attacks(input, folder, {"pose=30"}, scratch);
-        ASSERT_TRUE(blender.ok()) << blender.describe();
-        int exit_code = -1;
-        const nlohmann::json report = detect_json(folder / "pose_30.ply", original, key, scratch, &exit_code);
-        ASSERT_TRUE(report.is_object()) << folder;
-        EXPECT_FALSE(report["seconds"].contains("poses")) << report.dump();
-        EXPECT_EQ(exit_code, input == marked ? 0 : 1) << report.dump();
-        if (input == marked)
-        {
-            EXPECT_GE(report.value("score", 0.0), 10.0) << report.dump();
-        }
-    }
+    check_marked_and_clean(original, marked, key, "pose=30", "pose_30.ply", scratch,
+                           [](const nlohmann::json& report, int exit_code, bool is_marked) {
+                               EXPECT_FALSE(report["seconds"].contains("poses")) << report.dump();
+                               EXPECT_EQ(exit_code, is_marked ? 0 : 1) << report.dump();
+                               if (is_marked)
+                               {
+                                   EXPECT_GE(report.value("score", 0.0), 10.0) << report.dump();
+                               }
+                           });
 }
 
 // The game-like vehicle (bench/blender/make_game_asset.py) is nearly the same turned end for end.
 // Marked with `--strength 0.001 --seed 1` and voxel-remeshed by Blender at 1/300 of the diagonal,
 // the copy's last coarse round kept seven copies of the turned pose among its eight survivors and
 // not the right pose, and it registered turned (RMS 0.28% of the diagonal, z 1.94); now a round's
-// survivors are distinct poses and the right one reaches the fine stage (0.095%, z 8.12). The unmarked vehicle through the
-// same steps is not claimed.
+// survivors are distinct poses and the right one reaches the fine stage (0.095%, z 8.12). The
+// unmarked vehicle through the same steps is not claimed.
 TEST(RealAssetsInterop, AVoxelRemeshOfANearlySymmetricVehicleIsNotRegisteredTurned)
 {
     INTEROP_REQUIRE_TOOLS("meshmark", "blender");
     const fs::path scratch = temp_dir("interop-real-vehicle-voxel");
     const fs::path original = scratch / "vehicle.glb";
-    const ToolRun making = run({tools().blender.string(), "-b", "--factory-startup", "--python-exit-code", "2",
-                                "--python", (fs::path(MESHMARK_BENCH_BLENDER_DIR) / "make_game_asset.py").string(),
-                                "--", original.string(), "vehicle"},
-                               scratch);
+    const ToolRun making = make_game_asset(original, "vehicle", scratch);
     ASSERT_TRUE(making.ok()) << making.describe();
     const fs::path marked = scratch / "marked.glb";
     const fs::path key = scratch / "key.json";
@@ -451,22 +467,18 @@ TEST(RealAssetsInterop, AVoxelRemeshOfANearlySymmetricVehicleIsNotRegisteredTurn
                                       "--seed", "1", "--strength", "0.001", "-q"},
                                      scratch);
     ASSERT_TRUE(marking.ok()) << marking.describe();
-    for (const auto& [input, folder] : {std::pair{marked, scratch / "marked"}, std::pair{original, scratch / "clean"}})
-    {
-        const ToolRun blender = blender_attacks(input, folder, {"voxel=300"}, scratch);
-        ASSERT_TRUE(blender.ok()) << blender.describe();
-        int exit_code = -1;
-        const nlohmann::json report = detect_json(folder / "voxel_300.ply", original, key, scratch, &exit_code);
-        ASSERT_TRUE(report.is_object()) << folder;
-        EXPECT_EQ(exit_code, input == marked ? 0 : 1) << report.dump();
-        if (input == marked)
-        {
-            EXPECT_GE(report.value("score", 0.0), 7.0) << report.dump();
-            // Turned, the copy lies 0.27-0.28% of the diagonal from the original; in its pose,
-            // under 0.1% (the mark's strength and the remesh's own error).
-            EXPECT_LT(report["registration"].value("rms_error", 1.0), 0.0015) << report.dump();
-        }
-    }
+    check_marked_and_clean(original, marked, key, "voxel=300", "voxel_300.ply", scratch,
+                           [](const nlohmann::json& report, int exit_code, bool is_marked) {
+                               EXPECT_EQ(exit_code, is_marked ? 0 : 1) << report.dump();
+                               if (is_marked)
+                               {
+                                   EXPECT_GE(report.value("score", 0.0), 7.0) << report.dump();
+                                   // Turned, the copy lies 0.27-0.28% of the diagonal from the
+                                   // original; in its pose, under 0.1% (the mark and the remesh).
+                                   EXPECT_LT(report["registration"].value("rms_error", 1.0), 0.0015)
+                                       << report.dump();
+                               }
+                           });
 }
 
 // \p model of assimp-testmodels converted to .glb (without its animations when \p still:
