@@ -3,8 +3,8 @@
 """Everyday Blender re-work against the watermark (docs/robustness.md, "Everyday re-work in Blender").
 
 For each mesh and each of K keys (seeds 1..K): `meshmark embed` with the defaults (or --strength),
-every Blender operation of bench/blender/attacks.py on the marked copy, and `meshmark detect --json` of each
-result against the original; the unmarked original goes through the same operations once per mesh
+every Blender operation of bench/blender/attacks.py on the marked copy, and `meshmark detect --json`
+of each result against the original; the unmarked original goes through the same operations once per mesh
 and each result is detected with every key (unmarked copies must not be claimed). Writes a
 markdown table (operation x mesh: marked copies detected / total, smallest score z, mean R;
 unmarked copies claimed) and a JSON file of every trial. Exits 1 on any error (a tool failing,
@@ -293,7 +293,7 @@ def run_mesh(args, mesh, work):
         run([args.meshmark, "embed", mesh, "-o", marked, "--key", key, "--seed", str(key_seed),
              "--force", "-q"] + (["--strength", repr(args.strength)] if args.strength else []),
             "meshmark embed %s" % mesh)
-        # The embedding's own distortion (MRMS over the diagonal), for the tables' strength column.
+        # The embedding's own distortion (MRMS over the diagonal), kept with every trial in the JSON.
         mark_mrms = json.loads(run([args.meshmark, "compare", mesh, marked, "--json"],
                                    "meshmark compare %s" % mesh).stdout)["mrms"]
         done = rework(args, marked, os.path.join(mesh_work, "marked%d" % key_seed), key_seed, args.ops)
@@ -422,7 +422,8 @@ def main():
         if args.json_file:
             write_atomically(args.json_file, json.dumps({
                 "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-                "command": " ".join(sys.argv), "keys": args.keys, "strength": args.strength, "trials": trials}, indent=1) + "\n")
+                "command": " ".join(sys.argv), "keys": args.keys, "strength": args.strength,
+                "trials": trials}, indent=1) + "\n")
     text = table(trials)
     if args.markdown:
         write_atomically(args.markdown, text)

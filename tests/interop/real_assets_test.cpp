@@ -50,10 +50,12 @@ std::pair<double, double> nearest_distances(const Positions& A, const Positions&
 
 // `meshmark embed ORIGINAL -o MARKED --key KEY --seed SEED -q`.
 ToolRun embed(const fs::path& original, const fs::path& marked, const fs::path& key, const std::string& seed,
-              const fs::path& scratch)
+              const fs::path& scratch, const std::vector<std::string>& options = {})
 {
-    return meshmark({"embed", original.string(), "-o", marked.string(), "--key", key.string(), "--seed", seed, "-q"},
-                    scratch);
+    std::vector<std::string> words = {"embed", original.string(), "-o", marked.string(), "--key", key.string(),
+                                      "--seed", seed, "-q"};
+    words.insert(words.end(), options.begin(), options.end());
+    return meshmark(words, scratch);
 }
 
 // Blender runs the re-work bench's operations \p ops on \p input, writing into \p out.
@@ -68,12 +70,31 @@ ToolRun blender_attacks(const fs::path& input, const fs::path& out, const std::v
     return run(words, scratch);
 }
 
-// bench/blender/make_game_asset.py's model \p kind, made by Blender into \p out (.glb).
-ToolRun make_game_asset(const fs::path& out, const std::string& kind, const fs::path& scratch)
+// bench/blender/make_game_asset.py's model \p kind, made by Blender into \p scratch / KIND.glb
+// and marked (marked.glb, key.json) with \p seed and the embed \p options; \p error is set if a
+// step fails.
+struct MarkedGameAsset
 {
-    return run({tools().blender.string(), "-b", "--factory-startup", "--python-exit-code", "2", "--python",
-                (fs::path(MESHMARK_BENCH_BLENDER_DIR) / "make_game_asset.py").string(), "--", out.string(), kind},
-               scratch);
+    fs::path original;
+    fs::path marked;
+    fs::path key;
+};
+MarkedGameAsset make_and_mark_game_asset(const std::string& kind, const std::string& seed,
+                                         const std::vector<std::string>& options, const fs::path& scratch,
+                                         std::string* error)
+{
+    MarkedGameAsset asset{scratch / (kind + ".glb"), scratch / "marked.glb", scratch / "key.json"};
+    const ToolRun making =
+        run({tools().blender.string(), "-b", "--factory-startup", "--python-exit-code", "2", "--python",
+             (fs::path(MESHMARK_BENCH_BLENDER_DIR) / "make_game_asset.py").string(), "--", asset.original.string(), kind},
+            scratch);
+    const ToolRun marking =
+        making.ok() ? embed(asset.original, asset.marked, asset.key, seed, scratch, options) : making;
+    if (!marking.ok())
+    {
+        *error = marking.describe();
+    }
+    return asset;
 }
 
 // Blender's re-work operation \p op on \p marked and on \p original, each result (\p output in
@@ -430,14 +451,10 @@ TEST(RealAssetsInterop, ABlenderTurntableIsReadAsOneAssetWithoutAFrameSearch)
 {
     INTEROP_REQUIRE_TOOLS("meshmark", "blender");
     const fs::path scratch = temp_dir("interop-real-turntable");
-    const fs::path original = scratch / "turntable.glb";
-    const ToolRun making = make_game_asset(original, "turntable-vehicle", scratch);
-    ASSERT_TRUE(making.ok()) << making.describe();
-    const fs::path marked = scratch / "marked.glb";
-    const fs::path key = scratch / "key.json";
-    const ToolRun marking = embed(original, marked, key, kSeed, scratch);
-    ASSERT_TRUE(marking.ok()) << marking.describe();
-    check_marked_and_clean(original, marked, key, "pose=30", "pose_30.ply", scratch,
+    std::string error;
+    const MarkedGameAsset asset = make_and_mark_game_asset("turntable-vehicle", kSeed, {}, scratch, &error);
+    ASSERT_TRUE(error.empty()) << error;
+    check_marked_and_clean(asset.original, asset.marked, asset.key, "pose=30", "pose_30.ply", scratch,
                            [](const nlohmann::json& report, int exit_code, bool is_marked) {
                                EXPECT_FALSE(report["seconds"].contains("poses")) << report.dump();
                                EXPECT_EQ(exit_code, is_marked ? 0 : 1) << report.dump();
@@ -458,16 +475,10 @@ TEST(RealAssetsInterop, AVoxelRemeshOfANearlySymmetricVehicleIsNotRegisteredTurn
 {
     INTEROP_REQUIRE_TOOLS("meshmark", "blender");
     const fs::path scratch = temp_dir("interop-real-vehicle-voxel");
-    const fs::path original = scratch / "vehicle.glb";
-    const ToolRun making = make_game_asset(original, "vehicle", scratch);
-    ASSERT_TRUE(making.ok()) << making.describe();
-    const fs::path marked = scratch / "marked.glb";
-    const fs::path key = scratch / "key.json";
-    const ToolRun marking = meshmark({"embed", original.string(), "-o", marked.string(), "--key", key.string(),
-                                      "--seed", "1", "--strength", "0.001", "-q"},
-                                     scratch);
-    ASSERT_TRUE(marking.ok()) << marking.describe();
-    check_marked_and_clean(original, marked, key, "voxel=300", "voxel_300.ply", scratch,
+    std::string error;
+    const MarkedGameAsset asset = make_and_mark_game_asset("vehicle", "1", {"--strength", "0.001"}, scratch, &error);
+    ASSERT_TRUE(error.empty()) << error;
+    check_marked_and_clean(asset.original, asset.marked, asset.key, "voxel=300", "voxel_300.ply", scratch,
                            [](const nlohmann::json& report, int exit_code, bool is_marked) {
                                EXPECT_EQ(exit_code, is_marked ? 0 : 1) << report.dump();
                                if (is_marked)
