@@ -5,7 +5,8 @@
 // Blender instead fits its own automatic Bezier handles through the keys), composed the same way.
 // Written here rather than taken from a library: tinygltf loads the samplers but does not
 // evaluate them, and the few lines below are the specification's formulas. Morph target
-// weights are not sampled (meshmark reads the base positions).
+// weights (shape keys) are sampled the same way, per node (animated_morph_weights): the pose a
+// viewer shows blends the targets into the base positions the mark lives in.
 #include <algorithm>
 #include <cmath>
 #include <optional>
@@ -59,13 +60,24 @@ Eigen::Matrix4d matrix_of(Trs trs)
     return t.matrix();
 }
 
+// What a channel animates: a node's translation, rotation or scale, a mesh's morph weights.
+enum class ChannelPath
+{
+    Translation,
+    Rotation,
+    Scale,
+    Weights
+};
+
 // The sampler's value at time t, `components` numbers (3: translation or scale, 4: rotation as
-// x, y, z, w). Before the first key: its value; after the last: the last one's.
+// x, y, z, w, or one weight per morph target, stored as scalars). Before the first key: its
+// value; after the last: the last one's.
 std::vector<double> sample(const GltfAccessors& accessors, const tinygltf::AnimationSampler& sampler,
-                           int components, double t, const std::string& what)
+                           ChannelPath path, int components, double t, const std::string& what)
 {
     const std::vector<double> times = accessors.values(sampler.input, 1, what + " input", false);
-    const std::vector<double> output = accessors.values(sampler.output, components, what + " output", false);
+    const std::vector<double> output =
+        accessors.values(sampler.output, path == ChannelPath::Weights ? 1 : components, what + " output", false);
     const bool is_cubic = sampler.interpolation == "CUBICSPLINE";
     const std::size_t per_key = (is_cubic ? 3U : 1U) * static_cast<std::size_t>(components);
     const auto c = static_cast<std::size_t>(components);
@@ -112,7 +124,7 @@ std::vector<double> sample(const GltfAccessors& accessors, const tinygltf::Anima
     }
     const std::vector<double> v0 = value(k);
     const std::vector<double> v1 = value(k + 1);
-    if (components == 4)
+    if (path == ChannelPath::Rotation)
     {
         const Eigen::Quaterniond q0(v0[3], v0[0], v0[1], v0[2]);
         const Eigen::Quaterniond q1(v1[3], v1[0], v1[1], v1[2]);
@@ -132,22 +144,48 @@ std::vector<double> sample(const GltfAccessors& accessors, const tinygltf::Anima
     return result;
 }
 
-// The numbers a channel of \p a sets on its node (3: translation or scale, 4: rotation), or 0
-// for a channel that is not read: morph weights (not sampled), a node given as a matrix (the
-// specification forbids animating it), a target or sampler out of range.
-int channel_components(const tinygltf::Model& model, const tinygltf::Animation& a,
-                       const tinygltf::AnimationChannel& channel)
+// The morph targets of the mesh of \p node (0 without a mesh or one out of range): a morph
+// weights channel or a node's `weights` gives one number per target of its first primitive
+// (the specification requires every primitive to have the same number).
+std::size_t morph_target_count(const tinygltf::Model& model, const tinygltf::Node& node)
 {
-    const auto& path = channel.target_path;
-    const int components = path == "rotation" ? 4 : (path == "translation" || path == "scale") ? 3 : 0;
-    if (components == 0 || channel.target_node < 0 ||
-        static_cast<std::size_t>(channel.target_node) >= model.nodes.size() || channel.sampler < 0 ||
-        static_cast<std::size_t>(channel.sampler) >= a.samplers.size() ||
-        model.nodes[static_cast<std::size_t>(channel.target_node)].matrix.size() == 16)
+    if (node.mesh < 0 || static_cast<std::size_t>(node.mesh) >= model.meshes.size())
     {
         return 0;
     }
-    return components;
+    const auto& mesh = model.meshes[static_cast<std::size_t>(node.mesh)];
+    return mesh.primitives.empty() ? 0 : mesh.primitives.front().targets.size();
+}
+
+ChannelPath path_of(const tinygltf::AnimationChannel& channel)
+{
+    const auto& path = channel.target_path;
+    return path == "rotation" ? ChannelPath::Rotation
+           : path == "scale"  ? ChannelPath::Scale
+           : path == "weights" ? ChannelPath::Weights
+                               : ChannelPath::Translation;
+}
+
+// The numbers a channel of \p a sets on its node (3: translation or scale, 4: rotation, one per
+// morph target: weights), or 0 for a channel that is not read: an unknown path (a pointer
+// extension's), a node given as a matrix and animated (the specification forbids it), weights
+// of a node without morph targets, a target or sampler out of range.
+int channel_components(const tinygltf::Model& model, const tinygltf::Animation& a,
+                       const tinygltf::AnimationChannel& channel)
+{
+    if (channel.target_node < 0 || static_cast<std::size_t>(channel.target_node) >= model.nodes.size() ||
+        channel.sampler < 0 || static_cast<std::size_t>(channel.sampler) >= a.samplers.size())
+    {
+        return 0;
+    }
+    const auto& node = model.nodes[static_cast<std::size_t>(channel.target_node)];
+    const auto& path = channel.target_path;
+    if (path == "weights")
+    {
+        return static_cast<int>(std::min<std::size_t>(morph_target_count(model, node), 1U << 16U));
+    }
+    const int components = path == "rotation" ? 4 : (path == "translation" || path == "scale") ? 3 : 0;
+    return node.matrix.size() == 16 ? 0 : components;
 }
 
 }  // namespace
@@ -311,6 +349,10 @@ bool moves_only_as_a_whole(const tinygltf::Model& model, const GltfAccessors& ac
         {
             continue;
         }
+        if (path_of(channel) == ChannelPath::Weights)
+        {
+            return false;  // (a blend of morph targets changes the shape)
+        }
         const auto at = std::find(common.begin(), common.end(), channel.target_node);
         if (at == common.end())
         {
@@ -373,15 +415,15 @@ std::vector<Eigen::Matrix4d> animated_local_matrices(const tinygltf::Model& mode
     for (std::size_t k = 0; k < a.channels.size(); ++k)
     {
         const auto& channel = a.channels[k];
-        const auto& path = channel.target_path;
+        const ChannelPath path = path_of(channel);
         const int components = channel_components(model, a, channel);
-        if (components == 0)
+        if (components == 0 || path == ChannelPath::Weights)
         {
             continue;
         }
         const auto n = static_cast<std::size_t>(channel.target_node);
         const std::vector<double> v =
-            sample(accessors, a.samplers[static_cast<std::size_t>(channel.sampler)], components, t,
+            sample(accessors, a.samplers[static_cast<std::size_t>(channel.sampler)], path, components, t,
                    "animation " + std::to_string(animation) + " channel " + std::to_string(k));
         if (v.empty())
         {
@@ -392,11 +434,11 @@ std::vector<Eigen::Matrix4d> animated_local_matrices(const tinygltf::Model& mode
             posed[n] = trs_of(model.nodes[n]);
             is_posed[n] = 1;
         }
-        if (path == "rotation")
+        if (path == ChannelPath::Rotation)
         {
             posed[n].rotation = Eigen::Quaterniond(v[3], v[0], v[1], v[2]);
         }
-        else if (path == "translation")
+        else if (path == ChannelPath::Translation)
         {
             posed[n].translation = Eigen::Vector3d(v[0], v[1], v[2]);
         }
@@ -413,6 +455,66 @@ std::vector<Eigen::Matrix4d> animated_local_matrices(const tinygltf::Model& mode
         }
     }
     return locals;
+}
+
+std::vector<std::vector<double>> default_morph_weights(const tinygltf::Model& model)
+{
+    std::vector<std::vector<double>> weights(model.nodes.size());
+    for (std::size_t n = 0; n < model.nodes.size(); ++n)
+    {
+        const auto& node = model.nodes[n];
+        const std::size_t count = morph_target_count(model, node);
+        if (count == 0)
+        {
+            continue;
+        }
+        // The node's weights, else its mesh's, else zeros (the specification's defaults).
+        const std::vector<double>& given =
+            !node.weights.empty() ? node.weights : model.meshes[static_cast<std::size_t>(node.mesh)].weights;
+        weights[n].assign(count, 0.0);
+        std::copy_n(given.begin(), std::min(given.size(), count), weights[n].begin());
+    }
+    return weights;
+}
+
+std::vector<std::vector<double>> animated_morph_weights(const tinygltf::Model& model, const GltfAccessors& accessors,
+                                                        std::size_t animation, double t)
+{
+    std::vector<std::vector<double>> weights = default_morph_weights(model);
+    if (animation >= model.animations.size())
+    {
+        return weights;
+    }
+    const auto& a = model.animations[animation];
+    for (std::size_t k = 0; k < a.channels.size(); ++k)
+    {
+        const auto& channel = a.channels[k];
+        const int components = channel_components(model, a, channel);
+        if (components == 0 || path_of(channel) != ChannelPath::Weights)
+        {
+            continue;
+        }
+        std::vector<double> v =
+            sample(accessors, a.samplers[static_cast<std::size_t>(channel.sampler)], ChannelPath::Weights, components,
+                   t, "animation " + std::to_string(animation) + " channel " + std::to_string(k));
+        if (!v.empty())
+        {
+            weights[static_cast<std::size_t>(channel.target_node)] = std::move(v);
+        }
+    }
+    return weights;
+}
+
+bool has_weights_channel(const tinygltf::Model& model, std::size_t animation)
+{
+    if (animation >= model.animations.size())
+    {
+        return false;
+    }
+    const auto& a = model.animations[animation];
+    return std::any_of(a.channels.begin(), a.channels.end(), [&](const tinygltf::AnimationChannel& channel) {
+        return path_of(channel) == ChannelPath::Weights && channel_components(model, a, channel) > 0;
+    });
 }
 
 }  // namespace meshmark::detail

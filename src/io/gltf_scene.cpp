@@ -62,11 +62,13 @@ public:
     TriangleMesh run();
 
 private:
-    // A node's world matrix as stored, and in the shown pose (the same when not animated).
+    // A node's world matrix as stored, and in the shown pose (the same when not animated), and
+    // the node (-1 above the roots).
     struct Placement
     {
         Eigen::Matrix4d to_world;
         Eigen::Matrix4d posed;
+        int node = -1;
     };
 
     void walk(int node, const Placement& parent, std::vector<char>& on_stack);
@@ -83,7 +85,9 @@ private:
                                           const Eigen::Matrix4d& to_world,
                                           const std::vector<Eigen::Matrix4d>& globals);
     std::vector<Eigen::Matrix4d> add_skinned(const std::vector<double>& local, const SkinSets& sets, int skin,
-                                             const Placement& place);
+                                             const Placement& place, const std::vector<double>& shown);
+    std::vector<double> morphed(const tinygltf::Primitive& prim, const std::vector<double>& local,
+                                const Placement& place, const std::string& where);
     void animation_spans();
     void pose_from_animation();
     void add_posed(const Eigen::Vector4d& local, const Eigen::Matrix4d& rest, const Eigen::Matrix4d& posed);
@@ -99,10 +103,11 @@ private:
     std::size_t add_instance(std::size_t first, std::size_t count, const Eigen::Matrix4d& from,
                              const Eigen::Matrix4d& to);
     std::int32_t group_of(const Eigen::Matrix4d& to_world);
-    // The elements of \p local placed by \p place into \p group, and into the shown pose unless
-    // \p with_pose is false (the caller placed them there).
+    // The elements of \p local placed by \p place into \p group, and into the shown pose (as
+    // \p shown when not empty: the shape its morph targets blend) unless \p with_pose is false
+    // (the caller placed them there).
     void append_world(const std::vector<double>& local, const Placement& place, std::int32_t group,
-                      bool with_pose = true);
+                      const std::vector<double>& shown = {}, bool with_pose = true);
     TriangleMesh weld();
     [[noreturn]] void fail(const std::string& what) const { fail_io(path_, what); }
 
@@ -124,12 +129,14 @@ private:
     RawVertices raw_;
     std::vector<std::size_t> corners_;  // raw element ids, 3 per triangle
     std::vector<Eigen::Matrix4d> globals_;  // every node's world matrix (skins' joints)
-    // The shown pose of an animated asset (all empty when it has none that moves a node):
-    // every node's local and world matrix in it, and every raw element's place in it (3 per
-    // element) with the linear map taking a displacement there back to the stored frame.
+    // The shown pose of an animated asset (all empty when it has none that moves a node or
+    // blends a morph target): every node's local and world matrix and morph weights in it, and
+    // every raw element's place in it (3 per element) with the linear map taking a displacement
+    // there back to the stored frame.
     std::string pose_name_;
     std::vector<Eigen::Matrix4d> posed_locals_;
     std::vector<Eigen::Matrix4d> posed_globals_;
+    std::vector<std::vector<double>> posed_weights_;
     std::vector<double> posed_world_;
     std::vector<Eigen::Matrix3d> to_rest_;
 };
@@ -223,7 +230,7 @@ TriangleMesh Reader::run()
     std::vector<char> on_stack(model_.nodes.size(), 0);
     for (const int root : roots)
     {
-        walk(root, {Eigen::Matrix4d::Identity(), Eigen::Matrix4d::Identity()}, on_stack);
+        walk(root, {Eigen::Matrix4d::Identity(), Eigen::Matrix4d::Identity(), -1}, on_stack);
     }
     const auto common = asset_.animations.empty() ? std::nullopt : shared_mesh_path(model_, roots);
     for (AnimationSpan& span : asset_.animations)
@@ -240,10 +247,14 @@ TriangleMesh Reader::run()
     return weld();
 }
 
-// The span of every animation that animates a node (MeshFile::animations); a malformed one is
-// left out (it only means no animation).
+// The span of every animation that animates a node or morph weights (MeshFile::animations); a
+// malformed one is left out (it only means no animation). A file whose meshes show a blend of
+// their morph targets (shape keys left at a value) that no animation changes gets one more, of
+// no length, past the file's animations: its pose is that blend (a viewer shows it, and
+// Blender's copies carry it).
 void Reader::animation_spans()
 {
+    bool blends = false;
     for (std::size_t a = 0; a < model_.animations.size(); ++a)
     {
         try
@@ -252,27 +263,44 @@ void Reader::animation_spans()
             {
                 span->index = a;
                 asset_.animations.push_back(std::move(*span));
+                blends = blends || has_weights_channel(model_, a);
             }
         }
         catch (const IoError&)
         {
         }
     }
+    const auto weights = default_morph_weights(model_);
+    const bool shows_a_blend = std::any_of(weights.begin(), weights.end(), [](const std::vector<double>& w) {
+        return std::any_of(w.begin(), w.end(), [](double x) { return x != 0.0; });
+    });
+    if (!blends && shows_a_blend)
+    {
+        AnimationSpan span;
+        span.index = model_.animations.size();
+        span.name = "the stored morph target weights";
+        asset_.animations.push_back(std::move(span));
+    }
 }
 
 // When a time is asked for, every node's local and world matrix at that time of animation_
 // (for_each_animation_pose: detection reads a copy posed by the animation through it). A
 // malformed animation only means no pose.
+// (an index one past the file's animations: the stored morph weights, animation_spans). The
+// morph weights are the pose's as well: a blend of morph targets is a pose even where no node
+// moves.
 void Reader::pose_from_animation()
 {
-    if (!animation_time_ || animation_ >= model_.animations.size())
+    if (!animation_time_ || animation_ > model_.animations.size())
     {
         return;
     }
     std::vector<Eigen::Matrix4d> locals;
+    std::vector<std::vector<double>> weights;
     try
     {
         locals = animated_local_matrices(model_, accessors_, animation_, *animation_time_);
+        weights = animated_morph_weights(model_, accessors_, animation_, *animation_time_);
     }
     catch (const IoError&)
     {
@@ -281,21 +309,68 @@ void Reader::pose_from_animation()
     bool moves = false;
     for (std::size_t n = 0; n < locals.size(); ++n)
     {
-        if (!locals[n].allFinite())
+        if (!locals[n].allFinite() ||
+            !std::all_of(weights[n].begin(), weights[n].end(), [](double w) { return std::isfinite(w); }))
         {
             return;  // (a non-finite key: no pose)
         }
-        moves = moves || !same_matrix(locals[n], local_matrix(model_.nodes[n]));
+        moves = moves || !same_matrix(locals[n], local_matrix(model_.nodes[n])) ||
+                std::any_of(weights[n].begin(), weights[n].end(), [](double w) { return w != 0.0; });
     }
     if (!moves)
     {
         return;
     }
-    const std::string& name = model_.animations[animation_].name;
-    pose_name_ = (name.empty() ? "animation " + std::to_string(animation_) : "animation '" + name + "'") + " at " +
-                 time_name(*animation_time_);
+    if (animation_ == model_.animations.size())
+    {
+        pose_name_ = "the stored morph target weights";
+    }
+    else
+    {
+        const std::string& name = model_.animations[animation_].name;
+        pose_name_ = (name.empty() ? "animation " + std::to_string(animation_) : "animation '" + name + "'") +
+                     " at " + time_name(*animation_time_);
+    }
     posed_globals_ = world_matrices(locals);
     posed_locals_ = std::move(locals);
+    posed_weights_ = std::move(weights);
+}
+
+// \p local (3 per element) with the morph targets of \p prim blended in by the weights of the
+// pose at \p place's node (the specification's base + sum of weight x POSITION delta), or empty
+// when there is no pose or no target with a weight and a POSITION of as many elements.
+std::vector<double> Reader::morphed(const tinygltf::Primitive& prim, const std::vector<double>& local,
+                                    const Placement& place, const std::string& where)
+{
+    if (posed_globals_.empty() || place.node < 0 || prim.targets.empty())
+    {
+        return {};
+    }
+    const std::vector<double>& weights = posed_weights_[static_cast<std::size_t>(place.node)];
+    std::vector<double> shown;
+    for (std::size_t k = 0; k < prim.targets.size() && k < weights.size(); ++k)
+    {
+        const auto position = prim.targets[k].find("POSITION");
+        if (weights[k] == 0.0 || position == prim.targets[k].end())
+        {
+            continue;
+        }
+        const std::vector<double> delta =
+            read_vectors(position->second, 3, where + " morph target " + std::to_string(k) + " POSITION", false);
+        if (delta.size() != local.size())
+        {
+            continue;  // (a target of another length: nothing a viewer would show either)
+        }
+        if (shown.empty())
+        {
+            shown = local;
+        }
+        for (std::size_t c = 0; c < shown.size(); ++c)
+        {
+            shown[c] += weights[k] * delta[c];
+        }
+    }
+    return shown;
 }
 
 void Reader::add_posed(const Eigen::Vector4d& local, const Eigen::Matrix4d& rest, const Eigen::Matrix4d& posed)
@@ -328,7 +403,8 @@ void Reader::walk(int node_index, const Placement& parent, std::vector<char>& on
     }
     const auto& node = model_.nodes[n];
     const Eigen::Matrix4d to_world = parent.to_world * local_matrix(node);
-    const Placement place{to_world, posed_locals_.empty() ? to_world : Eigen::Matrix4d(parent.posed * posed_locals_[n])};
+    const Placement place{to_world, posed_locals_.empty() ? to_world : Eigen::Matrix4d(parent.posed * posed_locals_[n]),
+                          node_index};
     if (!to_world.allFinite())
     {
         fail("node " + std::to_string(node_index) + " has a non-finite transform");
@@ -390,9 +466,10 @@ std::int32_t Reader::group_of(const Eigen::Matrix4d& to_world)
 }
 
 void Reader::append_world(const std::vector<double>& local, const Placement& place, std::int32_t group,
-                          bool with_pose)
+                          const std::vector<double>& shown, bool with_pose)
 {
     const std::size_t n = local.size() / 3;
+    const std::vector<double>& in_pose = shown.empty() ? local : shown;
     for (std::size_t i = 0; i < n; ++i)
     {
         const Eigen::Vector4d p(local[3 * i], local[3 * i + 1], local[3 * i + 2], 1.0);
@@ -401,7 +478,8 @@ void Reader::append_world(const std::vector<double>& local, const Placement& pla
         raw_.group.push_back(group);
         if (with_pose && !posed_globals_.empty())
         {
-            add_posed(p, place.to_world, place.posed);
+            add_posed(Eigen::Vector4d(in_pose[3 * i], in_pose[3 * i + 1], in_pose[3 * i + 2], 1.0), place.to_world,
+                      place.posed);
         }
     }
 }
@@ -498,14 +576,16 @@ void Reader::add_plain(const tinygltf::Primitive& prim, int mesh, int index, con
         slot = asset_.accessors.size();
         accessor_slot_[a] = slot;
         slot_base_.push_back(raw_.group.size());
+        const std::vector<double> shown =
+            morphed(prim, local, place, "mesh " + std::to_string(mesh) + " primitive " + std::to_string(index));
         if (skin >= 0)
         {
             record.skin = skin;
-            record.skinning = add_skinned(local, skin_sets(prim), skin, place);
+            record.skinning = add_skinned(local, skin_sets(prim), skin, place, shown);
         }
         else
         {
-            append_world(local, place, group_of(to_world));
+            append_world(local, place, group_of(to_world), shown);
         }
         asset_.accessors.push_back(std::move(record));
     }
@@ -524,7 +604,7 @@ void Reader::add_plain(const tinygltf::Primitive& prim, int mesh, int index, con
 // before skins were applied, so that keys made then still match. Returns the matrices (empty
 // when read through the node).
 std::vector<Eigen::Matrix4d> Reader::add_skinned(const std::vector<double>& local, const SkinSets& sets, int skin,
-                                                 const Placement& place)
+                                                 const Placement& place, const std::vector<double>& shown)
 {
     const Eigen::Matrix4d& to_world = place.to_world;
     const std::size_t count = local.size() / 3;
@@ -550,12 +630,14 @@ std::vector<Eigen::Matrix4d> Reader::add_skinned(const std::vector<double>& loca
         const std::vector<Eigen::Matrix4d> posed = skinning(sets, skin, count, place.posed, posed_globals_);
         for (std::size_t e = 0; e < count; ++e)
         {
-            add_posed(at(e), scene.empty() ? to_world : scene[e], posed[e]);
+            const Eigen::Vector4d in_pose =
+                shown.empty() ? at(e) : Eigen::Vector4d(shown[3 * e], shown[3 * e + 1], shown[3 * e + 2], 1.0);
+            add_posed(in_pose, scene.empty() ? to_world : scene[e], posed[e]);
         }
     }
     if (scene.empty())
     {
-        append_world(local, place, group_of(to_world), false);
+        append_world(local, place, group_of(to_world), {}, false);
         return scene;
     }
     groups_.push_back(to_world);
@@ -756,6 +838,9 @@ void Reader::add_draco(const tinygltf::Primitive& prim, int mesh, int index, con
         slot = asset_.draco.size();
         draco_slot_[view_index] = slot;
         draco_base_.push_back(raw_.group.size());
+        // (a primitive with morph targets is encoded keeping its points' order, sequentially,
+        // and its targets stay plain accessors, element for element of the decoded points)
+        const std::vector<double> shown = morphed(prim, local, place, where);
         if (!skin_ids.empty())
         {
             SkinSets sets;
@@ -765,11 +850,11 @@ void Reader::add_draco(const tinygltf::Primitive& prim, int mesh, int index, con
                 sets.weights.push_back(geometry.more[k + 1]);
             }
             record.skin = skin;
-            record.skinning = add_skinned(local, sets, skin, place);
+            record.skinning = add_skinned(local, sets, skin, place, shown);
         }
         else
         {
-            append_world(local, place, group_of(to_world));
+            append_world(local, place, group_of(to_world), shown);
         }
         record.welded.resize(geometry.point_count);
         asset_.draco.push_back(std::move(record));

@@ -78,6 +78,20 @@ void decode_meshopt_views(const std::filesystem::path& path, const tinygltf::Mod
                                                                    const GltfAccessors& accessors,
                                                                    std::size_t animation, double t);
 
+/// \brief Every node's morph target weights as stored (its `weights`, else its mesh's, else
+/// zeros; one per target of its mesh), empty for the nodes without a mesh with targets.
+[[nodiscard]] std::vector<std::vector<double>> default_morph_weights(const tinygltf::Model& model);
+
+/// \brief Every node's morph target weights at time \p t of animation \p animation: those its
+/// weights channels give there over default_morph_weights(); the defaults for an index past the
+/// file's animations.
+[[nodiscard]] std::vector<std::vector<double>> animated_morph_weights(const tinygltf::Model& model,
+                                                                      const GltfAccessors& accessors,
+                                                                      std::size_t animation, double t);
+
+/// Animation \p animation has a channel that animates the morph weights of a mesh with targets.
+[[nodiscard]] bool has_weights_channel(const tinygltf::Model& model, std::size_t animation);
+
 /// \brief The span of animation \p animation (its channels that move a node), or nothing when
 /// it has none or a key time is not finite.
 [[nodiscard]] std::optional<AnimationSpan> animation_span(const tinygltf::Model& model,

@@ -573,6 +573,129 @@ TEST_F(GltfTest, an_animated_rig_gives_the_pose_blender_shows_it_in)
     EXPECT_EQ(read_mesh_file(dir / "lifted.glb").mesh.V.rows(), n);
 }
 
+// A mesh with morph targets (Blender's shape keys) is shown, and copied by Blender, as its base
+// positions plus each target's POSITION deltas times its weight: the node's `weights`, else
+// the mesh's, as an animation's weights channel sets them at a time. The reader keeps the base
+// positions as the mesh (what a marked copy changes) and gives the blend as a pose, each vertex
+// moved by its deltas with no change of frame: a file that shows a fixed blend gets one pose of
+// no length past its animations, one whose animation keys the weights gets that animation's
+// poses (none where every weight is 0). Writing a moved mesh changes no target or weight.
+TEST_F(GltfTest, a_blend_of_morph_targets_is_a_pose_over_the_stored_positions)
+{
+    const auto [xyz, idx] = test::strip(16, -1.0f, 0.125f);
+    const std::size_t n = xyz.size() / 3;
+    // Two targets: a bump over the right half, a lean of the whole along z.
+    std::vector<float> bump(xyz.size(), 0.0f);
+    std::vector<float> lean(xyz.size(), 0.0f);
+    for (std::size_t v = 0; v < n; ++v)
+    {
+        bump[3 * v + 1] = xyz[3 * v] > 0.0f ? 0.5f * xyz[3 * v] * xyz[3 * v] : 0.0f;
+        lean[3 * v + 2] = 0.25f * xyz[3 * v];
+    }
+    const auto shown = [&](std::size_t v, double w_bump, double w_lean) {
+        return Eigen::Vector3d(xyz[3 * v] + w_bump * bump[3 * v] + w_lean * lean[3 * v],
+                               xyz[3 * v + 1] + w_bump * bump[3 * v + 1] + w_lean * lean[3 * v + 1],
+                               xyz[3 * v + 2] + w_bump * bump[3 * v + 2] + w_lean * lean[3 * v + 2]);
+    };
+    // \p animated: a LINEAR channel from (0.6, 0.2) at t = 0 to (0, 0) at t = 1.
+    const auto make = [&](const std::string& name, bool animated) {
+        GltfBuilder b;
+        const int pos = b.positions(xyz);
+        const int t0 = b.positions(bump);
+        const int t1 = b.positions(lean);
+        const int mesh = b.mesh(Json::array({{{"attributes", {{"POSITION", pos}}},
+                                              {"indices", b.indices(idx)},
+                                              {"targets", {{{"POSITION", t0}}, {{"POSITION", t1}}}}}}));
+        b.doc["meshes"][0]["weights"] = {0.5, 0.0};
+        const int node = b.node({{"mesh", mesh}, {"translation", {0.0, 2.0, 0.0}}});
+        if (animated)
+        {
+            const std::vector<float> times{0.0f, 1.0f};
+            const std::vector<float> weights{0.6f, 0.2f, 0.0f, 0.0f};
+            const int at = b.accessor(b.view(GltfBuilder::raw(times)), 0, 5126, 2, "SCALAR");
+            const int to = b.accessor(b.view(GltfBuilder::raw(weights)), 0, 5126, 4, "SCALAR");
+            b.doc["animations"] = Json::array(
+                {{{"name", "puff"},
+                  {"samplers", {{{"input", at}, {"output", to}}}},
+                  {"channels", {{{"sampler", 0}, {"target", {{"node", node}, {"path", "weights"}}}}}}}});
+        }
+        test::put_bytes(dir / name, b.glb());
+        return b;
+    };
+    const Eigen::Vector3d lift(0.0, 2.0, 0.0);
+
+    // A fixed blend: the mesh's weights (0.5 of the bump).
+    const GltfBuilder still = make("still.glb", false);
+    const MeshFile file = read_mesh_file(dir / "still.glb");
+    ASSERT_EQ(file.mesh.V.rows(), static_cast<Eigen::Index>(n));
+    ASSERT_EQ(file.animations.size(), 1u);
+    EXPECT_EQ(file.animations.front().index, 0u);  // (past the file's none)
+    EXPECT_EQ(file.animations.front().name, "the stored morph target weights");
+    EXPECT_FALSE(file.animations.front().moves_only_as_a_whole);
+    ShownPose pose;
+    const double zero = 0.0;
+    for_each_animation_pose(dir / "still.glb", std::span<const double>(&zero, 1), [&](ShownPose&& p) { pose = std::move(p); },
+                            file.animations.front().index);
+    ASSERT_EQ(pose.V.rows(), static_cast<Eigen::Index>(n));
+    EXPECT_EQ(pose.name, "the stored morph target weights");
+    for (std::size_t v = 0; v < n; ++v)
+    {
+        const auto r = static_cast<Eigen::Index>(v);
+        EXPECT_LT((file.mesh.V.row(r).transpose() - (shown(v, 0.0, 0.0) + lift)).norm(), 1e-6) << v;  // the base
+        EXPECT_LT((pose.V.row(r).transpose() - (shown(v, 0.5, 0.0) + lift)).norm(), 1e-6) << v;
+        EXPECT_LT((pose.to_rest[v] - Eigen::Matrix3d::Identity()).norm(), 1e-12) << v;
+    }
+    // A node's own weights win over its mesh's.
+    {
+        GltfBuilder b = still;
+        b.doc["nodes"][0]["weights"] = {0.0, 1.0};
+        test::put_bytes(dir / "node_weights.glb", b.glb());
+        ShownPose leaned;
+        for_each_animation_pose(dir / "node_weights.glb", std::span<const double>(&zero, 1),
+                                [&](ShownPose&& p) { leaned = std::move(p); }, 0);
+        ASSERT_EQ(leaned.V.rows(), static_cast<Eigen::Index>(n));
+        for (std::size_t v = 0; v < n; ++v)
+        {
+            EXPECT_LT((leaned.V.row(static_cast<Eigen::Index>(v)).transpose() - (shown(v, 0.0, 1.0) + lift)).norm(), 1e-6);
+        }
+        b.doc["nodes"][0]["weights"] = {0.0, 0.0};
+        test::put_bytes(dir / "no_blend.glb", b.glb());
+        EXPECT_TRUE(read_mesh_file(dir / "no_blend.glb").animations.empty());  // nothing blended, no pose
+    }
+    // The base moved and written back: the targets and weights untouched.
+    const Positions moved = test::nudged(file.mesh.V);
+    write_mesh_file(dir / "still_out.glb", file, moved);
+    EXPECT_LT((read_mesh_file(dir / "still_out.glb").mesh.V - moved).cwiseAbs().maxCoeff(), 1e-6);
+    const Glb out = split(test::file_bytes(dir / "still_out.glb"));
+    EXPECT_EQ(out.json["meshes"], still.doc["meshes"]);
+    EXPECT_EQ(out.json["nodes"], still.doc["nodes"]);
+
+    // Keyed weights: the animation's span, its poses interpolated, none where the weights are 0.
+    (void)make("keyed.glb", true);
+    const MeshFile keyed = read_mesh_file(dir / "keyed.glb");
+    ASSERT_EQ(keyed.animations.size(), 1u);  // (no pose of the fixed weights besides it)
+    EXPECT_EQ(keyed.animations.front().name, "puff");
+    EXPECT_EQ(keyed.animations.front().last_key, 1.0);
+    EXPECT_FALSE(keyed.animations.front().moves_only_as_a_whole);
+    const std::vector<double> times{0.0, 0.25, 1.0};
+    std::vector<ShownPose> poses;
+    for_each_animation_pose(dir / "keyed.glb", times, [&](ShownPose&& p) { poses.push_back(std::move(p)); });
+    ASSERT_EQ(poses.size(), 3u);
+    EXPECT_EQ(poses[1].name, "animation 'puff' at 6/24 s");
+    EXPECT_EQ(poses[2].V.rows(), 0);
+    for (std::size_t k = 0; k < 2; ++k)
+    {
+        ASSERT_EQ(poses[k].V.rows(), static_cast<Eigen::Index>(n)) << k;
+        const double s = 1.0 - times[k];
+        for (std::size_t v = 0; v < n; ++v)
+        {
+            EXPECT_LT((poses[k].V.row(static_cast<Eigen::Index>(v)).transpose() - (shown(v, 0.6 * s, 0.2 * s) + lift)).norm(),
+                      1e-6)
+                << k << " " << v;
+        }
+    }
+}
+
 // Which animations only move the asset as a whole (a turntable: no frame poses the mesh, so
 // detection has nothing to read a copy through) and which may bend it: two boxes, the second
 // under the first's node, both under a stand, with one channel at a time on a node of the tree.
