@@ -51,8 +51,8 @@ struct FileLayout;  // Everything a preserving writer needs: the original bytes 
 /// writers, modifiers and exports then hand on that pose (or another frame's, or another
 /// animation's, when the user moved the timeline or switched the action), not the stored
 /// (rest) one the mark was embedded in. Each vertex of the
-/// pose is an affine image of its stored place (rigid node animation, skinning); `to_rest`
-/// carries a displacement made in the pose back.
+/// pose is an affine image of its stored place, after the morph targets' blend moved it
+/// (rigid node animation, skinning); `to_rest` carries a displacement made in the pose back.
 struct ShownPose
 {
     std::string name;  ///< What the pose is, for messages ("animation 'Run' at 1/24 s").
@@ -64,11 +64,13 @@ struct ShownPose
 };
 
 /// \brief An animation of a glTF file one of whose channels animates a node (its translation,
-/// rotation or scale). Blender's importer plays the file's first one and keeps the others as
-/// actions a user may switch to.
+/// rotation or scale) or the morph target weights of its mesh. Blender's importer plays the
+/// file's first one and keeps the others as actions a user may switch to. A file whose meshes
+/// show a fixed blend of morph targets that no animation keys has one more, of no length, one
+/// past its animations (named "the stored morph target weights"): its pose is that blend.
 struct AnimationSpan
 {
-    std::size_t index = 0;  ///< Its place in the file's list of animations.
+    std::size_t index = 0;  ///< Its place in the file's list of animations (see above).
     std::string name;       ///< Its name in the file ("animation K" when it has none).
     double first_key = 0.0; ///< Time of its earliest key, seconds.
     double last_key = 0.0;  ///< Time of its latest key, seconds.
@@ -98,9 +100,10 @@ struct MeshFile
     /// re-exported by a tool that flattens instances shows all of them, and detection registers
     /// against `mesh` plus these. Empty for other formats and files without such instances.
     TriangleMesh instances;
-    /// glTF: every animation that animates a node, in the file's order, to sample its poses
-    /// (for_each_animation_pose), whether or not they differ from the stored one. Empty for
-    /// other formats and files without such animations.
+    /// glTF: every animation that animates a node or morph weights, in the file's order, to
+    /// sample its poses (for_each_animation_pose), whether or not they differ from the stored
+    /// one, and the fixed blend of morph targets (AnimationSpan). Empty for other formats and
+    /// files without such animations.
     std::vector<AnimationSpan> animations;
 };
 
@@ -112,8 +115,9 @@ struct MeshFile
 [[nodiscard]] MeshFile read_mesh_file(const std::filesystem::path& path);
 
 /// \brief The mesh of a glTF file posed by its animation \p animation (AnimationSpan::index; 0:
-/// the first) at each of \p times (seconds), one call of \p visit per time, in order, the file
-/// parsed once.
+/// the first; one past the file's animations: its stored morph weights) at each of \p times
+/// (seconds), one call of \p visit per time, in order, the file parsed once. A pose blends the
+/// morph targets by their weights at that time.
 /// \details Each pose has MeshFile::mesh's rows and the maps back (ShownPose), with an empty
 /// `V` where the pose is only a similarity of the stored one (or the animation is malformed). Other
 /// formats, and files without an animation, call \p visit with empty poses. A copy re-posed by

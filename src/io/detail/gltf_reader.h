@@ -92,7 +92,8 @@ void decode_meshopt_views(const std::filesystem::path& path, const tinygltf::Mod
 /// Animation \p animation has a channel that animates the morph weights of a mesh with targets.
 [[nodiscard]] bool has_weights_channel(const tinygltf::Model& model, std::size_t animation);
 
-/// \brief The span of animation \p animation (its channels that move a node), or nothing when
+/// \brief The span of animation \p animation (its channels that move a node or set morph
+/// weights), or nothing when
 /// it has none or a key time is not finite.
 [[nodiscard]] std::optional<AnimationSpan> animation_span(const tinygltf::Model& model,
                                                           const GltfAccessors& accessors, std::size_t animation);
