@@ -26,7 +26,8 @@
 #   morph-creature  the creature with a shape key (a morph target in the file): "puff" swells
 #             the head along its normals by 0.06 (1.7% of the diagonal), set to 0.6 in the file
 #             (the mesh's default weights: what viewers and Blender show) and animated from 0.6
-#             at frame 1 to 0 at frame 10 and 1 at frame 20 (a weights channel).
+#             at frame 1 to 0 at frame 10 and 1 at frame 20 (a weights channel);
+#   blended-creature  the same shape key left at 0.6, not animated (a fixed blend).
 # (docs/robustness.md, "Two more game-like assets").
 import math
 import sys
@@ -282,6 +283,16 @@ def morph_creature():
     return objects
 
 
+def blended_creature():
+    """The creature with the shape key of morph_creature left at 0.6, not animated (a fixed blend:
+    the file's mesh weights)."""
+    objects = morph_creature()
+    body = objects[0]
+    body.data.shape_keys.animation_data_clear()
+    body.data.shape_keys.key_blocks["puff"].value = 0.6
+    return objects
+
+
 def faceted_creature():
     """The creature flat shaded: every face with vertices of its own in the file (low-poly art)."""
     objects = creature()
@@ -294,7 +305,8 @@ def faceted_creature():
 
 KINDS = {"suzanne": suzanne, "vehicle": vehicle, "creature": creature, "rigged-creature": rigged_creature,
          "faceted-creature": faceted_creature, "turntable-vehicle": turntable_vehicle,
-         "two-action-creature": two_action_creature, "morph-creature": morph_creature}
+         "two-action-creature": two_action_creature, "morph-creature": morph_creature,
+         "blended-creature": blended_creature}
 
 
 def main():
