@@ -519,6 +519,54 @@ TEST(RealAssetsInterop, ABlenderDecimateOfAShapeKeyedCreatureIsReadThroughItsBle
                            });
 }
 
+// Khronos' AnimatedMorphCube (the glTF sample models in assimp-testmodels): a cube of 24 vertices
+// with two morph targets whose weights one animation keys over 4.2 s (127 keys, LINEAR). Blender's
+// copies at frames 1, 20 and 40 (its PLY writer: every vertex where the shape keys show it) lie on
+// the reader's poses at 1/24, 20/24 and 40/24 s, and at least one of them far from the stored
+// cube: the reader blends the targets as Blender does.
+TEST(RealAssetsInterop, KhronosAnimatedMorphCubeIsPosedAsBlenderShowsIt)
+{
+    INTEROP_REQUIRE_TOOLS("blender", "assimp-testmodels");
+    const fs::path model = kModels / "glTF2/glTF-Sample-Models/AnimatedMorphCube-glTF/AnimatedMorphCube.gltf";
+    const fs::path scratch = temp_dir("interop-real-morph-cube");
+    const std::vector<int> frames{1, 20, 40};
+    std::vector<std::string> ops;
+    std::vector<double> times;
+    for (const int f : frames)
+    {
+        ops.push_back("pose=" + std::to_string(f));
+        times.push_back(f / 24.0);
+    }
+    const ToolRun blender = blender_attacks(model, scratch / "posed", ops, scratch);
+    ASSERT_TRUE(blender.ok()) << blender.describe();
+    const MeshFile file = read_mesh_file(model);
+    ASSERT_EQ(file.mesh.V.rows(), 8);  // (its 24 vertex records welded into the cube's corners)
+    ASSERT_EQ(file.animations.size(), 1u);
+    EXPECT_FALSE(file.animations.front().moves_only_as_a_whole);
+    std::vector<ShownPose> poses;
+    for_each_animation_pose(model, times, [&](ShownPose&& p) { poses.push_back(std::move(p)); },
+                            file.animations.front().index);
+    ASSERT_EQ(poses.size(), frames.size());
+    // glTF's y is Blender's z: Blender's (x, y, z) is glTF's (x, -z, y).
+    const auto in_blender = [](const Positions& V) {
+        Positions B(V.rows(), 3);
+        B.col(0) = V.col(0);
+        B.col(1) = -V.col(2);
+        B.col(2) = V.col(1);
+        return B;
+    };
+    double farthest_from_stored = 0.0;
+    for (std::size_t k = 0; k < frames.size(); ++k)
+    {
+        const Positions copy = read_mesh(scratch / "posed" / ("pose_" + std::to_string(frames[k]) + ".ply")).V;
+        const Positions& shown = poses[k].V.rows() == 0 ? file.mesh.V : poses[k].V;  // (no blend: stored)
+        const auto [worst, rms] = nearest_distances(copy, in_blender(shown));
+        EXPECT_LT(worst, 1e-5) << "frame " << frames[k] << ", rms " << rms;
+        farthest_from_stored = std::max(farthest_from_stored, nearest_distances(copy, in_blender(file.mesh.V)).first);
+    }
+    EXPECT_GT(farthest_from_stored, 0.05);
+}
+
 // \p model of assimp-testmodels converted to .glb (without its animations when \p still:
 // strip_animations.mjs), compressed by `gltf-transform draco` into \p scratch / draco.glb and
 // marked with key kSeed (marked.glb, key.json); \p error is set if a step fails.
