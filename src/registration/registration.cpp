@@ -79,6 +79,15 @@ constexpr double kReflectionMargin = 0.95;
 // the engine's 1.43, whose fine refinement cost 12% of its detection for nothing.
 constexpr double kHandednessTie = 1.5;
 constexpr double kHandednessCoarse = 1.25;
+// A reference that is nearly the same turned half a turn about one of its principal axes (a
+// vehicle end for end) fits a resampled copy about as well both ways on the coarse rounds'
+// 4,096 reference vertices, and the right pose can drop out before the fine stage: the best
+// coarse pose turned so goes to the fine stage too when, after kTurnedIterations coarse
+// iterations on the last round's samples, its coarse score is within this factor of the best's
+// (the vehicle's voxel remesh at 1/300 marked with --strength 0.001 --seed 2: 1.04; turned poses of
+// asymmetric shapes score several times worse and cost only those iterations).
+constexpr double kTurnedCoarse = 1.25;
+constexpr int kTurnedIterations = 10;
 constexpr int kFinalIterations = 6;
 // The coarse ICP may not leave [0.25, 2] times the initial scale (collapse guard).
 constexpr double kMinScaleFactor = 0.25;
@@ -216,7 +225,36 @@ struct Problem
     double reference_diagonal = 1.0;
     double initial_scale = 1.0;
     double score_floor = 0.0;  // scores below this (suspect units) count as exact fits
+    // Half turns about the reference's principal axes through its centroid (kTurnedCoarse);
+    // empty where the starts are given (point pairs, a start to refine).
+    std::vector<Similarity> reference_turns;
 };
+
+// The three half turns about the principal axes of \p m through its centroid.
+std::vector<Similarity> half_turns(const Moments& m)
+{
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(m.covariance);
+    std::vector<Similarity> turns;
+    for (int k = 0; k < 3; ++k)
+    {
+        const Eigen::Vector3d axis = eigen.eigenvectors().col(k).normalized();
+        Similarity S;
+        S.rotation = 2.0 * axis * axis.transpose() - Eigen::Matrix3d::Identity();
+        S.translation = m.centroid - S.rotation * m.centroid;
+        turns.push_back(S);
+    }
+    return turns;
+}
+
+// \p T followed by \p S (S a rigid motion of the reference's space).
+Similarity then(const Similarity& T, const Similarity& S)
+{
+    Similarity R;
+    R.scale = T.scale;
+    R.rotation = S.rotation * T.rotation;
+    R.translation = S.rotation * T.translation + S.translation;
+    return R;
+}
 
 IcpSettings coarse_settings(const Problem& p, int iterations, double scale_hint, int threads)
 {
@@ -557,6 +595,34 @@ RegistrationResult finish(const Problem& p, std::vector<Candidate> candidates, i
         fine.push_back(*in_place);
     }
     int iterations = coarse_iterations;
+    // The best coarse pose turned half a turn about each of the reference's principal axes,
+    // where that fits about as well (kTurnedCoarse) and is not a pose the fine stage has.
+    if (!candidates.empty() && std::isfinite(candidates.front().score))
+    {
+        const Candidate& best = candidates.front();
+        const Positions& X = p.samples[best.mirrored ? 1 : 0][kRounds.back().tier];
+        const double tolerance = kSamePose * p.reference_diagonal;
+        for (const Similarity& turn : p.reference_turns)
+        {
+            Candidate twin;
+            twin.mirrored = best.mirrored;
+            twin.outcome = detail::icp_point_to_point(X, *p.coarse_target, then(best.transform, turn),
+                                                      coarse_settings(p, kTurnedIterations, p.initial_scale,
+                                                                      p.options.threads));
+            iterations += twin.outcome.iterations;
+            twin.transform = twin.outcome.transform;
+            twin.score = score_of(twin.outcome, p.score_floor);
+            twin.residual = residual_of(twin.outcome);
+            const Positions& X0 = p.samples[twin.mirrored ? 1 : 0][0];
+            if (twin.score <= kTurnedCoarse * std::max(best.score, p.score_floor) &&
+                std::none_of(fine.begin(), fine.end(), [&](const Candidate& c) {
+                    return c.mirrored == twin.mirrored && pose_distance(X0, c.transform, twin.transform) <= tolerance;
+                }))
+            {
+                fine.push_back(twin);
+            }
+        }
+    }
     const std::vector<std::size_t> leader = first_same_start(fine);
     for (std::size_t i = 0; i < fine.size(); ++i)
     {
@@ -675,7 +741,7 @@ Problem make_problem(const TriangleMesh& suspect, const TriangleMesh& reference,
                      const std::vector<std::int32_t>& reference_rows, const RegistrationOptions& options,
                      bool build_fine_target = true)
 {
-    Problem p{options, {}, nullptr, nullptr, 1.0, 1.0, 0.0};
+    Problem p{options, {}, nullptr, nullptr, 1.0, 1.0, 0.0, {}};
     const std::vector<std::int32_t> order = shuffled(suspect_rows, derive_seed(options.seed, "suspect samples"));
     p.samples[0] = sample_sets(suspect.V, order, options, false);
     if (options.allow_reflection)
@@ -787,6 +853,7 @@ RegistrationResult register_to_reference(const TriangleMesh& suspect, const Tria
                           "points coincide).");
     }
     p.initial_scale = std::sqrt(mr.covariance.trace() / ms.covariance.trace());
+    p.reference_turns = half_turns(mr);
 
     // Coarse alignment: the whole shape's axes, and the axes of plausible cropped parts of
     // the reference; a tournament of short trimmed ICP runs on growing samples.
