@@ -338,7 +338,7 @@ void Reader::pose_from_animation()
 
 // \p local (3 per element) with the morph targets of \p prim blended in by the weights of the
 // pose at \p place's node (the specification's base + sum of weight x POSITION delta), or empty
-// when there is no pose or no target with a weight and a POSITION of as many elements.
+// when there is no pose or no target with a weight and a readable POSITION of as many elements.
 std::vector<double> Reader::morphed(const tinygltf::Primitive& prim, const std::vector<double>& local,
                                     const Placement& place, const std::string& where)
 {
@@ -355,8 +355,16 @@ std::vector<double> Reader::morphed(const tinygltf::Primitive& prim, const std::
         {
             continue;
         }
-        const std::vector<double> delta =
-            read_vectors(position->second, 3, where + " morph target " + std::to_string(k) + " POSITION", false);
+        std::vector<double> delta;
+        try
+        {
+            delta = read_vectors(position->second, 3, where + " morph target " + std::to_string(k) + " POSITION",
+                                 false);
+        }
+        catch (const IoError&)
+        {
+            continue;  // (a malformed target only means no blend of it, as a malformed animation means no pose)
+        }
         if (delta.size() != local.size())
         {
             continue;  // (a target of another length: nothing a viewer would show either)

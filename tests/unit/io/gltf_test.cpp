@@ -662,6 +662,26 @@ TEST_F(GltfTest, a_blend_of_morph_targets_is_a_pose_over_the_stored_positions)
         test::put_bytes(dir / "no_blend.glb", b.glb());
         EXPECT_TRUE(read_mesh_file(dir / "no_blend.glb").animations.empty());  // nothing blended, no pose
     }
+    // A target that cannot be read (a SCALAR accessor as its POSITION) or of another length
+    // adds nothing; the others still blend.
+    for (const bool scalar : {true, false})
+    {
+        GltfBuilder b = still;
+        const std::vector<float> other = scalar ? std::vector<float>(n, 1.0f) : std::vector<float>(3, 1.0f);
+        const int bad = scalar ? b.accessor(b.view(GltfBuilder::raw(other)), 0, 5126, n, "SCALAR") : b.positions(other);
+        b.doc["meshes"][0]["primitives"][0]["targets"][1]["POSITION"] = bad;
+        b.doc["meshes"][0]["weights"] = {0.5, 1.0};
+        test::put_bytes(dir / "bad_target.glb", b.glb());
+        ShownPose bumped;
+        for_each_animation_pose(dir / "bad_target.glb", std::span<const double>(&zero, 1),
+                                [&](ShownPose&& p) { bumped = std::move(p); }, 0);
+        ASSERT_EQ(bumped.V.rows(), static_cast<Eigen::Index>(n)) << scalar;
+        for (std::size_t v = 0; v < n; ++v)
+        {
+            EXPECT_LT((bumped.V.row(static_cast<Eigen::Index>(v)).transpose() - (shown(v, 0.5, 0.0) + lift)).norm(), 1e-6)
+                << scalar;
+        }
+    }
     // The base moved and written back: the targets and weights untouched.
     const Positions moved = test::nudged(file.mesh.V);
     write_mesh_file(dir / "still_out.glb", file, moved);
