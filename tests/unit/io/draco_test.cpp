@@ -200,6 +200,42 @@ TEST_F(DracoTest, an_animated_draco_part_is_posed_at_every_time)
     }
 }
 
+// A Draco primitive with a morph target: its targets stay plain accessors, element for element
+// of the decoded points (encoders keep the points' order for such primitives). The mesh's
+// weight of 0.5 is a pose (the stored blend): each point of the patch raised by half its
+// target's delta, here 0.2 x its own x, the plain triangle where it was.
+TEST_F(DracoTest, a_draco_primitive_with_a_morph_target_is_blended_point_for_point)
+{
+    const auto patch = draco_patch();
+    GltfBuilder b = draco_asset(patch);
+    const auto decoded = decode(patch.bytes, false);
+    const draco::PointAttribute* position = decoded->GetNamedAttribute(draco::GeometryAttribute::POSITION);
+    std::vector<float> delta;
+    for (draco::PointIndex i(0); i < decoded->num_points(); ++i)
+    {
+        std::array<float, 3> p{};
+        position->GetMappedValue(i, p.data());
+        delta.insert(delta.end(), {0.0f, 0.0f, 0.2f * p[0]});
+    }
+    b.doc["meshes"][0]["primitives"][0]["targets"] = Json::array({{{"POSITION", b.positions(delta)}}});
+    b.doc["meshes"][0]["weights"] = {0.5};
+    test::put_bytes(dir / "morphed.glb", b.glb());
+    const MeshFile file = read_mesh_file(dir / "morphed.glb");
+    ASSERT_EQ(file.animations.size(), 1u);  // (the stored blend)
+    ShownPose pose;
+    const double zero = 0.0;
+    for_each_animation_pose(dir / "morphed.glb", std::span<const double>(&zero, 1),
+                            [&](ShownPose&& p) { pose = std::move(p); }, file.animations.front().index);
+    ASSERT_EQ(pose.V.rows(), file.mesh.V.rows());
+    for (Eigen::Index v = 0; v < file.mesh.V.rows(); ++v)
+    {
+        const Eigen::Vector3d stored = file.mesh.V.row(v).transpose();
+        const bool is_patch = stored.z() < 3.0;
+        const Eigen::Vector3d expected = stored + Eigen::Vector3d(0.0, 0.0, is_patch ? 0.1 * stored.x() : 0.0);
+        EXPECT_LT((pose.V.row(v).transpose() - expected).norm(), 1e-6) << v;
+    }
+}
+
 // One corner of a skinned triangle soup.
 struct SkinnedCorner
 {
