@@ -283,12 +283,10 @@ void Reader::animation_spans()
     }
 }
 
-// When a time is asked for, every node's local and world matrix at that time of animation_
-// (for_each_animation_pose: detection reads a copy posed by the animation through it). A
-// malformed animation only means no pose.
-// (an index one past the file's animations: the stored morph weights, animation_spans). The
-// morph weights are the pose's as well: a blend of morph targets is a pose even where no node
-// moves.
+// When a time is asked for, every node's local and world matrix and morph weights at that time
+// of animation_ (one past the file's animations: the stored matrices and weights, animation_spans)
+// (for_each_animation_pose: detection reads a copy posed by the animation through it). A blend
+// of morph targets is a pose even where no node moves. A malformed animation only means no pose.
 void Reader::pose_from_animation()
 {
     if (!animation_time_ || animation_ > model_.animations.size())
