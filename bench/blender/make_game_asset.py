@@ -27,7 +27,9 @@
 #             the head along its normals by 0.06 (1.7% of the diagonal), set to 0.6 in the file
 #             (the mesh's default weights: what viewers and Blender show) and animated from 0.6
 #             at frame 1 to 0 at frame 10 and 1 at frame 20 (a weights channel);
-#   blended-creature  the same shape key left at 0.6, not animated (a fixed blend).
+#   blended-creature  the same shape key left at 0.6, not animated (a fixed blend);
+#   chopped-vehicle  the vehicle with a shape key "chop" on its cabin (its roof lowered by 0.15),
+#             left at 0.8, not animated (a fixed blend on one part).
 # (docs/robustness.md, "Two more game-like assets").
 import math
 import sys
@@ -36,6 +38,7 @@ import numpy
 
 numpy.bool = bool  # Debian's Blender 3.4 glTF add-on still uses the alias NumPy removed
 import bpy  # noqa: E402
+import mathutils  # noqa: E402
 
 
 def suzanne():
@@ -150,6 +153,20 @@ def turntable_vehicle():
     root.rotation_euler = (0, 0, math.radians(25 + 360))
     root.keyframe_insert("rotation_euler", frame=96)
     scene.frame_set(1)
+    return objects
+
+
+def chopped_vehicle():
+    """The vehicle with a shape key on its cabin: "chop" lowers the cabin's roof by 0.15 (its
+    upper half: a chopped roof), left at 0.8 and not animated (a fixed blend on one part)."""
+    objects = vehicle()
+    cabin = objects[1]
+    cabin.shape_key_add(name="Basis")
+    chop = cabin.shape_key_add(name="chop")
+    for vertex, point in zip(cabin.data.vertices, chop.data):
+        if vertex.co[2] > 0.0:
+            point.co = vertex.co - mathutils.Vector((0.0, 0.0, 0.15 / cabin.scale[2]))
+    chop.value = 0.8
     return objects
 
 
@@ -306,7 +323,7 @@ def faceted_creature():
 KINDS = {"suzanne": suzanne, "vehicle": vehicle, "creature": creature, "rigged-creature": rigged_creature,
          "faceted-creature": faceted_creature, "turntable-vehicle": turntable_vehicle,
          "two-action-creature": two_action_creature, "morph-creature": morph_creature,
-         "blended-creature": blended_creature}
+         "blended-creature": blended_creature, "chopped-vehicle": chopped_vehicle}
 
 
 def main():
