@@ -156,16 +156,25 @@ def turntable_vehicle():
     return objects
 
 
+def add_shape_key(obj, name, offset):
+    """A shape key \p name on \p obj (after a Basis) moving each vertex by offset(vertex), a
+    Vector, or leaving it where offset gives None."""
+    obj.shape_key_add(name="Basis")
+    key = obj.shape_key_add(name=name)
+    for vertex, point in zip(obj.data.vertices, key.data):
+        moved = offset(vertex)
+        if moved is not None:
+            point.co = vertex.co + moved
+    return key
+
+
 def chopped_vehicle():
     """The vehicle with a shape key on its cabin: "chop" lowers the cabin's roof by 0.15 (its
     upper half: a chopped roof), left at 0.8 and not animated (a fixed blend on one part)."""
     objects = vehicle()
     cabin = objects[1]
-    cabin.shape_key_add(name="Basis")
-    chop = cabin.shape_key_add(name="chop")
-    for vertex, point in zip(cabin.data.vertices, chop.data):
-        if vertex.co[2] > 0.0:
-            point.co = vertex.co - mathutils.Vector((0.0, 0.0, 0.15 / cabin.scale[2]))
+    down = mathutils.Vector((0.0, 0.0, -0.15 / cabin.scale[2]))
+    chop = add_shape_key(cabin, "chop", lambda vertex: down if vertex.co[2] > 0.0 else None)
     chop.value = 0.8
     return objects
 
@@ -282,12 +291,7 @@ def morph_creature():
     """The creature with a shape key "puff" (the head swollen along its normals) at 0.6, and an
     animation of that key's value: 0.6 at frame 1, 0 at frame 10, 1 at frame 20."""
     objects = creature()
-    body = objects[0]
-    body.shape_key_add(name="Basis")
-    puff = body.shape_key_add(name="puff")
-    for vertex, point in zip(body.data.vertices, puff.data):
-        if vertex.co[1] > 1.3:
-            point.co = vertex.co + 0.06 * vertex.normal
+    puff = add_shape_key(objects[0], "puff", lambda vertex: 0.06 * vertex.normal if vertex.co[1] > 1.3 else None)
     puff.value = 0.6
     puff.keyframe_insert("value", frame=1)
     puff.value = 0.0
