@@ -60,13 +60,15 @@ Eigen::Matrix4d matrix_of(Trs trs)
     return t.matrix();
 }
 
-// What a channel animates: a node's translation, rotation or scale, a mesh's morph weights.
+// What a channel animates: a node's translation, rotation or scale, a mesh's morph weights, or
+// something meshmark does not read (a pointer extension's path).
 enum class ChannelPath
 {
     Translation,
     Rotation,
     Scale,
-    Weights
+    Weights,
+    Other
 };
 
 // The sampler's value at time t, `components` numbers (3: translation or scale, 4: rotation as
@@ -160,10 +162,11 @@ std::size_t morph_target_count(const tinygltf::Model& model, const tinygltf::Nod
 ChannelPath path_of(const tinygltf::AnimationChannel& channel)
 {
     const auto& path = channel.target_path;
-    return path == "rotation" ? ChannelPath::Rotation
-           : path == "scale"  ? ChannelPath::Scale
-           : path == "weights" ? ChannelPath::Weights
-                               : ChannelPath::Translation;
+    return path == "translation" ? ChannelPath::Translation
+           : path == "rotation"  ? ChannelPath::Rotation
+           : path == "scale"     ? ChannelPath::Scale
+           : path == "weights"   ? ChannelPath::Weights
+                                 : ChannelPath::Other;
 }
 
 // The numbers a channel of \p a sets on its node (3: translation or scale, 4: rotation, one per
@@ -179,13 +182,19 @@ int channel_components(const tinygltf::Model& model, const tinygltf::Animation& 
         return 0;
     }
     const auto& node = model.nodes[static_cast<std::size_t>(channel.target_node)];
-    const auto& path = channel.target_path;
-    if (path == "weights")
+    switch (path_of(channel))
     {
-        return static_cast<int>(std::min<std::size_t>(morph_target_count(model, node), 1U << 16U));
+        case ChannelPath::Weights:
+            return static_cast<int>(std::min<std::size_t>(morph_target_count(model, node), 1U << 16U));
+        case ChannelPath::Rotation:
+            return node.matrix.size() == 16 ? 0 : 4;
+        case ChannelPath::Translation:
+        case ChannelPath::Scale:
+            return node.matrix.size() == 16 ? 0 : 3;
+        case ChannelPath::Other:
+            break;
     }
-    const int components = path == "rotation" ? 4 : (path == "translation" || path == "scale") ? 3 : 0;
-    return node.matrix.size() == 16 ? 0 : components;
+    return 0;
 }
 
 }  // namespace

@@ -233,11 +233,11 @@ struct Problem
 // The three half turns about the principal axes of \p m through its centroid.
 std::vector<Similarity> half_turns(const Moments& m)
 {
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(m.covariance);
+    const Eigen::Matrix3d frame = principal_frame(m.covariance);
     std::vector<Similarity> turns;
     for (int k = 0; k < 3; ++k)
     {
-        const Eigen::Vector3d axis = eigen.eigenvectors().col(k).normalized();
+        const Eigen::Vector3d axis = frame.col(k).normalized();
         Similarity S;
         S.rotation = 2.0 * axis * axis.transpose() - Eigen::Matrix3d::Identity();
         S.translation = m.centroid - S.rotation * m.centroid;
