@@ -27,7 +27,7 @@ constexpr std::size_t kMinChunkBlocks = 16;
 
 // Relative eigenvalue below which a mode of G is numerically absent (G is accumulated in
 // double; condition numbers of 1e8-1e10 are normal for k = 100, docs/algorithms/basis.md).
-constexpr double kGramRankTolerance = 1e-14;
+constexpr double kGramRankTolerance = SpectralBasis::kDegenerateModeTolerance;
 
 // Column of each center in the B blocks: the centers in Morton order of their positions (10
 // bits per axis), so that neighbouring columns hold nearby centers and the evaluation's test

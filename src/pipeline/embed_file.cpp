@@ -65,6 +65,10 @@ SpectralWatermark watermark_of(const TriangleMesh& mesh, const Key& key, const s
     {
         throw InvalidMesh(path.string() + ": " + e.what());
     }
+    catch (const NumericalError& e)
+    {
+        throw NumericalError(path.string() + ": " + e.what());
+    }
 }
 
 void EmbedMeshOptions::validate() const

@@ -401,7 +401,16 @@ EmbedReport embed_file_streamed(const PlyStream& file, const std::filesystem::pa
     // through the file's row source.
     timer.begin("basis");
     const auto source = std::make_shared<const FileRowSource>(file, referenced, window);
-    const SpectralWatermark mark(key, source, frame.frame(), options.threads);
+    const SpectralWatermark mark = [&] {
+        try
+        {
+            return SpectralWatermark(key, source, frame.frame(), options.threads);
+        }
+        catch (const NumericalError& e)
+        {
+            throw NumericalError(file.path().string() + ": " + e.what());
+        }
+    }();
     key.options = mark.key().options;  // the automatic repetitions, as the watermark resolved them
     const std::size_t chunk_bytes = mark.basis().max_chunk_rows() * 3 * sizeof(double);
     timer.lap("basis");

@@ -55,7 +55,9 @@ nlohmann::json embed_stats_json(const Key& key, const EmbedStats& stats)
             {"rms_displacement", stats.rms_displacement_rel},
             {"surface_rms_displacement", stats.surface_rms_rel},
             {"orthogonality_error", stats.orthogonality_error},
-            {"weak_bits", stats.weak_bits}};
+            {"weak_bits", stats.weak_bits},
+            {"basis_span", stats.basis_span},
+            {"shortened_to_span", stats.shortened_to_span}};
     if (key.options.rule != EmbeddingRule::Additive)
     {
         out.erase("strength_measure");  // rho is not a distance

@@ -11,6 +11,7 @@
 #include "meshmark/basis/decimated_centers.h"
 #include "meshmark/basis/laplacian_basis.h"
 #include "meshmark/basis/rbf_basis.h"
+#include "meshmark/basis/spectral_basis.h"
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/rng.h"
@@ -36,6 +37,13 @@ constexpr std::size_t kReadBlockRows = 4096;
 constexpr std::size_t kLongMarkMinRows = 5000;
 constexpr int kLongMarkRepetitions = 5;
 constexpr int kDefaultRepetitions = 4;
+
+// An automatic mark shortened to the modes the basis spans keeps its last mode at a relative
+// eigenvalue 4 times above the degenerate one (SpectralBasis::kDegenerateModeTolerance), so
+// that the basis detection rebuilds on another machine (other SIMD kernels, other rounding of
+// the Gram matrix: about 1e-16 of the largest eigenvalue, 1% of a mode at 1e-14) still
+// accepts every mode of it.
+constexpr double kShortenedMarkTolerance = 4.0 * SpectralBasis::kDegenerateModeTolerance;
 
 }  // namespace
 
@@ -153,11 +161,54 @@ void SpectralWatermark::build(const TriangleMesh* mesh, const std::vector<std::i
         basis_ = std::make_unique<RbfBasis>(rows_, centers_, sigma, frame_.origin, threads_,
                                             static_cast<std::size_t>(key_.options.gram_rows));
     }
-    if (key_.options.repetitions == EmbedOptions::kAutoRepetitions)
-    {
-        key_.options.repetitions = automatic_repetitions(key_.options, rows_->size());
-    }
+    fit_to_span();
     init_modulation(static_cast<double>(rows_->size()));
+}
+
+void SpectralWatermark::fit_to_span()
+{
+    EmbedOptions& options = key_.options;
+    const int recipient_modes = key_.recipients ? key_.recipients->modes : 0;
+    const auto needed = [&](int r) { return options.first_mode + options.coefficients * r + recipient_modes; };
+    basis_span_ = basis_->well_conditioned_modes(SpectralBasis::kDegenerateModeTolerance);
+    const bool automatic = options.repetitions == EmbedOptions::kAutoRepetitions;
+    if (automatic)
+    {
+        options.repetitions = automatic_repetitions(options, rows_->size());
+        if (needed(options.repetitions) > basis_span_)
+        {
+            // Vertices on a few curves (a flat part whose faces have no inner vertices) span
+            // fewer modes than k: a shorter mark, if one fits.
+            const int span = basis_->well_conditioned_modes(kShortenedMarkTolerance);
+            const int r = (span - options.first_mode - recipient_modes) / options.coefficients;
+            if (r >= 1)
+            {
+                options.repetitions = std::min(r, options.repetitions);
+                shortened_to_span_ = true;
+            }
+        }
+    }
+    const int modes = needed(options.repetitions);
+    if (modes > basis_span_)
+    {
+        std::string advice;
+        const int fits = (basis_->well_conditioned_modes(kShortenedMarkTolerance) - options.first_mode -
+                          recipient_modes) /
+                         options.coefficients;
+        if (automatic || fits < 1)
+        {
+            advice = "not even one repetition of the payload fits";
+        }
+        else
+        {
+            advice = "--repetitions " + std::to_string(fits) + " fits";
+        }
+        throw NumericalError("the mesh's vertices span only " + std::to_string(basis_span_) +
+                             " independent modes of the RBF basis, and the mark needs " + std::to_string(modes) +
+                             " (modulated modes " + std::to_string(options.first_mode) + "-" +
+                             std::to_string(modes - 1) + "): they lie on a few curves or in a small patch "
+                             "(a flat part whose faces have no inner vertices, say), and " + advice + ".");
+    }
 }
 
 void SpectralWatermark::init_modulation(double analysed)
@@ -254,6 +305,8 @@ void SpectralWatermark::describe(const DisplacementSummary& summary, double aabb
     stats->modulation_step = key_.options.rule == EmbeddingRule::Additive ? modulation_(0, 0) : 0.0;
     stats->weak_bits = weak_bits_;
     stats->analysed_vertices = static_cast<int>(summary.rows);
+    stats->basis_span = basis_span_;
+    stats->shortened_to_span = shortened_to_span_;
 }
 
 Positions SpectralWatermark::displacement(EmbedStats* stats) const

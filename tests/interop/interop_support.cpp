@@ -170,6 +170,12 @@ std::string missing_tools(const std::vector<std::string>& needed)
             note(fs::exists("/usr/share/PrusaSlicer/shapes/M3x10_screw.stl"),
                  "PrusaSlicer's shapes (/usr/share/PrusaSlicer/shapes)");
         }
+        else if (name == "prusa-slicer-profiles")
+        {
+            // The printer beds of PrusaSlicer's vendor profiles: CAD exports of flat plates.
+            note(fs::exists("/usr/share/PrusaSlicer/profiles/Creality/cr10_bed.stl"),
+                 "PrusaSlicer's printer profiles (/usr/share/PrusaSlicer/profiles)");
+        }
         else if (name == "assimp-testmodels")
         {
             // Debian's assimp-testmodels: other people's models (real_assets_test.cpp).

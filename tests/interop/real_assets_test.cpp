@@ -753,4 +753,63 @@ TEST(RealAssetsInterop, AScrewSmoothedByOpen3DWithoutWeldingIsRegisteredAndClaim
     }
 }
 
+// Printer beds from PrusaSlicer's vendor profiles, CAD exports of flat plates whose faces have
+// no inner vertices: every vertex lies on the plate's two outlines, and they span 25-41 modes
+// of the basis where the usual mark needs 44. Until the twentieth session `embed` stopped with
+// "the RBF Gram matrix is degenerate" (exit 4) on 15 of the 59 beds; the automatic mark is now
+// shortened to the modes they span, says so, and is read back, also from PrusaSlicer's own STL
+// export of the marked bed; the unmarked bed through the same export is not claimed.
+TEST(RealAssetsInterop, APrinterBedWhoseVerticesLieOnItsOutlinesGetsAShorterMark)
+{
+    INTEROP_REQUIRE_TOOLS("meshmark", "prusa-slicer", "prusa-slicer-profiles");
+    for (const char* bed : {"cr10_bed.stl", "cr200b_bed.stl"})
+    {
+        const fs::path scratch = temp_dir(std::string("interop-real-bed-") + bed);
+        const fs::path original = fs::path("/usr/share/PrusaSlicer/profiles/Creality") / bed;
+        const fs::path marked = scratch / "marked.stl";
+        const fs::path key = scratch / "key.json";
+        const ToolRun marking = meshmark({"embed", original.string(), "-o", marked.string(), "--key", key.string(),
+                                          "--seed", "7", "--json"},
+                                         scratch);
+        ASSERT_TRUE(marking.ok()) << marking.describe();
+        const nlohmann::json embedded = nlohmann::json::parse(marking.result.out, nullptr, false);
+        ASSERT_TRUE(embedded.is_object()) << marking.result.out;
+        EXPECT_TRUE(embedded.value("shortened_to_span", false)) << embedded.dump();
+        const int repetitions = embedded.value("repetitions", 0);
+        EXPECT_GE(repetitions, 1) << embedded.dump();
+        EXPECT_LT(repetitions, 4) << embedded.dump();
+        EXPECT_LE(embedded.value("first_mode", 0) + 8 * repetitions, embedded.value("basis_span", 0)) << embedded.dump();
+        EXPECT_NE(marking.result.err.find("note: the vertices span only"), std::string::npos) << marking.result.err;
+
+        // The same bed asked for the usual mark: refused, naming the file and the reason.
+        const ToolRun longer = meshmark({"embed", original.string(), "-o", (scratch / "longer.stl").string(), "--key",
+                                         (scratch / "longer.json").string(), "--seed", "7", "--repetitions", "4"},
+                                        scratch);
+        EXPECT_EQ(longer.result.exit_code, 4) << longer.describe();
+        EXPECT_NE(longer.result.err.find(original.string() + ": the mesh's vertices span only"), std::string::npos)
+            << longer.result.err;
+        EXPECT_FALSE(fs::exists(scratch / "longer.stl"));
+        EXPECT_FALSE(fs::exists(scratch / "longer.json"));
+
+        for (const bool is_marked : {true, false})
+        {
+            const fs::path exported = scratch / (is_marked ? "marked-prusa.stl" : "unmarked-prusa.stl");
+            const ToolRun exporting = run({tools().xvfb_run.string(), "-a", tools().prusa_slicer.string(),
+                                           "--export-stl", "-o", exported.string(),
+                                           (is_marked ? marked : original).string()},
+                                          scratch);
+            ASSERT_TRUE(exporting.ok()) << exporting.describe();
+            for (const fs::path& suspect : is_marked ? std::vector<fs::path>{marked, exported}
+                                                     : std::vector<fs::path>{exported})
+            {
+                int exit_code = -1;
+                const nlohmann::json report = detect_json(suspect, original, key, scratch, &exit_code);
+                ASSERT_TRUE(report.is_object()) << suspect;
+                EXPECT_EQ(exit_code, is_marked ? 0 : 1) << bed << " " << suspect << " " << report.dump();
+                EXPECT_EQ(report.value("coefficient_count", 0), 24 * repetitions) << report.dump();
+            }
+        }
+    }
+}
+
 }  // namespace meshmark::test::interop

@@ -30,6 +30,11 @@ class SpectralBasis
 public:
     virtual ~SpectralBasis() = default;
 
+    /// Relative eigenvalue (W_j^2 over the largest, RBF basis) at or below which a mode is
+    /// numerically absent: project() and synthesize() refuse it (NumericalError), and
+    /// well_conditioned_modes(kDegenerateModeTolerance) counts the modes they accept.
+    static constexpr double kDegenerateModeTolerance = 1e-14;
+
     /// k, the number of modes.
     [[nodiscard]] virtual int size() const noexcept = 0;
 

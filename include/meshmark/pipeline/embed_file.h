@@ -71,8 +71,9 @@ struct EmbedReport
 /// \throws InvalidMesh in those cases.
 void check_basis_input(const TriangleMesh& mesh, const EmbedOptions& options, const std::filesystem::path& path);
 
-/// \brief The watermark of \p key on \p mesh (SpectralWatermark), its InvalidMesh errors (a
-/// mesh with fewer usable vertices than the basis has functions, say) naming \p path.
+/// \brief The watermark of \p key on \p mesh (SpectralWatermark), its InvalidMesh and
+/// NumericalError errors (a mesh with fewer usable vertices than the basis has functions, or
+/// whose vertices span fewer modes than the mark needs, say) naming \p path.
 [[nodiscard]] SpectralWatermark watermark_of(const TriangleMesh& mesh, const Key& key, const std::filesystem::path& path,
                                              int threads);
 

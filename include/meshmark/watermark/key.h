@@ -80,7 +80,9 @@ struct EmbedOptions
     /// kAutoRepetitions (the default) lets the watermark choose on the original
     /// (automatic_repetitions, watermark.h): 5 (120 coefficients on modes 12-51, an intact score
     /// of sqrt(120) = 10.95) on meshes of 5,000 analysed vertices or more, else 4 (96
-    /// coefficients on modes 12-43, 9.8); 2 for a family key's owner mark (kFamilyRepetitions).
+    /// coefficients on modes 12-43, 9.8); 2 for a family key's owner mark (kFamilyRepetitions);
+    /// fewer where the original's vertices span fewer modes of the basis than that (a flat CAD
+    /// part whose faces have no inner vertices: EmbedStats::shortened_to_span).
     /// The key file records the number chosen. Keys written before this field existed mean 1.
     int repetitions = kAutoRepetitions;
     /// repetitions value that asks the watermark to choose (never stored in a key file).

@@ -30,6 +30,11 @@ struct EmbedStats
     double modulation_step = 0.0;       ///< Additive rule: s, in file units.
     int weak_bits = 0;  ///< Paper rule: bits on coefficients below 1/10 of the largest modulated one.
     int analysed_vertices = 0;
+    /// Modes the basis spans numerically (SpectralBasis::kDegenerateModeTolerance): k, unless
+    /// the vertices lie on a few curves or in a small patch.
+    int basis_span = 0;
+    /// The automatic repetitions were lowered to fit the mark into basis_span modes.
+    bool shortened_to_span = false;
 };
 
 /// \brief Running maximum and sum of the squared row displacements (rows in order), as
@@ -50,7 +55,9 @@ void check_analysed_rows(const EmbedOptions& options, std::size_t analysed_rows,
 /// \brief The repetitions r a key with EmbedOptions::kAutoRepetitions gets on an original with
 /// \p analysed_rows analysed vertices (docs/statistics.md, "How long a mark"): 5 (120
 /// coefficients, an intact score of 10.95) from 5,000 analysed vertices on if the mark fits the
-/// basis, otherwise 4 (96 coefficients, 9.8), or the largest r the basis fits.
+/// basis, otherwise 4 (96 coefficients, 9.8), or the largest r the basis fits. The watermark
+/// lowers it further when the original's vertices span fewer modes than the mark needs
+/// (EmbedStats::shortened_to_span).
 [[nodiscard]] int automatic_repetitions(const EmbedOptions& options, std::size_t analysed_rows);
 
 /// \brief A watermark as defined by (original mesh, key): the frame, basis and modulation,
@@ -74,7 +81,7 @@ public:
     /// outlive the watermark), in their canonical frame.
     /// \throws InvalidOption (bad key options), InvalidMesh (too few distinct vertices, or a
     /// point cloud with the Laplacian basis), NumericalError (degenerate geometry or Gram
-    /// matrix, eigensolver failure).
+    /// matrix, a mark longer than the modes the vertices span, eigensolver failure).
     SpectralWatermark(const TriangleMesh& original, const Key& key, int threads = 0);
 
     /// \brief The watermark of \p key on the analysed rows \p rows, whose canonical frame is
@@ -153,6 +160,9 @@ private:
     // The steps common to both constructors, after the frame: centers, basis, modulation.
     // \p mesh and its referenced rows \p active are null when built from streamed rows.
     void build(const TriangleMesh* mesh, const std::vector<std::int32_t>* active);
+    // The repetitions resolved against the modes the basis spans: an automatic choice that
+    // does not fit is lowered (with a margin), and a mark that cannot fit is refused.
+    void fit_to_span();
     void init_modulation(double analysed);
 
     Key key_;
@@ -164,6 +174,8 @@ private:
     Eigen::MatrixX3d signs_;
     Eigen::MatrixX3d modulation_;
     std::vector<std::uint8_t> mask_;
+    int basis_span_ = 0;
+    bool shortened_to_span_ = false;
     int weak_bits_ = 0;
     int threads_ = 0;
 };
