@@ -376,82 +376,20 @@ double original_triangle_share(const TriangleMesh& original, const TriangleMesh&
 // third corner is taken as clearly. Closer calls are left to the triangles.
 constexpr double kMaxStartRatio = 0.5;
 
-// The suspect's positions in the original's vertex order, when it is the original's mesh
-// renumbered where it stands: a writer that numbers the vertices its own way and moves nothing
-// but the mark (a Draco re-encoding, whose edgebreaker numbers the points in its traversal
-// order: every marked Draco file) keeps every triangle between the same vertices. Such a copy
-// read through registration depended on the registration finding the one right pose, which an
-// assembly of like parts (a Collada grid of 64 cubes: its marked Draco file z 2.18, reordered
-// copies 4.47 in 2 of 5 orders) or an instanced mesh (registered onto its other instance, z
-// 0.41) can miss, and it cost a registration (the converted DirectX character's marked Draco
-// file: 0.19 s, now 0.02 s). The vertices that stand for an original vertex beyond doubt
-// (mutual nearest in place, within \p tolerance, the next vertex at least twice as far either
-// way: kMaxStartRatio) start the correspondence; through the triangles it reaches the others
-// (a suspect triangle with two corners known is the original's triangle on their edge whose
-// third corner is clearly the nearest), so vertices nearer each other than the mark moves them
-// (the character's: 0.02% of the diagonal apart) are told apart. It holds when every vertex is
-// reached, each original vertex once, and every suspect triangle is a triangle of the
-// original; else the copy is registered as before (a dense scan, whose vertices the mark moves
-// by a good part of their spacing, is). Positions and triangles only, never the key.
-std::optional<Positions> renumbered_in_place(const TriangleMesh& original, const TriangleMesh& suspect, double tolerance,
-                                             int threads)
+namespace renumbering {
+
+// The original's triangles by edge: (edge key, third corner), sorted.
+using EdgeThirds = std::vector<std::pair<std::uint64_t, std::int32_t>>;
+
+std::uint64_t edge_key(std::int32_t a, std::int32_t b)
 {
-    const auto n = static_cast<std::size_t>(original.V.rows());
-    if (suspect.V.rows() != original.V.rows() || suspect.F.rows() != original.F.rows() || original.F.rows() == 0)
-    {
-        return std::nullopt;
-    }
-    // No vertex moves further than \p tolerance, so no side of the bounding box does: a copy
-    // moved elsewhere is turned away before the kd-trees and the queries (the generated 1M
-    // mesh moved and reordered: 4.2 s of its 7.4 s detection went here).
-    const BoundingBox in_original = bounding_box(original.V);
-    const BoundingBox in_suspect = bounding_box(suspect.V);
-    if ((in_original.min - in_suspect.min).cwiseAbs().maxCoeff() > tolerance ||
-        (in_original.max - in_suspect.max).cwiseAbs().maxCoeff() > tolerance)
-    {
-        return std::nullopt;
-    }
-    const double squared_tolerance = tolerance * tolerance;
-    std::vector<std::int32_t> to_original(n, -1);  // per suspect vertex
-    std::vector<char> taken(n, 0);                 // per original vertex
-    {
-        const PointKdTree suspect_tree(suspect.V);
-        const PointKdTree original_tree(original.V);
-        std::vector<std::int32_t> start(n, -1);  // per original vertex: its suspect vertex, if beyond doubt
-#pragma omp parallel for schedule(static) num_threads(resolve_threads(threads))
-        for (Eigen::Index i = 0; i < original.V.rows(); ++i)
-        {
-            std::array<std::uint32_t, 2> index{};
-            std::array<double, 2> squared{};
-            if (suspect_tree.nearest(original.V.row(i).transpose(), 2, index.data(), squared.data()) < 2 ||
-                squared[0] > squared_tolerance || squared[0] >= kMaxStartRatio * kMaxStartRatio * squared[1])
-            {
-                continue;
-            }
-            std::array<std::uint32_t, 2> back{};
-            std::array<double, 2> back_squared{};
-            if (original_tree.nearest(suspect.V.row(index[0]).transpose(), 2, back.data(), back_squared.data()) == 2 &&
-                back[0] == static_cast<std::uint32_t>(i) &&
-                back_squared[0] < kMaxStartRatio * kMaxStartRatio * back_squared[1])  // (two at one place: left)
-            {
-                start[static_cast<std::size_t>(i)] = static_cast<std::int32_t>(index[0]);
-            }
-        }
-        for (std::size_t i = 0; i < n; ++i)
-        {
-            if (start[i] >= 0 && to_original[static_cast<std::size_t>(start[i])] < 0)
-            {
-                to_original[static_cast<std::size_t>(start[i])] = static_cast<std::int32_t>(i);
-                taken[i] = 1;
-            }
-        }
-    }
-    // The original's triangles by edge: (edge key, third corner), sorted.
-    const auto edge_key = [](std::int32_t a, std::int32_t b) {
-        return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(std::min(a, b))) << 32U) |
-               static_cast<std::uint32_t>(std::max(a, b));
-    };
-    std::vector<std::pair<std::uint64_t, std::int32_t>> by_edge;
+    return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(std::min(a, b))) << 32U) |
+           static_cast<std::uint32_t>(std::max(a, b));
+}
+
+EdgeThirds edge_thirds(const TriangleMesh& original)
+{
+    EdgeThirds by_edge;
     by_edge.reserve(3 * static_cast<std::size_t>(original.F.rows()));
     for (Eigen::Index f = 0; f < original.F.rows(); ++f)
     {
@@ -461,6 +399,156 @@ std::optional<Positions> renumbered_in_place(const TriangleMesh& original, const
         }
     }
     std::sort(by_edge.begin(), by_edge.end());
+    return by_edge;
+}
+
+// The vertices that stand for an original vertex beyond doubt: mutual nearest in place, within
+// \p tolerance, the next vertex at least twice as far either way (kMaxStartRatio). Per suspect
+// vertex: its original vertex or -1.
+std::vector<std::int32_t> beyond_doubt(const TriangleMesh& original, const TriangleMesh& suspect,
+                                       const PointKdTree& original_tree, double tolerance, int threads)
+{
+    const auto n = static_cast<std::size_t>(original.V.rows());
+    const double squared_tolerance = tolerance * tolerance;
+    const PointKdTree suspect_tree(suspect.V);
+    std::vector<std::int32_t> start(n, -1);  // per original vertex: its suspect vertex, if beyond doubt
+#pragma omp parallel for schedule(static) num_threads(resolve_threads(threads))
+    for (Eigen::Index i = 0; i < original.V.rows(); ++i)
+    {
+        std::array<std::uint32_t, 2> index{};
+        std::array<double, 2> squared{};
+        if (suspect_tree.nearest(original.V.row(i).transpose(), 2, index.data(), squared.data()) < 2 ||
+            squared[0] > squared_tolerance || squared[0] >= kMaxStartRatio * kMaxStartRatio * squared[1])
+        {
+            continue;
+        }
+        std::array<std::uint32_t, 2> back{};
+        std::array<double, 2> back_squared{};
+        if (original_tree.nearest(suspect.V.row(index[0]).transpose(), 2, back.data(), back_squared.data()) == 2 &&
+            back[0] == static_cast<std::uint32_t>(i) &&
+            back_squared[0] < kMaxStartRatio * kMaxStartRatio * back_squared[1])  // (two at one place: left)
+        {
+            start[static_cast<std::size_t>(i)] = static_cast<std::int32_t>(index[0]);
+        }
+    }
+    std::vector<std::int32_t> to_original(n, -1);
+    for (std::size_t i = 0; i < n; ++i)
+    {
+        if (start[i] >= 0 && to_original[static_cast<std::size_t>(start[i])] < 0)
+        {
+            to_original[static_cast<std::size_t>(start[i])] = static_cast<std::int32_t>(i);
+        }
+    }
+    return to_original;
+}
+
+// The vertices whose original vertex the triangles leave no choice for, when the positions
+// alone do not tell (vertices nearer each other than the mark moves them, everywhere: a CAD
+// plate whose vertices crowd on its outline's arcs). Each suspect vertex may stand for the
+// original vertices within \p tolerance of it; a candidate goes when some neighbour of the
+// vertex has no candidate it is a neighbour of in the original (arc consistency), until nothing
+// changes; the kCandidates nearest within reach are a vertex's choices (one moved further than
+// that many others only makes this fail). Per suspect vertex: its original vertex when one
+// candidate is left, else -1; nullopt when a vertex has none left or two claim one original
+// vertex (the copy is not the original renumbered, or not one this can follow).
+constexpr std::size_t kCandidates = 32;
+std::optional<std::vector<std::int32_t>> left_no_choice(const TriangleMesh& original, const TriangleMesh& suspect,
+                                                        const PointKdTree& original_tree, double tolerance)
+{
+    const auto n = static_cast<std::size_t>(suspect.V.rows());
+    const double squared_tolerance = tolerance * tolerance;
+    std::vector<std::vector<std::int32_t>> candidates(n);
+    for (std::size_t j = 0; j < n; ++j)
+    {
+        std::array<std::uint32_t, kCandidates> index{};
+        std::array<double, kCandidates> squared{};
+        const std::size_t found =
+            original_tree.nearest(suspect.V.row(static_cast<Eigen::Index>(j)).transpose(), kCandidates, index.data(),
+                                  squared.data());
+        for (std::size_t t = 0; t < found && squared[t] <= squared_tolerance; ++t)
+        {
+            candidates[j].push_back(static_cast<std::int32_t>(index[t]));
+        }
+        if (candidates[j].empty())
+        {
+            return std::nullopt;
+        }
+    }
+    const VertexAdjacency original_adjacency = vertex_adjacency(original);
+    const VertexAdjacency suspect_adjacency = vertex_adjacency(suspect);
+    auto adjacent = [&](std::int32_t x, std::int32_t y) {
+        const auto around = original_adjacency.of(static_cast<std::size_t>(x));
+        return std::binary_search(around.begin(), around.end(), y);
+    };
+    std::vector<std::size_t> queue(n);
+    std::iota(queue.begin(), queue.end(), std::size_t{0});
+    std::vector<char> queued(n, 1);
+    while (!queue.empty())
+    {
+        const std::size_t a = queue.back();
+        queue.pop_back();
+        queued[a] = 0;
+        for (const auto neighbour : suspect_adjacency.of(a))
+        {
+            const auto b = static_cast<std::size_t>(neighbour);
+            auto& of_b = candidates[b];
+            const auto kept_end = std::remove_if(of_b.begin(), of_b.end(), [&](std::int32_t y) {
+                return std::none_of(candidates[a].begin(), candidates[a].end(),
+                                    [&](std::int32_t x) { return adjacent(x, y); });
+            });
+            if (kept_end == of_b.end())
+            {
+                continue;
+            }
+            of_b.erase(kept_end, of_b.end());
+            if (of_b.empty())
+            {
+                return std::nullopt;
+            }
+            if (queued[b] == 0)
+            {
+                queued[b] = 1;
+                queue.push_back(b);
+            }
+        }
+    }
+    std::vector<std::int32_t> to_original(n, -1);
+    std::vector<char> taken(static_cast<std::size_t>(original.V.rows()), 0);
+    for (std::size_t j = 0; j < n; ++j)
+    {
+        if (candidates[j].size() == 1)
+        {
+            const auto x = static_cast<std::size_t>(candidates[j].front());
+            if (taken[x] != 0)
+            {
+                return std::nullopt;
+            }
+            taken[x] = 1;
+            to_original[j] = candidates[j].front();
+        }
+    }
+    return to_original;
+}
+
+// From the suspect vertices known in \p to_original, through the triangles to the others (a
+// suspect triangle with two corners known is the original's triangle on their edge whose third
+// corner is clearly the nearest untaken one); the suspect's positions in the original's order
+// when every vertex is reached, each original vertex once, and every suspect triangle is a
+// triangle of the original.
+std::optional<Positions> propagated(const TriangleMesh& original, const TriangleMesh& suspect,
+                                    const EdgeThirds& by_edge, std::vector<std::int32_t> to_original,
+                                    double tolerance)
+{
+    const auto n = static_cast<std::size_t>(original.V.rows());
+    const double squared_tolerance = tolerance * tolerance;
+    std::vector<char> taken(n, 0);  // per original vertex
+    for (const auto x : to_original)
+    {
+        if (x >= 0)
+        {
+            taken[static_cast<std::size_t>(x)] = 1;
+        }
+    }
     const VertexFaces faces_of = vertex_faces(suspect);  // the suspect's triangles by vertex
     // A triangle with two corners known is the original's triangle on their edge whose third
     // corner is the nearest untaken one, when the next is at least twice as far (else another
@@ -552,6 +640,90 @@ std::optional<Positions> renumbered_in_place(const TriangleMesh& original, const
         }
     }
     return in_order;
+}
+
+}  // namespace renumbering
+
+// Up to this many vertices, a copy whose vertices the positions alone do not tell apart is
+// tried again with the vertices its triangles leave no choice for (renumbering::left_no_choice;
+// a printer bed's reorder: 0.01-0.09 s in all; where it fails, about 13 microseconds per vertex:
+// a reorder of dragon_vrip_res3.ply, 23K vertices, 0.44 -> 0.74 s); a larger one goes to the
+// registration as before.
+constexpr Eigen::Index kMaxConsistencyVertices = 10'000;
+// ... as far from its original vertex as these shares of the tolerance, tried in turn: the
+// triangles, not the distances, decide.
+constexpr std::array<double, 4> kConsistencyReaches{0.2, 0.4, 0.8, 2.0};
+
+// The suspect's positions in the original's vertex order, when it is the original's mesh
+// renumbered where it stands: a writer that numbers the vertices its own way and moves nothing
+// but the mark (a Draco re-encoding, whose edgebreaker numbers the points in its traversal
+// order: every marked Draco file) keeps every triangle between the same vertices. Such a copy
+// read through registration depended on the registration finding the one right pose, which an
+// assembly of like parts (a Collada grid of 64 cubes: its marked Draco file z 2.18, reordered
+// copies 4.47 in 2 of 5 orders) or an instanced mesh (registered onto its other instance, z
+// 0.41) can miss, and it cost a registration (the converted DirectX character's marked Draco
+// file: 0.19 s, now 0.02 s). The vertices that stand for an original vertex beyond doubt
+// (mutual nearest in place, within \p tolerance, the next vertex at least twice as far either
+// way: kMaxStartRatio) start the correspondence; through the triangles it reaches the others
+// (a suspect triangle with two corners known is the original's triangle on their edge whose
+// third corner is clearly the nearest), so vertices nearer each other than the mark moves them
+// (the character's: 0.02% of the diagonal apart) are told apart. It holds when every vertex is
+// reached, each original vertex once, and every suspect triangle is a triangle of the
+// original. Where no vertex is beyond doubt (a CAD plate whose vertices crowd on the arcs of its
+// outline, 0.2 mm apart where the mark moves them 0.3 mm), the vertices the triangles leave no
+// choice for start it instead (renumbering::left_no_choice; a reordered printer bed: z 2.61 ->
+// 9.8). Else the copy is registered as before (a dense scan, whose vertices the mark moves by a
+// good part of their spacing, is). Positions and triangles only, never the key.
+std::optional<Positions> renumbered_in_place(const TriangleMesh& original, const TriangleMesh& suspect, double tolerance,
+                                             int threads)
+{
+    if (suspect.V.rows() != original.V.rows() || suspect.F.rows() != original.F.rows() || original.F.rows() == 0)
+    {
+        return std::nullopt;
+    }
+    // No vertex moves further than \p tolerance, so no side of the bounding box does: a copy
+    // moved elsewhere is turned away before the kd-trees and the queries (the generated 1M
+    // mesh moved and reordered: 4.2 s of its 7.4 s detection went here).
+    const BoundingBox in_original = bounding_box(original.V);
+    const BoundingBox in_suspect = bounding_box(suspect.V);
+    if ((in_original.min - in_suspect.min).cwiseAbs().maxCoeff() > tolerance ||
+        (in_original.max - in_suspect.max).cwiseAbs().maxCoeff() > tolerance)
+    {
+        return std::nullopt;
+    }
+    const PointKdTree original_tree(original.V);
+    const renumbering::EdgeThirds by_edge = renumbering::edge_thirds(original);
+    if (auto in_order = renumbering::propagated(
+            original, suspect, by_edge, renumbering::beyond_doubt(original, suspect, original_tree, tolerance, threads),
+            tolerance))
+    {
+        return in_order;
+    }
+    if (original.V.rows() > kMaxConsistencyVertices)
+    {
+        return std::nullopt;
+    }
+    // The reach grows until the triangles leave some vertices no choice: a small one keeps
+    // few choices per vertex (the arcs of a printer bed put 25 vertices within 5 mm), a vertex
+    // the mark moved beyond it has none, and where vertices crowd the mark moves some far (13
+    // amplitudes on PrusaSlicer's Ender 2 bed: its 200 vertices carry a mark whose surface
+    // distance is what the plate's faces show).
+    for (const double reach : kConsistencyReaches)
+    {
+        const double r = reach * tolerance;
+        if (const auto starts = renumbering::left_no_choice(original, suspect, original_tree, r))
+        {
+            if (std::none_of(starts->begin(), starts->end(), [](std::int32_t x) { return x >= 0; }))
+            {
+                break;  // a larger reach leaves more choices, never fewer
+            }
+            if (auto in_order = renumbering::propagated(original, suspect, by_edge, *starts, r))
+            {
+                return in_order;
+            }
+        }
+    }
+    return std::nullopt;
 }
 
 // The original followed by its other instances, as one mesh (the registration's reference).

@@ -44,6 +44,11 @@ constexpr int kDefaultRepetitions = 4;
 // the Gram matrix: about 1e-16 of the largest eigenvalue, 1% of a mode at 1e-14) still
 // accepts every mode of it.
 constexpr double kShortenedMarkTolerance = 4.0 * SpectralBasis::kDegenerateModeTolerance;
+// ... and keeps at least this many repetitions: a mark of one (24 coefficients, an intact score
+// of 4.90) is claimed only by its bit count read in one pose (2^-24 times the combined verdict's
+// 16: 9.5e-7), so only on copies that keep the vertex order; a copy read in more poses (a
+// reordered printer bed: 24 of 24 bits at 3.05e-6) is not.
+constexpr int kMinShortenedRepetitions = 2;
 
 }  // namespace
 
@@ -181,7 +186,7 @@ void SpectralWatermark::fit_to_span()
             // fewer modes than k: a shorter mark, if one fits.
             const int span = basis_->well_conditioned_modes(kShortenedMarkTolerance);
             const int r = (span - options.first_mode - recipient_modes) / options.coefficients;
-            if (r >= 1)
+            if (r >= kMinShortenedRepetitions)
             {
                 options.repetitions = std::min(r, options.repetitions);
                 shortened_to_span_ = true;
@@ -195,9 +200,14 @@ void SpectralWatermark::fit_to_span()
         const int fits = (basis_->well_conditioned_modes(kShortenedMarkTolerance) - options.first_mode -
                           recipient_modes) /
                          options.coefficients;
-        if (automatic || fits < 1)
+        if (fits < 1)
         {
             advice = "not even one repetition of the payload fits";
+        }
+        else if (fits == 1)
+        {
+            advice = "--repetitions 1 fits, but a mark of " + std::to_string(3 * options.coefficients) +
+                     " coefficients is claimed only on copies that keep the vertex order";
         }
         else
         {

@@ -756,9 +756,12 @@ TEST(RealAssetsInterop, AScrewSmoothedByOpen3DWithoutWeldingIsRegisteredAndClaim
 // Printer beds from PrusaSlicer's vendor profiles, CAD exports of flat plates whose faces have
 // no inner vertices: every vertex lies on the plate's two outlines, and they span 25-41 modes
 // of the basis where the usual mark needs 44. Until the twentieth session `embed` stopped with
-// "the RBF Gram matrix is degenerate" (exit 4) on 15 of the 59 beds; the automatic mark is now
-// shortened to the modes they span, says so, and is read back, also from PrusaSlicer's own STL
-// export of the marked bed; the unmarked bed through the same export is not claimed.
+// "the RBF Gram matrix is degenerate" (exit 4) on 16 of PrusaSlicer's 72 STL files; the
+// automatic mark is now shortened to the modes they span, says so, and is read back, also from
+// PrusaSlicer's own STL export of the marked bed and from a reordered copy (whose vertices, 0.2
+// mm apart on the outline's arcs, only the triangles tell apart); the unmarked bed through the
+// same export and reorder is not claimed. A bed that spans too few modes even for two
+// repetitions is refused with the reason.
 TEST(RealAssetsInterop, APrinterBedWhoseVerticesLieOnItsOutlinesGetsAShorterMark)
 {
     INTEROP_REQUIRE_TOOLS("meshmark", "prusa-slicer", "prusa-slicer-profiles");
@@ -793,23 +796,48 @@ TEST(RealAssetsInterop, APrinterBedWhoseVerticesLieOnItsOutlinesGetsAShorterMark
 
         for (const bool is_marked : {true, false})
         {
-            const fs::path exported = scratch / (is_marked ? "marked-prusa.stl" : "unmarked-prusa.stl");
+            const std::string tag = is_marked ? "marked" : "unmarked";
+            const fs::path exported = scratch / (tag + "-prusa.stl");
             const ToolRun exporting = run({tools().xvfb_run.string(), "-a", tools().prusa_slicer.string(),
                                            "--export-stl", "-o", exported.string(),
                                            (is_marked ? marked : original).string()},
                                           scratch);
             ASSERT_TRUE(exporting.ok()) << exporting.describe();
-            for (const fs::path& suspect : is_marked ? std::vector<fs::path>{marked, exported}
-                                                     : std::vector<fs::path>{exported})
+            const fs::path reordered = scratch / (tag + "-reordered.stl");
+            const ToolRun reordering = meshmark({"attack", (is_marked ? marked : original).string(), "-o",
+                                                 reordered.string(), "--seed", "3", "reorder", "-q"},
+                                                scratch);
+            ASSERT_TRUE(reordering.ok()) << reordering.describe();
+            std::vector<fs::path> suspects{exported, reordered};
+            if (is_marked)
+            {
+                suspects.push_back(marked);
+            }
+            for (const fs::path& suspect : suspects)
             {
                 int exit_code = -1;
                 const nlohmann::json report = detect_json(suspect, original, key, scratch, &exit_code);
                 ASSERT_TRUE(report.is_object()) << suspect;
                 EXPECT_EQ(exit_code, is_marked ? 0 : 1) << bed << " " << suspect << " " << report.dump();
                 EXPECT_EQ(report.value("coefficient_count", 0), 24 * repetitions) << report.dump();
+                EXPECT_EQ(report["registration"].value("method", ""), "same-connectivity") << report.dump();
             }
         }
     }
+
+    // Spanning 28 modes, the Creality CR-10 Max's bed has room for one repetition only (its
+    // 24 coefficients would be claimed only in the vertex order): refused with the reason.
+    const fs::path scratch = temp_dir("interop-real-bed-refused");
+    const fs::path narrow = "/usr/share/PrusaSlicer/profiles/Creality/cr10max_bed.stl";
+    const ToolRun refused = meshmark({"embed", narrow.string(), "-o", (scratch / "marked.stl").string(), "--key",
+                                      (scratch / "key.json").string(), "--seed", "7"},
+                                     scratch);
+    EXPECT_EQ(refused.result.exit_code, 4) << refused.describe();
+    EXPECT_NE(refused.result.err.find(narrow.string() + ": the mesh's vertices span only"), std::string::npos)
+        << refused.result.err;
+    EXPECT_NE(refused.result.err.find("--repetitions 1 fits"), std::string::npos) << refused.result.err;
+    EXPECT_FALSE(fs::exists(scratch / "marked.stl"));
+    EXPECT_FALSE(fs::exists(scratch / "key.json"));
 }
 
 }  // namespace meshmark::test::interop

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 #include "support/test_shapes.h"
 
+#include <array>
 #include <cmath>
 #include <numbers>
 
@@ -74,6 +75,41 @@ TriangleMesh vehicle(bool roof_box)
     const Eigen::Matrix3d turn = Eigen::AngleAxisd(25.0 * std::numbers::pi / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
     whole.V = (whole.V * turn.transpose()).eval();
     return whole;
+}
+
+TriangleMesh outline_plate()
+{
+    constexpr int kPerArc = 25;
+    constexpr int kPerLayer = 4 * kPerArc;
+    const std::array<std::array<double, 2>, 4> corners{{{152.0, 152.0}, {-152.0, 152.0}, {-152.0, -152.0}, {152.0, -152.0}}};
+    TriangleMesh plate;
+    plate.V.resize(2 * kPerLayer, 3);
+    for (int layer = 0; layer < 2; ++layer)
+    {
+        for (int c = 0; c < 4; ++c)
+        {
+            for (int a = 0; a < kPerArc; ++a)
+            {
+                const double angle = (c + a / (kPerArc - 1.0)) * std::numbers::pi / 2.0;
+                plate.V.row(layer * kPerLayer + c * kPerArc + a) << corners[c][0] + 3.0 * std::cos(angle),
+                    corners[c][1] + 3.0 * std::sin(angle), layer == 0 ? 0.0 : -3.0;
+            }
+        }
+    }
+    plate.F.resize(2 * (kPerLayer - 2) + 2 * kPerLayer, 3);
+    Eigen::Index f = 0;
+    for (int i = 1; i + 1 < kPerLayer; ++i)
+    {
+        plate.F.row(f++) << 0, i, i + 1;                                    // top fan
+        plate.F.row(f++) << kPerLayer, kPerLayer + i + 1, kPerLayer + i;  // bottom fan
+    }
+    for (int i = 0; i < kPerLayer; ++i)
+    {
+        const int j = (i + 1) % kPerLayer;
+        plate.F.row(f++) << i, kPerLayer + i, j;
+        plate.F.row(f++) << j, kPerLayer + i, kPerLayer + j;
+    }
+    return plate;
 }
 
 }  // namespace meshmark::test

@@ -21,5 +21,10 @@ namespace meshmark::test {
 /// \p roof_box, nearly: a box on the cabin roof's left edge (162 vertices more), as a game vehicle
 /// modelled with a Mirror modifier and then given a part on one side.
 [[nodiscard]] TriangleMesh vehicle(bool roof_box = false);
+/// A flat plate as CAD programs export it (a printer bed, like PrusaSlicer's Creality beds): a
+/// 310 x 310 x 3 rounded square whose faces have no inner vertices, so all 200 vertices lie on
+/// its two outlines, 25 on each corner arc of radius 3 (0.2 apart). Its vertices span about 35
+/// modes of the RBF basis.
+[[nodiscard]] TriangleMesh outline_plate();
 
 }  // namespace meshmark::test
