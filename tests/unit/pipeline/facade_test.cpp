@@ -38,6 +38,23 @@ fs::path write_input(const fs::path& dir)
     return path;
 }
 
+// \p mesh written into \p dir and marked there with the defaults and seed 7: its key and the
+// marked mesh.
+std::pair<Key, TriangleMesh> marked_with_defaults(const fs::path& dir, const TriangleMesh& mesh)
+{
+    write_mesh(dir / "original.ply", mesh);
+    EmbedFileOptions options;
+    options.seed = 7;
+    (void)embed_file(dir / "original.ply", dir / "marked.ply", dir / "key.json", options);
+    return {read_key(dir / "key.json"), read_mesh(dir / "marked.ply")};
+}
+
+// \p mesh with its vertices and faces in the order of the suite's `reorder` with seed \p order.
+TriangleMesh renumbered(const TriangleMesh& mesh, std::uint64_t order)
+{
+    return apply_attacks(mesh, parse_attack_spec("reorder"), order, 1).mesh;
+}
+
 EmbedFileOptions seeded(std::uint64_t seed)
 {
     EmbedFileOptions options;
@@ -369,21 +386,13 @@ TEST(FacadeTest, the_original_renumbered_where_it_stands_is_read_as_the_same_mes
             cubes.F.row(12 * c + static_cast<int>(f)) << 8 * c + faces[f][0], 8 * c + faces[f][1], 8 * c + faces[f][2];
         }
     }
-    write_mesh(dir / "cubes.ply", cubes);
-    EmbedFileOptions options;
-    options.seed = 7;
-    (void)embed_file(dir / "cubes.ply", dir / "marked.ply", dir / "key.json", options);
-    const Key key = read_key(dir / "key.json");
-    const TriangleMesh marked = read_mesh(dir / "marked.ply");
+    const auto [key, marked] = marked_with_defaults(dir, cubes);
     for (const std::uint64_t order : {1, 2, 3, 4, 5})
     {
-        const auto renumbered = [&](const TriangleMesh& mesh) {
-            return apply_attacks(mesh, parse_attack_spec("reorder"), order, 1).mesh;
-        };
-        const DetectReport found = detect(renumbered(marked), cubes, key);
+        const DetectReport found = detect(renumbered(marked, order), cubes, key);
         EXPECT_EQ(found.alignment, "same-connectivity") << order;
         EXPECT_GT(found.decision.score, 9.0) << order;
-        const DetectReport clean = detect(renumbered(cubes), cubes, key);
+        const DetectReport clean = detect(renumbered(cubes, order), cubes, key);
         EXPECT_FALSE(clean.decision.is_present) << order << " " << clean.decision.score;
     }
 }
@@ -397,23 +406,15 @@ TEST(FacadeTest, a_renumbered_plate_whose_vertices_crowd_on_its_outline_is_read_
 {
     const fs::path dir = test::temp_dir("facade-renumbered-plate");
     const TriangleMesh plate = test::outline_plate();
-    write_mesh(dir / "plate.ply", plate);
-    EmbedFileOptions options;
-    options.seed = 7;
-    (void)embed_file(dir / "plate.ply", dir / "marked.ply", dir / "key.json", options);
-    const Key key = read_key(dir / "key.json");
-    const TriangleMesh marked = read_mesh(dir / "marked.ply");
+    const auto [key, marked] = marked_with_defaults(dir, plate);
     const double intact = std::sqrt(3.0 * modulated_modes(key.options));
     for (const std::uint64_t order : {1, 2, 3})
     {
-        const auto renumbered = [&](const TriangleMesh& mesh) {
-            return apply_attacks(mesh, parse_attack_spec("reorder"), order, 1).mesh;
-        };
-        const DetectReport found = detect(renumbered(marked), plate, key);
+        const DetectReport found = detect(renumbered(marked, order), plate, key);
         EXPECT_EQ(found.alignment, "same-connectivity") << order;
         EXPECT_TRUE(found.decision.is_present) << order;
         EXPECT_NEAR(found.decision.score, intact, 1e-6) << order;
-        const DetectReport clean = detect(renumbered(plate), plate, key);
+        const DetectReport clean = detect(renumbered(plate, order), plate, key);
         EXPECT_FALSE(clean.decision.is_present) << order << " " << clean.decision.score;
     }
 }
