@@ -442,6 +442,30 @@ std::vector<std::int32_t> beyond_doubt(const TriangleMesh& original, const Trian
     return to_original;
 }
 
+// For each suspect vertex, its kCandidates nearest original vertices, nearest first, with their
+// squared distances: the choices left_no_choice narrows, found once for every reach.
+constexpr std::size_t kCandidates = 32;
+struct NearestOriginals
+{
+    std::vector<std::uint32_t> index;  // kCandidates per suspect vertex
+    std::vector<double> squared;
+    std::vector<std::size_t> found;  // how many of them there are
+};
+
+NearestOriginals nearest_originals(const TriangleMesh& suspect, const PointKdTree& original_tree)
+{
+    const auto n = static_cast<std::size_t>(suspect.V.rows());
+    NearestOriginals nearest{std::vector<std::uint32_t>(n * kCandidates), std::vector<double>(n * kCandidates),
+                             std::vector<std::size_t>(n)};
+    for (std::size_t j = 0; j < n; ++j)
+    {
+        nearest.found[j] = original_tree.nearest(suspect.V.row(static_cast<Eigen::Index>(j)).transpose(), kCandidates,
+                                                 nearest.index.data() + j * kCandidates,
+                                                 nearest.squared.data() + j * kCandidates);
+    }
+    return nearest;
+}
+
 // The vertices whose original vertex the triangles leave no choice for, when the positions
 // alone do not tell (vertices nearer each other than the mark moves them, everywhere: a CAD
 // plate whose vertices crowd on its outline's arcs). Each suspect vertex may stand for the
@@ -451,31 +475,24 @@ std::vector<std::int32_t> beyond_doubt(const TriangleMesh& original, const Trian
 // that many others only makes this fail). Per suspect vertex: its original vertex when one
 // candidate is left, else -1; nullopt when a vertex has none left or two claim one original
 // vertex (the copy is not the original renumbered, or not one this can follow).
-constexpr std::size_t kCandidates = 32;
-std::optional<std::vector<std::int32_t>> left_no_choice(const TriangleMesh& original, const TriangleMesh& suspect,
-                                                        const PointKdTree& original_tree, double tolerance)
+std::optional<std::vector<std::int32_t>> left_no_choice(const NearestOriginals& nearest,
+                                                        const VertexAdjacency& original_adjacency,
+                                                        const VertexAdjacency& suspect_adjacency, double tolerance)
 {
-    const auto n = static_cast<std::size_t>(suspect.V.rows());
+    const std::size_t n = nearest.found.size();
     const double squared_tolerance = tolerance * tolerance;
     std::vector<std::vector<std::int32_t>> candidates(n);
     for (std::size_t j = 0; j < n; ++j)
     {
-        std::array<std::uint32_t, kCandidates> index{};
-        std::array<double, kCandidates> squared{};
-        const std::size_t found =
-            original_tree.nearest(suspect.V.row(static_cast<Eigen::Index>(j)).transpose(), kCandidates, index.data(),
-                                  squared.data());
-        for (std::size_t t = 0; t < found && squared[t] <= squared_tolerance; ++t)
+        for (std::size_t t = 0; t < nearest.found[j] && nearest.squared[j * kCandidates + t] <= squared_tolerance; ++t)
         {
-            candidates[j].push_back(static_cast<std::int32_t>(index[t]));
+            candidates[j].push_back(static_cast<std::int32_t>(nearest.index[j * kCandidates + t]));
         }
         if (candidates[j].empty())
         {
             return std::nullopt;
         }
     }
-    const VertexAdjacency original_adjacency = vertex_adjacency(original);
-    const VertexAdjacency suspect_adjacency = vertex_adjacency(suspect);
     auto adjacent = [&](std::int32_t x, std::int32_t y) {
         const auto around = original_adjacency.of(static_cast<std::size_t>(x));
         return std::binary_search(around.begin(), around.end(), y);
@@ -513,7 +530,7 @@ std::optional<std::vector<std::int32_t>> left_no_choice(const TriangleMesh& orig
         }
     }
     std::vector<std::int32_t> to_original(n, -1);
-    std::vector<char> taken(static_cast<std::size_t>(original.V.rows()), 0);
+    std::vector<char> taken(original_adjacency.vertex_count(), 0);
     for (std::size_t j = 0; j < n; ++j)
     {
         if (candidates[j].size() == 1)
@@ -536,8 +553,8 @@ std::optional<std::vector<std::int32_t>> left_no_choice(const TriangleMesh& orig
 // when every vertex is reached, each original vertex once, and every suspect triangle is a
 // triangle of the original.
 std::optional<Positions> propagated(const TriangleMesh& original, const TriangleMesh& suspect,
-                                    const EdgeThirds& by_edge, std::vector<std::int32_t> to_original,
-                                    double tolerance)
+                                    const EdgeThirds& by_edge, const VertexFaces& faces_of,
+                                    std::vector<std::int32_t> to_original, double tolerance)
 {
     const auto n = static_cast<std::size_t>(original.V.rows());
     const double squared_tolerance = tolerance * tolerance;
@@ -549,7 +566,6 @@ std::optional<Positions> propagated(const TriangleMesh& original, const Triangle
             taken[static_cast<std::size_t>(x)] = 1;
         }
     }
-    const VertexFaces faces_of = vertex_faces(suspect);  // the suspect's triangles by vertex
     // A triangle with two corners known is the original's triangle on their edge whose third
     // corner is the nearest untaken one, when the next is at least twice as far (else another
     // of its triangles decides later).
@@ -693,9 +709,10 @@ std::optional<Positions> renumbered_in_place(const TriangleMesh& original, const
     }
     const PointKdTree original_tree(original.V);
     const renumbering::EdgeThirds by_edge = renumbering::edge_thirds(original);
+    const VertexFaces faces_of = vertex_faces(suspect);  // the suspect's triangles by vertex
     if (auto in_order = renumbering::propagated(
-            original, suspect, by_edge, renumbering::beyond_doubt(original, suspect, original_tree, tolerance, threads),
-            tolerance))
+            original, suspect, by_edge, faces_of,
+            renumbering::beyond_doubt(original, suspect, original_tree, tolerance, threads), tolerance))
     {
         return in_order;
     }
@@ -703,6 +720,9 @@ std::optional<Positions> renumbered_in_place(const TriangleMesh& original, const
     {
         return std::nullopt;
     }
+    const renumbering::NearestOriginals nearest = renumbering::nearest_originals(suspect, original_tree);
+    const VertexAdjacency original_adjacency = vertex_adjacency(original);
+    const VertexAdjacency suspect_adjacency = vertex_adjacency(suspect);
     // The reach grows until the triangles leave some vertices no choice: a small one keeps
     // few choices per vertex (the arcs of a printer bed put 25 vertices within 5 mm), a vertex
     // the mark moved beyond it has none, and where vertices crowd the mark moves some far (13
@@ -711,13 +731,13 @@ std::optional<Positions> renumbered_in_place(const TriangleMesh& original, const
     for (const double reach : kConsistencyReaches)
     {
         const double r = reach * tolerance;
-        if (const auto starts = renumbering::left_no_choice(original, suspect, original_tree, r))
+        if (const auto starts = renumbering::left_no_choice(nearest, original_adjacency, suspect_adjacency, r))
         {
             if (std::none_of(starts->begin(), starts->end(), [](std::int32_t x) { return x >= 0; }))
             {
                 break;  // a larger reach leaves more choices, never fewer
             }
-            if (auto in_order = renumbering::propagated(original, suspect, by_edge, *starts, r))
+            if (auto in_order = renumbering::propagated(original, suspect, by_edge, faces_of, *starts, r))
             {
                 return in_order;
             }

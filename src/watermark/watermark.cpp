@@ -176,30 +176,25 @@ void SpectralWatermark::fit_to_span()
     const int recipient_modes = key_.recipients ? key_.recipients->modes : 0;
     const auto needed = [&](int r) { return options.first_mode + options.coefficients * r + recipient_modes; };
     basis_span_ = basis_->well_conditioned_modes(SpectralBasis::kDegenerateModeTolerance);
+    // The most repetitions whose last mode stands clear of the degenerate ones (the margin).
+    const int fits = (basis_->well_conditioned_modes(kShortenedMarkTolerance) - options.first_mode - recipient_modes) /
+                     options.coefficients;
     const bool automatic = options.repetitions == EmbedOptions::kAutoRepetitions;
     if (automatic)
     {
         options.repetitions = automatic_repetitions(options, rows_->size());
-        if (needed(options.repetitions) > basis_span_)
+        // Vertices on a few curves (a flat part whose faces have no inner vertices) span fewer
+        // modes than k: a shorter mark, if one fits.
+        if (needed(options.repetitions) > basis_span_ && fits >= kMinShortenedRepetitions)
         {
-            // Vertices on a few curves (a flat part whose faces have no inner vertices) span
-            // fewer modes than k: a shorter mark, if one fits.
-            const int span = basis_->well_conditioned_modes(kShortenedMarkTolerance);
-            const int r = (span - options.first_mode - recipient_modes) / options.coefficients;
-            if (r >= kMinShortenedRepetitions)
-            {
-                options.repetitions = std::min(r, options.repetitions);
-                shortened_to_span_ = true;
-            }
+            options.repetitions = std::min(fits, options.repetitions);
+            shortened_to_span_ = true;
         }
     }
     const int modes = needed(options.repetitions);
     if (modes > basis_span_)
     {
         std::string advice;
-        const int fits = (basis_->well_conditioned_modes(kShortenedMarkTolerance) - options.first_mode -
-                          recipient_modes) /
-                         options.coefficients;
         if (fits < 1)
         {
             advice = "not even one repetition of the payload fits";
