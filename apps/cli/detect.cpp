@@ -149,14 +149,15 @@ void register_detect(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
                       "without naming recipients");
     command->add_flag("--no-register", args->no_register,
                       "Only accept a suspect whose vertices correspond to the original's, in order or "
-                      "renumbered where they stand (no registration or resampling)");
+                      "renumbered where they stand or by its triangles (no registration or resampling)");
     command->add_flag("--json", args->json,
                       "Print one JSON object: detected, verdict, score, correlation, bits_expected, "
                       "bits_found, false_positive_probability (of the verdict used; also "
                       "score_ and bits_false_positive_probability), cropped_fraction, outlier_fraction (rows left "
                       "out because the suspect is far from them), "
-                      "registration (method: same-connectivity (the original's vertices in its order, or "
-                      "renumbered where they stand, as a re-encoded Draco file is), registration (vertices "
+                      "registration (method: same-connectivity (the original's vertices in its order, "
+                      "renumbered where they stand, as a re-encoded Draco file is, or renumbered by its "
+                      "triangles, as Blender's PLY writer numbers them), registration (vertices "
                       "matched), registration, "
                       "registration (not converged), or, for a copy of an animated glTF read through a frame of "
                       "one of its animations, registration (animation 'NAME' at F/24 s: Blender's frame F; T s "
