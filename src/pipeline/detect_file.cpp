@@ -982,8 +982,10 @@ void detect_into(DetectReport& report, detail::PhaseTimer& timer, const Spectral
         report.transform = T;
         // Triangles that are the original's tell which vertex is which however far a tool
         // moved them (a strong smoothing of a CAD part: 2.4% of the diagonal RMS, whose far
-        // rows the reading leaves out); otherwise the positions must say so.
-        is_corresponding = same_triangles || renumbered.has_value() ||
+        // rows the reading leaves out); otherwise (a point cloud has none) the positions must
+        // say so.
+        const bool has_triangles = original.F.rows() > 0;
+        is_corresponding = (same_triangles && has_triangles) || renumbered.has_value() ||
                            report.registration_rms <= kCorrespondenceTolerance;
         report.alignment = "same-connectivity";
         if (is_corresponding)
