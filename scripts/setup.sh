@@ -44,6 +44,9 @@ if ((interop_tools)); then
   # Draco-compressed) and game models in OBJ and DirectX (/usr/share/assimp/models), and
   # assimp's converter (`assimp export`), which turns game formats into glTF.
   packages+=(assimp-testmodels assimp-utils)
+  # OpenCASCADE's sample CAD parts (/usr/share/opencascade/data/stl): held-out meshes for the
+  # real-assets interop tests.
+  packages+=(occt-misc)
   # Node.js for the npm tools: Debian's, unless the machine already has a node and npm.
   if ! command -v node >/dev/null || ! command -v npm >/dev/null; then packages+=(nodejs npm); fi
 fi

@@ -176,6 +176,11 @@ std::string missing_tools(const std::vector<std::string>& needed)
             note(fs::exists("/usr/share/PrusaSlicer/profiles/Creality/cr10_bed.stl"),
                  "PrusaSlicer's printer profiles (/usr/share/PrusaSlicer/profiles)");
         }
+        else if (name == "occt-misc")
+        {
+            // Debian's occt-misc: OpenCASCADE's sample CAD parts as STL.
+            note(fs::exists("/usr/share/opencascade/data/stl/motor.stl"), "occt-misc (/usr/share/opencascade/data)");
+        }
         else if (name == "assimp-testmodels")
         {
             // Debian's assimp-testmodels: other people's models (real_assets_test.cpp).

@@ -753,6 +753,61 @@ TEST(RealAssetsInterop, AScrewSmoothedByOpen3DWithoutWeldingIsRegisteredAndClaim
     }
 }
 
+// OpenCASCADE's motor (Debian's occt-misc: a CAD part of 13 pieces, 6,635 vertices) through
+// Blender's Smooth modifier (0.5 x 10), which crushes its small pieces (2.4% of the diagonal RMS
+// in all), written by Blender's PLY writer, which numbers the vertices in the order its triangles
+// first use them (its import drops the part's repeated triangles). Registered, that copy read
+// z 4.15 and was lost; its triangles put it in the original's order, where it reads 10.77. The
+// original is written with its vertices in reverse order, so that the copy's numbering is
+// another one. The PLY round trip is read so too; the unmarked part smoothed the same way is
+// not claimed.
+TEST(RealAssetsInterop, ABlenderSmoothOfACadPartIsReadInTheOrderOfItsTriangles)
+{
+    INTEROP_REQUIRE_TOOLS("meshmark", "blender", "occt-misc");
+    const fs::path scratch = temp_dir("interop-real-motor");
+    const TriangleMesh part = read_mesh("/usr/share/opencascade/data/stl/motor.stl");
+    TriangleMesh reversed;
+    const Eigen::Index n = part.V.rows();
+    reversed.V = part.V.colwise().reverse();
+    reversed.F = ((n - 1) - part.F.array()).matrix();
+    const fs::path original = scratch / "motor.ply";
+    write_mesh(original, reversed);
+    const fs::path marked = scratch / "marked.ply";
+    const fs::path key = scratch / "key.json";
+    const ToolRun marking = embed(original, marked, key, "1", scratch);
+    ASSERT_TRUE(marking.ok()) << marking.describe();
+    for (const bool is_marked : {true, false})
+    {
+        const fs::path out = scratch / (is_marked ? "marked" : "unmarked");
+        const ToolRun blender = blender_attacks(is_marked ? marked : original, out, {"ply", "smooth"}, scratch);
+        ASSERT_TRUE(blender.ok()) << blender.describe();
+        for (const char* copy : {"ply.ply", "smooth.ply"})
+        {
+            const TriangleMesh written = read_mesh(out / copy);
+            ASSERT_EQ(written.V.rows(), n) << copy;
+            ASSERT_FALSE(written.F.rows() == reversed.F.rows() && (written.F.array() == reversed.F.array()).all())
+                << copy << ": Blender kept the numbering";
+            int exit_code = -1;
+            const nlohmann::json report = detect_json(out / copy, original, key, scratch, &exit_code);
+            ASSERT_TRUE(report.is_object()) << copy;
+            EXPECT_EQ(report["registration"].value("method", ""), "same-connectivity") << copy << ": " << report.dump();
+            if (is_marked)
+            {
+                EXPECT_EQ(exit_code, 0) << copy << ": " << report.dump();
+                EXPECT_GE(report.value("score", 0.0), 10.0) << copy << ": " << report.dump();
+            }
+            else
+            {
+                EXPECT_EQ(exit_code, 1) << copy << ": " << report.dump();
+            }
+            if (std::string(copy) == "smooth.ply")  // beyond what positions alone may differ by
+            {
+                EXPECT_GT(report["registration"].value("rms_error", 0.0), 0.02) << report.dump();
+            }
+        }
+    }
+}
+
 // Printer beds from PrusaSlicer's vendor profiles, CAD exports of flat plates whose faces have
 // no inner vertices: every vertex lies on the plate's two outlines, and they span 25-41 modes
 // of the basis where the usual mark needs 44. Until the twentieth session `embed` stopped with
