@@ -761,7 +761,7 @@ constexpr double kMaxDroppedTriangles = 0.01;
 // them, and its import drops repeated and degenerate triangles (at most kMaxDroppedTriangles of
 // them are skipped). Unlike renumbered_in_place it looks at no position, so it holds however far
 // a tool moved the vertices (Blender's Smooth modifier, 0.5 x 10, on OpenCASCADE's motor, 6,635
-// vertices: read through registration at z 4.15, in the original's order 10.85). Each suspect
+// vertices: read through registration at z 4.15, in the original's order 10.77). Each suspect
 // triangle is the next original triangle whose corners are still free or already the same
 // vertices; it holds when every suspect vertex stands for one original vertex and each
 // original vertex for one suspect vertex. Triangles only, never the key.

@@ -425,7 +425,7 @@ TEST(FacadeTest, a_renumbered_plate_whose_vertices_crowd_on_its_outline_is_read_
 // diagonal RMS in all: positions no longer told which vertex was which, and the copy,
 // registered, read z 4.15. Its triangles are the original's in the original's order, so it is
 // read in the original's order however far its vertices moved, the crushed rows left out
-// (10.85). Here a quarter of the vertices is crushed onto its centroid; the unmarked mesh
+// (10.77). Here a quarter of the vertices is crushed onto its centroid; the unmarked mesh
 // through the same steps is not claimed.
 TEST(FacadeTest, a_copy_numbered_by_its_triangles_is_read_in_the_original_order_however_far_it_moved)
 {
