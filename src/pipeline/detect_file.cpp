@@ -779,6 +779,11 @@ std::optional<Positions> renumbered_by_triangles(const TriangleMesh& original, c
     Eigen::Index next = 0;  // the next original triangle
     for (Eigen::Index f = 0; f < suspect.F.rows(); ++f)
     {
+        if (suspect.F(f, 0) == suspect.F(f, 1) || suspect.F(f, 1) == suspect.F(f, 2) ||
+            suspect.F(f, 2) == suspect.F(f, 0))
+        {
+            return std::nullopt;  // a triangle with a repeated corner is no triangle of a copy
+        }
         for (;; ++next)
         {
             if (next >= faces || next - f > droppable)
@@ -793,9 +798,6 @@ std::optional<Positions> renumbered_by_triangles(const TriangleMesh& original, c
                 fits = original_of[s] == static_cast<std::int32_t>(o) ||
                        (original_of[s] < 0 && suspect_of[o] < 0);
             }
-            // A triangle with a repeated corner is no triangle of a copy (the writers drop it).
-            fits = fits && suspect.F(f, 0) != suspect.F(f, 1) && suspect.F(f, 1) != suspect.F(f, 2) &&
-                   suspect.F(f, 2) != suspect.F(f, 0);
             if (fits)
             {
                 for (Eigen::Index k = 0; k < 3; ++k)
