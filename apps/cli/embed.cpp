@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 // `meshmark embed`: watermark a mesh file and write its key.
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -11,6 +12,7 @@
 
 #include "commands.h"
 #include "meshmark/core/error.h"
+#include "meshmark/core/file_lock.h"
 #include "meshmark/pipeline/embed_file.h"
 #include "meshmark/pipeline/embed_recipients.h"
 #include "progress.h"
@@ -42,8 +44,14 @@ struct EmbedArgs
     std::string recipients_file;
     int recipient_modes = RecipientCodes{}.modes;
     double recipient_share = RecipientCodes{}.energy_share;
+    double lock_timeout = std::chrono::duration<double>(kDefaultLockTimeout).count();
     EmbedOptions options;
 };
+
+std::chrono::milliseconds lock_timeout_of(double seconds)
+{
+    return std::chrono::milliseconds(static_cast<std::int64_t>(std::llround(1000.0 * seconds)));
+}
 
 // Names from a recipients file: one per line; blank lines and lines starting with '#' skipped,
 // spaces around a name dropped.
@@ -93,6 +101,7 @@ int run_embed_recipients(const EmbedArgs& args, const GlobalArgs& global, EmbedR
     }
     options.recipient_modes = args.recipient_modes;
     options.recipient_share = args.recipient_share;
+    options.lock_timeout = lock_timeout_of(args.lock_timeout);
     const EmbedRecipientsReport report = with_progress("meshmark embed", global.quiet, options.progress, [&] {
         return embed_recipients(args.input, args.output, args.key, options);
     });
@@ -153,6 +162,7 @@ int run_embed(const EmbedArgs& args, const GlobalArgs& global)
         return run_embed_recipients(args, global, std::move(family));
     }
     options.force = args.force;
+    options.lock_timeout = lock_timeout_of(args.lock_timeout);
     options.replace_input = args.force;  // -o may name the input only with --force
     options.memory_budget_mib = args.memory_budget;
     options.force_stream = args.stream;
@@ -316,6 +326,10 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     command->add_option("--recipient-share", args->recipient_share,
                         "New family key: share of the displacement energy given to the recipient codes "
                         "(the owner's mark keeps the rest; the total stays --strength)")
+        ->capture_default_str();
+    command->add_option("--lock-timeout", args->lock_timeout,
+                        "Seconds to wait while another call issues on (or writes) the same key, then fail")
+        ->check(CLI::Range(0.0, 86400.0))
         ->capture_default_str();
     command->add_flag("--json", args->json, "Print a JSON report on stdout");
     command->add_flag("--force", args->force,

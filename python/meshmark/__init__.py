@@ -10,8 +10,9 @@ In memory (numpy arrays in and out)::
     result.detected, result.score, result.false_positive_probability, result.to_dict()
 
 V is an (n, 3) array of positions, F an (m, 3) array of vertex indices or None for a point
-cloud. The file functions embed_file, detect_file, attack and compare do what the meshmark
-program's commands do and return its --json report as a dict; the key file is the same.
+cloud. The file functions embed_file, embed_recipients (one traceable copy per recipient),
+detect_file, attack and compare do what the meshmark program's commands do and return its
+--json report as a dict; the key file is the same.
 detect_against_file looks in a mesh in memory with the original and the key as files (the
 original's instances and animation used as detect_file uses them).
 Errors are meshmark.Error subclasses (IoError, InvalidMesh, InvalidOption, NumericalError)
@@ -35,6 +36,7 @@ from ._meshmark import (
     detect_file,
     embed,
     embed_file,
+    embed_recipients,
     read_mesh,
     write_mesh,
 )
@@ -56,6 +58,7 @@ __all__ = [
     "detect_file",
     "embed",
     "embed_file",
+    "embed_recipients",
     "read_mesh",
     "write_mesh",
 ]

@@ -1,12 +1,15 @@
 // SPDX-License-Identifier: MIT
 // meshmark.Error and its subclasses; meshmark.Key.
+#include <chrono>
 #include <filesystem>
 
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
 #include "bindings.h"
+#include "meshmark/core/atomic_file.h"
 #include "meshmark/core/error.h"
+#include "meshmark/core/file_lock.h"
 #include "meshmark/watermark/key.h"
 
 namespace meshmark::python {
@@ -44,7 +47,16 @@ void bind_key(py::module_& m)
             py::arg("path"), "Read a key file (written by Key.save or `meshmark embed`). Raises IoError.")
         .def(
             "save",
-            [](const Key& key, const std::filesystem::path& path, bool force) {
+            [](const Key& key, const std::filesystem::path& path, bool force, double lock_timeout) {
+                if (!(lock_timeout >= 0.0))
+                {
+                    throw InvalidOption("lock_timeout must be >= 0 seconds.");
+                }
+                py::gil_scoped_release release;
+                // The check and the write as one step: two saves to one new path cannot both succeed.
+                create_parent_directories(path);
+                const FileLock lock = lock_file(
+                    path, {.timeout = std::chrono::milliseconds(static_cast<std::int64_t>(1000.0 * lock_timeout))});
                 if (!force && std::filesystem::exists(path))
                 {
                     throw InvalidOption(path.string() +
@@ -54,8 +66,10 @@ void bind_key(py::module_& m)
                 write_key(path, key);
             },
             py::arg("path"), py::kw_only(), py::arg("force") = false,
-            "Write the key file atomically, mode 0600 (what `meshmark detect --key` reads). Refuses "
-            "(InvalidOption) to replace an existing file unless force=True.")
+            py::arg("lock_timeout") = std::chrono::duration<double>(kDefaultLockTimeout).count(),
+            "Write the key file atomically and durably, mode 0600 (what `meshmark detect --key` reads), its "
+            "folder created if missing. Refuses (InvalidOption) to replace an existing file unless force=True; "
+            "waits up to lock_timeout seconds while another call writes the same key.")
         .def_static(
             "from_json", [](const std::string& text) { return parse_key(text, "key text"); }, py::arg("text"),
             "A key from its JSON text (Key.to_json). Raises IoError when malformed or tampered with.")

@@ -12,6 +12,7 @@
 #include "meshmark/meshmark.h"
 #include "meshmark/metrics/distortion.h"
 #include "meshmark/pipeline/attack_file.h"
+#include "meshmark/pipeline/embed_recipients.h"
 #include "meshmark/pipeline/report_json.h"
 
 namespace meshmark::python {
@@ -27,7 +28,17 @@ of `meshmark embed --json` as a dict. Keywords: those of meshmark.embed, plus
   force          replace an existing key file, or the input itself when output names it
   memory_budget  MiB; above it a binary PLY is embedded out of core (0 = no budget)
   stream         always embed out of core (binary PLY only)
+  lock_timeout   seconds to wait while another call writes the same key (default 60)
 Raises meshmark.Error subclasses with the program's message.)";
+
+constexpr const char* kEmbedRecipientsDoc = R"(Issue one traceable copy per recipient: `meshmark embed INPUT --key KEY_PATH --recipient NAME... -o PATTERN --json`.
+
+output_pattern holds {recipient}; key_path is the family key, created if absent, else extended
+(a name it holds gets its copy again, byte for byte; a name given twice is issued once). Safe
+from any number of threads and processes at once: the key is read, extended and written durably
+in one step under its lock (waiting up to lock_timeout seconds) before any copy is written.
+Returns the report of the program's --json as a dict. Keywords: those of meshmark.embed_file
+for a new key, plus recipient_modes, recipient_share, lock_timeout.)";
 
 constexpr const char* kDetectFileDoc = R"(Look for a key's mark in a suspect file: `meshmark detect SUSPECT --original ORIGINAL --key KEY_PATH --json`.
 
@@ -69,12 +80,18 @@ void bind_files(py::module_& m)
         [](const Path& input, const Path& output, const Path& key_path, py::object message, py::object bits,
            py::object seed, py::object strength, std::string rule, std::string strength_measure, std::string basis, std::string centers,
            int basis_size, int coefficients, py::object repetitions, int first_mode, double sigma_factor,
-           std::int64_t gram_rows, int threads, bool force, std::int64_t memory_budget, bool stream) {
+           std::int64_t gram_rows, int threads, bool force, std::int64_t memory_budget, bool stream,
+           double lock_timeout) {
+            if (!(lock_timeout >= 0.0))
+            {
+                throw InvalidOption("lock_timeout must be >= 0 seconds.");
+            }
             EmbedFileOptions options;
             fill_embed_options({message, bits, seed, strength, rule, strength_measure, basis, centers, basis_size, coefficients,
                                 repetitions, first_mode, sigma_factor, gram_rows, threads},
                                options);
             options.force = force;
+            options.lock_timeout = std::chrono::milliseconds(static_cast<std::int64_t>(1000.0 * lock_timeout));
             options.replace_input = force;  // as the program: the output may name the input only with force
             options.memory_budget_mib = memory_budget;
             options.force_stream = stream;
@@ -92,7 +109,48 @@ void bind_files(py::module_& m)
         py::arg("repetitions") = "auto", py::arg("first_mode") = EmbedOptions{}.first_mode,
         py::arg("sigma_factor") = EmbedOptions{}.sigma_factor, py::arg("gram_rows") = EmbedOptions{}.gram_rows,
         py::arg("threads") = 0, py::arg("force") = false, py::arg("memory_budget") = 0, py::arg("stream") = false,
-        kEmbedFileDoc);
+        py::arg("lock_timeout") = std::chrono::duration<double>(kDefaultLockTimeout).count(), kEmbedFileDoc);
+
+    m.def(
+        "embed_recipients",
+        [](const Path& input, const std::string& output_pattern, const Path& key_path,
+           const std::vector<std::string>& recipients, py::object message, py::object bits, py::object seed,
+           py::object strength, std::string strength_measure, int basis_size, int coefficients, py::object repetitions,
+           int first_mode, double sigma_factor, std::int64_t gram_rows, int recipient_modes, double recipient_share,
+           double lock_timeout, int threads) {
+            EmbedRecipientsOptions options;
+            fill_embed_options({message, bits, seed, strength, "additive", strength_measure, "rbf", "random",
+                                basis_size, coefficients, repetitions, first_mode, sigma_factor, gram_rows, threads},
+                               options);
+            if (repetitions.is_none() || (py::isinstance<py::str>(repetitions) &&
+                                          repetitions.cast<std::string>() == "auto"))
+            {
+                options.embed.repetitions = kFamilyRepetitions;  // as the program: the owner's mark of a family
+            }
+            options.recipients = recipients;
+            options.recipient_modes = recipient_modes;
+            options.recipient_share = recipient_share;
+            if (!(lock_timeout >= 0.0))
+            {
+                throw InvalidOption("lock_timeout must be >= 0 seconds.");
+            }
+            options.lock_timeout = std::chrono::milliseconds(static_cast<std::int64_t>(1000.0 * lock_timeout));
+            std::optional<EmbedRecipientsReport> report;
+            {
+                py::gil_scoped_release release;
+                report.emplace(embed_recipients(input, output_pattern, key_path, options));
+            }
+            return to_python(embed_recipients_report_json(*report, input.string(), key_path.string()));
+        },
+        py::arg("input"), py::arg("output_pattern"), py::arg("key_path"), py::arg("recipients"), py::kw_only(),
+        py::arg("message") = py::none(), py::arg("bits") = py::none(), py::arg("seed") = py::none(),
+        py::arg("strength") = py::none(), py::arg("strength_measure") = "surface",
+        py::arg("basis_size") = EmbedOptions{}.basis_size, py::arg("coefficients") = EmbedOptions{}.coefficients,
+        py::arg("repetitions") = "auto", py::arg("first_mode") = EmbedOptions{}.first_mode,
+        py::arg("sigma_factor") = EmbedOptions{}.sigma_factor, py::arg("gram_rows") = EmbedOptions{}.gram_rows,
+        py::arg("recipient_modes") = RecipientCodes{}.modes, py::arg("recipient_share") = RecipientCodes{}.energy_share,
+        py::arg("lock_timeout") = std::chrono::duration<double>(kDefaultLockTimeout).count(), py::arg("threads") = 0,
+        kEmbedRecipientsDoc);
 
     m.def(
         "detect_file",

@@ -42,7 +42,37 @@ private:
                   ").");
 }
 
+void sync_directory(const std::filesystem::path& directory)
+{
+    const int dir_fd = ::open(directory.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (dir_fd >= 0)
+    {
+        ::fsync(dir_fd);
+        ::close(dir_fd);
+    }
+}
+
 }  // namespace
+
+void create_parent_directories(const std::filesystem::path& path)
+{
+    const std::filesystem::path parent = path.parent_path();
+    std::error_code ec;
+    if (parent.empty() || std::filesystem::is_directory(parent, ec))
+    {
+        return;
+    }
+    create_parent_directories(parent);  // the outer folders first, each synced into its own parent
+    if (!std::filesystem::create_directory(parent, ec) && ec)
+    {
+        throw IoError(parent.string() + ": cannot create the folder (" + ec.message() + ").");
+    }
+    if (!std::filesystem::is_directory(parent, ec))
+    {
+        throw IoError(parent.string() + ": cannot create the folder (a file of that name is in the way).");
+    }
+    sync_directory(parent.parent_path().empty() ? std::filesystem::path(".") : parent.parent_path());
+}
 
 void write_file_atomically(const std::filesystem::path& path,
                            const std::function<void(std::ostream&)>& write,
@@ -52,6 +82,7 @@ void write_file_atomically(const std::filesystem::path& path,
     {
         throw IoError(path.string() + ": the file already exists; refusing to overwrite it.");
     }
+    create_parent_directories(path);
     const auto directory = path.parent_path().empty() ? std::filesystem::path(".") : path.parent_path();
     std::string name = path.filename().string();
     name.insert(0, 1, '.');
@@ -84,13 +115,17 @@ void write_file_atomically(const std::filesystem::path& path,
         fail(path, "rename failed", errno);
     }
     temporary.release();
-    // Make the rename itself durable.
-    const int dir_fd = ::open(directory.c_str(), O_RDONLY | O_DIRECTORY);
-    if (dir_fd >= 0)
+    sync_directory(directory);  // the rename itself made durable
+}
+
+FileIdentity file_identity(const std::filesystem::path& path)
+{
+    struct stat st{};
+    if (::stat(path.c_str(), &st) != 0)
     {
-        ::fsync(dir_fd);
-        ::close(dir_fd);
+        return {};
     }
+    return {static_cast<std::uint64_t>(st.st_dev), static_cast<std::uint64_t>(st.st_ino)};
 }
 
 bool is_same_file(const std::filesystem::path& a, const std::filesystem::path& b)

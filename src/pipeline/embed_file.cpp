@@ -3,11 +3,15 @@
 
 #include <unistd.h>
 
+#include <fstream>
+#include <iterator>
+#include <optional>
 #include <random>
 #include <thread>
 
 #include "meshmark/core/atomic_file.h"
 #include "meshmark/core/error.h"
+#include "meshmark/core/file_lock.h"
 #include "meshmark/meshmark.h"
 #include "embed_streamed.h"
 #include "timer.h"
@@ -30,8 +34,7 @@ void check_paths(const std::filesystem::path& input, const std::filesystem::path
     }
     if (!force && std::filesystem::exists(key_path))
     {
-        throw InvalidOption(key_path.string() + ": a key file already exists there; it may be the only "
-                            "proof for copies marked earlier. Choose another --key or pass --force.");
+        throw InvalidOption(key_path.string() + ": " + detail::kKeyExists + " Choose another --key or pass --force.");
     }
 }
 
@@ -95,37 +98,66 @@ void EmbedFileOptions::validate() const
 
 namespace detail {
 
-void write_mesh_and_key(const std::filesystem::path& key_path, const Key& key,
+void write_mesh_and_key(const std::filesystem::path& key_path, const Key& key, const EmbedFileOptions& options,
                         const std::function<void()>& write_mesh)
 {
-    // Both files or neither: the key goes to a staging file next to its target, the mesh is
-    // written atomically, and only then does the key take its place. A failure on the way
-    // removes the staging file and leaves any existing key untouched.
-    // Hidden (leading dot) so that a run killed in between leaves nothing that looks like a key.
-    // (Built by appending: GCC 12 reports a false -Wrestrict on `"." + std::string`.)
-    std::string staging_name(1, '.');
-    staging_name += key_path.filename().string();
-    staging_name += ".partial-";
-    staging_name += std::to_string(key.seed % 1000000007ULL);
-    const auto staging = key_path.parent_path() / staging_name;
-    write_key(staging, key);
+    // Recorded before released (docs/reliability.md): the key is durable at its path before the
+    // copy it traces is written, so a crash at any moment leaves no marked copy without its key.
+    // The lock makes the check for an existing key and its replacement one step: two calls
+    // creating the same key cannot both succeed, one's copy traced by the other's key.
+    FileLock lock = lock_key(key_path, options.lock_timeout, options.progress);
+    std::optional<std::string> previous;  // the key this call replaces (force), restored on failure
+    if (std::filesystem::exists(key_path))
+    {
+        if (!options.force)
+        {
+            throw InvalidOption(key_path.string() + ": " + kKeyExists + " Choose another --key or pass --force.");
+        }
+        std::ifstream in(key_path, std::ios::binary);
+        previous.emplace(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+        if (in.bad())
+        {
+            throw IoError(key_path.string() + ": cannot read the key file it would replace.");
+        }
+    }
+    write_key(key_path, key);
     try
     {
         write_mesh();
-        std::filesystem::rename(staging, key_path);
-    }
-    catch (const std::filesystem::filesystem_error& e)
-    {
-        std::error_code ignored;
-        std::filesystem::remove(staging, ignored);
-        throw IoError(key_path.string() + ": cannot write the key file (" + e.code().message() + ").");
     }
     catch (...)
     {
-        std::error_code ignored;
-        std::filesystem::remove(staging, ignored);
+        // Neither file: the key as it was (under the same lock, so no other call saw the new one
+        // trace a copy).
+        try
+        {
+            if (previous)
+            {
+                write_file_atomically(key_path, [&](std::ostream& out) { out << *previous; },
+                                      {.permissions = 0600});
+            }
+            else
+            {
+                std::filesystem::remove(key_path);
+            }
+        }
+        catch (...)  // NOLINT(bugprone-empty-catch): the write's error is the one to report
+        {
+        }
         throw;
     }
+}
+
+FileLock lock_key(const std::filesystem::path& key_path, std::chrono::milliseconds timeout,
+                  const ProgressCallback& progress)
+{
+    create_parent_directories(key_path);
+    return lock_file(key_path, {.timeout = timeout, .on_wait = [&] {
+                                    if (progress)
+                                    {
+                                        progress("wait for the key", 0.0);
+                                    }
+                                }});
 }
 
 }  // namespace detail
@@ -217,7 +249,8 @@ EmbedReport embed_to_new_file(const std::filesystem::path& input, const std::fil
     embed_into(marked, timer, file.mesh, input, options);
     timer.begin("write");
     // (A binary PLY goes out in slices of the original bytes: no second copy of the file.)
-    detail::write_mesh_and_key(key_path, marked.key, [&]() { write_mesh_file(output, file, marked.positions); });
+    detail::write_mesh_and_key(key_path, marked.key, options,
+                               [&]() { write_mesh_file(output, file, marked.positions); });
     timer.lap("write");
     report.key = std::move(marked.key);
     report.stats = marked.stats;

@@ -17,6 +17,7 @@
 #include "meshmark/core/atomic_file.h"
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
+#include "meshmark/core/file_lock.h"
 #include "meshmark/core/threads.h"
 #include "meshmark/metrics/distortion.h"
 #include "embed_streamed.h"
@@ -31,14 +32,13 @@ void EmbedRecipientsOptions::validate() const
     {
         throw InvalidOption("name at least one recipient (--recipient NAME or --recipients FILE).");
     }
-    std::set<std::string> seen;
     for (const std::string& name : recipients)
     {
         check_recipient_name(name);
-        if (!seen.insert(name).second)
-        {
-            throw InvalidOption("recipient '" + name + "' is named twice.");
-        }
+    }
+    if (lock_timeout.count() < 0)
+    {
+        throw InvalidOption("--lock-timeout must be >= 0 seconds.");
     }
 }
 
@@ -61,31 +61,47 @@ std::filesystem::path recipient_output(const std::string& pattern, const std::st
 
 namespace {
 
-// The family key: the one at key_path (checked against the input), or a new one.
-Key family_key(const std::filesystem::path& key_path, const TriangleMesh& mesh, const std::filesystem::path& input,
-               const EmbedRecipientsOptions& options, bool* created)
+// The family key read from \p key_path, checked: a family key, made for \p mesh.
+Key checked_family_key(const std::filesystem::path& key_path, const MeshFingerprint& original,
+                       const std::filesystem::path& input)
 {
-    *created = !std::filesystem::exists(key_path);
-    if (*created)
-    {
-        Key key = detail::new_key(options);
-        key.recipients = RecipientCodes{options.recipient_modes, options.recipient_share, {}};
-        key.recipients->validate(key.options);
-        key.original = fingerprint(mesh);
-        return key;
-    }
     Key key = read_key(key_path);
     if (!key.recipients)
     {
         throw IoError(key_path.string() + ": this key marks a single owner's copy, not a family of recipients; "
                       "choose a new --key file to start a family.");
     }
-    if (fingerprint(mesh) != key.original)
+    if (original != key.original)
     {
         throw IoError(input.string() + ": this is not the original the family key " + key_path.string() +
                       " was made for (vertex count, face count or positions differ).");
     }
     return key;
+}
+
+// True when \p a and \p b make the same watermark: everything but the recipients agrees. A
+// family key's parameters never change once written, so this fails only when the file was
+// replaced by another key between two reads.
+bool same_watermark(Key a, Key b)
+{
+    a.recipients->recipients.clear();
+    b.recipients->recipients.clear();
+    return to_json(a) == to_json(b);
+}
+
+// The names of \p names in order, each once: a name given twice is issued once (one copy).
+std::vector<std::string> distinct(const std::vector<std::string>& names)
+{
+    std::set<std::string> seen;
+    std::vector<std::string> kept;
+    for (const std::string& name : names)
+    {
+        if (seen.insert(name).second)
+        {
+            kept.push_back(name);
+        }
+    }
+    return kept;
 }
 
 // The recipients of this call, each with its index: the key's for a name it holds, the next
@@ -165,21 +181,74 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
     timer.lap("read");
 
     timer.begin("basis");
-    Key key = family_key(key_path, file.mesh, input, options, &report.key_created);
-    report.copies = assign_indices(key, options.recipients, output_pattern);
-    SpectralWatermark mark = watermark_of(file.mesh, key, input, options.threads);
-    key.options = mark.key().options;  // the automatic repetitions, as the watermark resolved them
-    EmbedStats owner_stats;
-    Positions owner = mark.displacement(&owner_stats);
-    // A new family key is calibrated on the owner's mark, at its share of the energy
-    // (docs/algorithms/embedding.md, "Strength"); each copy's code is scaled below.
-    if (key.options.needs_calibration())
+    const std::vector<std::string> names = distinct(options.recipients);
+    const MeshFingerprint original = fingerprint(file.mesh);
+    // The watermark depends only on the key's parameters, which a family key never changes: an
+    // existing key is read without the lock (a key file is replaced whole, by a rename, never
+    // written in place) and its basis built while other calls may be issuing on it.
+    std::optional<Key> seen;
+    if (std::filesystem::exists(key_path))
     {
-        mark.calibrate_strength(file.mesh, owner, &owner_stats);
-        key.options.vertex_strength = mark.key().options.vertex_strength;
-        // Synthesized again from the recorded strength, as a later call adding recipients
-        // does: the scaled field may differ from it in the last bit, the copies may not.
-        owner = mark.displacement(&owner_stats);
+        seen = checked_family_key(key_path, original, input);
+    }
+    std::optional<SpectralWatermark> mark;
+    if (seen)
+    {
+        mark.emplace(watermark_of(file.mesh, *seen, input, options.threads));
+    }
+    Key key;
+    EmbedStats owner_stats;
+    Positions owner;
+    {
+        // Issuing is one step under the key's lock: the key as it is now, the indices of the
+        // new names, the key written durably (file and folder fsync'ed). Copies are made only
+        // after it: recorded before released (docs/fingerprinting.md, "Issuing at once").
+        const FileLock lock = detail::lock_key(key_path, options.lock_timeout, options.progress);
+        report.key_created = !std::filesystem::exists(key_path);
+        if (report.key_created)
+        {
+            key = detail::new_key(options);
+            key.recipients = RecipientCodes{options.recipient_modes, options.recipient_share, {}};
+            key.recipients->validate(key.options);
+            key.original = original;
+            mark.emplace(watermark_of(file.mesh, key, input, options.threads));
+            key.options = mark->key().options;  // the automatic repetitions, as the watermark resolved them
+            owner = mark->displacement(&owner_stats);
+            // A new family key is calibrated on the owner's mark, at its share of the energy
+            // (docs/algorithms/embedding.md, "Strength"); each copy's code is scaled below.
+            if (key.options.needs_calibration())
+            {
+                mark->calibrate_strength(file.mesh, owner, &owner_stats);
+                key.options.vertex_strength = mark->key().options.vertex_strength;
+                // Synthesized again from the recorded strength, as a later call adding
+                // recipients does: the scaled field may differ from it in the last bit, the
+                // copies may not.
+                owner = mark->displacement(&owner_stats);
+            }
+        }
+        else
+        {
+            key = checked_family_key(key_path, original, input);
+            if (seen && !same_watermark(*seen, key))
+            {
+                mark.reset();  // replaced meanwhile by another family key of this original
+            }
+        }
+        report.copies = assign_indices(key, names, output_pattern);
+        const bool adds = std::any_of(report.copies.begin(), report.copies.end(),
+                                      [](const IssuedCopy& copy) { return copy.is_new; });
+        if (report.key_created || adds)
+        {
+            write_key(key_path, key);
+        }
+    }
+    if (!mark)
+    {
+        mark.emplace(watermark_of(file.mesh, key, input, options.threads));
+    }
+    if (!report.key_created)
+    {
+        owner = mark->displacement(&owner_stats);
     }
     // With the surface measure each copy's code is scaled so that the copy (owner's mark plus
     // code) is displaced by exactly the strength: the codes differ, and so, unscaled, would the
@@ -194,16 +263,18 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
     owner += file.mesh.V;  // the positions every copy shares
     // The recipient modes, explicitly: one product per copy instead of a pass over the basis.
     const int head = key.options.first_mode + modulated_modes(key.options);
-    const int modes = mark.recipient_modes();
+    const int modes = mark->recipient_modes();
     // Row-major: each analysed row's M values are contiguous for the products below.
     const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> code_modes =
-        mark.basis().modes_dense(head + modes).rightCols(modes);
-    const std::vector<std::int32_t>& active = mark.mesh_rows()->active();
+        mark->basis().modes_dense(head + modes).rightCols(modes);
+    const std::vector<std::int32_t>& active = mark->mesh_rows()->active();
     const double diagonal = bounding_box(file.mesh.V, active).diagonal();  // EmbedStats' unit
     const double copy_target = key.options.resolved_strength() * diagonal;
     timer.lap("basis");
 
-    std::vector<std::filesystem::path> created;
+    // The copies this call created, with their file's identity: on a failure those still ours are
+    // removed (another call issuing the same name may have replaced one with its own since).
+    std::vector<std::pair<std::filesystem::path, FileIdentity>> created;
     // One phase, "copies", with a progress fraction per copy; the time spent synthesizing the
     // codes' fields and writing is reported as "codes" and "write" inside it.
     double code_seconds = 0.0;
@@ -227,7 +298,7 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
         std::vector<double> changes(static_cast<std::size_t>(modes) * width);  // mode-major, then copy, axis
         for (std::size_t b = 0; b < count; ++b)
         {
-            const Eigen::MatrixX3d change = mark.recipient_change(report.copies[first + b].index);
+            const Eigen::MatrixX3d change = mark->recipient_change(report.copies[first + b].index);
             for (int mode = 0; mode < modes; ++mode)
             {
                 for (int axis = 0; axis < 3; ++axis)
@@ -288,7 +359,7 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
                 const Eigen::RowVector3d d = positions[b].row(i) - file.mesh.V.row(i);
                 summary.add(d.data());
             }
-            mark.describe(summary, diagonal, owner_stats.orthogonality_error, &report.copies[first + b].stats);
+            mark->describe(summary, diagonal, owner_stats.orthogonality_error, &report.copies[first + b].stats);
             report.copies[first + b].stats.surface_rms_rel = diagonal > 0.0 ? surface[b] / diagonal : 0.0;
         }
         code_seconds += seconds_since(code_start);
@@ -311,7 +382,7 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
                     if (!existed)
                     {
                         const std::lock_guard lock(created_mutex);
-                        created.push_back(copy.path);
+                        created.emplace_back(copy.path, file_identity(copy.path));
                     }
                 }
             }));
@@ -358,14 +429,20 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
     };
     try
     {
-        detail::write_mesh_and_key(key_path, key, write_copies);
+        write_copies();
     }
     catch (...)
     {
-        for (const auto& path : created)
+        // Nothing delivered. The names stay recorded in the key: a recorded name without its
+        // copy accuses nobody, and another call may already have delivered the same copy; a
+        // later call issues it again, byte for byte.
+        for (const auto& [path, identity] : created)
         {
-            std::error_code ignored;
-            std::filesystem::remove(path, ignored);
+            if (file_identity(path) == identity)
+            {
+                std::error_code ignored;
+                std::filesystem::remove(path, ignored);
+            }
         }
         throw;
     }

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "meshmark/core/file_lock.h"
 #include "meshmark/io/ply_stream.h"
 #include "meshmark/pipeline/embed_file.h"
 
@@ -17,10 +18,24 @@ namespace meshmark::detail {
 /// The key of a new embed: make_key with the options' seed, or one drawn from the OS.
 [[nodiscard]] Key new_key(const EmbedMeshOptions& options);
 
-/// \brief Stage \p key next to \p key_path, run \p write_mesh (which writes the mesh
-/// atomically), then move the key into place: both files or neither (see embed_file).
-void write_mesh_and_key(const std::filesystem::path& key_path, const Key& key,
+/// The refusal to replace a key, after "KEY: ".
+inline constexpr const char* kKeyExists =
+    "a key file already exists there; it may be the only proof for copies marked earlier.";
+
+/// \brief Under the key's lock (lock_key): refuse an existing key unless options.force, write
+/// \p key durably at \p key_path, then run \p write_mesh (which writes the mesh atomically).
+/// If \p write_mesh fails the key is put back as it was (removed, or the replaced one
+/// restored): both files or neither, and never the copy without its key (see embed_file).
+/// \throws InvalidOption (an existing key without force), IoError (the lock's wait expired, a
+/// write failed) and whatever \p write_mesh throws.
+void write_mesh_and_key(const std::filesystem::path& key_path, const Key& key, const EmbedFileOptions& options,
                         const std::function<void()>& write_mesh);
+
+/// \brief The lock that makes every change of the key at \p key_path one step (FileLock), its
+/// missing folders created first; while it waits, \p progress hears "wait for the key".
+/// \throws IoError when \p timeout expires or the folder cannot be made.
+[[nodiscard]] FileLock lock_key(const std::filesystem::path& key_path, std::chrono::milliseconds timeout,
+                                const ProgressCallback& progress);
 
 /// \brief The input, opened and analysed once, when \p options ask for an out-of-core embed:
 /// with --stream (force_stream), or when the in-memory embed would exceed the memory budget

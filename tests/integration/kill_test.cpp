@@ -2,8 +2,9 @@
 // No data loss (issue 6, item 4): `meshmark embed` killed with SIGKILL at random moments of a
 // large embed -- while reading, computing the basis, synthesizing or writing -- never changes
 // the original, and leaves each output (marked mesh, key) either absent or complete: byte for
-// byte the file an uninterrupted run writes, re-readable, and (checked once) detected. The only
-// other files a kill may leave are the hidden staging files named in docs/reliability.md.
+// byte the file an uninterrupted run writes, re-readable, and (checked once) detected; and never
+// a marked copy without its key (recorded before released, issue 50). The only other files a
+// kill may leave are the hidden staging files named in docs/reliability.md.
 //
 // MESHMARK_KILL_TRIALS (default 20) and MESHMARK_KILL_SUBDIVISIONS (loop subdivision steps of
 // the 48K-vertex horse: 1 -> 194K vertices, 2 -> 776K) set the size of the run; the `slow`
@@ -19,6 +20,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "meshmark/core/file_lock.h"
 #include "meshmark/core/rng.h"
 #include "meshmark/io/mesh_io.h"
 #include "meshmark/watermark/key.h"
@@ -43,23 +45,19 @@ constexpr std::array<const char*, 4> kPhases = {"read", "basis", "embed", "write
 // A staging file a kill may leave: hidden (leading '.'), and never the name of an output.
 // ".<name>.tmp-XXXXXX": write_file_atomically's temporary (src/core/atomic_file.cpp);
 // ".<stem>.meshmark-embed-<pid><ext>": the marked copy of `embed -o INPUT --force`
-// (apps/cli/embed.cpp); ".<key>.partial-<n>": the key staged by embed_file until the mesh is
-// written (src/pipeline/embed_file.cpp), and its own "..<key>.partial-<n>.tmp-XXXXXX".
+// (apps/cli/embed.cpp); ".<key>.lock": the companion file of the key's lock, held while the
+// key and the mesh are written (src/core/file_lock.cpp; removed on release, left by a kill).
 bool is_staging_file(const std::string& name, const std::string& key_name)
 {
     const bool is_atomic_temp = name.starts_with(".") && name.find(".tmp-") != std::string::npos;
     const bool is_in_place = name.starts_with(".") && name.find(".meshmark-embed-") != std::string::npos;
-    std::string key_stage(1, '.');
-    key_stage += key_name;
-    key_stage += ".partial-";
-    const bool is_key_stage = name.starts_with(key_stage);
-    return is_atomic_temp || is_in_place || is_key_stage;
+    return is_atomic_temp || is_in_place || name == lock_companion(key_name).string();
 }
 
 // The kind of a staging file, for the summary: its name with the random part replaced by '*'.
 std::string staging_kind(const std::string& name)
 {
-    for (const char* marker : {".meshmark-embed-", ".partial-", ".tmp-"})
+    for (const char* marker : {".meshmark-embed-", ".tmp-"})
     {
         const auto at = name.find(marker);
         if (at != std::string::npos)
@@ -70,7 +68,8 @@ std::string staging_kind(const std::string& name)
     return name;
 }
 
-// Wait (up to \p timeout seconds) until a staging file of \p key_name exists in \p dir.
+// Wait (up to \p timeout seconds) until the lock companion of \p key_name exists in \p dir:
+// the write phase has begun.
 void wait_for_staging(const fs::path& dir, const std::string& key_name, double timeout)
 {
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout);
@@ -79,7 +78,7 @@ void wait_for_staging(const fs::path& dir, const std::string& key_name, double t
         std::error_code ec;
         for (const auto& entry : fs::directory_iterator(dir, ec))
         {
-            if (entry.path().filename().string().find(key_name + ".partial-") != std::string::npos)
+            if (entry.path().filename() == lock_companion(key_name))
             {
                 return;
             }
@@ -198,8 +197,8 @@ TEST_F(KillTest, sigkill_during_embed_never_loses_or_half_writes_a_file)
         if (phase + 1 == kPhases.size())
         {
             // The write phase is short and its start drifts with the machine's load: wait
-            // until the key's staging file appears (the first thing written), then kill at a
-            // random moment of the reference's write time.
+            // until the key's lock is taken (the first thing the write phase does), then kill
+            // at a random moment of the reference's write time.
             wait_for_staging(trial_dir, "key.json", 3.0 * ref.windows.back().second);
             std::this_thread::sleep_for(
                 std::chrono::duration<double>(rng.uniform(0.0, window.second - window.first)));
@@ -239,17 +238,18 @@ TEST_F(KillTest, sigkill_during_embed_never_loses_or_half_writes_a_file)
             EXPECT_EQ(read_mesh(output).vertex_count(), read_mesh(big).vertex_count());
             ++with_mesh;
         }
+        const bool replaced = in_place && input_now != ref.original;
         if (fs::exists(key))
         {
             ASSERT_EQ(file_bytes(key), ref.key) << "incomplete or different key";
             EXPECT_NO_THROW((void)read_key(key));
-            // The key takes its place only after the marked copy (embed_file): never a key
-            // without its mesh.
-            EXPECT_TRUE(in_place || has_mesh) << "a key without its marked copy";
             ++with_key;
         }
-        else if (has_mesh)
+        else if (has_mesh || replaced)
         {
+            // The key is durable before the marked copy is written (embed_file): never a
+            // marked copy without the key that traces it.
+            ADD_FAILURE() << "a marked copy without its key";
             ++mesh_without_key;
         }
         // Anything else is a hidden staging file, never something named like an output.

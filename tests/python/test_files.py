@@ -161,3 +161,44 @@ def test_family_key_from_the_cli_traces_in_python(torus, original, tmp_path, cli
     unmarked = meshmark.detect(V, F, V, F, key)
     assert not unmarked.detected and unmarked.recipients == []
     assert unmarked.to_dict()["recipients_traced"] == 3
+
+
+def test_threads_issuing_on_one_key_get_a_code_each_and_key_save_is_one_step(original, tmp_path):
+    """Issue 50 through Python: eight threads issue at once on a key none of them finds; one
+    key results, every name has its own index, the name all of them issue gets one copy's
+    bytes, and each copy names its own recipient. Two saves to one new path: one wins."""
+    import concurrent.futures
+
+    key_path = tmp_path / "keys" / "fam.json"  # the folder does not exist yet
+
+    def issue(i):
+        return meshmark.embed_recipients(original, str(tmp_path / f"call{i}" / "{recipient}.ply"), key_path,
+                                         [f"buyer{i}", "everyone"], seed=100 + i, threads=1)
+
+    with concurrent.futures.ThreadPoolExecutor(max_workers=8) as pool:
+        reports = list(pool.map(issue, range(8)))
+    assert sum(r["key_created"] for r in reports) == 1
+    recipients = json.loads(key_path.read_text())["recipients"]["issued"]
+    assert sorted(r["name"] for r in recipients) == sorted([f"buyer{i}" for i in range(8)] + ["everyone"])
+    assert len({r["index"] for r in recipients}) == 9
+    everyone = (tmp_path / "call0" / "everyone.ply").read_bytes()
+    for i in range(1, 8):
+        assert (tmp_path / f"call{i}" / "everyone.ply").read_bytes() == everyone
+    for i in (0, 7):
+        report = meshmark.detect_file(tmp_path / f"call{i}" / f"buyer{i}.ply", original, key_path)
+        assert [r["name"] for r in report["recipients"]] == [f"buyer{i}"]
+
+    V, F = meshmark.read_mesh(original)
+    keys = [meshmark.embed(V, F, seed=s)[0] for s in (1, 2)]
+
+    def save(key):
+        try:
+            key.save(tmp_path / "single.json")
+            return key.seed
+        except meshmark.InvalidOption:
+            return None
+
+    with concurrent.futures.ThreadPoolExecutor(max_workers=2) as pool:
+        saved = [s for s in pool.map(save, keys) if s is not None]
+    assert len(saved) == 1
+    assert meshmark.Key.load(tmp_path / "single.json").seed == saved[0]

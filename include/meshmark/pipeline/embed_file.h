@@ -8,6 +8,7 @@
 #include <string_view>
 #include <vector>
 
+#include "meshmark/core/file_lock.h"
 #include "meshmark/io/mesh_io.h"
 #include "meshmark/pipeline/progress.h"
 #include "meshmark/watermark/key.h"
@@ -33,6 +34,8 @@ struct EmbedMeshOptions
 struct EmbedFileOptions : EmbedMeshOptions
 {
     bool force = false;                   ///< Allow replacing an existing key file.
+    /// Longest wait for the key while another call changes it (file_lock.h); then IoError.
+    std::chrono::milliseconds lock_timeout = kDefaultLockTimeout;
     /// \brief Allow the output to be the input itself (in-place embedding). The marked copy is
     /// written to a hidden staging file next to the input, ".<stem>.meshmark-embed-<pid><ext>",
     /// given the input's permissions and renamed over it once the mesh and the key are complete:
@@ -82,9 +85,10 @@ void check_basis_input(const TriangleMesh& mesh, const EmbedOptions& options, co
 /// \details The output is written in the format of its extension; when that is the input's
 /// format everything but the positions is preserved (see write_mesh_file). The input is never
 /// opened for writing (in place, with replace_input, it is replaced by a rename). Both files are
-/// written atomically and together: the key is staged next to its target and renamed into place
-/// only after the mesh is written, so a failure leaves no new file behind and any existing key
-/// (and the input) untouched.
+/// written atomically, missing folders created, under the key's lock (another call creating or
+/// replacing the same key waits up to lock_timeout): the key first, made durable, then the
+/// mesh, so a marked copy is never visible without the key that traces it; a failure writing
+/// the mesh puts the key back as it was (removed, or the replaced one restored).
 /// \throws InvalidOption (output naming the input without replace_input, key path equal to the
 /// input or output, existing key without force, bad options), IoError, InvalidMesh,
 /// NumericalError.

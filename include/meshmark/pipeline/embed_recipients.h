@@ -1,11 +1,13 @@
 // SPDX-License-Identifier: MIT
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 #include <filesystem>
 #include <string>
 #include <vector>
 
+#include "meshmark/core/file_lock.h"
 #include "meshmark/io/mesh_io.h"
 #include "meshmark/pipeline/embed_file.h"
 #include "meshmark/watermark/key.h"
@@ -22,11 +24,14 @@ struct EmbedRecipientsOptions : EmbedMeshOptions
     EmbedRecipientsOptions() { embed.repetitions = kFamilyRepetitions; }  // the owner's mark of a family key
 
     /// Names to issue a copy to, in order; a name the key already holds gets its copy again,
-    /// byte for byte. Each passes check_recipient_name; no name twice.
+    /// byte for byte. Each passes check_recipient_name; a name given twice is issued once.
     std::vector<std::string> recipients;
+    /// Longest wait for the key while another call issues on it (file_lock.h); then IoError.
+    std::chrono::milliseconds lock_timeout = kDefaultLockTimeout;
     int recipient_modes = RecipientCodes{}.modes;            ///< M of a new family key.
     double recipient_share = RecipientCodes{}.energy_share;  ///< Energy share of a new family key.
-    /// \throws InvalidOption on bad, repeated or missing names and the in-memory embed's errors.
+    /// \throws InvalidOption on bad or missing names, a negative lock timeout and the in-memory
+    /// embed's errors.
     void validate() const;
 };
 
@@ -65,12 +70,20 @@ struct EmbedRecipientsReport
 /// there, its parameters decide everything and \p input must be its original (fingerprint).
 /// New names get the next free indices. The watermark's basis and the owner's field are built
 /// once; each copy then costs its code's field (M modes) and its write, in the format of its
-/// extension (everything but positions preserved when that is the input's). The key is staged
-/// next to its target and renamed into place after every copy is written; on a failure the
-/// copies this call created are removed and the key is left as it was.
+/// extension (everything but positions preserved when that is the input's), missing folders
+/// created.
+///
+/// Any number of calls, in processes or threads, may issue on one key at once: the key is read,
+/// given the new names' indices and written durably in one step under its lock (FileLock;
+/// a call waits up to lock_timeout for it), before any copy is made. So every name gets its own
+/// code, a name issued by several calls gets one index and the same bytes, and a copy is never
+/// visible before the key records its recipient. On a failure after that the copies this call
+/// created are removed; the names stay recorded (a recorded name without a copy accuses
+/// nobody), and a later call issues them again, byte for byte.
 /// \throws InvalidOption (bad names or options, pattern without the placeholder, an output
 /// naming the input or the key, the Laplacian basis or paper rule), IoError (unreadable input,
-/// a key that is not a family key or belongs to another original, unwritable outputs),
+/// a key that is not a family key or belongs to another original, unwritable outputs, the
+/// lock's wait expired),
 /// InvalidMesh, NumericalError.
 EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const std::string& output_pattern,
                                        const std::filesystem::path& key_path, const EmbedRecipientsOptions& options);

@@ -53,7 +53,7 @@ TEST(AtomicFileTest, failing_writer_leaves_previous_content_and_no_temporary)
     EXPECT_EQ(entries(dir), 1U);
 }
 
-TEST(AtomicFileTest, refuses_overwrite_when_asked_and_reports_missing_directory)
+TEST(AtomicFileTest, refuses_overwrite_when_asked)
 {
     const auto dir = test::temp_dir("atomic3");
     const auto path = dir / "out.txt";
@@ -61,8 +61,27 @@ TEST(AtomicFileTest, refuses_overwrite_when_asked_and_reports_missing_directory)
     EXPECT_THROW(write_file_atomically(path, [](std::ostream& out) { out << "y"; },
                                        {.allow_overwrite = false}),
                  IoError);
-    EXPECT_THROW(write_file_atomically(dir / "missing" / "f.txt", [](std::ostream& out) { out << "y"; }),
-                 IoError);
+    EXPECT_EQ(slurp(path), "x");
+}
+
+TEST(AtomicFileTest, creates_missing_folders_and_names_one_that_cannot_be)
+{
+    const auto dir = test::temp_dir("atomic4");
+    write_file_atomically(dir / "copies" / "deeper" / "f.txt", [](std::ostream& out) { out << "y"; });
+    EXPECT_EQ(slurp(dir / "copies" / "deeper" / "f.txt"), "y");
+    EXPECT_EQ(entries(dir / "copies"), 1U);
+    // A file where a folder should be: one sentence naming it, nothing written.
+    write_file_atomically(dir / "plain", [](std::ostream& out) { out << "z"; });
+    try
+    {
+        write_file_atomically(dir / "plain" / "sub" / "f.txt", [](std::ostream& out) { out << "y"; });
+        FAIL() << "wrote under a file";
+    }
+    catch (const IoError& e)
+    {
+        EXPECT_NE(std::string(e.what()).find((dir / "plain").string()), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(slurp(dir / "plain"), "z");
 }
 
 }  // namespace meshmark

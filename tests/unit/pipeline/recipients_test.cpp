@@ -7,12 +7,15 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <set>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "meshmark/attacks/attack_spec.h"
 #include "meshmark/attacks/subdivision.h"
 #include "meshmark/core/error.h"
+#include "meshmark/core/file_lock.h"
 #include "meshmark/geometry/shapes.h"
 #include "meshmark/metrics/distortion.h"
 #include "meshmark/meshmark.h"
@@ -380,16 +383,94 @@ TEST(RecipientsTest, refusals_leave_no_file_behind)
                                                     family({"ann"}))),
                  InvalidOption);
     EXPECT_THROW(static_cast<void>(embed_recipients(input, (dir / "n-{recipient}.ply").string(), dir / "new.json",
-                                                    family({"ann", "ann"}))),
+                                                    family({"ann", "bad/name"}))),
                  InvalidOption);
     EXPECT_FALSE(fs::exists(dir / "new.json"));
-    // A copy that cannot be written: the copies written before it are removed, no key appears.
+    // A copy that cannot be written: the copies written before it are removed. The names stay
+    // recorded (recorded before released: another call may have delivered them meanwhile), and
+    // a later call delivers the same copies.
     fs::create_directories(dir / "blocked");
     fs::create_directories(dir / "blocked" / "zed.ply");  // a directory where a copy should go
     EXPECT_ANY_THROW(static_cast<void>(embed_recipients(input, (dir / "blocked" / "{recipient}.ply").string(),
                                                         dir / "blocked.json", family({"amy", "zed"}))));
     EXPECT_FALSE(fs::exists(dir / "blocked" / "amy.ply"));
-    EXPECT_FALSE(fs::exists(dir / "blocked.json"));
+    ASSERT_EQ(read_key(dir / "blocked.json").recipients->recipients.size(), 2U);
+    fs::remove(dir / "blocked" / "zed.ply");
+    const EmbedRecipientsReport again = embed_recipients(input, (dir / "blocked" / "{recipient}.ply").string(),
+                                                         dir / "blocked.json", family({"amy", "zed"}));
+    EXPECT_FALSE(again.copies[0].is_new);
+    EXPECT_EQ(again.copies[1].index, 1U);
+    EXPECT_TRUE(fs::exists(dir / "blocked" / "zed.ply"));
+}
+
+TEST(RecipientsTest, a_name_given_twice_is_issued_once_and_missing_folders_are_created)
+{
+    const fs::path dir = test::temp_dir("recipients-twice");
+    const fs::path input = write_input(dir, 3);
+    const EmbedRecipientsReport report = embed_recipients(input, (dir / "copies" / "{recipient}.ply").string(),
+                                                          dir / "keys" / "family.json", family({"ann", "ben", "ann"}));
+    ASSERT_EQ(report.copies.size(), 2U);
+    EXPECT_EQ(report.copies[0].name, "ann");
+    EXPECT_EQ(report.copies[1].name, "ben");
+    EXPECT_TRUE(fs::exists(dir / "copies" / "ann.ply"));
+    EXPECT_EQ(read_key(dir / "keys" / "family.json").recipients->recipients.size(), 2U);
+    EXPECT_FALSE(fs::exists(lock_companion(dir / "keys" / "family.json")));  // released and removed
+}
+
+TEST(RecipientsTest, threads_issuing_on_one_new_key_at_once_get_one_key_and_a_code_each)
+{
+    // Eight calls at once on a key none of them finds: each issues two names of its own and
+    // "common". One key results; every name holds one index; "common" gets the same bytes in
+    // every call; each copy accuses its own recipient only.
+    const fs::path dir = test::temp_dir("recipients-threads");
+    const fs::path input = write_input(dir, 3);
+    constexpr int kCalls = 8;
+    std::vector<std::thread> calls;
+    std::vector<std::string> errors(kCalls);
+    for (int c = 0; c < kCalls; ++c)
+    {
+        calls.emplace_back([&, c] {
+            try
+            {
+                EmbedRecipientsOptions options = family({"a" + std::to_string(c), "common", "b" + std::to_string(c)});
+                options.seed = 100 + c;  // a different key each, were each to create its own
+                options.threads = 1;
+                static_cast<void>(embed_recipients(input, (dir / ("call" + std::to_string(c)) / "{recipient}.ply").string(),
+                                                   dir / "family.json", options));
+            }
+            catch (const std::exception& e)
+            {
+                errors[static_cast<std::size_t>(c)] = e.what();
+            }
+        });
+    }
+    for (auto& call : calls)
+    {
+        call.join();
+    }
+    for (const std::string& error : errors)
+    {
+        EXPECT_EQ(error, "");
+    }
+    const Key key = read_key(dir / "family.json");
+    ASSERT_EQ(key.recipients->recipients.size(), 2U * kCalls + 1U);
+    std::set<std::uint32_t> indices;
+    for (const Recipient& r : key.recipients->recipients)
+    {
+        EXPECT_TRUE(indices.insert(r.index).second) << r.name << " shares index " << r.index;
+    }
+    const std::string common = test::file_bytes(dir / "call0" / "common.ply");
+    for (int c = 1; c < kCalls; ++c)
+    {
+        EXPECT_EQ(test::file_bytes(dir / ("call" + std::to_string(c)) / "common.ply"), common) << "call " << c;
+    }
+    for (const int c : {0, 5})
+    {
+        const std::string name = "b" + std::to_string(c);
+        const DetectReport report = detect_file(dir / ("call" + std::to_string(c)) / (name + ".ply"), input,
+                                                dir / "family.json", DetectFileOptions{});
+        EXPECT_EQ(accused_names(report), std::vector<std::string>{name});
+    }
 }
 
 TEST(RecipientsTest, the_accusation_bound_is_paid_for_every_recipient_of_the_key)
