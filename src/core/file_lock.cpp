@@ -108,8 +108,8 @@ FileLock lock_file(const std::filesystem::path& path, const FileLockOptions& opt
             const double waited = std::chrono::duration<double>(Clock::now() - start).count();
             char seconds[32];
             std::snprintf(seconds, sizeof seconds, "%.1f", waited);
-            throw IoError(path.string() + ": another meshmark call still holds it after " + seconds +
-                          " s; try again later or wait longer (--lock-timeout).");
+            throw IoError(path.string() + ": still in use by another meshmark call after " + seconds +
+                          " s of waiting; try again later or wait longer (--lock-timeout).");
         }
         if (!told && options.on_wait)
         {

@@ -98,8 +98,8 @@ void EmbedFileOptions::validate() const
 
 namespace detail {
 
-void write_mesh_and_key(const std::filesystem::path& key_path, const Key& key, const EmbedFileOptions& options,
-                        const std::function<void()>& write_mesh)
+double write_mesh_and_key(const std::filesystem::path& key_path, const Key& key, const EmbedFileOptions& options,
+                          const std::function<void()>& write_mesh)
 {
     // Recorded before released (docs/reliability.md): the key is durable at its path before the
     // copy it traces is written, so a crash at any moment leaves no marked copy without its key.
@@ -146,6 +146,7 @@ void write_mesh_and_key(const std::filesystem::path& key_path, const Key& key, c
         }
         throw;
     }
+    return lock.waited_seconds();
 }
 
 FileLock lock_key(const std::filesystem::path& key_path, std::chrono::milliseconds timeout,
@@ -249,9 +250,10 @@ EmbedReport embed_to_new_file(const std::filesystem::path& input, const std::fil
     embed_into(marked, timer, file.mesh, input, options);
     timer.begin("write");
     // (A binary PLY goes out in slices of the original bytes: no second copy of the file.)
-    detail::write_mesh_and_key(key_path, marked.key, options,
-                               [&]() { write_mesh_file(output, file, marked.positions); });
+    const double waited = detail::write_mesh_and_key(key_path, marked.key, options,
+                                                     [&]() { write_mesh_file(output, file, marked.positions); });
     timer.lap("write");
+    report.seconds.phases.emplace_back("lock", waited);  // the part of "write" spent waiting for the key
     report.key = std::move(marked.key);
     report.stats = marked.stats;
     return report;

@@ -199,11 +199,13 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
     Key key;
     EmbedStats owner_stats;
     Positions owner;
+    double waited = 0.0;
     {
         // Issuing is one step under the key's lock: the key as it is now, the indices of the
         // new names, the key written durably (file and folder fsync'ed). Copies are made only
         // after it: recorded before released (docs/fingerprinting.md, "Issuing at once").
         const FileLock lock = detail::lock_key(key_path, options.lock_timeout, options.progress);
+        waited = lock.waited_seconds();
         report.key_created = !std::filesystem::exists(key_path);
         if (report.key_created)
         {
@@ -449,6 +451,7 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
     timer.lap("copies");
     report.seconds.phases.emplace_back("codes", code_seconds);
     report.seconds.phases.emplace_back("write", write_seconds);
+    report.seconds.phases.emplace_back("lock", waited);  // the part of "basis" spent waiting for the key
     report.key = std::move(key);
     return report;
 }

@@ -420,7 +420,7 @@ EmbedReport embed_file_streamed(const PlyStream& file, const std::filesystem::pa
     const std::size_t in_flight = chunks_in_flight(options, chunk_bytes);
     const Eigen::MatrixX3d change = mark.coefficient_change();
     const auto active = static_cast<double>(referenced.active);
-    write_mesh_and_key(key_path, key, options, [&]() {
+    const double waited = write_mesh_and_key(key_path, key, options, [&]() {
         write_file_atomically(output, [&](std::ostream& out) {
             PlyDisplacedCopy writer(file, referenced, output, out, window);
             DisplacementSummary summary;
@@ -441,6 +441,7 @@ EmbedReport embed_file_streamed(const PlyStream& file, const std::filesystem::pa
         });
     });
     timer.lap("write");
+    report.seconds.phases.emplace_back("lock", waited);  // the part of "write" spent waiting for the key
     report.key = std::move(key);
     return report;
 }

@@ -26,10 +26,11 @@ inline constexpr const char* kKeyExists =
 /// \p key durably at \p key_path, then run \p write_mesh (which writes the mesh atomically).
 /// If \p write_mesh fails the key is put back as it was (removed, or the replaced one
 /// restored): both files or neither, and never the copy without its key (see embed_file).
+/// \return The seconds spent waiting for the lock.
 /// \throws InvalidOption (an existing key without force), IoError (the lock's wait expired, a
 /// write failed) and whatever \p write_mesh throws.
-void write_mesh_and_key(const std::filesystem::path& key_path, const Key& key, const EmbedFileOptions& options,
-                        const std::function<void()>& write_mesh);
+double write_mesh_and_key(const std::filesystem::path& key_path, const Key& key, const EmbedFileOptions& options,
+                          const std::function<void()>& write_mesh);
 
 /// \brief The lock that makes every change of the key at \p key_path one step (FileLock), its
 /// missing folders created first; while it waits, \p progress hears "wait for the key".

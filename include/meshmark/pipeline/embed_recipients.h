@@ -54,9 +54,10 @@ struct EmbedRecipientsReport
     MeshFormat input_format = MeshFormat::Ply;
     std::int64_t vertex_count = 0;
     std::int64_t face_count = 0;
-    /// Phases "read", "basis" (the watermark, the owner's field and the code modes) and
-    /// "copies"; then "codes" and "write", the parts of "copies" spent on the codes' fields
-    /// and on writing.
+    /// Phases "read", "basis" (the watermark, the owner's field and the code modes, and
+    /// recording the names in the key) and "copies"; then "codes" and "write", the parts of
+    /// "copies" spent on the codes' fields and on writing, and "lock", the part of "basis"
+    /// spent waiting for the key's lock.
     PhaseTimings seconds;
 };
 

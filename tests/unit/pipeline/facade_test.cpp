@@ -3,6 +3,8 @@
 // gives, and in-place embedding replaces the input whole or not at all.
 #include "meshmark/meshmark.h"
 
+#include "meshmark/core/atomic_file.h"
+
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -677,12 +679,15 @@ TEST(FacadeTest, in_place_embed_replaces_the_input_whole_with_the_marked_copy)
     EXPECT_EQ(test::file_bytes(input), original);
     EXPECT_FALSE(fs::exists(dir / "key.json"));
 
-    // A failure on the way (the key's folder does not exist): the input untouched, nothing left.
+    // A failure on the way (a file where the key's folder should be): the input untouched,
+    // nothing left.
     EmbedFileOptions options = seeded(31);
     options.replace_input = true;
-    EXPECT_THROW((void)embed_file(input, input, dir / "missing" / "key.json", options), IoError);
+    write_file_atomically(dir / "blocker", [](std::ostream& out) { out << "not a folder"; });
+    EXPECT_THROW((void)embed_file(input, input, dir / "blocker" / "key.json", options), IoError);
     EXPECT_EQ(test::file_bytes(input), original);
     EXPECT_EQ(hidden_files(dir), 0);
+    fs::remove(dir / "blocker");
 
     // Asked for: the input becomes the marked copy (same bytes as to another file), keeps its
     // permissions, and no staging file remains.
