@@ -126,6 +126,19 @@ Soup referenced_soup(const TriangleMesh& mesh)
     return soup;
 }
 
+// Drops the triangles of zero area: a repeated corner, or three corners on one line (exact
+// predicate; coincident corners included). CGAL's isotropic remeshing assumes there are none:
+// a part collapsed to a point crashed it (SIGSEGV in its tangential relaxation). Returns the
+// number dropped.
+std::size_t drop_degenerate_triangles(const std::vector<CgalPoint>& points, std::vector<Triangle>& triangles)
+{
+    const auto before = triangles.size();
+    std::erase_if(triangles, [&points](const Triangle& t) {
+        return t[0] == t[1] || t[1] == t[2] || t[2] == t[0] || CGAL::collinear(points[t[0]], points[t[1]], points[t[2]]);
+    });
+    return before - triangles.size();
+}
+
 }  // namespace
 
 SurfaceMesh to_surface_mesh(const TriangleMesh& mesh, std::string_view attack)
@@ -137,14 +150,15 @@ SurfaceMesh to_surface_mesh(const TriangleMesh& mesh, std::string_view attack)
                           "triangle surface.");
     }
     Soup soup = referenced_soup(mesh);
+    const bool had_degenerate = drop_degenerate_triangles(soup.points, soup.triangles) > 0;
 
     // Clean soups (the check is much cheaper than the repair) go straight in. Others: thin out
     // non-manifold edges, then let CGAL merge coincident points, drop degenerate and duplicate
-    // faces, and orient, duplicating points where the surface is still non-manifold. The repair
-    // works on variable-size polygons, since it only drops faces that become degenerate when
-    // coincident points merge from those.
+    // faces and the points no face uses any more, and orient, duplicating points where the
+    // surface is still non-manifold. The repair works on variable-size polygons, since it only
+    // drops faces that become degenerate when coincident points merge from those.
     SurfaceMesh surface;
-    if (pmp::is_polygon_soup_a_polygon_mesh(soup.triangles))
+    if (!had_degenerate && pmp::is_polygon_soup_a_polygon_mesh(soup.triangles))
     {
         pmp::polygon_soup_to_polygon_mesh(soup.points, soup.triangles, surface);
     }

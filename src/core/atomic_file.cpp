@@ -9,6 +9,7 @@
 #include <cstring>
 #include <ext/stdio_filebuf.h>
 #include <string>
+#include <vector>
 
 #include "meshmark/core/error.h"
 
@@ -56,22 +57,34 @@ void sync_directory(const std::filesystem::path& directory)
 
 void create_parent_directories(const std::filesystem::path& path)
 {
-    const std::filesystem::path parent = path.parent_path();
+    // The missing folders, innermost first.
+    std::vector<std::filesystem::path> missing;
     std::error_code ec;
-    if (parent.empty() || std::filesystem::is_directory(parent, ec))
+    for (std::filesystem::path folder = path.parent_path(); !folder.empty() && !std::filesystem::exists(folder, ec);
+         folder = folder.parent_path())
     {
-        return;
+        missing.push_back(folder);
+        if (folder == folder.parent_path())
+        {
+            break;  // a root that does not exist
+        }
     }
-    create_parent_directories(parent);  // the outer folders first, each synced into its own parent
-    if (!std::filesystem::create_directory(parent, ec) && ec)
+    const std::filesystem::path parent = path.parent_path();
+    if (!parent.empty() && missing.empty() && !std::filesystem::is_directory(parent, ec))
     {
-        throw IoError(parent.string() + ": cannot create the folder (" + ec.message() + ").");
+        throw IoError(path.string() + ": cannot create its folder " + parent.string() +
+                      " (a file of that name is in the way).");
     }
-    if (!std::filesystem::is_directory(parent, ec))
+    for (auto folder = missing.rbegin(); folder != missing.rend(); ++folder)
     {
-        throw IoError(parent.string() + ": cannot create the folder (a file of that name is in the way).");
+        if (!std::filesystem::create_directory(*folder, ec) && ec)
+        {
+            throw IoError(path.string() + ": cannot create its folder " + folder->string() + " (" + ec.message() +
+                          ").");
+        }
+        // Made durable in its parent, like a file's rename.
+        sync_directory(folder->parent_path().empty() ? std::filesystem::path(".") : folder->parent_path());
     }
-    sync_directory(parent.parent_path().empty() ? std::filesystem::path(".") : parent.parent_path());
 }
 
 void write_file_atomically(const std::filesystem::path& path,

@@ -1,8 +1,11 @@
 // SPDX-License-Identifier: MIT
-// Wavefront OBJ reader and generic writer. Only `v` and `f` lines matter for the geometry;
-// every other line (vt, vn, g, o, s, mtllib, usemtl, comments, ...) is kept as bytes by the
-// preserving writer. Hand-written: the packaged OBJ loaders do not report where each
-// coordinate token sits, which the byte-exact rewrite needs.
+// Wavefront OBJ reader and generic writer. Only `v` and `f` statements matter for the
+// geometry; every other one (vt, vn, vp, g, o, s, mg, mtllib, usemtl, l, p, the free-form
+// curve and surface statements, comments, ...) is kept as bytes by the preserving writer. A
+// statement continues on the next line when its line ends in a backslash (the specification's
+// continuation). An `f` of one or two vertices, as older exporters write wires and loose edges,
+// is an edge or a point, like `l` and `p`: read, kept, no triangle. Hand-written: the packaged
+// OBJ loaders do not report where each coordinate token sits, which the byte-exact rewrite needs.
 #include <charconv>
 #include <filesystem>
 #include <string>
@@ -15,6 +18,55 @@ namespace meshmark::detail {
 namespace {
 
 constexpr int kFloatDecimalDigits = 9;  // FLT_DECIMAL_DIG: see append_like_token.
+
+// The tokens of one statement: its line and the lines a trailing backslash continues it on.
+// The parts are views into the file, so token offsets stay file offsets.
+class StatementTokens
+{
+public:
+    void reset(std::string_view line)
+    {
+        parts_.clear();
+        parts_.push_back(line);
+        part_ = 0;
+        cursor_ = TokenCursor(line);
+    }
+    void continue_with(std::string_view line) { parts_.push_back(line); }
+    // Next token across the parts; false at the end of the statement.
+    bool next(std::string_view& token) noexcept
+    {
+        while (!cursor_.next(token))
+        {
+            if (++part_ >= parts_.size())
+            {
+                return false;
+            }
+            cursor_ = TokenCursor(parts_[part_]);
+        }
+        return true;
+    }
+
+private:
+    std::vector<std::string_view> parts_;
+    std::size_t part_ = 0;
+    TokenCursor cursor_{std::string_view()};
+};
+
+// \p line without a final backslash (and the spaces before it), and whether it had one.
+bool strip_continuation(std::string_view& line) noexcept
+{
+    std::size_t end = line.size();
+    while (end > 0 && (line[end - 1] == ' ' || line[end - 1] == '\t' || line[end - 1] == '\r'))
+    {
+        --end;
+    }
+    if (end == 0 || line[end - 1] != '\\')
+    {
+        return false;
+    }
+    line = line.substr(0, end - 1);
+    return true;
+}
 
 struct ObjState
 {
@@ -30,7 +82,7 @@ struct ObjState
     std::size_t max_line = 0;
 };
 
-void read_vertex(const std::filesystem::path& path, std::string_view bytes, TokenCursor& tokens,
+void read_vertex(const std::filesystem::path& path, std::string_view bytes, StatementTokens& tokens,
                  std::size_t line, ObjState& state)
 {
     if (state.xyz.size() / 3 >= kMaxVertices)
@@ -88,7 +140,7 @@ bool parse_corner(std::string_view token, std::int64_t& vertex)
     return *p++ == '/' && integer() && p == end;
 }
 
-void read_face(const std::filesystem::path& path, TokenCursor& tokens, std::size_t line,
+void read_face(const std::filesystem::path& path, StatementTokens& tokens, std::size_t line,
                ObjState& state)
 {
     const auto face = state.face_count++;
@@ -128,9 +180,13 @@ void read_face(const std::filesystem::path& path, TokenCursor& tokens, std::size
         }
         state.polygon.push_back(static_cast<std::int32_t>(resolved));
     }
+    if (state.polygon.empty())
+    {
+        fail_io(path, "line " + std::to_string(line) + ": face with no vertices");
+    }
     if (state.polygon.size() < 3)
     {
-        fail_io(path, "line " + std::to_string(line) + ": face with fewer than 3 vertices");
+        return;  // an edge or a point (a wire of an older exporter): kept as written, no triangle
     }
     append_fan(state.triangles, state.polygon.data(), state.polygon.size());
 }
@@ -146,10 +202,20 @@ TriangleMesh read_obj(const std::filesystem::path& path, FileLayout& layout,
     state.slots.tokens.reserve(bytes.size() / 16);
     LineCursor lines(bytes);
     std::string_view line;
-    // Lines -> v / f records; everything else stays in the bytes untouched.
+    StatementTokens tokens;
+    // Statements -> v / f records; everything else stays in the bytes untouched.
     while (lines.next(line))
     {
-        TokenCursor tokens(line);
+        const std::size_t first_line = lines.line_number();
+        const bool is_comment = line.find_first_not_of(" \t") != std::string_view::npos &&
+                                line[line.find_first_not_of(" \t")] == '#';
+        bool continued = !is_comment && strip_continuation(line);
+        tokens.reset(line);
+        while (continued && lines.next(line))
+        {
+            continued = strip_continuation(line);
+            tokens.continue_with(line);
+        }
         std::string_view keyword;
         if (!tokens.next(keyword))
         {
@@ -157,11 +223,11 @@ TriangleMesh read_obj(const std::filesystem::path& path, FileLayout& layout,
         }
         if (keyword == "v")
         {
-            read_vertex(path, bytes, tokens, lines.line_number(), state);
+            read_vertex(path, bytes, tokens, first_line, state);
         }
         else if (keyword == "f")
         {
-            read_face(path, tokens, lines.line_number(), state);
+            read_face(path, tokens, first_line, state);
         }
     }
     const auto vertex_count = static_cast<std::int64_t>(state.xyz.size() / 3);

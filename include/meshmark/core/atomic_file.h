@@ -17,7 +17,8 @@ struct AtomicWriteOptions
 
 /// \brief Create the missing folders of \p path's parent (like `mkdir -p`), each made durable
 /// (its parent fsync'ed). Nothing to do for a path in the current folder or an existing one.
-/// \throws IoError naming the folder that cannot be created.
+/// \throws IoError naming \p path and the folder that cannot be created (a file in the way, no
+/// permission).
 void create_parent_directories(const std::filesystem::path& path);
 
 /// \brief Write a file so that it either appears complete or not at all.

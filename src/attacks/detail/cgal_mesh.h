@@ -18,8 +18,10 @@ using CgalPoint = CgalKernel::Point_3;
 using SurfaceMesh = CGAL::Surface_mesh<CgalPoint>;
 
 /// \brief A valid CGAL surface built from the triangles of \p mesh.
-/// \details Only referenced vertices are used. A mesh that is already an oriented combinatorial
-/// manifold is converted as it is. Otherwise: the fewest faces are dropped so that no edge has
+/// \details Only referenced vertices are used, and triangles of zero area (a repeated corner,
+/// collinear or coincident corners: exact predicate) are dropped, since CGAL's algorithms assume
+/// there are none. A mesh that is then an oriented combinatorial manifold is converted as it is.
+/// Otherwise: the fewest faces are dropped so that no edge has
 /// more than two (faces on the most non-manifold edges first: fins and folds), then CGAL's
 /// repair_polygon_soup merges points at identical positions and drops degenerate and duplicate
 /// faces, and orient_polygon_soup makes orientations agree, duplicating points where the

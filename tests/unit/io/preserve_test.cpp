@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include "io_test_support.h"
+#include "meshmark/core/atomic_file.h"
 #include "meshmark/core/error.h"
 #include "meshmark/io/mesh_io.h"
 
@@ -25,6 +26,7 @@ const std::vector<std::string> kValidFixtures{"cube_ascii.ply",
                                               "tristrip.ply",
                                               "quad_faces.obj",
                                               "obj_index_forms.obj",
+                                              "obj_artist_statements.obj",
                                               "cube.off",
                                               "cube_ascii.stl",
                                               "cube_binary.stl",
@@ -198,6 +200,43 @@ TEST(PreserveTest, perturbed_text_files_change_only_position_tokens)
             EXPECT_NEAR(changed.mesh.V.data()[k], moved.data()[k],
                         std::abs(moved.data()[k]) * 0x1p-23);
         }
+    }
+}
+
+TEST(PreserveTest, obj_edges_points_and_continuations_are_read_and_kept_and_carry_no_triangle)
+{
+    // Two-vertex faces, `l` polylines and `p` points (an older exporter's wires) are no
+    // triangles; statements continued with a backslash are read whole; the vertices only the
+    // wire uses keep their bytes when the cube's move.
+    const auto file = read_mesh_file(fixture("obj_artist_statements.obj"));
+    ASSERT_EQ(file.mesh.vertex_count(), 11);
+    ASSERT_EQ(file.mesh.face_count(), 12);  // the six quads of the cube, fanned
+    EXPECT_EQ(file.mesh.V.row(4), Eigen::RowVector3d(-1.0, 1.0, -1.0));
+    EXPECT_EQ(file.mesh.V.row(5), Eigen::RowVector3d(-1.0, -1.0, -1.0));
+    EXPECT_EQ(file.mesh.F.row(4), Eigen::RowVector3i(7, 6, 4));  // f 8 7 \ 5 6, first fan triangle
+    EXPECT_EQ(static_cast<Eigen::Index>(referenced_vertices(file.mesh).size()), 8);
+
+    const auto dir = test::temp_dir("preserve_obj_wires");
+    Positions moved = file.mesh.V;
+    moved.topRows(8) = perturbed(file.mesh.V).topRows(8);
+    write_mesh_file(dir / "moved.obj", file, moved);
+    EXPECT_EQ(changed_number_tokens(test::file_bytes(fixture("obj_artist_statements.obj")),
+                                    test::file_bytes(dir / "moved.obj")),
+              24U);
+    const auto back = read_mesh_file(dir / "moved.obj");
+    EXPECT_EQ(back.mesh.F, file.mesh.F);
+    EXPECT_EQ(back.mesh.V.bottomRows(3), file.mesh.V.bottomRows(3));
+
+    // A face with no vertex at all is still an error, naming its line.
+    write_file_atomically(dir / "empty_face.obj", [](std::ostream& out) { out << "v 0 0 0\nf\n"; });
+    try
+    {
+        (void)read_mesh_file(dir / "empty_face.obj");
+        FAIL() << "read a face with no vertices";
+    }
+    catch (const IoError& e)
+    {
+        EXPECT_NE(std::string(e.what()).find("line 2"), std::string::npos) << e.what();
     }
 }
 

@@ -138,7 +138,9 @@ TEST(WriteTest, rejects_invalid_meshes_and_unwritable_targets)
 {
     const auto dir = test::temp_dir("write_bad");
     auto mesh = awkward_tetrahedron();
-    test::expect_error<IoError>([&] { write_mesh(dir / "missing" / "t.ply", mesh); }, {"t.ply"});
+    write_mesh(dir / "blocker.ply", mesh);  // a file where a folder should be
+    test::expect_error<IoError>([&] { write_mesh(dir / "blocker.ply" / "t.ply", mesh); }, {"t.ply", "blocker.ply"});
+    std::filesystem::remove(dir / "blocker.ply");
     test::expect_error<IoError>([&] { write_mesh(dir / "t.xyz", mesh); }, {"t.xyz"});
     mesh.F(2, 1) = 5;
     test::expect_error<InvalidMesh>([&] { write_mesh(dir / "t.ply", mesh); }, {"face 2"});

@@ -208,10 +208,14 @@ TEST(HeatmapImageTest, bad_input_is_refused)
     EXPECT_THROW((void)render_heatmap(sphere, Eigen::VectorXd::Zero(sphere.vertex_count()), o),
                  InvalidOption);
     EXPECT_THROW((void)render_heatmap(TriangleMesh{}, Eigen::VectorXd{}), InvalidMesh);
-    // Nothing is left behind when the folder does not exist.
-    const auto missing = test::temp_dir("heatmap_missing") / "no" / "picture.png";
-    EXPECT_THROW(write_png(missing, RgbImage(200, 200, {0, 0, 0})), IoError);
-    EXPECT_FALSE(std::filesystem::exists(missing.parent_path()));
+    // Nothing is left behind when the folder cannot be made (a file is in the way); a missing
+    // folder is created.
+    const auto dir = test::temp_dir("heatmap_missing");
+    write_png(dir / "no", RgbImage(2, 2, {0, 0, 0}));
+    EXPECT_THROW(write_png(dir / "no" / "picture.png", RgbImage(200, 200, {0, 0, 0})), IoError);
+    EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir), {}), 1);
+    write_png(dir / "new" / "picture.png", RgbImage(2, 2, {0, 0, 0}));
+    EXPECT_TRUE(std::filesystem::exists(dir / "new" / "picture.png"));
 }
 
 TEST(HeatmapImageTest, all_zero_distances_are_blue)
