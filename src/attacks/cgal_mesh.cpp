@@ -139,9 +139,22 @@ std::size_t drop_degenerate_triangles(const std::vector<CgalPoint>& points, std:
     return before - triangles.size();
 }
 
+// True when two of \p points are at the same position (bit for bit).
+bool has_coincident_points(const std::vector<CgalPoint>& points)
+{
+    std::vector<std::array<double, 3>> sorted;
+    sorted.reserve(points.size());
+    for (const CgalPoint& p : points)
+    {
+        sorted.push_back({p.x(), p.y(), p.z()});
+    }
+    std::sort(sorted.begin(), sorted.end());
+    return std::adjacent_find(sorted.begin(), sorted.end()) != sorted.end();
+}
+
 }  // namespace
 
-SurfaceMesh to_surface_mesh(const TriangleMesh& mesh, std::string_view attack)
+SurfaceMesh to_surface_mesh(const TriangleMesh& mesh, std::string_view attack, bool weld)
 {
     if (mesh.F.rows() == 0)
     {
@@ -158,7 +171,10 @@ SurfaceMesh to_surface_mesh(const TriangleMesh& mesh, std::string_view attack)
     // surface is still non-manifold. The repair works on variable-size polygons, since it only
     // drops faces that become degenerate when coincident points merge from those.
     SurfaceMesh surface;
-    if (!had_degenerate && pmp::is_polygon_soup_a_polygon_mesh(soup.triangles))
+    // Welding: points at one position become one (the repair's merge), so that a surface split
+    // into separate pieces (a triangle soup, seams split by an exporter) is remeshed as one.
+    const bool must_weld = weld && has_coincident_points(soup.points);
+    if (!had_degenerate && !must_weld && pmp::is_polygon_soup_a_polygon_mesh(soup.triangles))
     {
         pmp::polygon_soup_to_polygon_mesh(soup.points, soup.triangles, surface);
     }

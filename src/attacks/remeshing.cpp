@@ -2,10 +2,12 @@
 #include "meshmark/attacks/remeshing.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include <CGAL/Polygon_mesh_processing/measure.h>
 #include <CGAL/Polygon_mesh_processing/remesh.h>
@@ -49,6 +51,19 @@ detail::SurfaceMesh remesh_pass(const detail::SurfaceMesh& input, double edge_le
     return surface;
 }
 
+// The referenced vertices of \p mesh counted once per position: the surface's vertices, however
+// a file split them (at seams, or into a soup of separate triangles).
+double distinct_positions(const TriangleMesh& mesh)
+{
+    std::vector<std::array<double, 3>> points;
+    for (const auto i : referenced_vertices(mesh))
+    {
+        points.push_back({mesh.V(i, 0), mesh.V(i, 1), mesh.V(i, 2)});
+    }
+    std::sort(points.begin(), points.end());
+    return static_cast<double>(std::unique(points.begin(), points.end()) - points.begin());
+}
+
 }  // namespace
 
 void RemeshingOptions::validate() const
@@ -67,9 +82,10 @@ void RemeshingOptions::validate() const
 TriangleMesh remesh(const TriangleMesh& mesh, const RemeshingOptions& options)
 {
     options.validate();
-    const auto referenced = static_cast<double>(referenced_vertices(mesh).size());
-    const double target = std::max(4.0, std::round(options.vertex_fraction * referenced));
-    const detail::SurfaceMesh input = detail::to_surface_mesh(mesh, "remesh");
+    const double target = std::max(4.0, std::round(options.vertex_fraction * distinct_positions(mesh)));
+    // Welded: isotropic remeshing rebuilds the surface, wherever a file split its vertices (a
+    // soup of separate triangles cannot be remeshed at all: its vertex count would not change).
+    const detail::SurfaceMesh input = detail::to_surface_mesh(mesh, "remesh", /*weld=*/true);
 
     // First guess from the area, then correct the length by the square root of the count ratio
     // (the vertex density goes as 1 / L^2) and remesh the input again.

@@ -8,7 +8,8 @@ namespace meshmark {
 /// Parameters of the remeshing attack.
 struct RemeshingOptions
 {
-    /// Target vertex count as a fraction of the referenced vertices; the levels used in the
+    /// Target vertex count as a fraction of the referenced vertices, counted once per position
+    /// (a vertex a file split at a seam, or a triangle soup's corners, once); the levels used in the
     /// benchmarks are 0.25 and 0.05. Range (0, 1] (remeshing a uniform mesh finer goes by
     /// whole edge splits, so a refinement target cannot be met within 10%).
     double vertex_fraction = 0.25;
@@ -30,7 +31,9 @@ struct RemeshingOptions
 /// count ratio and the input is remeshed again (at most four passes, keeping the closest), so
 /// the result is within 10% of the target on ordinary meshes. Each pass splits, collapses and
 /// flips edges, relaxes vertices tangentially and projects them back onto the input surface.
-/// Messy input is repaired first as for simplify(). No correspondence with the input vertices.
+/// Messy input is repaired first as for simplify(), and vertices at one position are merged
+/// (welded), so that a surface a file split into pieces is remeshed as one surface. No
+/// correspondence with the input vertices.
 /// \throws InvalidOption from options.validate(); InvalidMesh for a mesh with no faces, or
 /// with none left once degenerate and duplicate faces are dropped.
 [[nodiscard]] TriangleMesh remesh(const TriangleMesh& mesh, const RemeshingOptions& options);

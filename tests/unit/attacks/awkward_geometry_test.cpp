@@ -64,5 +64,33 @@ TEST(AwkwardGeometryTest, every_attack_on_every_awkward_variant_of_a_real_scan_r
     EXPECT_GT(ran, 100) << "refused " << refused;
 }
 
+TEST(AwkwardGeometryTest, a_triangle_soup_is_remeshed_as_the_surface_it_splits)
+{
+    // A file whose triangles each have corners of their own (coincident vertices) is the same
+    // surface: remeshed to a quarter of its distinct vertices, as the scan itself is. Before the
+    // weld, CGAL could not collapse a single edge of the soup and returned it unchanged (3 times
+    // as many vertices as faces).
+    const auto path = test::mesh_dir() / "bunny.off";
+    if (!std::filesystem::exists(path))
+    {
+        GTEST_SKIP() << path << " is not available";
+    }
+    const TriangleMesh scan = read_mesh(path);
+    TriangleMesh soup;
+    for (const auto& [name, mesh] : test::awkward_variants(scan))
+    {
+        if (name == "soup")
+        {
+            soup = mesh;
+        }
+    }
+    ASSERT_EQ(soup.V.rows(), 3 * scan.F.rows());
+    const AttackResult whole = apply_attacks(scan, parse_attack_spec("remesh"), 3);
+    const AttackResult split = apply_attacks(soup, parse_attack_spec("remesh"), 3);
+    const auto count = static_cast<double>(whole.mesh.V.rows());
+    EXPECT_NEAR(static_cast<double>(split.mesh.V.rows()), count, 0.1 * count);
+    EXPECT_LT(split.mesh.V.rows(), split.mesh.F.rows());
+}
+
 }  // namespace
 }  // namespace meshmark
