@@ -14,6 +14,7 @@
 #include "meshmark/io/mesh_io.h"
 #include "meshmark/pipeline/detect_file.h"
 #include "meshmark/pipeline/embed_file.h"
+#include "meshmark/metrics/distortion.h"
 #include "meshmark/render/heatmap_image.h"
 #include "report.h"
 
@@ -77,16 +78,20 @@ int run_demo(const DemoArgs& args, const GlobalArgs& global)
                     "%) of the bbox diagonal, " + format_number(embedded.seconds.total) + " s; key in " +
                     key.string());
 
-    // A picture of the mark: each vertex's displacement, blue (none) to red (the largest).
+    // A picture of the mark: each marked vertex's distance to the original surface, blue (none)
+    // to red (the largest): what `compare original marked --heatmap` draws, the same figures.
     const TriangleMesh marked_mesh = read_mesh(marked);
-    const Eigen::VectorXd displacement = (marked_mesh.V - mesh.V).rowwise().norm();
+    CompareOptions distance_options;
+    distance_options.keep_vertex_distances = true;
+    distance_options.threads = global.threads;
+    const DistortionReport distances = compare_meshes(mesh, marked_mesh, distance_options);
     HeatmapImageOptions picture_options;
-    picture_options.unit_length = bounding_box(mesh.V).diagonal();
+    picture_options.unit_length = distances.diagonal;
     picture_options.threads = global.threads;
-    const HeatmapPicture picture = render_heatmap(marked_mesh, displacement, picture_options);
+    const HeatmapPicture picture = render_heatmap(marked_mesh, distances.vertex_distances_ba, picture_options);
     write_png(heatmap, picture.image);
     say(global, "   picture of the mark: " + heatmap.string() +
-                    " (vertex displacement, blue 0 to red " +
+                    " (each vertex's distance to the original surface, blue 0 to red " +
                     format_number(100.0 * picture.max_distance / picture.unit_length) +
                     "% of the bbox diagonal)");
 
@@ -120,8 +125,8 @@ void register_demo(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
         "demo",
         "Run the whole pipeline on a mesh meshmark makes itself: make -> embed -> attack -> "
         "detect, "
-        "printing each step and the verdict, and draw the mark (heatmap.png: the displacement "
-        "of each vertex, as `compare --heatmap out.png` draws distances). Exit 0 when the attacked "
+        "printing each step and the verdict, and draw the mark (heatmap.png: each vertex's distance "
+        "to the original surface, as `compare --heatmap out.png` draws it). Exit 0 when the attacked "
         "copy is detected and the "
         "unmarked original is not.");
     command->add_option("--dir", args->dir, "Folder for the demo's files (default: a new temporary folder)");
