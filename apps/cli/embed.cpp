@@ -225,11 +225,9 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     auto args = std::make_shared<EmbedArgs>();
     auto* command = app.add_subcommand(
         "embed",
-        "Watermark a mesh: writes the marked copy (same format as -o's extension; everything but "
-        "vertex positions is preserved when it is the input's format; written into another folder, "
-        "a .gltf's image files are copied beside it and an OBJ's material libraries are named by "
-        "their path from there) and a key file (JSON, mode 0600) that, with the original, "
-        "regenerates and detects the mark.");
+        "Watermark a mesh: writes the marked copy (format of -o's extension; in the input's format "
+        "everything but vertex positions is kept, docs/file_formats.md) and the key (JSON, mode "
+        "0600) that, with the original, detects the mark. Keep both.");
     command->add_option("INPUT", args->input,
                         "Original mesh (.ply .obj .off .stl .gltf .glb .3mf); never modified")
         ->required()
@@ -244,35 +242,30 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     command->add_option("--bits", args->bits, "Payload: exactly ceil(3m/4) hex digits, MSB first")
         ->excludes(message);
     command->add_option("--basis", args->basis,
-                        "rbf: orthogonalized RBFs (Wu & Kobbelt; fast, any size); laplacian: "
-                        "eigenvectors of the combinatorial mesh Laplacian (the slower baseline; "
-                        "needs faces)")
+                        "rbf: orthogonalized RBFs (Wu & Kobbelt); laplacian: mesh Laplacian "
+                        "eigenvectors (slow baseline; needs faces)")
         ->check(CLI::IsMember({"rbf", "laplacian"}))
         ->capture_default_str();
     command->add_option("--basis-size", args->options.basis_size,
                         "k, basis functions (RBF centers or Laplacian eigenvectors)")
         ->capture_default_str();
     command->add_option("--centers", args->centers,
-                        "RBF centers: random (from the seed) or decimate (survivors of a QEM "
-                        "decimation to k vertices; needs faces)")
+                        "RBF centers: random (from the seed) or decimate (a QEM decimation's "
+                        "survivors; needs faces)")
         ->check(CLI::IsMember({"random", "decimate"}))
         ->capture_default_str();
     command->add_option("--coefficients", args->options.coefficients,
                         "m, payload bits per axis (3m payload bits)")
         ->capture_default_str();
     command->add_option("--repetitions", args->options.repetitions,
-                        "r, coefficients per payload bit (the mark uses m*r modes, each copy with "
-                        "its own key sign; more copies, same distortion, stronger verdict). auto: 5 "
-                        "(intact z 10.95) on meshes of 5,000+ analysed vertices, else 4 (z 9.8); a new "
-                        "family key's owner mark: 2, so its recipient modes fit; fewer (with a note) on a mesh "
-                        "whose vertices span fewer modes than that, such as a flat CAD part whose faces have no "
-                        "inner vertices. The key records the number chosen")
+                        "r, coefficients per payload bit (m*r modes; same distortion, stronger verdict). "
+                        "auto: 5 from 5,000 vertices, else 4; 2 for a family key's owner mark; fewer, "
+                        "with a note, where the vertices span fewer modes. Recorded in the key")
         ->transform(repetitions_choice())
         ->type_name("auto|INT")
         ->default_str("auto");
     command->add_option("--first-mode", args->options.first_mode,
-                        "Index of the first modulated mode (the lowest modes are nearly rigid "
-                        "motions, which detection removes)")
+                        "First modulated mode (the lowest are nearly rigid motions)")
         ->capture_default_str();
     command->add_option("--rule", args->rule,
                         "additive: beta = alpha + b's (default); paper: beta = alpha(1 + b'rho)")
@@ -280,52 +273,42 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
         ->capture_default_str();
     command->add_option("--strength", args->strength,
                         "additive: the displacement as a fraction of the bbox diagonal, in "
-                        "--strength-measure (default 0.00059 surface, 0.001 vertex; 0.001 surface "
-                        "for assets that will be decimated to a few percent: docs/robustness.md); "
-                        "paper: rho (default 0.01)");
+                        "--strength-measure (default 0.00059 surface, 0.001 vertex); paper: rho "
+                        "(default 0.01)");
     command->add_option("--strength-measure", args->strength_measure,
-                        "additive: surface: the RMS distance between the marked and the original "
-                        "surface (what MRMS reads, whatever the sampling; calibrated on the "
-                        "original, out of core applied as its vertex equivalent x sqrt(3)); "
-                        "vertex: the RMS vertex displacement (keys before 2026-11-25)")
+                        "additive: surface: RMS distance between the marked and the original surface "
+                        "(what MRMS reads); vertex: RMS vertex displacement")
         ->check(CLI::IsMember({"surface", "vertex"}))
         ->capture_default_str();
     command->add_option("--sigma-factor", args->options.sigma_factor,
                         "RBF support = factor * bbox diagonal / 2")
         ->capture_default_str();
     command->add_option("--gram-rows", args->options.gram_rows,
-                        "RBF basis: estimate its Gram matrix from at most this many evenly spaced "
-                        "vertices (0 = all); bounds the basis cost of very large meshes, smaller "
-                        "meshes are unaffected (the key records it)")
+                        "RBF basis: Gram matrix from at most this many evenly spaced vertices (0 = all); "
+                        "bounds the cost on very large meshes (recorded in the key)")
         ->check(non_negative())
         ->capture_default_str();
     command->add_option("--seed", args->seed,
                         "Secret seed (centers, payload mask, random payload); random if absent");
     command->add_option("--memory-budget", args->memory_budget,
-                        "MiB: when the in-memory embed of a binary PLY would need more, stream it "
-                        "from disk in chunks (same output bytes and key; an input that cannot be "
-                        "streamed is embedded in memory with a note). 0 = no budget")
+                        "MiB: above it a binary PLY is embedded out of core (same bytes and key); 0 = no "
+                        "budget")
         ->check(non_negative())
         ->capture_default_str();
     command->add_flag("--stream", args->stream,
-                      "Always embed out of core (binary PLY with fixed-size vertex records, "
-                      "written to .ply); any other input is an error");
+                      "Always embed out of core (binary PLY in, .ply out)");
     command->add_option("--recipient", args->recipients,
-                        "Issue a copy to this recipient (repeat for several): -o must then contain "
-                        "{recipient}, e.g. out/{recipient}.glb; --key is the family key, created if "
-                        "absent, else extended (a name it holds gets its copy again, byte for byte). "
-                        "detect with that key names the recipients whose copies a suspect was made "
-                        "from (docs/fingerprinting.md)");
+                        "Issue a traceable copy to this recipient (repeatable); -o holds {recipient}, "
+                        "--key is the family key, created or extended (a known name gets the same "
+                        "bytes again). Safe from many calls at once (docs/fingerprinting.md)");
     command->add_option("--recipients", args->recipients_file,
                         "File of recipient names, one per line ('#' comments), as --recipient")
         ->check(CLI::ExistingFile);
     command->add_option("--recipient-modes", args->recipient_modes,
-                        "New family key: M, modes after the owner's that carry each recipient's code "
-                        "(3M coefficients; first mode + m*r + M must not exceed the basis size)")
+                        "New family key: M, modes carrying each recipient's code")
         ->capture_default_str();
     command->add_option("--recipient-share", args->recipient_share,
-                        "New family key: share of the displacement energy given to the recipient codes "
-                        "(the owner's mark keeps the rest; the total stays --strength)")
+                        "New family key: the codes' share of the displacement energy")
         ->capture_default_str();
     command->add_option("--lock-timeout", args->lock_timeout,
                         "Seconds to wait while another call issues on (or writes) the same key, then fail")
@@ -333,8 +316,7 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
         ->capture_default_str();
     command->add_flag("--json", args->json, "Print a JSON report on stdout");
     command->add_flag("--force", args->force,
-                      "Replace an existing key file, or the input itself when -o names it "
-                      "(atomically: a complete marked file or the untouched original)");
+                      "Replace an existing key, or the input itself when -o names it (atomically)");
     add_global_flags(*command, global);
     command->callback([args, &global, &runner, command]() {
         args->has_seed = command->count("--seed") > 0;
