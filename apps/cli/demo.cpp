@@ -12,9 +12,9 @@
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/geometry/shapes.h"
 #include "meshmark/io/mesh_io.h"
+#include "meshmark/metrics/distortion.h"
 #include "meshmark/pipeline/detect_file.h"
 #include "meshmark/pipeline/embed_file.h"
-#include "meshmark/metrics/distortion.h"
 #include "meshmark/render/heatmap_image.h"
 #include "report.h"
 
@@ -88,7 +88,8 @@ int run_demo(const DemoArgs& args, const GlobalArgs& global)
     HeatmapImageOptions picture_options;
     picture_options.unit_length = distances.diagonal;
     picture_options.threads = global.threads;
-    const HeatmapPicture picture = render_heatmap(marked_mesh, distances.vertex_distances_ba, picture_options);
+    const HeatmapPicture picture =
+        render_heatmap(marked_mesh, distances.vertex_distances_ba, picture_options);
     write_png(heatmap, picture.image);
     say(global, "   picture of the mark: " + heatmap.string() +
                     " (each vertex's distance to the original surface, blue 0 to red " +
@@ -125,8 +126,10 @@ void register_demo(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
         "demo",
         "Run the whole pipeline on a mesh meshmark makes itself: make -> embed -> attack -> "
         "detect, "
-        "printing each step and the verdict, and draw the mark (heatmap.png: each vertex's distance "
-        "to the original surface, as `compare --heatmap out.png` draws it). Exit 0 when the attacked "
+        "printing each step and the verdict, and draw the mark (heatmap.png: each vertex's "
+        "distance "
+        "to the original surface, as `compare --heatmap out.png` draws it). Exit 0 when the "
+        "attacked "
         "copy is detected and the "
         "unmarked original is not.");
     command->add_option("--dir", args->dir, "Folder for the demo's files (default: a new temporary folder)");

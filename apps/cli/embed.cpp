@@ -241,31 +241,36 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
                                         "Payload: a text, hashed to the 3m payload bits");
     command->add_option("--bits", args->bits, "Payload: exactly ceil(3m/4) hex digits, MSB first")
         ->excludes(message);
-    command->add_option("--basis", args->basis,
-                        "rbf: orthogonalized RBFs (Wu & Kobbelt); laplacian: mesh Laplacian "
-                        "eigenvectors (slow baseline; needs faces)")
+    command
+        ->add_option("--basis", args->basis,
+                     "rbf: orthogonalized RBFs (Wu & Kobbelt); laplacian: mesh Laplacian "
+                     "eigenvectors (slow baseline; needs faces)")
         ->check(CLI::IsMember({"rbf", "laplacian"}))
         ->capture_default_str();
     command->add_option("--basis-size", args->options.basis_size,
                         "k, basis functions (RBF centers or Laplacian eigenvectors)")
         ->capture_default_str();
-    command->add_option("--centers", args->centers,
-                        "RBF centers: random (from the seed) or decimate (a QEM decimation's "
-                        "survivors; needs faces)")
+    command
+        ->add_option("--centers", args->centers,
+                     "RBF centers: random (from the seed) or decimate (a QEM decimation's "
+                     "survivors; needs faces)")
         ->check(CLI::IsMember({"random", "decimate"}))
         ->capture_default_str();
     command->add_option("--coefficients", args->options.coefficients,
                         "m, payload bits per axis (3m payload bits)")
         ->capture_default_str();
-    command->add_option("--repetitions", args->options.repetitions,
-                        "r, coefficients per payload bit (m*r modes; same distortion, stronger verdict). "
-                        "auto: 5 from 5,000 vertices, else 4; 2 for a family key's owner mark; fewer, "
-                        "with a note, where the vertices span fewer modes. Recorded in the key")
+    command
+        ->add_option(
+            "--repetitions", args->options.repetitions,
+            "r, coefficients per payload bit (m*r modes; same distortion, stronger verdict). "
+            "auto: 5 from 5,000 vertices, else 4; 2 for a family key's owner mark; fewer, "
+            "with a note, where the vertices span fewer modes. Recorded in the key")
         ->transform(repetitions_choice())
         ->type_name("auto|INT")
         ->default_str("auto");
-    command->add_option("--first-mode", args->options.first_mode,
-                        "First modulated mode (the lowest are nearly rigid motions)")
+    command
+        ->add_option("--first-mode", args->options.first_mode,
+                     "First modulated mode (the lowest are nearly rigid motions)")
         ->capture_default_str();
     command->add_option("--rule", args->rule,
                         "additive: beta = alpha + b's (default); paper: beta = alpha(1 + b'rho)")
@@ -275,43 +280,53 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
                         "additive: the displacement as a fraction of the bbox diagonal, in "
                         "--strength-measure (default 0.00059 surface, 0.001 vertex); paper: rho "
                         "(default 0.01)");
-    command->add_option("--strength-measure", args->strength_measure,
-                        "additive: surface: RMS distance between the marked and the original surface "
-                        "(what MRMS reads); vertex: RMS vertex displacement")
+    command
+        ->add_option("--strength-measure", args->strength_measure,
+                     "additive: surface: RMS distance between the marked and the original surface "
+                     "(what MRMS reads); vertex: RMS vertex displacement")
         ->check(CLI::IsMember({"surface", "vertex"}))
         ->capture_default_str();
     command->add_option("--sigma-factor", args->options.sigma_factor,
                         "RBF support = factor * bbox diagonal / 2")
         ->capture_default_str();
-    command->add_option("--gram-rows", args->options.gram_rows,
-                        "RBF basis: Gram matrix from at most this many evenly spaced vertices (0 = all); "
-                        "bounds the cost on very large meshes (recorded in the key)")
+    command
+        ->add_option(
+            "--gram-rows", args->options.gram_rows,
+            "RBF basis: Gram matrix from at most this many evenly spaced vertices (0 = all); "
+            "bounds the cost on very large meshes (recorded in the key)")
         ->check(non_negative())
         ->capture_default_str();
     command->add_option("--seed", args->seed,
                         "Secret seed (centers, payload mask, random payload); random if absent");
-    command->add_option("--memory-budget", args->memory_budget,
-                        "MiB: above it a binary PLY is embedded out of core (same bytes and key); 0 = no "
-                        "budget")
+    command
+        ->add_option(
+            "--memory-budget", args->memory_budget,
+            "MiB: above it a binary PLY is embedded out of core (same bytes and key); 0 = no "
+            "budget")
         ->check(non_negative())
         ->capture_default_str();
     command->add_flag("--stream", args->stream,
                       "Always embed out of core (binary PLY in, .ply out)");
-    command->add_option("--recipient", args->recipients,
-                        "Issue a traceable copy to this recipient (repeatable); -o holds {recipient}, "
-                        "--key is the family key, created or extended (a known name gets the same "
-                        "bytes again). Safe from many calls at once (docs/fingerprinting.md)");
+    command->add_option(
+        "--recipient", args->recipients,
+        "Issue a traceable copy to this recipient (repeatable); -o holds {recipient}, "
+        "--key is the family key, created or extended (a known name gets the same "
+        "bytes again). Safe from many calls at once (docs/fingerprinting.md)");
     command->add_option("--recipients", args->recipients_file,
                         "File of recipient names, one per line ('#' comments), as --recipient")
         ->check(CLI::ExistingFile);
-    command->add_option("--recipient-modes", args->recipient_modes,
-                        "New family key: M, modes carrying each recipient's code")
+    command
+        ->add_option("--recipient-modes", args->recipient_modes,
+                     "New family key: M, modes carrying each recipient's code")
         ->capture_default_str();
-    command->add_option("--recipient-share", args->recipient_share,
-                        "New family key: the codes' share of the displacement energy")
+    command
+        ->add_option("--recipient-share", args->recipient_share,
+                     "New family key: the codes' share of the displacement energy")
         ->capture_default_str();
-    command->add_option("--lock-timeout", args->lock_timeout,
-                        "Seconds to wait while another call issues on (or writes) the same key, then fail")
+    command
+        ->add_option(
+            "--lock-timeout", args->lock_timeout,
+            "Seconds to wait while another call issues on (or writes) the same key, then fail")
         ->check(CLI::Range(0.0, 86400.0))
         ->capture_default_str();
     command->add_flag("--json", args->json, "Print a JSON report on stdout");

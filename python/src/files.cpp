@@ -20,7 +20,8 @@ namespace {
 
 using Path = std::filesystem::path;
 
-constexpr const char* kEmbedFileDoc = R"(Watermark a mesh file: `meshmark embed INPUT -o OUTPUT --key KEY_PATH`.
+constexpr const char* kEmbedFileDoc =
+    R"(Watermark a mesh file: `meshmark embed INPUT -o OUTPUT --key KEY_PATH`.
 
 Writes the marked copy (format from output's extension; everything but the positions is kept
 when it is the input's format) and the key file, atomically and together. Returns the report
@@ -31,7 +32,8 @@ of `meshmark embed --json` as a dict. Keywords: those of meshmark.embed, plus
   lock_timeout   seconds to wait while another call writes the same key (default 60)
 Raises meshmark.Error subclasses with the program's message.)";
 
-constexpr const char* kEmbedRecipientsDoc = R"(Issue one traceable copy per recipient: `meshmark embed INPUT --key KEY_PATH --recipient NAME... -o PATTERN --json`.
+constexpr const char* kEmbedRecipientsDoc =
+    R"(Issue one traceable copy per recipient: `meshmark embed INPUT --key KEY_PATH --recipient NAME... -o PATTERN --json`.
 
 output_pattern holds {recipient}; key_path is the family key, created if absent, else extended
 (a name it holds gets its copy again, byte for byte; a name given twice is issued once). Safe
@@ -77,11 +79,13 @@ void bind_files(py::module_& m)
         "where the format allows (binary PLY by default), so a file written here reads back exactly.");
     m.def(
         "embed_file",
-        [](const Path& input, const Path& output, const Path& key_path, py::object message, py::object bits,
-           py::object seed, py::object strength, std::string rule, std::string strength_measure, std::string basis, std::string centers,
-           int basis_size, int coefficients, py::object repetitions, int first_mode, double sigma_factor,
+        [](const Path& input, const Path& output, const Path& key_path, py::object message,
+           py::object bits, py::object seed, py::object strength, std::string rule,
+           std::string strength_measure, std::string basis, std::string centers, int basis_size,
+           int coefficients, py::object repetitions, int first_mode, double sigma_factor,
            std::int64_t gram_rows, int threads, bool force, std::int64_t memory_budget, bool stream,
-           double lock_timeout) {
+           double lock_timeout)
+        {
             if (!(lock_timeout >= 0.0))
             {
                 throw InvalidOption("lock_timeout must be >= 0 seconds.");
@@ -91,7 +95,8 @@ void bind_files(py::module_& m)
                                 repetitions, first_mode, sigma_factor, gram_rows, threads},
                                options);
             options.force = force;
-            options.lock_timeout = std::chrono::milliseconds(static_cast<std::int64_t>(1000.0 * lock_timeout));
+            options.lock_timeout =
+                std::chrono::milliseconds(static_cast<std::int64_t>(1000.0 * lock_timeout));
             options.replace_input = force;  // as the program: the output may name the input only with force
             options.memory_budget_mib = memory_budget;
             options.force_stream = stream;
@@ -102,30 +107,38 @@ void bind_files(py::module_& m)
             }
             return to_python(embed_report_json(*report, input.string(), output.string(), key_path.string()));
         },
-        py::arg("input"), py::arg("output"), py::arg("key_path"), py::kw_only(), py::arg("message") = py::none(),
-        py::arg("bits") = py::none(), py::arg("seed") = py::none(), py::arg("strength") = py::none(),
-        py::arg("rule") = "additive", py::arg("strength_measure") = "surface", py::arg("basis") = "rbf", py::arg("centers") = "random",
-        py::arg("basis_size") = EmbedOptions{}.basis_size, py::arg("coefficients") = EmbedOptions{}.coefficients,
-        py::arg("repetitions") = "auto", py::arg("first_mode") = EmbedOptions{}.first_mode,
-        py::arg("sigma_factor") = EmbedOptions{}.sigma_factor, py::arg("gram_rows") = EmbedOptions{}.gram_rows,
-        py::arg("threads") = 0, py::arg("force") = false, py::arg("memory_budget") = 0, py::arg("stream") = false,
-        py::arg("lock_timeout") = std::chrono::duration<double>(kDefaultLockTimeout).count(), kEmbedFileDoc);
+        py::arg("input"), py::arg("output"), py::arg("key_path"), py::kw_only(),
+        py::arg("message") = py::none(), py::arg("bits") = py::none(), py::arg("seed") = py::none(),
+        py::arg("strength") = py::none(), py::arg("rule") = "additive",
+        py::arg("strength_measure") = "surface", py::arg("basis") = "rbf",
+        py::arg("centers") = "random", py::arg("basis_size") = EmbedOptions{}.basis_size,
+        py::arg("coefficients") = EmbedOptions{}.coefficients, py::arg("repetitions") = "auto",
+        py::arg("first_mode") = EmbedOptions{}.first_mode,
+        py::arg("sigma_factor") = EmbedOptions{}.sigma_factor,
+        py::arg("gram_rows") = EmbedOptions{}.gram_rows, py::arg("threads") = 0,
+        py::arg("force") = false, py::arg("memory_budget") = 0, py::arg("stream") = false,
+        py::arg("lock_timeout") = std::chrono::duration<double>(kDefaultLockTimeout).count(),
+        kEmbedFileDoc);
 
     m.def(
         "embed_recipients",
         [](const Path& input, const std::string& output_pattern, const Path& key_path,
-           const std::vector<std::string>& recipients, py::object message, py::object bits, py::object seed,
-           py::object strength, std::string strength_measure, int basis_size, int coefficients, py::object repetitions,
-           int first_mode, double sigma_factor, std::int64_t gram_rows, int recipient_modes, double recipient_share,
-           double lock_timeout, int threads) {
+           const std::vector<std::string>& recipients, py::object message, py::object bits,
+           py::object seed, py::object strength, std::string strength_measure, int basis_size,
+           int coefficients, py::object repetitions, int first_mode, double sigma_factor,
+           std::int64_t gram_rows, int recipient_modes, double recipient_share, double lock_timeout,
+           int threads)
+        {
             EmbedRecipientsOptions options;
-            fill_embed_options({message, bits, seed, strength, "additive", strength_measure, "rbf", "random",
-                                basis_size, coefficients, repetitions, first_mode, sigma_factor, gram_rows, threads},
+            fill_embed_options({message, bits, seed, strength, "additive", strength_measure, "rbf",
+                                "random", basis_size, coefficients, repetitions, first_mode,
+                                sigma_factor, gram_rows, threads},
                                options);
-            if (repetitions.is_none() || (py::isinstance<py::str>(repetitions) &&
-                                          repetitions.cast<std::string>() == "auto"))
+            if (repetitions.is_none() ||
+                (py::isinstance<py::str>(repetitions) && repetitions.cast<std::string>() == "auto"))
             {
-                options.embed.repetitions = kFamilyRepetitions;  // as the program: the owner's mark of a family
+                // As the program: the owner's mark of a family.
+                options.embed.repetitions = kFamilyRepetitions;
             }
             options.recipients = recipients;
             options.recipient_modes = recipient_modes;
@@ -134,23 +147,28 @@ void bind_files(py::module_& m)
             {
                 throw InvalidOption("lock_timeout must be >= 0 seconds.");
             }
-            options.lock_timeout = std::chrono::milliseconds(static_cast<std::int64_t>(1000.0 * lock_timeout));
+            options.lock_timeout =
+                std::chrono::milliseconds(static_cast<std::int64_t>(1000.0 * lock_timeout));
             std::optional<EmbedRecipientsReport> report;
             {
                 py::gil_scoped_release release;
                 report.emplace(embed_recipients(input, output_pattern, key_path, options));
             }
-            return to_python(embed_recipients_report_json(*report, input.string(), key_path.string()));
+            return to_python(
+                embed_recipients_report_json(*report, input.string(), key_path.string()));
         },
-        py::arg("input"), py::arg("output_pattern"), py::arg("key_path"), py::arg("recipients"), py::kw_only(),
-        py::arg("message") = py::none(), py::arg("bits") = py::none(), py::arg("seed") = py::none(),
-        py::arg("strength") = py::none(), py::arg("strength_measure") = "surface",
-        py::arg("basis_size") = EmbedOptions{}.basis_size, py::arg("coefficients") = EmbedOptions{}.coefficients,
-        py::arg("repetitions") = "auto", py::arg("first_mode") = EmbedOptions{}.first_mode,
-        py::arg("sigma_factor") = EmbedOptions{}.sigma_factor, py::arg("gram_rows") = EmbedOptions{}.gram_rows,
-        py::arg("recipient_modes") = RecipientCodes{}.modes, py::arg("recipient_share") = RecipientCodes{}.energy_share,
-        py::arg("lock_timeout") = std::chrono::duration<double>(kDefaultLockTimeout).count(), py::arg("threads") = 0,
-        kEmbedRecipientsDoc);
+        py::arg("input"), py::arg("output_pattern"), py::arg("key_path"), py::arg("recipients"),
+        py::kw_only(), py::arg("message") = py::none(), py::arg("bits") = py::none(),
+        py::arg("seed") = py::none(), py::arg("strength") = py::none(),
+        py::arg("strength_measure") = "surface", py::arg("basis_size") = EmbedOptions{}.basis_size,
+        py::arg("coefficients") = EmbedOptions{}.coefficients, py::arg("repetitions") = "auto",
+        py::arg("first_mode") = EmbedOptions{}.first_mode,
+        py::arg("sigma_factor") = EmbedOptions{}.sigma_factor,
+        py::arg("gram_rows") = EmbedOptions{}.gram_rows,
+        py::arg("recipient_modes") = RecipientCodes{}.modes,
+        py::arg("recipient_share") = RecipientCodes{}.energy_share,
+        py::arg("lock_timeout") = std::chrono::duration<double>(kDefaultLockTimeout).count(),
+        py::arg("threads") = 0, kEmbedRecipientsDoc);
 
     m.def(
         "detect_file",

@@ -130,12 +130,16 @@ Soup referenced_soup(const TriangleMesh& mesh)
 // predicate; coincident corners included). CGAL's isotropic remeshing assumes there are none:
 // a part collapsed to a point crashed it (SIGSEGV in its tangential relaxation). Returns the
 // number dropped.
-std::size_t drop_degenerate_triangles(const std::vector<CgalPoint>& points, std::vector<Triangle>& triangles)
+std::size_t drop_degenerate_triangles(const std::vector<CgalPoint>& points,
+                                      std::vector<Triangle>& triangles)
 {
     const auto before = triangles.size();
-    std::erase_if(triangles, [&points](const Triangle& t) {
-        return t[0] == t[1] || t[1] == t[2] || t[2] == t[0] || CGAL::collinear(points[t[0]], points[t[1]], points[t[2]]);
-    });
+    std::erase_if(triangles,
+                  [&points](const Triangle& t)
+                  {
+                      return t[0] == t[1] || t[1] == t[2] || t[2] == t[0] ||
+                             CGAL::collinear(points[t[0]], points[t[1]], points[t[2]]);
+                  });
     return before - triangles.size();
 }
 

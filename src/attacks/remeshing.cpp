@@ -12,9 +12,9 @@
 #include <CGAL/Polygon_mesh_processing/measure.h>
 #include <CGAL/Polygon_mesh_processing/remesh.h>
 
-#include "meshmark/core/error.h"
 #include "attacks/detail/cgal_mesh.h"
 #include "attacks/detail/format.h"
+#include "meshmark/core/error.h"
 
 namespace meshmark {
 namespace {
@@ -82,7 +82,8 @@ void RemeshingOptions::validate() const
 TriangleMesh remesh(const TriangleMesh& mesh, const RemeshingOptions& options)
 {
     options.validate();
-    const double target = std::max(4.0, std::round(options.vertex_fraction * distinct_positions(mesh)));
+    const double target =
+        std::max(4.0, std::round(options.vertex_fraction * distinct_positions(mesh)));
     // Welded: isotropic remeshing rebuilds the surface, wherever a file split its vertices (a
     // soup of separate triangles cannot be remeshed at all: its vertex count would not change).
     const detail::SurfaceMesh input = detail::to_surface_mesh(mesh, "remesh", /*weld=*/true);

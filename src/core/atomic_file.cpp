@@ -1,15 +1,15 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/core/atomic_file.h"
 
+#include <cerrno>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include <ext/stdio_filebuf.h>
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
-
-#include <cerrno>
-#include <cstring>
-#include <ext/stdio_filebuf.h>
-#include <string>
-#include <vector>
 
 #include "meshmark/core/error.h"
 
@@ -60,8 +60,8 @@ void create_parent_directories(const std::filesystem::path& path)
     // The missing folders, innermost first.
     std::vector<std::filesystem::path> missing;
     std::error_code ec;
-    for (std::filesystem::path folder = path.parent_path(); !folder.empty() && !std::filesystem::exists(folder, ec);
-         folder = folder.parent_path())
+    for (std::filesystem::path folder = path.parent_path();
+         !folder.empty() && !std::filesystem::exists(folder, ec); folder = folder.parent_path())
     {
         missing.push_back(folder);
         if (folder == folder.parent_path())
@@ -79,11 +79,12 @@ void create_parent_directories(const std::filesystem::path& path)
     {
         if (!std::filesystem::create_directory(*folder, ec) && ec)
         {
-            throw IoError(path.string() + ": cannot create its folder " + folder->string() + " (" + ec.message() +
-                          ").");
+            throw IoError(path.string() + ": cannot create its folder " + folder->string() + " (" +
+                          ec.message() + ").");
         }
         // Made durable in its parent, like a file's rename.
-        sync_directory(folder->parent_path().empty() ? std::filesystem::path(".") : folder->parent_path());
+        sync_directory(folder->parent_path().empty() ? std::filesystem::path(".")
+                                                     : folder->parent_path());
     }
 }
 
@@ -133,7 +134,9 @@ void write_file_atomically(const std::filesystem::path& path,
 
 FileIdentity file_identity(const std::filesystem::path& path)
 {
-    struct stat st{};
+    struct stat st
+    {
+    };
     if (::stat(path.c_str(), &st) != 0)
     {
         return {};

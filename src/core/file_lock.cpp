@@ -5,11 +5,6 @@
 // no way to clean its lock file up; what is needed here is a dozen system calls.
 #include "meshmark/core/file_lock.h"
 
-#include <fcntl.h>
-#include <sys/file.h>
-#include <sys/stat.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <cerrno>
 #include <cstdio>
@@ -18,9 +13,15 @@
 #include <thread>
 #include <utility>
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include "meshmark/core/error.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 std::filesystem::path lock_companion(const std::filesystem::path& path)
 {
@@ -31,7 +32,9 @@ std::filesystem::path lock_companion(const std::filesystem::path& path)
 }
 
 FileLock::FileLock(FileLock&& other) noexcept
-    : fd_(std::exchange(other.fd_, -1)), companion_(std::move(other.companion_)), waited_(other.waited_)
+    : fd_(std::exchange(other.fd_, -1)),
+      companion_(std::move(other.companion_)),
+      waited_(other.waited_)
 {
 }
 
@@ -79,17 +82,22 @@ FileLock lock_file(const std::filesystem::path& path, const FileLockOptions& opt
         if (fd < 0)
         {
             const int error = errno;
-            throw IoError(path.string() + ": cannot create the lock file " + companion.filename().string() +
-                          " beside it (" + std::strerror(error) + ").");
+            throw IoError(path.string() + ": cannot create the lock file " +
+                          companion.filename().string() + " beside it (" + std::strerror(error) +
+                          ").");
         }
         if (::flock(fd, LOCK_EX | LOCK_NB) == 0)
         {
             // Ours, unless the holder we waited for removed this file on release (or another
             // one was created since): then the lock guards nothing; try again.
-            struct stat held{};
-            struct stat named{};
-            if (::fstat(fd, &held) == 0 && ::stat(companion.c_str(), &named) == 0 && held.st_dev == named.st_dev &&
-                held.st_ino == named.st_ino)
+            struct stat held
+            {
+            };
+            struct stat named
+            {
+            };
+            if (::fstat(fd, &held) == 0 && ::stat(companion.c_str(), &named) == 0 &&
+                held.st_dev == named.st_dev && held.st_ino == named.st_ino)
             {
                 const double waited = std::chrono::duration<double>(Clock::now() - start).count();
                 return FileLock(fd, companion, waited);
@@ -108,7 +116,8 @@ FileLock lock_file(const std::filesystem::path& path, const FileLockOptions& opt
             const double waited = std::chrono::duration<double>(Clock::now() - start).count();
             char seconds[32];
             std::snprintf(seconds, sizeof seconds, "%.1f", waited);
-            throw IoError(path.string() + ": still in use by another meshmark call after " + seconds +
+            throw IoError(path.string() + ": still in use by another meshmark call after " +
+                          seconds +
                           " s of waiting; try again later or wait longer (--lock-timeout).");
         }
         if (!told && options.on_wait)

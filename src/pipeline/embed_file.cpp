@@ -1,19 +1,19 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/pipeline/embed_file.h"
 
-#include <unistd.h>
-
 #include <fstream>
 #include <iterator>
 #include <optional>
 #include <random>
 #include <thread>
 
+#include <unistd.h>
+
+#include "embed_streamed.h"
 #include "meshmark/core/atomic_file.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/file_lock.h"
 #include "meshmark/meshmark.h"
-#include "embed_streamed.h"
 #include "timer.h"
 
 namespace meshmark {
@@ -34,7 +34,8 @@ void check_paths(const std::filesystem::path& input, const std::filesystem::path
     }
     if (!force && std::filesystem::exists(key_path))
     {
-        throw InvalidOption(key_path.string() + ": " + detail::kKeyExists + " Choose another --key or pass --force.");
+        throw InvalidOption(key_path.string() + ": " + detail::kKeyExists +
+                            " Choose another --key or pass --force.");
     }
 }
 
@@ -98,8 +99,8 @@ void EmbedFileOptions::validate() const
 
 namespace detail {
 
-double write_mesh_and_key(const std::filesystem::path& key_path, const Key& key, const EmbedFileOptions& options,
-                          const std::function<void()>& write_mesh)
+double write_mesh_and_key(const std::filesystem::path& key_path, const Key& key,
+                          const EmbedFileOptions& options, const std::function<void()>& write_mesh)
 {
     // Recorded before released (docs/reliability.md): the key is durable at its path before the
     // copy it traces is written, so a crash at any moment leaves no marked copy without its key.
@@ -111,7 +112,8 @@ double write_mesh_and_key(const std::filesystem::path& key_path, const Key& key,
     {
         if (!options.force)
         {
-            throw InvalidOption(key_path.string() + ": " + kKeyExists + " Choose another --key or pass --force.");
+            throw InvalidOption(key_path.string() + ": " + kKeyExists +
+                                " Choose another --key or pass --force.");
         }
         std::ifstream in(key_path, std::ios::binary);
         previous.emplace(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
@@ -153,7 +155,9 @@ FileLock lock_key(const std::filesystem::path& key_path, std::chrono::millisecon
                   const ProgressCallback& progress)
 {
     create_parent_directories(key_path);
-    return lock_file(key_path, {.timeout = timeout, .on_wait = [&] {
+    return lock_file(key_path, {.timeout = timeout,
+                                .on_wait = [&]
+                                {
                                     if (progress)
                                     {
                                         progress("wait for the key", 0.0);
@@ -250,10 +254,10 @@ EmbedReport embed_to_new_file(const std::filesystem::path& input, const std::fil
     embed_into(marked, timer, file.mesh, input, options);
     timer.begin("write");
     // (A binary PLY goes out in slices of the original bytes: no second copy of the file.)
-    const double waited = detail::write_mesh_and_key(key_path, marked.key, options,
-                                                     [&]() { write_mesh_file(output, file, marked.positions); });
+    const double waited = detail::write_mesh_and_key(
+        key_path, marked.key, options, [&]() { write_mesh_file(output, file, marked.positions); });
     timer.lap("write");
-    report.seconds.phases.emplace_back("lock", waited);  // the part of "write" spent waiting for the key
+    report.seconds.phases.emplace_back("lock", waited);  // the part of "write" spent waiting
     report.key = std::move(marked.key);
     report.stats = marked.stats;
     return report;

@@ -7,20 +7,20 @@
 #include <chrono>
 #include <exception>
 #include <future>
+#include <limits>
 #include <mutex>
 #include <optional>
-#include <limits>
 #include <set>
 #include <string>
 #include <unordered_map>
 
+#include "embed_streamed.h"
 #include "meshmark/core/atomic_file.h"
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/file_lock.h"
 #include "meshmark/core/threads.h"
 #include "meshmark/metrics/distortion.h"
-#include "embed_streamed.h"
 #include "timer.h"
 
 namespace meshmark {
@@ -214,7 +214,8 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
             key.recipients->validate(key.options);
             key.original = original;
             mark.emplace(watermark_of(file.mesh, key, input, options.threads));
-            key.options = mark->key().options;  // the automatic repetitions, as the watermark resolved them
+            // The automatic repetitions, as the watermark resolved them.
+            key.options = mark->key().options;
             owner = mark->displacement(&owner_stats);
             // A new family key is calibrated on the owner's mark, at its share of the energy
             // (docs/algorithms/embedding.md, "Strength"); each copy's code is scaled below.
@@ -361,7 +362,8 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
                 const Eigen::RowVector3d d = positions[b].row(i) - file.mesh.V.row(i);
                 summary.add(d.data());
             }
-            mark->describe(summary, diagonal, owner_stats.orthogonality_error, &report.copies[first + b].stats);
+            mark->describe(summary, diagonal, owner_stats.orthogonality_error,
+                           &report.copies[first + b].stats);
             report.copies[first + b].stats.surface_rms_rel = diagonal > 0.0 ? surface[b] / diagonal : 0.0;
         }
         code_seconds += seconds_since(code_start);
@@ -451,7 +453,7 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
     timer.lap("copies");
     report.seconds.phases.emplace_back("codes", code_seconds);
     report.seconds.phases.emplace_back("write", write_seconds);
-    report.seconds.phases.emplace_back("lock", waited);  // the part of "basis" spent waiting for the key
+    report.seconds.phases.emplace_back("lock", waited);  // the part of "basis" spent waiting
     report.key = std::move(key);
     return report;
 }

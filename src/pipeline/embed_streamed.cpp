@@ -420,28 +420,35 @@ EmbedReport embed_file_streamed(const PlyStream& file, const std::filesystem::pa
     const std::size_t in_flight = chunks_in_flight(options, chunk_bytes);
     const Eigen::MatrixX3d change = mark.coefficient_change();
     const auto active = static_cast<double>(referenced.active);
-    const double waited = write_mesh_and_key(key_path, key, options, [&]() {
-        write_file_atomically(output, [&](std::ostream& out) {
-            PlyDisplacedCopy writer(file, referenced, output, out, window);
-            DisplacementSummary summary;
-            double orthogonality = 0.0;
-            mark.basis().synthesize_streamed(
-                change, in_flight,
-                [&](std::size_t begin, std::size_t rows, const double* field) {
-                    for (std::size_t i = 0; i < rows; ++i)
-                    {
-                        summary.add(field + 3 * i);
-                    }
-                    writer.add(rows, field);
-                    progress("write", static_cast<double>(begin + rows) / active);
-                },
-                &orthogonality);
-            writer.finish();
-            mark.describe(summary, box.diagonal(), orthogonality, &report.stats);
+    const double waited = write_mesh_and_key(
+        key_path, key, options,
+        [&]()
+        {
+            write_file_atomically(
+                output,
+                [&](std::ostream& out)
+                {
+                    PlyDisplacedCopy writer(file, referenced, output, out, window);
+                    DisplacementSummary summary;
+                    double orthogonality = 0.0;
+                    mark.basis().synthesize_streamed(
+                        change, in_flight,
+                        [&](std::size_t begin, std::size_t rows, const double* field)
+                        {
+                            for (std::size_t i = 0; i < rows; ++i)
+                            {
+                                summary.add(field + 3 * i);
+                            }
+                            writer.add(rows, field);
+                            progress("write", static_cast<double>(begin + rows) / active);
+                        },
+                        &orthogonality);
+                    writer.finish();
+                    mark.describe(summary, box.diagonal(), orthogonality, &report.stats);
+                });
         });
-    });
     timer.lap("write");
-    report.seconds.phases.emplace_back("lock", waited);  // the part of "write" spent waiting for the key
+    report.seconds.phases.emplace_back("lock", waited);  // the part of "write" spent waiting
     report.key = std::move(key);
     return report;
 }

@@ -29,13 +29,14 @@ inline constexpr const char* kKeyExists =
 /// \return The seconds spent waiting for the lock.
 /// \throws InvalidOption (an existing key without force), IoError (the lock's wait expired, a
 /// write failed) and whatever \p write_mesh throws.
-double write_mesh_and_key(const std::filesystem::path& key_path, const Key& key, const EmbedFileOptions& options,
-                          const std::function<void()>& write_mesh);
+double write_mesh_and_key(const std::filesystem::path& key_path, const Key& key,
+                          const EmbedFileOptions& options, const std::function<void()>& write_mesh);
 
 /// \brief The lock that makes every change of the key at \p key_path one step (FileLock), its
 /// missing folders created first; while it waits, \p progress hears "wait for the key".
 /// \throws IoError when \p timeout expires or the folder cannot be made.
-[[nodiscard]] FileLock lock_key(const std::filesystem::path& key_path, std::chrono::milliseconds timeout,
+[[nodiscard]] FileLock lock_key(const std::filesystem::path& key_path,
+                                std::chrono::milliseconds timeout,
                                 const ProgressCallback& progress);
 
 /// \brief The input, opened and analysed once, when \p options ask for an out-of-core embed:

@@ -53,9 +53,10 @@ TEST(DemoTest, demo_succeeds_and_draws_the_mark)
 
     // The demo's picture is `compare --heatmap` of its original and marked copy, byte for byte:
     // one quantity (each vertex's distance to the original surface), one scale, one legend.
-    const std::string compare = "\"" + test::cli_path().string() + "\" compare \"" + (dir / "original.ply").string() +
-                                "\" \"" + (dir / "marked.ply").string() + "\" --heatmap \"" +
-                                (dir / "compare.png").string() + "\" --threads 2 -q > /dev/null 2>&1";
+    const std::string compare =
+        "\"" + test::cli_path().string() + "\" compare \"" + (dir / "original.ply").string() +
+        "\" \"" + (dir / "marked.ply").string() + "\" --heatmap \"" +
+        (dir / "compare.png").string() + "\" --threads 2 -q > /dev/null 2>&1";
     const int compared = std::system(compare.c_str());
     ASSERT_TRUE(WIFEXITED(compared));
     ASSERT_EQ(WEXITSTATUS(compared), 0);

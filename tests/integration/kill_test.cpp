@@ -9,16 +9,15 @@
 // MESHMARK_KILL_TRIALS (default 20) and MESHMARK_KILL_SUBDIVISIONS (loop subdivision steps of
 // the 48K-vertex horse: 1 -> 194K vertices, 2 -> 776K) set the size of the run; the `slow`
 // build of this file uses 2 and 60.
-#include <gtest/gtest.h>
-#include <signal.h>
-
 #include <array>
 #include <chrono>
 #include <cstdio>
 #include <map>
 #include <thread>
 
+#include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <signal.h>
 
 #include "meshmark/core/file_lock.h"
 #include "meshmark/core/rng.h"

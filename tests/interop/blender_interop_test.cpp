@@ -3,11 +3,11 @@
 // own voxel remesh (Remesh modifier, Voxel mode, adaptivity 0, Voxel Size = diagonal / N) of the
 // same mesh. Both run OpenVDB's level set and surface extraction, so they must give the same
 // vertices; only their order and the split of Blender's quads into triangles may differ.
-#include <gtest/gtest.h>
-
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include <gtest/gtest.h>
 
 #include "interop_support.h"
 #include "meshmark/geometry/shapes.h"
@@ -62,17 +62,19 @@ TEST(BlenderInterop, AnObjWithLooseEdgesIsMarkedAndKeptLineForLine)
     INTEROP_REQUIRE_TOOLS("meshmark", "blender");
     const fs::path scratch = temp_dir("interop-blender-wire");
     const fs::path input = scratch / "wire.obj";
-    const ToolRun blender = run({tools().blender.string(), "-b", "--factory-startup", "--python-exit-code", "2",
-                                 "--python", (fs::path(MESHMARK_INTEROP_DIR) / "blender_wire_obj.py").string(), "--",
-                                 input.string()},
-                                scratch);
+    const ToolRun blender = run(
+        {tools().blender.string(), "-b", "--factory-startup", "--python-exit-code", "2", "--python",
+         (fs::path(MESHMARK_INTEROP_DIR) / "blender_wire_obj.py").string(), "--", input.string()},
+        scratch);
     ASSERT_TRUE(blender.ok() && fs::exists(input)) << blender.describe();
     const fs::path marked = scratch / "marked.obj";
     const fs::path key = scratch / "key.json";
-    const ToolRun embed = meshmark({"embed", input.string(), "-o", marked.string(), "--key", key.string(), "-q"}, scratch);
+    const ToolRun embed = meshmark(
+        {"embed", input.string(), "-o", marked.string(), "--key", key.string(), "-q"}, scratch);
     ASSERT_TRUE(embed.ok()) << embed.describe();
 
-    const auto lines = [](const fs::path& path) {
+    const auto lines = [](const fs::path& path)
+    {
         std::vector<std::string> all;
         std::istringstream in(file_bytes(path));
         for (std::string line; std::getline(in, line);)
@@ -98,15 +100,17 @@ TEST(BlenderInterop, AnObjWithLooseEdgesIsMarkedAndKeptLineForLine)
     EXPECT_EQ(loose_edges, 19);
     const TriangleMesh original = read_mesh(input);
     const TriangleMesh copy = read_mesh(marked);
-    const auto wire = static_cast<Eigen::Index>(original.V.rows() - static_cast<Eigen::Index>(referenced_vertices(original).size()));
+    const auto wire = static_cast<Eigen::Index>(
+        original.V.rows() - static_cast<Eigen::Index>(referenced_vertices(original).size()));
     EXPECT_EQ(wire, 21);  // the cable's 20 vertices and the loose one
     EXPECT_EQ(moved, static_cast<int>(referenced_vertices(original).size()));
     for (Eigen::Index i = original.V.rows() - wire; i < original.V.rows(); ++i)
     {
         EXPECT_EQ(copy.V.row(i), original.V.row(i)) << "wire vertex " << i;
     }
-    const ToolRun detect =
-        meshmark({"detect", marked.string(), "--original", input.string(), "--key", key.string(), "-q"}, scratch);
+    const ToolRun detect = meshmark(
+        {"detect", marked.string(), "--original", input.string(), "--key", key.string(), "-q"},
+        scratch);
     EXPECT_EQ(detect.result.exit_code, 0) << detect.describe();
 }
 

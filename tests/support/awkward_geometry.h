@@ -7,16 +7,17 @@
 // vertices (a triangle soup), and all of these at once. Fixed seed: the same variants every run.
 #pragma once
 
-#include <Eigen/Geometry>
-
 #include <string>
 #include <utility>
 #include <vector>
 
+#include <Eigen/Geometry>
+
 #include "meshmark/core/rng.h"
 #include "meshmark/core/triangle_mesh.h"
 
-namespace meshmark::test {
+namespace meshmark::test
+{
 
 using Variant = std::pair<std::string, TriangleMesh>;
 
@@ -56,7 +57,8 @@ inline std::vector<Variant> awkward_variants(const TriangleMesh& scan)
     const Eigen::RowVector3d centre = scan.V.colwise().mean();
     const auto faces = scan.F.rows();
     const auto vertices = scan.V.rows();
-    const auto pick = [&](Eigen::Index n) { return static_cast<Eigen::Index>(rng.uniform(0.0, 1.0) * static_cast<double>(n)) % n; };
+    const auto pick = [&](Eigen::Index n)
+    { return static_cast<Eigen::Index>(rng.uniform(0.0, 1.0) * static_cast<double>(n)) % n; };
     std::vector<Variant> out;
 
     TriangleMesh fins = scan;  // a third face on 200 edges: non-manifold edges
@@ -118,7 +120,8 @@ inline std::vector<Variant> awkward_variants(const TriangleMesh& scan)
     add_faces(duplicated, again);
     out.emplace_back("duplicated", duplicated);
 
-    TriangleMesh degenerate = scan;  // 1% repeated corners, 1% needles (a corner on the opposite edge)
+    // 1% repeated corners, 1% needles (a corner on the opposite edge).
+    TriangleMesh degenerate = scan;
     for (Eigen::Index k = 0; k < faces / 100; ++k)
     {
         degenerate.F(pick(faces), 2) = degenerate.F(pick(faces), 0);
@@ -132,8 +135,9 @@ inline std::vector<Variant> awkward_variants(const TriangleMesh& scan)
     isolated.V.conservativeResize(vertices + 300, 3);
     for (Eigen::Index i = vertices; i < isolated.V.rows(); ++i)
     {
-        isolated.V.row(i) = centre + diagonal * Eigen::RowVector3d(rng.uniform(-0.5, 0.5), rng.uniform(-0.5, 0.5),
-                                                                     rng.uniform(-0.5, 0.5));
+        isolated.V.row(i) =
+            centre + diagonal * Eigen::RowVector3d(rng.uniform(-0.5, 0.5), rng.uniform(-0.5, 0.5),
+                                                   rng.uniform(-0.5, 0.5));
     }
     out.emplace_back("isolated", isolated);
 
@@ -141,7 +145,8 @@ inline std::vector<Variant> awkward_variants(const TriangleMesh& scan)
     for (int k = 0; k < 20; ++k)
     {
         TriangleMesh small = scan;
-        const Eigen::RowVector3d offset(rng.uniform(-1.0, 1.0), rng.uniform(-1.0, 1.0), rng.uniform(-1.0, 1.0));
+        const Eigen::RowVector3d offset(rng.uniform(-1.0, 1.0), rng.uniform(-1.0, 1.0),
+                                        rng.uniform(-1.0, 1.0));
         for (Eigen::Index i = 0; i < vertices; ++i)
         {
             small.V.row(i) = centre + 0.1 * (scan.V.row(i) - centre) + diagonal * offset;

@@ -9,9 +9,9 @@ namespace meshmark {
 struct RemeshingOptions
 {
     /// Target vertex count as a fraction of the referenced vertices, counted once per position
-    /// (a vertex a file split at a seam, or a triangle soup's corners, once); the levels used in the
-    /// benchmarks are 0.25 and 0.05. Range (0, 1] (remeshing a uniform mesh finer goes by
-    /// whole edge splits, so a refinement target cannot be met within 10%).
+    /// (a vertex a file split at a seam, or a triangle soup's corners, once); the levels used in
+    /// the benchmarks are 0.25 and 0.05. Range (0, 1] (remeshing a uniform mesh finer goes by whole
+    /// edge splits, so a refinement target cannot be met within 10%).
     double vertex_fraction = 0.25;
     /// Iterations of each isotropic remeshing pass (split, collapse, flip, relax, project).
     /// Range 1..20.

@@ -22,11 +22,11 @@ struct AtomicWriteOptions
 void create_parent_directories(const std::filesystem::path& path);
 
 /// \brief Write a file so that it either appears complete or not at all.
-/// \details Creates missing folders of \p path (create_parent_directories), then calls \p write with a stream on a temporary file created next to \p path (same
-/// directory, so the final rename is atomic), flushes and fsyncs it, then renames it over
-/// \p path and fsyncs the folder: once this returns, the file survives a crash. If \p write
-/// throws, or any step fails, the temporary file is removed and nothing at \p path changes. A
-/// file is never opened for writing at \p path itself.
+/// \details Creates missing folders of \p path (create_parent_directories), then calls \p write
+/// with a stream on a temporary file created next to \p path (same directory, so the final rename
+/// is atomic), flushes and fsyncs it, then renames it over \p path and fsyncs the folder: once this
+/// returns, the file survives a crash. If \p write throws, or any step fails, the temporary file is
+/// removed and nothing at \p path changes. A file is never opened for writing at \p path itself.
 /// \throws IoError naming \p path when the directory is not writable or a write fails;
 /// exceptions from \p write are passed on after the cleanup.
 void write_file_atomically(const std::filesystem::path& path,

@@ -5,7 +5,8 @@
 #include <filesystem>
 #include <functional>
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// How long lock_file waits for a lock another process or thread holds, by default.
 inline constexpr std::chrono::milliseconds kDefaultLockTimeout{60'000};
@@ -60,6 +61,7 @@ private:
 /// \brief Take the exclusive lock on \p path (which need not exist), waiting up to the timeout.
 /// \throws IoError naming \p path when the wait expires (with the time waited) or the companion
 /// file cannot be created (its directory missing or not writable).
-[[nodiscard]] FileLock lock_file(const std::filesystem::path& path, const FileLockOptions& options = {});
+[[nodiscard]] FileLock lock_file(const std::filesystem::path& path,
+                                 const FileLockOptions& options = {});
 
 }  // namespace meshmark

@@ -30,7 +30,8 @@ using SurfaceMesh = CGAL::Surface_mesh<CgalPoint>;
 /// \param weld    Also repair (and so merge) when two vertices are at the same position: the
 ///                surface of a triangle soup or of a mesh split at its seams as one piece.
 /// \throws InvalidMesh when the mesh has no faces, or no usable face is left after repair.
-[[nodiscard]] SurfaceMesh to_surface_mesh(const TriangleMesh& mesh, std::string_view attack, bool weld = false);
+[[nodiscard]] SurfaceMesh to_surface_mesh(const TriangleMesh& mesh, std::string_view attack,
+                                          bool weld = false);
 
 /// \brief The vertices (renumbered densely, in CGAL's order) and triangles of \p surface.
 /// \pre Every face of \p surface is a triangle.

@@ -2,32 +2,46 @@
 // Every attack of the suite, at its default level, on awkward geometry made from a real scan
 // (the shared bunny.off, open at its base; tests/support/awkward_geometry.h). None may crash
 // (the sanitizer job runs this file too): each attack either returns a mesh whose indices are
-// in range and whose positions are finite, or refuses with meshmark::Error. Before the degenerate triangles were dropped ahead of CGAL, `remesh` on the
-// collapsed part died with SIGSEGV in CGAL's tangential relaxation.
-#include <gtest/gtest.h>
+// in range and whose positions are finite, or refuses with meshmark::Error. Before the degenerate
+// triangles were dropped ahead of CGAL, `remesh` on the collapsed part died with SIGSEGV in CGAL's
+// tangential relaxation.
+#include "support/awkward_geometry.h"
 
 #include <filesystem>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include <gtest/gtest.h>
+
 #include "meshmark/attacks/attack_spec.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/rng.h"
 #include "meshmark/io/mesh_io.h"
-#include "support/awkward_geometry.h"
 #include "support/test_paths.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 // The suite's attacks at their default levels (`meshmark attack --help`).
-const std::vector<std::string> kAttacks = {"similarity", "noise",           "smooth",         "taubin",
-                                           "quantize",   "simplify",        "remesh",         "subdivide",
-                                           "subdivide=midpoint", "subdivide=sqrt3", "crop", "reorder",
+const std::vector<std::string> kAttacks = {"similarity",
+                                           "noise",
+                                           "smooth",
+                                           "taubin",
+                                           "quantize",
+                                           "simplify",
+                                           "remesh",
+                                           "subdivide",
+                                           "subdivide=midpoint",
+                                           "subdivide=sqrt3",
+                                           "crop",
+                                           "reorder",
                                            "voxel"};
 
-TEST(AwkwardGeometryTest, every_attack_on_every_awkward_variant_of_a_real_scan_returns_a_mesh_or_refuses)
+TEST(AwkwardGeometryTest,
+     every_attack_on_every_awkward_variant_of_a_real_scan_returns_a_mesh_or_refuses)
 {
     const auto path = test::mesh_dir() / "bunny.off";
     if (!std::filesystem::exists(path))

@@ -67,19 +67,22 @@ TEST(AtomicFileTest, refuses_overwrite_when_asked)
 TEST(AtomicFileTest, creates_missing_folders_and_names_one_that_cannot_be)
 {
     const auto dir = test::temp_dir("atomic4");
-    write_file_atomically(dir / "copies" / "deeper" / "f.txt", [](std::ostream& out) { out << "y"; });
+    write_file_atomically(dir / "copies" / "deeper" / "f.txt",
+                          [](std::ostream& out) { out << "y"; });
     EXPECT_EQ(slurp(dir / "copies" / "deeper" / "f.txt"), "y");
     EXPECT_EQ(entries(dir / "copies"), 1U);
     // A file where a folder should be: one sentence naming it, nothing written.
     write_file_atomically(dir / "plain", [](std::ostream& out) { out << "z"; });
     try
     {
-        write_file_atomically(dir / "plain" / "sub" / "f.txt", [](std::ostream& out) { out << "y"; });
+        write_file_atomically(dir / "plain" / "sub" / "f.txt",
+                              [](std::ostream& out) { out << "y"; });
         FAIL() << "wrote under a file";
     }
     catch (const IoError& e)
     {
-        EXPECT_NE(std::string(e.what()).find((dir / "plain").string()), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find((dir / "plain").string()), std::string::npos)
+            << e.what();
     }
     EXPECT_EQ(slurp(dir / "plain"), "z");
 }

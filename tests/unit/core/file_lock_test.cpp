@@ -1,19 +1,21 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/core/file_lock.h"
 
-#include <gtest/gtest.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <atomic>
 #include <thread>
 #include <vector>
 
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include "meshmark/core/error.h"
 #include "support/test_paths.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 using namespace std::chrono_literals;
 
@@ -29,18 +31,20 @@ TEST(FileLockTest, excludes_other_threads_and_cleans_its_companion_up)
     std::vector<std::thread> threads;
     for (int t = 0; t < 8; ++t)
     {
-        threads.emplace_back([&] {
-            for (int i = 0; i < 25; ++i)
+        threads.emplace_back(
+            [&]
             {
-                const FileLock lock = lock_file(key);
-                const int now = ++inside;
-                most_inside = std::max(most_inside.load(), now);
-                const int seen = counter;
-                std::this_thread::sleep_for(100us);
-                counter = seen + 1;
-                --inside;
-            }
-        });
+                for (int i = 0; i < 25; ++i)
+                {
+                    const FileLock lock = lock_file(key);
+                    const int now = ++inside;
+                    most_inside = std::max(most_inside.load(), now);
+                    const int seen = counter;
+                    std::this_thread::sleep_for(100us);
+                    counter = seen + 1;
+                    --inside;
+                }
+            });
     }
     for (auto& thread : threads)
     {

@@ -19,18 +19,10 @@ using test::fixture;
 
 namespace {
 
-const std::vector<std::string> kValidFixtures{"cube_ascii.ply",
-                                              "cube_binary_le.ply",
-                                              "cube_binary_be.ply",
-                                              "cube_normals_extra_props.ply",
-                                              "tristrip.ply",
-                                              "quad_faces.obj",
-                                              "obj_index_forms.obj",
-                                              "obj_artist_statements.obj",
-                                              "cube.off",
-                                              "cube_ascii.stl",
-                                              "cube_binary.stl",
-                                              "cube_binary_solid_header.stl"};
+const std::vector<std::string> kValidFixtures{
+    "cube_ascii.ply", "cube_binary_le.ply", "cube_binary_be.ply",  "cube_normals_extra_props.ply",
+    "tristrip.ply",   "quad_faces.obj",     "obj_index_forms.obj", "obj_artist_statements.obj",
+    "cube.off",       "cube_ascii.stl",     "cube_binary.stl",     "cube_binary_solid_header.stl"};
 
 // Moves every coordinate by a small, vertex-dependent amount.
 Positions perturbed(const Positions& V)

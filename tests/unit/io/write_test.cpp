@@ -139,7 +139,8 @@ TEST(WriteTest, rejects_invalid_meshes_and_unwritable_targets)
     const auto dir = test::temp_dir("write_bad");
     auto mesh = awkward_tetrahedron();
     write_mesh(dir / "blocker.ply", mesh);  // a file where a folder should be
-    test::expect_error<IoError>([&] { write_mesh(dir / "blocker.ply" / "t.ply", mesh); }, {"t.ply", "blocker.ply"});
+    test::expect_error<IoError>([&] { write_mesh(dir / "blocker.ply" / "t.ply", mesh); },
+                                {"t.ply", "blocker.ply"});
     std::filesystem::remove(dir / "blocker.ply");
     test::expect_error<IoError>([&] { write_mesh(dir / "t.xyz", mesh); }, {"t.xyz"});
     mesh.F(2, 1) = 5;

@@ -3,18 +3,21 @@
 // tests/support/awkward_geometry.h): each variant is marked, moved and noised, and its mark is
 // found in the copy; the unmarked variant is not claimed; compare measures the pair. None may
 // crash; a variant a mark cannot use would be refused with meshmark::Error.
-#include <gtest/gtest.h>
+#include "support/awkward_geometry.h"
 
 #include <filesystem>
+
+#include <gtest/gtest.h>
 
 #include "meshmark/attacks/attack_spec.h"
 #include "meshmark/meshmark.h"
 #include "meshmark/metrics/distortion.h"
-#include "support/awkward_geometry.h"
 #include "support/test_paths.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 TEST(AwkwardGeometryPipelineTest, every_awkward_variant_of_a_real_scan_is_marked_found_and_measured)
 {
@@ -31,7 +34,8 @@ TEST(AwkwardGeometryPipelineTest, every_awkward_variant_of_a_real_scan_is_marked
         const EmbedResult marked = embed(mesh, options);
         TriangleMesh copy = mesh;
         copy.V = marked.positions;
-        const AttackResult attacked = apply_attacks(copy, parse_attack_spec("similarity,noise=0.0005"), 9);
+        const AttackResult attacked =
+            apply_attacks(copy, parse_attack_spec("similarity,noise=0.0005"), 9);
         const DetectReport found = detect(attacked.mesh, mesh, marked.key, DetectFileOptions{});
         EXPECT_TRUE(found.detected());
         const DetectReport unmarked = detect(mesh, mesh, marked.key, DetectFileOptions{});

@@ -1,28 +1,25 @@
 // SPDX-License-Identifier: MIT
 // The library facade (meshmark.h): the in-memory embed and detect give what the file pipeline
 // gives, and in-place embedding replaces the input whole or not at all.
-#include "meshmark/meshmark.h"
-
-#include "meshmark/core/atomic_file.h"
-
-#include <gtest/gtest.h>
-
-#include <Eigen/Geometry>
-
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <string>
 #include <utility>
 #include <vector>
-#include <string>
+
+#include <Eigen/Geometry>
+#include <gtest/gtest.h>
 
 #include "meshmark/attacks/attack_spec.h"
 #include "meshmark/attacks/simplification.h"
 #include "meshmark/attacks/voxel_remeshing.h"
+#include "meshmark/core/atomic_file.h"
 #include "meshmark/geometry/shapes.h"
+#include "meshmark/meshmark.h"
 #include "meshmark/metrics/distortion.h"
 #include "support/test_paths.h"
 #include "support/test_shapes.h"

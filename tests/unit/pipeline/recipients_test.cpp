@@ -1,10 +1,6 @@
 // SPDX-License-Identifier: MIT
 // Recipient copies (family keys): the key file, issuing copies, tracing a suspect, collusion
 // by averaging, and the refusals (docs/fingerprinting.md).
-#include <gtest/gtest.h>
-
-#include <Eigen/LU>
-
 #include <algorithm>
 #include <filesystem>
 #include <set>
@@ -12,13 +8,16 @@
 #include <thread>
 #include <vector>
 
+#include <Eigen/LU>
+#include <gtest/gtest.h>
+
 #include "meshmark/attacks/attack_spec.h"
 #include "meshmark/attacks/subdivision.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/file_lock.h"
 #include "meshmark/geometry/shapes.h"
-#include "meshmark/metrics/distortion.h"
 #include "meshmark/meshmark.h"
+#include "meshmark/metrics/distortion.h"
 #include "support/test_paths.h"
 
 namespace meshmark {
@@ -382,8 +381,8 @@ TEST(RecipientsTest, refusals_leave_no_file_behind)
     EXPECT_THROW(static_cast<void>(embed_recipients(input, (dir / "copy.ply").string(), dir / "new.json",
                                                     family({"ann"}))),
                  InvalidOption);
-    EXPECT_THROW(static_cast<void>(embed_recipients(input, (dir / "n-{recipient}.ply").string(), dir / "new.json",
-                                                    family({"ann", "bad/name"}))),
+    EXPECT_THROW(static_cast<void>(embed_recipients(input, (dir / "n-{recipient}.ply").string(),
+                                                    dir / "new.json", family({"ann", "bad/name"}))),
                  InvalidOption);
     EXPECT_FALSE(fs::exists(dir / "new.json"));
     // A copy that cannot be written: the copies written before it are removed. The names stay
@@ -396,8 +395,9 @@ TEST(RecipientsTest, refusals_leave_no_file_behind)
     EXPECT_FALSE(fs::exists(dir / "blocked" / "amy.ply"));
     ASSERT_EQ(read_key(dir / "blocked.json").recipients->recipients.size(), 2U);
     fs::remove(dir / "blocked" / "zed.ply");
-    const EmbedRecipientsReport again = embed_recipients(input, (dir / "blocked" / "{recipient}.ply").string(),
-                                                         dir / "blocked.json", family({"amy", "zed"}));
+    const EmbedRecipientsReport again =
+        embed_recipients(input, (dir / "blocked" / "{recipient}.ply").string(),
+                         dir / "blocked.json", family({"amy", "zed"}));
     EXPECT_FALSE(again.copies[0].is_new);
     EXPECT_EQ(again.copies[1].index, 1U);
     EXPECT_TRUE(fs::exists(dir / "blocked" / "zed.ply"));
@@ -407,8 +407,9 @@ TEST(RecipientsTest, a_name_given_twice_is_issued_once_and_missing_folders_are_c
 {
     const fs::path dir = test::temp_dir("recipients-twice");
     const fs::path input = write_input(dir, 3);
-    const EmbedRecipientsReport report = embed_recipients(input, (dir / "copies" / "{recipient}.ply").string(),
-                                                          dir / "keys" / "family.json", family({"ann", "ben", "ann"}));
+    const EmbedRecipientsReport report =
+        embed_recipients(input, (dir / "copies" / "{recipient}.ply").string(),
+                         dir / "keys" / "family.json", family({"ann", "ben", "ann"}));
     ASSERT_EQ(report.copies.size(), 2U);
     EXPECT_EQ(report.copies[0].name, "ann");
     EXPECT_EQ(report.copies[1].name, "ben");
@@ -429,20 +430,24 @@ TEST(RecipientsTest, threads_issuing_on_one_new_key_at_once_get_one_key_and_a_co
     std::vector<std::string> errors(kCalls);
     for (int c = 0; c < kCalls; ++c)
     {
-        calls.emplace_back([&, c] {
-            try
+        calls.emplace_back(
+            [&, c]
             {
-                EmbedRecipientsOptions options = family({"a" + std::to_string(c), "common", "b" + std::to_string(c)});
-                options.seed = 100 + c;  // a different key each, were each to create its own
-                options.threads = 1;
-                static_cast<void>(embed_recipients(input, (dir / ("call" + std::to_string(c)) / "{recipient}.ply").string(),
-                                                   dir / "family.json", options));
-            }
-            catch (const std::exception& e)
-            {
-                errors[static_cast<std::size_t>(c)] = e.what();
-            }
-        });
+                try
+                {
+                    EmbedRecipientsOptions options =
+                        family({"a" + std::to_string(c), "common", "b" + std::to_string(c)});
+                    options.seed = 100 + c;  // a different key each, were each to create its own
+                    options.threads = 1;
+                    static_cast<void>(embed_recipients(
+                        input, (dir / ("call" + std::to_string(c)) / "{recipient}.ply").string(),
+                        dir / "family.json", options));
+                }
+                catch (const std::exception& e)
+                {
+                    errors[static_cast<std::size_t>(c)] = e.what();
+                }
+            });
     }
     for (auto& call : calls)
     {
@@ -462,13 +467,15 @@ TEST(RecipientsTest, threads_issuing_on_one_new_key_at_once_get_one_key_and_a_co
     const std::string common = test::file_bytes(dir / "call0" / "common.ply");
     for (int c = 1; c < kCalls; ++c)
     {
-        EXPECT_EQ(test::file_bytes(dir / ("call" + std::to_string(c)) / "common.ply"), common) << "call " << c;
+        EXPECT_EQ(test::file_bytes(dir / ("call" + std::to_string(c)) / "common.ply"), common)
+            << "call " << c;
     }
     for (const int c : {0, 5})
     {
         const std::string name = "b" + std::to_string(c);
-        const DetectReport report = detect_file(dir / ("call" + std::to_string(c)) / (name + ".ply"), input,
-                                                dir / "family.json", DetectFileOptions{});
+        const DetectReport report =
+            detect_file(dir / ("call" + std::to_string(c)) / (name + ".ply"), input,
+                        dir / "family.json", DetectFileOptions{});
         EXPECT_EQ(accused_names(report), std::vector<std::string>{name});
     }
 }
