@@ -13,6 +13,7 @@
 
 #include "meshmark/geometry/shapes.h"
 #include "meshmark/io/mesh_io.h"
+#include "process_util.h"
 #include "support/test_paths.h"
 
 namespace meshmark {
@@ -845,6 +846,51 @@ TEST_F(CliTest, laplacian_basis_and_decimated_centers_embed_detect_and_fail_clea
                   dir_)
                   .exit_code,
               2);
+}
+
+}  // namespace meshmark
+
+namespace meshmark {
+
+// Issue 50: four `embed` calls creating one single-owner key at once (into folders that do not
+// exist yet). Exactly one succeeds; the others are refused (exit 2: a key already exists) and
+// leave nothing behind; the winner's copy is traced by the key that is there.
+TEST_F(CliTest, calls_creating_one_key_at_once_leave_one_key_and_its_copy_only)
+{
+    constexpr int kCalls = 4;
+    std::vector<pid_t> calls;
+    for (int c = 0; c < kCalls; ++c)
+    {
+        const std::string out = (dir_ / ("out" + std::to_string(c)) / "m.ply").string();
+        const std::string key = (dir_ / "keys" / "k.json").string();
+        calls.push_back(test::spawn_cli({"embed", original_.string(), "-o", out, "--key", key, "-q"}));
+    }
+    int succeeded = -1;
+    int refused = 0;
+    for (int c = 0; c < kCalls; ++c)
+    {
+        const int status = test::wait_for(calls[static_cast<std::size_t>(c)]);
+        if (status == 0)
+        {
+            EXPECT_EQ(succeeded, -1) << "two calls created the key";
+            succeeded = c;
+        }
+        else
+        {
+            EXPECT_EQ(status, 2);
+            ++refused;
+        }
+    }
+    ASSERT_GE(succeeded, 0);
+    EXPECT_EQ(refused, kCalls - 1);
+    for (int c = 0; c < kCalls; ++c)
+    {
+        EXPECT_EQ(fs::exists(dir_ / ("out" + std::to_string(c))), c == succeeded) << "call " << c;
+    }
+    const CliRun detect = run("detect " + (dir_ / ("out" + std::to_string(succeeded)) / "m.ply").string() +
+                                  " --original " + original_.string() + " --key " + (dir_ / "keys" / "k.json").string(),
+                              dir_);
+    EXPECT_EQ(detect.exit_code, 0) << detect.err;
 }
 
 }  // namespace meshmark
