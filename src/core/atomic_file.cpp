@@ -134,9 +134,7 @@ void write_file_atomically(const std::filesystem::path& path,
 
 FileIdentity file_identity(const std::filesystem::path& path)
 {
-    struct stat st
-    {
-    };
+    struct stat st = {};
     if (::stat(path.c_str(), &st) != 0)
     {
         return {};

@@ -90,12 +90,8 @@ FileLock lock_file(const std::filesystem::path& path, const FileLockOptions& opt
         {
             // Ours, unless the holder we waited for removed this file on release (or another
             // one was created since): then the lock guards nothing; try again.
-            struct stat held
-            {
-            };
-            struct stat named
-            {
-            };
+            struct stat held = {};
+            struct stat named = {};
             if (::fstat(fd, &held) == 0 && ::stat(companion.c_str(), &named) == 0 &&
                 held.st_dev == named.st_dev && held.st_ino == named.st_ino)
             {
