@@ -57,6 +57,11 @@ function(meshmark_package_dependencies targets out_var)
     string(APPEND calls "${call}\n")
   endforeach()
   foreach(target IN LISTS imported)
+    # SQLiteCpp's package names its target without a namespace: found again, not re-created.
+    if(target STREQUAL "SQLiteCpp")
+      string(APPEND calls "find_dependency(SQLiteCpp)\n")
+      continue()
+    endif()
     string(APPEND calls "if(NOT TARGET ${target})\n  add_library(${target} INTERFACE IMPORTED)\n")
     foreach(property INTERFACE_LINK_LIBRARIES INTERFACE_INCLUDE_DIRECTORIES
                      INTERFACE_COMPILE_DEFINITIONS)

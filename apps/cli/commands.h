@@ -1,7 +1,10 @@
 // SPDX-License-Identifier: MIT
 #pragma once
 
+#include <chrono>
 #include <functional>
+#include <string>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 
@@ -40,6 +43,13 @@ void register_bench_approximation(CLI::App& bench, GlobalArgs& global, CommandRu
 /// on the original) or a whole number >= 1.
 [[nodiscard]] CLI::Validator repetitions_choice();
 
+/// --lock-timeout's seconds as a duration.
+[[nodiscard]] std::chrono::milliseconds lock_timeout_of(double seconds);
+/// \brief Names from a recipients file (--recipients): one per line; blank lines and lines
+/// starting with '#' skipped, spaces around a name dropped. \throws IoError when unreadable.
+[[nodiscard]] std::vector<std::string> read_recipients_file(const std::string& path);
+/// `meshmark catalog ...` (catalog.cpp).
+void register_catalog(CLI::App& app, GlobalArgs& global, CommandRunner& runner);
 /// Adds --threads, --quiet and --verbose to a subcommand.
 void add_global_flags(CLI::App& command, GlobalArgs& global);
 

@@ -2113,14 +2113,14 @@ namespace {
 // the suspect read from \p suspect_path beside them unless \p given holds it, the detection.
 DetectReport detect_with_files(const TriangleMesh* given, const std::filesystem::path& suspect_path,
                                const std::filesystem::path& original_path, const std::filesystem::path& key_path,
-                               const DetectFileOptions& options)
+                               const DetectFileOptions& options, const Key* given_key = nullptr)
 {
     options.decision.validate();
     DetectReport report;
     detail::PhaseTimer timer(report.seconds, options.progress);
 
     timer.begin("read");
-    const Key key = read_key(key_path);
+    const Key key = given_key != nullptr ? *given_key : read_key(key_path);
     // Both meshes are read side by side (each reader is serial); errors are still reported in
     // the order of a serial run: the key, the original, its checks, then the suspect.
     TriangleMesh original;
@@ -2198,6 +2198,13 @@ DetectReport detect_against_file(const TriangleMesh& suspect, const std::filesys
 {
     validate(suspect, "suspect");
     return detect_with_files(&suspect, "suspect", original_path, key_path, options);
+}
+
+DetectReport detect_against_original(const TriangleMesh& suspect, const std::filesystem::path& original_path,
+                                     const Key& key, const DetectFileOptions& options)
+{
+    validate(suspect, "suspect");
+    return detect_with_files(&suspect, "suspect", original_path, {}, options, &key);
 }
 
 }  // namespace meshmark

@@ -6,6 +6,7 @@
 #include <array>
 #include <chrono>
 #include <exception>
+#include <functional>
 #include <future>
 #include <limits>
 #include <mutex>
@@ -61,23 +62,63 @@ std::filesystem::path recipient_output(const std::string& pattern, const std::st
 
 namespace {
 
-// The family key read from \p key_path, checked: a family key, made for \p mesh.
-Key checked_family_key(const std::filesystem::path& key_path, const MeshFingerprint& original,
+// \p key, as the store holds it, checked: a family key, made for \p mesh.
+Key checked_family_key(Key key, const FamilyKeyStore& store, const MeshFingerprint& original,
                        const std::filesystem::path& input)
 {
-    Key key = read_key(key_path);
     if (!key.recipients)
     {
-        throw IoError(key_path.string() + ": this key marks a single owner's copy, not a family of recipients; "
-                      "choose a new --key file to start a family.");
+        throw IoError(store.name() + ": this key marks a single owner's copy, not a family of recipients; " +
+                      store.single_owner_advice());
     }
     if (original != key.original)
     {
-        throw IoError(input.string() + ": this is not the original the family key " + key_path.string() +
+        throw IoError(input.string() + ": this is not the original the family key " + store.name() +
                       " was made for (vertex count, face count or positions differ).");
     }
     return key;
 }
+
+// A family key in its own file, changed under the file's lock (file_lock.h).
+class KeyFileStore final : public FamilyKeyStore
+{
+public:
+    KeyFileStore(std::filesystem::path path, const EmbedRecipientsOptions& options)
+        : path_(std::move(path)), options_(options)
+    {
+    }
+    [[nodiscard]] std::string name() const override { return path_.string(); }
+    [[nodiscard]] std::string single_owner_advice() const override
+    {
+        return "choose a new --key file to start a family.";
+    }
+    [[nodiscard]] std::optional<Key> peek() const override
+    {
+        if (!std::filesystem::exists(path_))
+        {
+            return std::nullopt;
+        }
+        return read_key(path_);
+    }
+    double change(const std::function<std::optional<Key>(std::optional<Key>)>& update) override
+    {
+        const FileLock lock = detail::lock_key(path_, options_.lock_timeout, options_.progress);
+        std::optional<Key> now;
+        if (std::filesystem::exists(path_))
+        {
+            now = read_key(path_);
+        }
+        if (const std::optional<Key> changed = update(std::move(now)))
+        {
+            write_key(path_, *changed);
+        }
+        return lock.waited_seconds();
+    }
+
+private:
+    std::filesystem::path path_;
+    const EmbedRecipientsOptions& options_;
+};
 
 // True when \p a and \p b make the same watermark: everything but the recipients agrees. A
 // family key's parameters never change once written, so this fails only when the file was
@@ -106,7 +147,8 @@ std::vector<std::string> distinct(const std::vector<std::string>& names)
 
 // The recipients of this call, each with its index: the key's for a name it holds, the next
 // free one for a new name (added to the key).
-std::vector<IssuedCopy> assign_indices(Key& key, const std::vector<std::string>& names, const std::string& pattern)
+std::vector<IssuedCopy> assign_indices(Key& key, const std::vector<std::string>& names,
+                                       const std::function<std::filesystem::path(const std::string&)>& output_of)
 {
     RecipientCodes& codes = *key.recipients;
     // One lookup table rather than RecipientCodes::find per name: a call issuing thousands
@@ -124,7 +166,7 @@ std::vector<IssuedCopy> assign_indices(Key& key, const std::vector<std::string>&
     {
         IssuedCopy copy;
         copy.name = name;
-        copy.path = recipient_output(pattern, name);
+        copy.path = output_of(name);
         if (const auto it = known.find(name); it != known.end())
         {
             copy.index = it->second;
@@ -158,9 +200,27 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
     }
     for (const std::string& name : options.recipients)
     {
-        const std::filesystem::path path = recipient_output(output_pattern, name);
+        if (recipient_output(output_pattern, name) == key_path)
+        {
+            throw InvalidOption(key_path.string() + ": a recipient's copy may replace neither the input nor the key.");
+        }
+    }
+    KeyFileStore store(key_path, options);
+    return embed_recipients(
+        input, nullptr, [&](const std::string& name) { return recipient_output(output_pattern, name); }, store,
+        options);
+}
+
+EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const MeshFile* given,
+                                       const std::function<std::filesystem::path(const std::string&)>& output_of,
+                                       FamilyKeyStore& store, const EmbedRecipientsOptions& options)
+{
+    options.validate();
+    for (const std::string& name : options.recipients)
+    {
+        const std::filesystem::path path = output_of(name);
         (void)format_from_extension(path);
-        if (is_same_file(input, path) || path == key_path)
+        if (is_same_file(input, path))
         {
             throw InvalidOption(path.string() + ": a recipient's copy may replace neither the input nor the key.");
         }
@@ -173,7 +233,12 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
     EmbedRecipientsReport report;
     detail::PhaseTimer timer(report.seconds, options.progress);
     timer.begin("read");
-    const MeshFile file = read_mesh_file(input);
+    std::optional<MeshFile> read;
+    if (given == nullptr)
+    {
+        read.emplace(read_mesh_file(input));
+    }
+    const MeshFile& file = given != nullptr ? *given : *read;
     report.input_format = file.format;
     report.vertex_count = file.mesh.vertex_count();
     report.face_count = file.mesh.face_count();
@@ -186,10 +251,10 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
     // The watermark depends only on the key's parameters, which a family key never changes: an
     // existing key is read without the lock (a key file is replaced whole, by a rename, never
     // written in place) and its basis built while other calls may be issuing on it.
-    std::optional<Key> seen;
-    if (std::filesystem::exists(key_path))
+    std::optional<Key> seen = store.peek();
+    if (seen)
     {
-        seen = checked_family_key(key_path, original, input);
+        seen = checked_family_key(std::move(*seen), store, original, input);
     }
     std::optional<SpectralWatermark> mark;
     if (seen)
@@ -199,52 +264,49 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
     Key key;
     EmbedStats owner_stats;
     Positions owner;
-    double waited = 0.0;
-    {
-        // Issuing is one step under the key's lock: the key as it is now, the indices of the
-        // new names, the key written durably (file and folder fsync'ed). Copies are made only
-        // after it: recorded before released (docs/fingerprinting.md, "Issuing at once").
-        const FileLock lock = detail::lock_key(key_path, options.lock_timeout, options.progress);
-        waited = lock.waited_seconds();
-        report.key_created = !std::filesystem::exists(key_path);
-        if (report.key_created)
+    // Issuing is one step of the store (under the key file's lock, or a catalogue's
+    // transaction): the key as it is now, the indices of the new names, the key recorded durably
+    // (file and folder fsync'ed, or committed). Copies are made only after it: recorded before
+    // released (docs/fingerprinting.md, "Issuing at once").
+    const double waited = store.change(
+        [&](std::optional<Key> now) -> std::optional<Key>
         {
-            key = detail::new_key(options);
-            key.recipients = RecipientCodes{options.recipient_modes, options.recipient_share, {}};
-            key.recipients->validate(key.options);
-            key.original = original;
-            mark.emplace(watermark_of(file.mesh, key, input, options.threads));
-            // The automatic repetitions, as the watermark resolved them.
-            key.options = mark->key().options;
-            owner = mark->displacement(&owner_stats);
-            // A new family key is calibrated on the owner's mark, at its share of the energy
-            // (docs/algorithms/embedding.md, "Strength"); each copy's code is scaled below.
-            if (key.options.needs_calibration())
+            report.key_created = !now.has_value();
+            if (report.key_created)
             {
-                mark->calibrate_strength(file.mesh, owner, &owner_stats);
-                key.options.vertex_strength = mark->key().options.vertex_strength;
-                // Synthesized again from the recorded strength, as a later call adding
-                // recipients does: the scaled field may differ from it in the last bit, the
-                // copies may not.
+                key = detail::new_key(options);
+                key.recipients = RecipientCodes{options.recipient_modes, options.recipient_share, {}};
+                key.recipients->validate(key.options);
+                key.original = original;
+                mark.emplace(watermark_of(file.mesh, key, input, options.threads));
+                // The automatic repetitions, as the watermark resolved them.
+                key.options = mark->key().options;
                 owner = mark->displacement(&owner_stats);
+                // A new family key is calibrated on the owner's mark, at its share of the energy
+                // (docs/algorithms/embedding.md, "Strength"); each copy's code is scaled below.
+                if (key.options.needs_calibration())
+                {
+                    mark->calibrate_strength(file.mesh, owner, &owner_stats);
+                    key.options.vertex_strength = mark->key().options.vertex_strength;
+                    // Synthesized again from the recorded strength, as a later call adding
+                    // recipients does: the scaled field may differ from it in the last bit, the
+                    // copies may not.
+                    owner = mark->displacement(&owner_stats);
+                }
             }
-        }
-        else
-        {
-            key = checked_family_key(key_path, original, input);
-            if (seen && !same_watermark(*seen, key))
+            else
             {
-                mark.reset();  // replaced meanwhile by another family key of this original
+                key = checked_family_key(std::move(*now), store, original, input);
+                if (seen && !same_watermark(*seen, key))
+                {
+                    mark.reset();  // replaced meanwhile by another family key of this original
+                }
             }
-        }
-        report.copies = assign_indices(key, names, output_pattern);
-        const bool adds = std::any_of(report.copies.begin(), report.copies.end(),
-                                      [](const IssuedCopy& copy) { return copy.is_new; });
-        if (report.key_created || adds)
-        {
-            write_key(key_path, key);
-        }
-    }
+            report.copies = assign_indices(key, names, output_of);
+            const bool adds = std::any_of(report.copies.begin(), report.copies.end(),
+                                          [](const IssuedCopy& copy) { return copy.is_new; });
+            return report.key_created || adds ? std::optional<Key>(key) : std::nullopt;
+        });
     if (!mark)
     {
         mark.emplace(watermark_of(file.mesh, key, input, options.threads));
@@ -450,6 +512,7 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
         }
         throw;
     }
+    store.delivered(report.copies);
     timer.lap("copies");
     report.seconds.phases.emplace_back("codes", code_seconds);
     report.seconds.phases.emplace_back("write", write_seconds);

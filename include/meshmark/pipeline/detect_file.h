@@ -117,6 +117,11 @@ DetectReport detect_file(const std::filesystem::path& suspect, const std::filesy
 DetectReport detect_against_file(const TriangleMesh& suspect, const std::filesystem::path& original,
                                  const std::filesystem::path& key_path, const DetectFileOptions& options);
 
+/// \brief detect_against_file with the key in memory too (a catalogue's record): same steps,
+/// results and errors.
+DetectReport detect_against_original(const TriangleMesh& suspect, const std::filesystem::path& original,
+                                     const Key& key, const DetectFileOptions& options);
+
 /// \brief detect_file for meshes in memory and a watermark already built from \p original
 /// (which must be the mesh \p mark was made from): many suspects against one key pay for the
 /// basis once (the robustness benchmark). Same steps, results and errors as detect_file.

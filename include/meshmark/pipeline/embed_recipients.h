@@ -4,6 +4,8 @@
 #include <chrono>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -61,6 +63,35 @@ struct EmbedRecipientsReport
     PhaseTimings seconds;
 };
 
+/// \brief Where a family key is kept, and how it changes: its own key file (embed_recipients
+/// with a key path) or a catalogue's record (catalog/catalog.h).
+/// \details change() is the one step in which names get their codes: every other call issuing
+/// on the same key waits for it (a file lock, a database transaction), and the key it stores is
+/// durable before change() returns, so copies written afterwards are traced. peek() may return
+/// a key that is already out of date: only its parameters are used (a family key's never change).
+class FamilyKeyStore
+{
+public:
+    FamilyKeyStore() = default;
+    FamilyKeyStore(const FamilyKeyStore&) = delete;
+    FamilyKeyStore& operator=(const FamilyKeyStore&) = delete;
+    FamilyKeyStore(FamilyKeyStore&&) = delete;
+    FamilyKeyStore& operator=(FamilyKeyStore&&) = delete;
+    virtual ~FamilyKeyStore() = default;
+    /// Names the key in messages (its path).
+    [[nodiscard]] virtual std::string name() const = 0;
+    /// The end of the message refusing a single owner's key: what to do instead.
+    [[nodiscard]] virtual std::string single_owner_advice() const = 0;
+    /// The key as stored now, without waiting; none when there is none yet.
+    [[nodiscard]] virtual std::optional<Key> peek() const = 0;
+    /// \brief Exclusively: \p update receives the key as stored now (none yet: std::nullopt)
+    /// and returns the key to store, or std::nullopt to leave it. Returns the seconds spent
+    /// waiting for other calls. \throws IoError (the wait expired, the store failed).
+    virtual double change(const std::function<std::optional<Key>(std::optional<Key>)>& update) = 0;
+    /// Called once every copy of \p copies is written.
+    virtual void delivered(const std::vector<IssuedCopy>& copies) { (void)copies; }
+};
+
 /// \brief The output path of \p name: \p pattern with every kRecipientPlaceholder replaced.
 /// \throws InvalidOption unless \p pattern contains the placeholder.
 [[nodiscard]] std::filesystem::path recipient_output(const std::string& pattern, const std::string& name);
@@ -88,5 +119,12 @@ struct EmbedRecipientsReport
 /// InvalidMesh, NumericalError.
 EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const std::string& output_pattern,
                                        const std::filesystem::path& key_path, const EmbedRecipientsOptions& options);
+
+/// \brief embed_recipients with the key kept in \p store and copy paths given by \p output_of
+/// (a catalogue's issuing). \p given, when not null, is \p input already read (what
+/// read_mesh_file returned); \p input then only names it in messages. Same steps and errors.
+EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const MeshFile* given,
+                                       const std::function<std::filesystem::path(const std::string&)>& output_of,
+                                       FamilyKeyStore& store, const EmbedRecipientsOptions& options);
 
 }  // namespace meshmark

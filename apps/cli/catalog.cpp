@@ -1,0 +1,312 @@
+// SPDX-License-Identifier: MIT
+// `meshmark catalog add|list|issue|scan|export`: a catalogue of marked assets (docs/catalog.md).
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "commands.h"
+#include "meshmark/catalog/catalog.h"
+#include "meshmark/catalog/catalog_add.h"
+#include "meshmark/catalog/catalog_json.h"
+#include "meshmark/catalog/catalog_scan.h"
+#include "meshmark/core/error.h"
+#include "progress.h"
+#include "report.h"
+
+namespace meshmark::cli {
+namespace {
+
+struct CatalogArgs
+{
+    std::string catalog;
+    std::vector<std::string> inputs;  // add: files and folders; scan: suspects
+    std::string output;
+    std::string asset;
+    std::vector<std::string> recipients;
+    std::string recipients_file;
+    std::string key;
+    bool json = false;
+    bool force = false;
+    int jobs = 0;
+    int candidates = CatalogScanOptions{}.candidates;
+    bool all_candidates = false;
+    double max_false_positive = DetectOptions{}.max_false_positive;
+    double lock_timeout = std::chrono::duration<double>(kDefaultLockTimeout).count();
+    // add: the watermark's parameters
+    double strength = -1.0;
+    std::string message;
+    std::uint64_t seed = 0;
+    bool has_seed = false;
+    EmbedOptions options;
+};
+
+int run_add(const CatalogArgs& args, const GlobalArgs& global)
+{
+    CatalogAddOptions options;
+    options.embed.embed.basis_size = args.options.basis_size;
+    options.embed.embed.coefficients = args.options.coefficients;
+    options.embed.embed.strength = args.strength;
+    if (!args.message.empty())
+    {
+        options.embed.message = args.message;
+    }
+    if (args.has_seed)
+    {
+        options.embed.seed = args.seed;
+    }
+    options.embed.threads = global.threads;
+    options.embed.lock_timeout = lock_timeout_of(args.lock_timeout);
+    options.jobs = args.jobs;
+    options.force = args.force;
+    std::vector<std::filesystem::path> inputs(args.inputs.begin(), args.inputs.end());
+    Catalog catalog(args.catalog, Catalog::Open::CreateIfMissing, lock_timeout_of(args.lock_timeout));
+    const auto outcomes = with_progress("meshmark catalog add", global.quiet, options.progress,
+                                        [&] { return catalog_add(catalog, inputs, args.output, options); });
+    if (args.json)
+    {
+        print_json(catalog_add_json(catalog, outcomes));
+    }
+    int counts[4] = {0, 0, 0, 0};
+    for (const CatalogAddOutcome& o : outcomes)
+    {
+        ++counts[static_cast<int>(o.status)];
+        if (!global.quiet && (o.status == CatalogAddOutcome::Status::Failed ||
+                              (global.verbose && o.status == CatalogAddOutcome::Status::Unmarkable)))
+        {
+            std::fprintf(stderr, "meshmark: %s: %s\n", to_string(o.status), o.reason.c_str());
+        }
+    }
+    if (!global.quiet)
+    {
+        std::fprintf(stderr,
+                     "meshmark: %zu files: %d marked, %d already in the catalogue, %d not markable, %d failed; "
+                     "catalogue %s\n",
+                     outcomes.size(), counts[0], counts[1], counts[2], counts[3], args.catalog.c_str());
+    }
+    return counts[3] > 0 ? static_cast<int>(ExitCode::InvalidInput) : 0;
+}
+
+int run_list(const CatalogArgs& args, const GlobalArgs& /*global*/)
+{
+    const Catalog catalog(args.catalog, Catalog::Open::Existing, lock_timeout_of(args.lock_timeout));
+    const std::vector<CatalogAsset> assets = catalog.assets();
+    if (args.json)
+    {
+        nlohmann::json list = nlohmann::json::array();
+        for (const CatalogAsset& a : assets)
+        {
+            list.push_back(catalog_asset_json(a, catalog.recipients(a.id)));
+        }
+        print_json({{"catalog", args.catalog}, {"assets", std::move(list)}});
+        return 0;
+    }
+    for (const CatalogAsset& a : assets)
+    {
+        std::printf("%s\t%s\t%lld vertices\t%zu recipients%s\n", a.id.c_str(), a.original.c_str(),
+                    static_cast<long long>(a.vertex_count),
+                    a.key.recipients ? a.key.recipients->recipients.size() : std::size_t{0},
+                    a.is_complete ? "" : "\t(interrupted: run its `catalog add` again)");
+    }
+    return 0;
+}
+
+int run_issue(const CatalogArgs& args, const GlobalArgs& global)
+{
+    CatalogIssueOptions options;
+    options.recipients = args.recipients;
+    if (!args.recipients_file.empty())
+    {
+        const std::vector<std::string> listed = read_recipients_file(args.recipients_file);
+        options.recipients.insert(options.recipients.end(), listed.begin(), listed.end());
+    }
+    options.lock_timeout = lock_timeout_of(args.lock_timeout);
+    options.threads = global.threads;
+    Catalog catalog(args.catalog, Catalog::Open::Existing, options.lock_timeout);
+    const EmbedRecipientsReport report = with_progress("meshmark catalog issue", global.quiet, options.progress,
+                                                       [&] { return catalog_issue(catalog, args.asset, args.output, options); });
+    if (args.json)
+    {
+        nlohmann::json out = embed_recipients_report_json(report, args.asset, args.catalog);
+        out.erase("key");
+        out["catalog"] = args.catalog;
+        out["asset"] = args.asset;
+        print_json(out);
+    }
+    if (!global.quiet)
+    {
+        int added = 0;
+        for (const IssuedCopy& copy : report.copies)
+        {
+            added += copy.is_new ? 1 : 0;
+        }
+        std::fprintf(stderr, "meshmark: issued %zu copies of %s (%d new recipients) in %.3f s; recorded in %s\n",
+                     report.copies.size(), args.asset.c_str(), added, report.seconds.total, args.catalog.c_str());
+    }
+    return 0;
+}
+
+int run_scan(const CatalogArgs& args, const GlobalArgs& global)
+{
+    CatalogScanOptions options;
+    options.detect.threads = global.threads;
+    options.detect.decision.max_false_positive = args.max_false_positive;
+    options.candidates = args.candidates;
+    options.stop_at_match = !args.all_candidates;
+    const Catalog catalog(args.catalog, Catalog::Open::Existing, lock_timeout_of(args.lock_timeout));
+    std::vector<std::filesystem::path> suspects(args.inputs.begin(), args.inputs.end());
+    const CatalogScanReport report = with_progress("meshmark catalog scan", global.quiet, options.progress,
+                                                   [&] { return catalog_scan(catalog, suspects, options); });
+    if (args.json)
+    {
+        print_json(catalog_scan_json(catalog, report, options));
+    }
+    bool any = false;
+    std::size_t unreadable = 0;
+    for (const SuspectScan& s : report.suspects)
+    {
+        any = any || s.detected;
+        unreadable += s.error.empty() ? 0U : 1U;
+        if (global.quiet)
+        {
+            continue;
+        }
+        if (!s.error.empty())
+        {
+            std::fprintf(stderr, "meshmark: %s\n", s.error.c_str());
+            continue;
+        }
+        if (!s.detected)
+        {
+            std::fprintf(stderr, "meshmark: %s: no asset of the catalogue found (%zu tried) in %.2f s\n",
+                         s.path.c_str(), s.tried.size(), s.seconds);
+            continue;
+        }
+        for (const CatalogMatch& m : s.matches)
+        {
+            std::string names;
+            for (const RecipientScore& r : m.recipients)
+            {
+                names += (names.empty() ? "" : ", ") + r.name;
+            }
+            std::fprintf(stderr, "meshmark: %s: asset %s (false-positive probability %s over the catalogue's %zu "
+                                 "assets)%s%s in %.2f s\n",
+                         s.path.c_str(), m.asset.c_str(), format_number(m.false_positive_probability).c_str(),
+                         report.assets, names.empty() ? "" : "; copy of ", names.c_str(), s.seconds);
+        }
+    }
+    if (!report.suspects.empty() && unreadable == report.suspects.size())
+    {
+        return static_cast<int>(ExitCode::InvalidInput);
+    }
+    return any ? 0 : 1;
+}
+
+int run_export(const CatalogArgs& args, const GlobalArgs& global)
+{
+    const Catalog catalog(args.catalog, Catalog::Open::Existing, lock_timeout_of(args.lock_timeout));
+    const std::optional<CatalogAsset> asset = catalog.asset(args.asset);
+    if (!asset)
+    {
+        throw InvalidOption(args.catalog + ": no asset '" + args.asset + "' in the catalogue.");
+    }
+    if (!args.force && std::filesystem::exists(args.key))
+    {
+        throw InvalidOption(args.key + ": a file is already there; choose another --key or pass --force.");
+    }
+    write_key(args.key, asset->key);
+    if (!global.quiet)
+    {
+        std::fprintf(stderr, "meshmark: the key of asset %s (original %s) written to %s\n", args.asset.c_str(),
+                     asset->original.c_str(), args.key.c_str());
+    }
+    return 0;
+}
+
+void add_lock_timeout(CLI::App& command, CatalogArgs& args)
+{
+    command.add_option("--lock-timeout", args.lock_timeout,
+                       "Seconds to wait while another call changes the catalogue, then fail")
+        ->check(CLI::Range(0.0, 86400.0))
+        ->capture_default_str();
+}
+
+}  // namespace
+
+void register_catalog(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
+{
+    auto args = std::make_shared<CatalogArgs>();
+    auto* catalog = app.add_subcommand("catalog", "A catalogue of marked assets (SQLite file): add, list, issue "
+                                                  "copies, scan suspects (docs/catalog.md)");
+    catalog->require_subcommand(1);
+
+    auto* add = catalog->add_subcommand(
+        "add", "Mark every mesh file found (folders searched recursively) and record it; a marked copy is "
+               "written under -o at the same relative path. Running it again finishes an interrupted call");
+    add->add_option("CATALOG", args->catalog, "Catalogue file (created when missing)")->required();
+    add->add_option("INPUTS", args->inputs, "Mesh files and folders")->required()->check(CLI::ExistingPath);
+    add->add_option("-o,--output", args->output, "Folder of the marked copies")->required();
+    add->add_option("--jobs", args->jobs, "Files marked at once (0 = one per core)")->capture_default_str();
+    add->add_option("--strength", args->strength, "As embed's (default: embed's)");
+    add->add_option("--basis-size", args->options.basis_size, "As embed's")->capture_default_str();
+    add->add_option("--coefficients", args->options.coefficients, "As embed's")->capture_default_str();
+    add->add_option("--message", args->message, "Payload text (default: random per asset)");
+    add->add_option("--seed", args->seed, "Secret seed, mixed with each asset's id (default: random)");
+    add->add_flag("--force", args->force, "Mark again, with a new key, originals changed since they were added");
+    add_lock_timeout(*add, *args);
+    add->add_flag("--json", args->json, "Print every file's outcome as JSON on stdout");
+    add_global_flags(*add, global);
+    add->callback([args, &global, &runner, add] {
+        args->has_seed = add->count("--seed") > 0;
+        runner = [args, &global] { return run_add(*args, global); };
+    });
+
+    auto* list = catalog->add_subcommand("list", "List the catalogue's assets and their recipients");
+    list->add_option("CATALOG", args->catalog, "Catalogue file")->required();
+    list->add_flag("--json", args->json, "Print JSON on stdout");
+    add_lock_timeout(*list, *args);
+    add_global_flags(*list, global);
+    list->callback([args, &global, &runner] { runner = [args, &global] { return run_list(*args, global); }; });
+
+    auto* issue = catalog->add_subcommand(
+        "issue", "Issue traceable copies of an asset to recipients (recorded before they are written; "
+                 "a known name gets the same bytes again)");
+    issue->add_option("CATALOG", args->catalog, "Catalogue file")->required();
+    issue->add_option("ASSET", args->asset, "Asset id (catalog list)")->required();
+    issue->add_option("--recipient", args->recipients, "Recipient name (repeatable)");
+    issue->add_option("--recipients", args->recipients_file, "File of names, one per line")->check(CLI::ExistingFile);
+    issue->add_option("-o,--output", args->output, "Copy path pattern containing {recipient}")->required();
+    add_lock_timeout(*issue, *args);
+    issue->add_flag("--json", args->json, "Print a JSON report on stdout");
+    add_global_flags(*issue, global);
+    issue->callback([args, &global, &runner] { runner = [args, &global] { return run_issue(*args, global); }; });
+
+    auto* scan = catalog->add_subcommand(
+        "scan", "Find which assets (and whose copies) suspects were made from. Exit 0 when any suspect "
+                "matched, 1 when none did");
+    scan->add_option("CATALOG", args->catalog, "Catalogue file")->required();
+    scan->add_option("SUSPECTS", args->inputs, "Suspect mesh files")->required();
+    scan->add_option("--candidates", args->candidates, "Assets tried per suspect, nearest in shape first")
+        ->check(CLI::Range(1, 10000))
+        ->capture_default_str();
+    scan->add_flag("--all-candidates", args->all_candidates, "Try every candidate, not only until one matches");
+    scan->add_option("--max-fpp", args->max_false_positive,
+                     "Bound on a false claim per suspect over the whole catalogue")
+        ->check(CLI::Range(1e-300, 1.0))
+        ->capture_default_str();
+    add_lock_timeout(*scan, *args);
+    scan->add_flag("--json", args->json, "Print a JSON report on stdout");
+    add_global_flags(*scan, global);
+    scan->callback([args, &global, &runner] { runner = [args, &global] { return run_scan(*args, global); }; });
+
+    auto* exported = catalog->add_subcommand("export", "Write an asset's key as a key file (detect --key)");
+    exported->add_option("CATALOG", args->catalog, "Catalogue file")->required();
+    exported->add_option("ASSET", args->asset, "Asset id")->required();
+    exported->add_option("--key", args->key, "Key file to write (mode 0600)")->required();
+    exported->add_flag("--force", args->force, "Replace an existing file");
+    add_global_flags(*exported, global);
+    exported->callback([args, &global, &runner] { runner = [args, &global] { return run_export(*args, global); }; });
+}
+
+}  // namespace meshmark::cli

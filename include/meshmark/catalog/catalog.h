@@ -1,0 +1,110 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "meshmark/core/file_lock.h"
+#include "meshmark/geometry/shape_signature.h"
+#include "meshmark/pipeline/embed_recipients.h"
+#include "meshmark/watermark/key.h"
+
+namespace meshmark {
+
+/// The recipient name of an asset's published copy (the one `catalog add` writes).
+inline constexpr const char* kPublishedRecipient = "published";
+
+/// One asset of a catalogue.
+struct CatalogAsset
+{
+    std::string id;                      ///< Its name: the path under the folder it was added from.
+    std::filesystem::path original;      ///< The original file (absolute).
+    std::string original_sha256;         ///< The original's bytes' SHA-256, in hex.
+    std::filesystem::path published;     ///< The published marked copy (absolute).
+    Key key;                             ///< Its family key, every recipient so far.
+    std::int64_t vertex_count = 0;
+    std::int64_t face_count = 0;
+    std::string added;                   ///< When it was recorded (UTC, ISO 8601).
+    bool is_complete = false;            ///< The published copy is written (false: an interrupted add).
+};
+
+/// One recipient's copy of an asset, as recorded.
+struct CatalogRecipient
+{
+    std::string name;
+    std::uint32_t index = 0;        ///< Its code's index in the family key.
+    std::filesystem::path path;     ///< Where its copy was written.
+    bool is_delivered = false;      ///< The copy was written (false: recorded, then interrupted).
+    std::string issued;             ///< When it was recorded (UTC, ISO 8601).
+};
+
+/// \brief A catalogue of marked assets: an SQLite database holding each asset's original
+/// (location and SHA-256), its key, its recipients and its shape (docs/catalog.md).
+/// \details The file is created mode 0600 (it holds keys). Every change is one transaction,
+/// committed durably (WAL, synchronous=FULL) before anything it records is written elsewhere;
+/// other processes wait up to the busy timeout for a transaction in progress. One Catalog may
+/// be used from several threads (its connection is serialized).
+class Catalog
+{
+public:
+    enum class Open
+    {
+        CreateIfMissing,  ///< `catalog add`
+        Existing,         ///< every other command: a missing file is an error
+    };
+
+    /// \throws IoError (cannot create or open it, not a meshmark catalogue, a newer format).
+    explicit Catalog(std::filesystem::path path, Open mode = Open::Existing,
+                     std::chrono::milliseconds busy_timeout = kDefaultLockTimeout);
+    ~Catalog();
+    Catalog(const Catalog&) = delete;
+    Catalog& operator=(const Catalog&) = delete;
+    Catalog(Catalog&&) = delete;
+    Catalog& operator=(Catalog&&) = delete;
+
+    [[nodiscard]] const std::filesystem::path& path() const noexcept;
+
+    /// The asset \p id, if recorded (complete or not).
+    [[nodiscard]] std::optional<CatalogAsset> asset(const std::string& id) const;
+    /// Every asset, complete or not, by id.
+    [[nodiscard]] std::vector<CatalogAsset> assets() const;
+    /// The recipients of \p id, by code index.
+    [[nodiscard]] std::vector<CatalogRecipient> recipients(const std::string& id) const;
+    /// Number of complete assets: the keys a scan could try (the union bound's count).
+    [[nodiscard]] std::size_t complete_count() const;
+
+    /// An entry of the shape index: a complete asset and its signature.
+    struct IndexEntry
+    {
+        std::string id;
+        ShapeSignature signature;
+    };
+    /// The shape index of the complete assets.
+    [[nodiscard]] std::vector<IndexEntry> shape_index() const;
+
+    /// \brief The family key of asset \p id as a FamilyKeyStore (embed_recipients): change()
+    /// is one immediate transaction. A store for a new asset (\p prototype given) records the
+    /// asset, with \p signature, in the transaction that creates its key; a store of an existing
+    /// asset refuses one that is not complete. delivered() records the copies as written, and
+    /// the asset as complete once its published copy is.
+    [[nodiscard]] std::unique_ptr<FamilyKeyStore> family_store(const std::string& id,
+                                                              std::optional<CatalogAsset> prototype = std::nullopt,
+                                                              std::optional<ShapeSignature> signature = std::nullopt);
+
+    /// Remove asset \p id and its recipients (`catalog add --force` re-marking a changed original).
+    void remove(const std::string& id);
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
+/// The SHA-256 of \p path's bytes, in lower-case hex. \throws IoError when it cannot be read.
+[[nodiscard]] std::string file_sha256(const std::filesystem::path& path);
+
+}  // namespace meshmark

@@ -1,0 +1,101 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+
+#include <filesystem>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "meshmark/catalog/catalog.h"
+#include "meshmark/pipeline/detect_file.h"
+
+namespace meshmark {
+
+/// Options of catalog_scan.
+struct CatalogScanOptions
+{
+    /// The detection's options; decision.max_false_positive is the bound for a whole suspect
+    /// against the whole catalogue (each asset's key is tested at it over the catalogue's size).
+    DetectFileOptions detect;
+    /// Assets tried per suspect, nearest in shape first (the shape index's ranking).
+    int candidates = 8;
+    /// Stop at the first asset that matches (the others would have to carry marks of their own
+    /// in the same suspect); false: try every candidate.
+    bool stop_at_match = true;
+    ProgressCallback progress;  ///< ("N/M suspects", fraction done).
+};
+
+/// One asset whose mark was found in a suspect.
+struct CatalogMatch
+{
+    std::string asset;
+    std::filesystem::path original;
+    /// The owner's claim's bound for the whole scan: the detection's times the number of assets
+    /// (the union bound over every key the scan could have tried; docs/statistics.md).
+    double false_positive_probability = 1.0;
+    double score = 0.0;  ///< The owner's score (Decision::score).
+    /// The accused recipients, each bound likewise; the published copy's is kPublishedRecipient.
+    std::vector<RecipientScore> recipients;
+    double shape_distance = 0.0;  ///< Its distance in the shape index.
+    int rank = 0;                 ///< Its place in the shape index's ranking (0 = nearest).
+    DetectReport report;          ///< The detection against it.
+};
+
+/// An asset tried and not matched (for --json's "tried").
+struct CatalogTry
+{
+    std::string asset;
+    double shape_distance = 0.0;
+    double false_positive_probability = 1.0;  ///< Scaled as CatalogMatch's.
+    std::string error;                        ///< The detection could not run (original missing...).
+};
+
+/// What catalog_scan found in one suspect.
+struct SuspectScan
+{
+    std::filesystem::path path;
+    bool detected = false;
+    std::vector<CatalogMatch> matches;  ///< Strongest first.
+    std::vector<CatalogTry> tried;      ///< The candidates that did not match, in the order tried.
+    std::string error;                  ///< The suspect could not be read: why.
+    double index_seconds = 0.0;
+    double seconds = 0.0;
+};
+
+/// What catalog_scan found.
+struct CatalogScanReport
+{
+    std::size_t assets = 0;          ///< Complete assets in the catalogue: the union bound's count.
+    double max_false_positive = 0.0; ///< The per-suspect bound the claims were held to.
+    std::vector<SuspectScan> suspects;
+};
+
+/// \brief Which catalogue assets each suspect was made from (docs/catalog.md): the shape index
+/// ranks the assets by shape, the detection (with tracing) runs against the nearest
+/// options.candidates in order.
+/// \details A suspect is claimed for an asset when the detection's bound, times the number of
+/// assets, is at most options.detect.decision.max_false_positive: the chance that an unmarked
+/// suspect is claimed for any asset of the catalogue is then at most that, whichever assets the
+/// index chose to try. A suspect that cannot be read is reported with its error; the scan goes on.
+/// \throws InvalidOption for bad options; IoError when the catalogue cannot be read.
+[[nodiscard]] CatalogScanReport catalog_scan(const Catalog& catalog, const std::vector<std::filesystem::path>& suspects,
+                                             const CatalogScanOptions& options);
+
+/// Options of catalog_issue.
+struct CatalogIssueOptions
+{
+    std::vector<std::string> recipients;
+    std::chrono::milliseconds lock_timeout = kDefaultLockTimeout;
+    int threads = 0;
+    ProgressCallback progress;
+};
+
+/// \brief Per-recipient copies of catalogue asset \p asset (embed_recipients, with the asset's
+/// family key kept in the catalogue): each name's code is recorded, durably, before any copy is
+/// written; a name recorded before gets the same copy again.
+/// \throws InvalidOption (no such asset, an incomplete one, bad names or pattern), IoError (the
+/// original missing or changed), InvalidMesh, NumericalError.
+[[nodiscard]] EmbedRecipientsReport catalog_issue(Catalog& catalog, const std::string& asset,
+                                                  const std::string& output_pattern, const CatalogIssueOptions& options);
+
+}  // namespace meshmark

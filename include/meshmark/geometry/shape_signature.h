@@ -1,0 +1,59 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "meshmark/core/triangle_mesh.h"
+
+namespace meshmark {
+
+/// Number of features that describe one view of a shape (shape_features).
+inline constexpr int kShapeFeatures = 24;
+
+/// \brief A view's features, each in [0, 1]: the cumulative distributions of the distance to
+/// the centroid (6 values), of the distance between two surface points (12) and of the angle
+/// at the middle one of three (4), distances over the view's RMS radius, and the second and
+/// third principal variances over the first (2). Compared with shape_distance.
+using ShapeFeatures = std::array<float, kShapeFeatures>;
+
+/// \brief The features of a mesh's whole surface and of the parts a plane crop could leave of it
+/// (a catalogue's shape index: catalog/shape_index.h).
+/// \details Every feature is a distance ratio or an angle, so it does not change when the mesh
+/// is moved, rotated, mirrored or scaled, and it is measured on points drawn by area over the
+/// surface (the vertices of a point cloud), so it changes little when the surface is resampled,
+/// simplified, remeshed, smoothed or slightly noised, and not at all when vertices are
+/// renumbered (up to the sampling's noise, which is what a suspect's own draw differs by). A
+/// suspect cropped by a plane looks like the part of the nearest of kShapeCropDirections
+/// directions that keeps the nearest of kShapeCropFractions of the area: views[0] is the
+/// whole, then for each direction the parts keeping each fraction.
+struct ShapeSignature
+{
+    std::vector<ShapeFeatures> views;
+
+    /// Compact form for storage: each feature as an 8-bit fixed-point value (24 bytes a view,
+    /// 3,096 an asset; the rounding, 0.002, is below the draw's noise).
+    [[nodiscard]] std::vector<std::uint8_t> to_bytes() const;
+    /// \throws InvalidOption when \p bytes is not a whole number of views.
+    [[nodiscard]] static ShapeSignature from_bytes(std::span<const std::uint8_t> bytes);
+};
+
+inline constexpr int kShapeCropDirections = 32;  ///< icosahedron + dodecahedron vertices
+/// Fractions of the area a crop view keeps: a crop keeping half the vertices may keep from a
+/// third to two thirds of the area.
+inline constexpr std::array<double, 4> kShapeCropFractions = {0.35, 0.5, 0.65, 0.8};
+inline constexpr int kShapeViews = 1 + kShapeCropDirections * static_cast<int>(kShapeCropFractions.size());
+
+/// The features of \p mesh's whole surface (a suspect's). A mesh without area or points: zeros.
+[[nodiscard]] ShapeFeatures shape_features(const TriangleMesh& mesh);
+
+/// The whole and the crop views of \p mesh (an original's). Deterministic.
+[[nodiscard]] ShapeSignature shape_signature(const TriangleMesh& mesh);
+
+/// \brief Euclidean distance between two views' features, each block weighted so that a block
+/// that differs entirely counts about as much as any other.
+[[nodiscard]] float shape_distance(const ShapeFeatures& a, const ShapeFeatures& b) noexcept;
+
+}  // namespace meshmark

@@ -1,0 +1,454 @@
+// SPDX-License-Identifier: MIT
+// The catalogue's storage: one SQLite database (through SQLiteCpp, Debian's C++ wrapper of the
+// C API), one transaction per change.
+#include "meshmark/catalog/catalog.h"
+
+#include <ctime>
+#include <fstream>
+#include <mutex>
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <openssl/evp.h>
+#include <SQLiteCpp/SQLiteCpp.h>
+#include <sqlite3.h>
+
+#include "meshmark/core/atomic_file.h"
+#include "meshmark/core/error.h"
+
+namespace meshmark {
+namespace {
+
+constexpr const char* kFormat = "meshmark-catalog";
+constexpr int kVersion = 1;
+
+// Schema v1. A recipient row exists for each name given a code; (asset, code) is unique, so the
+// database itself refuses two names with one code. Keys are stored as their key-file JSON (the
+// family key with every recipient so far), so `catalog export` writes exactly a key file.
+constexpr const char* kSchema = R"sql(
+CREATE TABLE IF NOT EXISTS meta (name TEXT PRIMARY KEY, value TEXT NOT NULL);
+CREATE TABLE IF NOT EXISTS assets (
+    id TEXT PRIMARY KEY,
+    original TEXT NOT NULL,
+    original_sha256 TEXT NOT NULL,
+    published TEXT NOT NULL,
+    key_json TEXT NOT NULL,
+    vertex_count INTEGER NOT NULL,
+    face_count INTEGER NOT NULL,
+    added TEXT NOT NULL,
+    complete INTEGER NOT NULL DEFAULT 0,
+    shape BLOB NOT NULL
+);
+CREATE TABLE IF NOT EXISTS recipients (
+    asset TEXT NOT NULL REFERENCES assets(id) ON DELETE CASCADE,
+    name TEXT NOT NULL,
+    code INTEGER NOT NULL,
+    path TEXT NOT NULL,
+    delivered INTEGER NOT NULL DEFAULT 0,
+    issued TEXT NOT NULL,
+    PRIMARY KEY (asset, name),
+    UNIQUE (asset, code)
+);
+)sql";
+
+std::string utc_now()
+{
+    const std::time_t now = std::time(nullptr);
+    std::tm utc{};
+    gmtime_r(&now, &utc);
+    char text[32];
+    std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &utc);
+    return text;
+}
+
+}  // namespace
+
+struct Catalog::Impl
+{
+    class KeyStore;
+    std::filesystem::path path;
+    std::unique_ptr<SQLite::Database> db;
+    mutable std::mutex mutex;  // one statement or transaction at a time on the connection
+
+    // Runs \p work, turning SQLite's errors into one sentence naming the catalogue.
+    template <class Work>
+    auto guarded(const char* doing, Work&& work) const
+    {
+        try
+        {
+            return work();
+        }
+        catch (const SQLite::Exception& e)
+        {
+            const int code = e.getErrorCode();
+            if (code == SQLITE_BUSY || code == SQLITE_LOCKED)
+            {
+                throw IoError(path.string() + ": the catalogue stayed busy (another call is changing it) while " +
+                              doing + "; try again or raise --lock-timeout.");
+            }
+            throw IoError(path.string() + ": cannot " + std::string(doing) + " the catalogue (" + e.what() + ").");
+        }
+    }
+
+    CatalogAsset asset_of(SQLite::Statement& row) const
+    {
+        CatalogAsset a;
+        a.id = row.getColumn("id").getString();
+        a.original = row.getColumn("original").getString();
+        a.original_sha256 = row.getColumn("original_sha256").getString();
+        a.published = row.getColumn("published").getString();
+        a.key = parse_key(row.getColumn("key_json").getString(), path.string() + " (asset " + a.id + ")");
+        a.vertex_count = row.getColumn("vertex_count").getInt64();
+        a.face_count = row.getColumn("face_count").getInt64();
+        a.added = row.getColumn("added").getString();
+        a.is_complete = row.getColumn("complete").getInt() != 0;
+        return a;
+    }
+};
+
+Catalog::Catalog(std::filesystem::path path, Open mode, std::chrono::milliseconds busy_timeout)
+    : impl_(std::make_unique<Impl>())
+{
+    impl_->path = std::move(path);
+    const std::string name = impl_->path.string();
+    std::error_code error;
+    const bool exists = std::filesystem::exists(impl_->path, error);
+    if (!exists && mode == Open::Existing)
+    {
+        throw IoError(name + ": no such catalogue (create one with `meshmark catalog add`).");
+    }
+    if (!exists)
+    {
+        // Created empty, mode 0600, before SQLite opens it: the catalogue holds keys (its WAL
+        // and shared-memory files take the database's mode).
+        create_parent_directories(impl_->path);
+        const int fd = ::open(impl_->path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+        if (fd >= 0)
+        {
+            ::close(fd);
+        }
+    }
+    impl_->guarded("open", [&] {
+        impl_->db = std::make_unique<SQLite::Database>(name, SQLite::OPEN_READWRITE | SQLite::OPEN_FULLMUTEX,
+                                                       static_cast<int>(busy_timeout.count()));
+        auto& db = *impl_->db;
+        // A file that is not SQLite fails here, on the first read.
+        db.exec("PRAGMA journal_mode=WAL");
+        db.exec("PRAGMA synchronous=FULL");
+        db.exec("PRAGMA foreign_keys=ON");
+        SQLite::Transaction transaction(db, SQLite::TransactionBehavior::IMMEDIATE);
+        const bool has_meta = db.tableExists("meta");
+        if (!has_meta && db.tableExists("assets"))
+        {
+            throw IoError(name + ": this database is not a meshmark catalogue.");
+        }
+        if (!has_meta)
+        {
+            const bool is_empty = db.execAndGet("SELECT count(*) FROM sqlite_master").getInt() == 0;
+            if (!is_empty)
+            {
+                throw IoError(name + ": this database is not a meshmark catalogue.");
+            }
+            db.exec(kSchema);
+            SQLite::Statement insert(db, "INSERT INTO meta(name, value) VALUES (?, ?)");
+            insert.bind(1, "format");
+            insert.bind(2, kFormat);
+            insert.exec();
+            insert.reset();
+            insert.bind(1, "version");
+            insert.bind(2, std::to_string(kVersion));
+            insert.exec();
+        }
+        else
+        {
+            const std::string format = db.execAndGet("SELECT value FROM meta WHERE name = 'format'").getString();
+            const int version = std::stoi(db.execAndGet("SELECT value FROM meta WHERE name = 'version'").getString());
+            if (format != kFormat)
+            {
+                throw IoError(name + ": this database is not a meshmark catalogue.");
+            }
+            if (version > kVersion)
+            {
+                throw IoError(name + ": the catalogue is format version " + std::to_string(version) +
+                              ", newer than this meshmark reads (" + std::to_string(kVersion) + ").");
+            }
+        }
+        transaction.commit();
+    });
+}
+
+Catalog::~Catalog() = default;
+
+const std::filesystem::path& Catalog::path() const noexcept { return impl_->path; }
+
+std::optional<CatalogAsset> Catalog::asset(const std::string& id) const
+{
+    const std::lock_guard lock(impl_->mutex);
+    return impl_->guarded("read", [&]() -> std::optional<CatalogAsset> {
+        SQLite::Statement row(*impl_->db, "SELECT * FROM assets WHERE id = ?");
+        row.bind(1, id);
+        if (!row.executeStep())
+        {
+            return std::nullopt;
+        }
+        return impl_->asset_of(row);
+    });
+}
+
+std::vector<CatalogAsset> Catalog::assets() const
+{
+    const std::lock_guard lock(impl_->mutex);
+    return impl_->guarded("read", [&] {
+        std::vector<CatalogAsset> all;
+        SQLite::Statement row(*impl_->db, "SELECT * FROM assets ORDER BY id");
+        while (row.executeStep())
+        {
+            all.push_back(impl_->asset_of(row));
+        }
+        return all;
+    });
+}
+
+std::vector<CatalogRecipient> Catalog::recipients(const std::string& id) const
+{
+    const std::lock_guard lock(impl_->mutex);
+    return impl_->guarded("read", [&] {
+        std::vector<CatalogRecipient> all;
+        SQLite::Statement row(*impl_->db,
+                              "SELECT name, code, path, delivered, issued FROM recipients WHERE asset = ? ORDER BY code");
+        row.bind(1, id);
+        while (row.executeStep())
+        {
+            all.push_back({row.getColumn(0).getString(), static_cast<std::uint32_t>(row.getColumn(1).getInt64()),
+                           row.getColumn(2).getString(), row.getColumn(3).getInt() != 0, row.getColumn(4).getString()});
+        }
+        return all;
+    });
+}
+
+std::size_t Catalog::complete_count() const
+{
+    const std::lock_guard lock(impl_->mutex);
+    return impl_->guarded("read", [&] {
+        return static_cast<std::size_t>(impl_->db->execAndGet("SELECT count(*) FROM assets WHERE complete = 1").getInt64());
+    });
+}
+
+std::vector<Catalog::IndexEntry> Catalog::shape_index() const
+{
+    const std::lock_guard lock(impl_->mutex);
+    return impl_->guarded("read", [&] {
+        std::vector<IndexEntry> entries;
+        SQLite::Statement row(*impl_->db, "SELECT id, shape FROM assets WHERE complete = 1 ORDER BY id");
+        while (row.executeStep())
+        {
+            const SQLite::Column blob = row.getColumn(1);
+            const auto* data = static_cast<const std::uint8_t*>(blob.getBlob());
+            entries.push_back({row.getColumn(0).getString(),
+                               ShapeSignature::from_bytes({data, static_cast<std::size_t>(blob.getBytes())})});
+        }
+        return entries;
+    });
+}
+
+void Catalog::remove(const std::string& id)
+{
+    const std::lock_guard lock(impl_->mutex);
+    impl_->guarded("change", [&] {
+        SQLite::Transaction transaction(*impl_->db, SQLite::TransactionBehavior::IMMEDIATE);
+        SQLite::Statement drop(*impl_->db, "DELETE FROM assets WHERE id = ?");
+        drop.bind(1, id);
+        drop.exec();
+        transaction.commit();
+    });
+}
+
+// An asset's family key, kept in the catalogue (see Catalog::family_store).
+class Catalog::Impl::KeyStore final : public FamilyKeyStore
+{
+public:
+    KeyStore(Catalog::Impl& impl, std::string id, std::optional<CatalogAsset> prototype,
+                    std::optional<ShapeSignature> signature)
+        : impl_(impl), id_(std::move(id)), prototype_(std::move(prototype)), signature_(std::move(signature))
+    {
+    }
+
+    [[nodiscard]] std::string name() const override
+    {
+        return impl_.path.string() + " (asset " + id_ + ")";
+    }
+    [[nodiscard]] std::string single_owner_advice() const override
+    {
+        return "the catalogue's assets are marked with family keys.";
+    }
+
+    [[nodiscard]] std::optional<Key> peek() const override
+    {
+        const std::lock_guard lock(impl_.mutex);
+        return impl_.guarded("read", [&]() -> std::optional<Key> {
+            SQLite::Statement row(*impl_.db, "SELECT key_json FROM assets WHERE id = ?");
+            row.bind(1, id_);
+            if (!row.executeStep())
+            {
+                return std::nullopt;
+            }
+            return parse_key(row.getColumn(0).getString(), name());
+        });
+    }
+
+    double change(const std::function<std::optional<Key>(std::optional<Key>)>& update) override
+    {
+        const std::lock_guard lock(impl_.mutex);
+        const auto start = std::chrono::steady_clock::now();
+        return impl_.guarded("record the copies in", [&] {
+            auto& db = *impl_.db;
+            SQLite::Transaction transaction(db, SQLite::TransactionBehavior::IMMEDIATE);
+            const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+            std::optional<Key> now;
+            std::optional<bool> complete;
+            {
+                SQLite::Statement row(db, "SELECT key_json, complete FROM assets WHERE id = ?");
+                row.bind(1, id_);
+                if (row.executeStep())
+                {
+                    now = parse_key(row.getColumn(0).getString(), name());
+                    complete = row.getColumn(1).getInt() != 0;
+                }
+            }
+            if (!now && !prototype_)
+            {
+                throw InvalidOption(impl_.path.string() + ": no asset '" + id_ + "' in the catalogue.");
+            }
+            const std::size_t before = now && now->recipients ? now->recipients->recipients.size() : 0;
+            const std::optional<Key> changed = update(now);
+            if (!changed)
+            {
+                return waited;
+            }
+            if (!now)
+            {
+                CatalogAsset a = *prototype_;
+                SQLite::Statement insert(db, "INSERT INTO assets(id, original, original_sha256, published, key_json, "
+                                             "vertex_count, face_count, added, complete, shape) "
+                                             "VALUES (?, ?, ?, ?, ?, ?, ?, ?, 0, ?)");
+                insert.bind(1, id_);
+                insert.bind(2, a.original.string());
+                insert.bind(3, a.original_sha256);
+                insert.bind(4, a.published.string());
+                insert.bind(5, to_json(*changed));
+                insert.bind(6, static_cast<std::int64_t>(a.vertex_count));
+                insert.bind(7, static_cast<std::int64_t>(a.face_count));
+                insert.bind(8, utc_now());
+                const std::vector<std::uint8_t> shape = signature_ ? signature_->to_bytes() : std::vector<std::uint8_t>{};
+                insert.bind(9, shape.data(), static_cast<int>(shape.size()));
+                insert.exec();
+            }
+            else
+            {
+                SQLite::Statement set(db, "UPDATE assets SET key_json = ? WHERE id = ?");
+                set.bind(1, to_json(*changed));
+                set.bind(2, id_);
+                set.exec();
+            }
+            // The names this change gave a code (the key's recipients past those it held).
+            const std::string issued = utc_now();
+            SQLite::Statement insert(db, "INSERT INTO recipients(asset, name, code, path, issued) VALUES (?, ?, ?, ?, ?)");
+            const auto& all = changed->recipients->recipients;
+            for (std::size_t r = before; r < all.size(); ++r)
+            {
+                insert.bind(1, id_);
+                insert.bind(2, all[r].name);
+                insert.bind(3, static_cast<std::int64_t>(all[r].index));
+                insert.bind(4, std::string());  // its path once delivered
+                insert.bind(5, issued);
+                insert.exec();
+                insert.reset();
+            }
+            transaction.commit();
+            return waited;
+        });
+    }
+
+    void delivered(const std::vector<IssuedCopy>& copies) override
+    {
+        const std::lock_guard lock(impl_.mutex);
+        impl_.guarded("record the copies in", [&] {
+            auto& db = *impl_.db;
+            SQLite::Transaction transaction(db, SQLite::TransactionBehavior::IMMEDIATE);
+            SQLite::Statement set(db, "UPDATE recipients SET delivered = 1, path = ? WHERE asset = ? AND name = ?");
+            bool published = false;
+            for (const IssuedCopy& copy : copies)
+            {
+                set.bind(1, std::filesystem::absolute(copy.path).lexically_normal().string());
+                set.bind(2, id_);
+                set.bind(3, copy.name);
+                set.exec();
+                set.reset();
+                published = published || copy.name == kPublishedRecipient;
+            }
+            if (published)
+            {
+                SQLite::Statement done(db, "UPDATE assets SET complete = 1 WHERE id = ?");
+                done.bind(1, id_);
+                done.exec();
+            }
+            transaction.commit();
+        });
+    }
+
+private:
+    Catalog::Impl& impl_;
+    std::string id_;
+    std::optional<CatalogAsset> prototype_;
+    std::optional<ShapeSignature> signature_;
+};
+
+std::unique_ptr<FamilyKeyStore> Catalog::family_store(const std::string& id, std::optional<CatalogAsset> prototype,
+                                                      std::optional<ShapeSignature> signature)
+{
+    return std::make_unique<Impl::KeyStore>(*impl_, id, std::move(prototype), std::move(signature));
+}
+
+std::string file_sha256(const std::filesystem::path& path)
+{
+    std::ifstream in(path, std::ios::binary);
+    if (!in)
+    {
+        throw IoError(path.string() + ": cannot open the file.");
+    }
+    const std::unique_ptr<EVP_MD_CTX, decltype(&EVP_MD_CTX_free)> context(EVP_MD_CTX_new(), &EVP_MD_CTX_free);
+    if (!context || EVP_DigestInit_ex(context.get(), EVP_sha256(), nullptr) != 1)
+    {
+        throw IoError(path.string() + ": cannot compute the file's SHA-256.");
+    }
+    std::vector<char> chunk(std::size_t{1} << 20U);
+    while (in)
+    {
+        in.read(chunk.data(), static_cast<std::streamsize>(chunk.size()));
+        if (in.gcount() > 0 && EVP_DigestUpdate(context.get(), chunk.data(), static_cast<std::size_t>(in.gcount())) != 1)
+        {
+            throw IoError(path.string() + ": cannot compute the file's SHA-256.");
+        }
+    }
+    if (in.bad())
+    {
+        throw IoError(path.string() + ": cannot read the file.");
+    }
+    unsigned char digest[EVP_MAX_MD_SIZE];
+    unsigned int size = 0;
+    if (EVP_DigestFinal_ex(context.get(), digest, &size) != 1)
+    {
+        throw IoError(path.string() + ": cannot compute the file's SHA-256.");
+    }
+    static constexpr char kHex[] = "0123456789abcdef";
+    std::string hex;
+    for (unsigned int i = 0; i < size; ++i)
+    {
+        hex += kHex[digest[i] >> 4U];
+        hex += kHex[digest[i] & 0xFU];
+    }
+    return hex;
+}
+
+}  // namespace meshmark

@@ -1,0 +1,358 @@
+// SPDX-License-Identifier: MIT
+// `catalog add`: every mesh file of a tree marked, its published copy written, all recorded.
+#include "meshmark/catalog/catalog_add.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cctype>
+#include <chrono>
+#include <fstream>
+#include <iterator>
+#include <mutex>
+#include <set>
+#include <sstream>
+#include <thread>
+
+#include "meshmark/core/atomic_file.h"
+#include "meshmark/core/error.h"
+#include "meshmark/core/hash.h"
+#include "meshmark/core/threads.h"
+
+namespace meshmark {
+namespace fs = std::filesystem;
+
+const char* to_string(CatalogAddOutcome::Status status) noexcept
+{
+    switch (status)
+    {
+    case CatalogAddOutcome::Status::Marked: return "marked";
+    case CatalogAddOutcome::Status::Present: return "present";
+    case CatalogAddOutcome::Status::Unmarkable: return "unmarkable";
+    case CatalogAddOutcome::Status::Failed: return "failed";
+    }
+    return "failed";
+}
+
+namespace {
+
+bool is_mesh_file(const fs::path& path)
+{
+    std::string ext = path.extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+    static const std::set<std::string> kExtensions = {".ply", ".obj", ".off", ".stl", ".gltf", ".glb", ".3mf"};
+    return kExtensions.contains(ext);
+}
+
+bool is_hidden(const fs::path& relative)
+{
+    return std::any_of(relative.begin(), relative.end(), [](const fs::path& part)
+                       { const std::string s = part.string(); return s.size() > 1 && s[0] == '.' && s != ".."; });
+}
+
+// A relative path that stays below its folder ("a/b.png", not "../b.png" nor "/b.png").
+bool stays_inside(const fs::path& relative)
+{
+    const fs::path normal = relative.lexically_normal();
+    return normal.is_relative() && !normal.empty() && *normal.begin() != "..";
+}
+
+// Copies \p from to \p to (folders made) unless \p to already holds the same bytes.
+void copy_beside(const fs::path& from, const fs::path& to)
+{
+    std::ifstream in(from, std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    if (!in.good() && !in.eof())
+    {
+        throw IoError(from.string() + ": cannot read this file that the mesh references.");
+    }
+    std::error_code error;
+    if (fs::is_regular_file(to, error))
+    {
+        std::ifstream there(to, std::ios::binary);
+        const std::string existing((std::istreambuf_iterator<char>(there)), std::istreambuf_iterator<char>());
+        if (existing == bytes)
+        {
+            return;
+        }
+    }
+    write_file_atomically(to, [&](std::ostream& out) { out << bytes; });
+}
+
+// An OBJ's material libraries and the textures they name, copied beside its marked copy under
+// the same relative paths, so the copy's folder shows what the original's does (a glTF's
+// writer copies its images itself). A file whose path would leave the folder is left out: the
+// writer then links it back to the original's (io/obj.cpp, material_library_edits).
+void copy_obj_materials(const fs::path& input, const fs::path& output)
+{
+    std::ifstream in(input, std::ios::binary);
+    const fs::path from = input.parent_path();
+    const fs::path to = output.parent_path();
+    std::string line;
+    while (std::getline(in, line))
+    {
+        std::istringstream tokens(line);
+        std::string keyword;
+        if (!(tokens >> keyword) || keyword != "mtllib")
+        {
+            continue;
+        }
+        std::string rest;
+        std::getline(tokens, rest);
+        rest.erase(0, rest.find_first_not_of(" \t"));
+        rest.erase(rest.find_last_not_of(" \t\r") + 1);
+        std::vector<std::string> names;
+        std::error_code error;
+        if (fs::is_regular_file(from / rest, error))
+        {
+            names.push_back(rest);
+        }
+        else
+        {
+            std::istringstream parts(rest);
+            for (std::string name; parts >> name;)
+            {
+                names.push_back(name);
+            }
+        }
+        for (const std::string& name : names)
+        {
+            if (!stays_inside(name) || !fs::is_regular_file(from / name, error))
+            {
+                continue;
+            }
+            copy_beside(from / name, to / name);
+            // The library's textures: the last word of each map/bump/disp/decal/refl statement,
+            // relative to the library's own folder.
+            std::ifstream library(from / name);
+            const fs::path library_folder = fs::path(name).parent_path();
+            std::string statement;
+            while (std::getline(library, statement))
+            {
+                std::istringstream words(statement);
+                std::string first;
+                if (!(words >> first))
+                {
+                    continue;
+                }
+                std::transform(first.begin(), first.end(), first.begin(), [](unsigned char c) { return std::tolower(c); });
+                if (!first.starts_with("map_") && first != "bump" && first != "disp" && first != "decal" &&
+                    first != "refl" && first != "norm")
+                {
+                    continue;
+                }
+                std::string texture;
+                for (std::string word; words >> word;)
+                {
+                    texture = word;
+                }
+                const fs::path relative = library_folder / texture;
+                if (!texture.empty() && stays_inside(relative) && fs::is_regular_file(from / relative, error))
+                {
+                    copy_beside(from / relative, to / relative);
+                }
+            }
+        }
+    }
+}
+
+// The outcome of a failure: InvalidMesh and NumericalError say the mesh cannot carry a mark.
+CatalogAddOutcome failed(CatalogAddOutcome outcome, const std::exception& e, bool unmarkable)
+{
+    outcome.status = unmarkable ? CatalogAddOutcome::Status::Unmarkable : CatalogAddOutcome::Status::Failed;
+    outcome.reason = e.what();
+    return outcome;
+}
+
+}  // namespace
+
+std::vector<std::pair<fs::path, std::string>> find_mesh_files(const std::vector<fs::path>& inputs, const fs::path& skip)
+{
+    std::vector<std::pair<fs::path, std::string>> found;
+    std::error_code error;
+    const fs::path skipped = skip.empty() ? fs::path() : fs::weakly_canonical(skip, error);
+    for (const fs::path& input : inputs)
+    {
+        if (fs::is_regular_file(input, error))
+        {
+            found.emplace_back(input, input.filename().generic_string());
+            continue;
+        }
+        if (!fs::is_directory(input, error))
+        {
+            throw InvalidOption(input.string() + ": no such file or folder.");
+        }
+        std::vector<std::pair<fs::path, std::string>> here;
+        for (auto it = fs::recursive_directory_iterator(input, fs::directory_options::skip_permission_denied, error);
+             it != fs::recursive_directory_iterator(); it.increment(error))
+        {
+            if (error)
+            {
+                throw IoError(input.string() + ": cannot list the folder (" + error.message() + ").");
+            }
+            const fs::path relative = it->path().lexically_relative(input);
+            if (is_hidden(relative) || (!skipped.empty() && fs::weakly_canonical(it->path(), error) == skipped))
+            {
+                if (it->is_directory(error))
+                {
+                    it.disable_recursion_pending();
+                }
+                continue;
+            }
+            if (it->is_regular_file(error) && is_mesh_file(it->path()))
+            {
+                here.emplace_back(it->path(), relative.generic_string());
+            }
+        }
+        std::sort(here.begin(), here.end(), [](const auto& a, const auto& b) { return a.second < b.second; });
+        found.insert(found.end(), here.begin(), here.end());
+    }
+    return found;
+}
+
+std::vector<CatalogAddOutcome> catalog_add(Catalog& catalog, const std::vector<fs::path>& inputs,
+                                           const fs::path& output_folder, const CatalogAddOptions& options)
+{
+    if (options.jobs < 0)
+    {
+        throw InvalidOption("--jobs must be >= 0 (0 = one per core).");
+    }
+    {
+        EmbedRecipientsOptions check = options.embed;
+        check.recipients = {kPublishedRecipient};
+        check.validate();
+    }
+    if (output_folder.empty())
+    {
+        throw InvalidOption("name the folder of the marked copies with -o.");
+    }
+    const auto files = find_mesh_files(inputs, output_folder);
+    std::vector<CatalogAddOutcome> outcomes(files.size());
+    const int cores = resolve_threads(0);
+    const int jobs = std::max(1, std::min<int>(options.jobs > 0 ? options.jobs : cores,
+                                               static_cast<int>(std::max<std::size_t>(files.size(), 1))));
+    const int threads = std::max(1, resolve_threads(options.embed.threads) / jobs);
+    std::atomic<std::size_t> next{0};
+    std::atomic<std::size_t> done{0};
+    std::mutex progress_mutex;
+    // Two files naming one asset in this call: the first claims it.
+    std::mutex claim_mutex;
+    std::set<std::string> claimed;
+
+    const auto mark_one = [&](std::size_t f) {
+        const auto start = std::chrono::steady_clock::now();
+        const auto& [input, id] = files[f];
+        CatalogAddOutcome outcome;
+        outcome.path = input;
+        outcome.asset = id;
+        const fs::path published = fs::absolute(output_folder / id).lexically_normal();
+        try
+        {
+            {
+                const std::lock_guard lock(claim_mutex);
+                if (!claimed.insert(id).second)
+                {
+                    throw InvalidOption(input.string() + ": another file of this call is already asset '" + id +
+                                        "'; add the two from separate folders.");
+                }
+            }
+            const fs::path original = fs::absolute(input).lexically_normal();
+            if (is_same_file(original, published))
+            {
+                throw InvalidOption(input.string() + ": the marked copy would replace the original; choose another -o.");
+            }
+            const std::string sha = file_sha256(original);
+            if (const std::optional<CatalogAsset> known = catalog.asset(id))
+            {
+                if (known->original != original)
+                {
+                    throw InvalidOption(input.string() + ": the catalogue's asset '" + id + "' is another file, " +
+                                        known->original.string() + "; add this one from another folder.");
+                }
+                if (known->original_sha256 == sha && known->is_complete)
+                {
+                    outcome.status = CatalogAddOutcome::Status::Present;
+                    outcome.published = known->published;
+                    outcome.vertex_count = known->vertex_count;
+                    outcome.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+                    return outcome;
+                }
+                if (known->original_sha256 != sha)
+                {
+                    if (known->is_complete && !options.force)
+                    {
+                        throw InvalidOption(input.string() + ": the original changed since it was added as asset '" +
+                                            id + "'; pass --force to mark it again with a new key (copies "
+                                            "issued before are then no longer traced).");
+                    }
+                    catalog.remove(id);  // an interrupted add of other bytes, or --force
+                }
+                // else: an interrupted add of these bytes, finished with its recorded key
+            }
+            const MeshFile file = read_mesh_file(original);
+            outcome.vertex_count = file.mesh.vertex_count();
+            CatalogAsset prototype;
+            prototype.id = id;
+            prototype.original = original;
+            prototype.original_sha256 = sha;
+            prototype.published = published;
+            prototype.vertex_count = file.mesh.vertex_count();
+            prototype.face_count = file.mesh.face_count();
+            ShapeSignature signature = shape_signature(file.mesh);
+            EmbedRecipientsOptions embed = options.embed;
+            embed.recipients = {kPublishedRecipient};
+            embed.threads = threads;
+            embed.progress = nullptr;
+            if (embed.seed)
+            {
+                embed.seed = splitmix64(*embed.seed ^ hash_bytes(id.data(), id.size()));
+            }
+            if (file.format == MeshFormat::Obj)
+            {
+                copy_obj_materials(original, published);
+            }
+            const std::unique_ptr<FamilyKeyStore> store =
+                catalog.family_store(id, std::move(prototype), std::move(signature));
+            (void)embed_recipients(original, &file, [&](const std::string&) { return published; }, *store, embed);
+            outcome.status = CatalogAddOutcome::Status::Marked;
+            outcome.published = published;
+        }
+        catch (const InvalidMesh& e)
+        {
+            outcome = failed(std::move(outcome), e, true);
+        }
+        catch (const NumericalError& e)
+        {
+            outcome = failed(std::move(outcome), e, true);
+        }
+        catch (const std::exception& e)
+        {
+            outcome = failed(std::move(outcome), e, false);
+        }
+        outcome.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        return outcome;
+    };
+
+    const auto work = [&] {
+        for (std::size_t f = next++; f < files.size(); f = next++)
+        {
+            outcomes[f] = mark_one(f);
+            const std::size_t finished = ++done;
+            if (options.progress)
+            {
+                const std::lock_guard lock(progress_mutex);
+                options.progress("files",
+                                 static_cast<double>(finished) / static_cast<double>(files.size()));
+            }
+        }
+    };
+    std::vector<std::jthread> workers;
+    for (int j = 1; j < jobs; ++j)
+    {
+        workers.emplace_back(work);
+    }
+    work();
+    workers.clear();  // joins
+    return outcomes;
+}
+
+}  // namespace meshmark

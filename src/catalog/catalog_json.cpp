@@ -1,0 +1,113 @@
+// SPDX-License-Identifier: MIT
+// The catalogue commands' --json reports (shared by the CLI and the Python package).
+#include "meshmark/catalog/catalog_json.h"
+
+#include <map>
+
+#include "meshmark/pipeline/report_json.h"
+
+namespace meshmark {
+
+nlohmann::json catalog_add_json(const Catalog& catalog, const std::vector<CatalogAddOutcome>& outcomes)
+{
+    nlohmann::json files = nlohmann::json::array();
+    std::map<std::string, int> counts = {{"marked", 0}, {"present", 0}, {"unmarkable", 0}, {"failed", 0}};
+    for (const CatalogAddOutcome& o : outcomes)
+    {
+        nlohmann::json file = {{"path", o.path.string()},
+                               {"asset", o.asset},
+                               {"outcome", to_string(o.status)},
+                               {"vertices", o.vertex_count},
+                               {"seconds", o.seconds}};
+        if (!o.reason.empty())
+        {
+            file["reason"] = o.reason;
+        }
+        if (!o.published.empty())
+        {
+            file["published"] = o.published.string();
+        }
+        ++counts[to_string(o.status)];
+        files.push_back(std::move(file));
+    }
+    return {{"catalog", catalog.path().string()}, {"files", std::move(files)}, {"counts", counts}};
+}
+
+nlohmann::json catalog_asset_json(const CatalogAsset& asset, const std::vector<CatalogRecipient>& recipients)
+{
+    nlohmann::json names = nlohmann::json::array();
+    for (const CatalogRecipient& r : recipients)
+    {
+        names.push_back({{"name", r.name}, {"path", r.path.string()}, {"delivered", r.is_delivered}, {"issued", r.issued}});
+    }
+    return {{"asset", asset.id},
+            {"original", asset.original.string()},
+            {"original_sha256", asset.original_sha256},
+            {"published", asset.published.string()},
+            {"vertices", asset.vertex_count},
+            {"faces", asset.face_count},
+            {"added", asset.added},
+            {"complete", asset.is_complete},
+            {"recipients", std::move(names)}};
+}
+
+nlohmann::json catalog_scan_json(const Catalog& catalog, const CatalogScanReport& report,
+                                 const CatalogScanOptions& options)
+{
+    nlohmann::json suspects = nlohmann::json::array();
+    DetectOptions per_key = options.detect.decision;
+    per_key.max_false_positive /= static_cast<double>(std::max<std::size_t>(report.assets, 1));
+    for (const SuspectScan& s : report.suspects)
+    {
+        nlohmann::json matches = nlohmann::json::array();
+        for (const CatalogMatch& m : s.matches)
+        {
+            nlohmann::json recipients = nlohmann::json::array();
+            for (const RecipientScore& r : m.recipients)
+            {
+                recipients.push_back(
+                    {{"name", r.name}, {"score", r.score}, {"false_positive_probability", r.false_positive_probability}});
+            }
+            matches.push_back({{"asset", m.asset},
+                               {"original", m.original.string()},
+                               {"score", m.score},
+                               {"false_positive_probability", m.false_positive_probability},
+                               {"recipients", std::move(recipients)},
+                               {"shape_distance", m.shape_distance},
+                               {"rank", m.rank},
+                               {"detection", detect_report_json(m.report, per_key)}});
+        }
+        nlohmann::json tried = nlohmann::json::array();
+        for (const CatalogTry& t : s.tried)
+        {
+            nlohmann::json entry = {{"asset", t.asset},
+                                    {"shape_distance", t.shape_distance},
+                                    {"false_positive_probability", t.false_positive_probability}};
+            if (!t.error.empty())
+            {
+                entry["error"] = t.error;
+            }
+            tried.push_back(std::move(entry));
+        }
+        nlohmann::json suspect = {{"path", s.path.string()},
+                                  {"detected", s.detected},
+                                  {"matches", std::move(matches)},
+                                  {"tried", std::move(tried)},
+                                  {"seconds", {{"index", s.index_seconds}, {"total", s.seconds}}}};
+        if (!s.error.empty())
+        {
+            suspect["error"] = s.error;
+        }
+        suspects.push_back(std::move(suspect));
+    }
+    return {{"catalog", catalog.path().string()},
+            {"assets", report.assets},
+            {"max_false_positive", report.max_false_positive},
+            {"bound",
+             "per suspect, the chance that an unmarked mesh is claimed for any asset of the catalogue is at "
+             "most max_false_positive (each asset's key tested at max_false_positive / assets; "
+             "docs/statistics.md)"},
+            {"suspects", std::move(suspects)}};
+}
+
+}  // namespace meshmark
