@@ -28,6 +28,8 @@ packages=(
   libsuitesparse-dev     # CHOLMOD sparse Cholesky for the Laplacian eigenbasis
   libgtest-dev libgmock-dev googletest              # tests
   libbenchmark-dev       # micro-benchmarks
+  libsqlite3-dev libsqlitecpp-dev  # the catalogue's database (SQLite, through SQLiteCpp)
+  libssl-dev             # SHA-256 of catalogue originals (OpenSSL's libcrypto)
   pybind11-dev python3-dev python3-numpy python3-pytest  # the Python package (python/) and its tests
 )
 if ((interop_tools)); then

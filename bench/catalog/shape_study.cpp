@@ -6,15 +6,20 @@
 // n-th when there are more) is attacked by every spec (default: the set below) and ranked
 // against all. Prints one line per (asset, attack) and a summary per attack.
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <map>
 #include <string>
 #include <vector>
 
 #include "meshmark/attacks/attack_spec.h"
+#include "meshmark/attacks/cropping.h"
+#include <numbers>
 #include "meshmark/geometry/shape_signature.h"
 #include "meshmark/io/mesh_io.h"
+#include "meshmark/registration/registration.h"
 
 using namespace meshmark;
 
@@ -64,16 +69,39 @@ int main(int argc, char** argv)
         }
     }
     std::fprintf(stderr, "%zu meshes indexed\n", index.size());
-    const std::size_t step = std::max<std::size_t>(1, meshes.size() / 60);
+    std::vector<TriangleMesh> samples(meshes.size());
+    for (std::size_t b = 0; b < meshes.size(); ++b)
+    {
+        samples[b].V = shape_sample(meshes[b], 2048);
+    }
+    // MESHMARK_STUDY_ATTACKED=N: attack only the first N meshes of the list (the rest are
+    // distractors); otherwise up to 60 spread over the list.
+    const char* attacked = std::getenv("MESHMARK_STUDY_ATTACKED");
+    const std::size_t first = attacked != nullptr ? std::min<std::size_t>(meshes.size(), std::stoul(attacked)) : meshes.size();
+    const std::size_t step = attacked != nullptr ? 1 : std::max<std::size_t>(1, meshes.size() / 60);
     std::map<std::string, std::vector<int>> ranks;
-    for (std::size_t a = 0; a < meshes.size(); a += step)
+    double verify_seconds = 0.0;
+    for (std::size_t a = 0; a < first; a += step)
     {
         for (const std::string& spec : specs)
         {
             TriangleMesh suspect;
             try
             {
-                suspect = apply_attacks(meshes[a], parse_attack_spec(spec), 7 + a, 1).mesh;
+                if (spec.starts_with("aligned-crop="))
+                {
+                    // A crop along the first of the index's directions (0, -1, -phi): no direction
+                    // error, only the fraction's.
+                    CropOptions crop_options;
+                    crop_options.vertex_fraction = std::stod(spec.substr(13));
+                    crop_options.direction = -Eigen::Vector3d(std::sqrt(1.0 - (1.0 - 1.0 / 64) * (1.0 - 1.0 / 64)), 0.0, 1.0 - 1.0 / 64);
+                    Rng rng(1);
+                    suspect = crop(meshes[a], crop_options, rng).mesh;
+                }
+                else
+                {
+                    suspect = apply_attacks(meshes[a], parse_attack_spec(spec), 7 + a, 1).mesh;
+                }
             }
             catch (const std::exception& e)
             {
@@ -91,6 +119,31 @@ int main(int argc, char** argv)
                 d.emplace_back(best, b);
             }
             std::sort(d.begin(), d.end());
+            // MESHMARK_STUDY_VERIFY=M: the first M re-ranked by a quick registration of point
+            // samples (rms of the fit; a fit that does not converge ranks last).
+            if (const char* verify = std::getenv("MESHMARK_STUDY_VERIFY"))
+            {
+                const std::size_t m = std::min<std::size_t>(d.size(), std::stoul(verify));
+                TriangleMesh s_points;
+                s_points.V = shape_sample(suspect, 1024);
+                RegistrationOptions quick;
+                quick.coarse_samples = 32;
+                quick.refine_samples = 256;
+                quick.fine_samples = 512;
+                quick.final_samples = 1024;
+                quick.reference_samples = 2048;
+                quick.max_iterations = 10;
+                quick.tolerance = 1e-6;
+                quick.threads = 1;
+                const auto t0 = std::chrono::steady_clock::now();
+                for (std::size_t k = 0; k < m; ++k)
+                {
+                    const RegistrationResult fit = register_to_reference(s_points, samples[d[k].second], quick);
+                    d[k].first = static_cast<float>(fit.rms_error + (fit.overlap_fraction < 0.8 ? 1.0 : 0.0));
+                }
+                verify_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+                std::sort(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(m));
+            }
             int rank = 0;
             while (d[static_cast<std::size_t>(rank)].second != a)
             {
@@ -101,6 +154,7 @@ int main(int argc, char** argv)
                         static_cast<double>(d[static_cast<std::size_t>(rank)].first), static_cast<double>(d[0].first));
         }
     }
+    std::fprintf(stderr, "verification: %.1f s in all\n", verify_seconds);
     for (const auto& [spec, r] : ranks)
     {
         const auto within = [&](int k) { return std::count_if(r.begin(), r.end(), [&](int x) { return x < k; }); };

@@ -43,7 +43,7 @@ constexpr std::uint64_t kSeed = 0x5ea7c0de5eedULL;
 // The triangles are taken in an order that does not depend on the file (by their centroid's
 // distance from the surface's centroid, each one's corners likewise), so a copy with its
 // vertices or faces renumbered draws the same points.
-std::vector<Vec3> surface_points(const TriangleMesh& mesh)
+std::vector<Vec3> surface_points(const TriangleMesh& mesh, int count = kSamples)
 {
     struct Triangle
     {
@@ -73,7 +73,7 @@ std::vector<Vec3> surface_points(const TriangleMesh& mesh)
         triangles.push_back(t);
     }
     std::vector<Vec3> points;
-    points.reserve(kSamples);
+    points.reserve(static_cast<std::size_t>(count));
     Rng rng(kSeed);
     if (total > 0.0)
     {
@@ -95,9 +95,9 @@ std::vector<Vec3> surface_points(const TriangleMesh& mesh)
             sum += t.area;
             cumulative.push_back(sum);
         }
-        for (int i = 0; i < kSamples; ++i)
+        for (int i = 0; i < count; ++i)
         {
-            const double at = (static_cast<double>(i) + rng.uniform()) / kSamples * sum;
+            const double at = (static_cast<double>(i) + rng.uniform()) / count * sum;
             const auto f = static_cast<std::size_t>(
                 std::min<std::ptrdiff_t>(std::upper_bound(cumulative.begin(), cumulative.end(), at) - cumulative.begin(),
                                          static_cast<std::ptrdiff_t>(cumulative.size()) - 1));
@@ -114,7 +114,7 @@ std::vector<Vec3> surface_points(const TriangleMesh& mesh)
         return points;
     }
     const auto n = static_cast<std::uint64_t>(mesh.V.rows());
-    for (int i = 0; n > 0 && i < kSamples; ++i)
+    for (int i = 0; n > 0 && i < count; ++i)
     {
         points.push_back(mesh.V.row(static_cast<Eigen::Index>(rng.below(n))).transpose());
     }
@@ -215,44 +215,19 @@ ShapeFeatures features_of(const std::vector<Vec3>& points, const std::vector<std
     return features;
 }
 
-// The crop directions: the 12 vertices of an icosahedron, then the 20 of a dodecahedron (the
-// icosahedron's face centres), unit length: no direction is more than 21 degrees from one.
+// The crop directions: kShapeCropDirections points of a Fibonacci lattice on the sphere
+// [Gonzalez 2010], nearly even; no direction is more than about 180 / sqrt(directions) degrees
+// from one of them.
 std::vector<Vec3> crop_directions()
 {
-    const double phi = std::numbers::phi;
     std::vector<Vec3> directions;
-    for (const double s : {-1.0, 1.0})
+    const double golden_angle = std::numbers::pi * (3.0 - std::sqrt(5.0));
+    for (int i = 0; i < kShapeCropDirections; ++i)
     {
-        for (const double t : {-1.0, 1.0})
-        {
-            directions.emplace_back(0.0, s, t * phi);
-            directions.emplace_back(s, t * phi, 0.0);
-            directions.emplace_back(t * phi, 0.0, s);
-        }
-    }
-    for (const double x : {-1.0, 1.0})
-    {
-        for (const double y : {-1.0, 1.0})
-        {
-            for (const double z : {-1.0, 1.0})
-            {
-                directions.emplace_back(x, y, z);
-            }
-        }
-    }
-    const double inverse = 1.0 / phi;
-    for (const double s : {-1.0, 1.0})
-    {
-        for (const double t : {-1.0, 1.0})
-        {
-            directions.emplace_back(0.0, s * inverse, t * phi);
-            directions.emplace_back(s * inverse, t * phi, 0.0);
-            directions.emplace_back(t * phi, 0.0, s * inverse);
-        }
-    }
-    for (Vec3& d : directions)
-    {
-        d.normalize();
+        const double z = 1.0 - (2.0 * i + 1.0) / kShapeCropDirections;
+        const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
+        const double phi = golden_angle * i;
+        directions.emplace_back(r * std::cos(phi), r * std::sin(phi), z);
     }
     return directions;
 }
@@ -266,6 +241,17 @@ std::vector<std::int32_t> kept(const std::vector<std::int32_t>& order, double fr
 }
 
 }  // namespace
+
+Positions shape_sample(const TriangleMesh& mesh, int count)
+{
+    const std::vector<Vec3> points = surface_points(mesh, count);
+    Positions sample(static_cast<Eigen::Index>(points.size()), 3);
+    for (std::size_t i = 0; i < points.size(); ++i)
+    {
+        sample.row(static_cast<Eigen::Index>(i)) = points[i].transpose();
+    }
+    return sample;
+}
 
 ShapeFeatures shape_features(const TriangleMesh& mesh)
 {

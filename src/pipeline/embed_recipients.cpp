@@ -277,10 +277,13 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
                 key = detail::new_key(options);
                 key.recipients = RecipientCodes{options.recipient_modes, options.recipient_share, {}};
                 key.recipients->validate(key.options);
+                key.recipients->shorten_to_span = true;
                 key.original = original;
                 mark.emplace(watermark_of(file.mesh, key, input, options.threads));
-                // The automatic repetitions, as the watermark resolved them.
+                // The automatic repetitions and the code's modes, as the watermark resolved them.
                 key.options = mark->key().options;
+                key.recipients->modes = mark->key().recipients->modes;
+                key.recipients->shorten_to_span = false;
                 owner = mark->displacement(&owner_stats);
                 // A new family key is calibrated on the owner's mark, at its share of the energy
                 // (docs/algorithms/embedding.md, "Strength"); each copy's code is scaled below.

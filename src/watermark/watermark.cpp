@@ -173,6 +173,22 @@ void SpectralWatermark::build(const TriangleMesh* mesh, const std::vector<std::i
 void SpectralWatermark::fit_to_span()
 {
     EmbedOptions& options = key_.options;
+    // A new family key on an original whose vertices span fewer modes than the owner's mark and
+    // the code need: a shorter code, if kMinRecipientModes fit (the owner's mark keeps its r).
+    if (key_.recipients && key_.recipients->shorten_to_span)
+    {
+        key_.recipients->shorten_to_span = false;
+        const int repetitions = options.repetitions == EmbedOptions::kAutoRepetitions
+                                    ? automatic_repetitions(options, rows_->size())
+                                    : options.repetitions;
+        const int room = basis_->well_conditioned_modes(kShortenedMarkTolerance) - options.first_mode -
+                         options.coefficients * repetitions;
+        if (room < key_.recipients->modes && room >= kMinRecipientModes)
+        {
+            key_.recipients->modes = room;
+            shortened_to_span_ = true;
+        }
+    }
     const int recipient_modes = key_.recipients ? key_.recipients->modes : 0;
     const auto needed = [&](int r) { return options.first_mode + options.coefficients * r + recipient_modes; };
     basis_span_ = basis_->well_conditioned_modes(SpectralBasis::kDegenerateModeTolerance);

@@ -34,13 +34,13 @@ struct ShapeSignature
     std::vector<ShapeFeatures> views;
 
     /// Compact form for storage: each feature as an 8-bit fixed-point value (24 bytes a view,
-    /// 3,096 an asset; the rounding, 0.002, is below the draw's noise).
+    /// 6,168 an asset; the rounding, 0.002, is below the draw's noise).
     [[nodiscard]] std::vector<std::uint8_t> to_bytes() const;
     /// \throws InvalidOption when \p bytes is not a whole number of views.
     [[nodiscard]] static ShapeSignature from_bytes(std::span<const std::uint8_t> bytes);
 };
 
-inline constexpr int kShapeCropDirections = 32;  ///< icosahedron + dodecahedron vertices
+inline constexpr int kShapeCropDirections = 64;  ///< a Fibonacci lattice on the sphere
 /// Fractions of the area a crop view keeps: a crop keeping half the vertices may keep from a
 /// third to two thirds of the area.
 inline constexpr std::array<double, 4> kShapeCropFractions = {0.35, 0.5, 0.65, 0.8};
@@ -51,6 +51,10 @@ inline constexpr int kShapeViews = 1 + kShapeCropDirections * static_cast<int>(k
 
 /// The whole and the crop views of \p mesh (an original's). Deterministic.
 [[nodiscard]] ShapeSignature shape_signature(const TriangleMesh& mesh);
+
+/// \brief \p count points drawn by area on \p mesh's surface as shape_features draws them (in
+/// an order of the triangles that does not depend on the file); a point cloud's vertices.
+[[nodiscard]] Positions shape_sample(const TriangleMesh& mesh, int count);
 
 /// \brief Euclidean distance between two views' features, each block weighted so that a block
 /// that differs entirely counts about as much as any other.

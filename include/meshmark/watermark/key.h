@@ -172,6 +172,10 @@ struct Recipient
 /// that the recipient code's 64 modes fit after it in the default basis of 100.
 inline constexpr int kFamilyRepetitions = 2;
 
+/// The fewest modes a shortened recipient code keeps (RecipientCodes::shorten_to_span): 72
+/// coefficients, an intact copy's code scores about 8.5.
+inline constexpr int kMinRecipientModes = 24;
+
 struct RecipientCodes
 {
     /// M, the modes after the owner's (first_mode + m r ..) that carry the recipient code.
@@ -180,6 +184,10 @@ struct RecipientCodes
     /// mark keeps the rest, so a copy is displaced as much as a single mark of the same strength.
     double energy_share = 0.64;
     std::vector<Recipient> recipients;  ///< In the order they were issued; indices unique.
+    /// \brief A new key only (never stored): where the original's vertices span too few modes
+    /// for M after the owner's mark, the watermark takes as many as fit, down to
+    /// kMinRecipientModes, and the key records that M (SpectralWatermark::key()).
+    bool shorten_to_span = false;
 
     /// The recipient called \p name, or null.
     [[nodiscard]] const Recipient* find(const std::string& name) const noexcept;
