@@ -12,6 +12,7 @@
 #include <Eigen/Eigenvalues>
 
 #include "meshmark/core/error.h"
+#include "meshmark/core/hash.h"
 #include "meshmark/core/rng.h"
 
 namespace meshmark {
@@ -19,15 +20,13 @@ namespace {
 
 using Vec3 = Eigen::Vector3d;
 
-// Points drawn per surface: enough that two draws of one surface differ by about 1% of a
-// distribution's step (measured on the shared meshes), few enough to index 100,000 assets in
-// minutes. Pairs and triples drawn per view for the distance and angle distributions.
-constexpr int kSamples = 8192;
-constexpr int kPairs = 32768;
+// Points drawn per surface, and pairs and triples of them for the distance and angle
+// distributions (every view uses those that fall inside it). Chosen on the shape-index study
+// (bench/results/2026-11-29-shape-index.md): twice as many found no more of the attacked
+// copies, half as many fewer of the crops; a signature costs about 25 ms.
+constexpr int kSamples = 4096;
+constexpr int kPairs = 16384;
 constexpr int kTriples = 16384;
-// A crop view draws fewer: there are kShapeViews - 1 of them.
-constexpr int kCropPairs = 8192;
-constexpr int kCropTriples = 4096;
 // Distributions: bins and the range they cover, in RMS radii (a point is rarely more than
 // 2.5 radii from the centroid, two points rarely more than 3.5 apart); last bin open-ended.
 constexpr int kCentroidBins = 6;
@@ -121,98 +120,202 @@ std::vector<Vec3> surface_points(const TriangleMesh& mesh, int count = kSamples)
     return points;
 }
 
-// The cumulative distribution of \p values over \p bins equal bins of [0, range) (the last also
-// takes everything beyond), times \p weight: \p bins values written from \p out. Cumulative
-// rather than per bin, so that a distribution shifted by less than a bin changes the features
-// by that little (their distance is then the earth mover's distance between the two).
-float* cumulative(const std::vector<double>& values, int bins, double range, float weight, float* out)
+// A fast deterministic stream for the pair and triple draws (a SplitMix64 counter and Lemire's
+// multiply-shift of its high 32 bits to [0, n)): the draws are millions per asset, where
+// std::mt19937_64 with rejection sampling took half the time. Biased by under n / 2^32, which
+// for a view's at most kSamples points is nothing the distributions can show.
+class Draw
 {
-    std::vector<double> counts(static_cast<std::size_t>(bins), 0.0);
-    for (const double x : values)
+public:
+    explicit Draw(std::uint64_t seed) : state_(seed) {}
+    std::size_t below(std::size_t n)
     {
-        const int bin = std::clamp(static_cast<int>(x / range * bins), 0, bins - 1);
-        counts[static_cast<std::size_t>(bin)] += 1.0;
+        return static_cast<std::size_t>(((splitmix64(state_++) >> 32U) * n) >> 32U);
     }
-    double sum = 0.0;
-    const double n = std::max<double>(1.0, static_cast<double>(values.size()));
-    for (int b = 0; b < bins; ++b)
+
+private:
+    std::uint64_t state_;
+};
+
+// The counts of \p bins bins turned into their cumulative distribution, times \p weight:
+// \p bins values written from \p out. Cumulative rather than per bin, so that a distribution
+// shifted by less than a bin changes the features by that little (their distance is then the
+// earth mover's distance between the two).
+float* cumulative(const std::vector<int>& counts, float weight, float* out)
+{
+    const double n = std::max(1, std::accumulate(counts.begin(), counts.end(), 0));
+    int sum = 0;
+    for (const int c : counts)
     {
-        sum += counts[static_cast<std::size_t>(b)];
+        sum += c;
         *out++ = weight * static_cast<float>(sum / n);
     }
     return out;
 }
 
-// The features of the points \p points[i] for i in \p chosen.
-ShapeFeatures features_of(const std::vector<Vec3>& points, const std::vector<std::int32_t>& chosen, int pair_count,
-                          int triple_count)
+// The bin of \p x (a distance in bin widths) among \p bins bins, the last open-ended.
+std::size_t bin_of(double x, int bins)
 {
-    ShapeFeatures features{};
-    const auto n = static_cast<std::uint64_t>(chosen.size());
+    return static_cast<std::size_t>(std::min(x, bins - 0.5));
+}
+
+// The draws every view shares: pairs of sample points with their distance, triples with
+// the bin of their angle. A view uses those whose points it all holds, so a crop view measures
+// the draws of the whole that fall inside it (no draws of its own, and no random access).
+struct Draws
+{
+    std::vector<std::array<std::int32_t, 2>> pairs;
+    std::vector<double> pair_distance;
+    std::vector<std::array<std::int32_t, 3>> triples;
+    std::vector<std::uint8_t> triple_bin;
+};
+
+Draws draw(const std::vector<Vec3>& points)
+{
+    Draws d;
+    const std::size_t n = points.size();
     if (n < 3)
     {
-        return features;
+        return d;
     }
-    Vec3 centroid = Vec3::Zero();
-    for (const std::int32_t i : chosen)
+    Draw stream(kSeed ^ n);
+    d.pairs.reserve(kPairs);
+    d.pair_distance.reserve(kPairs);
+    for (int t = 0; t < kPairs; ++t)
     {
-        centroid += points[static_cast<std::size_t>(i)];
+        const auto i = static_cast<std::int32_t>(stream.below(n));
+        const auto j = static_cast<std::int32_t>(stream.below(n));
+        d.pairs.push_back({i, j});
+        d.pair_distance.push_back((points[static_cast<std::size_t>(i)] - points[static_cast<std::size_t>(j)]).norm());
     }
-    centroid /= static_cast<double>(n);
-    Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
-    for (const std::int32_t i : chosen)
+    // Angle bins by their cosines (descending with the angle): no acos per triple.
+    std::array<double, kAngleBins - 1> cosine_edges{};
+    for (int b = 1; b < kAngleBins; ++b)
     {
-        const Vec3 d = points[static_cast<std::size_t>(i)] - centroid;
-        covariance += d * d.transpose();
+        cosine_edges[static_cast<std::size_t>(b - 1)] = std::cos(std::numbers::pi * b / kAngleBins);
     }
-    covariance /= static_cast<double>(n);
-    const double radius = std::sqrt(covariance.trace());
-    if (!(radius > 0.0) || !std::isfinite(radius))
+    for (int t = 0; t < kTriples; ++t)
     {
-        return features;
-    }
-    Rng rng(kSeed ^ n);
-    std::vector<double> to_centroid;
-    to_centroid.reserve(chosen.size());
-    for (const std::int32_t i : chosen)
-    {
-        to_centroid.push_back((points[static_cast<std::size_t>(i)] - centroid).norm() / radius);
-    }
-    auto pick = [&]() -> const Vec3& { return points[static_cast<std::size_t>(chosen[rng.below(n)])]; };
-    std::vector<double> pairs;
-    pairs.reserve(static_cast<std::size_t>(pair_count));
-    for (int t = 0; t < pair_count; ++t)
-    {
-        const Vec3& a = pick();
-        pairs.push_back((a - pick()).norm() / radius);
-    }
-    std::vector<double> angles;
-    angles.reserve(static_cast<std::size_t>(triple_count));
-    for (int t = 0; t < triple_count; ++t)
-    {
-        const Vec3& a = pick();
-        const Vec3& b = pick();
-        const Vec3& c = pick();
-        const Vec3 u = a - b;
-        const Vec3 v = c - b;
-        const double norms = u.norm() * v.norm();
-        if (norms > 0.0)
+        const std::array<std::int32_t, 3> abc = {static_cast<std::int32_t>(stream.below(n)),
+                                                 static_cast<std::int32_t>(stream.below(n)),
+                                                 static_cast<std::int32_t>(stream.below(n))};
+        const Vec3 u = points[static_cast<std::size_t>(abc[0])] - points[static_cast<std::size_t>(abc[1])];
+        const Vec3 v = points[static_cast<std::size_t>(abc[2])] - points[static_cast<std::size_t>(abc[1])];
+        const double norms = std::sqrt(u.squaredNorm() * v.squaredNorm());
+        if (!(norms > 0.0))
         {
-            angles.push_back(std::acos(std::clamp(u.dot(v) / norms, -1.0, 1.0)));
+            continue;
+        }
+        const double cosine = u.dot(v) / norms;
+        d.triples.push_back(abc);
+        d.triple_bin.push_back(static_cast<std::uint8_t>(
+            std::count_if(cosine_edges.begin(), cosine_edges.end(), [&](double edge) { return cosine < edge; })));
+    }
+    return d;
+}
+
+// The features of nested views of one sample: point i belongs to views 0 .. level[i] - 1 (each
+// view a subset of the one before). Writes \p views features, one per view, from \p out.
+void nested_features(const std::vector<Vec3>& points, const Draws& draws, const std::vector<std::uint8_t>& level,
+                     int views, ShapeFeatures* out)
+{
+    const auto count = static_cast<std::size_t>(views);
+    // Moments per view: the points of level >= v + 1.
+    // (Summed per level, then over the levels at or above each view: one pass, no per-view work
+    // per point.)
+    std::vector<double> weight(count + 1, 0.0);
+    std::vector<Vec3> first(count + 1, Vec3::Zero());
+    std::vector<Eigen::Matrix3d> second(count + 1, Eigen::Matrix3d::Zero());
+    for (std::size_t i = 0; i < points.size(); ++i)
+    {
+        const std::size_t l = level[i];
+        weight[l] += 1.0;
+        first[l] += points[i];
+        second[l].noalias() += points[i] * points[i].transpose();
+    }
+    for (std::size_t l = count; l > 1; --l)
+    {
+        weight[l - 1] += weight[l];
+        first[l - 1] += first[l];
+        second[l - 1] += second[l];
+    }
+    // View v holds the points of level >= v + 1.
+    weight.erase(weight.begin());
+    first.erase(first.begin());
+    second.erase(second.begin());
+    std::vector<Vec3> centroid(count);
+    std::vector<Eigen::Matrix3d> covariance(count);
+    std::vector<double> radius(count, 0.0);
+    // Bins of equal width: a bin is a product and a conversion (no search, no branch).
+    std::vector<double> centroid_scale(count, 0.0);
+    std::vector<double> pair_scale(count, 0.0);
+    for (std::size_t v = 0; v < count; ++v)
+    {
+        out[v] = ShapeFeatures{};
+        if (weight[v] < 3.0)
+        {
+            continue;
+        }
+        centroid[v] = first[v] / weight[v];
+        covariance[v] = second[v] / weight[v] - centroid[v] * centroid[v].transpose();
+        radius[v] = std::sqrt(std::max(0.0, covariance[v].trace()));
+        centroid_scale[v] = kCentroidBins / (kCentroidRange * radius[v]);
+        pair_scale[v] = kPairBins / (kPairRange * radius[v]);
+    }
+    const auto usable = [&](std::size_t v) { return radius[v] > 0.0 && std::isfinite(radius[v]); };
+    std::vector<std::vector<int>> to_centroid(count, std::vector<int>(kCentroidBins, 0));
+    for (std::size_t i = 0; i < points.size(); ++i)
+    {
+        for (std::size_t v = 0; v < level[i]; ++v)
+        {
+            if (usable(v))
+            {
+                ++to_centroid[v][bin_of((points[i] - centroid[v]).norm() * centroid_scale[v], kCentroidBins)];
+            }
         }
     }
-    // Each block weighted by 1 / sqrt(its length): a block that differs entirely counts about
-    // as much as another, whatever its number of values.
-    float* out = features.data();
-    out = cumulative(to_centroid, kCentroidBins, kCentroidRange, 1.0F / std::sqrt(float{kCentroidBins}), out);
-    out = cumulative(pairs, kPairBins, kPairRange, 1.0F / std::sqrt(float{kPairBins}), out);
-    out = cumulative(angles, kAngleBins, std::numbers::pi, 1.0F / std::sqrt(float{kAngleBins}), out);
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(covariance, Eigen::EigenvaluesOnly);
-    const Vec3 l = solver.eigenvalues();  // ascending
-    const float eigen_weight = 1.0F / std::sqrt(2.0F);
-    *out++ = eigen_weight * static_cast<float>(l(1) / l(2));
-    *out++ = eigen_weight * static_cast<float>(l(0) / l(2));
-    return features;
+    std::vector<std::vector<int>> pairs(count, std::vector<int>(kPairBins, 0));
+    for (std::size_t t = 0; t < draws.pairs.size(); ++t)
+    {
+        const auto& [i, j] = draws.pairs[t];
+        const std::size_t in = std::min(level[static_cast<std::size_t>(i)], level[static_cast<std::size_t>(j)]);
+        for (std::size_t v = 0; v < in; ++v)
+        {
+            if (usable(v))
+            {
+                ++pairs[v][bin_of(draws.pair_distance[t] * pair_scale[v], kPairBins)];
+            }
+        }
+    }
+    std::vector<std::vector<int>> angles(count, std::vector<int>(kAngleBins, 0));
+    for (std::size_t t = 0; t < draws.triples.size(); ++t)
+    {
+        const auto& [i, j, k] = draws.triples[t];
+        const std::size_t in = std::min({level[static_cast<std::size_t>(i)], level[static_cast<std::size_t>(j)],
+                                         level[static_cast<std::size_t>(k)]});
+        for (std::size_t v = 0; v < in; ++v)
+        {
+            ++angles[v][draws.triple_bin[t]];
+        }
+    }
+    for (std::size_t v = 0; v < count; ++v)
+    {
+        if (!usable(v))
+        {
+            continue;
+        }
+        // Each block weighted by 1 / sqrt(its length): a block that differs entirely counts
+        // about as much as another, whatever its number of values.
+        float* at = out[v].data();
+        at = cumulative(to_centroid[v], 1.0F / std::sqrt(float{kCentroidBins}), at);
+        at = cumulative(pairs[v], 1.0F / std::sqrt(float{kPairBins}), at);
+        at = cumulative(angles[v], 1.0F / std::sqrt(float{kAngleBins}), at);
+        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(covariance[v], Eigen::EigenvaluesOnly);
+        const Vec3 l = solver.eigenvalues().cwiseMax(0.0);  // ascending
+        const float eigen_weight = 1.0F / std::sqrt(2.0F);
+        *at++ = eigen_weight * static_cast<float>(l(2) > 0.0 ? l(1) / l(2) : 0.0);
+        *at++ = eigen_weight * static_cast<float>(l(2) > 0.0 ? l(0) / l(2) : 0.0);
+    }
 }
 
 // The crop directions: kShapeCropDirections points of a Fibonacci lattice on the sphere
@@ -232,14 +335,6 @@ std::vector<Vec3> crop_directions()
     return directions;
 }
 
-// The points of \p order (sorted by their height along a direction) kept by a crop that leaves
-// \p fraction of them on the high side.
-std::vector<std::int32_t> kept(const std::vector<std::int32_t>& order, double fraction)
-{
-    const auto count = static_cast<std::size_t>(std::lround(fraction * static_cast<double>(order.size())));
-    return {order.end() - static_cast<std::ptrdiff_t>(count), order.end()};
-}
-
 }  // namespace
 
 Positions shape_sample(const TriangleMesh& mesh, int count)
@@ -256,27 +351,53 @@ Positions shape_sample(const TriangleMesh& mesh, int count)
 ShapeFeatures shape_features(const TriangleMesh& mesh)
 {
     const std::vector<Vec3> points = surface_points(mesh);
-    std::vector<std::int32_t> all(points.size());
-    std::iota(all.begin(), all.end(), 0);
-    return features_of(points, all, kPairs, kTriples);
+    ShapeFeatures whole;
+    nested_features(points, draw(points), std::vector<std::uint8_t>(points.size(), 1), 1, &whole);
+    return whole;
 }
 
 ShapeSignature shape_signature(const TriangleMesh& mesh)
 {
     const std::vector<Vec3> points = surface_points(mesh);
-    std::vector<std::int32_t> all(points.size());
-    std::iota(all.begin(), all.end(), 0);
+    const Draws draws = draw(points);
+    const std::size_t n = points.size();
     ShapeSignature signature;
-    signature.views.reserve(kShapeViews);
-    signature.views.push_back(features_of(points, all, kPairs, kTriples));
+    signature.views.resize(kShapeViews);
+    nested_features(points, draws, std::vector<std::uint8_t>(n, 1), 1, signature.views.data());
+    // Per direction, the crop views are nested (a smaller kept fraction keeps a subset): each
+    // point's level is the number of them it lies in, from the fractions' height quantiles.
+    constexpr std::size_t kFractions = kShapeCropFractions.size();
+    std::vector<std::uint8_t> level(n);
+    std::vector<double> heights(n);
+    std::vector<double> sorted(n);
+    ShapeFeatures* out = signature.views.data() + 1;
     for (const Vec3& d : crop_directions())
     {
-        std::vector<std::int32_t> order = all;
-        std::stable_sort(order.begin(), order.end(), [&](std::int32_t a, std::int32_t b)
-                         { return points[static_cast<std::size_t>(a)].dot(d) < points[static_cast<std::size_t>(b)].dot(d); });
-        for (const double fraction : kShapeCropFractions)
+        for (std::size_t i = 0; i < n; ++i)
         {
-            signature.views.push_back(features_of(points, kept(order, fraction), kCropPairs, kCropTriples));
+            heights[i] = points[i].dot(d);
+        }
+        std::array<double, kFractions> threshold{};  // largest fraction first
+        sorted = heights;
+        for (std::size_t f = 0; f < kFractions; ++f)
+        {
+            const double fraction = kShapeCropFractions[kFractions - 1 - f];
+            const auto drop = static_cast<std::size_t>(std::lround((1.0 - fraction) * static_cast<double>(n)));
+            std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(std::min(drop, n - 1)),
+                             sorted.end());
+            threshold[f] = sorted[std::min(drop, n - 1)];
+        }
+        for (std::size_t i = 0; i < n; ++i)
+        {
+            level[i] = static_cast<std::uint8_t>(
+                std::count_if(threshold.begin(), threshold.end(), [&](double t) { return heights[i] >= t; }));
+        }
+        // Views come out largest fraction first; the signature lists them by kShapeCropFractions.
+        std::array<ShapeFeatures, kFractions> nested{};
+        nested_features(points, draws, level, static_cast<int>(kFractions), nested.data());
+        for (std::size_t f = 0; f < kFractions; ++f)
+        {
+            *out++ = nested[kFractions - 1 - f];
         }
     }
     return signature;
