@@ -9,6 +9,7 @@
 #include <fstream>
 #include <iterator>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <thread>
@@ -288,7 +289,20 @@ std::vector<CatalogAddOutcome> catalog_add(Catalog& catalog, const std::vector<f
                 }
                 // else: an interrupted add of these bytes, finished with its recorded key
             }
-            const MeshFile file = read_mesh_file(original);
+            // A file the readers refuse failed; a mesh read but unable to carry a mark (below)
+            // is unmarkable.
+            std::optional<MeshFile> read;
+            try
+            {
+                read.emplace(read_mesh_file(original));
+            }
+            catch (const Error& e)
+            {
+                outcome = failed(std::move(outcome), e, false);
+                outcome.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+                return outcome;
+            }
+            const MeshFile& file = *read;
             outcome.vertex_count = file.mesh.vertex_count();
             CatalogAsset prototype;
             prototype.id = id;

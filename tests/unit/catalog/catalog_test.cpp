@@ -1,0 +1,258 @@
+// SPDX-License-Identifier: MIT
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <set>
+#include <thread>
+
+#include <sys/stat.h>
+
+#include "meshmark/attacks/attack_spec.h"
+#include "meshmark/catalog/catalog.h"
+#include "meshmark/catalog/catalog_add.h"
+#include "meshmark/catalog/catalog_scan.h"
+#include "meshmark/core/error.h"
+#include "meshmark/geometry/shapes.h"
+#include "meshmark/io/mesh_io.h"
+#include "support/test_paths.h"
+
+namespace meshmark {
+namespace {
+
+namespace fs = std::filesystem;
+
+// A folder of three markable originals (two in a subfolder), one too small, one unreadable.
+fs::path make_originals(const fs::path& root)
+{
+    const fs::path in = root / "in";
+    fs::create_directories(in / "sub");
+    write_mesh(in / "ellipsoid.ply", lumpy_ellipsoid(4));
+    write_mesh(in / "sub" / "torus.obj", torus(1.0, 0.3, 48, 24));
+    TriangleMesh sphere = icosphere(4);
+    sphere.V.col(2) *= 1.7;
+    write_mesh(in / "sub" / "egg.off", sphere);
+    write_mesh(in / "tiny.stl", icosphere(0));
+    std::ofstream(in / "broken.obj") << "v 0 0 0\nf 1 2 3\n";
+    std::ofstream(in / "notes.txt") << "not a mesh\n";
+    return in;
+}
+
+const CatalogAddOutcome& outcome_of(const std::vector<CatalogAddOutcome>& outcomes, const std::string& asset)
+{
+    for (const CatalogAddOutcome& o : outcomes)
+    {
+        if (o.asset == asset)
+        {
+            return o;
+        }
+    }
+    throw std::runtime_error("no outcome for " + asset);
+}
+
+CatalogAddOptions quick_options()
+{
+    CatalogAddOptions options;
+    options.embed.seed = 11;
+    return options;
+}
+
+TEST(CatalogTest, a_new_catalogue_is_private_and_a_missing_or_foreign_file_is_refused)
+{
+    const fs::path dir = test::temp_dir("catalog_open");
+    EXPECT_THROW(Catalog(dir / "none.db", Catalog::Open::Existing), IoError);
+    {
+        const Catalog catalog(dir / "sub" / "cat.db", Catalog::Open::CreateIfMissing);
+        EXPECT_TRUE(catalog.assets().empty());
+        EXPECT_EQ(catalog.complete_count(), 0U);
+    }
+    struct stat info{};
+    ASSERT_EQ(::stat((dir / "sub" / "cat.db").c_str(), &info), 0);
+    EXPECT_EQ(info.st_mode & 0777U, 0600U);
+    EXPECT_NO_THROW(Catalog(dir / "sub" / "cat.db", Catalog::Open::Existing));
+    std::ofstream(dir / "text.db") << "hello, not SQLite at all, and long enough to be read as a header.....";
+    EXPECT_THROW(Catalog(dir / "text.db", Catalog::Open::Existing), IoError);
+}
+
+TEST(CatalogTest, add_marks_every_file_reports_each_outcome_and_a_second_run_changes_nothing)
+{
+    const fs::path dir = test::temp_dir("catalog_add");
+    const fs::path in = make_originals(dir);
+    Catalog catalog(dir / "cat.db", Catalog::Open::CreateIfMissing);
+    const auto outcomes = catalog_add(catalog, {in}, dir / "out", quick_options());
+    ASSERT_EQ(outcomes.size(), 5U);  // notes.txt is not a mesh file
+    for (const char* asset : {"ellipsoid.ply", "sub/torus.obj", "sub/egg.off"})
+    {
+        const CatalogAddOutcome& o = outcome_of(outcomes, asset);
+        EXPECT_EQ(o.status, CatalogAddOutcome::Status::Marked) << asset << ": " << o.reason;
+        EXPECT_TRUE(fs::exists(dir / "out" / asset)) << asset;
+    }
+    EXPECT_EQ(outcome_of(outcomes, "tiny.stl").status, CatalogAddOutcome::Status::Unmarkable);
+    EXPECT_NE(outcome_of(outcomes, "tiny.stl").reason.find("tiny.stl"), std::string::npos);
+    EXPECT_EQ(outcome_of(outcomes, "broken.obj").status, CatalogAddOutcome::Status::Failed);
+    EXPECT_NE(outcome_of(outcomes, "broken.obj").reason.find("broken.obj"), std::string::npos);
+    EXPECT_FALSE(fs::exists(dir / "out" / "tiny.stl"));
+    EXPECT_FALSE(fs::exists(dir / "out" / "broken.obj"));
+
+    const std::vector<CatalogAsset> assets = catalog.assets();
+    ASSERT_EQ(assets.size(), 3U);
+    std::set<std::uint64_t> seeds;
+    for (const CatalogAsset& a : assets)
+    {
+        EXPECT_TRUE(a.is_complete);
+        EXPECT_EQ(a.original_sha256.size(), 64U);
+        ASSERT_TRUE(a.key.recipients.has_value());
+        ASSERT_EQ(a.key.recipients->recipients.size(), 1U);
+        EXPECT_EQ(a.key.recipients->recipients[0].name, kPublishedRecipient);
+        seeds.insert(a.key.seed);
+        const auto recipients = catalog.recipients(a.id);
+        ASSERT_EQ(recipients.size(), 1U);
+        EXPECT_TRUE(recipients[0].is_delivered);
+        EXPECT_EQ(recipients[0].path, a.published);
+    }
+    EXPECT_EQ(seeds.size(), 3U) << "one --seed, yet every asset its own key";
+
+    const std::string before = test::file_bytes(dir / "out" / "sub" / "torus.obj");
+    const auto again = catalog_add(catalog, {in}, dir / "out", quick_options());
+    for (const char* asset : {"ellipsoid.ply", "sub/torus.obj", "sub/egg.off"})
+    {
+        EXPECT_EQ(outcome_of(again, asset).status, CatalogAddOutcome::Status::Present) << asset;
+    }
+    EXPECT_EQ(test::file_bytes(dir / "out" / "sub" / "torus.obj"), before);
+}
+
+TEST(CatalogTest, a_changed_original_is_refused_unless_forced_and_then_gets_a_new_key)
+{
+    const fs::path dir = test::temp_dir("catalog_changed");
+    const fs::path in = dir / "in";
+    fs::create_directories(in);
+    write_mesh(in / "a.ply", lumpy_ellipsoid(4));
+    Catalog catalog(dir / "cat.db", Catalog::Open::CreateIfMissing);
+    ASSERT_EQ(catalog_add(catalog, {in}, dir / "out", quick_options())[0].status, CatalogAddOutcome::Status::Marked);
+    const std::uint64_t first_seed = catalog.asset("a.ply")->key.seed;
+    TriangleMesh other = lumpy_ellipsoid(4);
+    other.V *= 2.0;
+    write_mesh(in / "a.ply", other);
+    const auto refused = catalog_add(catalog, {in}, dir / "out", quick_options());
+    EXPECT_EQ(refused[0].status, CatalogAddOutcome::Status::Failed);
+    EXPECT_NE(refused[0].reason.find("changed since it was added"), std::string::npos) << refused[0].reason;
+    EXPECT_EQ(catalog.asset("a.ply")->key.seed, first_seed);
+    CatalogAddOptions force = quick_options();
+    force.force = true;
+    force.embed.seed = 12;
+    EXPECT_EQ(catalog_add(catalog, {in}, dir / "out", force)[0].status, CatalogAddOutcome::Status::Marked);
+    EXPECT_NE(catalog.asset("a.ply")->key.seed, first_seed);
+}
+
+TEST(CatalogTest, an_obj_copy_gets_its_material_library_and_textures_beside_it)
+{
+    const fs::path dir = test::temp_dir("catalog_materials");
+    const fs::path in = dir / "in";
+    fs::create_directories(in / "maps");
+    write_mesh(in / "model.obj", lumpy_ellipsoid(4));
+    const std::string mesh = test::file_bytes(in / "model.obj");
+    std::ofstream(in / "model.obj") << "mtllib model.mtl\nusemtl skin\n" << mesh;
+    std::ofstream(in / "model.mtl") << "newmtl skin\nmap_Kd -s 1 1 1 maps/skin.png\nbump ../outside.png\n";
+    std::ofstream(in / "maps" / "skin.png") << "PNG bytes";
+    Catalog catalog(dir / "cat.db", Catalog::Open::CreateIfMissing);
+    const auto outcomes = catalog_add(catalog, {in}, dir / "out", quick_options());
+    ASSERT_EQ(outcomes[0].status, CatalogAddOutcome::Status::Marked) << outcomes[0].reason;
+    EXPECT_EQ(test::file_bytes(dir / "out" / "model.mtl"), test::file_bytes(in / "model.mtl"));
+    EXPECT_EQ(test::file_bytes(dir / "out" / "maps" / "skin.png"), "PNG bytes");
+    EXPECT_NE(test::file_bytes(dir / "out" / "model.obj").find("mtllib model.mtl"), std::string::npos);
+}
+
+TEST(CatalogTest, issue_records_names_before_copies_and_threads_at_once_never_share_a_code)
+{
+    const fs::path dir = test::temp_dir("catalog_issue");
+    const fs::path in = dir / "in";
+    fs::create_directories(in);
+    write_mesh(in / "a.ply", lumpy_ellipsoid(4));
+    Catalog catalog(dir / "cat.db", Catalog::Open::CreateIfMissing);
+    ASSERT_EQ(catalog_add(catalog, {in}, dir / "out", quick_options())[0].status, CatalogAddOutcome::Status::Marked);
+    EXPECT_THROW((void)catalog_issue(catalog, "nope.ply", (dir / "c" / "{recipient}.ply").string(), {}), InvalidOption);
+
+    std::vector<std::thread> threads;
+    std::vector<std::exception_ptr> failures(4);
+    for (int t = 0; t < 4; ++t)
+    {
+        threads.emplace_back([&, t] {
+            try
+            {
+                // Each thread its own connection, as separate processes would have.
+                Catalog mine(dir / "cat.db", Catalog::Open::Existing);
+                CatalogIssueOptions options;
+                options.recipients = {"buyer" + std::to_string(t), "shared"};
+                options.threads = 1;
+                (void)catalog_issue(mine, "a.ply", (dir / "copies" / "{recipient}.ply").string(), options);
+            }
+            catch (...)
+            {
+                failures[static_cast<std::size_t>(t)] = std::current_exception();
+            }
+        });
+    }
+    for (std::thread& t : threads)
+    {
+        t.join();
+    }
+    for (const auto& failure : failures)
+    {
+        EXPECT_FALSE(failure);
+    }
+    const auto recipients = catalog.recipients("a.ply");
+    ASSERT_EQ(recipients.size(), 6U);  // published, shared, buyer0..3
+    std::set<std::uint32_t> codes;
+    for (const CatalogRecipient& r : recipients)
+    {
+        codes.insert(r.index);
+        EXPECT_TRUE(r.is_delivered) << r.name;
+    }
+    EXPECT_EQ(codes.size(), recipients.size());
+    const auto key = catalog.asset("a.ply")->key;
+    EXPECT_EQ(key.recipients->recipients.size(), 6U);
+
+    // A name issued again gets the same bytes.
+    const std::string first = test::file_bytes(dir / "copies" / "buyer2.ply");
+    CatalogIssueOptions again;
+    again.recipients = {"buyer2"};
+    (void)catalog_issue(catalog, "a.ply", (dir / "again" / "{recipient}.ply").string(), again);
+    EXPECT_EQ(test::file_bytes(dir / "again" / "buyer2.ply"), first);
+}
+
+TEST(CatalogTest, scan_finds_the_asset_and_recipient_of_an_attacked_copy_and_claims_nothing_unmarked)
+{
+    const fs::path dir = test::temp_dir("catalog_scan");
+    const fs::path in = make_originals(dir);
+    Catalog catalog(dir / "cat.db", Catalog::Open::CreateIfMissing);
+    (void)catalog_add(catalog, {in}, dir / "out", quick_options());
+    CatalogIssueOptions issue;
+    issue.recipients = {"alice", "bob"};
+    (void)catalog_issue(catalog, "sub/torus.obj", (dir / "copies" / "{recipient}.obj").string(), issue);
+
+    const TriangleMesh bobs = read_mesh(dir / "copies" / "bob.obj");
+    write_mesh(dir / "suspect.ply", apply_attacks(bobs, parse_attack_spec("similarity,noise=0.0002"), 5, 1).mesh);
+    write_mesh(dir / "unmarked.ply", apply_attacks(read_mesh(in / "sub" / "egg.off"), parse_attack_spec("similarity"), 5, 1).mesh);
+    CatalogScanOptions options;
+    options.candidates = 2;  // (the unmarked copy is tried against two assets, not all three)
+    const CatalogScanReport report =
+        catalog_scan(catalog, {dir / "suspect.ply", dir / "unmarked.ply", dir / "missing.ply"}, options);
+    EXPECT_EQ(report.assets, 3U);
+    ASSERT_EQ(report.suspects.size(), 3U);
+    const SuspectScan& found = report.suspects[0];
+    ASSERT_TRUE(found.detected);
+    ASSERT_EQ(found.matches.size(), 1U);
+    EXPECT_EQ(found.matches[0].asset, "sub/torus.obj");
+    ASSERT_EQ(found.matches[0].recipients.size(), 1U);
+    EXPECT_EQ(found.matches[0].recipients[0].name, "bob");
+    // The bound is the detection's times the catalogue's size.
+    EXPECT_NEAR(found.matches[0].false_positive_probability,
+                std::min(1.0, 3.0 * found.matches[0].report.owner_false_positive_probability),
+                1e-12 + 1e-9 * found.matches[0].false_positive_probability);
+    EXPECT_FALSE(report.suspects[1].detected);
+    EXPECT_FALSE(report.suspects[1].tried.empty());
+    EXPECT_FALSE(report.suspects[2].detected);
+    EXPECT_NE(report.suspects[2].error.find("missing.ply"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace meshmark

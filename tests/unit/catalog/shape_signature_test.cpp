@@ -1,0 +1,90 @@
+// SPDX-License-Identifier: MIT
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+
+#include "meshmark/attacks/attack_spec.h"
+#include "meshmark/core/error.h"
+#include "meshmark/geometry/shape_signature.h"
+#include "meshmark/geometry/shapes.h"
+
+namespace meshmark {
+namespace {
+
+float nearest_view(const ShapeSignature& signature, const ShapeFeatures& features)
+{
+    float best = 1e9F;
+    for (const ShapeFeatures& view : signature.views)
+    {
+        best = std::min(best, shape_distance(features, view));
+    }
+    return best;
+}
+
+TriangleMesh moved(TriangleMesh mesh, double scale, bool mirror)
+{
+    const Eigen::Matrix3d rotation = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1.0, 2.0, 3.0).normalized()).toRotationMatrix();
+    Eigen::Matrix3d linear = scale * rotation;
+    if (mirror)
+    {
+        linear.col(0) *= -1.0;
+    }
+    for (Eigen::Index i = 0; i < mesh.V.rows(); ++i)
+    {
+        mesh.V.row(i) = (linear * mesh.V.row(i).transpose() + Eigen::Vector3d(5.0, -2.0, 1.0)).transpose();
+    }
+    return mesh;
+}
+
+TEST(ShapeSignatureTest, a_moved_scaled_mirrored_renumbered_copy_has_the_same_features)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(4);
+    const ShapeFeatures original = shape_features(mesh);
+    TriangleMesh copy = moved(mesh, 3.5, true);
+    // Faces in reverse order, each face's corners rotated: the draw does not depend on the file.
+    copy.F = copy.F.colwise().reverse().eval();
+    for (Eigen::Index f = 0; f < copy.F.rows(); ++f)
+    {
+        copy.F.row(f) = Eigen::RowVector3i(copy.F(f, 1), copy.F(f, 2), copy.F(f, 0));
+    }
+    EXPECT_LT(shape_distance(original, shape_features(copy)), 1e-3F);
+    // Another shape is far.
+    EXPECT_GT(shape_distance(original, shape_features(torus(1.0, 0.3, 48, 24))), 0.05F);
+}
+
+TEST(ShapeSignatureTest, an_original_lists_its_whole_and_crop_views_and_round_trips_through_bytes)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(4);
+    const ShapeSignature signature = shape_signature(mesh);
+    ASSERT_EQ(signature.views.size(), static_cast<std::size_t>(kShapeViews));
+    EXPECT_EQ(shape_distance(signature.views[0], shape_features(mesh)), 0.0F);
+    const std::vector<std::uint8_t> bytes = signature.to_bytes();
+    EXPECT_EQ(bytes.size(), static_cast<std::size_t>(kShapeViews * kShapeFeatures));
+    const ShapeSignature back = ShapeSignature::from_bytes(bytes);
+    ASSERT_EQ(back.views.size(), signature.views.size());
+    for (std::size_t v = 0; v < back.views.size(); ++v)
+    {
+        EXPECT_LE(shape_distance(back.views[v], signature.views[v]), 0.01F);
+    }
+    EXPECT_THROW((void)ShapeSignature::from_bytes(std::vector<std::uint8_t>(7)), Error);
+}
+
+TEST(ShapeSignatureTest, a_cropped_copy_is_near_one_of_the_crop_views_and_nearer_than_to_the_whole)
+{
+    const TriangleMesh mesh = lumpy_ellipsoid(5);
+    const ShapeSignature signature = shape_signature(mesh);
+    const TriangleMesh half = apply_attacks(mesh, parse_attack_spec("crop=0.5,similarity"), 3, 1).mesh;
+    const ShapeFeatures features = shape_features(half);
+    EXPECT_LT(nearest_view(signature, features), 0.5F * shape_distance(features, signature.views[0]));
+}
+
+TEST(ShapeSignatureTest, empty_and_degenerate_meshes_give_zero_features)
+{
+    EXPECT_EQ(shape_features(TriangleMesh{}), ShapeFeatures{});
+    TriangleMesh flat_point;
+    flat_point.V = Positions::Zero(10, 3);
+    EXPECT_EQ(shape_features(flat_point), ShapeFeatures{});
+}
+
+}  // namespace
+}  // namespace meshmark
