@@ -1,0 +1,155 @@
+#!/usr/bin/env python3
+# SPDX-License-Identifier: MIT
+"""The catalogue through the command line, as a marketplace would drive it (issue 53).
+
+1. `catalog add` of a folder of real meshes, killed with SIGKILL at a random moment --kills
+   times, then run to the end; after each kill and at the end:
+     - the catalogue loads (`catalog list --json`);
+     - every asset listed complete has its published copy on disk, and every visible file
+       under the output folder is the published copy of an asset listed complete (nothing
+       written unrecorded, nothing recorded complete unwritten);
+   the final run reports every file marked or present, and a further run only "present".
+2. --issuers `catalog issue` processes at once on one asset, each a name of its own and one
+   shared name: every call exits 0 and the catalogue holds every name once, codes distinct.
+3. `catalog scan` of an attacked recipient copy (exit 0, its asset and recipient), of an
+   attacked published copy (exit 0, "published") and of an unmarked mesh (exit 1).
+Prints a JSON summary; exit 0 when every check held, 77 without the shared meshes.
+
+Full run:  python3 bench/catalog/catalog_check.py --kills 20 --issuers 16
+The test suite runs a short version (tests/integration/CMakeLists.txt, catalog_smoke).
+"""
+import argparse
+import json
+import os
+import random
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+MESHES = ["bunny.off", "spot.obj", "fandisk.obj", "beetle.obj", "rocker-arm.obj", "teapot.obj",
+          "decimated-max.obj", "horse.ply"]
+
+
+def default_cli():
+    here = Path(__file__).resolve().parents[2]
+    return os.environ.get("MESHMARK_CLI") or str(here / "build" / "bin" / "meshmark")
+
+
+def mesh_dir():
+    return Path(os.environ.get("MESHMARK_MESH_DIR") or os.environ.get("MESHMARK_DEFAULT_MESH_DIR")
+                or Path(__file__).resolve().parents[3] / "shared" / "data" / "meshes")
+
+
+def run(cli, *args, check=True):
+    p = subprocess.run([cli, *args], capture_output=True, text=True)
+    if check and p.returncode != 0:
+        raise SystemExit(f"meshmark {' '.join(args)} exited {p.returncode}: {p.stderr.strip()}")
+    return p
+
+
+def listed(cli, catalog):
+    return json.loads(run(cli, "catalog", "list", catalog, "--json").stdout)["assets"]
+
+
+def consistent(cli, catalog, out):
+    """Problems (strings) between the catalogue and the output folder."""
+    problems = []
+    assets = listed(cli, catalog)
+    complete = {Path(a["published"]).resolve() for a in assets if a["complete"]}
+    for p in complete:
+        if not p.exists():
+            problems.append(f"recorded complete but missing: {p}")
+    if out.exists():
+        for f in out.rglob("*"):
+            if f.is_file() and not f.name.startswith(".") and f.suffix.lower() != ".mtl" \
+                    and f.resolve() not in complete:
+                problems.append(f"written but not recorded complete: {f}")
+    return problems, len(assets), len(complete)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--cli", default=default_cli())
+    parser.add_argument("--kills", type=int, default=3)
+    parser.add_argument("--issuers", type=int, default=4)
+    parser.add_argument("--seed", type=int, default=1)
+    args = parser.parse_args()
+    src = mesh_dir()
+    if not all((src / m).exists() for m in MESHES):
+        print(f"catalog_check: skipped, the shared meshes are not in {src}", file=sys.stderr)
+        return 77
+    rng = random.Random(args.seed)
+    work = Path(tempfile.mkdtemp(prefix="meshmark-catalog-"))
+    summary = {"kills": [], "problems": []}
+    try:
+        originals = work / "originals"
+        originals.mkdir()
+        for m in MESHES:
+            shutil.copy(src / m, originals / m)
+        catalog, out = str(work / "cat.db"), work / "published"
+        add = [args.cli, "catalog", "add", catalog, str(originals), "-o", str(out), "--json", "-q"]
+        # 1. Kills during add, then the run to the end.
+        for k in range(args.kills):
+            started = time.monotonic()
+            proc = subprocess.Popen(add, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            time.sleep(rng.uniform(0.05, 1.5))
+            proc.send_signal(signal.SIGKILL)
+            proc.wait()
+            problems, total, complete = consistent(args.cli, catalog, out) if Path(catalog).exists() else ([], 0, 0)
+            summary["kills"].append({"after_seconds": round(time.monotonic() - started, 2), "assets": total,
+                                     "complete": complete, "problems": len(problems)})
+            summary["problems"] += problems
+        final = json.loads(subprocess.run(add, capture_output=True, text=True, check=True).stdout)
+        outcomes = {f["asset"]: f["outcome"] for f in final["files"]}
+        if sorted(outcomes) != sorted(MESHES) or any(o not in ("marked", "present") for o in outcomes.values()):
+            summary["problems"].append(f"final add: {outcomes}")
+        again = json.loads(subprocess.run(add, capture_output=True, text=True, check=True).stdout)
+        if any(f["outcome"] != "present" for f in again["files"]):
+            summary["problems"].append(f"a further add did something: {again['counts']}")
+        problems, total, complete = consistent(args.cli, catalog, out)
+        summary["problems"] += problems
+        summary["assets"] = total
+        # 2. Issuers at once on one asset.
+        procs = [subprocess.Popen([args.cli, "catalog", "issue", catalog, "spot.obj", "--recipient", f"buyer{i}",
+                                   "--recipient", "everyone", "-o", str(work / "copies" / "{recipient}.obj"), "-q"],
+                                  stderr=subprocess.PIPE, text=True) for i in range(args.issuers)]
+        for i, p in enumerate(procs):
+            _, err = p.communicate()
+            if p.returncode != 0:
+                summary["problems"].append(f"issuer {i} exited {p.returncode}: {err.strip()}")
+        spot = next(a for a in listed(args.cli, catalog) if a["asset"] == "spot.obj")
+        names = [r["name"] for r in spot["recipients"]]
+        expected = {"published", "everyone", *(f"buyer{i}" for i in range(args.issuers))}
+        if sorted(names) != sorted(expected) or not all(r["delivered"] for r in spot["recipients"]):
+            summary["problems"].append(f"spot.obj recipients: {spot['recipients']}")
+        # 3. Scans.
+        run(args.cli, "attack", str(work / "copies" / "buyer1.obj"), "similarity,simplify=0.5",
+            "-o", str(work / "leak1.ply"), "-q")
+        run(args.cli, "attack", str(out / "fandisk.obj"), "crop=0.8,similarity", "-o", str(work / "leak2.ply"), "-q")
+        run(args.cli, "attack", str(src / "igea.ply"), "similarity", "-o", str(work / "unrelated.ply"), "-q")
+        scans = {}
+        for suspect, expect in (("leak1.ply", ("spot.obj", "buyer1")), ("leak2.ply", ("fandisk.obj", "published")),
+                                ("unrelated.ply", None)):
+            p = run(args.cli, "catalog", "scan", catalog, str(work / suspect), "--json", "--candidates", "3",
+                    check=False)
+            report = json.loads(p.stdout)["suspects"][0]
+            got = None
+            if report["matches"]:
+                m = report["matches"][0]
+                got = (m["asset"], m["recipients"][0]["name"] if m["recipients"] else None)
+            scans[suspect] = {"exit": p.returncode, "match": got, "seconds": round(report["seconds"]["total"], 2)}
+            if got != expect or p.returncode != (0 if expect else 1):
+                summary["problems"].append(f"scan {suspect}: exit {p.returncode}, {got}, expected {expect}")
+        summary["scans"] = scans
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    print(json.dumps(summary, indent=1))
+    return 0 if not summary["problems"] else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
