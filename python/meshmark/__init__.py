@@ -20,6 +20,7 @@ carrying the program's one-sentence message. See docs/library.md, "Python".
 """
 
 from ._meshmark import (
+    Catalog,
     DetectResult,
     Error,
     InvalidMesh,
@@ -42,6 +43,7 @@ from ._meshmark import (
 )
 
 __all__ = [
+    "Catalog",
     "DetectResult",
     "Error",
     "InvalidMesh",
@@ -64,6 +66,6 @@ __all__ = [
 ]
 
 # Shown as meshmark.Error, meshmark.Key, ... in tracebacks and help(), where users import them.
-for _name in ("DetectResult", "Error", "InvalidMesh", "InvalidOption", "IoError", "Key", "NumericalError"):
+for _name in ("Catalog", "DetectResult", "Error", "InvalidMesh", "InvalidOption", "IoError", "Key", "NumericalError"):
     globals()[_name].__module__ = __name__
 del _name

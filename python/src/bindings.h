@@ -39,5 +39,6 @@ void bind_errors(py::module_& m);
 void bind_key(py::module_& m);
 void bind_memory(py::module_& m);  ///< embed, detect, DetectResult, attack_mesh
 void bind_files(py::module_& m);   ///< embed_file, detect_file, attack, compare
+void bind_catalog(py::module_& m); ///< Catalog
 
 }  // namespace meshmark::python

@@ -13,4 +13,5 @@ PYBIND11_MODULE(_meshmark, m)
     bind_key(m);
     bind_memory(m);
     bind_files(m);
+    bind_catalog(m);
 }
