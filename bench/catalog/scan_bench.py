@@ -1,0 +1,113 @@
+#!/usr/bin/env python3
+# SPDX-License-Identifier: MIT
+"""Identification and speed of `meshmark catalog scan` on a catalogue (issue 53).
+
+Given a catalogue made by `catalog add` (its published copies under PUBLISHED), makes suspects:
+  - marked: --marked published copies chosen at random, each attacked by one chain of the
+    attack suite (cycled: similarity, noise, simplification, remeshing, smoothing, crops to 75%
+    and 50%), and --issued recipient copies (`catalog issue`, then attacked the same way);
+  - unmarked: --unmarked meshes never marked, given as files or folders (--lookalikes: e.g.
+    near-duplicate variants of the catalogue's sources that were not added);
+then scans them all in one `catalog scan --json` call and reports, as JSON: for marked suspects
+the share found with the right asset (and recipient), per attack; for unmarked ones the number
+claimed (must be 0); the median and quartiles of the seconds per suspect.
+
+  python3 bench/catalog/scan_bench.py CATALOG PUBLISHED --marked 60 --issued 20 \\
+      --lookalikes /tmp/lookalikes --unmarked 40
+"""
+import argparse
+import json
+import random
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+ATTACKS = ["similarity", "similarity,noise=0.0005", "simplify=0.5,similarity", "remesh=0.8",
+           "smooth=5", "crop=0.75,similarity", "crop=0.5,similarity"]
+
+
+def default_cli():
+    return str(Path(__file__).resolve().parents[2] / "build" / "bin" / "meshmark")
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("catalog")
+    parser.add_argument("published")
+    parser.add_argument("--cli", default=default_cli())
+    parser.add_argument("--marked", type=int, default=40)
+    parser.add_argument("--issued", type=int, default=10)
+    parser.add_argument("--lookalikes", nargs="*", default=[])
+    parser.add_argument("--unmarked", type=int, default=20)
+    parser.add_argument("--candidates", type=int, default=8)
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--work", help="folder for the suspects (default: a temporary one)")
+    args = parser.parse_args()
+    rng = random.Random(args.seed)
+    cli = args.cli
+    assets = [a for a in json.loads(subprocess.run([cli, "catalog", "list", args.catalog, "--json"], check=True,
+                                                   capture_output=True, text=True).stdout)["assets"] if a["complete"]]
+    work = Path(args.work or tempfile.mkdtemp(prefix="meshmark-scan-"))
+    work.mkdir(parents=True, exist_ok=True)
+    truth = {}  # suspect path -> (asset, recipient, attack) or None
+    chosen = rng.sample(assets, min(len(assets), args.marked + args.issued))
+    for n, asset in enumerate(chosen):
+        attack = ATTACKS[n % len(ATTACKS)]
+        source, recipient = Path(asset["published"]), "published"
+        if n >= args.marked:
+            recipient = f"buyer{n}"
+            pattern = str(work / f"issued{n}-{{recipient}}{source.suffix}")
+            subprocess.run([cli, "catalog", "issue", args.catalog, asset["asset"], "--recipient", recipient,
+                            "-o", pattern, "-q"], check=True)
+            source = Path(pattern.replace("{recipient}", recipient))
+        suspect = work / f"suspect{n}.ply"
+        done = subprocess.run([cli, "attack", str(source), attack, "-o", str(suspect), "--seed", str(n), "-q"],
+                              capture_output=True, text=True)
+        if done.returncode != 0:
+            print(f"scan_bench: {attack} on {source}: {done.stderr.strip()}", file=sys.stderr)
+            continue
+        truth[str(suspect)] = (asset["asset"], recipient, attack)
+    lookalikes = []
+    for item in args.lookalikes:
+        p = Path(item)
+        lookalikes += sorted(p.rglob("*.ply")) if p.is_dir() else [p]
+    for p in rng.sample(lookalikes, min(len(lookalikes), args.unmarked)):
+        truth[str(p)] = None
+    scan = subprocess.run([cli, "catalog", "scan", args.catalog, *truth, "--json", "--candidates",
+                           str(args.candidates), "-q"], capture_output=True, text=True)
+    report = json.loads(scan.stdout)
+    per_attack, claimed, times, misses = {}, 0, [], []
+    for s in report["suspects"]:
+        times.append(s["seconds"]["total"])
+        expected = truth[s["path"]]
+        got = s["matches"][0] if s["matches"] else None
+        if expected is None:
+            claimed += 1 if got else 0
+            continue
+        asset, recipient, attack = expected
+        ok = bool(got) and got["asset"] == asset and [r["name"] for r in got["recipients"]][:1] == [recipient]
+        row = per_attack.setdefault(attack, [0, 0])
+        row[0] += ok
+        row[1] += 1
+        if not ok:
+            ranks = [t["asset"] for t in s["tried"]]
+            misses.append({"suspect": s["path"], "asset": asset, "attack": attack,
+                           "found": got["asset"] if got else None,
+                           "tried_rank": ranks.index(asset) if asset in ranks else None})
+    times.sort()
+    q = statistics.quantiles(times, n=4) if len(times) > 1 else times * 3
+    marked = sum(v[1] for v in per_attack.values())
+    found = sum(v[0] for v in per_attack.values())
+    print(json.dumps({"assets": report["assets"], "suspects": len(times), "marked": marked, "found": found,
+                      "per_attack": {k: f"{v[0]}/{v[1]}" for k, v in per_attack.items()},
+                      "unmarked": len(times) - marked, "unmarked_claimed": claimed,
+                      "seconds_per_suspect": {"median": round(statistics.median(times), 3), "q1": round(q[0], 3),
+                                              "q3": round(q[2], 3), "max": round(times[-1], 3)},
+                      "misses": misses}, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
