@@ -245,8 +245,13 @@ std::vector<Catalog::IndexEntry> Catalog::shape_index() const
         {
             const SQLite::Column blob = row.getColumn(1);
             const auto* data = static_cast<const std::uint8_t*>(blob.getBlob());
-            entries.push_back({row.getColumn(0).getString(),
-                               ShapeSignature::from_bytes({data, static_cast<std::size_t>(blob.getBytes())})});
+            const auto size = static_cast<std::size_t>(blob.getBytes());
+            if (size % kShapeFeatures != 0)
+            {
+                throw IoError(path().string() + ": the shape signature of asset '" + row.getColumn(0).getString() +
+                              "' is damaged (" + std::to_string(size) + " bytes).");
+            }
+            entries.push_back({row.getColumn(0).getString(), std::vector<std::uint8_t>(data, data + size)});
         }
         return entries;
     });

@@ -3,6 +3,8 @@
 #include "meshmark/catalog/catalog_scan.h"
 
 #include <algorithm>
+#include <array>
+#include <limits>
 #include <chrono>
 #include <cmath>
 
@@ -20,21 +22,34 @@ double seconds_since(Clock::time_point start)
 }
 
 // The assets nearest to \p features, by the distance to the nearest of their views: exact
-// search (docs/performance.md, "Catalogue scan": at 100,000 assets it takes tens of
-// milliseconds, a small part of one detection).
+// search over the stored bytes (at 10,000 assets about 20 ms, a small part of one detection;
+// bench/results/2026-11-29-catalogue.md). Each view's features are bytes of 255ths, so the
+// suspect's are scaled alike and the squared differences summed in that unit.
 std::vector<std::pair<float, std::size_t>> nearest(const std::vector<Catalog::IndexEntry>& index,
                                                    const ShapeFeatures& features, std::size_t count)
 {
+    std::array<float, kShapeFeatures> scaled{};
+    for (std::size_t i = 0; i < scaled.size(); ++i)
+    {
+        scaled[i] = 255.0F * features[i];
+    }
     std::vector<std::pair<float, std::size_t>> ranked;
     ranked.reserve(index.size());
     for (std::size_t a = 0; a < index.size(); ++a)
     {
+        const std::vector<std::uint8_t>& views = index[a].views;
         float best = std::numeric_limits<float>::infinity();
-        for (const ShapeFeatures& view : index[a].signature.views)
+        for (std::size_t at = 0; at + kShapeFeatures <= views.size(); at += kShapeFeatures)
         {
-            best = std::min(best, shape_distance(features, view));
+            float sum = 0.0F;
+            for (std::size_t i = 0; i < kShapeFeatures; ++i)
+            {
+                const float d = scaled[i] - static_cast<float>(views[at + i]);
+                sum += d * d;
+            }
+            best = std::min(best, sum);
         }
-        ranked.emplace_back(best, a);
+        ranked.emplace_back(std::sqrt(best) / 255.0F, a);
     }
     count = std::min(count, ranked.size());
     std::partial_sort(ranked.begin(), ranked.begin() + static_cast<std::ptrdiff_t>(count), ranked.end());
