@@ -11,6 +11,8 @@
    the final run reports every file marked or present, and a further run only "present".
 2. --issuers `catalog issue` processes at once on one asset, each a name of its own and one
    shared name: every call exits 0 and the catalogue holds every name once, codes distinct.
+   Then an issue and a scan are killed with SIGKILL: every visible copy's name is recorded, and
+   the issue run again delivers every name.
 3. `catalog scan` of an attacked recipient copy (exit 0, its asset and recipient), of an
    attacked published copy (exit 0, "published") and of an unmarked mesh (exit 1).
 Prints a JSON summary; exit 0 when every check held, 77 without the shared meshes.
@@ -126,6 +128,27 @@ def main():
         expected = {"published", "everyone", *(f"buyer{i}" for i in range(args.issuers))}
         if sorted(names) != sorted(expected) or not all(r["delivered"] for r in spot["recipients"]):
             summary["problems"].append(f"spot.obj recipients: {spot['recipients']}")
+        # An issue killed at a random moment, and a scan: afterwards every visible copy's name is
+        # recorded, and the same issue run again delivers what the killed one had not.
+        kill_copies = work / "killed"
+        issue = [args.cli, "catalog", "issue", catalog, "bunny.off", "-o", str(kill_copies / "{recipient}.ply"), "-q",
+                 *sum((["--recipient", f"late{i}"] for i in range(6)), [])]
+        for command in (issue, [args.cli, "catalog", "scan", catalog, str(out / "spot.obj"), "-q"]):
+            proc = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            time.sleep(rng.uniform(0.05, 0.6))
+            proc.send_signal(signal.SIGKILL)
+            proc.wait()
+        bunny = next(a for a in listed(args.cli, catalog) if a["asset"] == "bunny.off")
+        recorded = {r["name"] for r in bunny["recipients"]}
+        visible = {f.stem for f in kill_copies.glob("*.ply")} if kill_copies.exists() else set()
+        if not visible <= recorded:
+            summary["problems"].append(f"copies without a recorded name after a kill: {sorted(visible - recorded)}")
+        subprocess.run(issue, check=True)
+        bunny = next(a for a in listed(args.cli, catalog) if a["asset"] == "bunny.off")
+        late = [r for r in bunny["recipients"] if r["name"].startswith("late")]
+        if len(late) != 6 or not all(r["delivered"] for r in late) or len({r["name"] for r in late}) != 6:
+            summary["problems"].append(f"the killed issue run again: {late}")
+        summary["killed_issue"] = {"visible_after_kill": len(visible), "recorded_after_kill": len(recorded)}
         # 3. Scans.
         run(args.cli, "attack", str(work / "copies" / "buyer1.obj"), "similarity,simplify=0.5",
             "-o", str(work / "leak1.ply"), "-q")
