@@ -4,7 +4,6 @@
 #include <stdexcept>
 #include <string_view>
 
-#include "meshmark/attacks/attack_spec.h"
 #include "meshmark/core/error.h"
 #include "meshmark/watermark/key.h"
 
@@ -36,33 +35,6 @@ bool parse_key_bytes(const std::uint8_t* data, std::size_t size)
         throw std::logic_error(std::string("key round trip threw: ") + e.what());
     }
     throw std::logic_error("key round trip changed the key: " + json);
-}
-
-bool parse_attack_spec_bytes(const std::uint8_t* data, std::size_t size)
-{
-    const std::string_view text(reinterpret_cast<const char*>(data), size);
-    std::string canonical;
-    try
-    {
-        canonical = to_string(parse_attack_spec(text));
-    }
-    catch (const Error&)
-    {
-        return false;
-    }
-    // The canonical text must parse back to the same chain (documented round trip).
-    try
-    {
-        if (to_string(parse_attack_spec(canonical)) == canonical)
-        {
-            return true;
-        }
-    }
-    catch (const Error& e)
-    {
-        throw std::logic_error("attack spec round trip of '" + canonical + "' threw: " + e.what());
-    }
-    throw std::logic_error("attack spec round trip changed '" + canonical + "'");
 }
 
 }  // namespace meshmark::fuzz

@@ -8,8 +8,8 @@
 # Chosen to fit CI (2 cores, whole .ci/run under 45 min): -O1 with debug info and Eigen's
 # assertions on (no NDEBUG); no CLI; the attack, metrics and pipeline tests are left out (CGAL's
 # simplification and remeshing under ASan are 10-50x slower and their code is exercised by the
-# normal suite; the attack-spec parser is still covered through the fuzz replay), and so are
-# the programs that would pull in the pipeline or serve only the Laplacian baseline (SKIPPED).
+# normal suite), and so are the programs listed in `skipped` below and the replay's attack-spec
+# corpus (the attacks library's sanitized CGAL build alone is 5 minutes).
 #
 # Usage: scripts/test_sanitizers.sh [--all] [ctest args...]
 #   --all   every module's unit tests (the full, ~30+ min job), at -O1 as well.
@@ -22,19 +22,26 @@ dirs=(core io geometry basis watermark registration fuzz_regressions)
 targets=(meshmark_core_test meshmark_io_test meshmark_geometry_test meshmark_basis_test
          meshmark_watermark_test meshmark_registration_test meshmark_fuzz_regressions_test)
 # Built and run by --all only: the glTF end-to-end test links the whole pipeline (its parsers are
-# covered by the formats test), the Laplacian eigenbasis is the comparison baseline, and the
+# covered by the replay), the Laplacian eigenbasis is the comparison baseline, and the
 # awkward-geometry test (every attack on broken geometry: 76 s under ASan plus CGAL's build)
 # also runs, unsanitized, in the normal suite.
-skipped=(meshmark_io_gltf_pipeline_test meshmark_laplacian_basis_test meshmark_awkward_geometry_test)
+# The glTF/GLB/Draco/meshopt/3MF formats test (its five sources alone are 5 minutes of sanitized
+# compiling) too: the replay reads the fuzz corpus of every format through the same readers.
+# And the replay leaves out the attack-spec corpus, which needs the attacks library (CGAL).
+skipped=(meshmark_io_gltf_pipeline_test meshmark_laplacian_basis_test meshmark_awkward_geometry_test
+         meshmark_io_formats_test)
+replay_attacks=OFF
 if [[ ${1:-} == --all ]]; then
     shift
     dirs=(core io geometry basis watermark attacks metrics registration fuzz_regressions)
     targets=(all)
     skipped=()
+    replay_attacks=ON
 fi
 start=$(date +%s)
 cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g" \
     -DMESHMARK_SANITIZE="address;undefined" -DMESHMARK_BUILD_CLI=OFF -DMESHMARK_INSTALL=OFF \
+    -DMESHMARK_FUZZ_REPLAY_ATTACKS="$replay_attacks" \
     >/dev/null
 # Some unit folders build more than one program (e.g. io's formats test): build them all.
 for dir in "${dirs[@]}"; do
