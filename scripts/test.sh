@@ -3,7 +3,7 @@
 # label), then the installed-package check (scripts/test_install.sh). The real meshes are read
 # from ../shared/data/meshes, or from $MESHMARK_MESH_DIR.
 # Pass --all to include the slow tests. Last comes the sanitizer job (scripts/test_sanitizers.sh:
-# ASan + UBSan build of the core modules' unit tests into ./build-asan, ~10 min on 2 cores from
+# ASan + UBSan build of the core modules' unit tests into ./build-asan, ~15 min on 2 cores from
 # cold); --no-sanitizers or MESHMARK_SANITIZERS=0 skips it.
 set -euo pipefail
 cd "$(dirname "$0")/.."
