@@ -11,6 +11,7 @@
 #include <limits>
 #include <mutex>
 #include <optional>
+#include <span>
 #include <set>
 #include <string>
 #include <unordered_map>
@@ -22,6 +23,7 @@
 #include "meshmark/core/file_lock.h"
 #include "meshmark/core/threads.h"
 #include "meshmark/metrics/distortion.h"
+#include "meshmark/pipeline/family_copies.h"
 #include "timer.h"
 
 namespace meshmark {
@@ -318,26 +320,7 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
     {
         owner = mark->displacement(&owner_stats);
     }
-    // With the surface measure each copy's code is scaled so that the copy (owner's mark plus
-    // code) is displaced by exactly the strength: the codes differ, and so, unscaled, would the
-    // copies' surface distances (by up to 7% on the shared meshes). Only the code is scaled, so
-    // the owner's mark stays the one detection rebuilds from the key; a code's statistics do not
-    // depend on its scale (docs/fingerprinting.md, "Distortion of a copy").
-    std::optional<SurfaceRmsOfSums> copy_surface;
-    if (key.options.rule == EmbeddingRule::Additive && key.options.measure == StrengthMeasure::Surface)
-    {
-        copy_surface.emplace(file.mesh, owner);
-    }
-    owner += file.mesh.V;  // the positions every copy shares
-    // The recipient modes, explicitly: one product per copy instead of a pass over the basis.
-    const int head = key.options.first_mode + modulated_modes(key.options);
-    const int modes = mark->recipient_modes();
-    // Row-major: each analysed row's M values are contiguous for the products below.
-    const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> code_modes =
-        mark->basis().modes_dense(head + modes).rightCols(modes);
-    const std::vector<std::int32_t>& active = mark->mesh_rows()->active();
-    const double diagonal = bounding_box(file.mesh.V, active).diagonal();  // EmbedStats' unit
-    const double copy_target = key.options.resolved_strength() * diagonal;
+    const FamilyCopies family(file, std::move(*mark), std::move(owner), owner_stats);
     timer.lap("basis");
 
     // The copies this call created, with their file's identity: on a failure those still ours are
@@ -351,85 +334,24 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
     auto seconds_since = [](Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); };
     timer.begin("copies");
     const int threads = resolve_threads(options.threads);
-    const auto rows = static_cast<std::int64_t>(active.size());
-    // Copies are made kBatch at a time: each analysed row's M mode values are read once for
-    // all of them, and each coordinate of each copy is its own sum over the modes in mode
-    // order, so a copy's bytes do not depend on the batch (a re-issue reproduces it) nor on the
-    // thread count. The previous batch is written on another thread meanwhile (the writes wait
-    // on the disk, the sums on the CPU).
-    constexpr std::size_t kBatch = 8;
+    // Copies are made kBatch at a time (FamilyCopies::make: a copy's bytes do not depend on the
+    // batch, so a re-issue reproduces it); the previous batch is written on another thread
+    // meanwhile (the writes wait on the disk, the sums on the CPU).
+    constexpr std::size_t kBatch = FamilyCopies::kBatch;
     // Two sets of kBatch copies, reused: one being computed while the other is written.
     std::array<std::vector<Positions>, 2> buffers;
     auto make_batch = [&](std::size_t first, std::size_t count, std::vector<Positions>& positions) {
         const auto code_start = Clock::now();
-        const std::size_t width = 3 * count;
-        std::vector<double> changes(static_cast<std::size_t>(modes) * width);  // mode-major, then copy, axis
+        std::array<std::uint32_t, kBatch> indices{};
+        std::array<EmbedStats, kBatch> stats{};
         for (std::size_t b = 0; b < count; ++b)
         {
-            const Eigen::MatrixX3d change = mark->recipient_change(report.copies[first + b].index);
-            for (int mode = 0; mode < modes; ++mode)
-            {
-                for (int axis = 0; axis < 3; ++axis)
-                {
-                    changes[static_cast<std::size_t>(mode) * width + 3 * b + static_cast<std::size_t>(axis)] =
-                        change(mode, axis);
-                }
-            }
+            indices[b] = report.copies[first + b].index;
         }
-        positions.resize(count);
-        for (Positions& p : positions)
-        {
-            p.setZero(owner.rows(), 3);  // the code's field first; no new allocation after the first batch
-        }
-#pragma omp parallel for num_threads(threads) schedule(static)
-        for (std::int64_t a = 0; a < rows; ++a)
-        {
-            std::array<double, 3 * kBatch> d{};
-            const double* u = code_modes.data() + a * modes;
-            for (int mode = 0; mode < modes; ++mode)
-            {
-                const double* c = changes.data() + static_cast<std::size_t>(mode) * width;
-                for (std::size_t j = 0; j < width; ++j)
-                {
-                    d[j] += u[mode] * c[j];
-                }
-            }
-            const auto i = active[static_cast<std::size_t>(a)];
-            for (std::size_t b = 0; b < count; ++b)
-            {
-                for (int axis = 0; axis < 3; ++axis)
-                {
-                    positions[b](i, axis) = d[3 * b + static_cast<std::size_t>(axis)];
-                }
-            }
-        }
-        // Each copy: its code's scale (1 for the vertex measure, where owner + 1 * code is
-        // owner + code to the bit), then the positions.
-        std::array<double, kBatch> surface{};
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
-        for (std::int64_t b = 0; b < static_cast<std::int64_t>(count); ++b)
-        {
-            Positions& copy = positions[static_cast<std::size_t>(b)];
-            double scale = 1.0;
-            if (copy_surface)
-            {
-                const SurfaceRmsOfSums::Terms terms = copy_surface->terms(copy);
-                scale = terms.scale_to(copy_target);
-                surface[static_cast<std::size_t>(b)] = terms.rms(scale);
-            }
-            copy = owner + scale * copy;
-        }
+        family.make(std::span(indices.data(), count), positions, std::span(stats.data(), count), threads);
         for (std::size_t b = 0; b < count; ++b)
         {
-            DisplacementSummary summary;
-            for (const std::int32_t i : active)
-            {
-                const Eigen::RowVector3d d = positions[b].row(i) - file.mesh.V.row(i);
-                summary.add(d.data());
-            }
-            mark->describe(summary, diagonal, owner_stats.orthogonality_error,
-                           &report.copies[first + b].stats);
-            report.copies[first + b].stats.surface_rms_rel = diagonal > 0.0 ? surface[b] / diagonal : 0.0;
+            report.copies[first + b].stats = stats[b];
         }
         code_seconds += seconds_since(code_start);
     };

@@ -1,0 +1,155 @@
+// SPDX-License-Identifier: MIT
+// The shared part of a family's copies, built once; then one code's field per copy.
+#include "meshmark/pipeline/family_copies.h"
+
+#include <array>
+#include <string>
+
+#include "meshmark/core/bounding_box.h"
+#include "meshmark/core/error.h"
+#include "meshmark/core/threads.h"
+#include "meshmark/pipeline/embed_file.h"
+
+namespace meshmark {
+
+FamilyCopies::FamilyCopies(const MeshFile& file, const Key& key, const std::filesystem::path& path, int threads)
+    : file_(&file), mark_(watermark_of(file.mesh, key, path, threads))
+{
+    if (!key.recipients)
+    {
+        throw InvalidOption(path.string() + ": the key marks a single owner's copy, not a family of recipients.");
+    }
+    owner_ = mark_.displacement(&owner_stats_);
+    prepare();
+}
+
+FamilyCopies::FamilyCopies(const MeshFile& file, SpectralWatermark mark, Positions owner, const EmbedStats& owner_stats)
+    : file_(&file), mark_(std::move(mark)), owner_(std::move(owner)), owner_stats_(owner_stats)
+{
+    prepare();
+}
+
+FamilyCopies::~FamilyCopies() = default;
+
+void FamilyCopies::prepare()
+{
+    const EmbedOptions& options = mark_.key().options;
+    // With the surface measure each copy's code is scaled so that the copy (owner's mark plus
+    // code) is displaced by exactly the strength: the codes differ, and so, unscaled, would the
+    // copies' surface distances (by up to 7% on the shared meshes). Only the code is scaled, so
+    // the owner's mark stays the one detection rebuilds from the key; a code's statistics do not
+    // depend on its scale (docs/fingerprinting.md, "Distortion of a copy").
+    if (options.rule == EmbeddingRule::Additive && options.measure == StrengthMeasure::Surface)
+    {
+        copy_surface_.emplace(file_->mesh, owner_);
+    }
+    owner_ += file_->mesh.V;  // the positions every copy shares
+    // The recipient modes, explicitly: one product per copy instead of a pass over the basis.
+    const int head = options.first_mode + modulated_modes(options);
+    const int modes = mark_.recipient_modes();
+    code_modes_ = mark_.basis().modes_dense(head + modes).rightCols(modes);
+    const std::vector<std::int32_t>& active = mark_.mesh_rows()->active();
+    diagonal_ = bounding_box(file_->mesh.V, active).diagonal();  // EmbedStats' unit
+    copy_target_ = options.resolved_strength() * diagonal_;
+}
+
+std::size_t FamilyCopies::memory_bytes() const noexcept
+{
+    // An estimate from the sizes that grow with the mesh: the shared positions, the modes, the
+    // surface measure's per-face terms, the watermark's copy of the analysed rows (positions and
+    // indices) and two k x k matrices of the basis.
+    const auto n = static_cast<std::size_t>(owner_.rows());
+    const auto faces = static_cast<std::size_t>(file_->mesh.F.rows());
+    const auto k = static_cast<std::size_t>(mark_.basis().size());
+    const std::size_t doubles = 3 * n + static_cast<std::size_t>(code_modes_.size()) + (copy_surface_ ? 7 * faces : 0) +
+                                3 * n + 2 * k * k;
+    return sizeof(double) * doubles + sizeof(std::int32_t) * n;
+}
+
+void FamilyCopies::make(std::span<const std::uint32_t> indices, std::vector<Positions>& out,
+                        std::span<EmbedStats> stats, int threads) const
+{
+    const std::size_t count = indices.size();
+    if (count > kBatch || stats.size() != count)
+    {
+        throw InvalidOption("FamilyCopies::make: at most " + std::to_string(kBatch) +
+                            " copies at once, with one EmbedStats each.");
+    }
+    threads = resolve_threads(threads);
+    const int modes = mark_.recipient_modes();
+    const std::vector<std::int32_t>& active = mark_.mesh_rows()->active();
+    const auto rows = static_cast<std::int64_t>(active.size());
+    // Each analysed row's M mode values are read once for all the copies, and each coordinate of
+    // each copy is its own sum over the modes in mode order, so a copy's bytes do not depend on
+    // the batch nor on the thread count.
+    const std::size_t width = 3 * count;
+    std::vector<double> changes(static_cast<std::size_t>(modes) * width);  // mode-major, then copy, axis
+    for (std::size_t b = 0; b < count; ++b)
+    {
+        const Eigen::MatrixX3d change = mark_.recipient_change(indices[b]);
+        for (int mode = 0; mode < modes; ++mode)
+        {
+            for (int axis = 0; axis < 3; ++axis)
+            {
+                changes[static_cast<std::size_t>(mode) * width + 3 * b + static_cast<std::size_t>(axis)] =
+                    change(mode, axis);
+            }
+        }
+    }
+    out.resize(count);
+    for (Positions& p : out)
+    {
+        p.setZero(owner_.rows(), 3);  // the code's field first; no new allocation when reused
+    }
+#pragma omp parallel for num_threads(threads) schedule(static)
+    for (std::int64_t a = 0; a < rows; ++a)
+    {
+        std::array<double, 3 * kBatch> d{};
+        const double* u = code_modes_.data() + a * modes;
+        for (int mode = 0; mode < modes; ++mode)
+        {
+            const double* c = changes.data() + static_cast<std::size_t>(mode) * width;
+            for (std::size_t j = 0; j < width; ++j)
+            {
+                d[j] += u[mode] * c[j];
+            }
+        }
+        const auto i = active[static_cast<std::size_t>(a)];
+        for (std::size_t b = 0; b < count; ++b)
+        {
+            for (int axis = 0; axis < 3; ++axis)
+            {
+                out[b](i, axis) = d[3 * b + static_cast<std::size_t>(axis)];
+            }
+        }
+    }
+    // Each copy: its code's scale (1 for the vertex measure, where owner + 1 * code is
+    // owner + code to the bit), then the positions.
+    std::array<double, kBatch> surface{};
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
+    for (std::int64_t b = 0; b < static_cast<std::int64_t>(count); ++b)
+    {
+        Positions& copy = out[static_cast<std::size_t>(b)];
+        double scale = 1.0;
+        if (copy_surface_)
+        {
+            const SurfaceRmsOfSums::Terms terms = copy_surface_->terms(copy);
+            scale = terms.scale_to(copy_target_);
+            surface[static_cast<std::size_t>(b)] = terms.rms(scale);
+        }
+        copy = owner_ + scale * copy;
+    }
+    for (std::size_t b = 0; b < count; ++b)
+    {
+        DisplacementSummary summary;
+        for (const std::int32_t i : active)
+        {
+            const Eigen::RowVector3d d = out[b].row(i) - file_->mesh.V.row(i);
+            summary.add(d.data());
+        }
+        mark_.describe(summary, diagonal_, owner_stats_.orthogonality_error, &stats[b]);
+        stats[b].surface_rms_rel = diagonal_ > 0.0 ? surface[b] / diagonal_ : 0.0;
+    }
+}
+
+}  // namespace meshmark
