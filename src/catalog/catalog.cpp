@@ -5,6 +5,8 @@
 
 #include <ctime>
 #include <fstream>
+#include <limits>
+#include <optional>
 #include <mutex>
 
 #include <fcntl.h>
@@ -21,11 +23,13 @@ namespace meshmark {
 namespace {
 
 constexpr const char* kFormat = "meshmark-catalog";
-constexpr int kVersion = 1;
+constexpr int kVersion = 2;
 
-// Schema v1. A recipient row exists for each name given a code; (asset, code) is unique, so the
-// database itself refuses two names with one code. Keys are stored as their key-file JSON (the
-// family key with every recipient so far), so `catalog export` writes exactly a key file.
+// Schema v2. A recipient row exists for each name given a code; (asset, code) is unique, so the
+// database itself refuses two names with one code. Keys are stored as their key-file JSON without
+// the recipients: the recipients table is the family's list, joined to the key when it is read
+// (so `catalog export` writes exactly a key file), and a new name costs one row, not a rewrite of
+// every name before it (version 1 stored them in the JSON too; opening one strips them).
 constexpr const char* kSchema = R"sql(
 CREATE TABLE IF NOT EXISTS meta (name TEXT PRIMARY KEY, value TEXT NOT NULL);
 CREATE TABLE IF NOT EXISTS assets (
@@ -91,6 +95,57 @@ struct Catalog::Impl
         }
     }
 
+    // The key stored as \p json for asset \p id, with its recipients from the table.
+    Key key_of(const std::string& id, const std::string& json) const
+    {
+        Key key = parse_key(json, path.string() + " (asset " + id + ")");
+        if (key.recipients)
+        {
+            std::vector<Recipient>& list = key.recipients->recipients;
+            list.clear();
+            SQLite::Statement row(*db, "SELECT name, code FROM recipients WHERE asset = ? ORDER BY code");
+            row.bind(1, id);
+            while (row.executeStep())
+            {
+                list.push_back({row.getColumn(0).getString(), static_cast<std::uint32_t>(row.getColumn(1).getInt64())});
+            }
+        }
+        return key;
+    }
+
+    // \p key as stored: its JSON without the recipients (they are the table's rows).
+    static std::string stored_json(Key key)
+    {
+        if (key.recipients)
+        {
+            key.recipients->recipients.clear();
+        }
+        return to_json(key);
+    }
+
+    // Version 1 kept every recipient in the key's JSON as well: strip them (the table holds the
+    // same names and codes), in the transaction that opened the file.
+    void migrate_from_v1()
+    {
+        std::vector<std::pair<std::string, std::string>> keys;
+        {
+            SQLite::Statement row(*db, "SELECT id, key_json FROM assets");
+            while (row.executeStep())
+            {
+                keys.emplace_back(row.getColumn(0).getString(), row.getColumn(1).getString());
+            }
+        }
+        SQLite::Statement set(*db, "UPDATE assets SET key_json = ? WHERE id = ?");
+        for (const auto& [id, json] : keys)
+        {
+            set.bind(1, stored_json(parse_key(json, path.string() + " (asset " + id + ")")));
+            set.bind(2, id);
+            set.exec();
+            set.reset();
+        }
+        db->exec("UPDATE meta SET value = '2' WHERE name = 'version'");
+    }
+
     CatalogAsset asset_of(SQLite::Statement& row) const
     {
         CatalogAsset a;
@@ -98,7 +153,7 @@ struct Catalog::Impl
         a.original = row.getColumn("original").getString();
         a.original_sha256 = row.getColumn("original_sha256").getString();
         a.published = row.getColumn("published").getString();
-        a.key = parse_key(row.getColumn("key_json").getString(), path.string() + " (asset " + a.id + ")");
+        a.key = key_of(a.id, row.getColumn("key_json").getString());
         a.vertex_count = row.getColumn("vertex_count").getInt64();
         a.face_count = row.getColumn("face_count").getInt64();
         a.added = row.getColumn("added").getString();
@@ -172,6 +227,10 @@ Catalog::Catalog(std::filesystem::path path, Open mode, std::chrono::millisecond
             {
                 throw IoError(name + ": the catalogue is format version " + std::to_string(version) +
                               ", newer than this meshmark reads (" + std::to_string(kVersion) + ").");
+            }
+            if (version == 1)
+            {
+                impl_->migrate_from_v1();
             }
         }
         transaction.commit();
@@ -317,7 +376,7 @@ public:
                 row.bind(1, id_);
                 if (row.executeStep())
                 {
-                    now = parse_key(row.getColumn(0).getString(), name());
+                    now = impl_.key_of(id_, row.getColumn(0).getString());
                     complete = row.getColumn(1).getInt() != 0;
                 }
             }
@@ -341,7 +400,7 @@ public:
                 insert.bind(2, a.original.string());
                 insert.bind(3, a.original_sha256);
                 insert.bind(4, a.published.string());
-                insert.bind(5, to_json(*changed));
+                insert.bind(5, Impl::stored_json(*changed));
                 insert.bind(6, static_cast<std::int64_t>(a.vertex_count));
                 insert.bind(7, static_cast<std::int64_t>(a.face_count));
                 insert.bind(8, utc_now());
@@ -352,7 +411,7 @@ public:
             else
             {
                 SQLite::Statement set(db, "UPDATE assets SET key_json = ? WHERE id = ?");
-                set.bind(1, to_json(*changed));
+                set.bind(1, Impl::stored_json(*changed));
                 set.bind(2, id_);
                 set.exec();
             }
@@ -408,6 +467,63 @@ private:
     std::optional<CatalogAsset> prototype_;
     std::optional<ShapeSignature> signature_;
 };
+
+Catalog::RecordedName Catalog::record_recipient(const std::string& id, const std::string& name)
+{
+    check_recipient_name(name);
+    const std::lock_guard lock(impl_->mutex);
+    return impl_->guarded("record the copy in", [&] {
+        auto& db = *impl_->db;
+        auto find = [&]() -> std::optional<std::uint32_t> {
+            SQLite::Statement row(db, "SELECT code FROM recipients WHERE asset = ? AND name = ?");
+            row.bind(1, id);
+            row.bind(2, name);
+            if (row.executeStep())
+            {
+                return static_cast<std::uint32_t>(row.getColumn(0).getInt64());
+            }
+            return std::nullopt;
+        };
+        if (const std::optional<std::uint32_t> code = find())
+        {
+            return RecordedName{*code, false};  // known: nothing to write
+        }
+        SQLite::Transaction transaction(db, SQLite::TransactionBehavior::IMMEDIATE);
+        {
+            SQLite::Statement row(db, "SELECT complete FROM assets WHERE id = ?");
+            row.bind(1, id);
+            if (!row.executeStep())
+            {
+                throw InvalidOption(impl_->path.string() + ": no asset '" + id + "' in the catalogue.");
+            }
+            if (row.getColumn(0).getInt() == 0)
+            {
+                throw InvalidOption(impl_->path.string() + ": asset '" + id +
+                                    "' was interrupted while being added; run `meshmark catalog add` again.");
+            }
+        }
+        if (const std::optional<std::uint32_t> code = find())  // recorded by another process meanwhile
+        {
+            return RecordedName{*code, false};
+        }
+        SQLite::Statement next(db, "SELECT COALESCE(MAX(code) + 1, 0) FROM recipients WHERE asset = ?");
+        next.bind(1, id);
+        next.executeStep();
+        const std::int64_t code = next.getColumn(0).getInt64();
+        if (code >= static_cast<std::int64_t>(std::numeric_limits<std::uint32_t>::max()))
+        {
+            throw InvalidOption(impl_->path.string() + ": asset '" + id + "' holds as many recipients as it can.");
+        }
+        SQLite::Statement insert(db, "INSERT INTO recipients(asset, name, code, path, issued) VALUES (?, ?, ?, '', ?)");
+        insert.bind(1, id);
+        insert.bind(2, name);
+        insert.bind(3, code);
+        insert.bind(4, utc_now());
+        insert.exec();
+        transaction.commit();
+        return RecordedName{static_cast<std::uint32_t>(code), true};
+    });
+}
 
 std::unique_ptr<FamilyKeyStore> Catalog::family_store(const std::string& id, std::optional<CatalogAsset> prototype,
                                                       std::optional<ShapeSignature> signature)

@@ -98,6 +98,19 @@ public:
                                                               std::optional<CatalogAsset> prototype = std::nullopt,
                                                               std::optional<ShapeSignature> signature = std::nullopt);
 
+    /// A recipient's code index, and whether this call recorded it.
+    struct RecordedName
+    {
+        std::uint32_t index = 0;
+        bool is_new = false;
+    };
+    /// \brief The code index of recipient \p name of asset \p id: the one recorded, or the next
+    /// free one, recorded durably (one committed transaction) before this returns. Any number of
+    /// threads and processes may record at once: a name gets one index, an index one name.
+    /// \throws InvalidOption (a bad name, no such asset, an incomplete one, the key full),
+    /// IoError (the catalogue stayed busy or cannot be written).
+    [[nodiscard]] RecordedName record_recipient(const std::string& id, const std::string& name);
+
     /// Remove asset \p id and its recipients (`catalog add --force` re-marking a changed original).
     void remove(const std::string& id);
 

@@ -2,10 +2,13 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <map>
 #include <set>
 #include <thread>
 
 #include <sys/stat.h>
+
+#include <SQLiteCpp/SQLiteCpp.h>
 
 #include "meshmark/attacks/attack_spec.h"
 #include "meshmark/catalog/catalog.h"
@@ -217,6 +220,106 @@ TEST(CatalogTest, issue_records_names_before_copies_and_threads_at_once_never_sh
     again.recipients = {"buyer2"};
     (void)catalog_issue(catalog, "a.ply", (dir / "again" / "{recipient}.ply").string(), again);
     EXPECT_EQ(test::file_bytes(dir / "again" / "buyer2.ply"), first);
+}
+
+TEST(CatalogTest, record_recipient_gives_each_name_one_code_from_many_connections_and_copies_match_issue)
+{
+    const fs::path dir = test::temp_dir("catalog_record");
+    const fs::path in = dir / "in";
+    fs::create_directories(in);
+    write_mesh(in / "a.ply", lumpy_ellipsoid(4));
+    Catalog catalog(dir / "cat.db", Catalog::Open::CreateIfMissing);
+    ASSERT_EQ(catalog_add(catalog, {in}, dir / "out", quick_options())[0].status, CatalogAddOutcome::Status::Marked);
+    EXPECT_THROW((void)catalog.record_recipient("nope.ply", "x"), InvalidOption);
+    EXPECT_THROW((void)catalog.record_recipient("a.ply", "../x"), InvalidOption);
+
+    // 4 connections (as 4 processes), 25 names each, 5 of them shared by all.
+    std::vector<std::thread> threads;
+    std::vector<std::vector<std::pair<std::string, std::uint32_t>>> got(4);
+    std::vector<std::exception_ptr> failures(4);
+    for (int t = 0; t < 4; ++t)
+    {
+        threads.emplace_back([&, t] {
+            try
+            {
+                Catalog mine(dir / "cat.db", Catalog::Open::Existing);
+                for (int i = 0; i < 25; ++i)
+                {
+                    const std::string name = i < 5 ? "shared" + std::to_string(i) : "t" + std::to_string(t) + "n" + std::to_string(i);
+                    got[static_cast<std::size_t>(t)].emplace_back(name, mine.record_recipient("a.ply", name).index);
+                }
+            }
+            catch (...)
+            {
+                failures[static_cast<std::size_t>(t)] = std::current_exception();
+            }
+        });
+    }
+    for (std::thread& t : threads)
+    {
+        t.join();
+    }
+    for (const auto& failure : failures)
+    {
+        EXPECT_FALSE(failure);
+    }
+    const auto recipients = catalog.recipients("a.ply");
+    ASSERT_EQ(recipients.size(), 1U + 5U + 4U * 20U);  // published, the shared, each thread's own
+    std::map<std::string, std::uint32_t> recorded;
+    std::set<std::uint32_t> codes;
+    for (const CatalogRecipient& r : recipients)
+    {
+        recorded[r.name] = r.index;
+        codes.insert(r.index);
+    }
+    EXPECT_EQ(codes.size(), recipients.size());
+    for (const auto& names : got)
+    {
+        for (const auto& [name, index] : names)
+        {
+            EXPECT_EQ(recorded.at(name), index) << name;
+        }
+    }
+    EXPECT_FALSE(catalog.record_recipient("a.ply", "shared3").is_new);
+    EXPECT_EQ(catalog.asset("a.ply")->key.recipients->recipients.size(), recipients.size());
+
+    // catalog_issue of a recorded name writes the copy of its recorded code.
+    CatalogIssueOptions again;
+    again.recipients = {"t2n7"};
+    const auto report = catalog_issue(catalog, "a.ply", (dir / "c" / "{recipient}.ply").string(), again);
+    ASSERT_EQ(report.copies.size(), 1U);
+    EXPECT_EQ(report.copies[0].index, recorded.at("t2n7"));
+    EXPECT_FALSE(report.copies[0].is_new);
+}
+
+TEST(CatalogTest, a_version_1_catalogue_is_read_with_its_recipients_and_upgraded)
+{
+    const fs::path dir = test::temp_dir("catalog_v1");
+    const fs::path in = dir / "in";
+    fs::create_directories(in);
+    write_mesh(in / "a.ply", lumpy_ellipsoid(4));
+    Key before;
+    {
+        Catalog catalog(dir / "cat.db", Catalog::Open::CreateIfMissing);
+        ASSERT_EQ(catalog_add(catalog, {in}, dir / "out", quick_options())[0].status, CatalogAddOutcome::Status::Marked);
+        CatalogIssueOptions issue;
+        issue.recipients = {"alice", "bob"};
+        (void)catalog_issue(catalog, "a.ply", (dir / "c" / "{recipient}.ply").string(), issue);
+        before = catalog.asset("a.ply")->key;
+    }
+    // Make it what version 1 wrote: the recipients inside the key's JSON as well.
+    {
+        SQLite::Database db((dir / "cat.db").string(), SQLite::OPEN_READWRITE);
+        SQLite::Statement set(db, "UPDATE assets SET key_json = ? WHERE id = 'a.ply'");
+        set.bind(1, to_json(before));
+        set.exec();
+        db.exec("UPDATE meta SET value = '1' WHERE name = 'version'");
+    }
+    Catalog catalog(dir / "cat.db", Catalog::Open::Existing);
+    EXPECT_EQ(to_json(catalog.asset("a.ply")->key), to_json(before));
+    SQLite::Database db((dir / "cat.db").string(), SQLite::OPEN_READONLY);
+    EXPECT_EQ(db.execAndGet("SELECT value FROM meta WHERE name = 'version'").getString(), "2");
+    EXPECT_EQ(db.execAndGet("SELECT key_json FROM assets WHERE id = 'a.ply'").getString().find("alice"), std::string::npos);
 }
 
 TEST(CatalogTest, scan_finds_the_asset_and_recipient_of_an_attacked_copy_and_claims_nothing_unmarked)
