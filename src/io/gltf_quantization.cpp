@@ -7,10 +7,13 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <limits>
 #include <map>
 #include <set>
 #include <tuple>
+#include <vector>
 
 #include <Eigen/Geometry>
 #include <Eigen/LU>
@@ -20,6 +23,58 @@
 #include "meshmark/core/error.h"
 
 namespace meshmark::detail {
+namespace {
+
+// Whether two of \p entries (each with .key, three finite floats without -0, and .vertex >= 0)
+// of different vertices have equal keys: one pass over an open-addressing table of key bits
+// to the first vertex seen with them, so the usual case (no such pair) costs no sort.
+template <typename Entry>
+bool has_shared_key(const std::vector<Entry>& entries)
+{
+    struct Slot
+    {
+        std::array<std::uint32_t, 3> bits{};
+        std::int32_t vertex = -1;  // -1: empty
+    };
+    std::size_t capacity = 16;
+    while (capacity < 2 * entries.size())
+    {
+        capacity *= 2;
+    }
+    std::vector<Slot> table(capacity);
+    for (const Entry& entry : entries)
+    {
+        std::array<std::uint32_t, 3> bits{};
+        std::memcpy(bits.data(), entry.key.data(), sizeof(bits));
+        std::uint64_t h = bits[0];
+        h = h * 0x9E3779B97F4A7C15ULL ^ bits[1];
+        h = h * 0xC2B2AE3D27D4EB4FULL ^ bits[2];
+        h ^= h >> 31U;
+        h *= 0x94D049BB133111EBULL;
+        h ^= h >> 29U;
+        const std::size_t mask = capacity - 1;
+        for (std::size_t i = static_cast<std::size_t>(h) & mask;; i = (i + 1) & mask)
+        {
+            Slot& slot = table[i];
+            if (slot.vertex < 0)
+            {
+                slot = {bits, entry.vertex};
+                break;
+            }
+            if (slot.bits == bits)
+            {
+                if (slot.vertex != entry.vertex)
+                {
+                    return true;
+                }
+                break;
+            }
+        }
+    }
+    return false;
+}
+
+}  // namespace
 
 GltfWriter::Plan GltfWriter::plan_accessor(std::size_t slot)
 {
@@ -193,6 +248,10 @@ void GltfWriter::keep_vertices_apart(std::vector<Plan>& plans) const
                     entries.push_back({key_of(&plans[p].stored[3 * e]), w, false});
                 }
             }
+        }
+        if (!has_shared_key(entries))
+        {
+            continue;  // no collision to sort out
         }
         const auto by_key = [](const Entry& x, const Entry& y)
         { return std::tie(x.key, y.is_fixed, x.vertex) < std::tie(y.key, x.is_fixed, y.vertex); };

@@ -5,7 +5,8 @@
 // re-encoded meshopt stream, its extension's byteLength, the streams and views after it and
 // the buffer length): nlohmann::ordered_json keeps every other member, unknown ones included,
 // in its order. This file runs its steps in order and writes the files (external buffers
-// beside the asset, all atomically); the generic writer builds a minimal asset.
+// beside the asset, all atomically), or returns the asset as one file's bytes (no external
+// buffers; image URIs as written); the generic writer builds a minimal asset.
 #include <algorithm>
 #include <array>
 #include <cctype>
@@ -13,6 +14,7 @@
 #include <fstream>
 #include <limits>
 #include <string_view>
+#include <utility>
 
 #include "io/detail/gltf_writer.h"
 #include "io/detail/numbers.h"
@@ -44,6 +46,21 @@ std::string percent_encoded(const std::string& name)
         }
     }
     return out;
+}
+
+// Runs \p body; the reader validated the asset, so an unexpected JSON shape met while
+// rewriting it is still one clear error naming \p path.
+template <typename Body>
+void guarded_json(const fs::path& path, const Body& body)
+{
+    try
+    {
+        body();
+    }
+    catch (const GltfJson::exception& e)
+    {
+        fail_io(path, std::string("cannot update the glTF JSON: ") + e.what());
+    }
 }
 
 }  // namespace
@@ -210,7 +227,7 @@ std::string GltfWriter::json_text()
     }
 }
 
-void GltfWriter::run(bool is_glb)
+void GltfWriter::rewrite()
 {
     // New stored values of every POSITION record; a record that a moved vertex pushes past
     // what its integer type holds gets a wider grid (or float32) before anything is written.
@@ -257,33 +274,60 @@ void GltfWriter::run(bool is_glb)
             write_float_accessor(plan);
         }
     }
-    const auto files = external_files();
-    const auto images = image_copies();
-    std::string main;
-    if (is_glb)
+}
+
+std::string GltfWriter::main_file(bool is_glb)
+{
+    if (!is_glb)
     {
-        std::string bin;
-        const bool has_bin_buffer =
-            !asset_.buffers.empty() && asset_.buffers[0].source == GltfBufferSource::GlbBinChunk;
-        if (has_bin_buffer)
+        return json_text();
+    }
+    // The BIN chunk is buffer 0 (moved out: this is the writer's last step) and the chunk's
+    // original padding, kept when the buffer kept its length.
+    const std::string json = json_text();
+    std::string bin;
+    const bool has_bin_buffer =
+        !asset_.buffers.empty() && asset_.buffers[0].source == GltfBufferSource::GlbBinChunk;
+    if (has_bin_buffer)
+    {
+        const bool is_same_length = buffers_[0].size() == asset_.buffers[0].bytes.size();
+        bin = std::move(buffers_[0]);
+        if (is_same_length)
         {
-            bin = buffers_[0];
-            if (buffers_[0].size() == asset_.buffers[0].bytes.size())
-            {
-                bin += asset_.glb_bin_padding;
-            }
+            bin += asset_.glb_bin_padding;
         }
-        else
-        {
-            bin = asset_.glb_bin_padding;
-        }
-        main =
-            assemble_glb(path_, json_text(), asset_.glb_has_bin ? &bin : nullptr, asset_.glb_tail);
     }
     else
     {
-        main = json_text();
+        bin = asset_.glb_bin_padding;
     }
+    return assemble_glb(path_, json, asset_.glb_has_bin ? &bin : nullptr, asset_.glb_tail);
+}
+
+std::string GltfWriter::one_file(bool is_glb)
+{
+    // External buffers are files of their own: refused before any work.
+    const auto is_external = [](const GltfBuffer& b)
+    { return b.source == GltfBufferSource::External; };
+    if (std::any_of(asset_.buffers.begin(), asset_.buffers.end(), is_external))
+    {
+        fail(std::string("the asset has external buffers (.bin files) and cannot be returned as "
+                         "one ") +
+             (is_glb ? ".glb" : ".gltf") +
+             " file; ask for another format (which carries the positions and triangles only)");
+    }
+    rewrite();
+    return main_file(is_glb);
+}
+
+void GltfWriter::run(bool is_glb)
+{
+    rewrite();
+    // External buffers and images beside the output: their names and URIs are set in the
+    // JSON before it is serialized.
+    const auto files = external_files();
+    const auto images = image_copies();
+    const std::string main = main_file(is_glb);
 
     // Buffers and images beside the output first, then the asset; on failure nothing new is
     // left (the files written and the folders made for images).
@@ -335,15 +379,16 @@ void write_gltf_preserving(const fs::path& path, bool is_glb, const GltfAsset& a
                            const Positions& original, const Positions& positions)
 {
     GltfWriter writer(path, asset, original, positions);
-    try
-    {
-        writer.run(is_glb);
-    }
-    catch (const GltfJson::exception& e)
-    {
-        // The reader validated the asset; an unexpected JSON shape is still one clear error.
-        fail_io(path, std::string("cannot update the glTF JSON: ") + e.what());
-    }
+    guarded_json(path, [&] { writer.run(is_glb); });
+}
+
+std::string preserved_gltf_bytes(const fs::path& path, bool is_glb, const GltfAsset& asset,
+                                 const Positions& original, const Positions& positions)
+{
+    GltfWriter writer(path, asset, original, positions);
+    std::string bytes;
+    guarded_json(path, [&] { bytes = writer.one_file(is_glb); });
+    return bytes;
 }
 
 std::string gltf_bytes(const TriangleMesh& mesh, bool is_glb)

@@ -22,6 +22,52 @@ void write_bytes(const std::filesystem::path& path, const std::string& bytes)
                           { out.write(bytes.data(), static_cast<std::streamsize>(bytes.size())); });
 }
 
+// The bytes of write_mesh's file for \p mesh in \p format; \p path names it in errors.
+std::string generic_bytes(const std::filesystem::path& path, MeshFormat format,
+                          const TriangleMesh& mesh, const WriteOptions& options)
+{
+    options.validate(mesh.V.rows());
+    validate(mesh, path.string().c_str());
+    switch (format)
+    {
+        case MeshFormat::Ply:
+            return detail::ply_bytes(mesh, options);
+        case MeshFormat::Obj:
+            return detail::obj_bytes(mesh, options);
+        case MeshFormat::Off:
+            return detail::off_bytes(mesh, options);
+        case MeshFormat::Stl:
+            return detail::stl_bytes(mesh, options);
+        case MeshFormat::Gltf:
+        case MeshFormat::Glb:
+            return detail::gltf_bytes(mesh, format == MeshFormat::Glb);
+        case MeshFormat::ThreeMf:
+            return detail::three_mf_bytes(path, mesh);
+    }
+    return {};
+}
+
+// write_mesh_file's and mesh_file_bytes's shared checks: one row per vertex of the source.
+void check_rows(const char* function, const MeshFile& source, const Positions& positions)
+{
+    if (positions.rows() != source.mesh.V.rows())
+    {
+        throw InvalidOption(std::string(function) + ": positions have " +
+                            std::to_string(positions.rows()) + " rows, but " +
+                            source.path.string() + " has " +
+                            std::to_string(source.mesh.V.rows()) + " vertices.");
+    }
+}
+
+// The source's triangles under \p positions, for a writer that converts.
+TriangleMesh converted(const MeshFile& source, const Positions& positions)
+{
+    TriangleMesh mesh;
+    mesh.V = positions;
+    mesh.F = source.mesh.F;
+    return mesh;
+}
+
 }  // namespace
 
 MeshFormat format_from_extension(const std::filesystem::path& path)
@@ -164,48 +210,17 @@ void write_mesh(const std::filesystem::path& path, const TriangleMesh& mesh,
                 const WriteOptions& options)
 {
     const auto format = format_from_extension(path);
-    options.validate(mesh.V.rows());
-    validate(mesh, path.string().c_str());
-    switch (format)
-    {
-        case MeshFormat::Ply:
-            write_bytes(path, detail::ply_bytes(mesh, options));
-            break;
-        case MeshFormat::Obj:
-            write_bytes(path, detail::obj_bytes(mesh, options));
-            break;
-        case MeshFormat::Off:
-            write_bytes(path, detail::off_bytes(mesh, options));
-            break;
-        case MeshFormat::Stl:
-            write_bytes(path, detail::stl_bytes(mesh, options));
-            break;
-        case MeshFormat::Gltf:
-        case MeshFormat::Glb:
-            write_bytes(path, detail::gltf_bytes(mesh, format == MeshFormat::Glb));
-            break;
-        case MeshFormat::ThreeMf:
-            write_bytes(path, detail::three_mf_bytes(path, mesh));
-            break;
-    }
+    write_bytes(path, generic_bytes(path, format, mesh, options));
 }
 
 void write_mesh_file(const std::filesystem::path& path, const MeshFile& source,
                      const Positions& positions, const WriteOptions& options)
 {
-    if (positions.rows() != source.mesh.V.rows())
-    {
-        throw InvalidOption("write_mesh_file: positions have " + std::to_string(positions.rows()) +
-                            " rows, but " + source.path.string() + " has " +
-                            std::to_string(source.mesh.V.rows()) + " vertices.");
-    }
+    check_rows("write_mesh_file", source, positions);
     const auto format = format_from_extension(path);
     if (format != source.format || source.layout == nullptr)
     {
-        TriangleMesh mesh;
-        mesh.V = positions;
-        mesh.F = source.mesh.F;
-        write_mesh(path, mesh, options);
+        write_mesh(path, converted(source, positions), options);
         return;
     }
     detail::check_finite(path, positions);
@@ -222,6 +237,28 @@ void write_mesh_file(const std::filesystem::path& path, const MeshFile& source,
         return;
     }
     detail::write_preserved(path, *source.layout, source.mesh.V, positions, source.path.parent_path());
+}
+
+std::string mesh_file_bytes(const MeshFile& source, const Positions& positions, MeshFormat format,
+                            const WriteOptions& options)
+{
+    check_rows("mesh_file_bytes", source, positions);
+    if (format != source.format || source.layout == nullptr)
+    {
+        return generic_bytes(source.path, format, converted(source, positions), options);
+    }
+    // The preserving writers of write_mesh_file, for an output beside the source.
+    detail::check_finite(source.path, positions);
+    if (const auto* asset = std::get_if<detail::GltfAsset>(&source.layout->positions))
+    {
+        return detail::preserved_gltf_bytes(source.path, format == MeshFormat::Glb, *asset,
+                                            source.mesh.V, positions);
+    }
+    if (std::holds_alternative<detail::ThreeMfLayout>(source.layout->positions))
+    {
+        return detail::preserved_3mf_bytes(source.path, *source.layout, source.mesh.V, positions);
+    }
+    return detail::preserved_bytes(source.path, *source.layout, source.mesh.V, positions);
 }
 
 }  // namespace meshmark

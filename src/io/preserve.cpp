@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: MIT
 // Preserving writers for text and binary position layouts: the original bytes with only the
-// changed coordinates replaced (STL facets are handled in stl.cpp). A binary PLY goes out in
-// slices of at most 1 MiB with the changed coordinates patched in, so the output never
-// occupies memory twice.
+// changed coordinates replaced (STL facets are handled in stl.cpp). A binary PLY file goes out
+// in slices of at most 1 MiB with the changed coordinates patched in, so the output never
+// occupies memory twice; its bytes in memory (preserved_bytes) are one copy, patched in place.
 #include <algorithm>
 #include <string>
 #include <variant>
@@ -92,13 +92,43 @@ std::uint64_t coordinates_end(const BinaryPositions& slots, std::size_t i)
     return end;
 }
 
+// Patches the changed coordinates of vertices [first, last] into \p data, which holds the
+// file's bytes from offset \p base on (the whole file, or a slice of it).
+void patch_vertices(char* data, std::size_t base, const BinaryPositions& slots, std::size_t first,
+                    std::size_t last, const Positions& original, const Positions& positions,
+                    const std::filesystem::path& path)
+{
+    const double* old_values = original.data();
+    const double* new_values = positions.data();
+    for (std::size_t i = first; i <= last; ++i)
+    {
+        for (std::size_t d = 0; d < 3; ++d)
+        {
+            patch_coordinate(data + (slots.offset(i, d) - base), slots.types[d], slots.is_big_endian,
+                             old_values[3 * i + d], new_values[3 * i + d], path, i);
+        }
+    }
+}
+
+// The whole file in one string: one copy of the original, patched in place.
+std::string preserved_binary(const std::filesystem::path& path, const std::string& bytes,
+                             const BinaryPositions& slots, const Positions& original,
+                             const Positions& positions)
+{
+    std::string out = bytes;
+    const auto n = static_cast<std::size_t>(positions.rows());
+    if (n > 0)
+    {
+        patch_vertices(out.data(), 0, slots, 0, n - 1, original, positions, path);
+    }
+    return out;
+}
+
 void write_preserved_binary(const std::filesystem::path& path, const std::string& bytes,
                             const BinaryPositions& slots, const Positions& original,
                             const Positions& positions)
 {
     const auto n = static_cast<std::size_t>(positions.rows());
-    const double* old_values = original.data();
-    const double* new_values = positions.data();
     write_file_atomically(path, [&](std::ostream& out) {
         std::vector<char> slice;
         std::size_t cursor = 0;  // bytes before it are written
@@ -114,15 +144,7 @@ void write_preserved_binary(const std::filesystem::path& path, const std::string
             const auto end = static_cast<std::size_t>(coordinates_end(slots, last));
             slice.assign(bytes.begin() + static_cast<std::ptrdiff_t>(cursor),
                          bytes.begin() + static_cast<std::ptrdiff_t>(end));
-            for (std::size_t i = vertex; i <= last; ++i)
-            {
-                for (std::size_t d = 0; d < 3; ++d)
-                {
-                    patch_coordinate(slice.data() + (slots.offset(i, d) - cursor), slots.types[d],
-                                     slots.is_big_endian, old_values[3 * i + d],
-                                     new_values[3 * i + d], path, i);
-                }
-            }
+            patch_vertices(slice.data(), cursor, slots, vertex, last, original, positions, path);
             out.write(slice.data(), static_cast<std::streamsize>(slice.size()));
             cursor = end;
             vertex = last + 1;
@@ -142,43 +164,46 @@ void fail_coordinate_range(const std::filesystem::path& path, std::uint64_t vert
                       " in the file's '" + type_name(type) + "' position property");
 }
 
+std::string preserved_bytes(const std::filesystem::path& path, const FileLayout& layout,
+                            const Positions& original, const Positions& positions)
+{
+    if (const auto* text = std::get_if<TextPositions>(&layout.positions))
+    {
+        return preserved_text(path, layout.bytes, *text, original, positions);
+    }
+    if (const auto* binary = std::get_if<BinaryPositions>(&layout.positions))
+    {
+        return preserved_binary(path, layout.bytes, *binary, original, positions);
+    }
+    return preserved_stl_bytes(path, layout, std::get<StlFacets>(layout.positions), original,
+                               positions);
+}
+
 void write_preserved(const std::filesystem::path& path, const FileLayout& layout,
                      const Positions& original, const Positions& positions,
                      const std::filesystem::path& source_folder)
 {
-    std::string bytes;
-    if (const auto* text = std::get_if<TextPositions>(&layout.positions))
-    {
-        bytes = preserved_text(path, layout.bytes, *text, original, positions);
-        if (layout.format == MeshFormat::Obj)
-        {
-            // Streamed around the edits: no second copy of the text.
-            const auto edits = material_library_edits(bytes, source_folder, path.parent_path());
-            write_file_atomically(path, [&](std::ostream& out) {
-                std::size_t cursor = 0;
-                for (const TextEdit& edit : edits)
-                {
-                    out.write(bytes.data() + cursor, static_cast<std::streamsize>(edit.offset - cursor));
-                    out << edit.text;
-                    cursor = edit.offset + edit.length;
-                }
-                out.write(bytes.data() + cursor, static_cast<std::streamsize>(bytes.size() - cursor));
-            });
-            return;
-        }
-    }
-    else if (const auto* binary = std::get_if<BinaryPositions>(&layout.positions))
+    if (const auto* binary = std::get_if<BinaryPositions>(&layout.positions))
     {
         write_preserved_binary(path, layout.bytes, *binary, original, positions);
         return;
     }
-    else
-    {
-        bytes = preserved_stl_bytes(path, layout, std::get<StlFacets>(layout.positions), original,
-                                    positions);
-    }
-    write_file_atomically(path, [&bytes](std::ostream& out)
-                          { out.write(bytes.data(), static_cast<std::streamsize>(bytes.size())); });
+    const std::string bytes = preserved_bytes(path, layout, original, positions);
+    // An OBJ's material libraries, relinked when the output is in another folder; streamed
+    // around the edits: no second copy of the text.
+    const auto edits = layout.format == MeshFormat::Obj
+                           ? material_library_edits(bytes, source_folder, path.parent_path())
+                           : std::vector<TextEdit>{};
+    write_file_atomically(path, [&](std::ostream& out) {
+        std::size_t cursor = 0;
+        for (const TextEdit& edit : edits)
+        {
+            out.write(bytes.data() + cursor, static_cast<std::streamsize>(edit.offset - cursor));
+            out << edit.text;
+            cursor = edit.offset + edit.length;
+        }
+        out.write(bytes.data() + cursor, static_cast<std::streamsize>(bytes.size() - cursor));
+    });
 }
 
 }  // namespace meshmark::detail

@@ -168,4 +168,28 @@ void write_mesh(const std::filesystem::path& path, const TriangleMesh& mesh,
 void write_mesh_file(const std::filesystem::path& path, const MeshFile& source,
                      const Positions& positions, const WriteOptions& options = {});
 
+/// \brief The bytes of \p source with its positions replaced by \p positions, in \p format, as
+/// one file (a service's response): what write_mesh_file writes to a path of that format in
+/// the source's folder, without touching the disk.
+/// \details When \p format is the source's (and \p source was read by read_mesh_file), these
+/// are the preserved bytes of write_mesh_file for a path beside the source: an OBJ's `mtllib`
+/// statements and a glTF's image URIs stay as written (nothing is relinked or copied: they
+/// resolve against wherever the caller puts the bytes). PLY (ASCII and binary), OBJ, OFF, STL,
+/// GLB, glTF with its buffers in data: URIs and 3MF are one file; a glTF asset with external
+/// buffers (.bin files) is not, and is refused. Otherwise these are write_mesh's bytes of the
+/// positions and triangles, and only then are \p options used. Errors name the source file.
+/// A binary file is one copy of the source's bytes, patched.
+/// \param source     A file as read by read_mesh_file (or a MeshFile without layout: converted).
+/// \param positions  #V×3, row i the new place of source.mesh.V's row i.
+/// \param format     The format of the bytes.
+/// \param options    As write_mesh (used only when converting).
+/// \return The whole file.
+/// \pre positions.rows() == source.mesh.V.rows().
+/// \throws InvalidOption on a row-count mismatch (or bad options); InvalidMesh on a non-finite
+/// position or an index out of range; IoError when a changed coordinate does not fit an
+/// integer position type, or when a glTF asset with external buffers is asked for in its own
+/// format (ask for another: it then carries the positions and triangles only).
+[[nodiscard]] std::string mesh_file_bytes(const MeshFile& source, const Positions& positions,
+                                          MeshFormat format, const WriteOptions& options = {});
+
 }  // namespace meshmark

@@ -41,12 +41,17 @@ namespace meshmark::detail {
                                               const FileLayout& layout, const Positions& original,
                                               const Positions& positions);
 
-/// \brief Write the original file of \p layout with positions \p original replaced by
-/// \p positions to \p path, atomically: unchanged coordinates keep their bytes, changed ones
-/// follow the precision rules of mesh_io.h (text, binary PLY, STL layouts; a binary PLY is
-/// written in slices, never as a second whole copy).
-/// An OBJ's material libraries are relinked when \p path is in another folder than the
-/// source's, \p source_folder (material_library_edits).
+/// \brief The original file of \p layout with positions \p original replaced by \p positions
+/// (text, binary PLY, STL layouts), as written to the source's folder: unchanged coordinates
+/// keep their bytes, changed ones follow the precision rules of mesh_io.h. \p path names the
+/// file in errors. A binary PLY is one copy of the original, patched in place.
+/// \pre the positions are finite (check_finite).
+[[nodiscard]] std::string preserved_bytes(const std::filesystem::path& path, const FileLayout& layout,
+                                          const Positions& original, const Positions& positions);
+
+/// \brief Write preserved_bytes to \p path, atomically (a binary PLY in slices, never as a
+/// second whole copy). An OBJ's material libraries are relinked when \p path is in another
+/// folder than the source's, \p source_folder (material_library_edits).
 /// \pre the positions are finite (check_finite).
 void write_preserved(const std::filesystem::path& path, const FileLayout& layout,
                      const Positions& original, const Positions& positions,

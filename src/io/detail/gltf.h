@@ -236,6 +236,13 @@ void visit_gltf_poses(const std::filesystem::path& path, const std::string& byte
 void write_gltf_preserving(const std::filesystem::path& path, bool is_glb, const GltfAsset& asset,
                            const Positions& original, const Positions& positions);
 
+/// \brief The bytes write_gltf_preserving writes to a path in the source's folder (image URIs
+/// as written), as one file; \p path names it in errors.
+/// \throws IoError naming \p path when the asset has external buffers.
+[[nodiscard]] std::string preserved_gltf_bytes(const std::filesystem::path& path, bool is_glb,
+                                               const GltfAsset& asset, const Positions& original,
+                                               const Positions& positions);
+
 /// The bytes of a minimal glTF asset (.glb when \p is_glb, else a .gltf with a data: URI).
 [[nodiscard]] std::string gltf_bytes(const TriangleMesh& mesh, bool is_glb);
 

@@ -1,9 +1,9 @@
 // SPDX-License-Identifier: MIT
-// The preserving glTF/GLB writer (write_gltf_preserving). Its members are defined by job:
-// gltf_write.cpp runs the steps and writes the files, gltf_quantization.cpp plans the new
-// stored values of each POSITION record and fits them to their component type, and
-// gltf_rewrite.cpp rewrites the buffers (plain accessors, meshopt streams, Draco data) and
-// the JSON that follows them.
+// The preserving glTF/GLB writer (write_gltf_preserving, preserved_gltf_bytes). Its members
+// are defined by job: gltf_write.cpp runs the steps and writes the files (or returns them as
+// one file), gltf_quantization.cpp plans the new stored values of each POSITION record and
+// fits them to their component type, and gltf_rewrite.cpp rewrites the buffers (plain
+// accessors, meshopt streams, Draco data) and the JSON that follows them.
 #pragma once
 
 #include <array>
@@ -28,7 +28,7 @@ inline constexpr int kArrayBuffer = 34962;
 inline constexpr int kElementArrayBuffer = 34963;
 
 /// \brief Copies of the asset's buffers and JSON with welded positions \p original replaced
-/// by \p positions; run() writes them. The JSON is parsed on first use and serialized again
+/// by \p positions; run() writes them, one_file() returns them as one file's bytes. The JSON is parsed on first use and serialized again
 /// only when something in it changed.
 class GltfWriter
 {
@@ -36,8 +36,14 @@ public:
     GltfWriter(const std::filesystem::path& path, const GltfAsset& asset, const Positions& original,
                const Positions& positions);
 
-    /// Rewrite everything and write the asset (and any external buffers beside it).
+    /// Rewrite everything and write the asset (and any external buffers beside it, and the
+    /// images an output in another folder would miss).
     void run(bool is_glb);
+
+    /// \brief Rewrite everything and return the asset as one file (.glb or .gltf), as run()
+    /// writes it into the source's folder (image URIs as written, nothing copied).
+    /// \throws IoError when the asset has external buffers (which cannot be one file).
+    [[nodiscard]] std::string one_file(bool is_glb);
 
 private:
     // The new stored values of one POSITION record (a plain accessor or a Draco primitive),
@@ -56,6 +62,8 @@ private:
     };
 
     // gltf_write.cpp
+    void rewrite();
+    std::string main_file(bool is_glb);
     GltfJson& doc();
     std::vector<std::pair<std::filesystem::path, std::string>> external_files();
     std::vector<std::pair<std::filesystem::path, std::filesystem::path>> image_copies();
