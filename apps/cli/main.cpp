@@ -82,7 +82,7 @@ int main(int argc, char** argv)
     cli::CommandRunner runner;
     for (const auto register_command : {cli::register_demo, cli::register_embed, cli::register_detect,
                                         cli::register_attack, cli::register_compare, cli::register_bench,
-                                        cli::register_catalog})
+                                        cli::register_catalog, cli::register_serve})
     {
         register_command(app, global, runner);
     }

@@ -269,6 +269,30 @@ std::vector<CatalogAsset> Catalog::assets() const
     });
 }
 
+std::vector<Catalog::Summary> Catalog::summaries(const std::optional<std::string>& id) const
+{
+    const std::lock_guard lock(impl_->mutex);
+    return impl_->guarded("read", [&] {
+        std::vector<Summary> all;
+        SQLite::Statement row(*impl_->db,
+                              std::string("SELECT a.id, a.original_sha256, a.vertex_count, a.face_count, a.added, "
+                                          "a.complete, (SELECT count(*) FROM recipients r WHERE r.asset = a.id) "
+                                          "FROM assets a") +
+                                  (id ? " WHERE a.id = ?" : " ORDER BY a.id"));
+        if (id)
+        {
+            row.bind(1, *id);
+        }
+        while (row.executeStep())
+        {
+            all.push_back({row.getColumn(0).getString(), row.getColumn(1).getString(), row.getColumn(2).getInt64(),
+                           row.getColumn(3).getInt64(), row.getColumn(4).getString(), row.getColumn(5).getInt() != 0,
+                           row.getColumn(6).getInt64()});
+        }
+        return all;
+    });
+}
+
 std::vector<CatalogRecipient> Catalog::recipients(const std::string& id) const
 {
     const std::lock_guard lock(impl_->mutex);

@@ -73,6 +73,19 @@ public:
     [[nodiscard]] std::optional<CatalogAsset> asset(const std::string& id) const;
     /// Every asset, complete or not, by id.
     [[nodiscard]] std::vector<CatalogAsset> assets() const;
+    /// What a listing shows of an asset, without its key (read in one query for all).
+    struct Summary
+    {
+        std::string id;
+        std::string original_sha256;
+        std::int64_t vertex_count = 0;
+        std::int64_t face_count = 0;
+        std::string added;
+        bool is_complete = false;
+        std::int64_t recipients = 0;  ///< Names recorded, the published copy's included.
+    };
+    /// Every asset's summary, by id; or the one of \p id (empty when there is none).
+    [[nodiscard]] std::vector<Summary> summaries(const std::optional<std::string>& id = std::nullopt) const;
     /// The recipients of \p id, by code index.
     [[nodiscard]] std::vector<CatalogRecipient> recipients(const std::string& id) const;
     /// Number of complete assets: the keys a scan could try (the union bound's count).

@@ -63,8 +63,8 @@ private:
     Positions owner_;  ///< The original's positions plus the owner's mark.
     EmbedStats owner_stats_;
     std::optional<SurfaceRmsOfSums> copy_surface_;
-    /// The recipients' modes on the analysed rows, row-major (M values per row, contiguous).
-    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> code_modes_;
+    /// The recipients' modes on the analysed rows, by blocks of rows (family_copies.cpp).
+    std::vector<double> code_modes_;
     double diagonal_ = 0.0;
     double copy_target_ = 0.0;
 };

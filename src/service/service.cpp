@@ -1,0 +1,817 @@
+// SPDX-License-Identifier: MIT
+// The issuing service (docs/service.md): cpp-httplib's server (Debian's libcpp-httplib) on a
+// catalogue. Connections are served by a pool of `connections` threads, each of which mostly
+// waits on its client; the work (a copy, a scan, warming an asset) runs only while holding one
+// of `workers` slots, so 32 keep-alive clients share the cores instead of oversubscribing them.
+#include "service.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cctype>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <ctime>
+#include <fstream>
+#include <mutex>
+#include <condition_variable>
+#include <deque>
+#include <span>
+#include <system_error>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+#include <openssl/crypto.h>
+#include <openssl/rand.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "asset_cache.h"
+#include "meshmark/catalog/catalog_json.h"
+#include "meshmark/catalog/catalog_scan.h"
+#include "meshmark/core/atomic_file.h"
+#include "meshmark/core/error.h"
+#include "metrics.h"
+
+// Last: it includes <resolv.h>, whose `_res` macro breaks Eigen's headers included after it.
+#include <httplib.h>
+
+namespace meshmark::service {
+namespace {
+
+namespace fs = std::filesystem;
+using Json = nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+constexpr std::size_t kMaxCopyRequest = 64 * 1024;  // a copy request's JSON body
+constexpr std::size_t kMaxAssetId = 1024;
+
+// What the request being served on this thread did, for its log line and its metrics (a
+// request is read, handled and answered on one thread of the connection pool).
+struct RequestInfo
+{
+    Clock::time_point start;
+    std::string route = "other";
+    std::string asset;
+    std::string record;
+    std::string error;
+};
+thread_local RequestInfo current;
+
+std::string utc_now()
+{
+    const auto now = std::chrono::system_clock::now();
+    const std::time_t seconds = std::chrono::system_clock::to_time_t(now);
+    const auto millis =
+        std::chrono::duration_cast<std::chrono::milliseconds>(now.time_since_epoch()).count() % 1000;
+    std::tm utc{};
+    gmtime_r(&seconds, &utc);
+    char text[40];
+    std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%S", &utc);
+    char full[48];
+    std::snprintf(full, sizeof full, "%s.%03dZ", text, static_cast<int>(millis));
+    return full;
+}
+
+// A JSON error body: {"error": sentence}. The sentence never holds key material (no message
+// of this module or of the library below it prints a key's seed or payload).
+void fail(httplib::Response& res, int status, const std::string& sentence)
+{
+    res.status = status;
+    res.body = Json{{"error", sentence}}.dump(-1, ' ', false, Json::error_handler_t::replace) + "\n";
+    res.set_header("Content-Type", "application/json");
+    current.error = sentence;
+}
+
+void send_json(httplib::Response& res, const Json& body)
+{
+    res.status = 200;
+    res.body = body.dump(2, ' ', false, Json::error_handler_t::replace) + "\n";
+    res.set_header("Content-Type", "application/json");
+}
+
+// An asset id as a request may name one: a catalogue id is the relative path it was added
+// under, so no control characters, no absolute path, no `..` segment, at most kMaxAssetId bytes.
+// Only ever a key in the database; checked anyway so a hostile name fails early and clearly.
+std::string asset_problem(const std::string& id)
+{
+    if (id.empty() || id.size() > kMaxAssetId)
+    {
+        return "an asset id has 1 to " + std::to_string(kMaxAssetId) + " bytes";
+    }
+    if (id.front() == '/')
+    {
+        return "an asset id is a relative path";
+    }
+    std::size_t start = 0;
+    for (std::size_t i = 0; i <= id.size(); ++i)
+    {
+        if (i == id.size() || id[i] == '/')
+        {
+            if (id.compare(start, i - start, "..") == 0 && i - start == 2)
+            {
+                return "an asset id has no '..' segment";
+            }
+            start = i + 1;
+            continue;
+        }
+        const auto u = static_cast<unsigned char>(id[i]);
+        if (u < 0x20U || u == 0x7FU)
+        {
+            return "an asset id has no control characters";
+        }
+    }
+    return {};
+}
+
+// The key's payload is key material: a scan's answer says how many of its bits were read
+// (bit_count, bits_false_positive_probability), never which.
+void strip_payload(Json& json)
+{
+    if (json.is_object())
+    {
+        json.erase("bits_expected");
+        json.erase("bits_found");
+    }
+    if (json.is_object() || json.is_array())
+    {
+        for (Json& child : json)
+        {
+            strip_payload(child);
+        }
+    }
+}
+
+std::optional<MeshFormat> format_named(std::string name)
+{
+    for (char& c : name)
+    {
+        c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    }
+    static const std::map<std::string, MeshFormat> kFormats{
+        {"ply", MeshFormat::Ply},   {"obj", MeshFormat::Obj},   {"off", MeshFormat::Off},
+        {"stl", MeshFormat::Stl},   {"gltf", MeshFormat::Gltf}, {"glb", MeshFormat::Glb},
+        {"3mf", MeshFormat::ThreeMf}};
+    const auto it = kFormats.find(name);
+    return it == kFormats.end() ? std::nullopt : std::optional(it->second);
+}
+
+const char* extension_of(MeshFormat format)
+{
+    switch (format)
+    {
+        case MeshFormat::Ply: return "ply";
+        case MeshFormat::Obj: return "obj";
+        case MeshFormat::Off: return "off";
+        case MeshFormat::Stl: return "stl";
+        case MeshFormat::Gltf: return "gltf";
+        case MeshFormat::Glb: return "glb";
+        case MeshFormat::ThreeMf: return "3mf";
+    }
+    return "bin";
+}
+
+const char* content_type_of(MeshFormat format)
+{
+    switch (format)
+    {
+        case MeshFormat::Glb: return "model/gltf-binary";
+        case MeshFormat::Gltf: return "model/gltf+json";
+        case MeshFormat::Obj: return "model/obj";
+        case MeshFormat::Stl: return "model/stl";
+        case MeshFormat::ThreeMf: return "model/3mf";
+        case MeshFormat::Ply:
+        case MeshFormat::Off: return "application/octet-stream";
+    }
+    return "application/octet-stream";
+}
+
+// A file name for Content-Disposition: the original's stem, the recipient, the extension;
+// anything but [A-Za-z0-9._-] becomes '_' (the header's quoted string stays plain ASCII).
+std::string download_name(const std::string& original, const std::string& recipient, MeshFormat format)
+{
+    std::string name = fs::path(original).stem().string() + "-" + recipient;
+    for (char& c : name)
+    {
+        const auto u = static_cast<unsigned char>(c);
+        if (!(std::isalnum(u) != 0 || c == '.' || c == '_' || c == '-'))
+        {
+            c = '_';
+        }
+    }
+    return name + "." + extension_of(format);
+}
+
+std::string random_token()
+{
+    unsigned char bytes[32];
+    if (RAND_bytes(bytes, sizeof bytes) != 1)
+    {
+        throw IoError("cannot draw a random token (OpenSSL's RAND_bytes failed).");
+    }
+    static constexpr char kHex[] = "0123456789abcdef";
+    std::string hex;
+    for (const unsigned char b : bytes)
+    {
+        hex += kHex[b >> 4U];
+        hex += kHex[b & 0xFU];
+    }
+    return hex;
+}
+
+// The token of \p path: created (256 random bits, mode 0600) when missing; refused when
+// anyone but its owner may read it, or shorter than 16 characters.
+std::string load_token(const fs::path& path, bool* created)
+{
+    std::error_code error;
+    *created = false;
+    if (!fs::exists(path, error))
+    {
+        const std::string token = random_token();
+        write_file_atomically(path, [&](std::ostream& out) { out << token << "\n"; }, {0600, false});
+        *created = true;
+        return token;
+    }
+    struct stat info{};
+    if (::stat(path.c_str(), &info) != 0)
+    {
+        throw IoError(path.string() + ": cannot read the token file.");
+    }
+    if ((info.st_mode & 077U) != 0)
+    {
+        throw IoError(path.string() + ": the token file may be read by others; make it private (chmod 600).");
+    }
+    std::ifstream in(path);
+    std::string token;
+    std::getline(in, token);
+    while (!token.empty() && std::isspace(static_cast<unsigned char>(token.back())) != 0)
+    {
+        token.pop_back();
+    }
+    if (!in && !in.eof())
+    {
+        throw IoError(path.string() + ": cannot read the token file.");
+    }
+    if (token.size() < 16)
+    {
+        throw IoError(path.string() + ": the token must have at least 16 characters.");
+    }
+    return token;
+}
+
+// The workers: at most `count` requests compute at once, the others wait in arrival order (a
+// plain semaphore lets late arrivals overtake, which turned 32 clients' p99 into seconds).
+class WorkerQueue
+{
+public:
+    explicit WorkerQueue(int count) : free_(count) {}
+
+    // True once a worker is ours; false when none came within \p wait.
+    bool acquire(std::chrono::milliseconds wait)
+    {
+        std::unique_lock lock(mutex_);
+        if (free_ > 0 && waiting_.empty())
+        {
+            --free_;
+            return true;
+        }
+        Waiter me;
+        waiting_.push_back(&me);
+        if (me.ready.wait_for(lock, wait, [&] { return me.granted; }))
+        {
+            return true;
+        }
+        waiting_.erase(std::find(waiting_.begin(), waiting_.end(), &me));
+        return false;
+    }
+
+    void release()
+    {
+        const std::lock_guard lock(mutex_);
+        if (waiting_.empty())
+        {
+            ++free_;
+            return;
+        }
+        Waiter* next = waiting_.front();  // handed over: the worker never becomes free meanwhile
+        waiting_.pop_front();
+        next->granted = true;
+        next->ready.notify_one();
+    }
+
+private:
+    struct Waiter
+    {
+        std::condition_variable ready;
+        bool granted = false;
+    };
+    std::mutex mutex_;
+    int free_;
+    std::deque<Waiter*> waiting_;
+};
+
+// A worker, held while a request computes; none within the queue timeout: busy.
+class WorkerSlot
+{
+public:
+    WorkerSlot(WorkerQueue& queue, std::chrono::milliseconds wait) : queue_(queue), held_(queue.acquire(wait)) {}
+    ~WorkerSlot()
+    {
+        if (held_)
+        {
+            queue_.release();
+        }
+    }
+    WorkerSlot(const WorkerSlot&) = delete;
+    WorkerSlot& operator=(const WorkerSlot&) = delete;
+    [[nodiscard]] bool held() const noexcept { return held_; }
+
+private:
+    WorkerQueue& queue_;
+    bool held_;
+};
+
+// Counts a request in flight for as long as it lives.
+class InFlight
+{
+public:
+    explicit InFlight(std::atomic<std::int64_t>& count) : count_(count) { ++count_; }
+    ~InFlight() { --count_; }
+    InFlight(const InFlight&) = delete;
+    InFlight& operator=(const InFlight&) = delete;
+
+private:
+    std::atomic<std::int64_t>& count_;
+};
+
+}  // namespace
+
+std::size_t parse_bytes(const std::string& text, const std::string& what)
+{
+    std::size_t used = 0;
+    double value = 0.0;
+    try
+    {
+        value = std::stod(text, &used);
+    }
+    catch (const std::exception&)
+    {
+        used = 0;
+    }
+    std::string unit = text.substr(used);
+    for (char& c : unit)
+    {
+        c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+    }
+    static const std::map<std::string, double> kUnits{{"", 1.0},
+                                                      {"B", 1.0},
+                                                      {"K", 1024.0},
+                                                      {"KB", 1024.0},
+                                                      {"KIB", 1024.0},
+                                                      {"M", 1048576.0},
+                                                      {"MB", 1048576.0},
+                                                      {"MIB", 1048576.0},
+                                                      {"G", 1073741824.0},
+                                                      {"GB", 1073741824.0},
+                                                      {"GIB", 1073741824.0}};
+    const auto it = kUnits.find(unit);
+    if (used == 0 || it == kUnits.end() || !std::isfinite(value) || value < 0.0 || value * it->second > 1e18)
+    {
+        throw InvalidOption(what + " must be a size such as 512M or 2G, got '" + text + "'.");
+    }
+    return static_cast<std::size_t>(value * it->second);
+}
+
+struct Service::Impl
+{
+    ServiceOptions options;
+    std::unique_ptr<Catalog> catalog;
+    std::string token;
+    fs::path token_path;
+    std::unique_ptr<AssetCache> cache;
+    Metrics metrics;
+    std::unique_ptr<WorkerQueue> slots;
+    fs::path spool;  // private folder of suspects being scanned
+    std::atomic<std::uint64_t> spooled{0};
+    httplib::Server server;
+    int port = 0;
+
+    void log(const std::string& line) const
+    {
+        if (options.log)
+        {
+            options.log(line);
+        }
+        else
+        {
+            std::fprintf(stderr, "%s\n", line.c_str());
+        }
+    }
+
+    void notice(const std::string& sentence) const
+    {
+        log(Json{{"time", utc_now()}, {"notice", sentence}}.dump(-1, ' ', false, Json::error_handler_t::replace));
+    }
+
+    bool authorized(const httplib::Request& req) const
+    {
+        const std::string header = req.get_header_value("Authorization");
+        static constexpr std::string_view kBearer = "Bearer ";
+        if (header.size() != kBearer.size() + token.size() || header.compare(0, kBearer.size(), kBearer) != 0)
+        {
+            return false;
+        }
+        return CRYPTO_memcmp(header.data() + kBearer.size(), token.data(), token.size()) == 0;
+    }
+
+    // Runs \p work holding a worker slot; answers 503 when none frees up in time, and turns the
+    // library's exceptions into statuses (docs/service.md, "Errors").
+    template <class Work>
+    void compute(httplib::Response& res, Work&& work)
+    {
+        const InFlight counted(metrics.in_flight);
+        const WorkerSlot slot(*slots, options.queue_timeout);
+        if (!slot.held())
+        {
+            res.set_header("Retry-After", "1");
+            fail(res, 503, "every worker stayed busy for " +
+                               std::to_string(static_cast<double>(options.queue_timeout.count()) / 1000.0).substr(0, 4) +
+                               " s; try again.");
+            return;
+        }
+        try
+        {
+            work();
+        }
+        catch (const InvalidOption& e)
+        {
+            const std::string what = e.what();
+            fail(res, what.find("no asset") != std::string::npos ? 404
+                      : what.find("interrupted") != std::string::npos ? 409
+                                                                     : 400,
+                 what);
+        }
+        catch (const IoError& e)
+        {
+            fail(res, 503, std::string(e.what()));  // the catalogue busy, an original missing or changed
+        }
+        catch (const InvalidMesh& e)
+        {
+            fail(res, 422, std::string(e.what()));
+        }
+        catch (const NumericalError& e)
+        {
+            fail(res, 422, std::string(e.what()));
+        }
+    }
+
+    void issue_copy(const httplib::Request& req, httplib::Response& res)
+    {
+        current.route = "copies";
+        const std::string id = req.matches[1];
+        current.asset = id;
+        if (const std::string problem = asset_problem(id); !problem.empty())
+        {
+            fail(res, 400, problem + ".");
+            return;
+        }
+        if (req.body.size() > kMaxCopyRequest)
+        {
+            fail(res, 413, "a copy request's body has at most " + std::to_string(kMaxCopyRequest) + " bytes.");
+            return;
+        }
+        Json body;
+        try
+        {
+            body = Json::parse(req.body);
+        }
+        catch (const Json::exception&)
+        {
+            fail(res, 400, "the body is not JSON; send {\"recipient\": NAME, \"format\": \"glb\"} (format optional).");
+            return;
+        }
+        if (!body.is_object() || !body.contains("recipient") || !body["recipient"].is_string())
+        {
+            fail(res, 400, "the body needs \"recipient\": the buyer's name, a string.");
+            return;
+        }
+        for (const auto& [name, value] : body.items())
+        {
+            if (name != "recipient" && name != "format")
+            {
+                fail(res, 400, "unknown field \"" + name + "\"; a copy request has \"recipient\" and \"format\".");
+                return;
+            }
+        }
+        const std::string recipient = body["recipient"].get<std::string>();
+        try
+        {
+            check_recipient_name(recipient);
+        }
+        catch (const InvalidOption& e)
+        {
+            fail(res, 400, e.what());
+            return;
+        }
+        std::optional<MeshFormat> format;
+        if (body.contains("format"))
+        {
+            if (!body["format"].is_string() || !(format = format_named(body["format"].get<std::string>())))
+            {
+                fail(res, 415, "\"format\" is one of ply, obj, off, stl, gltf, glb, 3mf.");
+                return;
+            }
+        }
+        compute(res, [&] {
+            const std::shared_ptr<const WarmAsset> warm = cache->get(id);
+            const MeshFormat chosen = format.value_or(warm->file.format);
+            if (const std::string problem = warm->format_problem(chosen); !problem.empty())
+            {
+                fail(res, 422, problem);
+                return;
+            }
+            // Recorded (committed) before a byte of the copy exists: a crash from here on leaves
+            // a name without a copy, which accuses nobody.
+            const Catalog::RecordedName recorded = catalog->record_recipient(id, recipient);
+            metrics.new_recipients += recorded.is_new ? 1 : 0;
+            current.record = id + "#" + std::to_string(recorded.index);
+            thread_local std::vector<Positions> positions;
+            EmbedStats stats;
+            const std::uint32_t index = recorded.index;
+            warm->copies->make(std::span(&index, 1), positions, std::span(&stats, 1), 1);
+            res.body = mesh_file_bytes(warm->file, positions[0], chosen);
+            res.status = 200;
+            res.set_header("Content-Type", content_type_of(chosen));
+            res.set_header("Content-Disposition",
+                           "attachment; filename=\"" + download_name(warm->file_name, recipient, chosen) + "\"");
+            res.set_header("X-Meshmark-Record", std::to_string(recorded.index));
+            res.set_header("X-Meshmark-Recipient-New", recorded.is_new ? "true" : "false");
+            ++metrics.copies;
+        });
+    }
+
+    void scan(const httplib::Request& req, httplib::Response& res)
+    {
+        current.route = "scan";
+        const std::string name = req.has_param("name") ? req.get_param_value("name") : std::string();
+        const fs::path given(name);
+        if (name.empty() || name.size() > 255 || given.has_parent_path() || name.front() == '.' ||
+            name.find_first_of(std::string("\0\r\n", 3)) != std::string::npos ||
+            !format_named(given.extension().string().substr(given.extension().empty() ? 0 : 1)))
+        {
+            fail(res, 400, "name the suspect: POST /v1/scan?name=FILE.EXT, EXT one of ply, obj, off, stl, gltf, glb, 3mf "
+                           "(a plain file name).");
+            return;
+        }
+        if (req.body.empty())
+        {
+            fail(res, 400, "the body is the suspect file's bytes; it is empty.");
+            return;
+        }
+        compute(res, [&] {
+            const fs::path folder = spool / std::to_string(++spooled);
+            struct Cleanup
+            {
+                fs::path folder;
+                ~Cleanup()
+                {
+                    std::error_code ignored;
+                    fs::remove_all(folder, ignored);
+                }
+            } cleanup{folder};
+            fs::create_directory(folder);
+            const fs::path suspect = folder / given;
+            {
+                std::ofstream out(suspect, std::ios::binary);
+                out.write(req.body.data(), static_cast<std::streamsize>(req.body.size()));
+                if (!out)
+                {
+                    throw IoError("cannot store the suspect for scanning (disk full?).");
+                }
+            }
+            CatalogScanOptions scan_options;
+            scan_options.detect.threads = 1;
+            scan_options.detect.decision.max_false_positive = options.max_false_positive;
+            scan_options.candidates = options.scan_candidates;
+            const CatalogScanReport report = catalog_scan(*catalog, {suspect}, scan_options);
+            Json json = catalog_scan_json(*catalog, report, scan_options);
+            json.erase("catalog");  // the server's path
+            strip_payload(json);
+            for (Json& s : json["suspects"])
+            {
+                s["path"] = name;
+            }
+            if (!report.suspects.empty() && !report.suspects[0].error.empty())
+            {
+                fail(res, 422, name + ": " + report.suspects[0].error);
+                return;
+            }
+            send_json(res, json);
+        });
+    }
+
+    static Json summary_json(const Catalog::Summary& s)
+    {
+        return {{"asset", s.id},         {"vertices", s.vertex_count},      {"faces", s.face_count},
+                {"added", s.added},      {"complete", s.is_complete},       {"recipients", s.recipients},
+                {"original_sha256", s.original_sha256}};
+    }
+
+    void routes()
+    {
+        server.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
+            current = RequestInfo{};
+            current.start = Clock::now();
+            if (req.path == "/healthz")
+            {
+                current.route = "healthz";
+                return httplib::Server::HandlerResponse::Unhandled;
+            }
+            if (!authorized(req))
+            {
+                res.set_header("WWW-Authenticate", "Bearer");
+                fail(res, 401, "this request needs the service's token: Authorization: Bearer TOKEN.");
+                return httplib::Server::HandlerResponse::Handled;
+            }
+            return httplib::Server::HandlerResponse::Unhandled;
+        });
+        server.Get("/healthz", [](const httplib::Request&, httplib::Response& res) {
+            send_json(res, {{"status", "ok"}});
+        });
+        server.Get("/metrics", [this](const httplib::Request&, httplib::Response& res) {
+            current.route = "metrics";
+            res.status = 200;
+            res.body = metrics.text(cache->stats(), cache->budget());
+            res.set_header("Content-Type", "text/plain; version=0.0.4");
+        });
+        server.Get("/v1/assets", [this](const httplib::Request&, httplib::Response& res) {
+            current.route = "assets";
+            Json list = Json::array();
+            for (const Catalog::Summary& s : catalog->summaries())
+            {
+                list.push_back(summary_json(s));
+            }
+            send_json(res, {{"assets", list}});
+        });
+        server.Get(R"(/v1/assets/(.+))", [this](const httplib::Request& req, httplib::Response& res) {
+            current.route = "asset";
+            const std::string id = req.matches[1];
+            current.asset = id;
+            if (const std::string problem = asset_problem(id); !problem.empty())
+            {
+                fail(res, 400, problem + ".");
+                return;
+            }
+            const std::vector<Catalog::Summary> found = catalog->summaries(id);
+            if (found.empty())
+            {
+                fail(res, 404, "no asset '" + id + "' in the catalogue.");
+                return;
+            }
+            send_json(res, summary_json(found[0]));
+        });
+        server.Post(R"(/v1/assets/(.+)/copies)",
+                    [this](const httplib::Request& req, httplib::Response& res) { issue_copy(req, res); });
+        server.Post("/v1/scan", [this](const httplib::Request& req, httplib::Response& res) { scan(req, res); });
+        server.set_error_handler(httplib::Server::HandlerWithResponse([](const httplib::Request& req, httplib::Response& res) {
+            if (!res.body.empty())
+            {
+                return httplib::Server::HandlerResponse::Unhandled;  // a handler's own error
+            }
+            if (res.status == 404)
+            {
+                fail(res, 404, "no such route: " + req.method + " " + req.path + " (docs/service.md).");
+            }
+            else if (res.status == 413)
+            {
+                // cpp-httplib caps form-encoded bodies (curl's --data-binary default) at 8 KiB.
+                const bool form = req.get_header_value("Content-Type") == "application/x-www-form-urlencoded";
+                fail(res, 413, form ? "a suspect is sent as Content-Type: application/octet-stream, not as a form."
+                                    : "the request's body is larger than the service accepts (--max-upload).");
+            }
+            else if (res.status == 405 || res.status == 400)
+            {
+                fail(res, res.status, "the request is not one the service understands (docs/service.md).");
+            }
+            return httplib::Server::HandlerResponse::Handled;
+        }));
+        server.set_exception_handler([this](const httplib::Request&, httplib::Response& res, std::exception_ptr error) {
+            std::string what = "unknown error";
+            try
+            {
+                std::rethrow_exception(error);
+            }
+            catch (const std::exception& e)
+            {
+                what = e.what();
+            }
+            catch (...)
+            {
+            }
+            fail(res, 500, "internal error: " + what);
+            notice("request failed inside the service: " + what);
+        });
+        server.set_logger([this](const httplib::Request& req, const httplib::Response& res) {
+            const double seconds = std::chrono::duration<double>(Clock::now() - current.start).count();
+            metrics.observe(current.route, res.status, seconds);
+            Json line{{"time", utc_now()},
+                      {"remote", req.remote_addr},
+                      {"method", req.method},
+                      {"path", req.path},
+                      {"status", res.status},
+                      {"bytes", res.body.size()},
+                      {"ms", std::round(seconds * 1e5) / 100.0}};
+            if (!current.record.empty())
+            {
+                line["record"] = current.record;
+            }
+            if (!current.error.empty())
+            {
+                line["error"] = current.error;
+            }
+            log(line.dump(-1, ' ', false, Json::error_handler_t::replace));
+        });
+    }
+};
+
+Service::Service(ServiceOptions options) : impl_(std::make_unique<Impl>())
+{
+    Impl& s = *impl_;
+    s.options = std::move(options);
+    const ServiceOptions& o = s.options;
+    if (o.port < 0 || o.port > 65535)
+    {
+        throw InvalidOption("--listen's port must be 0 to 65535.");
+    }
+    if (o.workers < 0 || o.connections < 1 || o.connections > 4096 || o.scan_candidates < 1)
+    {
+        throw InvalidOption("--workers must be >= 0, --connections 1 to 4096.");
+    }
+    s.catalog = std::make_unique<Catalog>(o.catalog, Catalog::Open::Existing, o.lock_timeout);
+    s.token_path = o.token_file.empty() ? fs::path(o.catalog.string() + ".token") : o.token_file;
+    bool created = false;
+    s.token = load_token(s.token_path, &created);
+    if (created)
+    {
+        s.notice("created the token file " + s.token_path.string() + " (mode 0600): clients send its line as "
+                 "Authorization: Bearer TOKEN.");
+    }
+    s.cache = std::make_unique<AssetCache>(*s.catalog, o.memory_budget);
+    const int workers = o.workers > 0 ? o.workers : static_cast<int>(std::max(1U, std::thread::hardware_concurrency()));
+    s.slots = std::make_unique<WorkerQueue>(workers);
+    std::string spool_template = (fs::temp_directory_path() / "meshmark-serve-XXXXXX").string();
+    if (::mkdtemp(spool_template.data()) == nullptr)
+    {
+        throw IoError("cannot create a private folder under " + fs::temp_directory_path().string() + " for scans.");
+    }
+    s.spool = spool_template;
+    const int connections = o.connections;
+    s.server.new_task_queue = [connections] { return new httplib::ThreadPool(static_cast<std::size_t>(connections)); };
+    s.server.set_read_timeout(o.read_timeout.count());
+    s.server.set_write_timeout(30);
+    s.server.set_keep_alive_timeout(5);
+    s.server.set_keep_alive_max_count(100000);
+    s.server.set_payload_max_length(o.max_upload);
+    s.server.set_tcp_nodelay(true);
+    s.routes();
+    if (o.port == 0)
+    {
+        s.port = s.server.bind_to_any_port(o.host);
+    }
+    else
+    {
+        s.port = s.server.bind_to_port(o.host, o.port) ? o.port : -1;
+    }
+    if (s.port <= 0)
+    {
+        std::error_code ignored;
+        fs::remove_all(s.spool, ignored);
+        throw IoError("cannot listen on " + o.host + ":" + std::to_string(o.port) +
+                      " (in use, or not an address of this machine).");
+    }
+}
+
+Service::~Service()
+{
+    std::error_code ignored;
+    fs::remove_all(impl_->spool, ignored);
+}
+
+int Service::port() const noexcept { return impl_->port; }
+
+const std::filesystem::path& Service::token_file() const noexcept { return impl_->token_path; }
+
+void Service::run()
+{
+    impl_->notice("serving " + impl_->options.catalog.string() + " on http://" + impl_->options.host + ":" +
+                  std::to_string(impl_->port) + " (token in " + impl_->token_path.string() + ")");
+    impl_->server.listen_after_bind();
+    impl_->notice("stopped");
+}
+
+void Service::stop() { impl_->server.stop(); }
+
+}  // namespace meshmark::service
