@@ -30,6 +30,8 @@ packages=(
   libbenchmark-dev       # micro-benchmarks
   libsqlite3-dev libsqlitecpp-dev  # the catalogue's database (SQLite, through SQLiteCpp)
   libssl-dev             # SHA-256 of catalogue originals (OpenSSL's libcrypto)
+  libcpp-httplib-dev     # the issuing service's HTTP server (`meshmark serve`)
+  curl wrk               # the service's tests (curl) and load benchmark (wrk: bench/service)
   pybind11-dev python3-dev python3-numpy python3-pytest  # the Python package (python/) and its tests
 )
 if ((interop_tools)); then
