@@ -18,7 +18,7 @@ namespace meshmark {
 /// \brief What every copy of one family key's original shares, built once: the watermark, the
 /// owner's mark added to the original's positions, and the recipients' modes. Each recipient's
 /// copy then costs its code's field (M modes per analysed vertex) and nothing else
-/// (docs/fingerprinting.md, "How copies are made").
+/// (docs/fingerprinting.md, "How a copy is marked").
 /// \details embed_recipients builds one per call; the issuing service keeps one per asset it
 /// serves (docs/service.md). make() is const and may run on several threads at once. A copy's
 /// positions do not depend on which other copies are made with it nor on the thread count, so a
