@@ -298,6 +298,40 @@ def main():
         everything = log_path.read_text().encode() + b"".join(responses)
         c.check(not any(s.encode() in everything for s in secrets),
                 "no token, seed or payload in any response or log line")
+
+        # A budget smaller than one asset: each asset is dropped when the other is warmed, and
+        # copies stay right (the same bytes as before the eviction).
+        service = subprocess.Popen([cli, "serve", "--catalog", catalog, "--listen", "127.0.0.1:0",
+                                    "--memory-budget", "1M", "-q"], stderr=subprocess.DEVNULL)
+        port = None
+        for _ in range(200):
+            try:
+                # -q: no log; find the port from the process's listening socket instead.
+                out = subprocess.run(["ss", "-ltnpH"], capture_output=True, text=True).stdout
+                for line in out.splitlines():
+                    if f"pid={service.pid}," in line:
+                        port = int(line.split()[3].rsplit(":", 1)[1])
+                if port:
+                    break
+            except (FileNotFoundError, ValueError):
+                break
+            time.sleep(0.05)
+        if port is None:
+            print("skipped the memory-budget check: no `ss` to find the port", file=sys.stderr)
+        else:
+            horse_path = "/v1/assets/" + urllib.parse.quote(horse, safe="") + "/copies"
+            for path in ["/v1/assets/bunny.stl/copies", horse_path, "/v1/assets/bunny.stl/copies"]:
+                status, _, _ = curl(port, "POST", path, token, '{"recipient":"alice"}', out=str(work / "again.bin"))
+                c.check(status == 200, f"{path} under a 1M budget: 200")
+            c.check((work / "again.bin").read_bytes() == a1.read_bytes(), "the same bytes after an eviction")
+            status, _, body = curl(port, "GET", "/metrics", token)
+            values = {line.split()[0]: float(line.split()[1]) for line in body.decode().splitlines()
+                      if line.startswith("meshmark_cache_") and " " in line}
+            c.check(values.get("meshmark_cache_evictions_total", 0) >= 2 and values.get("meshmark_cache_assets") == 1,
+                    f"a 1M budget keeps one asset warm ({values})")
+            service.send_signal(15)
+            c.check(service.wait(timeout=30) == 0, "SIGTERM again: exit 0")
+            service = None
     finally:
         if service is not None:
             service.kill()
