@@ -8,6 +8,8 @@
 #include <algorithm>
 #include <atomic>
 #include <cctype>
+#include <cerrno>
+#include <cstring>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -26,6 +28,7 @@
 #include <nlohmann/json.hpp>
 #include <openssl/crypto.h>
 #include <openssl/rand.h>
+#include <sys/socket.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -38,6 +41,40 @@
 
 // Last: it includes <resolv.h>, whose `_res` macro breaks Eigen's headers included after it.
 #include <httplib.h>
+
+// cpp-httplib 0.11 ends its accept loop, and with it the service, on any error of accept(2)
+// but EMFILE. Linux's accept passes errors of connections that died in the queue (ECONNABORTED,
+// EPROTO, the pending network errors) and EINTR, and its manual says to retry on them: this
+// definition takes the place of libc's for the library (the executable's symbol comes first in
+// the dynamic lookup) and does so, so one client that resets mid-handshake cannot stop the
+// service. Every other error is returned as it was.
+extern "C" int accept(int fd, struct sockaddr* address, socklen_t* length)
+{
+    for (;;)
+    {
+        const int socket = ::accept4(fd, address, length, 0);
+        if (socket >= 0)
+        {
+            return socket;
+        }
+        switch (errno)
+        {
+            case EINTR:
+            case ECONNABORTED:
+            case EPROTO:
+            case ENETDOWN:
+            case ENOPROTOOPT:
+            case EHOSTDOWN:
+            case ENONET:
+            case EHOSTUNREACH:
+            case EOPNOTSUPP:
+            case ENETUNREACH:
+                continue;
+            default:
+                return -1;
+        }
+    }
+}
 
 namespace meshmark::service {
 namespace {
@@ -128,13 +165,14 @@ std::string asset_problem(const std::string& id)
 }
 
 // The key's payload is key material: a scan's answer says how many of its bits were read
-// (bit_count, bits_false_positive_probability), never which.
+// (bit_count, bits_false_positive_probability), never which; nor where originals are kept.
 void strip_payload(Json& json)
 {
     if (json.is_object())
     {
         json.erase("bits_expected");
         json.erase("bits_found");
+        json.erase("original");  // a match's original: a path on the server
     }
     if (json.is_object() || json.is_array())
     {
@@ -398,6 +436,7 @@ struct Service::Impl
     std::atomic<std::uint64_t> spooled{0};
     httplib::Server server;
     int port = 0;
+    std::atomic<bool> stopping{false};
 
     void log(const std::string& line) const
     {
@@ -598,7 +637,7 @@ struct Service::Impl
             scan_options.candidates = options.scan_candidates;
             const CatalogScanReport report = catalog_scan(*catalog, {suspect}, scan_options);
             Json json = catalog_scan_json(*catalog, report, scan_options);
-            json.erase("catalog");  // the server's path
+            json.erase("catalog");  // the server's path, like each match's original
             strip_payload(json);
             for (Json& s : json["suspects"])
             {
@@ -808,10 +847,23 @@ void Service::run()
 {
     impl_->notice("serving " + impl_->options.catalog.string() + " on http://" + impl_->options.host + ":" +
                   std::to_string(impl_->port) + " (token in " + impl_->token_path.string() + ")");
-    impl_->server.listen_after_bind();
+    const bool listened = impl_->server.listen_after_bind();
+    const int error = errno;
+    if (!listened && !impl_->stopping)
+    {
+        // Not a stop(): the listening socket failed (see accept() above). The requests in flight
+        // were answered; a supervisor restarts the service.
+        const std::string why = std::string("the listening socket failed (") + std::strerror(error) + ")";
+        impl_->notice(why + "; stopped");
+        throw IoError("meshmark serve: " + why + ".");
+    }
     impl_->notice("stopped");
 }
 
-void Service::stop() { impl_->server.stop(); }
+void Service::stop()
+{
+    impl_->stopping = true;
+    impl_->server.stop();
+}
 
 }  // namespace meshmark::service
