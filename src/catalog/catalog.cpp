@@ -492,6 +492,21 @@ private:
     std::optional<ShapeSignature> signature_;
 };
 
+std::optional<std::uint32_t> Catalog::recipient_index(const std::string& id, const std::string& name) const
+{
+    const std::lock_guard lock(impl_->mutex);
+    return impl_->guarded("read", [&]() -> std::optional<std::uint32_t> {
+        SQLite::Statement row(*impl_->db, "SELECT code FROM recipients WHERE asset = ? AND name = ?");
+        row.bind(1, id);
+        row.bind(2, name);
+        if (row.executeStep())
+        {
+            return static_cast<std::uint32_t>(row.getColumn(0).getInt64());
+        }
+        return std::nullopt;
+    });
+}
+
 Catalog::RecordedName Catalog::record_recipient(const std::string& id, const std::string& name)
 {
     check_recipient_name(name);

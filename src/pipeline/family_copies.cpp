@@ -122,10 +122,10 @@ void FamilyCopies::make(std::span<const std::uint32_t> indices, std::vector<Posi
                         std::span<EmbedStats> stats, int threads) const
 {
     const std::size_t count = indices.size();
-    if (count > kBatch || stats.size() != count)
+    if (count > kBatch || (!stats.empty() && stats.size() != count))
     {
         throw InvalidOption("FamilyCopies::make: at most " + std::to_string(kBatch) +
-                            " copies at once, with one EmbedStats each.");
+                            " copies at once, with one EmbedStats each or none.");
     }
     threads = resolve_threads(threads);
     const int modes = mark_.recipient_modes();
@@ -190,7 +190,7 @@ void FamilyCopies::make(std::span<const std::uint32_t> indices, std::vector<Posi
         }
         copy = owner_ + scale * copy;
     }
-    for (std::size_t b = 0; b < count; ++b)
+    for (std::size_t b = 0; b < count && !stats.empty(); ++b)
     {
         DisplacementSummary summary;
         for (const std::int32_t i : active)

@@ -307,8 +307,9 @@ class WorkerQueue
 public:
     explicit WorkerQueue(int count) : free_(count) {}
 
-    // True once a worker is ours; false when none came within \p wait.
-    bool acquire(std::chrono::milliseconds wait)
+    // True once a worker is ours; false when none came within \p wait. \p first: ahead of
+    // every waiting request (one that gave its worker back while it waited on the disk).
+    bool acquire(std::chrono::milliseconds wait, bool first = false)
     {
         std::unique_lock lock(mutex_);
         if (free_ > 0 && waiting_.empty())
@@ -317,7 +318,14 @@ public:
             return true;
         }
         Waiter me;
-        waiting_.push_back(&me);
+        if (first)
+        {
+            waiting_.push_front(&me);
+        }
+        else
+        {
+            waiting_.push_back(&me);
+        }
         if (me.ready.wait_for(lock, wait, [&] { return me.granted; }))
         {
             return true;
@@ -366,6 +374,21 @@ public:
     WorkerSlot(const WorkerSlot&) = delete;
     WorkerSlot& operator=(const WorkerSlot&) = delete;
     [[nodiscard]] bool held() const noexcept { return held_; }
+
+    // The worker lent to the next request while this one waits on the disk (a commit's
+    // fsync), then taken back ahead of the queue: the cores stay busy meanwhile.
+    template <class Wait>
+    auto lend_while(Wait&& wait)
+    {
+        queue_.release();
+        held_ = false;
+        struct Back
+        {
+            WorkerSlot& slot;
+            ~Back() { slot.held_ = slot.queue_.acquire(std::chrono::hours(24), true); }
+        } back{*this};
+        return wait();
+    }
 
 private:
     WorkerQueue& queue_;
@@ -472,7 +495,7 @@ struct Service::Impl
     void compute(httplib::Response& res, Work&& work)
     {
         const InFlight counted(metrics.in_flight);
-        const WorkerSlot slot(*slots, options.queue_timeout);
+        WorkerSlot slot(*slots, options.queue_timeout);
         if (!slot.held())
         {
             res.set_header("Retry-After", "1");
@@ -483,7 +506,7 @@ struct Service::Impl
         }
         try
         {
-            work();
+            work(slot);
         }
         catch (const InvalidOption& e)
         {
@@ -564,7 +587,7 @@ struct Service::Impl
                 return;
             }
         }
-        compute(res, [&] {
+        compute(res, [&](WorkerSlot& slot) {
             const std::shared_ptr<const WarmAsset> warm = cache->get(id);
             const MeshFormat chosen = format.value_or(warm->file.format);
             if (const std::string problem = warm->format_problem(chosen); !problem.empty())
@@ -574,13 +597,15 @@ struct Service::Impl
             }
             // Recorded (committed) before a byte of the copy exists: a crash from here on leaves
             // a name without a copy, which accuses nobody.
-            const Catalog::RecordedName recorded = catalog->record_recipient(id, recipient);
+            const std::optional<std::uint32_t> known = catalog->recipient_index(id, recipient);
+            const Catalog::RecordedName recorded =
+                known ? Catalog::RecordedName{*known, false}
+                      : slot.lend_while([&] { return catalog->record_recipient(id, recipient); });
             metrics.new_recipients += recorded.is_new ? 1 : 0;
             current.record = id + "#" + std::to_string(recorded.index);
             thread_local std::vector<Positions> positions;
-            EmbedStats stats;
             const std::uint32_t index = recorded.index;
-            warm->copies->make(std::span(&index, 1), positions, std::span(&stats, 1), 1);
+            warm->copies->make(std::span(&index, 1), positions, {}, 1);  // no distortion figures: not sent
             res.body = mesh_file_bytes(warm->file, positions[0], chosen);
             res.status = 200;
             res.set_header("Content-Type", content_type_of(chosen));
@@ -610,7 +635,7 @@ struct Service::Impl
             fail(res, 400, "the body is the suspect file's bytes; it is empty.");
             return;
         }
-        compute(res, [&] {
+        compute(res, [&](WorkerSlot&) {
             const fs::path folder = spool / std::to_string(++spooled);
             struct Cleanup
             {

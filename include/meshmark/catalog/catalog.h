@@ -123,6 +123,9 @@ public:
     /// \throws InvalidOption (a bad name, no such asset, an incomplete one, the key full),
     /// IoError (the catalogue stayed busy or cannot be written).
     [[nodiscard]] RecordedName record_recipient(const std::string& id, const std::string& name);
+    /// The code index of recipient \p name of asset \p id when recorded (a read: no waiting on
+    /// the disk).
+    [[nodiscard]] std::optional<std::uint32_t> recipient_index(const std::string& id, const std::string& name) const;
 
     /// Remove asset \p id and its recipients (`catalog add --force` re-marking a changed original).
     void remove(const std::string& id);

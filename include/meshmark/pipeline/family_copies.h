@@ -45,8 +45,8 @@ public:
     ~FamilyCopies();
 
     /// \brief The positions of the copies of recipients \p indices (at most kBatch), into \p out
-    /// (resized; its matrices reused), each copy's distortion into \p stats (same size), on
-    /// \p threads threads.
+    /// (resized; its matrices reused), each copy's distortion into \p stats (same size, or
+    /// empty: not measured), on \p threads threads.
     void make(std::span<const std::uint32_t> indices, std::vector<Positions>& out, std::span<EmbedStats> stats,
               int threads) const;
 
