@@ -37,7 +37,7 @@ from pathlib import Path
 
 def default_cli():
     here = Path(__file__).resolve().parents[2]
-    return os.environ.get("MESHMARK_CLI") or str(here / "build" / "apps" / "cli" / "meshmark")
+    return os.environ.get("MESHMARK_CLI") or str(here / "build" / "bin" / "meshmark")
 
 
 def default_mesh():

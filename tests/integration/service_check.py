@@ -333,6 +333,40 @@ def main():
             service.send_signal(15)
             c.check(service.wait(timeout=30) == 0, "SIGTERM again: exit 0")
             service = None
+
+        # The time limit: one worker, busy with a scan (about a second), and a queue timeout of
+        # 0.1 s: a copy asked meanwhile gets 503 with Retry-After, and is not recorded.
+        log2 = work / "serve2.log"
+        with open(log2, "w") as err:
+            service = subprocess.Popen([cli, "serve", "--catalog", catalog, "--listen", "127.0.0.1:0",
+                                        "--workers", "1", "--queue-timeout", "0.1"], stderr=err)
+        port = None
+        for _ in range(200):
+            text = log2.read_text()
+            if "serving" in text:
+                port = int(text.split("http://127.0.0.1:")[1].split()[0])
+                break
+            time.sleep(0.05)
+        scan_done = []
+        scanner = threading.Thread(target=lambda: scan_done.append(
+            curl(port, "POST", "/v1/scan?name=suspect.stl", token, data_file=str(work / "bob.stl"))[0]))
+        scanner.start()
+        for _ in range(400):  # until the scan holds the only worker (it then computes for ~1 s)
+            _, _, body = curl(port, "GET", "/metrics", token)
+            if "meshmark_requests_in_flight 1" in body.decode():
+                break
+            time.sleep(0.005)
+        before = recipients(cli, catalog, "bunny.stl")
+        status, hdrs, body = curl(port, "POST", "/v1/assets/bunny.stl/copies", token, '{"recipient":"late"}')
+        scanner.join()
+        c.check(status == 503 and hdrs.get("retry-after") == "1" and "busy" in json.loads(body)["error"],
+                f"a request past --queue-timeout: 503 with Retry-After (got {status})")
+        c.check(scan_done == [200], "the scan holding the worker finished")
+        c.check("late" not in recipients(cli, catalog, "bunny.stl") and before == recipients(cli, catalog, "bunny.stl"),
+                "the refused request recorded nothing")
+        service.send_signal(15)
+        c.check(service.wait(timeout=30) == 0, "SIGTERM: exit 0")
+        service = None
     finally:
         if service is not None:
             service.kill()
