@@ -165,14 +165,13 @@ std::string asset_problem(const std::string& id)
 }
 
 // The key's payload is key material: a scan's answer says how many of its bits were read
-// (bit_count, bits_false_positive_probability), never which; nor where originals are kept.
+// (bit_count, bits_false_positive_probability), never which.
 void strip_payload(Json& json)
 {
     if (json.is_object())
     {
         json.erase("bits_expected");
         json.erase("bits_found");
-        json.erase("original");  // a match's original: a path on the server
     }
     if (json.is_object() || json.is_array())
     {
@@ -662,7 +661,7 @@ struct Service::Impl
             scan_options.candidates = options.scan_candidates;
             const CatalogScanReport report = catalog_scan(*catalog, {suspect}, scan_options);
             Json json = catalog_scan_json(*catalog, report, scan_options);
-            json.erase("catalog");  // the server's path, like each match's original
+            json.erase("catalog");  // the server's path (each match keeps its "original": the contract's field)
             strip_payload(json);
             for (Json& s : json["suspects"])
             {
