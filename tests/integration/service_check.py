@@ -333,8 +333,9 @@ def main():
             c.check(service.wait(timeout=30) == 0, "SIGTERM again: exit 0")
             service = None
 
-        # The time limit: one worker, busy with a scan (about a second), and a queue timeout of
-        # 0.1 s: a copy asked meanwhile gets 503 with Retry-After, and is not recorded.
+        # The time limit: one worker, busy with a scan of an unmarked mesh (every candidate tried:
+        # seconds), and a queue timeout of 0.1 s: a copy asked meanwhile gets 503 with
+        # Retry-After, and is not recorded.
         log2 = work / "serve2.log"
         with open(log2, "w") as err:
             service = subprocess.Popen([cli, "serve", "--catalog", catalog, "--listen", "127.0.0.1:0",
@@ -348,7 +349,7 @@ def main():
             time.sleep(0.05)
         scan_done = []
         scanner = threading.Thread(target=lambda: scan_done.append(
-            curl(port, "POST", "/v1/scan?name=suspect.stl", token, data_file=str(work / "bob.stl"))[0]))
+            curl(port, "POST", "/v1/scan?name=suspect.stl", token, data_file=str(assets / "bunny.stl"))[0]))
         scanner.start()
         for _ in range(400):  # until the scan holds the only worker (it then computes for ~1 s)
             _, _, body = curl(port, "GET", "/metrics", token)
