@@ -3,7 +3,8 @@
 
     make_assets.py --out DIR [--meshmark PATH] [--jobs N]
 
-From the shared meshes (folder $MESHMARK_DATA, default /work/shared/data/meshes) it writes
+From the shared meshes (folder $MESHMARK_MESH_DIR, default ../shared/data/meshes beside the
+repository) it writes
 
     DIR/assets/horse.glb   ~48K vertices, written the way a real tool writes a GLB:
                            horse.ply -> OBJ by `meshmark attack horse.ply -o horse.obj reorder`
@@ -36,7 +37,8 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", required=True, help="output folder")
     ap.add_argument("--meshmark", default=os.environ.get("MESHMARK", DEFAULT_MESHMARK))
-    ap.add_argument("--data", default=os.environ.get("MESHMARK_DATA", "/work/shared/data/meshes"))
+    ap.add_argument("--data", default=os.environ.get("MESHMARK_MESH_DIR") or os.environ.get("MESHMARK_DEFAULT_MESH_DIR")
+                    or os.path.normpath(os.path.join(HERE, "..", "..", "..", "shared", "data", "meshes")))
     ap.add_argument("--jobs", type=int, default=0, help="catalog add --jobs (0: one per core)")
     args = ap.parse_args()
 
