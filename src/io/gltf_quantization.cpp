@@ -32,20 +32,18 @@ template <typename Entry>
 bool has_shared_key(const std::vector<Entry>& entries)
 {
     // 8-byte slots (a 32-bit hash of the key and the entry's index + 1), so the table of a
-    // 50K-vertex asset is 1 MiB and mostly stays in the second-level cache; kept per thread, as
-    // a service writes one copy after another.
+    // 50K-vertex asset is 1 MiB and mostly stays in the second-level cache.
     struct Slot
     {
         std::uint32_t hash = 0;
         std::uint32_t entry = 0;  // 0: empty
     };
-    thread_local std::vector<Slot> table;
     std::size_t capacity = 16;
     while (capacity < 2 * entries.size())
     {
         capacity *= 2;
     }
-    table.assign(capacity, Slot{});
+    std::vector<Slot> table(capacity);
     const std::size_t mask = capacity - 1;
     for (std::size_t index = 0; index < entries.size(); ++index)
     {

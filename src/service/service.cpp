@@ -394,6 +394,47 @@ private:
     bool held_;
 };
 
+// The positions of the copies being made, one set per request computing (so at most about
+// `workers` of them), reused: not one per connection thread, which would hold a copy's
+// positions for each of the 64 connections.
+class BufferPool
+{
+public:
+    class Lease
+    {
+    public:
+        explicit Lease(BufferPool& pool) : pool_(pool), buffer_(pool.take()) {}
+        ~Lease() { pool_.give(std::move(buffer_)); }
+        Lease(const Lease&) = delete;
+        Lease& operator=(const Lease&) = delete;
+        std::vector<Positions>& operator*() const { return *buffer_; }
+
+    private:
+        BufferPool& pool_;
+        std::unique_ptr<std::vector<Positions>> buffer_;
+    };
+
+private:
+    std::unique_ptr<std::vector<Positions>> take()
+    {
+        const std::lock_guard lock(mutex_);
+        if (free_.empty())
+        {
+            return std::make_unique<std::vector<Positions>>();
+        }
+        auto buffer = std::move(free_.back());
+        free_.pop_back();
+        return buffer;
+    }
+    void give(std::unique_ptr<std::vector<Positions>> buffer)
+    {
+        const std::lock_guard lock(mutex_);
+        free_.push_back(std::move(buffer));
+    }
+    std::mutex mutex_;
+    std::vector<std::unique_ptr<std::vector<Positions>>> free_;
+};
+
 // Counts a request in flight for as long as it lives.
 class InFlight
 {
@@ -454,6 +495,7 @@ struct Service::Impl
     std::unique_ptr<AssetCache> cache;
     Metrics metrics;
     std::unique_ptr<WorkerQueue> slots;
+    BufferPool buffers;
     fs::path spool;  // private folder of suspects being scanned
     std::atomic<std::uint64_t> spooled{0};
     httplib::Server server;
@@ -602,10 +644,10 @@ struct Service::Impl
                       : slot.lend_while([&] { return catalog->record_recipient(id, recipient); });
             metrics.new_recipients += recorded.is_new ? 1 : 0;
             current.record = id + "#" + std::to_string(recorded.index);
-            thread_local std::vector<Positions> positions;
+            const BufferPool::Lease positions(buffers);
             const std::uint32_t index = recorded.index;
-            warm->copies->make(std::span(&index, 1), positions, {}, 1);  // no distortion figures: not sent
-            res.body = mesh_file_bytes(warm->file, positions[0], chosen);
+            warm->copies->make(std::span(&index, 1), *positions, {}, 1);  // no distortion figures: not sent
+            res.body = mesh_file_bytes(warm->file, (*positions)[0], chosen);
             res.status = 200;
             res.set_header("Content-Type", content_type_of(chosen));
             res.set_header("Content-Disposition",
@@ -778,7 +820,11 @@ struct Service::Impl
             notice("request failed inside the service: " + what);
         });
         server.set_logger([this](const httplib::Request& req, const httplib::Response& res) {
-            const double seconds = std::chrono::duration<double>(Clock::now() - current.start).count();
+            // A request refused before routing (a body over the limit, a malformed request
+            // line) never set `current`: it is the empty one the previous request left.
+            const double seconds = current.start == Clock::time_point{}
+                                       ? 0.0
+                                       : std::chrono::duration<double>(Clock::now() - current.start).count();
             metrics.observe(current.route, res.status, seconds);
             Json line{{"time", utc_now()},
                       {"remote", req.remote_addr},
@@ -796,6 +842,7 @@ struct Service::Impl
                 line["error"] = current.error;
             }
             log(line.dump(-1, ' ', false, Json::error_handler_t::replace));
+            current = RequestInfo{};  // nothing of this request carried into the next one
         });
     }
 };

@@ -297,6 +297,9 @@ def main():
             except ValueError:
                 pass
         c.check(parsed == len(lines) and parsed > 90, f"one JSON line per request ({parsed} of {len(lines)})")
+        refused = [json.loads(line) for line in lines if '"status":413' in line]
+        c.check(refused and all("record" not in r for r in refused),
+                "a refused request's log line carries nothing of the request before it")
         everything = log_path.read_text().encode() + b"".join(responses)
         c.check(not any(s.encode() in everything for s in secrets),
                 "no token, seed or payload in any response or log line")
