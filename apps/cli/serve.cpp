@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 // `meshmark serve`: the issuing service over a catalogue (docs/service.md).
 #include <csignal>
+#include <limits>
 #include <malloc.h>
 #include <memory>
 #include <pthread.h>
@@ -84,11 +85,16 @@ int run_serve(const ServeArgs& args, const GlobalArgs& global)
 
 #ifdef __GLIBC__
     // A copy of a large asset is a buffer of tens of MB per request (the 437K-vertex dragon's
-    // ASCII PLY: 34 MB). glibc serves blocks over 32 MiB (main() raises the threshold to its
-    // maximum) with a fresh mmap() each time, whose pages then fault in again on every request:
-    // 320 ms -> 110 ms p50 per dragon copy, one client, once blocks stay in the heap (peak RSS
-    // 406 -> 491 MiB). Blocks too large for a thread's heap still get their own mapping.
+    // ASCII PLY: 34 MB, built in a 42 MB string). glibc serves blocks over 32 MiB (main() raises
+    // the threshold to its maximum) with a fresh mmap() each time, and a thread's own heap holds
+    // at most 64 MB, so such blocks got fresh pages, faulted in again, on every request. Here
+    // every thread allocates from the main heap, which grows without that limit, blocks are
+    // never given their own mapping, and freed memory stays (RSS stays at its peak): one client's
+    // dragon copy p50 280-370 ms -> 107-138 ms (bench/service/load.py --single, 3 runs each);
+    // 32 clients on the 48K GLB unchanged within the machine's noise (171-203 copies/s both).
+    mallopt(M_ARENA_MAX, 1);
     mallopt(M_MMAP_MAX, 0);
+    mallopt(M_TRIM_THRESHOLD, std::numeric_limits<int>::max());
 #endif
     // SIGTERM and SIGINT are taken by one thread (blocked everywhere else, before the service
     // starts its threads), which stops the service: requests in flight are answered first.
