@@ -5,20 +5,15 @@
 // of `workers` slots, so 32 keep-alive clients share the cores instead of oversubscribing them.
 #include "service.h"
 
-#include <algorithm>
 #include <atomic>
-#include <cctype>
 #include <cerrno>
-#include <cstring>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <ctime>
 #include <fstream>
-#include <mutex>
-#include <condition_variable>
-#include <deque>
 #include <span>
 #include <system_error>
 #include <thread>
@@ -27,17 +22,17 @@
 
 #include <nlohmann/json.hpp>
 #include <openssl/crypto.h>
-#include <openssl/rand.h>
 #include <sys/socket.h>
-#include <sys/stat.h>
 #include <unistd.h>
 
 #include "asset_cache.h"
 #include "meshmark/catalog/catalog_json.h"
 #include "meshmark/catalog/catalog_scan.h"
-#include "meshmark/core/atomic_file.h"
 #include "meshmark/core/error.h"
 #include "metrics.h"
+#include "requests.h"
+#include "token.h"
+#include "workers.h"
 
 // Last: it includes <resolv.h>, whose `_res` macro breaks Eigen's headers included after it.
 #include <httplib.h>
@@ -84,7 +79,6 @@ using Json = nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
 constexpr std::size_t kMaxCopyRequest = 64 * 1024;  // a copy request's JSON body
-constexpr std::size_t kMaxAssetId = 1024;
 
 // What the request being served on this thread did, for its log line and its metrics (a
 // request is read, handled and answered on one thread of the connection pool).
@@ -130,361 +124,7 @@ void send_json(httplib::Response& res, const Json& body)
     res.set_header("Content-Type", "application/json");
 }
 
-// An asset id as a request may name one: a catalogue id is the relative path it was added
-// under, so no control characters, no absolute path, no `..` segment, at most kMaxAssetId bytes.
-// Only ever a key in the database; checked anyway so a hostile name fails early and clearly.
-std::string asset_problem(const std::string& id)
-{
-    if (id.empty() || id.size() > kMaxAssetId)
-    {
-        return "an asset id has 1 to " + std::to_string(kMaxAssetId) + " bytes";
-    }
-    if (id.front() == '/')
-    {
-        return "an asset id is a relative path";
-    }
-    std::size_t start = 0;
-    for (std::size_t i = 0; i <= id.size(); ++i)
-    {
-        if (i == id.size() || id[i] == '/')
-        {
-            if (id.compare(start, i - start, "..") == 0 && i - start == 2)
-            {
-                return "an asset id has no '..' segment";
-            }
-            start = i + 1;
-            continue;
-        }
-        const auto u = static_cast<unsigned char>(id[i]);
-        if (u < 0x20U || u == 0x7FU)
-        {
-            return "an asset id has no control characters";
-        }
-    }
-    return {};
-}
-
-// The key's payload is key material: a scan's answer says how many of its bits were read
-// (bit_count, bits_false_positive_probability), never which.
-void strip_payload(Json& json)
-{
-    if (json.is_object())
-    {
-        json.erase("bits_expected");
-        json.erase("bits_found");
-    }
-    if (json.is_object() || json.is_array())
-    {
-        for (Json& child : json)
-        {
-            strip_payload(child);
-        }
-    }
-}
-
-std::optional<MeshFormat> format_named(std::string name)
-{
-    for (char& c : name)
-    {
-        c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-    }
-    static const std::map<std::string, MeshFormat> kFormats{
-        {"ply", MeshFormat::Ply},   {"obj", MeshFormat::Obj},   {"off", MeshFormat::Off},
-        {"stl", MeshFormat::Stl},   {"gltf", MeshFormat::Gltf}, {"glb", MeshFormat::Glb},
-        {"3mf", MeshFormat::ThreeMf}};
-    const auto it = kFormats.find(name);
-    return it == kFormats.end() ? std::nullopt : std::optional(it->second);
-}
-
-const char* extension_of(MeshFormat format)
-{
-    switch (format)
-    {
-        case MeshFormat::Ply: return "ply";
-        case MeshFormat::Obj: return "obj";
-        case MeshFormat::Off: return "off";
-        case MeshFormat::Stl: return "stl";
-        case MeshFormat::Gltf: return "gltf";
-        case MeshFormat::Glb: return "glb";
-        case MeshFormat::ThreeMf: return "3mf";
-    }
-    return "bin";
-}
-
-const char* content_type_of(MeshFormat format)
-{
-    switch (format)
-    {
-        case MeshFormat::Glb: return "model/gltf-binary";
-        case MeshFormat::Gltf: return "model/gltf+json";
-        case MeshFormat::Obj: return "model/obj";
-        case MeshFormat::Stl: return "model/stl";
-        case MeshFormat::ThreeMf: return "model/3mf";
-        case MeshFormat::Ply:
-        case MeshFormat::Off: return "application/octet-stream";
-    }
-    return "application/octet-stream";
-}
-
-// A file name for Content-Disposition: the original's stem, the recipient, the extension;
-// anything but [A-Za-z0-9._-] becomes '_' (the header's quoted string stays plain ASCII).
-std::string download_name(const std::string& original, const std::string& recipient, MeshFormat format)
-{
-    std::string name = fs::path(original).stem().string() + "-" + recipient;
-    for (char& c : name)
-    {
-        const auto u = static_cast<unsigned char>(c);
-        if (!(std::isalnum(u) != 0 || c == '.' || c == '_' || c == '-'))
-        {
-            c = '_';
-        }
-    }
-    return name + "." + extension_of(format);
-}
-
-std::string random_token()
-{
-    unsigned char bytes[32];
-    if (RAND_bytes(bytes, sizeof bytes) != 1)
-    {
-        throw IoError("cannot draw a random token (OpenSSL's RAND_bytes failed).");
-    }
-    static constexpr char kHex[] = "0123456789abcdef";
-    std::string hex;
-    for (const unsigned char b : bytes)
-    {
-        hex += kHex[b >> 4U];
-        hex += kHex[b & 0xFU];
-    }
-    return hex;
-}
-
-// The token of \p path: created (256 random bits, mode 0600) when missing; refused when
-// anyone but its owner may read it, or shorter than 16 characters.
-std::string load_token(const fs::path& path, bool* created)
-{
-    std::error_code error;
-    *created = false;
-    if (!fs::exists(path, error))
-    {
-        const std::string token = random_token();
-        write_file_atomically(path, [&](std::ostream& out) { out << token << "\n"; }, {0600, false});
-        *created = true;
-        return token;
-    }
-    struct stat info{};
-    if (::stat(path.c_str(), &info) != 0)
-    {
-        throw IoError(path.string() + ": cannot read the token file.");
-    }
-    if ((info.st_mode & 077U) != 0)
-    {
-        throw IoError(path.string() + ": the token file may be read by others; make it private (chmod 600).");
-    }
-    std::ifstream in(path);
-    std::string token;
-    std::getline(in, token);
-    while (!token.empty() && std::isspace(static_cast<unsigned char>(token.back())) != 0)
-    {
-        token.pop_back();
-    }
-    if (!in && !in.eof())
-    {
-        throw IoError(path.string() + ": cannot read the token file.");
-    }
-    if (token.size() < 16)
-    {
-        throw IoError(path.string() + ": the token must have at least 16 characters.");
-    }
-    return token;
-}
-
-// The workers: at most `count` requests compute at once, the others wait in arrival order (a
-// plain semaphore lets late arrivals overtake, which turned 32 clients' p99 into seconds).
-class WorkerQueue
-{
-public:
-    explicit WorkerQueue(int count) : free_(count) {}
-
-    // True once a worker is ours; false when none came within \p wait. \p first: ahead of
-    // every waiting request (one that gave its worker back while it waited on the disk).
-    bool acquire(std::chrono::milliseconds wait, bool first = false)
-    {
-        std::unique_lock lock(mutex_);
-        if (free_ > 0 && waiting_.empty())
-        {
-            --free_;
-            return true;
-        }
-        Waiter me;
-        if (first)
-        {
-            waiting_.push_front(&me);
-        }
-        else
-        {
-            waiting_.push_back(&me);
-        }
-        if (me.ready.wait_for(lock, wait, [&] { return me.granted; }))
-        {
-            return true;
-        }
-        waiting_.erase(std::find(waiting_.begin(), waiting_.end(), &me));
-        return false;
-    }
-
-    void release()
-    {
-        const std::lock_guard lock(mutex_);
-        if (waiting_.empty())
-        {
-            ++free_;
-            return;
-        }
-        Waiter* next = waiting_.front();  // handed over: the worker never becomes free meanwhile
-        waiting_.pop_front();
-        next->granted = true;
-        next->ready.notify_one();
-    }
-
-private:
-    struct Waiter
-    {
-        std::condition_variable ready;
-        bool granted = false;
-    };
-    std::mutex mutex_;
-    int free_;
-    std::deque<Waiter*> waiting_;
-};
-
-// A worker, held while a request computes; none within the queue timeout: busy.
-class WorkerSlot
-{
-public:
-    WorkerSlot(WorkerQueue& queue, std::chrono::milliseconds wait) : queue_(queue), held_(queue.acquire(wait)) {}
-    ~WorkerSlot()
-    {
-        if (held_)
-        {
-            queue_.release();
-        }
-    }
-    WorkerSlot(const WorkerSlot&) = delete;
-    WorkerSlot& operator=(const WorkerSlot&) = delete;
-    [[nodiscard]] bool held() const noexcept { return held_; }
-
-    // The worker lent to the next request while this one waits on the disk (a commit's
-    // fsync), then taken back ahead of the queue: the cores stay busy meanwhile.
-    template <class Wait>
-    auto lend_while(Wait&& wait)
-    {
-        queue_.release();
-        held_ = false;
-        struct Back
-        {
-            WorkerSlot& slot;
-            ~Back() { slot.held_ = slot.queue_.acquire(std::chrono::hours(24), true); }
-        } back{*this};
-        return wait();
-    }
-
-private:
-    WorkerQueue& queue_;
-    bool held_;
-};
-
-// The positions of the copies being made, one set per request computing (so at most about
-// `workers` of them), reused: not one per connection thread, which would hold a copy's
-// positions for each of the 64 connections.
-class BufferPool
-{
-public:
-    class Lease
-    {
-    public:
-        explicit Lease(BufferPool& pool) : pool_(pool), buffer_(pool.take()) {}
-        ~Lease() { pool_.give(std::move(buffer_)); }
-        Lease(const Lease&) = delete;
-        Lease& operator=(const Lease&) = delete;
-        std::vector<Positions>& operator*() const { return *buffer_; }
-
-    private:
-        BufferPool& pool_;
-        std::unique_ptr<std::vector<Positions>> buffer_;
-    };
-
-private:
-    std::unique_ptr<std::vector<Positions>> take()
-    {
-        const std::lock_guard lock(mutex_);
-        if (free_.empty())
-        {
-            return std::make_unique<std::vector<Positions>>();
-        }
-        auto buffer = std::move(free_.back());
-        free_.pop_back();
-        return buffer;
-    }
-    void give(std::unique_ptr<std::vector<Positions>> buffer)
-    {
-        const std::lock_guard lock(mutex_);
-        free_.push_back(std::move(buffer));
-    }
-    std::mutex mutex_;
-    std::vector<std::unique_ptr<std::vector<Positions>>> free_;
-};
-
-// Counts a request in flight for as long as it lives.
-class InFlight
-{
-public:
-    explicit InFlight(std::atomic<std::int64_t>& count) : count_(count) { ++count_; }
-    ~InFlight() { --count_; }
-    InFlight(const InFlight&) = delete;
-    InFlight& operator=(const InFlight&) = delete;
-
-private:
-    std::atomic<std::int64_t>& count_;
-};
-
 }  // namespace
-
-std::size_t parse_bytes(const std::string& text, const std::string& what)
-{
-    std::size_t used = 0;
-    double value = 0.0;
-    try
-    {
-        value = std::stod(text, &used);
-    }
-    catch (const std::exception&)
-    {
-        used = 0;
-    }
-    std::string unit = text.substr(used);
-    for (char& c : unit)
-    {
-        c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
-    }
-    static const std::map<std::string, double> kUnits{{"", 1.0},
-                                                      {"B", 1.0},
-                                                      {"K", 1024.0},
-                                                      {"KB", 1024.0},
-                                                      {"KIB", 1024.0},
-                                                      {"M", 1048576.0},
-                                                      {"MB", 1048576.0},
-                                                      {"MIB", 1048576.0},
-                                                      {"G", 1073741824.0},
-                                                      {"GB", 1073741824.0},
-                                                      {"GIB", 1073741824.0}};
-    const auto it = kUnits.find(unit);
-    if (used == 0 || it == kUnits.end() || !std::isfinite(value) || value < 0.0 || value * it->second > 1e18)
-    {
-        throw InvalidOption(what + " must be a size such as 512M or 2G, got '" + text + "'.");
-    }
-    return static_cast<std::size_t>(value * it->second);
-}
 
 struct Service::Impl
 {
