@@ -88,17 +88,10 @@ class Client(threading.Thread):
                 self.failures.append("%s: %s: %s (before the kill)" % (name, type(e).__name__, e))
                 time.sleep(0.05)
                 continue
-            if status != 200:
-                self.failures.append("%s: HTTP %d %s" % (name, status, body[:300].decode(errors="replace")))
+            path, problem = sc.keep_copy(name, status, headers, body, self.outdir)
+            if problem:
+                self.failures.append("%s: %s" % (name, problem))
                 continue
-            clen = headers.get("content-length")
-            if clen is None or int(clen) != len(body):
-                self.failures.append("%s: HTTP 200 with Content-Length %s but %d bytes" % (name, clen, len(body)))
-                continue
-            ext = os.path.splitext(sc.filename_of(headers, ".bin"))[1] or ".bin"
-            path = os.path.join(self.outdir, name + ext)
-            with open(path, "wb") as f:
-                f.write(body)
             self.received.append((name, path, t))
         if conn is not None:
             conn.close()

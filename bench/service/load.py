@@ -110,20 +110,13 @@ class CopySampler(threading.Thread):
                 conn = None
                 continue
             self.latencies.append(time.monotonic() - t0)
-            if status != 200:
-                self.errors.append("sampled copy %s: HTTP %d %s" % (name, status, body[:300].decode(errors="replace")))
-                continue
-            clen = headers.get("content-length")
-            if clen is None or int(clen) != len(body):
-                self.errors.append("sampled copy %s: Content-Length %s but %d bytes" % (name, clen, len(body)))
+            path, problem = sc.keep_copy(name, status, headers, body, self.outdir)
+            if problem:
+                self.errors.append("sampled copy %s: %s" % (name, problem))
                 continue
             if headers.get("x-meshmark-recipient-new") != "true":
                 self.errors.append("sampled copy %s: X-Meshmark-Recipient-New %r for a new name"
                                    % (name, headers.get("x-meshmark-recipient-new")))
-            ext = os.path.splitext(sc.filename_of(headers, ".bin"))[1] or ".bin"
-            path = os.path.join(self.outdir, name + ext)
-            with open(path, "wb") as f:
-                f.write(body)
             self.copies.append((name, path))
             if headers.get("connection", "").lower() == "close":
                 conn.close()

@@ -201,3 +201,18 @@ def capped(errors, limit=50):
     """The first `limit` errors, and a line counting the rest."""
     return errors if len(errors) <= limit else errors[:limit] + ["... and %d more" % (len(errors) - limit)]
 
+
+def keep_copy(name, status, headers, body, outdir):
+    """A copy answer checked and saved: (path, None) for a whole 200 (saved as
+    OUTDIR/NAME.EXT, EXT from its Content-Disposition), else (None, the problem)."""
+    if status != 200:
+        return None, "HTTP %d %s" % (status, body[:300].decode(errors="replace"))
+    clen = headers.get("content-length")
+    if clen is None or int(clen) != len(body):
+        return None, "HTTP 200 with Content-Length %s but %d bytes" % (clen, len(body))
+    ext = os.path.splitext(filename_of(headers, ".bin"))[1] or ".bin"
+    path = os.path.join(outdir, name + ext)
+    with open(path, "wb") as f:
+        f.write(body)
+    return path, None
+
