@@ -59,6 +59,36 @@ CatalogAddOptions quick_options()
     return options;
 }
 
+// Runs \p work(t) for t = 0 .. count-1 on threads of their own (each opening its own catalogue
+// connection, as separate processes would) and expects none to throw.
+template <class Work>
+void on_threads(int count, Work&& work)
+{
+    std::vector<std::thread> threads;
+    std::vector<std::exception_ptr> failures(static_cast<std::size_t>(count));
+    for (int t = 0; t < count; ++t)
+    {
+        threads.emplace_back([&, t] {
+            try
+            {
+                work(t);
+            }
+            catch (...)
+            {
+                failures[static_cast<std::size_t>(t)] = std::current_exception();
+            }
+        });
+    }
+    for (std::thread& thread : threads)
+    {
+        thread.join();
+    }
+    for (const auto& failure : failures)
+    {
+        EXPECT_FALSE(failure);
+    }
+}
+
 TEST(CatalogTest, a_new_catalogue_is_private_and_a_missing_or_foreign_file_is_refused)
 {
     const fs::path dir = test::temp_dir("catalog_open");
@@ -174,34 +204,13 @@ TEST(CatalogTest, issue_records_names_before_copies_and_threads_at_once_never_sh
     ASSERT_EQ(catalog_add(catalog, {in}, dir / "out", quick_options())[0].status, CatalogAddOutcome::Status::Marked);
     EXPECT_THROW((void)catalog_issue(catalog, "nope.ply", (dir / "c" / "{recipient}.ply").string(), {}), InvalidOption);
 
-    std::vector<std::thread> threads;
-    std::vector<std::exception_ptr> failures(4);
-    for (int t = 0; t < 4; ++t)
-    {
-        threads.emplace_back([&, t] {
-            try
-            {
-                // Each thread its own connection, as separate processes would have.
-                Catalog mine(dir / "cat.db", Catalog::Open::Existing);
-                CatalogIssueOptions options;
-                options.recipients = {"buyer" + std::to_string(t), "shared"};
-                options.threads = 1;
-                (void)catalog_issue(mine, "a.ply", (dir / "copies" / "{recipient}.ply").string(), options);
-            }
-            catch (...)
-            {
-                failures[static_cast<std::size_t>(t)] = std::current_exception();
-            }
-        });
-    }
-    for (std::thread& t : threads)
-    {
-        t.join();
-    }
-    for (const auto& failure : failures)
-    {
-        EXPECT_FALSE(failure);
-    }
+    on_threads(4, [&](int t) {
+        Catalog mine(dir / "cat.db", Catalog::Open::Existing);
+        CatalogIssueOptions options;
+        options.recipients = {"buyer" + std::to_string(t), "shared"};
+        options.threads = 1;
+        (void)catalog_issue(mine, "a.ply", (dir / "copies" / "{recipient}.ply").string(), options);
+    });
     const auto recipients = catalog.recipients("a.ply");
     ASSERT_EQ(recipients.size(), 6U);  // published, shared, buyer0..3
     std::set<std::uint32_t> codes;
@@ -234,35 +243,15 @@ TEST(CatalogTest, record_recipient_gives_each_name_one_code_from_many_connection
     EXPECT_THROW((void)catalog.record_recipient("a.ply", "../x"), InvalidOption);
 
     // 4 connections (as 4 processes), 25 names each, 5 of them shared by all.
-    std::vector<std::thread> threads;
     std::vector<std::vector<std::pair<std::string, std::uint32_t>>> got(4);
-    std::vector<std::exception_ptr> failures(4);
-    for (int t = 0; t < 4; ++t)
-    {
-        threads.emplace_back([&, t] {
-            try
-            {
-                Catalog mine(dir / "cat.db", Catalog::Open::Existing);
-                for (int i = 0; i < 25; ++i)
-                {
-                    const std::string name = i < 5 ? "shared" + std::to_string(i) : "t" + std::to_string(t) + "n" + std::to_string(i);
-                    got[static_cast<std::size_t>(t)].emplace_back(name, mine.record_recipient("a.ply", name).index);
-                }
-            }
-            catch (...)
-            {
-                failures[static_cast<std::size_t>(t)] = std::current_exception();
-            }
-        });
-    }
-    for (std::thread& t : threads)
-    {
-        t.join();
-    }
-    for (const auto& failure : failures)
-    {
-        EXPECT_FALSE(failure);
-    }
+    on_threads(4, [&](int t) {
+        Catalog mine(dir / "cat.db", Catalog::Open::Existing);
+        for (int i = 0; i < 25; ++i)
+        {
+            const std::string name = i < 5 ? "shared" + std::to_string(i) : "t" + std::to_string(t) + "n" + std::to_string(i);
+            got[static_cast<std::size_t>(t)].emplace_back(name, mine.record_recipient("a.ply", name).index);
+        }
+    });
     const auto recipients = catalog.recipients("a.ply");
     ASSERT_EQ(recipients.size(), 1U + 5U + 4U * 20U);  // published, the shared, each thread's own
     std::map<std::string, std::uint32_t> recorded;
