@@ -75,13 +75,15 @@ private:
     Plan plan_draco(std::size_t slot);
     [[nodiscard]] bool overflows(const Plan& plan) const;
     void fit_range(std::vector<Plan>& plans, std::size_t overflowing);
-    void keep_vertices_apart(std::vector<Plan>& plans) const;
     [[nodiscard]] std::vector<std::size_t> sharing_group(const std::vector<Plan>& plans,
                                                          std::size_t first,
                                                          std::vector<std::size_t>& nodes);
     void transform_nodes(const std::vector<std::size_t>& nodes, double scale,
                          const std::array<double, 3>& shift);
     void write_float_accessor(const Plan& plan);
+
+    // gltf_vertices_apart.cpp
+    void keep_vertices_apart(std::vector<Plan>& plans) const;
 
     // gltf_rewrite.cpp
     std::string draco_bytes(std::int32_t view);
