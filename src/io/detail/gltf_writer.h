@@ -2,7 +2,8 @@
 // The preserving glTF/GLB writer (write_gltf_preserving, preserved_gltf_bytes). Its members
 // are defined by job: gltf_write.cpp runs the steps and writes the files (or returns them as
 // one file), gltf_quantization.cpp plans the new stored values of each POSITION record and
-// fits them to their component type, and gltf_rewrite.cpp rewrites the buffers (plain
+// fits them to their component type, gltf_vertices_apart.cpp keeps vertices the reader told
+// apart from landing on the same float32 values, and gltf_rewrite.cpp rewrites the buffers (plain
 // accessors, meshopt streams, Draco data) and the JSON that follows them.
 #pragma once
 
