@@ -8,6 +8,7 @@
 
 #include "commands.h"
 #include "meshmark/pipeline/detect_file.h"
+#include "meshmark/pipeline/verdict.h"
 #include "meshmark/registration/point_pairs.h"
 #include "progress.h"
 #include "report.h"
@@ -51,11 +52,13 @@ int run_detect(const DetectArgs& args, const GlobalArgs& global)
     }
     else
     {
-        std::printf("%s: watermark %s, z = %.2f over %d coefficients, R = %.3f (%d of %d bits), "
+        // The verdict first, in one sentence; the readings it rests on under it.
+        const Verdict verdict = verdict_of(report, args.decision.max_false_positive);
+        std::printf("%s: %s\n", args.suspect.c_str(), headline(verdict).c_str());
+        std::printf("  owner's mark alone: %s, z = %.2f over %d coefficients, R = %.3f (%d of %d bits), "
                     "false-positive probability %s\n",
-                    args.suspect.c_str(), d.is_present ? "FOUND" : "not found", d.score,
-                    d.coefficient_count, d.correlation, d.matches, d.bit_count,
-                    format_number(d.false_positive_probability).c_str());
+                    d.is_present ? "found" : "not found", d.score, d.coefficient_count, d.correlation, d.matches,
+                    d.bit_count, format_number(d.false_positive_probability).c_str());
         if (report.recipients_traced > 0)
         {
             std::printf("  ownership %s (the owner's mark, alone or with a recipient's code), "
@@ -77,7 +80,7 @@ int run_detect(const DetectArgs& args, const GlobalArgs& global)
             }
         }
         // Why a "not found" says little here (DetectReport::is_far_copy).
-        if (!report.detected() && !report.owner_detected && !global.quiet && report.is_far_copy())
+        if (!report.detected() && !global.quiet && report.is_far_copy())
         {
             std::fprintf(stderr,
                          "meshmark: note: the suspect lies %.3g%% of the diagonal (RMS) from the original, %.1f times "
@@ -116,8 +119,9 @@ void register_detect(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
         "With a family key (embed --recipient) every recipient is scored as well and the suspect "
         "is traced: the recipients whose copies it was made from are accused when the probability "
         "that any innocent one of the key scores as high is at most --max-fpp. "
-        "Exit code 0 when the watermark is found (with a family key: when a recipient is accused), "
-        "1 when it is not, >= 2 on errors.");
+        "The first line is the verdict: claimed or not, whose copy, and the chance that a mesh "
+        "without the mark gives it. Exit code 0 when the copy is claimed (with a family key: ownership "
+        "shown or a recipient accused), 1 when it is not, >= 2 on errors.");
     command->add_option("SUSPECT", args->suspect, "Suspect mesh")->required()->check(CLI::ExistingFile);
     command->add_option("--original", args->original, "The original (unmarked) mesh the key was made for")
         ->required()
@@ -151,9 +155,11 @@ void register_detect(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
                       "Only accept a suspect whose vertices correspond to the original's, in order or "
                       "renumbered where they stand or by its triangles (no registration or resampling)");
     command->add_flag("--json", args->json,
-                      "Print one JSON object: detected, verdict, score, correlation, bits_expected, "
-                      "bits_found, false_positive_probability (of the verdict used; also "
-                      "score_ and bits_false_positive_probability), cropped_fraction, outlier_fraction (rows left "
+                      "Print one JSON object: detected (the verdict: claimed), headline (it in a sentence), "
+                      "false_positive_probability (of the verdict), recipients (whose copy), owner_mark (the "
+                      "owner's mark read alone: detected, score, false_positive_probability, correlation, matches, "
+                      "bit_count), verdict (the rule), score, correlation, bits_expected, bits_found, "
+                      "score_ and bits_false_positive_probability (the owner's mark's), cropped_fraction, outlier_fraction (rows left "
                       "out because the suspect is far from them), "
                       "registration (method: same-connectivity (the original's vertices in its order, "
                       "renumbered where they stand, as a re-encoded Draco file is, or renumbered by its "

@@ -9,6 +9,7 @@
 #include "meshmark/core/error.h"
 #include "meshmark/meshmark.h"
 #include "meshmark/pipeline/report_json.h"
+#include "meshmark/pipeline/verdict.h"
 #include "meshmark/registration/point_pairs.h"
 
 namespace meshmark::python {
@@ -233,8 +234,13 @@ void bind_memory(py::module_& m)
                              "What detect found: the verdict and its statistics. to_dict() gives the fields "
                              "of `meshmark detect --json`.")
         .def_property_readonly("detected", [](const DetectResult& r) { return r.report.detected(); },
-                               "True when the verdict claims the mark (with a family key: when a recipient "
-                               "is accused; see owner_detected).")
+                               "True when the copy is claimed (with a family key: ownership shown or a "
+                               "recipient accused; see headline, owner_detected).")
+        .def_property_readonly(
+            "headline",
+            [](const DetectResult& r) { return headline(verdict_of(r.report, r.options.max_false_positive)); },
+            "The verdict in one sentence: claimed or not, whose copy, and the chance that a mesh without "
+            "the mark gives it (meshmark detect's first line).")
         .def_property_readonly("owner_detected", [](const DetectResult& r) { return r.report.owner_detected; },
                                "Whether the owner's claim holds (with a family key: its mark alone or read jointly with a "
                                "recipient's code; docs/fingerprinting.md).")
@@ -260,8 +266,11 @@ void bind_memory(py::module_& m)
         .def_property_readonly("score", [](const DetectResult& r) { return r.report.decision.score; },
                                "z: about sqrt(coefficient_count) for an intact mark, ~N(0,1) without.")
         .def_property_readonly("false_positive_probability",
-                               [](const DetectResult& r) { return r.report.decision.false_positive_probability; },
-                               "Bound on the probability that an unmarked mesh gets this verdict's score.")
+                               [](const DetectResult& r) {
+                                   return verdict_of(r.report, r.options.max_false_positive).false_positive_probability;
+                               },
+                               "Bound on the probability that a mesh without the mark gets this verdict (with a "
+                               "family key: the strongest accusation's, else the ownership's).")
         .def_property_readonly("score_false_positive_probability", [](const DetectResult& r) {
             return r.report.decision.score_false_positive_probability;
         })

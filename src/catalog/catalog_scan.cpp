@@ -10,6 +10,7 @@
 
 #include "meshmark/core/error.h"
 #include "meshmark/io/mesh_io.h"
+#include "meshmark/pipeline/verdict.h"
 
 namespace meshmark {
 namespace {
@@ -111,13 +112,16 @@ CatalogScanReport catalog_scan(const Catalog& catalog, const std::vector<std::fi
                         continue;  // removed since the index was read
                     }
                     DetectReport found = detect_against_original(suspect, asset->original, asset->key, detect);
-                    tried.false_positive_probability = scaled(found.owner_false_positive_probability);
-                    if (found.detected() || found.owner_detected)
+                    // The verdict's probability (verdict.h): the strongest accusation's, else the ownership's.
+                    const double verdict_fpp =
+                        verdict_of(found, detect.decision.max_false_positive).false_positive_probability;
+                    tried.false_positive_probability = scaled(verdict_fpp);
+                    if (found.detected())
                     {
                         CatalogMatch match;
                         match.asset = id;
                         match.original = asset->original;
-                        match.false_positive_probability = scaled(found.owner_false_positive_probability);
+                        match.false_positive_probability = scaled(verdict_fpp);
                         match.score = found.decision.score;
                         match.recipients = found.accused;
                         for (RecipientScore& recipient : match.recipients)

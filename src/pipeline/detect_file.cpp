@@ -1743,7 +1743,9 @@ void read_other_poses(DetectReport& report, detail::PhaseTimer& timer, const Spe
     bounded(report);
     for (const Eigen::Matrix4d& pose : poses)
     {
-        if (report.detected())
+        // Settled: someone accused, or a single-owner mark found (ownership alone may still
+        // find whose copy it is in another pose).
+        if (report.recipients_traced > 0 ? !report.accused.empty() : report.decision.is_present)
         {
             break;
         }

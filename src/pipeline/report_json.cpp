@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/pipeline/report_json.h"
 
+#include "meshmark/pipeline/verdict.h"
+
 namespace meshmark {
 namespace {
 
@@ -113,7 +115,19 @@ nlohmann::json embed_report_json(const EmbedReport& report, const std::string& i
 nlohmann::json detect_report_json(const DetectReport& report, const DetectOptions& options, bool diagnostics)
 {
     const Decision& d = report.decision;
-    nlohmann::json out = {{"detected", report.detected()},
+    const Verdict verdict = verdict_of(report, options.max_false_positive);
+    // The verdict first (detected, headline, false_positive_probability, recipients); the
+    // owner's mark read alone as details (owner_mark; also the top-level correlation, bits and
+    // score, as before).
+    nlohmann::json out = {{"detected", verdict.claimed},
+                          {"headline", headline(verdict)},
+                          {"owner_mark",
+                           {{"detected", d.is_present},
+                            {"score", d.score},
+                            {"false_positive_probability", d.false_positive_probability},
+                            {"correlation", d.correlation},
+                            {"matches", d.matches},
+                            {"bit_count", d.bit_count}}},
                           {"correlation", d.correlation},
                           {"matches", d.matches},
                           {"bit_count", d.bit_count},
@@ -124,7 +138,7 @@ nlohmann::json detect_report_json(const DetectReport& report, const DetectOption
                           {"max_false_positive_probability", options.max_false_positive},
                           {"bits_expected", d.bits_expected},
                           {"bits_found", d.bits_found},
-                          {"false_positive_probability", d.false_positive_probability},
+                          {"false_positive_probability", verdict.false_positive_probability},
                           {"score_false_positive_probability", d.score_false_positive_probability},
                           {"bits_false_positive_probability", d.bits_false_positive_probability},
                           {"cropped_fraction", report.cropped_fraction},

@@ -146,12 +146,23 @@ TEST_F(CliTest, recipient_copies_are_issued_in_any_format_and_traced)
     ASSERT_EQ(found["recipients"].size(), 1U);
     EXPECT_EQ(found["recipients"][0]["name"], "Studio B");
     EXPECT_LE(found["recipients"][0]["false_positive_probability"].get<double>(), 1e-6);
+    // One verdict: the top-level probability is the accusation's (not the owner's mark alone's,
+    // which is under owner_mark), and the headline says the same.
+    EXPECT_EQ(found["false_positive_probability"], found["recipients"][0]["false_positive_probability"]);
+    EXPECT_TRUE(found["owner_mark"].contains("score"));
+    EXPECT_LT(found["owner_mark"]["false_positive_probability"].get<double>(), 1.0);
+    EXPECT_EQ(found["headline"].get<std::string>().rfind("Claimed: a copy of the original, made from the copy issued "
+                                                         "to Studio B. ",
+                                                         0),
+              0U)
+        << found["headline"];
     // The text report names the accused with both readings (the regions' may be what accuses).
     r = run("detect '" + (dir_ / "copy-Studio B.glb").string() + "' --original " + original_.string() + " --key " +
                 key.string(),
             dir_);
     ASSERT_EQ(r.exit_code, 0) << r.err;
     EXPECT_NE(r.out.find("1 of 4 recipients accused:\n    Studio B: z = "), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find(": " + found["headline"].get<std::string>() + "\n"), std::string::npos) << r.out;
     EXPECT_NE(r.out.find(", regions z = "), std::string::npos) << r.out;
 
     // The unmarked original accuses nobody (exit 1); the text report says so.
@@ -163,6 +174,9 @@ TEST_F(CliTest, recipient_copies_are_issued_in_any_format_and_traced)
                 " --json",
             dir_);
     const auto unmarked = nlohmann::json::parse(r.out);
+    EXPECT_FALSE(unmarked["detected"].get<bool>());
+    EXPECT_EQ(unmarked["headline"].get<std::string>().rfind("Not shown: ", 0), 0U) << unmarked["headline"];
+    EXPECT_EQ(unmarked["false_positive_probability"], unmarked["owner_false_positive_probability"]);
     EXPECT_FALSE(unmarked["owner_detected"].get<bool>());
     EXPECT_GT(unmarked["owner_false_positive_probability"].get<double>(), 1e-6);
 

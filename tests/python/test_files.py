@@ -155,11 +155,16 @@ def test_family_key_from_the_cli_traces_in_python(torus, original, tmp_path, cli
     single = meshmark.detect(ann, F, V, F, key)
     assert single.detected and single.owner_detected
     assert [r["name"] for r in single.recipients] == ["ann"]
+    # One verdict: the headline names ann, at the accusation's probability.
+    assert single.headline.startswith("Claimed: a copy of the original, made from the copy issued to ann. ")
+    assert single.false_positive_probability == single.recipients[0]["false_positive_probability"]
+    assert single.to_dict()["headline"] == single.headline
     pooled = meshmark.detect((ann + cat) / 2, F, V, F, key)
     assert pooled.owner_detected
     assert pooled.recipients and {r["name"] for r in pooled.recipients} <= {"ann", "cat"}
     unmarked = meshmark.detect(V, F, V, F, key)
     assert not unmarked.detected and unmarked.recipients == []
+    assert unmarked.headline.startswith("Not shown: ")
     assert unmarked.to_dict()["recipients_traced"] == 3
 
 

@@ -80,11 +80,12 @@ struct DetectReport
     /// key traced, min(1, 2 decision.false_positive_probability, 2 min_j
     /// joint_false_positive_probability_j).
     double owner_false_positive_probability = 1.0;
-    /// The verdict: with recipients traced, whether anyone is accused; otherwise whether the
-    /// mark is present (decision.is_present, which for a family key is the owner's mark).
+    /// The verdict (verdict.h): whether the copy is claimed. With recipients traced, when
+    /// ownership is shown (owner_detected) or anyone is accused; otherwise whether the mark is
+    /// present (decision.is_present, which for a family key is the owner's mark).
     [[nodiscard]] bool detected() const noexcept
     {
-        return recipients_traced > 0 ? !accused.empty() : decision.is_present;
+        return recipients_traced > 0 ? !accused.empty() || owner_detected : decision.is_present;
     }
     /// Whether the suspect was registered and lies kFarCopyStrengths times the mark's strength
     /// or more from the original: why a "not found" there says little (meshmark detect's note).
