@@ -21,6 +21,7 @@
 #include "meshmark/pipeline/embed_recipients.h"
 #include "meshmark/pipeline/progress.h"
 #include "meshmark/pipeline/report_json.h"
+#include "meshmark/pipeline/verdict.h"
 #include "meshmark/watermark/key.h"
 #include "meshmark/watermark/watermark.h"
 
