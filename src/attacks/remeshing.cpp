@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cstdint>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -14,6 +15,7 @@
 
 #include "attacks/detail/cgal_mesh.h"
 #include "attacks/detail/format.h"
+#include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
 
 namespace meshmark {
@@ -32,6 +34,38 @@ constexpr int kMaxPasses = 4;
 // dragon_vrip_res4, the full dragon; 25% and 5% targets), so the first guess is lengthened by
 // sqrt(1.22) and one pass is usually enough.
 constexpr double kFirstGuessFactor = 1.1045;
+
+// CGAL 5.5's tangential relaxation dereferences a null halfedge (SIGSEGV) at a vertex all of
+// whose faces have an exactly zero normal (CGAL issue #7345, fixed in later releases): exact
+// zeros come from exactly collinear corners, which the flat, axis-aligned polygons of CAD and
+// architectural files (round coordinates) give it (assimp's regr01.obj at remesh=0.8). Moving
+// every vertex by at most this fraction of the diagonal in a fixed pseudo-random direction
+// makes such exact ties vanish; it is far below float32 precision (6e-8) and what the remesher
+// itself moves.
+constexpr double kTieBreak = 1e-9;
+
+// splitmix64: a fixed pseudo-random number per (vertex, axis), in [-1, 1].
+double tie_break_unit(std::uint64_t vertex, std::uint64_t axis)
+{
+    std::uint64_t z = vertex * 3U + axis + 0x9E3779B97F4A7C15ULL;
+    z = (z ^ (z >> 30U)) * 0xBF58476D1CE4E5B9ULL;
+    z = (z ^ (z >> 27U)) * 0x94D049BB133111EBULL;
+    z ^= z >> 31U;
+    return static_cast<double>(z >> 11U) * 0x1.0p-52 - 1.0;
+}
+
+// \p surface with each vertex moved by at most kTieBreak of \p diagonal (kTieBreak).
+void break_ties(detail::SurfaceMesh& surface, double diagonal)
+{
+    const double step = kTieBreak * diagonal;
+    for (const auto v : surface.vertices())
+    {
+        const detail::CgalPoint& p = surface.point(v);
+        const std::uint64_t i = v.idx();
+        surface.point(v) = detail::CgalPoint(p.x() + step * tie_break_unit(i, 0), p.y() + step * tie_break_unit(i, 1),
+                                             p.z() + step * tie_break_unit(i, 2));
+    }
+}
 
 // Edge length whose equilateral triangles tile `area` with `vertices` vertices: a closed
 // triangle mesh has F ≈ 2V faces of area sqrt(3)/4 L^2 each.
@@ -86,7 +120,8 @@ TriangleMesh remesh(const TriangleMesh& mesh, const RemeshingOptions& options)
         std::max(4.0, std::round(options.vertex_fraction * distinct_positions(mesh)));
     // Welded: isotropic remeshing rebuilds the surface, wherever a file split its vertices (a
     // soup of separate triangles cannot be remeshed at all: its vertex count would not change).
-    const detail::SurfaceMesh input = detail::to_surface_mesh(mesh, "remesh", /*weld=*/true);
+    detail::SurfaceMesh input = detail::to_surface_mesh(mesh, "remesh", /*weld=*/true);
+    break_ties(input, bounding_box(mesh.V).diagonal());
 
     // First guess from the area, then correct the length by the square root of the count ratio
     // (the vertex density goes as 1 / L^2) and remesh the input again.
