@@ -2,6 +2,7 @@
 // The report as a PDF: A4 pages through cairo's PDF surface, text set with its toy text API
 // (words wrapped here, "10^N" raised as a power), the pictures scaled to the text width.
 #include <algorithm>
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -79,9 +80,9 @@ public:
     void skip(double height) { y_ += height; }
 
     /// Wrapped text in [x, x + width), its lines kept on one page; returns the height used.
-    double text(const std::string& text, const Font& font, double x, double width, bool is_draft = false)
+    double text(const std::string& words, const Font& font, double x, double width, bool is_draft = false)
     {
-        const std::vector<std::string> lines = wrap(text, font, width);
+        const std::vector<std::string> lines = wrap(words, font, width);
         const double leading = 1.3 * font.size;
         if (!is_draft)
         {
@@ -126,34 +127,34 @@ public:
         cairo_restore(cr_.get());
     }
 
-    /// \p image scaled to the text width and at most \p max_height points high, centred.
-    void image(const RgbImage& image, double max_height)
+    /// \p picture scaled to the text width and at most \p max_height points high, centred.
+    void image(const RgbImage& picture, double max_height)
     {
-        const double scale = std::min(kTextWidth / image.width, max_height / image.height);
-        need(scale * image.height + 4.0);
+        const double scale = std::min(kTextWidth / picture.width, max_height / picture.height);
+        need(scale * picture.height + 4.0);
         const std::unique_ptr<cairo_surface_t, decltype(&cairo_surface_destroy)> surface(
-            cairo_image_surface_create(CAIRO_FORMAT_RGB24, image.width, image.height), &cairo_surface_destroy);
+            cairo_image_surface_create(CAIRO_FORMAT_RGB24, picture.width, picture.height), &cairo_surface_destroy);
         cairo_surface_flush(surface.get());
         unsigned char* data = cairo_image_surface_get_data(surface.get());
         const int stride = cairo_image_surface_get_stride(surface.get());
-        for (int y = 0; y < image.height; ++y)
+        for (int y = 0; y < picture.height; ++y)
         {
             auto* row = reinterpret_cast<std::uint32_t*>(data + static_cast<std::ptrdiff_t>(y) * stride);
-            for (int x = 0; x < image.width; ++x)
+            for (int x = 0; x < picture.width; ++x)
             {
-                const Rgb8 c = image.at(x, y);
+                const Rgb8 c = picture.at(x, y);
                 row[x] = (std::uint32_t{c[0]} << 16U) | (std::uint32_t{c[1]} << 8U) | std::uint32_t{c[2]};
             }
         }
         cairo_surface_mark_dirty(surface.get());
         cairo_save(cr_.get());
-        cairo_translate(cr_.get(), kMargin + 0.5 * (kTextWidth - scale * image.width), y_);
+        cairo_translate(cr_.get(), kMargin + 0.5 * (kTextWidth - scale * picture.width), y_);
         cairo_scale(cr_.get(), scale, scale);
         cairo_set_source_surface(cr_.get(), surface.get(), 0.0, 0.0);
         cairo_pattern_set_filter(cairo_get_source(cr_.get()), CAIRO_FILTER_GOOD);
         cairo_paint(cr_.get());
         cairo_restore(cr_.get());
-        y_ += scale * image.height + 4.0;
+        y_ += scale * picture.height + 4.0;
     }
 
     void color(double r, double g, double b) { cairo_set_source_rgb(cr_.get(), r, g, b); }
@@ -195,41 +196,41 @@ private:
     /// Calls \p f on the runs of \p text: plain, and the digits after "10^" (raised, the caret
     /// dropped) in a monospace-free font only.
     template <typename F>
-    void for_each_piece(const std::string& text, F&& f)
+    void for_each_piece(const std::string& line, F&& f)
     {
         std::size_t start = 0;
-        for (std::size_t at = text.find("10^"); at != std::string::npos; at = text.find("10^", start))
+        for (std::size_t at = line.find("10^"); at != std::string::npos; at = line.find("10^", start))
         {
             std::size_t end = at + 3;
-            while (end < text.size() && text[end] >= '0' && text[end] <= '9')
+            while (end < line.size() && line[end] >= '0' && line[end] <= '9')
             {
                 ++end;
             }
-            f(text.substr(start, at + 2 - start), false);
-            f(text.substr(at + 3, end - at - 3), true);
+            f(line.substr(start, at + 2 - start), false);
+            f(line.substr(at + 3, end - at - 3), true);
             start = end;
         }
-        if (start < text.size())
+        if (start < line.size())
         {
-            f(text.substr(start), false);
+            f(line.substr(start), false);
         }
     }
 
     /// Lines of \p text no wider than \p width: broken at spaces, a longer word (a hash, a path)
     /// at any character.
-    std::vector<std::string> wrap(const std::string& text, const Font& font, double width)
+    std::vector<std::string> wrap(const std::string& words, const Font& font, double width)
     {
         std::vector<std::string> lines;
         std::string line;
         std::size_t start = 0;
-        while (start <= text.size())
+        while (start <= words.size())
         {
-            std::size_t end = text.find(' ', start);
+            std::size_t end = words.find(' ', start);
             if (end == std::string::npos)
             {
-                end = text.size();
+                end = words.size();
             }
-            std::string word = text.substr(start, end - start);
+            std::string word = words.substr(start, end - start);
             start = end + 1;
             const std::string joined = line.empty() ? word : line + " " + word;
             if (width_of(joined, font) <= width)
@@ -303,8 +304,15 @@ std::string evidence_pdf(const EvidenceText& text, const EvidencePictures& pictu
         for (const EvidenceSection& section : text.sections)
         {
             page.skip(6.0);
-            page.need(3.0 * kHeading);  // a heading is not left alone at the foot of a page
-            page.paragraph(section.heading, {kSans, kHeading, true}, 3.0);
+            // A heading is not left alone at the foot of a page: it goes with its first paragraph.
+            const Font heading{kSans, kHeading, true};
+            double first = page.text(section.heading, heading, kMargin, kTextWidth, true) + 3.0;
+            if (!section.paragraphs.empty())
+            {
+                first += page.text(section.paragraphs.front(), {kSans, kBody, false}, kMargin, kTextWidth, true);
+            }
+            page.need(first);
+            page.paragraph(section.heading, heading, 3.0);
             for (const std::string& paragraph : section.paragraphs)
             {
                 page.paragraph(paragraph, {kSans, kBody, false});

@@ -3,15 +3,17 @@
 // visibility buffers as the heatmap), and its distance to the original's surface (render_heatmap).
 #include <algorithm>
 #include <cmath>
+#include <future>
+#include <memory>
 #include <limits>
 #include <vector>
 
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/threads.h"
-#include "meshmark/geometry/closest_point_index.h"
 #include "meshmark/geometry/normals.h"
 #include "meshmark/geometry/point_kd_tree.h"
+#include "meshmark/registration/surface_matcher.h"
 #include "meshmark/render/rasterizer.h"
 #include "meshmark/report/evidence_report.h"
 
@@ -108,7 +110,7 @@ double median_spacing(const Positions& V)
     {
         return 0.0;
     }
-    const PointKdTree tree(Positions(V));
+    const PointKdTree tree{Positions(V)};
     const Eigen::Index stride = std::max<Eigen::Index>(1, V.rows() / 1000);
     std::vector<double> spacing;
     for (Eigen::Index i = 0; i < V.rows(); i += stride)
@@ -146,7 +148,10 @@ void rasterize(Layer& layer, const Framing& f, int threads)
     }
     else
     {
-        layer.normals = vertex_normals(mesh);
+        if (layer.normals.rows() != mesh.V.rows())
+        {
+            layer.normals = vertex_normals(mesh);
+        }
         layer.buffer = rasterize_triangles(layer.screen, mesh.F, f.width, f.height, threads);
     }
 }
@@ -241,38 +246,52 @@ EvidencePictures evidence_pictures(const TriangleMesh& suspect, const TriangleMe
     {
         throw InvalidMesh("evidence report: a mesh has no vertex to draw.");
     }
-    const TriangleMesh aligned = transformed(suspect, transform_of(detect));
+    const Eigen::Matrix4d transform = transform_of(detect);
+    const Eigen::Matrix3d aligned_linear = transform.topLeftCorner<3, 3>();
+    const TriangleMesh aligned = transformed(suspect, transform);
     const double diagonal = bounding_box(original.V, referenced_vertices(original)).diagonal();
     const ViewFrame frame = view_frame(options.view, options.up);
-    const int ss = options.supersampling;
+    // Meshes with more triangles than the panel has pixels are drawn with one sample per pixel:
+    // their triangles are smaller than a pixel already, and the work is the triangles'.
+    const bool is_dense = suspect.F.rows() + original.F.rows() >
+                          static_cast<Eigen::Index>(options.panel.width) * options.panel.height;
+    const int ss = is_dense ? 1 : options.supersampling;
     EvidencePictures out;
+
+    // The search structure over the original's surface is built on a thread of its own while
+    // the alignment is drawn: its kd-tree is built serially.
+    std::future<std::unique_ptr<SurfaceMatcher>> matcher = std::async(
+        std::launch::async, [&original] { return std::make_unique<SurfaceMatcher>(original); });
 
     // The alignment: the suspect as received (left), then on the original (right).
     out.alignment = RgbImage(2 * options.panel.width, options.panel.height, kBackground);
+    std::vector<Layer> received(1);
+    received[0].mesh = &suspect;
+    received[0].color = kSuspectColor;
+    compose(out.alignment, 0, received,
+            fit(suspect, frame, options.panel.width * ss, options.panel.height * ss), ss, options.threads);
+    std::vector<Layer> laid(2);
+    laid[0].mesh = &original;
+    laid[0].color = kOriginalColor;
+    laid[1].mesh = &aligned;
+    laid[1].color = kSuspectColor;
+    if (!suspect.is_point_cloud())
     {
-        std::vector<Layer> layers(1);
-        layers[0].mesh = &suspect;
-        layers[0].color = kSuspectColor;
-        compose(out.alignment, 0, layers,
-                fit(suspect, frame, options.panel.width * ss, options.panel.height * ss), ss, options.threads);
+        // The aligned suspect's normals are the received one's turned (shading uses directions only).
+        laid[1].normals = received[0].normals * aligned_linear.transpose();
     }
-    {
-        std::vector<Layer> layers(2);
-        layers[0].mesh = &original;
-        layers[0].color = kOriginalColor;
-        layers[1].mesh = &aligned;
-        layers[1].color = kSuspectColor;
-        const Framing f = fit(original, frame, options.panel.width * ss, options.panel.height * ss);
-        layers[1].depth_bias = kSuspectDepthBias * diagonal * f.scale;
-        compose(out.alignment, options.panel.width, layers, f, ss, options.threads);
-    }
+    received.clear();
+    const Framing laid_framing = fit(original, frame, options.panel.width * ss, options.panel.height * ss);
+    laid[1].depth_bias = kSuspectDepthBias * diagonal * laid_framing.scale;
+    compose(out.alignment, options.panel.width, laid, laid_framing, ss, options.threads);
+    laid.clear();
     // A thin rule between the panels.
     out.alignment.fill_rect(options.panel.width - 1, 0, options.panel.width + 1, options.panel.height,
                             Rgb8{190, 190, 190});
 
     // The difference: each aligned suspect vertex's distance to the original's surface.
-    const ClosestPointIndex index(original);
-    const std::vector<ClosestPoint> closest = index.closest(aligned.V, options.threads);
+    std::vector<SurfaceMatch> closest;
+    matcher.get()->match_all(aligned.V, closest, options.threads);
     Eigen::VectorXd distances(aligned.V.rows());
     std::vector<double> referenced;
     referenced.reserve(suspect_rows.size());
@@ -293,7 +312,7 @@ EvidencePictures evidence_pictures(const TriangleMesh& suspect, const TriangleMe
     heatmap.up = options.up;
     heatmap.max_distance = red;
     heatmap.unit_length = diagonal;
-    heatmap.supersampling = options.supersampling;
+    heatmap.supersampling = ss;
     heatmap.threads = options.threads;
     out.difference = render_heatmap(aligned, distances, heatmap);
     out.red_distance_rel = diagonal > 0.0 ? out.difference.max_distance / diagonal : 0.0;

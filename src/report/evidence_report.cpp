@@ -6,6 +6,7 @@
 #include <cctype>
 #include <chrono>
 #include <ctime>
+#include <future>
 #include <ostream>
 
 #include "meshmark/core/atomic_file.h"
@@ -62,8 +63,11 @@ void write_detection_report(const std::filesystem::path& path, const std::filesy
         std::strftime(text, sizeof text, "%Y-%m-%d %H:%M:%S UTC", &utc);
         facts.created = text;
     }
+    // The two meshes are read at once (a text file's parsing is serial).
+    std::future<TriangleMesh> original_read =
+        std::async(std::launch::async, [&original] { return read_mesh(original); });
     const TriangleMesh suspect_mesh = read_mesh(suspect);
-    const TriangleMesh original_mesh = read_mesh(original);
+    const TriangleMesh original_mesh = original_read.get();
     write_evidence_report(path, facts, evidence_pictures(suspect_mesh, original_mesh, detect, options.pictures));
 }
 

@@ -2,11 +2,10 @@
 // The report's words: every number and verdict read from the detect report's JSON, said for a
 // reader who has never heard of spectral watermarks.
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <string>
 #include <vector>
-
-#include <Eigen/Dense>
 
 #include "meshmark/core/error.h"
 #include "meshmark/io/file_sha256.h"
@@ -29,12 +28,18 @@ std::string printf_string(const char* format, double value)
 /// "12,345,678".
 std::string grouped(std::uintmax_t value)
 {
-    std::string digits = std::to_string(value);
-    for (auto i = static_cast<std::ptrdiff_t>(digits.size()) - 3; i > 0; i -= 3)
+    // Appended, not inserted: GCC 12 warns (-Wrestrict) on string::insert of a literal here.
+    const std::string digits = std::to_string(value);
+    std::string out;
+    for (std::size_t i = 0; i < digits.size(); ++i)
     {
-        digits.insert(static_cast<std::size_t>(i), ",");
+        if (i > 0 && (digits.size() - i) % 3 == 0)
+        {
+            out += ',';
+        }
+        out += digits[i];
     }
-    return digits;
+    return out;
 }
 
 /// A fraction of the diagonal as a percentage with three significant digits: "0.0312%".
@@ -373,7 +378,7 @@ EvidenceText evidence_text(const EvidenceFacts& facts, const EvidencePictures& p
     {
         found.rows.emplace_back("Whose copy", accused.empty() ? "no recipient named" : names_list(accused));
         found.rows.emplace_back("Recipients checked", std::to_string(traced));
-        for (const nlohmann::json& r : detect["recipients"])
+        for (const nlohmann::json& r : detect.value("recipients", nlohmann::json::array()))
         {
             const double q = r.value("false_positive_probability", 1.0);
             found.rows.emplace_back("  " + r.at("name").get<std::string>(),

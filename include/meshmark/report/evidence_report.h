@@ -65,7 +65,9 @@ struct EvidencePictureOptions
     ImageSize heatmap{900, 480};     ///< Size of the difference picture, colour bar included.
     ViewAngles view = kDefaultView;  ///< Direction the models are seen from.
     UpAxis up = UpAxis::PosY;        ///< The original's up axis.
-    int supersampling = 2;           ///< Samples per pixel along each axis (1 to 4).
+    /// Samples per pixel along each axis (1 to 4); 1 for meshes with more triangles (suspect and
+    /// original together) than a panel has pixels.
+    int supersampling = 2;
     int threads = 0;                 ///< 0 = all cores; the pictures do not depend on it.
 };
 
