@@ -34,7 +34,7 @@ figcaption { font-size: 9.5pt; color: #444; margin-top: .3em; }
   .verdict { font-size: 11pt; }
   .chance { font-size: 9.5pt; }
   code { font-size: 8pt; }
-  figure img { width: auto; max-width: 100%; max-height: 72mm; }
+  figure img { width: auto; max-width: 100%; max-height: 62mm; }
   figcaption { font-size: 8pt; }
 }
 )css";

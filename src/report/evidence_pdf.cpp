@@ -326,7 +326,7 @@ std::string evidence_pdf(const EvidenceText& text, const EvidencePictures& pictu
                 page.skip(3.0);
                 const bool is_alignment = section.figure == EvidenceSection::Figure::Alignment;
                 page.image(is_alignment ? pictures.alignment : pictures.difference.image,
-                           is_alignment ? 210.0 : 240.0);
+                           is_alignment ? 185.0 : 215.0);
                 page.paragraph(section.caption, {kSans, kSmall, false});
             }
         }

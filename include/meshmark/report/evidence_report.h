@@ -62,7 +62,7 @@ struct EvidenceFacts
 struct EvidencePictureOptions
 {
     ImageSize panel{560, 440};       ///< Size of each of the two panels of the alignment picture.
-    ImageSize heatmap{900, 480};     ///< Size of the difference picture, colour bar included.
+    ImageSize heatmap{960, 600};     ///< Size of the difference picture, colour bar included.
     ViewAngles view = kDefaultView;  ///< Direction the models are seen from.
     UpAxis up = UpAxis::PosY;        ///< The original's up axis.
     /// Samples per pixel along each axis (1 to 4); 1 for meshes with more triangles (suspect and

@@ -298,6 +298,8 @@ TEST(EvidenceReport, WrittenWholeOrNotAtAll)
     EXPECT_FALSE(std::filesystem::exists(dir / "report.html"));
     write_evidence_report(dir / "report.pdf", facts, pictures);
     EXPECT_EQ(test::file_bytes(dir / "report.pdf").rfind("%PDF", 0), 0U);
+    write_evidence_report(dir / "report.html", facts, pictures);
+    EXPECT_EQ(test::file_bytes(dir / "report.html").rfind("<!DOCTYPE html>", 0), 0U);
 }
 
 // The speed target (issue 55: <= 2 s at 437K vertices), on the shared dragon as suspect and
