@@ -247,9 +247,8 @@ void register_detect(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
                       "Only accept a suspect whose vertices correspond to the original's, in order or "
                       "renumbered where they stand or by its triangles (no registration or resampling)");
     command->add_option("--report", args->report,
-                        "Also write an evidence report for people (docs/evidence.md): FILE.html (one "
-                        "self-contained page) or FILE.pdf (A4), stating the files and their SHA-256, the "
-                        "verdict, the alignment and pictures of it, and how to repeat the check");
+                        "Also write an evidence report for people: FILE.html (self-contained) or FILE.pdf (A4); "
+                        "docs/evidence.md");
     command->add_flag("--json", args->json,
                       "Print one JSON object: detected, verdict, score, correlation, bits_expected, "
                       "bits_found, false_positive_probability (of the verdict used; also "
