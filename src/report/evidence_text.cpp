@@ -336,15 +336,16 @@ EvidenceText evidence_text(const EvidenceFacts& facts, const EvidencePictures& p
     {
         out.verdict = "CLAIMED: the suspect carries the owner's watermark";
         out.verdict += accused.empty() ? "." : "; it was made from the copy issued to " + names_list(accused) + ".";
-        out.chance = "If the suspect did not carry this mark, a result at least this strong would happen at most " +
-                     one_in_n(p) + " times (probability " + probability(p) +
+        out.chance = "If the suspect did not carry this mark, a result at least this strong would come out in at "
+                     "most " +
+                     one_in_n(p) + " checks (probability " + probability(p) +
                      "). This bound holds whatever the model.";
     }
     else
     {
         out.verdict = "NOT SHOWN: this check does not show the owner's watermark in the suspect.";
-        out.chance = "A model without this mark gives a result at least this strong up to " + one_in_n(p) +
-                     " times (probability " + probability(p) + "), so the result is not evidence of the mark.";
+        out.chance = "A model without this mark gives a result at least this strong in up to " + one_in_n(p) +
+                     " checks (probability " + probability(p) + "), so the result is not evidence of the mark.";
         if (detect.contains("max_false_positive_probability"))
         {
             out.chance += " The tool claims a mark only when that chance is at most " +
