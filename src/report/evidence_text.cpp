@@ -54,6 +54,20 @@ std::string probability(double p)
     return printf_string("%.2g", p);
 }
 
+/// "at most 1 in N", or "less than 1 in 10^300" (one_in_n says "less than" itself).
+std::string at_most(double p)
+{
+    const std::string n = one_in_n(p);
+    return n.starts_with("less than") ? n : "at most " + n;
+}
+
+/// How often a chance result comes out: "in at most 1 in N checks", "in every check".
+std::string how_often(double p)
+{
+    const std::string n = one_in_n(p);
+    return n == "1 in 1" ? "in every check" : "in " + at_most(p) + " checks";
+}
+
 const nlohmann::json& field(const nlohmann::json& detect, const char* name)
 {
     if (!detect.contains(name))
@@ -336,20 +350,18 @@ EvidenceText evidence_text(const EvidenceFacts& facts, const EvidencePictures& p
     {
         out.verdict = "CLAIMED: the suspect carries the owner's watermark";
         out.verdict += accused.empty() ? "." : "; it was made from the copy issued to " + names_list(accused) + ".";
-        out.chance = "If the suspect did not carry this mark, a result at least this strong would come out in at "
-                     "most " +
-                     one_in_n(p) + " checks (probability " + probability(p) +
-                     "). This bound holds whatever the model.";
+        out.chance = "If the suspect did not carry this mark, a result at least this strong would come out " +
+                     how_often(p) + " (probability " + probability(p) + "). This bound holds whatever the model.";
     }
     else
     {
         out.verdict = "NOT SHOWN: this check does not show the owner's watermark in the suspect.";
-        out.chance = "A model without this mark gives a result at least this strong in up to " + one_in_n(p) +
-                     " checks (probability " + probability(p) + "), so the result is not evidence of the mark.";
+        out.chance = "A model without this mark can give a result at least this strong " + how_often(p) +
+                     " (probability " + probability(p) + "), so the result is not evidence of the mark.";
         if (detect.contains("max_false_positive_probability"))
         {
-            out.chance += " The tool claims a mark only when that chance is at most " +
-                          one_in_n(detect["max_false_positive_probability"].get<double>()) + ".";
+            out.chance += " The tool claims a mark only when that chance is " +
+                          at_most(detect["max_false_positive_probability"].get<double>()) + ".";
         }
         out.chance += " \"Not shown\" is not proof that the suspect is not a copy: it means this check found no "
                       "convincing evidence.";
@@ -374,7 +386,7 @@ EvidenceText evidence_text(const EvidenceFacts& facts, const EvidencePictures& p
             "keep too little of the mark to be claimed, so this result says little either way.");
     }
     found.rows.emplace_back("Verdict", out.is_claimed ? "claimed" : "not shown");
-    found.rows.emplace_back("Chance without the mark", "at most " + one_in_n(p) + " (" + probability(p) + ")");
+    found.rows.emplace_back("Chance without the mark", at_most(p) + " (" + probability(p) + ")");
     if (traced > 0)
     {
         found.rows.emplace_back("Whose copy", accused.empty() ? "no recipient named" : names_list(accused));
@@ -383,15 +395,15 @@ EvidenceText evidence_text(const EvidenceFacts& facts, const EvidencePictures& p
         {
             const double q = r.value("false_positive_probability", 1.0);
             found.rows.emplace_back("  " + r.at("name").get<std::string>(),
-                                    "named; chance for an innocent recipient at most " + one_in_n(q) + " (" +
+                                    "named; chance for an innocent recipient " + at_most(q) + " (" +
                                         probability(q) + ")");
         }
         const OwnerMark owner = owner_mark(detect);
         if (owner.is_known)
         {
             found.rows.emplace_back("Owner's mark alone", std::string(owner.detected ? "shown" : "not shown") +
-                                                              "; chance at most " +
-                                                              one_in_n(owner.false_positive_probability) + " (" +
+                                                              "; chance " +
+                                                              at_most(owner.false_positive_probability) + " (" +
                                                               probability(owner.false_positive_probability) + ")");
         }
     }

@@ -264,6 +264,22 @@ TEST(EvidenceReport, HeadlineOfTheJsonIsQuotedWhenPresent)
     EXPECT_NE(html.find("Claimed: the owner's mark is shown"), std::string::npos);
 }
 
+TEST(EvidenceReport, ChanceBeyondDoublesIsLessThanOneInTenToThe300)
+{
+    const auto dir = test::temp_dir("evidence_tiny");
+    const Case c = make_case();
+    nlohmann::json detect = detect_json(true, c.to_original, "");
+    detect["false_positive_probability"] = 0.0;
+    const EvidenceFacts facts = facts_for(dir, c, detect);
+    EvidencePictureOptions options;
+    options.panel = {200, 160};
+    options.heatmap = {240, 160};
+    const EvidencePictures pictures = evidence_pictures(c.suspect, c.original, detect, options);
+    const std::string html = evidence_html(evidence_text(facts, pictures), pictures);
+    EXPECT_NE(html.find("in less than 1 in 10<sup>300</sup> checks"), std::string::npos);
+    EXPECT_EQ(html.find("at most less"), std::string::npos);
+}
+
 TEST(EvidenceReport, MissingVerdictFieldIsAnError)
 {
     const auto dir = test::temp_dir("evidence_missing");
