@@ -253,8 +253,13 @@ TEST(EvidenceReport, HeadlineOfTheJsonIsQuotedWhenPresent)
 {
     const auto dir = test::temp_dir("evidence_headline");
     const Case c = make_case();
-    nlohmann::json detect = detect_json(true, c.to_original, "");
+    // The headline JSON (issue 55 item 1): `headline`, and the owner's mark read alone in `owner_mark`.
+    nlohmann::json detect = detect_json(true, c.to_original, "bob");
     detect["headline"] = "Claimed: the owner's mark is shown (false-positive probability 3.1e-10).";
+    detect.erase("owner_detected");
+    detect.erase("owner_false_positive_probability");
+    detect["owner_mark"] = {{"detected", true}, {"false_positive_probability", 1.1368683783530287e-14},
+                            {"score", 6.9}, {"correlation", 1.0}, {"matches", 24}, {"bit_count", 24}};
     const EvidenceFacts facts = facts_for(dir, c, detect);
     EvidencePictureOptions options;
     options.panel = {200, 160};
@@ -262,6 +267,7 @@ TEST(EvidenceReport, HeadlineOfTheJsonIsQuotedWhenPresent)
     const EvidencePictures pictures = evidence_pictures(c.suspect, c.original, detect, options);
     const std::string html = evidence_html(evidence_text(facts, pictures), pictures);
     EXPECT_NE(html.find("Claimed: the owner's mark is shown"), std::string::npos);
+    EXPECT_NE(html.find("shown; chance at most 1 in 88 trillion"), std::string::npos);
 }
 
 TEST(EvidenceReport, ChanceBeyondDoublesIsLessThanOneInTenToThe300)
