@@ -31,6 +31,8 @@ packages=(
   libsqlite3-dev libsqlitecpp-dev  # the catalogue's database (SQLite, through SQLiteCpp)
   libssl-dev             # SHA-256 of catalogue originals (OpenSSL's libcrypto)
   libcpp-httplib-dev     # the issuing service's HTTP server (`meshmark serve`)
+  libcairo2-dev          # PDF evidence reports (`detect --report x.pdf`): cairo's PDF surface
+  chromium               # tests only: the HTML evidence report opened, screenshot and printed headless
   curl wrk               # the service's tests (curl) and load benchmark (wrk: bench/service)
   pybind11-dev python3-dev python3-numpy python3-pytest  # the Python package (python/) and its tests
 )

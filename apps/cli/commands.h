@@ -10,6 +10,9 @@
 
 namespace meshmark::cli {
 
+/// What `meshmark --version` prints (the project's version, from CMake), also stated in reports.
+inline constexpr const char* kVersion = "meshmark " MESHMARK_VERSION;
+
 /// Flags every command accepts.
 struct GlobalArgs
 {

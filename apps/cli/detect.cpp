@@ -1,15 +1,20 @@
 // SPDX-License-Identifier: MIT
 // `meshmark detect`: look for a key's watermark in a suspect copy.
 #include <array>
+#include <charconv>
+#include <chrono>
 #include <cstdio>
 #include <memory>
 #include <optional>
 #include <string>
 
 #include "commands.h"
+#include "meshmark/core/atomic_file.h"
+#include "meshmark/core/error.h"
 #include "meshmark/pipeline/detect_file.h"
 #include "meshmark/pipeline/verdict.h"
 #include "meshmark/registration/point_pairs.h"
+#include "meshmark/report/evidence_report.h"
 #include "progress.h"
 #include "report.h"
 
@@ -26,11 +31,86 @@ struct DetectArgs
     bool no_register = false;
     bool no_trace = false;
     std::string verdict = "combined";
+    std::string report;  // --report FILE.html|FILE.pdf
     DetectOptions decision;
 };
 
+/// An argument as the shell reads it back: quoted unless made of safe characters only.
+std::string shell_word(const std::string& word)
+{
+    const bool is_safe = !word.empty() && word.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
+                                                                 "0123456789_-+=.,/:@%") == std::string::npos;
+    if (is_safe)
+    {
+        return word;
+    }
+    std::string out = "'";
+    for (const char c : word)
+    {
+        out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+    }
+    return out + "'";
+}
+
+std::string shortest(double value)
+{
+    std::array<char, 32> text{};
+    const auto end = std::to_chars(text.data(), text.data() + text.size(), value).ptr;
+    return {text.data(), end};
+}
+
+/// The command that repeats this check and prints its --json: the options that differ from
+/// their defaults, never --report.
+std::string repeat_command(const DetectArgs& args)
+{
+    const DetectOptions defaults;
+    std::string command = "meshmark detect " + shell_word(args.suspect) + " --original " +
+                          shell_word(args.original) + " --key " + shell_word(args.key);
+    if (args.verdict != "combined")
+    {
+        command += " --verdict " + args.verdict;
+    }
+    if (args.decision.max_false_positive != defaults.max_false_positive)
+    {
+        command += " --max-fpp " + shortest(args.decision.max_false_positive);
+    }
+    if (args.decision.threshold != defaults.threshold)
+    {
+        command += " --threshold " + shortest(args.decision.threshold);
+    }
+    if (args.decision.epsilon != defaults.epsilon)
+    {
+        command += " --epsilon " + shortest(args.decision.epsilon);
+    }
+    if (!args.pairs.empty())
+    {
+        command += " --pairs " + shell_word(args.pairs);
+    }
+    command += args.no_trace ? " --no-trace" : "";
+    command += args.no_register ? " --no-register" : "";
+    return command + " --json";
+}
+
+/// --report names an .html or .pdf file that is none of the inputs (checked before detecting).
+void check_report_path(const DetectArgs& args)
+{
+    if (args.report.empty())
+    {
+        return;
+    }
+    (void)evidence_format(args.report);
+    for (const std::string* input : {&args.suspect, &args.original, &args.key, &args.pairs})
+    {
+        if (!input->empty() && is_same_file(args.report, *input))
+        {
+            throw InvalidOption("--report " + args.report + " would overwrite an input file.");
+        }
+    }
+}
+
 int run_detect(const DetectArgs& args, const GlobalArgs& global)
 {
+    check_report_path(args);
     DetectFileOptions options;
     options.decision = args.decision;
     options.decision.verdict = parse_verdict_rule(args.verdict);
@@ -46,6 +126,22 @@ int run_detect(const DetectArgs& args, const GlobalArgs& global)
         return detect_file(args.suspect, args.original, args.key, options);
     });
     const Decision& d = report.decision;
+    if (!args.report.empty())
+    {
+        // The evidence report states what --json states: it is written from the same object.
+        const auto start = std::chrono::steady_clock::now();
+        DetectionReportOptions report_options;
+        report_options.pictures.threads = global.threads;
+        report_options.version = kVersion;
+        report_options.command = repeat_command(args);
+        write_detection_report(args.report, args.suspect, args.original, args.key,
+                               detect_report_json(report, args.decision), report_options);
+        if (!global.quiet)
+        {
+            std::fprintf(stderr, "meshmark detect: report written to %s (%.2f s)\n", args.report.c_str(),
+                         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+        }
+    }
     if (args.json)
     {
         print_json(detect_report_json(report, args.decision, global.verbose));
@@ -154,6 +250,9 @@ void register_detect(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     command->add_flag("--no-register", args->no_register,
                       "Only accept a suspect whose vertices correspond to the original's, in order or "
                       "renumbered where they stand or by its triangles (no registration or resampling)");
+    command->add_option("--report", args->report,
+                        "Also write an evidence report for people: FILE.html (self-contained) or FILE.pdf (A4); "
+                        "docs/evidence.md");
     command->add_flag("--json", args->json,
                       "Print one JSON object: detected (the verdict: claimed), headline (it in a sentence), "
                       "false_positive_probability (of the verdict), recipients (whose copy), owner_mark (the "

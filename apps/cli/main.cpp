@@ -76,7 +76,7 @@ int main(int argc, char** argv)
                  "Exit codes: 0 success (detect: watermark found), 1 detect: not found, "
                  "2 usage, 3 invalid input, 4 numerical failure, 5 internal error.",
                  "meshmark"};
-    app.set_version_flag("--version", "meshmark 0.1.0");
+    app.set_version_flag("--version", cli::kVersion);
     app.require_subcommand(1);
     cli::GlobalArgs global;
     cli::CommandRunner runner;

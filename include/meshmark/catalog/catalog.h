@@ -11,6 +11,7 @@
 
 #include "meshmark/core/file_lock.h"
 #include "meshmark/geometry/shape_signature.h"
+#include "meshmark/io/file_sha256.h"
 #include "meshmark/pipeline/embed_recipients.h"
 #include "meshmark/watermark/key.h"
 
@@ -134,8 +135,5 @@ private:
     struct Impl;
     std::unique_ptr<Impl> impl_;
 };
-
-/// The SHA-256 of \p path's bytes, in lower-case hex. \throws IoError when it cannot be read.
-[[nodiscard]] std::string file_sha256(const std::filesystem::path& path);
 
 }  // namespace meshmark

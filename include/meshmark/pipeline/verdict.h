@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "meshmark/core/plain_numbers.h"
 #include "meshmark/pipeline/detect_file.h"
 
 namespace meshmark {
@@ -32,10 +33,6 @@ struct Verdict
 
 /// \brief The verdict of \p report decided at \p max_false_positive (DetectOptions).
 [[nodiscard]] Verdict verdict_of(const DetectReport& report, double max_false_positive);
-
-/// \brief "1 in 3.2 billion", "1 in 90", "less than 1 in 10^300": how often a false-positive
-/// probability \p p comes true, for a reader without statistics. p >= 1 gives "every time".
-[[nodiscard]] std::string one_in(double p);
 
 /// \brief One sentence that says \p verdict, e.g. "Claimed: a copy of the original, made from
 /// the copy issued to bob. The chance that a mesh without this mark gives this result is at most

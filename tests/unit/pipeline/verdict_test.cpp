@@ -93,18 +93,5 @@ TEST(VerdictTest, ownership_shown_without_an_accusation_is_a_claim_that_names_no
     EXPECT_EQ(verdict_of(nothing, kMax).false_positive_probability, 0.04);
 }
 
-TEST(VerdictTest, one_in_says_a_probability_as_a_reader_counts)
-{
-    EXPECT_EQ(one_in(1.0), "every time");
-    EXPECT_EQ(one_in(0.5), "1 in 2.0");
-    EXPECT_EQ(one_in(0.0111), "1 in 90");
-    EXPECT_EQ(one_in(1.0 / 12345.0), "1 in 12,000");
-    EXPECT_EQ(one_in(1.64e-6), "1 in 610,000");
-    EXPECT_EQ(one_in(1e-6), "1 in 1 million");
-    EXPECT_EQ(one_in(3.1e-10), "1 in 3.2 billion");
-    EXPECT_EQ(one_in(1.8e-20), "1 in 5.6 x 10^19");
-    EXPECT_EQ(one_in(0.0), "less than 1 in 10^300");
-}
-
 }  // namespace
 }  // namespace meshmark

@@ -1,5 +1,7 @@
 // SPDX-License-Identifier: MIT
 // The SHA-256 of a file (OpenSSL's libcrypto): how a catalogue knows an original is unchanged.
+#include "meshmark/io/file_sha256.h"
+
 #include <fstream>
 #include <memory>
 #include <string>
@@ -7,7 +9,6 @@
 
 #include <openssl/evp.h>
 
-#include "meshmark/catalog/catalog.h"
 #include "meshmark/core/error.h"
 
 namespace meshmark {
