@@ -433,7 +433,10 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
                         "third party to timestamp (docs/evidence.md). --json prints it as `record`")
         ->type_name("FILE.json");
     command->add_flag("--json", args->json,
-                      "Print a JSON report on stdout (fields in docs/cli.md; in_unit, max_displacement_cap, record)");
+                      "Print a JSON report on stdout; with a known unit `in_unit` {unit, source, bbox_diagonal, "
+                      "max_displacement, rms_displacement, surface_rms_displacement} in it, with a cap "
+                      "`max_displacement_cap` {cap, unit, strength_factor, written_max_displacement, ...} "
+                      "(docs/file_formats.md, \"Units of length\"), and `record` (docs/evidence.md)");
     command->add_flag("--force", args->force,
                       "Replace an existing key, or the input itself when -o names it (atomically)");
     add_global_flags(*command, global);
