@@ -13,9 +13,10 @@
 namespace meshmark {
 namespace {
 
-// 2^-24 |x| bounds float32 rounding of a coordinate x (half an ulp); twice that over the
-// vertex's length bounds the rounding of all three.
-constexpr double kRoundingMargin = 0x1p-23;
+// 2^-24 |x| bounds float32 rounding of a coordinate x (half an ulp), and 2^-23 |x| a text
+// coordinate written with the shortest float32 digits and read back as a double; over the
+// vertex's length (all three coordinates at once) 2^-23 |p| bounds both; twice that is kept.
+constexpr double kRoundingMargin = 0x1p-22;
 // Bisection steps for the smallest detectable strength: 2^-30 of the range.
 constexpr int kBisectionSteps = 30;
 

@@ -15,8 +15,9 @@ namespace meshmark {
 struct DisplacementCap
 {
     double cap = 0.0;  ///< The cap, in the mesh's coordinates; 0: no cap was asked for.
-    /// Kept free below the cap for the written file's rounding: 2^-23 times the largest
-    /// marked position's length, twice the most float32 rounding can move a vertex.
+    /// Kept free below the cap for the written file's rounding: 2^-22 times the largest
+    /// marked position's length, twice the most a float32 file (binary, or text in shortest
+    /// float32 digits read back as doubles) can move a vertex.
     double rounding_margin = 0.0;
     double uncapped_max = 0.0;  ///< Largest displacement at the strength asked for, mesh units.
     double factor = 1.0;        ///< The strength's scaling; 1 when the cap did not bind.
