@@ -60,10 +60,11 @@ std::string in_unit(const EmbedReport& report, double rel)
     return report.unit ? " (" + format_length(rel * report.diagonal, *report.unit) + ")" : "";
 }
 
-// A length in the coordinates' unit, or in "the mesh's units".
+// A length in the coordinates' unit, or in "the mesh's units", to 4 digits (a cap and what
+// honours it differ in the 4th).
 std::string mesh_length(const EmbedReport& report, double value)
 {
-    return report.unit ? format_length(value, *report.unit) : format_number(value, 3) + " (mesh units)";
+    return format_number(value, 4) + (report.unit ? std::string(" ") + to_string(*report.unit) : " (mesh units)");
 }
 
 // What --max-displacement did, on stderr.
@@ -83,7 +84,7 @@ void print_cap(const EmbedReport& report)
                      mesh_length(report, cap.cap).c_str(), format_number(cap.factor, 3).c_str(),
                      mesh_length(report, cap.uncapped_max).c_str(),
                      mesh_length(report, cap.factor * cap.uncapped_max).c_str(), written.c_str(),
-                     format_number(cap.intact_score, 3).c_str());
+                     format_number(cap.intact_score, 4).c_str());
     }
     else
     {

@@ -18,6 +18,7 @@ import argparse
 import json
 import os
 import pathlib
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -68,7 +69,7 @@ def verdict(binary, suspect, original, key):
 
 def measure(binary, mesh, work):
     row = {"mesh": mesh.name}
-    out = work / mesh.stem
+    out = work / mesh.name  # bunny.off and bunny.stl: one folder each
     out.mkdir()
     ext = mesh.suffix
     t0 = time.perf_counter()
@@ -125,19 +126,25 @@ def main():
     parser.add_argument("--meshes", default="../shared/data/meshes")
     parser.add_argument("--bin", default="build/bin/meshmark")
     parser.add_argument("--max-vertices", type=int, default=0, help="skip larger meshes (0: none)")
+    parser.add_argument("--only", nargs="*", help="only these mesh file names")
     parser.add_argument("--out", help="also write the table (markdown) here")
     args = parser.parse_args()
     meshes = sorted(p for p in pathlib.Path(args.meshes).iterdir() if p.suffix.lower() in MESH_EXTENSIONS)
     rows = []
     with tempfile.TemporaryDirectory(prefix="max-displacement-") as tmp:
+        # A copy of the program: a rebuild during the run must not swap it.
+        binary = pathlib.Path(tmp) / "meshmark"
+        shutil.copy2(args.bin, binary)
         for mesh in meshes:
+            if args.only and mesh.name not in args.only:
+                continue
             count = vertex_count(mesh)
             if args.max_vertices and count is not None and count > args.max_vertices:
                 print(f"skip {mesh.name} ({count} vertices)", file=sys.stderr)
                 continue
             t0 = time.perf_counter()
             try:
-                rows.append(measure(os.path.abspath(args.bin), mesh, pathlib.Path(tmp)))
+                rows.append(measure(str(binary), mesh, pathlib.Path(tmp)))
             except RuntimeError as e:
                 rows.append({"mesh": mesh.name, "error": str(e).replace("|", "/")[:200]})
             print(f"{mesh.name}: {time.perf_counter() - t0:.1f} s", file=sys.stderr)
