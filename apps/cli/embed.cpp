@@ -202,6 +202,12 @@ int run_embed(const EmbedArgs& args, const GlobalArgs& global)
     {
         options.max_displacement_length = parse_length(args.max_displacement, "--max-displacement");
     }
+    // In place, the original is hashed for the record before the marked copy replaces it.
+    std::optional<RecordedFile> original_before;
+    if ((args.json || !args.record.empty()) && is_same_file(args.input, args.output))
+    {
+        original_before = recorded_file(args.input);
+    }
     // Phases and a running clock on a terminal, after the first second; silent otherwise.
     const EmbedReport report = with_progress("meshmark embed", global.quiet, options.progress,
                                              [&] { return embed_file(args.input, args.output, args.key, options); });
@@ -211,7 +217,8 @@ int run_embed(const EmbedArgs& args, const GlobalArgs& global)
     std::optional<EmbedRecord> record;
     if (args.json || !args.record.empty())
     {
-        record = make_embed_record(args.input, args.output, args.key, report.key);
+        record = make_embed_record(args.input, args.output, args.key, report.key,
+                                   original_before ? &*original_before : nullptr);
     }
     if (!args.record.empty())
     {

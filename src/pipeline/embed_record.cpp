@@ -16,9 +16,8 @@
 #endif
 
 namespace meshmark {
-namespace {
 
-RecordedFile recorded(const std::filesystem::path& path)
+RecordedFile recorded_file(const std::filesystem::path& path)
 {
     std::error_code error;
     const auto size = std::filesystem::file_size(path, error);
@@ -28,6 +27,8 @@ RecordedFile recorded(const std::filesystem::path& path)
     }
     return {path.string(), static_cast<std::uint64_t>(size), sha256_of_file(path)};
 }
+
+namespace {
 
 std::string utc_now()
 {
@@ -54,14 +55,14 @@ nlohmann::json file_json(const RecordedFile& file)
 }  // namespace
 
 EmbedRecord make_embed_record(const std::filesystem::path& input, const std::filesystem::path& output,
-                              const std::filesystem::path& key_path, const Key& key)
+                              const std::filesystem::path& key_path, const Key& key, const RecordedFile* original)
 {
     EmbedRecord record;
     record.created_utc = utc_now();
     record.tool_version = std::string("meshmark ") + MESHMARK_VERSION;
-    record.original = recorded(input);
-    record.marked = recorded(output);
-    record.key = recorded(key_path);
+    record.original = original != nullptr ? *original : recorded_file(input);
+    record.marked = recorded_file(output);
+    record.key = recorded_file(key_path);
     record.original_fingerprint = key.original;
     return record;
 }

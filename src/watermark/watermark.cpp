@@ -407,7 +407,8 @@ void SpectralWatermark::scale_strength(double factor)
 {
     if (!(std::isfinite(factor) && factor > 0.0))
     {
-        throw InvalidOption("the strength can only be scaled by a positive factor, got " + std::to_string(factor) + ".");
+        throw InvalidOption("the strength can only be scaled by a positive factor, got " + std::to_string(factor) +
+                            ".");
     }
     // The additive step and the paper's rho are both proportional to the strength the
     // modulation is built from (modulation_strength): scaling what the key records scales it.

@@ -185,6 +185,18 @@ TEST_F(CliUnitsTest, the_record_holds_the_files_hashes_and_no_key_material)
     EXPECT_EQ(text.find("secret-owner"), std::string::npos);
     EXPECT_EQ(text.find("77aa55"), std::string::npos);
     EXPECT_NE(slurp(dir_ / "key.json").find("77aa55"), std::string::npos);
+
+    // In place (-o names the input, --force): the record's original is the file before the embed.
+    fs::copy_file(original_, dir_ / "in-place.ply");
+    const std::string before = sha256_of_file(dir_ / "in-place.ply");
+    const CliRun in_place = run("embed " + in("in-place.ply") + " -o " + in("in-place.ply") + " --key " +
+                                    in("in-place.json") + " --force --record " + in("in-place.record.json"),
+                                dir_);
+    ASSERT_EQ(in_place.exit_code, 0) << in_place.err;
+    const auto record = nlohmann::json::parse(slurp(dir_ / "in-place.record.json"));
+    EXPECT_EQ(record["original"]["sha256"], before);
+    EXPECT_EQ(record["marked"]["sha256"], sha256_of_file(dir_ / "in-place.ply"));
+    EXPECT_NE(record["marked"]["sha256"], before);
 }
 
 }  // namespace

@@ -37,12 +37,19 @@ struct EmbedRecord
     MeshFingerprint original_fingerprint;  ///< As recorded in the key (Key::original).
 };
 
+/// \brief \p path's size and SHA-256 as it is on disk now (RecordedFile::file: \p path as given).
+/// \throws IoError naming the file when it cannot be read.
+[[nodiscard]] RecordedFile recorded_file(const std::filesystem::path& path);
+
 /// \brief The record of an embed whose files exist now: hashes of \p input, \p output and
 /// \p key_path as they are on disk, the UTC time now, and \p key's original fingerprint (its
 /// only part used).
+/// \param original  If not null, the original as recorded_file() hashed it before the embed:
+///                  an embed in place has replaced \p input with the marked copy by now.
 /// \throws IoError naming a file that cannot be read.
 [[nodiscard]] EmbedRecord make_embed_record(const std::filesystem::path& input, const std::filesystem::path& output,
-                                            const std::filesystem::path& key_path, const Key& key);
+                                            const std::filesystem::path& key_path, const Key& key,
+                                            const RecordedFile* original = nullptr);
 
 /// \brief The record as JSON: `format` ("meshmark-embed-record"), `version` (1), `created_utc`,
 /// `tool`, `original` / `marked` / `key` (each `file`, `bytes`, `sha256`),
