@@ -268,7 +268,9 @@ int run_embed(const EmbedArgs& args, const GlobalArgs& global)
                      in_unit(report, stats.rms_displacement_rel).c_str(),
                      format_number(100.0 * stats.max_displacement_rel).c_str(),
                      in_unit(report, stats.max_displacement_rel).c_str(),
-                     report.unit ? "" : " (no unit known: see --unit)", args.key.c_str(),
+                     report.unit       ? ""
+                     : args.unit.empty() ? " (no unit known: see --unit)"
+                                         : " (embedded out of core: not in --unit)", args.key.c_str(),
                      args.record.empty() ? "" : "; record in ", args.record.c_str());
         if (stats.weak_bits > 0)
         {
