@@ -34,7 +34,15 @@ struct CompareArgs
     std::string view;  // of a .png heatmap; empty = the default
     std::string size;  // of a .png heatmap, WxH; empty = the default
     std::string up;    // of a .png heatmap: the model's up axis; empty = +Y
+    std::string unit;  // --unit: A's coordinates' unit
     CompareOptions options;
+};
+
+// A's coordinates' unit: --unit, else the file's; the flag says which.
+struct CompareUnit
+{
+    std::optional<LengthUnit> unit;
+    bool is_from_file = false;
 };
 
 double seconds_since(std::chrono::steady_clock::time_point start)
@@ -148,13 +156,27 @@ double write_heatmap_png(const std::string& path, const TriangleMesh& b,
     return picture.max_distance;
 }
 
-void print_text(const CompareArgs& args, const TriangleMesh& a, const TriangleMesh& b, const DistortionReport& r)
+void print_text(const CompareArgs& args, const TriangleMesh& a, const TriangleMesh& b, const DistortionReport& r,
+                const CompareUnit& unit)
 {
-    const auto pct = [](double rel) { return format_number(100.0 * rel, 4) + "%"; };
+    // "0.27%", or "0.27% (0.81 mm)" in A's unit when it is known.
+    const auto pct = [&](double rel)
+    {
+        std::string text = format_number(100.0 * rel, 4) + "%";
+        if (unit.unit)
+        {
+            text += " (" + format_length(rel * r.diagonal, *unit.unit) + ")";
+        }
+        return text;
+    };
     std::printf("A: %s (%lld vertices, %lld triangles)\nB: %s (%lld vertices, %lld triangles)\n", args.a.c_str(),
                 static_cast<long long>(a.vertex_count()), static_cast<long long>(a.face_count()), args.b.c_str(),
                 static_cast<long long>(b.vertex_count()), static_cast<long long>(b.face_count()));
-    std::printf("distances in %% of the bounding-box diagonal of A (%s):\n", format_number(r.diagonal, 6).c_str());
+    const std::string diagonal =
+        unit.unit ? format_number(r.diagonal, 6) + " " + to_string(*unit.unit) +
+                        (unit.is_from_file ? ", the unit A's file states" : ", --unit")
+                  : format_number(r.diagonal, 6) + ", no unit known: see --unit";
+    std::printf("distances in %% of the bounding-box diagonal of A (%s):\n", diagonal.c_str());
     std::printf("  Hausdorff     %s  (A->B %s, B->A %s)\n", pct(r.hausdorff_rel).c_str(),
                 pct(r.hausdorff_ab_rel).c_str(), pct(r.hausdorff_ba_rel).c_str());
     std::printf("  RMS           A->B %s, B->A %s\n", pct(r.rms_ab_rel).c_str(), pct(r.rms_ba_rel).c_str());
@@ -173,6 +195,8 @@ int run_compare(const CompareArgs& args, const GlobalArgs& global)
 {
     const auto start = std::chrono::steady_clock::now();
     const HeatmapImageOptions image_options = check_heatmap_args(args);
+    const std::optional<LengthUnit> given_unit =
+        args.unit.empty() ? std::nullopt : std::optional<LengthUnit>(parse_length_unit(args.unit));
     const bool png = heatmap_kind(args.heatmap) == HeatmapKind::Png;
     // Phases and a running clock on a terminal, after the first second (as embed and detect);
     // silent otherwise. The phases are the --json `seconds` keys.
@@ -186,7 +210,12 @@ int run_compare(const CompareArgs& args, const GlobalArgs& global)
 
     // Read both meshes, then measure.
     report_phase("read", 0.0);
-    const TriangleMesh a = read_mesh(args.a);
+    CompareUnit unit;
+    MeshFile a_file = read_mesh_file(args.a);
+    unit.unit = given_unit ? given_unit : a_file.unit;
+    unit.is_from_file = args.unit.empty() && unit.unit.has_value();
+    const TriangleMesh a = std::move(a_file.mesh);
+    a_file = MeshFile{};  // the file's bytes are not needed any more
     const TriangleMesh b = read_mesh(args.b);
     const double read_seconds = seconds_since(start);
     report_phase("read", 1.0);
@@ -217,6 +246,10 @@ int run_compare(const CompareArgs& args, const GlobalArgs& global)
     if (args.json)
     {
         nlohmann::json out = compare_report_json(args.a, args.b, a, b, report, args.options.seed);
+        if (unit.unit)
+        {
+            out["in_unit"] = compare_in_unit_json(report, *unit.unit, unit.is_from_file);
+        }
         if (!args.heatmap.empty())
         {
             out["heatmap"] = {{"file", args.heatmap}, {"max_distance", heatmap_max / report.diagonal}};
@@ -230,7 +263,7 @@ int run_compare(const CompareArgs& args, const GlobalArgs& global)
         print_json(out);
         return 0;
     }
-    print_text(args, a, b, report);
+    print_text(args, a, b, report, unit);
     if (!args.heatmap.empty())
     {
         const std::string seen =
@@ -269,7 +302,7 @@ void register_compare(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     command->add_flag("--json", args->json,
                       "Print one JSON object: hausdorff, hausdorff_ab, hausdorff_ba, rms_ab, rms_ba, mrms, "
                       "mean_ab, mean_ba, max_displacement and rms_displacement (same connectivity only), "
-                      "counts, samples, seconds");
+                      "counts, samples, seconds; with a known unit, in_unit: the same distances in it");
     command->add_option(
         "--heatmap", args->heatmap,
         "Show each vertex's distance to A as a color: blue (0) -> cyan -> green -> yellow -> red "
@@ -297,6 +330,9 @@ void register_compare(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
         ->check(CLI::Range(std::int64_t{0}, std::int64_t{1'000'000'000}))
         ->capture_default_str();
     command->add_option("--seed", args->options.seed, "Seed of the stratified sampling")->capture_default_str();
+    command->add_option("--unit", args->unit,
+                        "Unit of A's coordinates (um mm cm m in ft), overriding its file's (3MF states one, glTF "
+                        "is in metres; PLY OBJ OFF STL have none): distances are then also given in it");
     add_global_flags(*command, global);
     command->callback([args, &global, &runner]() {
         runner = [args, &global]() { return run_compare(*args, global); };

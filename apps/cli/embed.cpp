@@ -11,10 +11,13 @@
 #include <vector>
 
 #include "commands.h"
+#include "meshmark/core/atomic_file.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/file_lock.h"
 #include "meshmark/pipeline/embed_file.h"
 #include "meshmark/pipeline/embed_recipients.h"
+#include "meshmark/pipeline/embed_record.h"
+#include "meshmark/pipeline/report_json.h"
 #include "progress.h"
 #include "report.h"
 
@@ -45,8 +48,50 @@ struct EmbedArgs
     int recipient_modes = RecipientCodes{}.modes;
     double recipient_share = RecipientCodes{}.energy_share;
     double lock_timeout = std::chrono::duration<double>(kDefaultLockTimeout).count();
+    std::string unit;              // --unit: the coordinates' unit
+    std::string max_displacement;  // --max-displacement LENGTH
+    std::string record;            // --record FILE.json
     EmbedOptions options;
 };
+
+// " (0.81 mm)" for \p rel of the diagonal when the unit is known, else nothing.
+std::string in_unit(const EmbedReport& report, double rel)
+{
+    return report.unit ? " (" + format_length(rel * report.diagonal, *report.unit) + ")" : "";
+}
+
+// A length in the coordinates' unit, or in "the mesh's units", to 4 digits (a cap and what
+// honours it differ in the 4th).
+std::string mesh_length(const EmbedReport& report, double value)
+{
+    return format_number(value, 4) + (report.unit ? std::string(" ") + to_string(*report.unit) : " (mesh units)");
+}
+
+// What --max-displacement did, on stderr.
+void print_cap(const EmbedReport& report)
+{
+    const DisplacementCap& cap = report.cap;
+    const std::string written = report.written_max_displacement >= 0.0
+                                    ? "; largest in the written file " +
+                                          mesh_length(report, report.written_max_displacement)
+                                    : "";
+    if (cap.factor < 1.0)
+    {
+        std::fprintf(stderr,
+                     "meshmark: --max-displacement %s: the strength was lowered to %s of the one asked for "
+                     "(largest displacement %s -> %s%s); an undamaged copy still reads z = %s. A weaker mark "
+                     "survives less damage (docs/robustness.md, \"Capped displacement\").\n",
+                     mesh_length(report, cap.cap).c_str(), format_number(cap.factor, 3).c_str(),
+                     mesh_length(report, cap.uncapped_max).c_str(),
+                     mesh_length(report, cap.factor * cap.uncapped_max).c_str(), written.c_str(),
+                     format_number(cap.intact_score, 4).c_str());
+    }
+    else
+    {
+        std::fprintf(stderr, "meshmark: --max-displacement %s: the mark fits at the strength asked for%s.\n",
+                     mesh_length(report, cap.cap).c_str(), written.c_str());
+    }
+}
 
 
 // `meshmark embed --recipient ...`: one copy per recipient and the family key.
@@ -55,6 +100,16 @@ int run_embed_recipients(const EmbedArgs& args, const GlobalArgs& global, EmbedR
     if (args.stream || args.memory_budget > 0)
     {
         throw InvalidOption("recipient copies are embedded in memory; --stream and --memory-budget do not apply.");
+    }
+    if (!args.max_displacement.empty())
+    {
+        throw InvalidOption("--max-displacement does not apply to recipient copies: a family key has one strength "
+                            "for every copy, present and future, and each recipient's code moves the vertices "
+                            "differently; cap a single copy (embed without --recipient) instead.");
+    }
+    if (!args.record.empty())
+    {
+        throw InvalidOption("--record applies to a single copy (embed without --recipient).");
     }
     if (args.force)
     {
@@ -134,14 +189,46 @@ int run_embed(const EmbedArgs& args, const GlobalArgs& global)
     options.replace_input = args.force;  // -o may name the input only with --force
     options.memory_budget_mib = args.memory_budget;
     options.force_stream = args.stream;
+    if (!args.unit.empty())
+    {
+        options.unit = parse_length_unit(args.unit);
+    }
+    if (!args.record.empty() && (is_same_file(args.record, args.input) || args.record == args.output ||
+                                 args.record == args.key))
+    {
+        throw InvalidOption("--record " + args.record + " must differ from the input, the output and the key.");
+    }
+    if (!args.max_displacement.empty())
+    {
+        options.max_displacement_length = parse_length(args.max_displacement, "--max-displacement");
+    }
+    // In place, the original is hashed for the record before the marked copy replaces it.
+    std::optional<RecordedFile> original_before;
+    if ((args.json || !args.record.empty()) && is_same_file(args.input, args.output))
+    {
+        original_before = recorded_file(args.input);
+    }
     // Phases and a running clock on a terminal, after the first second; silent otherwise.
     const EmbedReport report = with_progress("meshmark embed", global.quiet, options.progress,
                                              [&] { return embed_file(args.input, args.output, args.key, options); });
 
     const auto& stats = report.stats;
+    // The record hashes the files as written (docs/evidence.md, "The embed record").
+    std::optional<EmbedRecord> record;
+    if (args.json || !args.record.empty())
+    {
+        record = make_embed_record(args.input, args.output, args.key, report.key,
+                                   original_before ? &*original_before : nullptr);
+    }
+    if (!args.record.empty())
+    {
+        write_embed_record(args.record, *record);
+    }
     if (args.json)
     {
-        print_json(embed_report_json(report, args.input, args.output, args.key));
+        nlohmann::json out = embed_report_json(report, args.input, args.output, args.key);
+        out["record"] = to_json(*record);
+        print_json(out);
     }
     if (!global.quiet && !report.stream_note.empty())
     {
@@ -162,18 +249,29 @@ int run_embed(const EmbedArgs& args, const GlobalArgs& global)
     {
         std::fprintf(stderr, "meshmark: note: %s.\n", report.strength_note.c_str());
     }
+    if (!global.quiet && report.cap.cap > 0.0)
+    {
+        print_cap(report);
+    }
     if (!global.quiet)
     {
+        const std::string surface =
+            stats.surface_rms_rel > 0.0 ? "surface distance RMS " + format_number(100.0 * stats.surface_rms_rel) +
+                                              "%" + in_unit(report, stats.surface_rms_rel) + ", vertex "
+                                        : "";
         std::fprintf(stderr,
                      "meshmark: embedded %zu bits into %s (%lld vertices) in %.3f s; %sdisplacement "
-                     "RMS %s%%, max %s%% of the bbox diagonal; key in %s\n",
+                     "RMS %s%%%s, max %s%%%s of the bbox diagonal%s; key in %s%s%s\n",
                      report.key.payload.size(), args.output.c_str(),
-                     static_cast<long long>(report.vertex_count), report.seconds.total,
-                     stats.surface_rms_rel > 0.0
-                         ? ("surface distance RMS " + format_number(100.0 * stats.surface_rms_rel) + "%, vertex ").c_str()
-                         : "",
+                     static_cast<long long>(report.vertex_count), report.seconds.total, surface.c_str(),
                      format_number(100.0 * stats.rms_displacement_rel).c_str(),
-                     format_number(100.0 * stats.max_displacement_rel).c_str(), args.key.c_str());
+                     in_unit(report, stats.rms_displacement_rel).c_str(),
+                     format_number(100.0 * stats.max_displacement_rel).c_str(),
+                     in_unit(report, stats.max_displacement_rel).c_str(),
+                     report.unit       ? ""
+                     : args.unit.empty() ? " (no unit known: see --unit)"
+                                         : " (embedded out of core: not in --unit)", args.key.c_str(),
+                     args.record.empty() ? "" : "; record in ", args.record.c_str());
         if (stats.weak_bits > 0)
         {
             std::fprintf(stderr,
@@ -330,7 +428,25 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
             "Seconds to wait while another call issues on (or writes) the same key, then fail")
         ->check(CLI::Range(0.0, 86400.0))
         ->capture_default_str();
-    command->add_flag("--json", args->json, "Print a JSON report on stdout");
+    command->add_option("--unit", args->unit,
+                        "Unit of the input's coordinates (um mm cm m in ft), overriding the file's (3MF states "
+                        "one, glTF is in metres; PLY OBJ OFF STL have none): distortions are then also given "
+                        "in it (--json: in_unit)");
+    command->add_option("--max-displacement", args->max_displacement,
+                        "Cap on the largest vertex displacement, e.g. 0.05mm (a bare number: the "
+                        "coordinates' unit). The strength is lowered to fit, in the written file; "
+                        "refused if the mark would be undetectable. Not with --recipient")
+        ->type_name("LENGTH");
+    command->add_option("--record", args->record,
+                        "Write the embed record (UTC time, tool version, SHA-256 of the original, the "
+                        "marked copy and the key file; never the key) to this JSON file, for a "
+                        "third party to timestamp (docs/evidence.md). --json prints it as `record`")
+        ->type_name("FILE.json");
+    command->add_flag("--json", args->json,
+                      "Print a JSON report on stdout; with a known unit `in_unit` {unit, source, bbox_diagonal, "
+                      "max_displacement, rms_displacement, surface_rms_displacement} in it, with a cap "
+                      "`max_displacement_cap` {cap, unit, strength_factor, written_max_displacement, ...} "
+                      "(docs/file_formats.md, \"Units of length\"), and `record` (docs/evidence.md)");
     command->add_flag("--force", args->force,
                       "Replace an existing key, or the input itself when -o names it (atomically)");
     add_global_flags(*command, global);

@@ -36,6 +36,10 @@ struct EmbedResult
     Positions positions;
     EmbedStats stats;
     PhaseTimings seconds;  ///< Phases "basis" and "embed".
+    /// Axis-aligned bbox diagonal of the analysed vertices (mesh units): what stats' `_rel`
+    /// fractions are of.
+    double diagonal = 0.0;
+    DisplacementCap cap;  ///< What EmbedMeshOptions::max_displacement did.
 };
 
 /// \brief Watermark \p mesh in memory (docs/algorithms/embedding.md).

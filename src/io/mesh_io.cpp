@@ -174,11 +174,13 @@ MeshFile read_mesh_file(const std::filesystem::path& path)
             file.instances = std::move(asset.instances);
             file.animations = std::move(asset.animations);
             file.is_single_precision = true;
+            file.unit = LengthUnit::Metre;  // glTF 2.0: "the units for all linear distances are meters"
             break;
         }
         case MeshFormat::ThreeMf:
             file.mesh = detail::read_3mf(path, *layout);
             file.instances = std::move(std::get<detail::ThreeMfLayout>(layout->positions).instances);
+            file.unit = std::get<detail::ThreeMfLayout>(layout->positions).unit;
             file.is_single_precision = true;
             break;
     }

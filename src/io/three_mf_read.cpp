@@ -6,6 +6,8 @@
 // other transforms are kept aside, not marked.
 #include <algorithm>
 #include <cmath>
+#include <optional>
+#include <string_view>
 #include <utility>
 
 #include <Eigen/LU>
@@ -25,6 +27,29 @@ namespace fs = std::filesystem;
 constexpr int kMaxComponentDepth = 64;
 constexpr std::size_t kMaxObjectVisits = 1U << 20U;
 
+// The root model's unit (3MF core specification, "Model": micron, millimeter, centimeter, inch,
+// foot, meter; millimeter when absent). Any other value gives no unit rather than a guess.
+std::optional<LengthUnit> model_unit(pugi::xml_attribute unit)
+{
+    if (!unit)
+    {
+        return LengthUnit::Millimetre;
+    }
+    static const std::pair<std::string_view, LengthUnit> kNames[] = {
+        {"micron", LengthUnit::Micrometre}, {"millimeter", LengthUnit::Millimetre},
+        {"centimeter", LengthUnit::Centimetre}, {"inch", LengthUnit::Inch},
+        {"foot", LengthUnit::Foot}, {"meter", LengthUnit::Metre}};
+    const std::string_view value = trimmed(unit.value());
+    for (const auto& [name, length_unit] : kNames)
+    {
+        if (value == name)
+        {
+            return length_unit;
+        }
+    }
+    return std::nullopt;
+}
+
 class Reader
 {
 public:
@@ -37,6 +62,7 @@ public:
     {
         // Build items first (their transforms), then mesh objects no build item reaches.
         ModelPart& root = package_.root();
+        layout_.unit = model_unit(root.model.attribute("unit"));
         ChildFilter is_build(root.model, kCoreNamespace, "build");
         std::size_t count = 0;
         for (const auto build : root.model.children())

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/pipeline/embed_file.h"
 
+#include <cmath>
 #include <fstream>
 #include <iterator>
 #include <optional>
@@ -11,6 +12,7 @@
 
 #include "embed_streamed.h"
 #include "meshmark/core/atomic_file.h"
+#include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/file_lock.h"
 #include "meshmark/meshmark.h"
@@ -86,6 +88,10 @@ void EmbedMeshOptions::validate() const
     {
         throw InvalidOption("--threads must be >= 0 (0 = all cores).");
     }
+    if (!(std::isfinite(max_displacement) && max_displacement >= 0.0))
+    {
+        throw InvalidOption("the largest displacement's cap must be a positive length (0 = no cap).");
+    }
 }
 
 void EmbedFileOptions::validate() const
@@ -94,6 +100,14 @@ void EmbedFileOptions::validate() const
     if (memory_budget_mib < 0)
     {
         throw InvalidOption("--memory-budget must be >= 0 MiB (0 = no budget).");
+    }
+    if (max_displacement_length && max_displacement > 0.0)
+    {
+        throw InvalidOption("give the largest displacement's cap once: as a length or in the mesh's units.");
+    }
+    if (max_displacement_length && force_stream)
+    {
+        throw InvalidOption("--max-displacement embeds in memory (it reads the written copy back); drop --stream.");
     }
 }
 
@@ -177,7 +191,8 @@ namespace {
 // The in-memory embed of \p mesh (named \p name in errors) into \p result: phases "basis" and
 // "embed" on \p timer.
 void embed_into(EmbedResult& result, detail::PhaseTimer& timer, const TriangleMesh& mesh,
-                const std::filesystem::path& name, const EmbedMeshOptions& options)
+                const std::filesystem::path& name, const EmbedMeshOptions& options,
+                std::optional<LengthUnit> unit = std::nullopt)
 {
     timer.begin("basis");
     Key key = detail::new_key(options);
@@ -208,7 +223,13 @@ void embed_into(EmbedResult& result, detail::PhaseTimer& timer, const TriangleMe
     // The field becomes the marked positions in place: one #V x 3 array, not two.
     result.positions = mark.displacement(&result.stats);
     mark.calibrate_strength(mesh, result.positions, &result.stats);
-    key.options = mark.key().options;  // the calibrated strength and the automatic repetitions
+    if (options.max_displacement > 0.0)
+    {
+        result.cap = cap_displacement(mark, mesh, result.positions, &result.stats, options.max_displacement, name,
+                                      unit);
+    }
+    result.diagonal = bounding_box(mesh.V, mark.mesh_rows()->active()).diagonal();
+    key.options = mark.key().options;  // the calibrated (and capped) strength and the automatic repetitions
     result.positions += mesh.V;
     timer.lap("embed");
     result.key = std::move(key);
@@ -227,6 +248,53 @@ EmbedResult embed(const TriangleMesh& mesh, const EmbedMeshOptions& options)
 
 namespace {
 
+// The cap as the user wrote it, in the coordinates of \p input, whose unit is \p unit.
+double cap_in_mesh_units(const Length& cap, std::optional<LengthUnit> unit, const std::filesystem::path& input)
+{
+    std::string written = std::to_string(cap.value);
+    written.erase(written.find_last_not_of('0') + 1);
+    if (!written.empty() && written.back() == '.')
+    {
+        written.pop_back();
+    }
+    written += cap.unit ? to_string(*cap.unit) : "";
+    return length_in_mesh_units(cap, unit, input.string() + ": --max-displacement " + written);
+}
+
+// The largest displacement of the file just written at \p output from \p source, as read
+// back (the file's rounding included), checked against \p cap: a file that exceeds it (a
+// quantized glTF whose grid is coarser than the cap) is removed and refused.
+double check_written_cap(const MeshFile& source, const std::filesystem::path& output, double cap,
+                         std::optional<LengthUnit> unit)
+{
+    // Row for row: the preserving writer (same format), or the plain writers that keep the
+    // rows in order. Others (STL, glTF, 3MF from another format) may regroup the vertices; the
+    // margin's bound stands for them.
+    const MeshFormat format = format_from_extension(output);
+    if (format != source.format && format != MeshFormat::Ply && format != MeshFormat::Obj &&
+        format != MeshFormat::Off)
+    {
+        return -1.0;
+    }
+    const TriangleMesh written = read_mesh(output);
+    if (written.V.rows() != source.mesh.V.rows())
+    {
+        return -1.0;
+    }
+    const double largest = largest_row_distance(written.V, source.mesh.V);
+    if (largest > cap)
+    {
+        std::error_code ignored;
+        std::filesystem::remove(output, ignored);
+        const auto text = [&](double v) { return unit ? format_length(v, *unit) : std::to_string(v); };
+        throw NumericalError(output.string() + ": the written file moves a vertex by " + text(largest) +
+                             ", beyond --max-displacement " + text(cap) +
+                             ": its coordinates are stored more coarsely than the cap (quantized); nothing was "
+                             "written.");
+    }
+    return largest;
+}
+
 EmbedReport embed_to_new_file(const std::filesystem::path& input, const std::filesystem::path& output,
                               const std::filesystem::path& key_path, const EmbedFileOptions& options)
 {
@@ -235,7 +303,9 @@ EmbedReport embed_to_new_file(const std::filesystem::path& input, const std::fil
     (void)format_from_extension(output);  // fail on a bad extension before any work
 
     std::string note;
-    if (const auto streamed = detail::stream_plan(input, output, options, &note))
+    // A cap reads the written copy back: in memory only (EmbedFileOptions::validate).
+    if (const auto streamed =
+            options.max_displacement_length ? std::nullopt : detail::stream_plan(input, output, options, &note))
     {
         return detail::embed_file_streamed(*streamed, output, key_path, detail::new_key(options), options);
     }
@@ -249,17 +319,35 @@ EmbedReport embed_to_new_file(const std::filesystem::path& input, const std::fil
     report.output_format = format_from_extension(output);
     report.vertex_count = file.mesh.vertex_count();
     report.face_count = file.mesh.face_count();
+    report.unit = options.unit ? options.unit : file.unit;
+    report.is_unit_from_file = !options.unit && file.unit.has_value();
+    EmbedMeshOptions mesh_options = options;
+    if (options.max_displacement_length)
+    {
+        mesh_options.max_displacement = cap_in_mesh_units(*options.max_displacement_length, report.unit, input);
+    }
     timer.lap("read");
     EmbedResult marked;
-    embed_into(marked, timer, file.mesh, input, options);
+    embed_into(marked, timer, file.mesh, input, mesh_options, report.unit);
     timer.begin("write");
     // (A binary PLY goes out in slices of the original bytes: no second copy of the file.)
-    const double waited = detail::write_mesh_and_key(
-        key_path, marked.key, options, [&]() { write_mesh_file(output, file, marked.positions); });
+    const double waited = detail::write_mesh_and_key(key_path, marked.key, options,
+                                                     [&]()
+                                                     {
+                                                         write_mesh_file(output, file, marked.positions);
+                                                         if (mesh_options.max_displacement > 0.0)
+                                                         {
+                                                             report.written_max_displacement = check_written_cap(
+                                                                 file, output, mesh_options.max_displacement,
+                                                                 report.unit);
+                                                         }
+                                                     });
     timer.lap("write");
     report.seconds.phases.emplace_back("lock", waited);  // the part of "write" spent waiting
     report.key = std::move(marked.key);
     report.stats = marked.stats;
+    report.diagonal = marked.diagonal;
+    report.cap = marked.cap;
     return report;
 }
 

@@ -31,6 +31,12 @@ namespace meshmark {
 void EmbedRecipientsOptions::validate() const
 {
     EmbedMeshOptions::validate();
+    if (max_displacement > 0.0)
+    {
+        throw InvalidOption("--max-displacement does not apply to recipient copies: a family key has one strength for "
+                            "every copy, present and future, and each recipient's code moves the vertices differently; "
+                            "cap a single copy (embed without --recipient) instead.");
+    }
     if (recipients.empty())
     {
         throw InvalidOption("name at least one recipient (--recipient NAME or --recipients FILE).");

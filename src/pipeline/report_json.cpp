@@ -109,6 +109,39 @@ nlohmann::json embed_report_json(const EmbedReport& report, const std::string& i
     out["faces"] = report.face_count;
     out["streamed"] = report.streamed;
     out["seconds"] = to_json(report.seconds);
+    if (report.unit)
+    {
+        // The distortion again in the coordinates' unit (the fields above stay fractions of the diagonal).
+        const double d = report.diagonal;
+        out["in_unit"] = {{"unit", to_string(*report.unit)},
+                          {"source", report.is_unit_from_file ? "file" : "option"},
+                          {"bbox_diagonal", d},
+                          {"max_displacement", report.stats.max_displacement_rel * d},
+                          {"rms_displacement", report.stats.rms_displacement_rel * d},
+                          {"surface_rms_displacement", report.stats.surface_rms_rel * d}};
+    }
+    if (report.cap.cap > 0.0)
+    {
+        nlohmann::json cap = {{"cap", report.cap.cap},
+                              {"rounding_margin", report.cap.rounding_margin},
+                              {"uncapped_max_displacement", report.cap.uncapped_max},
+                              {"strength_factor", report.cap.factor},
+                              {"written_max_displacement", nullptr},
+                              {"intact_score", nullptr}};
+        if (report.unit)
+        {
+            cap["unit"] = to_string(*report.unit);
+        }
+        if (report.written_max_displacement >= 0.0)
+        {
+            cap["written_max_displacement"] = report.written_max_displacement;
+        }
+        if (report.cap.factor < 1.0)
+        {
+            cap["intact_score"] = report.cap.intact_score;
+        }
+        out["max_displacement_cap"] = std::move(cap);
+    }
     return out;
 }
 
@@ -196,6 +229,28 @@ nlohmann::json attack_report_json(const AttackFileReport& report, const std::str
             {"has_correspondence", report.has_correspondence},
             {"transform", report.similarity ? matrix_json(*report.similarity) : nlohmann::json(nullptr)},
             {"seconds", to_json(report.seconds)}};
+}
+
+nlohmann::json compare_in_unit_json(const DistortionReport& r, LengthUnit unit, bool is_from_file)
+{
+    const double d = r.diagonal;
+    nlohmann::json out = {{"unit", to_string(unit)},
+                          {"source", is_from_file ? "file" : "option"},
+                          {"bbox_diagonal", d},
+                          {"hausdorff", r.hausdorff_rel * d},
+                          {"hausdorff_ab", r.hausdorff_ab_rel * d},
+                          {"hausdorff_ba", r.hausdorff_ba_rel * d},
+                          {"rms_ab", r.rms_ab_rel * d},
+                          {"rms_ba", r.rms_ba_rel * d},
+                          {"mrms", r.mrms_rel * d},
+                          {"mean_ab", r.a_to_b.mean},
+                          {"mean_ba", r.b_to_a.mean}};
+    if (r.displacement)
+    {
+        out["max_displacement"] = r.max_displacement_rel * d;
+        out["rms_displacement"] = r.rms_displacement_rel * d;
+    }
+    return out;
 }
 
 nlohmann::json compare_report_json(const std::string& a_path, const std::string& b_path, const TriangleMesh& a,

@@ -403,4 +403,21 @@ double SpectralWatermark::calibrate_strength(const TriangleMesh& original, Posit
     return factor;
 }
 
+void SpectralWatermark::scale_strength(double factor)
+{
+    if (!(std::isfinite(factor) && factor > 0.0))
+    {
+        throw InvalidOption("the strength can only be scaled by a positive factor, got " + std::to_string(factor) +
+                            ".");
+    }
+    // The additive step and the paper's rho are both proportional to the strength the
+    // modulation is built from (modulation_strength): scaling what the key records scales it.
+    key_.options.strength = key_.options.resolved_strength() * factor;
+    if (key_.options.vertex_strength >= 0.0)
+    {
+        key_.options.vertex_strength *= factor;
+    }
+    init_modulation(static_cast<double>(rows_->size()));
+}
+
 }  // namespace meshmark

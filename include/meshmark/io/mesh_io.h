@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "meshmark/core/length_unit.h"
 #include "meshmark/core/triangle_mesh.h"
 
 namespace meshmark {
@@ -105,6 +106,11 @@ struct MeshFile
     /// one, and the fixed blend of morph targets (AnimationSpan). Empty for other formats and
     /// files without such animations.
     std::vector<AnimationSpan> animations;
+    /// The unit of length the file declares for its coordinates: 3MF's `<model unit=...>`
+    /// (millimetre when the attribute is absent, as the 3MF specification says), metres for
+    /// glTF/GLB (its specification's unit). Empty for PLY, OBJ, OFF and STL, which have none,
+    /// and for a 3MF unit outside its specification's list: a unit is never guessed.
+    std::optional<LengthUnit> unit;
 };
 
 /// \brief Read a mesh file, keeping everything needed for a preserving write.

@@ -9,7 +9,9 @@
 #include <vector>
 
 #include "meshmark/core/file_lock.h"
+#include "meshmark/core/length_unit.h"
 #include "meshmark/io/mesh_io.h"
+#include "meshmark/pipeline/displacement_cap.h"
 #include "meshmark/pipeline/progress.h"
 #include "meshmark/watermark/key.h"
 #include "meshmark/watermark/watermark.h"
@@ -25,6 +27,11 @@ struct EmbedMeshOptions
     std::optional<std::string> bits_hex;  ///< Payload given directly as hex digits.
     std::optional<std::uint64_t> seed;    ///< Secret seed; drawn from the OS when absent.
     int threads = 0;                      ///< 0 = all cores (resolve_threads).
+    /// \brief Cap on the largest vertex displacement, in the mesh's coordinates; 0: none. When
+    /// the strength would move a vertex further, it is lowered to fit with room for float32
+    /// rounding, and an undetectable mark is refused (cap_displacement, displacement_cap.h).
+    /// Not for recipient copies (one family strength for copies of different largest moves).
+    double max_displacement = 0.0;
     ProgressCallback progress;            ///< Optional.
     /// \throws InvalidOption on conflicting or out-of-range options.
     void validate() const;
@@ -49,6 +56,14 @@ struct EmbedFileOptions : EmbedMeshOptions
     std::int64_t memory_budget_mib = 0;
     /// Always embed out of core; an input that cannot be streamed is an error (InvalidOption).
     bool force_stream = false;
+    /// The unit of the input's coordinates as the user states it (`--unit`); overrides the
+    /// unit the file declares (MeshFile::unit). Empty: the file's, if it has one.
+    std::optional<LengthUnit> unit;
+    /// \brief The cap on the largest displacement as the user wrote it (`--max-displacement
+    /// 0.05mm`; a bare number is in the coordinates' unit, refused when there is none); turned
+    /// into EmbedMeshOptions::max_displacement once the file is read. Embeds in memory. The
+    /// written file is read back and its largest displacement checked against the cap.
+    std::optional<Length> max_displacement_length;
     /// \throws InvalidOption on conflicting or out-of-range options.
     void validate() const;
 };
@@ -67,6 +82,16 @@ struct EmbedReport
     std::string stream_note;  ///< Why a budget-exceeding input was embedded in memory anyway.
     /// Out of core: how the surface strength was applied (as its vertex equivalent).
     std::string strength_note;
+    /// The unit of the coordinates: `--unit`, else the file's (MeshFile::unit); empty: unitless.
+    std::optional<LengthUnit> unit;
+    bool is_unit_from_file = false;  ///< The unit is the file's declaration (not `--unit`).
+    /// Axis-aligned bbox diagonal of the analysed vertices in the coordinates' unit: the
+    /// length EmbedStats' `_rel` fractions are of.
+    double diagonal = 0.0;
+    DisplacementCap cap;  ///< What the cap did (cap.cap == 0: none asked for).
+    /// With a cap: the largest displacement between the input's and the written file's vertices
+    /// as read back (the file's own rounding included), coordinates' unit; -1: not measured.
+    double written_max_displacement = -1.0;
 };
 
 /// \brief Refuse, with one sentence naming \p path, a key that \p mesh cannot use: the

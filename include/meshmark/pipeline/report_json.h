@@ -35,7 +35,13 @@ namespace meshmark {
                                                           const std::string& input, const std::string& key);
 
 /// \brief `meshmark embed --json`: embed_stats_json plus the file names as given, the counts,
-/// `streamed` and `seconds`.
+/// `streamed` and `seconds`; where the coordinates' unit is known (the file's or `--unit`),
+/// `in_unit`: {`unit` ("mm", ...), `source` ("file" or "option"), `bbox_diagonal`,
+/// `max_displacement`, `rms_displacement`, `surface_rms_displacement`} in that unit; with a cap,
+/// `max_displacement_cap`: {`cap`, `unit` (when known), `rounding_margin`,
+/// `uncapped_max_displacement`, `strength_factor`, `written_max_displacement` (read back; null
+/// when not measured), `intact_score` (z of the undamaged float32 copy; null when the cap did
+/// not bind)}, lengths in the coordinates' unit.
 [[nodiscard]] nlohmann::json embed_report_json(const EmbedReport& report, const std::string& input,
                                                const std::string& output, const std::string& key);
 
@@ -48,6 +54,12 @@ namespace meshmark {
 /// `meshmark attack --json`.
 [[nodiscard]] nlohmann::json attack_report_json(const AttackFileReport& report, const std::string& input,
                                                 const std::string& output);
+
+/// \brief `meshmark compare --json`'s `in_unit` object: the distances of \p r in \p unit, A's
+/// coordinates' unit (`unit`, `source` "file" or "option", `bbox_diagonal`, `hausdorff`,
+/// `hausdorff_ab`, `hausdorff_ba`, `rms_ab`, `rms_ba`, `mrms`, `mean_ab`, `mean_ba`, and with the
+/// same connectivity `max_displacement`, `rms_displacement`).
+[[nodiscard]] nlohmann::json compare_in_unit_json(const DistortionReport& r, LengthUnit unit, bool is_from_file);
 
 /// \brief `meshmark compare --json` without `seconds` and `heatmap`: the distances of \p report
 /// (A = \p a read from \p a_path, B likewise), the counts and the sampling \p seed.

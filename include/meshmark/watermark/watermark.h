@@ -146,6 +146,14 @@ public:
     /// calibrated vertex strength would exceed 0.5 of the diagonal.
     double calibrate_strength(const TriangleMesh& original, Positions& field, EmbedStats* stats = nullptr);
 
+    /// \brief Lower (or raise) the mark's strength by \p factor after the embedding chose it: the
+    /// key's strength (and calibrated vertex strength) and the modulation (the owner's and a
+    /// family's codes alike) are multiplied by it, so the displacement, which is linear in the
+    /// modulation, is the one displacement() synthesized times \p factor, and detection rebuilds
+    /// it from key(). How embed caps the largest displacement (EmbedMeshOptions::max_displacement).
+    /// \throws InvalidOption unless \p factor is finite and positive.
+    void scale_strength(double factor);
+
     /// \brief Correlation, verdict and false-positive probability of an extraction
     /// (docs/statistics.md). For a family key: of the owner's mark.
     [[nodiscard]] Decision decide(const Extraction& extraction, const DetectOptions& options) const;

@@ -75,6 +75,7 @@ struct ThreeMfLayout
 {
     std::vector<ThreeMfObject> objects;
     TriangleMesh instances;  ///< Other instances of objects (see MeshFile::instances).
+    std::optional<LengthUnit> unit;  ///< The root model's unit (see MeshFile::unit).
 };
 
 /// Everything a preserving writer needs: the original bytes and where the positions sit.
