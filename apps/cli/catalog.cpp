@@ -1,8 +1,12 @@
 // SPDX-License-Identifier: MIT
 // `meshmark catalog add|list|issue|scan|export`: a catalogue of marked assets (docs/catalog.md).
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
+#include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -11,7 +15,11 @@
 #include "meshmark/catalog/catalog_add.h"
 #include "meshmark/catalog/catalog_json.h"
 #include "meshmark/catalog/catalog_scan.h"
+#include "meshmark/core/atomic_file.h"
 #include "meshmark/core/error.h"
+#include "meshmark/io/file_sha256.h"
+#include "meshmark/io/mesh_io.h"
+#include "meshmark/report/evidence_report.h"
 #include "progress.h"
 #include "report.h"
 
@@ -27,6 +35,7 @@ struct CatalogArgs
     std::vector<std::string> recipients;
     std::string recipients_file;
     std::string key;
+    std::string report;  // scan: --report PATTERN (.html or .pdf, {suspect} with several suspects)
     bool json = false;
     bool force = false;
     int jobs = 0;
@@ -147,8 +156,121 @@ int run_issue(const CatalogArgs& args, const GlobalArgs& global)
     return 0;
 }
 
+// --- catalog scan --report: an evidence report per suspect (docs/evidence.md). ---
+
+// The report's file for \p suspect: the pattern with {suspect} replaced by its file name's stem.
+std::filesystem::path report_path(const std::string& pattern, const std::filesystem::path& suspect)
+{
+    std::string path = pattern;
+    const std::string name = suspect.stem().string();
+    for (std::size_t at = path.find("{suspect}"); at != std::string::npos; at = path.find("{suspect}", at + name.size()))
+    {
+        path.replace(at, 9, name);
+    }
+    return path;
+}
+
+// --report names .html or .pdf files, one per suspect, none of them an input (before scanning).
+void check_scan_reports(const CatalogArgs& args)
+{
+    if (args.report.empty())
+    {
+        return;
+    }
+    (void)evidence_format(args.report);
+    std::set<std::filesystem::path> paths;
+    for (const std::string& suspect : args.inputs)
+    {
+        const std::filesystem::path path = report_path(args.report, suspect);
+        if (!paths.insert(path).second)
+        {
+            throw InvalidOption("--report " + args.report + " names one file for several suspects; put {suspect} "
+                                "(the suspect's file name without its extension) in it.");
+        }
+        if (is_same_file(path, suspect) || is_same_file(path, args.catalog))
+        {
+            throw InvalidOption("--report " + path.string() + " would overwrite an input file.");
+        }
+    }
+}
+
+// \p report with every probability taken over the catalogue's \p assets keys, as the scan
+// states them (the union bound over every key it could have tried: docs/statistics.md).
+DetectReport over_the_catalogue(DetectReport report, std::size_t assets)
+{
+    const auto scaled = [assets](double& p) { p = std::min(1.0, p * static_cast<double>(assets)); };
+    scaled(report.decision.false_positive_probability);
+    scaled(report.decision.score_false_positive_probability);
+    scaled(report.decision.bits_false_positive_probability);
+    scaled(report.owner_false_positive_probability);
+    for (RecipientScore& r : report.accused)
+    {
+        scaled(r.false_positive_probability);
+    }
+    return report;
+}
+
+// The report of one suspect: against its strongest match, or, matched by none, against the
+// nearest asset the scan tried (detected again there: a "not shown" report says what was
+// compared). Nothing to write when no asset could be tried.
+void write_scan_report(const CatalogArgs& args, const Catalog& catalog, const CatalogScanReport& report,
+                       const SuspectScan& scan, const CatalogScanOptions& options, const GlobalArgs& global)
+{
+    std::optional<CatalogAsset> asset;
+    DetectReport found;
+    if (!scan.matches.empty())
+    {
+        asset = catalog.asset(scan.matches.front().asset);
+        found = scan.matches.front().report;
+    }
+    else
+    {
+        for (const CatalogTry& tried : scan.tried)
+        {
+            if (tried.error.empty() && (asset = catalog.asset(tried.asset)))
+            {
+                DetectFileOptions detect = options.detect;
+                detect.decision.max_false_positive /= static_cast<double>(std::max<std::size_t>(1, report.assets));
+                found = detect_against_original(read_mesh(scan.path), asset->original, asset->key, detect);
+                break;
+            }
+        }
+    }
+    const std::filesystem::path path = report_path(args.report, scan.path);
+    if (!asset)
+    {
+        if (!global.quiet)
+        {
+            std::fprintf(stderr, "meshmark: %s: no report (no asset of the catalogue could be compared)\n",
+                         scan.path.c_str());
+        }
+        return;
+    }
+    DetectOptions decision;
+    decision.max_false_positive = args.max_false_positive;
+    const std::string key_text = to_json(asset->key);
+    const EvidenceFile key{"the key of asset " + asset->id + " (catalog export)", key_text.size(),
+                           bytes_sha256(key_text)};
+    DetectionReportOptions report_options;
+    report_options.pictures.threads = global.threads;
+    report_options.version = kVersion;
+    report_options.command = "meshmark catalog scan " + shell_word(args.catalog) + " " + shell_word(scan.path) +
+                             (args.max_false_positive != DetectOptions{}.max_false_positive
+                                  ? " --max-fpp " + shortest(args.max_false_positive)
+                                  : std::string()) +
+                             " --json";
+    write_detection_report(path, scan.path, asset->original, key,
+                           detect_report_json(over_the_catalogue(std::move(found), report.assets), decision),
+                           report_options);
+    if (!global.quiet)
+    {
+        std::fprintf(stderr, "meshmark: %s: report written to %s\n", scan.path.c_str(), path.c_str());
+    }
+}
+
 int run_scan(const CatalogArgs& args, const GlobalArgs& global)
 {
+    check_scan_reports(args);
     CatalogScanOptions options;
     options.detect.threads = global.threads;
     options.detect.decision.max_false_positive = args.max_false_positive;
@@ -161,6 +283,16 @@ int run_scan(const CatalogArgs& args, const GlobalArgs& global)
     if (args.json)
     {
         print_json(catalog_scan_json(catalog, report, options));
+    }
+    if (!args.report.empty())
+    {
+        for (const SuspectScan& scan : report.suspects)
+        {
+            if (scan.error.empty())
+            {
+                write_scan_report(args, catalog, report, scan, options, global);
+            }
+        }
     }
     bool any = false;
     std::size_t unreadable = 0;
@@ -296,6 +428,9 @@ void register_catalog(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
         ->check(CLI::Range(1e-300, 1.0))
         ->capture_default_str();
     add_lock_timeout(*scan, *args);
+    scan->add_option("--report", args->report,
+                     "Write an evidence report per suspect, FILE.html or FILE.pdf (docs/evidence.md); with several "
+                     "suspects put {suspect} (the file name without its extension) in it");
     scan->add_flag("--json", args->json, "Print a JSON report on stdout");
     add_global_flags(*scan, global);
     scan->callback([args, &global, &runner] { runner = [args, &global] { return run_scan(*args, global); }; });

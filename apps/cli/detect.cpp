@@ -35,30 +35,6 @@ struct DetectArgs
     DetectOptions decision;
 };
 
-/// An argument as the shell reads it back: quoted unless made of safe characters only.
-std::string shell_word(const std::string& word)
-{
-    const bool is_safe = !word.empty() && word.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
-                                                                 "0123456789_-+=.,/:@%") == std::string::npos;
-    if (is_safe)
-    {
-        return word;
-    }
-    std::string out = "'";
-    for (const char c : word)
-    {
-        out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-    }
-    return out + "'";
-}
-
-std::string shortest(double value)
-{
-    std::array<char, 32> text{};
-    const auto end = std::to_chars(text.data(), text.data() + text.size(), value).ptr;
-    return {text.data(), end};
-}
-
 /// The command that repeats this check and prints its --json: the options that differ from
 /// their defaults, never --report.
 std::string repeat_command(const DetectArgs& args)

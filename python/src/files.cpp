@@ -12,7 +12,9 @@
 #include "meshmark/meshmark.h"
 #include "meshmark/metrics/distortion.h"
 #include "meshmark/pipeline/attack_file.h"
+#include "meshmark/pipeline/embed_record.h"
 #include "meshmark/pipeline/embed_recipients.h"
+#include "meshmark/pipeline/embed_record.h"
 #include "meshmark/pipeline/report_json.h"
 
 namespace meshmark::python {
@@ -101,11 +103,22 @@ void bind_files(py::module_& m)
             options.memory_budget_mib = memory_budget;
             options.force_stream = stream;
             std::optional<EmbedReport> report;
+            nlohmann::json out;
             {
                 py::gil_scoped_release release;
+                // As `embed --json`: the record of the files as written (docs/evidence.md); in
+                // place, the original hashed before the marked copy replaces it.
+                std::optional<RecordedFile> original_before;
+                if (std::filesystem::exists(output) && std::filesystem::equivalent(input, output))
+                {
+                    original_before = recorded_file(input);
+                }
                 report.emplace(embed_file(input, output, key_path, options));
+                out = embed_report_json(*report, input.string(), output.string(), key_path.string());
+                out["record"] = to_json(make_embed_record(input, output, key_path, report->key,
+                                                          original_before ? &*original_before : nullptr));
             }
-            return to_python(embed_report_json(*report, input.string(), output.string(), key_path.string()));
+            return to_python(out);
         },
         py::arg("input"), py::arg("output"), py::arg("key_path"), py::kw_only(),
         py::arg("message") = py::none(), py::arg("bits") = py::none(), py::arg("seed") = py::none(),

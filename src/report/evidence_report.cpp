@@ -47,10 +47,18 @@ void write_detection_report(const std::filesystem::path& path, const std::filesy
                             const nlohmann::json& detect, const DetectionReportOptions& options)
 {
     (void)evidence_format(path);  // a wrong extension before any work
+    write_detection_report(path, suspect, original, evidence_file(key), detect, options);
+}
+
+void write_detection_report(const std::filesystem::path& path, const std::filesystem::path& suspect,
+                            const std::filesystem::path& original, const EvidenceFile& key,
+                            const nlohmann::json& detect, const DetectionReportOptions& options)
+{
+    (void)evidence_format(path);  // a wrong extension before any work
     EvidenceFacts facts;
     facts.suspect = evidence_file(suspect);
     facts.original = evidence_file(original);
-    facts.key = evidence_file(key);
+    facts.key = key;
     facts.detect = detect;
     facts.version = options.version;
     facts.command = options.command;

@@ -191,6 +191,48 @@ def check_report(c, cli, tmp, name, suspect, original, key, expect_claimed, expe
     return html
 
 
+def check_scan_reports(c, cli, tmp, bunny, spot):
+    """catalog scan --report 'dir/{suspect}.html': one report per suspect, each stating what the
+    scan's --json states for it (the bound over the whole catalogue)."""
+    originals = tmp / "originals"
+    originals.mkdir()
+    for mesh in (bunny, spot):
+        shutil.copy(mesh, originals / mesh.name)
+    catalog = tmp / "shop.db"
+    run(cli, "catalog", "add", catalog, originals, "-o", tmp / "published", "-q", expect=(0,))
+    run(cli, "catalog", "issue", catalog, bunny.name, "--recipient", "bob", "-o", tmp / "sold_{recipient}.ply", "-q",
+        expect=(0,))
+    run(cli, "attack", tmp / "sold_bob.ply", "similarity,simplify=0.6", "-o", tmp / "leak.ply", "--seed", 3, "-q",
+        expect=(0,))
+    run(cli, "attack", spot, "similarity,noise=0.0005", "-o", tmp / "lookalike.ply", "--seed", 4, "-q", expect=(0,))
+    one = run(cli, "catalog", "scan", catalog, tmp / "leak.ply", tmp / "lookalike.ply", "--report",
+              tmp / "scan.html", "-q")
+    c.check(one.returncode == 2 and not (tmp / "scan.html").exists(),
+            f"scan --report without {{suspect}} for two suspects: exit {one.returncode}: {one.stderr.strip()}")
+    done = run(cli, "catalog", "scan", catalog, tmp / "leak.ply", tmp / "lookalike.ply", "--report",
+               tmp / "scan" / "{suspect}.html", "--json", "-q", expect=(0,))
+    for suspect in json.loads(done.stdout)["suspects"]:
+        name = Path(suspect["path"]).stem
+        page = tmp / "scan" / f"{name}.html"
+        if not c.check(page.exists(), f"scan: {page.name} written"):
+            continue
+        text = page.read_text(encoding="utf-8")
+        meta = dict(re.findall(r'<meta name="meshmark:([a-z_]+)" content="([^"]*)">', text))
+        c.check(meta.get("detected") == ("true" if suspect["detected"] else "false"),
+                f"scan {name}: report's detected = scan's ({suspect['detected']})")
+        if suspect["detected"]:
+            match = suspect["matches"][0]
+            c.check(float(meta["false_positive_probability"]) == match["false_positive_probability"],
+                    f"scan {name}: report's probability = the scan's over the catalogue "
+                    f"({match['false_positive_probability']:.3g})")
+            names = [r["name"] for r in match.get("recipients", [])]
+            c.check(meta.get("accused", "") == ",".join(names) and names == ["bob"],
+                    f"scan {name}: report's accused = scan's ({names})")
+            c.check("CLAIMED" in text and "catalog scan" in text, f"scan {name}: CLAIMED, and the scan to repeat")
+        else:
+            c.check("NOT SHOWN" in text, f"scan {name}: NOT SHOWN")
+
+
 def check_browser(c, tmp, html):
     chromium = shutil.which("chromium") or shutil.which("chromium-browser")
     if not chromium:
@@ -250,6 +292,7 @@ def main():
                   "--report", tmp / "x.txt", "-q")
         c.check(bad.returncode == 2 and not (tmp / "x.txt").exists() and bad.stderr.count("\n") == 1,
                 f"--report x.txt: exit {bad.returncode}, one line: {bad.stderr.strip()}")
+        check_scan_reports(c, cli, tmp, bunny, mesh_dir() / "spot.obj")
         browsed = check_browser(c, tmp, html)
     finally:
         if args.keep:

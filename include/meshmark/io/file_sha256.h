@@ -3,6 +3,7 @@
 
 #include <filesystem>
 #include <string>
+#include <string_view>
 
 namespace meshmark {
 
@@ -11,5 +12,9 @@ namespace meshmark {
 /// how an embed record commits to its files and how an evidence report names them.
 /// \throws IoError when the file cannot be opened or read.
 [[nodiscard]] std::string file_sha256(const std::filesystem::path& path);
+
+/// \brief The SHA-256 of \p bytes, in lower-case hex: a file's before it is written (the key of
+/// a catalogue's asset as `catalog export` writes it).
+[[nodiscard]] std::string bytes_sha256(std::string_view bytes);
 
 }  // namespace meshmark

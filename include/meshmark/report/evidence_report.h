@@ -161,4 +161,10 @@ void write_detection_report(const std::filesystem::path& path, const std::filesy
                             const std::filesystem::path& original, const std::filesystem::path& key,
                             const nlohmann::json& detect, const DetectionReportOptions& options = {});
 
+/// \brief write_detection_report with the key named by \p key (a key without a file of its own: a
+/// catalogue's record, named by the SHA-256 of its key file as `catalog export` writes it).
+void write_detection_report(const std::filesystem::path& path, const std::filesystem::path& suspect,
+                            const std::filesystem::path& original, const EvidenceFile& key,
+                            const nlohmann::json& detect, const DetectionReportOptions& options = {});
+
 }  // namespace meshmark
