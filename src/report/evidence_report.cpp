@@ -10,6 +10,7 @@
 #include <ostream>
 
 #include "meshmark/core/atomic_file.h"
+#include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
 #include "meshmark/io/mesh_io.h"
 
@@ -72,10 +73,13 @@ void write_detection_report(const std::filesystem::path& path, const std::filesy
         facts.created = text;
     }
     // The two meshes are read at once (a text file's parsing is serial).
-    std::future<TriangleMesh> original_read =
-        std::async(std::launch::async, [&original] { return read_mesh(original); });
+    std::future<MeshFile> original_read =
+        std::async(std::launch::async, [&original] { return read_mesh_file(original); });
     const TriangleMesh suspect_mesh = read_mesh(suspect);
-    const TriangleMesh original_mesh = original_read.get();
+    const MeshFile original_file = original_read.get();
+    const TriangleMesh& original_mesh = original_file.mesh;
+    facts.unit = original_file.unit;
+    facts.original_diagonal = bounding_box(original_mesh.V).diagonal();
     write_evidence_report(path, facts, evidence_pictures(suspect_mesh, original_mesh, detect, options.pictures));
 }
 

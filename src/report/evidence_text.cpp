@@ -9,6 +9,7 @@
 
 #include "meshmark/core/plain_numbers.h"
 #include "meshmark/core/error.h"
+#include "meshmark/core/length_unit.h"
 #include "meshmark/io/file_sha256.h"
 #include "meshmark/report/evidence_report.h"
 
@@ -30,6 +31,26 @@ std::string printf_string(const char* format, double value)
 std::string percent(double fraction)
 {
     return printf_string("%.3g%%", 100.0 * fraction);
+}
+
+/// A fraction of the diagonal as a percentage, and as a length where the original's file says
+/// its unit (EvidenceFacts::unit): "0.0755% (0.12 mm)".
+std::string percent_and_length(double fraction, const EvidenceFacts& facts)
+{
+    std::string out = percent(fraction);
+    if (facts.unit && facts.original_diagonal > 0.0)
+    {
+        // A metric length in the unit a print seller reads: 0.148 mm, not 0.000148 m (µm below 0.01 mm).
+        const double length = fraction * facts.original_diagonal;
+        LengthUnit shown = *facts.unit;
+        if (shown != LengthUnit::Inch && shown != LengthUnit::Foot)
+        {
+            const double metres = length * metres_per(shown);
+            shown = metres < 1e-5 ? LengthUnit::Micrometre : metres < 1.0 ? LengthUnit::Millimetre : LengthUnit::Metre;
+        }
+        out += " (" + format_length(convert_length(length, *facts.unit, shown), shown) + ")";
+    }
+    return out;
 }
 
 /// A probability as printed beside "1 in N": "3.1e-10", "0.011".
@@ -124,8 +145,9 @@ EvidenceSection files_section(const EvidenceFacts& facts)
     return s;
 }
 
-EvidenceSection correspondence_section(const nlohmann::json& detect, const EvidencePictures& pictures)
+EvidenceSection correspondence_section(const EvidenceFacts& facts, const EvidencePictures& pictures)
 {
+    const nlohmann::json& detect = facts.detect;
     const nlohmann::json& registration = field(detect, "registration");
     const std::string method = registration.value("method", std::string("none"));
     const double rms = registration.value("rms_error", 0.0);
@@ -170,11 +192,12 @@ EvidenceSection correspondence_section(const nlohmann::json& detect, const Evide
     {
         s.paragraphs.push_back("The automatic alignment did not fully settle, so the match above may be rough.");
     }
-    std::string meaning = "After this alignment the suspect lies on average (root mean square) " + percent(rms) +
+    std::string meaning = "After this alignment the suspect lies on average (root mean square) " +
+                          percent_and_length(rms, facts) +
                           " of the original's size (the diagonal of its bounding box) from the original";
     if (strength > 0.0)
     {
-        meaning += "; the watermark itself moves the surface by about " + percent(strength) + ".";
+        meaning += "; the watermark itself moves the surface by about " + percent_and_length(strength, facts) + ".";
         meaning += rms <= 2.0 * strength
                        ? " The suspect follows the original closely: it is the same shape, within the size of the "
                          "mark."
@@ -194,7 +217,7 @@ EvidenceSection correspondence_section(const nlohmann::json& detect, const Evide
     s.rows.emplace_back("Correspondence", method);
     s.rows.emplace_back("Points", "suspect " + grouped_digits(static_cast<std::uintmax_t>(suspect_vertices)) +
                                       ", original " + grouped_digits(static_cast<std::uintmax_t>(original_vertices)));
-    s.rows.emplace_back("Distance after alignment (RMS)", percent(rms) + " of the original's diagonal");
+    s.rows.emplace_back("Distance after alignment (RMS)", percent_and_length(rms, facts) + " of the original's diagonal");
     s.rows.emplace_back("Cut away (cropped)", percent(cropped) + " of the original");
     s.rows.emplace_back("Left out as too far", percent(outliers) + " of the original's points");
     s.figure = EvidenceSection::Figure::Alignment;
@@ -206,18 +229,18 @@ EvidenceSection correspondence_section(const nlohmann::json& detect, const Evide
     return s;
 }
 
-EvidenceSection difference_section(const EvidencePictures& pictures, double strength)
+EvidenceSection difference_section(const EvidenceFacts& facts, const EvidencePictures& pictures, double strength)
 {
     EvidenceSection s;
     s.heading = "Where the suspect differs from the original";
     std::string text = "Each point of the aligned suspect is coloured by its distance to the original's surface: "
                        "blue where it lies on it, red where it lies " +
-                       percent(pictures.red_distance_rel) +
+                       percent_and_length(pictures.red_distance_rel, facts) +
                        " of the original's diagonal away or more. Half of the points lie within " +
-                       percent(pictures.median_distance_rel) + ".";
+                       percent_and_length(pictures.median_distance_rel, facts) + ".";
     if (strength > 0.0)
     {
-        text += " The watermark moves the surface by about " + percent(strength) +
+        text += " The watermark moves the surface by about " + percent_and_length(strength, facts) +
                 ", far below what the eye sees on the model; a faint, even pattern at that level is what a "
                 "marked copy shows, while larger red areas are where the suspect was edited.";
     }
@@ -351,8 +374,8 @@ EvidenceText evidence_text(const EvidenceFacts& facts, const EvidencePictures& p
 
     out.sections.push_back(files_section(facts));
     out.sections.push_back(std::move(found));
-    out.sections.push_back(correspondence_section(detect, pictures));
-    out.sections.push_back(difference_section(pictures, strength));
+    out.sections.push_back(correspondence_section(facts, pictures));
+    out.sections.push_back(difference_section(facts, pictures, strength));
     out.sections.push_back(method_section());
     out.sections.push_back(repeat_section(facts));
     return out;

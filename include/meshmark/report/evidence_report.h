@@ -9,11 +9,13 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
+#include "meshmark/core/length_unit.h"
 #include "meshmark/core/triangle_mesh.h"
 #include "meshmark/render/heatmap_image.h"
 #include "meshmark/render/image.h"
@@ -56,6 +58,10 @@ struct EvidenceFacts
     std::string version;    ///< The tool's version, e.g. "meshmark 0.1.0".
     std::string command;    ///< The command line that repeats the check (with --json).
     std::string created;    ///< When the report was made (UTC, ISO 8601); empty = not stated.
+    /// The unit of length the original's file declares (MeshFile::unit: 3MF, glTF): distances
+    /// are then stated in it too. Empty: in % of the diagonal only (never guessed).
+    std::optional<LengthUnit> unit;
+    double original_diagonal = 0.0;  ///< The original's bounding-box diagonal, in its coordinates.
 };
 
 /// Options of evidence_pictures.

@@ -229,6 +229,29 @@ TEST(EvidenceReport, UnmarkedSuspectSaysNotShown)
     EXPECT_EQ(html.find(kPayload), std::string::npos);
 }
 
+// Distances in the unit the original's file declares (3MF, glTF), in the metric unit that reads
+// best; in % of the diagonal only when it declares none.
+TEST(EvidenceReport, DistancesAreStatedInTheOriginalsUnitWhenItHasOne)
+{
+    const auto dir = test::temp_dir("evidence_unit");
+    const Case c = make_case();
+    EvidencePictureOptions options;
+    options.panel = {300, 240};
+    options.heatmap = {400, 260};
+    const nlohmann::json detect = detect_json(true, c.to_original, "");
+    EvidenceFacts facts = facts_for(dir, c, detect);
+    const EvidencePictures pictures = evidence_pictures(c.suspect, c.original, detect, options);
+    const std::string unitless = evidence_html(evidence_text(facts, pictures), pictures);
+    EXPECT_EQ(unitless.find(" mm)"), std::string::npos);
+    facts.unit = LengthUnit::Metre;
+    facts.original_diagonal = 0.3;  // a 300 mm part: the mark's 0.059% is 0.177 mm
+    const double strength = detect.value("mark_strength", 0.0);
+    ASSERT_GT(strength, 0.0);
+    const std::string in_metres = evidence_html(evidence_text(facts, pictures), pictures);
+    const std::string expected = format_length(strength * 300.0, LengthUnit::Millimetre);
+    EXPECT_NE(in_metres.find("(" + expected + ")"), std::string::npos) << expected;
+}
+
 TEST(EvidenceReport, HeadlineOfTheJsonIsQuotedWhenPresent)
 {
     const auto dir = test::temp_dir("evidence_headline");
