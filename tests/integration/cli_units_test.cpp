@@ -15,6 +15,7 @@
 #include "meshmark/geometry/shapes.h"
 #include "meshmark/io/file_sha256.h"
 #include "meshmark/io/mesh_io.h"
+#include "support/cli_run.h"
 #include "support/test_paths.h"
 
 namespace meshmark {
@@ -22,34 +23,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct CliRun
-{
-    int exit_code = -1;
-    std::string out;
-    std::string err;
-};
+using test::CliRun;
+using test::slurp;
 
-std::string slurp(const fs::path& p)
-{
-    std::ifstream in(p, std::ios::binary);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-}
-
-CliRun run(const std::string& arguments, const fs::path& dir)
-{
-    const auto out = dir / "stdout.txt";
-    const auto err = dir / "stderr.txt";
-    const std::string command =
-        test::cli_path().string() + " " + arguments + " >" + out.string() + " 2>" + err.string();
-    const int status = std::system(command.c_str());
-    CliRun result;
-    result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-    result.out = slurp(out);
-    result.err = slurp(err);
-    return result;
-}
+CliRun run(const std::string& arguments, const fs::path& dir) { return test::run_cli(arguments, dir); }
 
 class CliUnitsTest : public ::testing::Test
 {

@@ -13,35 +13,15 @@
 
 #include "meshmark/geometry/shapes.h"
 #include "meshmark/io/mesh_io.h"
+#include "support/cli_run.h"
 #include "support/test_paths.h"
 
 namespace meshmark {
 namespace {
 
-struct CliRun
-{
-    int exit_code = -1;
-    std::string out;
-    std::string err;
-};
-
-std::string slurp(const std::filesystem::path& path)
-{
-    std::ifstream in(path, std::ios::binary);
-    std::ostringstream text;
-    text << in.rdbuf();
-    return text.str();
-}
-
-CliRun run_cli(const std::string& arguments, const std::filesystem::path& dir)
-{
-    const auto out = dir / "stdout.txt";
-    const auto err = dir / "stderr.txt";
-    const std::string command = "\"" + test::cli_path().string() + "\" " + arguments + " > \"" + out.string() +
-                                "\" 2> \"" + err.string() + "\"";
-    const int status = std::system(command.c_str());
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(out), slurp(err)};
-}
+using test::CliRun;
+using test::slurp;
+using test::run_cli;
 
 class CompareCliTest : public ::testing::Test
 {

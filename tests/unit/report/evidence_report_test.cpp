@@ -88,6 +88,15 @@ nlohmann::json detect_json(bool claimed, const Eigen::Matrix4d& transform, const
     return j;
 }
 
+// Pictures small enough for a unit test.
+EvidencePictureOptions small_pictures()
+{
+    EvidencePictureOptions options;
+    options.panel = {300, 240};
+    options.heatmap = {400, 260};
+    return options;
+}
+
 EvidenceFacts facts_for(const std::filesystem::path& dir, const Case& c, const nlohmann::json& detect)
 {
     write_mesh(dir / "suspect.ply", c.suspect);
@@ -129,9 +138,7 @@ PixelCounts count(const RgbImage& image, int x0, int x1)
 TEST(EvidencePictures, DrawTheSuspectOnTheOriginalAndTheDistances)
 {
     const Case c = make_case();
-    EvidencePictureOptions options;
-    options.panel = {300, 240};
-    options.heatmap = {400, 260};
+    const EvidencePictureOptions options = small_pictures();
     const EvidencePictures p = evidence_pictures(c.suspect, c.original, detect_json(true, c.to_original, ""), options);
     ASSERT_EQ(p.alignment.width, 600);
     ASSERT_EQ(p.alignment.height, 240);
@@ -161,9 +168,7 @@ TEST(EvidenceReport, ClaimedFamilyCopyNamesTheRecipientAndTheChance)
 {
     const auto dir = test::temp_dir("evidence_claimed");
     const Case c = make_case();
-    EvidencePictureOptions options;
-    options.panel = {300, 240};
-    options.heatmap = {400, 260};
+    const EvidencePictureOptions options = small_pictures();
     const nlohmann::json detect = detect_json(true, c.to_original, "bob");
     const EvidenceFacts facts = facts_for(dir, c, detect);
     const EvidencePictures pictures = evidence_pictures(c.suspect, c.original, detect, options);
@@ -212,9 +217,7 @@ TEST(EvidenceReport, UnmarkedSuspectSaysNotShown)
 {
     const auto dir = test::temp_dir("evidence_unclaimed");
     const Case c = make_case();
-    EvidencePictureOptions options;
-    options.panel = {300, 240};
-    options.heatmap = {400, 260};
+    const EvidencePictureOptions options = small_pictures();
     const nlohmann::json detect = detect_json(false, c.to_original, "");
     const EvidenceFacts facts = facts_for(dir, c, detect);
     const EvidencePictures pictures = evidence_pictures(c.suspect, c.original, detect, options);
@@ -235,9 +238,7 @@ TEST(EvidenceReport, DistancesAreStatedInTheOriginalsUnitWhenItHasOne)
 {
     const auto dir = test::temp_dir("evidence_unit");
     const Case c = make_case();
-    EvidencePictureOptions options;
-    options.panel = {300, 240};
-    options.heatmap = {400, 260};
+    const EvidencePictureOptions options = small_pictures();
     const nlohmann::json detect = detect_json(true, c.to_original, "");
     EvidenceFacts facts = facts_for(dir, c, detect);
     const EvidencePictures pictures = evidence_pictures(c.suspect, c.original, detect, options);
