@@ -14,6 +14,7 @@
 #include "meshmark/meshmark.h"
 #include "meshmark/metrics/distortion.h"
 #include "meshmark/pipeline/embed_record.h"
+#include "seeded_options.h"
 #include "support/test_paths.h"
 
 namespace meshmark {
@@ -31,14 +32,7 @@ fs::path write_input(const fs::path& dir)
     return path;
 }
 
-EmbedFileOptions seeded(std::uint64_t seed)
-{
-    EmbedFileOptions options;
-    options.seed = seed;
-    options.message = "owner";
-    options.embed.basis_size = 60;
-    return options;
-}
+using test::seeded;
 
 // The largest displacement between two files of the same vertices, as compare measures it.
 double written_displacement(const fs::path& original, const fs::path& marked)

@@ -21,6 +21,7 @@
 #include "meshmark/geometry/shapes.h"
 #include "meshmark/meshmark.h"
 #include "meshmark/metrics/distortion.h"
+#include "seeded_options.h"
 #include "support/test_paths.h"
 #include "support/test_shapes.h"
 
@@ -54,14 +55,7 @@ TriangleMesh renumbered(const TriangleMesh& mesh, std::uint64_t order)
     return apply_attacks(mesh, parse_attack_spec("reorder"), order, 1).mesh;
 }
 
-EmbedFileOptions seeded(std::uint64_t seed)
-{
-    EmbedFileOptions options;
-    options.seed = seed;
-    options.message = "owner";
-    options.embed.basis_size = 60;
-    return options;
-}
+using test::seeded;
 
 // Files in \p dir whose name starts with a dot (staging files of the atomic writes).
 int hidden_files(const fs::path& dir)
