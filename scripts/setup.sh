@@ -27,6 +27,7 @@ packages=(
   libspectra-dev         # Laplacian eigenbasis baseline: shift-invert Lanczos (header-only)
   libsuitesparse-dev     # CHOLMOD sparse Cholesky for the Laplacian eigenbasis
   libgtest-dev libgmock-dev googletest              # tests
+  clang-format-14        # tests only: the formatting check (scripts/check_format.sh, test lint.format)
   libbenchmark-dev       # micro-benchmarks
   libsqlite3-dev libsqlitecpp-dev  # the catalogue's database (SQLite, through SQLiteCpp)
   libssl-dev             # SHA-256 of catalogue originals (OpenSSL's libcrypto)
