@@ -61,6 +61,33 @@ bool has_foreign_attributes(const tinygltf::Primitive& prim, const tinygltf::Val
 
 }  // namespace
 
+const DracoGeometry& ScenePrimitives::draco_geometry(int view_index, std::int32_t position_id,
+                                                     const std::vector<std::int32_t>& skin_ids,
+                                                     DracoGeometry& decoded)
+{
+    const auto& view = file_.model.bufferViews[static_cast<std::size_t>(view_index)];
+    const auto decode = [&]
+    {
+        const auto& buffer = asset_.buffers[static_cast<std::size_t>(view.buffer)].bytes;
+        return decode_draco(file_.path, buffer.substr(view.byteOffset, view.byteLength),
+                            position_id, skin_ids);
+    };
+    if (!animation_time_)
+    {
+        decoded = decode();
+        return decoded;
+    }
+    // (posing at many times, for_each_animation_pose: each view is decoded once)
+    auto decoded_before = asset_.pose_draco.find(view_index);
+    if (decoded_before == asset_.pose_draco.end() ||
+        decoded_before->second.more.size() < skin_ids.size())
+    {
+        asset_.pose_draco.erase(view_index);
+        decoded_before = asset_.pose_draco.emplace(view_index, decode()).first;
+    }
+    return decoded_before->second;
+}
+
 void ScenePrimitives::add_draco_primitive(const tinygltf::Primitive& prim, int mesh, int index,
                                           const std::string& where, const Placement& place,
                                           int skin)
@@ -124,31 +151,9 @@ void ScenePrimitives::add_draco_primitive(const tinygltf::Primitive& prim, int m
     record.position_attribute_id = position_value.Get<int>();
     record.to_world = place.to_world;
     record.has_foreign_attributes = has_foreign_attributes(prim, ext);
-    const auto& buffer = asset_.buffers[static_cast<std::size_t>(view.buffer)].bytes;
-    const auto decode = [&]
-    {
-        return decode_draco(file_.path, buffer.substr(view.byteOffset, view.byteLength),
-                            record.position_attribute_id, skin_ids);
-    };
-    // (posing at many times, for_each_animation_pose: each view is decoded once)
     DracoGeometry decoded;
-    const DracoGeometry* cached = nullptr;
-    if (animation_time_)
-    {
-        auto decoded_before = asset_.pose_draco.find(view_index);
-        if (decoded_before == asset_.pose_draco.end() ||
-            decoded_before->second.more.size() < skin_ids.size())
-        {
-            asset_.pose_draco.erase(view_index);
-            decoded_before = asset_.pose_draco.emplace(view_index, decode()).first;
-        }
-        cached = &decoded_before->second;
-    }
-    else
-    {
-        decoded = decode();
-    }
-    const DracoGeometry& geometry = cached != nullptr ? *cached : decoded;
+    const DracoGeometry& geometry =
+        draco_geometry(view_index, record.position_attribute_id, skin_ids, decoded);
     // The decoded values are stored values: with KHR_mesh_quantization, integers that the
     // accessor's `normalized` maps to [-1, 1] or [0, 1], as for uncompressed data.
     const auto& accessor = file_.model.accessors[static_cast<std::size_t>(position->second)];

@@ -151,7 +151,28 @@ void ScenePrimitives::add_accessor_primitive(const tinygltf::Primitive& prim,
     record.is_normalized = acc.normalized;
     record.to_world = place.to_world;
     record.elements = file_.accessors.locate(a, 3, "POSITION");
-    // Local positions, decoded and de-normalized as a renderer would.
+    const std::vector<double> local = accessor_positions(record);
+    Slot slot;
+    slot.first = elements_.size();
+    slot.count = record.elements.size();
+    slot.to_world = place.to_world;
+    slot.skin = skin;
+    accessor_slots_.emplace(a, slot);
+    starts_.accessors.push_back(slot.first);
+    const SkinSets sets = skin >= 0 ? skin_sets(file_.accessors, prim) : SkinSets{};
+    record.skinning = place_first_use(prim, where, local, sets, skin, place);
+    record.skin = skin;
+    asset_.accessors.push_back(std::move(record));
+    if (prim.mode == kModeTriangles)
+    {
+        add_indexed_triangles(prim, where, slot.first, slot.count, elements_.corners);
+    }
+}
+
+// The local positions of \p record's elements, decoded and de-normalized as a renderer would
+// (checked finite).
+std::vector<double> ScenePrimitives::accessor_positions(const GltfPositionAccessor& record) const
+{
     std::vector<double> local(3 * record.elements.size(), 0.0);
     const auto type = scalar_of(record.component);
     const std::size_t size = component_size(record.component);
@@ -170,25 +191,12 @@ void ScenePrimitives::add_accessor_primitive(const tinygltf::Primitive& prim,
     {
         if (!std::isfinite(local[k]))
         {
-            fail_mesh(file_.path, "POSITION accessor " + std::to_string(a) + " element " +
-                                      std::to_string(k / 3) + " has a non-finite coordinate");
+            fail_mesh(file_.path, "POSITION accessor " + std::to_string(record.accessor) +
+                                      " element " + std::to_string(k / 3) +
+                                      " has a non-finite coordinate");
         }
     }
-    Slot slot;
-    slot.first = elements_.size();
-    slot.count = record.elements.size();
-    slot.to_world = place.to_world;
-    slot.skin = skin;
-    accessor_slots_.emplace(a, slot);
-    starts_.accessors.push_back(slot.first);
-    const SkinSets sets = skin >= 0 ? skin_sets(file_.accessors, prim) : SkinSets{};
-    record.skinning = place_first_use(prim, where, local, sets, skin, place);
-    record.skin = skin;
-    asset_.accessors.push_back(std::move(record));
-    if (prim.mode == kModeTriangles)
-    {
-        add_indexed_triangles(prim, where, slot.first, slot.count, elements_.corners);
-    }
+    return local;
 }
 
 void ScenePrimitives::add_indexed_triangles(const tinygltf::Primitive& prim,

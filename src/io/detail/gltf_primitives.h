@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <map>
 #include <optional>
 #include <string>
@@ -85,6 +86,13 @@ private:
                                                  const std::vector<double>& local,
                                                  const SkinSets& sets, int skin,
                                                  const Placement& place);
+    // The local positions of a POSITION accessor's elements, as a renderer reads them.
+    [[nodiscard]] std::vector<double> accessor_positions(const GltfPositionAccessor& record) const;
+    // The Draco data of bufferView \p view_index decoded (when posing, once for every time: the
+    // asset's cache), else into \p decoded.
+    const DracoGeometry& draco_geometry(int view_index, std::int32_t position_id,
+                                        const std::vector<std::int32_t>& skin_ids,
+                                        DracoGeometry& decoded);
     // The triangles of \p prim's indices (or of its elements in order), over \p count elements
     // from \p base, appended to \p corners.
     void add_indexed_triangles(const tinygltf::Primitive& prim, const std::string& where,
