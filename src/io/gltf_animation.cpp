@@ -6,7 +6,8 @@
 // Written here rather than taken from a library: tinygltf loads the samplers but does not
 // evaluate them, and the few lines below are the specification's formulas. Morph target
 // weights (shape keys) are sampled the same way, per node (animated_morph_weights): the pose a
-// viewer shows blends the targets into the base positions the mark lives in.
+// viewer shows blends the targets into the base positions the mark lives in. Whether an
+// animation moves only the whole asset is gltf_whole_motion.cpp.
 #include <algorithm>
 #include <cmath>
 #include <optional>
@@ -16,10 +17,13 @@
 
 #include <Eigen/Geometry>
 
+#include "io/detail/gltf_channels.h"
 #include "io/detail/gltf_reader.h"
 
-namespace meshmark::detail {
-namespace {
+namespace meshmark::detail
+{
+namespace
+{
 
 struct Trs
 {
@@ -33,12 +37,14 @@ Trs trs_of(const tinygltf::Node& node)
     Trs trs;
     if (node.translation.size() == 3)
     {
-        trs.translation = Eigen::Vector3d(node.translation[0], node.translation[1], node.translation[2]);
+        trs.translation =
+            Eigen::Vector3d(node.translation[0], node.translation[1], node.translation[2]);
     }
     if (node.rotation.size() == 4)
     {
         // glTF stores (x, y, z, w); Eigen's constructor takes (w, x, y, z).
-        trs.rotation = Eigen::Quaterniond(node.rotation[3], node.rotation[0], node.rotation[1], node.rotation[2]);
+        trs.rotation = Eigen::Quaterniond(node.rotation[3], node.rotation[0], node.rotation[1],
+                                          node.rotation[2]);
     }
     if (node.scale.size() == 3)
     {
@@ -60,26 +66,16 @@ Eigen::Matrix4d matrix_of(Trs trs)
     return t.matrix();
 }
 
-// What a channel animates: a node's translation, rotation or scale, a mesh's morph weights, or
-// something meshmark does not read (a pointer extension's path).
-enum class ChannelPath
-{
-    Translation,
-    Rotation,
-    Scale,
-    Weights,
-    Other
-};
-
 // The sampler's value at time t, `components` numbers (3: translation or scale, 4: rotation as
 // x, y, z, w, or one weight per morph target, stored as scalars). Before the first key: its
 // value; after the last: the last one's.
-std::vector<double> sample(const GltfAccessors& accessors, const tinygltf::AnimationSampler& sampler,
-                           ChannelPath path, int components, double t, const std::string& what)
+std::vector<double> sample(const GltfAccessors& accessors,
+                           const tinygltf::AnimationSampler& sampler, ChannelPath path,
+                           int components, double t, const std::string& what)
 {
     const std::vector<double> times = accessors.values(sampler.input, 1, what + " input", false);
-    const std::vector<double> output =
-        accessors.values(sampler.output, path == ChannelPath::Weights ? 1 : components, what + " output", false);
+    const std::vector<double> output = accessors.values(
+        sampler.output, path == ChannelPath::Weights ? 1 : components, what + " output", false);
     const bool is_cubic = sampler.interpolation == "CUBICSPLINE";
     const std::size_t per_key = (is_cubic ? 3U : 1U) * static_cast<std::size_t>(components);
     const auto c = static_cast<std::size_t>(components);
@@ -88,7 +84,8 @@ std::vector<double> sample(const GltfAccessors& accessors, const tinygltf::Anima
         return {};  // a malformed sampler poses nothing
     }
     // A key's value (the middle of a cubic spline's in-tangent, value, out-tangent triple).
-    const auto value = [&](std::size_t k, std::size_t part = 1) {
+    const auto value = [&](std::size_t k, std::size_t part = 1)
+    {
         const std::size_t at = k * per_key + (is_cubic ? part * c : 0);
         return std::vector<double>(output.begin() + static_cast<std::ptrdiff_t>(at),
                                    output.begin() + static_cast<std::ptrdiff_t>(at + c));
@@ -101,7 +98,9 @@ std::vector<double> sample(const GltfAccessors& accessors, const tinygltf::Anima
     {
         return value(times.size() - 1);
     }
-    const auto k = static_cast<std::size_t>(std::upper_bound(times.begin(), times.end(), t) - times.begin()) - 1;
+    const auto k =
+        static_cast<std::size_t>(std::upper_bound(times.begin(), times.end(), t) - times.begin()) -
+        1;
     const double span = times[k + 1] - times[k];
     const double s = span > 0.0 ? (t - times[k]) / span : 0.0;
     if (sampler.interpolation == "STEP")
@@ -112,15 +111,15 @@ std::vector<double> sample(const GltfAccessors& accessors, const tinygltf::Anima
     if (is_cubic)
     {
         const std::vector<double> v0 = value(k);
-        const std::vector<double> b0 = value(k, 2);  // out-tangent of key k
+        const std::vector<double> b0 = value(k, 2);      // out-tangent of key k
         const std::vector<double> a1 = value(k + 1, 0);  // in-tangent of key k + 1
         const std::vector<double> v1 = value(k + 1);
         const double s2 = s * s;
         const double s3 = s2 * s;
         for (std::size_t d = 0; d < c; ++d)
         {
-            result[d] = (2 * s3 - 3 * s2 + 1) * v0[d] + (s3 - 2 * s2 + s) * span * b0[d] + (-2 * s3 + 3 * s2) * v1[d] +
-                        (s3 - s2) * span * a1[d];
+            result[d] = (2 * s3 - 3 * s2 + 1) * v0[d] + (s3 - 2 * s2 + s) * span * b0[d] +
+                        (-2 * s3 + 3 * s2) * v1[d] + (s3 - s2) * span * a1[d];
         }
         return result;
     }
@@ -159,6 +158,8 @@ std::size_t morph_target_count(const tinygltf::Model& model, const tinygltf::Nod
     return mesh.primitives.empty() ? 0 : mesh.primitives.front().targets.size();
 }
 
+}  // namespace
+
 ChannelPath path_of(const tinygltf::AnimationChannel& channel)
 {
     const auto& path = channel.target_path;
@@ -176,7 +177,8 @@ ChannelPath path_of(const tinygltf::AnimationChannel& channel)
 int channel_components(const tinygltf::Model& model, const tinygltf::Animation& a,
                        const tinygltf::AnimationChannel& channel)
 {
-    if (channel.target_node < 0 || static_cast<std::size_t>(channel.target_node) >= model.nodes.size() ||
+    if (channel.target_node < 0 ||
+        static_cast<std::size_t>(channel.target_node) >= model.nodes.size() ||
         channel.sampler < 0 || static_cast<std::size_t>(channel.sampler) >= a.samplers.size())
     {
         return 0;
@@ -185,7 +187,8 @@ int channel_components(const tinygltf::Model& model, const tinygltf::Animation& 
     switch (path_of(channel))
     {
         case ChannelPath::Weights:
-            return static_cast<int>(std::min<std::size_t>(morph_target_count(model, node), 1U << 16U));
+            return static_cast<int>(
+                std::min<std::size_t>(morph_target_count(model, node), 1U << 16U));
         case ChannelPath::Rotation:
             return node.matrix.size() == 16 ? 0 : 4;
         case ChannelPath::Translation:
@@ -197,10 +200,8 @@ int channel_components(const tinygltf::Model& model, const tinygltf::Animation& 
     return 0;
 }
 
-}  // namespace
-
-std::optional<AnimationSpan> animation_span(const tinygltf::Model& model, const GltfAccessors& accessors,
-                                            std::size_t animation)
+std::optional<AnimationSpan> animation_span(const tinygltf::Model& model,
+                                            const GltfAccessors& accessors, std::size_t animation)
 {
     if (animation >= model.animations.size())
     {
@@ -216,10 +217,10 @@ std::optional<AnimationSpan> animation_span(const tinygltf::Model& model, const 
         {
             continue;
         }
-        const std::vector<double> times =
-            accessors.values(a.samplers[static_cast<std::size_t>(a.channels[k].sampler)].input, 1,
-                             "animation " + std::to_string(animation) + " channel " + std::to_string(k) + " input",
-                             false);
+        const std::vector<double> times = accessors.values(
+            a.samplers[static_cast<std::size_t>(a.channels[k].sampler)].input, 1,
+            "animation " + std::to_string(animation) + " channel " + std::to_string(k) + " input",
+            false);
         if (times.empty())
         {
             continue;
@@ -240,158 +241,6 @@ std::optional<AnimationSpan> animation_span(const tinygltf::Model& model, const 
     return span;
 }
 
-namespace {
-
-// How far from uniform a scale may be and still count as one: float32 rounding (Blender writes
-// a scale of 1.3 as 1.2999998, 1.29999995, 1.2999998), far below what a mark moves.
-constexpr double kUniformScaleTolerance = 1e-6;
-
-// A linear part that is a similarity: orthogonal columns of one length (a rotation or
-// reflection times a uniform scale), to kUniformScaleTolerance of that length.
-bool is_similarity(const Eigen::Matrix3d& L)
-{
-    const Eigen::Matrix3d gram = L.transpose() * L;
-    const double c = gram.trace() / 3.0;
-    return (gram - c * Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() <=
-           2.0 * kUniformScaleTolerance * std::max(c, 1e-300);
-}
-
-// Every triple of \p xyz has one value three times (to kUniformScaleTolerance relative).
-bool are_uniform(const std::vector<double>& xyz)
-{
-    for (std::size_t k = 0; k + 2 < xyz.size(); k += 3)
-    {
-        const double tolerance = kUniformScaleTolerance * std::abs(xyz[k]);
-        if (std::abs(xyz[k + 1] - xyz[k]) > tolerance || std::abs(xyz[k + 2] - xyz[k]) > tolerance)
-        {
-            return false;
-        }
-    }
-    return true;
-}
-
-}  // namespace
-
-std::optional<std::vector<int>> shared_mesh_path(const tinygltf::Model& model, std::span<const int> roots)
-{
-    const std::size_t count = model.nodes.size();
-    const auto in_range = [count](int n) { return n >= 0 && static_cast<std::size_t>(n) < count; };
-    // Each reached node's parent (-1 for a root), and the nodes with a mesh. A skinned mesh is
-    // left to the poses themselves: it follows its joints, and its stored shape may be another
-    // pose than the skin's rest (the reader then reads it through its node).
-    std::vector<int> parent(count, -1);
-    std::vector<char> reached(count, 0);
-    std::vector<int> mesh_nodes;
-    std::vector<int> stack;
-    for (const int root : roots)
-    {
-        if (!in_range(root) || reached[static_cast<std::size_t>(root)] != 0)
-        {
-            return std::nullopt;
-        }
-        reached[static_cast<std::size_t>(root)] = 1;
-        stack.push_back(root);
-    }
-    while (!stack.empty())
-    {
-        const int n = stack.back();
-        stack.pop_back();
-        const auto& node = model.nodes[static_cast<std::size_t>(n)];
-        if (node.mesh >= 0)
-        {
-            if (node.skin >= 0)
-            {
-                return std::nullopt;
-            }
-            mesh_nodes.push_back(n);
-        }
-        for (const int c : node.children)
-        {
-            if (!in_range(c) || reached[static_cast<std::size_t>(c)] != 0)
-            {
-                return std::nullopt;  // (a node with two parents or a cycle: no single path to it)
-            }
-            reached[static_cast<std::size_t>(c)] = 1;
-            parent[static_cast<std::size_t>(c)] = n;
-            stack.push_back(c);
-        }
-    }
-    // The path from the root down to each mesh node; what they all share.
-    std::vector<int> common;
-    bool first = true;
-    for (const int p : mesh_nodes)
-    {
-        std::vector<int> path;
-        for (int n = p; n >= 0; n = parent[static_cast<std::size_t>(n)])
-        {
-            path.push_back(n);
-        }
-        std::reverse(path.begin(), path.end());
-        if (first)
-        {
-            common = std::move(path);
-            first = false;
-        }
-        else
-        {
-            const auto end = std::mismatch(common.begin(), common.end(), path.begin(), path.end()).first;
-            common.erase(end, common.end());
-        }
-    }
-    return common;
-}
-
-bool moves_only_as_a_whole(const tinygltf::Model& model, const GltfAccessors& accessors, std::size_t animation,
-                           std::span<const int> common)
-{
-    if (animation >= model.animations.size())
-    {
-        return false;
-    }
-    // Every animated node on the shared path; every scale uniform down to the deepest of them.
-    const auto& a = model.animations[animation];
-    std::ptrdiff_t deepest = -1;
-    for (std::size_t k = 0; k < a.channels.size(); ++k)
-    {
-        const auto& channel = a.channels[k];
-        if (channel_components(model, a, channel) == 0)
-        {
-            continue;
-        }
-        if (path_of(channel) == ChannelPath::Weights)
-        {
-            return false;  // (a blend of morph targets changes the shape)
-        }
-        const auto at = std::find(common.begin(), common.end(), channel.target_node);
-        if (at == common.end())
-        {
-            return false;
-        }
-        deepest = std::max(deepest, at - common.begin());
-        if (channel.target_path == "scale" &&
-            !are_uniform(accessors.values(a.samplers[static_cast<std::size_t>(channel.sampler)].output, 3,
-                                          "animation " + std::to_string(animation) + " channel " +
-                                              std::to_string(k) + " output",
-                                          false)))
-        {
-            return false;
-        }
-    }
-    if (deepest < 0)
-    {
-        return false;
-    }
-    for (std::ptrdiff_t i = 0; i <= deepest; ++i)
-    {
-        const auto& node = model.nodes[static_cast<std::size_t>(common[static_cast<std::size_t>(i)])];
-        if (!is_similarity(local_matrix(node).topLeftCorner<3, 3>()))
-        {
-            return false;
-        }
-    }
-    return true;
-}
-
 Eigen::Matrix4d local_matrix(const tinygltf::Node& node)
 {
     if (node.matrix.size() == 16)
@@ -406,7 +255,8 @@ Eigen::Matrix4d local_matrix(const tinygltf::Node& node)
     return matrix_of(trs_of(node));
 }
 
-std::vector<Eigen::Matrix4d> animated_local_matrices(const tinygltf::Model& model, const GltfAccessors& accessors,
+std::vector<Eigen::Matrix4d> animated_local_matrices(const tinygltf::Model& model,
+                                                     const GltfAccessors& accessors,
                                                      std::size_t animation, double t)
 {
     std::vector<Eigen::Matrix4d> locals(model.nodes.size());
@@ -431,9 +281,9 @@ std::vector<Eigen::Matrix4d> animated_local_matrices(const tinygltf::Model& mode
             continue;
         }
         const auto n = static_cast<std::size_t>(channel.target_node);
-        const std::vector<double> v =
-            sample(accessors, a.samplers[static_cast<std::size_t>(channel.sampler)], path, components, t,
-                   "animation " + std::to_string(animation) + " channel " + std::to_string(k));
+        const std::vector<double> v = sample(
+            accessors, a.samplers[static_cast<std::size_t>(channel.sampler)], path, components, t,
+            "animation " + std::to_string(animation) + " channel " + std::to_string(k));
         if (v.empty())
         {
             continue;
@@ -479,14 +329,16 @@ std::vector<std::vector<double>> default_morph_weights(const tinygltf::Model& mo
         }
         // The node's weights, else its mesh's, else zeros (the specification's defaults).
         const std::vector<double>& given =
-            !node.weights.empty() ? node.weights : model.meshes[static_cast<std::size_t>(node.mesh)].weights;
+            !node.weights.empty() ? node.weights
+                                  : model.meshes[static_cast<std::size_t>(node.mesh)].weights;
         weights[n].assign(count, 0.0);
         std::copy_n(given.begin(), std::min(given.size(), count), weights[n].begin());
     }
     return weights;
 }
 
-std::vector<std::vector<double>> animated_morph_weights(const tinygltf::Model& model, const GltfAccessors& accessors,
+std::vector<std::vector<double>> animated_morph_weights(const tinygltf::Model& model,
+                                                        const GltfAccessors& accessors,
                                                         std::size_t animation, double t)
 {
     std::vector<std::vector<double>> weights = default_morph_weights(model);
@@ -504,8 +356,9 @@ std::vector<std::vector<double>> animated_morph_weights(const tinygltf::Model& m
             continue;
         }
         std::vector<double> v =
-            sample(accessors, a.samplers[static_cast<std::size_t>(channel.sampler)], ChannelPath::Weights, components,
-                   t, "animation " + std::to_string(animation) + " channel " + std::to_string(k));
+            sample(accessors, a.samplers[static_cast<std::size_t>(channel.sampler)],
+                   ChannelPath::Weights, components, t,
+                   "animation " + std::to_string(animation) + " channel " + std::to_string(k));
         if (!v.empty())
         {
             weights[static_cast<std::size_t>(channel.target_node)] = std::move(v);
@@ -521,9 +374,11 @@ bool has_weights_channel(const tinygltf::Model& model, std::size_t animation)
         return false;
     }
     const auto& a = model.animations[animation];
-    return std::any_of(a.channels.begin(), a.channels.end(), [&](const tinygltf::AnimationChannel& channel) {
-        return path_of(channel) == ChannelPath::Weights && channel_components(model, a, channel) > 0;
-    });
+    return std::any_of(a.channels.begin(), a.channels.end(),
+                       [&](const tinygltf::AnimationChannel& channel) {
+                           return path_of(channel) == ChannelPath::Weights &&
+                                  channel_components(model, a, channel) > 0;
+                       });
 }
 
 }  // namespace meshmark::detail

@@ -22,7 +22,30 @@
 #include "io/detail/numbers.h"
 #include "meshmark/core/error.h"
 
-namespace meshmark::detail {
+namespace meshmark::detail
+{
+
+namespace
+{
+
+// The 3 stored values (\p stored) of element \p e moved to world position \p moved: taken back
+// to the frame it was read in (through \p to_local, or a skinned element through its own
+// blended joint matrix: affine, so the new world position maps back exactly through its
+// inverse) and quantized as its accessor stores it. One way for plain and Draco records.
+void store_moved(double* stored, std::size_t e, const Eigen::Ref<const Eigen::RowVector3d>& moved,
+                 const Eigen::Matrix4d& to_local, const std::vector<Eigen::Matrix4d>& skinning,
+                 GltfComponent component, bool is_normalized)
+{
+    const Eigen::Vector4d world(moved(0), moved(1), moved(2), 1.0);
+    const Eigen::Vector4d local = skinning.empty() ? Eigen::Vector4d(to_local * world)
+                                                   : Eigen::Vector4d(skinning[e].inverse() * world);
+    for (std::size_t d = 0; d < 3; ++d)
+    {
+        stored[d] = quantize(local[static_cast<Eigen::Index>(d)], component, is_normalized);
+    }
+}
+
+}  // namespace
 
 GltfWriter::Plan GltfWriter::plan_accessor(std::size_t slot)
 {
@@ -45,17 +68,8 @@ GltfWriter::Plan GltfWriter::plan_accessor(std::size_t slot)
         plan.has_implicit = plan.has_implicit || el.buffer < 0;
         if (is_changed(original_, positions_, w))
         {
-            // A skinned element was read through its own blended joint matrix (affine, so the
-            // new world position maps back exactly through its inverse).
-            const Eigen::Vector4d world(positions_(w, 0), positions_(w, 1), positions_(w, 2), 1.0);
-            const Eigen::Vector4d local =
-                record.skinning.empty() ? Eigen::Vector4d(to_local * world)
-                                        : Eigen::Vector4d(record.skinning[e].inverse() * world);
-            for (std::size_t d = 0; d < 3; ++d)
-            {
-                plan.stored[3 * e + d] = quantize(local[static_cast<Eigen::Index>(d)],
-                                                  plan.component, plan.is_normalized);
-            }
+            store_moved(&plan.stored[3 * e], e, positions_.row(w), to_local, record.skinning,
+                        plan.component, plan.is_normalized);
             plan.rewrite[e] = 1;
         }
         else if (el.buffer >= 0)
@@ -100,14 +114,8 @@ GltfWriter::Plan GltfWriter::plan_draco(std::size_t slot)
         {
             continue;
         }
-        const Eigen::Vector4d world(positions_(w, 0), positions_(w, 1), positions_(w, 2), 1.0);
-        const Eigen::Vector4d local = record.skinning.empty() ? Eigen::Vector4d(to_local * world)
-                                                              : Eigen::Vector4d(record.skinning[i].inverse() * world);
-        for (std::size_t d = 0; d < 3; ++d)
-        {
-            plan.stored[3 * i + d] =
-                quantize(local[static_cast<Eigen::Index>(d)], plan.component, plan.is_normalized);
-        }
+        store_moved(&plan.stored[3 * i], i, positions_.row(w), to_local, record.skinning,
+                    plan.component, plan.is_normalized);
         plan.rewrite[i] = 1;
     }
     return plan;

@@ -1,7 +1,9 @@
 // SPDX-License-Identifier: MIT
 // The pieces of the glTF reader (read_gltf in gltf_read.cpp): where accessor elements lie
-// (gltf_accessors.cpp), the meshopt-compressed bufferViews (gltf_meshopt_views.cpp) and the
-// scene walk that turns the loaded model into one welded mesh (gltf_scene.cpp).
+// (gltf_accessors.cpp), the meshopt-compressed bufferViews (gltf_meshopt_views.cpp), the
+// animations (gltf_animation.cpp; whether one moves only the whole asset: gltf_whole_motion.cpp)
+// and the scene reader that turns the loaded model into one welded mesh (read_scene in
+// gltf_scene.cpp; its steps in gltf_scene.h, docs/algorithms/gltf.md).
 #pragma once
 
 #include <cstddef>
@@ -17,7 +19,8 @@
 
 #include "gltf.h"
 
-namespace meshmark::detail {
+namespace meshmark::detail
+{
 
 /// The component type of glTF code \p type, or nullopt for a code glTF does not define.
 [[nodiscard]] std::optional<GltfComponent> component_of(int type);
@@ -85,9 +88,8 @@ void decode_meshopt_views(const std::filesystem::path& path, const tinygltf::Mod
 /// \brief Every node's morph target weights at time \p t of animation \p animation: those its
 /// weights channels give there over default_morph_weights(); the defaults for an index past the
 /// file's animations.
-[[nodiscard]] std::vector<std::vector<double>> animated_morph_weights(const tinygltf::Model& model,
-                                                                      const GltfAccessors& accessors,
-                                                                      std::size_t animation, double t);
+[[nodiscard]] std::vector<std::vector<double>> animated_morph_weights(
+    const tinygltf::Model& model, const GltfAccessors& accessors, std::size_t animation, double t);
 
 /// Animation \p animation has a channel that animates the morph weights of a mesh with targets.
 [[nodiscard]] bool has_weights_channel(const tinygltf::Model& model, std::size_t animation);
@@ -96,7 +98,8 @@ void decode_meshopt_views(const std::filesystem::path& path, const tinygltf::Mod
 /// weights), or nothing when
 /// it has none or a key time is not finite.
 [[nodiscard]] std::optional<AnimationSpan> animation_span(const tinygltf::Model& model,
-                                                          const GltfAccessors& accessors, std::size_t animation);
+                                                          const GltfAccessors& accessors,
+                                                          std::size_t animation);
 
 /// \brief The nodes every mesh node of the scene under \p roots lies under (from the root down,
 /// a mesh node itself when there is one), for moves_only_as_a_whole; nothing when that cannot be
@@ -109,16 +112,18 @@ void decode_meshopt_views(const std::filesystem::path& path, const tinygltf::Mod
 /// the shared mesh path \p common (AnimationSpan::moves_only_as_a_whole): each node it animates
 /// is on it, the nodes down to the deepest of them have similarities as local matrices, and
 /// every scale it keys is uniform.
-[[nodiscard]] bool moves_only_as_a_whole(const tinygltf::Model& model, const GltfAccessors& accessors,
-                                         std::size_t animation, std::span<const int> common);
+[[nodiscard]] bool moves_only_as_a_whole(const tinygltf::Model& model,
+                                         const GltfAccessors& accessors, std::size_t animation,
+                                         std::span<const int> common);
 
 /// \brief Walk the scene graph of \p model (buffers and meshopt views already in \p asset)
 /// and return its welded world-frame mesh; fills the accessors, Draco primitives and other
 /// instances of \p asset and the spans of its animations. Given \p animation_time, only the
 /// pose of animation \p animation at that time (GltfAsset::pose; the mesh returned is empty),
 /// the welding kept in the asset for the next time.
-[[nodiscard]] TriangleMesh read_scene(const std::filesystem::path& path, const tinygltf::Model& model,
-                                      GltfAsset& asset, std::optional<double> animation_time = std::nullopt,
+[[nodiscard]] TriangleMesh read_scene(const std::filesystem::path& path,
+                                      const tinygltf::Model& model, GltfAsset& asset,
+                                      std::optional<double> animation_time = std::nullopt,
                                       std::size_t animation = 0);
 
 }  // namespace meshmark::detail
