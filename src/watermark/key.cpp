@@ -15,6 +15,8 @@
 namespace meshmark {
 namespace {
 
+// Longest recipient name: a person's or a company's name fits; a key stays small (a family key
+// stores every name). Chosen by hand; no study on record.
 constexpr std::size_t kMaxRecipientName = 100;
 
 // n bits, each the lowest bit of one draw (the documented payload/mask mapping).
