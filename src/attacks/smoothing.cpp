@@ -14,6 +14,8 @@
 namespace meshmark {
 namespace {
 
+// Largest iteration count accepted: 1000 times the benchmark's largest level (100), a bound
+// against typing errors; chosen by hand; no study on record.
 constexpr int kMaxIterations = 100000;
 // Below this many vertices a step takes microseconds and a parallel region costs more than it
 // saves (much more on a loaded machine, where a descheduled thread stalls every barrier).

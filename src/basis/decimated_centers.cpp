@@ -19,8 +19,11 @@ namespace
 // Relative error bound handed to meshoptimizer: far above any mesh's extent, so only the
 // index target stops it (as in attacks/simplification_meshopt.cpp).
 constexpr float kUnboundedError = 1.0e3F;
-// Below this excess over k, passes collapse one edge at a time (one vertex each).
+// Below this excess over k, passes collapse one edge at a time (one vertex each); chosen by
+// hand; no study on record.
 constexpr std::size_t kSingleStepExcess = 16;
+// A bound on the passes against a decimation that stops making progress; chosen by hand; no
+// study on record.
 constexpr int kMaxPasses = 10000;
 
 // A decimation state: triangles over a compact vertex set, and each vertex's mesh row.

@@ -92,12 +92,15 @@ Eigenpairs smallest_eigenpairs(const SparseMatrix& L, const LaplacianBasisOption
 // Sign convention of the header: sum of cubes positive, else the largest component positive.
 void fix_signs(Eigen::MatrixXd& U)
 {
+    // A sign test whose sum is within this of its scale is rounding: the largest component
+    // decides instead. Chosen by hand; no study on record.
+    constexpr double kSignTieTolerance = 1e-12;
     for (Eigen::Index j = 0; j < U.cols(); ++j)
     {
         auto u = U.col(j);
         const double cubes = u.array().cube().sum();
         double sign = cubes;
-        if (std::abs(cubes) <= 1e-12 * u.array().abs().cube().sum())
+        if (std::abs(cubes) <= kSignTieTolerance * u.array().abs().cube().sum())
         {
             Eigen::Index largest = 0;
             u.cwiseAbs().maxCoeff(&largest);
@@ -275,8 +278,12 @@ Eigen::MatrixX3d LaplacianBasis::project_least_squares(const Positions& X,
         normal.noalias() += u.transpose() * u;
         rhs.noalias() += u.transpose() * X.row(row);
     }
+    // U_m^T U_m is the identity on the whole mesh: a smallest eigenvalue at or below this over the
+    // kept rows (a condition number of 1e8) leaves the coefficients undetermined. Chosen by
+    // hand; no study on record.
+    constexpr double kMinKeptEigenvalue = 1e-8;
     const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> check(normal, Eigen::EigenvaluesOnly);
-    if (check.info() != Eigen::Success || !(check.eigenvalues()(0) > 1e-8))
+    if (check.info() != Eigen::Success || !(check.eigenvalues()(0) > kMinKeptEigenvalue))
     {
         throw NumericalError(
             "too few vertices survive the cropping to determine the watermark's "
@@ -338,7 +345,8 @@ Eigen::MatrixXd LaplacianBasis::project_design(int modes, int head, std::size_t 
         throw InvalidOption("project_design: head must be in 0.." + std::to_string(modes) + ", got " +
                             std::to_string(head) + ".");
     }
-    // Serial, fixed blocks in row order: bit-identical for any thread count by construction.
+    // Serial, fixed blocks in row order: bit-identical for any thread count by construction
+    // (1024 rows chosen by hand; no study on record).
     constexpr std::size_t kBlockRows = 1024;
     const auto cols = static_cast<Eigen::Index>(width);
     using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;

@@ -23,6 +23,8 @@ namespace {
 
 // At most this many chunks; each owns a k x k accumulator, so memory stays O(k^2).
 constexpr std::size_t kMaxChunks = 64;
+// Fewest row blocks per chunk, so that a chunk's k x k accumulator is worth its reduction;
+// chosen by hand; no study on record.
 constexpr std::size_t kMinChunkBlocks = 16;
 
 // Relative eigenvalue below which a mode of G is numerically absent (G is accumulated in
@@ -170,6 +172,9 @@ void RbfBasis::build(std::size_t gram_rows)
     {
         throw NumericalError("the eigen-decomposition of the RBF Gram matrix failed to converge.");
     }
+    // A sign test whose sum is within this of its scale is rounding: the largest component
+    // decides instead. Chosen by hand; no study on record.
+    constexpr double kSignTieTolerance = 1e-12;
     singular_values_.resize(k);
     eigenvectors_.resize(k, k);
     for (Eigen::Index j = 0; j < k; ++j)
@@ -179,7 +184,7 @@ void RbfBasis::build(std::size_t gram_rows)
         Eigen::VectorXd v = solver.eigenvectors().col(source);
         const double sum = bt_ones_.dot(v);
         double sign = sum;
-        if (std::abs(sum) <= 1e-12 * bt_ones_.norm())
+        if (std::abs(sum) <= kSignTieTolerance * bt_ones_.norm())
         {
             Eigen::Index largest = 0;
             v.cwiseAbs().maxCoeff(&largest);

@@ -140,9 +140,13 @@ Eigen::MatrixX3d RbfBasis::project_least_squares(const Positions& X,
             rhs(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(d)) = total[(kp + d) * ld + column_[i]];
         }
     }
+    // U_m^T U_m is the identity on the whole mesh: a smallest eigenvalue at or below this over the
+    // kept rows (a condition number of 1e8) leaves the coefficients undetermined. Chosen by
+    // hand; no study on record.
+    constexpr double kMinKeptEigenvalue = 1e-8;
     const Eigen::MatrixXd normal = T.transpose() * gram_kept * T;  // U_m,S^T U_m,S
     const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> check(normal);
-    if (check.info() != Eigen::Success || !(check.eigenvalues()(0) > 1e-8))
+    if (check.info() != Eigen::Success || !(check.eigenvalues()(0) > kMinKeptEigenvalue))
     {
         throw NumericalError("too few vertices survive the cropping to determine the watermark's "
                              "coefficients (least-squares matrix is singular).");

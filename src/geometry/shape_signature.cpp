@@ -33,7 +33,7 @@ constexpr int kCentroidBins = 6;
 constexpr double kCentroidRange = 2.5;
 constexpr int kPairBins = 12;
 constexpr double kPairRange = 3.5;
-constexpr int kAngleBins = 4;
+constexpr int kAngleBins = 4;  // bin counts chosen by hand; no study on record
 // The fixed seed of the draw: a suspect and its original are drawn alike.
 constexpr std::uint64_t kSeed = 0x5ea7c0de5eedULL;
 

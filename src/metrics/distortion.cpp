@@ -254,7 +254,7 @@ double surface_rms_displacement(const TriangleMesh& mesh, const Positions& field
         return mesh.V.rows() > 0 ? std::sqrt(field.squaredNorm() / (3.0 * static_cast<double>(mesh.V.rows()))) : 0.0;
     }
     // Fixed blocks of faces, each summed in face order, the blocks then added in order: the
-    // same bits for any thread count.
+    // same bits for any thread count (65536 faces: chosen by hand; no study on record).
     constexpr Eigen::Index kBlock = 1 << 16;
     const Eigen::Index faces = mesh.F.rows();
     const Eigen::Index blocks = (faces + kBlock - 1) / kBlock;

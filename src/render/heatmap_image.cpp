@@ -24,9 +24,15 @@ namespace
 
 constexpr Rgb8 kBackground{255, 255, 255};
 constexpr Rgb8 kInk{40, 40, 40};
-constexpr double kAmbient = 0.25;  // light that reaches a surface seen edge-on
-constexpr double kMargin = 0.05;   // of the model area, on each side
+constexpr double kAmbient = 0.25;  // light that reaches a surface seen edge-on; chosen by hand
+constexpr double kMargin = 0.05;   // of the model area, on each side; chosen by hand
 constexpr int kTicks = 5;          // labels on the colour bar: 0, 1/4, ..., 1 of the maximum
+// A point cloud's points are drawn as discs of this many median spacings in radius (0.7: the
+// neighbours' discs overlap and close the surface), at least kMinSplatRadius pixels and at most
+// kMaxSplatHeight of the image height. All three chosen by hand; no study on record.
+constexpr double kSplatSpacings = 0.7;
+constexpr double kMinSplatRadius = 0.75;
+constexpr double kMaxSplatHeight = 0.05;
 
 const char* const kTitle[] = {"distance", "% of bbox", "diagonal"};
 
@@ -275,8 +281,8 @@ HeatmapPicture render_heatmap(const TriangleMesh& mesh, const Eigen::VectorXd& d
     {
         if (mesh.is_point_cloud())
         {
-            const double radius =
-                std::clamp(0.7 * median_spacing(mesh.V, rows) * scale, 0.75, 0.05 * height);
+            const double radius = std::clamp(kSplatSpacings * median_spacing(mesh.V, rows) * scale,
+                                             kMinSplatRadius, kMaxSplatHeight * height);
             return rasterize_points(screen, rows, radius, width, height, options.threads);
         }
         normals = vertex_normals(mesh);

@@ -17,6 +17,8 @@ namespace meshmark
 namespace
 {
 
+// Rows per band: bands are the unit of parallel work (each thread draws whole bands); chosen by
+// hand; no study on record.
 constexpr int kBandRows = 16;
 
 /// Primitives binned by band of rows, each band's list in primitive order (a counting sort).

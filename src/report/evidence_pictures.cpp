@@ -23,8 +23,8 @@ namespace {
 constexpr Rgb8 kBackground{255, 255, 255};
 const Eigen::Vector3d kOriginalColor(200.0, 200.0, 200.0);  // light grey
 const Eigen::Vector3d kSuspectColor(235.0, 120.0, 20.0);    // orange
-constexpr double kAmbient = 0.3;
-constexpr double kMargin = 0.05;
+constexpr double kAmbient = 0.3;  // light on a surface seen edge-on; chosen by hand
+constexpr double kMargin = 0.05;  // of the picture, on each side; chosen by hand
 /// How far (in diagonals of the original) the suspect may lie behind the original's surface and
 /// still be drawn over it: a copy lies on the surface, and without the bias the two would fight
 /// pixel by pixel.
@@ -143,6 +143,7 @@ void rasterize(Layer& layer, const Framing& f, int threads)
     }
     if (mesh.is_point_cloud())
     {
+        // Discs as the render module's heatmap draws them (heatmap_image.cpp, kSplatSpacings).
         const double radius = std::clamp(0.7 * median_spacing(mesh.V) * f.scale, 0.75, 0.05 * f.height);
         layer.buffer = rasterize_points(layer.screen, referenced_vertices(mesh), radius, f.width, f.height, threads);
     }

@@ -13,7 +13,8 @@
 
 namespace meshmark::service {
 
-/// Longest asset id a request may name.
+/// Longest asset id a request may name (a bound on what a client can make the service hold;
+/// chosen by hand; no study on record).
 inline constexpr std::size_t kMaxAssetId = 1024;
 
 /// Empty when \p id may name an asset; else why not (no absolute path, `..` segment or control

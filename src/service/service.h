@@ -22,6 +22,8 @@ struct ServiceOptions
     /// The bearer token's file; empty: CATALOG.token. Created (mode 0600, 256 random bits) when
     /// missing; refused when others may read it.
     std::filesystem::path token_file;
+    /// The defaults below (budget, connections, upload, timeouts) were chosen by hand; no study
+    /// on record (the service study ran at them: bench/results/2026-11-29-service.md).
     /// Bytes of originals and warm bases kept in memory; least recently used assets are dropped.
     std::size_t memory_budget = std::size_t{2} << 30U;
     int workers = 0;       ///< Requests computing at once (copies, scans); 0 = the cores.

@@ -15,6 +15,8 @@
 namespace meshmark {
 namespace {
 
+// Longest recipient name: a person's or a company's name fits; a key stays small (a family key
+// stores every name). Chosen by hand; no study on record.
 constexpr std::size_t kMaxRecipientName = 100;
 
 // n bits, each the lowest bit of one draw (the documented payload/mask mapping).
@@ -147,6 +149,8 @@ std::vector<std::uint8_t> recipient_code(std::uint64_t seed, std::uint32_t index
 
 void EmbedOptions::validate() const
 {
+    // The ranges below (basis size 4..5000, strength 0..0.5) were chosen by hand; no study on
+    // record.
     if (basis_size < 4 || basis_size > 5000)
     {
         throw InvalidOption("basis size (--basis-size) must be in 4..5000, got " +

@@ -15,6 +15,13 @@ namespace {
 // Powers of the uniform Laplacian applied to the positions: the directions in which N steps
 // of Laplacian (or Taubin) smoothing move a mesh, (I - lambda L)^N P = P - N lambda L P + ...
 constexpr int kLaplacianPowers = 3;
+// An unknown with a null-space component above this (of a unit vector) is undetermined; the
+// null space's rows are of order 1, so this only separates exact zeros from rounding. Chosen
+// by hand; no study on record.
+constexpr double kNullSpaceComponent = 1e-8;
+// Unmodulated modes needed per nuisance field before the fit is attempted: room to spare
+// against overfitting the modulated modes. Chosen by hand; no study on record.
+constexpr int kModesPerNuisanceField = 4;
 
 // L P, L^2 P, L^3 P with the uniform Laplacian (#V x 3 each), zero on rows that take no part.
 std::vector<Positions> laplacian_powers(const TriangleMesh& mesh, const std::vector<std::int32_t>& rows)
@@ -91,7 +98,7 @@ JointSolution solve_jointly(const Eigen::MatrixXd& raw_design, const Eigen::Vect
         const Eigen::MatrixXd null_space = svd.matrixV().rightCols(design.cols() - rank);
         for (Eigen::Index c = 0; c < design.cols(); ++c)
         {
-            if (null_space.row(c).norm() > 1e-8)
+            if (null_space.row(c).norm() > kNullSpaceComponent)
             {
                 result.variances(c) = std::numeric_limits<double>::infinity();
             }
@@ -156,7 +163,7 @@ NuisanceModel nuisance_model(const SpectralBasis& basis, const NuisanceFields& f
     model.modes = basis.well_conditioned_modes(kNuisanceModeTolerance);
     // Enough unmodulated modes to fit the nuisance fields with room to spare.
     const Eigen::Index q = fields.count();
-    if (model.modes - modulated_head < 4 * static_cast<int>(q))
+    if (model.modes - modulated_head < kModesPerNuisanceField * static_cast<int>(q))
     {
         model.modes = 0;
         return model;

@@ -23,14 +23,16 @@ enum class LaplacianFactorization
 /// Parameters of the Laplacian eigenbasis.
 struct LaplacianBasisOptions
 {
-    int modes = 100;  ///< k, eigenvectors of the smallest eigenvalues.
+    int modes = 100;  ///< k, eigenvectors of the smallest eigenvalues (as the RBF basis's 100).
     LaplacianFactorization factorization = LaplacianFactorization::Cholmod;
     /// Shift sigma < 0 of the shift-invert iteration: L - sigma I is then positive definite
     /// (L is positive semi-definite with eigenvalue 0), and the k eigenvalues nearest sigma
     /// are the k smallest. Small against the gaps of the low spectrum (~1e-5 for 400K vertices).
     double shift = -1e-6;
-    double tolerance = 1e-10;   ///< Spectra's relative convergence tolerance on the Ritz values.
-    int max_iterations = 1000;  ///< Restarts of the Lanczos iteration.
+    /// Spectra's relative convergence tolerance on the Ritz values; the Lanczos restarts allowed.
+    /// Both chosen by hand (the Laplacian basis is a baseline); no study on record.
+    double tolerance = 1e-10;
+    int max_iterations = 1000;
     /// \throws InvalidOption naming the field, value and allowed range.
     void validate() const;
 };

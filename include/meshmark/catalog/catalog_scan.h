@@ -17,7 +17,9 @@ struct CatalogScanOptions
     /// The detection's options; decision.max_false_positive is the bound for a whole suspect
     /// against the whole catalogue (each asset's key is tested at it over the catalogue's size).
     DetectFileOptions detect;
-    /// Assets tried per suspect, nearest in shape first (the shape index's ranking).
+    /// Assets tried per suspect, nearest in shape first (the shape index's ranking). 8: chosen
+    /// by hand, measured at it (bench/results/2026-11-29-catalogue.md); more trade time for
+    /// crops and attacked look-alikes the index ranks low.
     int candidates = 8;
     /// Stop at the first asset that matches (the others would have to carry marks of their own
     /// in the same suspect); false: try every candidate.

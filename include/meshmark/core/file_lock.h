@@ -8,7 +8,8 @@
 namespace meshmark
 {
 
-/// How long lock_file waits for a lock another process or thread holds, by default.
+/// How long lock_file waits for a lock another process or thread holds, by default (the
+/// sections it guards last milliseconds; a minute is chosen by hand; no study on record).
 inline constexpr std::chrono::milliseconds kDefaultLockTimeout{60'000};
 
 /// Options of lock_file.

@@ -31,7 +31,7 @@ struct TriangleEdges
 [[nodiscard]] inline bool is_sliver_triangle(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
                                              const Eigen::Vector3d& c)
 {
-    constexpr double kSliverAltitude = 1e-3;
+    constexpr double kSliverAltitude = 1e-3;  // chosen by hand; no study on record
     const Eigen::Vector3d ab = b - a;
     const Eigen::Vector3d ac = c - a;
     const double longest2 = std::max({ab.squaredNorm(), ac.squaredNorm(), (c - b).squaredNorm()});

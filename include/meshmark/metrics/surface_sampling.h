@@ -7,7 +7,8 @@
 
 namespace meshmark {
 
-/// Area samples drawn per block; each block has its own random stream (see sample_surface).
+/// Area samples drawn per block; each block has its own random stream (see sample_surface), so
+/// the draw does not depend on the thread count. 4096: chosen by hand; no study on record.
 inline constexpr std::int64_t kSamplesPerBlock = 4096;
 
 /// \brief Area-proportional, stratified random points on the faces of a mesh.

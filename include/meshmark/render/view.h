@@ -69,7 +69,8 @@ struct ImageSize
     int height = 768;
 };
 
-/// Smallest and largest accepted image sides.
+/// Smallest and largest accepted image sides (the largest bounds the buffers at 8192^2
+/// pixels); chosen by hand; no study on record.
 inline constexpr int kMinImageSide = 160;
 inline constexpr int kMaxImageSide = 8192;
 

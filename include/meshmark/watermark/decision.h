@@ -236,8 +236,11 @@ struct DetectOptions
     VerdictRule verdict = VerdictRule::Combined;
     /// Combined and correlation rules: ownership is claimed when the false-positive bound is at most this.
     double max_false_positive = 1e-6;
-    double threshold = 0.75;  ///< Bits rule: ownership is claimed when R >= threshold.
-    double epsilon = 0.1;     ///< Undecided band of a payload bit, as a fraction of the modulation.
+    /// Bits rule: ownership is claimed when R >= threshold (Wu & Kobbelt's value).
+    double threshold = 0.75;
+    /// Undecided band of a payload bit, as a fraction of the modulation (chosen by hand; no
+    /// study on record).
+    double epsilon = 0.1;
     /// Remove the attack's predictable part before deciding: the changes of a similarity
     /// motion and of Laplacian smoothing are fitted on the unmodulated modes (which carry no
     /// watermark) and subtracted from the modulated ones. See docs/algorithms/detection.md.

@@ -72,7 +72,7 @@ enum class CenterSelection
 struct EmbedOptions
 {
     int basis_size = 100;   ///< k, number of RBF centers [Wu & Kobbelt: 100].
-    int coefficients = 8;   ///< m, payload bits per axis: 3m payload bits.
+    int coefficients = 8;   ///< m, bits per axis: 3m payload bits (24, Wu & Kobbelt's count).
     /// Spreading factor r: each payload bit is embedded on r coefficients (modes m r in all,
     /// bit t on coefficients t, t + 3m, t + 6m, ...), each with its own key-mask sign, and read
     /// back by soft-decision correlation. More coefficients at the same distortion make a
@@ -116,7 +116,8 @@ struct EmbedOptions
     /// this field existed mean 0 (docs/performance.md, "Sampled Gram matrix").
     std::int64_t gram_rows = kDefaultGramRows;
     static constexpr std::int64_t kDefaultGramRows = std::int64_t{1} << 20;
-    /// Smallest gram_rows other than 0, as a multiple of the basis size.
+    /// Smallest gram_rows other than 0, as a multiple of the basis size (chosen by hand; no
+    /// study on record).
     static constexpr int kMinGramRowsPerCenter = 16;
 
     /// \throws InvalidOption naming the field, value and allowed range.
@@ -178,10 +179,13 @@ inline constexpr int kMinRecipientModes = 24;
 
 struct RecipientCodes
 {
-    /// M, the modes after the owner's (first_mode + m r ..) that carry the recipient code.
+    /// M, the modes after the owner's (first_mode + m r ..) that carry the recipient code: 64
+    /// fit after a family owner's modes 12-27 in the default basis of 100 (docs/fingerprinting.md).
     int modes = 64;
     /// Share of the displacement energy (strength^2) given to the recipient code; the owner's
     /// mark keeps the rest, so a copy is displaced as much as a single mark of the same strength.
+    /// 0.64: the codes carry single copies through the attack suite and the owner's 36% keeps
+    /// the mark of pooled copies (docs/fingerprinting.md).
     double energy_share = 0.64;
     std::vector<Recipient> recipients;  ///< In the order they were issued; indices unique.
     /// \brief A new key only (never stored): where the original's vertices span too few modes
