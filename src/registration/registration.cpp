@@ -24,6 +24,7 @@
 #include "meshmark/core/threads.h"
 #include "meshmark/core/morton.h"
 #include "meshmark/core/rng.h"
+#include "meshmark/registration/similarity_fit.h"
 #include "registration/detail/coarse_alignment.h"
 #include "registration/detail/icp.h"
 #include "registration/detail/surface_matcher.h"
@@ -913,12 +914,9 @@ RegistrationResult register_to_reference(const TriangleMesh& suspect, const Tria
                 pair.suspect.x() = -pair.suspect.x();
             }
         }
-        const Eigen::Matrix4d A = similarity_from_pairs(flipped, false);
         Candidate c;
         c.mirrored = mirrored;
-        c.transform.scale = A.block<3, 1>(0, 0).norm();
-        c.transform.rotation = A.block<3, 3>(0, 0) / c.transform.scale;
-        c.transform.translation = A.block<3, 1>(0, 3);
+        c.transform = similarity_parts(similarity_from_pairs(flipped, false));
         candidates.push_back(c);
     }
     p.initial_scale = candidates.front().transform.scale;
@@ -1002,14 +1000,14 @@ Eigen::Matrix4d similarity_from_pairs(std::span<const PointPair> pairs, bool all
     auto residual = [&](const Eigen::Matrix4d& A, const Eigen::Matrix3Xd& from) {
         return ((A.block<3, 3>(0, 0) * from).colwise() + A.block<3, 1>(0, 3) - dst).squaredNorm();
     };
-    const Eigen::Matrix4d proper = Eigen::umeyama(src, dst, true);
+    const Eigen::Matrix4d proper = fit_similarity(src, dst);
     if (!allow_reflection)
     {
         return proper;
     }
     const Mat3 M = mirror_matrix();
     const Eigen::Matrix3Xd mirrored_src = M * src;
-    Eigen::Matrix4d mirrored = Eigen::umeyama(mirrored_src, dst, true);
+    Eigen::Matrix4d mirrored = fit_similarity(mirrored_src, dst);
     const double proper_residual = residual(proper, src);
     const double mirrored_residual = residual(mirrored, mirrored_src);
     // The mirrored fit must be clearly better: with 3 pairs both are exact.
