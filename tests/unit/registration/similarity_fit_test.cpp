@@ -60,7 +60,8 @@ TEST(SimilarityFitTest, never_returns_a_reflection)
     Eigen::Matrix3Xd Y = moved(known_similarity(), X);
     Y.row(0) = -Y.row(0);
     const Eigen::Matrix4d A = fit_similarity(X, Y);
-    EXPECT_GT(A.block<3, 3>(0, 0).determinant(), 0.0);
+    const double det = A.block<3, 3>(0, 0).determinant();
+    EXPECT_GT(det, 0.0);
     const SimilarityTransform parts = similarity_parts(A);
     EXPECT_NEAR(parts.rotation.determinant(), 1.0, 1e-12);
     EXPECT_LT((parts.rotation * parts.rotation.transpose() - Eigen::Matrix3d::Identity()).norm(),
