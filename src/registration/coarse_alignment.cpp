@@ -14,8 +14,10 @@
 
 #include "meshmark/core/rng.h"
 
-namespace meshmark::detail {
-namespace {
+namespace meshmark::detail
+{
+namespace
+{
 
 using Vec3 = Eigen::Vector3d;
 using Mat3 = Eigen::Matrix3d;
@@ -25,16 +27,18 @@ using Mat3 = Eigen::Matrix3d;
 constexpr int kCropDirections = 64;
 constexpr std::array<double, 4> kCropFractions = {0.5, 0.625, 0.75, 0.875};
 constexpr std::size_t kCropHypotheses = 32;
-constexpr std::size_t kCropElements = 8000;  // reference triangles sampled for part moments
+// Reference triangles (points) sampled for the parts' moments: a fixed sample, so that the crop
+// hypotheses cost the same on any mesh size.
+constexpr std::size_t kCropElements = 8000;
 // Principal axes count as interchangeable when their relative eigenvalue gap is below this.
 constexpr double kAxisGap = 0.1;
 
 /// A small piece of the reference (a triangle, or a point) and its moment contributions.
 struct Element
 {
-    double weight = 0.0;          // area (1 for a point)
-    Vec3 first = Vec3::Zero();    // weight * centroid
-    Mat3 second = Mat3::Zero();   // weight * E[x x^T]
+    double weight = 0.0;         // area (1 for a point)
+    Vec3 first = Vec3::Zero();   // weight * centroid
+    Mat3 second = Mat3::Zero();  // weight * E[x x^T]
     Vec3 centroid = Vec3::Zero();
 };
 
@@ -186,7 +190,6 @@ std::vector<Moments> crop_hypotheses(const TriangleMesh& reference, bool use_are
     return result;
 }
 
-
 // Moments of the uniform distribution on the triangles (area-weighted), so that remeshing
 // and simplification, which change where vertices sit but not the surface, barely move them.
 // Accumulated relative to the first vertex, serially in face order.
@@ -206,8 +209,8 @@ Moments area_moments(const TriangleMesh& mesh)
         area += w;
         first += (w / 3.0) * s;
         // E[x x^T] over a triangle = (a a^T + b b^T + c c^T + s s^T) / 12.
-        second += (w / 12.0) * (a * a.transpose() + b * b.transpose() + c * c.transpose() +
-                                s * s.transpose());
+        second += (w / 12.0) *
+                  (a * a.transpose() + b * b.transpose() + c * c.transpose() + s * s.transpose());
     }
     Moments m;
     if (!(area > 0.0))
@@ -266,7 +269,8 @@ std::vector<Mat3> axis_rotations()
             Mat3 P = Mat3::Zero();
             for (int i = 0; i < 3; ++i)
             {
-                P(i, perm[static_cast<std::size_t>(i)]) = ((signs >> static_cast<unsigned>(i)) & 1U) != 0U ? -1.0 : 1.0;
+                P(i, perm[static_cast<std::size_t>(i)]) =
+                    ((signs >> static_cast<unsigned>(i)) & 1U) != 0U ? -1.0 : 1.0;
             }
             if (P.determinant() > 0.0)
             {
@@ -277,13 +281,13 @@ std::vector<Mat3> axis_rotations()
     return result;
 }
 
-
 // The rotations worth trying between two principal frames: the four sign flips when both
 // shapes have well separated axes (relative eigenvalue gaps above kAxisGap), all 24 axis
 // rotations when some axes are nearly interchangeable.
 std::vector<Mat3> frame_rotations(const Mat3& a, const Mat3& b)
 {
-    auto gap = [](const Mat3& covariance) {
+    auto gap = [](const Mat3& covariance)
+    {
         const Eigen::SelfAdjointEigenSolver<Mat3> solver(covariance, Eigen::EigenvaluesOnly);
         const Vec3 l = solver.eigenvalues();
         return std::min(l(2) - l(1), l(1) - l(0)) / l(2);
@@ -303,7 +307,6 @@ std::vector<Mat3> frame_rotations(const Mat3& a, const Mat3& b)
     }
     return flips;
 }
-
 
 // A seeded random order of the usable vertices. Nested prefixes of it are the subsamples of
 // every stage, so each stage sees the previous stage's points plus new ones. Deterministic

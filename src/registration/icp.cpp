@@ -8,13 +8,15 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
-#include <Eigen/SVD>
 
 #include "meshmark/core/threads.h"
 #include "meshmark/registration/point_to_plane.h"
+#include "meshmark/registration/similarity_fit.h"
 
-namespace meshmark::detail {
-namespace {
+namespace meshmark::detail
+{
+namespace
+{
 
 using Vec3 = Eigen::Vector3d;
 
@@ -33,9 +35,9 @@ double standard_error(double trimmed_rms, std::size_t kept)
 /// Matches of the current transform plus the trimming threshold.
 struct Matching
 {
-    Positions Y;                 // transformed samples
+    Positions Y;                        // transformed samples
     std::vector<SurfaceMatch> matches;  // their closest target points
-    double threshold = 0.0;      // largest kept distance
+    double threshold = 0.0;             // largest kept distance
     double trimmed_rms = 0.0;
     double overlap_fraction = 0.0;
 };
@@ -98,7 +100,8 @@ double update_size(const Eigen::Matrix3d& dR, double ds, const Vec3& dt, double 
 double rms_radius(const Positions& Y)
 {
     const Eigen::RowVector3d c = Y.colwise().mean();
-    return std::sqrt((Y.rowwise() - c).squaredNorm() / static_cast<double>(std::max<Eigen::Index>(Y.rows(), 1)));
+    return std::sqrt((Y.rowwise() - c).squaredNorm() /
+                     static_cast<double>(std::max<Eigen::Index>(Y.rows(), 1)));
 }
 
 IcpOutcome outcome_of(const Matching& m, const Similarity& T, int iterations, bool done)
@@ -131,7 +134,7 @@ IcpOutcome icp_point_to_point(const Positions& X, const SurfaceMatcher& target,
     for (int iteration = 1; iteration <= settings.max_iterations; ++iteration)
     {
         m = match_and_trim(X, target, T, settings);
-        // Closed-form similarity between the kept sources and their matches [Umeyama 1991].
+        // Closed-form similarity between the kept sources and their matches (fit_similarity).
         std::vector<Eigen::Index> kept;
         kept.reserve(m.matches.size());
         for (std::size_t i = 0; i < m.matches.size(); ++i)
@@ -150,26 +153,24 @@ IcpOutcome icp_point_to_point(const Positions& X, const SurfaceMatcher& target,
         for (std::size_t j = 0; j < kept.size(); ++j)
         {
             src.col(static_cast<Eigen::Index>(j)) = X.row(kept[j]).transpose();
-            dst.col(static_cast<Eigen::Index>(j)) = m.matches[static_cast<std::size_t>(kept[j])].point;
+            dst.col(static_cast<Eigen::Index>(j)) =
+                m.matches[static_cast<std::size_t>(kept[j])].point;
         }
-        const Eigen::Matrix4d A = Eigen::umeyama(src, dst, true);
-        Similarity next;
-        next.scale = A.block<3, 1>(0, 0).norm();
+        Similarity next = similarity_parts(fit_similarity(src, dst));
         if (!(next.scale > 0.0) || !std::isfinite(next.scale))
         {
             return outcome_of(m, T, iteration, false);
         }
-        next.rotation = A.block<3, 3>(0, 0) / next.scale;
-        next.translation = A.block<3, 1>(0, 3);
         if (next.scale < settings.min_scale || next.scale > settings.max_scale)
         {
             // Keep the rotation, clamp the scale and re-fit the translation to the centroids.
             next.scale = std::clamp(next.scale, settings.min_scale, settings.max_scale);
-            next.translation = dst.rowwise().mean() - next.scale * next.rotation * src.rowwise().mean();
+            next.translation =
+                dst.rowwise().mean() - next.scale * next.rotation * src.rowwise().mean();
         }
-        const double size = update_size(next.rotation * T.rotation.transpose(),
-                                        next.scale / T.scale - 1.0,
-                                        (next.translation - T.translation) / T.scale, radius);
+        const double size =
+            update_size(next.rotation * T.rotation.transpose(), next.scale / T.scale - 1.0,
+                        (next.translation - T.translation) / T.scale, radius);
         T = next;
         if (size < settings.tolerance ||
             size * radius * T.scale < kNoiseFraction * standard_error(m.trimmed_rms, kept.size()))
@@ -203,7 +204,8 @@ IcpOutcome icp_point_to_plane(const Positions& X, const SurfaceMatcher& target,
         }
         // Rotation, scale and translation, the first four times the kept samples' RMS radius L
         // about their centre c (point_to_plane_step).
-        const std::optional<PointToPlaneStep<7>> update = point_to_plane_step<7>(m.Y, m.matches, kept);
+        const std::optional<PointToPlaneStep<7>> update =
+            point_to_plane_step<7>(m.Y, m.matches, kept);
         if (!update)
         {
             return outcome_of(m, T, iteration, false);
@@ -231,7 +233,8 @@ IcpOutcome icp_point_to_plane(const Positions& X, const SurfaceMatcher& target,
         // Stop when the update is negligible, or below the fit's standard error (noisy data:
         // further updates only chase the trimming's jitter).
         const double step = (angle + std::abs(sigma)) * L + tau.norm();
-        if (step < settings.tolerance * L || step < kNoiseFraction * standard_error(m.trimmed_rms, kept.size()))
+        if (step < settings.tolerance * L ||
+            step < kNoiseFraction * standard_error(m.trimmed_rms, kept.size()))
         {
             return outcome_of(m, T, iteration, true);
         }

@@ -7,10 +7,12 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 
-namespace meshmark {
+namespace meshmark
+{
 
 template <int N>
-std::optional<PointToPlaneStep<N>> point_to_plane_step(const Positions& Y, const std::vector<SurfaceMatch>& matches,
+std::optional<PointToPlaneStep<N>> point_to_plane_step(const Positions& Y,
+                                                       const std::vector<SurfaceMatch>& matches,
                                                        std::span<const Eigen::Index> kept)
 {
     static_assert(N == 6 || N == 7, "6 unknowns (rigid) or 7 (with scale)");
@@ -53,7 +55,10 @@ std::optional<PointToPlaneStep<N>> point_to_plane_step(const Positions& Y, const
         JtJ.noalias() += J * J.transpose();
         Jtr += r * J;
     }
-    const double damping = 1e-9 * JtJ.trace() / static_cast<double>(N) + 1e-300;
+    // Damping, a share of the mean diagonal: keeps the directions the surface leaves free (a
+    // sphere's rotation, a cylinder's slide) where they are, and a well-posed step unchanged.
+    constexpr double kDamping = 1e-9;
+    const double damping = kDamping * JtJ.trace() / static_cast<double>(N) + 1e-300;
     step.delta = -(JtJ + damping * MatN::Identity()).ldlt().solve(Jtr);
     if (!step.delta.allFinite())
     {
@@ -62,9 +67,11 @@ std::optional<PointToPlaneStep<N>> point_to_plane_step(const Positions& Y, const
     return step;
 }
 
-template std::optional<PointToPlaneStep<6>> point_to_plane_step<6>(const Positions&, const std::vector<SurfaceMatch>&,
+template std::optional<PointToPlaneStep<6>> point_to_plane_step<6>(const Positions&,
+                                                                   const std::vector<SurfaceMatch>&,
                                                                    std::span<const Eigen::Index>);
-template std::optional<PointToPlaneStep<7>> point_to_plane_step<7>(const Positions&, const std::vector<SurfaceMatch>&,
+template std::optional<PointToPlaneStep<7>> point_to_plane_step<7>(const Positions&,
+                                                                   const std::vector<SurfaceMatch>&,
                                                                    std::span<const Eigen::Index>);
 
 }  // namespace meshmark

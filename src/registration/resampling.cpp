@@ -7,8 +7,8 @@
 #include <cstdint>
 #include <limits>
 #include <numeric>
-#include <utility>
 #include <string>
+#include <utility>
 
 #include <Eigen/LU>
 
@@ -19,8 +19,10 @@
 #include "meshmark/geometry/point_triangle.h"
 #include "registration/detail/surface_matcher.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 /// The \p q-quantile of \p values (nearest rank), from a copy: the same value on every run.
 double quantile_of(const Eigen::VectorXd& values, double q)
@@ -30,9 +32,9 @@ double quantile_of(const Eigen::VectorXd& values, double q)
     {
         return 0.0;
     }
-    const auto k = static_cast<std::size_t>(
-        std::clamp(std::ceil(q * static_cast<double>(v.size())) - 1.0, 0.0,
-                   static_cast<double>(v.size() - 1)));
+    const auto k =
+        static_cast<std::size_t>(std::clamp(std::ceil(q * static_cast<double>(v.size())) - 1.0, 0.0,
+                                            static_cast<double>(v.size() - 1)));
     std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
     return v[k];
 }
@@ -40,8 +42,8 @@ double quantile_of(const Eigen::VectorXd& values, double q)
 /// Barycentric coordinates of \p p (a point of the triangle) in (\p a, \p b, \p c): the
 /// least-squares solution in the triangle's plane, clamped to the triangle. A degenerate
 /// triangle (no plane) gives all the weight to its corner nearest to \p p.
-Eigen::Vector3d barycentric(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
-                            const Eigen::Vector3d& c)
+Eigen::Vector3d barycentric(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
+                            const Eigen::Vector3d& b, const Eigen::Vector3d& c)
 {
     const Eigen::Vector3d ab = b - a;
     const Eigen::Vector3d ac = c - a;
@@ -52,7 +54,8 @@ Eigen::Vector3d barycentric(const Eigen::Vector3d& p, const Eigen::Vector3d& a, 
     const double det = d00 * d11 - d01 * d01;
     if (!(det > 1e-24 * d00 * d11) || !std::isfinite(det))
     {
-        const std::array<double, 3> d{ap.squaredNorm(), (p - b).squaredNorm(), (p - c).squaredNorm()};
+        const std::array<double, 3> d{ap.squaredNorm(), (p - b).squaredNorm(),
+                                      (p - c).squaredNorm()};
         const auto k = std::min_element(d.begin(), d.end()) - d.begin();
         return Eigen::Vector3d::Unit(k);
     }
@@ -68,7 +71,8 @@ Eigen::Vector3d barycentric(const Eigen::Vector3d& p, const Eigen::Vector3d& a, 
 
 void ResamplingOptions::validate() const
 {
-    auto require = [](bool ok, const std::string& what) {
+    auto require = [](bool ok, const std::string& what)
+    {
         if (!ok)
         {
             throw InvalidOption("resampling option " + what + ".");
@@ -76,8 +80,9 @@ void ResamplingOptions::validate() const
     };
     require(edge_factor >= 0.0 && std::isfinite(edge_factor),
             "edge_factor = " + std::to_string(edge_factor) + " is not a finite number >= 0");
-    require(quantile_factor >= 0.0 && std::isfinite(quantile_factor),
-            "quantile_factor = " + std::to_string(quantile_factor) + " is not a finite number >= 0");
+    require(
+        quantile_factor >= 0.0 && std::isfinite(quantile_factor),
+        "quantile_factor = " + std::to_string(quantile_factor) + " is not a finite number >= 0");
     require(quantile > 0.0 && quantile <= 1.0,
             "quantile = " + std::to_string(quantile) + " is outside (0, 1]");
     require(threads >= 0, "threads = " + std::to_string(threads) + " is negative");
@@ -108,7 +113,8 @@ Resampling resample(const TriangleMesh& reference, const ClosestPointIndex& susp
     const double det = A.determinant();
     if (!std::isfinite(det) || std::abs(det) < 1e-300 || !suspect_to_reference.allFinite())
     {
-        throw InvalidOption("resampling: the suspect-to-reference transform is singular or not finite.");
+        throw InvalidOption(
+            "resampling: the suspect-to-reference transform is singular or not finite.");
     }
     const Eigen::Matrix3d A_inv = A.inverse();
     const int threads = resolve_threads(options.threads);
@@ -141,8 +147,8 @@ Resampling resample(const TriangleMesh& reference, const ClosestPointIndex& susp
     // Crop marking: farther than the threshold (see ResamplingOptions) means no counterpart.
     result.mean_edge_length = mean_edge_length(reference);
     const double q = quantile_of(result.distance, options.quantile);
-    result.crop_threshold = std::max(options.edge_factor * result.mean_edge_length,
-                                     options.quantile_factor * q);
+    result.crop_threshold =
+        std::max(options.edge_factor * result.mean_edge_length, options.quantile_factor * q);
     result.is_cropped.resize(static_cast<std::size_t>(n));
     std::size_t cropped = 0;
     for (Eigen::Index i = 0; i < n; ++i)
@@ -155,7 +161,8 @@ Resampling resample(const TriangleMesh& reference, const ClosestPointIndex& susp
     return result;
 }
 
-namespace {
+namespace
+{
 
 /// The faces around each point of \p mesh in compressed rows, vertices at the same position
 /// taken as one point (seams, split normals, welded-by-position parts): `point[v]` is the
@@ -178,7 +185,9 @@ PointFaces point_faces(const TriangleMesh& mesh)
     {
         for (int k = 0; k < 3; ++k)
         {
-            ++result.offsets[static_cast<std::size_t>(result.point[static_cast<std::size_t>(mesh.F(f, k))]) + 1];
+            ++result.offsets[static_cast<std::size_t>(
+                                 result.point[static_cast<std::size_t>(mesh.F(f, k))]) +
+                             1];
         }
     }
     for (std::size_t v = 1; v < result.offsets.size(); ++v)
@@ -191,7 +200,8 @@ PointFaces point_faces(const TriangleMesh& mesh)
     {
         for (int k = 0; k < 3; ++k)
         {
-            const auto p = static_cast<std::size_t>(result.point[static_cast<std::size_t>(mesh.F(f, k))]);
+            const auto p =
+                static_cast<std::size_t>(result.point[static_cast<std::size_t>(mesh.F(f, k))]);
             result.faces[next[p]++] = static_cast<std::int32_t>(f);
         }
     }
@@ -205,18 +215,21 @@ PointFaces point_faces(const TriangleMesh& mesh)
 Eigen::Vector3d closest_near(const Eigen::Vector3d& q, std::int32_t start, const TriangleMesh& mesh,
                              const PointFaces& around)
 {
-    constexpr int kSteps = 32;
+    constexpr int kSteps = 32;  // a bound on the walk: a round without a closer face ends it sooner
     Eigen::Vector3d best = mesh.V.row(start).transpose();
     double best2 = (best - q).squaredNorm();
     std::int32_t best_face = -1;
-    auto visit = [&](std::int32_t v) {
+    auto visit = [&](std::int32_t v)
+    {
         const auto p = static_cast<std::size_t>(around.point[static_cast<std::size_t>(v)]);
         for (std::uint32_t k = around.offsets[p]; k < around.offsets[p + 1]; ++k)
         {
             const std::int32_t f = around.faces[k];
-            const TriangleCorners t{mesh.V.row(mesh.F(f, 0)).transpose(), mesh.V.row(mesh.F(f, 1)).transpose(),
+            const TriangleCorners t{mesh.V.row(mesh.F(f, 0)).transpose(),
+                                    mesh.V.row(mesh.F(f, 1)).transpose(),
                                     mesh.V.row(mesh.F(f, 2)).transpose()};
-            const Eigen::Vector3d c = closest_point_on_triangle(q, t, is_sliver_triangle(t.a, t.b, t.c));
+            const Eigen::Vector3d c =
+                closest_point_on_triangle(q, t, is_sliver_triangle(t.a, t.b, t.c));
             const double d2 = (c - q).squaredNorm();
             if (d2 < best2 || (d2 == best2 && best_face >= 0 && f < best_face))
             {
@@ -244,13 +257,15 @@ Eigen::Vector3d closest_near(const Eigen::Vector3d& q, std::int32_t start, const
 
 }  // namespace
 
-void match_reference_surface(Resampling& sampled, const TriangleMesh& reference, const TriangleMesh& suspect,
+void match_reference_surface(Resampling& sampled, const TriangleMesh& reference,
+                             const TriangleMesh& suspect,
                              const Eigen::Matrix4d& suspect_to_reference, int threads)
 {
     const Eigen::Index n = reference.V.rows();
     if (sampled.points.rows() != n || sampled.element.size() != static_cast<std::size_t>(n))
     {
-        throw InvalidOption("match_reference_surface: the resampling was not made for this reference.");
+        throw InvalidOption(
+            "match_reference_surface: the resampling was not made for this reference.");
     }
     threads = resolve_threads(threads);
     const bool is_cloud = suspect.F.rows() == 0;
@@ -278,7 +293,8 @@ void match_reference_surface(Resampling& sampled, const TriangleMesh& reference,
 #pragma omp parallel for schedule(static) num_threads(threads)
     for (Eigen::Index j = 0; j < corners.rows(); ++j)
     {
-        corners.row(j) = (A * suspect.V.row(used[static_cast<std::size_t>(j)]).transpose() + t).transpose();
+        corners.row(j) =
+            (A * suspect.V.row(used[static_cast<std::size_t>(j)]).transpose() + t).transpose();
     }
     // Each corner's offset from the reference surface: its closest point, found by a walk
     // from the nearest reference vertex (on the right part of a mesh made of several).
@@ -292,8 +308,9 @@ void match_reference_surface(Resampling& sampled, const TriangleMesh& reference,
             const Eigen::Vector3d q = corners.row(j).transpose();
             double squared = 0.0;
             const auto s = static_cast<std::int32_t>(vertices.nearest(q, squared));
-            const Eigen::Vector3d on_reference = has_faces ? closest_near(q, s, reference, around)
-                                                           : Eigen::Vector3d(reference.V.row(s).transpose());
+            const Eigen::Vector3d on_reference =
+                has_faces ? closest_near(q, s, reference, around)
+                          : Eigen::Vector3d(reference.V.row(s).transpose());
             corners.row(j) = (q - on_reference).transpose();
         }
     }

@@ -7,18 +7,19 @@
 #include <limits>
 #include <utility>
 
-#include <omp.h>
-
 #include <Eigen/Geometry>
+#include <omp.h>
 
 #include "meshmark/core/error.h"
 #include "meshmark/core/threads.h"
 #include "meshmark/geometry/point_kd_tree.h"
 #include "meshmark/geometry/point_triangle.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
-namespace {
+namespace
+{
 
 struct FacePoint
 {
@@ -37,7 +38,8 @@ double median_edge(const TriangleMesh& mesh)
         for (int c = 0; c < 3; ++c)
         {
             lengths.push_back((mesh.V.row(mesh.F(static_cast<Eigen::Index>(f), c)) -
-                               mesh.V.row(mesh.F(static_cast<Eigen::Index>(f), (c + 1) % 3))).norm());
+                               mesh.V.row(mesh.F(static_cast<Eigen::Index>(f), (c + 1) % 3)))
+                                  .norm());
         }
     }
     const auto middle = lengths.begin() + static_cast<std::ptrdiff_t>(lengths.size() / 2);
@@ -78,7 +80,11 @@ std::vector<FacePoint> face_points(const TriangleMesh& mesh, std::size_t budget)
     // A face gets (k + 1)(k + 2)/2 - 3 lattice points, k = ceil(longest edge / spacing); only
     // faces whose longest edge exceeds twice the spacing get any. Counted in floating point: a
     // sliver of a huge triangle beside tiny ones must not overflow the count.
-    auto steps = [&](std::size_t f) { return longest[f] > 2.0 * spacing ? std::ceil(longest[f] / spacing) : 0.0; };
+    // Above a face larger than this many spacings the nearest vertex may be another part's
+    // (docs/algorithms/registration.md, step 5); meshes of even triangles get no points.
+    constexpr double kLargeFace = 2.0;
+    auto steps = [&](std::size_t f)
+    { return longest[f] > kLargeFace * spacing ? std::ceil(longest[f] / spacing) : 0.0; };
     auto count = [](double k) { return k >= 3.0 ? (k + 1.0) * (k + 2.0) / 2.0 - 3.0 : 0.0; };
     const auto allowed = static_cast<double>(budget);
     for (int attempt = 0; attempt < 8; ++attempt)
@@ -128,14 +134,14 @@ std::vector<FacePoint> face_points(const TriangleMesh& mesh, std::size_t budget)
 
 struct SurfaceMatcher::Impl
 {
-    std::vector<std::int32_t> vertex_of;     // kd point -> mesh vertex (surface mode).
-    std::vector<std::int32_t> face_of;       // kd point vertex_of.size() + i -> its face.
-    Positions V;                             // mesh positions (surface mode).
-    Faces F;                                 // mesh faces (surface mode).
-    Positions face_normal;                   // unit face normals (surface mode).
-    std::vector<std::size_t> ring_offsets;   // vertex -> incident faces, CSR.
+    std::vector<std::int32_t> vertex_of;    // kd point -> mesh vertex (surface mode).
+    std::vector<std::int32_t> face_of;      // kd point vertex_of.size() + i -> its face.
+    Positions V;                            // mesh positions (surface mode).
+    Faces F;                                // mesh faces (surface mode).
+    Positions face_normal;                  // unit face normals (surface mode).
+    std::vector<std::size_t> ring_offsets;  // vertex -> incident faces, CSR.
     std::vector<std::int32_t> ring_faces;
-    std::unique_ptr<PointKdTree> tree;       // Over the target's (referenced) vertices.
+    std::unique_ptr<PointKdTree> tree;  // Over the target's (referenced) vertices.
 
     void build_tree(Positions points)
     {
@@ -153,9 +159,11 @@ struct SurfaceMatcher::Impl
         for (Eigen::Index f = 0; f < F.rows(); ++f)
         {
             const Eigen::Vector3d a = V.row(F(f, 0)).transpose();
-            const Eigen::Vector3d n = (V.row(F(f, 1)).transpose() - a).cross(V.row(F(f, 2)).transpose() - a);
+            const Eigen::Vector3d n =
+                (V.row(F(f, 1)).transpose() - a).cross(V.row(F(f, 2)).transpose() - a);
             const double length = n.norm();
-            face_normal.row(f) = (length > 0.0 ? Eigen::Vector3d(n / length) : Eigen::Vector3d::Zero()).transpose();
+            face_normal.row(f) =
+                (length > 0.0 ? Eigen::Vector3d(n / length) : Eigen::Vector3d::Zero()).transpose();
         }
     }
 
@@ -244,7 +252,8 @@ SurfaceMatch SurfaceMatcher::match(const Eigen::Vector3d& query) const
     double best = squared;
     std::int32_t best_face =
         on_vertex ? m.ring_faces[m.ring_offsets[static_cast<std::size_t>(m.vertex_of[k])]] : face;
-    auto project_ring = [&](std::size_t v) {
+    auto project_ring = [&](std::size_t v)
+    {
         for (std::size_t r = m.ring_offsets[v]; r < m.ring_offsets[v + 1]; ++r)
         {
             const std::int32_t f = m.ring_faces[r];
@@ -277,7 +286,8 @@ SurfaceMatch SurfaceMatcher::match(const Eigen::Vector3d& query) const
     return result;
 }
 
-void SurfaceMatcher::match_all(const Positions& queries, std::vector<SurfaceMatch>& out, int threads) const
+void SurfaceMatcher::match_all(const Positions& queries, std::vector<SurfaceMatch>& out,
+                               int threads) const
 {
     const auto count = static_cast<std::int64_t>(queries.rows());
     out.resize(static_cast<std::size_t>(count));
@@ -289,7 +299,8 @@ void SurfaceMatcher::match_all(const Positions& queries, std::vector<SurfaceMatc
     }
 }
 
-namespace detail {
+namespace detail
+{
 
 double median_neighbor_spacing(const Positions& V, std::size_t max_queries)
 {

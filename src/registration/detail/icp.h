@@ -4,18 +4,15 @@
 #include <Eigen/Core>
 
 #include "meshmark/core/triangle_mesh.h"
+#include "meshmark/registration/similarity_fit.h"
 #include "registration/detail/surface_matcher.h"
 
-namespace meshmark::detail {
+namespace meshmark::detail
+{
 
 /// x -> scale * rotation * x + translation, with a proper rotation (det = +1). Mirrored
-/// candidates mirror their source points once instead (see registration.cpp).
-struct Similarity
-{
-    double scale = 1.0;
-    Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
-    Eigen::Vector3d translation = Eigen::Vector3d::Zero();
-};
+/// candidates mirror their source points once instead (registration_problem.h).
+using Similarity = SimilarityTransform;
 
 /// Rows of \p X mapped by \p T (parallel, disjoint writes).
 [[nodiscard]] Positions apply(const Similarity& T, const Positions& X, int threads);
@@ -23,12 +20,12 @@ struct Similarity
 /// Settings shared by both ICP variants.
 struct IcpSettings
 {
-    double trim_keep = 0.9;      ///< Fraction of closest pairs kept per iteration.
+    double trim_keep = 0.9;  ///< Fraction of closest pairs kept per iteration.
     int max_iterations = 20;
-    double tolerance = 1e-6;     ///< Stop when one update is smaller (relative, see icp.cpp).
-    double min_scale = 0.0;      ///< Scale clamp (point-to-point only): guards against
-    double max_scale = 1e300;    ///< collapse onto a small part of the target.
-    double distance_floor = 0.0; ///< Absolute floor of the overlap threshold.
+    double tolerance = 1e-6;      ///< Stop when one update is smaller (relative, see icp.cpp).
+    double min_scale = 0.0;       ///< Scale clamp (point-to-point only): guards against
+    double max_scale = 1e300;     ///< collapse onto a small part of the target.
+    double distance_floor = 0.0;  ///< Absolute floor of the overlap threshold.
     int threads = 1;
 };
 
@@ -43,7 +40,7 @@ struct IcpOutcome
 };
 
 /// \brief Trimmed point-to-point ICP with uniform scale: each iteration matches, keeps the
-/// closest `trim_keep` of the pairs and solves the similarity in closed form [Umeyama 1991].
+/// closest `trim_keep` of the pairs and solves the similarity in closed form (fit_similarity).
 /// The returned statistics are those of the last matching (before the last update).
 [[nodiscard]] IcpOutcome icp_point_to_point(const Positions& X, const SurfaceMatcher& target,
                                             const Similarity& start, const IcpSettings& settings);
