@@ -301,7 +301,7 @@ void bind_memory(py::module_& m)
         .def_property_readonly("is_far_copy", [](const DetectResult& r) { return r.report.is_far_copy(); },
                                "Registered and at least 3 times the mark's strength from the original: marked "
                                "copies that far are mostly lost, so 'not found' says little about whose copy "
-                               "it is (docs/robustness.md, \"Known losses\").")
+                               "it is (docs/robustness.md, \"What an attack leaves of the mark\").")
         .def_property_readonly("transform",
                                [](const DetectResult& r) {
                                    py::array_t<double> matrix({4, 4});
