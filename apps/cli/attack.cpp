@@ -39,59 +39,30 @@ std::string grammar_help()
     const RemeshingOptions remesh;
     const CropOptions crop;
     const VoxelRemeshingOptions voxel;
-    return "SPEC := STEP[,STEP]...  (applied left to right)   STEP := NAME[=LEVEL][:KEY=VALUE]...\n"
-           "A missing level takes the default; [..] are the levels of the 3D mesh watermarking\n"
-           "benchmark (Wang, Lavoue, Denis, Baskurt 2008).\n"
-           "  similarity         random: uniform rotation, log-uniform scale in [1/smax, smax],\n"
-           "                     bbox centre moved up to tmax bbox radii; keys smax=" +
+    return "SPEC := STEP[,STEP]...  (left to right)   STEP := NAME[=LEVEL][:KEY=VALUE]...\n"
+           "Steps (default level; their keys and details: docs/cli.md, docs/algorithms/attacks.md):\n"
+           "  similarity         random rotation, scale and move (keys smax=" +
            number(similarity.max_scale) + " tmax=" + number(similarity.max_translation_radii) +
-           ".\n"
-           "                     explicit (about the origin), identity where not given: axis=x|y|z\n"
-           "                     or ax=,ay=,az= ; angle=DEG ; scale=S ; tx=,ty=,tz= ;\n"
-           "                     mirror=x|y|z (mirrored first in that coordinate plane, as\n"
-           "                     Blender's Mirror; the faces keep facing out)\n"
-           "  noise=A            random displacement, A a fraction of the reference length\n"
-           "                     (default " + number(noise.amplitude) +
-           ") [0.0005 0.001 0.003 0.005 0.01]; keys dist=uniform|gaussian\n"
-           "                     (uniform in [-a,a] or std a; default uniform), dir=iso|normal\n"
-           "                     (default iso), ref=diag|centroid (bbox diagonal, default; or mean\n"
-           "                     distance to the centroid, the benchmark's)\n"
-           "  smooth=N           uniform Laplacian smoothing, N iterations (default " +
-           std::to_string(smooth.iterations) + ") [5 10 30 50 100];\n"
-           "                     key lambda=" + number(smooth.lambda) + "\n"
-           "  taubin=N           Taubin lambda|mu smoothing, N step pairs (default " +
-           std::to_string(taubin.iterations) + "); keys lambda=" + number(taubin.lambda) +
-           " mu=" + number(taubin.mu) + "\n"
-           "  quantize=B         coordinates snapped to 2^B levels over the bbox (default " +
-           std::to_string(quantize.bits) + ") [7 8 9 10 11 12]\n"
-           "  simplify=F         quadric edge collapse to fraction F of the vertices (default " +
-           number(simplify.vertex_fraction) + ")\n"
-           "                     [0.5 0.25 0.1 0.02 0.01]; key policy=gh|lt (Garland-Heckbert,\n"
-           "                     default; Lindstrom-Turk); key boundary=" + number(simplify.boundary_weight) +
-           " (gh: weight of the\n"
-           "                     border quadrics; 1 = Open3D's and MeshLab's default)\n"
-           "  remesh=F           isotropic remeshing to fraction F of the vertices, F <= 1 (default " +
-           number(remesh.vertex_fraction) + ")\n"
-           "                     [0.25 0.05]; key iter=" + std::to_string(remesh.iterations) +
-           " (iterations per pass)\n"
-           "  subdivide=S        S = loop|midpoint|sqrt3 (default loop); key steps=1\n"
-           "  crop=F             plane cut keeping fraction F of the vertices (default " +
-           number(crop.vertex_fraction) + ") [0.9 0.7 0.5];\n"
-           "                     keys axis=x|y|z or ax=,ay=,az= (normal towards the removed side;\n"
-           "                     random from the seed if absent)\n"
+           "), or explicit; mirror=x|y|z\n"
+           "  noise=A            random displacement, A of the bbox diagonal (" + number(noise.amplitude) +
+           ")\n"
+           "  smooth=N           Laplacian smoothing, N iterations (" + std::to_string(smooth.iterations) +
+           "; lambda=" + number(smooth.lambda) + ")\n"
+           "  taubin=N           Taubin smoothing, N step pairs (" + std::to_string(taubin.iterations) +
+           "; lambda=" + number(taubin.lambda) + " mu=" + number(taubin.mu) + ")\n"
+           "  quantize=B         coordinates snapped to 2^B levels over the bbox (" +
+           std::to_string(quantize.bits) + ")\n"
+           "  simplify=F         quadric edge collapse to F of the vertices (" +
+           number(simplify.vertex_fraction) + "; policy=gh|lt boundary=" +
+           number(simplify.boundary_weight) + ")\n"
+           "  remesh=F           isotropic remeshing to F of the vertices (" +
+           number(remesh.vertex_fraction) + "; iter=" + std::to_string(remesh.iterations) + ")\n"
+           "  subdivide=S        loop|midpoint|sqrt3 (loop; steps=1)\n"
+           "  crop=F             plane cut keeping F of the vertices (" + number(crop.vertex_fraction) +
+           "; axis=x|y|z)\n"
            "  reorder            random permutation of the vertices and of the faces\n"
-           "  voxel=N            voxel remesh as in Blender (OpenVDB, adaptivity 0): the surface\n"
-           "                     re-extracted from a signed-distance grid of voxel edge D/N, D the\n"
-           "                     bbox diagonal (default " +
-           number(voxel.resolution) + ") [300 150], N in [10, 2000];\n"
-           "                     Blender's Voxel Size is D/N in object units. The result is closed;\n"
-           "                     detail below a voxel, thin parts and inner surfaces are lost.\n"
-           "                     OpenVDB is a plugin: <prefix>/lib/meshmark/libmeshmark_voxel.so for\n"
-           "                     <prefix>/bin/meshmark, or MESHMARK_PLUGIN_DIR (then only there);\n"
-           "                     without it, voxel steps exit with code 5\n"
-           "Step k draws from its own stream, derived from --seed, its position and its name.\n"
-           "Simplify, remesh, subdivide and voxel need faces; the first three cut non-manifold edges\n"
-           "and vertices apart and drop unused vertices first. Crop drops the vertices it leaves unused.\n"
+           "  voxel=N            voxel remesh as Blender's, voxel edge = bbox diagonal / N (" +
+           number(voxel.resolution) + ")\n"
            "Example: meshmark attack in.ply -o out.ply --seed 3 similarity,simplify=0.1,noise=0.001";
 }
 

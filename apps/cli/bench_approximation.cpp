@@ -220,9 +220,8 @@ void register_bench_approximation(CLI::App& bench, GlobalArgs& global, CommandRu
     auto args = std::make_shared<ApproximationArgs>();
     auto* command = bench.add_subcommand(
         "approximation",
-        "Relative approximation error E_k = |P - U_k U_k^T P| / |P - centroid| of the shape by the "
-        "first k modes of each basis (RBF with random or decimated centers, Laplacian eigenbasis), "
-        "as in Wu & Kobbelt's Fig. 3/11; prints a markdown table (or --json)");
+        "Approximation error E_k of the shape by the first k modes of each basis (Wu & Kobbelt's "
+        "Fig. 3/11)");
     command->add_option(
         "--mesh-dir", args->mesh_dir,
         "Meshes (.ply .obj .off .stl); default $MESHMARK_MESH_DIR, else ../shared/data/meshes");

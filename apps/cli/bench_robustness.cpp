@@ -328,10 +328,8 @@ void register_bench_robustness(CLI::App& bench, GlobalArgs& global, CommandRunne
     auto args = std::make_shared<RobustnessArgs>();
     auto* command = bench.add_subcommand(
         "robustness",
-        "Embed with --keys random keys into each mesh, attack the marked copies and the unmarked "
-        "original with every attack of --attacks, detect everything (and the marked copies with "
-        "wrong keys), and print tables of detection rates, scores and distortion (markdown, or "
-        "--json). Runs in memory; registration makes it slow: minutes per mesh.");
+        "Embed, attack and detect with many keys per mesh; tables of detection rates, scores and "
+        "distortion (docs/cli.md)");
     command->add_option("--mesh-dir", args->mesh_dir,
                         "Meshes (.ply .obj .off .stl); default $MESHMARK_MESH_DIR, else ../shared/data/meshes");
     command->add_option("--mesh", args->meshes, "Mesh files instead of a directory (repeatable)");
@@ -351,15 +349,13 @@ void register_bench_robustness(CLI::App& bench, GlobalArgs& global, CommandRunne
     command->add_option("--seed", args->seed, "Seed of keys and attacks")->capture_default_str();
     command->add_option("--strength", args->strength, "Embedding strength (default: the rule's default)");
     command->add_option("--strength-measure", args->strength_measure,
-                        "What the additive strength measures: surface (RMS surface distance) or vertex "
-                        "(RMS vertex displacement), as embed's option")
+                        "As embed's: surface or vertex")
         ->check(CLI::IsMember({"surface", "vertex"}))
         ->capture_default_str();
     command->add_option("--coefficients", args->coefficients, "m, payload bits per axis (3m bits)")
         ->capture_default_str();
     command->add_option("--repetitions", args->repetitions,
-                        "Coefficients per payload bit: auto (as embed chooses it, per mesh) or a number "
-                        "(with --recipients: 2 unless given, as a new family key)")
+                        "Coefficients per payload bit: auto (as embed) or a number")
         ->transform(repetitions_choice())
         ->type_name("auto|INT")
         ->default_str("auto");
@@ -382,23 +378,18 @@ void register_bench_robustness(CLI::App& bench, GlobalArgs& global, CommandRunne
     command->add_option("--markdown", args->markdown, "Also write the tables to this file");
     command->add_option("--json-file", args->json_path, "Also write every trial as JSON to this file");
     command->add_option("--recipients", args->recipients,
-                        "Family keys with this many recipients (0: single-owner keys): the marked copies "
-                        "are recipient 0's, every suspect is traced, and a table counts how often its "
-                        "recipient is accused and whether an innocent ever is (docs/fingerprinting.md)")
+                        "Family keys with this many recipients (0: single-owner keys); suspects are traced")
         ->check(CLI::Range(0, 100000))
         ->capture_default_str();
     command->add_option("--colluders", args->colluders,
-                        "With --recipients: the marked copy is the vertex-by-vertex average of the copies of "
-                        "this many recipients (0 .. N-1), and a trial counts when one of them is accused")
+                        "With --recipients: the suspect averages the copies of this many recipients")
         ->check(CLI::Range(1, 100000))
         ->capture_default_str();
     command->add_option("--from-json", args->from_json,
-                        "Only tabulate: read the trials of earlier --json-file runs (repeatable; same settings) "
-                        "instead of running")
+                        "Only tabulate the trials of earlier --json-file runs (repeatable)")
         ->check(CLI::ExistingFile);
     command->add_flag("--plain-resampling", args->plain_resampling,
-                      "Ablation: read resampled copies against the original's vertices, not its surface "
-                      "under the copy's triangles (detection before 2026-11-26)");
+                      "Ablation: read resampled copies against the original's vertices only");
     command->add_flag("--json", args->json, "Print every trial as one JSON object instead of the tables");
     add_global_flags(*command, global);
     command->callback([args, &global, &runner, command]() {

@@ -374,8 +374,7 @@ void register_catalog(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     catalog->require_subcommand(1);
 
     auto* add = catalog->add_subcommand(
-        "add", "Mark every mesh file found (folders searched recursively) and record it; a marked copy is "
-               "written under -o at the same relative path. Running it again finishes an interrupted call");
+        "add", "Mark every mesh file found (folders recursively) into -o and record it; resumable");
     add->add_option("CATALOG", args->catalog, "Catalogue file (created when missing)")->required();
     add->add_option("INPUTS", args->inputs, "Mesh files and folders")->required()->check(CLI::ExistingPath);
     add->add_option("-o,--output", args->output, "Folder of the marked copies")->required();
@@ -402,8 +401,7 @@ void register_catalog(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     list->callback([args, &global, &runner] { runner = [args, &global] { return run_list(*args, global); }; });
 
     auto* issue = catalog->add_subcommand(
-        "issue", "Issue traceable copies of an asset to recipients (recorded before they are written; "
-                 "a known name gets the same bytes again)");
+        "issue", "Issue traceable copies of an asset to recipients (recorded before they are written)");
     issue->add_option("CATALOG", args->catalog, "Catalogue file")->required();
     issue->add_option("ASSET", args->asset, "Asset id (catalog list)")->required();
     issue->add_option("--recipient", args->recipients, "Recipient name (repeatable)");
@@ -429,8 +427,8 @@ void register_catalog(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
         ->capture_default_str();
     add_lock_timeout(*scan, *args);
     scan->add_option("--report", args->report,
-                     "Write an evidence report per suspect, FILE.html or FILE.pdf (docs/evidence.md); with several "
-                     "suspects put {suspect} (the file name without its extension) in it");
+                     "Write an evidence report per suspect, FILE.html or FILE.pdf; several suspects: "
+                     "{suspect} in it");
     scan->add_flag("--json", args->json, "Print a JSON report on stdout");
     add_global_flags(*scan, global);
     scan->callback([args, &global, &runner] { runner = [args, &global] { return run_scan(*args, global); }; });

@@ -293,46 +293,34 @@ void register_compare(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     auto args = std::make_shared<CompareArgs>();
     auto* command = app.add_subcommand(
         "compare",
-        "Distortion between two meshes, relative to the bounding-box diagonal of A: symmetric and "
-        "one-sided Hausdorff distances, area-weighted RMS distances and MRMS (their maximum), "
-        "measured surface to surface (vertices plus stratified samples on the faces, exact "
-        "point-to-triangle distances); plus vertex displacement when A and B share connectivity.");
+        "Distortion between two meshes, surface to surface, in % of A's bbox diagonal: Hausdorff, "
+        "RMS, MRMS (docs/cli.md)");
     command->add_option("A", args->a, "Reference mesh (defines the unit)")->required()->check(CLI::ExistingFile);
     command->add_option("B", args->b, "Mesh compared with A")->required()->check(CLI::ExistingFile);
     command->add_flag("--json", args->json,
-                      "Print one JSON object: hausdorff, hausdorff_ab, hausdorff_ba, rms_ab, rms_ba, mrms, "
-                      "mean_ab, mean_ba, max_displacement and rms_displacement (same connectivity only), "
-                      "counts, samples, seconds; with a known unit, in_unit: the same distances in it");
+                      "Print one JSON object on stdout (fields: docs/cli.md)");
     command->add_option(
         "--heatmap", args->heatmap,
-        "Show each vertex's distance to A as a color: blue (0) -> cyan -> green -> yellow -> red "
-        "(the largest distance of B's vertices), linear in distance. A .ply file gets B with "
-        "per-vertex colors (open it in MeshLab or Blender); a .png file gets a picture of B "
-        "(shaded, colors interpolated across the triangles, a point cloud as dots) with a color "
-        "bar in % of A's bounding-box diagonal, drawn without a display or GPU");
+        "Color B by each vertex's distance to A's surface, blue 0 to red the largest: FILE.png "
+        "(a picture) or FILE.ply");
     command->add_option(
         "--view", args->view,
-        std::string("Direction a .png heatmap shows B from, about its up axis (--up): ") +
-            kViewNames +
-            ", or AZIMUTH,ELEVATION in degrees (azimuth from the front towards the right, "
-            "elevation above the horizon; front34 is 30,20). The model is fitted to the picture");
+        std::string("View of a .png heatmap: ") + kViewNames + ", or AZIMUTH,ELEVATION in degrees");
     command->add_option("--up", args->up,
-                        "Up axis of B in a .png heatmap: y (default; front +Z: Stanford scans, most "
-                        "OBJ/PLY, glTF), z (front -Y: Blender, CAD, STL/3MF for printing), x, -y, -z, -x");
+                        "Up axis of B in a .png heatmap: y (default), z (Blender, CAD, print), x, -y, -z, -x");
     command->add_option("--size", args->size,
                         "Size of a .png heatmap in pixels, WIDTHxHEIGHT (default 1024x768; " +
                             std::to_string(kMinImageSide) + " to " + std::to_string(kMaxImageSide) +
                             " per side)");
     command->add_option("--samples", args->options.samples,
-                        "Area samples per surface on top of the vertices; 0 = automatic: " +
-                            std::to_string(kAutoSamplesPerFace) + " per triangle, at least " +
-                            std::to_string(kMinAutoSamples) + ", at most " + std::to_string(kMaxAutoSamples))
+                        "Area samples per surface on top of the vertices; 0 = automatic (" +
+                            std::to_string(kAutoSamplesPerFace) + " per triangle)")
         ->check(CLI::Range(std::int64_t{0}, std::int64_t{1'000'000'000}))
         ->capture_default_str();
     command->add_option("--seed", args->options.seed, "Seed of the stratified sampling")->capture_default_str();
     command->add_option("--unit", args->unit,
-                        "Unit of A's coordinates (um mm cm m in ft), overriding its file's (3MF states one, glTF "
-                        "is in metres; PLY OBJ OFF STL have none): distances are then also given in it");
+                        "Unit of A's coordinates (um mm cm m in ft), overriding its file's; distances are also "
+                        "given in it");
     add_global_flags(*command, global);
     command->callback([args, &global, &runner]() {
         runner = [args, &global]() { return run_compare(*args, global); };

@@ -124,14 +124,8 @@ void register_demo(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     auto args = std::make_shared<DemoArgs>();
     auto* command = app.add_subcommand(
         "demo",
-        "Run the whole pipeline on a mesh meshmark makes itself: make -> embed -> attack -> "
-        "detect, "
-        "printing each step and the verdict, and draw the mark (heatmap.png: each vertex's "
-        "distance "
-        "to the original surface, as `compare --heatmap out.png` draws it). Exit 0 when the "
-        "attacked "
-        "copy is detected and the "
-        "unmarked original is not.");
+        "Make a mesh, embed, draw the mark (heatmap.png, as compare --heatmap), attack, detect; "
+        "exit 0 when all goes as expected");
     command->add_option("--dir", args->dir, "Folder for the demo's files (default: a new temporary folder)");
     command->add_option("--subdivisions", args->subdivisions,
                         "Size of the demo mesh: 10*4^s+2 vertices (6 gives 40,962)")

@@ -180,35 +180,20 @@ void register_detect(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     auto args = std::make_shared<DetectArgs>();
     auto* command = app.add_subcommand(
         "detect",
-        "Look for the watermark of KEY in SUSPECT (non-blind: needs the original). A suspect that "
-        "keeps the original's vertices in order (noise, smoothing, quantization, any similarity) "
-        "is compared vertex for vertex; any other (reordered, simplified, remeshed, subdivided, "
-        "cropped, a point cloud) is registered onto the original automatically and resampled. "
-        "The default verdict correlates every modulated coefficient with the key's signs, counts "
-        "the payload bits read back, and claims ownership only when the probability that an "
-        "unmarked mesh does as well on either is at most --max-fpp (a bound that holds whatever "
-        "the mesh: docs/statistics.md); --verdict bits is the paper's rule (R >= --threshold). "
-        "With a family key (embed --recipient) every recipient is scored as well and the suspect "
-        "is traced: the recipients whose copies it was made from are accused when the probability "
-        "that any innocent one of the key scores as high is at most --max-fpp. "
-        "The first line is the verdict: claimed or not, whose copy, and the chance that a mesh "
-        "without the mark gives it. Exit code 0 when the copy is claimed (with a family key: ownership "
-        "shown or a recipient accused), 1 when it is not, >= 2 on errors.");
+        "Look for KEY's watermark in SUSPECT (needs the original); exit 0 when claimed, 1 when not "
+        "(docs/cli.md)");
     command->add_option("SUSPECT", args->suspect, "Suspect mesh")->required()->check(CLI::ExistingFile);
     command->add_option("--original", args->original, "The original (unmarked) mesh the key was made for")
         ->required()
         ->check(CLI::ExistingFile);
     command->add_option("--key", args->key, "Key file written by embed")->required()->check(CLI::ExistingFile);
     command->add_option("--verdict", args->verdict,
-                        "combined: the stronger of the soft correlation of all modulated coefficients "
-                        "and the count of payload bits read back, claim when the false-positive bound "
-                        "<= --max-fpp; correlation: the soft correlation alone; bits: the paper's rule, "
-                        "claim when R >= --threshold")
+                        "combined: correlation or bits read back, bound <= --max-fpp; correlation alone; "
+                        "bits: R >= --threshold")
         ->check(CLI::IsMember({"combined", "correlation", "bits"}))
         ->capture_default_str();
     command->add_option("--max-fpp", args->decision.max_false_positive,
-                        "Combined and correlation verdicts: largest false-positive probability at which ownership "
-                        "is claimed")
+                        "Largest false-positive probability at which ownership is claimed")
         ->capture_default_str();
     command->add_option("--threshold", args->decision.threshold,
                         "Bits verdict: claim ownership when R (fraction of payload bits read back) >= this")
@@ -217,37 +202,17 @@ void register_detect(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
                         "Undecided band around zero change, as a fraction of the modulation")
         ->capture_default_str();
     command->add_option("--pairs", args->pairs,
-                        "Text file of >= 3 point pairs 'xs ys zs  xo yo zo' (suspect, original) to "
-                        "start the registration from, for hard cases")
+                        "File of >= 3 point pairs 'xs ys zs  xo yo zo' to start the registration from")
         ->check(CLI::ExistingFile);
     command->add_flag("--no-trace", args->no_trace,
                       "With a family key: decide on the owner's mark alone (shared by every copy), "
                       "without naming recipients");
     command->add_flag("--no-register", args->no_register,
-                      "Only accept a suspect whose vertices correspond to the original's, in order or "
-                      "renumbered where they stand or by its triangles (no registration or resampling)");
+                      "Only accept a suspect whose vertices correspond to the original's (no registration)");
     command->add_option("--report", args->report,
-                        "Also write an evidence report for people: FILE.html (self-contained) or FILE.pdf (A4); "
-                        "docs/evidence.md");
+                        "Also write an evidence report, FILE.html or FILE.pdf (docs/evidence.md)");
     command->add_flag("--json", args->json,
-                      "Print one JSON object: detected (the verdict: claimed), headline (it in a sentence), "
-                      "false_positive_probability (of the verdict), recipients (whose copy), owner_mark (the "
-                      "owner's mark read alone: detected, score, false_positive_probability, correlation, matches, "
-                      "bit_count), verdict (the rule), score, correlation, bits_expected, bits_found, "
-                      "score_ and bits_false_positive_probability (the owner's mark's), cropped_fraction, outlier_fraction (rows left "
-                      "out because the suspect is far from them), "
-                      "registration (method: same-connectivity (the original's vertices in its order, "
-                      "renumbered where they stand, as a re-encoded Draco file is, or renumbered by its "
-                      "triangles, as Blender's PLY writer numbers them), registration (vertices "
-                      "matched), registration, "
-                      "registration (not converged), or, for a copy of an animated glTF read through a frame of "
-                      "one of its animations, registration (animation 'NAME' at F/24 s: Blender's frame F; T s "
-                      "between frames) or, read through the fixed blend of its morph targets (shape keys), registration "
-                      "(the stored morph target weights); rms_error; transform), mark_strength (the mark's RMS amplitude "
-                      "over the diagonal, the unit of rms_error), seconds; with a family key also recipients (the accused: name, score, "
-                      "false_positive_probability, strongest first), recipients_traced, owner_detected and "
-                      "owner_false_positive_probability (ownership without naming a recipient: the owner's mark "
-                      "alone or read jointly with a recipient's code)");
+                      "Print one JSON object on stdout (fields: docs/cli.md)");
     add_global_flags(*command, global);
     command->callback([args, &global, &runner]() {
         runner = [args, &global]() { return run_detect(*args, global); };

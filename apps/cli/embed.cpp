@@ -324,9 +324,8 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     auto args = std::make_shared<EmbedArgs>();
     auto* command = app.add_subcommand(
         "embed",
-        "Watermark a mesh: writes the marked copy (format of -o's extension; in the input's format "
-        "everything but vertex positions is kept, docs/file_formats.md) and the key (JSON, mode "
-        "0600) that, with the original, detects the mark. Keep both.");
+        "Watermark a mesh: write the marked copy and its key (JSON, mode 0600); keep both and the "
+        "original (docs/cli.md)");
     command->add_option("INPUT", args->input,
                         "Original mesh (.ply .obj .off .stl .gltf .glb .3mf); never modified")
         ->required()
@@ -361,9 +360,7 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     command
         ->add_option(
             "--repetitions", args->options.repetitions,
-            "r, coefficients per payload bit (m*r modes; same distortion, stronger verdict). "
-            "auto: 5 from 5,000 vertices, else 4; 2 for a family key's owner mark; fewer, "
-            "with a note, where the vertices span fewer modes. Recorded in the key")
+            "r, coefficients per payload bit; auto: 5 from 5,000 vertices, else 4 (docs/cli.md)")
         ->transform(repetitions_choice())
         ->type_name("auto|INT")
         ->default_str("auto");
@@ -376,13 +373,11 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
         ->check(CLI::IsMember({"additive", "paper"}))
         ->capture_default_str();
     command->add_option("--strength", args->strength,
-                        "additive: the displacement as a fraction of the bbox diagonal, in "
-                        "--strength-measure (default 0.00059 surface, 0.001 vertex); paper: rho "
-                        "(default 0.01)");
+                        "Fraction of the bbox diagonal (default 0.00059 surface, 0.001 vertex); "
+                        "paper rule: rho (default 0.01)");
     command
         ->add_option("--strength-measure", args->strength_measure,
-                     "additive: surface: RMS distance between the marked and the original surface "
-                     "(what MRMS reads); vertex: RMS vertex displacement")
+                     "surface: RMS distance between the surfaces (MRMS); vertex: RMS vertex displacement")
         ->check(CLI::IsMember({"surface", "vertex"}))
         ->capture_default_str();
     command->add_option("--sigma-factor", args->options.sigma_factor,
@@ -391,8 +386,7 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     command
         ->add_option(
             "--gram-rows", args->options.gram_rows,
-            "RBF basis: Gram matrix from at most this many evenly spaced vertices (0 = all); "
-            "bounds the cost on very large meshes (recorded in the key)")
+            "Gram matrix from at most this many evenly spaced vertices (0 = all)")
         ->check(non_negative())
         ->capture_default_str();
     command->add_option("--seed", args->seed,
@@ -400,17 +394,15 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     command
         ->add_option(
             "--memory-budget", args->memory_budget,
-            "MiB: above it a binary PLY is embedded out of core (same bytes and key); 0 = no "
-            "budget")
+            "MiB; above it a binary PLY is embedded out of core, same result (0 = no budget)")
         ->check(non_negative())
         ->capture_default_str();
     command->add_flag("--stream", args->stream,
                       "Always embed out of core (binary PLY in, .ply out)");
     command->add_option(
         "--recipient", args->recipients,
-        "Issue a traceable copy to this recipient (repeatable); -o holds {recipient}, "
-        "--key is the family key, created or extended (a known name gets the same "
-        "bytes again). Safe from many calls at once (docs/fingerprinting.md)");
+        "Issue a traceable copy to this recipient (repeatable); -o holds {recipient}, --key is "
+        "the family key");
     command->add_option("--recipients", args->recipients_file,
                         "File of recipient names, one per line ('#' comments), as --recipient")
         ->check(CLI::ExistingFile);
@@ -429,24 +421,18 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
         ->check(CLI::Range(0.0, 86400.0))
         ->capture_default_str();
     command->add_option("--unit", args->unit,
-                        "Unit of the input's coordinates (um mm cm m in ft), overriding the file's (3MF states "
-                        "one, glTF is in metres; PLY OBJ OFF STL have none): distortions are then also given "
-                        "in it (--json: in_unit)");
+                        "Unit of the coordinates (um mm cm m in ft), overriding the file's; distortions are "
+                        "also given in it");
     command->add_option("--max-displacement", args->max_displacement,
-                        "Cap on the largest vertex displacement, e.g. 0.05mm (a bare number: the "
-                        "coordinates' unit). The strength is lowered to fit, in the written file; "
-                        "refused if the mark would be undetectable. Not with --recipient")
+                        "Cap on the largest vertex displacement, e.g. 0.05mm; the strength is lowered to "
+                        "fit")
         ->type_name("LENGTH");
     command->add_option("--record", args->record,
-                        "Write the embed record (UTC time, tool version, SHA-256 of the original, the "
-                        "marked copy and the key file; never the key) to this JSON file, for a "
-                        "third party to timestamp (docs/evidence.md). --json prints it as `record`")
+                        "Write the embed record (time, version, SHA-256 of the files; never the key) for "
+                        "timestamping")
         ->type_name("FILE.json");
     command->add_flag("--json", args->json,
-                      "Print a JSON report on stdout; with a known unit `in_unit` {unit, source, bbox_diagonal, "
-                      "max_displacement, rms_displacement, surface_rms_displacement} in it, with a cap "
-                      "`max_displacement_cap` {cap, unit, strength_factor, written_max_displacement, ...} "
-                      "(docs/file_formats.md, \"Units of length\"), and `record` (docs/evidence.md)");
+                      "Print a JSON report on stdout (fields: docs/cli.md)");
     command->add_flag("--force", args->force,
                       "Replace an existing key, or the input itself when -o names it (atomically)");
     add_global_flags(*command, global);

@@ -123,8 +123,7 @@ void register_serve(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
 {
     auto args = std::make_shared<ServeArgs>();
     auto* serve = app.add_subcommand(
-        "serve", "Serve a catalogue over HTTP: a marked copy per buyer, recorded before it is sent; "
-                 "scans of suspects (docs/service.md). Stops on SIGTERM or Ctrl-C");
+        "serve", "Serve a catalogue over HTTP: a marked copy per buyer, scans (docs/service.md)");
     serve->add_option("--catalog", args->catalog, "Catalogue file (meshmark catalog add)")->required();
     serve->add_option("--listen", args->listen, "HOST:PORT to listen on; port 0 picks a free one")
         ->capture_default_str();

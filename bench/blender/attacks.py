@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: MIT
-# Everyday Blender re-work of one mesh, for the robustness bench (docs/robustness.md, "Everyday
-# re-work in Blender"). Runs inside Blender, headless:
+# Everyday Blender re-work of one mesh, for the robustness bench
+# (bench/results/2026-11-24-everyday-blender-rework.md). Runs inside Blender, headless:
 #
 #   blender -b --factory-startup --python-exit-code 2 --python bench/blender/attacks.py -- \
 #       INPUT OUT_DIR [--seed S] OP [OP ...]

@@ -1,6 +1,7 @@
 # SPDX-License-Identifier: MIT
-# A game-like asset made in Blender, for the robustness bench (docs/robustness.md, "A game-like
-# asset made in Blender"): no game asset is among the shared meshes, and this one has what
+# A game-like asset made in Blender, for the robustness bench
+# (bench/results/2026-11-26-game-like-asset-in-blender.md): no game asset is among the shared
+# meshes, and this one has what
 # makes them hard: separate parts (Suzanne's head and two eyes, a bevelled box, a cylinder),
 # hard edges split (Edge Split at 30 degrees) and UV seams (Smart UV Project), written as .glb,
 # where both split the vertices. Runs inside Blender, headless:
@@ -30,7 +31,7 @@
 #   blended-creature  the same shape key left at 0.6, not animated (a fixed blend);
 #   chopped-vehicle  the vehicle with a shape key "chop" on its cabin (its roof lowered by 0.15),
 #             left at 0.8, not animated (a fixed blend on one part).
-# (docs/robustness.md, "Two more game-like assets").
+# (bench/results/2026-11-26-two-more-game-like-assets.md).
 import math
 import sys
 

@@ -1,6 +1,7 @@
 # SPDX-License-Identifier: MIT
 # Open3D's mesh operations as re-work of one mesh, the companion of attacks.py (same contract) for
-# the robustness bench (docs/robustness.md, "Everyday re-work in Blender"). Debian's python3-open3d:
+# the robustness bench (bench/results/2026-11-24-everyday-blender-rework.md).
+# Debian's python3-open3d:
 #
 #   /usr/bin/python3 bench/blender/open3d_attacks.py INPUT OUT_DIR [--seed S] OP [OP ...]
 #

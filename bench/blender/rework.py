@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 # SPDX-License-Identifier: MIT
-"""Everyday Blender re-work against the watermark (docs/robustness.md, "Everyday re-work in Blender").
+"""Everyday Blender re-work against the watermark
+(bench/results/2026-11-24-everyday-blender-rework.md).
 
 For each mesh and each of K keys (seeds 1..K): `meshmark embed` with the defaults (or --strength),
 every Blender operation of bench/blender/attacks.py on the marked copy, and `meshmark detect --json`

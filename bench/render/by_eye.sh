@@ -1,6 +1,6 @@
 #!/bin/sh
 # SPDX-License-Identifier: MIT
-# The by-eye check of the default mark (docs/robustness.md, "By eye"): marks the smooth shared
+# The by-eye check of the default mark (bench/results/2026-11-25-by-eye.md): marks the smooth shared
 # meshes with the defaults (seed 1) and renders each original and marked copy the same way in
 # Blender (render_pair.py), plus a control marked at ten times the default strength, which must
 # look different. Writes OUT_DIR/<mesh>-pair.png (original left) and prints the pixel

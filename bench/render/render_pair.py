@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: MIT
 # Renders an original mesh and its marked copy the same way, for judging the mark by eye
-# (docs/robustness.md, "By eye"). Runs inside Blender, headless:
+# (bench/results/2026-11-25-by-eye.md). Runs inside Blender, headless:
 #
 #   blender -b --factory-startup --python-exit-code 2 --python bench/render/render_pair.py -- \
 #       ORIGINAL MARKED OUT_PREFIX [--size PX] [--samples N] [--view quarter|front|side|top]

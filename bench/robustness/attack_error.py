@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 # SPDX-License-Identifier: MIT
-"""What an attack leaves of the mark (docs/robustness.md, "What an attack leaves of the mark").
+"""What an attack leaves of the mark
+(bench/results/2026-11-26-what-an-attack-leaves.md).
 
 Reads the trials of `meshmark bench robustness --json-file` runs and, for every (mesh, attack)
 they hold, measures the attack's own error: the attack (seed 1) applied to the UNMARKED

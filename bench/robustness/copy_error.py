@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 # SPDX-License-Identifier: MIT
 """How far a resampled copy's surface is from the mark, read at the original's vertices
-(docs/robustness.md, "The 10% simplification of dragon_vrip_res4 by real tools").
+(bench/results/2026-11-28-dragon-res4-10pct-by-real-tools.md).
 
     /usr/bin/python3 bench/robustness/copy_error.py ORIGINAL MARKED COPY
 

@@ -1,8 +1,7 @@
 #!/usr/bin/env python3
 # SPDX-License-Identifier: MIT
 """Where a quadric decimation put its vertices, against the original's surface and against a
-prediction of its own placement (docs/robustness.md, "Five more readings of a 5% decimation,
-none kept").
+prediction of its own placement (bench/results/2026-11-28-five-readings-of-a-5pct-decimation.md).
 
     meshmark detect COPY --original ORIGINAL --key KEY --json > copy.json
     PYTHONPATH=build/python /usr/bin/python3 bench/robustness/corner_error.py \

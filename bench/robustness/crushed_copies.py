@@ -1,8 +1,7 @@
 #!/usr/bin/env python3
 # SPDX-License-Identifier: MIT
 """Copies with part of the mesh crushed, in the original's vertex order and renumbered as
-Blender's PLY writer numbers them (docs/robustness.md, "Held-out CAD parts through the Blender
-re-work").
+Blender's PLY writer numbers them (bench/results/2026-11-28-held-out-cad-blender-rework.md).
 
     PYTHONPATH=build/python /usr/bin/python3 bench/robustness/crushed_copies.py \
         --meshmark build/bin/meshmark --work /tmp/crushed fandisk.obj bunny.off rocker-arm.obj

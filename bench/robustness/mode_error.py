@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 # SPDX-License-Identifier: MIT
-"""The reading's error per mode of the mark (docs/robustness.md, "Five more readings of a 5%
-decimation, none kept").
+"""The reading's error per mode of the mark
+(bench/results/2026-11-28-five-readings-of-a-5pct-decimation.md).
 
     meshmark detect MARKED --original ORIGINAL --key KEY --json --verbose > intact.json
     meshmark detect COPY --original ORIGINAL --key KEY --json --verbose > copy.json

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 # SPDX-License-Identifier: MIT
-"""Null study on resampled suspects (docs/robustness.md, "Rows weighted by their distance";
-the latest run in "Voxel remeshes are not the original's vertices").
+"""Null study on resampled suspects (bench/results/2026-11-25-rows-weighted-by-distance.md;
+the latest run in bench/results/2026-11-26-voxel-remeshes-not-vertices.md).
 
 Unmarked copies of each mesh, put through attacks that make detection register and resample
 them, are read with many keys (seeds FIRST .. FIRST+KEYS-1, each embedded in memory on the

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 # SPDX-License-Identifier: MIT
-"""What a decimated game asset's seams keep of the mark (docs/robustness.md, "The strength a 5%
-decimation needs, and what the seams keep").
+"""What a decimated game asset's seams keep of the mark
+(bench/results/2026-11-28-strength-for-a-5pct-decimation.md).
 
 Blender's importer keeps a glTF file's vertex records, so every UV seam and hard edge is a border
 of the imported mesh, and its Decimate holds borders in place. For each border vertex of a

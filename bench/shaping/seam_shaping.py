@@ -2,8 +2,8 @@
 # SPDX-License-Identifier: MIT
 """Experiment (issue 16): put more of the mark on a game asset's seams, where Blender's
 Decimate keeps its vertices, at the same surface distance, to see what detection gains before
-any product change (docs/robustness.md, "The strength a 5% decimation needs, and what the seams
-keep": tried in the twentieth session, not kept).
+any product change (bench/results/2026-11-28-strength-for-a-5pct-decimation.md: tried in the
+twentieth session, not kept).
 
     meshmark embed asset.glb -o marked.glb --key key.json --seed 1
     /usr/bin/python3 bench/shaping/seam_shaping.py asset.glb marked.glb shaped.glb W [RINGS [SCALE]]

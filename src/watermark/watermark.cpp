@@ -33,7 +33,7 @@ constexpr std::size_t kReadBlockRows = 4096;
 // resampling takes first: on the shared meshes of 1.1K-4.5K vertices it lost remeshed and
 // simplified copies (6 lost, 2 gained of 480). From 5.2K vertices on every attack of the
 // suite scores as high or higher with it, and it claims the same copies but two of 200
-// simplified to 2% (docs/robustness.md, "120 coefficients from 5K vertices"). From 30K until
+// simplified to 2% (bench/results/2026-11-26-120-coefficients-from-5k.md). From 30K until
 // 2026-11-26.
 constexpr std::size_t kLongMarkMinRows = 5000;
 constexpr int kLongMarkRepetitions = 5;

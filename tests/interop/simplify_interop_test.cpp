@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
-// The glTF ecosystem's simplifiers against the mark (docs/robustness.md, "What an attack leaves
-// of the mark"): gltfpack and glTF-Transform simplify with meshoptimizer, which keeps the
+// The glTF ecosystem's simplifiers against the mark
+// (bench/results/2026-11-26-what-an-attack-leaves.md): gltfpack and glTF-Transform simplify
+// with meshoptimizer, which keeps the
 // vertices it does not remove where they were, so a copy simplified to 5% of its triangles
 // still carries the mark at its vertices and is claimed; the same simplification of the
 // unmarked original is not.

@@ -51,15 +51,15 @@ struct DetectReport
     double registration_rms = 0.0;  ///< RMS distance to the original / its bbox diagonal.
     /// The mark's RMS amplitude / the original's bbox diagonal: the key's additive strength (the
     /// default mark's for the paper's rule). registration_rms over it says how many times further
-    /// than the mark a registered suspect lies from the original (docs/robustness.md, "What an
-    /// attack leaves of the mark").
+    /// than the mark a registered suspect lies from the original
+    /// (bench/results/2026-11-26-what-an-attack-leaves.md).
     double mark_strength = 0.0;
     /// A registered suspect this many times further from the original (registration_rms) than
     /// the mark's strength is past what marked copies mostly survive: of 195 marked copies at 3x
     /// or more in four robustness runs, 35 were claimed (subdivisions, which shrink the surface
     /// but keep the mark; some 1/150 voxel remeshes and Lindstrom-Turk simplifications); of the
-    /// 218 copies not claimed, 160 were that far (docs/robustness.md, "What an attack leaves of
-    /// the mark").
+    /// 218 copies not claimed, 160 were that far
+    /// (bench/results/2026-11-26-what-an-attack-leaves.md).
     static constexpr double kFarCopyStrengths = 3.0;
     std::int64_t suspect_vertices = 0;
     std::int64_t original_vertices = 0;

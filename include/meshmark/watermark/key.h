@@ -113,7 +113,7 @@ struct EmbedOptions
     /// B^T 1 and B^T P are estimated from that many evenly spaced rows (RbfBasis), which makes
     /// the basis pass of very large meshes cost the same as at this size; meshes with fewer
     /// analysed vertices are unaffected. Ignored by the Laplacian basis. Keys written before
-    /// this field existed mean 0 (docs/performance.md, "Sampled Gram matrix").
+    /// this field existed mean 0 (docs/algorithms/basis.md, "Sampled Gram matrix").
     std::int64_t gram_rows = kDefaultGramRows;
     static constexpr std::int64_t kDefaultGramRows = std::int64_t{1} << 20;
     /// Smallest gram_rows other than 0, as a multiple of the basis size (chosen by hand; no
