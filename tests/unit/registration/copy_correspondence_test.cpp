@@ -116,11 +116,16 @@ TEST(VertexMatchingTest, a_registered_reordered_copy_is_read_in_the_original_ord
     EXPECT_TRUE(kept->in_order.isApprox(copy.V, 1e-12));
     const VertexMatching pairs = match_vertices(original.V, suspect.V, 10.0 * amplitude, 1);
     EXPECT_LT(pairs.ambiguity, 0.4);
-    // A surface sampled afresh (the vertices of a finer sphere): not the original's vertices.
-    const TriangleMesh other = lumpy_ellipsoid(4);
-    EXPECT_FALSE(vertices_in_place(original, other, Eigen::Matrix4d::Identity(), amplitude,
-                                   10.0 * amplitude, 2)
-                     .has_value());
+    // With vertices added between them (the next subdivision of the same sphere keeps its
+    // vertices): still the original's vertices.
+    EXPECT_TRUE(vertices_in_place(original, lumpy_ellipsoid(4), Eigen::Matrix4d::Identity(),
+                                  amplitude, 10.0 * amplitude, 2)
+                    .has_value());
+    // Left 50 amplitudes away (a pose the registration did not find): no vertex within reach.
+    Eigen::Matrix4d away = Eigen::Matrix4d::Identity();
+    away(0, 3) = 50.0 * amplitude;
+    EXPECT_FALSE(
+        vertices_in_place(original, suspect, away, amplitude, 10.0 * amplitude, 2).has_value());
 }
 
 TEST(SelfSymmetryTest, a_torus_has_symmetries_and_a_lumpy_ellipsoid_none)
