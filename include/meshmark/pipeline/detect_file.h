@@ -31,8 +31,8 @@ struct DetectFileOptions
     bool match_surface = true;
     /// Registered suspects whose vertices are the original's again (reordered, split at seams,
     /// welded, or with vertices added between them) are read vertex for vertex, every
-    /// component of the change (match_vertices in detect_file.cpp). False: resampled like any
-    /// other registered suspect, as before 2026-11-26 (an ablation).
+    /// component of the change (vertices_in_place, registration/vertex_matching.h). False:
+    /// resampled like any other registered suspect, as before 2026-11-26 (an ablation).
     bool match_vertices = true;
 };
 
