@@ -27,7 +27,7 @@ constexpr int kCropDilationRings = 4;
 // that carries the mark: they measure the attack's error, not the mark, and in a least-squares
 // reading they swamp it. The rule looks only at distances to the ORIGINAL, never at the key's
 // signs, so the false-positive bound holds as for crops (docs/statistics.md). Measured on the
-// robustness grid (docs/robustness.md, "Rows far from the suspect's surface").
+// robustness grid (bench/results/2026-11-25-rows-far-from-surface.md).
 constexpr double kOutlierMedianFactor = 3.0;
 // The amplitude of keys whose strength is not a distance (the paper's rule), as a fraction of
 // the diagonal: the default mark's.

@@ -28,7 +28,7 @@ inline constexpr double kOutlierFloor = 10.0;
 // remeshing, a cut) also leaves rows at a few mark amplitudes, and their error, not the mark,
 // dominates their reading. A copy that only carries the mark loses almost nothing (w >= 0.9 at
 // one amplitude). Like the far-rows rule the weights come from distances to the original only.
-// Measured on the robustness grid (docs/robustness.md, "Rows weighted by their distance"): 3
+// Measured on the robustness grid (bench/results/2026-11-25-rows-weighted-by-distance.md): 3
 // gains the most claims after remeshing and loses none; 2 starts to lose simplified copies, 5
 // and 10 gain less.
 inline constexpr double kWeightScale = 3.0;
