@@ -4,7 +4,7 @@
 # are formatted when they are next touched (at $base, 349 of 382 files differed from the style).
 # Prints the changes clang-format would make and exits 1 if there are any; exits 77 (skipped)
 # outside a git clone or without clang-format-14 / git-clang-format-14.
-# Fix: git clang-format-14 --binary clang-format-14 3525cbd   (then review and commit)
+# Fix: git clang-format-14 --binary clang-format-14 --extensions cpp,h 3525cbd   (review, commit)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 base=3525cbd
@@ -25,5 +25,5 @@ case $diff in
 esac
 echo "$diff"
 echo "check_format.sh: the lines above are not formatted as .clang-format says;" \
-     "run: git clang-format-14 --binary clang-format-14 $base" >&2
+     "run: git clang-format-14 --binary clang-format-14 --extensions cpp,h $base" >&2
 exit 1

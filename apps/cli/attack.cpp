@@ -40,30 +40,41 @@ std::string grammar_help()
     const CropOptions crop;
     const VoxelRemeshingOptions voxel;
     return "SPEC := STEP[,STEP]...  (left to right)   STEP := NAME[=LEVEL][:KEY=VALUE]...\n"
-           "Steps (default level; their keys and details: docs/cli.md, docs/algorithms/attacks.md):\n"
+           "Steps (default level; their keys and details: docs/cli.md, "
+           "docs/algorithms/attacks.md):\n"
            "  similarity         random rotation, scale and move (keys smax=" +
            number(similarity.max_scale) + " tmax=" + number(similarity.max_translation_radii) +
            "), or explicit; mirror=x|y|z\n"
-           "  noise=A            random displacement, A of the bbox diagonal (" + number(noise.amplitude) +
+           "  noise=A            random displacement, A of the bbox diagonal (" +
+           number(noise.amplitude) +
            ")\n"
-           "  smooth=N           Laplacian smoothing, N iterations (" + std::to_string(smooth.iterations) +
-           "; lambda=" + number(smooth.lambda) + ")\n"
-           "  taubin=N           Taubin smoothing, N step pairs (" + std::to_string(taubin.iterations) +
-           "; lambda=" + number(taubin.lambda) + " mu=" + number(taubin.mu) + ")\n"
+           "  smooth=N           Laplacian smoothing, N iterations (" +
+           std::to_string(smooth.iterations) + "; lambda=" + number(smooth.lambda) +
+           ")\n"
+           "  taubin=N           Taubin smoothing, N step pairs (" +
+           std::to_string(taubin.iterations) + "; lambda=" + number(taubin.lambda) +
+           " mu=" + number(taubin.mu) +
+           ")\n"
            "  quantize=B         coordinates snapped to 2^B levels over the bbox (" +
-           std::to_string(quantize.bits) + ")\n"
+           std::to_string(quantize.bits) +
+           ")\n"
            "  simplify=F         quadric edge collapse to F of the vertices (" +
-           number(simplify.vertex_fraction) + "; policy=gh|lt boundary=" +
-           number(simplify.boundary_weight) + ")\n"
+           number(simplify.vertex_fraction) +
+           "; policy=gh|lt boundary=" + number(simplify.boundary_weight) +
+           ")\n"
            "  remesh=F           isotropic remeshing to F of the vertices (" +
-           number(remesh.vertex_fraction) + "; iter=" + std::to_string(remesh.iterations) + ")\n"
+           number(remesh.vertex_fraction) + "; iter=" + std::to_string(remesh.iterations) +
+           ")\n"
            "  subdivide=S        loop|midpoint|sqrt3 (loop; steps=1)\n"
-           "  crop=F             plane cut keeping F of the vertices (" + number(crop.vertex_fraction) +
+           "  crop=F             plane cut keeping F of the vertices (" +
+           number(crop.vertex_fraction) +
            "; axis=x|y|z)\n"
            "  reorder            random permutation of the vertices and of the faces\n"
            "  voxel=N            voxel remesh as Blender's, voxel edge = bbox diagonal / N (" +
-           number(voxel.resolution) + ")\n"
-           "Example: meshmark attack in.ply -o out.ply --seed 3 similarity,simplify=0.1,noise=0.001";
+           number(voxel.resolution) +
+           ")\n"
+           "Example: meshmark attack in.ply -o out.ply --seed 3 "
+           "similarity,simplify=0.1,noise=0.001";
 }
 
 double phase_seconds(const PhaseTimings& timings, const std::string& name)

@@ -485,15 +485,16 @@ void register_bench(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     auto args = std::make_shared<BenchSpeedArgs>();
     auto* bench = app.add_subcommand("bench", "Measure meshmark itself");
     bench->require_subcommand(1);
-    auto* speed = bench->add_subcommand(
-        "speed",
-        "Embed and detect times and peak RSS, a process per run, on the shared and generated meshes");
+    auto* speed = bench->add_subcommand("speed",
+                                        "Embed and detect times and peak RSS, a process per run, "
+                                        "on the shared and generated meshes");
     speed->add_option("--mesh-dir", args->mesh_dir,
                       "Meshes to time (.ply .obj .off .stl); default $MESHMARK_MESH_DIR, else "
                       "../shared/data/meshes");
     speed->add_option("--mesh", args->meshes, "Mesh files to time instead of the whole --mesh-dir (repeatable)");
-    speed->add_option("--basis", args->bases,
-                      "Bases to time on every mesh, comma-separated (rbf, laplacian)")
+    speed
+        ->add_option("--basis", args->bases,
+                     "Bases to time on every mesh, comma-separated (rbf, laplacian)")
         ->delimiter(',')
         ->check(CLI::IsMember({"rbf", "laplacian"}))
         ->capture_default_str();
@@ -512,13 +513,16 @@ void register_bench(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
                       "directory)");
     speed->add_flag("--keep", args->keep, "Keep the generated meshes, marked copies and keys");
     speed->add_flag("--no-detect", args->no_detect, "Time embed only");
-    speed->add_option("--attack", args->attack,
-                      "Detect a copy attacked with this spec (seed 2) instead of the marked copy itself");
+    speed->add_option(
+        "--attack", args->attack,
+        "Detect a copy attacked with this spec (seed 2) instead of the marked copy itself");
     speed->add_option("--max-detect-vertices", args->max_detect_vertices, "Skip detection on larger meshes")
         ->check(CLI::Range(std::int64_t{0}, std::int64_t{1'000'000'000}))
         ->capture_default_str();
-    speed->add_option("--out-of-core", args->out_of_core_mib,
-                      "MiB: also embed generated meshes out of core and compare with the in-memory embed (0 = no)")
+    speed
+        ->add_option("--out-of-core", args->out_of_core_mib,
+                     "MiB: also embed generated meshes out of core and compare with the in-memory "
+                     "embed (0 = no)")
         ->check(CLI::Range(0, 1 << 20))
         ->capture_default_str();
     speed->add_flag("--compare-threads", args->compare_threads,

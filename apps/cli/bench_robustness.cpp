@@ -348,14 +348,15 @@ void register_bench_robustness(CLI::App& bench, GlobalArgs& global, CommandRunne
         ->delimiter(';');
     command->add_option("--seed", args->seed, "Seed of keys and attacks")->capture_default_str();
     command->add_option("--strength", args->strength, "Embedding strength (default: the rule's default)");
-    command->add_option("--strength-measure", args->strength_measure,
-                        "As embed's: surface or vertex")
+    command
+        ->add_option("--strength-measure", args->strength_measure, "As embed's: surface or vertex")
         ->check(CLI::IsMember({"surface", "vertex"}))
         ->capture_default_str();
     command->add_option("--coefficients", args->coefficients, "m, payload bits per axis (3m bits)")
         ->capture_default_str();
-    command->add_option("--repetitions", args->repetitions,
-                        "Coefficients per payload bit: auto (as embed) or a number")
+    command
+        ->add_option("--repetitions", args->repetitions,
+                     "Coefficients per payload bit: auto (as embed) or a number")
         ->transform(repetitions_choice())
         ->type_name("auto|INT")
         ->default_str("auto");
@@ -377,16 +378,20 @@ void register_bench_robustness(CLI::App& bench, GlobalArgs& global, CommandRunne
         ->capture_default_str();
     command->add_option("--markdown", args->markdown, "Also write the tables to this file");
     command->add_option("--json-file", args->json_path, "Also write every trial as JSON to this file");
-    command->add_option("--recipients", args->recipients,
-                        "Family keys with this many recipients (0: single-owner keys); suspects are traced")
+    command
+        ->add_option(
+            "--recipients", args->recipients,
+            "Family keys with this many recipients (0: single-owner keys); suspects are traced")
         ->check(CLI::Range(0, 100000))
         ->capture_default_str();
-    command->add_option("--colluders", args->colluders,
-                        "With --recipients: the suspect averages the copies of this many recipients")
+    command
+        ->add_option("--colluders", args->colluders,
+                     "With --recipients: the suspect averages the copies of this many recipients")
         ->check(CLI::Range(1, 100000))
         ->capture_default_str();
-    command->add_option("--from-json", args->from_json,
-                        "Only tabulate the trials of earlier --json-file runs (repeatable)")
+    command
+        ->add_option("--from-json", args->from_json,
+                     "Only tabulate the trials of earlier --json-file runs (repeatable)")
         ->check(CLI::ExistingFile);
     command->add_flag("--plain-resampling", args->plain_resampling,
                       "Ablation: read resampled copies against the original's vertices only");

@@ -401,7 +401,8 @@ void register_catalog(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     list->callback([args, &global, &runner] { runner = [args, &global] { return run_list(*args, global); }; });
 
     auto* issue = catalog->add_subcommand(
-        "issue", "Issue traceable copies of an asset to recipients (recorded before they are written)");
+        "issue",
+        "Issue traceable copies of an asset to recipients (recorded before they are written)");
     issue->add_option("CATALOG", args->catalog, "Catalogue file")->required();
     issue->add_option("ASSET", args->asset, "Asset id (catalog list)")->required();
     issue->add_option("--recipient", args->recipients, "Recipient name (repeatable)");
@@ -426,9 +427,10 @@ void register_catalog(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
         ->check(CLI::Range(1e-300, 1.0))
         ->capture_default_str();
     add_lock_timeout(*scan, *args);
-    scan->add_option("--report", args->report,
-                     "Write an evidence report per suspect, FILE.html or FILE.pdf; several suspects: "
-                     "{suspect} in it");
+    scan->add_option(
+        "--report", args->report,
+        "Write an evidence report per suspect, FILE.html or FILE.pdf; several suspects: "
+        "{suspect} in it");
     scan->add_flag("--json", args->json, "Print a JSON report on stdout");
     add_global_flags(*scan, global);
     scan->callback([args, &global, &runner] { runner = [args, &global] { return run_scan(*args, global); }; });

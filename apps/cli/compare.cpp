@@ -306,21 +306,24 @@ void register_compare(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     command->add_option(
         "--view", args->view,
         std::string("View of a .png heatmap: ") + kViewNames + ", or AZIMUTH,ELEVATION in degrees");
-    command->add_option("--up", args->up,
-                        "Up axis of B in a .png heatmap: y (default), z (Blender, CAD, print), x, -y, -z, -x");
+    command->add_option(
+        "--up", args->up,
+        "Up axis of B in a .png heatmap: y (default), z (Blender, CAD, print), x, -y, -z, -x");
     command->add_option("--size", args->size,
                         "Size of a .png heatmap in pixels, WIDTHxHEIGHT (default 1024x768; " +
                             std::to_string(kMinImageSide) + " to " + std::to_string(kMaxImageSide) +
                             " per side)");
-    command->add_option("--samples", args->options.samples,
-                        "Area samples per surface on top of the vertices; 0 = automatic (" +
-                            std::to_string(kAutoSamplesPerFace) + " per triangle)")
+    command
+        ->add_option("--samples", args->options.samples,
+                     "Area samples per surface on top of the vertices; 0 = automatic (" +
+                         std::to_string(kAutoSamplesPerFace) + " per triangle)")
         ->check(CLI::Range(std::int64_t{0}, std::int64_t{1'000'000'000}))
         ->capture_default_str();
     command->add_option("--seed", args->options.seed, "Seed of the stratified sampling")->capture_default_str();
-    command->add_option("--unit", args->unit,
-                        "Unit of A's coordinates (um mm cm m in ft), overriding its file's; distances are also "
-                        "given in it");
+    command->add_option(
+        "--unit", args->unit,
+        "Unit of A's coordinates (um mm cm m in ft), overriding its file's; distances are also "
+        "given in it");
     add_global_flags(*command, global);
     command->callback([args, &global, &runner]() {
         runner = [args, &global]() { return run_compare(*args, global); };

@@ -187,13 +187,16 @@ void register_detect(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
         ->required()
         ->check(CLI::ExistingFile);
     command->add_option("--key", args->key, "Key file written by embed")->required()->check(CLI::ExistingFile);
-    command->add_option("--verdict", args->verdict,
-                        "combined: correlation or bits read back, bound <= --max-fpp; correlation alone; "
-                        "bits: R >= --threshold")
+    command
+        ->add_option(
+            "--verdict", args->verdict,
+            "combined: correlation or bits read back, bound <= --max-fpp; correlation alone; "
+            "bits: R >= --threshold")
         ->check(CLI::IsMember({"combined", "correlation", "bits"}))
         ->capture_default_str();
-    command->add_option("--max-fpp", args->decision.max_false_positive,
-                        "Largest false-positive probability at which ownership is claimed")
+    command
+        ->add_option("--max-fpp", args->decision.max_false_positive,
+                     "Largest false-positive probability at which ownership is claimed")
         ->capture_default_str();
     command->add_option("--threshold", args->decision.threshold,
                         "Bits verdict: claim ownership when R (fraction of payload bits read back) >= this")
@@ -201,14 +204,16 @@ void register_detect(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     command->add_option("--epsilon", args->decision.epsilon,
                         "Undecided band around zero change, as a fraction of the modulation")
         ->capture_default_str();
-    command->add_option("--pairs", args->pairs,
-                        "File of >= 3 point pairs 'xs ys zs  xo yo zo' to start the registration from")
+    command
+        ->add_option("--pairs", args->pairs,
+                     "File of >= 3 point pairs 'xs ys zs  xo yo zo' to start the registration from")
         ->check(CLI::ExistingFile);
     command->add_flag("--no-trace", args->no_trace,
                       "With a family key: decide on the owner's mark alone (shared by every copy), "
                       "without naming recipients");
-    command->add_flag("--no-register", args->no_register,
-                      "Only accept a suspect whose vertices correspond to the original's (no registration)");
+    command->add_flag(
+        "--no-register", args->no_register,
+        "Only accept a suspect whose vertices correspond to the original's (no registration)");
     command->add_option("--report", args->report,
                         "Also write an evidence report, FILE.html or FILE.pdf (docs/evidence.md)");
     command->add_flag("--json", args->json,

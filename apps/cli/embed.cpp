@@ -376,17 +376,17 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
                         "Fraction of the bbox diagonal (default 0.00059 surface, 0.001 vertex); "
                         "paper rule: rho (default 0.01)");
     command
-        ->add_option("--strength-measure", args->strength_measure,
-                     "surface: RMS distance between the surfaces (MRMS); vertex: RMS vertex displacement")
+        ->add_option(
+            "--strength-measure", args->strength_measure,
+            "surface: RMS distance between the surfaces (MRMS); vertex: RMS vertex displacement")
         ->check(CLI::IsMember({"surface", "vertex"}))
         ->capture_default_str();
     command->add_option("--sigma-factor", args->options.sigma_factor,
                         "RBF support = factor * bbox diagonal / 2")
         ->capture_default_str();
     command
-        ->add_option(
-            "--gram-rows", args->options.gram_rows,
-            "Gram matrix from at most this many evenly spaced vertices (0 = all)")
+        ->add_option("--gram-rows", args->options.gram_rows,
+                     "Gram matrix from at most this many evenly spaced vertices (0 = all)")
         ->check(non_negative())
         ->capture_default_str();
     command->add_option("--seed", args->seed,
@@ -420,19 +420,23 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
             "Seconds to wait while another call issues on (or writes) the same key, then fail")
         ->check(CLI::Range(0.0, 86400.0))
         ->capture_default_str();
-    command->add_option("--unit", args->unit,
-                        "Unit of the coordinates (um mm cm m in ft), overriding the file's; distortions are "
-                        "also given in it");
-    command->add_option("--max-displacement", args->max_displacement,
-                        "Cap on the largest vertex displacement, e.g. 0.05mm; the strength is lowered to "
-                        "fit")
+    command->add_option(
+        "--unit", args->unit,
+        "Unit of the coordinates (um mm cm m in ft), overriding the file's; distortions are "
+        "also given in it");
+    command
+        ->add_option(
+            "--max-displacement", args->max_displacement,
+            "Cap on the largest vertex displacement, e.g. 0.05mm; the strength is lowered to "
+            "fit")
         ->type_name("LENGTH");
-    command->add_option("--record", args->record,
-                        "Write the embed record (time, version, SHA-256 of the files; never the key) for "
-                        "timestamping")
+    command
+        ->add_option(
+            "--record", args->record,
+            "Write the embed record (time, version, SHA-256 of the files; never the key) for "
+            "timestamping")
         ->type_name("FILE.json");
-    command->add_flag("--json", args->json,
-                      "Print a JSON report on stdout (fields: docs/cli.md)");
+    command->add_flag("--json", args->json, "Print a JSON report on stdout (fields: docs/cli.md)");
     command->add_flag("--force", args->force,
                       "Replace an existing key, or the input itself when -o names it (atomically)");
     add_global_flags(*command, global);

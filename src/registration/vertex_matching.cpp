@@ -29,8 +29,8 @@ namespace
 // (which deletes its lone triangles and moves no vertex), keeps the original's vertices where they
 // were, and read vertex for vertex it reads the whole change (the suite's half crops of
 // fandisk 7.99 -> 10.22 mean z, Blender's 20% of a faceted creature 5.69 -> 10.82:
-// bench/results/2026-11-26-two-more-game-like-assets.md). The spacing and ambiguity rules below still
-// send simplified and remeshed copies to the resampling.
+// bench/results/2026-11-26-two-more-game-like-assets.md). The spacing and ambiguity rules below
+// still send simplified and remeshed copies to the resampling.
 constexpr double kMaxUnmatched = 0.9;
 // Up to this share unmatched the copy is taken as the original's vertices as it stands (a
 // writer's seams, a weld, a midpoint subdivision); beyond it, only when at least

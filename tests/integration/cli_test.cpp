@@ -263,9 +263,10 @@ TEST_F(CliTest, repetitions_are_auto_or_a_positive_number)
 TEST_F(CliTest, help_texts_are_short_and_undated)
 {
     // --help gives one or two lines per option; the detail lives in docs/cli.md (issue 51).
-    for (const char* command : {"", "demo", "embed", "detect", "attack", "compare", "catalog", "catalog add",
-                                "catalog list", "catalog issue", "catalog scan", "catalog export", "serve", "bench",
-                                "bench speed", "bench robustness", "bench approximation"})
+    for (const char* command :
+         {"", "demo", "embed", "detect", "attack", "compare", "catalog", "catalog add",
+          "catalog list", "catalog issue", "catalog scan", "catalog export", "serve", "bench",
+          "bench speed", "bench robustness", "bench approximation"})
     {
         const CliRun r = run(std::string(command) + " --help", dir_);
         ASSERT_EQ(r.exit_code, 0) << command << ": " << r.err;
@@ -274,7 +275,8 @@ TEST_F(CliTest, help_texts_are_short_and_undated)
         {
             EXPECT_LE(line.size(), 160U) << "meshmark " << command << " --help: " << line;
         }
-        EXPECT_EQ(r.out.find("2026-"), std::string::npos) << "meshmark " << command << " --help names a date";
+        EXPECT_EQ(r.out.find("2026-"), std::string::npos)
+            << "meshmark " << command << " --help names a date";
     }
 }
 
