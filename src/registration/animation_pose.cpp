@@ -15,6 +15,7 @@
 
 #include "meshmark/geometry/point_kd_tree.h"
 #include "meshmark/registration/registration.h"
+#include "meshmark/registration/similarity_fit.h"
 
 namespace meshmark
 {
@@ -84,7 +85,7 @@ std::optional<AnimationPoseFit> fit_animation_pose(const TriangleMesh& original,
     quick.max_iterations = kPoseIterations;
     // The whole's motion from the stored pose into \p V (a walk carries the character forward).
     const auto whole_into = [&](const Positions& V) -> Eigen::Matrix4d
-    { return Eigen::umeyama(original.V.transpose(), V.transpose(), true); };
+    { return fit_similarity_rows(original.V, V); };
     std::sort(first.begin(), first.end());
     first.erase(std::unique(first.begin(), first.end()), first.end());
     // Their fits, then the frames within kPoseWindow of the best kPoseCells, started from those.

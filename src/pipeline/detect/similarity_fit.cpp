@@ -5,6 +5,8 @@
 
 #include <Eigen/Geometry>
 
+#include "meshmark/registration/similarity_fit.h"
+
 namespace meshmark::detail
 {
 
@@ -13,7 +15,7 @@ Eigen::Matrix4d similarity_onto_original(const Positions& original, const Positi
 {
     if (kept == nullptr)
     {
-        return Eigen::umeyama(original.transpose(), suspect.transpose(), true).inverse();
+        return fit_similarity_rows(original, suspect).inverse();
     }
     const auto count = static_cast<Eigen::Index>(
         std::count_if(kept->begin(), kept->end(), [](std::uint8_t k) { return k != 0; }));
@@ -28,7 +30,7 @@ Eigen::Matrix4d similarity_onto_original(const Positions& original, const Positi
             ++k;
         }
     }
-    return Eigen::umeyama(from, to, true).inverse();
+    return fit_similarity(from, to).inverse();
 }
 
 }  // namespace meshmark::detail

@@ -16,8 +16,7 @@ namespace meshmark::detail
 /// \details Fitted from the original onto the suspect and inverted: noise in the suspect then
 /// averages out, whereas a fit from the noisy suspect shrinks its scale (errors in the
 /// fitted-from variable; measured on rocker-arm.obj with 1% noise: low-mode errors of 20-30
-/// modulation steps that way). Detection's own copy of the closed form; the registration
-/// module is getting the one shared similarity fit (issue 51), and this goes there with it.
+/// modulation steps that way). The closed form is registration's `fit_similarity`.
 [[nodiscard]] Eigen::Matrix4d similarity_onto_original(const Positions& original,
                                                        const Positions& suspect,
                                                        const std::vector<std::uint8_t>* kept);
