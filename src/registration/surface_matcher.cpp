@@ -11,6 +11,7 @@
 #include <omp.h>
 
 #include "meshmark/core/error.h"
+#include "meshmark/core/median.h"
 #include "meshmark/core/threads.h"
 #include "meshmark/geometry/point_kd_tree.h"
 #include "meshmark/geometry/point_triangle.h"
@@ -42,9 +43,7 @@ double median_edge(const TriangleMesh& mesh)
                                   .norm());
         }
     }
-    const auto middle = lengths.begin() + static_cast<std::ptrdiff_t>(lengths.size() / 2);
-    std::nth_element(lengths.begin(), middle, lengths.end());
-    return *middle;
+    return median_in_place(lengths);
 }
 
 // Points inside the triangles much larger than the mesh's typical edge: a barycentric lattice
@@ -320,9 +319,7 @@ double median_neighbor_spacing(const Positions& V, std::size_t max_queries)
         (void)tree.nearest(q, 2, index.data(), squared.data());
         spacing.push_back(std::sqrt(squared[1]));
     }
-    const auto middle = spacing.begin() + static_cast<std::ptrdiff_t>(spacing.size() / 2);
-    std::nth_element(spacing.begin(), middle, spacing.end());
-    return *middle;
+    return median_in_place(spacing);
 }
 
 }  // namespace detail

@@ -4,12 +4,13 @@
 #include <algorithm>
 #include <cmath>
 #include <future>
-#include <memory>
 #include <limits>
+#include <memory>
 #include <vector>
 
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
+#include "meshmark/core/median.h"
 #include "meshmark/core/threads.h"
 #include "meshmark/geometry/normals.h"
 #include "meshmark/geometry/point_kd_tree.h"
@@ -126,9 +127,7 @@ double median_spacing(const Positions& V)
     {
         return 0.0;
     }
-    std::nth_element(spacing.begin(), spacing.begin() + static_cast<std::ptrdiff_t>(spacing.size() / 2),
-                     spacing.end());
-    return spacing[spacing.size() / 2];
+    return median_in_place(spacing);
 }
 
 void rasterize(Layer& layer, const Framing& f, int threads)
