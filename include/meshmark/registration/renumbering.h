@@ -1,7 +1,10 @@
 // SPDX-License-Identifier: MIT
 #pragma once
 
+#include <cstddef>
+#include <cstdint>
 #include <optional>
+#include <vector>
 
 #include "meshmark/core/triangle_mesh.h"
 
@@ -29,5 +32,31 @@ namespace meshmark
 /// moved the vertices; nullopt otherwise. Triangles only, never a key.
 [[nodiscard]] std::optional<Positions> renumbered_by_triangles(const TriangleMesh& original,
                                                                const TriangleMesh& suspect);
+
+/// \brief A copy's vertices in the original's order, as far as its triangles tell them.
+struct TriangleRenumbering
+{
+    /// #V_original x 3, the suspect's frame: row i the suspect vertex standing for original
+    /// vertex i, the suspect's centroid where none does.
+    Positions in_order;
+    /// Per original vertex, 1 when a suspect vertex stands for it; empty when every one has one.
+    std::vector<std::uint8_t> reached;
+    std::size_t unreached = 0;  ///< Original vertices no suspect vertex stands for.
+};
+
+/// \brief The suspect's positions in the original's vertex order, when it is made of the
+/// original's parts (connected by triangles), each numbered another way but with its triangles
+/// in the original's order and turn, the parts in any order (Blender joins a model's objects
+/// in an order of its own, and its writers number each part's vertices as they go).
+/// \details A part is matched to the original's part of the same triangles over local numbers
+/// (its vertices numbered as its triangles first use them), triangles with a repeated corner
+/// left out. Parts whose shape is one part's on each side are matched outright and place the
+/// copy (a similarity fit); parts of a shape several share (a model's four wheels) go to the
+/// nearest of the original's after that fit. Parts left unmatched (changed, dropped, merged)
+/// leave their original vertices out, as a crop does; it holds when 90% of the original's
+/// vertices are reached, nullopt otherwise. Apart from telling alike parts apart it looks at no
+/// position, so it holds however far a tool moved the vertices. Never a key.
+[[nodiscard]] std::optional<TriangleRenumbering> renumbered_by_parts(const TriangleMesh& original,
+                                                                     const TriangleMesh& suspect);
 
 }  // namespace meshmark

@@ -39,10 +39,27 @@ TriangleMesh with_instances(const TriangleMesh& original, const TriangleMesh& in
     return shown;
 }
 
-// RMS distance of suspect rows in the original's order to the original, over the diagonal.
-double relative_rms(const Positions& in_frame, const TriangleMesh& original, double diagonal)
+// RMS distance of suspect rows in the original's order to the original, over the diagonal
+// (over the rows \p kept marks, every row when null).
+double relative_rms(const Positions& in_frame, const TriangleMesh& original, double diagonal,
+                    const std::vector<std::uint8_t>* kept = nullptr)
 {
-    return std::sqrt((in_frame - original.V).rowwise().squaredNorm().mean()) / diagonal;
+    const Eigen::VectorXd squared = (in_frame - original.V).rowwise().squaredNorm();
+    if (kept == nullptr)
+    {
+        return std::sqrt(squared.mean()) / diagonal;
+    }
+    double sum = 0.0;
+    std::size_t count = 0;
+    for (Eigen::Index i = 0; i < squared.size(); ++i)
+    {
+        if ((*kept)[static_cast<std::size_t>(i)] != 0)
+        {
+            sum += squared(i);
+            ++count;
+        }
+    }
+    return count > 0 ? std::sqrt(sum / static_cast<double>(count)) / diagonal : 0.0;
 }
 
 // A suspect in the original's vertex order (\p in_order, suspect frame; \p left_out: rows no
@@ -89,47 +106,71 @@ void take_in_order(SuspectInFrame& found, const TriangleMesh& original, double a
     }
 }
 
-// Same vertex count: the vertices in order (or renumbered by the triangles or where they stand)
-// after the closed-form similarity onto the original [Umeyama 1991]. Whether they correspond.
+// The vertices in the original's order (as they are, or renumbered by the triangles, where
+// they stand or part by part) after the closed-form similarity onto the original [Umeyama
+// 1991]. Whether they correspond.
 bool read_in_order(SuspectInFrame& found, const DetectInputs& in, double amplitude, double diagonal,
                    const DetectFileOptions& options, PoseHints* hints)
 {
     const TriangleMesh& original = in.original;
     const TriangleMesh& suspect = in.suspect;
+    const bool same_count = suspect.V.rows() == original.V.rows();
     // Other triangles over as many vertices: perhaps the same mesh numbered another way, by its
     // triangles (Blender's PLY writer: renumbered_by_triangles) or where it stands (a re-encoded
     // Draco primitive: renumbered_in_place), then read in the original's order without
-    // registration.
-    const bool same_triangles = has_same_triangles(suspect, original);
+    // registration. Any count: perhaps the original's parts in another order, each numbered its
+    // own way (Blender's writers after joining a model's objects: renumbered_by_parts).
+    const bool same_triangles = same_count && has_same_triangles(suspect, original);
     std::optional<Positions> renumbered;
-    if (!same_triangles)
+    std::optional<TriangleRenumbering> by_parts;
+    if (!same_triangles && same_count)
     {
         renumbered = renumbered_by_triangles(original, suspect);
-        if (renumbered && hints != nullptr)
+        if (!renumbered)
+        {
+            renumbered =
+                renumbered_in_place(original, suspect, kOutlierFloor * amplitude, options.threads);
+        }
+        else if (hints != nullptr)
         {
             hints->is_numbered_by_triangles = true;
         }
     }
     if (!same_triangles && !renumbered)
     {
-        renumbered =
-            renumbered_in_place(original, suspect, kOutlierFloor * amplitude, options.threads);
+        by_parts = renumbered_by_parts(original, suspect);
+        if (!by_parts)
+        {
+            if (!same_count)
+            {
+                return false;
+            }
+        }
+        else if (hints != nullptr)
+        {
+            hints->is_numbered_by_triangles = true;
+        }
     }
-    const Positions& in_order = renumbered ? *renumbered : suspect.V;
-    const Eigen::Matrix4d T = similarity_onto_original(original.V, in_order, nullptr);
+    const Positions& in_order =
+        by_parts ? by_parts->in_order : (renumbered ? *renumbered : suspect.V);
+    const std::vector<std::uint8_t>* reached =
+        by_parts && by_parts->unreached > 0 ? &by_parts->reached : nullptr;
+    const Eigen::Matrix4d T = similarity_onto_original(original.V, in_order, reached);
     found.aligned = transform_points(T, in_order);
-    found.registration_rms = relative_rms(found.aligned, original, diagonal);
+    found.registration_rms = relative_rms(found.aligned, original, diagonal, reached);
     found.transform = T;
     // Triangles that are the original's tell which vertex is which however far a tool moved
     // them (a strong smoothing of a CAD part: 2.4% of the diagonal RMS, whose far rows the
     // reading leaves out); otherwise (a point cloud has none) the positions must say so.
     const bool has_triangles = original.F.rows() > 0;
     const bool is_corresponding = (same_triangles && has_triangles) || renumbered.has_value() ||
+                                  by_parts.has_value() ||
                                   found.registration_rms <= kCorrespondenceTolerance;
     found.kind = Correspondence::InOrder;
     if (is_corresponding)
     {
-        take_in_order(found, original, amplitude, in_order, T, nullptr, 0);
+        take_in_order(found, original, amplitude, in_order, T, reached,
+                      by_parts ? by_parts->unreached : 0);
     }
     return is_corresponding;
 }
@@ -267,8 +308,7 @@ SuspectInFrame find_correspondence(PhaseTimer& timer, const DetectInputs& in, do
     SuspectInFrame found;
     timer.begin("correspondence");
     // (A given pose is the caller's: the vertices are not taken in order without it.)
-    bool is_corresponding = suspect.vertex_count() == original.vertex_count() &&
-                            options.pairs.empty() && pose == nullptr &&
+    bool is_corresponding = options.pairs.empty() && pose == nullptr &&
                             read_in_order(found, in, amplitude, diagonal, options, hints);
     RegistrationResult registered;  // suspects that do not correspond as they are
     if (!is_corresponding)

@@ -83,6 +83,117 @@ TEST(RenumberingTest, a_copy_renumbered_with_its_triangles_in_order_is_put_back_
     EXPECT_FALSE(renumbered_by_triangles(original, turned).has_value());
 }
 
+// Meshes one after the other in one mesh, each moved by its offset.
+TriangleMesh joined(const std::vector<TriangleMesh>& parts,
+                    const std::vector<Eigen::RowVector3d>& offsets)
+{
+    TriangleMesh out;
+    Eigen::Index v = 0;
+    Eigen::Index f = 0;
+    for (const TriangleMesh& part : parts)
+    {
+        v += part.V.rows();
+        f += part.F.rows();
+    }
+    out.V.resize(v, 3);
+    out.F.resize(f, 3);
+    v = 0;
+    f = 0;
+    for (std::size_t k = 0; k < parts.size(); ++k)
+    {
+        out.V.middleRows(v, parts[k].V.rows()) = parts[k].V.rowwise() + offsets[k];
+        out.F.middleRows(f, parts[k].F.rows()) = parts[k].F.array() + static_cast<std::int32_t>(v);
+        v += parts[k].V.rows();
+        f += parts[k].F.rows();
+    }
+    return out;
+}
+
+// \p mesh numbered as a writer that goes through its triangles numbers it: vertices in the order
+// the triangles first use them (those no triangle uses dropped).
+TriangleMesh numbered_as_written(const TriangleMesh& mesh)
+{
+    std::vector<std::int32_t> new_of(static_cast<std::size_t>(mesh.V.rows()), -1);
+    std::vector<std::int32_t> order;
+    TriangleMesh out;
+    out.F = mesh.F;
+    for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
+    {
+        for (int c = 0; c < 3; ++c)
+        {
+            auto& n = new_of[static_cast<std::size_t>(mesh.F(f, c))];
+            if (n < 0)
+            {
+                n = static_cast<std::int32_t>(order.size());
+                order.push_back(mesh.F(f, c));
+            }
+            out.F(f, c) = n;
+        }
+    }
+    out.V.resize(static_cast<Eigen::Index>(order.size()), 3);
+    for (std::size_t k = 0; k < order.size(); ++k)
+    {
+        out.V.row(static_cast<Eigen::Index>(k)) = mesh.V.row(order[k]);
+    }
+    return out;
+}
+
+TEST(RenumberingTest, a_copy_of_the_original_parts_in_another_order_is_put_back_part_by_part)
+{
+    // Four alike wheels, a body and a handle: parts of their own place the copy, the wheels go
+    // to the nearest wheel after that.
+    const TriangleMesh wheel = torus(1.0, 0.3, 12, 8);
+    const TriangleMesh body = lumpy_ellipsoid(3);
+    const TriangleMesh handle = icosphere(2);
+    const std::vector<Eigen::RowVector3d> at = {{0, 0, 0},  {-3, -3, 0}, {3, -3, 0},
+                                                {-3, 3, 0}, {3, 3, 0},   {0, 0, 4}};
+    const TriangleMesh original = joined({body, wheel, wheel, wheel, wheel, handle}, at);
+    // Joined in another order (the wheels too), numbered as written, moved and smoothed
+    // (here: nudged far beyond any mark), and a fifth wheel that is no part of the original.
+    const std::vector<int> order = {5, 3, 0, 1, 4, 2};
+    std::vector<TriangleMesh> shuffled_parts;
+    std::vector<Eigen::RowVector3d> shuffled_at;
+    const std::vector<TriangleMesh> parts = {body, wheel, wheel, wheel, wheel, handle};
+    for (const int k : order)
+    {
+        shuffled_parts.push_back(parts[static_cast<std::size_t>(k)]);
+        shuffled_at.push_back(at[static_cast<std::size_t>(k)]);
+    }
+    shuffled_parts.push_back(wheel);
+    shuffled_at.emplace_back(9, 9, 9);
+    TriangleMesh copy = numbered_as_written(joined(shuffled_parts, shuffled_at));
+    copy.V = nudged(copy.V, 0.05);
+    const Eigen::Matrix3d turn =
+        Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+    copy.V = (2.0 * copy.V * turn.transpose()).rowwise() + Eigen::RowVector3d(5, -1, 2);
+
+    const std::optional<TriangleRenumbering> found = renumbered_by_parts(original, copy);
+    ASSERT_TRUE(found.has_value());
+    EXPECT_EQ(found->unreached, 0U);
+    EXPECT_TRUE(found->reached.empty());
+    Positions expected = nudged(original.V, 0.05);
+    expected = (2.0 * expected * turn.transpose()).rowwise() + Eigen::RowVector3d(5, -1, 2);
+    EXPECT_TRUE(found->in_order.isApprox(expected, 1e-12));
+
+    // A wheel gone (the handle too small to matter): its vertices are left out, the rest read.
+    std::vector<TriangleMesh> fewer = {handle, body, wheel, wheel, wheel};
+    const TriangleMesh cut =
+        numbered_as_written(joined(fewer, {at[5], at[0], at[1], at[2], at[4]}));
+    const std::optional<TriangleRenumbering> partly = renumbered_by_parts(original, cut);
+    ASSERT_TRUE(partly.has_value());
+    EXPECT_EQ(partly->unreached, static_cast<std::size_t>(wheel.V.rows()));
+    const Eigen::Index wheel3 = body.V.rows() + 2 * wheel.V.rows();  // the wheel at (-3, 3)
+    EXPECT_EQ(partly->reached[static_cast<std::size_t>(wheel3)], 0);
+    EXPECT_EQ(partly->reached[0], 1);
+    EXPECT_TRUE(partly->in_order.row(0).isApprox(original.V.row(0), 1e-12));
+
+    // The body's triangles in another order: most of the original is no part of the copy.
+    TriangleMesh turned = copy;
+    const Eigen::Index body_start = handle.F.rows() + wheel.F.rows();
+    turned.F.row(body_start).swap(turned.F.row(body_start + 1));
+    EXPECT_FALSE(renumbered_by_parts(original, turned).has_value());
+}
+
 TEST(RenumberingTest, a_copy_renumbered_where_it_stands_is_put_back_by_its_positions)
 {
     const TriangleMesh original = lumpy_ellipsoid(3);
