@@ -30,6 +30,8 @@
 #                    at its UV seams and hard edges decimated as one surface
 #   bisect           bmesh.ops.bisect_plane through the bbox centre, normal along the largest
 #                    extent, the negative side cleared (about half the surface kept)
+#   bisect-A+, bisect-A-  the same through the plane across axis A (x, y or z), keeping the
+#                    positive (+) or negative (-) side: every half of a symmetric model
 #   voxel=N          Remesh modifier, voxel mode, adaptivity 0, voxel size = diagonal / N
 #   pose=F           the scene at animation frame F, every mesh as its modifiers (an armature)
 #                    leave it: a rigged character re-posed by its own animation
@@ -60,7 +62,8 @@ from attack_contract import UsageError, parse_arguments, write_report  # noqa: E
 
 DEFAULTS = {"merge": 1e-4, "noise": 0.002, "subdivide": 1, "laplacian": 1, "smooth": 10}
 NEEDS_VALUE = {"decimate", "merged-decimate", "voxel", "pose", "second-action"}
-NO_VALUE = {"ply", "obj", "gltf", "transform", "mirror", "bisect"}
+HALVES = {"bisect-%s%s" % (axis, side) for axis in "xyz" for side in "+-"}
+NO_VALUE = {"ply", "obj", "gltf", "transform", "mirror", "bisect"} | HALVES
 ROUND_TRIP_EXT = {"ply": ".ply", "obj": ".obj", "gltf": ".glb"}
 
 
@@ -231,10 +234,11 @@ def apply_op(obj, name, value, seed):
     elif name == "merged-decimate":
         with_bmesh(obj, lambda bm: bmesh.ops.remove_doubles(bm, verts=bm.verts, dist=DEFAULTS["merge"] * diagonal))
         apply_modifier(obj, "DECIMATE", decimate_type="COLLAPSE", ratio=value)
-    elif name == "bisect":
+    elif name == "bisect" or name in HALVES:
         extent = hi - lo
-        axis = max(range(3), key=lambda i: extent[i])
-        normal = mathutils.Vector([1.0 if i == axis else 0.0 for i in range(3)])
+        axis = max(range(3), key=lambda i: extent[i]) if name == "bisect" else "xyz".index(name[7])
+        side = -1.0 if name.endswith("-") else 1.0
+        normal = mathutils.Vector([side if i == axis else 0.0 for i in range(3)])
 
         def cut(bm):
             geom = list(bm.verts) + list(bm.edges) + list(bm.faces)

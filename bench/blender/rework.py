@@ -36,8 +36,9 @@ import time
 HERE = os.path.dirname(os.path.abspath(__file__))
 ATTACKS = os.path.join(HERE, "attacks.py")
 OPEN3D_ATTACKS = os.path.join(HERE, "open3d_attacks.py")
+HALVES = ["bisect-%s%s" % (axis, side) for axis in "xyz" for side in "+-"]
 BLENDER_NAMES = {"ply", "obj", "gltf", "transform", "mirror", "merge", "noise", "subdivide", "laplacian", "smooth",
-                 "decimate", "merged-decimate", "bisect", "voxel", "pose", "second-action"}
+                 "decimate", "merged-decimate", "bisect", "voxel", "pose", "second-action"} | set(HALVES)
 # Other tools' operations (--ops ... or --with-others): gltf-transform, Open3D, MeshLab.
 OTHER_OPERATIONS = ["gt-simplify=0.5", "gt-simplify=0.2", "gt-decimate=0.05", "gt-weld", "o3d-decimate=0.2",
                     "o3d-laplacian=10", "o3d-taubin=10", "meshlab-decimate=0.2", "meshlab-taubin=10"]
@@ -53,6 +54,7 @@ DESCRIPTION = {
     "decimate=0.5": "Decimate collapse 50%", "decimate=0.2": "Decimate collapse 20%",
     "decimate=0.05": "Decimate collapse 5%", "merged-decimate=0.05": "Merge by Distance, then Decimate 5%",
     "bisect": "bisect in half, keep one side",
+    **{h: "bisect across %s, keep the %s side" % (h[7], "positive" if h[8] == "+" else "negative") for h in HALVES},
     "pose=10": "posed by its animation, frame 10", "pose=20": "posed by its animation, frame 20",
     "second-action=10": "posed by its second animation, frame 10",
     "second-action=20": "posed by its second animation, frame 20",
@@ -264,6 +266,12 @@ def trial(args, mesh, key_seed, marked, op, blender_entry, original, key):
     result.update({"mesh": os.path.basename(mesh), "key": key_seed, "marked": marked, "op": op,
                    "vertices": blender_entry["vertices"], "faces": blender_entry["faces"],
                    "detect_seconds": round(time.time() - start, 2)})
+    if args.damage and marked:
+        # The copy's own damage: how far the original's surface is from the copy's (fractions
+        # of the original's diagonal), which tells a copy that is no longer the asset.
+        found = json.loads(run([args.meshmark, "compare", original, blender_entry["output"], "--json", "-q"],
+                               "meshmark compare %s" % blender_entry["output"]).stdout)
+        result["damage"] = {k: found[k] for k in ("mean_ab", "rms_ab", "hausdorff_ab", "mean_ba")}
     if not args.quiet:
         print("%-22s key %d %-8s %-14s detected=%-5s z=%6.2f R=%.3f fpp=%.2g" % (
             result["mesh"], key_seed, "marked" if marked else "unmarked", op, result["detected"],
@@ -333,6 +341,17 @@ def table(trials):
     lines.append("Marked copies claimed: %d/%d. Unmarked copies claimed: %d/%d (largest z %.2f)." % (
         sum(t["detected"] for t in marked), len(marked), sum(t["detected"] for t in clean), len(clean),
         max((t["score"] for t in clean), default=float("nan"))))
+    lost = [t for t in marked if not t["detected"] and "damage" in t]
+    if lost:
+        lines.append("")
+        lines.append("Marked copies not claimed, with their own damage (the original's surface to the copy's, "
+                     "in % of the diagonal: mean, RMS, largest):")
+        lines.append("")
+        for t in lost:
+            d = t["damage"]
+            lines.append("- %s `%s` key %d: z %.2f; mean %.3f%%, RMS %.3f%%, largest %.2f%%" % (
+                t["mesh"], t["op"], t["key"], t["score"], 100 * d["mean_ab"], 100 * d["rms_ab"],
+                100 * d["hausdorff_ab"]))
     if failed:
         lines.append("")
         lines.append("The tool failed on %d copies (not counted above): %s." % (len(failed), "; ".join(
@@ -379,6 +398,9 @@ def main():
                         help="when Blender, gltf-transform or MeshLab fails, record it (the table's "
                         "cell says 'tool failed'; a Blender failure fails all its operations on that "
                         "copy) and go on; the exit code is still 1")
+    parser.add_argument("--damage", action="store_true",
+                        help="also measure each marked copy's own damage (meshmark compare against the "
+                        "original; in the JSON, and listed under the table for the copies not claimed)")
     parser.add_argument("-q", "--quiet", action="store_true")
     args = parser.parse_args()
     if args.keys < 1:
