@@ -44,11 +44,11 @@ TriangleMesh with_instances(const TriangleMesh& original, const TriangleMesh& in
 double relative_rms(const Positions& in_frame, const TriangleMesh& original, double diagonal,
                     const std::vector<std::uint8_t>* kept = nullptr)
 {
-    const Eigen::VectorXd squared = (in_frame - original.V).rowwise().squaredNorm();
     if (kept == nullptr)
     {
-        return std::sqrt(squared.mean()) / diagonal;
+        return std::sqrt((in_frame - original.V).rowwise().squaredNorm().mean()) / diagonal;
     }
+    const Eigen::VectorXd squared = (in_frame - original.V).rowwise().squaredNorm();
     double sum = 0.0;
     std::size_t count = 0;
     for (Eigen::Index i = 0; i < squared.size(); ++i)
