@@ -54,6 +54,9 @@ if ((interop_tools)); then
   # OpenCASCADE's sample CAD parts (/usr/share/opencascade/data/stl): held-out meshes for the
   # real-assets interop tests.
   packages+=(occt-misc)
+  # Artists' furniture, vehicles and figures in OBJ (Sweet Home 3D's catalogues, zip files):
+  # the artists'-models interop tests (Blender's re-work of models made of many objects).
+  packages+=(sweethome3d-furniture)
   # Node.js for the npm tools: Debian's, unless the machine already has a node and npm.
   if ! command -v node >/dev/null || ! command -v npm >/dev/null; then packages+=(nodejs npm); fi
 fi

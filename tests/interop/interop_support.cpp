@@ -181,6 +181,13 @@ std::string missing_tools(const std::vector<std::string>& needed)
             // Debian's occt-misc: OpenCASCADE's sample CAD parts as STL.
             note(fs::exists("/usr/share/opencascade/data/stl/motor.stl"), "occt-misc (/usr/share/opencascade/data)");
         }
+        else if (name == "sweethome3d-furniture")
+        {
+            // Debian's sweethome3d-furniture: artists' models, OBJ in zip catalogues (.sh3f).
+            note(fs::exists("/usr/share/sweethome3d/furniture/BlendSwap-CC-0.sh3f") &&
+                     fs::exists("/usr/share/sweethome3d/furniture/Reallusion.sh3f"),
+                 "sweethome3d-furniture (/usr/share/sweethome3d/furniture)");
+        }
         else if (name == "assimp-testmodels")
         {
             // Debian's assimp-testmodels: other people's models (real_assets_test.cpp).
