@@ -831,6 +831,24 @@ fs::path unpack_furniture(const std::string& catalogue, const std::string& folde
     return model;
 }
 
+// The model unpacked (unpack_furniture) and marked with key seed 1 into \p scratch / marked.obj
+// and scratch / key.json; \p error is set if a step fails.
+MarkedGameAsset unpack_and_mark_furniture(const std::string& catalogue, const std::string& folder,
+                                          const fs::path& scratch, std::string* error)
+{
+    MarkedGameAsset model{unpack_furniture(catalogue, folder, scratch, error),
+                          scratch / "marked.obj", scratch / "key.json"};
+    if (error->empty())
+    {
+        const ToolRun marking = embed(model.original, model.marked, model.key, "1", scratch);
+        if (!marking.ok())
+        {
+            *error = marking.describe();
+        }
+    }
+    return model;
+}
+
 }  // namespace
 
 // Artists' models are made of objects; Blender joins them in an order of its own and numbers
@@ -842,13 +860,9 @@ TEST(RealAssetsInterop, ABlenderSmoothOfAnArtistsModelOfManyObjectsIsReadPartByP
     INTEROP_REQUIRE_TOOLS("meshmark", "blender", "sweethome3d-furniture");
     const fs::path scratch = temp_dir("interop-real-boy");
     std::string error;
-    const fs::path original =
-        unpack_furniture("Reallusion", "reallusion/boyStanding", scratch, &error);
+    const auto [original, marked, key] =
+        unpack_and_mark_furniture("Reallusion", "reallusion/boyStanding", scratch, &error);
     ASSERT_TRUE(error.empty()) << error;
-    const fs::path marked = scratch / "marked.obj";
-    const fs::path key = scratch / "key.json";
-    const ToolRun marking = embed(original, marked, key, "1", scratch);
-    ASSERT_TRUE(marking.ok()) << marking.describe();
     check_marked_and_clean(
         original, marked, key, "smooth", "smooth.ply", scratch,
         [](const nlohmann::json& report, int exit_code, bool is_marked)
@@ -872,13 +886,9 @@ TEST(RealAssetsInterop, AVoxelRemeshOfAFlatApplianceIsRegisteredWhereItStands)
     INTEROP_REQUIRE_TOOLS("meshmark", "blender", "sweethome3d-furniture");
     const fs::path scratch = temp_dir("interop-real-stove");
     std::string error;
-    const fs::path original =
-        unpack_furniture("BlendSwap-CC-0", "blendswap-cc-0/stove", scratch, &error);
+    const auto [original, marked, key] =
+        unpack_and_mark_furniture("BlendSwap-CC-0", "blendswap-cc-0/stove", scratch, &error);
     ASSERT_TRUE(error.empty()) << error;
-    const fs::path marked = scratch / "marked.obj";
-    const fs::path key = scratch / "key.json";
-    const ToolRun marking = embed(original, marked, key, "1", scratch);
-    ASSERT_TRUE(marking.ok()) << marking.describe();
     check_marked_and_clean(original, marked, key, "voxel=300", "voxel_300.ply", scratch,
                            [](const nlohmann::json& report, int exit_code, bool is_marked)
                            {
