@@ -78,6 +78,8 @@ DetectReport run_detection(const detail::DetectSources& sources, const DetectFil
     detail::read_animation_pose(reading, timer, mark, in, options);
 
     reading.report.alignment = detail::correspondence_method(reading.correspondence, reading.pose);
+    reading.report.registered = reading.correspondence != detail::Correspondence::None &&
+                                reading.correspondence != detail::Correspondence::InOrder;
     return std::move(reading.report);
 }
 

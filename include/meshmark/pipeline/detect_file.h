@@ -46,7 +46,12 @@ struct DetectReport
     /// them (beyond 3 x the median distance and 10 x the strength), crops aside: a resampled
     /// suspect's surface, or a vertex-for-vertex suspect's own vertices.
     double outlier_fraction = 0.0;
-    std::string alignment = "none";  ///< How the suspect was put in correspondence.
+    /// How the suspect was put in correspondence, in the words of `detect --json`'s
+    /// registration.method ("same-connectivity", "registration", ...): for people and files.
+    std::string alignment = "none";
+    /// The suspect was registered onto the original (its vertices are not the original's in
+    /// its order): what code that decides on the correspondence reads, never alignment's text.
+    bool registered = false;
     Eigen::Matrix4d transform = Eigen::Matrix4d::Identity();  ///< Suspect -> original frame.
     double registration_rms = 0.0;  ///< RMS distance to the original / its bbox diagonal.
     /// The mark's RMS amplitude / the original's bbox diagonal: the key's additive strength (the
@@ -91,7 +96,7 @@ struct DetectReport
     /// or more from the original: why a "not found" there says little (meshmark detect's note).
     [[nodiscard]] bool is_far_copy() const noexcept
     {
-        return alignment.starts_with("registration") && mark_strength > 0.0 &&
+        return registered && mark_strength > 0.0 &&
                registration_rms >= kFarCopyStrengths * mark_strength;
     }
 };

@@ -248,12 +248,14 @@ TEST(FacadeTest, a_copy_split_at_seams_is_read_vertex_for_vertex)
     const TriangleMesh marked = read_mesh(dir / "marked.ply");
     const DetectReport in_order = detect(marked, original, key);
     ASSERT_EQ(in_order.alignment, "same-connectivity");
+    EXPECT_FALSE(in_order.registered);
     for (const double mirror : {1.0, -1.0})
     {
         const TriangleMesh copy = split(marked, mirror);
         ASSERT_GT(copy.V.rows(), original.V.rows());
         const DetectReport found = detect(copy, original, key);
         EXPECT_EQ(found.alignment, "registration (vertices matched)") << "mirror " << mirror;
+        EXPECT_TRUE(found.registered);
         EXPECT_TRUE(found.decision.is_present);
         EXPECT_EQ(found.decision.correlation, 1.0);
         EXPECT_EQ(found.outlier_fraction, 0.0);
@@ -276,6 +278,7 @@ TEST(FacadeTest, a_copy_split_at_seams_is_read_vertex_for_vertex)
     noisy.V += 0.01 * diagonal * Positions::Random(noisy.V.rows(), 3) / std::sqrt(3.0);
     const DetectReport rough = detect(split(noisy, 1.0), original, key);
     EXPECT_EQ(rough.alignment, "registration");
+    EXPECT_TRUE(rough.registered);
 }
 
 // A voxel remesh fine enough to have a vertex near every original vertex (fandisk at 1/300 of
