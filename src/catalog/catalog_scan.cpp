@@ -4,11 +4,16 @@
 
 #include <algorithm>
 #include <array>
-#include <limits>
+#include <atomic>
 #include <chrono>
 #include <cmath>
+#include <exception>
+#include <limits>
+#include <optional>
+#include <thread>
 
 #include "meshmark/core/error.h"
+#include "meshmark/core/threads.h"
 #include "meshmark/io/mesh_io.h"
 #include "meshmark/pipeline/verdict.h"
 
@@ -58,6 +63,62 @@ std::vector<std::pair<float, std::size_t>> nearest(const std::vector<Catalog::In
     return ranked;
 }
 
+// What trying one candidate gave: a match, a try that did not match (or failed), or nothing
+// (the asset was removed since the index was read).
+struct CandidateOutcome
+{
+    std::optional<CatalogMatch> match;
+    std::optional<CatalogTry> tried;
+    std::exception_ptr failure;  ///< anything but a detection's own Error, rethrown in rank order
+};
+
+// The detection of \p suspect against the catalogue's asset \p id, at the scan's level.
+template <typename Scale>
+CandidateOutcome try_candidate(const Catalog& catalog, const std::string& id, float distance,
+                               int rank, const TriangleMesh& suspect,
+                               const DetectFileOptions& detect, const Scale& scaled)
+{
+    CandidateOutcome outcome;
+    CatalogTry tried{id, distance, 1.0, {}};
+    try
+    {
+        const std::optional<CatalogAsset> asset = catalog.asset(id);
+        if (!asset)
+        {
+            return outcome;  // removed since the index was read
+        }
+        DetectReport found = detect_against_original(suspect, asset->original, asset->key, detect);
+        // The verdict's probability (verdict.h): the strongest accusation's, else the ownership's.
+        const double verdict_fpp =
+            verdict_of(found, detect.decision.max_false_positive).false_positive_probability;
+        tried.false_positive_probability = scaled(verdict_fpp);
+        if (found.detected())
+        {
+            CatalogMatch match;
+            match.asset = id;
+            match.original = asset->original;
+            match.false_positive_probability = scaled(verdict_fpp);
+            match.score = found.decision.score;
+            match.recipients = found.accused;
+            for (RecipientScore& recipient : match.recipients)
+            {
+                recipient.false_positive_probability = scaled(recipient.false_positive_probability);
+            }
+            match.shape_distance = distance;
+            match.rank = rank;
+            match.report = std::move(found);
+            outcome.match = std::move(match);
+            return outcome;
+        }
+    }
+    catch (const Error& e)
+    {
+        tried.error = e.what();
+    }
+    outcome.tried = std::move(tried);
+    return outcome;
+}
+
 }  // namespace
 
 CatalogScanReport catalog_scan(const Catalog& catalog, const std::vector<std::filesystem::path>& suspects,
@@ -80,6 +141,11 @@ CatalogScanReport catalog_scan(const Catalog& catalog, const std::vector<std::fi
     detect.progress = nullptr;
     const auto scaled = [&](double p) { return std::min(1.0, p * assets); };
 
+    // The candidates of a suspect: the nearest first, alone on every thread (a suspect the index
+    // ranks right costs one detection, at full speed); the others several at once, one thread
+    // each (a small model's detection gains little from a second thread, two detections at once
+    // twice: bench/results/2026-11-30-scan-speed.md).
+    const int threads = resolve_threads(options.detect.threads);
     for (std::size_t s = 0; s < suspects.size(); ++s)
     {
         const auto start = Clock::now();
@@ -99,51 +165,75 @@ CatalogScanReport catalog_scan(const Catalog& catalog, const std::vector<std::fi
             const auto index_start = Clock::now();
             const auto ranked = nearest(index, shape_features(suspect), static_cast<std::size_t>(options.candidates));
             scan.index_seconds = seconds_since(index_start);
-            for (std::size_t r = 0; r < ranked.size(); ++r)
+            std::vector<CandidateOutcome> outcomes(ranked.size());
+            const auto try_rank = [&](std::size_t r, int detect_threads)
             {
-                const auto& [distance, a] = ranked[r];
-                const std::string& id = index[a].id;
-                CatalogTry tried{id, distance, 1.0, {}};
+                DetectFileOptions one = detect;
+                one.threads = detect_threads;
                 try
                 {
-                    const std::optional<CatalogAsset> asset = catalog.asset(id);
-                    if (!asset)
-                    {
-                        continue;  // removed since the index was read
-                    }
-                    DetectReport found = detect_against_original(suspect, asset->original, asset->key, detect);
-                    // The verdict's probability (verdict.h): the strongest accusation's, else the ownership's.
-                    const double verdict_fpp =
-                        verdict_of(found, detect.decision.max_false_positive).false_positive_probability;
-                    tried.false_positive_probability = scaled(verdict_fpp);
-                    if (found.detected())
-                    {
-                        CatalogMatch match;
-                        match.asset = id;
-                        match.original = asset->original;
-                        match.false_positive_probability = scaled(verdict_fpp);
-                        match.score = found.decision.score;
-                        match.recipients = found.accused;
-                        for (RecipientScore& recipient : match.recipients)
-                        {
-                            recipient.false_positive_probability = scaled(recipient.false_positive_probability);
-                        }
-                        match.shape_distance = distance;
-                        match.rank = static_cast<int>(r);
-                        match.report = std::move(found);
-                        scan.matches.push_back(std::move(match));
-                        if (options.stop_at_match)
-                        {
-                            break;
-                        }
-                        continue;
-                    }
+                    outcomes[r] =
+                        try_candidate(catalog, index[ranked[r].second].id, ranked[r].first,
+                                      static_cast<int>(r), suspect, one, scaled);
                 }
-                catch (const Error& e)
+                catch (...)
                 {
-                    tried.error = e.what();
+                    outcomes[r].failure = std::current_exception();
                 }
-                scan.tried.push_back(std::move(tried));
+            };
+            try_rank(0, threads);
+            if (!(options.stop_at_match && outcomes[0].match))
+            {
+                // Ranks handed out in order; none past a match is started once the match is known.
+                std::atomic<std::size_t> next{1};
+                std::atomic<std::size_t> first_match{ranked.size()};
+                const auto work = [&]
+                {
+                    for (std::size_t r = next++; r < ranked.size(); r = next++)
+                    {
+                        if (options.stop_at_match && r > first_match.load())
+                        {
+                            return;
+                        }
+                        try_rank(r, 1);
+                        if (outcomes[r].match)
+                        {
+                            std::size_t known = first_match.load();
+                            while (r < known && !first_match.compare_exchange_weak(known, r))
+                            {
+                            }
+                        }
+                    }
+                };
+                const int jobs = std::min<int>(threads, static_cast<int>(ranked.size()) - 1);
+                std::vector<std::jthread> workers;
+                for (int j = 1; j < jobs; ++j)
+                {
+                    workers.emplace_back(work);
+                }
+                work();
+                workers.clear();  // joins
+            }
+            // In rank order, as one thread trying them in turn would report them: past the first
+            // match (when stopping there) nothing counts, even what a worker had already tried.
+            for (CandidateOutcome& outcome : outcomes)
+            {
+                if (outcome.failure)
+                {
+                    std::rethrow_exception(outcome.failure);
+                }
+                if (outcome.match)
+                {
+                    scan.matches.push_back(std::move(*outcome.match));
+                    if (options.stop_at_match)
+                    {
+                        break;
+                    }
+                }
+                else if (outcome.tried)
+                {
+                    scan.tried.push_back(std::move(*outcome.tried));
+                }
             }
         }
         std::stable_sort(scan.matches.begin(), scan.matches.end(), [](const CatalogMatch& a, const CatalogMatch& b)

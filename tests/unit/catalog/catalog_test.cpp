@@ -346,5 +346,54 @@ TEST(CatalogTest, scan_finds_the_asset_and_recipient_of_an_attacked_copy_and_cla
     EXPECT_NE(report.suspects[2].error.find("missing.ply"), std::string::npos);
 }
 
+TEST(CatalogTest, scan_reports_the_same_tries_in_rank_order_on_one_thread_or_several)
+{
+    const fs::path dir = test::temp_dir("catalog_scan_threads");
+    const fs::path in = make_originals(dir);
+    Catalog catalog(dir / "cat.db", Catalog::Open::CreateIfMissing);
+    (void)catalog_add(catalog, {in}, dir / "out", quick_options());
+    const auto listed = catalog.assets();
+    ASSERT_EQ(listed.size(), 3U);
+    write_mesh(dir / "suspect.ply",
+               apply_attacks(read_mesh(listed[1].published),
+                             parse_attack_spec("similarity,noise=0.0002"), 5, 1)
+                   .mesh);
+    // What a scan reports, but its times: every try and match with its rank order and figures.
+    const auto summary = [](const CatalogScanReport& report)
+    {
+        std::vector<std::string> lines;
+        for (const SuspectScan& scan : report.suspects)
+        {
+            for (const CatalogTry& tried : scan.tried)
+            {
+                lines.push_back("tried " + tried.asset + " " +
+                                std::to_string(tried.shape_distance) + " " +
+                                std::to_string(tried.false_positive_probability));
+            }
+            for (const CatalogMatch& match : scan.matches)
+            {
+                lines.push_back("match " + match.asset + " " + std::to_string(match.rank) + " " +
+                                std::to_string(match.score));
+            }
+        }
+        return lines;
+    };
+    // The marked copy tried against every asset (the nearest alone, the two others at once when
+    // there are threads for them), on one thread or on several: the same tries in rank order.
+    CatalogScanOptions options;
+    options.candidates = 3;
+    options.stop_at_match = false;
+    options.detect.threads = 1;
+    const auto one = summary(catalog_scan(catalog, {dir / "suspect.ply"}, options));
+    options.detect.threads = 3;
+    const auto several = summary(catalog_scan(catalog, {dir / "suspect.ply"}, options));
+    EXPECT_EQ(one, several);
+    ASSERT_EQ(one.size(), 3U);  // two tries and the match
+    EXPECT_EQ(
+        std::count_if(one.begin(), one.end(),
+                      [](const std::string& l) { return l.starts_with("match sub/egg.off "); }),
+        1);
+}
+
 }  // namespace
 }  // namespace meshmark
