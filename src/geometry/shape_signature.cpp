@@ -159,9 +159,10 @@ std::size_t bin_of(double x, int bins)
     return static_cast<std::size_t>(std::min(x, bins - 0.5));
 }
 
-// The draws every view shares: pairs of sample points with their distance, triples with
-// the bin of their angle. A view uses those whose points it all holds, so a crop view measures
-// the draws of the whole that fall inside it (no draws of its own, and no random access).
+// The draws every view shares: pairs of sample points with their distance (in ascending order
+// of it), triples with the bin of their angle. A view uses those whose points it all holds, so a
+// crop view measures the draws of the whole that fall inside it (no draws of its own, and no random
+// access).
 struct Draws
 {
     std::vector<std::array<std::int32_t, 2>> pairs;
@@ -188,6 +189,23 @@ Draws draw(const std::vector<Vec3>& points)
         d.pairs.push_back({i, j});
         d.pair_distance.push_back((points[static_cast<std::size_t>(i)] - points[static_cast<std::size_t>(j)]).norm());
     }
+    // By distance: a view's pairs in one bin are then a run, found by a binary search per bin
+    // edge (nested_features); the counts do not depend on the order.
+    std::vector<std::size_t> order(d.pairs.size());
+    std::iota(order.begin(), order.end(), std::size_t{0});
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::size_t a, std::size_t b)
+                     { return d.pair_distance[a] < d.pair_distance[b]; });
+    Draws sorted;
+    sorted.pairs.reserve(order.size());
+    sorted.pair_distance.reserve(order.size());
+    for (const std::size_t t : order)
+    {
+        sorted.pairs.push_back(d.pairs[t]);
+        sorted.pair_distance.push_back(d.pair_distance[t]);
+    }
+    d.pairs = std::move(sorted.pairs);
+    d.pair_distance = std::move(sorted.pair_distance);
     // Angle bins by their cosines (descending with the angle): no acos per triple.
     std::array<double, kAngleBins - 1> cosine_edges{};
     for (int b = 1; b < kAngleBins; ++b)
@@ -274,28 +292,67 @@ void nested_features(const std::vector<Vec3>& points, const Draws& draws, const 
             }
         }
     }
-    std::vector<std::vector<int>> pairs(count, std::vector<int>(kPairBins, 0));
-    for (std::size_t t = 0; t < draws.pairs.size(); ++t)
+    // The pairs by distance: in view v, the pairs of bin b or below are those before the first
+    // whose distance reaches bin b + 1 (the same product bin_of takes the floor of, so the counts
+    // are those of binning each pair) and whose points the view holds. A pair lies in the views
+    // below the smaller of its points' levels.
+    const std::size_t pair_count = draws.pairs.size();
+    std::vector<std::uint8_t> pair_in(pair_count);
+    for (std::size_t t = 0; t < pair_count; ++t)
     {
         const auto& [i, j] = draws.pairs[t];
-        const std::size_t in = std::min(level[static_cast<std::size_t>(i)], level[static_cast<std::size_t>(j)]);
-        for (std::size_t v = 0; v < in; ++v)
+        pair_in[t] =
+            std::min(level[static_cast<std::size_t>(i)], level[static_cast<std::size_t>(j)]);
+    }
+    std::vector<std::vector<int>> pairs(count, std::vector<int>(kPairBins, 0));
+    for (std::size_t v = 0; v < count; ++v)
+    {
+        if (!usable(v))
         {
-            if (usable(v))
+            continue;
+        }
+        std::size_t from = 0;
+        int below = 0;  // pairs of the view before `from`
+        int previous = 0;
+        for (int b = 0; b < kPairBins; ++b)
+        {
+            const auto to =
+                b + 1 < kPairBins
+                    ? static_cast<std::size_t>(
+                          std::partition_point(
+                              draws.pair_distance.begin() + static_cast<std::ptrdiff_t>(from),
+                              draws.pair_distance.end(),
+                              [&](double d) { return d * pair_scale[v] < b + 1; }) -
+                          draws.pair_distance.begin())
+                    : pair_count;
+            for (std::size_t t = from; t < to; ++t)
             {
-                ++pairs[v][bin_of(draws.pair_distance[t] * pair_scale[v], kPairBins)];
+                below += pair_in[t] > v ? 1 : 0;
             }
+            pairs[v][static_cast<std::size_t>(b)] = below - previous;
+            previous = below;
+            from = to;
         }
     }
-    std::vector<std::vector<int>> angles(count, std::vector<int>(kAngleBins, 0));
+    // Triples by the smaller level of their points and their angle's bin, then summed over the
+    // levels above each view.
+    std::vector<std::array<int, kAngleBins>> by_level(count + 1, std::array<int, kAngleBins>{});
     for (std::size_t t = 0; t < draws.triples.size(); ++t)
     {
         const auto& [i, j, k] = draws.triples[t];
         const std::size_t in = std::min({level[static_cast<std::size_t>(i)], level[static_cast<std::size_t>(j)],
                                          level[static_cast<std::size_t>(k)]});
-        for (std::size_t v = 0; v < in; ++v)
+        ++by_level[in][draws.triple_bin[t]];
+    }
+    std::vector<std::vector<int>> angles(count, std::vector<int>(kAngleBins, 0));
+    for (std::size_t v = 0; v < count; ++v)
+    {
+        for (std::size_t l = v + 1; l <= count; ++l)
         {
-            ++angles[v][draws.triple_bin[t]];
+            for (std::size_t b = 0; b < kAngleBins; ++b)
+            {
+                angles[v][b] += by_level[l][b];
+            }
         }
     }
     for (std::size_t v = 0; v < count; ++v)
@@ -379,13 +436,18 @@ ShapeSignature shape_signature(const TriangleMesh& mesh)
         }
         std::array<double, kFractions> threshold{};  // largest fraction first
         sorted = heights;
+        std::size_t settled = 0;  // the heights before it are at most the last threshold
         for (std::size_t f = 0; f < kFractions; ++f)
         {
             const double fraction = kShapeCropFractions[kFractions - 1 - f];
-            const auto drop = static_cast<std::size_t>(std::lround((1.0 - fraction) * static_cast<double>(n)));
-            std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(std::min(drop, n - 1)),
-                             sorted.end());
-            threshold[f] = sorted[std::min(drop, n - 1)];
+            const auto drop = std::min(
+                static_cast<std::size_t>(std::lround((1.0 - fraction) * static_cast<double>(n))),
+                n - 1);
+            // The drops grow with f: each selection searches only above the one before.
+            std::nth_element(sorted.begin() + static_cast<std::ptrdiff_t>(settled),
+                             sorted.begin() + static_cast<std::ptrdiff_t>(drop), sorted.end());
+            threshold[f] = sorted[drop];
+            settled = drop;
         }
         for (std::size_t i = 0; i < n; ++i)
         {
