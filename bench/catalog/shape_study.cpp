@@ -11,12 +11,13 @@
 #include <cstdlib>
 #include <fstream>
 #include <map>
+#include <numbers>
 #include <string>
 #include <vector>
 
 #include "meshmark/attacks/attack_spec.h"
 #include "meshmark/attacks/cropping.h"
-#include <numbers>
+#include "meshmark/catalog/catalog_scan.h"
 #include "meshmark/geometry/shape_signature.h"
 #include "meshmark/io/mesh_io.h"
 #include "meshmark/registration/registration.h"
@@ -69,6 +70,11 @@ int main(int argc, char** argv)
         }
     }
     std::fprintf(stderr, "%zu meshes indexed\n", index.size());
+    std::vector<Catalog::IndexEntry> entries;
+    for (std::size_t b = 0; b < index.size(); ++b)
+    {
+        entries.push_back({names[b], index[b].to_bytes()});
+    }
     std::vector<TriangleMesh> samples(meshes.size());
     for (std::size_t b = 0; b < meshes.size(); ++b)
     {
@@ -107,18 +113,9 @@ int main(int argc, char** argv)
             {
                 continue;
             }
-            const ShapeFeatures f = shape_features(suspect);
-            std::vector<std::pair<float, std::size_t>> d;
-            for (std::size_t b = 0; b < index.size(); ++b)
-            {
-                float best = 1e9F;
-                for (const auto& v : index[b].views)
-                {
-                    best = std::min(best, shape_distance(f, v));
-                }
-                d.emplace_back(best, b);
-            }
-            std::sort(d.begin(), d.end());
+            // The ranking catalog scan makes (shape_candidates), over every asset.
+            std::vector<std::pair<float, std::size_t>> d =
+                shape_candidates(entries, shape_features(suspect), entries.size());
             // MESHMARK_STUDY_VERIFY=M: the first M re-ranked by a quick registration of point
             // samples (rms of the fit; a fit that does not converge ranks last).
             if (const char* verify = std::getenv("MESHMARK_STUDY_VERIFY"))

@@ -327,7 +327,9 @@ std::vector<Catalog::IndexEntry> Catalog::shape_index() const
             const SQLite::Column blob = row.getColumn(1);
             const auto* data = static_cast<const std::uint8_t*>(blob.getBlob());
             const auto size = static_cast<std::size_t>(blob.getBytes());
-            if (size % kShapeFeatures != 0)
+            // A signature of this build, of an older one (the positions' features alone), or none.
+            if (size != 0 && size != static_cast<std::size_t>(kShapeViews * kShapeFeatures) &&
+                size != static_cast<std::size_t>(kShapeViews * kShapePositionFeatures))
             {
                 throw IoError(path().string() + ": the shape signature of asset '" + row.getColumn(0).getString() +
                               "' is damaged (" + std::to_string(size) + " bytes).");

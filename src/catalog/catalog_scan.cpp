@@ -27,42 +27,6 @@ double seconds_since(Clock::time_point start)
     return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
-// The assets nearest to \p features, by the distance to the nearest of their views: exact
-// search over the stored bytes (at 10,000 assets about 20 ms, a small part of one detection;
-// bench/results/2026-11-29-catalogue.md). Each view's features are bytes of 255ths, so the
-// suspect's are scaled alike and the squared differences summed in that unit.
-std::vector<std::pair<float, std::size_t>> nearest(const std::vector<Catalog::IndexEntry>& index,
-                                                   const ShapeFeatures& features, std::size_t count)
-{
-    std::array<float, kShapeFeatures> scaled{};
-    for (std::size_t i = 0; i < scaled.size(); ++i)
-    {
-        scaled[i] = 255.0F * features[i];
-    }
-    std::vector<std::pair<float, std::size_t>> ranked;
-    ranked.reserve(index.size());
-    for (std::size_t a = 0; a < index.size(); ++a)
-    {
-        const std::vector<std::uint8_t>& views = index[a].views;
-        float best = std::numeric_limits<float>::infinity();
-        for (std::size_t at = 0; at + kShapeFeatures <= views.size(); at += kShapeFeatures)
-        {
-            float sum = 0.0F;
-            for (std::size_t i = 0; i < kShapeFeatures; ++i)
-            {
-                const float d = scaled[i] - static_cast<float>(views[at + i]);
-                sum += d * d;
-            }
-            best = std::min(best, sum);
-        }
-        ranked.emplace_back(std::sqrt(best) / 255.0F, a);
-    }
-    count = std::min(count, ranked.size());
-    std::partial_sort(ranked.begin(), ranked.begin() + static_cast<std::ptrdiff_t>(count), ranked.end());
-    ranked.resize(count);
-    return ranked;
-}
-
 // What trying one candidate gave: a match, a try that did not match (or failed), or nothing
 // (the asset was removed since the index was read).
 struct CandidateOutcome
@@ -121,6 +85,85 @@ CandidateOutcome try_candidate(const Catalog& catalog, const std::string& id, fl
 
 }  // namespace
 
+std::vector<std::pair<float, std::size_t>> shape_candidates(
+    const std::vector<Catalog::IndexEntry>& index, const ShapeFeatures& features, std::size_t count)
+{
+    // Each view's features are bytes of 255ths (ShapeSignature::to_bytes), so the suspect's are
+    // scaled alike and the squared differences summed in that unit.
+    std::array<float, kShapeFeatures> scaled{};
+    for (std::size_t i = 0; i < scaled.size(); ++i)
+    {
+        scaled[i] = 255.0F * features[i];
+    }
+    constexpr float kNone = std::numeric_limits<float>::infinity();
+    std::vector<std::pair<float, std::size_t>> by_all;
+    std::vector<std::pair<float, std::size_t>> by_positions;
+    by_all.reserve(index.size());
+    by_positions.reserve(index.size());
+    for (std::size_t a = 0; a < index.size(); ++a)
+    {
+        const std::vector<std::uint8_t>& views = index[a].views;
+        const std::size_t width =
+            views.size() == static_cast<std::size_t>(kShapeViews * kShapePositionFeatures)
+                ? kShapePositionFeatures
+                : kShapeFeatures;
+        float best_all = kNone;
+        float best_positions = kNone;
+        for (std::size_t at = 0; at + width <= views.size(); at += width)
+        {
+            float positions = 0.0F;
+            for (std::size_t i = 0; i < kShapePositionFeatures; ++i)
+            {
+                const float d = scaled[i] - static_cast<float>(views[at + i]);
+                positions += d * d;
+            }
+            float all = positions;
+            for (std::size_t i = kShapePositionFeatures; i < width; ++i)
+            {
+                const float d = scaled[i] - static_cast<float>(views[at + i]);
+                all += d * d;
+            }
+            best_positions = std::min(best_positions, positions);
+            if (width == kShapeFeatures)
+            {
+                best_all = std::min(best_all, all);
+            }
+        }
+        by_positions.emplace_back(std::sqrt(best_positions) / 255.0F, a);
+        if (best_all < kNone)
+        {
+            by_all.emplace_back(std::sqrt(best_all) / 255.0F, a);
+        }
+    }
+    count = std::min(count, index.size());
+    const auto first = [count](std::vector<std::pair<float, std::size_t>>& ranked)
+    {
+        const std::size_t kept = std::min(count, ranked.size());
+        std::partial_sort(ranked.begin(), ranked.begin() + static_cast<std::ptrdiff_t>(kept),
+                          ranked.end());
+        ranked.resize(kept);
+    };
+    first(by_all);
+    first(by_positions);
+    // In turn, by every feature first; an asset's reported distance is that of the ranking that
+    // proposed it.
+    std::vector<std::pair<float, std::size_t>> ranked;
+    std::vector<bool> taken(index.size(), false);
+    for (std::size_t r = 0; ranked.size() < count && (r < by_all.size() || r < by_positions.size());
+         ++r)
+    {
+        for (const auto* list : {&by_all, &by_positions})
+        {
+            if (r < list->size() && ranked.size() < count && !taken[(*list)[r].second])
+            {
+                taken[(*list)[r].second] = true;
+                ranked.push_back((*list)[r]);
+            }
+        }
+    }
+    return ranked;
+}
+
 CatalogScanReport catalog_scan(const Catalog& catalog, const std::vector<std::filesystem::path>& suspects,
                                const CatalogScanOptions& options)
 {
@@ -163,7 +206,8 @@ CatalogScanReport catalog_scan(const Catalog& catalog, const std::vector<std::fi
         if (scan.error.empty() && !index.empty())
         {
             const auto index_start = Clock::now();
-            const auto ranked = nearest(index, shape_features(suspect), static_cast<std::size_t>(options.candidates));
+            const auto ranked = shape_candidates(index, shape_features(suspect),
+                                                 static_cast<std::size_t>(options.candidates));
             scan.index_seconds = seconds_since(index_start);
             std::vector<CandidateOutcome> outcomes(ranked.size());
             const auto try_rank = [&](std::size_t r, int detect_threads)

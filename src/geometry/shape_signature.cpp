@@ -34,6 +34,11 @@ constexpr double kCentroidRange = 2.5;
 constexpr int kPairBins = 12;
 constexpr double kPairRange = 3.5;
 constexpr int kAngleBins = 4;  // bin counts chosen by hand; no study on record
+// The angle between the normals of a pair's points, as |cos| in bins of equal width (either
+// orientation: artists' models mix them). Six bins: a box's pairs are parallel or at right
+// angles, a turned part's spread; chosen by hand, measured on the shape-index study
+// (bench/results/2026-11-30-scan-speed.md).
+constexpr int kNormalBins = 6;
 // The fixed seed of the draw: a suspect and its original are drawn alike.
 constexpr std::uint64_t kSeed = 0x5ea7c0de5eedULL;
 
@@ -41,8 +46,10 @@ constexpr std::uint64_t kSeed = 0x5ea7c0de5eedULL;
 // the surface gets its share), or the vertices of a point cloud or of a surface without area.
 // The triangles are taken in an order that does not depend on the file (by their centroid's
 // distance from the surface's centroid, each one's corners likewise), so a copy with its
-// vertices or faces renumbered draws the same points.
-std::vector<Vec3> surface_points(const TriangleMesh& mesh, int count = kSamples)
+// vertices or faces renumbered draws the same points. With each point, when \p normals is given,
+// the unit normal of the triangle it lies on (zero for a vertex of a point cloud).
+std::vector<Vec3> surface_points(const TriangleMesh& mesh, int count = kSamples,
+                                 std::vector<Vec3>* normals = nullptr)
 {
     struct Triangle
     {
@@ -109,6 +116,10 @@ std::vector<Vec3> surface_points(const TriangleMesh& mesh, int count = kSamples)
             }
             const auto& [a, b, c] = triangles[f].corners;
             points.push_back(a + u * (b - a) + v * (c - a));
+            if (normals != nullptr)
+            {
+                normals->push_back((b - a).cross(c - a).normalized());
+            }
         }
         return points;
     }
@@ -116,6 +127,10 @@ std::vector<Vec3> surface_points(const TriangleMesh& mesh, int count = kSamples)
     for (int i = 0; n > 0 && i < count; ++i)
     {
         points.push_back(mesh.V.row(static_cast<Eigen::Index>(rng.below(n))).transpose());
+        if (normals != nullptr)
+        {
+            normals->push_back(Vec3::Zero());
+        }
     }
     return points;
 }
@@ -169,9 +184,10 @@ struct Draws
     std::vector<double> pair_distance;
     std::vector<std::array<std::int32_t, 3>> triples;
     std::vector<std::uint8_t> triple_bin;
+    std::vector<std::uint8_t> normal_bin;  ///< per pair, in the pairs' order
 };
 
-Draws draw(const std::vector<Vec3>& points)
+Draws draw(const std::vector<Vec3>& points, const std::vector<Vec3>& normals)
 {
     Draws d;
     const std::size_t n = points.size();
@@ -206,6 +222,14 @@ Draws draw(const std::vector<Vec3>& points)
     }
     d.pairs = std::move(sorted.pairs);
     d.pair_distance = std::move(sorted.pair_distance);
+    d.normal_bin.reserve(d.pairs.size());
+    for (const auto& [i, j] : d.pairs)
+    {
+        const double cosine = std::abs(
+            normals[static_cast<std::size_t>(i)].dot(normals[static_cast<std::size_t>(j)]));
+        d.normal_bin.push_back(
+            static_cast<std::uint8_t>(bin_of(cosine * kNormalBins, kNormalBins)));
+    }
     // Angle bins by their cosines (descending with the angle): no acos per triple.
     std::array<double, kAngleBins - 1> cosine_edges{};
     for (int b = 1; b < kAngleBins; ++b)
@@ -334,27 +358,39 @@ void nested_features(const std::vector<Vec3>& points, const Draws& draws, const 
             from = to;
         }
     }
-    // Triples by the smaller level of their points and their angle's bin, then summed over the
-    // levels above each view.
-    std::vector<std::array<int, kAngleBins>> by_level(count + 1, std::array<int, kAngleBins>{});
+    // Triples by the smallest level of their points and their angle's bin, pairs by theirs and
+    // their normals' bin (neither bin depends on the view), then summed over the levels above
+    // each view.
+    const auto by_view = [count](const std::vector<std::vector<int>>& by_level)
+    {
+        std::vector<std::vector<int>> per_view(count, std::vector<int>(by_level[0].size(), 0));
+        for (std::size_t v = 0; v < count; ++v)
+        {
+            for (std::size_t l = v + 1; l <= count; ++l)
+            {
+                for (std::size_t b = 0; b < per_view[v].size(); ++b)
+                {
+                    per_view[v][b] += by_level[l][b];
+                }
+            }
+        }
+        return per_view;
+    };
+    std::vector<std::vector<int>> triple_level(count + 1, std::vector<int>(kAngleBins, 0));
     for (std::size_t t = 0; t < draws.triples.size(); ++t)
     {
         const auto& [i, j, k] = draws.triples[t];
         const std::size_t in = std::min({level[static_cast<std::size_t>(i)], level[static_cast<std::size_t>(j)],
                                          level[static_cast<std::size_t>(k)]});
-        ++by_level[in][draws.triple_bin[t]];
+        ++triple_level[in][draws.triple_bin[t]];
     }
-    std::vector<std::vector<int>> angles(count, std::vector<int>(kAngleBins, 0));
-    for (std::size_t v = 0; v < count; ++v)
+    const std::vector<std::vector<int>> angles = by_view(triple_level);
+    std::vector<std::vector<int>> normal_level(count + 1, std::vector<int>(kNormalBins, 0));
+    for (std::size_t t = 0; t < pair_count; ++t)
     {
-        for (std::size_t l = v + 1; l <= count; ++l)
-        {
-            for (std::size_t b = 0; b < kAngleBins; ++b)
-            {
-                angles[v][b] += by_level[l][b];
-            }
-        }
+        ++normal_level[pair_in[t]][draws.normal_bin[t]];
     }
+    const std::vector<std::vector<int>> normals = by_view(normal_level);
     for (std::size_t v = 0; v < count; ++v)
     {
         if (!usable(v))
@@ -372,6 +408,10 @@ void nested_features(const std::vector<Vec3>& points, const Draws& draws, const 
         const float eigen_weight = 1.0F / std::sqrt(2.0F);
         *at++ = eigen_weight * static_cast<float>(l(2) > 0.0 ? l(1) / l(2) : 0.0);
         *at++ = eigen_weight * static_cast<float>(l(2) > 0.0 ? l(0) / l(2) : 0.0);
+        // After the features of positions (kShapePositionFeatures), which catalogues of older
+        // builds hold alone: at half a block's weight, the normals rank crops far better without
+        // ranking noised, smoothed and remeshed copies much worse (the study above).
+        at = cumulative(normals[v], 0.5F / std::sqrt(float{kNormalBins}), at);
     }
 }
 
@@ -407,16 +447,19 @@ Positions shape_sample(const TriangleMesh& mesh, int count)
 
 ShapeFeatures shape_features(const TriangleMesh& mesh)
 {
-    const std::vector<Vec3> points = surface_points(mesh);
+    std::vector<Vec3> normals;
+    const std::vector<Vec3> points = surface_points(mesh, kSamples, &normals);
     ShapeFeatures whole;
-    nested_features(points, draw(points), std::vector<std::uint8_t>(points.size(), 1), 1, &whole);
+    nested_features(points, draw(points, normals), std::vector<std::uint8_t>(points.size(), 1), 1,
+                    &whole);
     return whole;
 }
 
 ShapeSignature shape_signature(const TriangleMesh& mesh)
 {
-    const std::vector<Vec3> points = surface_points(mesh);
-    const Draws draws = draw(points);
+    std::vector<Vec3> normals;
+    const std::vector<Vec3> points = surface_points(mesh, kSamples, &normals);
+    const Draws draws = draw(points, normals);
     const std::size_t n = points.size();
     ShapeSignature signature;
     signature.views.resize(kShapeViews);

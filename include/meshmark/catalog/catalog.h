@@ -93,8 +93,9 @@ public:
     [[nodiscard]] std::size_t complete_count() const;
 
     /// \brief An entry of the shape index: a complete asset and its signature as stored
-    /// (ShapeSignature::to_bytes: kShapeFeatures bytes a view, each feature times 255), kept in
-    /// that form so that 100,000 assets take 600 MB, not four times as much.
+    /// (ShapeSignature::to_bytes: kShapeFeatures bytes a view, each feature times 255;
+    /// kShapePositionFeatures in a catalogue of an older build), kept in that form so that
+    /// 100,000 assets take 771 MB, not four times as much.
     struct IndexEntry
     {
         std::string id;

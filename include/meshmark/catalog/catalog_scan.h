@@ -11,6 +11,18 @@
 
 namespace meshmark {
 
+/// \brief The \p count assets of \p index nearest to a suspect's \p features, nearest first, each
+/// with its distance to the nearest of its views and its place in \p index.
+/// \details Two rankings taken in turn, without repeats: by every feature of a view, and by the
+/// features of positions alone (kShapePositionFeatures). The normals' features rank crops far
+/// better and noised, smoothed or remeshed copies somewhat worse, so the turns keep the best
+/// of each (bench/results/2026-11-30-scan-speed.md). An asset of an older catalogue, whose
+/// views hold the positions' features alone, is in the second ranking only. Exact search over
+/// every view (10,000 assets in about 40 ms).
+[[nodiscard]] std::vector<std::pair<float, std::size_t>> shape_candidates(
+    const std::vector<Catalog::IndexEntry>& index, const ShapeFeatures& features,
+    std::size_t count);
+
 /// Options of catalog_scan.
 struct CatalogScanOptions
 {

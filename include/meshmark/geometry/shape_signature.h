@@ -11,12 +11,16 @@
 namespace meshmark {
 
 /// Number of features that describe one view of a shape (shape_features).
-inline constexpr int kShapeFeatures = 24;
+inline constexpr int kShapeFeatures = 30;
+/// The first features of a view, those of the surface's positions: catalogues written before
+/// the normals' features were added hold these alone (kShapePositionFeatures bytes a view).
+inline constexpr int kShapePositionFeatures = 24;
 
 /// \brief A view's features, each in [0, 1]: the cumulative distributions of the distance to
 /// the centroid (6 values), of the distance between two surface points (12) and of the angle
 /// at the middle one of three (4), distances over the view's RMS radius, and the second and
-/// third principal variances over the first (2). Compared with shape_distance.
+/// third principal variances over the first (2); then of the angle between the surface normals
+/// at two points, as |cos| (6). Compared with shape_distance.
 using ShapeFeatures = std::array<float, kShapeFeatures>;
 
 /// \brief The features of a mesh's whole surface and of the parts a plane crop could leave of it
@@ -33,8 +37,8 @@ struct ShapeSignature
 {
     std::vector<ShapeFeatures> views;
 
-    /// Compact form for storage: each feature as an 8-bit fixed-point value (24 bytes a view,
-    /// 6,168 an asset; the rounding, 0.002, is below the draw's noise).
+    /// Compact form for storage: each feature as an 8-bit fixed-point value (30 bytes a view,
+    /// 7,710 an asset; the rounding, 0.002, is below the draw's noise).
     [[nodiscard]] std::vector<std::uint8_t> to_bytes() const;
     /// \throws InvalidOption when \p bytes is not a whole number of views.
     [[nodiscard]] static ShapeSignature from_bytes(std::span<const std::uint8_t> bytes);

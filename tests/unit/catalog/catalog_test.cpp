@@ -395,5 +395,45 @@ TEST(CatalogTest, scan_reports_the_same_tries_in_rank_order_on_one_thread_or_sev
         1);
 }
 
+TEST(CatalogTest,
+     shape_candidates_take_the_two_rankings_in_turn_and_rank_an_older_catalogues_assets)
+{
+    TriangleMesh egg = icosphere(4);
+    egg.V.col(2) *= 1.7;
+    const std::vector<TriangleMesh> meshes = {lumpy_ellipsoid(3), torus(1.0, 0.3, 48, 24), egg};
+    std::vector<Catalog::IndexEntry> index;
+    for (std::size_t m = 0; m < meshes.size(); ++m)
+    {
+        index.push_back({"asset" + std::to_string(m), shape_signature(meshes[m]).to_bytes()});
+    }
+    // The torus as a catalogue of an older build holds it: the positions' features alone.
+    std::vector<std::uint8_t> older;
+    for (std::size_t at = 0; at < index[1].views.size(); at += kShapeFeatures)
+    {
+        older.insert(
+            older.end(), index[1].views.begin() + static_cast<std::ptrdiff_t>(at),
+            index[1].views.begin() + static_cast<std::ptrdiff_t>(at + kShapePositionFeatures));
+    }
+    index[1].views = older;
+    const TriangleMesh moved = apply_attacks(meshes[1], parse_attack_spec("similarity"), 3, 1).mesh;
+    const auto ranked = shape_candidates(index, shape_features(moved), 3);
+    ASSERT_EQ(ranked.size(), 3U);
+    // The torus is not in the ranking by every feature (it has no normals' features), so it
+    // comes second, first of the positions' ranking, at the distance of an exact copy.
+    EXPECT_EQ(ranked[1].second, 1U);
+    EXPECT_LT(ranked[1].first, 0.01F);
+    std::set<std::size_t> listed;
+    for (const auto& [distance, a] : ranked)
+    {
+        listed.insert(a);
+    }
+    EXPECT_EQ(listed.size(), 3U);
+    // A current entry is first when it is first by every feature.
+    const auto egg_first = shape_candidates(
+        index, shape_features(apply_attacks(egg, parse_attack_spec("similarity"), 3, 1).mesh), 1);
+    ASSERT_EQ(egg_first.size(), 1U);
+    EXPECT_EQ(egg_first[0].second, 2U);
+}
+
 }  // namespace
 }  // namespace meshmark
