@@ -321,7 +321,9 @@ std::vector<Catalog::IndexEntry> Catalog::shape_index() const
     const std::lock_guard lock(impl_->mutex);
     return impl_->guarded("read", [&] {
         std::vector<IndexEntry> entries;
-        SQLite::Statement row(*impl_->db, "SELECT id, shape FROM assets WHERE complete = 1 ORDER BY id");
+        SQLite::Statement row(*impl_->db,
+                              "SELECT id, shape, vertex_count, face_count FROM assets WHERE "
+                              "complete = 1 ORDER BY id");
         while (row.executeStep())
         {
             const SQLite::Column blob = row.getColumn(1);
@@ -334,7 +336,9 @@ std::vector<Catalog::IndexEntry> Catalog::shape_index() const
                 throw IoError(path().string() + ": the shape signature of asset '" + row.getColumn(0).getString() +
                               "' is damaged (" + std::to_string(size) + " bytes).");
             }
-            entries.push_back({row.getColumn(0).getString(), std::vector<std::uint8_t>(data, data + size)});
+            entries.push_back({row.getColumn(0).getString(),
+                               std::vector<std::uint8_t>(data, data + size),
+                               row.getColumn(2).getInt64(), row.getColumn(3).getInt64()});
         }
         return entries;
     });

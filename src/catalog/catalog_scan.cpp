@@ -12,10 +12,12 @@
 #include <optional>
 #include <thread>
 
+#include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/threads.h"
 #include "meshmark/io/mesh_io.h"
 #include "meshmark/pipeline/verdict.h"
+#include "meshmark/registration/similarity_fit.h"
 
 namespace meshmark {
 namespace {
@@ -81,6 +83,68 @@ CandidateOutcome try_candidate(const Catalog& catalog, const std::string& id, fl
     }
     outcome.tried = std::move(tried);
     return outcome;
+}
+
+// A copy in its original's numbering (re-exported, moved, noised: the counts kept) has its
+// vertices on the original's after a similarity, within the mark's amplitude and the noise; a
+// variant of the same topology (stretched, bent) does not. Within this RMS distance, over the
+// original's bounding-box diagonal, an asset of the suspect's vertex and face counts is tried
+// before the shape index's ranking: the index cannot tell near-duplicates apart below its
+// draw's noise (bench/results/2026-11-30-scan-speed.md). The mark moves vertices by about 1e-3
+// of the diagonal, the attack suite's noise by 5e-4 to 2e-3.
+constexpr double kInOrderFit = 0.01;
+// Same-count assets read per suspect at most (each is an original read from its file).
+constexpr std::size_t kInOrderReads = 64;
+
+// The assets of \p index whose original has \p suspect's vertex and face counts and fits it in
+// order within kInOrderFit, best fit first.
+std::vector<std::size_t> in_order_fits(const Catalog& catalog,
+                                       const std::vector<Catalog::IndexEntry>& index,
+                                       const TriangleMesh& suspect)
+{
+    std::vector<std::pair<double, std::size_t>> fits;
+    std::size_t read = 0;
+    for (std::size_t a = 0; a < index.size() && read < kInOrderReads; ++a)
+    {
+        if (index[a].vertex_count != suspect.V.rows() || index[a].face_count != suspect.F.rows())
+        {
+            continue;
+        }
+        ++read;
+        try
+        {
+            const std::optional<CatalogAsset> asset = catalog.asset(index[a].id);
+            if (!asset)
+            {
+                continue;
+            }
+            const TriangleMesh original = read_mesh(asset->original);
+            if (original.V.rows() != suspect.V.rows())
+            {
+                continue;
+            }
+            const Eigen::Matrix4d fit = fit_similarity_rows(suspect.V, original.V);
+            const Positions moved = (suspect.V * fit.topLeftCorner<3, 3>().transpose()).rowwise() +
+                                    fit.topRightCorner<3, 1>().transpose();
+            const double diagonal = bounding_box(original.V).diagonal();
+            const double rms = std::sqrt((moved - original.V).rowwise().squaredNorm().mean());
+            if (diagonal > 0.0 && rms <= kInOrderFit * diagonal)
+            {
+                fits.emplace_back(rms / diagonal, a);
+            }
+        }
+        catch (const Error&)
+        {
+            // an original that cannot be read now is tried, if at all, through the index
+        }
+    }
+    std::sort(fits.begin(), fits.end());
+    std::vector<std::size_t> assets;
+    for (const auto& [rms, a] : fits)
+    {
+        assets.push_back(a);
+    }
+    return assets;
 }
 
 }  // namespace
@@ -206,8 +270,32 @@ CatalogScanReport catalog_scan(const Catalog& catalog, const std::vector<std::fi
         if (scan.error.empty() && !index.empty())
         {
             const auto index_start = Clock::now();
-            const auto ranked = shape_candidates(index, shape_features(suspect),
-                                                 static_cast<std::size_t>(options.candidates));
+            // Assets in the suspect's numbering first, then the shape index's, up to the
+            // candidates asked; each with its shape distance.
+            const auto by_shape = shape_candidates(index, shape_features(suspect), index.size());
+            std::vector<float> distance(index.size(), std::numeric_limits<float>::infinity());
+            for (const auto& [d, a] : by_shape)
+            {
+                distance[a] = d;
+            }
+            std::vector<std::pair<float, std::size_t>> ranked;
+            std::vector<bool> taken(index.size(), false);
+            const auto take = [&](std::size_t a)
+            {
+                if (!taken[a] && ranked.size() < static_cast<std::size_t>(options.candidates))
+                {
+                    taken[a] = true;
+                    ranked.emplace_back(distance[a], a);
+                }
+            };
+            for (const std::size_t a : in_order_fits(catalog, index, suspect))
+            {
+                take(a);
+            }
+            for (const auto& [d, a] : by_shape)
+            {
+                take(a);
+            }
             scan.index_seconds = seconds_since(index_start);
             std::vector<CandidateOutcome> outcomes(ranked.size());
             const auto try_rank = [&](std::size_t r, int detect_threads)

@@ -100,6 +100,8 @@ public:
     {
         std::string id;
         std::vector<std::uint8_t> views;
+        std::int64_t vertex_count = 0;  ///< the original's (a copy in its numbering has as many)
+        std::int64_t face_count = 0;
     };
     /// The shape index of the complete assets.
     [[nodiscard]] std::vector<IndexEntry> shape_index() const;

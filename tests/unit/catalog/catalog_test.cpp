@@ -435,5 +435,44 @@ TEST(CatalogTest,
     EXPECT_EQ(egg_first[0].second, 2U);
 }
 
+TEST(CatalogTest, scan_tries_first_the_asset_whose_numbering_a_copy_keeps)
+{
+    // Two assets of one surface: the same vertices in reverse order ("a_reversed", first in the
+    // index's order) and as made ("z_made"). Their signatures are equal (the draw does not
+    // depend on the numbering), so the shape index ranks them as a tie; a moved copy of
+    // z_made's published copy keeps z_made's numbering, and is tried against it first.
+    const fs::path dir = test::temp_dir("catalog_in_order");
+    fs::create_directories(dir / "in");
+    const TriangleMesh made = lumpy_ellipsoid(3);
+    TriangleMesh reversed = made;
+    const auto n = static_cast<std::int32_t>(made.V.rows());
+    for (std::int32_t i = 0; i < n; ++i)
+    {
+        reversed.V.row(i) = made.V.row(n - 1 - i);
+    }
+    for (Eigen::Index f = 0; f < made.F.rows(); ++f)
+    {
+        for (int k = 0; k < 3; ++k)
+        {
+            reversed.F(f, k) = n - 1 - made.F(f, k);
+        }
+    }
+    write_mesh(dir / "in" / "a_reversed.ply", reversed);
+    write_mesh(dir / "in" / "z_made.ply", made);
+    Catalog catalog(dir / "cat.db", Catalog::Open::CreateIfMissing);
+    (void)catalog_add(catalog, {dir / "in"}, dir / "out", quick_options());
+    write_mesh(dir / "suspect.ply",
+               apply_attacks(read_mesh(dir / "out" / "z_made.ply"),
+                             parse_attack_spec("similarity,noise=0.0005"), 5, 1)
+                   .mesh);
+    CatalogScanOptions options;
+    options.candidates = 1;
+    const CatalogScanReport report = catalog_scan(catalog, {dir / "suspect.ply"}, options);
+    ASSERT_EQ(report.suspects.size(), 1U);
+    ASSERT_EQ(report.suspects[0].matches.size(), 1U);
+    EXPECT_EQ(report.suspects[0].matches[0].asset, "z_made.ply");
+    EXPECT_TRUE(report.suspects[0].tried.empty());
+}
+
 }  // namespace
 }  // namespace meshmark
