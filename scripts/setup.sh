@@ -29,6 +29,7 @@ packages=(
   libgtest-dev libgmock-dev googletest              # tests
   clang-format-14        # tests only: the formatting check (scripts/check_format.sh, test lint.format)
   libbenchmark-dev       # micro-benchmarks
+  libhnswlib-dev         # the shape index's exact search against an HNSW graph (bench/perf only)
   libsqlite3-dev libsqlitecpp-dev  # the catalogue's database (SQLite, through SQLiteCpp)
   libssl-dev             # SHA-256 of catalogue originals (OpenSSL's libcrypto)
   libcpp-httplib-dev     # the issuing service's HTTP server (`meshmark serve`)
