@@ -29,9 +29,10 @@ struct CatalogScanOptions
     /// The detection's options; decision.max_false_positive is the bound for a whole suspect
     /// against the whole catalogue (each asset's key is tested at it over the catalogue's size).
     DetectFileOptions detect;
-    /// Assets tried per suspect, nearest in shape first (the shape index's ranking). 8: chosen
-    /// by hand, measured at it (bench/results/2026-11-29-catalogue.md); more trade time for
-    /// crops and attacked look-alikes the index ranks low.
+    /// Assets tried per suspect: those in the suspect's numbering, then the nearest in shape
+    /// (shape_candidates). 8: chosen by hand, measured at it and at 16
+    /// (bench/results/2026-11-30-scan-speed.md); more trade time for crops and attacked
+    /// look-alikes the index ranks low.
     int candidates = 8;
     /// Stop at the first asset that matches (the others would have to carry marks of their own
     /// in the same suspect); false: try every candidate.
@@ -51,7 +52,7 @@ struct CatalogMatch
     /// The accused recipients, each bound likewise; the published copy's is kPublishedRecipient.
     std::vector<RecipientScore> recipients;
     double shape_distance = 0.0;  ///< Its distance in the shape index.
-    int rank = 0;                 ///< Its place in the shape index's ranking (0 = nearest).
+    int rank = 0;                 ///< Its place among the candidates as tried (0 = first).
     DetectReport report;          ///< The detection against it.
 };
 
@@ -84,9 +85,9 @@ struct CatalogScanReport
     std::vector<SuspectScan> suspects;
 };
 
-/// \brief Which catalogue assets each suspect was made from (docs/catalog.md): the shape index
-/// ranks the assets by shape, the detection (with tracing) runs against the nearest
-/// options.candidates in order.
+/// \brief Which catalogue assets each suspect was made from (docs/catalog.md): the assets in the
+/// suspect's numbering (same counts, in-order fit), then the shape index's nearest, are tried
+/// by the detection (with tracing), options.candidates of them in order.
 /// \details A suspect is claimed for an asset when the detection's bound, times the number of
 /// assets, is at most options.detect.decision.max_false_positive: the chance that an unmarked
 /// suspect is claimed for any asset of the catalogue is then at most that, whichever assets the
