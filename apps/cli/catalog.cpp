@@ -418,7 +418,8 @@ void register_catalog(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
                 "matched, 1 when none did");
     scan->add_option("CATALOG", args->catalog, "Catalogue file")->required();
     scan->add_option("SUSPECTS", args->inputs, "Suspect mesh files")->required();
-    scan->add_option("--candidates", args->candidates, "Assets tried per suspect, nearest in shape first")
+    scan->add_option("--candidates", args->candidates,
+                     "Assets tried per suspect: same numbering, then nearest shape")
         ->check(CLI::Range(1, 10000))
         ->capture_default_str();
     scan->add_flag("--all-candidates", args->all_candidates, "Try every candidate, not only until one matches");
