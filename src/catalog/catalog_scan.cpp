@@ -17,6 +17,7 @@
 #include "meshmark/core/threads.h"
 #include "meshmark/io/mesh_io.h"
 #include "meshmark/pipeline/verdict.h"
+#include "meshmark/registration/registration.h"
 #include "meshmark/registration/similarity_fit.h"
 
 namespace meshmark {
@@ -124,8 +125,7 @@ std::vector<std::size_t> in_order_fits(const Catalog& catalog,
                 continue;
             }
             const Eigen::Matrix4d fit = fit_similarity_rows(suspect.V, original.V);
-            const Positions moved = (suspect.V * fit.topLeftCorner<3, 3>().transpose()).rowwise() +
-                                    fit.topRightCorner<3, 1>().transpose();
+            const Positions moved = transform_points(fit, suspect.V);
             const double diagonal = bounding_box(original.V).diagonal();
             const double rms = std::sqrt((moved - original.V).rowwise().squaredNorm().mean());
             if (diagonal > 0.0 && rms <= kInOrderFit * diagonal)
