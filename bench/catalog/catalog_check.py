@@ -2,13 +2,17 @@
 # SPDX-License-Identifier: MIT
 """The catalogue through the command line, as a marketplace would drive it (issue 53).
 
-1. `catalog add` of a folder of real meshes, killed with SIGKILL at a random moment --kills
-   times, then run to the end; after each kill and at the end:
+1. `catalog add` of a folder of real meshes, timed; then --kills times an add of the same folder
+   into a catalogue of its own, killed with SIGKILL at a random moment of that time and run to
+   the end; after each kill and each run to the end:
      - the catalogue loads (`catalog list --json`);
      - every asset listed complete has its published copy on disk, and every visible file
-       under the output folder is the published copy of an asset listed complete (nothing
-       written unrecorded, nothing recorded complete unwritten);
-   the final run reports every file marked or present, and a further run only "present".
+       under the output folder is the published copy of an asset listed (nothing written
+       unrecorded, nothing recorded complete unwritten); a visible copy of an asset not yet
+       complete (killed between the copy's rename and the `complete` mark) is the copy the
+       run to the end leaves, byte for byte;
+   each run to the end reports every file marked or present, and a further add of the first
+   catalogue only "present".
 2. --issuers `catalog issue` processes at once on one asset, each a name of its own and one
    shared name: every call exits 0 and the catalogue holds every name once, codes distinct.
    Then an issue and a scan are killed with SIGKILL: every visible copy's name is recorded, and
@@ -21,6 +25,7 @@ Full run:  python3 bench/catalog/catalog_check.py --kills 20 --issuers 16
 The test suite runs a short version (tests/integration/CMakeLists.txt, catalog_smoke).
 """
 import argparse
+import hashlib
 import json
 import os
 import random
@@ -62,15 +67,24 @@ def consistent(cli, catalog, out):
     problems = []
     assets = listed(cli, catalog)
     complete = {Path(a["published"]).resolve() for a in assets if a["complete"]}
+    recorded = {Path(a["published"]).resolve() for a in assets}
     for p in complete:
         if not p.exists():
             problems.append(f"recorded complete but missing: {p}")
+    interrupted = {}  # visible copies of assets not yet complete: path -> sha256
     if out.exists():
         for f in out.rglob("*"):
-            if f.is_file() and not f.name.startswith(".") and f.suffix.lower() != ".mtl" \
-                    and f.resolve() not in complete:
-                problems.append(f"written but not recorded complete: {f}")
-    return problems, len(assets), len(complete)
+            if not f.is_file() or f.name.startswith(".") or f.suffix.lower() == ".mtl":
+                continue
+            if f.resolve() not in recorded:
+                problems.append(f"written but not recorded: {f}")
+            elif f.resolve() not in complete:
+                interrupted[f.resolve()] = sha256(f)
+    return problems, len(assets), len(complete), interrupted
+
+
+def sha256(path):
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
 def main():
@@ -93,27 +107,50 @@ def main():
         for m in MESHES:
             shutil.copy(src / m, originals / m)
         catalog, out = str(work / "cat.db"), work / "published"
-        add = [args.cli, "catalog", "add", catalog, str(originals), "-o", str(out), "--json", "-q"]
-        # 1. Kills during add, then the run to the end.
+
+        def add_command(catalog, out):
+            return [args.cli, "catalog", "add", catalog, str(originals), "-o", str(out), "--json", "-q"]
+
+        # 1. The whole add, timed; then --kills adds of their own catalogues, each killed at a
+        # random moment of that time and run to the end.
+        started = time.monotonic()
+        final = json.loads(subprocess.run(add_command(catalog, out), capture_output=True, text=True,
+                                          check=True).stdout)
+        whole = time.monotonic() - started
+        summary["add_seconds"] = round(whole, 2)
+        outcomes = {f["asset"]: f["outcome"] for f in final["files"]}
+        if sorted(outcomes) != sorted(MESHES) or any(o != "marked" for o in outcomes.values()):
+            summary["problems"].append(f"add: {outcomes}")
         for k in range(args.kills):
+            killed_catalog, killed_out = str(work / f"kill{k}" / "cat.db"), work / f"kill{k}" / "published"
+            add = add_command(killed_catalog, killed_out)
             started = time.monotonic()
             proc = subprocess.Popen(add, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-            time.sleep(rng.uniform(0.05, 1.5))
+            time.sleep(rng.uniform(0.02, 1.0) * whole)
             proc.send_signal(signal.SIGKILL)
             proc.wait()
-            problems, total, complete = consistent(args.cli, catalog, out) if Path(catalog).exists() else ([], 0, 0)
+            problems, total, complete, interrupted = consistent(args.cli, killed_catalog, killed_out) \
+                if Path(killed_catalog).exists() else ([], 0, 0, {})
             summary["kills"].append({"after_seconds": round(time.monotonic() - started, 2), "assets": total,
-                                     "complete": complete, "problems": len(problems)})
+                                     "complete": complete, "interrupted_visible": len(interrupted),
+                                     "problems": len(problems)})
             summary["problems"] += problems
-        final = json.loads(subprocess.run(add, capture_output=True, text=True, check=True).stdout)
-        outcomes = {f["asset"]: f["outcome"] for f in final["files"]}
-        if sorted(outcomes) != sorted(MESHES) or any(o not in ("marked", "present") for o in outcomes.values()):
-            summary["problems"].append(f"final add: {outcomes}")
-        again = json.loads(subprocess.run(add, capture_output=True, text=True, check=True).stdout)
+            finished = json.loads(subprocess.run(add, capture_output=True, text=True, check=True).stdout)
+            outcomes = {f["asset"]: f["outcome"] for f in finished["files"]}
+            if sorted(outcomes) != sorted(MESHES) or any(o not in ("marked", "present") for o in outcomes.values()):
+                summary["problems"].append(f"add after kill {k}: {outcomes}")
+            problems, total, complete, left = consistent(args.cli, killed_catalog, killed_out)
+            summary["problems"] += problems
+            summary["problems"] += [f"left not complete after kill {k}: {p}" for p in left]
+            summary["problems"] += [f"an interrupted add's visible copy was not the final one: {p}"
+                                    for p, digest in interrupted.items() if sha256(p) != digest]
+        again = json.loads(subprocess.run(add_command(catalog, out), capture_output=True, text=True,
+                                          check=True).stdout)
         if any(f["outcome"] != "present" for f in again["files"]):
             summary["problems"].append(f"a further add did something: {again['counts']}")
-        problems, total, complete = consistent(args.cli, catalog, out)
+        problems, total, complete, interrupted = consistent(args.cli, catalog, out)
         summary["problems"] += problems
+        summary["problems"] += [f"left not complete: {p}" for p in interrupted]
         summary["assets"] = total
         # 2. Issuers at once on one asset.
         procs = [subprocess.Popen([args.cli, "catalog", "issue", catalog, "spot.obj", "--recipient", f"buyer{i}",

@@ -322,8 +322,7 @@ std::vector<Catalog::IndexEntry> Catalog::shape_index() const
     return impl_->guarded("read", [&] {
         std::vector<IndexEntry> entries;
         SQLite::Statement row(*impl_->db,
-                              "SELECT id, shape, vertex_count, face_count FROM assets WHERE "
-                              "complete = 1 ORDER BY id");
+                              "SELECT id, shape, vertex_count, face_count FROM assets ORDER BY id");
         while (row.executeStep())
         {
             const SQLite::Column blob = row.getColumn(1);

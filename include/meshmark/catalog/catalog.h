@@ -89,10 +89,10 @@ public:
     [[nodiscard]] std::vector<Summary> summaries(const std::optional<std::string>& id = std::nullopt) const;
     /// The recipients of \p id, by code index.
     [[nodiscard]] std::vector<CatalogRecipient> recipients(const std::string& id) const;
-    /// Number of complete assets: the keys a scan could try (the union bound's count).
+    /// Number of complete assets.
     [[nodiscard]] std::size_t complete_count() const;
 
-    /// \brief An entry of the shape index: a complete asset and its signature as stored
+    /// \brief An entry of the shape index: an asset and its signature as stored
     /// (ShapeSignature::to_bytes: kShapeFeatures bytes a view, each feature times 255;
     /// kShapePositionFeatures in a catalogue of an older build), kept in that form so that
     /// 100,000 assets take 771 MB, not four times as much.
@@ -103,7 +103,8 @@ public:
         std::int64_t vertex_count = 0;  ///< the original's (a copy in its numbering has as many)
         std::int64_t face_count = 0;
     };
-    /// The shape index of the complete assets.
+    /// The shape index of every recorded asset, an interrupted add's included: its key is
+    /// recorded before its copy is written, so a copy the interruption left on disk is traced.
     [[nodiscard]] std::vector<IndexEntry> shape_index() const;
 
     /// \brief The family key of asset \p id as a FamilyKeyStore (embed_recipients): change()

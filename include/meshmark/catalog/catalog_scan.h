@@ -80,7 +80,7 @@ struct SuspectScan
 /// What catalog_scan found.
 struct CatalogScanReport
 {
-    std::size_t assets = 0;          ///< Complete assets in the catalogue: the union bound's count.
+    std::size_t assets = 0;  ///< Assets in the catalogue (interrupted adds too): the bound's count.
     double max_false_positive = 0.0; ///< The per-suspect bound the claims were held to.
     std::vector<SuspectScan> suspects;
 };

@@ -346,6 +346,39 @@ TEST(CatalogTest, scan_finds_the_asset_and_recipient_of_an_attacked_copy_and_cla
     EXPECT_NE(report.suspects[2].error.find("missing.ply"), std::string::npos);
 }
 
+// A kill between the published copy's rename and the asset's `complete` mark leaves a visible
+// copy of an asset not yet complete: a scan traces it, and the next add finishes the asset with
+// the same copy.
+TEST(CatalogTest, a_visible_copy_of_an_interrupted_add_is_traced_and_the_next_add_keeps_it)
+{
+    const fs::path dir = test::temp_dir("catalog_interrupted");
+    const fs::path in = make_originals(dir);
+    Catalog catalog(dir / "cat.db", Catalog::Open::CreateIfMissing);
+    (void)catalog_add(catalog, {in}, dir / "out", quick_options());
+    const fs::path published = dir / "out" / "sub" / "torus.obj";
+    const std::string copy = file_sha256(published);
+    {
+        SQLite::Database db((dir / "cat.db").string(), SQLite::OPEN_READWRITE);
+        db.exec("UPDATE assets SET complete = 0 WHERE id = 'sub/torus.obj'");
+    }
+    ASSERT_FALSE(catalog.asset("sub/torus.obj")->is_complete);
+    EXPECT_EQ(catalog.complete_count(), 2U);
+
+    write_mesh(dir / "suspect.ply",
+               apply_attacks(read_mesh(published), parse_attack_spec("similarity"), 5, 1).mesh);
+    const CatalogScanReport report =
+        catalog_scan(catalog, {dir / "suspect.ply"}, CatalogScanOptions{});
+    EXPECT_EQ(report.assets, 3U);  // the bound counts the interrupted asset too
+    ASSERT_TRUE(report.suspects[0].detected);
+    EXPECT_EQ(report.suspects[0].matches[0].asset, "sub/torus.obj");
+
+    const auto finished = catalog_add(catalog, {in}, dir / "out", quick_options());
+    EXPECT_EQ(outcome_of(finished, "sub/torus.obj").status, CatalogAddOutcome::Status::Marked);
+    EXPECT_EQ(outcome_of(finished, "ellipsoid.ply").status, CatalogAddOutcome::Status::Present);
+    EXPECT_TRUE(catalog.asset("sub/torus.obj")->is_complete);
+    EXPECT_EQ(file_sha256(published), copy);
+}
+
 TEST(CatalogTest, scan_reports_the_same_tries_in_rank_order_on_one_thread_or_several)
 {
     const fs::path dir = test::temp_dir("catalog_scan_threads");
