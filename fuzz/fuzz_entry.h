@@ -9,7 +9,8 @@
 /// (tests/unit/fuzz_regressions): each feeds untrusted bytes to one parser and lets only
 /// meshmark::Error escape-free; anything else (another exception, a crash, a sanitizer
 /// report) is a finding.
-namespace meshmark::fuzz {
+namespace meshmark::fuzz
+{
 
 /// \brief Write \p data to a temporary file ending in \p extension (".ply", ".obj", ".off",
 /// ".stl") and read it with read_mesh_file. \return true if it was read, false if it was

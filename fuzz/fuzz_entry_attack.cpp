@@ -1,15 +1,15 @@
 // SPDX-License-Identifier: MIT
 // The attack-spec entry point, apart from the key's: it needs the attacks library (CGAL), which
 // the sanitizer job's replay leaves out (tests/unit/fuzz_regressions/CMakeLists.txt).
-#include "fuzz_entry.h"
-
 #include <stdexcept>
 #include <string_view>
 
+#include "fuzz_entry.h"
 #include "meshmark/attacks/attack_spec.h"
 #include "meshmark/core/error.h"
 
-namespace meshmark::fuzz {
+namespace meshmark::fuzz
+{
 
 bool parse_attack_spec_bytes(const std::uint8_t* data, std::size_t size)
 {

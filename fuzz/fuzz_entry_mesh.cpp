@@ -1,18 +1,20 @@
 // SPDX-License-Identifier: MIT
-#include "fuzz_entry.h"
-
 #include <filesystem>
 #include <fstream>
 #include <stdexcept>
 #include <system_error>
+
 #include <unistd.h>
 
+#include "fuzz_entry.h"
 #include "meshmark/core/error.h"
 #include "meshmark/io/mesh_io.h"
 
-namespace meshmark::fuzz {
+namespace meshmark::fuzz
+{
 
-namespace {
+namespace
+{
 
 /// One file per process and extension, reused for every input (libFuzzer runs millions).
 std::filesystem::path temp_path(const std::string& extension)

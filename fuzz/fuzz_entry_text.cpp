@@ -1,13 +1,13 @@
 // SPDX-License-Identifier: MIT
-#include "fuzz_entry.h"
-
 #include <stdexcept>
 #include <string_view>
 
+#include "fuzz_entry.h"
 #include "meshmark/core/error.h"
 #include "meshmark/watermark/key.h"
 
-namespace meshmark::fuzz {
+namespace meshmark::fuzz
+{
 
 bool parse_key_bytes(const std::uint8_t* data, std::size_t size)
 {

@@ -12,8 +12,10 @@
 #include "progress.h"
 #include "report.h"
 
-namespace meshmark::cli {
-namespace {
+namespace meshmark::cli
+{
+namespace
+{
 
 struct AttackArgs
 {
@@ -25,7 +27,10 @@ struct AttackArgs
     bool json = false;
 };
 
-std::string number(double value) { return format_number(value, 6); }
+std::string number(double value)
+{
+    return format_number(value, 6);
+}
 
 // The whole grammar, with the defaults taken from the options structs (one source of truth).
 std::string grammar_help()
@@ -97,9 +102,9 @@ int run_attack(const AttackArgs& args, const GlobalArgs& global)
     options.force = args.force;
     // Phases and a running clock on a terminal, after the first second (remeshing or simplifying
     // a large mesh takes several); silent otherwise. The phases are the --json `seconds` keys.
-    const AttackFileReport report = with_progress("meshmark attack", global.quiet, options.progress, [&] {
-        return attack_file(args.input, args.output, args.spec, options);
-    });
+    const AttackFileReport report =
+        with_progress("meshmark attack", global.quiet, options.progress,
+                      [&] { return attack_file(args.input, args.output, args.spec, options); });
 
     if (args.json)
     {
@@ -111,11 +116,12 @@ int run_attack(const AttackArgs& args, const GlobalArgs& global)
                      "meshmark: attack %s (seed %llu): %lld vertices, %lld faces -> %lld vertices, "
                      "%lld faces in %.2f s (read %.2f, attack %.2f, write %.2f); wrote %s\n",
                      report.spec.c_str(), static_cast<unsigned long long>(args.seed),
-                     static_cast<long long>(report.vertices_before), static_cast<long long>(report.faces_before),
-                     static_cast<long long>(report.vertices_after), static_cast<long long>(report.faces_after),
-                     report.seconds.total, phase_seconds(report.seconds, "read"),
-                     phase_seconds(report.seconds, "attack"), phase_seconds(report.seconds, "write"),
-                     args.output.c_str());
+                     static_cast<long long>(report.vertices_before),
+                     static_cast<long long>(report.faces_before),
+                     static_cast<long long>(report.vertices_after),
+                     static_cast<long long>(report.faces_after), report.seconds.total,
+                     phase_seconds(report.seconds, "read"), phase_seconds(report.seconds, "attack"),
+                     phase_seconds(report.seconds, "write"), args.output.c_str());
         if (global.verbose && report.similarity)
         {
             std::fprintf(stderr, "meshmark: similarity applied (input -> output): %s\n",
@@ -134,9 +140,11 @@ void register_attack(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
         "attack",
         "Apply a chain of attacks to a mesh (to test a watermark's robustness) and write the "
         "result (format from -o's extension).");
-    command->add_option("INPUT", args->input, "Mesh to attack (.ply .obj .off .stl .gltf .glb .3mf)")
+    command
+        ->add_option("INPUT", args->input, "Mesh to attack (.ply .obj .off .stl .gltf .glb .3mf)")
         ->required();
-    command->add_option("SPEC", args->spec, "Attack chain, e.g. similarity,simplify=0.1,noise=0.001")
+    command
+        ->add_option("SPEC", args->spec, "Attack chain, e.g. similarity,simplify=0.1,noise=0.001")
         ->required();
     command->add_option("-o,--output", args->output, "Attacked mesh to write (atomically)")
         ->required();
@@ -148,9 +156,8 @@ void register_attack(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
                       "applied or null, timings)");
     command->footer(grammar_help());
     add_global_flags(*command, global);
-    command->callback([args, &global, &runner]() {
-        runner = [args, &global]() { return run_attack(*args, global); };
-    });
+    command->callback([args, &global, &runner]()
+                      { runner = [args, &global]() { return run_attack(*args, global); }; });
 }
 
 }  // namespace meshmark::cli

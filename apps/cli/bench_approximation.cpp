@@ -111,7 +111,8 @@ std::vector<Row> rbf_rows(const TriangleMesh& mesh, const std::vector<std::int32
                     : random_centers(
                           mesh.V, rows, k,
                           derive_seed(derive_seed(args.seed, std::to_string(key)), "centers"));
-            const RbfBasis rbf(position_rows(mesh.V, rows), centers, frame.diagonal / 2.0, frame.origin, threads);
+            const RbfBasis rbf(position_rows(mesh.V, rows), centers, frame.diagonal / 2.0,
+                               frame.origin, threads);
             const int present = rbf.well_conditioned_modes(kPresentModeTolerance);
             const Positions field = rbf.synthesize(rbf.position_coefficients().topRows(present));
             row.wall += clock.wall_seconds() / keys;
@@ -240,9 +241,10 @@ void register_bench_approximation(CLI::App& bench, GlobalArgs& global, CommandRu
         ->capture_default_str();
     command->add_option("--seed", args->seed, "Seed of the random-center keys")
         ->capture_default_str();
-    command->add_option("--factorization", args->factorization,
-                        "Factorization of the shifted Laplacian: cholmod (CHOLMOD supernodal) or ldlt "
-                        "(Eigen SimplicialLDLT)")
+    command
+        ->add_option("--factorization", args->factorization,
+                     "Factorization of the shifted Laplacian: cholmod (CHOLMOD supernodal) or ldlt "
+                     "(Eigen SimplicialLDLT)")
         ->check(CLI::IsMember({"cholmod", "ldlt"}))
         ->capture_default_str();
     command->add_flag("--json", args->json, "Print one JSON object instead of the table");

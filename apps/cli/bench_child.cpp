@@ -1,11 +1,6 @@
 // SPDX-License-Identifier: MIT
 #include "bench_child.h"
 
-#include <spawn.h>
-#include <sys/resource.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <cerrno>
 #include <chrono>
 #include <cstdio>
@@ -13,13 +8,19 @@
 #include <cstring>
 #include <fstream>
 
+#include <spawn.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include "bench_mesh.h"
 #include "meshmark/core/error.h"
 #include "meshmark/io/mesh_io.h"
 
 extern char** environ;  // NOLINT: POSIX, for posix_spawn
 
-namespace meshmark::cli {
+namespace meshmark::cli
+{
 
 namespace fs = std::filesystem;
 
@@ -36,7 +37,8 @@ ChildRun run_child(const fs::path& program, const std::vector<std::string>& args
     int pipe_fds[2];
     if (::pipe(pipe_fds) != 0)
     {
-        throw IoError(std::string("cannot create a pipe for a benchmark run (") + std::strerror(errno) + ").");
+        throw IoError(std::string("cannot create a pipe for a benchmark run (") +
+                      std::strerror(errno) + ").");
     }
     posix_spawn_file_actions_t actions;
     posix_spawn_file_actions_init(&actions);
@@ -45,13 +47,15 @@ ChildRun run_child(const fs::path& program, const std::vector<std::string>& args
     posix_spawn_file_actions_addclose(&actions, pipe_fds[1]);
     pid_t pid = 0;
     const auto start = std::chrono::steady_clock::now();
-    const int spawned = ::posix_spawn(&pid, program.c_str(), &actions, nullptr, argv.data(), environ);
+    const int spawned =
+        ::posix_spawn(&pid, program.c_str(), &actions, nullptr, argv.data(), environ);
     posix_spawn_file_actions_destroy(&actions);
     ::close(pipe_fds[1]);
     if (spawned != 0)
     {
         ::close(pipe_fds[0]);
-        throw IoError(program.string() + ": cannot start a benchmark run (" + std::strerror(spawned) + ").");
+        throw IoError(program.string() + ": cannot start a benchmark run (" +
+                      std::strerror(spawned) + ").");
     }
     std::string output;
     char buffer[4096];
@@ -74,14 +78,17 @@ ChildRun run_child(const fs::path& program, const std::vector<std::string>& args
     {
         if (errno != EINTR)
         {
-            throw IoError(std::string("cannot wait for a benchmark run (") + std::strerror(errno) + ").");
+            throw IoError(std::string("cannot wait for a benchmark run (") + std::strerror(errno) +
+                          ").");
         }
     }
     ChildRun run;
-    run.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    run.wall_seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
     run.peak_mib = static_cast<double>(usage.ru_maxrss) / 1024.0;  // Linux: kibibytes
-    const auto seconds = [](const timeval& t) { return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec); };
+    const auto seconds = [](const timeval& t)
+    { return static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_usec); };
     run.cpu_seconds = seconds(usage.ru_utime) + seconds(usage.ru_stime);
     run.report = nlohmann::json::parse(output, nullptr, false);
     if (run.report.is_discarded())
@@ -97,7 +104,8 @@ void write_generated(const fs::path& path, std::int64_t vertices)
     const pid_t pid = ::fork();
     if (pid < 0)
     {
-        throw IoError(std::string("cannot fork to generate a mesh (") + std::strerror(errno) + ").");
+        throw IoError(std::string("cannot fork to generate a mesh (") + std::strerror(errno) +
+                      ").");
     }
     if (pid == 0)
     {
@@ -121,8 +129,8 @@ void write_generated(const fs::path& path, std::int64_t vertices)
     }
     if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
     {
-        throw IoError(path.string() + ": cannot write the generated mesh of " + std::to_string(vertices) +
-                      " vertices.");
+        throw IoError(path.string() + ": cannot write the generated mesh of " +
+                      std::to_string(vertices) + " vertices.");
     }
 }
 

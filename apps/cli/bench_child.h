@@ -10,7 +10,8 @@
 
 #include <nlohmann/json.hpp>
 
-namespace meshmark::cli {
+namespace meshmark::cli
+{
 
 /// One child run: its exit code, JSON report (if any) and peak RSS.
 struct ChildRun
@@ -24,7 +25,8 @@ struct ChildRun
 
 /// \brief Runs \p program with \p args (posix_spawn, the parent's environment) and waits for
 /// it: exit code, the JSON it printed on stdout (an empty object if none), peak RSS and times.
-[[nodiscard]] ChildRun run_child(const std::filesystem::path& program, const std::vector<std::string>& args);
+[[nodiscard]] ChildRun run_child(const std::filesystem::path& program,
+                                 const std::vector<std::string>& args);
 
 /// \brief Writes bumpy_torus(vertices) as a binary float32 PLY from a forked child: Linux folds
 /// the RSS peak of the process image an exec replaces into the child's ru_maxrss, so the parent

@@ -14,7 +14,8 @@
 #include "meshmark/core/error.h"
 #include "meshmark/geometry/shapes.h"
 
-namespace meshmark::cli {
+namespace meshmark::cli
+{
 
 /// \brief A closed, manifold, asymmetric mesh with about \p vertices vertices: a torus grid of
 /// rings x sides vertices (sides the largest divisor of \p vertices not above its square root,
@@ -66,7 +67,8 @@ namespace meshmark::cli {
 
 /// The mesh files (.ply .obj .off .stl, any case) directly in \p dir, sorted by file name;
 /// empty if \p dir is not a directory.
-[[nodiscard]] inline std::vector<std::filesystem::path> mesh_files_in(const std::filesystem::path& dir)
+[[nodiscard]] inline std::vector<std::filesystem::path> mesh_files_in(
+    const std::filesystem::path& dir)
 {
     std::vector<std::filesystem::path> paths;
     std::error_code error;
@@ -79,7 +81,8 @@ namespace meshmark::cli {
         std::string ext = entry.path().extension().string();
         std::transform(ext.begin(), ext.end(), ext.begin(),
                        [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-        if (entry.is_regular_file() && (ext == ".ply" || ext == ".obj" || ext == ".off" || ext == ".stl"))
+        if (entry.is_regular_file() &&
+            (ext == ".ply" || ext == ".obj" || ext == ".off" || ext == ".stl"))
         {
             paths.push_back(entry.path());
         }

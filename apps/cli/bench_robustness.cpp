@@ -2,36 +2,40 @@
 // `meshmark bench robustness`: embed with many keys into real meshes, attack the marked copies
 // and the unmarked originals with the whole attack suite, detect everything, and tabulate
 // (issue 4, docs/robustness.md). Everything runs in memory: one watermark per (mesh, key) serves
-// every suspect, so the basis is built once per key. The reports are in bench_robustness_report.cpp.
+// every suspect, so the basis is built once per key. The reports are in
+// bench_robustness_report.cpp.
+#include "bench_robustness.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <ostream>
-#include <memory>
 #include <string>
 #include <vector>
 
-#include "bench_robustness.h"
+#include "bench_mesh.h"
 #include "commands.h"
 #include "meshmark/attacks/attack_spec.h"
 #include "meshmark/core/atomic_file.h"
+#include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/rng.h"
 #include "meshmark/io/mesh_io.h"
-#include "meshmark/core/bounding_box.h"
 #include "meshmark/metrics/distortion.h"
-#include "bench_mesh.h"
 #include "meshmark/pipeline/detect_file.h"
 #include "report.h"
 
-namespace meshmark::cli {
+namespace meshmark::cli
+{
 
 using namespace robustness;
 
-namespace {
+namespace
+{
 
 namespace fs = std::filesystem;
 
@@ -54,7 +58,8 @@ std::vector<fs::path> mesh_paths(const RobustnessArgs& args)
     const fs::path dir = args.mesh_dir.empty() ? default_mesh_dir() : fs::path(args.mesh_dir);
     if (!fs::is_directory(dir))
     {
-        throw IoError(dir.string() + ": no such mesh directory (use --mesh-dir or MESHMARK_MESH_DIR).");
+        throw IoError(dir.string() +
+                      ": no such mesh directory (use --mesh-dir or MESHMARK_MESH_DIR).");
     }
     paths = mesh_files_in(dir);
     return paths;
@@ -81,7 +86,8 @@ Key trial_key(const TriangleMesh& original, std::uint64_t seed, const Robustness
         key.recipients = RecipientCodes{};
         for (int r = 0; r < args.recipients; ++r)
         {
-            std::string name(1, 'r');  // (appended: GCC 12 reports a false -Wrestrict on "r" + string)
+            std::string name(1,
+                             'r');  // (appended: GCC 12 reports a false -Wrestrict on "r" + string)
             name += std::to_string(r);
             key.recipients->recipients.push_back({name, static_cast<std::uint32_t>(r)});
         }
@@ -89,8 +95,8 @@ Key trial_key(const TriangleMesh& original, std::uint64_t seed, const Robustness
     return key;
 }
 
-Trial run_trial(const SpectralWatermark& mark, const TriangleMesh& original, const TriangleMesh& suspect,
-                const DetectFileOptions& options, int colluders = 1)
+Trial run_trial(const SpectralWatermark& mark, const TriangleMesh& original,
+                const TriangleMesh& suspect, const DetectFileOptions& options, int colluders = 1)
 {
     Trial trial;
     const auto start = std::chrono::steady_clock::now();
@@ -134,7 +140,8 @@ int run_bench_robustness(const RobustnessArgs& args, const GlobalArgs& global)
     }
     // An empty --attacks "" leaves only the unattacked copies (and wrong keys): the null study.
     RobustnessArgs run = args;
-    run.attacks.erase(std::remove(run.attacks.begin(), run.attacks.end(), std::string()), run.attacks.end());
+    run.attacks.erase(std::remove(run.attacks.begin(), run.attacks.end(), std::string()),
+                      run.attacks.end());
     std::vector<std::vector<AttackSpec>> specs;
     for (const auto& a : run.attacks)
     {
@@ -158,8 +165,10 @@ int run_bench_robustness(const RobustnessArgs& args, const GlobalArgs& global)
         {
             if (chatty)
             {
-                std::fprintf(stderr, "meshmark bench robustness: skipping %s (%lld vertices > --max-vertices)\n",
-                             name.c_str(), static_cast<long long>(original.vertex_count()));
+                std::fprintf(
+                    stderr,
+                    "meshmark bench robustness: skipping %s (%lld vertices > --max-vertices)\n",
+                    name.c_str(), static_cast<long long>(original.vertex_count()));
             }
             continue;
         }
@@ -172,7 +181,8 @@ int run_bench_robustness(const RobustnessArgs& args, const GlobalArgs& global)
         {
             try
             {
-                unmarked[a] = apply_attacks(original, specs[a], derive_seed(args.seed, "unmarked/" + run.attacks[a]),
+                unmarked[a] = apply_attacks(original, specs[a],
+                                            derive_seed(args.seed, "unmarked/" + run.attacks[a]),
                                             global.threads)
                                   .mesh;
             }
@@ -183,7 +193,8 @@ int run_bench_robustness(const RobustnessArgs& args, const GlobalArgs& global)
         }
         for (int k = 0; k < args.keys; ++k)
         {
-            const std::uint64_t key_seed = derive_seed(args.seed, name + "/key/" + std::to_string(k));
+            const std::uint64_t key_seed =
+                derive_seed(args.seed, name + "/key/" + std::to_string(k));
             const auto embed_start = std::chrono::steady_clock::now();
             SpectralWatermark mark(original, trial_key(original, key_seed, args), global.threads);
             // Calibrated as embed calibrates a new key (docs/algorithms/embedding.md, "Strength").
@@ -199,7 +210,8 @@ int run_bench_robustness(const RobustnessArgs& args, const GlobalArgs& global)
                 const Key& key = mark.key();
                 std::optional<SurfaceRmsOfSums> copy_surface;
                 double target = 0.0;
-                if (key.options.rule == EmbeddingRule::Additive && key.options.measure == StrengthMeasure::Surface)
+                if (key.options.rule == EmbeddingRule::Additive &&
+                    key.options.measure == StrengthMeasure::Surface)
                 {
                     copy_surface.emplace(original, field);
                     target = key.options.resolved_strength() *
@@ -209,10 +221,13 @@ int run_bench_robustness(const RobustnessArgs& args, const GlobalArgs& global)
                 Positions codes = Positions::Zero(original.V.rows(), 3);
                 for (int c = 0; c < args.colluders; ++c)
                 {
-                    Eigen::MatrixX3d change = Eigen::MatrixX3d::Zero(first_code + mark.recipient_modes(), 3);
-                    change.bottomRows(mark.recipient_modes()) = mark.recipient_change(static_cast<std::uint32_t>(c));
+                    Eigen::MatrixX3d change =
+                        Eigen::MatrixX3d::Zero(first_code + mark.recipient_modes(), 3);
+                    change.bottomRows(mark.recipient_modes()) =
+                        mark.recipient_change(static_cast<std::uint32_t>(c));
                     const Positions code = mark.basis().synthesize(change);
-                    codes += (copy_surface ? copy_surface->terms(code).scale_to(target) : 1.0) * code;
+                    codes +=
+                        (copy_surface ? copy_surface->terms(code).scale_to(target) : 1.0) * code;
                 }
                 field += codes / static_cast<double>(args.colluders);
             }
@@ -228,14 +243,16 @@ int run_bench_robustness(const RobustnessArgs& args, const GlobalArgs& global)
             embedding.repetitions = mark.key().options.repetitions;
             ++embedding.keys;
 
-            auto record = [&](Trial t, const std::string& attack, const char* kind) {
+            auto record = [&](Trial t, const std::string& attack, const char* kind)
+            {
                 t.mesh = name;
                 t.key = k;
                 t.attack = attack;
                 t.kind = kind;
                 trials.push_back(std::move(t));
             };
-            record(run_trial(mark, original, marked, detect_options, args.colluders), "none", "marked");
+            record(run_trial(mark, original, marked, detect_options, args.colluders), "none",
+                   "marked");
             if (k < args.unmarked_keys)
             {
                 record(run_trial(mark, original, original, detect_options), "none", "unmarked");
@@ -246,7 +263,8 @@ int run_bench_robustness(const RobustnessArgs& args, const GlobalArgs& global)
                 try
                 {
                     const TriangleMesh attacked =
-                        apply_attacks(marked, specs[a], derive_seed(key_seed, "attack/" + run.attacks[a]),
+                        apply_attacks(marked, specs[a],
+                                      derive_seed(key_seed, "attack/" + run.attacks[a]),
                                       global.threads)
                             .mesh;
                     t = run_trial(mark, original, attacked, detect_options, args.colluders);
@@ -272,14 +290,16 @@ int run_bench_robustness(const RobustnessArgs& args, const GlobalArgs& global)
             }
             for (int w = 0; w < args.wrong_keys; ++w)
             {
-                const std::uint64_t wrong_seed = derive_seed(key_seed, "wrong/" + std::to_string(w));
-                const SpectralWatermark other(original, trial_key(original, wrong_seed, args), global.threads);
+                const std::uint64_t wrong_seed =
+                    derive_seed(key_seed, "wrong/" + std::to_string(w));
+                const SpectralWatermark other(original, trial_key(original, wrong_seed, args),
+                                              global.threads);
                 record(run_trial(other, original, marked, detect_options), "none", "wrong-key");
             }
             if (chatty)
             {
-                std::fprintf(stderr, "meshmark bench robustness: %s key %d/%d done (%.0f s)\n", name.c_str(), k + 1,
-                             args.keys, seconds_since(bench_start));
+                std::fprintf(stderr, "meshmark bench robustness: %s key %d/%d done (%.0f s)\n",
+                             name.c_str(), k + 1, args.keys, seconds_since(bench_start));
             }
         }
         if (embedding.keys > 0)
@@ -296,7 +316,8 @@ int run_bench_robustness(const RobustnessArgs& args, const GlobalArgs& global)
         }
     }
 
-    const std::string table = markdown_report(embeddings, trials, attack_names, args, detect_options.decision);
+    const std::string table =
+        markdown_report(embeddings, trials, attack_names, args, detect_options.decision);
     if (!args.markdown.empty())
     {
         write_file_atomically(args.markdown, [&](std::ostream& out) { out << table; });
@@ -330,24 +351,30 @@ void register_bench_robustness(CLI::App& bench, GlobalArgs& global, CommandRunne
         "robustness",
         "Embed, attack and detect with many keys per mesh; tables of detection rates, scores and "
         "distortion (docs/cli.md)");
-    command->add_option("--mesh-dir", args->mesh_dir,
-                        "Meshes (.ply .obj .off .stl); default $MESHMARK_MESH_DIR, else ../shared/data/meshes");
+    command->add_option(
+        "--mesh-dir", args->mesh_dir,
+        "Meshes (.ply .obj .off .stl); default $MESHMARK_MESH_DIR, else ../shared/data/meshes");
     command->add_option("--mesh", args->meshes, "Mesh files instead of a directory (repeatable)");
-    command->add_option("--keys", args->keys, "Random keys per mesh")->check(CLI::Range(1, 10000))->capture_default_str();
+    command->add_option("--keys", args->keys, "Random keys per mesh")
+        ->check(CLI::Range(1, 10000))
+        ->capture_default_str();
     command->add_option("--wrong-keys", args->wrong_keys, "Wrong keys tried on each marked copy")
         ->check(CLI::Range(0, 10000))
         ->capture_default_str();
-    command->add_option("--unmarked-keys", args->unmarked_keys,
-                        "Keys (the first N) also run on the unmarked original and its attacked copies")
+    command
+        ->add_option("--unmarked-keys", args->unmarked_keys,
+                     "Keys (the first N) also run on the unmarked original and its attacked copies")
         ->check(CLI::Range(0, 10000))
         ->capture_default_str();
     command->add_option("--max-vertices", args->max_vertices, "Skip meshes with more vertices")
         ->capture_default_str();
-    command->add_option("--attacks", args->attacks,
-                        "Attack specs (grammar of `meshmark attack`), separated by ';'")
+    command
+        ->add_option("--attacks", args->attacks,
+                     "Attack specs (grammar of `meshmark attack`), separated by ';'")
         ->delimiter(';');
     command->add_option("--seed", args->seed, "Seed of keys and attacks")->capture_default_str();
-    command->add_option("--strength", args->strength, "Embedding strength (default: the rule's default)");
+    command->add_option("--strength", args->strength,
+                        "Embedding strength (default: the rule's default)");
     command
         ->add_option("--strength-measure", args->strength_measure, "As embed's: surface or vertex")
         ->check(CLI::IsMember({"surface", "vertex"}))
@@ -360,24 +387,30 @@ void register_bench_robustness(CLI::App& bench, GlobalArgs& global, CommandRunne
         ->transform(repetitions_choice())
         ->type_name("auto|INT")
         ->default_str("auto");
-    command->add_option("--first-mode", args->first_mode, "First modulated mode")->capture_default_str();
-    command->add_option("--basis-size", args->basis_size, "k, basis functions (first mode + m*r must not exceed it)")
+    command->add_option("--first-mode", args->first_mode, "First modulated mode")
+        ->capture_default_str();
+    command
+        ->add_option("--basis-size", args->basis_size,
+                     "k, basis functions (first mode + m*r must not exceed it)")
         ->capture_default_str();
     command->add_option("--rule", args->rule, "additive or paper")
         ->check(CLI::IsMember({"additive", "paper"}))
         ->capture_default_str();
-    command->add_option("--basis", args->basis, "rbf or laplacian (the Laplacian eigenbasis baseline)")
+    command
+        ->add_option("--basis", args->basis, "rbf or laplacian (the Laplacian eigenbasis baseline)")
         ->check(CLI::IsMember({"rbf", "laplacian"}))
         ->capture_default_str();
     command->add_option("--centers", args->centers, "RBF centers: random or decimate")
         ->check(CLI::IsMember({"random", "decimate"}))
         ->capture_default_str();
-    command->add_option("--gram-rows", args->gram_rows,
-                        "RBF Gram matrix from at most this many evenly spaced vertices (0 = all)")
+    command
+        ->add_option("--gram-rows", args->gram_rows,
+                     "RBF Gram matrix from at most this many evenly spaced vertices (0 = all)")
         ->check(non_negative())
         ->capture_default_str();
     command->add_option("--markdown", args->markdown, "Also write the tables to this file");
-    command->add_option("--json-file", args->json_path, "Also write every trial as JSON to this file");
+    command->add_option("--json-file", args->json_path,
+                        "Also write every trial as JSON to this file");
     command
         ->add_option(
             "--recipients", args->recipients,
@@ -395,15 +428,19 @@ void register_bench_robustness(CLI::App& bench, GlobalArgs& global, CommandRunne
         ->check(CLI::ExistingFile);
     command->add_flag("--plain-resampling", args->plain_resampling,
                       "Ablation: read resampled copies against the original's vertices only");
-    command->add_flag("--json", args->json, "Print every trial as one JSON object instead of the tables");
+    command->add_flag("--json", args->json,
+                      "Print every trial as one JSON object instead of the tables");
     add_global_flags(*command, global);
-    command->callback([args, &global, &runner, command]() {
-        if (args->recipients > 0 && command->count("--repetitions") == 0)
+    command->callback(
+        [args, &global, &runner, command]()
         {
-            args->repetitions = kFamilyRepetitions;  // the family key's default owner mark, as in `embed`
-        }
-        runner = [args, &global]() { return run_bench_robustness(*args, global); };
-    });
+            if (args->recipients > 0 && command->count("--repetitions") == 0)
+            {
+                args->repetitions =
+                    kFamilyRepetitions;  // the family key's default owner mark, as in `embed`
+            }
+            runner = [args, &global]() { return run_bench_robustness(*args, global); };
+        });
 }
 
 }  // namespace meshmark::cli

@@ -11,19 +11,36 @@
 
 #include "meshmark/watermark/watermark.h"
 
-namespace meshmark::cli::robustness {
+namespace meshmark::cli::robustness
+{
 
 // The attack suite at the levels of issue 4's targets (and a few more), in the grammar of
 // `meshmark attack`.
 inline const std::vector<std::string> kDefaultAttacks = {
-    "similarity",        "reorder",          "noise=0.001",      "noise=0.005",
-    "noise=0.01",        "quantize=10",      "quantize=8",       "smooth=5",
-    "smooth=10",         "smooth=30",        "smooth=50",        "taubin=20",
-    "simplify=0.1",      "simplify=0.02",    "remesh=0.25",      "remesh=0.05",
-    "subdivide=loop",    "subdivide=sqrt3",  "crop=0.7",         "crop=0.5",
+    "similarity",
+    "reorder",
+    "noise=0.001",
+    "noise=0.005",
+    "noise=0.01",
+    "quantize=10",
+    "quantize=8",
+    "smooth=5",
+    "smooth=10",
+    "smooth=30",
+    "smooth=50",
+    "taubin=20",
+    "simplify=0.1",
+    "simplify=0.02",
+    "remesh=0.25",
+    "remesh=0.05",
+    "subdivide=loop",
+    "subdivide=sqrt3",
+    "crop=0.7",
+    "crop=0.5",
     "similarity,simplify=0.1,noise=0.001",
     // Surface refitting (issue 16): voxel remeshing at 1/300 and 1/150 of the diagonal.
-    "voxel=300",         "voxel=150",
+    "voxel=300",
+    "voxel=150",
 };
 
 /// The options of `bench robustness`.
@@ -53,7 +70,8 @@ struct RobustnessArgs
     bool plain_resampling = false;  // ablation: DetectFileOptions::match_surface off
     bool json = false;
     int recipients = 0;  // > 0: family keys with this many recipients (docs/fingerprinting.md)
-    int colluders = 1;   // family keys: the marked copy averages the copies of recipients 0 .. colluders-1
+    int colluders =
+        1;  // family keys: the marked copy averages the copies of recipients 0 .. colluders-1
 };
 
 /// One suspect detected with one key.
@@ -95,9 +113,12 @@ struct MeshEmbedding
 /// One trial as a JSON object of the trials file.
 [[nodiscard]] nlohmann::json to_json(const Trial& t);
 
-/// The Markdown tables of docs/robustness.md: per attack, the marked, wrong-key and unmarked trials.
-[[nodiscard]] std::string markdown_report(const std::vector<MeshEmbedding>& embeddings, const std::vector<Trial>& trials,
-                                          const std::vector<std::string>& attacks, const RobustnessArgs& args,
+/// The Markdown tables of docs/robustness.md: per attack, the marked, wrong-key and unmarked
+/// trials.
+[[nodiscard]] std::string markdown_report(const std::vector<MeshEmbedding>& embeddings,
+                                          const std::vector<Trial>& trials,
+                                          const std::vector<std::string>& attacks,
+                                          const RobustnessArgs& args,
                                           const DetectOptions& decision);
 
 /// Writes the trials so far (and the finished meshes' distortion) to --json-file.

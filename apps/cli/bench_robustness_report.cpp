@@ -16,7 +16,8 @@
 #include "meshmark/core/error.h"
 #include "report.h"
 
-namespace meshmark::cli::robustness {
+namespace meshmark::cli::robustness
+{
 
 nlohmann::json to_json(const Trial& t)
 {
@@ -43,7 +44,8 @@ nlohmann::json to_json(const Trial& t)
             {"owner_detected", t.owner_detected}};
 }
 
-namespace {
+namespace
+{
 
 Trial trial_from_json(const nlohmann::json& j)
 {
@@ -59,7 +61,8 @@ Trial trial_from_json(const nlohmann::json& j)
     // Files written before the combined verdict hold the correlation rule's probability only.
     t.decision.score_false_positive_probability =
         j.value("score_false_positive_probability", t.decision.false_positive_probability);
-    t.decision.bits_false_positive_probability = j.at("bits_false_positive_probability").get<double>();
+    t.decision.bits_false_positive_probability =
+        j.at("bits_false_positive_probability").get<double>();
     t.cropped_fraction = j.at("cropped_fraction").get<double>();
     t.outlier_fraction = j.value("outlier_fraction", 0.0);  // files written before 2026-11-25: none
     t.registration_rms = j.value("registration_rms", 0.0);
@@ -167,25 +170,33 @@ double median(std::vector<double> v)
     return v[v.size() / 2];
 }
 
-std::string percent(double fraction) { return format_number(100.0 * fraction, 3) + "%"; }
+std::string percent(double fraction)
+{
+    return format_number(100.0 * fraction, 3) + "%";
+}
 
 }  // namespace
 
-namespace {
+namespace
+{
 
 // Family keys: per attack, how often the marked copy's recipient was accused, the owner's mark
 // claimed, either of them; innocents accused over every trial (marked, unmarked, wrong keys).
-std::string recipients_section(const std::vector<Trial>& trials, const std::vector<std::string>& attacks,
-                               int recipients, int colluders)
+std::string recipients_section(const std::vector<Trial>& trials,
+                               const std::vector<std::string>& attacks, int recipients,
+                               int colluders)
 {
     std::ostringstream md;
-    md << "\n### Recipient copies (family keys of " << recipients << " recipients; the marked copy is "
-       << (colluders == 1 ? std::string("recipient 0's") :
-                            "the average of " + std::to_string(colluders) + " recipients' copies")
+    md << "\n### Recipient copies (family keys of " << recipients
+       << " recipients; the marked copy is "
+       << (colluders == 1 ? std::string("recipient 0's")
+                          : "the average of " + std::to_string(colluders) + " recipients' copies")
        << ")\n\n"
        << "| attack | marked trials | " << (colluders == 1 ? "its recipient" : "a colluder")
-       << " accused | owner's mark alone | ownership (alone or joint) | accused or ownership | median z of "
-       << (colluders == 1 ? "its recipient" : "the best colluder") << " |\n|---|---:|---:|---:|---:|---:|---:|\n";
+       << " accused | owner's mark alone | ownership (alone or joint) | accused or ownership | "
+          "median z of "
+       << (colluders == 1 ? "its recipient" : "the best colluder")
+       << " |\n|---|---:|---:|---:|---:|---:|---:|\n";
     int innocents = 0;
     int traced = 0;
     int false_ownership = 0;  // ownership shown on an unmarked copy or with a wrong key
@@ -223,18 +234,21 @@ std::string recipients_section(const std::vector<Trial>& trials, const std::vect
         }
         std::sort(scores.begin(), scores.end());
         const double median = scores.empty() ? 0.0 : scores[scores.size() / 2];
-        md << "| `" << a << "` | " << n << " | " << accused << " | " << owner << " | " << ownership << " | " << either << " | "
-           << format_number(median) << " |\n";
+        md << "| `" << a << "` | " << n << " | " << accused << " | " << owner << " | " << ownership
+           << " | " << either << " | " << format_number(median) << " |\n";
     }
     md << "\nInnocent recipients accused, over all " << traced
-       << " traced trials (marked, unmarked and wrong keys): " << innocents << ". Ownership shown on an "
-       << "unmarked copy or with a wrong key: " << false_ownership << " of " << unmarked_traced << ".\n";
+       << " traced trials (marked, unmarked and wrong keys): " << innocents
+       << ". Ownership shown on an "
+       << "unmarked copy or with a wrong key: " << false_ownership << " of " << unmarked_traced
+       << ".\n";
     return md.str();
 }
 
 }  // namespace
 
-std::string markdown_report(const std::vector<MeshEmbedding>& embeddings, const std::vector<Trial>& trials,
+std::string markdown_report(const std::vector<MeshEmbedding>& embeddings,
+                            const std::vector<Trial>& trials,
                             const std::vector<std::string>& attacks, const RobustnessArgs& args,
                             const DetectOptions& decision)
 {
@@ -252,20 +266,23 @@ std::string markdown_report(const std::vector<MeshEmbedding>& embeddings, const 
                                     : std::to_string(fewest_keys) + "-" + std::to_string(most_keys))
        << " (wrong keys per marked copy: " << args.wrong_keys
        << ", keys on unmarked attacked copies: " << args.unmarked_keys << "); rule " << args.rule
-       << ", strength " << (args.strength < 0 ? std::string("default") : format_number(args.strength)) << " ("
+       << ", strength "
+       << (args.strength < 0 ? std::string("default") : format_number(args.strength)) << " ("
        << args.strength_measure << ")"
        << ", coefficients " << args.coefficients << ", repetitions "
-       << (args.repetitions == EmbedOptions::kAutoRepetitions ? std::string("auto") : std::to_string(args.repetitions)) << ", first mode " << args.first_mode
-       << ", basis size " << args.basis_size << ", basis " << args.basis
+       << (args.repetitions == EmbedOptions::kAutoRepetitions ? std::string("auto")
+                                                              : std::to_string(args.repetitions))
+       << ", first mode " << args.first_mode << ", basis size " << args.basis_size << ", basis "
+       << args.basis
        << (args.basis == "rbf" ? " (" + args.centers + " centers" +
                                      (args.gram_rows == EmbedOptions::kDefaultGramRows
                                           ? std::string()
                                           : ", Gram rows " + std::to_string(args.gram_rows)) +
                                      ")"
-                                : std::string())
-       << "; verdict: " << to_string(decision.verdict) << ", bound <= "
-       << format_number(decision.max_false_positive) << " (bits rule: R >= " << format_number(decision.threshold)
-       << ").\n\n";
+                               : std::string())
+       << "; verdict: " << to_string(decision.verdict)
+       << ", bound <= " << format_number(decision.max_false_positive)
+       << " (bits rule: R >= " << format_number(decision.threshold) << ").\n\n";
 
     md << "### Embedding distortion (mean over keys, fraction of the bounding-box diagonal)\n\n";
     md << "| mesh | vertices | keys | r | MRMS | Hausdorff | RMS displacement | embed s |\n"
@@ -273,9 +290,9 @@ std::string markdown_report(const std::vector<MeshEmbedding>& embeddings, const 
     for (const auto& e : embeddings)
     {
         md << "| " << e.mesh << " | " << e.vertices << " | " << e.keys << " | "
-           << (e.repetitions > 0 ? std::to_string(e.repetitions) : std::string("-")) << " | " << percent(e.mrms) << " | "
-           << percent(e.hausdorff) << " | " << percent(e.rms_displacement) << " | "
-           << format_number(e.embed_seconds) << " |\n";
+           << (e.repetitions > 0 ? std::to_string(e.repetitions) : std::string("-")) << " | "
+           << percent(e.mrms) << " | " << percent(e.hausdorff) << " | "
+           << percent(e.rms_displacement) << " | " << format_number(e.embed_seconds) << " |\n";
     }
 
     std::map<std::string, Summary> marked;
@@ -304,7 +321,8 @@ std::string markdown_report(const std::vector<MeshEmbedding>& embeddings, const 
         }
     }
     md << "\n### Marked copies\n\n"
-       << "| attack | trials | detected | mean z | min z | median FPP | mean R | R >= " << format_number(decision.threshold)
+       << "| attack | trials | detected | mean z | min z | median FPP | mean R | R >= "
+       << format_number(decision.threshold)
        << " | missed on |\n|---|---:|---:|---:|---:|---:|---:|---:|---|\n";
     for (const auto& a : attacks)
     {
@@ -318,14 +336,16 @@ std::string markdown_report(const std::vector<MeshEmbedding>& embeddings, const 
         {
             missed += (missed.empty() ? "" : ", ") + n;
         }
-        md << "| `" << a << "` | " << s.trials << (s.errors > 0 ? " (" + std::to_string(s.errors) + " errors)" : "")
-           << " | " << s.detected << "/" << ok << " | " << format_number(ok > 0 ? s.sum_score / ok : 0.0) << " | "
-           << format_number(ok > 0 ? s.min_score : 0.0) << " | " << format_number(median(s.fpp)) << " | "
-           << format_number(ok > 0 ? s.sum_r / ok : 0.0, 3) << " | " << s.detected_bits << "/" << ok << " | "
-           << missed << " |\n";
+        md << "| `" << a << "` | " << s.trials
+           << (s.errors > 0 ? " (" + std::to_string(s.errors) + " errors)" : "") << " | "
+           << s.detected << "/" << ok << " | " << format_number(ok > 0 ? s.sum_score / ok : 0.0)
+           << " | " << format_number(ok > 0 ? s.min_score : 0.0) << " | "
+           << format_number(median(s.fpp)) << " | " << format_number(ok > 0 ? s.sum_r / ok : 0.0, 3)
+           << " | " << s.detected_bits << "/" << ok << " | " << missed << " |\n";
     }
     md << "\n### Marked copies per mesh (every attack)\n\n"
-       << "| mesh | trials | detected | mean R | min z | missed (attack: copies) |\n|---|---:|---:|---:|---:|---|\n";
+       << "| mesh | trials | detected | mean R | min z | missed (attack: copies) "
+          "|\n|---|---:|---:|---:|---:|---|\n";
     for (const auto& e : embeddings)
     {
         Summary s;
@@ -350,17 +370,19 @@ std::string markdown_report(const std::vector<MeshEmbedding>& embeddings, const 
                 missed += (missed.empty() ? "`" : ", `") + a + "`: " + std::to_string(it->second);
             }
         }
-        md << "| " << e.mesh << " | " << s.trials << (s.errors > 0 ? " (" + std::to_string(s.errors) + " errors)" : "")
-           << " | " << s.detected << "/" << ok << " | " << format_number(ok > 0 ? s.sum_r / ok : 0.0, 3) << " | "
-           << format_number(ok > 0 ? s.min_score : 0.0) << " | " << missed << " |\n";
+        md << "| " << e.mesh << " | " << s.trials
+           << (s.errors > 0 ? " (" + std::to_string(s.errors) + " errors)" : "") << " | "
+           << s.detected << "/" << ok << " | " << format_number(ok > 0 ? s.sum_r / ok : 0.0, 3)
+           << " | " << format_number(ok > 0 ? s.min_score : 0.0) << " | " << missed << " |\n";
     }
     md << "\n### Unmarked copies and wrong keys (nothing may be claimed)\n\n"
        << "| suspect | trials | claimed | claimed by R >= " << format_number(decision.threshold)
        << " | largest z | largest R | smallest FPP |\n|---|---:|---:|---:|---:|---:|---:|\n";
-    auto row = [&](const std::string& name, const Summary& s) {
-        md << "| " << name << " | " << s.trials - s.errors << " | " << s.detected << " | " << s.detected_bits << " | "
-           << format_number(s.trials > s.errors ? s.max_score : 0.0) << " | " << format_number(s.max_r, 3) << " | "
-           << format_number(s.min_fpp) << " |\n";
+    auto row = [&](const std::string& name, const Summary& s)
+    {
+        md << "| " << name << " | " << s.trials - s.errors << " | " << s.detected << " | "
+           << s.detected_bits << " | " << format_number(s.trials > s.errors ? s.max_score : 0.0)
+           << " | " << format_number(s.max_r, 3) << " | " << format_number(s.min_fpp) << " |\n";
     };
     row("wrong key on a marked copy", wrong);
     row("unmarked copies, all attacks", all_unmarked);
@@ -373,7 +395,8 @@ std::string markdown_report(const std::vector<MeshEmbedding>& embeddings, const 
         md << recipients_section(trials, attacks, args.recipients, args.colluders);
     }
     // Trials that could not run count in the tables as errors only: say why, once per reason.
-    std::map<std::string, std::pair<int, std::vector<std::string>>> reasons;  // error -> count, attacks
+    std::map<std::string, std::pair<int, std::vector<std::string>>>
+        reasons;  // error -> count, attacks
     for (const Trial& t : trials)
     {
         if (!t.error.empty())
@@ -415,7 +438,8 @@ void write_trials_json(const RobustnessArgs& args, const std::vector<MeshEmbeddi
     {
         all_embeddings.push_back(to_json(e));
     }
-    const nlohmann::json doc{{"settings", settings_json(args)}, {"embeddings", all_embeddings}, {"trials", all_trials}};
+    const nlohmann::json doc{
+        {"settings", settings_json(args)}, {"embeddings", all_embeddings}, {"trials", all_trials}};
     write_file_atomically(args.json_path, [&](std::ostream& out) { out << doc.dump(1) << "\n"; });
 }
 
@@ -439,13 +463,17 @@ int report_from_json(const RobustnessArgs& args)
             doc = nlohmann::json::parse(in);
             if (!doc.contains("settings") || !doc.contains("embeddings"))
             {
-                throw IoError(file + ": not a trials file of `bench robustness --json-file` (no settings or "
-                              "embeddings; files written before 2026-11-23 lack them).");
+                throw IoError(
+                    file +
+                    ": not a trials file of `bench robustness --json-file` (no settings or "
+                    "embeddings; files written before 2026-11-23 lack them).");
             }
             if (settings && *settings != doc.at("settings"))
             {
-                throw IoError(file + ": its settings (" + doc.at("settings").dump() + ") differ from those of " +
-                              args.from_json.front() + " (" + settings->dump() + "); only runs with the same "
+                throw IoError(file + ": its settings (" + doc.at("settings").dump() +
+                              ") differ from those of " + args.from_json.front() + " (" +
+                              settings->dump() +
+                              "); only runs with the same "
                               "rule, strength, layout and seed can be merged.");
             }
             settings = doc.at("settings");
@@ -454,16 +482,19 @@ int report_from_json(const RobustnessArgs& args)
                 embeddings.push_back(embedding_from_json(e));
                 const std::string& mesh = embeddings.back().mesh;
                 if (std::count_if(embeddings.begin(), embeddings.end(),
-                                  [&](const MeshEmbedding& other) { return other.mesh == mesh; }) > 1)
+                                  [&](const MeshEmbedding& other)
+                                  { return other.mesh == mesh; }) > 1)
                 {
-                    throw IoError(file + ": mesh " + mesh + " is already in an earlier file; its keys would be "
+                    throw IoError(file + ": mesh " + mesh +
+                                  " is already in an earlier file; its keys would be "
                                   "counted twice.");
                 }
             }
             for (const auto& t : doc.at("trials"))
             {
                 trials.push_back(trial_from_json(t));
-                if (std::find(attack_names.begin(), attack_names.end(), trials.back().attack) == attack_names.end())
+                if (std::find(attack_names.begin(), attack_names.end(), trials.back().attack) ==
+                    attack_names.end())
                 {
                     attack_names.push_back(trials.back().attack);
                 }
@@ -481,10 +512,12 @@ int report_from_json(const RobustnessArgs& args)
     merged.coefficients = settings->value("coefficients", EmbedOptions{}.coefficients);
     merged.repetitions = settings->at("repetitions").get<int>();
     merged.first_mode = settings->at("first_mode").get<int>();
-    merged.basis_size = settings->value("basis_size", EmbedOptions{}.basis_size);  // absent in older files
+    merged.basis_size =
+        settings->value("basis_size", EmbedOptions{}.basis_size);  // absent in older files
     merged.wrong_keys = settings->at("wrong_keys").get<int>();
     merged.unmarked_keys = settings->at("unmarked_keys").get<int>();
-    const std::string table = markdown_report(embeddings, trials, attack_names, merged, DetectOptions{});
+    const std::string table =
+        markdown_report(embeddings, trials, attack_names, merged, DetectOptions{});
     if (!args.markdown.empty())
     {
         write_file_atomically(args.markdown, [&](std::ostream& out) { out << table; });

@@ -1,5 +1,7 @@
 // SPDX-License-Identifier: MIT
 // `meshmark catalog add|list|issue|scan|export`: a catalogue of marked assets (docs/catalog.md).
+#include "meshmark/catalog/catalog.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -11,7 +13,6 @@
 #include <vector>
 
 #include "commands.h"
-#include "meshmark/catalog/catalog.h"
 #include "meshmark/catalog/catalog_add.h"
 #include "meshmark/catalog/catalog_json.h"
 #include "meshmark/catalog/catalog_scan.h"
@@ -23,8 +24,10 @@
 #include "progress.h"
 #include "report.h"
 
-namespace meshmark::cli {
-namespace {
+namespace meshmark::cli
+{
+namespace
+{
 
 struct CatalogArgs
 {
@@ -70,9 +73,11 @@ int run_add(const CatalogArgs& args, const GlobalArgs& global)
     options.jobs = args.jobs;
     options.force = args.force;
     std::vector<std::filesystem::path> inputs(args.inputs.begin(), args.inputs.end());
-    Catalog catalog(args.catalog, Catalog::Open::CreateIfMissing, lock_timeout_of(args.lock_timeout));
-    const auto outcomes = with_progress("meshmark catalog add", global.quiet, options.progress,
-                                        [&] { return catalog_add(catalog, inputs, args.output, options); });
+    Catalog catalog(args.catalog, Catalog::Open::CreateIfMissing,
+                    lock_timeout_of(args.lock_timeout));
+    const auto outcomes =
+        with_progress("meshmark catalog add", global.quiet, options.progress,
+                      [&] { return catalog_add(catalog, inputs, args.output, options); });
     if (args.json)
     {
         print_json(catalog_add_json(catalog, outcomes));
@@ -81,8 +86,9 @@ int run_add(const CatalogArgs& args, const GlobalArgs& global)
     for (const CatalogAddOutcome& o : outcomes)
     {
         ++counts[static_cast<int>(o.status)];
-        if (!global.quiet && (o.status == CatalogAddOutcome::Status::Failed ||
-                              (global.verbose && o.status == CatalogAddOutcome::Status::Unmarkable)))
+        if (!global.quiet &&
+            (o.status == CatalogAddOutcome::Status::Failed ||
+             (global.verbose && o.status == CatalogAddOutcome::Status::Unmarkable)))
         {
             std::fprintf(stderr, "meshmark: %s: %s\n", to_string(o.status), o.reason.c_str());
         }
@@ -90,16 +96,19 @@ int run_add(const CatalogArgs& args, const GlobalArgs& global)
     if (!global.quiet)
     {
         std::fprintf(stderr,
-                     "meshmark: %zu files: %d marked, %d already in the catalogue, %d not markable, %d failed; "
+                     "meshmark: %zu files: %d marked, %d already in the catalogue, %d not "
+                     "markable, %d failed; "
                      "catalogue %s\n",
-                     outcomes.size(), counts[0], counts[1], counts[2], counts[3], args.catalog.c_str());
+                     outcomes.size(), counts[0], counts[1], counts[2], counts[3],
+                     args.catalog.c_str());
     }
     return counts[3] > 0 ? static_cast<int>(ExitCode::InvalidInput) : 0;
 }
 
 int run_list(const CatalogArgs& args, const GlobalArgs& /*global*/)
 {
-    const Catalog catalog(args.catalog, Catalog::Open::Existing, lock_timeout_of(args.lock_timeout));
+    const Catalog catalog(args.catalog, Catalog::Open::Existing,
+                          lock_timeout_of(args.lock_timeout));
     const std::vector<CatalogAsset> assets = catalog.assets();
     if (args.json)
     {
@@ -133,8 +142,9 @@ int run_issue(const CatalogArgs& args, const GlobalArgs& global)
     options.lock_timeout = lock_timeout_of(args.lock_timeout);
     options.threads = global.threads;
     Catalog catalog(args.catalog, Catalog::Open::Existing, options.lock_timeout);
-    const EmbedRecipientsReport report = with_progress("meshmark catalog issue", global.quiet, options.progress,
-                                                       [&] { return catalog_issue(catalog, args.asset, args.output, options); });
+    const EmbedRecipientsReport report =
+        with_progress("meshmark catalog issue", global.quiet, options.progress,
+                      [&] { return catalog_issue(catalog, args.asset, args.output, options); });
     if (args.json)
     {
         nlohmann::json out = embed_recipients_report_json(report, args.asset, args.catalog);
@@ -150,8 +160,11 @@ int run_issue(const CatalogArgs& args, const GlobalArgs& global)
         {
             added += copy.is_new ? 1 : 0;
         }
-        std::fprintf(stderr, "meshmark: issued %zu copies of %s (%d new recipients) in %.3f s; recorded in %s\n",
-                     report.copies.size(), args.asset.c_str(), added, report.seconds.total, args.catalog.c_str());
+        std::fprintf(
+            stderr,
+            "meshmark: issued %zu copies of %s (%d new recipients) in %.3f s; recorded in %s\n",
+            report.copies.size(), args.asset.c_str(), added, report.seconds.total,
+            args.catalog.c_str());
     }
     return 0;
 }
@@ -163,7 +176,8 @@ std::filesystem::path report_path(const std::string& pattern, const std::filesys
 {
     std::string path = pattern;
     const std::string name = suspect.stem().string();
-    for (std::size_t at = path.find("{suspect}"); at != std::string::npos; at = path.find("{suspect}", at + name.size()))
+    for (std::size_t at = path.find("{suspect}"); at != std::string::npos;
+         at = path.find("{suspect}", at + name.size()))
     {
         path.replace(at, 9, name);
     }
@@ -184,7 +198,8 @@ void check_scan_reports(const CatalogArgs& args)
         const std::filesystem::path path = report_path(args.report, suspect);
         if (!paths.insert(path).second)
         {
-            throw InvalidOption("--report " + args.report + " names one file for several suspects; put {suspect} "
+            throw InvalidOption("--report " + args.report +
+                                " names one file for several suspects; put {suspect} "
                                 "(the suspect's file name without its extension) in it.");
         }
         if (is_same_file(path, suspect) || is_same_file(path, args.catalog))
@@ -213,8 +228,9 @@ DetectReport over_the_catalogue(DetectReport report, std::size_t assets)
 // The report of one suspect: against its strongest match, or, matched by none, against the
 // nearest asset the scan tried (detected again there: a "not shown" report says what was
 // compared). Nothing to write when no asset could be tried.
-void write_scan_report(const CatalogArgs& args, const Catalog& catalog, const CatalogScanReport& report,
-                       const SuspectScan& scan, const CatalogScanOptions& options, const GlobalArgs& global)
+void write_scan_report(const CatalogArgs& args, const Catalog& catalog,
+                       const CatalogScanReport& report, const SuspectScan& scan,
+                       const CatalogScanOptions& options, const GlobalArgs& global)
 {
     std::optional<CatalogAsset> asset;
     DetectReport found;
@@ -230,8 +246,10 @@ void write_scan_report(const CatalogArgs& args, const Catalog& catalog, const Ca
             if (tried.error.empty() && (asset = catalog.asset(tried.asset)))
             {
                 DetectFileOptions detect = options.detect;
-                detect.decision.max_false_positive /= static_cast<double>(std::max<std::size_t>(1, report.assets));
-                found = detect_against_original(read_mesh(scan.path), asset->original, asset->key, detect);
+                detect.decision.max_false_positive /=
+                    static_cast<double>(std::max<std::size_t>(1, report.assets));
+                found = detect_against_original(read_mesh(scan.path), asset->original, asset->key,
+                                                detect);
                 break;
             }
         }
@@ -241,7 +259,8 @@ void write_scan_report(const CatalogArgs& args, const Catalog& catalog, const Ca
     {
         if (!global.quiet)
         {
-            std::fprintf(stderr, "meshmark: %s: no report (no asset of the catalogue could be compared)\n",
+            std::fprintf(stderr,
+                         "meshmark: %s: no report (no asset of the catalogue could be compared)\n",
                          scan.path.c_str());
         }
         return;
@@ -254,17 +273,20 @@ void write_scan_report(const CatalogArgs& args, const Catalog& catalog, const Ca
     DetectionReportOptions report_options;
     report_options.pictures.threads = global.threads;
     report_options.version = kVersion;
-    report_options.command = "meshmark catalog scan " + shell_word(args.catalog) + " " + shell_word(scan.path) +
+    report_options.command = "meshmark catalog scan " + shell_word(args.catalog) + " " +
+                             shell_word(scan.path) +
                              (args.max_false_positive != DetectOptions{}.max_false_positive
                                   ? " --max-fpp " + shortest(args.max_false_positive)
                                   : std::string()) +
                              " --json";
-    write_detection_report(path, scan.path, asset->original, key,
-                           detect_report_json(over_the_catalogue(std::move(found), report.assets), decision),
-                           report_options);
+    write_detection_report(
+        path, scan.path, asset->original, key,
+        detect_report_json(over_the_catalogue(std::move(found), report.assets), decision),
+        report_options);
     if (!global.quiet)
     {
-        std::fprintf(stderr, "meshmark: %s: report written to %s\n", scan.path.c_str(), path.c_str());
+        std::fprintf(stderr, "meshmark: %s: report written to %s\n", scan.path.c_str(),
+                     path.c_str());
     }
 }
 
@@ -276,10 +298,12 @@ int run_scan(const CatalogArgs& args, const GlobalArgs& global)
     options.detect.decision.max_false_positive = args.max_false_positive;
     options.candidates = args.candidates;
     options.stop_at_match = !args.all_candidates;
-    const Catalog catalog(args.catalog, Catalog::Open::Existing, lock_timeout_of(args.lock_timeout));
+    const Catalog catalog(args.catalog, Catalog::Open::Existing,
+                          lock_timeout_of(args.lock_timeout));
     std::vector<std::filesystem::path> suspects(args.inputs.begin(), args.inputs.end());
-    const CatalogScanReport report = with_progress("meshmark catalog scan", global.quiet, options.progress,
-                                                   [&] { return catalog_scan(catalog, suspects, options); });
+    const CatalogScanReport report =
+        with_progress("meshmark catalog scan", global.quiet, options.progress,
+                      [&] { return catalog_scan(catalog, suspects, options); });
     if (args.json)
     {
         print_json(catalog_scan_json(catalog, report, options));
@@ -311,7 +335,8 @@ int run_scan(const CatalogArgs& args, const GlobalArgs& global)
         }
         if (!s.detected)
         {
-            std::fprintf(stderr, "meshmark: %s: no asset of the catalogue found (%zu tried) in %.2f s\n",
+            std::fprintf(stderr,
+                         "meshmark: %s: no asset of the catalogue found (%zu tried) in %.2f s\n",
                          s.path.c_str(), s.tried.size(), s.seconds);
             continue;
         }
@@ -322,10 +347,13 @@ int run_scan(const CatalogArgs& args, const GlobalArgs& global)
             {
                 names += (names.empty() ? "" : ", ") + r.name;
             }
-            std::fprintf(stderr, "meshmark: %s: asset %s (false-positive probability %s over the catalogue's %zu "
-                                 "assets)%s%s in %.2f s\n",
-                         s.path.c_str(), m.asset.c_str(), format_number(m.false_positive_probability).c_str(),
-                         report.assets, names.empty() ? "" : "; copy of ", names.c_str(), s.seconds);
+            std::fprintf(
+                stderr,
+                "meshmark: %s: asset %s (false-positive probability %s over the catalogue's %zu "
+                "assets)%s%s in %.2f s\n",
+                s.path.c_str(), m.asset.c_str(),
+                format_number(m.false_positive_probability).c_str(), report.assets,
+                names.empty() ? "" : "; copy of ", names.c_str(), s.seconds);
         }
     }
     if (!report.suspects.empty() && unreadable == report.suspects.size())
@@ -337,7 +365,8 @@ int run_scan(const CatalogArgs& args, const GlobalArgs& global)
 
 int run_export(const CatalogArgs& args, const GlobalArgs& global)
 {
-    const Catalog catalog(args.catalog, Catalog::Open::Existing, lock_timeout_of(args.lock_timeout));
+    const Catalog catalog(args.catalog, Catalog::Open::Existing,
+                          lock_timeout_of(args.lock_timeout));
     const std::optional<CatalogAsset> asset = catalog.asset(args.asset);
     if (!asset)
     {
@@ -345,21 +374,23 @@ int run_export(const CatalogArgs& args, const GlobalArgs& global)
     }
     if (!args.force && std::filesystem::exists(args.key))
     {
-        throw InvalidOption(args.key + ": a file is already there; choose another --key or pass --force.");
+        throw InvalidOption(args.key +
+                            ": a file is already there; choose another --key or pass --force.");
     }
     write_key(args.key, asset->key);
     if (!global.quiet)
     {
-        std::fprintf(stderr, "meshmark: the key of asset %s (original %s) written to %s\n", args.asset.c_str(),
-                     asset->original.c_str(), args.key.c_str());
+        std::fprintf(stderr, "meshmark: the key of asset %s (original %s) written to %s\n",
+                     args.asset.c_str(), asset->original.c_str(), args.key.c_str());
     }
     return 0;
 }
 
 void add_lock_timeout(CLI::App& command, CatalogArgs& args)
 {
-    command.add_option("--lock-timeout", args.lock_timeout,
-                       "Seconds to wait while another call changes the catalogue, then fail")
+    command
+        .add_option("--lock-timeout", args.lock_timeout,
+                    "Seconds to wait while another call changes the catalogue, then fail")
         ->check(CLI::Range(0.0, 86400.0))
         ->capture_default_str();
 }
@@ -369,36 +400,48 @@ void add_lock_timeout(CLI::App& command, CatalogArgs& args)
 void register_catalog(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
 {
     auto args = std::make_shared<CatalogArgs>();
-    auto* catalog = app.add_subcommand("catalog", "A catalogue of marked assets (SQLite file): add, list, issue "
-                                                  "copies, scan suspects (docs/catalog.md)");
+    auto* catalog =
+        app.add_subcommand("catalog",
+                           "A catalogue of marked assets (SQLite file): add, list, issue "
+                           "copies, scan suspects (docs/catalog.md)");
     catalog->require_subcommand(1);
 
     auto* add = catalog->add_subcommand(
         "add", "Mark every mesh file found (folders recursively) into -o and record it; resumable");
     add->add_option("CATALOG", args->catalog, "Catalogue file (created when missing)")->required();
-    add->add_option("INPUTS", args->inputs, "Mesh files and folders")->required()->check(CLI::ExistingPath);
+    add->add_option("INPUTS", args->inputs, "Mesh files and folders")
+        ->required()
+        ->check(CLI::ExistingPath);
     add->add_option("-o,--output", args->output, "Folder of the marked copies")->required();
-    add->add_option("--jobs", args->jobs, "Files marked at once (0 = one per core)")->capture_default_str();
+    add->add_option("--jobs", args->jobs, "Files marked at once (0 = one per core)")
+        ->capture_default_str();
     add->add_option("--strength", args->strength, "As embed's (default: embed's)");
     add->add_option("--basis-size", args->options.basis_size, "As embed's")->capture_default_str();
-    add->add_option("--coefficients", args->options.coefficients, "As embed's")->capture_default_str();
+    add->add_option("--coefficients", args->options.coefficients, "As embed's")
+        ->capture_default_str();
     add->add_option("--message", args->message, "Payload text (default: random per asset)");
-    add->add_option("--seed", args->seed, "Secret seed, mixed with each asset's id (default: random)");
-    add->add_flag("--force", args->force, "Mark again, with a new key, originals changed since they were added");
+    add->add_option("--seed", args->seed,
+                    "Secret seed, mixed with each asset's id (default: random)");
+    add->add_flag("--force", args->force,
+                  "Mark again, with a new key, originals changed since they were added");
     add_lock_timeout(*add, *args);
     add->add_flag("--json", args->json, "Print every file's outcome as JSON on stdout");
     add_global_flags(*add, global);
-    add->callback([args, &global, &runner, add] {
-        args->has_seed = add->count("--seed") > 0;
-        runner = [args, &global] { return run_add(*args, global); };
-    });
+    add->callback(
+        [args, &global, &runner, add]
+        {
+            args->has_seed = add->count("--seed") > 0;
+            runner = [args, &global] { return run_add(*args, global); };
+        });
 
-    auto* list = catalog->add_subcommand("list", "List the catalogue's assets and their recipients");
+    auto* list =
+        catalog->add_subcommand("list", "List the catalogue's assets and their recipients");
     list->add_option("CATALOG", args->catalog, "Catalogue file")->required();
     list->add_flag("--json", args->json, "Print JSON on stdout");
     add_lock_timeout(*list, *args);
     add_global_flags(*list, global);
-    list->callback([args, &global, &runner] { runner = [args, &global] { return run_list(*args, global); }; });
+    list->callback([args, &global, &runner]
+                   { runner = [args, &global] { return run_list(*args, global); }; });
 
     auto* issue = catalog->add_subcommand(
         "issue",
@@ -406,23 +449,28 @@ void register_catalog(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     issue->add_option("CATALOG", args->catalog, "Catalogue file")->required();
     issue->add_option("ASSET", args->asset, "Asset id (catalog list)")->required();
     issue->add_option("--recipient", args->recipients, "Recipient name (repeatable)");
-    issue->add_option("--recipients", args->recipients_file, "File of names, one per line")->check(CLI::ExistingFile);
-    issue->add_option("-o,--output", args->output, "Copy path pattern containing {recipient}")->required();
+    issue->add_option("--recipients", args->recipients_file, "File of names, one per line")
+        ->check(CLI::ExistingFile);
+    issue->add_option("-o,--output", args->output, "Copy path pattern containing {recipient}")
+        ->required();
     add_lock_timeout(*issue, *args);
     issue->add_flag("--json", args->json, "Print a JSON report on stdout");
     add_global_flags(*issue, global);
-    issue->callback([args, &global, &runner] { runner = [args, &global] { return run_issue(*args, global); }; });
+    issue->callback([args, &global, &runner]
+                    { runner = [args, &global] { return run_issue(*args, global); }; });
 
     auto* scan = catalog->add_subcommand(
-        "scan", "Find which assets (and whose copies) suspects were made from. Exit 0 when any suspect "
-                "matched, 1 when none did");
+        "scan",
+        "Find which assets (and whose copies) suspects were made from. Exit 0 when any suspect "
+        "matched, 1 when none did");
     scan->add_option("CATALOG", args->catalog, "Catalogue file")->required();
     scan->add_option("SUSPECTS", args->inputs, "Suspect mesh files")->required();
     scan->add_option("--candidates", args->candidates,
                      "Assets tried per suspect: same numbering, then nearest shape")
         ->check(CLI::Range(1, 10000))
         ->capture_default_str();
-    scan->add_flag("--all-candidates", args->all_candidates, "Try every candidate, not only until one matches");
+    scan->add_flag("--all-candidates", args->all_candidates,
+                   "Try every candidate, not only until one matches");
     scan->add_option("--max-fpp", args->max_false_positive,
                      "Bound on a false claim per suspect over the whole catalogue")
         ->check(CLI::Range(1e-300, 1.0))
@@ -434,15 +482,18 @@ void register_catalog(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
         "{suspect} in it");
     scan->add_flag("--json", args->json, "Print a JSON report on stdout");
     add_global_flags(*scan, global);
-    scan->callback([args, &global, &runner] { runner = [args, &global] { return run_scan(*args, global); }; });
+    scan->callback([args, &global, &runner]
+                   { runner = [args, &global] { return run_scan(*args, global); }; });
 
-    auto* exported = catalog->add_subcommand("export", "Write an asset's key as a key file (detect --key)");
+    auto* exported =
+        catalog->add_subcommand("export", "Write an asset's key as a key file (detect --key)");
     exported->add_option("CATALOG", args->catalog, "Catalogue file")->required();
     exported->add_option("ASSET", args->asset, "Asset id")->required();
     exported->add_option("--key", args->key, "Key file to write (mode 0600)")->required();
     exported->add_flag("--force", args->force, "Replace an existing file");
     add_global_flags(*exported, global);
-    exported->callback([args, &global, &runner] { runner = [args, &global] { return run_export(*args, global); }; });
+    exported->callback([args, &global, &runner]
+                       { runner = [args, &global] { return run_export(*args, global); }; });
 }
 
 }  // namespace meshmark::cli

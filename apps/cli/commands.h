@@ -8,7 +8,8 @@
 
 #include <CLI/CLI.hpp>
 
-namespace meshmark::cli {
+namespace meshmark::cli
+{
 
 /// What `meshmark --version` prints (the project's version, from CMake), also stated in reports.
 inline constexpr const char* kVersion = "meshmark " MESHMARK_VERSION;

@@ -22,8 +22,10 @@
 #include "progress.h"
 #include "report.h"
 
-namespace meshmark::cli {
-namespace {
+namespace meshmark::cli
+{
+namespace
+{
 
 struct CompareArgs
 {
@@ -88,7 +90,8 @@ HeatmapImageOptions check_heatmap_args(const CompareArgs& args)
     if (kind != HeatmapKind::Png)
     {
         for (const auto& [name, value] :
-             {std::pair{"--view", &args.view}, std::pair{"--size", &args.size}, std::pair{"--up", &args.up}})
+             {std::pair{"--view", &args.view}, std::pair{"--size", &args.size},
+              std::pair{"--up", &args.up}})
         {
             if (!value->empty())
             {
@@ -104,7 +107,8 @@ HeatmapImageOptions check_heatmap_args(const CompareArgs& args)
     const std::filesystem::path out(args.heatmap);
     if (is_same_file(out, args.a) || is_same_file(out, args.b))
     {
-        throw InvalidOption("compare: --heatmap " + args.heatmap + " would overwrite an input mesh.");
+        throw InvalidOption("compare: --heatmap " + args.heatmap +
+                            " would overwrite an input mesh.");
     }
     try
     {
@@ -130,7 +134,8 @@ HeatmapImageOptions check_heatmap_args(const CompareArgs& args)
 
 /// B colored by the distance of each vertex to A: blue at 0, red at the largest distance of a
 /// referenced vertex of B. Returns that largest distance.
-double write_heatmap(const std::string& path, const TriangleMesh& b, const Eigen::VectorXd& distances)
+double write_heatmap(const std::string& path, const TriangleMesh& b,
+                     const Eigen::VectorXd& distances)
 {
     double max_distance = 0.0;
     for (const std::int32_t v : referenced_vertices(b))
@@ -156,8 +161,8 @@ double write_heatmap_png(const std::string& path, const TriangleMesh& b,
     return picture.max_distance;
 }
 
-void print_text(const CompareArgs& args, const TriangleMesh& a, const TriangleMesh& b, const DistortionReport& r,
-                const CompareUnit& unit)
+void print_text(const CompareArgs& args, const TriangleMesh& a, const TriangleMesh& b,
+                const DistortionReport& r, const CompareUnit& unit)
 {
     // "0.27%", or "0.27% (0.81 mm)" in A's unit when it is known.
     const auto pct = [&](double rel)
@@ -169,8 +174,9 @@ void print_text(const CompareArgs& args, const TriangleMesh& a, const TriangleMe
         }
         return text;
     };
-    std::printf("A: %s (%lld vertices, %lld triangles)\nB: %s (%lld vertices, %lld triangles)\n", args.a.c_str(),
-                static_cast<long long>(a.vertex_count()), static_cast<long long>(a.face_count()), args.b.c_str(),
+    std::printf("A: %s (%lld vertices, %lld triangles)\nB: %s (%lld vertices, %lld triangles)\n",
+                args.a.c_str(), static_cast<long long>(a.vertex_count()),
+                static_cast<long long>(a.face_count()), args.b.c_str(),
                 static_cast<long long>(b.vertex_count()), static_cast<long long>(b.face_count()));
     const std::string diagonal =
         unit.unit ? format_number(r.diagonal, 6) + " " + to_string(*unit.unit) +
@@ -179,16 +185,19 @@ void print_text(const CompareArgs& args, const TriangleMesh& a, const TriangleMe
     std::printf("distances in %% of the bounding-box diagonal of A (%s):\n", diagonal.c_str());
     std::printf("  Hausdorff     %s  (A->B %s, B->A %s)\n", pct(r.hausdorff_rel).c_str(),
                 pct(r.hausdorff_ab_rel).c_str(), pct(r.hausdorff_ba_rel).c_str());
-    std::printf("  RMS           A->B %s, B->A %s\n", pct(r.rms_ab_rel).c_str(), pct(r.rms_ba_rel).c_str());
+    std::printf("  RMS           A->B %s, B->A %s\n", pct(r.rms_ab_rel).c_str(),
+                pct(r.rms_ba_rel).c_str());
     std::printf("  MRMS          %s\n", pct(r.mrms_rel).c_str());
     if (r.displacement)
     {
-        std::printf("  displacement  max %s, RMS %s (same connectivity)\n", pct(r.max_displacement_rel).c_str(),
-                    pct(r.rms_displacement_rel).c_str());
+        std::printf("  displacement  max %s, RMS %s (same connectivity)\n",
+                    pct(r.max_displacement_rel).c_str(), pct(r.rms_displacement_rel).c_str());
     }
     std::printf("samples: A %lld vertices + %lld on faces, B %lld vertices + %lld on faces\n",
-                static_cast<long long>(r.a_to_b.vertex_samples), static_cast<long long>(r.a_to_b.area_samples),
-                static_cast<long long>(r.b_to_a.vertex_samples), static_cast<long long>(r.b_to_a.area_samples));
+                static_cast<long long>(r.a_to_b.vertex_samples),
+                static_cast<long long>(r.a_to_b.area_samples),
+                static_cast<long long>(r.b_to_a.vertex_samples),
+                static_cast<long long>(r.b_to_a.area_samples));
 }
 
 int run_compare(const CompareArgs& args, const GlobalArgs& global)
@@ -252,7 +261,8 @@ int run_compare(const CompareArgs& args, const GlobalArgs& global)
         }
         if (!args.heatmap.empty())
         {
-            out["heatmap"] = {{"file", args.heatmap}, {"max_distance", heatmap_max / report.diagonal}};
+            out["heatmap"] = {{"file", args.heatmap},
+                              {"max_distance", heatmap_max / report.diagonal}};
         }
         out["seconds"] = {{"read", read_seconds},
                           {"index", report.seconds.index},
@@ -279,9 +289,10 @@ int run_compare(const CompareArgs& args, const GlobalArgs& global)
     }
     if (!global.quiet)
     {
-        std::fprintf(stderr, "meshmark compare: %.2f s (read %.2f, index %.2f, A->B %.2f, B->A %.2f)\n",
-                     seconds_since(start), read_seconds, report.seconds.index, report.seconds.a_to_b,
-                     report.seconds.b_to_a);
+        std::fprintf(stderr,
+                     "meshmark compare: %.2f s (read %.2f, index %.2f, A->B %.2f, B->A %.2f)\n",
+                     seconds_since(start), read_seconds, report.seconds.index,
+                     report.seconds.a_to_b, report.seconds.b_to_a);
     }
     return 0;
 }
@@ -295,7 +306,9 @@ void register_compare(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
         "compare",
         "Distortion between two meshes, surface to surface, in % of A's bbox diagonal: Hausdorff, "
         "RMS, MRMS (docs/cli.md)");
-    command->add_option("A", args->a, "Reference mesh (defines the unit)")->required()->check(CLI::ExistingFile);
+    command->add_option("A", args->a, "Reference mesh (defines the unit)")
+        ->required()
+        ->check(CLI::ExistingFile);
     command->add_option("B", args->b, "Mesh compared with A")->required()->check(CLI::ExistingFile);
     command->add_flag("--json", args->json,
                       "Print one JSON object on stdout (fields: docs/cli.md)");
@@ -319,15 +332,15 @@ void register_compare(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
                          std::to_string(kAutoSamplesPerFace) + " per triangle)")
         ->check(CLI::Range(std::int64_t{0}, std::int64_t{1'000'000'000}))
         ->capture_default_str();
-    command->add_option("--seed", args->options.seed, "Seed of the stratified sampling")->capture_default_str();
+    command->add_option("--seed", args->options.seed, "Seed of the stratified sampling")
+        ->capture_default_str();
     command->add_option(
         "--unit", args->unit,
         "Unit of A's coordinates (um mm cm m in ft), overriding its file's; distances are also "
         "given in it");
     add_global_flags(*command, global);
-    command->callback([args, &global, &runner]() {
-        runner = [args, &global]() { return run_compare(*args, global); };
-    });
+    command->callback([args, &global, &runner]()
+                      { runner = [args, &global]() { return run_compare(*args, global); }; });
 }
 
 }  // namespace meshmark::cli

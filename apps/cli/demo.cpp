@@ -18,8 +18,10 @@
 #include "meshmark/render/heatmap_image.h"
 #include "report.h"
 
-namespace meshmark::cli {
-namespace {
+namespace meshmark::cli
+{
+namespace
+{
 
 struct DemoArgs
 {
@@ -40,17 +42,18 @@ void say(const GlobalArgs& global, const std::string& line)
 std::string verdict(const DetectReport& r)
 {
     const auto& d = r.decision;
-    return std::string(d.is_present ? "FOUND" : "not found") + " (R = " + format_number(d.correlation) +
-           ", " + std::to_string(d.matches) + "/" + std::to_string(d.bit_count) +
-           " bits, false-positive probability " + format_number(d.false_positive_probability) + ")";
+    return std::string(d.is_present ? "FOUND" : "not found") +
+           " (R = " + format_number(d.correlation) + ", " + std::to_string(d.matches) + "/" +
+           std::to_string(d.bit_count) + " bits, false-positive probability " +
+           format_number(d.false_positive_probability) + ")";
 }
 
 int run_demo(const DemoArgs& args, const GlobalArgs& global)
 {
     namespace fs = std::filesystem;
-    const fs::path dir = args.dir.empty()
-                             ? fs::temp_directory_path() / ("meshmark-demo-" + std::to_string(::getpid()))
-                             : fs::path(args.dir);
+    const fs::path dir = args.dir.empty() ? fs::temp_directory_path() /
+                                                ("meshmark-demo-" + std::to_string(::getpid()))
+                                          : fs::path(args.dir);
     fs::create_directories(dir);
     const auto original = dir / "original.ply";
     const auto marked = dir / "marked.ply";
@@ -73,10 +76,12 @@ int run_demo(const DemoArgs& args, const GlobalArgs& global)
     const EmbedReport embedded = embed_file(original, marked, key, embed_options);
     say(global, "2. embedded '" + *embed_options.message + "' (" +
                     std::to_string(embedded.key.payload.size()) + " bits) into " + marked.string() +
-                    ": surface distance RMS " + format_number(100.0 * embedded.stats.surface_rms_rel) +
-                    "% (vertex displacement RMS " + format_number(100.0 * embedded.stats.rms_displacement_rel) +
-                    "%) of the bbox diagonal, " + format_number(embedded.seconds.total) + " s; key in " +
-                    key.string());
+                    ": surface distance RMS " +
+                    format_number(100.0 * embedded.stats.surface_rms_rel) +
+                    "% (vertex displacement RMS " +
+                    format_number(100.0 * embedded.stats.rms_displacement_rel) +
+                    "%) of the bbox diagonal, " + format_number(embedded.seconds.total) +
+                    " s; key in " + key.string());
 
     // A picture of the mark: each marked vertex's distance to the original surface, blue (none)
     // to red (the largest): what `compare original marked --heatmap` draws, the same figures.
@@ -111,9 +116,10 @@ int run_demo(const DemoArgs& args, const GlobalArgs& global)
     say(global, "5. detect in the unmarked original: watermark " + verdict(clean));
 
     const bool as_expected = found.decision.is_present && !clean.decision.is_present;
-    say(global, as_expected ? "Verdict: ownership proven for the attacked copy; the unmarked original is "
-                              "not claimed."
-                            : "Verdict: UNEXPECTED result (see above).");
+    say(global, as_expected
+                    ? "Verdict: ownership proven for the attacked copy; the unmarked original is "
+                      "not claimed."
+                    : "Verdict: UNEXPECTED result (see above).");
     return as_expected ? 0 : 1;
 }
 
@@ -126,17 +132,20 @@ void register_demo(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
         "demo",
         "Make a mesh, embed, draw the mark (heatmap.png, as compare --heatmap), attack, detect; "
         "exit 0 when all goes as expected");
-    command->add_option("--dir", args->dir, "Folder for the demo's files (default: a new temporary folder)");
-    command->add_option("--subdivisions", args->subdivisions,
-                        "Size of the demo mesh: 10*4^s+2 vertices (6 gives 40,962)")
+    command->add_option("--dir", args->dir,
+                        "Folder for the demo's files (default: a new temporary folder)");
+    command
+        ->add_option("--subdivisions", args->subdivisions,
+                     "Size of the demo mesh: 10*4^s+2 vertices (6 gives 40,962)")
         ->check(CLI::Range(3, 9))
         ->capture_default_str();
-    command->add_option("--attack", args->attack, "Attack chain applied to the marked copy (see `attack --help`)")
+    command
+        ->add_option("--attack", args->attack,
+                     "Attack chain applied to the marked copy (see `attack --help`)")
         ->capture_default_str();
     add_global_flags(*command, global);
-    command->callback([args, &global, &runner]() {
-        runner = [args, &global]() { return run_demo(*args, global); };
-    });
+    command->callback([args, &global, &runner]()
+                      { runner = [args, &global]() { return run_demo(*args, global); }; });
 }
 
 }  // namespace meshmark::cli

@@ -18,8 +18,10 @@
 #include "progress.h"
 #include "report.h"
 
-namespace meshmark::cli {
-namespace {
+namespace meshmark::cli
+{
+namespace
+{
 
 struct DetectArgs
 {
@@ -98,9 +100,9 @@ int run_detect(const DetectArgs& args, const GlobalArgs& global)
         options.pairs = read_point_pairs(args.pairs);
     }
     // Phases and a running clock on a terminal, after the first second; silent otherwise.
-    const DetectReport report = with_progress("meshmark detect", global.quiet, options.progress, [&] {
-        return detect_file(args.suspect, args.original, args.key, options);
-    });
+    const DetectReport report =
+        with_progress("meshmark detect", global.quiet, options.progress,
+                      [&] { return detect_file(args.suspect, args.original, args.key, options); });
     const Decision& d = report.decision;
     if (!args.report.empty())
     {
@@ -114,8 +116,9 @@ int run_detect(const DetectArgs& args, const GlobalArgs& global)
                                detect_report_json(report, args.decision), report_options);
         if (!global.quiet)
         {
-            std::fprintf(stderr, "meshmark detect: report written to %s (%.2f s)\n", args.report.c_str(),
-                         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+            std::fprintf(
+                stderr, "meshmark detect: report written to %s (%.2f s)\n", args.report.c_str(),
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
         }
     }
     if (args.json)
@@ -127,47 +130,57 @@ int run_detect(const DetectArgs& args, const GlobalArgs& global)
         // The verdict first, in one sentence; the readings it rests on under it.
         const Verdict verdict = verdict_of(report, args.decision.max_false_positive);
         std::printf("%s: %s\n", args.suspect.c_str(), headline(verdict).c_str());
-        std::printf("  owner's mark alone: %s, z = %.2f over %d coefficients, R = %.3f (%d of %d bits), "
-                    "false-positive probability %s\n",
-                    d.is_present ? "found" : "not found", d.score, d.coefficient_count, d.correlation, d.matches,
-                    d.bit_count, format_number(d.false_positive_probability).c_str());
+        std::printf(
+            "  owner's mark alone: %s, z = %.2f over %d coefficients, R = %.3f (%d of %d bits), "
+            "false-positive probability %s\n",
+            d.is_present ? "found" : "not found", d.score, d.coefficient_count, d.correlation,
+            d.matches, d.bit_count, format_number(d.false_positive_probability).c_str());
         if (report.recipients_traced > 0)
         {
-            std::printf("  ownership %s (the owner's mark, alone or with a recipient's code), "
-                        "false-positive probability %s\n",
-                        report.owner_detected ? "shown" : "not shown",
-                        format_number(report.owner_false_positive_probability).c_str());
-            std::printf("  %zu of %zu recipients accused%s\n", report.accused.size(), report.recipients_traced,
-                        report.accused.empty() ? "" : ":");
+            std::printf(
+                "  ownership %s (the owner's mark, alone or with a recipient's code), "
+                "false-positive probability %s\n",
+                report.owner_detected ? "shown" : "not shown",
+                format_number(report.owner_false_positive_probability).c_str());
+            std::printf("  %zu of %zu recipients accused%s\n", report.accused.size(),
+                        report.recipients_traced, report.accused.empty() ? "" : ":");
             for (const RecipientScore& r : report.accused)
             {
                 // The regions' score too when there is one: it may be what accuses (a splice).
                 std::array<char, 32> regions{};
                 if (r.region_score > 0.0)
                 {
-                    std::snprintf(regions.data(), regions.size(), ", regions z = %.2f", r.region_score);
+                    std::snprintf(regions.data(), regions.size(), ", regions z = %.2f",
+                                  r.region_score);
                 }
-                std::printf("    %s: z = %.2f%s, false-positive probability %s\n", r.name.c_str(), r.score,
-                            regions.data(), format_number(r.false_positive_probability).c_str());
+                std::printf("    %s: z = %.2f%s, false-positive probability %s\n", r.name.c_str(),
+                            r.score, regions.data(),
+                            format_number(r.false_positive_probability).c_str());
             }
         }
         // Why a "not found" says little here (DetectReport::is_far_copy).
         if (!report.detected() && !global.quiet && report.is_far_copy())
         {
             std::fprintf(stderr,
-                         "meshmark: note: the suspect lies %.3g%% of the diagonal (RMS) from the original, %.1f times "
-                         "the mark's strength: marked copies that far from the original (a coarse simplification "
-                         "that moves the vertices, a voxel remesh that fills thin parts) often keep too little of "
-                         "the mark to be claimed (docs/robustness.md, \"What an attack leaves of the mark\").\n",
-                         100.0 * report.registration_rms, report.registration_rms / report.mark_strength);
+                         "meshmark: note: the suspect lies %.3g%% of the diagonal (RMS) from the "
+                         "original, %.1f times "
+                         "the mark's strength: marked copies that far from the original (a coarse "
+                         "simplification "
+                         "that moves the vertices, a voxel remesh that fills thin parts) often "
+                         "keep too little of "
+                         "the mark to be claimed (docs/robustness.md, \"What an attack leaves of "
+                         "the mark\").\n",
+                         100.0 * report.registration_rms,
+                         report.registration_rms / report.mark_strength);
         }
         if (global.verbose)
         {
-            std::printf("  expected %s\n  found    %s\n  alignment %s, RMS distance %s of the diagonal, "
-                        "cropped %.1f%%, far rows left out %.1f%%, %.3f s\n",
-                        d.bits_expected.c_str(), d.bits_found.c_str(), report.alignment.c_str(),
-                        format_number(report.registration_rms).c_str(), 100.0 * report.cropped_fraction,
-                        100.0 * report.outlier_fraction, report.seconds.total);
+            std::printf(
+                "  expected %s\n  found    %s\n  alignment %s, RMS distance %s of the diagonal, "
+                "cropped %.1f%%, far rows left out %.1f%%, %.3f s\n",
+                d.bits_expected.c_str(), d.bits_found.c_str(), report.alignment.c_str(),
+                format_number(report.registration_rms).c_str(), 100.0 * report.cropped_fraction,
+                100.0 * report.outlier_fraction, report.seconds.total);
         }
     }
     return report.detected() ? 0 : 1;
@@ -182,11 +195,17 @@ void register_detect(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
         "detect",
         "Look for KEY's watermark in SUSPECT (needs the original); exit 0 when claimed, 1 when not "
         "(docs/cli.md)");
-    command->add_option("SUSPECT", args->suspect, "Suspect mesh")->required()->check(CLI::ExistingFile);
-    command->add_option("--original", args->original, "The original (unmarked) mesh the key was made for")
+    command->add_option("SUSPECT", args->suspect, "Suspect mesh")
         ->required()
         ->check(CLI::ExistingFile);
-    command->add_option("--key", args->key, "Key file written by embed")->required()->check(CLI::ExistingFile);
+    command
+        ->add_option("--original", args->original,
+                     "The original (unmarked) mesh the key was made for")
+        ->required()
+        ->check(CLI::ExistingFile);
+    command->add_option("--key", args->key, "Key file written by embed")
+        ->required()
+        ->check(CLI::ExistingFile);
     command
         ->add_option(
             "--verdict", args->verdict,
@@ -198,11 +217,14 @@ void register_detect(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
         ->add_option("--max-fpp", args->decision.max_false_positive,
                      "Largest false-positive probability at which ownership is claimed")
         ->capture_default_str();
-    command->add_option("--threshold", args->decision.threshold,
-                        "Bits verdict: claim ownership when R (fraction of payload bits read back) >= this")
+    command
+        ->add_option(
+            "--threshold", args->decision.threshold,
+            "Bits verdict: claim ownership when R (fraction of payload bits read back) >= this")
         ->capture_default_str();
-    command->add_option("--epsilon", args->decision.epsilon,
-                        "Undecided band around zero change, as a fraction of the modulation")
+    command
+        ->add_option("--epsilon", args->decision.epsilon,
+                     "Undecided band around zero change, as a fraction of the modulation")
         ->capture_default_str();
     command
         ->add_option("--pairs", args->pairs,
@@ -219,9 +241,8 @@ void register_detect(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     command->add_flag("--json", args->json,
                       "Print one JSON object on stdout (fields: docs/cli.md)");
     add_global_flags(*command, global);
-    command->callback([args, &global, &runner]() {
-        runner = [args, &global]() { return run_detect(*args, global); };
-    });
+    command->callback([args, &global, &runner]()
+                      { runner = [args, &global]() { return run_detect(*args, global); }; });
 }
 
 }  // namespace meshmark::cli

@@ -21,8 +21,10 @@
 #include "progress.h"
 #include "report.h"
 
-namespace meshmark::cli {
-namespace {
+namespace meshmark::cli
+{
+namespace
+{
 
 struct EmbedArgs
 {
@@ -38,7 +40,8 @@ struct EmbedArgs
     std::string strength_measure = "surface";
     std::uint64_t seed = 0;
     bool has_seed = false;
-    bool has_repetitions = false;  // --repetitions given (else a family key's owner mark takes kFamilyRepetitions)
+    bool has_repetitions =
+        false;  // --repetitions given (else a family key's owner mark takes kFamilyRepetitions)
     bool json = false;
     bool force = false;
     std::int64_t memory_budget = 0;
@@ -64,7 +67,8 @@ std::string in_unit(const EmbedReport& report, double rel)
 // honours it differ in the 4th).
 std::string mesh_length(const EmbedReport& report, double value)
 {
-    return format_number(value, 4) + (report.unit ? std::string(" ") + to_string(*report.unit) : " (mesh units)");
+    return format_number(value, 4) +
+           (report.unit ? std::string(" ") + to_string(*report.unit) : " (mesh units)");
 }
 
 // What --max-displacement did, on stderr.
@@ -77,35 +81,40 @@ void print_cap(const EmbedReport& report)
                                     : "";
     if (cap.factor < 1.0)
     {
-        std::fprintf(stderr,
-                     "meshmark: --max-displacement %s: the strength was lowered to %s of the one asked for "
-                     "(largest displacement %s -> %s%s); an undamaged copy still reads z = %s. A weaker mark "
-                     "survives less damage (docs/robustness.md, \"Capped displacement\").\n",
-                     mesh_length(report, cap.cap).c_str(), format_number(cap.factor, 3).c_str(),
-                     mesh_length(report, cap.uncapped_max).c_str(),
-                     mesh_length(report, cap.factor * cap.uncapped_max).c_str(), written.c_str(),
-                     format_number(cap.intact_score, 4).c_str());
+        std::fprintf(
+            stderr,
+            "meshmark: --max-displacement %s: the strength was lowered to %s of the one asked for "
+            "(largest displacement %s -> %s%s); an undamaged copy still reads z = %s. A weaker "
+            "mark "
+            "survives less damage (docs/robustness.md, \"Capped displacement\").\n",
+            mesh_length(report, cap.cap).c_str(), format_number(cap.factor, 3).c_str(),
+            mesh_length(report, cap.uncapped_max).c_str(),
+            mesh_length(report, cap.factor * cap.uncapped_max).c_str(), written.c_str(),
+            format_number(cap.intact_score, 4).c_str());
     }
     else
     {
-        std::fprintf(stderr, "meshmark: --max-displacement %s: the mark fits at the strength asked for%s.\n",
-                     mesh_length(report, cap.cap).c_str(), written.c_str());
+        std::fprintf(
+            stderr, "meshmark: --max-displacement %s: the mark fits at the strength asked for%s.\n",
+            mesh_length(report, cap.cap).c_str(), written.c_str());
     }
 }
 
-
 // `meshmark embed --recipient ...`: one copy per recipient and the family key.
-int run_embed_recipients(const EmbedArgs& args, const GlobalArgs& global, EmbedRecipientsOptions options)
+int run_embed_recipients(const EmbedArgs& args, const GlobalArgs& global,
+                         EmbedRecipientsOptions options)
 {
     if (args.stream || args.memory_budget > 0)
     {
-        throw InvalidOption("recipient copies are embedded in memory; --stream and --memory-budget do not apply.");
+        throw InvalidOption(
+            "recipient copies are embedded in memory; --stream and --memory-budget do not apply.");
     }
     if (!args.max_displacement.empty())
     {
-        throw InvalidOption("--max-displacement does not apply to recipient copies: a family key has one strength "
-                            "for every copy, present and future, and each recipient's code moves the vertices "
-                            "differently; cap a single copy (embed without --recipient) instead.");
+        throw InvalidOption(
+            "--max-displacement does not apply to recipient copies: a family key has one strength "
+            "for every copy, present and future, and each recipient's code moves the vertices "
+            "differently; cap a single copy (embed without --recipient) instead.");
     }
     if (!args.record.empty())
     {
@@ -113,8 +122,9 @@ int run_embed_recipients(const EmbedArgs& args, const GlobalArgs& global, EmbedR
     }
     if (args.force)
     {
-        throw InvalidOption("--force does not apply to recipient copies: an existing family key is extended, "
-                            "any other key is refused.");
+        throw InvalidOption(
+            "--force does not apply to recipient copies: an existing family key is extended, "
+            "any other key is refused.");
     }
     options.recipients = args.recipients;
     if (!args.recipients_file.empty())
@@ -125,9 +135,9 @@ int run_embed_recipients(const EmbedArgs& args, const GlobalArgs& global, EmbedR
     options.recipient_modes = args.recipient_modes;
     options.recipient_share = args.recipient_share;
     options.lock_timeout = lock_timeout_of(args.lock_timeout);
-    const EmbedRecipientsReport report = with_progress("meshmark embed", global.quiet, options.progress, [&] {
-        return embed_recipients(args.input, args.output, args.key, options);
-    });
+    const EmbedRecipientsReport report =
+        with_progress("meshmark embed", global.quiet, options.progress,
+                      [&] { return embed_recipients(args.input, args.output, args.key, options); });
     if (args.json)
     {
         print_json(embed_recipients_report_json(report, args.input, args.key));
@@ -141,13 +151,16 @@ int run_embed_recipients(const EmbedArgs& args, const GlobalArgs& global, EmbedR
             largest_rms = std::max(largest_rms, copy.stats.rms_displacement_rel);
             added += copy.is_new ? 1 : 0;
         }
-        std::fprintf(stderr,
-                     "meshmark: issued %zu copies of %s (%lld vertices; %d new recipients, %zu re-issued) in "
-                     "%.3f s; displacement RMS at most %s%% of the bbox diagonal; %s key %s holds %zu recipients\n",
-                     report.copies.size(), args.input.c_str(), static_cast<long long>(report.vertex_count), added,
-                     report.copies.size() - static_cast<std::size_t>(added), report.seconds.total,
-                     format_number(100.0 * largest_rms).c_str(), report.key_created ? "new" : "updated",
-                     args.key.c_str(), report.key.recipients->recipients.size());
+        std::fprintf(
+            stderr,
+            "meshmark: issued %zu copies of %s (%lld vertices; %d new recipients, %zu re-issued) "
+            "in "
+            "%.3f s; displacement RMS at most %s%% of the bbox diagonal; %s key %s holds %zu "
+            "recipients\n",
+            report.copies.size(), args.input.c_str(), static_cast<long long>(report.vertex_count),
+            added, report.copies.size() - static_cast<std::size_t>(added), report.seconds.total,
+            format_number(100.0 * largest_rms).c_str(), report.key_created ? "new" : "updated",
+            args.key.c_str(), report.key.recipients->recipients.size());
     }
     return 0;
 }
@@ -193,10 +206,11 @@ int run_embed(const EmbedArgs& args, const GlobalArgs& global)
     {
         options.unit = parse_length_unit(args.unit);
     }
-    if (!args.record.empty() && (is_same_file(args.record, args.input) || args.record == args.output ||
-                                 args.record == args.key))
+    if (!args.record.empty() && (is_same_file(args.record, args.input) ||
+                                 args.record == args.output || args.record == args.key))
     {
-        throw InvalidOption("--record " + args.record + " must differ from the input, the output and the key.");
+        throw InvalidOption("--record " + args.record +
+                            " must differ from the input, the output and the key.");
     }
     if (!args.max_displacement.empty())
     {
@@ -209,8 +223,9 @@ int run_embed(const EmbedArgs& args, const GlobalArgs& global)
         original_before = recorded_file(args.input);
     }
     // Phases and a running clock on a terminal, after the first second; silent otherwise.
-    const EmbedReport report = with_progress("meshmark embed", global.quiet, options.progress,
-                                             [&] { return embed_file(args.input, args.output, args.key, options); });
+    const EmbedReport report =
+        with_progress("meshmark embed", global.quiet, options.progress,
+                      [&] { return embed_file(args.input, args.output, args.key, options); });
 
     const auto& stats = report.stats;
     // The record hashes the files as written (docs/evidence.md, "The embed record").
@@ -232,18 +247,21 @@ int run_embed(const EmbedArgs& args, const GlobalArgs& global)
     }
     if (!global.quiet && !report.stream_note.empty())
     {
-        std::fprintf(stderr, "meshmark: note: %s; embedded in memory.\n", report.stream_note.c_str());
+        std::fprintf(stderr, "meshmark: note: %s; embedded in memory.\n",
+                     report.stream_note.c_str());
     }
     if (!global.quiet && stats.shortened_to_span)
     {
         const int coefficients = 3 * modulated_modes(report.key.options);
-        std::fprintf(stderr,
-                     "meshmark: note: the vertices span only %d modes of the basis (they lie on a few curves "
-                     "or in a small patch), so the mark has %d repetitions of the payload, %d coefficients "
-                     "(an intact copy scores %s): a shorter mark than usual, weaker against remeshing "
-                     "and simplification.\n",
-                     stats.basis_span, report.key.options.repetitions, coefficients,
-                     format_number(std::sqrt(static_cast<double>(coefficients)), 3).c_str());
+        std::fprintf(
+            stderr,
+            "meshmark: note: the vertices span only %d modes of the basis (they lie on a few "
+            "curves "
+            "or in a small patch), so the mark has %d repetitions of the payload, %d coefficients "
+            "(an intact copy scores %s): a shorter mark than usual, weaker against remeshing "
+            "and simplification.\n",
+            stats.basis_span, report.key.options.repetitions, coefficients,
+            format_number(std::sqrt(static_cast<double>(coefficients)), 3).c_str());
     }
     if (!global.quiet && !report.strength_note.empty())
     {
@@ -255,30 +273,33 @@ int run_embed(const EmbedArgs& args, const GlobalArgs& global)
     }
     if (!global.quiet)
     {
-        const std::string surface =
-            stats.surface_rms_rel > 0.0 ? "surface distance RMS " + format_number(100.0 * stats.surface_rms_rel) +
-                                              "%" + in_unit(report, stats.surface_rms_rel) + ", vertex "
+        const std::string surface = stats.surface_rms_rel > 0.0
+                                        ? "surface distance RMS " +
+                                              format_number(100.0 * stats.surface_rms_rel) + "%" +
+                                              in_unit(report, stats.surface_rms_rel) + ", vertex "
                                         : "";
-        std::fprintf(stderr,
-                     "meshmark: embedded %zu bits into %s (%lld vertices) in %.3f s; %sdisplacement "
-                     "RMS %s%%%s, max %s%%%s of the bbox diagonal%s; key in %s%s%s\n",
-                     report.key.payload.size(), args.output.c_str(),
-                     static_cast<long long>(report.vertex_count), report.seconds.total, surface.c_str(),
-                     format_number(100.0 * stats.rms_displacement_rel).c_str(),
-                     in_unit(report, stats.rms_displacement_rel).c_str(),
-                     format_number(100.0 * stats.max_displacement_rel).c_str(),
-                     in_unit(report, stats.max_displacement_rel).c_str(),
-                     report.unit       ? ""
-                     : args.unit.empty() ? " (no unit known: see --unit)"
-                                         : " (embedded out of core: not in --unit)", args.key.c_str(),
-                     args.record.empty() ? "" : "; record in ", args.record.c_str());
+        std::fprintf(
+            stderr,
+            "meshmark: embedded %zu bits into %s (%lld vertices) in %.3f s; %sdisplacement "
+            "RMS %s%%%s, max %s%%%s of the bbox diagonal%s; key in %s%s%s\n",
+            report.key.payload.size(), args.output.c_str(),
+            static_cast<long long>(report.vertex_count), report.seconds.total, surface.c_str(),
+            format_number(100.0 * stats.rms_displacement_rel).c_str(),
+            in_unit(report, stats.rms_displacement_rel).c_str(),
+            format_number(100.0 * stats.max_displacement_rel).c_str(),
+            in_unit(report, stats.max_displacement_rel).c_str(),
+            report.unit         ? ""
+            : args.unit.empty() ? " (no unit known: see --unit)"
+                                : " (embedded out of core: not in --unit)",
+            args.key.c_str(), args.record.empty() ? "" : "; record in ", args.record.c_str());
         if (stats.weak_bits > 0)
         {
-            std::fprintf(stderr,
-                         "meshmark: warning: %d of the %d modulated coefficients are below a tenth of "
-                         "the largest; under the paper's rule the bits they carry are the first to "
-                         "fail (the additive rule has no such coefficients).\n",
-                         stats.weak_bits, 3 * modulated_modes(report.key.options));
+            std::fprintf(
+                stderr,
+                "meshmark: warning: %d of the %d modulated coefficients are below a tenth of "
+                "the largest; under the paper's rule the bits they carry are the first to "
+                "fail (the additive rule has no such coefficients).\n",
+                stats.weak_bits, 3 * modulated_modes(report.key.options));
         }
     }
     return 0;
@@ -326,14 +347,19 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
         "embed",
         "Watermark a mesh: write the marked copy and its key (JSON, mode 0600); keep both and the "
         "original (docs/cli.md)");
-    command->add_option("INPUT", args->input,
-                        "Original mesh (.ply .obj .off .stl .gltf .glb .3mf); never modified")
+    command
+        ->add_option("INPUT", args->input,
+                     "Original mesh (.ply .obj .off .stl .gltf .glb .3mf); never modified")
         ->required()
         ->check(CLI::ExistingFile);
-    command->add_option("-o,--output", args->output,
-                        "Watermarked mesh to write (with --recipient: a pattern containing {recipient})")
+    command
+        ->add_option(
+            "-o,--output", args->output,
+            "Watermarked mesh to write (with --recipient: a pattern containing {recipient})")
         ->required();
-    command->add_option("--key", args->key, "Key file to write (refuses to replace one unless --force)")
+    command
+        ->add_option("--key", args->key,
+                     "Key file to write (refuses to replace one unless --force)")
         ->required();
     auto* message = command->add_option("--message", args->message,
                                         "Payload: a text, hashed to the 3m payload bits");
@@ -345,8 +371,9 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
                      "eigenvectors (slow baseline; needs faces)")
         ->check(CLI::IsMember({"rbf", "laplacian"}))
         ->capture_default_str();
-    command->add_option("--basis-size", args->options.basis_size,
-                        "k, basis functions (RBF centers or Laplacian eigenvectors)")
+    command
+        ->add_option("--basis-size", args->options.basis_size,
+                     "k, basis functions (RBF centers or Laplacian eigenvectors)")
         ->capture_default_str();
     command
         ->add_option("--centers", args->centers,
@@ -354,8 +381,9 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
                      "survivors; needs faces)")
         ->check(CLI::IsMember({"random", "decimate"}))
         ->capture_default_str();
-    command->add_option("--coefficients", args->options.coefficients,
-                        "m, payload bits per axis (3m payload bits)")
+    command
+        ->add_option("--coefficients", args->options.coefficients,
+                     "m, payload bits per axis (3m payload bits)")
         ->capture_default_str();
     command
         ->add_option(
@@ -368,8 +396,9 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
         ->add_option("--first-mode", args->options.first_mode,
                      "First modulated mode (the lowest are nearly rigid motions)")
         ->capture_default_str();
-    command->add_option("--rule", args->rule,
-                        "additive: beta = alpha + b's (default); paper: beta = alpha(1 + b'rho)")
+    command
+        ->add_option("--rule", args->rule,
+                     "additive: beta = alpha + b's (default); paper: beta = alpha(1 + b'rho)")
         ->check(CLI::IsMember({"additive", "paper"}))
         ->capture_default_str();
     command->add_option("--strength", args->strength,
@@ -381,8 +410,9 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
             "surface: RMS distance between the surfaces (MRMS); vertex: RMS vertex displacement")
         ->check(CLI::IsMember({"surface", "vertex"}))
         ->capture_default_str();
-    command->add_option("--sigma-factor", args->options.sigma_factor,
-                        "RBF support = factor * bbox diagonal / 2")
+    command
+        ->add_option("--sigma-factor", args->options.sigma_factor,
+                     "RBF support = factor * bbox diagonal / 2")
         ->capture_default_str();
     command
         ->add_option("--gram-rows", args->options.gram_rows,
@@ -403,8 +433,9 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
         "--recipient", args->recipients,
         "Issue a traceable copy to this recipient (repeatable); -o holds {recipient}, --key is "
         "the family key");
-    command->add_option("--recipients", args->recipients_file,
-                        "File of recipient names, one per line ('#' comments), as --recipient")
+    command
+        ->add_option("--recipients", args->recipients_file,
+                     "File of recipient names, one per line ('#' comments), as --recipient")
         ->check(CLI::ExistingFile);
     command
         ->add_option("--recipient-modes", args->recipient_modes,
@@ -440,11 +471,13 @@ void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     command->add_flag("--force", args->force,
                       "Replace an existing key, or the input itself when -o names it (atomically)");
     add_global_flags(*command, global);
-    command->callback([args, &global, &runner, command]() {
-        args->has_seed = command->count("--seed") > 0;
-        args->has_repetitions = command->count("--repetitions") > 0;
-        runner = [args, &global]() { return run_embed(*args, global); };
-    });
+    command->callback(
+        [args, &global, &runner, command]()
+        {
+            args->has_seed = command->count("--seed") > 0;
+            args->has_repetitions = command->count("--repetitions") > 0;
+            runner = [args, &global]() { return run_embed(*args, global); };
+        });
 }
 
 }  // namespace meshmark::cli

@@ -11,12 +11,14 @@
 #include "meshmark/core/error.h"
 #include "meshmark/watermark/key.h"
 
-namespace meshmark::cli {
+namespace meshmark::cli
+{
 
 CLI::Validator non_negative()
 {
     return CLI::Validator(
-        [](std::string& text) -> std::string {
+        [](std::string& text) -> std::string
+        {
             double value = 0.0;
             if (!CLI::detail::lexical_cast(text, value) || !(value >= 0.0))
             {
@@ -30,7 +32,8 @@ CLI::Validator non_negative()
 CLI::Validator repetitions_choice()
 {
     return CLI::Validator(
-        [](std::string& text) -> std::string {
+        [](std::string& text) -> std::string
+        {
             if (text == "auto")
             {
                 text = std::to_string(EmbedOptions::kAutoRepetitions);
@@ -48,8 +51,10 @@ CLI::Validator repetitions_choice()
 
 void add_global_flags(CLI::App& command, GlobalArgs& global)
 {
-    command.add_option("--threads", global.threads, "Worker threads (0 = all cores); results are "
-                                                    "bit-identical for any value")
+    command
+        .add_option("--threads", global.threads,
+                    "Worker threads (0 = all cores); results are "
+                    "bit-identical for any value")
         ->check(CLI::Range(0, 1024))
         ->default_val(0);
     command.add_flag("-q,--quiet", global.quiet, "No progress or summary on stderr");
@@ -71,18 +76,19 @@ int main(int argc, char** argv)
     mallopt(M_MMAP_THRESHOLD, 32 << 20);
     mallopt(M_TRIM_THRESHOLD, 256 << 20);
 #endif
-    CLI::App app{"meshmark: robust invisible watermarks for 3D meshes (spectral RBF method of "
-                 "Wu & Kobbelt, with corrections).\n"
-                 "Exit codes: 0 success (detect: watermark found), 1 detect: not found, "
-                 "2 usage, 3 invalid input, 4 numerical failure, 5 internal error.",
-                 "meshmark"};
+    CLI::App app{
+        "meshmark: robust invisible watermarks for 3D meshes (spectral RBF method of "
+        "Wu & Kobbelt, with corrections).\n"
+        "Exit codes: 0 success (detect: watermark found), 1 detect: not found, "
+        "2 usage, 3 invalid input, 4 numerical failure, 5 internal error.",
+        "meshmark"};
     app.set_version_flag("--version", cli::kVersion);
     app.require_subcommand(1);
     cli::GlobalArgs global;
     cli::CommandRunner runner;
-    for (const auto register_command : {cli::register_demo, cli::register_embed, cli::register_detect,
-                                        cli::register_attack, cli::register_compare, cli::register_bench,
-                                        cli::register_catalog, cli::register_serve})
+    for (const auto register_command :
+         {cli::register_demo, cli::register_embed, cli::register_detect, cli::register_attack,
+          cli::register_compare, cli::register_bench, cli::register_catalog, cli::register_serve})
     {
         register_command(app, global, runner);
     }

@@ -5,14 +5,16 @@
 
 #include "meshmark/core/error.h"
 
-namespace meshmark::cli {
+namespace meshmark::cli
+{
 
 void PhaseProgressOptions::validate() const
 {
     if (!(delay_seconds >= 0.0) || !(refresh_seconds > 0.0) || stream == nullptr)
     {
-        throw InvalidOption("progress: the delay must be >= 0, the refresh interval > 0 and the "
-                            "stream set.");
+        throw InvalidOption(
+            "progress: the delay must be >= 0, the refresh interval > 0 and the "
+            "stream set.");
     }
 }
 
@@ -23,7 +25,10 @@ PhaseProgress::PhaseProgress(PhaseProgressOptions options)
     ticker_ = std::thread([this] { run_ticker(); });
 }
 
-PhaseProgress::~PhaseProgress() { finish(); }
+PhaseProgress::~PhaseProgress()
+{
+    finish();
+}
 
 bool PhaseProgress::should_show(bool quiet, std::FILE* stream)
 {
@@ -41,7 +46,8 @@ void PhaseProgress::update(std::string_view phase, double fraction)
     const auto now = Clock::now();
     if (fraction >= 1.0)
     {
-        done_.emplace_back(std::string(phase), std::chrono::duration<double>(now - phase_start_).count());
+        done_.emplace_back(std::string(phase),
+                           std::chrono::duration<double>(now - phase_start_).count());
         current_.clear();
         phase_start_ = now;
     }

@@ -15,7 +15,8 @@
 
 #include "meshmark/pipeline/progress.h"
 
-namespace meshmark::cli {
+namespace meshmark::cli
+{
 
 /// Options of PhaseProgress.
 struct PhaseProgressOptions

@@ -6,7 +6,8 @@
 #include <cstdio>
 #include <iostream>
 
-namespace meshmark::cli {
+namespace meshmark::cli
+{
 
 void print_json(const nlohmann::json& object)
 {
@@ -22,8 +23,9 @@ std::string format_number(double value, int digits)
 
 std::string shell_word(const std::string& word)
 {
-    const bool is_safe = !word.empty() && word.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
-                                                                 "0123456789_-+=.,/:@%") == std::string::npos;
+    const bool is_safe = !word.empty() && word.find_first_not_of(
+                                              "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
+                                              "0123456789_-+=.,/:@%") == std::string::npos;
     if (is_safe)
     {
         return word;

@@ -9,8 +9,8 @@
 #include "meshmark/pipeline/embed_file.h"
 #include "meshmark/pipeline/report_json.h"  // the --json reports (shared with the Python package)
 
-namespace meshmark::cli {
-
+namespace meshmark::cli
+{
 
 /// Prints a JSON object on stdout (one line per object, for scripts).
 void print_json(const nlohmann::json& object);

@@ -2,18 +2,21 @@
 // `meshmark serve`: the issuing service over a catalogue (docs/service.md).
 #include <csignal>
 #include <limits>
-#include <malloc.h>
 #include <memory>
-#include <pthread.h>
 #include <string>
 #include <thread>
+
+#include <malloc.h>
+#include <pthread.h>
 
 #include "commands.h"
 #include "meshmark/core/error.h"
 #include "service.h"
 
-namespace meshmark::cli {
-namespace {
+namespace meshmark::cli
+{
+namespace
+{
 
 struct ServeArgs
 {
@@ -48,9 +51,12 @@ void parse_listen(const std::string& text, std::string& host, int& port)
     {
         used = 0;
     }
-    if (colon == std::string::npos || used == 0 || used != text.size() - colon - 1 || port < 0 || port > 65535)
+    if (colon == std::string::npos || used == 0 || used != text.size() - colon - 1 || port < 0 ||
+        port > 65535)
     {
-        throw InvalidOption("--listen takes HOST:PORT (e.g. 127.0.0.1:8750; port 0: any free one), got '" + text + "'.");
+        throw InvalidOption(
+            "--listen takes HOST:PORT (e.g. 127.0.0.1:8750; port 0: any free one), got '" + text +
+            "'.");
     }
     host = text.substr(0, colon);
     if (host.size() >= 2 && host.front() == '[' && host.back() == ']')
@@ -74,7 +80,8 @@ int run_serve(const ServeArgs& args, const GlobalArgs& global)
     options.workers = args.workers > 0 ? args.workers : global.threads;
     options.connections = args.connections;
     options.read_timeout = std::chrono::seconds(static_cast<long>(std::ceil(args.read_timeout)));
-    options.queue_timeout = std::chrono::milliseconds(static_cast<long>(args.queue_timeout * 1000.0));
+    options.queue_timeout =
+        std::chrono::milliseconds(static_cast<long>(args.queue_timeout * 1000.0));
     options.scan_candidates = args.candidates;
     options.max_false_positive = args.max_false_positive;
     options.lock_timeout = lock_timeout_of(args.lock_timeout);
@@ -106,11 +113,13 @@ int run_serve(const ServeArgs& args, const GlobalArgs& global)
     std::signal(SIGPIPE, SIG_IGN);  // a client gone mid-answer is an error on its socket only
 
     service::Service server(options);
-    std::thread waiter([&] {
-        int signal = 0;
-        sigwait(&stopping, &signal);
-        server.stop();
-    });
+    std::thread waiter(
+        [&]
+        {
+            int signal = 0;
+            sigwait(&stopping, &signal);
+            server.stop();
+        });
     server.run();
     pthread_kill(waiter.native_handle(), SIGTERM);  // wakes it when run() ended on its own
     waiter.join();
@@ -124,38 +133,50 @@ void register_serve(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     auto args = std::make_shared<ServeArgs>();
     auto* serve = app.add_subcommand(
         "serve", "Serve a catalogue over HTTP: a marked copy per buyer, scans (docs/service.md)");
-    serve->add_option("--catalog", args->catalog, "Catalogue file (meshmark catalog add)")->required();
+    serve->add_option("--catalog", args->catalog, "Catalogue file (meshmark catalog add)")
+        ->required();
     serve->add_option("--listen", args->listen, "HOST:PORT to listen on; port 0 picks a free one")
         ->capture_default_str();
-    serve->add_option("--token-file", args->token_file,
-                      "Bearer token file (default CATALOG.token; created, mode 0600, when missing)");
-    serve->add_option("--memory-budget", args->memory_budget, "Memory for warm assets (originals and bases)")
+    serve->add_option(
+        "--token-file", args->token_file,
+        "Bearer token file (default CATALOG.token; created, mode 0600, when missing)");
+    serve
+        ->add_option("--memory-budget", args->memory_budget,
+                     "Memory for warm assets (originals and bases)")
         ->capture_default_str();
-    serve->add_option("--workers", args->workers, "Requests computed at once (0: --threads, or the cores)")
+    serve
+        ->add_option("--workers", args->workers,
+                     "Requests computed at once (0: --threads, or the cores)")
         ->check(CLI::NonNegativeNumber);
     serve->add_option("--connections", args->connections, "Client connections served at once")
         ->check(CLI::Range(1, 4096))
         ->capture_default_str();
     serve->add_option("--max-upload", args->max_upload, "Largest request body (a suspect to scan)")
         ->capture_default_str();
-    serve->add_option("--read-timeout", args->read_timeout, "Seconds a client may stay silent mid-request")
+    serve
+        ->add_option("--read-timeout", args->read_timeout,
+                     "Seconds a client may stay silent mid-request")
         ->check(CLI::Range(1.0, 3600.0))
         ->capture_default_str();
-    serve->add_option("--queue-timeout", args->queue_timeout,
-                      "Seconds a request may wait for a worker before a 503")
+    serve
+        ->add_option("--queue-timeout", args->queue_timeout,
+                     "Seconds a request may wait for a worker before a 503")
         ->check(CLI::Range(0.0, 3600.0))
         ->capture_default_str();
     serve->add_option("--candidates", args->candidates, "Scans: assets tried per suspect")
         ->check(CLI::Range(1, 10000))
         ->capture_default_str();
-    serve->add_option("--max-fpp", args->max_false_positive, "Scans: bound on a false claim per suspect")
+    serve
+        ->add_option("--max-fpp", args->max_false_positive,
+                     "Scans: bound on a false claim per suspect")
         ->check(CLI::Range(1e-300, 1.0))
         ->capture_default_str();
     serve->add_option("--lock-timeout", args->lock_timeout, "Seconds to wait for a busy catalogue")
         ->check(non_negative())
         ->capture_default_str();
     add_global_flags(*serve, global);
-    serve->callback([args, &global, &runner] { runner = [args, &global] { return run_serve(*args, global); }; });
+    serve->callback([args, &global, &runner]
+                    { runner = [args, &global] { return run_serve(*args, global); }; });
 }
 
 }  // namespace meshmark::cli

@@ -45,8 +45,15 @@ int main(int argc, char** argv)
     std::vector<std::string> specs(argv + 2, argv + argc);
     if (specs.empty())
     {
-        specs = {"similarity", "similarity,noise=0.002", "simplify=0.5,similarity", "simplify=0.2",
-                 "remesh=0.8", "smooth=5", "crop=0.75,similarity", "crop=0.5,similarity", "reorder,similarity"};
+        specs = {"similarity",
+                 "similarity,noise=0.002",
+                 "simplify=0.5,similarity",
+                 "simplify=0.2",
+                 "remesh=0.8",
+                 "smooth=5",
+                 "crop=0.75,similarity",
+                 "crop=0.5,similarity",
+                 "reorder,similarity"};
     }
     std::vector<TriangleMesh> meshes;
     std::vector<ShapeSignature> index;
@@ -83,7 +90,9 @@ int main(int argc, char** argv)
     // MESHMARK_STUDY_ATTACKED=N: attack only the first N meshes of the list (the rest are
     // distractors); otherwise up to 60 spread over the list.
     const char* attacked = std::getenv("MESHMARK_STUDY_ATTACKED");
-    const std::size_t first = attacked != nullptr ? std::min<std::size_t>(meshes.size(), std::stoul(attacked)) : meshes.size();
+    const std::size_t first = attacked != nullptr
+                                  ? std::min<std::size_t>(meshes.size(), std::stoul(attacked))
+                                  : meshes.size();
     const std::size_t step = attacked != nullptr ? 1 : std::max<std::size_t>(1, meshes.size() / 60);
     std::map<std::string, std::vector<int>> ranks;
     double verify_seconds = 0.0;
@@ -100,7 +109,8 @@ int main(int argc, char** argv)
                     // error, only the fraction's.
                     CropOptions crop_options;
                     crop_options.vertex_fraction = std::stod(spec.substr(13));
-                    crop_options.direction = -Eigen::Vector3d(std::sqrt(1.0 - (1.0 - 1.0 / 64) * (1.0 - 1.0 / 64)), 0.0, 1.0 - 1.0 / 64);
+                    crop_options.direction = -Eigen::Vector3d(
+                        std::sqrt(1.0 - (1.0 - 1.0 / 64) * (1.0 - 1.0 / 64)), 0.0, 1.0 - 1.0 / 64);
                     Rng rng(1);
                     suspect = crop(meshes[a], crop_options, rng).mesh;
                 }
@@ -135,10 +145,13 @@ int main(int argc, char** argv)
                 const auto t0 = std::chrono::steady_clock::now();
                 for (std::size_t k = 0; k < m; ++k)
                 {
-                    const RegistrationResult fit = register_to_reference(s_points, samples[d[k].second], quick);
-                    d[k].first = static_cast<float>(fit.rms_error + (fit.overlap_fraction < 0.8 ? 1.0 : 0.0));
+                    const RegistrationResult fit =
+                        register_to_reference(s_points, samples[d[k].second], quick);
+                    d[k].first = static_cast<float>(fit.rms_error +
+                                                    (fit.overlap_fraction < 0.8 ? 1.0 : 0.0));
                 }
-                verify_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+                verify_seconds +=
+                    std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
                 std::sort(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(m));
             }
             int rank = 0;
@@ -148,15 +161,18 @@ int main(int argc, char** argv)
             }
             ranks[spec].push_back(rank);
             std::printf("%s\t%s\t%d\t%.4f\t%.4f\n", names[a].c_str(), spec.c_str(), rank,
-                        static_cast<double>(d[static_cast<std::size_t>(rank)].first), static_cast<double>(d[0].first));
+                        static_cast<double>(d[static_cast<std::size_t>(rank)].first),
+                        static_cast<double>(d[0].first));
         }
     }
     std::fprintf(stderr, "verification: %.1f s in all\n", verify_seconds);
     for (const auto& [spec, r] : ranks)
     {
-        const auto within = [&](int k) { return std::count_if(r.begin(), r.end(), [&](int x) { return x < k; }); };
-        std::fprintf(stderr, "%-28s n=%3zu top1 %3ld top4 %3ld top8 %3ld top32 %3ld max %d\n", spec.c_str(), r.size(),
-                     within(1), within(4), within(8), within(32), *std::max_element(r.begin(), r.end()));
+        const auto within = [&](int k)
+        { return std::count_if(r.begin(), r.end(), [&](int x) { return x < k; }); };
+        std::fprintf(stderr, "%-28s n=%3zu top1 %3ld top4 %3ld top8 %3ld top32 %3ld max %d\n",
+                     spec.c_str(), r.size(), within(1), within(4), within(8), within(32),
+                     *std::max_element(r.begin(), r.end()));
     }
     return 0;
 }

@@ -17,7 +17,8 @@
 #include "meshmark/basis/rbf_basis.h"
 #include "meshmark/core/bounding_box.h"
 
-namespace {
+namespace
+{
 
 using namespace meshmark;
 
@@ -58,7 +59,8 @@ void BM_BasisPass(benchmark::State& state)
     const auto threads = static_cast<int>(state.range(1));
     for (auto _ : state)
     {
-        const RbfBasis basis(position_rows(s.mesh.V, s.active), s.centers, s.sigma, s.origin, threads);
+        const RbfBasis basis(position_rows(s.mesh.V, s.active), s.centers, s.sigma, s.origin,
+                             threads);
         benchmark::DoNotOptimize(basis.singular_values().data());
     }
     state.counters["vertices"] = static_cast<double>(s.mesh.V.rows());
@@ -97,13 +99,15 @@ void BM_ProjectDesign(benchmark::State& state)
     const RbfBasis basis(position_rows(s.mesh.V, s.active), s.centers, s.sigma, s.origin, threads);
     const int modes = basis.well_conditioned_modes(1e-8);  // as the extraction chooses them
     constexpr std::size_t kWidth = 81;
-    const auto fill = [&](std::span<const std::int32_t> rows, const double* U, double* X) {
+    const auto fill = [&](std::span<const std::int32_t> rows, const double* U, double* X)
+    {
         for (std::size_t a = 0; a < rows.size(); ++a)
         {
             const auto i = rows[a];
             for (std::size_t c = 0; c < kWidth; ++c)
             {
-                X[a * kWidth + c] = U[a * kModes + c % kModes] * s.mesh.V(i, static_cast<Eigen::Index>(c % 3));
+                X[a * kWidth + c] =
+                    U[a * kModes + c % kModes] * s.mesh.V(i, static_cast<Eigen::Index>(c % 3));
             }
         }
     };

@@ -6,14 +6,14 @@
 #include <filesystem>
 #include <string>
 
-#include <unistd.h>
-
 #include <benchmark/benchmark.h>
+#include <unistd.h>
 
 #include "bench_mesh.h"
 #include "meshmark/io/mesh_io.h"
 
-namespace {
+namespace
+{
 
 using namespace meshmark;
 namespace fs = std::filesystem;

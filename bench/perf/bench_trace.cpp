@@ -24,7 +24,8 @@ void BM_TraceRecipients(benchmark::State& state)
     const auto recipients = static_cast<std::uint32_t>(state.range(0));
     const TriangleMesh mesh = lumpy_ellipsoid(4);
     EmbedOptions options;
-    options.repetitions = kFamilyRepetitions;  // a family key's owner mark, as `embed --recipient` makes it
+    options.repetitions =
+        kFamilyRepetitions;  // a family key's owner mark, as `embed --recipient` makes it
     Key key = make_key(options, 11);
     key.original = fingerprint(mesh);
     key.recipients = RecipientCodes{};
@@ -105,7 +106,13 @@ void BM_CountedTail(benchmark::State& state)
 
 // Args: n (48 and 96: a family key's and a small mesh's owner mark; 120: the default from
 // 5,000 vertices; 312: a family key's joint owner-and-code score).
-BENCHMARK(BM_CountedTail)->ArgName("n")->Arg(48)->Arg(96)->Arg(120)->Arg(312)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_CountedTail)
+    ->ArgName("n")
+    ->Arg(48)
+    ->Arg(96)
+    ->Arg(120)
+    ->Arg(312)
+    ->Unit(benchmark::kMillisecond);
 
 // Args: recipients, threads. Wall time (several threads score the recipients of a large key).
 BENCHMARK(BM_TraceRecipients)

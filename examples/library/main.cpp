@@ -16,7 +16,8 @@
 
 namespace fs = std::filesystem;
 
-namespace {
+namespace
+{
 
 void print(const char* what, const meshmark::Decision& decision)
 {
@@ -56,15 +57,18 @@ int main(int argc, char** argv)
         options.message = "(c) meshmark library example";
         options.seed = 2026;
         options.force = true;  // the example may be run again into the same folder
-        const meshmark::EmbedReport embedded = meshmark::embed_file(input, marked, key_path, options);
-        std::printf("embedded %zu bits into %lld vertices: RMS displacement %.3g of the bbox "
-                    "diagonal\n",
-                    embedded.key.payload.size(), static_cast<long long>(embedded.vertex_count),
-                    embedded.stats.rms_displacement_rel);
+        const meshmark::EmbedReport embedded =
+            meshmark::embed_file(input, marked, key_path, options);
+        std::printf(
+            "embedded %zu bits into %lld vertices: RMS displacement %.3g of the bbox "
+            "diagonal\n",
+            embedded.key.payload.size(), static_cast<long long>(embedded.vertex_count),
+            embedded.stats.rms_displacement_rel);
 
         // 2. Detect with the file pipeline: in the marked copy, then in the original itself.
         const meshmark::DetectReport in_marked = meshmark::detect_file(marked, input, key_path, {});
-        const meshmark::DetectReport in_original = meshmark::detect_file(input, input, key_path, {});
+        const meshmark::DetectReport in_original =
+            meshmark::detect_file(input, input, key_path, {});
         print("marked copy", in_marked.decision);
         print("original", in_original.decision);
 
@@ -74,7 +78,8 @@ int main(int argc, char** argv)
         const meshmark::EmbedResult result = meshmark::embed(original, options);
         meshmark::TriangleMesh marked_mesh = original;
         marked_mesh.V = result.positions;
-        const meshmark::DetectReport in_memory = meshmark::detect(marked_mesh, original, result.key);
+        const meshmark::DetectReport in_memory =
+            meshmark::detect(marked_mesh, original, result.key);
         print("in memory", in_memory.decision);
 
         const bool is_right = in_marked.decision.is_present && !in_original.decision.is_present &&

@@ -25,7 +25,8 @@
 #include "meshmark/watermark/key.h"
 #include "meshmark/watermark/watermark.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// What the in-memory embed made.
 struct EmbedResult
@@ -58,7 +59,7 @@ struct EmbedResult
 /// \throws IoError when \p original is not the key's original, InvalidMesh when the key's
 /// basis cannot use it, InvalidOption for bad options or, with registration off, a suspect
 /// that does not correspond to the original; NumericalError.
-[[nodiscard]] DetectReport detect(const TriangleMesh& suspect, const TriangleMesh& original, const Key& key,
-                                  const DetectFileOptions& options = {});
+[[nodiscard]] DetectReport detect(const TriangleMesh& suspect, const TriangleMesh& original,
+                                  const Key& key, const DetectFileOptions& options = {});
 
 }  // namespace meshmark

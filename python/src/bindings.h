@@ -8,7 +8,8 @@
 #include "meshmark/pipeline/detect_file.h"
 #include "meshmark/pipeline/embed_file.h"
 
-namespace meshmark::python {
+namespace meshmark::python
+{
 
 namespace py = pybind11;
 
@@ -32,13 +33,14 @@ void fill_embed_options(const EmbedKeywords& keywords, EmbedMeshOptions& options
 /// \brief The detect keywords shared by detect() and detect_file().
 /// \p pairs: None, a point-pair file (the CLI's --pairs) or a (k, 6) array of suspect and
 /// original points.
-DetectFileOptions make_detect_options(const std::string& verdict, double max_fpp, double threshold, double epsilon,
-                                      bool allow_registration, py::handle pairs, int threads);
+DetectFileOptions make_detect_options(const std::string& verdict, double max_fpp, double threshold,
+                                      double epsilon, bool allow_registration, py::handle pairs,
+                                      int threads);
 
 void bind_errors(py::module_& m);
 void bind_key(py::module_& m);
-void bind_memory(py::module_& m);  ///< embed, detect, DetectResult, attack_mesh
-void bind_files(py::module_& m);   ///< embed_file, detect_file, attack, compare
-void bind_catalog(py::module_& m); ///< Catalog
+void bind_memory(py::module_& m);   ///< embed, detect, DetectResult, attack_mesh
+void bind_files(py::module_& m);    ///< embed_file, detect_file, attack, compare
+void bind_catalog(py::module_& m);  ///< Catalog
 
 }  // namespace meshmark::python

@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: MIT
 // meshmark.Catalog: the catalogue of `meshmark catalog ...` (docs/catalog.md), each call returning
 // the matching command's --json report.
+#include "meshmark/catalog/catalog.h"
+
 #include <chrono>
 #include <memory>
 #include <optional>
@@ -10,15 +12,16 @@
 
 #include "bindings.h"
 #include "convert.h"
-#include "meshmark/catalog/catalog.h"
 #include "meshmark/catalog/catalog_add.h"
 #include "meshmark/catalog/catalog_json.h"
 #include "meshmark/catalog/catalog_scan.h"
 #include "meshmark/core/error.h"
 #include "meshmark/pipeline/report_json.h"
 
-namespace meshmark::python {
-namespace {
+namespace meshmark::python
+{
+namespace
+{
 
 using Path = std::filesystem::path;
 
@@ -31,7 +34,8 @@ std::chrono::milliseconds timeout_of(double seconds)
     return std::chrono::milliseconds(static_cast<std::int64_t>(1000.0 * seconds));
 }
 
-constexpr const char* kCatalogDoc = R"(A catalogue of marked assets (an SQLite file): `meshmark catalog ...`.
+constexpr const char* kCatalogDoc =
+    R"(A catalogue of marked assets (an SQLite file): `meshmark catalog ...`.
 
 Catalog(path, create=False, lock_timeout=60): opens the catalogue; create=True makes it when
 missing (as `catalog add` does). Safe to use from several threads and processes at once. Each
@@ -42,17 +46,22 @@ method returns the matching command's --json report as a dict (list: the list of
 void bind_catalog(py::module_& m)
 {
     py::class_<Catalog, std::shared_ptr<Catalog>>(m, "Catalog", kCatalogDoc)
-        .def(py::init([](const Path& path, bool create, double lock_timeout) {
-                 return std::make_shared<Catalog>(path, create ? Catalog::Open::CreateIfMissing : Catalog::Open::Existing,
-                                                  timeout_of(lock_timeout));
-             }),
+        .def(py::init(
+                 [](const Path& path, bool create, double lock_timeout)
+                 {
+                     return std::make_shared<Catalog>(
+                         path, create ? Catalog::Open::CreateIfMissing : Catalog::Open::Existing,
+                         timeout_of(lock_timeout));
+                 }),
              py::arg("path"), py::kw_only(), py::arg("create") = false,
              py::arg("lock_timeout") = std::chrono::duration<double>(kDefaultLockTimeout).count())
         .def_property_readonly("path", &Catalog::path)
         .def(
             "add",
-            [](Catalog& catalog, const std::vector<Path>& inputs, const Path& output, py::object seed,
-               py::object strength, py::object message, int jobs, bool force, int threads) {
+            [](Catalog& catalog, const std::vector<Path>& inputs, const Path& output,
+               py::object seed, py::object strength, py::object message, int jobs, bool force,
+               int threads)
+            {
                 CatalogAddOptions options;
                 if (!seed.is_none())
                 {
@@ -79,12 +88,15 @@ void bind_catalog(py::module_& m)
             py::arg("inputs"), py::arg("output"), py::kw_only(), py::arg("seed") = py::none(),
             py::arg("strength") = py::none(), py::arg("message") = py::none(), py::arg("jobs") = 0,
             py::arg("force") = false, py::arg("threads") = 0,
-            "Mark every mesh file under inputs (files and folders) into the folder output and record "
-            "them: `meshmark catalog add CATALOG INPUTS... -o OUTPUT --json`. One file's failure is "
+            "Mark every mesh file under inputs (files and folders) into the folder output and "
+            "record "
+            "them: `meshmark catalog add CATALOG INPUTS... -o OUTPUT --json`. One file's failure "
+            "is "
             "its outcome; running it again finishes an interrupted call.")
         .def(
             "list",
-            [](const Catalog& catalog) {
+            [](const Catalog& catalog)
+            {
                 nlohmann::json assets = nlohmann::json::array();
                 for (const CatalogAsset& a : catalog.assets())
                 {
@@ -95,8 +107,10 @@ void bind_catalog(py::module_& m)
             "The assets, as `meshmark catalog list --json` lists them (no key material).")
         .def(
             "issue",
-            [](Catalog& catalog, const std::string& asset, const std::vector<std::string>& recipients,
-               const std::string& output_pattern, double lock_timeout, int threads) {
+            [](Catalog& catalog, const std::string& asset,
+               const std::vector<std::string>& recipients, const std::string& output_pattern,
+               double lock_timeout, int threads)
+            {
                 CatalogIssueOptions options;
                 options.recipients = recipients;
                 options.lock_timeout = timeout_of(lock_timeout);
@@ -106,7 +120,8 @@ void bind_catalog(py::module_& m)
                     py::gil_scoped_release release;
                     report.emplace(catalog_issue(catalog, asset, output_pattern, options));
                 }
-                nlohmann::json out = embed_recipients_report_json(*report, asset, catalog.path().string());
+                nlohmann::json out =
+                    embed_recipients_report_json(*report, asset, catalog.path().string());
                 out.erase("key");
                 out["catalog"] = catalog.path().string();
                 out["asset"] = asset;
@@ -115,13 +130,16 @@ void bind_catalog(py::module_& m)
             py::arg("asset"), py::arg("recipients"), py::arg("output_pattern"), py::kw_only(),
             py::arg("lock_timeout") = std::chrono::duration<double>(kDefaultLockTimeout).count(),
             py::arg("threads") = 0,
-            "Issue traceable copies of an asset (output_pattern holds {recipient}): `meshmark catalog "
-            "issue CATALOG ASSET --recipient NAME... -o PATTERN --json`. Each name is recorded before "
+            "Issue traceable copies of an asset (output_pattern holds {recipient}): `meshmark "
+            "catalog "
+            "issue CATALOG ASSET --recipient NAME... -o PATTERN --json`. Each name is recorded "
+            "before "
             "any copy is written; a known name gets the same bytes again.")
         .def(
             "scan",
-            [](const Catalog& catalog, const std::vector<Path>& suspects, int candidates, bool all_candidates,
-               double max_fpp, int threads) {
+            [](const Catalog& catalog, const std::vector<Path>& suspects, int candidates,
+               bool all_candidates, double max_fpp, int threads)
+            {
                 CatalogScanOptions options;
                 options.candidates = candidates;
                 options.stop_at_match = !all_candidates;
@@ -134,18 +152,22 @@ void bind_catalog(py::module_& m)
                 }
                 return to_python(catalog_scan_json(catalog, *report, options));
             },
-            py::arg("suspects"), py::kw_only(), py::arg("candidates") = CatalogScanOptions{}.candidates,
-            py::arg("all_candidates") = false, py::arg("max_fpp") = DetectOptions{}.max_false_positive,
-            py::arg("threads") = 0,
-            "Which assets (and whose copies) suspects were made from: `meshmark catalog scan CATALOG "
+            py::arg("suspects"), py::kw_only(),
+            py::arg("candidates") = CatalogScanOptions{}.candidates,
+            py::arg("all_candidates") = false,
+            py::arg("max_fpp") = DetectOptions{}.max_false_positive, py::arg("threads") = 0,
+            "Which assets (and whose copies) suspects were made from: `meshmark catalog scan "
+            "CATALOG "
             "SUSPECT... --json`. The bound max_fpp holds per suspect over the whole catalogue.")
         .def(
             "key",
-            [](const Catalog& catalog, const std::string& asset) {
+            [](const Catalog& catalog, const std::string& asset)
+            {
                 const std::optional<CatalogAsset> found = catalog.asset(asset);
                 if (!found)
                 {
-                    throw InvalidOption(catalog.path().string() + ": no asset '" + asset + "' in the catalogue.");
+                    throw InvalidOption(catalog.path().string() + ": no asset '" + asset +
+                                        "' in the catalogue.");
                 }
                 return found->key;
             },

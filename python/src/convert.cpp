@@ -7,8 +7,10 @@
 
 #include "meshmark/core/error.h"
 
-namespace meshmark::python {
-namespace {
+namespace meshmark::python
+{
+namespace
+{
 
 std::string shape_text(const py::array& array)
 {
@@ -31,7 +33,8 @@ py::array as_array(py::handle object, const std::string& what, const char* expec
     }
     if (array.ndim() != 2 || array.shape(1) != 3)
     {
-        throw InvalidMesh(what + ": expected " + expected + ", got an array of shape " + shape_text(array) + ".");
+        throw InvalidMesh(what + ": expected " + expected + ", got an array of shape " +
+                          shape_text(array) + ".");
     }
     return array;
 }
@@ -47,8 +50,8 @@ Positions positions_from(py::handle object, const std::string& what)
     const char kind = array.dtype().kind();
     if (kind != 'f' && kind != 'i' && kind != 'u')
     {
-        throw InvalidMesh(what + ": expected real coordinates, got dtype " + std::string(py::str(array.dtype())) +
-                          ".");
+        throw InvalidMesh(what + ": expected real coordinates, got dtype " +
+                          std::string(py::str(array.dtype())) + ".");
     }
     // No copy here when the array already is C-contiguous float64; the one copy is into the mesh.
     using Doubles = py::array_t<double, py::array::c_style | py::array::forcecast>;
@@ -60,7 +63,8 @@ Positions positions_from(py::handle object, const std::string& what)
     Positions positions(doubles.shape(0), 3);
     if (positions.size() > 0)
     {
-        std::memcpy(positions.data(), doubles.data(), sizeof(double) * static_cast<std::size_t>(positions.size()));
+        std::memcpy(positions.data(), doubles.data(),
+                    sizeof(double) * static_cast<std::size_t>(positions.size()));
     }
     return positions;
 }
@@ -81,26 +85,30 @@ Faces faces_from(py::handle object, Eigen::Index vertex_count, const std::string
     if (kind == 'u' && array.itemsize() == 8)
     {
         // uint64 indices beyond int64 would wrap in the conversion below; none can be in range.
-        const auto unsigned_indices = py::array_t<std::uint64_t, py::array::c_style | py::array::forcecast>::ensure(array);
+        const auto unsigned_indices =
+            py::array_t<std::uint64_t, py::array::c_style | py::array::forcecast>::ensure(array);
         const std::uint64_t* data = unsigned_indices.data();
         for (py::ssize_t i = 0; i < unsigned_indices.size(); ++i)
         {
             if (data[i] >= static_cast<std::uint64_t>(vertex_count))
             {
-                throw InvalidMesh(what + ": face " + std::to_string(i / 3) + " uses vertex " + std::to_string(data[i]) +
-                                  ", but there are " + std::to_string(vertex_count) + " vertices.");
+                throw InvalidMesh(what + ": face " + std::to_string(i / 3) + " uses vertex " +
+                                  std::to_string(data[i]) + ", but there are " +
+                                  std::to_string(vertex_count) + " vertices.");
             }
         }
     }
-    const auto indices = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(array);
+    const auto indices =
+        py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(array);
     Faces faces(indices.shape(0), 3);
     const std::int64_t* data = indices.data();
     for (py::ssize_t i = 0; i < indices.size(); ++i)
     {
         if (data[i] < 0 || data[i] >= vertex_count)
         {
-            throw InvalidMesh(what + ": face " + std::to_string(i / 3) + " uses vertex " + std::to_string(data[i]) +
-                              ", but indices must be in [0, " + std::to_string(vertex_count) + ").");
+            throw InvalidMesh(what + ": face " + std::to_string(i / 3) + " uses vertex " +
+                              std::to_string(data[i]) + ", but indices must be in [0, " +
+                              std::to_string(vertex_count) + ").");
         }
         faces.data()[i] = static_cast<std::int32_t>(data[i]);
     }
@@ -124,57 +132,58 @@ py::array_t<double> to_numpy(Positions&& positions)
 {
     auto* owned = new Positions(std::move(positions));
     py::capsule owner(owned, [](void* p) { delete static_cast<Positions*>(p); });
-    return py::array_t<double>({owned->rows(), Eigen::Index{3}},
-                               {static_cast<py::ssize_t>(3 * sizeof(double)), static_cast<py::ssize_t>(sizeof(double))},
-                               owned->data(), owner);
+    return py::array_t<double>(
+        {owned->rows(), Eigen::Index{3}},
+        {static_cast<py::ssize_t>(3 * sizeof(double)), static_cast<py::ssize_t>(sizeof(double))},
+        owned->data(), owner);
 }
 
 py::array_t<std::int32_t> to_numpy(Faces&& faces)
 {
     auto* owned = new Faces(std::move(faces));
     py::capsule owner(owned, [](void* p) { delete static_cast<Faces*>(p); });
-    return py::array_t<std::int32_t>(
-        {owned->rows(), Eigen::Index{3}},
-        {static_cast<py::ssize_t>(3 * sizeof(std::int32_t)), static_cast<py::ssize_t>(sizeof(std::int32_t))},
-        owned->data(), owner);
+    return py::array_t<std::int32_t>({owned->rows(), Eigen::Index{3}},
+                                     {static_cast<py::ssize_t>(3 * sizeof(std::int32_t)),
+                                      static_cast<py::ssize_t>(sizeof(std::int32_t))},
+                                     owned->data(), owner);
 }
 
 py::object to_python(const nlohmann::json& value)
 {
     switch (value.type())
     {
-    case nlohmann::json::value_t::null:
-        return py::none();
-    case nlohmann::json::value_t::boolean:
-        return py::bool_(value.get<bool>());
-    case nlohmann::json::value_t::number_integer:
-        return py::int_(value.get<std::int64_t>());
-    case nlohmann::json::value_t::number_unsigned:
-        return py::int_(value.get<std::uint64_t>());
-    case nlohmann::json::value_t::number_float:
-        return py::float_(value.get<double>());
-    case nlohmann::json::value_t::string:
-        return py::str(value.get_ref<const std::string&>());
-    case nlohmann::json::value_t::array:
-    {
-        py::list list;
-        for (const auto& item : value)
+        case nlohmann::json::value_t::null:
+            return py::none();
+        case nlohmann::json::value_t::boolean:
+            return py::bool_(value.get<bool>());
+        case nlohmann::json::value_t::number_integer:
+            return py::int_(value.get<std::int64_t>());
+        case nlohmann::json::value_t::number_unsigned:
+            return py::int_(value.get<std::uint64_t>());
+        case nlohmann::json::value_t::number_float:
+            return py::float_(value.get<double>());
+        case nlohmann::json::value_t::string:
+            return py::str(value.get_ref<const std::string&>());
+        case nlohmann::json::value_t::array:
         {
-            list.append(to_python(item));
+            py::list list;
+            for (const auto& item : value)
+            {
+                list.append(to_python(item));
+            }
+            return std::move(list);
         }
-        return std::move(list);
-    }
-    case nlohmann::json::value_t::object:
-    {
-        py::dict dict;
-        for (const auto& [key, item] : value.items())
+        case nlohmann::json::value_t::object:
         {
-            dict[py::str(key)] = to_python(item);
+            py::dict dict;
+            for (const auto& [key, item] : value.items())
+            {
+                dict[py::str(key)] = to_python(item);
+            }
+            return std::move(dict);
         }
-        return std::move(dict);
-    }
-    default:
-        return py::none();
+        default:
+            return py::none();
     }
 }
 
@@ -192,7 +201,8 @@ std::optional<std::uint64_t> seed_from(py::handle seed, const char* name)
     const py::int_ value = py::reinterpret_borrow<py::int_>(seed);
     if (value < py::int_(0) || value > py::int_(std::numeric_limits<std::uint64_t>::max()))
     {
-        throw InvalidOption(std::string(name) + " must be in [0, 2^64), got " + std::string(py::str(seed)) + ".");
+        throw InvalidOption(std::string(name) + " must be in [0, 2^64), got " +
+                            std::string(py::str(seed)) + ".");
     }
     return value.cast<std::uint64_t>();
 }

@@ -13,7 +13,8 @@
 
 #include "meshmark/core/triangle_mesh.h"
 
-namespace meshmark::python {
+namespace meshmark::python
+{
 
 namespace py = pybind11;
 
@@ -23,7 +24,8 @@ namespace py = pybind11;
 /// \param what  Names the mesh in error messages ("V_suspect", ...).
 /// \throws InvalidMesh for a wrong shape or dtype, non-finite coordinates, negative or
 /// out-of-range indices.
-[[nodiscard]] TriangleMesh mesh_from_arrays(py::handle positions, py::handle faces, const std::string& what);
+[[nodiscard]] TriangleMesh mesh_from_arrays(py::handle positions, py::handle faces,
+                                            const std::string& what);
 
 /// \brief The positions as an (n, 3) float64 array that takes ownership of them (no copy).
 [[nodiscard]] py::array_t<double> to_numpy(Positions&& positions);

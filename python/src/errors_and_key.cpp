@@ -12,24 +12,31 @@
 #include "meshmark/core/file_lock.h"
 #include "meshmark/watermark/key.h"
 
-namespace meshmark::python {
+namespace meshmark::python
+{
 
 void bind_errors(py::module_& m)
 {
     // pybind11 tries translators newest first, so the base class is registered first.
     auto& error = py::register_exception<Error>(m, "Error");
-    error.attr("__doc__") = "Base of every meshmark error; str(e) is the one-sentence message the meshmark "
-                  "program prints.";
+    error.attr("__doc__") =
+        "Base of every meshmark error; str(e) is the one-sentence message the meshmark "
+        "program prints.";
     auto& io_error = py::register_exception<IoError>(m, "IoError", error.ptr());
-    io_error.attr("__doc__") = "A file could not be opened, read, parsed or written, or an original is not "
-                     "the key's (the program's exit code 3).";
+    io_error.attr("__doc__") =
+        "A file could not be opened, read, parsed or written, or an original is not "
+        "the key's (the program's exit code 3).";
     auto& invalid_mesh = py::register_exception<InvalidMesh>(m, "InvalidMesh", error.ptr());
-    invalid_mesh.attr("__doc__") = "The mesh or array is unusable: wrong shape or dtype, non-finite coordinates, "
-                         "indices out of range, too few vertices (exit code 3).";
+    invalid_mesh.attr("__doc__") =
+        "The mesh or array is unusable: wrong shape or dtype, non-finite coordinates, "
+        "indices out of range, too few vertices (exit code 3).";
     auto& invalid_option = py::register_exception<InvalidOption>(m, "InvalidOption", error.ptr());
-    invalid_option.attr("__doc__") = "An option is out of its range or conflicts with another (exit code 2).";
-    auto& numerical_error = py::register_exception<NumericalError>(m, "NumericalError", error.ptr());
-    numerical_error.attr("__doc__") = "A factorization failed, e.g. a degenerate basis (exit code 4).";
+    invalid_option.attr("__doc__") =
+        "An option is out of its range or conflicts with another (exit code 2).";
+    auto& numerical_error =
+        py::register_exception<NumericalError>(m, "NumericalError", error.ptr());
+    numerical_error.attr("__doc__") =
+        "A factorization failed, e.g. a degenerate basis (exit code 4).";
 }
 
 void bind_key(py::module_& m)
@@ -65,9 +72,10 @@ void bind_key(py::module_& m)
                                          static_cast<std::int64_t>(1000.0 * lock_timeout))});
                 if (!force && std::filesystem::exists(path))
                 {
-                    throw InvalidOption(path.string() +
-                                        ": a key file already exists there; it may be the only proof for "
-                                        "copies marked earlier. Choose another path or pass force=True.");
+                    throw InvalidOption(
+                        path.string() +
+                        ": a key file already exists there; it may be the only proof for "
+                        "copies marked earlier. Choose another path or pass force=True.");
                 }
                 write_key(path, key);
             },

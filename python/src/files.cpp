@@ -12,13 +12,14 @@
 #include "meshmark/meshmark.h"
 #include "meshmark/metrics/distortion.h"
 #include "meshmark/pipeline/attack_file.h"
-#include "meshmark/pipeline/embed_record.h"
 #include "meshmark/pipeline/embed_recipients.h"
 #include "meshmark/pipeline/embed_record.h"
 #include "meshmark/pipeline/report_json.h"
 
-namespace meshmark::python {
-namespace {
+namespace meshmark::python
+{
+namespace
+{
 
 using Path = std::filesystem::path;
 
@@ -44,7 +45,8 @@ in one step under its lock (waiting up to lock_timeout seconds) before any copy 
 Returns the report of the program's --json as a dict. Keywords: those of meshmark.embed_file
 for a new key, plus recipient_modes, recipient_share, lock_timeout.)";
 
-constexpr const char* kDetectFileDoc = R"(Look for a key's mark in a suspect file: `meshmark detect SUSPECT --original ORIGINAL --key KEY_PATH --json`.
+constexpr const char* kDetectFileDoc =
+    R"(Look for a key's mark in a suspect file: `meshmark detect SUSPECT --original ORIGINAL --key KEY_PATH --json`.
 
 Returns the report of `meshmark detect --json` as a dict ('detected', 'score',
 'false_positive_probability', ...). Keywords: those of meshmark.detect.)";
@@ -55,30 +57,38 @@ void bind_files(py::module_& m)
 {
     m.def(
         "read_mesh",
-        [](const Path& path) {
+        [](const Path& path)
+        {
             std::optional<TriangleMesh> mesh;
             {
                 py::gil_scoped_release release;
                 mesh.emplace(read_mesh(path));
             }
             const bool cloud = mesh->is_point_cloud();
-            py::object faces = cloud ? py::object(py::none()) : py::object(to_numpy(std::move(mesh->F)));
+            py::object faces =
+                cloud ? py::object(py::none()) : py::object(to_numpy(std::move(mesh->F)));
             return py::make_tuple(to_numpy(std::move(mesh->V)), faces);
         },
         py::arg("path"),
-        "Read a mesh file (.ply .obj .off .stl .gltf .glb .3mf) as (V, F): (n, 3) float64 positions and "
-        "(m, 3) int32 triangles (polygons fan-triangulated), F None for a point cloud. Raises IoError, "
+        "Read a mesh file (.ply .obj .off .stl .gltf .glb .3mf) as (V, F): (n, 3) float64 "
+        "positions and "
+        "(m, 3) int32 triangles (polygons fan-triangulated), F None for a point cloud. Raises "
+        "IoError, "
         "InvalidMesh.");
     m.def(
         "write_mesh",
-        [](const Path& path, py::handle V, py::handle F, bool binary) {
+        [](const Path& path, py::handle V, py::handle F, bool binary)
+        {
             const TriangleMesh mesh = mesh_from_arrays(V, F, "");
             py::gil_scoped_release release;
             write_mesh(path, mesh, WriteOptions{.is_binary = binary});
         },
-        py::arg("path"), py::arg("V"), py::arg("F") = py::none(), py::kw_only(), py::arg("binary") = true,
-        "Write (V, F) to a mesh file, format from the extension, atomically; positions in double precision "
-        "where the format allows (binary PLY by default), so a file written here reads back exactly.");
+        py::arg("path"), py::arg("V"), py::arg("F") = py::none(), py::kw_only(),
+        py::arg("binary") = true,
+        "Write (V, F) to a mesh file, format from the extension, atomically; positions in double "
+        "precision "
+        "where the format allows (binary PLY by default), so a file written here reads back "
+        "exactly.");
     m.def(
         "embed_file",
         [](const Path& input, const Path& output, const Path& key_path, py::object message,
@@ -93,13 +103,15 @@ void bind_files(py::module_& m)
                 throw InvalidOption("lock_timeout must be >= 0 seconds.");
             }
             EmbedFileOptions options;
-            fill_embed_options({message, bits, seed, strength, rule, strength_measure, basis, centers, basis_size, coefficients,
-                                repetitions, first_mode, sigma_factor, gram_rows, threads},
-                               options);
+            fill_embed_options(
+                {message, bits, seed, strength, rule, strength_measure, basis, centers, basis_size,
+                 coefficients, repetitions, first_mode, sigma_factor, gram_rows, threads},
+                options);
             options.force = force;
             options.lock_timeout =
                 std::chrono::milliseconds(static_cast<std::int64_t>(1000.0 * lock_timeout));
-            options.replace_input = force;  // as the program: the output may name the input only with force
+            options.replace_input =
+                force;  // as the program: the output may name the input only with force
             options.memory_budget_mib = memory_budget;
             options.force_stream = stream;
             std::optional<EmbedReport> report;
@@ -114,9 +126,11 @@ void bind_files(py::module_& m)
                     original_before = recorded_file(input);
                 }
                 report.emplace(embed_file(input, output, key_path, options));
-                out = embed_report_json(*report, input.string(), output.string(), key_path.string());
-                out["record"] = to_json(make_embed_record(input, output, key_path, report->key,
-                                                          original_before ? &*original_before : nullptr));
+                out =
+                    embed_report_json(*report, input.string(), output.string(), key_path.string());
+                out["record"] =
+                    to_json(make_embed_record(input, output, key_path, report->key,
+                                              original_before ? &*original_before : nullptr));
             }
             return to_python(out);
         },
@@ -185,11 +199,12 @@ void bind_files(py::module_& m)
 
     m.def(
         "detect_file",
-        [](const Path& suspect, const Path& original, const Path& key_path, const std::string& verdict,
-           double max_fpp, double threshold, double epsilon, bool register_suspect, py::handle pairs, int threads,
-           bool verbose) {
-            const DetectFileOptions options =
-                make_detect_options(verdict, max_fpp, threshold, epsilon, register_suspect, pairs, threads);
+        [](const Path& suspect, const Path& original, const Path& key_path,
+           const std::string& verdict, double max_fpp, double threshold, double epsilon,
+           bool register_suspect, py::handle pairs, int threads, bool verbose)
+        {
+            const DetectFileOptions options = make_detect_options(
+                verdict, max_fpp, threshold, epsilon, register_suspect, pairs, threads);
             std::optional<DetectReport> report;
             {
                 py::gil_scoped_release release;
@@ -197,14 +212,19 @@ void bind_files(py::module_& m)
             }
             return to_python(detect_report_json(*report, options.decision, verbose));
         },
-        py::arg("suspect"), py::arg("original"), py::arg("key_path"), py::kw_only(), py::arg("verdict") = std::string(to_string(DetectOptions{}.verdict)),
-        py::arg("max_fpp") = DetectOptions{}.max_false_positive, py::arg("threshold") = DetectOptions{}.threshold,
-        py::arg("epsilon") = DetectOptions{}.epsilon, py::arg("register") = true, py::arg("pairs") = py::none(),
-        py::arg("threads") = 0, py::arg("verbose") = false, kDetectFileDoc);
+        py::arg("suspect"), py::arg("original"), py::arg("key_path"), py::kw_only(),
+        py::arg("verdict") = std::string(to_string(DetectOptions{}.verdict)),
+        py::arg("max_fpp") = DetectOptions{}.max_false_positive,
+        py::arg("threshold") = DetectOptions{}.threshold,
+        py::arg("epsilon") = DetectOptions{}.epsilon, py::arg("register") = true,
+        py::arg("pairs") = py::none(), py::arg("threads") = 0, py::arg("verbose") = false,
+        kDetectFileDoc);
 
     m.def(
         "attack",
-        [](const Path& input, const std::string& spec, const Path& output, py::handle seed, bool force, int threads) {
+        [](const Path& input, const std::string& spec, const Path& output, py::handle seed,
+           bool force, int threads)
+        {
             AttackFileOptions options;
             options.seed = seed_from(seed).value_or(0);
             options.force = force;
@@ -218,13 +238,16 @@ void bind_files(py::module_& m)
         },
         py::arg("input"), py::arg("spec"), py::arg("output"), py::kw_only(), py::arg("seed") = 0,
         py::arg("force") = false, py::arg("threads") = 0,
-        "Apply an attack chain to a mesh file and write the result: `meshmark attack INPUT SPEC -o OUTPUT "
+        "Apply an attack chain to a mesh file and write the result: `meshmark attack INPUT SPEC -o "
+        "OUTPUT "
         "--seed SEED --json`. spec follows the grammar of `meshmark attack --help`, e.g. "
         "'similarity,simplify=0.1,noise=0.001'. Returns the program's JSON report as a dict.");
 
     m.def(
         "compare",
-        [](const Path& a_path, const Path& b_path, std::int64_t samples, py::handle seed, int threads) {
+        [](const Path& a_path, const Path& b_path, std::int64_t samples, py::handle seed,
+           int threads)
+        {
             CompareOptions options;
             options.samples = samples;
             options.seed = seed_from(seed).value_or(0);
@@ -234,14 +257,14 @@ void bind_files(py::module_& m)
                 py::gil_scoped_release release;
                 using Clock = std::chrono::steady_clock;
                 const auto start = Clock::now();
-                const auto since = [](Clock::time_point t) {
-                    return std::chrono::duration<double>(Clock::now() - t).count();
-                };
+                const auto since = [](Clock::time_point t)
+                { return std::chrono::duration<double>(Clock::now() - t).count(); };
                 const TriangleMesh a = read_mesh(a_path);
                 const TriangleMesh b = read_mesh(b_path);
                 const double read_seconds = since(start);
                 const DistortionReport report = compare_meshes(a, b, options);
-                out = compare_report_json(a_path.string(), b_path.string(), a, b, report, options.seed);
+                out = compare_report_json(a_path.string(), b_path.string(), a, b, report,
+                                          options.seed);
                 out["seconds"] = {{"read", read_seconds},
                                   {"index", report.seconds.index},
                                   {"a_to_b", report.seconds.a_to_b},
@@ -251,9 +274,12 @@ void bind_files(py::module_& m)
             }
             return to_python(out);
         },
-        py::arg("a"), py::arg("b"), py::kw_only(), py::arg("samples") = 0, py::arg("seed") = 0, py::arg("threads") = 0,
-        "Distortion between two mesh files, relative to the bounding-box diagonal of a: `meshmark compare A B "
-        "--json` (Hausdorff, RMS, MRMS, displacement when they share connectivity). Returns the program's "
+        py::arg("a"), py::arg("b"), py::kw_only(), py::arg("samples") = 0, py::arg("seed") = 0,
+        py::arg("threads") = 0,
+        "Distortion between two mesh files, relative to the bounding-box diagonal of a: `meshmark "
+        "compare A B "
+        "--json` (Hausdorff, RMS, MRMS, displacement when they share connectivity). Returns the "
+        "program's "
         "JSON report as a dict.");
 }
 

@@ -12,8 +12,10 @@
 #include "meshmark/pipeline/verdict.h"
 #include "meshmark/registration/point_pairs.h"
 
-namespace meshmark::python {
-namespace {
+namespace meshmark::python
+{
+namespace
+{
 
 std::optional<std::string> text_from(py::handle value, const char* name)
 {
@@ -24,7 +26,8 @@ std::optional<std::string> text_from(py::handle value, const char* name)
     if (!py::isinstance<py::str>(value))
     {
         throw InvalidOption(std::string(name) + " must be a str or None, got a " +
-                            std::string(py::str(py::type::handle_of(value).attr("__name__"))) + ".");
+                            std::string(py::str(py::type::handle_of(value).attr("__name__"))) +
+                            ".");
     }
     return value.cast<std::string>();
 }
@@ -35,8 +38,9 @@ std::vector<PointPair> pairs_from_array(py::handle object)
     if (!array || array.ndim() != 2 || array.shape(1) != 6 || array.shape(0) < 3 ||
         (array.dtype().kind() != 'f' && array.dtype().kind() != 'i'))
     {
-        throw InvalidOption("pairs: expected a point-pair file or a (k, 6) array of k >= 3 rows "
-                            "'xs ys zs xo yo zo' (suspect point, original point).");
+        throw InvalidOption(
+            "pairs: expected a point-pair file or a (k, 6) array of k >= 3 rows "
+            "'xs ys zs xo yo zo' (suspect point, original point).");
     }
     const auto rows = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(array);
     std::vector<PointPair> pairs(static_cast<std::size_t>(rows.shape(0)));
@@ -47,7 +51,8 @@ std::vector<PointPair> pairs_from_array(py::handle object)
         pairs[i].reference = Eigen::Vector3d(row[3], row[4], row[5]);
         if (!pairs[i].suspect.allFinite() || !pairs[i].reference.allFinite())
         {
-            throw InvalidOption("pairs: row " + std::to_string(i) + " has a non-finite coordinate.");
+            throw InvalidOption("pairs: row " + std::to_string(i) +
+                                " has a non-finite coordinate.");
         }
     }
     return pairs;
@@ -59,7 +64,10 @@ struct DetectResult
     DetectReport report;
     DetectOptions options;
     bool verbose = false;
-    [[nodiscard]] nlohmann::json json() const { return detect_report_json(report, options, verbose); }
+    [[nodiscard]] nlohmann::json json() const
+    {
+        return detect_report_json(report, options, verbose);
+    }
 };
 
 constexpr const char* kEmbedDoc = R"(Watermark a mesh (or point cloud) given as numpy arrays.
@@ -159,7 +167,8 @@ void fill_embed_options(const EmbedKeywords& k, EmbedMeshOptions& options)
         options.embed.strength = k.strength.cast<double>();
         if (!(options.embed.strength > 0.0))
         {
-            throw InvalidOption("strength must be positive, got " + std::string(py::str(k.strength)) + ".");
+            throw InvalidOption("strength must be positive, got " +
+                                std::string(py::str(k.strength)) + ".");
         }
     }
     options.message = text_from(k.message, "message");
@@ -172,8 +181,9 @@ void fill_embed_options(const EmbedKeywords& k, EmbedMeshOptions& options)
     options.threads = k.threads;
 }
 
-DetectFileOptions make_detect_options(const std::string& verdict, double max_fpp, double threshold, double epsilon,
-                                      bool allow_registration, py::handle pairs, int threads)
+DetectFileOptions make_detect_options(const std::string& verdict, double max_fpp, double threshold,
+                                      double epsilon, bool allow_registration, py::handle pairs,
+                                      int threads)
 {
     DetectFileOptions options;
     options.decision.verdict = parse_verdict_rule(verdict);
@@ -197,14 +207,17 @@ void bind_memory(py::module_& m)
 {
     m.def(
         "embed",
-        [](py::handle V, py::handle F, py::object message, py::object bits, py::object seed, py::object strength,
-           std::string rule, std::string strength_measure, std::string basis, std::string centers, int basis_size, int coefficients,
-           py::object repetitions, int first_mode, double sigma_factor, std::int64_t gram_rows, int threads,
-           bool report) -> py::object {
+        [](py::handle V, py::handle F, py::object message, py::object bits, py::object seed,
+           py::object strength, std::string rule, std::string strength_measure, std::string basis,
+           std::string centers, int basis_size, int coefficients, py::object repetitions,
+           int first_mode, double sigma_factor, std::int64_t gram_rows, int threads,
+           bool report) -> py::object
+        {
             EmbedMeshOptions options;
-            fill_embed_options({message, bits, seed, strength, rule, strength_measure, basis, centers, basis_size, coefficients,
-                                repetitions, first_mode, sigma_factor, gram_rows, threads},
-                               options);
+            fill_embed_options(
+                {message, bits, seed, strength, rule, strength_measure, basis, centers, basis_size,
+                 coefficients, repetitions, first_mode, sigma_factor, gram_rows, threads},
+                options);
             TriangleMesh mesh = mesh_from_arrays(V, F, "");
             std::optional<EmbedResult> result;
             {
@@ -223,30 +236,40 @@ void bind_memory(py::module_& m)
             return py::make_tuple(result->key, marked, to_python(info));
         },
         py::arg("V"), py::arg("F") = py::none(), py::kw_only(), py::arg("message") = py::none(),
-        py::arg("bits") = py::none(), py::arg("seed") = py::none(), py::arg("strength") = py::none(),
-        py::arg("rule") = "additive", py::arg("strength_measure") = "surface", py::arg("basis") = "rbf", py::arg("centers") = "random",
-        py::arg("basis_size") = EmbedOptions{}.basis_size, py::arg("coefficients") = EmbedOptions{}.coefficients,
-        py::arg("repetitions") = "auto", py::arg("first_mode") = EmbedOptions{}.first_mode,
-        py::arg("sigma_factor") = EmbedOptions{}.sigma_factor, py::arg("gram_rows") = EmbedOptions{}.gram_rows,
-        py::arg("threads") = 0, py::arg("report") = false, kEmbedDoc);
+        py::arg("bits") = py::none(), py::arg("seed") = py::none(),
+        py::arg("strength") = py::none(), py::arg("rule") = "additive",
+        py::arg("strength_measure") = "surface", py::arg("basis") = "rbf",
+        py::arg("centers") = "random", py::arg("basis_size") = EmbedOptions{}.basis_size,
+        py::arg("coefficients") = EmbedOptions{}.coefficients, py::arg("repetitions") = "auto",
+        py::arg("first_mode") = EmbedOptions{}.first_mode,
+        py::arg("sigma_factor") = EmbedOptions{}.sigma_factor,
+        py::arg("gram_rows") = EmbedOptions{}.gram_rows, py::arg("threads") = 0,
+        py::arg("report") = false, kEmbedDoc);
 
-    py::class_<DetectResult>(m, "DetectResult",
-                             "What detect found: the verdict and its statistics. to_dict() gives the fields "
-                             "of `meshmark detect --json`.")
-        .def_property_readonly("detected", [](const DetectResult& r) { return r.report.detected(); },
-                               "True when the copy is claimed (with a family key: ownership shown or a "
-                               "recipient accused; see headline, owner_detected).")
+    py::class_<DetectResult>(
+        m, "DetectResult",
+        "What detect found: the verdict and its statistics. to_dict() gives the fields "
+        "of `meshmark detect --json`.")
+        .def_property_readonly(
+            "detected", [](const DetectResult& r) { return r.report.detected(); },
+            "True when the copy is claimed (with a family key: ownership shown or a "
+            "recipient accused; see headline, owner_detected).")
         .def_property_readonly(
             "headline",
-            [](const DetectResult& r) { return headline(verdict_of(r.report, r.options.max_false_positive)); },
-            "The verdict in one sentence: claimed or not, whose copy, and the chance that a mesh without "
+            [](const DetectResult& r)
+            { return headline(verdict_of(r.report, r.options.max_false_positive)); },
+            "The verdict in one sentence: claimed or not, whose copy, and the chance that a mesh "
+            "without "
             "the mark gives it (meshmark detect's first line).")
-        .def_property_readonly("owner_detected", [](const DetectResult& r) { return r.report.owner_detected; },
-                               "Whether the owner's claim holds (with a family key: its mark alone or read jointly with a "
-                               "recipient's code; docs/fingerprinting.md).")
+        .def_property_readonly(
+            "owner_detected", [](const DetectResult& r) { return r.report.owner_detected; },
+            "Whether the owner's claim holds (with a family key: its mark alone or read jointly "
+            "with a "
+            "recipient's code; docs/fingerprinting.md).")
         .def_property_readonly(
             "recipients",
-            [](const DetectResult& r) {
+            [](const DetectResult& r)
+            {
                 py::list accused;
                 for (const RecipientScore& s : r.report.accused)
                 {
@@ -258,112 +281,143 @@ void bind_memory(py::module_& m)
                 }
                 return accused;
             },
-            "With a family key (meshmark embed --recipient): the accused recipients, strongest first, as "
+            "With a family key (meshmark embed --recipient): the accused recipients, strongest "
+            "first, as "
             "dicts (name, score, false_positive_probability); empty otherwise.")
-        .def_property_readonly("verdict", [](const DetectResult& r) {
-            return std::string(to_string(r.report.decision.verdict));
-        })
-        .def_property_readonly("score", [](const DetectResult& r) { return r.report.decision.score; },
-                               "z: about sqrt(coefficient_count) for an intact mark, ~N(0,1) without.")
-        .def_property_readonly("false_positive_probability",
-                               [](const DetectResult& r) {
-                                   return verdict_of(r.report, r.options.max_false_positive).false_positive_probability;
-                               },
-                               "Bound on the probability that a mesh without the mark gets this verdict (with a "
-                               "family key: the strongest accusation's, else the ownership's).")
-        .def_property_readonly("score_false_positive_probability", [](const DetectResult& r) {
-            return r.report.decision.score_false_positive_probability;
-        })
-        .def_property_readonly("bits_false_positive_probability", [](const DetectResult& r) {
-            return r.report.decision.bits_false_positive_probability;
-        })
-        .def_property_readonly("correlation", [](const DetectResult& r) { return r.report.decision.correlation; },
-                               "R: fraction of the payload bits read back.")
-        .def_property_readonly("matches", [](const DetectResult& r) { return r.report.decision.matches; })
-        .def_property_readonly("bit_count", [](const DetectResult& r) { return r.report.decision.bit_count; })
-        .def_property_readonly("coefficient_count",
-                               [](const DetectResult& r) { return r.report.decision.coefficient_count; })
-        .def_property_readonly("bits_expected", [](const DetectResult& r) { return r.report.decision.bits_expected; })
-        .def_property_readonly("bits_found", [](const DetectResult& r) { return r.report.decision.bits_found; })
-        .def_property_readonly("cropped_fraction", [](const DetectResult& r) { return r.report.cropped_fraction; })
-        .def_property_readonly("outlier_fraction", [](const DetectResult& r) { return r.report.outlier_fraction; },
-                               "Fraction of the original's rows left out of the reading because the suspect "
-                               "is far from them (crops aside): a resampled suspect's surface, or a "
-                               "vertex-for-vertex suspect's own vertices.")
-        .def_property_readonly("alignment", [](const DetectResult& r) { return r.report.alignment; },
-                               "How the suspect was put in correspondence ('none', 'similarity', "
-                               "'registration', ...).")
-        .def_property_readonly("registration_rms", [](const DetectResult& r) { return r.report.registration_rms; })
-        .def_property_readonly("mark_strength", [](const DetectResult& r) { return r.report.mark_strength; },
-                               "The mark's RMS amplitude over the original's bounding-box diagonal (the key's "
-                               "strength): registration_rms / mark_strength is how many times further than the "
-                               "mark the suspect lies from the original.")
-        .def_property_readonly("is_far_copy", [](const DetectResult& r) { return r.report.is_far_copy(); },
-                               "Registered and at least 3 times the mark's strength from the original: marked "
-                               "copies that far are mostly lost, so 'not found' says little about whose copy "
-                               "it is (docs/robustness.md, \"What an attack leaves of the mark\").")
-        .def_property_readonly("transform",
-                               [](const DetectResult& r) {
-                                   py::array_t<double> matrix({4, 4});
-                                   auto out = matrix.mutable_unchecked<2>();
-                                   for (int i = 0; i < 4; ++i)
-                                   {
-                                       for (int j = 0; j < 4; ++j)
-                                       {
-                                           out(i, j) = r.report.transform(i, j);
-                                       }
-                                   }
-                                   return matrix;
-                               },
-                               "4x4 similarity, suspect -> original frame.")
-        .def_property_readonly("suspect_vertices", [](const DetectResult& r) { return r.report.suspect_vertices; })
-        .def_property_readonly("original_vertices", [](const DetectResult& r) { return r.report.original_vertices; })
-        .def("to_dict", [](const DetectResult& r) { return to_python(r.json()); },
-             "The fields of `meshmark detect --json` (with verbose=True, also those of --verbose).")
-        .def("__repr__", [](const DetectResult& r) {
-            const Decision& d = r.report.decision;
-            return std::string("<meshmark.DetectResult detected=") + (r.report.detected() ? "True" : "False") +
-                   " score=" + std::to_string(d.score) + " false_positive_probability=" +
-                   std::to_string(d.false_positive_probability) + ">";
-        });
+        .def_property_readonly("verdict", [](const DetectResult& r)
+                               { return std::string(to_string(r.report.decision.verdict)); })
+        .def_property_readonly(
+            "score", [](const DetectResult& r) { return r.report.decision.score; },
+            "z: about sqrt(coefficient_count) for an intact mark, ~N(0,1) without.")
+        .def_property_readonly(
+            "false_positive_probability",
+            [](const DetectResult& r) {
+                return verdict_of(r.report, r.options.max_false_positive)
+                    .false_positive_probability;
+            },
+            "Bound on the probability that a mesh without the mark gets this verdict (with a "
+            "family key: the strongest accusation's, else the ownership's).")
+        .def_property_readonly("score_false_positive_probability", [](const DetectResult& r)
+                               { return r.report.decision.score_false_positive_probability; })
+        .def_property_readonly("bits_false_positive_probability", [](const DetectResult& r)
+                               { return r.report.decision.bits_false_positive_probability; })
+        .def_property_readonly(
+            "correlation", [](const DetectResult& r) { return r.report.decision.correlation; },
+            "R: fraction of the payload bits read back.")
+        .def_property_readonly("matches",
+                               [](const DetectResult& r) { return r.report.decision.matches; })
+        .def_property_readonly("bit_count",
+                               [](const DetectResult& r) { return r.report.decision.bit_count; })
+        .def_property_readonly("coefficient_count", [](const DetectResult& r)
+                               { return r.report.decision.coefficient_count; })
+        .def_property_readonly(
+            "bits_expected", [](const DetectResult& r) { return r.report.decision.bits_expected; })
+        .def_property_readonly("bits_found",
+                               [](const DetectResult& r) { return r.report.decision.bits_found; })
+        .def_property_readonly("cropped_fraction",
+                               [](const DetectResult& r) { return r.report.cropped_fraction; })
+        .def_property_readonly(
+            "outlier_fraction", [](const DetectResult& r) { return r.report.outlier_fraction; },
+            "Fraction of the original's rows left out of the reading because the suspect "
+            "is far from them (crops aside): a resampled suspect's surface, or a "
+            "vertex-for-vertex suspect's own vertices.")
+        .def_property_readonly(
+            "alignment", [](const DetectResult& r) { return r.report.alignment; },
+            "How the suspect was put in correspondence ('none', 'similarity', "
+            "'registration', ...).")
+        .def_property_readonly("registration_rms",
+                               [](const DetectResult& r) { return r.report.registration_rms; })
+        .def_property_readonly(
+            "mark_strength", [](const DetectResult& r) { return r.report.mark_strength; },
+            "The mark's RMS amplitude over the original's bounding-box diagonal (the key's "
+            "strength): registration_rms / mark_strength is how many times further than the "
+            "mark the suspect lies from the original.")
+        .def_property_readonly(
+            "is_far_copy", [](const DetectResult& r) { return r.report.is_far_copy(); },
+            "Registered and at least 3 times the mark's strength from the original: marked "
+            "copies that far are mostly lost, so 'not found' says little about whose copy "
+            "it is (docs/robustness.md, \"What an attack leaves of the mark\").")
+        .def_property_readonly(
+            "transform",
+            [](const DetectResult& r)
+            {
+                py::array_t<double> matrix({4, 4});
+                auto out = matrix.mutable_unchecked<2>();
+                for (int i = 0; i < 4; ++i)
+                {
+                    for (int j = 0; j < 4; ++j)
+                    {
+                        out(i, j) = r.report.transform(i, j);
+                    }
+                }
+                return matrix;
+            },
+            "4x4 similarity, suspect -> original frame.")
+        .def_property_readonly("suspect_vertices",
+                               [](const DetectResult& r) { return r.report.suspect_vertices; })
+        .def_property_readonly("original_vertices",
+                               [](const DetectResult& r) { return r.report.original_vertices; })
+        .def(
+            "to_dict", [](const DetectResult& r) { return to_python(r.json()); },
+            "The fields of `meshmark detect --json` (with verbose=True, also those of --verbose).")
+        .def("__repr__",
+             [](const DetectResult& r)
+             {
+                 const Decision& d = r.report.decision;
+                 return std::string("<meshmark.DetectResult detected=") +
+                        (r.report.detected() ? "True" : "False") +
+                        " score=" + std::to_string(d.score) + " false_positive_probability=" +
+                        std::to_string(d.false_positive_probability) + ">";
+             });
 
     m.def(
         "detect",
-        [](py::handle V_suspect, py::handle F_suspect, py::handle V_original, py::handle F_original, const Key& key,
-           const std::string& verdict, double max_fpp, double threshold, double epsilon, bool register_suspect,
-           py::handle pairs, int threads, bool verbose) {
-            const DetectFileOptions options =
-                make_detect_options(verdict, max_fpp, threshold, epsilon, register_suspect, pairs, threads);
+        [](py::handle V_suspect, py::handle F_suspect, py::handle V_original, py::handle F_original,
+           const Key& key, const std::string& verdict, double max_fpp, double threshold,
+           double epsilon, bool register_suspect, py::handle pairs, int threads, bool verbose)
+        {
+            const DetectFileOptions options = make_detect_options(
+                verdict, max_fpp, threshold, epsilon, register_suspect, pairs, threads);
             const TriangleMesh suspect = mesh_from_arrays(V_suspect, F_suspect, "suspect");
             const TriangleMesh original = mesh_from_arrays(V_original, F_original, "original");
-            return detect_result(options, verbose, [&] { return detect(suspect, original, key, options); });
+            return detect_result(options, verbose,
+                                 [&] { return detect(suspect, original, key, options); });
         },
-        py::arg("V_suspect"), py::arg("F_suspect"), py::arg("V_original"), py::arg("F_original"), py::arg("key"),
-        py::kw_only(), py::arg("verdict") = std::string(to_string(DetectOptions{}.verdict)),
-        py::arg("max_fpp") = DetectOptions{}.max_false_positive, py::arg("threshold") = DetectOptions{}.threshold,
-        py::arg("epsilon") = DetectOptions{}.epsilon, py::arg("register") = true, py::arg("pairs") = py::none(),
-        py::arg("threads") = 0, py::arg("verbose") = false, kDetectDoc);
+        py::arg("V_suspect"), py::arg("F_suspect"), py::arg("V_original"), py::arg("F_original"),
+        py::arg("key"), py::kw_only(),
+        py::arg("verdict") = std::string(to_string(DetectOptions{}.verdict)),
+        py::arg("max_fpp") = DetectOptions{}.max_false_positive,
+        py::arg("threshold") = DetectOptions{}.threshold,
+        py::arg("epsilon") = DetectOptions{}.epsilon, py::arg("register") = true,
+        py::arg("pairs") = py::none(), py::arg("threads") = 0, py::arg("verbose") = false,
+        kDetectDoc);
 
     m.def(
         "detect_against_file",
         [](py::handle V_suspect, py::handle F_suspect, const std::filesystem::path& original,
-           const std::filesystem::path& key_path, const std::string& verdict, double max_fpp, double threshold,
-           double epsilon, bool register_suspect, py::handle pairs, int threads, bool verbose) {
-            const DetectFileOptions options =
-                make_detect_options(verdict, max_fpp, threshold, epsilon, register_suspect, pairs, threads);
+           const std::filesystem::path& key_path, const std::string& verdict, double max_fpp,
+           double threshold, double epsilon, bool register_suspect, py::handle pairs, int threads,
+           bool verbose)
+        {
+            const DetectFileOptions options = make_detect_options(
+                verdict, max_fpp, threshold, epsilon, register_suspect, pairs, threads);
             const TriangleMesh suspect = mesh_from_arrays(V_suspect, F_suspect, "suspect");
-            return detect_result(options, verbose,
-                                 [&] { return detect_against_file(suspect, original, key_path, options); });
+            return detect_result(
+                options, verbose,
+                [&] { return detect_against_file(suspect, original, key_path, options); });
         },
-        py::arg("V_suspect"), py::arg("F_suspect"), py::arg("original"), py::arg("key_path"), py::kw_only(),
-        py::arg("verdict") = std::string(to_string(DetectOptions{}.verdict)),
-        py::arg("max_fpp") = DetectOptions{}.max_false_positive, py::arg("threshold") = DetectOptions{}.threshold,
-        py::arg("epsilon") = DetectOptions{}.epsilon, py::arg("register") = true, py::arg("pairs") = py::none(),
-        py::arg("threads") = 0, py::arg("verbose") = false, kDetectAgainstFileDoc);
+        py::arg("V_suspect"), py::arg("F_suspect"), py::arg("original"), py::arg("key_path"),
+        py::kw_only(), py::arg("verdict") = std::string(to_string(DetectOptions{}.verdict)),
+        py::arg("max_fpp") = DetectOptions{}.max_false_positive,
+        py::arg("threshold") = DetectOptions{}.threshold,
+        py::arg("epsilon") = DetectOptions{}.epsilon, py::arg("register") = true,
+        py::arg("pairs") = py::none(), py::arg("threads") = 0, py::arg("verbose") = false,
+        kDetectAgainstFileDoc);
 
     m.def(
         "attack_mesh",
-        [](py::handle V, py::handle F, const std::string& spec, py::handle seed, int threads) {
+        [](py::handle V, py::handle F, const std::string& spec, py::handle seed, int threads)
+        {
             const auto specs = parse_attack_spec(spec);
             const std::uint64_t s = seed_from(seed).value_or(0);
             const TriangleMesh mesh = mesh_from_arrays(V, F, "");
@@ -379,8 +433,10 @@ void bind_memory(py::module_& m)
         },
         py::arg("V"), py::arg("F"), py::arg("spec"), py::kw_only(), py::arg("seed") = 0,
         py::arg("threads") = 0,
-        "Apply an attack chain (the grammar of `meshmark attack --help`, e.g. 'similarity,noise=0.001') "
-        "to arrays; returns (V, F) of the attacked mesh (F None for a point cloud). Deterministic in seed.");
+        "Apply an attack chain (the grammar of `meshmark attack --help`, e.g. "
+        "'similarity,noise=0.001') "
+        "to arrays; returns (V, F) of the attacked mesh (F None for a point cloud). Deterministic "
+        "in seed.");
 }
 
 }  // namespace meshmark::python

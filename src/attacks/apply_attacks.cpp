@@ -1,13 +1,15 @@
 // SPDX-License-Identifier: MIT
 // Running attack steps: apply_attack() and apply_attacks() of attack_spec.h (parsing and
 // canonical text are in attack_spec.cpp).
-#include "meshmark/attacks/attack_spec.h"
-
 #include <string>
 #include <utility>
 
-namespace meshmark {
-namespace {
+#include "meshmark/attacks/attack_spec.h"
+
+namespace meshmark
+{
+namespace
+{
 
 AttackResult with_identity(TriangleMesh mesh)
 {
@@ -41,25 +43,19 @@ AttackResult apply_attack(const TriangleMesh& mesh, const AttackSpec& spec, Rng&
         Overloaded{
             [&](const SimilarityOptions& o) { return apply_similarity(mesh, o, rng); },
             [&](const NoiseOptions& o) { return with_identity(add_noise(mesh, o, rng, threads)); },
-            [&](const LaplacianSmoothingOptions& o) {
-                return with_identity(smooth_laplacian(mesh, o, threads));
-            },
-            [&](const TaubinSmoothingOptions& o) {
-                return with_identity(smooth_taubin(mesh, o, threads));
-            },
+            [&](const LaplacianSmoothingOptions& o)
+            { return with_identity(smooth_laplacian(mesh, o, threads)); },
+            [&](const TaubinSmoothingOptions& o)
+            { return with_identity(smooth_taubin(mesh, o, threads)); },
             [&](const QuantizationOptions& o) { return with_identity(quantize(mesh, o)); },
-            [&](const SimplificationOptions& o) {
-                return without_correspondence(simplify(mesh, o));
-            },
+            [&](const SimplificationOptions& o)
+            { return without_correspondence(simplify(mesh, o)); },
             [&](const RemeshingOptions& o) { return without_correspondence(remesh(mesh, o)); },
-            [&](const SubdivisionOptions& o) {
-                return without_correspondence(subdivide(mesh, o));
-            },
+            [&](const SubdivisionOptions& o) { return without_correspondence(subdivide(mesh, o)); },
             [&](const CropOptions& o) { return crop(mesh, o, rng); },
             [&](const ReorderOptions& o) { return reorder(mesh, o, rng); },
-            [&](const VoxelRemeshingOptions& o) {
-                return without_correspondence(voxel_remesh(mesh, o, threads));
-            },
+            [&](const VoxelRemeshingOptions& o)
+            { return without_correspondence(voxel_remesh(mesh, o, threads)); },
         },
         spec);
 }

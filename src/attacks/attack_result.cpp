@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/attacks/attack_result.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 Eigen::Matrix4d AppliedSimilarity::matrix() const
 {

@@ -7,12 +7,14 @@
 #include <optional>
 #include <utility>
 
-#include "meshmark/core/error.h"
 #include "attacks/detail/format.h"
 #include "attacks/detail/step_reader.h"
+#include "meshmark/core/error.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 constexpr std::string_view kKnownAttacks =
     "similarity, noise, smooth, taubin, quantize, simplify, remesh, subdivide, crop, reorder, "
@@ -87,12 +89,14 @@ AttackSpec parse_similarity(StepReader& step)
     const auto mirror = step.take("mirror");
     const auto smax = step.take_number("smax");
     const auto tmax = step.take_number("tmax");
-    step.finish("axis, ax, ay, az, angle, scale, tx, ty, tz, mirror (explicit); smax, tmax (random)");
+    step.finish(
+        "axis, ax, ay, az, angle, scale, tx, ty, tz, mirror (explicit); smax, tmax (random)");
     options.is_random = !(axis || angle || scale || tx || ty || tz || mirror);
     if (!options.is_random && (smax || tmax))
     {
-        step.fail("smax and tmax shape a random similarity and cannot be mixed with explicit "
-                  "keys.");
+        step.fail(
+            "smax and tmax shape a random similarity and cannot be mixed with explicit "
+            "keys.");
     }
     options.axis = axis.value_or(options.axis);
     options.angle_deg = angle.value_or(options.angle_deg);
@@ -111,17 +115,18 @@ AttackSpec parse_noise(StepReader& step)
 {
     NoiseOptions options;
     options.amplitude = step.level_number("the amplitude").value_or(options.amplitude);
-    options.distribution = step.take_choice<NoiseDistribution>(
-                                   "dist", {{"uniform", NoiseDistribution::Uniform},
-                                            {"gaussian", NoiseDistribution::Gaussian}})
-                               .value_or(options.distribution);
-    options.direction = step.take_choice<NoiseDirection>(
-                                "dir", {{"iso", NoiseDirection::Isotropic}, {"normal", NoiseDirection::Normal}})
-                            .value_or(options.direction);
-    options.reference = step.take_choice<NoiseReference>(
-                                "ref", {{"diag", NoiseReference::BboxDiagonal},
-                                        {"centroid", NoiseReference::CentroidDistance}})
-                            .value_or(options.reference);
+    options.distribution =
+        step.take_choice<NoiseDistribution>("dist", {{"uniform", NoiseDistribution::Uniform},
+                                                     {"gaussian", NoiseDistribution::Gaussian}})
+            .value_or(options.distribution);
+    options.direction =
+        step.take_choice<NoiseDirection>(
+                "dir", {{"iso", NoiseDirection::Isotropic}, {"normal", NoiseDirection::Normal}})
+            .value_or(options.direction);
+    options.reference =
+        step.take_choice<NoiseReference>("ref", {{"diag", NoiseReference::BboxDiagonal},
+                                                 {"centroid", NoiseReference::CentroidDistance}})
+            .value_or(options.reference);
     step.finish("dist, dir, ref");
     return options;
 }
@@ -156,7 +161,8 @@ AttackSpec parse_quantize(StepReader& step)
 AttackSpec parse_simplify(StepReader& step)
 {
     SimplificationOptions options;
-    options.vertex_fraction = step.level_number("the vertex fraction").value_or(options.vertex_fraction);
+    options.vertex_fraction =
+        step.level_number("the vertex fraction").value_or(options.vertex_fraction);
     options.policy = step.take_choice<SimplificationPolicy>(
                              "policy", {{"gh", SimplificationPolicy::GarlandHeckbert},
                                         {"lt", SimplificationPolicy::LindstromTurk}})
@@ -173,7 +179,8 @@ AttackSpec parse_simplify(StepReader& step)
 AttackSpec parse_remesh(StepReader& step)
 {
     RemeshingOptions options;
-    options.vertex_fraction = step.level_number("the vertex fraction").value_or(options.vertex_fraction);
+    options.vertex_fraction =
+        step.level_number("the vertex fraction").value_or(options.vertex_fraction);
     options.iterations = step.take_integer("iter").value_or(options.iterations);
     step.finish("iter");
     return options;
@@ -197,7 +204,8 @@ AttackSpec parse_subdivide(StepReader& step)
 AttackSpec parse_crop(StepReader& step)
 {
     CropOptions options;
-    options.vertex_fraction = step.level_number("the vertex fraction").value_or(options.vertex_fraction);
+    options.vertex_fraction =
+        step.level_number("the vertex fraction").value_or(options.vertex_fraction);
     options.direction = take_axis(step);
     step.finish("axis, ax, ay, az");
     return options;
@@ -260,8 +268,8 @@ AttackSpec parse_step(std::string_view text)
             return spec;
         }
     }
-    step.fail("unknown attack " + quoted(step.name()) + "; known attacks: " +
-              std::string(kKnownAttacks) + ".");
+    step.fail("unknown attack " + quoted(step.name()) +
+              "; known attacks: " + std::string(kKnownAttacks) + ".");
 }
 
 // --- Canonical text, one overload per options struct. ---
@@ -313,7 +321,10 @@ std::string text_of(const TaubinSmoothingOptions& o)
            (o.mu != defaults.mu ? key("mu", o.mu) : "");
 }
 
-std::string text_of(const QuantizationOptions& o) { return "quantize=" + std::to_string(o.bits); }
+std::string text_of(const QuantizationOptions& o)
+{
+    return "quantize=" + std::to_string(o.bits);
+}
 
 std::string text_of(const SimplificationOptions& o)
 {
@@ -322,8 +333,10 @@ std::string text_of(const SimplificationOptions& o)
            (o.method == SimplificationOptions{}.method
                 ? ""
                 : (o.method == SimplificationMethod::Meshoptimizer ? ":method=meshopt"
-                                                                    : ":method=cgal")) +
-           (o.boundary_weight != SimplificationOptions{}.boundary_weight ? key("boundary", o.boundary_weight) : "");
+                                                                   : ":method=cgal")) +
+           (o.boundary_weight != SimplificationOptions{}.boundary_weight
+                ? key("boundary", o.boundary_weight)
+                : "");
 }
 
 std::string text_of(const RemeshingOptions& o)
@@ -348,7 +361,10 @@ std::string text_of(const CropOptions& o)
            (o.direction ? axis_keys(*o.direction) : "");
 }
 
-std::string text_of(const ReorderOptions& /*options*/) { return "reorder"; }
+std::string text_of(const ReorderOptions& /*options*/)
+{
+    return "reorder";
+}
 
 std::string text_of(const VoxelRemeshingOptions& o)
 {
@@ -360,8 +376,9 @@ std::vector<AttackSpec> parse_attack_spec(std::string_view text)
 {
     if (trim(text).empty())
     {
-        throw InvalidOption("The attack spec is empty; expected STEP[,STEP]... such as "
-                            "'similarity,simplify=0.1,noise=0.001'.");
+        throw InvalidOption(
+            "The attack spec is empty; expected STEP[,STEP]... such as "
+            "'similarity,simplify=0.1,noise=0.001'.");
     }
     std::vector<AttackSpec> specs;
     for (const auto step : split(text, ','))

@@ -14,11 +14,13 @@
 
 #include "meshmark/core/error.h"
 
-namespace meshmark::detail {
+namespace meshmark::detail
+{
 
 namespace pmp = CGAL::Polygon_mesh_processing;
 
-namespace {
+namespace
+{
 
 using Triangle = std::array<std::size_t, 3>;
 
@@ -40,7 +42,8 @@ std::vector<Triangle> at_most_two_faces_per_edge(const std::vector<Triangle>& tr
     {
         for (int c = 0; c < 3; ++c)
         {
-            ++uses[edge_key(t[static_cast<std::size_t>(c)], t[static_cast<std::size_t>((c + 1) % 3)])];
+            ++uses[edge_key(t[static_cast<std::size_t>(c)],
+                            t[static_cast<std::size_t>((c + 1) % 3)])];
         }
     }
     // Faces with fewer non-manifold edges first; ties keep the file order (deterministic).
@@ -57,7 +60,9 @@ std::vector<Triangle> at_most_two_faces_per_edge(const std::vector<Triangle>& tr
         for (int c = 0; c < 3; ++c)
         {
             crowded += uses[edge_key(t[static_cast<std::size_t>(c)],
-                                     t[static_cast<std::size_t>((c + 1) % 3)])] > 2 ? 1 : 0;
+                                     t[static_cast<std::size_t>((c + 1) % 3)])] > 2
+                           ? 1
+                           : 0;
         }
         order.emplace_back(crowded, f);
     }

@@ -6,12 +6,14 @@
 #include <utility>
 #include <vector>
 
-#include "meshmark/core/error.h"
 #include "attacks/detail/format.h"
 #include "attacks/detail/sampling.h"
+#include "meshmark/core/error.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 // Marks the `keep_count` listed vertices with the smallest projection on `direction` (ties
 // broken by index, so exactly keep_count are marked).
@@ -110,7 +112,8 @@ AttackResult crop(const TriangleMesh& mesh, const CropOptions& options, Rng& rng
     const auto rows = referenced_vertices(mesh);
     const auto keep_count = static_cast<std::size_t>(
         std::llround(options.vertex_fraction * static_cast<double>(rows.size())));
-    return keep_marked(mesh, kept_side(mesh.V, rows, direction, std::max<std::size_t>(keep_count, 1)));
+    return keep_marked(mesh,
+                       kept_side(mesh.V, rows, direction, std::max<std::size_t>(keep_count, 1)));
 }
 
 }  // namespace meshmark

@@ -5,14 +5,16 @@
 #include <string>
 #include <vector>
 
+#include "attacks/detail/format.h"
+#include "attacks/detail/sampling.h"
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
 #include "meshmark/geometry/normals.h"
-#include "attacks/detail/format.h"
-#include "attacks/detail/sampling.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 // Vertices per random stream: the streams, not the threads, decide the draws, so the result is
 // the same for any thread count; large enough that seeding costs nothing.
@@ -63,15 +65,15 @@ void NoiseOptions::validate() const
     }
 }
 
-TriangleMesh add_noise(const TriangleMesh& mesh, const NoiseOptions& options, Rng& rng,
-                       int threads)
+TriangleMesh add_noise(const TriangleMesh& mesh, const NoiseOptions& options, Rng& rng, int threads)
 {
     options.validate();
     const bool along_normals = options.direction == NoiseDirection::Normal;
     if (along_normals && mesh.is_point_cloud() && mesh.V.rows() > 0)
     {
-        throw InvalidMesh("noise: noise along normals needs faces, but the mesh is a point cloud "
-                          "(use dir=iso).");
+        throw InvalidMesh(
+            "noise: noise along normals needs faces, but the mesh is a point cloud "
+            "(use dir=iso).");
     }
 
     // Absolute amplitude, normals if needed, and one seed for all the block streams.
@@ -84,8 +86,7 @@ TriangleMesh add_noise(const TriangleMesh& mesh, const NoiseOptions& options, Rn
     const Eigen::Index n = mesh.V.rows();
     const Eigen::Index blocks = (n + kBlockSize - 1) / kBlockSize;
     // Threads from 4 blocks on (chosen by hand; no study on record).
-#pragma omp parallel for num_threads(resolve_threads(threads)) schedule(static) \
-    if (blocks >= 4)
+#pragma omp parallel for num_threads(resolve_threads(threads)) schedule(static) if (blocks >= 4)
     for (Eigen::Index b = 0; b < blocks; ++b)
     {
         Rng block_rng(splitmix64(base_seed ^ splitmix64(static_cast<std::uint64_t>(b))));
@@ -94,7 +95,8 @@ TriangleMesh add_noise(const TriangleMesh& mesh, const NoiseOptions& options, Rn
         {
             if (along_normals)
             {
-                result.V.row(i) += draw(block_rng, options.distribution, amplitude) * normals.row(i);
+                result.V.row(i) +=
+                    draw(block_rng, options.distribution, amplitude) * normals.row(i);
                 continue;
             }
             for (int d = 0; d < 3; ++d)

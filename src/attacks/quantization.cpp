@@ -7,7 +7,8 @@
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 void QuantizationOptions::validate() const
 {

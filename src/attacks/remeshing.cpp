@@ -3,8 +3,8 @@
 
 #include <algorithm>
 #include <array>
-#include <cstdint>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <string>
 #include <utility>
@@ -18,8 +18,10 @@
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 namespace pmp = CGAL::Polygon_mesh_processing;
 
@@ -62,7 +64,8 @@ void break_ties(detail::SurfaceMesh& surface, double diagonal)
     {
         const detail::CgalPoint& p = surface.point(v);
         const std::uint64_t i = v.idx();
-        surface.point(v) = detail::CgalPoint(p.x() + step * tie_break_unit(i, 0), p.y() + step * tie_break_unit(i, 1),
+        surface.point(v) = detail::CgalPoint(p.x() + step * tie_break_unit(i, 0),
+                                             p.y() + step * tie_break_unit(i, 1),
                                              p.z() + step * tie_break_unit(i, 2));
     }
 }
@@ -78,9 +81,9 @@ detail::SurfaceMesh remesh_pass(const detail::SurfaceMesh& input, double edge_le
                                 int iterations)
 {
     detail::SurfaceMesh surface = input;
-    pmp::isotropic_remeshing(faces(surface), edge_length, surface,
-                             CGAL::parameters::number_of_iterations(
-                                 static_cast<unsigned int>(iterations)));
+    pmp::isotropic_remeshing(
+        faces(surface), edge_length, surface,
+        CGAL::parameters::number_of_iterations(static_cast<unsigned int>(iterations)));
     surface.collect_garbage();
     return surface;
 }

@@ -4,8 +4,10 @@
 #include <utility>
 #include <vector>
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 // Uniform random permutation of 0..n-1 (Fisher-Yates with unbiased Rng::below draws).
 std::vector<std::int32_t> random_permutation(Eigen::Index n, Rng& rng)

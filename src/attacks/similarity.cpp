@@ -7,15 +7,20 @@
 
 #include <Eigen/Geometry>
 
-#include "meshmark/core/bounding_box.h"
-#include "meshmark/core/error.h"
 #include "attacks/detail/format.h"
 #include "attacks/detail/sampling.h"
+#include "meshmark/core/bounding_box.h"
+#include "meshmark/core/error.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
-bool is_finite(const Eigen::Vector3d& v) { return v.allFinite(); }
+bool is_finite(const Eigen::Vector3d& v)
+{
+    return v.allFinite();
+}
 
 // Rotation uniform over SO(3): a uniformly random unit quaternion [Shoemake, Graphics Gems III].
 Eigen::Matrix3d random_rotation(Rng& rng)
@@ -78,7 +83,8 @@ void SimilarityOptions::validate() const
     }
     if (mirror < -1 || mirror > 2)
     {
-        throw InvalidOption("similarity: mirror " + std::to_string(mirror) + " is not -1 (none), 0 (x), 1 (y) or 2 (z).");
+        throw InvalidOption("similarity: mirror " + std::to_string(mirror) +
+                            " is not -1 (none), 0 (x), 1 (y) or 2 (z).");
     }
     if (!is_finite(translation))
     {

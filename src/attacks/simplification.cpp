@@ -16,15 +16,18 @@
 #include <CGAL/Surface_mesh_simplification/edge_collapse.h>
 #include <CGAL/boost/graph/Euler_operations.h>
 
-#include "meshmark/core/error.h"
 #include "attacks/detail/cgal_mesh.h"
 #include "attacks/detail/format.h"
 #include "attacks/detail/simplify_meshopt.h"
 #include "attacks/detail/simplify_surface.h"
+#include "meshmark/core/error.h"
 
-namespace meshmark {
-namespace detail {
-namespace {
+namespace meshmark
+{
+namespace detail
+{
+namespace
+{
 
 namespace sms = CGAL::Surface_mesh_simplification;
 
@@ -74,8 +77,9 @@ void collapse(SurfaceMesh& surface, std::size_t target_vertices, SimplificationP
         const Policies policies(surface, boundary_weight);
         const sms::Bounded_normal_change_placement<Policies::Get_placement> placement(
             policies.get_placement());
-        sms::edge_collapse(surface, stop,
-                           CGAL::parameters::get_cost(policies.get_cost()).get_placement(placement));
+        sms::edge_collapse(
+            surface, stop,
+            CGAL::parameters::get_cost(policies.get_cost()).get_placement(placement));
     }
     else
     {
@@ -130,8 +134,8 @@ std::size_t unblock(SurfaceMesh& surface)
 
 }  // namespace
 
-void simplify_surface(SurfaceMesh& surface, std::size_t target_vertices, SimplificationPolicy policy,
-                      double boundary_weight)
+void simplify_surface(SurfaceMesh& surface, std::size_t target_vertices,
+                      SimplificationPolicy policy, double boundary_weight)
 {
     if (surface.number_of_vertices() <= target_vertices)
     {
@@ -168,8 +172,9 @@ void SimplificationOptions::validate() const
     if (boundary_weight != SimplificationOptions{}.boundary_weight &&
         (policy != SimplificationPolicy::GarlandHeckbert || method != SimplificationMethod::Cgal))
     {
-        throw InvalidOption("simplify: boundary= weighs the border quadrics of policy=gh with method=cgal; "
-                            "policy=lt and method=meshopt do not use it.");
+        throw InvalidOption(
+            "simplify: boundary= weighs the border quadrics of policy=gh with method=cgal; "
+            "policy=lt and method=meshopt do not use it.");
     }
 }
 
@@ -178,8 +183,8 @@ TriangleMesh simplify(const TriangleMesh& mesh, const SimplificationOptions& opt
     options.validate();
     // Target from the referenced vertices: unreferenced ones are not part of the surface.
     const auto referenced = static_cast<double>(referenced_vertices(mesh).size());
-    const auto target = static_cast<std::size_t>(
-        std::max(4.0, std::round(options.vertex_fraction * referenced)));
+    const auto target =
+        static_cast<std::size_t>(std::max(4.0, std::round(options.vertex_fraction * referenced)));
     if (options.method == SimplificationMethod::Meshoptimizer)
     {
         if (auto result = detail::simplify_meshopt(mesh, target, detail::kMeshoptTolerance))

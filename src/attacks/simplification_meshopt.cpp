@@ -1,15 +1,17 @@
 // SPDX-License-Identifier: MIT
-#include "attacks/detail/simplify_meshopt.h"
-
-#include <meshoptimizer.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <vector>
 
-namespace meshmark::detail {
-namespace {
+#include <meshoptimizer.h>
+
+#include "attacks/detail/simplify_meshopt.h"
+
+namespace meshmark::detail
+{
+namespace
+{
 
 // Passes on the previous pass's output when a pass stops above the target: the vertex count
 // per kept index is not constant (borders, pieces), so the index target is corrected each pass.
@@ -67,7 +69,7 @@ std::optional<TriangleMesh> simplify_meshopt(const TriangleMesh& mesh, std::size
     std::size_t current = used_vertex_count(indices, used);
     const auto target = static_cast<double>(target_vertices);
     std::vector<unsigned int> destination(indices.size());
-    for (int pass = 0; pass < kMaxPasses && static_cast<double>(current) > target; ++pass)
+    for (int pass = 0; pass<kMaxPasses&& static_cast<double>(current)> target; ++pass)
     {
         const double scaled =
             static_cast<double>(indices.size() / 3) * target / static_cast<double>(current);

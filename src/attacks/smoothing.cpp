@@ -6,13 +6,15 @@
 #include <string>
 #include <utility>
 
-#include "meshmark/core/error.h"
-#include "meshmark/geometry/adjacency.h"
 #include "attacks/detail/format.h"
 #include "attacks/detail/sampling.h"
+#include "meshmark/core/error.h"
+#include "meshmark/geometry/adjacency.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 // Largest iteration count accepted: 1000 times the benchmark's largest level (100), a bound
 // against typing errors; chosen by hand; no study on record.

@@ -7,10 +7,11 @@
 #include <CGAL/Subdivision_method_3/subdivision_masks_3.h>
 #include <CGAL/Subdivision_method_3/subdivision_methods_3.h>
 
-#include "meshmark/core/error.h"
 #include "attacks/detail/cgal_mesh.h"
+#include "meshmark/core/error.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 void SubdivisionOptions::validate() const
 {
@@ -28,17 +29,20 @@ TriangleMesh subdivide(const TriangleMesh& mesh, const SubdivisionOptions& optio
     const auto steps = CGAL::parameters::number_of_iterations(options.steps);
     switch (options.scheme)
     {
-    case SubdivisionScheme::Loop:
-        sub::Loop_subdivision(surface, steps);
-        break;
-    case SubdivisionScheme::Midpoint:
-        // Primal triangle quadrisection with the linear mask: new points at edge midpoints,
-        // old points unchanged (CGAL has no named function for it).
-        sub::PTQ(surface, CGAL::Linear_mask_3<detail::SurfaceMesh>(&surface, get(CGAL::vertex_point, surface)), steps);
-        break;
-    case SubdivisionScheme::Sqrt3:
-        sub::Sqrt3_subdivision(surface, steps);
-        break;
+        case SubdivisionScheme::Loop:
+            sub::Loop_subdivision(surface, steps);
+            break;
+        case SubdivisionScheme::Midpoint:
+            // Primal triangle quadrisection with the linear mask: new points at edge midpoints,
+            // old points unchanged (CGAL has no named function for it).
+            sub::PTQ(surface,
+                     CGAL::Linear_mask_3<detail::SurfaceMesh>(&surface,
+                                                              get(CGAL::vertex_point, surface)),
+                     steps);
+            break;
+        case SubdivisionScheme::Sqrt3:
+            sub::Sqrt3_subdivision(surface, steps);
+            break;
     }
     return detail::to_triangle_mesh(surface);
 }

@@ -19,8 +19,10 @@
 
 #include "attacks/detail/voxel_plugin.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 // Half-width of the narrow band, in voxels, on either side of the surface: Blender's value.
 // The zero crossing only needs the voxels next to the surface, and a wider band would bridge
@@ -94,14 +96,16 @@ void remesh(const TriangleMesh& mesh, double voxel, const Eigen::RowVector3d& sh
     openvdb::initialize();
     // TBB never runs more workers than cores and warns on stderr when asked to: capped.
     tbb::task_arena arena(std::min(threads, tbb::info::default_concurrency()));
-    arena.execute([&] {
-        const auto transform = openvdb::math::Transform::createLinearTransform(voxel);
-        const auto grid = openvdb::tools::meshToLevelSet<openvdb::FloatGrid>(
-            *transform, input.points, input.triangles, kHalfBandVoxels);
-        openvdb::tools::volumeToMesh(*grid, output.points, output.triangles, output.quads,
-                                     /*isovalue=*/0.0, /*adaptivity=*/0.0,
-                                     /*relaxDisorientedTriangles=*/false);
-    });
+    arena.execute(
+        [&]
+        {
+            const auto transform = openvdb::math::Transform::createLinearTransform(voxel);
+            const auto grid = openvdb::tools::meshToLevelSet<openvdb::FloatGrid>(
+                *transform, input.points, input.triangles, kHalfBandVoxels);
+            openvdb::tools::volumeToMesh(*grid, output.points, output.triangles, output.quads,
+                                         /*isovalue=*/0.0, /*adaptivity=*/0.0,
+                                         /*relaxDisorientedTriangles=*/false);
+        });
 
     result.V.resize(static_cast<Eigen::Index>(output.points.size()), 3);
     for (std::size_t i = 0; i < output.points.size(); ++i)
@@ -157,5 +161,5 @@ extern "C" __attribute__((visibility("default"))) int meshmark_voxel_remesh_v1(
         return meshmark::detail::kVoxelPluginFailed;
     }
 }
-static_assert(std::is_same_v<decltype(&meshmark_voxel_remesh_v1),
-                             meshmark::detail::VoxelRemeshFunction>);
+static_assert(
+    std::is_same_v<decltype(&meshmark_voxel_remesh_v1), meshmark::detail::VoxelRemeshFunction>);

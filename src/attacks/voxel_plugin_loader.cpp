@@ -1,9 +1,6 @@
 // SPDX-License-Identifier: MIT
 // Finds and opens the OpenVDB plugin libmeshmark_voxel.so (detail/voxel_plugin.h). dlopen and
 // dladdr are the platform's own loader interface; there is nothing to take from a library here.
-#include <dlfcn.h>
-#include <link.h>
-
 #include <cstddef>
 #include <cstdlib>
 #include <filesystem>
@@ -11,8 +8,11 @@
 #include <system_error>
 #include <vector>
 
-#include "meshmark/core/error.h"
+#include <dlfcn.h>
+#include <link.h>
+
 #include "attacks/detail/voxel_plugin.h"
+#include "meshmark/core/error.h"
 
 // Set by src/attacks/CMakeLists.txt: the plugin's directory under the configured install
 // prefix, and the install library directory relative to a prefix.
@@ -23,8 +23,10 @@
 #define MESHMARK_INSTALL_LIBDIR "lib"
 #endif
 
-namespace meshmark::detail {
-namespace {
+namespace meshmark::detail
+{
+namespace
+{
 
 namespace fs = std::filesystem;
 

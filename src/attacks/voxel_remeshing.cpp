@@ -6,13 +6,14 @@
 #include <new>
 #include <string>
 
+#include "attacks/detail/format.h"
+#include "attacks/detail/voxel_plugin.h"
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/threads.h"
-#include "attacks/detail/format.h"
-#include "attacks/detail/voxel_plugin.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 // The OpenVDB part runs in the plugin libmeshmark_voxel.so (voxel_openvdb_plugin.cpp), loaded
 // on the first call: see detail/voxel_plugin.h.
@@ -57,12 +58,12 @@ TriangleMesh voxel_remesh(const TriangleMesh& mesh, const VoxelRemeshingOptions&
     switch (remesh(&mesh, voxel, shift.data(), resolve_threads(threads), &result, message.data(),
                    message.size()))
     {
-    case detail::kVoxelPluginOk:
-        break;
-    case detail::kVoxelPluginOutOfMemory:
-        throw std::bad_alloc();
-    default:
-        throw Error(std::string("voxel: OpenVDB failed: ") + message.data());
+        case detail::kVoxelPluginOk:
+            break;
+        case detail::kVoxelPluginOutOfMemory:
+            throw std::bad_alloc();
+        default:
+            throw Error(std::string("voxel: OpenVDB failed: ") + message.data());
     }
     if (result.F.rows() == 0)
     {

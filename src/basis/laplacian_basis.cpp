@@ -2,8 +2,8 @@
 #include "meshmark/basis/laplacian_basis.h"
 
 #include <algorithm>
-#include <span>
 #include <cmath>
+#include <span>
 #include <string>
 
 #include <Eigen/CholmodSupport>
@@ -311,8 +311,9 @@ Positions LaplacianBasis::synthesize(const Eigen::MatrixX3d& c, double* orthogon
     return result;
 }
 
-void LaplacianBasis::synthesize_streamed(const Eigen::MatrixX3d& c, std::size_t /*chunks_in_flight*/,
-                                         const FieldSink& sink, double* orthogonality_error) const
+void LaplacianBasis::synthesize_streamed(const Eigen::MatrixX3d& c,
+                                         std::size_t /*chunks_in_flight*/, const FieldSink& sink,
+                                         double* orthogonality_error) const
 {
     // The eigenvectors are in memory already: synthesize the field over the active rows at
     // once (as synthesize() does) and hand it out in chunks.
@@ -323,7 +324,8 @@ void LaplacianBasis::synthesize_streamed(const Eigen::MatrixX3d& c, std::size_t 
     if (orthogonality_error != nullptr)
     {
         const Eigen::MatrixXd utu = U_.leftCols(modes).transpose() * U_.leftCols(modes);
-        *orthogonality_error = (utu - Eigen::MatrixXd::Identity(modes, modes)).cwiseAbs().maxCoeff();
+        *orthogonality_error =
+            (utu - Eigen::MatrixXd::Identity(modes, modes)).cwiseAbs().maxCoeff();
     }
     for (std::size_t begin = 0; begin < active_.size(); begin += max_chunk_rows())
     {
@@ -337,13 +339,14 @@ Eigen::MatrixXd LaplacianBasis::modes_dense(int modes) const
     return U_.leftCols(modes);
 }
 
-Eigen::MatrixXd LaplacianBasis::project_design(int modes, int head, std::size_t width, const DesignFill& fill) const
+Eigen::MatrixXd LaplacianBasis::project_design(int modes, int head, std::size_t width,
+                                               const DesignFill& fill) const
 {
     check_modes(modes);
     if (head < 0 || head > modes)
     {
-        throw InvalidOption("project_design: head must be in 0.." + std::to_string(modes) + ", got " +
-                            std::to_string(head) + ".");
+        throw InvalidOption("project_design: head must be in 0.." + std::to_string(modes) +
+                            ", got " + std::to_string(head) + ".");
     }
     // Serial, fixed blocks in row order: bit-identical for any thread count by construction
     // (1024 rows chosen by hand; no study on record).
@@ -359,8 +362,8 @@ Eigen::MatrixXd LaplacianBasis::project_design(int modes, int head, std::size_t 
         const auto r = static_cast<Eigen::Index>(rows);
         Ublock = U_.block(static_cast<Eigen::Index>(begin), 0, r, head);
         X.setZero(r, cols);
-        fill(std::span<const std::int32_t>(active_.data() + begin, rows), head > 0 ? Ublock.data() : nullptr,
-             X.data());
+        fill(std::span<const std::int32_t>(active_.data() + begin, rows),
+             head > 0 ? Ublock.data() : nullptr, X.data());
         result.noalias() += U_.block(static_cast<Eigen::Index>(begin), 0, r, modes).transpose() * X;
     }
     return result;

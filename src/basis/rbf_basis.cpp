@@ -4,13 +4,12 @@
 // rbf_queries.cpp.
 #include "meshmark/basis/rbf_basis.h"
 
-#include <omp.h>
-
 #include <algorithm>
 #include <cmath>
 #include <string>
 
 #include <Eigen/Eigenvalues>
+#include <omp.h>
 
 #include "basis/rbf_kernels.h"
 #include "basis/rbf_passes.h"
@@ -18,8 +17,10 @@
 #include "meshmark/core/morton.h"
 #include "meshmark/core/threads.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 // At most this many chunks; each owns a k x k accumulator, so memory stays O(k^2).
 constexpr std::size_t kMaxChunks = 64;
@@ -48,9 +49,13 @@ std::vector<std::size_t> spatial_columns(const Positions& Q)
 
 }  // namespace
 
-RbfBasis::RbfBasis(std::shared_ptr<const RowPositionSource> rows, const std::vector<std::int32_t>& centers,
-                   double sigma, const Eigen::Vector3d& origin, int threads, std::size_t gram_rows)
-    : rows_(std::move(rows)), kernels_(&detail::selected_kernels()), sigma_(sigma), origin_(origin),
+RbfBasis::RbfBasis(std::shared_ptr<const RowPositionSource> rows,
+                   const std::vector<std::int32_t>& centers, double sigma,
+                   const Eigen::Vector3d& origin, int threads, std::size_t gram_rows)
+    : rows_(std::move(rows)),
+      kernels_(&detail::selected_kernels()),
+      sigma_(sigma),
+      origin_(origin),
       threads_(resolve_threads(threads))
 {
     row_count_ = rows_ ? rows_->size() : 0;
@@ -105,7 +110,8 @@ void RbfBasis::build(std::size_t gram_rows)
     }
 
     // Fixed chunking: depends on the number of rows only, never on the thread count.
-    const auto fixed_chunks = [](std::size_t n) {
+    const auto fixed_chunks = [](std::size_t n)
+    {
         const std::size_t min_rows = kMinChunkBlocks * kBasisBlockRows;
         std::size_t chunk_rows = std::max(min_rows, (n + kMaxChunks - 1) / kMaxChunks);
         chunk_rows = (chunk_rows + kBasisBlockRows - 1) / kBasisBlockRows * kBasisBlockRows;
@@ -131,23 +137,27 @@ void RbfBasis::build(std::size_t gram_rows)
     const std::size_t kp = padded_k_;
     std::vector<std::vector<double>> parts((sampled ? gram_chunks_ : chunks_).size(),
                                            std::vector<double>(ld * ld, 0.0));
-    for_each_block([&](std::size_t chunk, double* B, const double* P, const std::int32_t* /*vertices*/,
-                       std::size_t rows, std::size_t /*begin*/, double* /*spare*/) {
-        for (std::size_t r = 0; r < rows; ++r)
+    for_each_block(
+        [&](std::size_t chunk, double* B, const double* P, const std::int32_t* /*vertices*/,
+            std::size_t rows, std::size_t /*begin*/, double* /*spare*/)
         {
-            double* extra = B + r * ld + kp;
-            extra[0] = P[3 * r];
-            extra[1] = P[3 * r + 1];
-            extra[2] = P[3 * r + 2];
-            extra[3] = 1.0;
-        }
-        kernels_->gram(B, rows, ld, parts[chunk].data());
-    }, 0, SIZE_MAX, sampled);
+            for (std::size_t r = 0; r < rows; ++r)
+            {
+                double* extra = B + r * ld + kp;
+                extra[0] = P[3 * r];
+                extra[1] = P[3 * r + 1];
+                extra[2] = P[3 * r + 2];
+                extra[3] = 1.0;
+            }
+            kernels_->gram(B, rows, ld, parts[chunk].data());
+        },
+        0, SIZE_MAX, sampled);
     std::vector<double> total = detail::sum_parts(parts);
     if (sampled)
     {
         // Sums over m evenly spaced rows, scaled to the n rows they stand for.
-        const double scale = static_cast<double>(row_count_) / static_cast<double>(gram_sample_rows_);
+        const double scale =
+            static_cast<double>(row_count_) / static_cast<double>(gram_sample_rows_);
         for (double& value : total)
         {
             value *= scale;
@@ -194,7 +204,10 @@ void RbfBasis::build(std::size_t gram_rows)
     }
 }
 
-std::string_view RbfBasis::kernel_name() const noexcept { return kernels_->name; }
+std::string_view RbfBasis::kernel_name() const noexcept
+{
+    return kernels_->name;
+}
 
 Eigen::MatrixXd RbfBasis::unpack_gram(const std::vector<double>& total) const
 {
@@ -221,13 +234,15 @@ std::vector<double> RbfBasis::columns_transposed(const Eigen::MatrixXd& M) const
     {
         for (Eigen::Index j = 0; j < M.rows(); ++j)
         {
-            out[static_cast<std::size_t>(c) * stride_ + column_[static_cast<std::size_t>(j)]] = M(j, c);
+            out[static_cast<std::size_t>(c) * stride_ + column_[static_cast<std::size_t>(j)]] =
+                M(j, c);
         }
     }
     return out;
 }
 
-Eigen::MatrixXd RbfBasis::reduce_columns(const std::vector<std::vector<double>>& parts, std::size_t width) const
+Eigen::MatrixXd RbfBasis::reduce_columns(const std::vector<std::vector<double>>& parts,
+                                         std::size_t width) const
 {
     const auto k = static_cast<Eigen::Index>(size());
     Eigen::MatrixXd bt_x = Eigen::MatrixXd::Zero(k, static_cast<Eigen::Index>(width));
@@ -237,7 +252,8 @@ Eigen::MatrixXd RbfBasis::reduce_columns(const std::vector<std::vector<double>>&
         {
             for (Eigen::Index j = 0; j < k; ++j)
             {
-                bt_x(j, static_cast<Eigen::Index>(col)) += part[col * stride_ + column_[static_cast<std::size_t>(j)]];
+                bt_x(j, static_cast<Eigen::Index>(col)) +=
+                    part[col * stride_ + column_[static_cast<std::size_t>(j)]];
             }
         }
     }
@@ -263,8 +279,8 @@ Eigen::MatrixXd RbfBasis::mode_transform(int modes) const
         const double w2 = singular_values_(j) * singular_values_(j);
         if (!(largest > 0.0) || w2 <= kGramRankTolerance * largest)
         {
-            throw NumericalError("the RBF Gram matrix is degenerate: mode " + std::to_string(j + 1) +
-                                 " of the " + std::to_string(modes) +
+            throw NumericalError("the RBF Gram matrix is degenerate: mode " +
+                                 std::to_string(j + 1) + " of the " + std::to_string(modes) +
                                  " needed has relative eigenvalue " + std::to_string(w2 / largest) +
                                  " (are the vertices collinear, coplanar in a tiny patch, or "
                                  "too few?).");

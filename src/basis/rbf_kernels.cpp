@@ -4,8 +4,6 @@
 // three builds (set_basis_kernel, MESHMARK_BASIS_KERNEL).
 #include "basis/rbf_kernels.h"
 
-#include "meshmark/basis/rbf_basis.h"
-
 #include <atomic>
 #include <cmath>
 #include <cstdlib>
@@ -13,14 +11,21 @@
 
 #include <Eigen/Core>
 
-namespace meshmark::detail {
-namespace {
+#include "meshmark/basis/rbf_basis.h"
+
+namespace meshmark::detail
+{
+namespace
+{
 
 using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 using ConstBlock = Eigen::Map<const RowMajor>;
 using Block = Eigen::Map<RowMajor>;
 
-Eigen::Index as_index(std::size_t n) { return static_cast<Eigen::Index>(n); }
+Eigen::Index as_index(std::size_t n)
+{
+    return static_cast<Eigen::Index>(n);
+}
 
 void evaluate(const double* P, std::size_t rows, const double* Q, std::size_t k, std::size_t ld,
               double inv_sigma, double* B)
@@ -75,9 +80,13 @@ constexpr BlockKernels kPortable{"portable", evaluate, gram, multiply, accumulat
 
 }  // namespace
 
-const BlockKernels& portable_kernels() noexcept { return kPortable; }
+const BlockKernels& portable_kernels() noexcept
+{
+    return kPortable;
+}
 
-namespace {
+namespace
+{
 
 BasisKernel kernel_from_environment() noexcept
 {
@@ -128,10 +137,17 @@ const BlockKernels& selected_kernels() noexcept
 
 }  // namespace meshmark::detail
 
-namespace meshmark {
+namespace meshmark
+{
 
-void set_basis_kernel(BasisKernel kernel) noexcept { detail::kernel_choice().store(kernel); }
+void set_basis_kernel(BasisKernel kernel) noexcept
+{
+    detail::kernel_choice().store(kernel);
+}
 
-std::string_view basis_kernel_name() noexcept { return detail::selected_kernels().name; }
+std::string_view basis_kernel_name() noexcept
+{
+    return detail::selected_kernels().name;
+}
 
 }  // namespace meshmark

@@ -7,7 +7,8 @@
 
 #include <cstddef>
 
-namespace meshmark::detail {
+namespace meshmark::detail
+{
 
 /// \brief Squared distance beyond which phi is certainly 0: (sigma (1 + 1e-9))^2.
 /// \details The evaluation skips the square root there. For d = sqrt(s) / sigma with s above
@@ -23,8 +24,9 @@ namespace meshmark::detail {
 /// \brief One entry phi(|p - q| / sigma) of B, in the operation order of one lane of the
 /// vector kernels (they use it for the columns past their last full vector): keep the two
 /// identical, entry for entry.
-[[nodiscard]] inline double wendland_entry(double px, double py, double pz, double qx, double qy, double qz,
-                                           double inv_sigma, double outside_squared) noexcept
+[[nodiscard]] inline double wendland_entry(double px, double py, double pz, double qx, double qy,
+                                           double qz, double inv_sigma,
+                                           double outside_squared) noexcept
 {
     const double dx = px - qx;
     const double dy = py - qy;

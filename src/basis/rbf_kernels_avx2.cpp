@@ -12,10 +12,12 @@
 #include <immintrin.h>
 #endif
 
-namespace meshmark::detail {
+namespace meshmark::detail
+{
 
 #ifdef MESHMARK_HAVE_AVX2_KERNELS
-namespace {
+namespace
+{
 
 #define MESHMARK_AVX2 __attribute__((target("avx2,fma")))
 
@@ -51,8 +53,8 @@ MESHMARK_AVX2 void evaluate(const double* P, std::size_t rows, const double* Q, 
             const __m256d dx = _mm256_sub_pd(vx, _mm256_loadu_pd(qx + j));
             const __m256d dy = _mm256_sub_pd(vy, _mm256_loadu_pd(qy + j));
             const __m256d dz = _mm256_sub_pd(vz, _mm256_loadu_pd(qz + j));
-            const __m256d sq = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy)),
-                                             _mm256_mul_pd(dz, dz));
+            const __m256d sq = _mm256_add_pd(
+                _mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy)), _mm256_mul_pd(dz, dz));
             if (_mm256_movemask_pd(_mm256_cmp_pd(sq, outside, _CMP_LT_OQ)) == 0)
             {
                 // All four centers out of reach: the formula gives +0 (see kOutsideMargin).
@@ -63,8 +65,8 @@ MESHMARK_AVX2 void evaluate(const double* P, std::size_t rows, const double* Q, 
             const __m256d inside = _mm256_cmp_pd(d, one, _CMP_LT_OQ);
             const __m256d t = _mm256_and_pd(inside, _mm256_sub_pd(one, d));
             const __m256d t2 = _mm256_mul_pd(t, t);
-            const __m256d value = _mm256_mul_pd(_mm256_mul_pd(t2, t2),
-                                                _mm256_add_pd(_mm256_mul_pd(four, d), one));
+            const __m256d value =
+                _mm256_mul_pd(_mm256_mul_pd(t2, t2), _mm256_add_pd(_mm256_mul_pd(four, d), one));
             _mm256_storeu_pd(row + j, value);
         }
         for (; j < k; ++j)
@@ -89,7 +91,8 @@ MESHMARK_AVX2 void gram_tile(const double* B, std::size_t rows, std::size_t ld, 
     {
         for (std::size_t v = 0; v < NJ; ++v)
         {
-            acc[a][v] = _mm256_loadu_pd(G + (i0 + static_cast<std::size_t>(a)) * ld + j0 + 4 * static_cast<std::size_t>(v));
+            acc[a][v] = _mm256_loadu_pd(G + (i0 + static_cast<std::size_t>(a)) * ld + j0 +
+                                        4 * static_cast<std::size_t>(v));
         }
     }
     for (std::size_t r = 0; r < rows; ++r)
@@ -113,7 +116,9 @@ MESHMARK_AVX2 void gram_tile(const double* B, std::size_t rows, std::size_t ld, 
     {
         for (std::size_t v = 0; v < NJ; ++v)
         {
-            _mm256_storeu_pd(G + (i0 + static_cast<std::size_t>(a)) * ld + j0 + 4 * static_cast<std::size_t>(v), acc[a][v]);
+            _mm256_storeu_pd(
+                G + (i0 + static_cast<std::size_t>(a)) * ld + j0 + 4 * static_cast<std::size_t>(v),
+                acc[a][v]);
         }
     }
 }
@@ -188,7 +193,8 @@ MESHMARK_AVX2 void multiply_columns(const double* B, std::size_t rows, std::size
         {
             for (std::size_t c = 0; c < W; ++c)
             {
-                out[(r + static_cast<std::size_t>(q)) * w + c0 + static_cast<std::size_t>(c)] = lane_sum(acc[q][c]);
+                out[(r + static_cast<std::size_t>(q)) * w + c0 + static_cast<std::size_t>(c)] =
+                    lane_sum(acc[q][c]);
             }
         }
     }
@@ -204,7 +210,8 @@ MESHMARK_AVX2 void multiply_columns(const double* B, std::size_t rows, std::size
             const __m256d b = _mm256_loadu_pd(B + r * ld + j);
             for (std::size_t c = 0; c < W; ++c)
             {
-                acc[c] = _mm256_fmadd_pd(b, _mm256_loadu_pd(Mt + (c0 + static_cast<std::size_t>(c)) * ld + j), acc[c]);
+                acc[c] = _mm256_fmadd_pd(
+                    b, _mm256_loadu_pd(Mt + (c0 + static_cast<std::size_t>(c)) * ld + j), acc[c]);
             }
         }
         for (std::size_t c = 0; c < W; ++c)
@@ -234,15 +241,17 @@ MESHMARK_AVX2 void multiply(const double* B, std::size_t rows, std::size_t ld, c
 
 // acc[c0 + c][j0 .. j0 + 4NJ - 1] += sum over rows of X[r][c0 + c] B[r][j]: W x NJ registers.
 template <std::size_t W, std::size_t NJ>
-MESHMARK_AVX2 void accumulate_tile(const double* B, std::size_t rows, std::size_t ld, const double* X,
-                                   std::size_t w, std::size_t c0, std::size_t j0, double* acc_out)
+MESHMARK_AVX2 void accumulate_tile(const double* B, std::size_t rows, std::size_t ld,
+                                   const double* X, std::size_t w, std::size_t c0, std::size_t j0,
+                                   double* acc_out)
 {
     __m256d acc[W][NJ];
     for (std::size_t c = 0; c < W; ++c)
     {
         for (std::size_t v = 0; v < NJ; ++v)
         {
-            acc[c][v] = _mm256_loadu_pd(acc_out + (c0 + static_cast<std::size_t>(c)) * ld + j0 + 4 * static_cast<std::size_t>(v));
+            acc[c][v] = _mm256_loadu_pd(acc_out + (c0 + static_cast<std::size_t>(c)) * ld + j0 +
+                                        4 * static_cast<std::size_t>(v));
         }
     }
     for (std::size_t r = 0; r < rows; ++r)
@@ -265,7 +274,9 @@ MESHMARK_AVX2 void accumulate_tile(const double* B, std::size_t rows, std::size_
     {
         for (std::size_t v = 0; v < NJ; ++v)
         {
-            _mm256_storeu_pd(acc_out + (c0 + static_cast<std::size_t>(c)) * ld + j0 + 4 * static_cast<std::size_t>(v), acc[c][v]);
+            _mm256_storeu_pd(acc_out + (c0 + static_cast<std::size_t>(c)) * ld + j0 +
+                                 4 * static_cast<std::size_t>(v),
+                             acc[c][v]);
         }
     }
 }
@@ -319,7 +330,10 @@ const BlockKernels* avx2_kernels() noexcept
 
 #else
 
-const BlockKernels* avx2_kernels() noexcept { return nullptr; }
+const BlockKernels* avx2_kernels() noexcept
+{
+    return nullptr;
+}
 
 #endif
 

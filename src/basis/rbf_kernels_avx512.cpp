@@ -15,10 +15,12 @@
 #include <immintrin.h>
 #endif
 
-namespace meshmark::detail {
+namespace meshmark::detail
+{
 
 #ifdef MESHMARK_HAVE_AVX512_KERNELS
-namespace {
+namespace
+{
 
 #define MESHMARK_AVX512 __attribute__((target("avx512f,avx2,fma")))
 
@@ -122,8 +124,9 @@ MESHMARK_AVX512 void gram(const double* B, std::size_t rows, std::size_t ld, dou
 
 // acc[c0 + c][j0 .. j0 + 8NJ - 1] += sum over rows of X[r][c0 + c] B[r][j]: W x NJ registers.
 template <std::size_t W, std::size_t NJ>
-MESHMARK_AVX512 void accumulate_tile(const double* B, std::size_t rows, std::size_t ld, const double* X,
-                                     std::size_t w, std::size_t c0, std::size_t j0, double* acc_out)
+MESHMARK_AVX512 void accumulate_tile(const double* B, std::size_t rows, std::size_t ld,
+                                     const double* X, std::size_t w, std::size_t c0, std::size_t j0,
+                                     double* acc_out)
 {
     __m512d acc[W][NJ];
     for (std::size_t c = 0; c < W; ++c)
@@ -160,8 +163,9 @@ MESHMARK_AVX512 void accumulate_tile(const double* B, std::size_t rows, std::siz
 
 // The 4-wide remainder of the columns of B.
 template <std::size_t W>
-MESHMARK_AVX512 void accumulate_tile4(const double* B, std::size_t rows, std::size_t ld, const double* X,
-                                      std::size_t w, std::size_t c0, std::size_t j0, double* acc_out)
+MESHMARK_AVX512 void accumulate_tile4(const double* B, std::size_t rows, std::size_t ld,
+                                      const double* X, std::size_t w, std::size_t c0,
+                                      std::size_t j0, double* acc_out)
 {
     __m256d acc[W];
     for (std::size_t c = 0; c < W; ++c)
@@ -243,7 +247,8 @@ MESHMARK_AVX512 void accumulate(const double* B, std::size_t rows, std::size_t l
 
 const BlockKernels* avx512_kernels() noexcept
 {
-    static const BlockKernels* const kernels = []() -> const BlockKernels* {
+    static const BlockKernels* const kernels = []() -> const BlockKernels*
+    {
         const BlockKernels* avx2 = avx2_kernels();  // its multiply, and AVX2 + FMA themselves
         if (avx2 == nullptr || !__builtin_cpu_supports("avx512f"))
         {

@@ -14,9 +14,11 @@
 #include "basis/rbf_kernels.h"
 #include "meshmark/basis/rbf_basis.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
-namespace detail {
+namespace detail
+{
 
 /// Element-wise sum of the per-chunk parts, in chunk order (each part the same size).
 [[nodiscard]] inline std::vector<double> sum_parts(const std::vector<std::vector<double>>& parts)
@@ -40,7 +42,8 @@ void RbfBasis::for_each_block(const BlockFn& fn, std::size_t first_chunk, std::s
 {
     const std::vector<Chunk>& chunks = sampled ? gram_chunks_ : chunks_;
     last_chunk = std::min(last_chunk, chunks.size());
-    const auto chunk_count = static_cast<std::ptrdiff_t>(last_chunk - std::min(first_chunk, last_chunk));
+    const auto chunk_count =
+        static_cast<std::ptrdiff_t>(last_chunk - std::min(first_chunk, last_chunk));
     const auto k = center_positions_.rows();
     const double inv_sigma = 1.0 / sigma_;
 #pragma omp parallel num_threads(threads_)
@@ -57,7 +60,8 @@ void RbfBasis::for_each_block(const BlockFn& fn, std::size_t first_chunk, std::s
         {
             const std::size_t index = first_chunk + static_cast<std::size_t>(c);
             const auto& chunk = chunks[index];
-            const std::unique_ptr<RowPositionCursor> cursor = rows_->cursor(sampled ? gram_row(chunk.begin) : chunk.begin);
+            const std::unique_ptr<RowPositionCursor> cursor =
+                rows_->cursor(sampled ? gram_row(chunk.begin) : chunk.begin);
             for (std::size_t begin = chunk.begin; begin < chunk.end; begin += kBasisBlockRows)
             {
                 const std::size_t end = std::min(chunk.end, begin + kBasisBlockRows);
@@ -68,7 +72,8 @@ void RbfBasis::for_each_block(const BlockFn& fn, std::size_t first_chunk, std::s
                     {
                         sample[i] = gram_row(begin + i);
                     }
-                    cursor->read_at(std::span<const std::size_t>(sample.data(), rows), P.data(), vertices.data());
+                    cursor->read_at(std::span<const std::size_t>(sample.data(), rows), P.data(),
+                                    vertices.data());
                 }
                 else
                 {
@@ -81,8 +86,8 @@ void RbfBasis::for_each_block(const BlockFn& fn, std::size_t first_chunk, std::s
                         P[3 * i + static_cast<std::size_t>(d)] -= origin_(d);
                     }
                 }
-                kernels_->evaluate(P.data(), rows, centers_soa_.data(), static_cast<std::size_t>(k), stride_,
-                                   inv_sigma, B.data());
+                kernels_->evaluate(P.data(), rows, centers_soa_.data(), static_cast<std::size_t>(k),
+                                   stride_, inv_sigma, B.data());
                 fn(index, B.data(), P.data(), vertices.data(), rows, begin, spare.data());
             }
         }

@@ -10,13 +10,18 @@
 #include "meshmark/core/error.h"
 #include "meshmark/core/rng.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 class PositionCursor final : public RowPositionCursor
 {
 public:
-    PositionCursor(const PositionRows& rows, std::size_t begin) : V_(rows.positions()), active_(rows.active()), next_(begin) {}
+    PositionCursor(const PositionRows& rows, std::size_t begin)
+        : V_(rows.positions()), active_(rows.active()), next_(begin)
+    {
+    }
 
     void read(std::size_t count, double* xyz, std::int32_t* rows) override
     {
@@ -54,7 +59,10 @@ private:
 
 }  // namespace
 
-PositionRows::PositionRows(const Positions& V, std::vector<std::int32_t> active) : V_(&V), active_(std::move(active)) {}
+PositionRows::PositionRows(const Positions& V, std::vector<std::int32_t> active)
+    : V_(&V), active_(std::move(active))
+{
+}
 
 std::array<double, 3> PositionRows::position(std::int32_t row) const
 {
@@ -66,12 +74,14 @@ std::unique_ptr<RowPositionCursor> PositionRows::cursor(std::size_t begin) const
     return std::make_unique<PositionCursor>(*this, begin);
 }
 
-std::shared_ptr<const PositionRows> position_rows(const Positions& V, std::vector<std::int32_t> active)
+std::shared_ptr<const PositionRows> position_rows(const Positions& V,
+                                                  std::vector<std::int32_t> active)
 {
     return std::make_shared<const PositionRows>(V, std::move(active));
 }
 
-std::vector<std::int32_t> random_centers(const Positions& V, const std::vector<std::int32_t>& active, int k,
+std::vector<std::int32_t> random_centers(const Positions& V,
+                                         const std::vector<std::int32_t>& active, int k,
                                          std::uint64_t seed)
 {
     return random_centers(PositionRows(V, active), k, seed);
@@ -86,7 +96,8 @@ std::vector<std::int32_t> random_centers(const RowPositionSource& rows, int k, s
     const std::size_t count = rows.size();
     // The pool is rows.row(0..count-1) with the swaps done so far recorded sparsely.
     std::unordered_map<std::size_t, std::int32_t> swapped;
-    const auto pool = [&](std::size_t i) {
+    const auto pool = [&](std::size_t i)
+    {
         const auto found = swapped.find(i);
         return found == swapped.end() ? rows.row(i) : found->second;
     };

@@ -19,35 +19,47 @@
 #include "meshmark/core/hash.h"
 #include "meshmark/core/threads.h"
 
-namespace meshmark {
+namespace meshmark
+{
 namespace fs = std::filesystem;
 
 const char* to_string(CatalogAddOutcome::Status status) noexcept
 {
     switch (status)
     {
-    case CatalogAddOutcome::Status::Marked: return "marked";
-    case CatalogAddOutcome::Status::Present: return "present";
-    case CatalogAddOutcome::Status::Unmarkable: return "unmarkable";
-    case CatalogAddOutcome::Status::Failed: return "failed";
+        case CatalogAddOutcome::Status::Marked:
+            return "marked";
+        case CatalogAddOutcome::Status::Present:
+            return "present";
+        case CatalogAddOutcome::Status::Unmarkable:
+            return "unmarkable";
+        case CatalogAddOutcome::Status::Failed:
+            return "failed";
     }
     return "failed";
 }
 
-namespace {
+namespace
+{
 
 bool is_mesh_file(const fs::path& path)
 {
     std::string ext = path.extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
-    static const std::set<std::string> kExtensions = {".ply", ".obj", ".off", ".stl", ".gltf", ".glb", ".3mf"};
+    std::transform(ext.begin(), ext.end(), ext.begin(),
+                   [](unsigned char c) { return std::tolower(c); });
+    static const std::set<std::string> kExtensions = {".ply",  ".obj", ".off", ".stl",
+                                                      ".gltf", ".glb", ".3mf"};
     return kExtensions.contains(ext);
 }
 
 bool is_hidden(const fs::path& relative)
 {
-    return std::any_of(relative.begin(), relative.end(), [](const fs::path& part)
-                       { const std::string s = part.string(); return s.size() > 1 && s[0] == '.' && s != ".."; });
+    return std::any_of(relative.begin(), relative.end(),
+                       [](const fs::path& part)
+                       {
+                           const std::string s = part.string();
+                           return s.size() > 1 && s[0] == '.' && s != "..";
+                       });
 }
 
 // A relative path that stays below its folder ("a/b.png", not "../b.png" nor "/b.png").
@@ -70,7 +82,8 @@ void copy_beside(const fs::path& from, const fs::path& to)
     if (fs::is_regular_file(to, error))
     {
         std::ifstream there(to, std::ios::binary);
-        const std::string existing((std::istreambuf_iterator<char>(there)), std::istreambuf_iterator<char>());
+        const std::string existing((std::istreambuf_iterator<char>(there)),
+                                   std::istreambuf_iterator<char>());
         if (existing == bytes)
         {
             return;
@@ -135,9 +148,10 @@ void copy_obj_materials(const fs::path& input, const fs::path& output)
                 {
                     continue;
                 }
-                std::transform(first.begin(), first.end(), first.begin(), [](unsigned char c) { return std::tolower(c); });
-                if (!first.starts_with("map_") && first != "bump" && first != "disp" && first != "decal" &&
-                    first != "refl" && first != "norm")
+                std::transform(first.begin(), first.end(), first.begin(),
+                               [](unsigned char c) { return std::tolower(c); });
+                if (!first.starts_with("map_") && first != "bump" && first != "disp" &&
+                    first != "decal" && first != "refl" && first != "norm")
                 {
                     continue;
                 }
@@ -147,7 +161,8 @@ void copy_obj_materials(const fs::path& input, const fs::path& output)
                     texture = word;
                 }
                 const fs::path relative = library_folder / texture;
-                if (!texture.empty() && stays_inside(relative) && fs::is_regular_file(from / relative, error))
+                if (!texture.empty() && stays_inside(relative) &&
+                    fs::is_regular_file(from / relative, error))
                 {
                     copy_beside(from / relative, to / relative);
                 }
@@ -159,14 +174,16 @@ void copy_obj_materials(const fs::path& input, const fs::path& output)
 // The outcome of a failure: InvalidMesh and NumericalError say the mesh cannot carry a mark.
 CatalogAddOutcome failed(CatalogAddOutcome outcome, const std::exception& e, bool unmarkable)
 {
-    outcome.status = unmarkable ? CatalogAddOutcome::Status::Unmarkable : CatalogAddOutcome::Status::Failed;
+    outcome.status =
+        unmarkable ? CatalogAddOutcome::Status::Unmarkable : CatalogAddOutcome::Status::Failed;
     outcome.reason = e.what();
     return outcome;
 }
 
 }  // namespace
 
-std::vector<std::pair<fs::path, std::string>> find_mesh_files(const std::vector<fs::path>& inputs, const fs::path& skip)
+std::vector<std::pair<fs::path, std::string>> find_mesh_files(const std::vector<fs::path>& inputs,
+                                                              const fs::path& skip)
 {
     std::vector<std::pair<fs::path, std::string>> found;
     std::error_code error;
@@ -183,15 +200,18 @@ std::vector<std::pair<fs::path, std::string>> find_mesh_files(const std::vector<
             throw InvalidOption(input.string() + ": no such file or folder.");
         }
         std::vector<std::pair<fs::path, std::string>> here;
-        for (auto it = fs::recursive_directory_iterator(input, fs::directory_options::skip_permission_denied, error);
+        for (auto it = fs::recursive_directory_iterator(
+                 input, fs::directory_options::skip_permission_denied, error);
              it != fs::recursive_directory_iterator(); it.increment(error))
         {
             if (error)
             {
-                throw IoError(input.string() + ": cannot list the folder (" + error.message() + ").");
+                throw IoError(input.string() + ": cannot list the folder (" + error.message() +
+                              ").");
             }
             const fs::path relative = it->path().lexically_relative(input);
-            if (is_hidden(relative) || (!skipped.empty() && fs::weakly_canonical(it->path(), error) == skipped))
+            if (is_hidden(relative) ||
+                (!skipped.empty() && fs::weakly_canonical(it->path(), error) == skipped))
             {
                 if (it->is_directory(error))
                 {
@@ -204,14 +224,16 @@ std::vector<std::pair<fs::path, std::string>> find_mesh_files(const std::vector<
                 here.emplace_back(it->path(), relative.generic_string());
             }
         }
-        std::sort(here.begin(), here.end(), [](const auto& a, const auto& b) { return a.second < b.second; });
+        std::sort(here.begin(), here.end(),
+                  [](const auto& a, const auto& b) { return a.second < b.second; });
         found.insert(found.end(), here.begin(), here.end());
     }
     return found;
 }
 
 std::vector<CatalogAddOutcome> catalog_add(Catalog& catalog, const std::vector<fs::path>& inputs,
-                                           const fs::path& output_folder, const CatalogAddOptions& options)
+                                           const fs::path& output_folder,
+                                           const CatalogAddOptions& options)
 {
     if (options.jobs < 0)
     {
@@ -229,8 +251,9 @@ std::vector<CatalogAddOutcome> catalog_add(Catalog& catalog, const std::vector<f
     const auto files = find_mesh_files(inputs, output_folder);
     std::vector<CatalogAddOutcome> outcomes(files.size());
     const int cores = resolve_threads(0);
-    const int jobs = std::max(1, std::min<int>(options.jobs > 0 ? options.jobs : cores,
-                                               static_cast<int>(std::max<std::size_t>(files.size(), 1))));
+    const int jobs =
+        std::max(1, std::min<int>(options.jobs > 0 ? options.jobs : cores,
+                                  static_cast<int>(std::max<std::size_t>(files.size(), 1))));
     const int threads = std::max(1, resolve_threads(options.embed.threads) / jobs);
     std::atomic<std::size_t> next{0};
     std::atomic<std::size_t> done{0};
@@ -239,7 +262,8 @@ std::vector<CatalogAddOutcome> catalog_add(Catalog& catalog, const std::vector<f
     std::mutex claim_mutex;
     std::set<std::string> claimed;
 
-    const auto mark_one = [&](std::size_t f) {
+    const auto mark_one = [&](std::size_t f)
+    {
         const auto start = std::chrono::steady_clock::now();
         const auto& [input, id] = files[f];
         CatalogAddOutcome outcome;
@@ -252,38 +276,46 @@ std::vector<CatalogAddOutcome> catalog_add(Catalog& catalog, const std::vector<f
                 const std::lock_guard lock(claim_mutex);
                 if (!claimed.insert(id).second)
                 {
-                    throw InvalidOption(input.string() + ": another file of this call is already asset '" + id +
+                    throw InvalidOption(input.string() +
+                                        ": another file of this call is already asset '" + id +
                                         "'; add the two from separate folders.");
                 }
             }
             const fs::path original = fs::absolute(input).lexically_normal();
             if (is_same_file(original, published))
             {
-                throw InvalidOption(input.string() + ": the marked copy would replace the original; choose another -o.");
+                throw InvalidOption(
+                    input.string() +
+                    ": the marked copy would replace the original; choose another -o.");
             }
             const std::string sha = file_sha256(original);
             if (const std::optional<CatalogAsset> known = catalog.asset(id))
             {
                 if (known->original != original)
                 {
-                    throw InvalidOption(input.string() + ": the catalogue's asset '" + id + "' is another file, " +
-                                        known->original.string() + "; add this one from another folder.");
+                    throw InvalidOption(input.string() + ": the catalogue's asset '" + id +
+                                        "' is another file, " + known->original.string() +
+                                        "; add this one from another folder.");
                 }
                 if (known->original_sha256 == sha && known->is_complete)
                 {
                     outcome.status = CatalogAddOutcome::Status::Present;
                     outcome.published = known->published;
                     outcome.vertex_count = known->vertex_count;
-                    outcome.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+                    outcome.seconds =
+                        std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+                            .count();
                     return outcome;
                 }
                 if (known->original_sha256 != sha)
                 {
                     if (known->is_complete && !options.force)
                     {
-                        throw InvalidOption(input.string() + ": the original changed since it was added as asset '" +
-                                            id + "'; pass --force to mark it again with a new key (copies "
-                                            "issued before are then no longer traced).");
+                        throw InvalidOption(
+                            input.string() +
+                            ": the original changed since it was added as asset '" + id +
+                            "'; pass --force to mark it again with a new key (copies "
+                            "issued before are then no longer traced).");
                     }
                     catalog.remove(id);  // an interrupted add of other bytes, or --force
                 }
@@ -299,7 +331,8 @@ std::vector<CatalogAddOutcome> catalog_add(Catalog& catalog, const std::vector<f
             catch (const Error& e)
             {
                 outcome = failed(std::move(outcome), e, false);
-                outcome.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+                outcome.seconds =
+                    std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
                 return outcome;
             }
             const MeshFile& file = *read;
@@ -326,7 +359,8 @@ std::vector<CatalogAddOutcome> catalog_add(Catalog& catalog, const std::vector<f
             }
             const std::unique_ptr<FamilyKeyStore> store =
                 catalog.family_store(id, std::move(prototype), std::move(signature));
-            (void)embed_recipients(original, &file, [&](const std::string&) { return published; }, *store, embed);
+            (void)embed_recipients(
+                original, &file, [&](const std::string&) { return published; }, *store, embed);
             outcome.status = CatalogAddOutcome::Status::Marked;
             outcome.published = published;
         }
@@ -342,11 +376,13 @@ std::vector<CatalogAddOutcome> catalog_add(Catalog& catalog, const std::vector<f
         {
             outcome = failed(std::move(outcome), e, false);
         }
-        outcome.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        outcome.seconds =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         return outcome;
     };
 
-    const auto work = [&] {
+    const auto work = [&]
+    {
         for (std::size_t f = next++; f < files.size(); f = next++)
         {
             outcomes[f] = mark_one(f);

@@ -6,12 +6,15 @@
 
 #include "meshmark/pipeline/report_json.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
-nlohmann::json catalog_add_json(const Catalog& catalog, const std::vector<CatalogAddOutcome>& outcomes)
+nlohmann::json catalog_add_json(const Catalog& catalog,
+                                const std::vector<CatalogAddOutcome>& outcomes)
 {
     nlohmann::json files = nlohmann::json::array();
-    std::map<std::string, int> counts = {{"marked", 0}, {"present", 0}, {"unmarkable", 0}, {"failed", 0}};
+    std::map<std::string, int> counts = {
+        {"marked", 0}, {"present", 0}, {"unmarkable", 0}, {"failed", 0}};
     for (const CatalogAddOutcome& o : outcomes)
     {
         nlohmann::json file = {{"path", o.path.string()},
@@ -33,12 +36,16 @@ nlohmann::json catalog_add_json(const Catalog& catalog, const std::vector<Catalo
     return {{"catalog", catalog.path().string()}, {"files", std::move(files)}, {"counts", counts}};
 }
 
-nlohmann::json catalog_asset_json(const CatalogAsset& asset, const std::vector<CatalogRecipient>& recipients)
+nlohmann::json catalog_asset_json(const CatalogAsset& asset,
+                                  const std::vector<CatalogRecipient>& recipients)
 {
     nlohmann::json names = nlohmann::json::array();
     for (const CatalogRecipient& r : recipients)
     {
-        names.push_back({{"name", r.name}, {"path", r.path.string()}, {"delivered", r.is_delivered}, {"issued", r.issued}});
+        names.push_back({{"name", r.name},
+                         {"path", r.path.string()},
+                         {"delivered", r.is_delivered},
+                         {"issued", r.issued}});
     }
     return {{"asset", asset.id},
             {"original", asset.original.string()},
@@ -66,7 +73,9 @@ nlohmann::json catalog_scan_json(const Catalog& catalog, const CatalogScanReport
             for (const RecipientScore& r : m.recipients)
             {
                 recipients.push_back(
-                    {{"name", r.name}, {"score", r.score}, {"false_positive_probability", r.false_positive_probability}});
+                    {{"name", r.name},
+                     {"score", r.score},
+                     {"false_positive_probability", r.false_positive_probability}});
             }
             matches.push_back({{"asset", m.asset},
                                {"original", m.original.string()},
@@ -104,7 +113,8 @@ nlohmann::json catalog_scan_json(const Catalog& catalog, const CatalogScanReport
             {"assets", report.assets},
             {"max_false_positive", report.max_false_positive},
             {"bound",
-             "per suspect, the chance that an unmarked mesh is claimed for any asset of the catalogue is at "
+             "per suspect, the chance that an unmarked mesh is claimed for any asset of the "
+             "catalogue is at "
              "most max_false_positive (each asset's key tested at max_false_positive / assets; "
              "docs/statistics.md)"},
             {"suspects", std::move(suspects)}};

@@ -20,8 +20,10 @@
 #include "meshmark/registration/registration.h"
 #include "meshmark/registration/similarity_fit.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 using Clock = std::chrono::steady_clock;
 
@@ -228,7 +230,8 @@ std::vector<std::pair<float, std::size_t>> shape_candidates(
     return ranked;
 }
 
-CatalogScanReport catalog_scan(const Catalog& catalog, const std::vector<std::filesystem::path>& suspects,
+CatalogScanReport catalog_scan(const Catalog& catalog,
+                               const std::vector<std::filesystem::path>& suspects,
                                const CatalogScanOptions& options)
 {
     options.detect.decision.validate();
@@ -368,7 +371,8 @@ CatalogScanReport catalog_scan(const Catalog& catalog, const std::vector<std::fi
                 }
             }
         }
-        std::stable_sort(scan.matches.begin(), scan.matches.end(), [](const CatalogMatch& a, const CatalogMatch& b)
+        std::stable_sort(scan.matches.begin(), scan.matches.end(),
+                         [](const CatalogMatch& a, const CatalogMatch& b)
                          { return a.false_positive_probability < b.false_positive_probability; });
         scan.detected = !scan.matches.empty();
         scan.seconds = seconds_since(start);
@@ -382,7 +386,8 @@ CatalogScanReport catalog_scan(const Catalog& catalog, const std::vector<std::fi
     return report;
 }
 
-EmbedRecipientsReport catalog_issue(Catalog& catalog, const std::string& asset_id, const std::string& output_pattern,
+EmbedRecipientsReport catalog_issue(Catalog& catalog, const std::string& asset_id,
+                                    const std::string& output_pattern,
                                     const CatalogIssueOptions& options)
 {
     const std::optional<CatalogAsset> asset = catalog.asset(asset_id);
@@ -393,8 +398,9 @@ EmbedRecipientsReport catalog_issue(Catalog& catalog, const std::string& asset_i
     }
     if (!asset->is_complete)
     {
-        throw InvalidOption(catalog.path().string() + ": asset '" + asset_id +
-                            "' was not finished being added; run the same `catalog add` again first.");
+        throw InvalidOption(
+            catalog.path().string() + ": asset '" + asset_id +
+            "' was not finished being added; run the same `catalog add` again first.");
     }
     std::error_code error;
     if (!std::filesystem::is_regular_file(asset->original, error))
@@ -409,8 +415,9 @@ EmbedRecipientsReport catalog_issue(Catalog& catalog, const std::string& asset_i
     embed.progress = options.progress;
     const std::unique_ptr<FamilyKeyStore> store = catalog.family_store(asset_id);
     return embed_recipients(
-        asset->original, nullptr, [&](const std::string& name) { return recipient_output(output_pattern, name); },
-        *store, embed);
+        asset->original, nullptr,
+        [&](const std::string& name) { return recipient_output(output_pattern, name); }, *store,
+        embed);
 }
 
 }  // namespace meshmark

@@ -13,8 +13,10 @@
 
 #include "meshmark/core/error.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 // Removes the temporary file unless released: the cleanup path of every failure.
 class TemporaryFile
@@ -97,7 +99,8 @@ void write_file_atomically(const std::filesystem::path& path,
         throw IoError(path.string() + ": the file already exists; refusing to overwrite it.");
     }
     create_parent_directories(path);
-    const auto directory = path.parent_path().empty() ? std::filesystem::path(".") : path.parent_path();
+    const auto directory =
+        path.parent_path().empty() ? std::filesystem::path(".") : path.parent_path();
     std::string name = path.filename().string();
     name.insert(0, 1, '.');
     name.append(".tmp-XXXXXX");

@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/core/bounding_box.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 BoundingBox bounding_box(const Positions& V)
 {

@@ -1,11 +1,13 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/core/error.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 ExitCode exit_code_for(const std::exception& e) noexcept
 {
-    if (dynamic_cast<const IoError*>(&e) != nullptr || dynamic_cast<const InvalidMesh*>(&e) != nullptr)
+    if (dynamic_cast<const IoError*>(&e) != nullptr ||
+        dynamic_cast<const InvalidMesh*>(&e) != nullptr)
     {
         return ExitCode::InvalidInput;
     }

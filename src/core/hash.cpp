@@ -4,7 +4,8 @@
 #include <bit>
 #include <cstring>
 
-namespace meshmark {
+namespace meshmark
+{
 
 void Hasher::update(const void* data, std::size_t size) noexcept
 {

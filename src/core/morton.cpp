@@ -5,8 +5,10 @@
 #include <cstdint>
 #include <utility>
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 /// Spreads the low 21 bits of \p x to every third bit.
 std::uint64_t spread_bits(std::uint64_t x) noexcept

@@ -5,8 +5,10 @@
 #include <cmath>
 #include <cstdio>
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 std::string one_decimal(double value)
 {
@@ -52,7 +54,8 @@ std::string one_in(double p)
         m /= 10;
         ++e;
     }
-    const auto mantissa = [](long long digits, int decimals_shift) {
+    const auto mantissa = [](long long digits, int decimals_shift)
+    {
         // digits / 10^decimals_shift with at most one decimal, ".0" dropped.
         const double value = static_cast<double>(digits) / std::pow(10.0, decimals_shift);
         return std::fmod(value, 1.0) == 0.0 ? std::to_string(static_cast<long long>(value))
@@ -64,8 +67,9 @@ std::string one_in(double p)
     }
     if (e < 6)
     {
-        return "1 in " + grouped_digits(static_cast<std::uintmax_t>(m) *
-                                 static_cast<std::uintmax_t>(std::llround(std::pow(10.0, e - 1))));
+        return "1 in " +
+               grouped_digits(static_cast<std::uintmax_t>(m) *
+                              static_cast<std::uintmax_t>(std::llround(std::pow(10.0, e - 1))));
     }
     if (e < 15)
     {
@@ -73,7 +77,8 @@ std::string one_in(double p)
         const int group = e / 3;  // 2, 3, 4
         return "1 in " + mantissa(m, 1 - (e - 3 * group)) + " " + kUnits[group - 2];
     }
-    return "1 in " + (m == 10 ? std::string() : mantissa(m, 1) + " \u00d7 ") + "10^" + std::to_string(e);
+    return "1 in " + (m == 10 ? std::string() : mantissa(m, 1) + " \u00d7 ") + "10^" +
+           std::to_string(e);
 }
 
 }  // namespace meshmark

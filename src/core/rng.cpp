@@ -4,7 +4,8 @@
 #include <cmath>
 #include <numbers>
 
-namespace meshmark {
+namespace meshmark
+{
 
 std::uint64_t derive_seed(std::uint64_t seed, std::string_view purpose) noexcept
 {

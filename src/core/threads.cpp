@@ -5,7 +5,8 @@
 
 #include <omp.h>
 
-namespace meshmark {
+namespace meshmark
+{
 
 int resolve_threads(int requested)
 {

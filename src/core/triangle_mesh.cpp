@@ -6,7 +6,8 @@
 
 #include "meshmark/core/error.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 void validate(const TriangleMesh& mesh, const char* what)
 {
@@ -30,8 +31,8 @@ void validate(const TriangleMesh& mesh, const char* what)
             if (index < 0 || index >= n)
             {
                 throw InvalidMesh(std::string(what) + ": face " + std::to_string(f) +
-                                  " uses vertex index " + std::to_string(index) +
-                                  ", outside 0.." + std::to_string(n - 1) + ".");
+                                  " uses vertex index " + std::to_string(index) + ", outside 0.." +
+                                  std::to_string(n - 1) + ".");
             }
         }
     }

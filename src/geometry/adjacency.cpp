@@ -6,8 +6,10 @@
 #include <numeric>
 #include <utility>
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 // Calls visit(a, b) once for each of the three corner pairs (edges) of every face whose two
 // ends differ, in face order.
@@ -47,16 +49,20 @@ VertexAdjacency vertex_adjacency(const TriangleMesh& mesh)
     // than sorting all 6 #F half-edges globally on large meshes.
     const auto n = static_cast<std::size_t>(mesh.V.rows());
     std::vector<std::size_t> counts(n, 0);
-    for_each_face_edge(mesh, [&](std::int32_t a, std::int32_t b) {
-        ++counts[static_cast<std::size_t>(a)];
-        ++counts[static_cast<std::size_t>(b)];
-    });
+    for_each_face_edge(mesh,
+                       [&](std::int32_t a, std::int32_t b)
+                       {
+                           ++counts[static_cast<std::size_t>(a)];
+                           ++counts[static_cast<std::size_t>(b)];
+                       });
     std::vector<std::size_t> cursor = row_offsets(counts);
     std::vector<std::int32_t> raw(cursor.back());
-    for_each_face_edge(mesh, [&](std::int32_t a, std::int32_t b) {
-        raw[cursor[static_cast<std::size_t>(a)]++] = b;
-        raw[cursor[static_cast<std::size_t>(b)]++] = a;
-    });
+    for_each_face_edge(mesh,
+                       [&](std::int32_t a, std::int32_t b)
+                       {
+                           raw[cursor[static_cast<std::size_t>(a)]++] = b;
+                           raw[cursor[static_cast<std::size_t>(b)]++] = a;
+                       });
 
     VertexAdjacency adjacency;
     adjacency.offsets.assign(n + 1, 0);
@@ -105,15 +111,16 @@ EdgeStatistics edge_statistics(const TriangleMesh& mesh)
     // face runs along it from small to large (+1) or back (-1).
     const auto n = static_cast<std::size_t>(mesh.V.rows());
     std::vector<std::size_t> counts(n, 0);
-    for_each_face_edge(mesh, [&](std::int32_t a, std::int32_t b) {
-        ++counts[static_cast<std::size_t>(std::min(a, b))];
-    });
+    for_each_face_edge(mesh, [&](std::int32_t a, std::int32_t b)
+                       { ++counts[static_cast<std::size_t>(std::min(a, b))]; });
     std::vector<std::size_t> cursor = row_offsets(counts);
     std::vector<std::pair<std::int32_t, int>> entries(cursor.back());
-    for_each_face_edge(mesh, [&](std::int32_t a, std::int32_t b) {
-        entries[cursor[static_cast<std::size_t>(std::min(a, b))]++] = {std::max(a, b),
-                                                                        a < b ? 1 : -1};
-    });
+    for_each_face_edge(mesh,
+                       [&](std::int32_t a, std::int32_t b)
+                       {
+                           entries[cursor[static_cast<std::size_t>(std::min(a, b))]++] = {
+                               std::max(a, b), a < b ? 1 : -1};
+                       });
 
     // Within a row, equal larger ends form one undirected edge; count its faces and directions.
     EdgeStatistics stats;
@@ -158,15 +165,19 @@ std::vector<std::int32_t> position_ids(const Positions& V)
     const auto n = static_cast<std::size_t>(V.rows());
     std::vector<std::int32_t> order(n);
     std::iota(order.begin(), order.end(), 0);
-    auto position = [&](std::int32_t v) { return std::array<double, 3>{V(v, 0), V(v, 1), V(v, 2)}; };
+    auto position = [&](std::int32_t v) {
+        return std::array<double, 3>{V(v, 0), V(v, 1), V(v, 2)};
+    };
     std::sort(order.begin(), order.end(),
-              [&](std::int32_t a, std::int32_t b) { return std::pair(position(a), a) < std::pair(position(b), b); });
+              [&](std::int32_t a, std::int32_t b)
+              { return std::pair(position(a), a) < std::pair(position(b), b); });
     std::vector<std::int32_t> id(n);
     for (std::size_t k = 0; k < n; ++k)
     {
         const std::int32_t v = order[k];
-        id[static_cast<std::size_t>(v)] =
-            k > 0 && position(order[k - 1]) == position(v) ? id[static_cast<std::size_t>(order[k - 1])] : v;
+        id[static_cast<std::size_t>(v)] = k > 0 && position(order[k - 1]) == position(v)
+                                              ? id[static_cast<std::size_t>(order[k - 1])]
+                                              : v;
     }
     return id;
 }

@@ -29,8 +29,10 @@
 // construction per triangle.
 // Point clouds: PointKdTree (nanoflann's kd-tree: packaged, fast, exact nearest neighbour).
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 using Vec3 = Eigen::Vector3d;
 
@@ -89,8 +91,10 @@ Eigen::Array2d child_squared_distances(const Node& node, const Vec3& p)
     for (std::size_t k = 0; k < 3; ++k)
     {
         const Eigen::Array2d x = Eigen::Array2d::Constant(p[static_cast<Eigen::Index>(k)]);
-        const Eigen::Array2d lo = Eigen::Map<const Eigen::Array2f>(node.lo[k].data()).cast<double>();
-        const Eigen::Array2d hi = Eigen::Map<const Eigen::Array2f>(node.hi[k].data()).cast<double>();
+        const Eigen::Array2d lo =
+            Eigen::Map<const Eigen::Array2f>(node.lo[k].data()).cast<double>();
+        const Eigen::Array2d hi =
+            Eigen::Map<const Eigen::Array2f>(node.hi[k].data()).cast<double>();
         const Eigen::Array2d d = (lo - x).max(x - hi).max(0.0);
         d2 += d * d;
     }
@@ -100,13 +104,15 @@ Eigen::Array2d child_squared_distances(const Node& node, const Vec3& p)
 float round_down(double x)
 {
     const auto f = static_cast<float>(x);
-    return static_cast<double>(f) > x ? std::nextafter(f, -std::numeric_limits<float>::infinity()) : f;
+    return static_cast<double>(f) > x ? std::nextafter(f, -std::numeric_limits<float>::infinity())
+                                      : f;
 }
 
 float round_up(double x)
 {
     const auto f = static_cast<float>(x);
-    return static_cast<double>(f) < x ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
+    return static_cast<double>(f) < x ? std::nextafter(f, std::numeric_limits<float>::infinity())
+                                      : f;
 }
 
 /// Inner nodes of a subtree over n triangles. Splits are at the median, so the layout is known in
@@ -135,7 +141,8 @@ public:
             const Vec3 sum = V.row(F(f, 0)) + V.row(F(f, 1)) + V.row(F(f, 2));
             items_[static_cast<std::size_t>(f)] = {(sum / 3.0).cast<float>(), f};
         }
-        triangles_ = std::make_unique_for_overwrite<Triangle[]>(static_cast<std::size_t>(face_count));
+        triangles_ =
+            std::make_unique_for_overwrite<Triangle[]>(static_cast<std::size_t>(face_count));
         // The root is always an inner node (a child may be an empty leaf) so queries need no
         // special case for tiny meshes.
         nodes_.resize(static_cast<std::size_t>(std::max(inner_nodes(face_count), 1)));
@@ -223,7 +230,8 @@ private:
             const Vec3 q = closest_point_on_triangle(search.p, t.shape, t.is_sliver);
             const double q2 = (q - search.p).squaredNorm();
             // The smallest (distance, face) pair: see closest().
-            if (search.best_face < 0 || q2 < search.best_d2 || (q2 == search.best_d2 && t.face < search.best_face))
+            if (search.best_face < 0 || q2 < search.best_d2 ||
+                (q2 == search.best_d2 && t.face < search.best_face))
             {
                 search.best_d2 = q2;
                 search.best_point = q;
@@ -242,7 +250,8 @@ private:
         split_at_median(begin, middle, end);
         Node& node = nodes_[static_cast<std::size_t>(index)];
         const std::array<std::int32_t, 3> bounds = {begin, middle, end};
-        const std::array<std::int32_t, 2> slot = {index + 1, index + 1 + inner_nodes(middle - begin)};
+        const std::array<std::int32_t, 2> slot = {index + 1,
+                                                  index + 1 + inner_nodes(middle - begin)};
         for (std::size_t c = 0; c < 2; ++c)
         {
             const std::int32_t size = bounds[c + 1] - bounds[c];
@@ -296,7 +305,8 @@ private:
             const Vec3 a = V_->row((*F_)(f, 0)).transpose();
             const Vec3 b = V_->row((*F_)(f, 1)).transpose();
             const Vec3 c = V_->row((*F_)(f, 2)).transpose();
-            triangles_[static_cast<std::size_t>(i)] = {{a, b - a, c - a}, f, is_sliver_triangle(a, b, c)};
+            triangles_[static_cast<std::size_t>(i)] = {
+                {a, b - a, c - a}, f, is_sliver_triangle(a, b, c)};
             lo = lo.cwiseMin(a).cwiseMin(b).cwiseMin(c);
             hi = hi.cwiseMax(a).cwiseMax(b).cwiseMax(c);
         }
@@ -324,9 +334,11 @@ private:
         }
         Eigen::Index axis = 0;
         (hi - lo).maxCoeff(&axis);
-        std::nth_element(first, items_.begin() + middle, last, [axis](const BuildItem& x, const BuildItem& y) {
-            return std::pair{x.centroid[axis], x.face} < std::pair{y.centroid[axis], y.face};
-        });
+        std::nth_element(
+            first, items_.begin() + middle, last,
+            [axis](const BuildItem& x, const BuildItem& y) {
+                return std::pair{x.centroid[axis], x.face} < std::pair{y.centroid[axis], y.face};
+            });
     }
 
     /// A face during the build: its centroid (the split key) and index. Single precision halves
@@ -339,12 +351,11 @@ private:
     };
 
     std::unique_ptr<Triangle[]> triangles_;  // In leaf order.
-    std::vector<Node> nodes_;          // Inner nodes, root first, depth-first order.
-    std::vector<BuildItem> items_;     // Only during the build, as are V_ and F_.
+    std::vector<Node> nodes_;                // Inner nodes, root first, depth-first order.
+    std::vector<BuildItem> items_;           // Only during the build, as are V_ and F_.
     const Positions* V_ = nullptr;
     const Faces* F_ = nullptr;
 };
-
 
 }  // namespace
 
@@ -383,7 +394,8 @@ ClosestPointIndex::ClosestPointIndex(const TriangleMesh& mesh)
     }
     if (mesh.F.rows() > std::numeric_limits<std::int32_t>::max() / 2)
     {
-        throw InvalidMesh("ClosestPointIndex: the mesh has too many faces for 32-bit node indices.");
+        throw InvalidMesh(
+            "ClosestPointIndex: the mesh has too many faces for 32-bit node indices.");
     }
     impl_ = std::make_unique<Impl>(mesh);
 }
@@ -397,7 +409,8 @@ ClosestPoint ClosestPointIndex::closest(const Eigen::Vector3d& query) const
     return impl_->surface ? impl_->surface->closest(query) : impl_->closest_in_cloud(query);
 }
 
-namespace {
+namespace
+{
 
 // Batches smaller than this keep their order: the Z-order sort pays off on large shuffled
 // batches (1.7M: 6.4 -> 3.7 s, commit 6113c79); the 65536 itself chosen by hand; no study on
@@ -450,7 +463,8 @@ std::vector<ClosestPoint> ClosestPointIndex::closest(const Positions& queries, i
 #pragma omp parallel for schedule(dynamic, 256) num_threads(resolve_threads(threads))
     for (std::int64_t k = 0; k < count; ++k)
     {
-        const auto i = order.empty() ? static_cast<std::size_t>(k) : order[static_cast<std::size_t>(k)];
+        const auto i =
+            order.empty() ? static_cast<std::size_t>(k) : order[static_cast<std::size_t>(k)];
         results[i] = closest(Vec3(queries.row(static_cast<Eigen::Index>(i)).transpose()));
     }
     return results;

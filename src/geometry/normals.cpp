@@ -3,8 +3,10 @@
 
 #include <Eigen/Geometry>
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 // Unnormalized normal of face f: twice its area times its unit normal.
 Eigen::Vector3d face_cross(const TriangleMesh& mesh, Eigen::Index f)

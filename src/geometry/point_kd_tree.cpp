@@ -5,8 +5,10 @@
 
 #include <nanoflann.hpp>
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 /// nanoflann dataset adaptor over the rows of a Positions matrix.
 struct PositionsAdaptor
@@ -28,8 +30,9 @@ struct PositionsAdaptor
     }
 };
 
-using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, PositionsAdaptor>,
-                                                 PositionsAdaptor, 3, std::uint32_t>;
+using Tree =
+    nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, PositionsAdaptor>,
+                                        PositionsAdaptor, 3, std::uint32_t>;
 
 // nanoflann's default leaf size; single-nearest-neighbour queries are not sensitive to it.
 constexpr std::size_t kLeafSize = 10;
@@ -43,7 +46,9 @@ struct PointKdTree::Impl
     Tree tree;
 
     explicit Impl(Positions points)
-        : V(std::move(points)), adaptor{&V}, tree(3, adaptor, nanoflann::KDTreeSingleIndexAdaptorParams(kLeafSize))
+        : V(std::move(points)),
+          adaptor{&V},
+          tree(3, adaptor, nanoflann::KDTreeSingleIndexAdaptorParams(kLeafSize))
     {
     }
 };

@@ -15,8 +15,10 @@
 #include "meshmark/core/hash.h"
 #include "meshmark/core/rng.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 using Vec3 = Eigen::Vector3d;
 
@@ -86,12 +88,16 @@ std::vector<Vec3> surface_points(const TriangleMesh& mesh, int count = kSamples,
         const Vec3 centre = weighted / total;
         for (Triangle& t : triangles)
         {
-            std::sort(t.corners.begin(), t.corners.end(), [&](const Vec3& p, const Vec3& q)
-                      { return std::make_tuple((p - centre).squaredNorm(), p.x(), p.y(), p.z()) <
-                               std::make_tuple((q - centre).squaredNorm(), q.x(), q.y(), q.z()); });
+            std::sort(t.corners.begin(), t.corners.end(),
+                      [&](const Vec3& p, const Vec3& q)
+                      {
+                          return std::make_tuple((p - centre).squaredNorm(), p.x(), p.y(), p.z()) <
+                                 std::make_tuple((q - centre).squaredNorm(), q.x(), q.y(), q.z());
+                      });
             t.key = ((t.corners[0] + t.corners[1] + t.corners[2]) / 3.0 - centre).squaredNorm();
         }
-        std::sort(triangles.begin(), triangles.end(), [](const Triangle& p, const Triangle& q)
+        std::sort(triangles.begin(), triangles.end(),
+                  [](const Triangle& p, const Triangle& q)
                   { return std::tie(p.key, p.area) < std::tie(q.key, q.area); });
         std::vector<double> cumulative;
         cumulative.reserve(triangles.size());
@@ -104,9 +110,9 @@ std::vector<Vec3> surface_points(const TriangleMesh& mesh, int count = kSamples,
         for (int i = 0; i < count; ++i)
         {
             const double at = (static_cast<double>(i) + rng.uniform()) / count * sum;
-            const auto f = static_cast<std::size_t>(
-                std::min<std::ptrdiff_t>(std::upper_bound(cumulative.begin(), cumulative.end(), at) - cumulative.begin(),
-                                         static_cast<std::ptrdiff_t>(cumulative.size()) - 1));
+            const auto f = static_cast<std::size_t>(std::min<std::ptrdiff_t>(
+                std::upper_bound(cumulative.begin(), cumulative.end(), at) - cumulative.begin(),
+                static_cast<std::ptrdiff_t>(cumulative.size()) - 1));
             double u = rng.uniform();
             double v = rng.uniform();
             if (u + v > 1.0)
@@ -203,7 +209,8 @@ Draws draw(const std::vector<Vec3>& points, const std::vector<Vec3>& normals)
         const auto i = static_cast<std::int32_t>(stream.below(n));
         const auto j = static_cast<std::int32_t>(stream.below(n));
         d.pairs.push_back({i, j});
-        d.pair_distance.push_back((points[static_cast<std::size_t>(i)] - points[static_cast<std::size_t>(j)]).norm());
+        d.pair_distance.push_back(
+            (points[static_cast<std::size_t>(i)] - points[static_cast<std::size_t>(j)]).norm());
     }
     // By distance: a view's pairs in one bin are then a run, found by a binary search per bin
     // edge (nested_features); the counts do not depend on the order.
@@ -241,8 +248,10 @@ Draws draw(const std::vector<Vec3>& points, const std::vector<Vec3>& normals)
         const std::array<std::int32_t, 3> abc = {static_cast<std::int32_t>(stream.below(n)),
                                                  static_cast<std::int32_t>(stream.below(n)),
                                                  static_cast<std::int32_t>(stream.below(n))};
-        const Vec3 u = points[static_cast<std::size_t>(abc[0])] - points[static_cast<std::size_t>(abc[1])];
-        const Vec3 v = points[static_cast<std::size_t>(abc[2])] - points[static_cast<std::size_t>(abc[1])];
+        const Vec3 u =
+            points[static_cast<std::size_t>(abc[0])] - points[static_cast<std::size_t>(abc[1])];
+        const Vec3 v =
+            points[static_cast<std::size_t>(abc[2])] - points[static_cast<std::size_t>(abc[1])];
         const double norms = std::sqrt(u.squaredNorm() * v.squaredNorm());
         if (!(norms > 0.0))
         {
@@ -250,16 +259,16 @@ Draws draw(const std::vector<Vec3>& points, const std::vector<Vec3>& normals)
         }
         const double cosine = u.dot(v) / norms;
         d.triples.push_back(abc);
-        d.triple_bin.push_back(static_cast<std::uint8_t>(
-            std::count_if(cosine_edges.begin(), cosine_edges.end(), [&](double edge) { return cosine < edge; })));
+        d.triple_bin.push_back(static_cast<std::uint8_t>(std::count_if(
+            cosine_edges.begin(), cosine_edges.end(), [&](double edge) { return cosine < edge; })));
     }
     return d;
 }
 
 // The features of nested views of one sample: point i belongs to views 0 .. level[i] - 1 (each
 // view a subset of the one before). Writes \p views features, one per view, from \p out.
-void nested_features(const std::vector<Vec3>& points, const Draws& draws, const std::vector<std::uint8_t>& level,
-                     int views, ShapeFeatures* out)
+void nested_features(const std::vector<Vec3>& points, const Draws& draws,
+                     const std::vector<std::uint8_t>& level, int views, ShapeFeatures* out)
 {
     const auto count = static_cast<std::size_t>(views);
     // Moments per view: the points of level >= v + 1.
@@ -312,7 +321,8 @@ void nested_features(const std::vector<Vec3>& points, const Draws& draws, const 
         {
             if (usable(v))
             {
-                ++to_centroid[v][bin_of((points[i] - centroid[v]).norm() * centroid_scale[v], kCentroidBins)];
+                ++to_centroid[v][bin_of((points[i] - centroid[v]).norm() * centroid_scale[v],
+                                        kCentroidBins)];
             }
         }
     }
@@ -380,8 +390,9 @@ void nested_features(const std::vector<Vec3>& points, const Draws& draws, const 
     for (std::size_t t = 0; t < draws.triples.size(); ++t)
     {
         const auto& [i, j, k] = draws.triples[t];
-        const std::size_t in = std::min({level[static_cast<std::size_t>(i)], level[static_cast<std::size_t>(j)],
-                                         level[static_cast<std::size_t>(k)]});
+        const std::size_t in =
+            std::min({level[static_cast<std::size_t>(i)], level[static_cast<std::size_t>(j)],
+                      level[static_cast<std::size_t>(k)]});
         ++triple_level[in][draws.triple_bin[t]];
     }
     const std::vector<std::vector<int>> angles = by_view(triple_level);
@@ -403,7 +414,8 @@ void nested_features(const std::vector<Vec3>& points, const Draws& draws, const 
         at = cumulative(to_centroid[v], 1.0F / std::sqrt(float{kCentroidBins}), at);
         at = cumulative(pairs[v], 1.0F / std::sqrt(float{kPairBins}), at);
         at = cumulative(angles[v], 1.0F / std::sqrt(float{kAngleBins}), at);
-        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(covariance[v], Eigen::EigenvaluesOnly);
+        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(covariance[v],
+                                                                    Eigen::EigenvaluesOnly);
         const Vec3 l = solver.eigenvalues().cwiseMax(0.0);  // ascending
         const float eigen_weight = 1.0F / std::sqrt(2.0F);
         *at++ = eigen_weight * static_cast<float>(l(2) > 0.0 ? l(1) / l(2) : 0.0);
@@ -494,8 +506,8 @@ ShapeSignature shape_signature(const TriangleMesh& mesh)
         }
         for (std::size_t i = 0; i < n; ++i)
         {
-            level[i] = static_cast<std::uint8_t>(
-                std::count_if(threshold.begin(), threshold.end(), [&](double t) { return heights[i] >= t; }));
+            level[i] = static_cast<std::uint8_t>(std::count_if(
+                threshold.begin(), threshold.end(), [&](double t) { return heights[i] >= t; }));
         }
         // Views come out largest fraction first; the signature lists them by kShapeCropFractions.
         std::array<ShapeFeatures, kFractions> nested{};
@@ -527,7 +539,8 @@ std::vector<std::uint8_t> ShapeSignature::to_bytes() const
     {
         for (const float x : view)
         {
-            bytes.push_back(static_cast<std::uint8_t>(std::lround(std::clamp(x, 0.0F, 1.0F) * 255.0F)));
+            bytes.push_back(
+                static_cast<std::uint8_t>(std::lround(std::clamp(x, 0.0F, 1.0F) * 255.0F)));
         }
     }
     return bytes;

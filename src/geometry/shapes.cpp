@@ -11,16 +11,20 @@
 
 #include "meshmark/core/error.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 using Vec3 = Eigen::Vector3d;
 
 // Midpoint subdivision of a triangle list with a shared-edge cache, projected on the unit sphere.
-void subdivide_on_sphere(std::vector<Vec3>& vertices, std::vector<std::array<std::int32_t, 3>>& faces)
+void subdivide_on_sphere(std::vector<Vec3>& vertices,
+                         std::vector<std::array<std::int32_t, 3>>& faces)
 {
     std::map<std::pair<std::int32_t, std::int32_t>, std::int32_t> midpoint;
-    auto middle = [&](std::int32_t a, std::int32_t b) {
+    auto middle = [&](std::int32_t a, std::int32_t b)
+    {
         const auto key = std::minmax(a, b);
         const auto it = midpoint.find(key);
         if (it != midpoint.end())
@@ -28,7 +32,9 @@ void subdivide_on_sphere(std::vector<Vec3>& vertices, std::vector<std::array<std
             return it->second;
         }
         const auto index = static_cast<std::int32_t>(vertices.size());
-        vertices.push_back((vertices[static_cast<std::size_t>(a)] + vertices[static_cast<std::size_t>(b)]).normalized());
+        vertices.push_back(
+            (vertices[static_cast<std::size_t>(a)] + vertices[static_cast<std::size_t>(b)])
+                .normalized());
         midpoint.emplace(key, index);
         return index;
     };
@@ -77,17 +83,17 @@ TriangleMesh icosphere(int subdivisions)
                             " is outside 0..10.");
     }
     const double t = (1.0 + std::sqrt(5.0)) / 2.0;
-    std::vector<Vec3> vertices = {{-1, t, 0}, {1, t, 0},  {-1, -t, 0}, {1, -t, 0},
-                                  {0, -1, t}, {0, 1, t},  {0, -1, -t}, {0, 1, -t},
-                                  {t, 0, -1}, {t, 0, 1},  {-t, 0, -1}, {-t, 0, 1}};
+    std::vector<Vec3> vertices = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0},
+                                  {0, -1, t}, {0, 1, t}, {0, -1, -t}, {0, 1, -t},
+                                  {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
     for (auto& v : vertices)
     {
         v.normalize();
     }
     std::vector<std::array<std::int32_t, 3>> faces = {
-        {0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
+        {0, 11, 5},  {0, 5, 1},  {0, 1, 7},  {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
         {11, 10, 2}, {10, 7, 6}, {7, 1, 8},  {3, 9, 4},  {3, 4, 2},   {3, 2, 6}, {3, 6, 8},
-        {3, 8, 9},  {4, 9, 5},  {2, 4, 11},  {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
+        {3, 8, 9},   {4, 9, 5},  {2, 4, 11}, {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
     for (int s = 0; s < subdivisions; ++s)
     {
         subdivide_on_sphere(vertices, faces);
@@ -113,7 +119,8 @@ TriangleMesh torus(double R, double r, int rings, int sides)
                                   (R + r * std::cos(v)) * std::sin(u), r * std::sin(v));
         }
     }
-    auto index = [&](int i, int j) { return static_cast<std::int32_t>((i % rings) * sides + (j % sides)); };
+    auto index = [&](int i, int j)
+    { return static_cast<std::int32_t>((i % rings) * sides + (j % sides)); };
     for (int i = 0; i < rings; ++i)
     {
         for (int j = 0; j < sides; ++j)

@@ -17,8 +17,10 @@
 #include "io/detail/gltf.h"
 #include "io/detail/support.h"
 
-namespace meshmark::detail {
-namespace {
+namespace meshmark::detail
+{
+namespace
+{
 
 namespace fs = std::filesystem;
 
@@ -58,7 +60,8 @@ draco::PointAttribute* find_attribute(draco::Mesh& mesh, std::int32_t id)
     for (std::int32_t a = 0; a < mesh.num_attributes(); ++a)
     {
         auto* attribute = mesh.attribute(a);
-        if (attribute != nullptr && id >= 0 && attribute->unique_id() == static_cast<std::uint32_t>(id))
+        if (attribute != nullptr && id >= 0 &&
+            attribute->unique_id() == static_cast<std::uint32_t>(id))
         {
             return attribute;
         }
@@ -75,7 +78,8 @@ draco::PointAttribute* attribute_by_id(const fs::path& path, draco::Mesh& mesh, 
     }
     if (attribute->num_components() != 3)
     {
-        fail_io(path, "Draco position attribute " + std::to_string(id) + " does not have 3 components");
+        fail_io(path,
+                "Draco position attribute " + std::to_string(id) + " does not have 3 components");
     }
     return attribute;
 }
@@ -223,19 +227,23 @@ DracoGeometry decode_draco(const fs::path& path, const std::string& bytes, std::
     for (const std::int32_t id : more_ids)
     {
         const draco::PointAttribute* attribute = find_attribute(*mesh, id);
-        if (attribute == nullptr || attribute->num_components() < 1 || attribute->num_components() > 4)
+        if (attribute == nullptr || attribute->num_components() < 1 ||
+            attribute->num_components() > 4)
         {
-            fail_io(path, "the Draco data has no attribute " + std::to_string(id) + " of 1 to 4 components");
+            fail_io(path, "the Draco data has no attribute " + std::to_string(id) +
+                              " of 1 to 4 components");
         }
-        std::vector<double>& values = geometry.more.emplace_back(4 * static_cast<std::size_t>(geometry.point_count), 0.0);
+        std::vector<double>& values =
+            geometry.more.emplace_back(4 * static_cast<std::size_t>(geometry.point_count), 0.0);
         for (std::uint32_t i = 0; i < geometry.point_count; ++i)
         {
-            if (!attribute->ConvertValue<double>(attribute->mapped_index(draco::PointIndex(i)),
-                                                 static_cast<std::int8_t>(attribute->num_components()),
-                                                 values.data() + 4 * static_cast<std::size_t>(i)))
+            if (!attribute->ConvertValue<double>(
+                    attribute->mapped_index(draco::PointIndex(i)),
+                    static_cast<std::int8_t>(attribute->num_components()),
+                    values.data() + 4 * static_cast<std::size_t>(i)))
             {
-                fail_io(path, "Draco attribute " + std::to_string(id) + " has a value that cannot be read at point " +
-                                  std::to_string(i));
+                fail_io(path, "Draco attribute " + std::to_string(id) +
+                                  " has a value that cannot be read at point " + std::to_string(i));
             }
         }
     }

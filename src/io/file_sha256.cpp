@@ -13,9 +13,11 @@
 
 #include "meshmark/core/error.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
-namespace {
+namespace
+{
 
 // One SHA-256 digest fed in pieces; \p what names the input in errors.
 class Sha256
@@ -58,7 +60,8 @@ private:
     [[noreturn]] void fail() const { throw IoError(what_ + ": cannot compute the SHA-256."); }
 
     std::string what_;
-    std::unique_ptr<EVP_MD_CTX, decltype(&EVP_MD_CTX_free)> context_{EVP_MD_CTX_new(), &EVP_MD_CTX_free};
+    std::unique_ptr<EVP_MD_CTX, decltype(&EVP_MD_CTX_free)> context_{EVP_MD_CTX_new(),
+                                                                     &EVP_MD_CTX_free};
 };
 
 }  // namespace

@@ -3,8 +3,8 @@
 // loaded buffers (byte strides, sparse substitution, implicit zeros), and the mapping of
 // normalized integers (KHR_mesh_quantization) to the coordinates a renderer sees.
 #include <algorithm>
-#include <limits>
 #include <cmath>
+#include <limits>
 #include <utility>
 
 #include "io/detail/gltf_reader.h"
@@ -12,8 +12,10 @@
 #include "io/detail/support.h"
 #include "meshmark/core/error.h"
 
-namespace meshmark::detail {
-namespace {
+namespace meshmark::detail
+{
+namespace
+{
 
 // Elements of an accessor without any stored data (all implicit zeros).
 constexpr std::uint64_t kMaxImplicitElements = 1U << 24U;
@@ -96,13 +98,18 @@ std::vector<double> GltfAccessors::values(int accessor, int components, const st
         fail_io(path_, what + " accessor " + std::to_string(accessor) + " is missing");
     }
     const auto& acc = model_.accessors[static_cast<std::size_t>(accessor)];
-    const auto [expected_type, type_name] = [&]() -> std::pair<int, const char*> {
+    const auto [expected_type, type_name] = [&]() -> std::pair<int, const char*>
+    {
         switch (components)
         {
-            case 1: return {TINYGLTF_TYPE_SCALAR, "SCALAR"};
-            case 3: return {TINYGLTF_TYPE_VEC3, "VEC3"};
-            case 4: return {TINYGLTF_TYPE_VEC4, "VEC4"};
-            default: return {TINYGLTF_TYPE_MAT4, "MAT4"};
+            case 1:
+                return {TINYGLTF_TYPE_SCALAR, "SCALAR"};
+            case 3:
+                return {TINYGLTF_TYPE_VEC3, "VEC3"};
+            case 4:
+                return {TINYGLTF_TYPE_VEC4, "VEC4"};
+            default:
+                return {TINYGLTF_TYPE_MAT4, "MAT4"};
         }
     }();
     if (acc.type != expected_type)
@@ -112,7 +119,8 @@ std::vector<double> GltfAccessors::values(int accessor, int components, const st
     const auto component = component_of(acc.componentType);
     if (!component || (integers_only && (*component == GltfComponent::Float32 || acc.normalized)))
     {
-        fail_io(path_, what + " accessor " + std::to_string(accessor) + " has an unsupported component type");
+        fail_io(path_, what + " accessor " + std::to_string(accessor) +
+                           " has an unsupported component type");
     }
     const std::vector<GltfElement> elements = locate(accessor, components, what);
     const auto type = scalar_of(*component);
@@ -123,11 +131,13 @@ std::vector<double> GltfAccessors::values(int accessor, int components, const st
         const auto& el = elements[e];
         for (std::size_t d = 0; d < static_cast<std::size_t>(components) && el.buffer >= 0; ++d)
         {
-            const char* p = asset_.buffers[static_cast<std::size_t>(el.buffer)].bytes.data() + el.offset + d * size;
+            const char* p = asset_.buffers[static_cast<std::size_t>(el.buffer)].bytes.data() +
+                            el.offset + d * size;
             const double v = dequantize(load_scalar(p, type, false), *component, acc.normalized);
             if (!std::isfinite(v))
             {
-                fail_io(path_, what + " accessor " + std::to_string(accessor) + " has a non-finite value");
+                fail_io(path_,
+                        what + " accessor " + std::to_string(accessor) + " has a non-finite value");
             }
             values[e * static_cast<std::size_t>(components) + d] = v;
         }

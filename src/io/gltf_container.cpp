@@ -8,8 +8,10 @@
 #include "io/detail/gltf.h"
 #include "io/detail/support.h"
 
-namespace meshmark::detail {
-namespace {
+namespace meshmark::detail
+{
+namespace
+{
 
 namespace fs = std::filesystem;
 
@@ -56,9 +58,10 @@ GlbChunks split_glb(const fs::path& path, const std::string& bytes)
     {
         fail_io(path, "GLB version " + std::to_string(load_u32(bytes, 4)) +
                           " is not supported; expected 2" +
-                          std::string(load_u32(bytes, 4) == 1 ? " (a glTF 1.0 binary: convert the asset to glTF 2.0, "
-                                                                  "e.g. with gltf-pipeline)"
-                                                                : ""));
+                          std::string(load_u32(bytes, 4) == 1
+                                          ? " (a glTF 1.0 binary: convert the asset to glTF 2.0, "
+                                            "e.g. with gltf-pipeline)"
+                                          : ""));
     }
     if (load_u32(bytes, 8) != bytes.size())
     {

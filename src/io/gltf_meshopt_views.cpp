@@ -11,7 +11,8 @@
 #include "io/detail/support.h"
 #include "meshmark/core/error.h"
 
-namespace meshmark::detail {
+namespace meshmark::detail
+{
 
 namespace fs = std::filesystem;
 

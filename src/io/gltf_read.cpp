@@ -18,8 +18,10 @@
 #include "io/detail/support.h"
 #include "meshmark/core/error.h"
 
-namespace meshmark::detail {
-namespace {
+namespace meshmark::detail
+{
+namespace
+{
 
 namespace fs = std::filesystem;
 
@@ -327,7 +329,8 @@ tinygltf::Model load_model(const fs::path& path, const std::string& file_bytes,
     }
     if (!ok)
     {
-        if (const std::string version = declared_version(path, json); !version.empty() && !is_version_2(version))
+        if (const std::string version = declared_version(path, json);
+            !version.empty() && !is_version_2(version))
         {
             fail_version(path, version);
         }
@@ -362,11 +365,13 @@ std::string percent_decoded(const std::string& uri)
     return out;
 }
 
-namespace {
+namespace
+{
 
 // The container (GLB chunks), tinygltf's parse and buffer loading, meshopt views decoded: what
 // read_gltf and visit_gltf_poses walk the scene of.
-tinygltf::Model load_asset(const fs::path& path, const std::string& bytes, bool is_glb, GltfAsset& asset)
+tinygltf::Model load_asset(const fs::path& path, const std::string& bytes, bool is_glb,
+                           GltfAsset& asset)
 {
     asset.is_glb = is_glb;
     asset.folder = path.parent_path();
@@ -426,14 +431,16 @@ tinygltf::Model load_asset(const fs::path& path, const std::string& bytes, bool 
 
 }  // namespace
 
-TriangleMesh read_gltf(const fs::path& path, const std::string& bytes, bool is_glb, GltfAsset& asset)
+TriangleMesh read_gltf(const fs::path& path, const std::string& bytes, bool is_glb,
+                       GltfAsset& asset)
 {
     const tinygltf::Model model = load_asset(path, bytes, is_glb, asset);
     return read_scene(path, model, asset);
 }
 
-void visit_gltf_poses(const fs::path& path, const std::string& bytes, bool is_glb, std::span<const double> times,
-                      const std::function<void(ShownPose&&)>& visit, std::size_t animation)
+void visit_gltf_poses(const fs::path& path, const std::string& bytes, bool is_glb,
+                      std::span<const double> times, const std::function<void(ShownPose&&)>& visit,
+                      std::size_t animation)
 {
     GltfAsset loaded;
     const tinygltf::Model model = load_asset(path, bytes, is_glb, loaded);

@@ -11,7 +11,8 @@
 #include "io/detail/numbers.h"
 #include "meshmark/core/error.h"
 
-namespace meshmark::detail {
+namespace meshmark::detail
+{
 
 std::string GltfWriter::draco_bytes(std::int32_t view_index)
 {

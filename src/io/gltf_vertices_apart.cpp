@@ -12,8 +12,10 @@
 
 #include "io/detail/gltf_writer.h"
 
-namespace meshmark::detail {
-namespace {
+namespace meshmark::detail
+{
+namespace
+{
 
 // Whether two of \p entries (each with .key, three finite floats without -0, and .vertex >= 0)
 // of different vertices have equal keys: one pass over an open-addressing table of key bits
@@ -131,7 +133,8 @@ void GltfWriter::keep_vertices_apart(std::vector<Plan>& plans) const
         std::int32_t vertex;
         bool is_fixed;  // left where it was: it keeps its place
     };
-    std::vector<std::uint32_t> last_group(static_cast<std::size_t>(vertex_count), std::numeric_limits<std::uint32_t>::max());
+    std::vector<std::uint32_t> last_group(static_cast<std::size_t>(vertex_count),
+                                          std::numeric_limits<std::uint32_t>::max());
     for (std::size_t g = 0; g < transforms.size(); ++g)
     {
         // One entry per vertex that moved (all its elements under this transform have the
@@ -165,10 +168,12 @@ void GltfWriter::keep_vertices_apart(std::vector<Plan>& plans) const
         const auto by_key = [](const Entry& x, const Entry& y)
         { return std::tie(x.key, y.is_fixed, x.vertex) < std::tie(y.key, x.is_fixed, y.vertex); };
         std::sort(entries.begin(), entries.end(), by_key);
-        std::vector<Entry> crowded;  // moved vertices that land on another's floats (one entry each)
+        std::vector<Entry>
+            crowded;  // moved vertices that land on another's floats (one entry each)
         for (std::size_t i = 1; i < entries.size(); ++i)
         {
-            if (entries[i].key == entries[i - 1].key && entries[i].vertex != entries[i - 1].vertex && !entries[i].is_fixed)
+            if (entries[i].key == entries[i - 1].key &&
+                entries[i].vertex != entries[i - 1].vertex && !entries[i].is_fixed)
             {
                 crowded.push_back(entries[i]);
             }
@@ -198,7 +203,8 @@ void GltfWriter::keep_vertices_apart(std::vector<Plan>& plans) const
             const auto& record = asset_.accessors[plans[p].record];
             for (std::size_t e = 0; e < record.elements.size(); ++e)
             {
-                const auto found = plans[p].rewrite[e] != 0 ? moved_on.find(record.welded[e]) : moved_on.end();
+                const auto found =
+                    plans[p].rewrite[e] != 0 ? moved_on.find(record.welded[e]) : moved_on.end();
                 if (found != moved_on.end())
                 {
                     for (std::size_t d = 0; d < 3; ++d)

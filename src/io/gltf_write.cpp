@@ -22,8 +22,10 @@
 #include "meshmark/core/atomic_file.h"
 #include "meshmark/core/error.h"
 
-namespace meshmark::detail {
-namespace {
+namespace meshmark::detail
+{
+namespace
+{
 
 namespace fs = std::filesystem;
 
@@ -156,7 +158,8 @@ std::vector<std::pair<fs::path, fs::path>> GltfWriter::image_copies()
     std::vector<std::pair<fs::path, fs::path>> copies;
     const fs::path from_folder = asset_.folder.empty() ? fs::path(".") : asset_.folder;
     const fs::path to_folder = path_.parent_path().empty() ? fs::path(".") : path_.parent_path();
-    if (is_same_file(from_folder, to_folder) || !doc().contains("images") || !doc()["images"].is_array())
+    if (is_same_file(from_folder, to_folder) || !doc().contains("images") ||
+        !doc()["images"].is_array())
     {
         return copies;
     }
@@ -174,7 +177,8 @@ std::vector<std::pair<fs::path, fs::path>> GltfWriter::image_copies()
         const fs::path relative = fs::path(percent_decoded(uri)).lexically_normal();
         const fs::path from = from_folder / relative;
         const fs::path to = to_folder / relative;
-        const bool stays_inside = relative.is_relative() && !relative.empty() && *relative.begin() != "..";
+        const bool stays_inside =
+            relative.is_relative() && !relative.empty() && *relative.begin() != "..";
         std::error_code error;
         if (stays_inside && fs::is_regular_file(from, error) && !fs::exists(to, error))
         {
@@ -365,7 +369,8 @@ void GltfWriter::run(bool is_glb)
         {
             fs::remove(file, ignored);
         }
-        std::sort(made.begin(), made.end(), [](const fs::path& a, const fs::path& b)
+        std::sort(made.begin(), made.end(),
+                  [](const fs::path& a, const fs::path& b)
                   { return a.native().size() > b.native().size(); });
         for (const auto& folder : made)  // deepest first; each only if empty
         {

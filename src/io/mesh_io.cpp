@@ -13,8 +13,10 @@
 #include "meshmark/core/atomic_file.h"
 #include "meshmark/core/error.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 void write_bytes(const std::filesystem::path& path, const std::string& bytes)
 {
@@ -54,8 +56,8 @@ void check_rows(const char* function, const MeshFile& source, const Positions& p
     {
         throw InvalidOption(std::string(function) + ": positions have " +
                             std::to_string(positions.rows()) + " rows, but " +
-                            source.path.string() + " has " +
-                            std::to_string(source.mesh.V.rows()) + " vertices.");
+                            source.path.string() + " has " + std::to_string(source.mesh.V.rows()) +
+                            " vertices.");
     }
 }
 
@@ -174,12 +176,14 @@ MeshFile read_mesh_file(const std::filesystem::path& path)
             file.instances = std::move(asset.instances);
             file.animations = std::move(asset.animations);
             file.is_single_precision = true;
-            file.unit = LengthUnit::Metre;  // glTF 2.0: "the units for all linear distances are meters"
+            file.unit =
+                LengthUnit::Metre;  // glTF 2.0: "the units for all linear distances are meters"
             break;
         }
         case MeshFormat::ThreeMf:
             file.mesh = detail::read_3mf(path, *layout);
-            file.instances = std::move(std::get<detail::ThreeMfLayout>(layout->positions).instances);
+            file.instances =
+                std::move(std::get<detail::ThreeMfLayout>(layout->positions).instances);
             file.unit = std::get<detail::ThreeMfLayout>(layout->positions).unit;
             file.is_single_precision = true;
             break;
@@ -200,7 +204,8 @@ void for_each_animation_pose(const std::filesystem::path& path, std::span<const 
         }
         return;
     }
-    detail::visit_gltf_poses(path, detail::read_file_bytes(path), format == MeshFormat::Glb, times, visit, animation);
+    detail::visit_gltf_poses(path, detail::read_file_bytes(path), format == MeshFormat::Glb, times,
+                             visit, animation);
 }
 
 TriangleMesh read_mesh(const std::filesystem::path& path)
@@ -238,7 +243,8 @@ void write_mesh_file(const std::filesystem::path& path, const MeshFile& source,
                     detail::preserved_3mf_bytes(path, *source.layout, source.mesh.V, positions));
         return;
     }
-    detail::write_preserved(path, *source.layout, source.mesh.V, positions, source.path.parent_path());
+    detail::write_preserved(path, *source.layout, source.mesh.V, positions,
+                            source.path.parent_path());
 }
 
 std::string mesh_file_bytes(const MeshFile& source, const Positions& positions, MeshFormat format,

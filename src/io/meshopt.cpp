@@ -16,8 +16,10 @@
 #include "io/detail/gltf.h"
 #include "io/detail/support.h"
 
-namespace meshmark::detail {
-namespace {
+namespace meshmark::detail
+{
+namespace
+{
 
 namespace fs = std::filesystem;
 

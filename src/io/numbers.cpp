@@ -8,8 +8,10 @@
 #include <cstring>
 #include <limits>
 
-namespace meshmark::detail {
-namespace {
+namespace meshmark::detail
+{
+namespace
+{
 
 // std::byteswap is C++23; this is the C++20 equivalent over the object's bytes.
 template <typename T>

@@ -14,8 +14,10 @@
 #include "io/detail/formats.h"
 #include "io/detail/support.h"
 
-namespace meshmark::detail {
-namespace {
+namespace meshmark::detail
+{
+namespace
+{
 
 constexpr int kFloatDecimalDigits = 9;  // FLT_DECIMAL_DIG: see append_like_token.
 
@@ -250,7 +252,8 @@ TriangleMesh read_obj(const std::filesystem::path& path, FileLayout& layout,
 // without parsing the MTL's texture options. The rest of the line names one file when the
 // source has a file by that whole name (exporters write names with spaces), else each token
 // names one, as the format says.
-std::vector<TextEdit> material_library_edits(std::string_view bytes, const std::filesystem::path& source_folder,
+std::vector<TextEdit> material_library_edits(std::string_view bytes,
+                                             const std::filesystem::path& source_folder,
                                              const std::filesystem::path& output_folder)
 {
     std::vector<TextEdit> edits;

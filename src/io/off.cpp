@@ -7,8 +7,10 @@
 #include "io/detail/formats.h"
 #include "io/detail/support.h"
 
-namespace meshmark::detail {
-namespace {
+namespace meshmark::detail
+{
+namespace
+{
 
 constexpr int kFloatDecimalDigits = 9;  // FLT_DECIMAL_DIG: see append_like_token.
 

@@ -15,8 +15,10 @@
 
 #include "io/detail/formats.h"
 
-namespace meshmark::detail {
-namespace {
+namespace meshmark::detail
+{
+namespace
+{
 
 void append_header(std::string& out, const TriangleMesh& mesh, const WriteOptions& options)
 {

@@ -6,8 +6,10 @@
 
 #include "io/detail/ply.h"
 
-namespace meshmark::detail {
-namespace {
+namespace meshmark::detail
+{
+namespace
+{
 
 class AsciiReader
 {

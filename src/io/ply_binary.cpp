@@ -9,8 +9,10 @@
 
 #include "io/detail/ply.h"
 
-namespace meshmark::detail {
-namespace {
+namespace meshmark::detail
+{
+namespace
+{
 
 class BinaryReader
 {

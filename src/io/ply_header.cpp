@@ -5,8 +5,10 @@
 
 #include "io/detail/ply.h"
 
-namespace meshmark::detail {
-namespace {
+namespace meshmark::detail
+{
+namespace
+{
 
 std::string header_line(std::size_t line)
 {

@@ -1,20 +1,23 @@
 // SPDX-License-Identifier: MIT
 // The PLY streaming API: the header parsed once into the layout of the vertex records, positioned
-// reads, sequential vertex readers and the displaced copy (the face scan is in ply_stream_scan.cpp).
+// reads, sequential vertex readers and the displaced copy (the face scan is in
+// ply_stream_scan.cpp).
 #include "meshmark/io/ply_stream.h"
-
-#include <fcntl.h>
-#include <sys/stat.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include "io/detail/ply_stream.h"
 
-namespace meshmark {
-namespace detail {
+namespace meshmark
+{
+namespace detail
+{
 
 InputFile::InputFile(const std::filesystem::path& path) : path_(path)
 {
@@ -35,7 +38,10 @@ InputFile::InputFile(const std::filesystem::path& path) : path_(path)
     size_ = static_cast<std::uint64_t>(info.st_size);
 }
 
-InputFile::~InputFile() { ::close(fd_); }
+InputFile::~InputFile()
+{
+    ::close(fd_);
+}
 
 std::size_t InputFile::read_some(std::uint64_t offset, std::size_t n, char* out) const
 {
@@ -64,7 +70,8 @@ void InputFile::read_exactly(std::uint64_t offset, std::size_t n, char* out) con
 {
     if (read_some(offset, n, out) != n)
     {
-        fail_io(path_, "truncated binary data: the file ends before byte " + std::to_string(offset + n));
+        fail_io(path_,
+                "truncated binary data: the file ends before byte " + std::to_string(offset + n));
     }
 }
 
@@ -83,7 +90,8 @@ bool SequentialReader::refill(std::size_t n)
     return end_ - pos_ >= n;
 }
 
-namespace {
+namespace
+{
 
 constexpr std::size_t kHeaderLimit = std::size_t{1} << 20U;
 constexpr std::size_t kOutputSlice = std::size_t{1} << 20U;
@@ -91,7 +99,8 @@ constexpr std::size_t kOutputSlice = std::size_t{1} << 20U;
 // The start of the file, enough for any header: the parser stops at its end_header line.
 std::string read_header_bytes(const InputFile& file)
 {
-    std::string bytes(static_cast<std::size_t>(std::min<std::uint64_t>(file.size(), kHeaderLimit)), '\0');
+    std::string bytes(static_cast<std::size_t>(std::min<std::uint64_t>(file.size(), kHeaderLimit)),
+                      '\0');
     bytes.resize(file.read_some(0, bytes.size(), bytes.data()));
     return bytes;
 }
@@ -101,7 +110,8 @@ void copy_range(const InputFile& file, std::uint64_t begin, std::uint64_t end, s
     std::vector<char> buffer(kOutputSlice);
     while (begin < end)
     {
-        const auto n = static_cast<std::size_t>(std::min<std::uint64_t>(buffer.size(), end - begin));
+        const auto n =
+            static_cast<std::size_t>(std::min<std::uint64_t>(buffer.size(), end - begin));
         file.read_exactly(begin, n, buffer.data());
         out.write(buffer.data(), static_cast<std::streamsize>(n));
         begin += n;
@@ -115,7 +125,8 @@ public:
     VertexRecords(const PlyStream::Impl& layout, std::uint64_t first, std::size_t window)
         : layout_(layout),
           in_(layout.file, layout.vertex_offset + first * layout.stride,
-              static_cast<std::size_t>(std::max<std::uint64_t>(1, window / layout.stride) * layout.stride)),
+              static_cast<std::size_t>(std::max<std::uint64_t>(1, window / layout.stride) *
+                                       layout.stride)),
           vertex_(first)
     {
     }
@@ -190,9 +201,10 @@ PlyStream::Impl::Impl(const std::filesystem::path& path) : file(path)
             const auto available = file.size() > offset ? file.size() - offset : 0;
             if (size > 0 && element.count > available / size)
             {
-                truncation = "truncated binary data: element 'vertex' declares " + std::to_string(element.count) +
-                             " records of " + std::to_string(size) + " bytes, but only " +
-                             std::to_string(available) + " bytes follow byte offset " + std::to_string(offset);
+                truncation = "truncated binary data: element 'vertex' declares " +
+                             std::to_string(element.count) + " records of " + std::to_string(size) +
+                             " bytes, but only " + std::to_string(available) +
+                             " bytes follow byte offset " + std::to_string(offset);
             }
             vertex_end = offset + element.count * size;
             return;
@@ -213,8 +225,9 @@ std::uint64_t ReferencedVertices::select(std::uint64_t row) const
     {
         return row;
     }
-    const auto block = static_cast<std::size_t>(
-        std::upper_bound(active_before.begin(), active_before.end(), row) - active_before.begin() - 1);
+    const auto block =
+        static_cast<std::size_t>(std::upper_bound(active_before.begin(), active_before.end(), row) -
+                                 active_before.begin() - 1);
     std::uint64_t count = active_before[block];
     for (std::uint64_t v = block * kSelectBlock;; ++v)
     {
@@ -234,10 +247,22 @@ PlyStream::~PlyStream() = default;
 PlyStream::PlyStream(PlyStream&&) noexcept = default;
 PlyStream& PlyStream::operator=(PlyStream&&) noexcept = default;
 
-const std::filesystem::path& PlyStream::path() const noexcept { return impl_->file.path(); }
-std::uint64_t PlyStream::file_size() const noexcept { return impl_->file.size(); }
-std::uint64_t PlyStream::vertex_count() const noexcept { return impl_->vertex_count; }
-std::uint64_t PlyStream::face_records() const noexcept { return impl_->face_records; }
+const std::filesystem::path& PlyStream::path() const noexcept
+{
+    return impl_->file.path();
+}
+std::uint64_t PlyStream::file_size() const noexcept
+{
+    return impl_->file.size();
+}
+std::uint64_t PlyStream::vertex_count() const noexcept
+{
+    return impl_->vertex_count;
+}
+std::uint64_t PlyStream::face_records() const noexcept
+{
+    return impl_->face_records;
+}
 
 std::uint64_t PlyStream::read_memory_bytes() const noexcept
 {
@@ -256,7 +281,8 @@ std::string PlyStream::refusal() const
 std::array<double, 3> PlyStream::position(std::uint64_t vertex) const
 {
     std::vector<char> record(static_cast<std::size_t>(impl_->stride));
-    impl_->file.read_exactly(impl_->vertex_offset + vertex * impl_->stride, record.size(), record.data());
+    impl_->file.read_exactly(impl_->vertex_offset + vertex * impl_->stride, record.size(),
+                             record.data());
     std::array<double, 3> xyz{};
     impl_->load(record.data(), xyz.data());
     return xyz;
@@ -268,13 +294,18 @@ struct PlyVertexReader::Impl
     detail::VertexRecords records;
 };
 
-PlyVertexReader::PlyVertexReader(const PlyStream& file, std::uint64_t first_vertex, std::size_t window_bytes)
-    : impl_(std::make_unique<Impl>(Impl{*file.impl_, detail::VertexRecords(*file.impl_, first_vertex, window_bytes)}))
+PlyVertexReader::PlyVertexReader(const PlyStream& file, std::uint64_t first_vertex,
+                                 std::size_t window_bytes)
+    : impl_(std::make_unique<Impl>(
+          Impl{*file.impl_, detail::VertexRecords(*file.impl_, first_vertex, window_bytes)}))
 {
 }
 PlyVertexReader::~PlyVertexReader() = default;
 
-std::uint64_t PlyVertexReader::vertex() const noexcept { return impl_->records.vertex(); }
+std::uint64_t PlyVertexReader::vertex() const noexcept
+{
+    return impl_->records.vertex();
+}
 
 void PlyVertexReader::read(std::size_t count, double* xyz)
 {
@@ -284,8 +315,8 @@ void PlyVertexReader::read(std::size_t count, double* xyz)
     }
 }
 
-void PlyVertexReader::read_active(const ReferencedVertices& referenced, std::size_t count, double* xyz,
-                                  std::int32_t* rows)
+void PlyVertexReader::read_active(const ReferencedVertices& referenced, std::size_t count,
+                                  double* xyz, std::int32_t* rows)
 {
     for (std::size_t i = 0; i < count;)
     {
@@ -326,10 +357,11 @@ struct PlyDisplacedCopy::Impl
         char* target = slice.data() + at;
         for (std::size_t axis = 0; axis < 3; ++axis)
         {
-            const double old_value = detail::load_scalar(record + layout.field_offsets[axis], layout.types[axis],
-                                                         layout.is_big_endian);
-            detail::patch_coordinate(target + layout.field_offsets[axis], layout.types[axis], layout.is_big_endian,
-                                     old_value, d[axis] + old_value,  // as `marked = field; marked += V`
+            const double old_value = detail::load_scalar(record + layout.field_offsets[axis],
+                                                         layout.types[axis], layout.is_big_endian);
+            detail::patch_coordinate(target + layout.field_offsets[axis], layout.types[axis],
+                                     layout.is_big_endian, old_value,
+                                     d[axis] + old_value,  // as `marked = field; marked += V`
                                      output, v);
         }
         if (slice.size() >= detail::kOutputSlice)
@@ -352,9 +384,14 @@ struct PlyDisplacedCopy::Impl
 };
 
 PlyDisplacedCopy::PlyDisplacedCopy(const PlyStream& file, const ReferencedVertices& referenced,
-                                   const std::filesystem::path& output, std::ostream& out, std::size_t window_bytes)
-    : impl_(std::make_unique<Impl>(
-          Impl{*file.impl_, referenced, output, out, detail::VertexRecords(*file.impl_, 0, window_bytes), {}}))
+                                   const std::filesystem::path& output, std::ostream& out,
+                                   std::size_t window_bytes)
+    : impl_(std::make_unique<Impl>(Impl{*file.impl_,
+                                        referenced,
+                                        output,
+                                        out,
+                                        detail::VertexRecords(*file.impl_, 0, window_bytes),
+                                        {}}))
 {
     impl_->slice.reserve(detail::kOutputSlice + impl_->layout.stride);
     detail::copy_range(impl_->layout.file, 0, impl_->layout.vertex_offset, out);

@@ -8,16 +8,20 @@
 #include "io/detail/ply_stream.h"
 #include "meshmark/io/ply_stream.h"
 
-namespace meshmark {
-namespace detail {
-namespace {
-
-[[noreturn]] void fail_truncated(const InputFile& file, const PlyElement& element, std::uint64_t record,
-                                 std::uint64_t offset)
+namespace meshmark
 {
-    fail_io(file.path(), "truncated binary data: record " + std::to_string(record) + " of element '" +
-                             element.name + "' runs past the end of the file (byte offset " +
-                             std::to_string(offset) + ", file size " + std::to_string(file.size()) + ")");
+namespace detail
+{
+namespace
+{
+
+[[noreturn]] void fail_truncated(const InputFile& file, const PlyElement& element,
+                                 std::uint64_t record, std::uint64_t offset)
+{
+    fail_io(file.path(),
+            "truncated binary data: record " + std::to_string(record) + " of element '" +
+                element.name + "' runs past the end of the file (byte offset " +
+                std::to_string(offset) + ", file size " + std::to_string(file.size()) + ")");
 }
 
 // Pass over the elements after the vertices: faces and strips triangulated by the reader's own
@@ -30,7 +34,8 @@ ReferencedVertices scan(const PlyStream::Impl& layout, std::size_t window)
     std::vector<std::uint8_t> flags(static_cast<std::size_t>(n), 0);
     SequentialReader in(file, layout.vertex_end, window);
     TriangleBuffer triangles;
-    const auto drain = [&]() {
+    const auto drain = [&]()
+    {
         const Faces F = triangles.take();
         const std::int32_t* p = F.data();
         for (Eigen::Index i = 0; i < F.size(); ++i)
@@ -49,10 +54,12 @@ ReferencedVertices scan(const PlyStream::Impl& layout, std::size_t window)
         // Anything else, including an index out of range, takes the generic loop, which reads
         // the record again and reports it as before.
         const bool is_plain_triangles =
-            element.role == Role::Faces && element.properties.size() == 1 && element.properties[0].is_list &&
-            scalar_size(element.properties[0].count_type) == 1 &&
-            (element.properties[0].type == ScalarType::Int32 || element.properties[0].type == ScalarType::UInt32);
-        const bool is_signed = is_plain_triangles && element.properties[0].type == ScalarType::Int32;
+            element.role == Role::Faces && element.properties.size() == 1 &&
+            element.properties[0].is_list && scalar_size(element.properties[0].count_type) == 1 &&
+            (element.properties[0].type == ScalarType::Int32 ||
+             element.properties[0].type == ScalarType::UInt32);
+        const bool is_signed =
+            is_plain_triangles && element.properties[0].type == ScalarType::Int32;
         constexpr std::size_t kPlainTriangle = 13;
         for (std::uint64_t r = 0; r < element.count; ++r)
         {
@@ -99,12 +106,14 @@ ReferencedVertices scan(const PlyStream::Impl& layout, std::size_t window)
                 {
                     fail_truncated(file, element, r, in.offset());
                 }
-                const auto length = load_integer(in.data(), property.count_type, layout.is_big_endian);
+                const auto length =
+                    load_integer(in.data(), property.count_type, layout.is_big_endian);
                 if (length < 0)
                 {
-                    fail_io(file.path(), "negative list length " + std::to_string(length) + " at byte offset " +
-                                             std::to_string(in.offset()) + " (record " + std::to_string(r) +
-                                             " of element '" + element.name + "')");
+                    fail_io(file.path(), "negative list length " + std::to_string(length) +
+                                             " at byte offset " + std::to_string(in.offset()) +
+                                             " (record " + std::to_string(r) + " of element '" +
+                                             element.name + "')");
                 }
                 in.skip(count_size);
                 const auto bytes = static_cast<std::uint64_t>(length) * size;
@@ -117,8 +126,8 @@ ReferencedVertices scan(const PlyStream::Impl& layout, std::size_t window)
                     sink.begin(r, static_cast<std::uint64_t>(length));
                     for (std::int64_t k = 0; k < length; ++k)
                     {
-                        sink.add(load_integer(in.data() + static_cast<std::size_t>(k) * size, property.type,
-                                              layout.is_big_endian));
+                        sink.add(load_integer(in.data() + static_cast<std::size_t>(k) * size,
+                                              property.type, layout.is_big_endian));
                     }
                     sink.end();
                 }
@@ -134,7 +143,8 @@ ReferencedVertices scan(const PlyStream::Impl& layout, std::size_t window)
     if (result.triangles > 0)
     {
         result.flags = std::move(flags);
-        result.active_before.reserve(static_cast<std::size_t>(n / ReferencedVertices::kSelectBlock + 1));
+        result.active_before.reserve(
+            static_cast<std::size_t>(n / ReferencedVertices::kSelectBlock + 1));
         std::uint64_t count = 0;
         for (std::uint64_t v = 0; v < n; ++v)
         {

@@ -13,9 +13,11 @@
 #include "io/detail/support.h"
 #include "meshmark/core/atomic_file.h"
 
-namespace meshmark::detail {
+namespace meshmark::detail
+{
 
-namespace {
+namespace
+{
 
 const char* type_name(ScalarType type) noexcept
 {
@@ -104,8 +106,9 @@ void patch_vertices(char* data, std::size_t base, const BinaryPositions& slots, 
     {
         for (std::size_t d = 0; d < 3; ++d)
         {
-            patch_coordinate(data + (slots.offset(i, d) - base), slots.types[d], slots.is_big_endian,
-                             old_values[3 * i + d], new_values[3 * i + d], path, i);
+            patch_coordinate(data + (slots.offset(i, d) - base), slots.types[d],
+                             slots.is_big_endian, old_values[3 * i + d], new_values[3 * i + d],
+                             path, i);
         }
     }
 }
@@ -129,28 +132,32 @@ void write_preserved_binary(const std::filesystem::path& path, const std::string
                             const Positions& positions)
 {
     const auto n = static_cast<std::size_t>(positions.rows());
-    write_file_atomically(path, [&](std::ostream& out) {
-        std::vector<char> slice;
-        std::size_t cursor = 0;  // bytes before it are written
-        std::size_t vertex = 0;
-        while (vertex < n)
+    write_file_atomically(
+        path,
+        [&](std::ostream& out)
         {
-            // Whole vertices, at least one, up to about kSliceBytes past the cursor.
-            std::size_t last = vertex;
-            while (last + 1 < n && coordinates_end(slots, last + 1) - cursor <= kSliceBytes)
+            std::vector<char> slice;
+            std::size_t cursor = 0;  // bytes before it are written
+            std::size_t vertex = 0;
+            while (vertex < n)
             {
-                ++last;
+                // Whole vertices, at least one, up to about kSliceBytes past the cursor.
+                std::size_t last = vertex;
+                while (last + 1 < n && coordinates_end(slots, last + 1) - cursor <= kSliceBytes)
+                {
+                    ++last;
+                }
+                const auto end = static_cast<std::size_t>(coordinates_end(slots, last));
+                slice.assign(bytes.begin() + static_cast<std::ptrdiff_t>(cursor),
+                             bytes.begin() + static_cast<std::ptrdiff_t>(end));
+                patch_vertices(slice.data(), cursor, slots, vertex, last, original, positions,
+                               path);
+                out.write(slice.data(), static_cast<std::streamsize>(slice.size()));
+                cursor = end;
+                vertex = last + 1;
             }
-            const auto end = static_cast<std::size_t>(coordinates_end(slots, last));
-            slice.assign(bytes.begin() + static_cast<std::ptrdiff_t>(cursor),
-                         bytes.begin() + static_cast<std::ptrdiff_t>(end));
-            patch_vertices(slice.data(), cursor, slots, vertex, last, original, positions, path);
-            out.write(slice.data(), static_cast<std::streamsize>(slice.size()));
-            cursor = end;
-            vertex = last + 1;
-        }
-        out.write(bytes.data() + cursor, static_cast<std::streamsize>(bytes.size() - cursor));
-    });
+            out.write(bytes.data() + cursor, static_cast<std::streamsize>(bytes.size() - cursor));
+        });
 }
 
 }  // namespace
@@ -194,16 +201,20 @@ void write_preserved(const std::filesystem::path& path, const FileLayout& layout
     const auto edits = layout.format == MeshFormat::Obj
                            ? material_library_edits(bytes, source_folder, path.parent_path())
                            : std::vector<TextEdit>{};
-    write_file_atomically(path, [&](std::ostream& out) {
-        std::size_t cursor = 0;
-        for (const TextEdit& edit : edits)
-        {
-            out.write(bytes.data() + cursor, static_cast<std::streamsize>(edit.offset - cursor));
-            out << edit.text;
-            cursor = edit.offset + edit.length;
-        }
-        out.write(bytes.data() + cursor, static_cast<std::streamsize>(bytes.size() - cursor));
-    });
+    write_file_atomically(path,
+                          [&](std::ostream& out)
+                          {
+                              std::size_t cursor = 0;
+                              for (const TextEdit& edit : edits)
+                              {
+                                  out.write(bytes.data() + cursor,
+                                            static_cast<std::streamsize>(edit.offset - cursor));
+                                  out << edit.text;
+                                  cursor = edit.offset + edit.length;
+                              }
+                              out.write(bytes.data() + cursor,
+                                        static_cast<std::streamsize>(bytes.size() - cursor));
+                          });
 }
 
 }  // namespace meshmark::detail

@@ -13,8 +13,10 @@
 #include "io/detail/formats.h"
 #include "io/detail/support.h"
 
-namespace meshmark::detail {
-namespace {
+namespace meshmark::detail
+{
+namespace
+{
 
 constexpr std::size_t kHeaderSize = 80;
 constexpr std::size_t kFacetOffset = 84;  // Header and the uint32 facet count.

@@ -12,8 +12,10 @@
 
 #include "meshmark/core/error.h"
 
-namespace meshmark::detail {
-namespace {
+namespace meshmark::detail
+{
+namespace
+{
 
 // Closes a POSIX descriptor on every path out of read_file_bytes.
 class Descriptor
@@ -37,7 +39,8 @@ private:
 
 }  // namespace
 
-namespace {
+namespace
+{
 
 // A clause that may end with a library's own period ("...attributes."): one period in all.
 std::string clause(std::string what)
@@ -189,7 +192,8 @@ bool TokenCursor::next(std::string_view& token) noexcept
     return true;
 }
 
-namespace {
+namespace
+{
 
 // Character classes for the token scanner: a table lookup per byte keeps the hot loop of
 // ASCII bodies (tens of millions of bytes) free of comparison chains.
@@ -244,7 +248,8 @@ TriangleMesh make_mesh(const std::vector<double>& xyz, const std::vector<std::si
     triangles.reserve(corners.size() / 3);
     for (std::size_t t = 0; t + 2 < corners.size(); t += 3)
     {
-        triangles.push(static_cast<std::int32_t>(corners[t]), static_cast<std::int32_t>(corners[t + 1]),
+        triangles.push(static_cast<std::int32_t>(corners[t]),
+                       static_cast<std::int32_t>(corners[t + 1]),
                        static_cast<std::int32_t>(corners[t + 2]));
     }
     return make_mesh(xyz, triangles);
@@ -278,7 +283,8 @@ void check_finite(const std::filesystem::path& path, const Positions& V)
 
 }  // namespace meshmark::detail
 
-namespace meshmark::detail {
+namespace meshmark::detail
+{
 
 std::string index_range(std::uint64_t vertex_count)
 {

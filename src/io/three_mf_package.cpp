@@ -6,8 +6,10 @@
 
 #include "io/detail/three_mf.h"
 
-namespace meshmark::detail {
-namespace {
+namespace meshmark::detail
+{
+namespace
+{
 
 namespace fs = std::filesystem;
 

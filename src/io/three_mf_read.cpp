@@ -17,8 +17,10 @@
 #include "io/detail/three_mf.h"
 #include "io/detail/weld.h"
 
-namespace meshmark::detail {
-namespace {
+namespace meshmark::detail
+{
+namespace
+{
 
 namespace fs = std::filesystem;
 
@@ -36,9 +38,12 @@ std::optional<LengthUnit> model_unit(pugi::xml_attribute unit)
         return LengthUnit::Millimetre;
     }
     static const std::pair<std::string_view, LengthUnit> kNames[] = {
-        {"micron", LengthUnit::Micrometre}, {"millimeter", LengthUnit::Millimetre},
-        {"centimeter", LengthUnit::Centimetre}, {"inch", LengthUnit::Inch},
-        {"foot", LengthUnit::Foot}, {"meter", LengthUnit::Metre}};
+        {"micron", LengthUnit::Micrometre},
+        {"millimeter", LengthUnit::Millimetre},
+        {"centimeter", LengthUnit::Centimetre},
+        {"inch", LengthUnit::Inch},
+        {"foot", LengthUnit::Foot},
+        {"meter", LengthUnit::Metre}};
     const std::string_view value = trimmed(unit.value());
     for (const auto& [name, length_unit] : kNames)
     {

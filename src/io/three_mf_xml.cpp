@@ -7,8 +7,10 @@
 #include "io/detail/numbers.h"
 #include "io/detail/three_mf.h"
 
-namespace meshmark::detail {
-namespace {
+namespace meshmark::detail
+{
+namespace
+{
 
 namespace fs = std::filesystem;
 

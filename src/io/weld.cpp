@@ -11,7 +11,8 @@
 
 #include <Eigen/Core>
 
-namespace meshmark::detail {
+namespace meshmark::detail
+{
 
 std::vector<std::int32_t> weld_world_positions(const std::vector<double>& world,
                                                const std::vector<std::int32_t>& group,

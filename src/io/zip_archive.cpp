@@ -10,8 +10,10 @@
 
 #include "io/detail/support.h"
 
-namespace meshmark::detail {
-namespace {
+namespace meshmark::detail
+{
+namespace
+{
 
 namespace fs = std::filesystem;
 
@@ -172,9 +174,9 @@ std::string ZipArchive::read(std::uint64_t index, std::uint64_t max_bytes) const
     const std::uint64_t declared = size(index);
     if (declared > max_bytes)
     {
-        fail_io(path_, "zip entry " + detail::quoted(name) + " declares " + std::to_string(declared) +
-                           " uncompressed bytes, more than the limit of " +
-                           std::to_string(max_bytes));
+        fail_io(path_,
+                "zip entry " + detail::quoted(name) + " declares " + std::to_string(declared) +
+                    " uncompressed bytes, more than the limit of " + std::to_string(max_bytes));
     }
     const FilePtr file(zip_fopen_index(archive_, index, 0));
     if (file == nullptr)
@@ -218,8 +220,8 @@ std::string replace_zip_entries(const fs::path& path, const std::string& bytes,
         const zip_int64_t index = zip_name_locate(archive.get(), name.c_str(), 0);
         zip_stat_t stat;
         zip_stat_init(&stat);
-        if (index < 0 || zip_stat_index(archive.get(), static_cast<zip_uint64_t>(index), 0,
-                                        &stat) != 0)
+        if (index < 0 ||
+            zip_stat_index(archive.get(), static_cast<zip_uint64_t>(index), 0, &stat) != 0)
         {
             fail_io(path, "zip entry " + detail::quoted(name) + " is missing");
         }

@@ -17,8 +17,10 @@
 #include "meshmark/core/threads.h"
 #include "meshmark/metrics/surface_sampling.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 /// Running statistics of sample distances. Combined strictly in sample order, so the sums (and
 /// the first sample reaching the maximum) are the same for any thread count.
@@ -56,7 +58,8 @@ struct DistanceSums
 };
 
 /// Distance of every vertex of \p mesh to the indexed surface.
-Eigen::VectorXd all_vertex_distances(const TriangleMesh& mesh, const ClosestPointIndex& to, int threads)
+Eigen::VectorXd all_vertex_distances(const TriangleMesh& mesh, const ClosestPointIndex& to,
+                                     int threads)
 {
     Eigen::VectorXd distances(mesh.V.rows());
 #pragma omp parallel for schedule(dynamic, 1024) num_threads(resolve_threads(threads))
@@ -70,7 +73,8 @@ Eigen::VectorXd all_vertex_distances(const TriangleMesh& mesh, const ClosestPoin
 /// Sums over the stratified area samples, block by block: samples are generated, measured and
 /// reduced per block, so memory stays O(threads * block) however many samples are asked for.
 DistanceSums area_sample_sums(const TriangleMesh& from, const Eigen::VectorXd& cumulative,
-                              const ClosestPointIndex& to, std::int64_t count, std::uint64_t seed, int threads)
+                              const ClosestPointIndex& to, std::int64_t count, std::uint64_t seed,
+                              int threads)
 {
     const std::int64_t blocks = (count + kSamplesPerBlock - 1) / kSamplesPerBlock;
     std::vector<DistanceSums> per_block(static_cast<std::size_t>(blocks));
@@ -129,11 +133,13 @@ void CompareOptions::validate() const
 {
     if (samples < 0)
     {
-        throw InvalidOption("compare: samples = " + std::to_string(samples) + " must be >= 0 (0 = automatic).");
+        throw InvalidOption("compare: samples = " + std::to_string(samples) +
+                            " must be >= 0 (0 = automatic).");
     }
     if (threads < 0)
     {
-        throw InvalidOption("compare: threads = " + std::to_string(threads) + " must be >= 0 (0 = all cores).");
+        throw InvalidOption("compare: threads = " + std::to_string(threads) +
+                            " must be >= 0 (0 = all cores).");
     }
 }
 
@@ -143,8 +149,8 @@ std::int64_t auto_sample_count(const TriangleMesh& mesh)
     {
         return 0;
     }
-    return std::clamp(kAutoSamplesPerFace * static_cast<std::int64_t>(mesh.F.rows()), kMinAutoSamples,
-                      kMaxAutoSamples);
+    return std::clamp(kAutoSamplesPerFace * static_cast<std::int64_t>(mesh.F.rows()),
+                      kMinAutoSamples, kMaxAutoSamples);
 }
 
 OneSidedDistance one_sided_distance(const TriangleMesh& from, const ClosestPointIndex& to,
@@ -201,9 +207,9 @@ Displacement vertex_displacement(const TriangleMesh& a, const TriangleMesh& b)
     if (!has_same_connectivity(a, b))
     {
         throw InvalidMesh("vertex_displacement: the meshes do not share connectivity (" +
-                          std::to_string(a.V.rows()) + " vs " + std::to_string(b.V.rows()) + " vertices, " +
-                          std::to_string(a.F.rows()) + " vs " + std::to_string(b.F.rows()) +
-                          " faces, or different face rows).");
+                          std::to_string(a.V.rows()) + " vs " + std::to_string(b.V.rows()) +
+                          " vertices, " + std::to_string(a.F.rows()) + " vs " +
+                          std::to_string(b.F.rows()) + " faces, or different face rows).");
     }
     Displacement result;
     double sum_squares = 0.0;
@@ -225,13 +231,15 @@ Displacement vertex_displacement(const TriangleMesh& a, const TriangleMesh& b)
     return result;
 }
 
-namespace {
+namespace
+{
 
 // Mean over a triangle of the product of two linear functions with corner values a and b.
 double mean_product(const double* a, const double* b)
 {
     return (a[0] * b[0] + a[1] * b[1] + a[2] * b[2] +
-            0.5 * (a[0] * b[1] + a[1] * b[0] + a[1] * b[2] + a[2] * b[1] + a[2] * b[0] + a[0] * b[2])) /
+            0.5 * (a[0] * b[1] + a[1] * b[0] + a[1] * b[2] + a[2] * b[1] + a[2] * b[0] +
+                   a[0] * b[2])) /
            6.0;
 }
 
@@ -239,8 +247,9 @@ void check_field(const TriangleMesh& mesh, const Positions& field)
 {
     if (field.rows() != mesh.V.rows())
     {
-        throw InvalidMesh("surface_rms_displacement: the field has " + std::to_string(field.rows()) +
-                          " rows for " + std::to_string(mesh.V.rows()) + " vertices.");
+        throw InvalidMesh("surface_rms_displacement: the field has " +
+                          std::to_string(field.rows()) + " rows for " +
+                          std::to_string(mesh.V.rows()) + " vertices.");
     }
 }
 
@@ -251,14 +260,17 @@ double surface_rms_displacement(const TriangleMesh& mesh, const Positions& field
     check_field(mesh, field);
     if (mesh.is_point_cloud())
     {
-        return mesh.V.rows() > 0 ? std::sqrt(field.squaredNorm() / (3.0 * static_cast<double>(mesh.V.rows()))) : 0.0;
+        return mesh.V.rows() > 0
+                   ? std::sqrt(field.squaredNorm() / (3.0 * static_cast<double>(mesh.V.rows())))
+                   : 0.0;
     }
     // Fixed blocks of faces, each summed in face order, the blocks then added in order: the
     // same bits for any thread count (65536 faces: chosen by hand; no study on record).
     constexpr Eigen::Index kBlock = 1 << 16;
     const Eigen::Index faces = mesh.F.rows();
     const Eigen::Index blocks = (faces + kBlock - 1) / kBlock;
-    std::vector<std::pair<double, double>> sums(static_cast<std::size_t>(blocks));  // weighted, area
+    std::vector<std::pair<double, double>> sums(
+        static_cast<std::size_t>(blocks));  // weighted, area
 #pragma omp parallel for schedule(dynamic, 1) num_threads(resolve_threads(threads))
     for (Eigen::Index b = 0; b < blocks; ++b)
     {
@@ -301,7 +313,8 @@ SurfaceRmsOfSums::SurfaceRmsOfSums(const TriangleMesh& mesh, const Positions& ba
     check_field(mesh, base);
     if (mesh.is_point_cloud())
     {
-        bb_ = mesh.V.rows() > 0 ? base.squaredNorm() / (3.0 * static_cast<double>(mesh.V.rows())) : 0.0;
+        bb_ = mesh.V.rows() > 0 ? base.squaredNorm() / (3.0 * static_cast<double>(mesh.V.rows()))
+                                : 0.0;
         base_part_ = base;
         return;
     }
@@ -383,7 +396,8 @@ double SurfaceRmsOfSums::Terms::scale_to(double target) const noexcept
     return c > 0.0 ? c : 1.0;
 }
 
-DistortionReport compare_meshes(const TriangleMesh& a, const TriangleMesh& b, const CompareOptions& options)
+DistortionReport compare_meshes(const TriangleMesh& a, const TriangleMesh& b,
+                                const CompareOptions& options)
 {
     options.validate();
     const auto start = std::chrono::steady_clock::now();
@@ -396,8 +410,9 @@ DistortionReport compare_meshes(const TriangleMesh& a, const TriangleMesh& b, co
     report.diagonal = bounding_box(a.V, rows_a).diagonal();
     if (!(report.diagonal > 0.0) || !std::isfinite(report.diagonal))
     {
-        throw InvalidMesh("compare: mesh A has a zero or non-finite bounding-box diagonal, so relative "
-                          "distances are undefined.");
+        throw InvalidMesh(
+            "compare: mesh A has a zero or non-finite bounding-box diagonal, so relative "
+            "distances are undefined.");
     }
 
     // Indices: exact closest points on each surface (nearest points for a cloud).
@@ -413,13 +428,15 @@ DistortionReport compare_meshes(const TriangleMesh& a, const TriangleMesh& b, co
     const std::int64_t samples_b = options.samples > 0 ? options.samples : auto_sample_count(b);
     report_progress(options, "a_to_b", 0.0);
     phase = std::chrono::steady_clock::now();
-    report.a_to_b = one_sided_distance(a, index_b, samples_a, derive_seed(options.seed, "compare:a"), options.threads);
+    report.a_to_b = one_sided_distance(a, index_b, samples_a,
+                                       derive_seed(options.seed, "compare:a"), options.threads);
     report.seconds.a_to_b = seconds_since(phase);
     report_progress(options, "a_to_b", 1.0);
     report_progress(options, "b_to_a", 0.0);
     phase = std::chrono::steady_clock::now();
-    report.b_to_a = one_sided_distance(b, index_a, samples_b, derive_seed(options.seed, "compare:b"), options.threads,
-                                       options.keep_vertex_distances ? &report.vertex_distances_ba : nullptr);
+    report.b_to_a = one_sided_distance(
+        b, index_a, samples_b, derive_seed(options.seed, "compare:b"), options.threads,
+        options.keep_vertex_distances ? &report.vertex_distances_ba : nullptr);
     report.seconds.b_to_a = seconds_since(phase);
     report_progress(options, "b_to_a", 1.0);
 

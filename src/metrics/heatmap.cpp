@@ -4,8 +4,10 @@
 #include <algorithm>
 #include <cmath>
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 std::uint8_t to_byte(double x)
 {

@@ -12,7 +12,8 @@
 #include "meshmark/core/rng.h"
 #include "meshmark/core/threads.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 Eigen::VectorXd cumulative_face_areas(const TriangleMesh& mesh)
 {
@@ -31,7 +32,8 @@ Eigen::VectorXd cumulative_face_areas(const TriangleMesh& mesh)
 }
 
 void sample_surface_block(const TriangleMesh& mesh, const Eigen::VectorXd& cumulative_areas,
-                          std::int64_t count, std::uint64_t seed, std::int64_t block, Positions& out)
+                          std::int64_t count, std::uint64_t seed, std::int64_t block,
+                          Positions& out)
 {
     const std::int64_t start = block * kSamplesPerBlock;
     const std::int64_t n = std::clamp(count - start, std::int64_t{0}, kSamplesPerBlock);
@@ -51,10 +53,12 @@ void sample_surface_block(const TriangleMesh& mesh, const Eigen::VectorXd& cumul
     {
         // A uniform position in stratum k of the total area, then the face that holds it: the
         // first one whose cumulative area exceeds it (zero-area faces are never chosen).
-        const double u = std::min((static_cast<double>(start + j) + rng.uniform()) * stratum, total);
+        const double u =
+            std::min((static_cast<double>(start + j) + rng.uniform()) * stratum, total);
         if (j == 0)
         {
-            face = std::min(static_cast<Eigen::Index>(std::upper_bound(begin, end, u) - begin), last_face);
+            face = std::min(static_cast<Eigen::Index>(std::upper_bound(begin, end, u) - begin),
+                            last_face);
         }
         while (face < last_face && cumulative_areas[face] <= u)
         {
@@ -64,12 +68,14 @@ void sample_surface_block(const TriangleMesh& mesh, const Eigen::VectorXd& cumul
         const double s = std::sqrt(rng.uniform());
         const double r = rng.uniform();
         const auto row = static_cast<Eigen::Index>(j);
-        out.row(row) = (1.0 - s) * mesh.V.row(mesh.F(face, 0)) + (s * (1.0 - r)) * mesh.V.row(mesh.F(face, 1)) +
+        out.row(row) = (1.0 - s) * mesh.V.row(mesh.F(face, 0)) +
+                       (s * (1.0 - r)) * mesh.V.row(mesh.F(face, 1)) +
                        (s * r) * mesh.V.row(mesh.F(face, 2));
     }
 }
 
-Positions sample_surface(const TriangleMesh& mesh, std::int64_t count, std::uint64_t seed, int threads)
+Positions sample_surface(const TriangleMesh& mesh, std::int64_t count, std::uint64_t seed,
+                         int threads)
 {
     if (count < 0)
     {
@@ -90,7 +96,8 @@ Positions sample_surface(const TriangleMesh& mesh, std::int64_t count, std::uint
         for (std::int64_t b = 0; b < blocks; ++b)
         {
             sample_surface_block(mesh, cumulative, count, seed, b, buffer);
-            samples.middleRows(static_cast<Eigen::Index>(b * kSamplesPerBlock), buffer.rows()) = buffer;
+            samples.middleRows(static_cast<Eigen::Index>(b * kSamplesPerBlock), buffer.rows()) =
+                buffer;
         }
     }
     return samples;

@@ -7,10 +7,12 @@
 #include "meshmark/io/mesh_io.h"
 #include "timer.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
-AttackFileReport attack_file(const std::filesystem::path& input, const std::filesystem::path& output,
-                             const std::string& spec, const AttackFileOptions& options)
+AttackFileReport attack_file(const std::filesystem::path& input,
+                             const std::filesystem::path& output, const std::string& spec,
+                             const AttackFileOptions& options)
 {
     // Check everything that needs no reading first.
     const auto specs = parse_attack_spec(spec);

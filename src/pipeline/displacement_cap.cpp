@@ -10,8 +10,10 @@
 #include "meshmark/core/error.h"
 #include "meshmark/watermark/detector.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 // 2^-24 |x| bounds float32 rounding of a coordinate x (half an ulp), and 2^-23 |x| a text
 // coordinate written with the shortest float32 digits and read back as a double; over the
@@ -38,7 +40,8 @@ std::string length_text(double value, std::optional<LengthUnit> unit)
 
 // The verdict on the undamaged copy of \p mesh marked by \p field times \p factor, its
 // positions rounded to float32, under \p mark (scaled by the same factor already).
-Decision intact_decision(const SpectralWatermark& mark, const TriangleMesh& mesh, const Positions& field, double factor)
+Decision intact_decision(const SpectralWatermark& mark, const TriangleMesh& mesh,
+                         const Positions& field, double factor)
 {
     const Positions marked = ((mesh.V + factor * field).cast<float>()).cast<double>();
     const Detector detector(mark, mesh);
@@ -61,9 +64,9 @@ double largest_row_distance(const Positions& a, const Positions& b)
     return largest_row_norm(a - b);
 }
 
-DisplacementCap cap_displacement(SpectralWatermark& mark, const TriangleMesh& mesh, Positions& field,
-                                 EmbedStats* stats, double cap, const std::filesystem::path& name,
-                                 std::optional<LengthUnit> unit)
+DisplacementCap cap_displacement(SpectralWatermark& mark, const TriangleMesh& mesh,
+                                 Positions& field, EmbedStats* stats, double cap,
+                                 const std::filesystem::path& name, std::optional<LengthUnit> unit)
 {
     DisplacementCap out;
     out.cap = cap;
@@ -105,9 +108,10 @@ DisplacementCap cap_displacement(SpectralWatermark& mark, const TriangleMesh& me
             factor > 0.0 ? "leaves a mark too weak to be detected even on an undamaged copy (z " +
                                std::to_string(decision.score) + ")"
                          : "is below the float32 precision of coordinates this large";
-        throw InvalidOption(name.string() + ": --max-displacement " + length_text(cap, unit) + " " + why +
-                            "; the smallest cap that fits is " +
-                            length_text(rounded_up(high * out.uncapped_max + out.rounding_margin), unit) + ".");
+        throw InvalidOption(
+            name.string() + ": --max-displacement " + length_text(cap, unit) + " " + why +
+            "; the smallest cap that fits is " +
+            length_text(rounded_up(high * out.uncapped_max + out.rounding_margin), unit) + ".");
     }
     field *= factor;
     out.factor = factor;

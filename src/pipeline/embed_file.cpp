@@ -18,8 +18,10 @@
 #include "meshmark/meshmark.h"
 #include "timer.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 std::uint64_t fresh_seed()
 {
@@ -32,7 +34,8 @@ void check_paths(const std::filesystem::path& input, const std::filesystem::path
 {
     if (is_same_file(input, key_path) || output == key_path)
     {
-        throw InvalidOption(key_path.string() + ": the key file must differ from the input and output.");
+        throw InvalidOption(key_path.string() +
+                            ": the key file must differ from the input and output.");
     }
     if (!force && std::filesystem::exists(key_path))
     {
@@ -43,7 +46,8 @@ void check_paths(const std::filesystem::path& input, const std::filesystem::path
 
 }  // namespace
 
-void check_basis_input(const TriangleMesh& mesh, const EmbedOptions& options, const std::filesystem::path& path)
+void check_basis_input(const TriangleMesh& mesh, const EmbedOptions& options,
+                       const std::filesystem::path& path)
 {
     if (!mesh.is_point_cloud())
     {
@@ -51,17 +55,20 @@ void check_basis_input(const TriangleMesh& mesh, const EmbedOptions& options, co
     }
     if (options.basis == BasisType::Laplacian)
     {
-        throw InvalidMesh(path.string() + ": the Laplacian basis needs triangles, but this file is a "
+        throw InvalidMesh(path.string() +
+                          ": the Laplacian basis needs triangles, but this file is a "
                           "point cloud (no faces); use --basis rbf.");
     }
     if (options.centers == CenterSelection::Decimate)
     {
-        throw InvalidMesh(path.string() + ": decimated centers need triangles, but this file is a "
+        throw InvalidMesh(path.string() +
+                          ": decimated centers need triangles, but this file is a "
                           "point cloud (no faces); use --centers random.");
     }
 }
 
-SpectralWatermark watermark_of(const TriangleMesh& mesh, const Key& key, const std::filesystem::path& path, int threads)
+SpectralWatermark watermark_of(const TriangleMesh& mesh, const Key& key,
+                               const std::filesystem::path& path, int threads)
 {
     try
     {
@@ -90,7 +97,8 @@ void EmbedMeshOptions::validate() const
     }
     if (!(std::isfinite(max_displacement) && max_displacement >= 0.0))
     {
-        throw InvalidOption("the largest displacement's cap must be a positive length (0 = no cap).");
+        throw InvalidOption(
+            "the largest displacement's cap must be a positive length (0 = no cap).");
     }
 }
 
@@ -103,15 +111,18 @@ void EmbedFileOptions::validate() const
     }
     if (max_displacement_length && max_displacement > 0.0)
     {
-        throw InvalidOption("give the largest displacement's cap once: as a length or in the mesh's units.");
+        throw InvalidOption(
+            "give the largest displacement's cap once: as a length or in the mesh's units.");
     }
     if (max_displacement_length && force_stream)
     {
-        throw InvalidOption("--max-displacement embeds in memory (it reads the written copy back); drop --stream.");
+        throw InvalidOption(
+            "--max-displacement embeds in memory (it reads the written copy back); drop --stream.");
     }
 }
 
-namespace detail {
+namespace detail
+{
 
 double write_mesh_and_key(const std::filesystem::path& key_path, const Key& key,
                           const EmbedFileOptions& options, const std::function<void()>& write_mesh)
@@ -183,10 +194,12 @@ FileLock lock_key(const std::filesystem::path& key_path, std::chrono::millisecon
 
 Key detail::new_key(const EmbedMeshOptions& options)
 {
-    return make_key(options.embed, options.seed ? *options.seed : fresh_seed(), options.message, options.bits_hex);
+    return make_key(options.embed, options.seed ? *options.seed : fresh_seed(), options.message,
+                    options.bits_hex);
 }
 
-namespace {
+namespace
+{
 
 // The in-memory embed of \p mesh (named \p name in errors) into \p result: phases "basis" and
 // "embed" on \p timer.
@@ -225,11 +238,12 @@ void embed_into(EmbedResult& result, detail::PhaseTimer& timer, const TriangleMe
     mark.calibrate_strength(mesh, result.positions, &result.stats);
     if (options.max_displacement > 0.0)
     {
-        result.cap = cap_displacement(mark, mesh, result.positions, &result.stats, options.max_displacement, name,
-                                      unit);
+        result.cap = cap_displacement(mark, mesh, result.positions, &result.stats,
+                                      options.max_displacement, name, unit);
     }
     result.diagonal = bounding_box(mesh.V, mark.mesh_rows()->active()).diagonal();
-    key.options = mark.key().options;  // the calibrated (and capped) strength and the automatic repetitions
+    key.options =
+        mark.key().options;  // the calibrated (and capped) strength and the automatic repetitions
     result.positions += mesh.V;
     timer.lap("embed");
     result.key = std::move(key);
@@ -246,10 +260,12 @@ EmbedResult embed(const TriangleMesh& mesh, const EmbedMeshOptions& options)
     return result;
 }
 
-namespace {
+namespace
+{
 
 // The cap as the user wrote it, in the coordinates of \p input, whose unit is \p unit.
-double cap_in_mesh_units(const Length& cap, std::optional<LengthUnit> unit, const std::filesystem::path& input)
+double cap_in_mesh_units(const Length& cap, std::optional<LengthUnit> unit,
+                         const std::filesystem::path& input)
 {
     std::string written = std::to_string(cap.value);
     written.erase(written.find_last_not_of('0') + 1);
@@ -286,17 +302,21 @@ double check_written_cap(const MeshFile& source, const std::filesystem::path& ou
     {
         std::error_code ignored;
         std::filesystem::remove(output, ignored);
-        const auto text = [&](double v) { return unit ? format_length(v, *unit) : std::to_string(v); };
-        throw NumericalError(output.string() + ": the written file moves a vertex by " + text(largest) +
-                             ", beyond --max-displacement " + text(cap) +
-                             ": its coordinates are stored more coarsely than the cap (quantized); nothing was "
-                             "written.");
+        const auto text = [&](double v)
+        { return unit ? format_length(v, *unit) : std::to_string(v); };
+        throw NumericalError(
+            output.string() + ": the written file moves a vertex by " + text(largest) +
+            ", beyond --max-displacement " + text(cap) +
+            ": its coordinates are stored more coarsely than the cap (quantized); nothing was "
+            "written.");
     }
     return largest;
 }
 
-EmbedReport embed_to_new_file(const std::filesystem::path& input, const std::filesystem::path& output,
-                              const std::filesystem::path& key_path, const EmbedFileOptions& options)
+EmbedReport embed_to_new_file(const std::filesystem::path& input,
+                              const std::filesystem::path& output,
+                              const std::filesystem::path& key_path,
+                              const EmbedFileOptions& options)
 {
     options.validate();
     check_paths(input, output, key_path, options.force);
@@ -304,10 +324,12 @@ EmbedReport embed_to_new_file(const std::filesystem::path& input, const std::fil
 
     std::string note;
     // A cap reads the written copy back: in memory only (EmbedFileOptions::validate).
-    if (const auto streamed =
-            options.max_displacement_length ? std::nullopt : detail::stream_plan(input, output, options, &note))
+    if (const auto streamed = options.max_displacement_length
+                                  ? std::nullopt
+                                  : detail::stream_plan(input, output, options, &note))
     {
-        return detail::embed_file_streamed(*streamed, output, key_path, detail::new_key(options), options);
+        return detail::embed_file_streamed(*streamed, output, key_path, detail::new_key(options),
+                                           options);
     }
 
     EmbedReport report;
@@ -324,24 +346,25 @@ EmbedReport embed_to_new_file(const std::filesystem::path& input, const std::fil
     EmbedMeshOptions mesh_options = options;
     if (options.max_displacement_length)
     {
-        mesh_options.max_displacement = cap_in_mesh_units(*options.max_displacement_length, report.unit, input);
+        mesh_options.max_displacement =
+            cap_in_mesh_units(*options.max_displacement_length, report.unit, input);
     }
     timer.lap("read");
     EmbedResult marked;
     embed_into(marked, timer, file.mesh, input, mesh_options, report.unit);
     timer.begin("write");
     // (A binary PLY goes out in slices of the original bytes: no second copy of the file.)
-    const double waited = detail::write_mesh_and_key(key_path, marked.key, options,
-                                                     [&]()
-                                                     {
-                                                         write_mesh_file(output, file, marked.positions);
-                                                         if (mesh_options.max_displacement > 0.0)
-                                                         {
-                                                             report.written_max_displacement = check_written_cap(
-                                                                 file, output, mesh_options.max_displacement,
-                                                                 report.unit);
-                                                         }
-                                                     });
+    const double waited = detail::write_mesh_and_key(
+        key_path, marked.key, options,
+        [&]()
+        {
+            write_mesh_file(output, file, marked.positions);
+            if (mesh_options.max_displacement > 0.0)
+            {
+                report.written_max_displacement =
+                    check_written_cap(file, output, mesh_options.max_displacement, report.unit);
+            }
+        });
     timer.lap("write");
     report.seconds.phases.emplace_back("lock", waited);  // the part of "write" spent waiting
     report.key = std::move(marked.key);
@@ -378,8 +401,8 @@ EmbedReport embed_in_place(const std::filesystem::path& input, const std::filesy
     {
         std::error_code ignored;
         std::filesystem::remove(staged, ignored);
-        throw IoError(output.string() + ": cannot replace the input with the marked copy (" + error.message() +
-                      "); the input is unchanged.");
+        throw IoError(output.string() + ": cannot replace the input with the marked copy (" +
+                      error.message() + "); the input is unchanged.");
     }
     return report;
 }
@@ -395,7 +418,8 @@ EmbedReport embed_file(const std::filesystem::path& input, const std::filesystem
     }
     if (!options.replace_input)
     {
-        throw InvalidOption(output.string() + ": -o names the input file, which an embed never "
+        throw InvalidOption(output.string() +
+                            ": -o names the input file, which an embed never "
                             "replaces unless asked; choose another -o or pass --force.");
     }
     return embed_in_place(input, output, key_path, options);

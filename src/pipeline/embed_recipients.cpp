@@ -11,8 +11,8 @@
 #include <limits>
 #include <mutex>
 #include <optional>
-#include <span>
 #include <set>
+#include <span>
 #include <string>
 #include <unordered_map>
 
@@ -26,16 +26,20 @@
 #include "meshmark/pipeline/family_copies.h"
 #include "timer.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 void EmbedRecipientsOptions::validate() const
 {
     EmbedMeshOptions::validate();
     if (max_displacement > 0.0)
     {
-        throw InvalidOption("--max-displacement does not apply to recipient copies: a family key has one strength for "
-                            "every copy, present and future, and each recipient's code moves the vertices differently; "
-                            "cap a single copy (embed without --recipient) instead.");
+        throw InvalidOption(
+            "--max-displacement does not apply to recipient copies: a family key has one strength "
+            "for "
+            "every copy, present and future, and each recipient's code moves the vertices "
+            "differently; "
+            "cap a single copy (embed without --recipient) instead.");
     }
     if (recipients.empty())
     {
@@ -68,7 +72,8 @@ std::filesystem::path recipient_output(const std::string& pattern, const std::st
     return path;
 }
 
-namespace {
+namespace
+{
 
 // \p key, as the store holds it, checked: a family key, made for \p mesh.
 Key checked_family_key(Key key, const FamilyKeyStore& store, const MeshFingerprint& original,
@@ -76,7 +81,8 @@ Key checked_family_key(Key key, const FamilyKeyStore& store, const MeshFingerpri
 {
     if (!key.recipients)
     {
-        throw IoError(store.name() + ": this key marks a single owner's copy, not a family of recipients; " +
+        throw IoError(store.name() +
+                      ": this key marks a single owner's copy, not a family of recipients; " +
                       store.single_owner_advice());
     }
     if (original != key.original)
@@ -155,8 +161,9 @@ std::vector<std::string> distinct(const std::vector<std::string>& names)
 
 // The recipients of this call, each with its index: the key's for a name it holds, the next
 // free one for a new name (added to the key).
-std::vector<IssuedCopy> assign_indices(Key& key, const std::vector<std::string>& names,
-                                       const std::function<std::filesystem::path(const std::string&)>& output_of)
+std::vector<IssuedCopy> assign_indices(
+    Key& key, const std::vector<std::string>& names,
+    const std::function<std::filesystem::path(const std::string&)>& output_of)
 {
     RecipientCodes& codes = *key.recipients;
     // One lookup table rather than RecipientCodes::find per name: a call issuing thousands
@@ -197,8 +204,10 @@ std::vector<IssuedCopy> assign_indices(Key& key, const std::vector<std::string>&
 
 }  // namespace
 
-EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const std::string& output_pattern,
-                                       const std::filesystem::path& key_path, const EmbedRecipientsOptions& options)
+EmbedRecipientsReport embed_recipients(const std::filesystem::path& input,
+                                       const std::string& output_pattern,
+                                       const std::filesystem::path& key_path,
+                                       const EmbedRecipientsOptions& options)
 {
     options.validate();
     (void)recipient_output(output_pattern, "x");  // the placeholder, before any work
@@ -210,18 +219,21 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
     {
         if (recipient_output(output_pattern, name) == key_path)
         {
-            throw InvalidOption(key_path.string() + ": a recipient's copy may replace neither the input nor the key.");
+            throw InvalidOption(key_path.string() +
+                                ": a recipient's copy may replace neither the input nor the key.");
         }
     }
     KeyFileStore store(key_path, options);
     return embed_recipients(
-        input, nullptr, [&](const std::string& name) { return recipient_output(output_pattern, name); }, store,
+        input, nullptr,
+        [&](const std::string& name) { return recipient_output(output_pattern, name); }, store,
         options);
 }
 
-EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const MeshFile* given,
-                                       const std::function<std::filesystem::path(const std::string&)>& output_of,
-                                       FamilyKeyStore& store, const EmbedRecipientsOptions& options)
+EmbedRecipientsReport embed_recipients(
+    const std::filesystem::path& input, const MeshFile* given,
+    const std::function<std::filesystem::path(const std::string&)>& output_of,
+    FamilyKeyStore& store, const EmbedRecipientsOptions& options)
 {
     options.validate();
     for (const std::string& name : options.recipients)
@@ -230,10 +242,12 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
         (void)format_from_extension(path);
         if (is_same_file(input, path))
         {
-            throw InvalidOption(path.string() + ": a recipient's copy may replace neither the input nor the key.");
+            throw InvalidOption(path.string() +
+                                ": a recipient's copy may replace neither the input nor the key.");
         }
     }
-    if (options.embed.basis == BasisType::Laplacian || options.embed.rule != EmbeddingRule::Additive)
+    if (options.embed.basis == BasisType::Laplacian ||
+        options.embed.rule != EmbeddingRule::Additive)
     {
         throw InvalidOption("recipient copies need the RBF basis and the additive rule.");
     }
@@ -283,7 +297,8 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
             if (report.key_created)
             {
                 key = detail::new_key(options);
-                key.recipients = RecipientCodes{options.recipient_modes, options.recipient_share, {}};
+                key.recipients =
+                    RecipientCodes{options.recipient_modes, options.recipient_share, {}};
                 key.recipients->validate(key.options);
                 key.recipients->shorten_to_span = true;
                 key.original = original;
@@ -337,7 +352,8 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
     double code_seconds = 0.0;
     double write_seconds = 0.0;
     using Clock = std::chrono::steady_clock;
-    auto seconds_since = [](Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); };
+    auto seconds_since = [](Clock::time_point t)
+    { return std::chrono::duration<double>(Clock::now() - t).count(); };
     timer.begin("copies");
     const int threads = resolve_threads(options.threads);
     // Copies are made kBatch at a time (FamilyCopies::make: a copy's bytes do not depend on the
@@ -346,7 +362,8 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
     constexpr std::size_t kBatch = FamilyCopies::kBatch;
     // Two sets of kBatch copies, reused: one being computed while the other is written.
     std::array<std::vector<Positions>, 2> buffers;
-    auto make_batch = [&](std::size_t first, std::size_t count, std::vector<Positions>& positions) {
+    auto make_batch = [&](std::size_t first, std::size_t count, std::vector<Positions>& positions)
+    {
         const auto code_start = Clock::now();
         std::array<std::uint32_t, kBatch> indices{};
         std::array<EmbedStats, kBatch> stats{};
@@ -354,7 +371,8 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
         {
             indices[b] = report.copies[first + b].index;
         }
-        family.make(std::span(indices.data(), count), positions, std::span(stats.data(), count), threads);
+        family.make(std::span(indices.data(), count), positions, std::span(stats.data(), count),
+                    threads);
         for (std::size_t b = 0; b < count; ++b)
         {
             report.copies[first + b].stats = stats[b];
@@ -365,24 +383,28 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
     // that waits on the device, so one writer leaves it idle between files.
     constexpr std::size_t kWriters = 4;
     std::mutex created_mutex;
-    auto write_batch = [&](std::size_t first, const std::vector<Positions>& positions) {
+    auto write_batch = [&](std::size_t first, const std::vector<Positions>& positions)
+    {
         const auto write_start = Clock::now();
         std::vector<std::future<void>> writers;
         for (std::size_t w = 0; w < std::min(kWriters, positions.size()); ++w)
         {
-            writers.push_back(std::async(std::launch::async, [&, w] {
-                for (std::size_t b = w; b < positions.size(); b += kWriters)
-                {
-                    const IssuedCopy& copy = report.copies[first + b];
-                    const bool existed = std::filesystem::exists(copy.path);
-                    write_mesh_file(copy.path, file, positions[b]);
-                    if (!existed)
-                    {
-                        const std::lock_guard lock(created_mutex);
-                        created.emplace_back(copy.path, file_identity(copy.path));
-                    }
-                }
-            }));
+            writers.push_back(
+                std::async(std::launch::async,
+                           [&, w]
+                           {
+                               for (std::size_t b = w; b < positions.size(); b += kWriters)
+                               {
+                                   const IssuedCopy& copy = report.copies[first + b];
+                                   const bool existed = std::filesystem::exists(copy.path);
+                                   write_mesh_file(copy.path, file, positions[b]);
+                                   if (!existed)
+                                   {
+                                       const std::lock_guard lock(created_mutex);
+                                       created.emplace_back(copy.path, file_identity(copy.path));
+                                   }
+                               }
+                           }));
         }
         std::exception_ptr failure;
         for (auto& writer : writers)
@@ -402,7 +424,8 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
             std::rethrow_exception(failure);
         }
     };
-    auto write_copies = [&]() {
+    auto write_copies = [&]()
+    {
         std::future<void> writing;
         std::size_t batch_index = 0;
         for (std::size_t first = 0; first < report.copies.size(); first += kBatch, ++batch_index)
@@ -413,10 +436,12 @@ EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const
             {
                 writing.get();  // the other buffer is free again; passes on a write's exception
             }
-            writing = std::async(std::launch::async, [&write_batch, &batch, first] { write_batch(first, batch); });
+            writing = std::async(std::launch::async,
+                                 [&write_batch, &batch, first] { write_batch(first, batch); });
             if (options.progress)
             {
-                options.progress("copies", static_cast<double>(first) / static_cast<double>(report.copies.size()));
+                options.progress("copies", static_cast<double>(first) /
+                                               static_cast<double>(report.copies.size()));
             }
         }
         if (writing.valid())

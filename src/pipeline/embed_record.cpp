@@ -15,7 +15,8 @@
 #error "MESHMARK_VERSION is set by src/pipeline/CMakeLists.txt"
 #endif
 
-namespace meshmark {
+namespace meshmark
+{
 
 RecordedFile recorded_file(const std::filesystem::path& path)
 {
@@ -23,12 +24,14 @@ RecordedFile recorded_file(const std::filesystem::path& path)
     const auto size = std::filesystem::file_size(path, error);
     if (error)
     {
-        throw IoError(path.string() + ": cannot read the file's size for the embed record (" + error.message() + ").");
+        throw IoError(path.string() + ": cannot read the file's size for the embed record (" +
+                      error.message() + ").");
     }
     return {path.string(), static_cast<std::uint64_t>(size), file_sha256(path)};
 }
 
-namespace {
+namespace
+{
 
 std::string utc_now()
 {
@@ -54,8 +57,10 @@ nlohmann::json file_json(const RecordedFile& file)
 
 }  // namespace
 
-EmbedRecord make_embed_record(const std::filesystem::path& input, const std::filesystem::path& output,
-                              const std::filesystem::path& key_path, const Key& key, const RecordedFile* original)
+EmbedRecord make_embed_record(const std::filesystem::path& input,
+                              const std::filesystem::path& output,
+                              const std::filesystem::path& key_path, const Key& key,
+                              const RecordedFile* original)
 {
     EmbedRecord record;
     record.created_utc = utc_now();

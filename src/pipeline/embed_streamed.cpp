@@ -33,14 +33,17 @@
 #include "meshmark/core/threads.h"
 #include "timer.h"
 
-namespace meshmark::detail {
-namespace {
+namespace meshmark::detail
+{
+namespace
+{
 
 // The active rows of the file for the basis passes: one sequential reader per cursor.
 class FileRowCursor final : public RowPositionCursor
 {
 public:
-    FileRowCursor(const PlyStream& file, const ReferencedVertices& referenced, std::size_t begin, std::size_t window)
+    FileRowCursor(const PlyStream& file, const ReferencedVertices& referenced, std::size_t begin,
+                  std::size_t window)
         : referenced_(referenced), reader_(file, referenced.select(begin), window), next_(begin)
     {
     }
@@ -72,8 +75,14 @@ public:
         : file_(file), referenced_(referenced), window_(window)
     {
     }
-    [[nodiscard]] std::size_t size() const override { return static_cast<std::size_t>(referenced_.active); }
-    [[nodiscard]] std::size_t vertex_count() const override { return static_cast<std::size_t>(file_.vertex_count()); }
+    [[nodiscard]] std::size_t size() const override
+    {
+        return static_cast<std::size_t>(referenced_.active);
+    }
+    [[nodiscard]] std::size_t vertex_count() const override
+    {
+        return static_cast<std::size_t>(file_.vertex_count());
+    }
     [[nodiscard]] std::int32_t row(std::size_t i) const override
     {
         return static_cast<std::int32_t>(referenced_.select(i));
@@ -104,8 +113,8 @@ struct FrameResult
 // The three frame passes over the vertices, in blocks; the first also hashes every vertex
 // (the key's position hash), checks that it is finite and bounds the active ones.
 // \p on_pass(pass) after each pass, if given.
-FrameResult frame_passes(const PlyStream& file, const ReferencedVertices& referenced, std::size_t window,
-                         const std::function<void(int)>& on_pass)
+FrameResult frame_passes(const PlyStream& file, const ReferencedVertices& referenced,
+                         std::size_t window, const std::function<void(int)>& on_pass)
 {
     const std::uint64_t n = file.vertex_count();
     FrameResult result;
@@ -162,7 +171,8 @@ FrameResult frame_passes(const PlyStream& file, const ReferencedVertices& refere
                 {
                     if (!std::isfinite(values[k]))
                     {
-                        throw InvalidMesh(file.path().string() + ": vertex " + std::to_string(first + k / 3) +
+                        throw InvalidMesh(file.path().string() + ": vertex " +
+                                          std::to_string(first + k / 3) +
                                           " has a non-finite coordinate (NaN or infinity).");
                     }
                 }
@@ -211,16 +221,18 @@ ScanResult scan(const PlyStream& file, std::size_t window, bool overlap)
         return result;
     }
     std::exception_ptr scan_error;
-    std::thread scanner([&]() {
-        try
+    std::thread scanner(
+        [&]()
         {
-            result.referenced = file.scan_faces(window);
-        }
-        catch (...)
-        {
-            scan_error = std::current_exception();
-        }
-    });
+            try
+            {
+                result.referenced = file.scan_faces(window);
+            }
+            catch (...)
+            {
+                scan_error = std::current_exception();
+            }
+        });
     ReferencedVertices everything;  // no flags: every vertex
     everything.active = file.vertex_count();
     try
@@ -294,7 +306,8 @@ std::string stream_refusal(const std::filesystem::path& input, const std::filesy
 
 }  // namespace
 
-std::optional<PlyStream> stream_plan(const std::filesystem::path& input, const std::filesystem::path& output,
+std::optional<PlyStream> stream_plan(const std::filesystem::path& input,
+                                     const std::filesystem::path& output,
                                      const EmbedFileOptions& options, std::string* note)
 {
     std::optional<PlyStream> opened;
@@ -303,7 +316,8 @@ std::optional<PlyStream> stream_plan(const std::filesystem::path& input, const s
         const std::string refusal = stream_refusal(input, output, options, opened);
         if (!refusal.empty())
         {
-            throw InvalidOption(input.string() + ": cannot be embedded out of core (--stream): " + refusal + ".");
+            throw InvalidOption(input.string() +
+                                ": cannot be embedded out of core (--stream): " + refusal + ".");
         }
         return opened;
     }
@@ -320,7 +334,9 @@ std::optional<PlyStream> stream_plan(const std::filesystem::path& input, const s
     const std::string refusal = stream_refusal(input, output, options, opened);
     if (!refusal.empty())
     {
-        *note = "the in-memory embed exceeds the memory budget, but the input cannot be streamed: " + refusal;
+        *note =
+            "the in-memory embed exceeds the memory budget, but the input cannot be streamed: " +
+            refusal;
         return std::nullopt;
     }
     return opened;
@@ -342,7 +358,8 @@ EmbedReport embed_file_streamed(const PlyStream& file, const std::filesystem::pa
     report.streamed = true;
     PhaseTimer timer(report.seconds, options.progress);
     // Fractions within a phase; 1 (the end of a phase) is for the timer's lap alone.
-    const auto progress = [&](const char* phase, double fraction) {
+    const auto progress = [&](const char* phase, double fraction)
+    {
         if (options.progress && fraction < 1.0)
         {
             options.progress(phase, fraction);
@@ -355,7 +372,8 @@ EmbedReport embed_file_streamed(const PlyStream& file, const std::filesystem::pa
     const std::string refusal = file.refusal();
     if (!refusal.empty())
     {
-        throw InvalidOption(file.path().string() + ": cannot be embedded out of core: " + refusal + ".");
+        throw InvalidOption(file.path().string() + ": cannot be embedded out of core: " + refusal +
+                            ".");
     }
     const bool overlap = resolve_threads(options.threads) > 1;
     ScanResult scanned = scan(file, window, overlap);
@@ -376,19 +394,22 @@ EmbedReport embed_file_streamed(const PlyStream& file, const std::filesystem::pa
         // key says so (docs/algorithms/embedding.md, "Strength").
         key.options.measure = StrengthMeasure::Vertex;
         key.options.strength *= std::sqrt(3.0);
-        report.strength_note = "out of core, the strength is applied as an RMS vertex displacement of " +
-                               std::to_string(key.options.strength) +
-                               " of the diagonal (the surface measure needs the mesh in memory)";
+        report.strength_note =
+            "out of core, the strength is applied as an RMS vertex displacement of " +
+            std::to_string(key.options.strength) +
+            " of the diagonal (the surface measure needs the mesh in memory)";
     }
     key.options.validate();
-    check_analysed_rows(key.options, static_cast<std::size_t>(referenced.active), file.path().string());
+    check_analysed_rows(key.options, static_cast<std::size_t>(referenced.active),
+                        file.path().string());
     if (scanned.guess_error)
     {
         std::rethrow_exception(scanned.guess_error);
     }
     if (!scanned.guess || referenced.active != file.vertex_count())
     {
-        scanned.guess = frame_passes(file, referenced, window, [&](int pass) { progress("frame", pass / 3.0); });
+        scanned.guess = frame_passes(file, referenced, window,
+                                     [&](int pass) { progress("frame", pass / 3.0); });
     }
     const BoundingBox box = scanned.guess->box;
     const CanonicalFrameBuilder& frame = scanned.guess->frame;
@@ -401,7 +422,8 @@ EmbedReport embed_file_streamed(const PlyStream& file, const std::filesystem::pa
     // through the file's row source.
     timer.begin("basis");
     const auto source = std::make_shared<const FileRowSource>(file, referenced, window);
-    const SpectralWatermark mark = [&] {
+    const SpectralWatermark mark = [&]
+    {
         try
         {
             return SpectralWatermark(key, source, frame.frame(), options.threads);

@@ -13,7 +13,8 @@
 #include "meshmark/io/ply_stream.h"
 #include "meshmark/pipeline/embed_file.h"
 
-namespace meshmark::detail {
+namespace meshmark::detail
+{
 
 /// The key of a new embed: make_key with the options' seed, or one drawn from the OS.
 [[nodiscard]] Key new_key(const EmbedMeshOptions& options);
@@ -49,7 +50,8 @@ double write_mesh_and_key(const std::filesystem::path& key_path, const Key& key,
 /// the input cannot be read or its header is malformed.
 [[nodiscard]] std::optional<PlyStream> stream_plan(const std::filesystem::path& input,
                                                    const std::filesystem::path& output,
-                                                   const EmbedFileOptions& options, std::string* note);
+                                                   const EmbedFileOptions& options,
+                                                   std::string* note);
 
 /// \brief Memory the in-memory embed of \p input would need, in bytes (estimate from the file
 /// size and the header's counts: the file, positions and field, triangles, row lists).

@@ -11,9 +11,11 @@
 #include "meshmark/core/threads.h"
 #include "meshmark/pipeline/embed_file.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
-namespace {
+namespace
+{
 
 // Rows of the analysed vertices summed per block: a block's sums stay in the first-level cache.
 constexpr std::int64_t kRowBlock = 256;
@@ -24,7 +26,8 @@ constexpr std::int64_t kRowBlock = 256;
 // after the other from zero, so a copy's bits do not depend on the instruction set, the block
 // or the batch.
 __attribute__((target_clones("avx512f", "avx2", "default"))) void code_field_block(
-    const double* u, int modes, std::size_t size, const double* changes, std::size_t width, double* sums)
+    const double* u, int modes, std::size_t size, const double* changes, std::size_t width,
+    double* sums)
 {
     // By 64 rows at a time, so that the sums of 8 copies (24 x 64 doubles) stay in the first-level
     // cache while every mode passes over them.
@@ -39,7 +42,8 @@ __attribute__((target_clones("avx512f", "avx2", "default"))) void code_field_blo
         }
         for (int mode = 0; mode < modes; ++mode)
         {
-            const double* column = u + static_cast<std::size_t>(mode) * static_cast<std::size_t>(kRowBlock) + first;
+            const double* column =
+                u + static_cast<std::size_t>(mode) * static_cast<std::size_t>(kRowBlock) + first;
             const double* c = changes + static_cast<std::size_t>(mode) * width;
             for (std::size_t k = 0; k < width; ++k)
             {
@@ -56,18 +60,21 @@ __attribute__((target_clones("avx512f", "avx2", "default"))) void code_field_blo
 
 }  // namespace
 
-FamilyCopies::FamilyCopies(const MeshFile& file, const Key& key, const std::filesystem::path& path, int threads)
+FamilyCopies::FamilyCopies(const MeshFile& file, const Key& key, const std::filesystem::path& path,
+                           int threads)
     : file_(&file), mark_(watermark_of(file.mesh, key, path, threads))
 {
     if (!key.recipients)
     {
-        throw InvalidOption(path.string() + ": the key marks a single owner's copy, not a family of recipients.");
+        throw InvalidOption(path.string() +
+                            ": the key marks a single owner's copy, not a family of recipients.");
     }
     owner_ = mark_.displacement(&owner_stats_);
     prepare();
 }
 
-FamilyCopies::FamilyCopies(const MeshFile& file, SpectralWatermark mark, Positions owner, const EmbedStats& owner_stats)
+FamilyCopies::FamilyCopies(const MeshFile& file, SpectralWatermark mark, Positions owner,
+                           const EmbedStats& owner_stats)
     : file_(&file), mark_(std::move(mark)), owner_(std::move(owner)), owner_stats_(owner_stats)
 {
     prepare();
@@ -104,9 +111,11 @@ void FamilyCopies::prepare()
         const Eigen::Index count = std::min<Eigen::Index>(kRowBlock, rows - first);
         for (int mode = 0; mode < modes; ++mode)
         {
-            const double* from = dense.col(head + mode).data() + first;  // contiguous rows of one mode
+            const double* from =
+                dense.col(head + mode).data() + first;  // contiguous rows of one mode
             std::copy(from, from + count,
-                      code_modes_.begin() + static_cast<std::ptrdiff_t>((block * modes + mode) * kRowBlock));
+                      code_modes_.begin() +
+                          static_cast<std::ptrdiff_t>((block * modes + mode) * kRowBlock));
         }
     }
     const std::vector<std::int32_t>& active = mark_.mesh_rows()->active();
@@ -122,8 +131,8 @@ std::size_t FamilyCopies::memory_bytes() const noexcept
     const auto n = static_cast<std::size_t>(owner_.rows());
     const auto faces = static_cast<std::size_t>(file_->mesh.F.rows());
     const auto k = static_cast<std::size_t>(mark_.basis().size());
-    const std::size_t doubles = 3 * n + static_cast<std::size_t>(code_modes_.size()) + (copy_surface_ ? 7 * faces : 0) +
-                                3 * n + 2 * k * k;
+    const std::size_t doubles = 3 * n + static_cast<std::size_t>(code_modes_.size()) +
+                                (copy_surface_ ? 7 * faces : 0) + 3 * n + 2 * k * k;
     return sizeof(double) * doubles + sizeof(std::int32_t) * n;
 }
 
@@ -144,7 +153,8 @@ void FamilyCopies::make(std::span<const std::uint32_t> indices, std::vector<Posi
     // of each copy is its own sum over the modes in mode order (code_field_block), so a copy's
     // bytes do not depend on the batch nor on the thread count.
     const std::size_t width = 3 * count;
-    std::vector<double> changes(static_cast<std::size_t>(modes) * width);  // mode-major, then copy, axis
+    std::vector<double> changes(static_cast<std::size_t>(modes) *
+                                width);  // mode-major, then copy, axis
     for (std::size_t b = 0; b < count; ++b)
     {
         const Eigen::MatrixX3d change = mark_.recipient_change(indices[b]);
@@ -152,8 +162,8 @@ void FamilyCopies::make(std::span<const std::uint32_t> indices, std::vector<Posi
         {
             for (int axis = 0; axis < 3; ++axis)
             {
-                changes[static_cast<std::size_t>(mode) * width + 3 * b + static_cast<std::size_t>(axis)] =
-                    change(mode, axis);
+                changes[static_cast<std::size_t>(mode) * width + 3 * b +
+                        static_cast<std::size_t>(axis)] = change(mode, axis);
             }
         }
     }
@@ -169,8 +179,8 @@ void FamilyCopies::make(std::span<const std::uint32_t> indices, std::vector<Posi
         const std::int64_t first = block * kRowBlock;
         const auto size = static_cast<std::size_t>(std::min<std::int64_t>(kRowBlock, rows - first));
         std::array<double, 3 * kBatch * kRowBlock> sums;  // copy-axis major, then row
-        code_field_block(code_modes_.data() + static_cast<std::size_t>(block * modes * kRowBlock), modes, size,
-                         changes.data(), width, sums.data());
+        code_field_block(code_modes_.data() + static_cast<std::size_t>(block * modes * kRowBlock),
+                         modes, size, changes.data(), width, sums.data());
         for (std::size_t r = 0; r < size; ++r)
         {
             const auto i = active[static_cast<std::size_t>(first) + r];
@@ -178,7 +188,8 @@ void FamilyCopies::make(std::span<const std::uint32_t> indices, std::vector<Posi
             {
                 for (int axis = 0; axis < 3; ++axis)
                 {
-                    out[b](i, axis) = sums[(3 * b + static_cast<std::size_t>(axis)) * kRowBlock + r];
+                    out[b](i, axis) =
+                        sums[(3 * b + static_cast<std::size_t>(axis)) * kRowBlock + r];
                 }
             }
         }

@@ -3,10 +3,13 @@
 
 #include "meshmark/pipeline/verdict.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
-nlohmann::json mesh_json(const std::string& path, const TriangleMesh& mesh, const OneSidedDistance& side)
+nlohmann::json mesh_json(const std::string& path, const TriangleMesh& mesh,
+                         const OneSidedDistance& side)
 {
     return {{"file", path},
             {"vertices", mesh.vertex_count()},
@@ -43,23 +46,23 @@ nlohmann::json matrix_json(const Eigen::Matrix4d& matrix)
 nlohmann::json embed_stats_json(const Key& key, const EmbedStats& stats)
 {
     nlohmann::json out = {{"analysed_vertices", stats.analysed_vertices},
-            {"rule", to_string(key.options.rule)},
-            {"strength", key.options.strength},
-            {"strength_measure", to_string(key.options.measure)},
-            {"basis", to_string(key.options.basis)},
-            {"centers", to_string(key.options.centers)},
-            {"basis_size", key.options.basis_size},
-            {"coefficients", key.options.coefficients},
-            {"repetitions", key.options.repetitions},
-            {"first_mode", key.options.first_mode},
-            {"bits", to_bit_string(key.payload)},
-            {"max_displacement", stats.max_displacement_rel},
-            {"rms_displacement", stats.rms_displacement_rel},
-            {"surface_rms_displacement", stats.surface_rms_rel},
-            {"orthogonality_error", stats.orthogonality_error},
-            {"weak_bits", stats.weak_bits},
-            {"basis_span", stats.basis_span},
-            {"shortened_to_span", stats.shortened_to_span}};
+                          {"rule", to_string(key.options.rule)},
+                          {"strength", key.options.strength},
+                          {"strength_measure", to_string(key.options.measure)},
+                          {"basis", to_string(key.options.basis)},
+                          {"centers", to_string(key.options.centers)},
+                          {"basis_size", key.options.basis_size},
+                          {"coefficients", key.options.coefficients},
+                          {"repetitions", key.options.repetitions},
+                          {"first_mode", key.options.first_mode},
+                          {"bits", to_bit_string(key.payload)},
+                          {"max_displacement", stats.max_displacement_rel},
+                          {"rms_displacement", stats.rms_displacement_rel},
+                          {"surface_rms_displacement", stats.surface_rms_rel},
+                          {"orthogonality_error", stats.orthogonality_error},
+                          {"weak_bits", stats.weak_bits},
+                          {"basis_span", stats.basis_span},
+                          {"shortened_to_span", stats.shortened_to_span}};
     if (key.options.rule != EmbeddingRule::Additive)
     {
         out.erase("strength_measure");  // rho is not a distance
@@ -67,8 +70,8 @@ nlohmann::json embed_stats_json(const Key& key, const EmbedStats& stats)
     return out;
 }
 
-nlohmann::json embed_recipients_report_json(const EmbedRecipientsReport& report, const std::string& input,
-                                            const std::string& key)
+nlohmann::json embed_recipients_report_json(const EmbedRecipientsReport& report,
+                                            const std::string& input, const std::string& key)
 {
     nlohmann::json copies = nlohmann::json::array();
     for (const IssuedCopy& copy : report.copies)
@@ -98,8 +101,8 @@ nlohmann::json embed_recipients_report_json(const EmbedRecipientsReport& report,
     return out;
 }
 
-nlohmann::json embed_report_json(const EmbedReport& report, const std::string& input, const std::string& output,
-                                 const std::string& key)
+nlohmann::json embed_report_json(const EmbedReport& report, const std::string& input,
+                                 const std::string& output, const std::string& key)
 {
     nlohmann::json out = embed_stats_json(report.key, report.stats);
     out["input"] = input;
@@ -111,7 +114,8 @@ nlohmann::json embed_report_json(const EmbedReport& report, const std::string& i
     out["seconds"] = to_json(report.seconds);
     if (report.unit)
     {
-        // The distortion again in the coordinates' unit (the fields above stay fractions of the diagonal).
+        // The distortion again in the coordinates' unit (the fields above stay fractions of the
+        // diagonal).
         const double d = report.diagonal;
         out["in_unit"] = {{"unit", to_string(*report.unit)},
                           {"source", report.is_unit_from_file ? "file" : "option"},
@@ -145,7 +149,8 @@ nlohmann::json embed_report_json(const EmbedReport& report, const std::string& i
     return out;
 }
 
-nlohmann::json detect_report_json(const DetectReport& report, const DetectOptions& options, bool diagnostics)
+nlohmann::json detect_report_json(const DetectReport& report, const DetectOptions& options,
+                                  bool diagnostics)
 {
     const Decision& d = report.decision;
     const Verdict verdict = verdict_of(report, options.max_false_positive);
@@ -189,7 +194,8 @@ nlohmann::json detect_report_json(const DetectReport& report, const DetectOption
         nlohmann::json accused = nlohmann::json::array();
         for (const RecipientScore& r : report.accused)
         {
-            accused.push_back({{"name", r.name}, {"score", r.score},
+            accused.push_back({{"name", r.name},
+                               {"score", r.score},
                                {"false_positive_probability", r.false_positive_probability}});
         }
         out["recipients"] = std::move(accused);
@@ -208,7 +214,8 @@ nlohmann::json detect_report_json(const DetectReport& report, const DetectOption
             nlohmann::json scores = nlohmann::json::array();
             for (const RecipientScore& r : report.traced)
             {
-                scores.push_back({{"name", r.name}, {"score", r.score}, {"region_score", r.region_score}});
+                scores.push_back(
+                    {{"name", r.name}, {"score", r.score}, {"region_score", r.region_score}});
             }
             out["recipient_scores"] = std::move(scores);
         }
@@ -216,7 +223,8 @@ nlohmann::json detect_report_json(const DetectReport& report, const DetectOption
     return out;
 }
 
-nlohmann::json attack_report_json(const AttackFileReport& report, const std::string& input, const std::string& output)
+nlohmann::json attack_report_json(const AttackFileReport& report, const std::string& input,
+                                  const std::string& output)
 {
     return {{"input", input},
             {"output", output},
@@ -227,7 +235,8 @@ nlohmann::json attack_report_json(const AttackFileReport& report, const std::str
             {"vertices_after", report.vertices_after},
             {"faces_after", report.faces_after},
             {"has_correspondence", report.has_correspondence},
-            {"transform", report.similarity ? matrix_json(*report.similarity) : nlohmann::json(nullptr)},
+            {"transform",
+             report.similarity ? matrix_json(*report.similarity) : nlohmann::json(nullptr)},
             {"seconds", to_json(report.seconds)}};
 }
 
@@ -253,8 +262,9 @@ nlohmann::json compare_in_unit_json(const DistortionReport& r, LengthUnit unit, 
     return out;
 }
 
-nlohmann::json compare_report_json(const std::string& a_path, const std::string& b_path, const TriangleMesh& a,
-                                   const TriangleMesh& b, const DistortionReport& r, std::uint64_t seed)
+nlohmann::json compare_report_json(const std::string& a_path, const std::string& b_path,
+                                   const TriangleMesh& a, const TriangleMesh& b,
+                                   const DistortionReport& r, std::uint64_t seed)
 {
     nlohmann::json out = {{"hausdorff", r.hausdorff_rel},
                           {"hausdorff_ab", r.hausdorff_ab_rel},
@@ -269,8 +279,8 @@ nlohmann::json compare_report_json(const std::string& a_path, const std::string&
                           {"bbox_diagonal", r.diagonal},
                           {"a", mesh_json(a_path, a, r.a_to_b)},
                           {"b", mesh_json(b_path, b, r.b_to_a)},
-                          {"samples", r.a_to_b.vertex_samples + r.a_to_b.area_samples + r.b_to_a.vertex_samples +
-                                          r.b_to_a.area_samples},
+                          {"samples", r.a_to_b.vertex_samples + r.a_to_b.area_samples +
+                                          r.b_to_a.vertex_samples + r.b_to_a.area_samples},
                           {"seed", seed}};
     if (r.displacement)
     {

@@ -6,7 +6,8 @@
 
 #include "meshmark/pipeline/progress.h"
 
-namespace meshmark::detail {
+namespace meshmark::detail
+{
 
 // Records the wall time of consecutive phases into PhaseTimings.
 class PhaseTimer

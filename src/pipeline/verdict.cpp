@@ -7,7 +7,8 @@
 
 #include "meshmark/core/plain_numbers.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 Verdict verdict_of(const DetectReport& report, double max_false_positive)
 {
@@ -25,8 +26,9 @@ Verdict verdict_of(const DetectReport& report, double max_false_positive)
         v.accused.push_back(r.name);
     }
     v.claimed = report.detected();
-    v.false_positive_probability = report.accused.empty() ? report.owner_false_positive_probability
-                                                          : report.accused.front().false_positive_probability;
+    v.false_positive_probability = report.accused.empty()
+                                       ? report.owner_false_positive_probability
+                                       : report.accused.front().false_positive_probability;
     return v;
 }
 
@@ -40,7 +42,8 @@ std::string headline(const Verdict& verdict)
         out = "Claimed: a copy of the original";
         if (!verdict.accused.empty())
         {
-            out += verdict.accused.size() == 1 ? ", made from the copy issued to " : ", made from the copies issued to ";
+            out += verdict.accused.size() == 1 ? ", made from the copy issued to "
+                                               : ", made from the copies issued to ";
             for (std::size_t i = 0; i < verdict.accused.size(); ++i)
             {
                 if (i > 0)
@@ -63,10 +66,12 @@ std::string headline(const Verdict& verdict)
     const std::string how_often = verdict.false_positive_probability < 1.0
                                       ? one_in(verdict.false_positive_probability) + " times"
                                       : std::string("every time");
-    out = "Not shown: the mark is not read strongly enough to claim this copy. Chance alone gives a reading this "
-          "strong " +
-          how_often + " (" + p.data() + "); a claim needs at most " +
-          one_in(verdict.max_false_positive_probability) + " (" + bound.data() + ").";
+    out =
+        "Not shown: the mark is not read strongly enough to claim this copy. Chance alone gives a "
+        "reading this "
+        "strong " +
+        how_often + " (" + p.data() + "); a claim needs at most " +
+        one_in(verdict.max_false_positive_probability) + " (" + bound.data() + ").";
     return out;
 }
 

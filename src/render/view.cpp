@@ -73,8 +73,8 @@ ViewAngles parse_view(const std::string& text)
 UpAxis parse_up_axis(const std::string& text)
 {
     const std::string axis = !text.empty() && text.front() == '+' ? text.substr(1) : text;
-    const std::pair<const char*, UpAxis> names[] = {{"y", UpAxis::PosY},   {"z", UpAxis::PosZ},
-                                                    {"x", UpAxis::PosX},   {"-y", UpAxis::NegY},
+    const std::pair<const char*, UpAxis> names[] = {{"y", UpAxis::PosY},  {"z", UpAxis::PosZ},
+                                                    {"x", UpAxis::PosX},  {"-y", UpAxis::NegY},
                                                     {"-z", UpAxis::NegZ}, {"-x", UpAxis::NegX}};
     for (const auto& [name, value] : names)
     {
@@ -86,7 +86,8 @@ UpAxis parse_up_axis(const std::string& text)
     throw InvalidOption("up axis '" + text + "' is not one of y, z, x, -y, -z, -x.");
 }
 
-namespace {
+namespace
+{
 
 // The rotation taking the +Y-up, +Z-front convention to \p up and its front: its columns are
 // the images of X (up x front), Y (up) and Z (front).
@@ -96,12 +97,28 @@ Eigen::Matrix3d up_rotation(UpAxis up)
     Eigen::Vector3d f = Eigen::Vector3d::UnitZ();
     switch (up)
     {
-    case UpAxis::PosY: break;
-    case UpAxis::PosZ: u = Eigen::Vector3d::UnitZ(); f = -Eigen::Vector3d::UnitY(); break;
-    case UpAxis::PosX: u = Eigen::Vector3d::UnitX(); f = Eigen::Vector3d::UnitZ(); break;
-    case UpAxis::NegY: u = -Eigen::Vector3d::UnitY(); f = -Eigen::Vector3d::UnitZ(); break;
-    case UpAxis::NegZ: u = -Eigen::Vector3d::UnitZ(); f = Eigen::Vector3d::UnitY(); break;
-    case UpAxis::NegX: u = -Eigen::Vector3d::UnitX(); f = Eigen::Vector3d::UnitZ(); break;
+        case UpAxis::PosY:
+            break;
+        case UpAxis::PosZ:
+            u = Eigen::Vector3d::UnitZ();
+            f = -Eigen::Vector3d::UnitY();
+            break;
+        case UpAxis::PosX:
+            u = Eigen::Vector3d::UnitX();
+            f = Eigen::Vector3d::UnitZ();
+            break;
+        case UpAxis::NegY:
+            u = -Eigen::Vector3d::UnitY();
+            f = -Eigen::Vector3d::UnitZ();
+            break;
+        case UpAxis::NegZ:
+            u = -Eigen::Vector3d::UnitZ();
+            f = Eigen::Vector3d::UnitY();
+            break;
+        case UpAxis::NegX:
+            u = -Eigen::Vector3d::UnitX();
+            f = Eigen::Vector3d::UnitZ();
+            break;
     }
     Eigen::Matrix3d rotation;
     rotation << u.cross(f), u, f;

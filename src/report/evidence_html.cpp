@@ -6,8 +6,10 @@
 
 #include "meshmark/report/evidence_report.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 constexpr const char* kStyle = R"css(
 @page { size: A4; margin: 14mm 15mm; }
@@ -47,11 +49,20 @@ std::string escaped(const std::string& text)
     {
         switch (c)
         {
-        case '&': out += "&amp;"; break;
-        case '<': out += "&lt;"; break;
-        case '>': out += "&gt;"; break;
-        case '"': out += "&quot;"; break;
-        default: out += c;
+            case '&':
+                out += "&amp;";
+                break;
+            case '<':
+                out += "&lt;";
+                break;
+            case '>':
+                out += "&gt;";
+                break;
+            case '"':
+                out += "&quot;";
+                break;
+            default:
+                out += c;
         }
     }
     return out;
@@ -77,7 +88,8 @@ std::string prose(const std::string& text)
 
 std::string base64(const std::string& bytes)
 {
-    static constexpr char kDigits[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    static constexpr char kDigits[] =
+        "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
     std::string out;
     out.reserve((bytes.size() + 2) / 3 * 4);
     std::size_t i = 0;
@@ -109,13 +121,15 @@ bool is_code(const std::string& label)
     return label == "SHA-256" || label == "Key fingerprint" || label == "Command";
 }
 
-void append_figure(std::string& html, const char* kind, const RgbImage& image, const std::string& caption)
+void append_figure(std::string& html, const char* kind, const RgbImage& image,
+                   const std::string& caption)
 {
     html += "<figure><img class=\"";
     html += kind;
-    html += "\" alt=\"" + escaped(caption) + "\" width=\"" + std::to_string(image.width) + "\" height=\"" +
-            std::to_string(image.height) + "\" src=\"data:image/png;base64," + base64(encode_png(image)) +
-            "\"><figcaption>" + prose(caption) + "</figcaption></figure>\n";
+    html += "\" alt=\"" + escaped(caption) + "\" width=\"" + std::to_string(image.width) +
+            "\" height=\"" + std::to_string(image.height) + "\" src=\"data:image/png;base64," +
+            base64(encode_png(image)) + "\"><figcaption>" + prose(caption) +
+            "</figcaption></figure>\n";
 }
 
 }  // namespace
@@ -132,7 +146,8 @@ std::string evidence_html(const EvidenceText& text, const EvidencePictures& pict
     {
         accused += (accused.empty() ? "" : ",") + name;
     }
-    html += "<meta name=\"meshmark:detected\" content=\"" + std::string(text.is_claimed ? "true" : "false") +
+    html += "<meta name=\"meshmark:detected\" content=\"" +
+            std::string(text.is_claimed ? "true" : "false") +
             "\">\n<meta name=\"meshmark:false_positive_probability\" content=\"" + p +
             "\">\n<meta name=\"meshmark:accused\" content=\"" + escaped(accused) + "\">\n";
     html += "<style>" + std::string(kStyle) + "</style>\n</head>\n<body>\n";
@@ -152,8 +167,10 @@ std::string evidence_html(const EvidenceText& text, const EvidencePictures& pict
             html += "<table>\n";
             for (const auto& [label, value] : section.rows)
             {
-                const std::string shown = is_code(label) ? "<code>" + escaped(value) + "</code>" : prose(value);
-                html += "<tr><td class=\"label\">" + escaped(label) + "</td><td>" + shown + "</td></tr>\n";
+                const std::string shown =
+                    is_code(label) ? "<code>" + escaped(value) + "</code>" : prose(value);
+                html += "<tr><td class=\"label\">" + escaped(label) + "</td><td>" + shown +
+                        "</td></tr>\n";
             }
             html += "</table>\n";
         }

@@ -13,14 +13,16 @@
 #include "meshmark/core/error.h"
 #include "meshmark/report/evidence_report.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 constexpr double kPageWidth = 595.276;  // A4 in points
 constexpr double kPageHeight = 841.89;
 constexpr double kMargin = 45.0;
 constexpr double kTextWidth = kPageWidth - 2.0 * kMargin;
-constexpr double kBody = 9.0;      // font sizes in points
+constexpr double kBody = 9.0;  // font sizes in points
 constexpr double kSmall = 7.5;
 constexpr double kHeading = 11.5;
 constexpr double kLabelWidth = 150.0;
@@ -80,7 +82,8 @@ public:
     void skip(double height) { y_ += height; }
 
     /// Wrapped text in [x, x + width), its lines kept on one page; returns the height used.
-    double text(const std::string& words, const Font& font, double x, double width, bool is_draft = false)
+    double text(const std::string& words, const Font& font, double x, double width,
+                bool is_draft = false)
     {
         const std::vector<std::string> lines = wrap(words, font, width);
         const double leading = 1.3 * font.size;
@@ -106,8 +109,9 @@ public:
     {
         const Font label_font{kSans, kBody, false};
         const Font value_font{is_code ? kMono : kSans, is_code ? kSmall + 0.5 : kBody, false};
-        const double height = std::max(text(label, label_font, kMargin, kLabelWidth - 6.0, true),
-                                       text(value, value_font, kMargin + kLabelWidth, kTextWidth - kLabelWidth, true));
+        const double height = std::max(
+            text(label, label_font, kMargin, kLabelWidth - 6.0, true),
+            text(value, value_font, kMargin + kLabelWidth, kTextWidth - kLabelWidth, true));
         need(height);
         cairo_set_source_rgb(cr_.get(), 0.35, 0.35, 0.35);
         text(label, label_font, kMargin, kLabelWidth - 6.0);
@@ -133,17 +137,20 @@ public:
         const double scale = std::min(kTextWidth / picture.width, max_height / picture.height);
         need(scale * picture.height + 4.0);
         const std::unique_ptr<cairo_surface_t, decltype(&cairo_surface_destroy)> surface(
-            cairo_image_surface_create(CAIRO_FORMAT_RGB24, picture.width, picture.height), &cairo_surface_destroy);
+            cairo_image_surface_create(CAIRO_FORMAT_RGB24, picture.width, picture.height),
+            &cairo_surface_destroy);
         cairo_surface_flush(surface.get());
         unsigned char* data = cairo_image_surface_get_data(surface.get());
         const int stride = cairo_image_surface_get_stride(surface.get());
         for (int y = 0; y < picture.height; ++y)
         {
-            auto* row = reinterpret_cast<std::uint32_t*>(data + static_cast<std::ptrdiff_t>(y) * stride);
+            auto* row =
+                reinterpret_cast<std::uint32_t*>(data + static_cast<std::ptrdiff_t>(y) * stride);
             for (int x = 0; x < picture.width; ++x)
             {
                 const Rgb8 c = picture.at(x, y);
-                row[x] = (std::uint32_t{c[0]} << 16U) | (std::uint32_t{c[1]} << 8U) | std::uint32_t{c[2]};
+                row[x] = (std::uint32_t{c[0]} << 16U) | (std::uint32_t{c[1]} << 8U) |
+                         std::uint32_t{c[2]};
             }
         }
         cairo_surface_mark_dirty(surface.get());
@@ -171,26 +178,31 @@ private:
     double width_of(const std::string& word, const Font& font)
     {
         double width = 0.0;
-        for_each_piece(word, [&](const std::string& piece, bool is_power) {
-            use(font, is_power ? 0.7 * font.size : font.size);
-            cairo_text_extents_t extents;
-            cairo_text_extents(cr_.get(), piece.c_str(), &extents);
-            width += extents.x_advance;
-        });
+        for_each_piece(word,
+                       [&](const std::string& piece, bool is_power)
+                       {
+                           use(font, is_power ? 0.7 * font.size : font.size);
+                           cairo_text_extents_t extents;
+                           cairo_text_extents(cr_.get(), piece.c_str(), &extents);
+                           width += extents.x_advance;
+                       });
         return width;
     }
 
     void draw_line(const std::string& line, const Font& font, double x, double baseline)
     {
         cairo_move_to(cr_.get(), x, baseline);
-        for_each_piece(line, [&](const std::string& piece, bool is_power) {
-            use(font, is_power ? 0.7 * font.size : font.size);
-            double cx = 0.0;
-            double cy = 0.0;
-            cairo_get_current_point(cr_.get(), &cx, &cy);
-            cairo_move_to(cr_.get(), cx, baseline - (is_power ? 0.38 * font.size : 0.0));
-            cairo_show_text(cr_.get(), piece.c_str());
-        });
+        for_each_piece(line,
+                       [&](const std::string& piece, bool is_power)
+                       {
+                           use(font, is_power ? 0.7 * font.size : font.size);
+                           double cx = 0.0;
+                           double cy = 0.0;
+                           cairo_get_current_point(cr_.get(), &cx, &cy);
+                           cairo_move_to(cr_.get(), cx,
+                                         baseline - (is_power ? 0.38 * font.size : 0.0));
+                           cairo_show_text(cr_.get(), piece.c_str());
+                       });
     }
 
     /// Calls \p f on the runs of \p text: plain, and the digits after "10^" (raised, the caret
@@ -199,7 +211,8 @@ private:
     void for_each_piece(const std::string& line, F&& f)
     {
         std::size_t start = 0;
-        for (std::size_t at = line.find("10^"); at != std::string::npos; at = line.find("10^", start))
+        for (std::size_t at = line.find("10^"); at != std::string::npos;
+             at = line.find("10^", start))
         {
             std::size_t end = at + 3;
             while (end < line.size() && line[end] >= '0' && line[end] <= '9')
@@ -286,7 +299,8 @@ std::string evidence_pdf(const EvidenceText& text, const EvidencePictures& pictu
 
         // The verdict in a coloured band, then its chance.
         const Font verdict_font{kSans, 11.0, true};
-        const double verdict_height = page.text(text.verdict, verdict_font, kMargin, kTextWidth, true);
+        const double verdict_height =
+            page.text(text.verdict, verdict_font, kMargin, kTextWidth, true);
         if (text.is_claimed)
         {
             page.band(verdict_height, 0.906, 0.957, 0.910);
@@ -309,7 +323,8 @@ std::string evidence_pdf(const EvidenceText& text, const EvidencePictures& pictu
             double first = page.text(section.heading, heading, kMargin, kTextWidth, true) + 3.0;
             if (!section.paragraphs.empty())
             {
-                first += page.text(section.paragraphs.front(), {kSans, kBody, false}, kMargin, kTextWidth, true);
+                first += page.text(section.paragraphs.front(), {kSans, kBody, false}, kMargin,
+                                   kTextWidth, true);
             }
             page.need(first);
             page.paragraph(section.heading, heading, 3.0);

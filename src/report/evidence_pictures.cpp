@@ -18,8 +18,10 @@
 #include "meshmark/render/rasterizer.h"
 #include "meshmark/report/evidence_report.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 constexpr Rgb8 kBackground{255, 255, 255};
 const Eigen::Vector3d kOriginalColor(200.0, 200.0, 200.0);  // light grey
@@ -41,14 +43,16 @@ Eigen::Matrix4d transform_of(const nlohmann::json& detect)
     }
     if (rows == nullptr || !rows->is_array() || rows->size() != 4)
     {
-        throw InvalidOption("evidence report: the detect report has no registration.transform (4 rows of 4).");
+        throw InvalidOption(
+            "evidence report: the detect report has no registration.transform (4 rows of 4).");
     }
     Eigen::Matrix4d m;
     for (int r = 0; r < 4; ++r)
     {
         for (int c = 0; c < 4; ++c)
         {
-            m(r, c) = (*rows)[static_cast<std::size_t>(r)].at(static_cast<std::size_t>(c)).get<double>();
+            m(r, c) =
+                (*rows)[static_cast<std::size_t>(r)].at(static_cast<std::size_t>(c)).get<double>();
         }
     }
     return m;
@@ -138,13 +142,16 @@ void rasterize(Layer& layer, const Framing& f, int threads)
     {
         const Eigen::Vector3d p = mesh.V.row(i).transpose();
         layer.screen.row(i) << (p.dot(f.frame.right) - f.mid.x()) * f.scale + 0.5 * f.width,
-            (-p.dot(f.frame.up) - f.mid.y()) * f.scale + 0.5 * f.height, p.dot(f.frame.toward) * f.scale;
+            (-p.dot(f.frame.up) - f.mid.y()) * f.scale + 0.5 * f.height,
+            p.dot(f.frame.toward) * f.scale;
     }
     if (mesh.is_point_cloud())
     {
         // Discs as the render module's heatmap draws them (heatmap_image.cpp, kSplatSpacings).
-        const double radius = std::clamp(0.7 * median_spacing(mesh.V) * f.scale, 0.75, 0.05 * f.height);
-        layer.buffer = rasterize_points(layer.screen, referenced_vertices(mesh), radius, f.width, f.height, threads);
+        const double radius =
+            std::clamp(0.7 * median_spacing(mesh.V) * f.scale, 0.75, 0.05 * f.height);
+        layer.buffer = rasterize_points(layer.screen, referenced_vertices(mesh), radius, f.width,
+                                        f.height, threads);
     }
     else
     {
@@ -170,8 +177,8 @@ Eigen::Vector3d shade(const Layer& layer, std::size_t k, const Eigen::Vector3d& 
     {
         const auto f = layer.mesh->F.row(layer.buffer.primitive[k]);
         const double w = 1.0 - u - v;
-        const Eigen::Vector3d n = w * layer.normals.row(f[0]) + u * layer.normals.row(f[1]) +
-                                  v * layer.normals.row(f[2]);
+        const Eigen::Vector3d n =
+            w * layer.normals.row(f[0]) + u * layer.normals.row(f[1]) + v * layer.normals.row(f[2]);
         const double length = n.norm();
         light = length > 0.0 ? std::abs(n.dot(toward)) / length : 1.0;
     }
@@ -180,7 +187,8 @@ Eigen::Vector3d shade(const Layer& layer, std::size_t k, const Eigen::Vector3d& 
 
 /// Draw \p layers (nearest wins, each with its depth bias) into columns [x0, x0 + width / ss)
 /// of \p image, averaging ss x ss samples per pixel.
-void compose(RgbImage& image, int x0, std::vector<Layer>& layers, const Framing& f, int ss, int threads)
+void compose(RgbImage& image, int x0, std::vector<Layer>& layers, const Framing& f, int ss,
+             int threads)
 {
     for (Layer& layer : layers)
     {
@@ -204,7 +212,8 @@ void compose(RgbImage& image, int x0, std::vector<Layer>& layers, const Framing&
                     double depth = -std::numeric_limits<double>::infinity();
                     for (const Layer& layer : layers)
                     {
-                        if (layer.buffer.primitive[k] >= 0 && layer.buffer.depth[k] + layer.depth_bias > depth)
+                        if (layer.buffer.primitive[k] >= 0 &&
+                            layer.buffer.depth[k] + layer.depth_bias > depth)
                         {
                             depth = layer.buffer.depth[k] + layer.depth_bias;
                             nearest = &layer;
@@ -215,7 +224,8 @@ void compose(RgbImage& image, int x0, std::vector<Layer>& layers, const Framing&
             }
             sum /= ss * ss;
             image.set(x0 + x, y,
-                      {static_cast<std::uint8_t>(std::lround(sum[0])), static_cast<std::uint8_t>(std::lround(sum[1])),
+                      {static_cast<std::uint8_t>(std::lround(sum[0])),
+                       static_cast<std::uint8_t>(std::lround(sum[1])),
                        static_cast<std::uint8_t>(std::lround(sum[2]))});
         }
     }
@@ -227,7 +237,8 @@ double percentile(std::vector<double> values, double q)
     {
         return 0.0;
     }
-    const auto k = static_cast<std::ptrdiff_t>(std::floor(q * static_cast<double>(values.size() - 1)));
+    const auto k =
+        static_cast<std::ptrdiff_t>(std::floor(q * static_cast<double>(values.size() - 1)));
     std::nth_element(values.begin(), values.begin() + k, values.end());
     return values[static_cast<std::size_t>(k)];
 }
@@ -235,7 +246,8 @@ double percentile(std::vector<double> values, double q)
 }  // namespace
 
 EvidencePictures evidence_pictures(const TriangleMesh& suspect, const TriangleMesh& original,
-                                   const nlohmann::json& detect, const EvidencePictureOptions& options)
+                                   const nlohmann::json& detect,
+                                   const EvidencePictureOptions& options)
 {
     if (options.supersampling < 1 || options.supersampling > 4)
     {
@@ -269,7 +281,8 @@ EvidencePictures evidence_pictures(const TriangleMesh& suspect, const TriangleMe
     received[0].mesh = &suspect;
     received[0].color = kSuspectColor;
     compose(out.alignment, 0, received,
-            fit(suspect, frame, options.panel.width * ss, options.panel.height * ss), ss, options.threads);
+            fit(suspect, frame, options.panel.width * ss, options.panel.height * ss), ss,
+            options.threads);
     std::vector<Layer> laid(2);
     laid[0].mesh = &original;
     laid[0].color = kOriginalColor;
@@ -277,17 +290,19 @@ EvidencePictures evidence_pictures(const TriangleMesh& suspect, const TriangleMe
     laid[1].color = kSuspectColor;
     if (!suspect.is_point_cloud())
     {
-        // The aligned suspect's normals are the received one's turned (shading uses directions only).
+        // The aligned suspect's normals are the received one's turned (shading uses directions
+        // only).
         laid[1].normals = received[0].normals * aligned_linear.transpose();
     }
     received.clear();
-    const Framing laid_framing = fit(original, frame, options.panel.width * ss, options.panel.height * ss);
+    const Framing laid_framing =
+        fit(original, frame, options.panel.width * ss, options.panel.height * ss);
     laid[1].depth_bias = kSuspectDepthBias * diagonal * laid_framing.scale;
     compose(out.alignment, options.panel.width, laid, laid_framing, ss, options.threads);
     laid.clear();
     // A thin rule between the panels.
-    out.alignment.fill_rect(options.panel.width - 1, 0, options.panel.width + 1, options.panel.height,
-                            Rgb8{190, 190, 190});
+    out.alignment.fill_rect(options.panel.width - 1, 0, options.panel.width + 1,
+                            options.panel.height, Rgb8{190, 190, 190});
 
     // The difference: each aligned suspect vertex's distance to the original's surface.
     std::vector<SurfaceMatch> closest;

@@ -14,12 +14,14 @@
 #include "meshmark/core/error.h"
 #include "meshmark/io/mesh_io.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 EvidenceFormat evidence_format(const std::filesystem::path& path)
 {
     std::string ext = path.extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+    std::transform(ext.begin(), ext.end(), ext.begin(),
+                   [](unsigned char c) { return std::tolower(c); });
     if (ext == ".html" || ext == ".htm")
     {
         return EvidenceFormat::Html;
@@ -36,11 +38,10 @@ void write_evidence_report(const std::filesystem::path& path, const EvidenceFact
 {
     const EvidenceFormat format = evidence_format(path);
     const EvidenceText text = evidence_text(facts, pictures);
-    const std::string bytes =
-        format == EvidenceFormat::Html ? evidence_html(text, pictures) : evidence_pdf(text, pictures);
-    write_file_atomically(path, [&bytes](std::ostream& out) {
-        out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    });
+    const std::string bytes = format == EvidenceFormat::Html ? evidence_html(text, pictures)
+                                                             : evidence_pdf(text, pictures);
+    write_file_atomically(path, [&bytes](std::ostream& out)
+                          { out.write(bytes.data(), static_cast<std::streamsize>(bytes.size())); });
 }
 
 void write_detection_report(const std::filesystem::path& path, const std::filesystem::path& suspect,
@@ -65,7 +66,8 @@ void write_detection_report(const std::filesystem::path& path, const std::filesy
     facts.command = options.command;
     if (options.is_dated)
     {
-        const std::time_t now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
+        const std::time_t now =
+            std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
         std::tm utc{};
         gmtime_r(&now, &utc);
         char text[32];
@@ -80,7 +82,8 @@ void write_detection_report(const std::filesystem::path& path, const std::filesy
     const TriangleMesh& original_mesh = original_file.mesh;
     facts.unit = original_file.unit;
     facts.original_diagonal = bounding_box(original_mesh.V).diagonal();
-    write_evidence_report(path, facts, evidence_pictures(suspect_mesh, original_mesh, detect, options.pictures));
+    write_evidence_report(path, facts,
+                          evidence_pictures(suspect_mesh, original_mesh, detect, options.pictures));
 }
 
 }  // namespace meshmark

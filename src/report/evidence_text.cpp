@@ -7,14 +7,16 @@
 #include <string>
 #include <vector>
 
-#include "meshmark/core/plain_numbers.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/length_unit.h"
+#include "meshmark/core/plain_numbers.h"
 #include "meshmark/io/file_sha256.h"
 #include "meshmark/report/evidence_report.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 /// A registered copy this many times further from the original than the mark's strength keeps
 /// little of the mark (DetectReport::kFarCopyStrengths; docs/robustness.md).
@@ -40,13 +42,16 @@ std::string percent_and_length(double fraction, const EvidenceFacts& facts)
     std::string out = percent(fraction);
     if (facts.unit && facts.original_diagonal > 0.0)
     {
-        // A metric length in the unit a print seller reads: 0.148 mm, not 0.000148 m (µm below 0.01 mm).
+        // A metric length in the unit a print seller reads: 0.148 mm, not 0.000148 m (µm below 0.01
+        // mm).
         const double length = fraction * facts.original_diagonal;
         LengthUnit shown = *facts.unit;
         if (shown != LengthUnit::Inch && shown != LengthUnit::Foot)
         {
             const double metres = length * metres_per(shown);
-            shown = metres < 1e-5 ? LengthUnit::Micrometre : metres < 1.0 ? LengthUnit::Millimetre : LengthUnit::Metre;
+            shown = metres < 1e-5  ? LengthUnit::Micrometre
+                    : metres < 1.0 ? LengthUnit::Millimetre
+                                   : LengthUnit::Metre;
         }
         out += " (" + format_length(convert_length(length, *facts.unit, shown), shown) + ")";
     }
@@ -77,7 +82,8 @@ const nlohmann::json& field(const nlohmann::json& detect, const char* name)
 {
     if (!detect.contains(name))
     {
-        throw InvalidOption(std::string("evidence report: the detect report has no field '") + name + "'.");
+        throw InvalidOption(std::string("evidence report: the detect report has no field '") +
+                            name + "'.");
     }
     return detect[name];
 }
@@ -116,7 +122,8 @@ OwnerMark owner_mark(const nlohmann::json& detect)
     }
     if (detect.contains("owner_detected"))
     {
-        return {true, detect["owner_detected"].get<bool>(), detect.value("owner_false_positive_probability", 1.0)};
+        return {true, detect["owner_detected"].get<bool>(),
+                detect.value("owner_false_positive_probability", 1.0)};
     }
     return {};
 }
@@ -126,11 +133,15 @@ EvidenceSection files_section(const EvidenceFacts& facts)
     EvidenceSection s;
     s.heading = "What was checked";
     s.paragraphs.push_back(
-        "A 3D model found elsewhere (the suspect) was checked for the invisible watermark that the owner put into "
-        "their model before publishing it. The check compares the suspect with the owner's original model and "
-        "uses the owner's secret key. The key itself is not part of this report: it is identified only by its "
+        "A 3D model found elsewhere (the suspect) was checked for the invisible watermark that the "
+        "owner put into "
+        "their model before publishing it. The check compares the suspect with the owner's "
+        "original model and "
+        "uses the owner's secret key. The key itself is not part of this report: it is identified "
+        "only by its "
         "fingerprint below, which anyone can compare with the key file the owner presents.");
-    const auto add = [&s](const std::string& what, const EvidenceFile& file) {
+    const auto add = [&s](const std::string& what, const EvidenceFile& file)
+    {
         s.rows.emplace_back(what, file.name);
         s.rows.emplace_back("Size", grouped_digits(file.size_bytes) + " bytes");
         s.rows.emplace_back("SHA-256", file.sha256);
@@ -162,27 +173,32 @@ EvidenceSection correspondence_section(const EvidenceFacts& facts, const Evidenc
     if (method.starts_with("same-connectivity"))
     {
         s.paragraphs.push_back(
-            "The suspect is made of the same points as the original (" + grouped_digits(static_cast<std::uintmax_t>(
-                                                                             suspect_vertices)) +
-            " points, possibly renumbered), so each of its points was compared directly with the same point of "
+            "The suspect is made of the same points as the original (" +
+            grouped_digits(static_cast<std::uintmax_t>(suspect_vertices)) +
+            " points, possibly renumbered), so each of its points was compared directly with the "
+            "same point of "
             "the original, after undoing any move, turn or change of size of the whole model.");
     }
     else if (method.starts_with("registration (vertices matched)"))
     {
         s.paragraphs.push_back(
-            "The suspect's points were renumbered or split, so it was first moved, turned and scaled onto the "
-            "original (registration); its points then turned out to be the original's own, and each was "
+            "The suspect's points were renumbered or split, so it was first moved, turned and "
+            "scaled onto the "
+            "original (registration); its points then turned out to be the original's own, and "
+            "each was "
             "compared with the same point of the original.");
     }
     else if (method.starts_with("registration"))
     {
-        s.paragraphs.push_back(
-            "The suspect is not made of the original's points (" +
-            grouped_digits(static_cast<std::uintmax_t>(suspect_vertices)) + " points against the original's " +
-            grouped_digits(static_cast<std::uintmax_t>(original_vertices)) +
-            "): it was re-meshed, simplified, cut or scanned again. It was therefore first moved, turned and "
-            "scaled onto the original automatically (registration), and the suspect's surface was then measured "
-            "at the original's points (resampling).");
+        s.paragraphs.push_back("The suspect is not made of the original's points (" +
+                               grouped_digits(static_cast<std::uintmax_t>(suspect_vertices)) +
+                               " points against the original's " +
+                               grouped_digits(static_cast<std::uintmax_t>(original_vertices)) +
+                               "): it was re-meshed, simplified, cut or scanned again. It was "
+                               "therefore first moved, turned and "
+                               "scaled onto the original automatically (registration), and the "
+                               "suspect's surface was then measured "
+                               "at the original's points (resampling).");
     }
     else
     {
@@ -190,19 +206,24 @@ EvidenceSection correspondence_section(const EvidenceFacts& facts, const Evidenc
     }
     if (method.find("not converged") != std::string::npos)
     {
-        s.paragraphs.push_back("The automatic alignment did not fully settle, so the match above may be rough.");
+        s.paragraphs.push_back(
+            "The automatic alignment did not fully settle, so the match above may be rough.");
     }
-    std::string meaning = "After this alignment the suspect lies on average (root mean square) " +
-                          percent_and_length(rms, facts) +
-                          " of the original's size (the diagonal of its bounding box) from the original";
+    std::string meaning =
+        "After this alignment the suspect lies on average (root mean square) " +
+        percent_and_length(rms, facts) +
+        " of the original's size (the diagonal of its bounding box) from the original";
     if (strength > 0.0)
     {
-        meaning += "; the watermark itself moves the surface by about " + percent_and_length(strength, facts) + ".";
-        meaning += rms <= 2.0 * strength
-                       ? " The suspect follows the original closely: it is the same shape, within the size of the "
-                         "mark."
-                       : " The suspect differs from the original by more than the mark itself, as after "
-                         "simplification, re-meshing, smoothing or other editing.";
+        meaning += "; the watermark itself moves the surface by about " +
+                   percent_and_length(strength, facts) + ".";
+        meaning +=
+            rms <= 2.0 * strength
+                ? " The suspect follows the original closely: it is the same shape, within the "
+                  "size of the "
+                  "mark."
+                : " The suspect differs from the original by more than the mark itself, as after "
+                  "simplification, re-meshing, smoothing or other editing.";
     }
     else
     {
@@ -211,43 +232,56 @@ EvidenceSection correspondence_section(const EvidenceFacts& facts, const Evidenc
     s.paragraphs.push_back(meaning);
     if (cropped > 0.0)
     {
-        s.paragraphs.push_back(percent(cropped) + " of the original has no counterpart in the suspect (cut away); "
+        s.paragraphs.push_back(percent(cropped) +
+                               " of the original has no counterpart in the suspect (cut away); "
                                "the check used the rest.");
     }
     s.rows.emplace_back("Correspondence", method);
-    s.rows.emplace_back("Points", "suspect " + grouped_digits(static_cast<std::uintmax_t>(suspect_vertices)) +
-                                      ", original " + grouped_digits(static_cast<std::uintmax_t>(original_vertices)));
-    s.rows.emplace_back("Distance after alignment (RMS)", percent_and_length(rms, facts) + " of the original's diagonal");
+    s.rows.emplace_back("Points",
+                        "suspect " + grouped_digits(static_cast<std::uintmax_t>(suspect_vertices)) +
+                            ", original " +
+                            grouped_digits(static_cast<std::uintmax_t>(original_vertices)));
+    s.rows.emplace_back("Distance after alignment (RMS)",
+                        percent_and_length(rms, facts) + " of the original's diagonal");
     s.rows.emplace_back("Cut away (cropped)", percent(cropped) + " of the original");
     s.rows.emplace_back("Left out as too far", percent(outliers) + " of the original's points");
     s.figure = EvidenceSection::Figure::Alignment;
-    s.caption = "Figure 1. Left: the suspect as received (orange). Right: the suspect moved onto the original by "
-                "the alignment found (orange), drawn over the original (light grey) from the same direction. "
-                "Orange covering grey means the suspect has that part of the original; grey alone is what the "
-                "suspect lacks.";
+    s.caption =
+        "Figure 1. Left: the suspect as received (orange). Right: the suspect moved onto the "
+        "original by "
+        "the alignment found (orange), drawn over the original (light grey) from the same "
+        "direction. "
+        "Orange covering grey means the suspect has that part of the original; grey alone is what "
+        "the "
+        "suspect lacks.";
     (void)pictures;
     return s;
 }
 
-EvidenceSection difference_section(const EvidenceFacts& facts, const EvidencePictures& pictures, double strength)
+EvidenceSection difference_section(const EvidenceFacts& facts, const EvidencePictures& pictures,
+                                   double strength)
 {
     EvidenceSection s;
     s.heading = "Where the suspect differs from the original";
-    std::string text = "Each point of the aligned suspect is coloured by its distance to the original's surface: "
-                       "blue where it lies on it, red where it lies " +
-                       percent_and_length(pictures.red_distance_rel, facts) +
-                       " of the original's diagonal away or more. Half of the points lie within " +
-                       percent_and_length(pictures.median_distance_rel, facts) + ".";
+    std::string text =
+        "Each point of the aligned suspect is coloured by its distance to the original's surface: "
+        "blue where it lies on it, red where it lies " +
+        percent_and_length(pictures.red_distance_rel, facts) +
+        " of the original's diagonal away or more. Half of the points lie within " +
+        percent_and_length(pictures.median_distance_rel, facts) + ".";
     if (strength > 0.0)
     {
         text += " The watermark moves the surface by about " + percent_and_length(strength, facts) +
-                ", far below what the eye sees on the model; a faint, even pattern at that level is what a "
+                ", far below what the eye sees on the model; a faint, even pattern at that level "
+                "is what a "
                 "marked copy shows, while larger red areas are where the suspect was edited.";
     }
     s.paragraphs.push_back(text);
     s.figure = EvidenceSection::Figure::Difference;
-    s.caption = "Figure 2. Distance from the aligned suspect to the original's surface, in % of the original's "
-                "diagonal (colour bar).";
+    s.caption =
+        "Figure 2. Distance from the aligned suspect to the original's surface, in % of the "
+        "original's "
+        "diagonal (colour bar).";
     return s;
 }
 
@@ -256,16 +290,26 @@ EvidenceSection method_section()
     EvidenceSection s;
     s.heading = "How the check works";
     s.paragraphs.push_back(
-        "Before publishing, the owner moved every point of the model's surface by a tiny amount (typically a few "
-        "hundredths of a percent of its size, far below what the eye or a 3D printer shows), in a pattern "
-        "computed from a secret key. The pattern is built from smooth, wave-like shapes of the whole surface "
-        "(a spectral basis), so it survives moving, scaling, re-saving, noise, smoothing, simplification and "
-        "cutting. To check a suspect, the tool aligns it with the original, measures how the suspect departs "
-        "from the original along those same shapes, and compares that with the pattern the key predicts. A "
-        "model that does not carry this mark agrees with the secret pattern only by chance; the chance stated "
-        "above is a proven upper bound on how often that happens, whatever the model. The method is that of "
-        "J. Wu and L. Kobbelt, \"Efficient spectral watermarking of large meshes with orthogonal basis "
-        "functions\", The Visual Computer 21, 2005, with meshmark's corrections to its detection and "
+        "Before publishing, the owner moved every point of the model's surface by a tiny amount "
+        "(typically a few "
+        "hundredths of a percent of its size, far below what the eye or a 3D printer shows), in a "
+        "pattern "
+        "computed from a secret key. The pattern is built from smooth, wave-like shapes of the "
+        "whole surface "
+        "(a spectral basis), so it survives moving, scaling, re-saving, noise, smoothing, "
+        "simplification and "
+        "cutting. To check a suspect, the tool aligns it with the original, measures how the "
+        "suspect departs "
+        "from the original along those same shapes, and compares that with the pattern the key "
+        "predicts. A "
+        "model that does not carry this mark agrees with the secret pattern only by chance; the "
+        "chance stated "
+        "above is a proven upper bound on how often that happens, whatever the model. The method "
+        "is that of "
+        "J. Wu and L. Kobbelt, \"Efficient spectral watermarking of large meshes with orthogonal "
+        "basis "
+        "functions\", The Visual Computer 21, 2005, with meshmark's corrections to its detection "
+        "and "
         "statistics.");
     return s;
 }
@@ -275,8 +319,10 @@ EvidenceSection repeat_section(const EvidenceFacts& facts)
     EvidenceSection s;
     s.heading = "How to repeat the check";
     s.paragraphs.push_back(
-        "Anyone holding the two model files and the key file above (their SHA-256 must match) can repeat the "
-        "check with the same version of the tool; it gives the same result on every computer. The command "
+        "Anyone holding the two model files and the key file above (their SHA-256 must match) can "
+        "repeat the "
+        "check with the same version of the tool; it gives the same result on every computer. The "
+        "command "
         "prints the full result as JSON, from which this report was written:");
     s.rows.emplace_back("Tool", facts.version);
     s.rows.emplace_back("Command", facts.command);
@@ -313,22 +359,30 @@ EvidenceText evidence_text(const EvidenceFacts& facts, const EvidencePictures& p
     if (out.is_claimed)
     {
         out.verdict = "CLAIMED: the suspect carries the owner's watermark";
-        out.verdict += accused.empty() ? "." : "; it was made from the copy issued to " + names_list(accused) + ".";
-        out.chance = "If the suspect did not carry this mark, a result at least this strong would come out " +
-                     how_often(p) + " (probability " + probability(p) + "). This bound holds whatever the model.";
+        out.verdict += accused.empty()
+                           ? "."
+                           : "; it was made from the copy issued to " + names_list(accused) + ".";
+        out.chance =
+            "If the suspect did not carry this mark, a result at least this strong would come "
+            "out " +
+            how_often(p) + " (probability " + probability(p) +
+            "). This bound holds whatever the model.";
     }
     else
     {
         out.verdict = "NOT SHOWN: this check does not show the owner's watermark in the suspect.";
-        out.chance = "A model without this mark can give a result at least this strong " + how_often(p) +
-                     " (probability " + probability(p) + "), so the result is not evidence of the mark.";
+        out.chance = "A model without this mark can give a result at least this strong " +
+                     how_often(p) + " (probability " + probability(p) +
+                     "), so the result is not evidence of the mark.";
         if (detect.contains("max_false_positive_probability"))
         {
             out.chance += " The tool claims a mark only when that chance is " +
                           at_most(detect["max_false_positive_probability"].get<double>()) + ".";
         }
-        out.chance += " \"Not shown\" is not proof that the suspect is not a copy: it means this check found no "
-                      "convincing evidence.";
+        out.chance +=
+            " \"Not shown\" is not proof that the suspect is not a copy: it means this check found "
+            "no "
+            "convincing evidence.";
     }
 
     EvidenceSection found;
@@ -341,19 +395,22 @@ EvidenceText evidence_text(const EvidenceFacts& facts, const EvidencePictures& p
     const nlohmann::json& registration = field(detect, "registration");
     const double rms = registration.value("rms_error", 0.0);
     const double strength = detect.value("mark_strength", 0.0);
-    if (!out.is_claimed && registration.value("method", std::string()).starts_with("registration") &&
-        strength > 0.0 && rms >= kFarCopyStrengths * strength)
+    if (!out.is_claimed &&
+        registration.value("method", std::string()).starts_with("registration") && strength > 0.0 &&
+        rms >= kFarCopyStrengths * strength)
     {
         found.paragraphs.push_back(
             "The suspect lies far from the original: " + printf_string("%.1f", rms / strength) +
-            " times the size of the mark itself. Copies changed that much (coarse simplification, re-meshing) often "
+            " times the size of the mark itself. Copies changed that much (coarse simplification, "
+            "re-meshing) often "
             "keep too little of the mark to be claimed, so this result says little either way.");
     }
     found.rows.emplace_back("Verdict", out.is_claimed ? "claimed" : "not shown");
     found.rows.emplace_back("Chance without the mark", at_most(p) + " (" + probability(p) + ")");
     if (traced > 0)
     {
-        found.rows.emplace_back("Whose copy", accused.empty() ? "no recipient named" : names_list(accused));
+        found.rows.emplace_back("Whose copy",
+                                accused.empty() ? "no recipient named" : names_list(accused));
         found.rows.emplace_back("Recipients checked", std::to_string(traced));
         for (const nlohmann::json& r : detect.value("recipients", nlohmann::json::array()))
         {
@@ -365,10 +422,10 @@ EvidenceText evidence_text(const EvidenceFacts& facts, const EvidencePictures& p
         const OwnerMark owner = owner_mark(detect);
         if (owner.is_known)
         {
-            found.rows.emplace_back("Owner's mark alone", std::string(owner.detected ? "shown" : "not shown") +
-                                                              "; chance " +
-                                                              at_most(owner.false_positive_probability) + " (" +
-                                                              probability(owner.false_positive_probability) + ")");
+            found.rows.emplace_back("Owner's mark alone",
+                                    std::string(owner.detected ? "shown" : "not shown") +
+                                        "; chance " + at_most(owner.false_positive_probability) +
+                                        " (" + probability(owner.false_positive_probability) + ")");
         }
     }
 

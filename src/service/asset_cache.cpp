@@ -6,7 +6,8 @@
 
 #include "meshmark/core/error.h"
 
-namespace meshmark::service {
+namespace meshmark::service
+{
 
 std::string WarmAsset::format_problem(MeshFormat format) const
 {
@@ -28,7 +29,10 @@ std::string WarmAsset::format_problem(MeshFormat format) const
     return problem;
 }
 
-AssetCache::AssetCache(const Catalog& catalog, std::size_t budget) : catalog_(catalog), budget_(budget) {}
+AssetCache::AssetCache(const Catalog& catalog, std::size_t budget)
+    : catalog_(catalog), budget_(budget)
+{
+}
 
 std::shared_ptr<const WarmAsset> AssetCache::build(const std::string& id) const
 {
@@ -39,7 +43,9 @@ std::shared_ptr<const WarmAsset> AssetCache::build(const std::string& id) const
     }
     if (!record->is_complete)
     {
-        throw InvalidOption("asset '" + id + "' was interrupted while being added; run `meshmark catalog add` again.");
+        throw InvalidOption(
+            "asset '" + id +
+            "' was interrupted while being added; run `meshmark catalog add` again.");
     }
     std::error_code error;
     if (!std::filesystem::is_regular_file(record->original, error))
@@ -49,8 +55,9 @@ std::shared_ptr<const WarmAsset> AssetCache::build(const std::string& id) const
     }
     if (file_sha256(record->original) != record->original_sha256)
     {
-        throw IoError(record->original.string() + ": the original of asset '" + id +
-                      "' changed since it was added; run `meshmark catalog add --force` to mark it again.");
+        throw IoError(
+            record->original.string() + ": the original of asset '" + id +
+            "' changed since it was added; run `meshmark catalog add --force` to mark it again.");
     }
     auto warm = std::make_shared<WarmAsset>();
     warm->id = id;
@@ -59,19 +66,20 @@ std::shared_ptr<const WarmAsset> AssetCache::build(const std::string& id) const
     Key key = std::move(record->key);
     if (key.recipients)
     {
-        key.recipients->recipients.clear();  // only its parameters are used; the names stay in the catalogue
+        key.recipients->recipients
+            .clear();  // only its parameters are used; the names stay in the catalogue
     }
     if (fingerprint(warm->file.mesh) != key.original)
     {
-        throw IoError(record->original.string() + ": this is not the original the key of asset '" + id +
-                      "' was made for (vertex count, face count or positions differ).");
+        throw IoError(record->original.string() + ": this is not the original the key of asset '" +
+                      id + "' was made for (vertex count, face count or positions differ).");
     }
     warm->copies = std::make_unique<FamilyCopies>(warm->file, key, record->original, 1);
     const auto n = static_cast<std::size_t>(warm->file.mesh.V.rows());
     const auto f = static_cast<std::size_t>(warm->file.mesh.F.rows());
     // The original's bytes (kept to rewrite), its positions and triangles, the family's part.
-    warm->bytes = static_cast<std::size_t>(std::filesystem::file_size(record->original)) + 24 * n + 12 * f +
-                  warm->copies->memory_bytes();
+    warm->bytes = static_cast<std::size_t>(std::filesystem::file_size(record->original)) + 24 * n +
+                  12 * f + warm->copies->memory_bytes();
     return warm;
 }
 

@@ -19,7 +19,8 @@
 #include "meshmark/io/mesh_io.h"
 #include "meshmark/pipeline/family_copies.h"
 
-namespace meshmark::service {
+namespace meshmark::service
+{
 
 /// One asset ready to issue copies: its original in memory and its family's shared part.
 struct WarmAsset

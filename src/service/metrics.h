@@ -14,7 +14,8 @@
 
 #include "asset_cache.h"
 
-namespace meshmark::service {
+namespace meshmark::service
+{
 
 class Metrics
 {
@@ -24,13 +25,14 @@ public:
 
     std::atomic<std::uint64_t> copies{0};          ///< Copies sent.
     std::atomic<std::uint64_t> new_recipients{0};  ///< Names recorded for the first time.
-    std::atomic<std::int64_t> in_flight{0};        ///< Requests being computed or waiting for a worker.
+    std::atomic<std::int64_t> in_flight{0};  ///< Requests being computed or waiting for a worker.
 
     /// The exposition text.
     [[nodiscard]] std::string text(const CacheStats& cache, std::size_t budget) const;
 
 private:
-    static constexpr std::array<double, 11> kBuckets{0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1.0, 2.5, 5.0, 10.0};
+    static constexpr std::array<double, 11> kBuckets{0.005, 0.01, 0.025, 0.05, 0.1, 0.25,
+                                                     0.5,   1.0,  2.5,   5.0,  10.0};
     struct Histogram
     {
         std::array<std::uint64_t, kBuckets.size()> counts{};  // cumulative at exposition, not here

@@ -9,7 +9,8 @@
 #include "meshmark/core/error.h"
 #include "service.h"
 
-namespace meshmark::service {
+namespace meshmark::service
+{
 
 namespace fs = std::filesystem;
 using Json = nlohmann::json;
@@ -73,8 +74,8 @@ std::optional<MeshFormat> format_named(std::string name)
         c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
     }
     static const std::map<std::string, MeshFormat> kFormats{
-        {"ply", MeshFormat::Ply},   {"obj", MeshFormat::Obj},   {"off", MeshFormat::Off},
-        {"stl", MeshFormat::Stl},   {"gltf", MeshFormat::Gltf}, {"glb", MeshFormat::Glb},
+        {"ply", MeshFormat::Ply},    {"obj", MeshFormat::Obj},   {"off", MeshFormat::Off},
+        {"stl", MeshFormat::Stl},    {"gltf", MeshFormat::Gltf}, {"glb", MeshFormat::Glb},
         {"3mf", MeshFormat::ThreeMf}};
     const auto it = kFormats.find(name);
     return it == kFormats.end() ? std::nullopt : std::optional(it->second);
@@ -84,13 +85,20 @@ const char* extension_of(MeshFormat format)
 {
     switch (format)
     {
-        case MeshFormat::Ply: return "ply";
-        case MeshFormat::Obj: return "obj";
-        case MeshFormat::Off: return "off";
-        case MeshFormat::Stl: return "stl";
-        case MeshFormat::Gltf: return "gltf";
-        case MeshFormat::Glb: return "glb";
-        case MeshFormat::ThreeMf: return "3mf";
+        case MeshFormat::Ply:
+            return "ply";
+        case MeshFormat::Obj:
+            return "obj";
+        case MeshFormat::Off:
+            return "off";
+        case MeshFormat::Stl:
+            return "stl";
+        case MeshFormat::Gltf:
+            return "gltf";
+        case MeshFormat::Glb:
+            return "glb";
+        case MeshFormat::ThreeMf:
+            return "3mf";
     }
     return "bin";
 }
@@ -99,20 +107,27 @@ const char* content_type_of(MeshFormat format)
 {
     switch (format)
     {
-        case MeshFormat::Glb: return "model/gltf-binary";
-        case MeshFormat::Gltf: return "model/gltf+json";
-        case MeshFormat::Obj: return "model/obj";
-        case MeshFormat::Stl: return "model/stl";
-        case MeshFormat::ThreeMf: return "model/3mf";
+        case MeshFormat::Glb:
+            return "model/gltf-binary";
+        case MeshFormat::Gltf:
+            return "model/gltf+json";
+        case MeshFormat::Obj:
+            return "model/obj";
+        case MeshFormat::Stl:
+            return "model/stl";
+        case MeshFormat::ThreeMf:
+            return "model/3mf";
         case MeshFormat::Ply:
-        case MeshFormat::Off: return "application/octet-stream";
+        case MeshFormat::Off:
+            return "application/octet-stream";
     }
     return "application/octet-stream";
 }
 
 // A file name for Content-Disposition: the original's stem, the recipient, the extension;
 // anything but [A-Za-z0-9._-] becomes '_' (the header's quoted string stays plain ASCII).
-std::string download_name(const std::string& original, const std::string& recipient, MeshFormat format)
+std::string download_name(const std::string& original, const std::string& recipient,
+                          MeshFormat format)
 {
     std::string name = fs::path(original).stem().string() + "-" + recipient;
     for (char& c : name)
@@ -143,19 +158,13 @@ std::size_t parse_bytes(const std::string& text, const std::string& what)
     {
         c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
     }
-    static const std::map<std::string, double> kUnits{{"", 1.0},
-                                                      {"B", 1.0},
-                                                      {"K", 1024.0},
-                                                      {"KB", 1024.0},
-                                                      {"KIB", 1024.0},
-                                                      {"M", 1048576.0},
-                                                      {"MB", 1048576.0},
-                                                      {"MIB", 1048576.0},
-                                                      {"G", 1073741824.0},
-                                                      {"GB", 1073741824.0},
-                                                      {"GIB", 1073741824.0}};
+    static const std::map<std::string, double> kUnits{
+        {"", 1.0},           {"B", 1.0},           {"K", 1024.0},        {"KB", 1024.0},
+        {"KIB", 1024.0},     {"M", 1048576.0},     {"MB", 1048576.0},    {"MIB", 1048576.0},
+        {"G", 1073741824.0}, {"GB", 1073741824.0}, {"GIB", 1073741824.0}};
     const auto it = kUnits.find(unit);
-    if (used == 0 || it == kUnits.end() || !std::isfinite(value) || value < 0.0 || value * it->second > 1e18)
+    if (used == 0 || it == kUnits.end() || !std::isfinite(value) || value < 0.0 ||
+        value * it->second > 1e18)
     {
         throw InvalidOption(what + " must be a size such as 512M or 2G, got '" + text + "'.");
     }

@@ -11,7 +11,8 @@
 
 #include "meshmark/io/mesh_io.h"
 
-namespace meshmark::service {
+namespace meshmark::service
+{
 
 /// Longest asset id a request may name (a bound on what a client can make the service hold;
 /// chosen by hand; no study on record).
@@ -31,6 +32,7 @@ void strip_payload(nlohmann::json& json);
 /// The Content-Type of a copy in \p format.
 [[nodiscard]] const char* content_type_of(MeshFormat format);
 /// The Content-Disposition file name of \p recipient's copy of \p original in \p format.
-[[nodiscard]] std::string download_name(const std::string& original, const std::string& recipient, MeshFormat format);
+[[nodiscard]] std::string download_name(const std::string& original, const std::string& recipient,
+                                        MeshFormat format);
 
 }  // namespace meshmark::service

@@ -11,7 +11,8 @@
 
 #include "meshmark/core/file_lock.h"
 
-namespace meshmark::service {
+namespace meshmark::service
+{
 
 /// Options of Service (`meshmark serve`'s flags).
 struct ServiceOptions
@@ -33,8 +34,8 @@ struct ServiceOptions
     /// Longest wait of a request for a worker; then 503 with Retry-After.
     std::chrono::milliseconds queue_timeout{30'000};
     std::chrono::milliseconds lock_timeout = kDefaultLockTimeout;  ///< The catalogue's busy wait.
-    int scan_candidates = 8;              ///< `catalog scan --candidates`.
-    double max_false_positive = 1e-6;     ///< `catalog scan --max-fpp`.
+    int scan_candidates = 8;                                       ///< `catalog scan --candidates`.
+    double max_false_positive = 1e-6;                              ///< `catalog scan --max-fpp`.
     /// Receives one line per request (JSON) and the service's own notices; stderr when empty.
     std::function<void(const std::string&)> log;
 };

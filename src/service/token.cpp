@@ -11,8 +11,10 @@
 #include "meshmark/core/atomic_file.h"
 #include "meshmark/core/error.h"
 
-namespace meshmark::service {
-namespace {
+namespace meshmark::service
+{
+namespace
+{
 
 namespace fs = std::filesystem;
 
@@ -42,18 +44,22 @@ std::string load_token(const fs::path& path, bool* created)
     if (!fs::exists(path, error))
     {
         const std::string token = random_token();
-        write_file_atomically(path, [&](std::ostream& out) { out << token << "\n"; }, {0600, false});
+        write_file_atomically(path, [&](std::ostream& out) { out << token << "\n"; },
+                              {0600, false});
         *created = true;
         return token;
     }
-    struct stat info{};
+    struct stat info
+    {
+    };
     if (::stat(path.c_str(), &info) != 0)
     {
         throw IoError(path.string() + ": cannot read the token file.");
     }
     if ((info.st_mode & 077U) != 0)
     {
-        throw IoError(path.string() + ": the token file may be read by others; make it private (chmod 600).");
+        throw IoError(path.string() +
+                      ": the token file may be read by others; make it private (chmod 600).");
     }
     std::ifstream in(path);
     std::string token;

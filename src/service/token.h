@@ -5,7 +5,8 @@
 #include <filesystem>
 #include <string>
 
-namespace meshmark::service {
+namespace meshmark::service
+{
 
 /// \brief The token in \p path: created (256 random bits in hex, mode 0600) when missing, and
 /// then *created is true; refused (IoError) when anyone but its owner may read the file, or when

@@ -15,7 +15,8 @@
 
 #include "meshmark/core/triangle_mesh.h"
 
-namespace meshmark::service {
+namespace meshmark::service
+{
 
 // The workers: at most `count` requests compute at once, the others wait in arrival order (a
 // plain semaphore lets late arrivals overtake, which turned 32 clients' p99 into seconds).
@@ -80,7 +81,10 @@ private:
 class WorkerSlot
 {
 public:
-    WorkerSlot(WorkerQueue& queue, std::chrono::milliseconds wait) : queue_(queue), held_(queue.acquire(wait)) {}
+    WorkerSlot(WorkerQueue& queue, std::chrono::milliseconds wait)
+        : queue_(queue), held_(queue.acquire(wait))
+    {
+    }
     ~WorkerSlot()
     {
         if (held_)

@@ -17,8 +17,10 @@
 #include "meshmark/watermark/watermark.h"
 #include "watermark/unit_vectors.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 // Normalized coefficient changes below this are rounding, not signal or attack.
 constexpr double kNegligibleChange = 1e-6;
@@ -34,7 +36,8 @@ void DetectOptions::validate() const
 {
     if (!(threshold > 0.0 && threshold <= 1.0))
     {
-        throw InvalidOption("detection threshold must be in (0, 1], got " + std::to_string(threshold) + ".");
+        throw InvalidOption("detection threshold must be in (0, 1], got " +
+                            std::to_string(threshold) + ".");
     }
     if (!(epsilon >= 0.0 && epsilon < 1.0))
     {
@@ -42,8 +45,9 @@ void DetectOptions::validate() const
     }
     if (!(max_false_positive > 0.0 && max_false_positive <= 1.0))
     {
-        throw InvalidOption("the largest false-positive probability (--max-fpp) must be in (0, 1], got " +
-                            std::to_string(max_false_positive) + ".");
+        throw InvalidOption(
+            "the largest false-positive probability (--max-fpp) must be in (0, 1], got " +
+            std::to_string(max_false_positive) + ".");
     }
 }
 
@@ -51,12 +55,12 @@ const char* to_string(VerdictRule rule) noexcept
 {
     switch (rule)
     {
-    case VerdictRule::Combined:
-        return "combined";
-    case VerdictRule::Correlation:
-        return "correlation";
-    case VerdictRule::Bits:
-        return "bits";
+        case VerdictRule::Combined:
+            return "combined";
+        case VerdictRule::Correlation:
+            return "correlation";
+        case VerdictRule::Bits:
+            return "bits";
     }
     return "combined";
 }
@@ -69,10 +73,12 @@ VerdictRule parse_verdict_rule(const std::string& name)
                                             {"bits", VerdictRule::Bits}});
 }
 
-namespace {
+namespace
+{
 
 /// \p x times \p w to the power \p power (0, 1/2 or 1: the verdict's three weightings).
-std::vector<double> weighted_by(const std::vector<double>& x, const std::vector<double>& w, double power)
+std::vector<double> weighted_by(const std::vector<double>& x, const std::vector<double>& w,
+                                double power)
 {
     std::vector<double> weighted(x.size());
     for (std::size_t c = 0; c < x.size(); ++c)
@@ -83,9 +89,9 @@ std::vector<double> weighted_by(const std::vector<double>& x, const std::vector<
     return weighted;
 }
 
-
 /// The sum of \p readings[i] for i in \p group, each scaled to unit norm.
-std::vector<double> sum_of_units(const std::vector<std::vector<double>>& readings, const std::vector<std::size_t>& group)
+std::vector<double> sum_of_units(const std::vector<std::vector<double>>& readings,
+                                 const std::vector<std::size_t>& group)
 {
     std::vector<double> sum(readings[group.front()].size(), 0.0);
     for (const std::size_t i : group)
@@ -102,12 +108,12 @@ double score_level_factor(VerdictRule rule) noexcept
 {
     switch (rule)
     {
-    case VerdictRule::Combined:
-        return 1.0 / (1.0 - kBitCountShare);
-    case VerdictRule::Correlation:
-        return 1.0;
-    case VerdictRule::Bits:
-        break;
+        case VerdictRule::Combined:
+            return 1.0 / (1.0 - kBitCountShare);
+        case VerdictRule::Correlation:
+            return 1.0;
+        case VerdictRule::Bits:
+            break;
     }
     return 0.0;
 }
@@ -117,38 +123,44 @@ void add_further_reading(Extraction& primary, const Extraction& other)
     if (other.normalized_change.size() != primary.normalized_change.size() ||
         other.weights.size() != other.normalized_change.size())
     {
-        throw InvalidOption("add_further_reading: the two readings do not have the same coefficients.");
+        throw InvalidOption(
+            "add_further_reading: the two readings do not have the same coefficients.");
     }
-    const bool is_paired = !primary.recipient_change.empty() &&
-                           primary.further_recipient_changes.size() == primary.further_changes.size();
+    const bool is_paired =
+        !primary.recipient_change.empty() &&
+        primary.further_recipient_changes.size() == primary.further_changes.size();
     const bool has_code = other.recipient_change.size() == primary.recipient_change.size() &&
                           other.recipient_weights.size() == other.recipient_change.size() &&
                           other.further_recipient_changes.size() == other.further_changes.size();
     const std::vector<double> no_code(primary.recipient_change.size(), 0.0);
     // Both readings' own damped readings, before anything is added, for the joined statistics.
     const std::size_t own = primary.further_changes.size();
-    const bool is_joined = own > 0 && own == other.further_changes.size() && primary.further_weightings.empty() &&
-                           other.further_weightings.empty();
+    const bool is_joined = own > 0 && own == other.further_changes.size() &&
+                           primary.further_weightings.empty() && other.further_weightings.empty();
     for (const double power : {0.0, 0.5, 1.0})
     {
         primary.further_weightings.push_back(primary.further_changes.size());
-        primary.further_changes.push_back(weighted_by(other.normalized_change, other.weights, power));
+        primary.further_changes.push_back(
+            weighted_by(other.normalized_change, other.weights, power));
         if (is_paired)
         {
             primary.further_recipient_changes.push_back(
-                has_code ? weighted_by(other.recipient_change, other.recipient_weights, power) : no_code);
+                has_code ? weighted_by(other.recipient_change, other.recipient_weights, power)
+                         : no_code);
         }
     }
     for (std::size_t l = 0; l < other.further_changes.size(); ++l)
     {
         if (other.further_changes[l].size() != primary.normalized_change.size())
         {
-            throw InvalidOption("add_further_reading: the two readings do not have the same coefficients.");
+            throw InvalidOption(
+                "add_further_reading: the two readings do not have the same coefficients.");
         }
         primary.further_changes.push_back(other.further_changes[l]);
         if (is_paired)
         {
-            primary.further_recipient_changes.push_back(has_code ? other.further_recipient_changes[l] : no_code);
+            primary.further_recipient_changes.push_back(
+                has_code ? other.further_recipient_changes[l] : no_code);
         }
     }
     if (!is_joined)
@@ -177,7 +189,8 @@ void add_further_reading(Extraction& primary, const Extraction& other)
         primary.further_changes.push_back(sum_of_units(primary.further_changes, group));
         if (is_paired)
         {
-            primary.further_recipient_changes.push_back(sum_of_units(primary.further_recipient_changes, group));
+            primary.further_recipient_changes.push_back(
+                sum_of_units(primary.further_recipient_changes, group));
         }
     }
 }
@@ -188,12 +201,14 @@ int joined_reading_count(int damped) noexcept
 }
 
 SoftCorrelation::SoftCorrelation(const std::vector<double>& x, const std::vector<double>& w,
-                                 const std::vector<std::vector<double>>& extra, bool with_weightings, int threads)
+                                 const std::vector<std::vector<double>>& extra,
+                                 bool with_weightings, int threads)
     : size_(x.size())
 {
     // A change below a millionth of the modulation is rounding (an unmarked original compared
     // with itself); dropping it keeps such a score at 0 and depends on no sign.
-    auto add = [&](const std::vector<double>& values, auto weight_of) {
+    auto add = [&](const std::vector<double>& values, auto weight_of)
+    {
         std::vector<double> weighted(size_);
         double norm = 0.0;
         for (std::size_t c = 0; c < size_; ++c)
@@ -215,8 +230,8 @@ SoftCorrelation::SoftCorrelation(const std::vector<double>& x, const std::vector
     {
         if (reading.size() != size_)
         {
-            throw InvalidOption("a damped reading has " + std::to_string(reading.size()) + " values, expected " +
-                                std::to_string(size_) + ".");
+            throw InvalidOption("a damped reading has " + std::to_string(reading.size()) +
+                                " values, expected " + std::to_string(size_) + ".");
         }
         add(reading, [](std::size_t) { return 1.0; });
     }
@@ -228,7 +243,8 @@ SoftCorrelation::SoftCorrelation(const std::vector<double>& x, const std::vector
 #pragma omp parallel for num_threads(workers) schedule(dynamic, 1) if (workers > 1)
     for (std::int64_t s = 0; s < count; ++s)
     {
-        tails_[static_cast<std::size_t>(s)] = RademacherTail(weighted_[static_cast<std::size_t>(s)]);
+        tails_[static_cast<std::size_t>(s)] =
+            RademacherTail(weighted_[static_cast<std::size_t>(s)]);
     }
 }
 
@@ -249,7 +265,8 @@ Decision SpectralWatermark::decide(const Extraction& extraction, const DetectOpt
         }
     }
     decision.correlation = static_cast<double>(decision.matches) / decision.bit_count;
-    decision.bits_false_positive_probability = binomial_tail_half(decision.bit_count, decision.matches);
+    decision.bits_false_positive_probability =
+        binomial_tail_half(decision.bit_count, decision.matches);
 
     // Soft-decision correlation with the embedded signs. For a mesh that does not carry this
     // key's mark, x does not depend on the key mask, so sum_c b'_c a_c x_c is a sum of
@@ -265,8 +282,9 @@ Decision SpectralWatermark::decide(const Extraction& extraction, const DetectOpt
     {
         for (std::size_t l = 0; l < extraction.further_changes.size(); ++l)
         {
-            if (std::find(extraction.further_weightings.begin(), extraction.further_weightings.end(), l) ==
-                extraction.further_weightings.end())
+            if (std::find(extraction.further_weightings.begin(),
+                          extraction.further_weightings.end(),
+                          l) == extraction.further_weightings.end())
             {
                 damped.push_back(extraction.further_changes[l]);
             }
@@ -274,11 +292,13 @@ Decision SpectralWatermark::decide(const Extraction& extraction, const DetectOpt
     }
     const bool damped_only = !damped.empty();  // else (no damped reading) every statistic
     const SoftCorrelation soft(extraction.normalized_change, extraction.weights,
-                               damped_only ? damped : extraction.further_changes, !damped_only, threads_);
+                               damped_only ? damped : extraction.further_changes, !damped_only,
+                               threads_);
     decision.coefficient_count = static_cast<int>(soft.size());
     decision.statistic_count = soft.statistic_count();
     const SoftScore scored = soft.score(
-        [&](std::size_t c) { return signs_(static_cast<Eigen::Index>(c / 3), static_cast<Eigen::Index>(c % 3)); });
+        [&](std::size_t c)
+        { return signs_(static_cast<Eigen::Index>(c / 3), static_cast<Eigen::Index>(c % 3)); });
     decision.score = scored.z;
     decision.score_tail = scored.tail;
     decision.score_false_positive_probability = scored.probability;
@@ -286,28 +306,30 @@ Decision SpectralWatermark::decide(const Extraction& extraction, const DetectOpt
     {
         // Paid for as if computed: the score is the best of a subset of them.
         decision.statistic_count += extraction.unread_statistics;
-        decision.score_false_positive_probability = std::min(1.0, decision.statistic_count * scored.tail);
+        decision.score_false_positive_probability =
+            std::min(1.0, decision.statistic_count * scored.tail);
     }
 
     switch (options.verdict)
     {
-    case VerdictRule::Bits:
-        decision.false_positive_probability = decision.bits_false_positive_probability;
-        decision.is_present = decision.correlation >= options.threshold;
-        break;
-    case VerdictRule::Correlation:
-        decision.false_positive_probability = decision.score_false_positive_probability;
-        decision.is_present = decision.false_positive_probability <= options.max_false_positive;
-        break;
-    case VerdictRule::Combined:
-        // Two tests of one null hypothesis, the soft score (already paid for its three
-        // weightings) and the bit count (exact for an unmarked mesh), with a weighted union
-        // bound: a share kBitCountShare of the level to the bit count (docs/statistics.md).
-        decision.false_positive_probability =
-            std::min({1.0, decision.score_false_positive_probability * score_level_factor(options.verdict),
-                      decision.bits_false_positive_probability / kBitCountShare});
-        decision.is_present = decision.false_positive_probability <= options.max_false_positive;
-        break;
+        case VerdictRule::Bits:
+            decision.false_positive_probability = decision.bits_false_positive_probability;
+            decision.is_present = decision.correlation >= options.threshold;
+            break;
+        case VerdictRule::Correlation:
+            decision.false_positive_probability = decision.score_false_positive_probability;
+            decision.is_present = decision.false_positive_probability <= options.max_false_positive;
+            break;
+        case VerdictRule::Combined:
+            // Two tests of one null hypothesis, the soft score (already paid for its three
+            // weightings) and the bit count (exact for an unmarked mesh), with a weighted union
+            // bound: a share kBitCountShare of the level to the bit count (docs/statistics.md).
+            decision.false_positive_probability = std::min(
+                {1.0,
+                 decision.score_false_positive_probability * score_level_factor(options.verdict),
+                 decision.bits_false_positive_probability / kBitCountShare});
+            decision.is_present = decision.false_positive_probability <= options.max_false_positive;
+            break;
     }
     return decision;
 }

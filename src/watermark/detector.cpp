@@ -13,16 +13,17 @@
 #include "meshmark/geometry/normals.h"
 #include "watermark/nuisance.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
+using detail::check_weight_scale;
 using detail::damped_readings;
 using detail::JointSolution;
 using detail::kNuisanceModeTolerance;
+using detail::nuisance_model;
 using detail::NuisanceFields;
 using detail::NuisanceModel;
-using detail::nuisance_model;
 using detail::solve_jointly;
-using detail::check_weight_scale;
 
 void detail::check_weight_scale(double weight_scale)
 {
@@ -48,8 +49,9 @@ Detector::Detector(const SpectralWatermark& mark, const TriangleMesh& original)
     if (static_cast<std::size_t>(original.V.rows()) != mark.rows().vertex_count() ||
         active().size() != mark.rows().size())
     {
-        throw InvalidOption("the original has " + std::to_string(original.V.rows()) + " vertices (" +
-                            std::to_string(active().size()) + " referenced), the watermark was built on " +
+        throw InvalidOption("the original has " + std::to_string(original.V.rows()) +
+                            " vertices (" + std::to_string(active().size()) +
+                            " referenced), the watermark was built on " +
                             std::to_string(mark.rows().vertex_count()) + " (" +
                             std::to_string(mark.rows().size()) + ").");
     }
@@ -62,16 +64,18 @@ int Detector::read_modes(const std::vector<std::uint8_t>* is_kept) const noexcep
     // of the surface would swamp the owner's coefficients, so the owner's are read alone (the
     // code is then noise to them) and the code is read by region_changes().
     const auto all = static_cast<int>(mark_->modulation().rows());
-    return is_kept != nullptr && mark_->recipient_modes() > 0 ? all - mark_->recipient_modes() : all;
+    return is_kept != nullptr && mark_->recipient_modes() > 0 ? all - mark_->recipient_modes()
+                                                              : all;
 }
 
-Extraction Detector::extraction_from(const Eigen::VectorXd& normalized, const Eigen::VectorXd& variances,
-                                     const DetectOptions& options, const std::vector<Eigen::VectorXd>& damped) const
+Extraction Detector::extraction_from(const Eigen::VectorXd& normalized,
+                                     const Eigen::VectorXd& variances, const DetectOptions& options,
+                                     const std::vector<Eigen::VectorXd>& damped) const
 {
-    // normalized(c): change of coefficient c divided by its modulation (docs/algorithms/detection.md,
-    // sign-correct). Undo each coefficient's mask and average the r copies of every payload
-    // bit weighted by their inverse variances (soft decision); the same weights serve the
-    // correlation.
+    // normalized(c): change of coefficient c divided by its modulation
+    // (docs/algorithms/detection.md, sign-correct). Undo each coefficient's mask and average the r
+    // copies of every payload bit weighted by their inverse variances (soft decision); the same
+    // weights serve the correlation.
     const int bit_count = payload_bit_count(mark_->key().options);
     // The owner's coefficients first; a family key's recipient code follows them.
     const auto coefficient_count = static_cast<Eigen::Index>(3 * mark_->embedded_signs().rows());
@@ -100,11 +104,13 @@ Extraction Detector::extraction_from(const Eigen::VectorXd& normalized, const Ei
     }
     for (const Eigen::VectorXd& reading : damped)
     {
-        result.further_changes.emplace_back(reading.data(), reading.data() + coefficient_count);  // the owner's
+        result.further_changes.emplace_back(reading.data(),
+                                            reading.data() + coefficient_count);  // the owner's
         if (reading.size() > coefficient_count)
         {
-            result.further_recipient_changes.emplace_back(reading.data() + coefficient_count,
-                                                         reading.data() + reading.size());  // the code's
+            result.further_recipient_changes.emplace_back(
+                reading.data() + coefficient_count,
+                reading.data() + reading.size());  // the code's
         }
     }
     result.bits_found.resize(static_cast<std::size_t>(bit_count));
@@ -118,7 +124,7 @@ Extraction Detector::extraction_from(const Eigen::VectorXd& normalized, const Ei
 }
 
 Extraction Detector::extract(const Positions& suspect, const DetectOptions& options,
-                                      const std::vector<std::uint8_t>* is_kept) const
+                             const std::vector<std::uint8_t>* is_kept) const
 {
     options.validate();
     if (suspect.rows() != original_->V.rows())
@@ -131,7 +137,8 @@ Extraction Detector::extract(const Positions& suspect, const DetectOptions& opti
     const int first = mark_->key().options.first_mode;
     const auto coefficients = static_cast<Eigen::Index>(3 * modes);
     const Positions change = suspect - original_->V;
-    auto normalize = [&](const Eigen::MatrixX3d& delta_file) {
+    auto normalize = [&](const Eigen::MatrixX3d& delta_file)
+    {
         const Eigen::MatrixX3d delta = delta_file * mark_->frame().axes.transpose();
         Eigen::VectorXd x(coefficients);
         for (Eigen::Index c = 0; c < coefficients; ++c)
@@ -143,22 +150,27 @@ Extraction Detector::extract(const Positions& suspect, const DetectOptions& opti
     };
     if (is_kept != nullptr)
     {
-        // gamma - alpha by least squares over the kept rows (cropped copies, docs/algorithms/basis.md).
-        return extraction_from(
-            normalize(mark_->basis().project_least_squares(change, *is_kept, first + modes).bottomRows(modes)),
-            Eigen::VectorXd::Ones(coefficients), options);
+        // gamma - alpha by least squares over the kept rows (cropped copies,
+        // docs/algorithms/basis.md).
+        return extraction_from(normalize(mark_->basis()
+                                             .project_least_squares(change, *is_kept, first + modes)
+                                             .bottomRows(modes)),
+                               Eigen::VectorXd::Ones(coefficients), options);
     }
     // The nuisance model only where it is used: a pure function of the watermark and the
     // original, built by this call (never cached, so concurrent calls share nothing).
     // Without it (modes = 0) the coefficients are projected alone.
     const NuisanceModel nuisance =
         options.remove_nuisance
-            ? nuisance_model(mark_->basis(), NuisanceFields(*original_, active(), mark_->frame().origin), first + modes)
+            ? nuisance_model(mark_->basis(),
+                             NuisanceFields(*original_, active(), mark_->frame().origin),
+                             first + modes)
             : NuisanceModel{};
     if (nuisance.modes <= first + modes)
     {
-        return extraction_from(normalize(mark_->basis().project(change, first + modes).bottomRows(modes)),
-                               Eigen::VectorXd::Ones(coefficients), options);
+        return extraction_from(
+            normalize(mark_->basis().project(change, first + modes).bottomRows(modes)),
+            Eigen::VectorXd::Ones(coefficients), options);
     }
     // Joint least squares on the leading r modes: the modulated coefficients are free (one
     // unknown each), the nuisance fields (similarity, smoothing) enter through their responses,
@@ -175,18 +187,20 @@ Extraction Detector::extract(const Positions& suspect, const DetectOptions& opti
         for (Eigen::Index b = 0; b < 3; ++b)
         {
             // Canonical axis `axis` in file coordinates is mark_->frame().axes.row(axis).
-            design(first + mode + r * b, c) = mark_->modulation()(mode, axis) * mark_->frame().axes(axis, b);
+            design(first + mode + r * b, c) =
+                mark_->modulation()(mode, axis) * mark_->frame().axes(axis, b);
         }
     }
     for (Eigen::Index f = 0; f < q; ++f)
     {
-        design.col(coefficients + f) =
-            Eigen::Map<const Eigen::VectorXd>(model.responses[static_cast<std::size_t>(f)].data(), 3 * r);
+        design.col(coefficients + f) = Eigen::Map<const Eigen::VectorXd>(
+            model.responses[static_cast<std::size_t>(f)].data(), 3 * r);
     }
     const Eigen::MatrixX3d projected = mark_->basis().project(change, r);
     const Eigen::Map<const Eigen::VectorXd> target(projected.data(), 3 * r);
     const JointSolution solution = solve_jointly(design, target);
-    return extraction_from(solution.amplitudes.head(coefficients), solution.variances.head(coefficients), options,
+    return extraction_from(solution.amplitudes.head(coefficients),
+                           solution.variances.head(coefficients), options,
                            damped_readings(design, coefficients, target));
 }
 
@@ -197,11 +211,13 @@ Extraction Detector::extract_resampled(const Positions& resampled, const DetectO
     return read_resampled(resampled, options, is_kept, weight_scale, read_modes(is_kept));
 }
 
-Extraction Detector::extract_resampled_with_code(const Positions& resampled, const DetectOptions& options,
+Extraction Detector::extract_resampled_with_code(const Positions& resampled,
+                                                 const DetectOptions& options,
                                                  const std::vector<std::uint8_t>* is_kept,
                                                  double weight_scale) const
 {
-    return read_resampled(resampled, options, is_kept, weight_scale, static_cast<int>(mark_->modulation().rows()));
+    return read_resampled(resampled, options, is_kept, weight_scale,
+                          static_cast<int>(mark_->modulation().rows()));
 }
 
 Extraction Detector::extract_kept(const Positions& suspect, const DetectOptions& options,
@@ -209,15 +225,17 @@ Extraction Detector::extract_kept(const Positions& suspect, const DetectOptions&
 {
     if (is_kept.size() != static_cast<std::size_t>(original_->V.rows()))
     {
-        throw InvalidOption("the kept rows' mask has " + std::to_string(is_kept.size()) + " entries, the original " +
-                            std::to_string(original_->V.rows()) + " vertices.");
+        throw InvalidOption("the kept rows' mask has " + std::to_string(is_kept.size()) +
+                            " entries, the original " + std::to_string(original_->V.rows()) +
+                            " vertices.");
     }
-    return read_resampled(suspect, options, &is_kept, 0.0, static_cast<int>(mark_->modulation().rows()), true);
+    return read_resampled(suspect, options, &is_kept, 0.0,
+                          static_cast<int>(mark_->modulation().rows()), true);
 }
 
 Extraction Detector::read_resampled(const Positions& resampled, const DetectOptions& options,
-                                    const std::vector<std::uint8_t>* is_kept, double weight_scale, int modes,
-                                    bool is_whole_change) const
+                                    const std::vector<std::uint8_t>* is_kept, double weight_scale,
+                                    int modes, bool is_whole_change) const
 {
     options.validate();
     if (resampled.rows() != original_->V.rows())
@@ -241,7 +259,8 @@ Extraction Detector::read_resampled(const Positions& resampled, const DetectOpti
     // S_i and o_i are scaled by w_i (a weighted projection: a row far from the suspect's
     // surface counts less; each row's equation still holds, only scaled).
     const int first = mark_->key().options.first_mode;
-    const int r = std::max(mark_->basis().well_conditioned_modes(kNuisanceModeTolerance), first + modes);
+    const int r =
+        std::max(mark_->basis().well_conditioned_modes(kNuisanceModeTolerance), first + modes);
     const int head = first + modes;
     // The sampling S_i: the normal projection, or the identity where the whole change is seen
     // (a point cloud, whose points carry no normal; a suspect read vertex for vertex).
@@ -251,14 +270,15 @@ Extraction Detector::read_resampled(const Positions& resampled, const DetectOpti
     const Eigen::Index q = nuisance.count();
     const Eigen::Index columns = coefficients + q + 1;
     constexpr Eigen::Index kPairs = 6;
-    constexpr std::array<std::array<Eigen::Index, 3>, 3> kPair = {{{0, 1, 2}, {1, 3, 4}, {2, 4, 5}}};
+    constexpr std::array<std::array<Eigen::Index, 3>, 3> kPair = {
+        {{0, 1, 2}, {1, 3, 4}, {2, 4, 5}}};
     const Eigen::Index products = kPairs * modes;  // design columns of the modulated unknowns
     const auto width = static_cast<std::size_t>(products + 3 * (q + 1));
 
-    auto is_row_kept = [&](std::int32_t i) {
-        return is_kept == nullptr || (*is_kept)[static_cast<std::size_t>(i)] != 0;
-    };
-    auto sample = [&](std::int32_t i, const Eigen::RowVector3d& v) -> Eigen::RowVector3d {
+    auto is_row_kept = [&](std::int32_t i)
+    { return is_kept == nullptr || (*is_kept)[static_cast<std::size_t>(i)] != 0; };
+    auto sample = [&](std::int32_t i, const Eigen::RowVector3d& v) -> Eigen::RowVector3d
+    {
         if (!has_normals)
         {
             return v;
@@ -269,7 +289,8 @@ Extraction Detector::read_resampled(const Positions& resampled, const DetectOpti
     // Row a of the block: U_mode (S_i)_cb at X[a][kPairs * mode + pair(c, b)], then for file
     // axis b the nuisance responses (S_i N_f,i)_b and the observed change o_i,b at
     // X[a][products + b (q + 1) + f] (f = q for the observation).
-    auto fill = [&](std::span<const std::int32_t> block, const double* U, double* X) {
+    auto fill = [&](std::span<const std::int32_t> block, const double* U, double* X)
+    {
         const auto h = static_cast<std::size_t>(head);
         for (std::size_t a = 0; a < block.size(); ++a)
         {
@@ -280,14 +301,17 @@ Extraction Detector::read_resampled(const Positions& resampled, const DetectOpti
             }
             double* x = X + a * width;
             const Eigen::RowVector3d change = resampled.row(i) - original_->V.row(i);
-            const double weight = weight_scale > 0.0 ? row_weight(change.norm(), weight_scale) : 1.0;
+            const double weight =
+                weight_scale > 0.0 ? row_weight(change.norm(), weight_scale) : 1.0;
             std::array<double, kPairs> sampling{};
             for (Eigen::Index c = 0; c < 3; ++c)
             {
                 for (Eigen::Index b = c; b < 3; ++b)
                 {
-                    sampling[static_cast<std::size_t>(kPair[static_cast<std::size_t>(c)][static_cast<std::size_t>(b)])] =
-                        weight * (has_normals ? normals(i, c) * normals(i, b) : (c == b ? 1.0 : 0.0));
+                    sampling[static_cast<std::size_t>(
+                        kPair[static_cast<std::size_t>(c)][static_cast<std::size_t>(b)])] =
+                        weight *
+                        (has_normals ? normals(i, c) * normals(i, b) : (c == b ? 1.0 : 0.0));
                 }
             }
             for (int mode = 0; mode < modes; ++mode)
@@ -313,7 +337,8 @@ Extraction Detector::read_resampled(const Positions& resampled, const DetectOpti
             }
         }
     };
-    const Eigen::MatrixXd projected = mark_->basis().project_design(r, head, width, fill);  // r x width
+    const Eigen::MatrixXd projected =
+        mark_->basis().project_design(r, head, width, fill);  // r x width
     Eigen::MatrixXd system(3 * r, columns);
     for (Eigen::Index b = 0; b < 3; ++b)
     {
@@ -325,17 +350,21 @@ Extraction Detector::read_resampled(const Positions& resampled, const DetectOpti
             Eigen::VectorXd column = Eigen::VectorXd::Zero(r);
             for (Eigen::Index d = 0; d < 3; ++d)
             {
-                column += mark_->frame().axes(axis, d) *
-                          projected.col(kPairs * mode + kPair[static_cast<std::size_t>(b)][static_cast<std::size_t>(d)]);
+                column +=
+                    mark_->frame().axes(axis, d) *
+                    projected.col(kPairs * mode +
+                                  kPair[static_cast<std::size_t>(b)][static_cast<std::size_t>(d)]);
             }
             system.block(b * r, c, r, 1) = mark_->modulation()(mode, axis) * column;
         }
-        system.block(b * r, coefficients, r, q + 1) = projected.middleCols(products + b * (q + 1), q + 1);
+        system.block(b * r, coefficients, r, q + 1) =
+            projected.middleCols(products + b * (q + 1), q + 1);
     }
-    const JointSolution solution = solve_jointly(system.leftCols(columns - 1), system.col(columns - 1));
-    Extraction result =
-        extraction_from(solution.amplitudes.head(coefficients), solution.variances.head(coefficients), options,
-                        damped_readings(system.leftCols(columns - 1), coefficients, system.col(columns - 1)));
+    const JointSolution solution =
+        solve_jointly(system.leftCols(columns - 1), system.col(columns - 1));
+    Extraction result = extraction_from(
+        solution.amplitudes.head(coefficients), solution.variances.head(coefficients), options,
+        damped_readings(system.leftCols(columns - 1), coefficients, system.col(columns - 1)));
     // The normal sampling couples the three axes of every mode (and a crop or a coarse
     // resampling the modes), so the least-squares reading amplifies the noise along the weak
     // directions and the damped readings are the ones that read: on the small meshes'
@@ -362,9 +391,10 @@ Extraction Detector::read_resampled(const Positions& resampled, const DetectOpti
                 {
                     for (Eigen::Index d = 0; d < 3; ++d)
                     {
-                        file(b, d) = projected(first + owner_modes + l,
-                                               kPairs * (owner_modes + k) +
-                                                   kPair[static_cast<std::size_t>(b)][static_cast<std::size_t>(d)]);
+                        file(b, d) = projected(
+                            first + owner_modes + l,
+                            kPairs * (owner_modes + k) +
+                                kPair[static_cast<std::size_t>(b)][static_cast<std::size_t>(d)]);
                     }
                 }
                 const Eigen::Matrix3d canonical = axes * file * axes.transpose();
@@ -372,8 +402,9 @@ Extraction Detector::read_resampled(const Positions& resampled, const DetectOpti
                 {
                     for (Eigen::Index c = 0; c < 3; ++c)
                     {
-                        result.code_sampling[(3 * static_cast<std::size_t>(l) + static_cast<std::size_t>(a)) * n +
-                                             3 * static_cast<std::size_t>(k) + static_cast<std::size_t>(c)] =
+                        result.code_sampling
+                            [(3 * static_cast<std::size_t>(l) + static_cast<std::size_t>(a)) * n +
+                             3 * static_cast<std::size_t>(k) + static_cast<std::size_t>(c)] =
                             canonical(a, c);
                     }
                 }

@@ -9,17 +9,20 @@
 
 #include "meshmark/core/error.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 // Vertices whose second principal extent is below this fraction of the first are collinear:
 // the watermark would have no room to move them off their line.
 constexpr double kCollinearTolerance = 1e-12;
 
 // One row of the third-moment and extent pass: add() and add_rows() both run exactly this.
-inline void add_moments_row(const Eigen::Vector3d& q, const Eigen::Vector3d& e1, const Eigen::Vector3d& e2,
-                            const Eigen::Matrix3d& unsigned_axes, double& moment1, double& moment2,
-                            Eigen::Vector3d& lo, Eigen::Vector3d& hi)
+inline void add_moments_row(const Eigen::Vector3d& q, const Eigen::Vector3d& e1,
+                            const Eigen::Vector3d& e2, const Eigen::Matrix3d& unsigned_axes,
+                            double& moment1, double& moment2, Eigen::Vector3d& lo,
+                            Eigen::Vector3d& hi)
 {
     const double t1 = q.dot(e1);
     const double t2 = q.dot(e2);
@@ -47,7 +50,8 @@ void CanonicalFrameBuilder::add(const Eigen::Vector3d& p)
             break;
         }
         case Pass::Moments:
-            add_moments_row(p - frame_.origin, e1_, e2_, unsigned_axes_, moment1_, moment2_, lo_, hi_);
+            add_moments_row(p - frame_.origin, e1_, e2_, unsigned_axes_, moment1_, moment2_, lo_,
+                            hi_);
             break;
         case Pass::Done:
             break;
@@ -102,8 +106,8 @@ void CanonicalFrameBuilder::add_rows(const Positions& V, std::span<const std::in
             Eigen::Vector3d hi = hi_;
             for (const std::int32_t i : rows)
             {
-                add_moments_row(V.row(i).transpose() - frame_.origin, e1_, e2_, unsigned_axes_, moment1, moment2,
-                                lo, hi);
+                add_moments_row(V.row(i).transpose() - frame_.origin, e1_, e2_, unsigned_axes_,
+                                moment1, moment2, lo, hi);
             }
             moment1_ = moment1;
             moment2_ = moment2;
@@ -135,8 +139,9 @@ void CanonicalFrameBuilder::next_pass()
             const Eigen::Vector3d eigenvalues = solver.eigenvalues();  // ascending
             if (!(eigenvalues(2) > 0.0) || eigenvalues(1) <= kCollinearTolerance * eigenvalues(2))
             {
-                throw NumericalError("the vertices are all collinear or coincident, so the RBF Gram matrix "
-                                     "is degenerate and no watermark can be embedded.");
+                throw NumericalError(
+                    "the vertices are all collinear or coincident, so the RBF Gram matrix "
+                    "is degenerate and no watermark can be embedded.");
             }
             e1_ = solver.eigenvectors().col(2);
             e2_ = solver.eigenvectors().col(1);
@@ -154,12 +159,14 @@ void CanonicalFrameBuilder::next_pass()
             // signed axes is the unsigned one times both signs, exactly. So the extent along a
             // negated axis is [-hi, -lo] of the unsigned one, bit for bit what a fourth pass
             // over the signed axes would find, and hi - lo is the same difference.
-            const std::array<double, 3> sign = {moment1_ < 0.0 ? -1.0 : 1.0, moment2_ < 0.0 ? -1.0 : 1.0,
+            const std::array<double, 3> sign = {moment1_ < 0.0 ? -1.0 : 1.0,
+                                                moment2_ < 0.0 ? -1.0 : 1.0,
                                                 (moment1_ < 0.0) != (moment2_ < 0.0) ? -1.0 : 1.0};
             for (Eigen::Index k = 0; k < 3; ++k)
             {
-                frame_.axes.row(k) = sign[static_cast<std::size_t>(k)] < 0.0 ? Eigen::RowVector3d(-unsigned_axes_.row(k))
-                                                                             : Eigen::RowVector3d(unsigned_axes_.row(k));
+                frame_.axes.row(k) = sign[static_cast<std::size_t>(k)] < 0.0
+                                         ? Eigen::RowVector3d(-unsigned_axes_.row(k))
+                                         : Eigen::RowVector3d(unsigned_axes_.row(k));
                 if (sign[static_cast<std::size_t>(k)] < 0.0)
                 {
                     const double lo = lo_(k);

@@ -12,8 +12,10 @@
 #include "meshmark/core/named_choice.h"
 #include "meshmark/core/rng.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 // Longest recipient name: a person's or a company's name fits; a key stays small (a family key
 // stores every name). Chosen by hand; no study on record.
@@ -39,8 +41,9 @@ const char* to_string(EmbeddingRule rule) noexcept
 
 EmbeddingRule parse_embedding_rule(const std::string& name)
 {
-    return parse_named_choice<EmbeddingRule>(name, "embedding rule",
-                                             {{"additive", EmbeddingRule::Additive}, {"paper", EmbeddingRule::Paper}});
+    return parse_named_choice<EmbeddingRule>(
+        name, "embedding rule",
+        {{"additive", EmbeddingRule::Additive}, {"paper", EmbeddingRule::Paper}});
 }
 
 const char* to_string(BasisType basis) noexcept
@@ -55,13 +58,15 @@ const char* to_string(CenterSelection centers) noexcept
 
 BasisType parse_basis_type(const std::string& name)
 {
-    return parse_named_choice<BasisType>(name, "basis", {{"rbf", BasisType::Rbf}, {"laplacian", BasisType::Laplacian}});
+    return parse_named_choice<BasisType>(
+        name, "basis", {{"rbf", BasisType::Rbf}, {"laplacian", BasisType::Laplacian}});
 }
 
 CenterSelection parse_center_selection(const std::string& name)
 {
-    return parse_named_choice<CenterSelection>(name, "center selection",
-                                               {{"random", CenterSelection::Random}, {"decimate", CenterSelection::Decimate}});
+    return parse_named_choice<CenterSelection>(
+        name, "center selection",
+        {{"random", CenterSelection::Random}, {"decimate", CenterSelection::Decimate}});
 }
 
 const char* to_string(StrengthMeasure measure) noexcept
@@ -71,8 +76,9 @@ const char* to_string(StrengthMeasure measure) noexcept
 
 StrengthMeasure parse_strength_measure(const std::string& name)
 {
-    return parse_named_choice<StrengthMeasure>(name, "strength measure",
-                                               {{"surface", StrengthMeasure::Surface}, {"vertex", StrengthMeasure::Vertex}});
+    return parse_named_choice<StrengthMeasure>(
+        name, "strength measure",
+        {{"surface", StrengthMeasure::Surface}, {"vertex", StrengthMeasure::Vertex}});
 }
 
 double default_strength(EmbeddingRule rule, StrengthMeasure measure) noexcept
@@ -113,8 +119,9 @@ void RecipientCodes::validate(const EmbedOptions& options) const
     }
     if (!std::isfinite(energy_share) || energy_share <= 0.0 || energy_share >= 1.0)
     {
-        throw InvalidOption("the recipients' energy share (--recipient-share) must be in (0, 1), got " +
-                            std::to_string(energy_share) + ".");
+        throw InvalidOption(
+            "the recipients' energy share (--recipient-share) must be in (0, 1), got " +
+            std::to_string(energy_share) + ".");
     }
 }
 
@@ -127,16 +134,18 @@ void check_recipient_name(const std::string& name)
     }
     if (name.front() == '.')
     {
-        throw InvalidOption("recipient name '" + name + "' starts with '.'; names become part of file names.");
+        throw InvalidOption("recipient name '" + name +
+                            "' starts with '.'; names become part of file names.");
     }
     for (const char c : name)
     {
         const auto u = static_cast<unsigned char>(c);
         if (u < 0x20U || u == 0x7FU || c == '/' || c == '\\' || c == '"')
         {
-            throw InvalidOption("recipient name '" + name +
-                                "' has a control character, a quote or a path separator; names become part "
-                                "of file names.");
+            throw InvalidOption(
+                "recipient name '" + name +
+                "' has a control character, a quote or a path separator; names become part "
+                "of file names.");
         }
     }
 }
@@ -165,9 +174,11 @@ void EmbedOptions::validate() const
     if (repetitions != kAutoRepetitions &&
         (repetitions < 1 || static_cast<long long>(repetitions) * coefficients > basis_size))
     {
-        throw InvalidOption("repetitions (--repetitions) must be auto or at least 1 and at most the basis size "
-                            "divided by the coefficients (" + std::to_string(basis_size) + " / " +
-                            std::to_string(coefficients) + "), got " + std::to_string(repetitions) + ".");
+        throw InvalidOption(
+            "repetitions (--repetitions) must be auto or at least 1 and at most the basis size "
+            "divided by the coefficients (" +
+            std::to_string(basis_size) + " / " + std::to_string(coefficients) + "), got " +
+            std::to_string(repetitions) + ".");
     }
     // The automatic choice needs room for one repetition at least.
     const int r = repetitions == kAutoRepetitions ? 1 : repetitions;
@@ -181,7 +192,8 @@ void EmbedOptions::validate() const
     const double s = resolved_strength();
     if (!std::isfinite(s) || s < 0.0 || s > 0.5)
     {
-        throw InvalidOption("strength (--strength) must be in 0..0.5, got " + std::to_string(s) + ".");
+        throw InvalidOption("strength (--strength) must be in 0..0.5, got " + std::to_string(s) +
+                            ".");
     }
     if (vertex_strength >= 0.0 && !(std::isfinite(vertex_strength) && vertex_strength <= 1.0))
     {
@@ -190,14 +202,16 @@ void EmbedOptions::validate() const
     }
     if (!std::isfinite(sigma_factor) || sigma_factor <= 0.0 || sigma_factor > 100.0)
     {
-        throw InvalidOption("sigma factor must be in (0, 100], got " + std::to_string(sigma_factor) + ".");
+        throw InvalidOption("sigma factor must be in (0, 100], got " +
+                            std::to_string(sigma_factor) + ".");
     }
     const std::int64_t min_gram_rows = std::int64_t{kMinGramRowsPerCenter} * basis_size;
     if (gram_rows != 0 && gram_rows < min_gram_rows)
     {
         throw InvalidOption("Gram rows (--gram-rows) must be 0 (every row) or at least " +
                             std::to_string(kMinGramRowsPerCenter) + " times the basis size (" +
-                            std::to_string(min_gram_rows) + "), got " + std::to_string(gram_rows) + ".");
+                            std::to_string(min_gram_rows) + "), got " + std::to_string(gram_rows) +
+                            ".");
     }
 }
 
@@ -208,7 +222,8 @@ double EmbedOptions::resolved_strength() const noexcept
 
 bool EmbedOptions::needs_calibration() const noexcept
 {
-    return rule == EmbeddingRule::Additive && measure == StrengthMeasure::Surface && vertex_strength < 0.0;
+    return rule == EmbeddingRule::Additive && measure == StrengthMeasure::Surface &&
+           vertex_strength < 0.0;
 }
 
 double EmbedOptions::modulation_strength() const noexcept
@@ -225,7 +240,8 @@ MeshFingerprint fingerprint(const TriangleMesh& mesh)
     MeshFingerprint fp;
     fp.vertex_count = mesh.V.rows();
     fp.face_count = mesh.F.rows();
-    fp.position_hash = hash_bytes(mesh.V.data(), static_cast<std::size_t>(mesh.V.size()) * sizeof(double));
+    fp.position_hash =
+        hash_bytes(mesh.V.data(), static_cast<std::size_t>(mesh.V.size()) * sizeof(double));
     return fp;
 }
 
@@ -241,7 +257,8 @@ std::vector<std::uint8_t> payload_from_hex(const std::string& hex, int n)
     if (hex.size() != digits)
     {
         throw InvalidOption("--bits needs exactly " + std::to_string(digits) + " hex digits for " +
-                            std::to_string(n) + " payload bits, got " + std::to_string(hex.size()) + ".");
+                            std::to_string(n) + " payload bits, got " + std::to_string(hex.size()) +
+                            ".");
     }
     std::vector<std::uint8_t> bits;
     bits.reserve(digits * 4);
@@ -263,7 +280,8 @@ std::vector<std::uint8_t> payload_from_hex(const std::string& hex, int n)
         }
         for (int b = 3; b >= 0; --b)
         {
-            bits.push_back(static_cast<std::uint8_t>((static_cast<unsigned>(value) >> static_cast<unsigned>(b)) & 1U));
+            bits.push_back(static_cast<std::uint8_t>(
+                (static_cast<unsigned>(value) >> static_cast<unsigned>(b)) & 1U));
         }
     }
     for (std::size_t i = static_cast<std::size_t>(n); i < bits.size(); ++i)
@@ -284,8 +302,8 @@ std::vector<std::uint8_t> random_payload(std::uint64_t seed, int n)
     return low_bits(rng, n);
 }
 
-Key make_key(const EmbedOptions& options, std::uint64_t seed, const std::optional<std::string>& message,
-             const std::optional<std::string>& bits_hex)
+Key make_key(const EmbedOptions& options, std::uint64_t seed,
+             const std::optional<std::string>& message, const std::optional<std::string>& bits_hex)
 {
     Key key;
     key.seed = seed;

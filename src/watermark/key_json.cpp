@@ -1,8 +1,6 @@
 // SPDX-License-Identifier: MIT
 // Key files: the versioned JSON a key is stored as (with a checksum over its content), and its
 // hardened reader (size, nesting, every field's type and range checked before use).
-#include "meshmark/watermark/key.h"
-
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -15,9 +13,12 @@
 #include "meshmark/core/atomic_file.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/rng.h"
+#include "meshmark/watermark/key.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 using Json = nlohmann::json;
 
@@ -39,7 +40,8 @@ std::string hex64(std::uint64_t value)
     return s;
 }
 
-std::uint64_t parse_hex64(const std::string& text, const std::string& field, const std::string& source)
+std::uint64_t parse_hex64(const std::string& text, const std::string& field,
+                          const std::string& source)
 {
     if (text.empty() || text.size() > 16)
     {
@@ -53,7 +55,8 @@ std::uint64_t parse_hex64(const std::string& text, const std::string& field, con
                                                                       : -1;
         if (digit < 0)
         {
-            throw IoError(source + ": key field '" + field + "' has a character that is not a "
+            throw IoError(source + ": key field '" + field +
+                          "' has a character that is not a "
                           "lower-case hex digit.");
         }
         value = (value << 4U) | static_cast<std::uint64_t>(digit);
@@ -73,16 +76,12 @@ Json content_json(const Key& key)
     j["format"] = kKeyFormat;
     j["version"] = Key::kVersion;
     j["seed"] = hex64(key.seed);
-    j["embedding"] = {{"rule", to_string(key.options.rule)},
-                      {"basis_size", key.options.basis_size},
-                      {"coefficients", key.options.coefficients},
-                      {"repetitions", key.options.repetitions},
-                      {"first_mode", key.options.first_mode},
-                      {"strength", key.options.resolved_strength()},
-                      {"sigma_factor", key.options.sigma_factor},
-                      {"centers", to_string(key.options.centers)},
-                      {"basis", to_string(key.options.basis)},
-                      {"gram_rows", key.options.gram_rows}};
+    j["embedding"] = {
+        {"rule", to_string(key.options.rule)},      {"basis_size", key.options.basis_size},
+        {"coefficients", key.options.coefficients}, {"repetitions", key.options.repetitions},
+        {"first_mode", key.options.first_mode},     {"strength", key.options.resolved_strength()},
+        {"sigma_factor", key.options.sigma_factor}, {"centers", to_string(key.options.centers)},
+        {"basis", to_string(key.options.basis)},    {"gram_rows", key.options.gram_rows}};
     if (key.options.rule == EmbeddingRule::Additive)
     {
         // The paper's rho is not a distance: its keys have no measure.
@@ -153,7 +152,8 @@ int nesting_depth(const std::string& text)
 
 // The member \p name of \p object, by reference (a family key's list of recipients is large
 // enough that copying it showed in a detection's time).
-const Json& member(const Json& object, const char* name, const std::string& where, const std::string& source)
+const Json& member(const Json& object, const char* name, const std::string& where,
+                   const std::string& source)
 {
     const auto it = object.find(name);
     if (it == object.end())
@@ -181,11 +181,12 @@ T field(const Json& object, const char* name, const std::string& where, const st
             {
                 throw IoError(source + ": key field '" + where + name + "' must be an integer.");
             }
-            const bool fits = it->is_number_unsigned()
-                                  ? it->template get<std::uint64_t>() <=
-                                        static_cast<std::uint64_t>(std::numeric_limits<T>::max())
-                                  : it->template get<std::int64_t>() >= std::numeric_limits<T>::min() &&
-                                        it->template get<std::int64_t>() <= std::numeric_limits<T>::max();
+            const bool fits =
+                it->is_number_unsigned()
+                    ? it->template get<std::uint64_t>() <=
+                          static_cast<std::uint64_t>(std::numeric_limits<T>::max())
+                    : it->template get<std::int64_t>() >= std::numeric_limits<T>::min() &&
+                          it->template get<std::int64_t>() <= std::numeric_limits<T>::max();
             if (!fits)
             {
                 throw IoError(source + ": key field '" + where + name + "' is out of range.");
@@ -240,7 +241,8 @@ Key parse_key(const std::string& text, const std::string& source)
     catch (const Json::exception&)
     {
         // E.g. out_of_range for a number that overflows a double ("1e1111").
-        throw IoError(source + ": the key file is not a valid meshmark key (a JSON value is out "
+        throw IoError(source +
+                      ": the key file is not a valid meshmark key (a JSON value is out "
                       "of range).");
     }
     const auto format = j.is_object() ? j.find("format") : j.end();
@@ -259,27 +261,32 @@ Key parse_key(const std::string& text, const std::string& source)
     j.erase("checksum");  // the checksum covers the rest
     if (parse_hex64(checksum, "checksum", source) != checksum_of(j))
     {
-        throw IoError(source + ": the key file's checksum does not match its content; it was "
+        throw IoError(source +
+                      ": the key file's checksum does not match its content; it was "
                       "modified or damaged.");
     }
 
     Key key;
     key.seed = parse_hex64(field<std::string>(j, "seed", "", source), "seed", source);
     const Json& embedding = member(j, "embedding", "", source);
-    key.options.rule = parse_embedding_rule(field<std::string>(embedding, "rule", "embedding.", source));
+    key.options.rule =
+        parse_embedding_rule(field<std::string>(embedding, "rule", "embedding.", source));
     key.options.basis_size = field<int>(embedding, "basis_size", "embedding.", source);
     key.options.coefficients = field<int>(embedding, "coefficients", "embedding.", source);
     // Absent from keys written before spreading existed: those embedded every bit once.
-    key.options.repetitions =
-        embedding.contains("repetitions") ? field<int>(embedding, "repetitions", "embedding.", source) : 1;
+    key.options.repetitions = embedding.contains("repetitions")
+                                  ? field<int>(embedding, "repetitions", "embedding.", source)
+                                  : 1;
     if (key.options.repetitions == EmbedOptions::kAutoRepetitions)
     {
         // The embedding records the number it chose; a key without one cannot be trusted to
         // rebuild the same mark if the rule ever changes.
-        throw IoError(source + ": the key does not record its repetitions (embedding.repetitions is 0).");
+        throw IoError(source +
+                      ": the key does not record its repetitions (embedding.repetitions is 0).");
     }
-    key.options.first_mode =
-        embedding.contains("first_mode") ? field<int>(embedding, "first_mode", "embedding.", source) : 0;
+    key.options.first_mode = embedding.contains("first_mode")
+                                 ? field<int>(embedding, "first_mode", "embedding.", source)
+                                 : 0;
     key.options.strength = field<double>(embedding, "strength", "embedding.", source);
     // Absent from keys written before the surface measure existed: those meant the vertex RMS.
     key.options.measure = StrengthMeasure::Vertex;
@@ -293,30 +300,34 @@ Key parse_key(const std::string& text, const std::string& source)
     {
         if (embedding.contains("centers"))
         {
-            key.options.centers =
-                parse_center_selection(field<std::string>(embedding, "centers", "embedding.", source));
+            key.options.centers = parse_center_selection(
+                field<std::string>(embedding, "centers", "embedding.", source));
         }
         if (embedding.contains("basis"))
         {
-            key.options.basis = parse_basis_type(field<std::string>(embedding, "basis", "embedding.", source));
+            key.options.basis =
+                parse_basis_type(field<std::string>(embedding, "basis", "embedding.", source));
         }
         if (embedding.contains("strength_measure"))
         {
-            key.options.measure =
-                parse_strength_measure(field<std::string>(embedding, "strength_measure", "embedding.", source));
+            key.options.measure = parse_strength_measure(
+                field<std::string>(embedding, "strength_measure", "embedding.", source));
         }
     }
     catch (const InvalidOption& e)
     {
         throw IoError(source + ": invalid key field: " + e.what());
     }
-    if (key.options.rule == EmbeddingRule::Additive && key.options.measure == StrengthMeasure::Surface)
+    if (key.options.rule == EmbeddingRule::Additive &&
+        key.options.measure == StrengthMeasure::Surface)
     {
-        key.options.vertex_strength = field<double>(embedding, "vertex_strength", "embedding.", source);
+        key.options.vertex_strength =
+            field<double>(embedding, "vertex_strength", "embedding.", source);
         if (!(key.options.vertex_strength >= 0.0))
         {
-            throw IoError(source + ": the key's surface strength was never calibrated on the original "
-                                   "(embedding.vertex_strength is negative).");
+            throw IoError(source +
+                          ": the key's surface strength was never calibrated on the original "
+                          "(embedding.vertex_strength is negative).");
         }
     }
     try
@@ -377,8 +388,8 @@ Key parse_key(const std::string& text, const std::string& source)
             }
             if (!names.insert(r.name).second || !indices.insert(r.index).second)
             {
-                throw IoError(source + ": recipient '" + r.name + "' (index " + std::to_string(r.index) +
-                              ") appears twice in the key.");
+                throw IoError(source + ": recipient '" + r.name + "' (index " +
+                              std::to_string(r.index) + ") appears twice in the key.");
             }
             codes.recipients.push_back(std::move(r));
         }

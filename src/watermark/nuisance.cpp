@@ -9,8 +9,10 @@
 
 #include "meshmark/geometry/adjacency.h"
 
-namespace meshmark::detail {
-namespace {
+namespace meshmark::detail
+{
+namespace
+{
 
 // Powers of the uniform Laplacian applied to the positions: the directions in which N steps
 // of Laplacian (or Taubin) smoothing move a mesh, (I - lambda L)^N P = P - N lambda L P + ...
@@ -24,7 +26,8 @@ constexpr double kNullSpaceComponent = 1e-8;
 constexpr int kModesPerNuisanceField = 4;
 
 // L P, L^2 P, L^3 P with the uniform Laplacian (#V x 3 each), zero on rows that take no part.
-std::vector<Positions> laplacian_powers(const TriangleMesh& mesh, const std::vector<std::int32_t>& rows)
+std::vector<Positions> laplacian_powers(const TriangleMesh& mesh,
+                                        const std::vector<std::int32_t>& rows)
 {
     const auto n = mesh.V.rows();
     std::vector<Positions> fields;
@@ -146,7 +149,8 @@ std::vector<Eigen::VectorXd> damped_readings(const Eigen::MatrixXd& design, Eige
     }
     const Eigen::MatrixXd gram = A.transpose() * A;
     const Eigen::VectorXd correlation = A.transpose() * o;
-    const double mean_eigenvalue = modulated > 0 ? gram.trace() / static_cast<double>(modulated) : 0.0;
+    const double mean_eigenvalue =
+        modulated > 0 ? gram.trace() / static_cast<double>(modulated) : 0.0;
     std::vector<Eigen::VectorXd> readings;
     if (!(mean_eigenvalue > 0.0))
     {
@@ -161,7 +165,8 @@ std::vector<Eigen::VectorXd> damped_readings(const Eigen::MatrixXd& design, Eige
     return readings;
 }
 
-NuisanceModel nuisance_model(const SpectralBasis& basis, const NuisanceFields& fields, int modulated_head)
+NuisanceModel nuisance_model(const SpectralBasis& basis, const NuisanceFields& fields,
+                             int modulated_head)
 {
     NuisanceModel model;
     model.modes = basis.well_conditioned_modes(kNuisanceModeTolerance);
@@ -175,7 +180,9 @@ NuisanceModel nuisance_model(const SpectralBasis& basis, const NuisanceFields& f
     // U_r^T N_f of every field in one pass, the fields evaluated row by row (never stored).
     const auto width = static_cast<std::size_t>(3 * q);
     const Eigen::MatrixXd responses = basis.project_design(
-        model.modes, 0, width, [&](std::span<const std::int32_t> block, const double* /*U*/, double* X) {
+        model.modes, 0, width,
+        [&](std::span<const std::int32_t> block, const double* /*U*/, double* X)
+        {
             for (std::size_t a = 0; a < block.size(); ++a)
             {
                 for (Eigen::Index f = 0; f < q; ++f)

@@ -14,7 +14,8 @@
 #include "meshmark/basis/spectral_basis.h"
 #include "meshmark/core/triangle_mesh.h"
 
-namespace meshmark::detail {
+namespace meshmark::detail
+{
 
 // Fields (#V x 3) whose effect a suspect may show without any watermark: the 7 infinitesimal
 // similarity motions about the centroid (left over by registration) and L P, L^2 P, L^3 P
@@ -22,7 +23,8 @@ namespace meshmark::detail {
 class NuisanceFields
 {
 public:
-    NuisanceFields(const TriangleMesh& mesh, const std::vector<std::int32_t>& rows, const Eigen::Vector3d& origin);
+    NuisanceFields(const TriangleMesh& mesh, const std::vector<std::int32_t>& rows,
+                   const Eigen::Vector3d& origin);
 
     [[nodiscard]] Eigen::Index count() const noexcept
     {
@@ -45,7 +47,9 @@ public:
         {
             return Eigen::RowVector3d::Unit(axis);  // translation
         }
-        return Eigen::Vector3d::Unit(axis).cross(V_->row(i).transpose() - origin_).transpose();  // rotation
+        return Eigen::Vector3d::Unit(axis)
+            .cross(V_->row(i).transpose() - origin_)
+            .transpose();  // rotation
     }
 
 private:
@@ -67,7 +71,8 @@ struct JointSolution
     Eigen::VectorXd variances;
 };
 
-[[nodiscard]] JointSolution solve_jointly(const Eigen::MatrixXd& raw_design, const Eigen::VectorXd& target);
+[[nodiscard]] JointSolution solve_jointly(const Eigen::MatrixXd& raw_design,
+                                          const Eigen::VectorXd& target);
 
 // The damping levels of damped_readings, as fractions of the mean eigenvalue of the modulated
 // unknowns' Gram matrix: light (a half-surface crop) and strong (a coarse resampling).
@@ -80,13 +85,14 @@ inline constexpr std::array<double, 2> kDampingLevels = {1e-2, 1.0};
 // crop leaves half the surface; a coarse remesh samples it sparsely) plain least squares
 // amplifies the noise along the weak directions; damping trades that for a small bias. Depends
 // on the design and the target only, never on the embedded signs. Empty when A is zero.
-[[nodiscard]] std::vector<Eigen::VectorXd> damped_readings(const Eigen::MatrixXd& design, Eigen::Index modulated,
+[[nodiscard]] std::vector<Eigen::VectorXd> damped_readings(const Eigen::MatrixXd& design,
+                                                           Eigen::Index modulated,
                                                            const Eigen::VectorXd& target);
 
 /// The responses U_r^T N_f of the nuisance fields on the leading r modes.
 struct NuisanceModel
 {
-    int modes = 0;                            ///< r: modulated + unmodulated modes used; 0 = too few to fit.
+    int modes = 0;  ///< r: modulated + unmodulated modes used; 0 = too few to fit.
     std::vector<Eigen::MatrixX3d> responses;  ///< U_r^T N_f per nuisance field (r x 3).
 };
 

@@ -12,18 +12,19 @@
 #include "meshmark/watermark/detector.h"
 #include "watermark/nuisance.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 // Splits of each principal axis into equal-count slabs: halves, thirds, quarters.
 constexpr std::array<int, 3> kSplits = {2, 3, 4};
 
 }  // namespace
 
-std::vector<std::vector<double>> Detector::region_changes(const Positions& suspect, bool is_resampled,
-                                                          const std::vector<std::uint8_t>* is_kept,
-                                                          double weight_scale,
-                                                          const std::vector<double>& code_sampling) const
+std::vector<std::vector<double>> Detector::region_changes(
+    const Positions& suspect, bool is_resampled, const std::vector<std::uint8_t>* is_kept,
+    double weight_scale, const std::vector<double>& code_sampling) const
 {
     const SpectralWatermark& mark = *mark_;
     const int code_modes = mark.recipient_modes();
@@ -33,15 +34,17 @@ std::vector<std::vector<double>> Detector::region_changes(const Positions& suspe
     }
     if (suspect.rows() != original_->V.rows())
     {
-        throw InvalidOption("the suspect has " + std::to_string(suspect.rows()) + " rows, the original " +
-                            std::to_string(original_->V.rows()) + ".");
+        throw InvalidOption("the suspect has " + std::to_string(suspect.rows()) +
+                            " rows, the original " + std::to_string(original_->V.rows()) + ".");
     }
     detail::check_weight_scale(weight_scale);
     const auto code_count = static_cast<Eigen::Index>(3 * code_modes);
-    if (!code_sampling.empty() && code_sampling.size() != static_cast<std::size_t>(code_count * code_count))
+    if (!code_sampling.empty() &&
+        code_sampling.size() != static_cast<std::size_t>(code_count * code_count))
     {
-        throw InvalidOption("the code's sampling matrix has " + std::to_string(code_sampling.size()) +
-                            " entries, expected " + std::to_string(code_count * code_count) + ".");
+        throw InvalidOption("the code's sampling matrix has " +
+                            std::to_string(code_sampling.size()) + " entries, expected " +
+                            std::to_string(code_count * code_count) + ".");
     }
     const int first = mark.key().options.first_mode;
     const int owner_modes = static_cast<int>(mark.embedded_signs().rows());
@@ -53,13 +56,15 @@ std::vector<std::vector<double>> Detector::region_changes(const Positions& suspe
     // Each analysed row's slab along each principal axis, for each split: by rank, so that
     // every slab holds the same number of rows.
     constexpr int kAxes = 3;
-    std::vector<std::array<std::uint8_t, kAxes * kSplits.size()>> slab(static_cast<std::size_t>(original_->V.rows()));
+    std::vector<std::array<std::uint8_t, kAxes * kSplits.size()>> slab(
+        static_cast<std::size_t>(original_->V.rows()));
     for (int axis = 0; axis < kAxes; ++axis)
     {
         std::vector<std::pair<double, std::int32_t>> order(n);
         for (std::size_t a = 0; a < n; ++a)
         {
-            const Eigen::RowVector3d p = original_->V.row(rows[a]) - mark.frame().origin.transpose();
+            const Eigen::RowVector3d p =
+                original_->V.row(rows[a]) - mark.frame().origin.transpose();
             order[a] = {p.dot(mark.frame().axes.row(axis)), rows[a]};
         }
         std::sort(order.begin(), order.end());
@@ -67,19 +72,23 @@ std::vector<std::vector<double>> Detector::region_changes(const Positions& suspe
         {
             for (std::size_t s = 0; s < kSplits.size(); ++s)
             {
-                slab[static_cast<std::size_t>(order[rank].second)][static_cast<std::size_t>(axis) * kSplits.size() + s] =
-                    static_cast<std::uint8_t>(rank * static_cast<std::size_t>(kSplits[s]) / n);
+                slab[static_cast<std::size_t>(order[rank].second)]
+                    [static_cast<std::size_t>(axis) * kSplits.size() + s] =
+                        static_cast<std::uint8_t>(rank * static_cast<std::size_t>(kSplits[s]) / n);
             }
         }
     }
 
-    const Positions normals = is_resampled && !original_->is_point_cloud() ? vertex_normals(*original_) : Positions();
-    const Eigen::MatrixX3d owner_change = mark.coefficient_change();  // rows 0 .. first + owner_modes
+    const Positions normals =
+        is_resampled && !original_->is_point_cloud() ? vertex_normals(*original_) : Positions();
+    const Eigen::MatrixX3d owner_change =
+        mark.coefficient_change();  // rows 0 .. first + owner_modes
     const auto width = static_cast<std::size_t>(3 * kRegionCount);
     // Row a of a block: for every region containing the row, its change minus the owner's
     // field (the owner's field from the block's own mode values, so no second pass; only the
     // owner's modes are evaluated per row, not the code's).
-    auto fill = [&](std::span<const std::int32_t> block, const double* U, double* X) {
+    auto fill = [&](std::span<const std::int32_t> block, const double* U, double* X)
+    {
         const auto h = static_cast<std::size_t>(head);
         for (std::size_t a = 0; a < block.size(); ++a)
         {
@@ -114,7 +123,8 @@ std::vector<std::vector<double>> Detector::region_changes(const Positions& suspe
             {
                 for (std::size_t s = 0; s < kSplits.size(); ++s)
                 {
-                    const int piece = slab[static_cast<std::size_t>(i)][static_cast<std::size_t>(axis) * kSplits.size() + s];
+                    const int piece = slab[static_cast<std::size_t>(i)]
+                                          [static_cast<std::size_t>(axis) * kSplits.size() + s];
                     const int column = region + piece;
                     x[3 * column] = r(0);
                     x[3 * column + 1] = r(1);
@@ -124,7 +134,8 @@ std::vector<std::vector<double>> Detector::region_changes(const Positions& suspe
             }
         }
     };
-    const Eigen::MatrixXd projected = mark.basis().project_design(modes, head, width, fill);  // modes x width
+    const Eigen::MatrixXd projected =
+        mark.basis().project_design(modes, head, width, fill);  // modes x width
     // Reading the normal components alone turns a code y into K y (Extraction::code_sampling);
     // (K + lambda I)^-1 undoes that, damped so as not to amplify what K hardly sees. The level
     // 0.3 of K's mean eigenvalue was chosen on the horse's three-copy splices simplified to 30%
@@ -134,7 +145,8 @@ std::vector<std::vector<double>> Detector::region_changes(const Positions& suspe
     Eigen::LDLT<Eigen::MatrixXd> unsample;
     if (!code_sampling.empty())
     {
-        Eigen::MatrixXd K = Eigen::Map<const Eigen::MatrixXd>(code_sampling.data(), code_count, code_count);
+        Eigen::MatrixXd K =
+            Eigen::Map<const Eigen::MatrixXd>(code_sampling.data(), code_count, code_count);
         K = 0.5 * (K + K.transpose()).eval();
         constexpr double kUnsamplingDamping = 0.3;
         K.diagonal().array() += kUnsamplingDamping * K.trace() / static_cast<double>(code_count);
@@ -144,7 +156,8 @@ std::vector<std::vector<double>> Detector::region_changes(const Positions& suspe
     const Eigen::Matrix3d& axes = mark.frame().axes;
     for (int region = 0; region < kRegionCount; ++region)
     {
-        const Eigen::MatrixX3d file = projected.block(first + owner_modes, 3 * region, code_modes, 3);
+        const Eigen::MatrixX3d file =
+            projected.block(first + owner_modes, 3 * region, code_modes, 3);
         Eigen::MatrixX3d canonical = file * axes.transpose();
         if (!code_sampling.empty())
         {
@@ -165,7 +178,8 @@ std::vector<std::vector<double>> Detector::region_changes(const Positions& suspe
         for (int c = 0; c < 3 * code_modes; ++c)
         {
             const double modulation = mark.modulation()(owner_modes + c / 3, c % 3);
-            out[static_cast<std::size_t>(c)] = modulation != 0.0 ? canonical(c / 3, c % 3) / modulation : 0.0;
+            out[static_cast<std::size_t>(c)] =
+                modulation != 0.0 ? canonical(c / 3, c % 3) / modulation : 0.0;
         }
     }
     return changes;

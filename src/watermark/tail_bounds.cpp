@@ -11,7 +11,8 @@
 #include "meshmark/core/error.h"
 #include "meshmark/watermark/decision.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 RademacherTail::RademacherTail(const std::vector<double>& weights, double resolution)
 {
@@ -107,7 +108,8 @@ double RademacherTail::operator()(double z) const
         return 1.0;
     }
     // sum_i s_i a_i / |a| >= z implies h sum_i s_i q_i >= z - e, i.e. (with Q = sum_i q_i and
-    // S the sum of q_i over the positive signs, sum_i s_i q_i = 2 S - Q) S >= ((z - e) / h + Q) / 2.
+    // S the sum of q_i over the positive signs, sum_i s_i q_i = 2 S - Q) S >= ((z - e) / h + Q)
+    // / 2.
     const auto total = static_cast<double>(total_);
     const double at = 0.5 * ((z - slack_) * inverse_step_ + total);
     // A hair lower: a threshold that lands on an integer by rounding must not skip it.
@@ -153,8 +155,8 @@ double binomial_tail_half(int n, int k)
     double total = 0.0;
     for (int i = k; i <= n; ++i)
     {
-        const double log_term = std::lgamma(n + 1.0) - std::lgamma(i + 1.0) - std::lgamma(n - i + 1.0) -
-                                n * std::log(2.0);
+        const double log_term = std::lgamma(n + 1.0) - std::lgamma(i + 1.0) -
+                                std::lgamma(n - i + 1.0) - n * std::log(2.0);
         total += std::exp(log_term);
     }
     return std::min(1.0, total);

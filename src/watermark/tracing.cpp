@@ -11,13 +11,16 @@
 #include "meshmark/watermark/watermark.h"
 #include "watermark/unit_vectors.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
-std::vector<RecipientScore> SpectralWatermark::trace(const Extraction& extraction, const DetectOptions& options) const
+std::vector<RecipientScore> SpectralWatermark::trace(const Extraction& extraction,
+                                                     const DetectOptions& options) const
 {
     options.validate();
     std::vector<RecipientScore> scores;
-    if (!key_.recipients || (extraction.recipient_change.empty() && extraction.region_changes.empty()))
+    if (!key_.recipients ||
+        (extraction.recipient_change.empty() && extraction.region_changes.empty()))
     {
         return scores;
     }
@@ -43,13 +46,16 @@ std::vector<RecipientScore> SpectralWatermark::trace(const Extraction& extractio
     // The owner's coefficients followed by the code's, for the joint (ownership) score.
     std::vector<double> joint_x = extraction.normalized_change;
     std::vector<double> joint_w = extraction.weights;
-    joint_x.insert(joint_x.end(), extraction.recipient_change.begin(), extraction.recipient_change.end());
-    joint_w.insert(joint_w.end(), extraction.recipient_weights.begin(), extraction.recipient_weights.end());
+    joint_x.insert(joint_x.end(), extraction.recipient_change.begin(),
+                   extraction.recipient_change.end());
+    joint_w.insert(joint_w.end(), extraction.recipient_weights.begin(),
+                   extraction.recipient_weights.end());
     const std::size_t owner_count = extraction.normalized_change.size();
     const bool has_joint = has_whole && owner_count == static_cast<std::size_t>(signs_.size());
     // The damped readings of both parts, joined the same way.
     std::vector<std::vector<double>> joint_damped;
-    if (has_joint && extraction.further_changes.size() == extraction.further_recipient_changes.size())
+    if (has_joint &&
+        extraction.further_changes.size() == extraction.further_recipient_changes.size())
     {
         for (std::size_t l = 0; l < extraction.further_changes.size(); ++l)
         {
@@ -59,14 +65,16 @@ std::vector<RecipientScore> SpectralWatermark::trace(const Extraction& extractio
             joint_damped.push_back(std::move(both));
         }
     }
-    const SoftCorrelation joint(has_joint ? joint_x : std::vector<double>(), has_joint ? joint_w : std::vector<double>(),
-                                joint_damped, true, threads);
+    const SoftCorrelation joint(has_joint ? joint_x : std::vector<double>(),
+                                has_joint ? joint_w : std::vector<double>(), joint_damped, true,
+                                threads);
     const bool is_sized = (!has_whole || soft.size() == n) &&
-                          std::all_of(regions.begin(), regions.end(), [n](const auto& unit) { return unit.size() == n; });
+                          std::all_of(regions.begin(), regions.end(),
+                                      [n](const auto& unit) { return unit.size() == n; });
     if (!is_sized)
     {
-        throw InvalidOption("trace: the extraction's recipient code readings must have " + std::to_string(n) +
-                            " values (3 per code mode).");
+        throw InvalidOption("trace: the extraction's recipient code readings must have " +
+                            std::to_string(n) + " values (3 per code mode).");
     }
     // Recipients are scored kLanes at a time: their signs interleaved (code c of lane j at
     // c * kLanes + j), so each region's dot products run as kLanes independent sums that the
@@ -91,7 +99,8 @@ std::vector<RecipientScore> SpectralWatermark::trace(const Extraction& extractio
         std::vector<double> signs(n * kLanes, 0.0);
         for (std::size_t j = 0; j < lanes; ++j)
         {
-            const std::vector<std::uint8_t> code = recipient_code(key_.seed, recipients[first + j].index, static_cast<int>(n));
+            const std::vector<std::uint8_t> code =
+                recipient_code(key_.seed, recipients[first + j].index, static_cast<int>(n));
             for (std::size_t c = 0; c < n; ++c)
             {
                 signs[c * kLanes + j] = code[c] != 0 ? 1.0 : -1.0;
@@ -128,7 +137,8 @@ std::vector<RecipientScore> SpectralWatermark::trace(const Extraction& extractio
             double bound = 1.0;
             if (has_whole)
             {
-                const SoftScore whole = soft.score([&](std::size_t c) { return signs[c * kLanes + j]; });
+                const SoftScore whole =
+                    soft.score([&](std::size_t c) { return signs[c * kLanes + j]; });
                 entry.score = whole.z;
                 bound = whole.probability;
             }
@@ -136,21 +146,27 @@ std::vector<RecipientScore> SpectralWatermark::trace(const Extraction& extractio
             {
                 // Under the null (a suspect without the mark) every sign, the owner's and the
                 // code's, is independent of the readings: one Rademacher sum, bounded as any.
-                const SoftScore both = joint.score([&](std::size_t c) {
-                    return c < owner_count ? signs_(static_cast<Eigen::Index>(c / 3), static_cast<Eigen::Index>(c % 3))
-                                           : signs[(c - owner_count) * kLanes + j];
-                });
+                const SoftScore both = joint.score(
+                    [&](std::size_t c)
+                    {
+                        return c < owner_count ? signs_(static_cast<Eigen::Index>(c / 3),
+                                                        static_cast<Eigen::Index>(c % 3))
+                                               : signs[(c - owner_count) * kLanes + j];
+                    });
                 entry.joint_score = both.z;
-                entry.joint_false_positive_probability = std::min(1.0, recipient_count * both.probability);
+                entry.joint_false_positive_probability =
+                    std::min(1.0, recipient_count * both.probability);
             }
             if (!regions.empty())
             {
                 entry.region_score = std::max(0.0, best_region[j]);
                 if (!has_whole)
                 {
-                    entry.score = whole_region[j];  // a cropped suspect: the whole (kept) model's region
+                    entry.score =
+                        whole_region[j];  // a cropped suspect: the whole (kept) model's region
                 }
-                const double regions_bound = region_count * rademacher_tail_bound(entry.region_score);
+                const double regions_bound =
+                    region_count * rademacher_tail_bound(entry.region_score);
                 // With the joint reading of the whole model, it and the regions share the level
                 // half and half; without it (cropped suspects) the regions have all of it.
                 bound = has_whole ? std::min(2.0 * bound, 2.0 * regions_bound) : regions_bound;

@@ -7,7 +7,8 @@
 #include <cmath>
 #include <vector>
 
-namespace meshmark::detail {
+namespace meshmark::detail
+{
 
 /// \p values scaled to unit norm (all zeros where their norm is 0).
 inline std::vector<double> scaled_to_unit(const std::vector<double>& values)
@@ -21,7 +22,8 @@ inline std::vector<double> scaled_to_unit(const std::vector<double>& values)
     if (norm_sq > 0.0)
     {
         const double scale = 1.0 / std::sqrt(norm_sq);
-        std::transform(values.begin(), values.end(), unit.begin(), [scale](double v) { return v * scale; });
+        std::transform(values.begin(), values.end(), unit.begin(),
+                       [scale](double v) { return v * scale; });
     }
     return unit;
 }

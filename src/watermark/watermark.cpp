@@ -17,11 +17,14 @@
 #include "meshmark/core/rng.h"
 #include "meshmark/metrics/distortion.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 // A modulated coefficient below this fraction of the largest one carries a weak bit under the
-// paper's multiplicative rule (docs/algorithms/embedding.md, "Modulation": those fail first under noise).
+// paper's multiplicative rule (docs/algorithms/embedding.md, "Modulation": those fail first under
+// noise).
 constexpr double kWeakCoefficientFraction = 0.1;
 
 // Rows read per block when a pass over the analysed rows runs here (the bounding box): 4096 x 3
@@ -55,8 +58,10 @@ constexpr int kMinShortenedRepetitions = 2;
 
 int automatic_repetitions(const EmbedOptions& options, std::size_t analysed_rows)
 {
-    auto fits = [&](int r) {
-        return static_cast<long long>(options.first_mode) + static_cast<long long>(r) * options.coefficients <=
+    auto fits = [&](int r)
+    {
+        return static_cast<long long>(options.first_mode) +
+                   static_cast<long long>(r) * options.coefficients <=
                options.basis_size;
     };
     if (analysed_rows >= kLongMarkMinRows && fits(kLongMarkRepetitions))
@@ -81,7 +86,8 @@ void DisplacementSummary::add(const double* d) noexcept
     ++rows;
 }
 
-void check_analysed_rows(const EmbedOptions& options, std::size_t analysed_rows, const std::string& source)
+void check_analysed_rows(const EmbedOptions& options, std::size_t analysed_rows,
+                         const std::string& source)
 {
     if (analysed_rows < static_cast<std::size_t>(std::max(0, options.basis_size)))
     {
@@ -90,11 +96,12 @@ void check_analysed_rows(const EmbedOptions& options, std::size_t analysed_rows,
         {
             throw InvalidMesh(prefix + " has nothing to watermark: no triangles and no points.");
         }
-        throw InvalidMesh(prefix + " has " + std::to_string(analysed_rows) +
-                          (analysed_rows == 1 ? " usable vertex" : " usable vertices") + ", fewer than the " +
-                          std::to_string(options.basis_size) +
-                          " basis functions a mark needs (a smaller --basis-size, with --first-mode and "
-                          "--coefficients to match, marks it weakly).");
+        throw InvalidMesh(
+            prefix + " has " + std::to_string(analysed_rows) +
+            (analysed_rows == 1 ? " usable vertex" : " usable vertices") + ", fewer than the " +
+            std::to_string(options.basis_size) +
+            " basis functions a mark needs (a smaller --basis-size, with --first-mode and "
+            "--coefficients to match, marks it weakly).");
     }
 }
 
@@ -130,7 +137,8 @@ void SpectralWatermark::check_key()
     if (static_cast<int>(key_.payload.size()) != bit_count)
     {
         throw InvalidOption("the payload has " + std::to_string(key_.payload.size()) +
-                            " bits, but the key's parameters need " + std::to_string(bit_count) + ".");
+                            " bits, but the key's parameters need " + std::to_string(bit_count) +
+                            ".");
     }
     if (key_.recipients)
     {
@@ -144,12 +152,13 @@ void SpectralWatermark::check_key()
 
 void SpectralWatermark::build(const TriangleMesh* mesh, const std::vector<std::int32_t>* active)
 {
-    const bool needs_mesh =
-        key_.options.basis == BasisType::Laplacian || key_.options.centers == CenterSelection::Decimate;
+    const bool needs_mesh = key_.options.basis == BasisType::Laplacian ||
+                            key_.options.centers == CenterSelection::Decimate;
     if (needs_mesh && mesh == nullptr)
     {
-        throw InvalidOption("the Laplacian basis and decimated centers need the mesh in memory; a watermark "
-                            "built from streamed rows supports the RBF basis with random centers only.");
+        throw InvalidOption(
+            "the Laplacian basis and decimated centers need the mesh in memory; a watermark "
+            "built from streamed rows supports the RBF basis with random centers only.");
     }
     // Keyed centers -> basis over the analysed rows.
     if (key_.options.basis == BasisType::Laplacian)
@@ -162,7 +171,8 @@ void SpectralWatermark::build(const TriangleMesh* mesh, const std::vector<std::i
     {
         centers_ = key_.options.centers == CenterSelection::Decimate
                        ? decimated_centers(*mesh, *active, key_.options.basis_size)
-                       : random_centers(*rows_, key_.options.basis_size, derive_seed(key_.seed, "centers"));
+                       : random_centers(*rows_, key_.options.basis_size,
+                                        derive_seed(key_.seed, "centers"));
         const double sigma = key_.options.sigma_factor * frame_.diagonal / 2.0;
         basis_ = std::make_unique<RbfBasis>(rows_, centers_, sigma, frame_.origin, threads_,
                                             static_cast<std::size_t>(key_.options.gram_rows));
@@ -182,8 +192,8 @@ void SpectralWatermark::fit_to_span()
         const int repetitions = options.repetitions == EmbedOptions::kAutoRepetitions
                                     ? automatic_repetitions(options, rows_->size())
                                     : options.repetitions;
-        const int room = basis_->well_conditioned_modes(kShortenedMarkTolerance) - options.first_mode -
-                         options.coefficients * repetitions;
+        const int room = basis_->well_conditioned_modes(kShortenedMarkTolerance) -
+                         options.first_mode - options.coefficients * repetitions;
         if (room < key_.recipients->modes && room >= kMinRecipientModes)
         {
             key_.recipients->modes = room;
@@ -191,10 +201,12 @@ void SpectralWatermark::fit_to_span()
         }
     }
     const int recipient_modes = key_.recipients ? key_.recipients->modes : 0;
-    const auto needed = [&](int r) { return options.first_mode + options.coefficients * r + recipient_modes; };
+    const auto needed = [&](int r)
+    { return options.first_mode + options.coefficients * r + recipient_modes; };
     basis_span_ = basis_->well_conditioned_modes(SpectralBasis::kDegenerateModeTolerance);
     // The most repetitions whose last mode stands clear of the degenerate ones (the margin).
-    const int fits = (basis_->well_conditioned_modes(kShortenedMarkTolerance) - options.first_mode - recipient_modes) /
+    const int fits = (basis_->well_conditioned_modes(kShortenedMarkTolerance) - options.first_mode -
+                      recipient_modes) /
                      options.coefficients;
     const bool automatic = options.repetitions == EmbedOptions::kAutoRepetitions;
     if (automatic)
@@ -218,7 +230,8 @@ void SpectralWatermark::fit_to_span()
         }
         else if (fits == 1)
         {
-            advice = "--repetitions 1 fits, but a mark of " + std::to_string(3 * options.coefficients) +
+            advice = "--repetitions 1 fits, but a mark of " +
+                     std::to_string(3 * options.coefficients) +
                      " coefficients is claimed only on copies that keep the vertex order";
         }
         else
@@ -226,10 +239,12 @@ void SpectralWatermark::fit_to_span()
             advice = "--repetitions " + std::to_string(fits) + " fits";
         }
         throw NumericalError("the mesh's vertices span only " + std::to_string(basis_span_) +
-                             " independent modes of the RBF basis, and the mark needs " + std::to_string(modes) +
-                             " (modulated modes " + std::to_string(options.first_mode) + "-" +
-                             std::to_string(modes - 1) + "): they lie on a few curves or in a small patch "
-                             "(a flat part whose faces have no inner vertices, say), and " + advice + ".");
+                             " independent modes of the RBF basis, and the mark needs " +
+                             std::to_string(modes) + " (modulated modes " +
+                             std::to_string(options.first_mode) + "-" + std::to_string(modes - 1) +
+                             "): they lie on a few curves or in a small patch "
+                             "(a flat part whose faces have no inner vertices, say), and " +
+                             advice + ".");
     }
 }
 
@@ -248,8 +263,9 @@ void SpectralWatermark::init_modulation(double analysed)
     signs_.resize(modes, 3);
     for (int c = 0; c < coefficient_count; ++c)
     {
-        const unsigned embedded = static_cast<unsigned>(key_.payload[static_cast<std::size_t>(c % bit_count)]) ^
-                                  static_cast<unsigned>(mask_[static_cast<std::size_t>(c)]);
+        const unsigned embedded =
+            static_cast<unsigned>(key_.payload[static_cast<std::size_t>(c % bit_count)]) ^
+            static_cast<unsigned>(mask_[static_cast<std::size_t>(c)]);
         signs_(c / 3, c % 3) = embedded != 0 ? 1.0 : -1.0;
     }
 
@@ -260,7 +276,7 @@ void SpectralWatermark::init_modulation(double analysed)
         // |U b' s|_F^2 = 3 m r s^2 for orthonormal modes, so this s gives an RMS displacement of
         // strength * D over the analysed vertices.
         const double step = strength * std::sqrt(owner_share) * frame_.diagonal *
-                             std::sqrt(analysed / static_cast<double>(coefficient_count));
+                            std::sqrt(analysed / static_cast<double>(coefficient_count));
         modulation_.resize(modes + recipient_modes, 3);
         modulation_.topRows(modes).setConstant(step);
         if (recipient_modes > 0)
@@ -274,11 +290,13 @@ void SpectralWatermark::init_modulation(double analysed)
     }
     else
     {
-        const Eigen::MatrixX3d alpha_file = basis_->position_coefficients().middleRows(key_.options.first_mode, modes);
+        const Eigen::MatrixX3d alpha_file =
+            basis_->position_coefficients().middleRows(key_.options.first_mode, modes);
         const Eigen::MatrixX3d alpha = alpha_file * frame_.axes.transpose();
         modulation_ = alpha * strength;
         const double largest = alpha.cwiseAbs().maxCoeff();
-        weak_bits_ = static_cast<int>((alpha.array().abs() < kWeakCoefficientFraction * largest).count());
+        weak_bits_ =
+            static_cast<int>((alpha.array().abs() < kWeakCoefficientFraction * largest).count());
     }
 }
 
@@ -287,7 +305,8 @@ Eigen::MatrixX3d SpectralWatermark::coefficient_change() const
     // Coefficient change (canonical frame) -> file axes.
     const int first = key_.options.first_mode;
     Eigen::MatrixX3d change = Eigen::MatrixX3d::Zero(first + signs_.rows(), 3);
-    change.bottomRows(signs_.rows()) = signs_.cwiseProduct(modulation_.topRows(signs_.rows())) * frame_.axes;
+    change.bottomRows(signs_.rows()) =
+        signs_.cwiseProduct(modulation_.topRows(signs_.rows())) * frame_.axes;
     return change;
 }
 
@@ -322,7 +341,8 @@ void SpectralWatermark::describe(const DisplacementSummary& summary, double aabb
                                  double orthogonality_error, EmbedStats* stats) const
 {
     stats->max_displacement_rel = std::sqrt(summary.max_squared) / aabb_diagonal;
-    stats->rms_displacement_rel = std::sqrt(summary.sum_squared / static_cast<double>(summary.rows)) / aabb_diagonal;
+    stats->rms_displacement_rel =
+        std::sqrt(summary.sum_squared / static_cast<double>(summary.rows)) / aabb_diagonal;
     stats->orthogonality_error = orthogonality_error;
     stats->modulation_step = key_.options.rule == EmbeddingRule::Additive ? modulation_(0, 0) : 0.0;
     stats->weak_bits = weak_bits_;
@@ -362,7 +382,8 @@ Positions SpectralWatermark::displacement(EmbedStats* stats) const
     return field;
 }
 
-double SpectralWatermark::calibrate_strength(const TriangleMesh& original, Positions& field, EmbedStats* stats)
+double SpectralWatermark::calibrate_strength(const TriangleMesh& original, Positions& field,
+                                             EmbedStats* stats)
 {
     if (mesh_rows_ == nullptr)
     {
@@ -381,9 +402,10 @@ double SpectralWatermark::calibrate_strength(const TriangleMesh& original, Posit
         const double vertex_strength = key_.options.modulation_strength() * factor;
         if (!(vertex_strength <= 0.5))
         {
-            throw InvalidOption("the surface strength " + std::to_string(key_.options.resolved_strength()) +
-                                " would need an RMS vertex displacement of " + std::to_string(vertex_strength) +
-                                " of the diagonal on this mesh; use --strength-measure vertex.");
+            throw InvalidOption(
+                "the surface strength " + std::to_string(key_.options.resolved_strength()) +
+                " would need an RMS vertex displacement of " + std::to_string(vertex_strength) +
+                " of the diagonal on this mesh; use --strength-measure vertex.");
         }
         key_.options.vertex_strength = vertex_strength;
         // Rebuilt from the recorded strength, exactly as a watermark built from the key is.
@@ -408,8 +430,8 @@ void SpectralWatermark::scale_strength(double factor)
 {
     if (!(std::isfinite(factor) && factor > 0.0))
     {
-        throw InvalidOption("the strength can only be scaled by a positive factor, got " + std::to_string(factor) +
-                            ".");
+        throw InvalidOption("the strength can only be scaled by a positive factor, got " +
+                            std::to_string(factor) + ".");
     }
     // The additive step and the paper's rho are both proportional to the strength the
     // modulation is built from (modulation_strength): scaling what the key records scales it.

@@ -3,15 +3,16 @@
 // files and reports across runs and for --threads 1, 2 and 3: the marked mesh and the key of
 // `embed`, the attacked mesh of `attack --seed`, and `detect --json` without its timings.
 #include <gtest/gtest.h>
-
 #include <nlohmann/json.hpp>
 
 #include "meshmark/geometry/shapes.h"
 #include "meshmark/io/mesh_io.h"
 #include "process_util.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 namespace fs = std::filesystem;
 using test::file_bytes;
@@ -36,10 +37,10 @@ Outputs run_chain(const fs::path& original, const std::string& attack_spec, int 
     const fs::path attacked = dir / ("attacked" + ext);
     fs::remove(key);
     Outputs outputs;
-    const auto embed = test::run_cli({"embed", original.string(), "-o", marked.string(), "--key",
-                                      key.string(), "--seed", "77", "--message", "determinism",
-                                      "--threads", n, "--quiet"},
-                                     dir);
+    const auto embed =
+        test::run_cli({"embed", original.string(), "-o", marked.string(), "--key", key.string(),
+                       "--seed", "77", "--message", "determinism", "--threads", n, "--quiet"},
+                      dir);
     EXPECT_EQ(embed.exit_code, 0) << embed.err;
     const auto attack = test::run_cli({"attack", marked.string(), "-o", attacked.string(), "--seed",
                                        "5", "--threads", n, "--quiet", attack_spec},
@@ -65,7 +66,8 @@ Outputs run_chain(const fs::path& original, const std::string& attack_spec, int 
 }
 
 // Runs with 1, 2, 3 threads and 2 again (across runs) must agree bit for bit.
-void expect_deterministic(const fs::path& original, const std::string& attack_spec, const fs::path& dir)
+void expect_deterministic(const fs::path& original, const std::string& attack_spec,
+                          const fs::path& dir)
 {
     const Outputs first = run_chain(original, attack_spec, 1, dir);
     ASSERT_FALSE(first.marked.empty());

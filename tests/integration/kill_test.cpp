@@ -32,8 +32,10 @@
 #define MESHMARK_KILL_SUBDIVISIONS 1
 #endif
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 namespace fs = std::filesystem;
 using test::file_bytes;
@@ -49,7 +51,8 @@ constexpr std::array<const char*, 4> kPhases = {"read", "basis", "embed", "write
 bool is_staging_file(const std::string& name, const std::string& key_name)
 {
     const bool is_atomic_temp = name.starts_with(".") && name.find(".tmp-") != std::string::npos;
-    const bool is_in_place = name.starts_with(".") && name.find(".meshmark-embed-") != std::string::npos;
+    const bool is_in_place =
+        name.starts_with(".") && name.find(".meshmark-embed-") != std::string::npos;
     return is_atomic_temp || is_in_place || name == lock_companion(key_name).string();
 }
 
@@ -123,19 +126,22 @@ protected:
     fs::path dir_;
 };
 
-std::vector<std::string> embed_arguments(const fs::path& input, const fs::path& output, const fs::path& key)
+std::vector<std::string> embed_arguments(const fs::path& input, const fs::path& output,
+                                         const fs::path& key)
 {
-    return {"embed", input.string(), "-o", output.string(), "--key", key.string(), "--seed", "424242",
-            "--message", "kill test", "--threads", "2", "--json", "--force"};
+    return {"embed",  input.string(), "-o",        output.string(), "--key",     key.string(),
+            "--seed", "424242",       "--message", "kill test",     "--threads", "2",
+            "--json", "--force"};
 }
 
 TEST_F(KillTest, sigkill_during_embed_never_loses_or_half_writes_a_file)
 {
     // A large mesh: the horse, loop-subdivided (binary float64 PLY).
     const fs::path big = dir_ / "big.ply";
-    const auto made = test::run_cli({"attack", horse_.string(), "-o", big.string(), "--seed", "1",
-                                     "subdivide=loop:steps=" + std::to_string(MESHMARK_KILL_SUBDIVISIONS)},
-                                    dir_);
+    const auto made =
+        test::run_cli({"attack", horse_.string(), "-o", big.string(), "--seed", "1",
+                       "subdivide=loop:steps=" + std::to_string(MESHMARK_KILL_SUBDIVISIONS)},
+                      dir_);
     ASSERT_EQ(made.exit_code, 0) << made.err;
 
     // Reference: one uninterrupted run, its files and phase timings; the mark is detected.
@@ -143,7 +149,8 @@ TEST_F(KillTest, sigkill_during_embed_never_loses_or_half_writes_a_file)
     ref.original = file_bytes(big);
     const fs::path ref_dir = dir_ / "reference";
     fs::create_directories(ref_dir);
-    const auto done = test::run_cli(embed_arguments(big, ref_dir / "marked.ply", ref_dir / "key.json"), dir_);
+    const auto done =
+        test::run_cli(embed_arguments(big, ref_dir / "marked.ply", ref_dir / "key.json"), dir_);
     ASSERT_EQ(done.exit_code, 0) << done.err;
     ref.marked = file_bytes(ref_dir / "marked.ply");
     ref.key = file_bytes(ref_dir / "key.json");
@@ -158,9 +165,10 @@ TEST_F(KillTest, sigkill_during_embed_never_loses_or_half_writes_a_file)
     }
     // Every payload bit reads back from the uninterrupted run's copy (R = 1; whether that is
     // claimed as a detection is the verdict rule's business, tested elsewhere).
-    const auto detected = test::run_cli({"detect", (ref_dir / "marked.ply").string(), "--original",
-                                         big.string(), "--key", (ref_dir / "key.json").string(), "--json"},
-                                        dir_);
+    const auto detected =
+        test::run_cli({"detect", (ref_dir / "marked.ply").string(), "--original", big.string(),
+                       "--key", (ref_dir / "key.json").string(), "--json"},
+                      dir_);
     ASSERT_LE(detected.exit_code, 1) << detected.err;
     const auto report = nlohmann::json::parse(detected.out);
     ASSERT_EQ(report.at("correlation").get<double>(), 1.0) << detected.out;
@@ -204,7 +212,8 @@ TEST_F(KillTest, sigkill_during_embed_never_loses_or_half_writes_a_file)
         }
         else
         {
-            std::this_thread::sleep_for(std::chrono::duration<double>(rng.uniform(window.first, window.second)));
+            std::this_thread::sleep_for(
+                std::chrono::duration<double>(rng.uniform(window.first, window.second)));
         }
         ::kill(pid, SIGKILL);
         const int status = test::wait_for(pid);
@@ -222,7 +231,8 @@ TEST_F(KillTest, sigkill_during_embed_never_loses_or_half_writes_a_file)
         const std::string input_now = file_bytes(input);
         if (in_place && input_now != ref.original)
         {
-            ASSERT_TRUE(input_now == ref.marked) << "the input is neither the original nor the marked copy";
+            ASSERT_TRUE(input_now == ref.marked)
+                << "the input is neither the original nor the marked copy";
             ++replaced_inputs;
         }
         else
@@ -277,7 +287,8 @@ TEST_F(KillTest, sigkill_during_embed_never_loses_or_half_writes_a_file)
     EXPECT_GT(killed_in["read"], 0) << "no kill landed while reading";
     EXPECT_GT(killed_in["write"], 0) << "no kill landed while writing";
     EXPECT_GT(killed_in["basis"] + killed_in["embed"], 0) << "no kill landed while computing";
-    EXPECT_GE(2 * (MESHMARK_KILL_TRIALS - finished), MESHMARK_KILL_TRIALS) << "most runs were not killed";
+    EXPECT_GE(2 * (MESHMARK_KILL_TRIALS - finished), MESHMARK_KILL_TRIALS)
+        << "most runs were not killed";
     summary += "; finished " + std::to_string(finished) + "; marked copy present " +
                std::to_string(with_mesh) + " (without key " + std::to_string(mesh_without_key) +
                "), key present " + std::to_string(with_key) + ", inputs replaced in place " +

@@ -3,11 +3,6 @@
 // codes, signals, output.
 #pragma once
 
-#include <fcntl.h>
-#include <sys/types.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <cerrno>
 #include <chrono>
 #include <filesystem>
@@ -16,15 +11,22 @@
 #include <string>
 #include <vector>
 
+#include <fcntl.h>
+#include <sys/types.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include "support/test_paths.h"
 
-namespace meshmark::test {
+namespace meshmark::test
+{
 
 /// \brief Start the program \p words[0] (a path, not looked up in PATH) with arguments
 /// \p words[1...]; its stdout goes to \p stdout_path (or /dev/null when empty), its stderr to
 /// \p stderr_path (or /dev/null).
 /// \return The child's pid (> 0), or -1 when fork failed.
-inline pid_t spawn_program(std::vector<std::string> words, const std::filesystem::path& stdout_path = {},
+inline pid_t spawn_program(std::vector<std::string> words,
+                           const std::filesystem::path& stdout_path = {},
                            const std::filesystem::path& stderr_path = {})
 {
     std::vector<char*> argv;
@@ -80,8 +82,8 @@ inline int wait_for(pid_t pid)
 struct CliResult
 {
     int exit_code = -1;
-    std::string out;  ///< stdout
-    std::string err;  ///< stderr
+    std::string out;       ///< stdout
+    std::string err;       ///< stderr
     double seconds = 0.0;  ///< wall time, start to exit
 };
 
@@ -95,7 +97,8 @@ inline CliResult run_program(std::vector<std::string> words, const std::filesyst
     const auto start = std::chrono::steady_clock::now();
     CliResult result;
     result.exit_code = wait_for(spawn_program(std::move(words), out, err));
-    result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    result.seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     result.out = file_bytes(out);
     result.err = file_bytes(err);
     std::filesystem::remove(out);
@@ -105,7 +108,8 @@ inline CliResult run_program(std::vector<std::string> words, const std::filesyst
 
 /// Run the meshmark program with \p arguments to completion; \p scratch is a folder for its
 /// captured output.
-inline CliResult run_cli(const std::vector<std::string>& arguments, const std::filesystem::path& scratch)
+inline CliResult run_cli(const std::vector<std::string>& arguments,
+                         const std::filesystem::path& scratch)
 {
     std::vector<std::string> words{cli_path().string()};
     words.insert(words.end(), arguments.begin(), arguments.end());

@@ -1,10 +1,10 @@
 // SPDX-License-Identifier: MIT
 // Issue 2's end-to-end checks on every real mesh: embed -> write -> read -> detect, unmarked and
 // wrong-key copies, and the in-place attacks the same-connectivity detector must survive.
-#include <gtest/gtest.h>
-
 #include <algorithm>
 #include <cstdio>
+
+#include <gtest/gtest.h>
 
 #include "meshmark/attacks/attack_spec.h"
 #include "meshmark/core/bounding_box.h"
@@ -13,10 +13,13 @@
 #include "meshmark/watermark/watermark.h"
 #include "support/test_paths.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
-Key key_for(const TriangleMesh& mesh, std::uint64_t seed, const std::optional<std::string>& message = {})
+Key key_for(const TriangleMesh& mesh, std::uint64_t seed,
+            const std::optional<std::string>& message = {})
 {
     Key key;
     key.seed = seed;
@@ -27,7 +30,8 @@ Key key_for(const TriangleMesh& mesh, std::uint64_t seed, const std::optional<st
     return key;
 }
 
-Decision decide(const SpectralWatermark& mark, const TriangleMesh& original, const Positions& suspect)
+Decision decide(const SpectralWatermark& mark, const TriangleMesh& original,
+                const Positions& suspect)
 {
     const DetectOptions options;
     return mark.decide(Detector(mark, original).extract(suspect, options), options);
@@ -78,7 +82,8 @@ TEST_P(SharedMeshTest, embeds_detects_and_rejects_unmarked_and_wrong_keys)
     {
         const SpectralWatermark other(mesh, key_for(mesh, 1000 + static_cast<std::uint64_t>(t)));
         const Decision d1 = decide(mark, mesh, mesh.V + other.displacement());
-        const SpectralWatermark same(mesh, key_for(mesh, 2000 + static_cast<std::uint64_t>(t), "owner"));
+        const SpectralWatermark same(mesh,
+                                     key_for(mesh, 2000 + static_cast<std::uint64_t>(t), "owner"));
         const Decision d2 = decide(mark, mesh, mesh.V + same.displacement());
         EXPECT_FALSE(d1.is_present);
         EXPECT_FALSE(d2.is_present);
@@ -92,10 +97,11 @@ TEST_P(SharedMeshTest, embeds_detects_and_rejects_unmarked_and_wrong_keys)
     }
     EXPECT_LT(sum_other / trials, 0.5 + 0.15);
     EXPECT_LT(sum_same_message / trials, 0.5 + 0.15);
-    std::printf("[ %s ] rms %.4f%% max %.4f%% of diagonal; wrong keys: mean R %.3f (same message %.3f), "
-                "largest %.3f\n",
-                path.filename().c_str(), 100.0 * stats.rms_displacement_rel,
-                100.0 * stats.max_displacement_rel, sum_other / trials, sum_same_message / trials, largest);
+    std::printf(
+        "[ %s ] rms %.4f%% max %.4f%% of diagonal; wrong keys: mean R %.3f (same message %.3f), "
+        "largest %.3f\n",
+        path.filename().c_str(), 100.0 * stats.rms_displacement_rel,
+        100.0 * stats.max_displacement_rel, sum_other / trials, sum_same_message / trials, largest);
 
     // In-place attacks: uniform noise of 0.1% of the diagonal, 10 Laplacian steps (lambda 0.1).
     for (const char* spec : {"noise=0.001:dist=uniform", "smooth=10:lambda=0.1"})
@@ -105,18 +111,22 @@ TEST_P(SharedMeshTest, embeds_detects_and_rejects_unmarked_and_wrong_keys)
         const Decision d = decide(mark, mesh, attacked.mesh.V);
         EXPECT_GE(d.correlation, 0.75) << spec;
         EXPECT_TRUE(d.is_present) << spec << ": z = " << d.score;
-        std::printf("[ %s ] %s: R = %.3f, z = %.2f\n", path.filename().c_str(), spec, d.correlation, d.score);
+        std::printf("[ %s ] %s: R = %.3f, z = %.2f\n", path.filename().c_str(), spec, d.correlation,
+                    d.score);
     }
 }
 
 std::string name_of(const ::testing::TestParamInfo<std::filesystem::path>& info)
 {
     std::string name = info.param.filename().string();
-    std::replace_if(name.begin(), name.end(), [](char c) { return std::isalnum(static_cast<unsigned char>(c)) == 0; }, '_');
+    std::replace_if(
+        name.begin(), name.end(),
+        [](char c) { return std::isalnum(static_cast<unsigned char>(c)) == 0; }, '_');
     return name;
 }
 
-INSTANTIATE_TEST_SUITE_P(Meshes, SharedMeshTest, ::testing::ValuesIn(test::shared_meshes()), name_of);
+INSTANTIATE_TEST_SUITE_P(Meshes, SharedMeshTest, ::testing::ValuesIn(test::shared_meshes()),
+                         name_of);
 GTEST_ALLOW_UNINSTANTIATED_PARAMETERIZED_TEST(SharedMeshTest);
 
 }  // namespace

@@ -1,33 +1,35 @@
 // SPDX-License-Identifier: MIT
-// The interop suite's check of the Blender re-work bench (bench/blender/attacks.py, docs/robustness.md):
-// four of its cheap operations on a small generated mesh, run by Blender itself, each output read
-// back by meshmark and compared with what the operation must do; and an unknown operation refused
-// before anything is written.
-#include <gtest/gtest.h>
-
+// The interop suite's check of the Blender re-work bench (bench/blender/attacks.py,
+// docs/robustness.md): four of its cheap operations on a small generated mesh, run by Blender
+// itself, each output read back by meshmark and compared with what the operation must do; and an
+// unknown operation refused before anything is written.
 #include <cmath>
 #include <numbers>
 #include <string>
 
 #include <Eigen/Geometry>
+#include <gtest/gtest.h>
 
 #include "interop_support.h"
 #include "meshmark/geometry/shapes.h"
 #include "meshmark/io/mesh_io.h"
 #include "support/test_paths.h"
 
-namespace meshmark::test::interop {
+namespace meshmark::test::interop
+{
 
-namespace {
+namespace
+{
 
 const fs::path kAttacks = fs::path(MESHMARK_BENCH_BLENDER_DIR) / "attacks.py";
 
 ToolRun blender_attacks(const fs::path& input, const fs::path& out_dir,
                         const std::vector<std::string>& ops, const fs::path& scratch)
 {
-    std::vector<std::string> words = {tools().blender.string(), "-b", "--factory-startup",
-                                      "--python-exit-code", "2", "--python", kAttacks.string(),
-                                      "--", input.string(), out_dir.string(), "--seed", "7"};
+    std::vector<std::string> words = {tools().blender.string(), "-b",     "--factory-startup",
+                                      "--python-exit-code",     "2",      "--python",
+                                      kAttacks.string(),        "--",     input.string(),
+                                      out_dir.string(),         "--seed", "7"};
     words.insert(words.end(), ops.begin(), ops.end());
     return run(words, scratch);
 }
@@ -43,7 +45,8 @@ TEST(BlenderInterop, ReworkBenchOperationsDoWhatTheySay)
     write_mesh(input, original);
     const fs::path out = scratch / "out";
     fs::create_directories(out);
-    const ToolRun blender = blender_attacks(input, out, {"decimate=0.5", "transform", "mirror", "bisect"}, scratch);
+    const ToolRun blender =
+        blender_attacks(input, out, {"decimate=0.5", "transform", "mirror", "bisect"}, scratch);
     ASSERT_TRUE(blender.ok()) << blender.describe();
     ASSERT_TRUE(fs::exists(out / "attacks.json")) << blender.describe();
 
@@ -52,7 +55,8 @@ TEST(BlenderInterop, ReworkBenchOperationsDoWhatTheySay)
 
     // Decimate (collapse) to 50%: half the faces, within 10%, and still on the surface.
     const TriangleMesh decimated = read_mesh(out / "decimate_0.5.ply");
-    EXPECT_NEAR(static_cast<double>(decimated.F.rows()), 0.5 * static_cast<double>(original.F.rows()),
+    EXPECT_NEAR(static_cast<double>(decimated.F.rows()),
+                0.5 * static_cast<double>(original.F.rows()),
                 0.05 * static_cast<double>(original.F.rows()));
     EXPECT_LT((bounds(decimated.V).lo - box.lo).norm(), 0.05 * diagonal);
     EXPECT_LT((bounds(decimated.V).hi - box.hi).norm(), 0.05 * diagonal);
@@ -90,12 +94,15 @@ TEST(BlenderInterop, ReworkBenchOperationsDoWhatTheySay)
         worst = std::max(worst, c.distance);
     }
     EXPECT_LT(worst, 1e-5 * diagonal);
-    const auto volume = [](const TriangleMesh& m) {
+    const auto volume = [](const TriangleMesh& m)
+    {
         double v = 0.0;
         for (Eigen::Index f = 0; f < m.F.rows(); ++f)
         {
             const Eigen::Vector3d a = m.V.row(m.F(f, 0));
-            v += a.dot(Eigen::Vector3d(m.V.row(m.F(f, 1))).cross(Eigen::Vector3d(m.V.row(m.F(f, 2))))) / 6.0;
+            v += a.dot(Eigen::Vector3d(m.V.row(m.F(f, 1)))
+                           .cross(Eigen::Vector3d(m.V.row(m.F(f, 2))))) /
+                 6.0;
         }
         return v;
     };
@@ -124,7 +131,8 @@ TEST(BlenderInterop, ReworkBenchRefusesAnUnknownOperationBeforeWriting)
     fs::create_directories(out);
     const ToolRun blender = blender_attacks(input, out, {"transform", "shatter=3"}, scratch);
     EXPECT_EQ(blender.result.exit_code, 2) << blender.describe();
-    EXPECT_NE(blender.result.err.find("unknown operation 'shatter'"), std::string::npos) << blender.describe();
+    EXPECT_NE(blender.result.err.find("unknown operation 'shatter'"), std::string::npos)
+        << blender.describe();
     EXPECT_TRUE(fs::is_empty(out)) << "nothing may be written when an operation is refused";
 }
 

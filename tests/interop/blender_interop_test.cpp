@@ -14,7 +14,8 @@
 #include "meshmark/io/mesh_io.h"
 #include "support/test_paths.h"
 
-namespace meshmark::test::interop {
+namespace meshmark::test::interop
+{
 
 TEST(BlenderInterop, VoxelRemeshGivesBlendersVertices)
 {
@@ -32,9 +33,8 @@ TEST(BlenderInterop, VoxelRemeshGivesBlendersVertices)
                  input.string(), theirs.string(), resolution},
                 scratch);
         ASSERT_TRUE(blender.ok() && fs::exists(theirs)) << blender.describe();
-        const ToolRun attack =
-            meshmark({"attack", input.string(), "-o", ours.string(), "voxel=" + resolution, "-q"},
-                     scratch);
+        const ToolRun attack = meshmark(
+            {"attack", input.string(), "-o", ours.string(), "voxel=" + resolution, "-q"}, scratch);
         ASSERT_TRUE(attack.ok()) << attack.describe();
 
         const TriangleMesh a = read_mesh(theirs);

@@ -9,8 +9,10 @@
 
 #include "support/test_paths.h"
 
-namespace meshmark::test::interop {
-namespace {
+namespace meshmark::test::interop
+{
+namespace
+{
 
 // Position grids (L = the largest extent of the asset's bounding box in world units, as read by
 // glTF-Transform; every corpus asset has one primitive, so this is the primitive's extent):
@@ -75,13 +77,15 @@ fs::path float_base(const fs::path& mesh, const std::string& extension, std::str
 {
     const std::string name = mesh.stem().string() + ".noq_kn" + extension;
     const std::vector<std::string> flags{"-noq", "-kn"};
-    const std::string stamp = "gltfpack -noq -kn\n" + file_stamp(mesh) + file_stamp(tools().gltfpack);
+    const std::string stamp =
+        "gltfpack -noq -kn\n" + file_stamp(mesh) + file_stamp(tools().gltfpack);
     const fs::path folder = corpus_entry(
         name, stamp,
-        [&](const fs::path& staging) {
-            const ToolRun r = run({tools().gltfpack.string(), "-i", mesh.string(), "-o", (staging / ("in" + extension)).string(),
-                               "-noq", "-kn"},
-                              staging);
+        [&](const fs::path& staging)
+        {
+            const ToolRun r = run({tools().gltfpack.string(), "-i", mesh.string(), "-o",
+                                   (staging / ("in" + extension)).string(), "-noq", "-kn"},
+                                  staging);
             return r.ok() ? std::string{} : r.describe();
         },
         error);
@@ -91,7 +95,8 @@ fs::path float_base(const fs::path& mesh, const std::string& extension, std::str
 // The scene of make_scene.mjs from the float bases of kSceneMeshes.
 fs::path scene_base(std::string* error)
 {
-    std::vector<std::string> words{tools().node.string(), (kInteropDir / "make_scene.mjs").string()};
+    std::vector<std::string> words{tools().node.string(),
+                                   (kInteropDir / "make_scene.mjs").string()};
     std::string stamp = "make_scene\n" + file_stamp(kInteropDir / "make_scene.mjs");
     for (const auto& mesh : kSceneMeshes)
     {
@@ -105,7 +110,8 @@ fs::path scene_base(std::string* error)
     }
     const fs::path folder = corpus_entry(
         "scene_base", stamp,
-        [&](const fs::path& staging) {
+        [&](const fs::path& staging)
+        {
             std::vector<std::string> command = words;
             command.push_back((staging / "in.glb").string());
             const ToolRun r = run(command, staging);
@@ -150,63 +156,73 @@ fs::path case_input(const GltfCase& c, std::string* error)
     std::function<std::string(const fs::path&)> produce;
     switch (c.variant.source)
     {
-    case Source::Gltfpack:
-    case Source::SceneGltfpack:
-        stamp += file_stamp(t.gltfpack);
-        produce = [&](const fs::path& staging) {
-            std::vector<std::string> words{t.gltfpack.string(), "-i", mesh.string(), "-o", (staging / "in.glb").string()};
-            words.insert(words.end(), c.variant.steps[0].begin(), c.variant.steps[0].end());
-            const ToolRun r = run(words, staging);
-            return r.ok() ? std::string{} : r.describe();
-        };
-        break;
-    case Source::GltfTransform:
-    case Source::Scene:
-    {
-        const fs::path base = c.variant.source == Source::Scene ? mesh : float_base(mesh, ".glb", error);
-        if (base.empty())
-        {
-            return {};
-        }
-        stamp += file_stamp(base) + file_stamp(t.gltf_transform);
-        produce = [&, base](const fs::path& staging) {
-            fs::path from = base;
-            if (c.variant.steps.empty())
+        case Source::Gltfpack:
+        case Source::SceneGltfpack:
+            stamp += file_stamp(t.gltfpack);
+            produce = [&](const fs::path& staging)
             {
-                fs::copy_file(base, staging / "in.glb");
-            }
-            for (std::size_t i = 0; i < c.variant.steps.size(); ++i)
-            {
-                const fs::path to = staging / (i + 1 == c.variant.steps.size() ? "in.glb" : "step" + std::to_string(i) + ".glb");
-                std::vector<std::string> words{t.gltf_transform.string(), c.variant.steps[i][0], from.string(), to.string()};
-                words.insert(words.end(), c.variant.steps[i].begin() + 1, c.variant.steps[i].end());
+                std::vector<std::string> words{t.gltfpack.string(), "-i", mesh.string(), "-o",
+                                               (staging / "in.glb").string()};
+                words.insert(words.end(), c.variant.steps[0].begin(), c.variant.steps[0].end());
                 const ToolRun r = run(words, staging);
-                if (!r.ok())
-                {
-                    return r.describe();
-                }
-                from = to;
-            }
-            return std::string{};
-        };
-        break;
-    }
-    case Source::GltfPipeline:
-    {
-        const fs::path base = float_base(mesh, ".gltf", error);
-        if (base.empty())
+                return r.ok() ? std::string{} : r.describe();
+            };
+            break;
+        case Source::GltfTransform:
+        case Source::Scene:
         {
-            return {};
+            const fs::path base =
+                c.variant.source == Source::Scene ? mesh : float_base(mesh, ".glb", error);
+            if (base.empty())
+            {
+                return {};
+            }
+            stamp += file_stamp(base) + file_stamp(t.gltf_transform);
+            produce = [&, base](const fs::path& staging)
+            {
+                fs::path from = base;
+                if (c.variant.steps.empty())
+                {
+                    fs::copy_file(base, staging / "in.glb");
+                }
+                for (std::size_t i = 0; i < c.variant.steps.size(); ++i)
+                {
+                    const fs::path to = staging / (i + 1 == c.variant.steps.size()
+                                                       ? "in.glb"
+                                                       : "step" + std::to_string(i) + ".glb");
+                    std::vector<std::string> words{t.gltf_transform.string(), c.variant.steps[i][0],
+                                                   from.string(), to.string()};
+                    words.insert(words.end(), c.variant.steps[i].begin() + 1,
+                                 c.variant.steps[i].end());
+                    const ToolRun r = run(words, staging);
+                    if (!r.ok())
+                    {
+                        return r.describe();
+                    }
+                    from = to;
+                }
+                return std::string{};
+            };
+            break;
         }
-        stamp += file_stamp(base) + file_stamp(t.gltf_pipeline);
-        produce = [&, base](const fs::path& staging) {
-            std::vector<std::string> words{t.gltf_pipeline.string(), "-i", base.string(), "-o", (staging / "in.glb").string()};
-            words.insert(words.end(), c.variant.steps[0].begin(), c.variant.steps[0].end());
-            const ToolRun r = run(words, staging);
-            return r.ok() ? std::string{} : r.describe();
-        };
-        break;
-    }
+        case Source::GltfPipeline:
+        {
+            const fs::path base = float_base(mesh, ".gltf", error);
+            if (base.empty())
+            {
+                return {};
+            }
+            stamp += file_stamp(base) + file_stamp(t.gltf_pipeline);
+            produce = [&, base](const fs::path& staging)
+            {
+                std::vector<std::string> words{t.gltf_pipeline.string(), "-i", base.string(), "-o",
+                                               (staging / "in.glb").string()};
+                words.insert(words.end(), c.variant.steps[0].begin(), c.variant.steps[0].end());
+                const ToolRun r = run(words, staging);
+                return r.ok() ? std::string{} : r.describe();
+            };
+            break;
+        }
     }
     const fs::path folder = corpus_entry(c.name(), stamp, produce, error);
     return folder.empty() ? fs::path{} : folder / "in.glb";

@@ -11,7 +11,8 @@
 
 #include "interop_support.h"
 
-namespace meshmark::test::interop {
+namespace meshmark::test::interop
+{
 
 enum class Source
 {
@@ -46,7 +47,10 @@ struct GltfCase
 };
 
 // gtest prints a test's parameter: the case name, not GltfCase's bytes.
-inline void PrintTo(const GltfCase& c, std::ostream* os) { *os << c.name(); }
+inline void PrintTo(const GltfCase& c, std::ostream* os)
+{
+    *os << c.name();
+}
 
 // The multi-part asset of make_scene.mjs (spot textured under a rotated node with fandisk as its
 // scaled child, the bunny instanced by two nodes), as written and after the ecosystem's tools.

@@ -27,8 +27,10 @@
 #include "meshmark/watermark/watermark.h"
 #include "support/test_paths.h"
 
-namespace meshmark::test::interop {
-namespace {
+namespace meshmark::test::interop
+{
+namespace
+{
 
 // Re-process \p file with a tool into \p output: the tool's command words.
 using Reprocess = std::function<std::vector<std::string>(const fs::path& in, const fs::path& out)>;
@@ -74,7 +76,9 @@ TEST_P(GltfInterop, EmbedValidateReadDetect)
     const std::string out_name = c.name() + "/out.glb";
 
     // (a) embed
-    const ToolRun embed = meshmark({"embed", in.string(), "-o", out.string(), "--key", key.string(), "--seed", kSeed, "-q"}, scratch);
+    const ToolRun embed = meshmark(
+        {"embed", in.string(), "-o", out.string(), "--key", key.string(), "--seed", kSeed, "-q"},
+        scratch);
     ASSERT_TRUE(embed.ok()) << "(a) embed of " << in_name << " failed: " << embed.describe();
 
     // (b) the Khronos validator: no new errors or warnings.
@@ -83,26 +87,31 @@ TEST_P(GltfInterop, EmbedValidateReadDetect)
         std::string out_error;
         const Validation vin = validate(in, scratch, &in_error);
         const Validation vout = validate(out, scratch, &out_error);
-        EXPECT_TRUE(in_error.empty() && out_error.empty()) << "(b) the validator did not run: " << in_error << out_error;
-        EXPECT_LE(vout.errors, vin.errors) << "(b) validator errors: " << out_name << " " << vout.errors << " " << vout.codes
-                                           << " vs " << in_name << " " << vin.errors << " " << vin.codes
-                                           << "; first messages of " << out_name << ": " << vout.messages;
+        EXPECT_TRUE(in_error.empty() && out_error.empty())
+            << "(b) the validator did not run: " << in_error << out_error;
+        EXPECT_LE(vout.errors, vin.errors)
+            << "(b) validator errors: " << out_name << " " << vout.errors << " " << vout.codes
+            << " vs " << in_name << " " << vin.errors << " " << vin.codes << "; first messages of "
+            << out_name << ": " << vout.messages;
         EXPECT_LE(vout.warnings, vin.warnings)
-            << "(b) validator warnings: " << out_name << " " << vout.warnings << " " << vout.codes << " vs " << in_name
-            << " " << vin.warnings << " " << vin.codes << "; first messages of " << out_name << ": " << vout.messages;
+            << "(b) validator warnings: " << out_name << " " << vout.warnings << " " << vout.codes
+            << " vs " << in_name << " " << vin.warnings << " " << vin.codes
+            << "; first messages of " << out_name << ": " << vout.messages;
     }
 
     // (c) positions read by glTF-Transform: what meshmark meant to write, within one grid step.
     {
         std::string read_error;
         const Positions in_read = independent_read(in, scratch, &read_error);
-        ASSERT_TRUE(read_error.empty()) << "(c) glTF-Transform cannot read " << in_name << ": " << read_error;
+        ASSERT_TRUE(read_error.empty())
+            << "(c) glTF-Transform cannot read " << in_name << ": " << read_error;
         ASSERT_GT(in_read.rows(), 0) << "(c) " << in_name << " has no positions";
         const Positions out_read = independent_read(out, scratch, &read_error);
-        ASSERT_TRUE(read_error.empty()) << "(c) glTF-Transform cannot read " << out_name << ": " << read_error;
+        ASSERT_TRUE(read_error.empty())
+            << "(c) glTF-Transform cannot read " << out_name << ": " << read_error;
         EXPECT_EQ(out_read.rows(), in_read.rows())
-            << "(c) vertex count: glTF-Transform reads " << out_read.rows() << " positions from " << out_name << " but "
-            << in_read.rows() << " from " << in_name;
+            << "(c) vertex count: glTF-Transform reads " << out_read.rows() << " positions from "
+            << out_name << " but " << in_read.rows() << " from " << in_name;
         ASSERT_GT(out_read.rows(), 0) << "(c) " << out_name << " has no positions";
 
         // "Meant": meshmark's library on IN (read_mesh_file, the welded world-space mesh) with
@@ -116,7 +125,8 @@ TEST_P(GltfInterop, EmbedValidateReadDetect)
         const Box in_box = bounds(in_read);
         const double D = in_box.diagonal();
         const double L = in_box.largest_extent();
-        const double q = c.variant.position_bits > 0 ? L / (std::pow(2.0, c.variant.position_bits) - 1.0) : 0.0;
+        const double q =
+            c.variant.position_bits > 0 ? L / (std::pow(2.0, c.variant.position_bits) - 1.0) : 0.0;
         // The scene's instanced bunny is stored at 1/6 of its shown size (its nodes scale by 6):
         // a tool's grid over its local extent is up to 6 times coarser in world units than one
         // over the scene's extent.
@@ -150,7 +160,8 @@ TEST_P(GltfInterop, EmbedValidateReadDetect)
         EXPECT_LE(weld_distance, 1e-6 * D) << "(c) meshmark's read of " << in_name << " is "
                                            << weld_distance / D << " D away from glTF-Transform's";
         EXPECT_EQ(instance_elements, in_file.instances.vertex_count())
-            << "(c) elements of " << in_name << " outside meshmark's welded mesh against its instance points";
+            << "(c) elements of " << in_name
+            << " outside meshmark's welded mesh against its instance points";
 
         // Same order when nothing renumbers points; a Draco re-encode (edgebreaker) or a count
         // change falls back to the nearest expected position.
@@ -170,9 +181,11 @@ TEST_P(GltfInterop, EmbedValidateReadDetect)
                 continue;  // another instance: not what meshmark analysed (see above)
             }
             const Eigen::RowVector3d target =
-                same_order ? Eigen::RowVector3d(expected.row(i))
-                           : Eigen::RowVector3d(expected.row(
-                                 expected_index->closest(Eigen::Vector3d(out_read.row(i).transpose())).vertex));
+                same_order
+                    ? Eigen::RowVector3d(expected.row(i))
+                    : Eigen::RowVector3d(expected.row(
+                          expected_index->closest(Eigen::Vector3d(out_read.row(i).transpose()))
+                              .vertex));
             const double e = (out_read.row(i) - target).cwiseAbs().maxCoeff();
             over += e > tolerance ? 1 : 0;
             if (e > max_error)
@@ -182,30 +195,38 @@ TEST_P(GltfInterop, EmbedValidateReadDetect)
             }
         }
         EXPECT_LE(max_error, tolerance)
-            << "(c) positions of " << out_name << " differ from what meshmark meant by up to " << max_error << " ("
-            << max_error / D << " D, " << (q > 0 ? max_error / q : 0.0) << " grid steps) at element " << worst << "; "
-            << over << " of " << out_read.rows() << " elements beyond the tolerance " << tolerance << " ("
-            << (c.variant.position_bits > 0 ? std::to_string(c.variant.position_bits) + "-bit step + 1e-6 D"
-                                            : std::string("float32: 1e-6 D"))
+            << "(c) positions of " << out_name << " differ from what meshmark meant by up to "
+            << max_error << " (" << max_error / D << " D, " << (q > 0 ? max_error / q : 0.0)
+            << " grid steps) at element " << worst << "; " << over << " of " << out_read.rows()
+            << " elements beyond the tolerance " << tolerance << " ("
+            << (c.variant.position_bits > 0
+                    ? std::to_string(c.variant.position_bits) + "-bit step + 1e-6 D"
+                    : std::string("float32: 1e-6 D"))
             << "), " << (same_order ? "same order" : "nearest expected position");
 
         const Box out_box = bounds(out_read);
-        const double bbox_change =
-            std::max((out_box.lo - in_box.lo).cwiseAbs().maxCoeff(), (out_box.hi - in_box.hi).cwiseAbs().maxCoeff()) / D;
-        EXPECT_LT(bbox_change, 0.01) << "(c) the bounding box of " << out_name << " moved by " << bbox_change
-                                     << " of the diagonal against " << in_name;
+        const double bbox_change = std::max((out_box.lo - in_box.lo).cwiseAbs().maxCoeff(),
+                                            (out_box.hi - in_box.hi).cwiseAbs().maxCoeff()) /
+                                   D;
+        EXPECT_LT(bbox_change, 0.01) << "(c) the bounding box of " << out_name << " moved by "
+                                     << bbox_change << " of the diagonal against " << in_name;
         const double displacement = (meant - in_file.mesh.V).cwiseAbs().maxCoeff();
-        EXPECT_GT(displacement, 0.0) << "(c) the expected positions equal IN's: the check would not see a missing mark";
-        std::printf("[interop] %s: %lld -> %lld positions, max error %.3g D (%.3g steps, tolerance %.3g D), bbox change "
-                    "%.3g D, max displacement %.3g D\n",
-                    c.name().c_str(), static_cast<long long>(in_read.rows()), static_cast<long long>(out_read.rows()),
-                    max_error / D, q > 0 ? max_error / q : 0.0, tolerance / D, bbox_change, displacement / D);
+        EXPECT_GT(displacement, 0.0)
+            << "(c) the expected positions equal IN's: the check would not see a missing mark";
+        std::printf(
+            "[interop] %s: %lld -> %lld positions, max error %.3g D (%.3g steps, tolerance %.3g "
+            "D), bbox change "
+            "%.3g D, max displacement %.3g D\n",
+            c.name().c_str(), static_cast<long long>(in_read.rows()),
+            static_cast<long long>(out_read.rows()), max_error / D, q > 0 ? max_error / q : 0.0,
+            tolerance / D, bbox_change, displacement / D);
         RecordProperty("max_error_rel", std::to_string(max_error / D));
         RecordProperty("bbox_change_rel", std::to_string(bbox_change));
     }
 
     // (d) detect: the marked file, then after re-processing it.
-    const ToolRun found = meshmark({"detect", out.string(), "--original", in.string(), "--key", key.string(), "-q"}, scratch);
+    const ToolRun found = meshmark(
+        {"detect", out.string(), "--original", in.string(), "--key", key.string(), "-q"}, scratch);
     EXPECT_EQ(found.result.exit_code, 0) << "(d) detect " << out_name << ": " << found.describe();
 
     const std::vector<std::pair<std::string, Reprocess>> reprocessors{
@@ -214,20 +235,25 @@ TEST_P(GltfInterop, EmbedValidateReadDetect)
     };
     for (const auto& [what, command] : reprocessors)
     {
-        const fs::path again = scratch / ("out." + std::string(what == "gltfpack -cc" ? "gltfpack_cc" : "optimize") + ".glb");
+        const fs::path again =
+            scratch /
+            ("out." + std::string(what == "gltfpack -cc" ? "gltfpack_cc" : "optimize") + ".glb");
         const ToolRun redo = run(command(out, again), scratch);
         if (!redo.ok())
         {
             // Not meshmark's doing if the tool cannot process the unmarked input either.
             const ToolRun control = run(command(in, scratch / "control.glb"), scratch);
-            EXPECT_FALSE(control.ok()) << "(d) " << what << " cannot process " << out_name << " but can process "
-                                       << in_name << ": " << redo.describe();
-            std::printf("[interop] %s: (d) %s not applicable: it cannot process the unmarked input either: %s\n",
-                        c.name().c_str(), what.c_str(), control.describe().c_str());
+            EXPECT_FALSE(control.ok()) << "(d) " << what << " cannot process " << out_name
+                                       << " but can process " << in_name << ": " << redo.describe();
+            std::printf(
+                "[interop] %s: (d) %s not applicable: it cannot process the unmarked input either: "
+                "%s\n",
+                c.name().c_str(), what.c_str(), control.describe().c_str());
             continue;
         }
-        const ToolRun detected =
-            meshmark({"detect", again.string(), "--original", in.string(), "--key", key.string(), "-q"}, scratch);
+        const ToolRun detected = meshmark(
+            {"detect", again.string(), "--original", in.string(), "--key", key.string(), "-q"},
+            scratch);
         if (detected.result.exit_code != 0)
         {
             // A tool that damages the asset itself is no faithful copy: gltfpack -cc of an asset
@@ -236,14 +262,18 @@ TEST_P(GltfInterop, EmbedValidateReadDetect)
             // the UNMARKED input). Such a re-processing is reported, not held against the mark.
             const fs::path control = scratch / "control.glb";
             const ToolRun redo_in = run(command(in, control), scratch);
-            const ToolRun distortion = meshmark({"compare", in.string(), control.string(), "--json"}, scratch);
+            const ToolRun distortion =
+                meshmark({"compare", in.string(), control.string(), "--json"}, scratch);
             const auto report = nlohmann::json::parse(distortion.result.out, nullptr, false);
             const double mrms = report.is_discarded() ? 0.0 : report.value("mrms", 0.0);
             if (redo_in.ok() && mrms > kToolDamage)
             {
-                std::printf("[interop] %s: (d) %s not applicable: it distorts the unmarked input by MRMS %.3g%% of the "
-                            "diagonal (the marked copy: %s)\n",
-                            c.name().c_str(), what.c_str(), 100.0 * mrms, tail(detected.result.out, 160).c_str());
+                std::printf(
+                    "[interop] %s: (d) %s not applicable: it distorts the unmarked input by MRMS "
+                    "%.3g%% of the "
+                    "diagonal (the marked copy: %s)\n",
+                    c.name().c_str(), what.c_str(), 100.0 * mrms,
+                    tail(detected.result.out, 160).c_str());
                 continue;
             }
         }
@@ -260,20 +290,26 @@ TEST_P(GltfInterop, EmbedValidateReadDetect)
         std::string how = "gltfpack -cc";
         if (!redo.ok())
         {
-            std::printf("[interop] %s: (e) gltfpack -cc cannot process %s (%s); using gltf-transform optimize\n",
-                        c.name().c_str(), in_name.c_str(), tail(redo.result.err, 120).c_str());
+            std::printf(
+                "[interop] %s: (e) gltfpack -cc cannot process %s (%s); using gltf-transform "
+                "optimize\n",
+                c.name().c_str(), in_name.c_str(), tail(redo.result.err, 120).c_str());
             redo = run(gltf_transform_optimize(in, r0), scratch);
             how = "gltf-transform optimize";
         }
-        ASSERT_TRUE(redo.ok()) << "(e) cannot re-process the unmarked " << in_name << ": " << redo.describe();
-        const ToolRun unmarked = meshmark({"detect", r0.string(), "--original", in.string(), "--key", key.string(), "-q"}, scratch);
-        EXPECT_EQ(unmarked.result.exit_code, 1)
-            << "(e) detect on the unmarked " << in_name << " after " << how << ": " << unmarked.describe();
+        ASSERT_TRUE(redo.ok()) << "(e) cannot re-process the unmarked " << in_name << ": "
+                               << redo.describe();
+        const ToolRun unmarked = meshmark(
+            {"detect", r0.string(), "--original", in.string(), "--key", key.string(), "-q"},
+            scratch);
+        EXPECT_EQ(unmarked.result.exit_code, 1) << "(e) detect on the unmarked " << in_name
+                                                << " after " << how << ": " << unmarked.describe();
     }
 }
 
 INSTANTIATE_TEST_SUITE_P(Corpus, GltfInterop, ::testing::ValuesIn(gltf_cases()),
-                         [](const ::testing::TestParamInfo<GltfCase>& param) { return param.param.name(); });
+                         [](const ::testing::TestParamInfo<GltfCase>& param)
+                         { return param.param.name(); });
 
 }  // namespace
 }  // namespace meshmark::test::interop

@@ -3,10 +3,6 @@
 // (a file lock, so that parallel ctest processes make each entry once), the node-helper checks.
 #include "interop_support.h"
 
-#include <fcntl.h>
-#include <sys/file.h>
-#include <unistd.h>
-
 #include <atomic>
 #include <cerrno>
 #include <cstdlib>
@@ -17,12 +13,17 @@
 #include <string>
 #include <vector>
 
+#include <fcntl.h>
 #include <nlohmann/json.hpp>
+#include <sys/file.h>
+#include <unistd.h>
 
 #include "support/test_paths.h"
 
-namespace meshmark::test::interop {
-namespace {
+namespace meshmark::test::interop
+{
+namespace
+{
 
 // PATH is searched here, in the parent, so that the child runs execv on a full path (execvp is
 // not async-signal-safe, and the tests fork while OpenMP threads may exist).
@@ -94,7 +95,8 @@ Tools::Tools()
       blender(find_in_path("blender")),
       assimp(find_in_path("assimp")),
       // Debian's interpreter, not the first python3 on PATH (a pyenv one lacks Debian's modules).
-      open3d_python(fs::exists("/usr/bin/python3") && fs::exists("/usr/lib/python3/dist-packages/open3d")
+      open3d_python(fs::exists("/usr/bin/python3") &&
+                            fs::exists("/usr/lib/python3/dist-packages/open3d")
                         ? fs::path("/usr/bin/python3")
                         : fs::path()),
       gltf_transform(node_bin("gltf-transform")),
@@ -111,7 +113,8 @@ const Tools& tools()
 std::string missing_tools(const std::vector<std::string>& needed)
 {
     std::string missing;
-    auto note = [&](bool present, const std::string& what) {
+    auto note = [&](bool present, const std::string& what)
+    {
         if (!present)
         {
             missing += (missing.empty() ? "" : ", ") + what;
@@ -133,11 +136,12 @@ std::string missing_tools(const std::vector<std::string>& needed)
         {
             note(!t.node.empty(), "node");
             // The helpers' packages (npm ci in tests/interop, scripts/setup.sh).
-            for (const char* package : {"@gltf-transform/core", "@gltf-transform/extensions", "draco3dgltf",
-                                        "meshoptimizer", "gltf-validator"})
+            for (const char* package : {"@gltf-transform/core", "@gltf-transform/extensions",
+                                        "draco3dgltf", "meshoptimizer", "gltf-validator"})
             {
                 note(fs::exists(kInteropDir / "node_modules" / package / "package.json"),
-                     std::string("the npm package ") + package + " in " + (kInteropDir / "node_modules").string());
+                     std::string("the npm package ") + package + " in " +
+                         (kInteropDir / "node_modules").string());
             }
         }
         else if (name == "gltfpack")
@@ -179,7 +183,8 @@ std::string missing_tools(const std::vector<std::string>& needed)
         else if (name == "occt-misc")
         {
             // Debian's occt-misc: OpenCASCADE's sample CAD parts as STL.
-            note(fs::exists("/usr/share/opencascade/data/stl/motor.stl"), "occt-misc (/usr/share/opencascade/data)");
+            note(fs::exists("/usr/share/opencascade/data/stl/motor.stl"),
+                 "occt-misc (/usr/share/opencascade/data)");
         }
         else if (name == "sweethome3d-furniture")
         {
@@ -191,7 +196,8 @@ std::string missing_tools(const std::vector<std::string>& needed)
         else if (name == "assimp-testmodels")
         {
             // Debian's assimp-testmodels: other people's models (real_assets_test.cpp).
-            note(fs::exists("/usr/share/assimp/models/OBJ/spider.obj"), "assimp-testmodels (/usr/share/assimp/models)");
+            note(fs::exists("/usr/share/assimp/models/OBJ/spider.obj"),
+                 "assimp-testmodels (/usr/share/assimp/models)");
         }
         else if (name == "prusa-slicer")
         {
@@ -207,7 +213,8 @@ std::string quoted(const std::vector<std::string>& words)
     std::string text;
     for (const auto& word : words)
     {
-        text += (text.empty() ? "" : " ") + (word.find(' ') == std::string::npos ? word : "'" + word + "'");
+        text += (text.empty() ? "" : " ") +
+                (word.find(' ') == std::string::npos ? word : "'" + word + "'");
     }
     return text;
 }
@@ -235,7 +242,8 @@ ToolRun meshmark(const std::vector<std::string>& arguments, const fs::path& scra
     return r;
 }
 
-ToolRun node_helper(const std::string& script, std::vector<std::string> arguments, const fs::path& scratch)
+ToolRun node_helper(const std::string& script, std::vector<std::string> arguments,
+                    const fs::path& scratch)
 {
     std::vector<std::string> words{tools().node.string(), (kInteropDir / script).string()};
     words.insert(words.end(), arguments.begin(), arguments.end());
@@ -255,7 +263,8 @@ std::string file_stamp(const fs::path& path)
 }
 
 fs::path corpus_entry(const std::string& name, const std::string& stamp,
-                      const std::function<std::string(const fs::path&)>& produce, std::string* error)
+                      const std::function<std::string(const fs::path&)>& produce,
+                      std::string* error)
 {
     fs::create_directories(kCorpusDir);
     const FileLock lock(kCorpusDir / (name + ".lock"));
@@ -316,7 +325,8 @@ Positions independent_read(const fs::path& file, const fs::path& scratch, std::s
     const std::string bytes = file_bytes(bin);
     if (bytes.size() % (3 * sizeof(double)) != 0)
     {
-        *error = bin.string() + " has " + std::to_string(bytes.size()) + " bytes, not a multiple of 24";
+        *error =
+            bin.string() + " has " + std::to_string(bytes.size()) + " bytes, not a multiple of 24";
         return {};
     }
     Positions P(static_cast<Eigen::Index>(bytes.size() / (3 * sizeof(double))), 3);
@@ -324,7 +334,10 @@ Positions independent_read(const fs::path& file, const fs::path& scratch, std::s
     return P;
 }
 
-Box bounds(const Positions& P) { return {P.colwise().minCoeff(), P.colwise().maxCoeff()}; }
+Box bounds(const Positions& P)
+{
+    return {P.colwise().minCoeff(), P.colwise().maxCoeff()};
+}
 
 ClosestPointIndex cloud_index(const Positions& P)
 {

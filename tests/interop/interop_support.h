@@ -16,7 +16,8 @@
 #include "meshmark/core/triangle_mesh.h"
 #include "meshmark/geometry/closest_point_index.h"
 
-namespace meshmark::test::interop {
+namespace meshmark::test::interop
+{
 
 namespace fs = std::filesystem;
 
@@ -56,19 +57,20 @@ std::string missing_tools(const std::vector<std::string>& needed);
 
 // A missing tool skips the case on a developer's machine, but fails it when CI is set: CI has
 // every tool (scripts/setup.sh), so a skip there would silently stop the suite from running.
-#define INTEROP_REQUIRE_TOOLS(...)                                                                   \
-    do                                                                                               \
-    {                                                                                                \
-        const std::string missing_ = missing_tools({__VA_ARGS__});                                   \
-        if (!missing_.empty())                                                                       \
-        {                                                                                            \
-            if (in_ci())                                                                             \
-            {                                                                                        \
-                GTEST_FAIL() << "missing " << missing_ << " (CI is set: the interop suite must run; " \
-                                                          "scripts/setup.sh installs the tools)";    \
-            }                                                                                        \
-            GTEST_SKIP() << "missing " << missing_ << " (scripts/setup.sh installs the tools)";     \
-        }                                                                                            \
+#define INTEROP_REQUIRE_TOOLS(...)                                                              \
+    do                                                                                          \
+    {                                                                                           \
+        const std::string missing_ = missing_tools({__VA_ARGS__});                              \
+        if (!missing_.empty())                                                                  \
+        {                                                                                       \
+            if (in_ci())                                                                        \
+            {                                                                                   \
+                GTEST_FAIL() << "missing " << missing_                                          \
+                             << " (CI is set: the interop suite must run; "                     \
+                                "scripts/setup.sh installs the tools)";                         \
+            }                                                                                   \
+            GTEST_SKIP() << "missing " << missing_ << " (scripts/setup.sh installs the tools)"; \
+        }                                                                                       \
     } while (false)
 
 /// The words joined by spaces, those with a space in single quotes (for messages).
@@ -97,7 +99,8 @@ ToolRun run(std::vector<std::string> words, const fs::path& scratch);
 ToolRun meshmark(const std::vector<std::string>& arguments, const fs::path& scratch);
 
 /// Run the node helper \p script of tests/interop with \p arguments.
-ToolRun node_helper(const std::string& script, std::vector<std::string> arguments, const fs::path& scratch);
+ToolRun node_helper(const std::string& script, std::vector<std::string> arguments,
+                    const fs::path& scratch);
 
 // ---------------------------------------------------------------------------------------------
 // The corpus cache
@@ -110,7 +113,8 @@ std::string file_stamp(const fs::path& path);
 /// is made beside its final place and renamed into it, under a lock, so a concurrent case
 /// waits for it instead of making it again, and a failed or killed run leaves nothing behind.
 fs::path corpus_entry(const std::string& name, const std::string& stamp,
-                      const std::function<std::string(const fs::path&)>& produce, std::string* error);
+                      const std::function<std::string(const fs::path&)>& produce,
+                      std::string* error);
 
 // ---------------------------------------------------------------------------------------------
 // Checks

@@ -3,31 +3,33 @@
 // from Debian's assimp-testmodels (/usr/share/assimp/models): Khronos' 2CylinderEngine sample as
 // a .glb and as a Draco-compressed .gltf with its .bin, and the textured low-poly spider of
 // OBJ/spider.obj (19 groups whose touching parts repeat 40 of its 762 positions).
-#include <gtest/gtest.h>
-
 #include <algorithm>
 #include <cmath>
 #include <functional>
 #include <string>
 #include <vector>
 
+#include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
 #include "interop_support.h"
 #include "meshmark/io/mesh_io.h"
 #include "support/test_paths.h"
 
-namespace meshmark::test::interop {
+namespace meshmark::test::interop
+{
 
-namespace {
+namespace
+{
 
 const fs::path kModels = "/usr/share/assimp/models";
 
 nlohmann::json detect_json(const fs::path& suspect, const fs::path& original, const fs::path& key,
                            const fs::path& scratch, int* exit_code)
 {
-    const ToolRun detect = meshmark(
-        {"detect", suspect.string(), "--original", original.string(), "--key", key.string(), "--json"}, scratch);
+    const ToolRun detect = meshmark({"detect", suspect.string(), "--original", original.string(),
+                                     "--key", key.string(), "--json"},
+                                    scratch);
     *exit_code = detect.result.exit_code;
     return nlohmann::json::parse(detect.result.out, nullptr, false);
 }
@@ -49,23 +51,35 @@ std::pair<double, double> nearest_distances(const Positions& A, const Positions&
 }
 
 // `meshmark embed ORIGINAL -o MARKED --key KEY --seed SEED -q`.
-ToolRun embed(const fs::path& original, const fs::path& marked, const fs::path& key, const std::string& seed,
-              const fs::path& scratch, const std::vector<std::string>& options = {})
+ToolRun embed(const fs::path& original, const fs::path& marked, const fs::path& key,
+              const std::string& seed, const fs::path& scratch,
+              const std::vector<std::string>& options = {})
 {
-    std::vector<std::string> words = {"embed", original.string(), "-o", marked.string(), "--key", key.string(),
-                                      "--seed", seed, "-q"};
+    std::vector<std::string> words = {"embed", original.string(), "-o",     marked.string(),
+                                      "--key", key.string(),      "--seed", seed,
+                                      "-q"};
     words.insert(words.end(), options.begin(), options.end());
     return meshmark(words, scratch);
 }
 
 // Blender runs the re-work bench's operations \p ops on \p input, writing into \p out.
-ToolRun blender_attacks(const fs::path& input, const fs::path& out, const std::vector<std::string>& ops,
-                        const fs::path& scratch)
+ToolRun blender_attacks(const fs::path& input, const fs::path& out,
+                        const std::vector<std::string>& ops, const fs::path& scratch)
 {
     fs::create_directories(out);
-    std::vector<std::string> words = {tools().blender.string(), "-b", "--factory-startup", "--python-exit-code", "2",
-                                      "--python", (fs::path(MESHMARK_BENCH_BLENDER_DIR) / "attacks.py").string(),
-                                      "--", input.string(), out.string(), "--seed", "1"};
+    std::vector<std::string> words = {
+        tools().blender.string(),
+        "-b",
+        "--factory-startup",
+        "--python-exit-code",
+        "2",
+        "--python",
+        (fs::path(MESHMARK_BENCH_BLENDER_DIR) / "attacks.py").string(),
+        "--",
+        input.string(),
+        out.string(),
+        "--seed",
+        "1"};
     words.insert(words.end(), ops.begin(), ops.end());
     return run(words, scratch);
 }
@@ -80,16 +94,18 @@ struct MarkedGameAsset
     fs::path key;
 };
 MarkedGameAsset make_and_mark_game_asset(const std::string& kind, const std::string& seed,
-                                         const std::vector<std::string>& options, const fs::path& scratch,
-                                         std::string* error)
+                                         const std::vector<std::string>& options,
+                                         const fs::path& scratch, std::string* error)
 {
     MarkedGameAsset asset{scratch / (kind + ".glb"), scratch / "marked.glb", scratch / "key.json"};
     const ToolRun making =
-        run({tools().blender.string(), "-b", "--factory-startup", "--python-exit-code", "2", "--python",
-             (fs::path(MESHMARK_BENCH_BLENDER_DIR) / "make_game_asset.py").string(), "--", asset.original.string(), kind},
+        run({tools().blender.string(), "-b", "--factory-startup", "--python-exit-code", "2",
+             "--python", (fs::path(MESHMARK_BENCH_BLENDER_DIR) / "make_game_asset.py").string(),
+             "--", asset.original.string(), kind},
             scratch);
     const ToolRun marking =
-        making.ok() ? embed(asset.original, asset.marked, asset.key, seed, scratch, options) : making;
+        making.ok() ? embed(asset.original, asset.marked, asset.key, seed, scratch, options)
+                    : making;
     if (!marking.ok())
     {
         *error = marking.describe();
@@ -100,16 +116,19 @@ MarkedGameAsset make_and_mark_game_asset(const std::string& kind, const std::str
 // Blender's re-work operation \p op on \p marked and on \p original, each result (\p output in
 // the operation's folder) detected against \p original with \p key; \p check gets each report, its
 // exit code and whether it came from the marked copy.
-void check_marked_and_clean(const fs::path& original, const fs::path& marked, const fs::path& key, const std::string& op,
-                            const std::string& output, const fs::path& scratch,
+void check_marked_and_clean(const fs::path& original, const fs::path& marked, const fs::path& key,
+                            const std::string& op, const std::string& output,
+                            const fs::path& scratch,
                             const std::function<void(const nlohmann::json&, int, bool)>& check)
 {
-    for (const auto& [input, folder] : {std::pair{marked, scratch / "marked"}, std::pair{original, scratch / "clean"}})
+    for (const auto& [input, folder] :
+         {std::pair{marked, scratch / "marked"}, std::pair{original, scratch / "clean"}})
     {
         const ToolRun blender = blender_attacks(input, folder, {op}, scratch);
         ASSERT_TRUE(blender.ok()) << blender.describe();
         int exit_code = -1;
-        const nlohmann::json report = detect_json(folder / output, original, key, scratch, &exit_code);
+        const nlohmann::json report =
+            detect_json(folder / output, original, key, scratch, &exit_code);
         ASSERT_TRUE(report.is_object()) << folder;
         check(report, exit_code, input == marked);
     }
@@ -118,7 +137,8 @@ void check_marked_and_clean(const fs::path& original, const fs::path& marked, co
 // `assimp export MODEL OUT -tri -jiv`: a model of assimp-testmodels as .glb.
 ToolRun assimp_to_glb(const fs::path& model, const fs::path& out, const fs::path& scratch)
 {
-    return run({tools().assimp.string(), "export", model.string(), out.string(), "-tri", "-jiv"}, scratch);
+    return run({tools().assimp.string(), "export", model.string(), out.string(), "-tri", "-jiv"},
+               scratch);
 }
 
 // The uniform scale of the registration's transform in a `detect --json` report.
@@ -138,8 +158,8 @@ struct ConvertedAndMarked
     fs::path key;
 };
 
-ConvertedAndMarked convert_and_mark(const fs::path& model, const std::string& name, const fs::path& scratch,
-                                    std::string* error)
+ConvertedAndMarked convert_and_mark(const fs::path& model, const std::string& name,
+                                    const fs::path& scratch, std::string* error)
 {
     ConvertedAndMarked files{scratch / name, scratch / "marked.glb", scratch / "key.json"};
     const ToolRun convert = assimp_to_glb(kModels / model, files.original, scratch);
@@ -162,20 +182,23 @@ ConvertedAndMarked convert_and_mark(const fs::path& model, const std::string& na
 // z >= 9, the unmarked one is not.
 // \p operation: one of bench/blender/attacks.py's, whose output is a PLY ("ply", "pose=F");
 // \p method, when given: the marked copy's registration.method.
-void expect_blender_ply_copy_claimed(const fs::path& model, const std::string& name, const fs::path& scratch,
-                                     const std::string& operation = "ply", const std::string& method = "")
+void expect_blender_ply_copy_claimed(const fs::path& model, const std::string& name,
+                                     const fs::path& scratch, const std::string& operation = "ply",
+                                     const std::string& method = "")
 {
     std::string output = operation;
     std::replace(output.begin(), output.end(), '=', '_');
     std::string error;
     const auto [original, marked, key] = convert_and_mark(model, name, scratch, &error);
     ASSERT_TRUE(error.empty()) << error;
-    for (const auto& [input, folder] : {std::pair{marked, scratch / "marked"}, std::pair{original, scratch / "clean"}})
+    for (const auto& [input, folder] :
+         {std::pair{marked, scratch / "marked"}, std::pair{original, scratch / "clean"}})
     {
         const ToolRun blender = blender_attacks(input, folder, {operation}, scratch);
         ASSERT_TRUE(blender.ok()) << blender.describe();
         int exit_code = -1;
-        const nlohmann::json report = detect_json(folder / (output + ".ply"), original, key, scratch, &exit_code);
+        const nlohmann::json report =
+            detect_json(folder / (output + ".ply"), original, key, scratch, &exit_code);
         ASSERT_TRUE(report.is_object()) << folder;
         if (input == marked)
         {
@@ -203,7 +226,7 @@ TEST(RealAssetsInterop, MarksKhronosEngineAsGlbAndAsDracoGltf)
     INTEROP_REQUIRE_TOOLS("meshmark", "node", "assimp-testmodels");
     const fs::path scratch = temp_dir("interop-real-engine");
     for (const fs::path& input : {kModels / "glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb",
-                                 kModels / "glTF2/draco/2CylinderEngine.gltf"})
+                                  kModels / "glTF2/draco/2CylinderEngine.gltf"})
     {
         const bool is_draco = input.extension() == ".gltf";
         const fs::path marked = scratch / (is_draco ? "marked.gltf" : "marked.glb");
@@ -218,7 +241,8 @@ TEST(RealAssetsInterop, MarksKhronosEngineAsGlbAndAsDracoGltf)
         if (is_draco)
         {
             EXPECT_NE(validation.codes.find("UNSUPPORTED_EXTENSION"), std::string::npos)
-                << "the marked .gltf no longer uses KHR_draco_mesh_compression: " << validation.codes;
+                << "the marked .gltf no longer uses KHR_draco_mesh_compression: "
+                << validation.codes;
         }
         const Positions before = independent_read(input, scratch, &error);
         ASSERT_TRUE(error.empty()) << error;
@@ -227,11 +251,12 @@ TEST(RealAssetsInterop, MarksKhronosEngineAsGlbAndAsDracoGltf)
         ASSERT_EQ(before.rows(), after.rows()) << input;
         // The mark's displacement: at most 0.5% of the diagonal anywhere (0.30-0.37% measured),
         // about 0.06-0.1% RMS, and not zero.
-        const auto [worst, rms] = is_draco ? nearest_distances(before, after)
-                                           : std::pair{(after - before).rowwise().norm().maxCoeff() /
-                                                           bounds(before).diagonal(),
-                                                       std::sqrt((after - before).rowwise().squaredNorm().mean()) /
-                                                           bounds(before).diagonal()};
+        const auto [worst, rms] =
+            is_draco ? nearest_distances(before, after)
+                     : std::pair{
+                           (after - before).rowwise().norm().maxCoeff() / bounds(before).diagonal(),
+                           std::sqrt((after - before).rowwise().squaredNorm().mean()) /
+                               bounds(before).diagonal()};
         EXPECT_LT(worst, 5e-3) << input;
         EXPECT_GT(rms, 2e-4) << input;
         EXPECT_LT(rms, 2e-3) << input;
@@ -265,9 +290,11 @@ TEST(RealAssetsInterop, ATexturedGltfMarkedIntoAnotherFolderKeepsItsTextures)
     EXPECT_EQ(validation.codes.find("IO_ERROR"), std::string::npos) << validation.messages;
     EXPECT_EQ(validation.errors, source.errors) << validation.messages;
     EXPECT_EQ(validation.codes, source.codes);
-    for (const char* image : {"ClearCoatLabels.png", "PartialCoating.png", "PlasticWrap_normals.jpg"})
+    for (const char* image :
+         {"ClearCoatLabels.png", "PartialCoating.png", "PlasticWrap_normals.jpg"})
     {
-        EXPECT_EQ(file_bytes(marked.parent_path() / image), file_bytes(input.parent_path() / image)) << image;
+        EXPECT_EQ(file_bytes(marked.parent_path() / image), file_bytes(input.parent_path() / image))
+            << image;
     }
     const Positions before = independent_read(input, scratch, &error);
     ASSERT_TRUE(error.empty()) << error;
@@ -331,7 +358,8 @@ TEST(RealAssetsInterop, BlenderCopiesOfALowPolyGameModelAreReadVertexForVertex)
         const nlohmann::json report = detect_json(out / copy, original, key, scratch, &exit_code);
         ASSERT_TRUE(report.is_object()) << copy;
         EXPECT_EQ(exit_code, 0) << report.dump();
-        EXPECT_EQ(report["registration"].value("method", ""), "registration (vertices matched)") << copy;
+        EXPECT_EQ(report["registration"].value("method", ""), "registration (vertices matched)")
+            << copy;
         EXPECT_GE(report.value("score", 0.0), 9.5) << copy << ": " << report.dump();
     }
 }
@@ -346,7 +374,8 @@ TEST(RealAssetsInterop, BlenderRoundTripsOfAConvertedRiggedCharacterAreClaimed)
     INTEROP_REQUIRE_TOOLS("meshmark", "blender", "assimp-testmodels", "assimp");
     const fs::path scratch = temp_dir("interop-real-rig");
     std::string error;
-    const auto [original, marked, key] = convert_and_mark("X/BCN_Epileptic.X", "character.glb", scratch, &error);
+    const auto [original, marked, key] =
+        convert_and_mark("X/BCN_Epileptic.X", "character.glb", scratch, &error);
     ASSERT_TRUE(error.empty()) << error;
     const fs::path out = scratch / "blender";
     const ToolRun blender = blender_attacks(marked, out, {"gltf", "ply"}, scratch);
@@ -452,10 +481,13 @@ TEST(RealAssetsInterop, ABlenderTurntableIsReadAsOneAssetWithoutAFrameSearch)
     INTEROP_REQUIRE_TOOLS("meshmark", "blender");
     const fs::path scratch = temp_dir("interop-real-turntable");
     std::string error;
-    const MarkedGameAsset asset = make_and_mark_game_asset("turntable-vehicle", kSeed, {}, scratch, &error);
+    const MarkedGameAsset asset =
+        make_and_mark_game_asset("turntable-vehicle", kSeed, {}, scratch, &error);
     ASSERT_TRUE(error.empty()) << error;
-    check_marked_and_clean(asset.original, asset.marked, asset.key, "pose=30", "pose_30.ply", scratch,
-                           [](const nlohmann::json& report, int exit_code, bool is_marked) {
+    check_marked_and_clean(asset.original, asset.marked, asset.key, "pose=30", "pose_30.ply",
+                           scratch,
+                           [](const nlohmann::json& report, int exit_code, bool is_marked)
+                           {
                                EXPECT_FALSE(report["seconds"].contains("poses")) << report.dump();
                                EXPECT_EQ(exit_code, is_marked ? 0 : 1) << report.dump();
                                if (is_marked)
@@ -478,26 +510,30 @@ TEST(RealAssetsInterop, AVoxelRemeshOfANearlySymmetricVehicleIsNotRegisteredTurn
     INTEROP_REQUIRE_TOOLS("meshmark", "blender");
     const fs::path scratch = temp_dir("interop-real-vehicle-voxel");
     std::string error;
-    const MarkedGameAsset asset = make_and_mark_game_asset("vehicle", "1", {"--strength", "0.001"}, scratch, &error);
+    const MarkedGameAsset asset =
+        make_and_mark_game_asset("vehicle", "1", {"--strength", "0.001"}, scratch, &error);
     ASSERT_TRUE(error.empty()) << error;
     const fs::path marked2 = scratch / "marked2.glb";
     const fs::path key2 = scratch / "key2.json";
-    const ToolRun marking = embed(asset.original, marked2, key2, "2", scratch, {"--strength", "0.001"});
+    const ToolRun marking =
+        embed(asset.original, marked2, key2, "2", scratch, {"--strength", "0.001"});
     ASSERT_TRUE(marking.ok()) << marking.describe();
     for (const auto& [marked, key] : {std::pair{asset.marked, asset.key}, std::pair{marked2, key2}})
     {
-        check_marked_and_clean(asset.original, marked, key, "voxel=300", "voxel_300.ply", scratch,
-                               [&](const nlohmann::json& report, int exit_code, bool is_marked) {
-                                   EXPECT_EQ(exit_code, is_marked ? 0 : 1) << key << report.dump();
-                                   if (is_marked)
-                                   {
-                                       EXPECT_GE(report.value("score", 0.0), 7.0) << key << report.dump();
-                                       // Turned, the copy lies 0.27-0.28% of the diagonal from the
-                                       // original; in its pose, under 0.1% (the mark and the remesh).
-                                       EXPECT_LT(report["registration"].value("rms_error", 1.0), 0.0015)
-                                           << key << report.dump();
-                                   }
-                               });
+        check_marked_and_clean(
+            asset.original, marked, key, "voxel=300", "voxel_300.ply", scratch,
+            [&](const nlohmann::json& report, int exit_code, bool is_marked)
+            {
+                EXPECT_EQ(exit_code, is_marked ? 0 : 1) << key << report.dump();
+                if (is_marked)
+                {
+                    EXPECT_GE(report.value("score", 0.0), 7.0) << key << report.dump();
+                    // Turned, the copy lies 0.27-0.28% of the diagonal from the
+                    // original; in its pose, under 0.1% (the mark and the remesh).
+                    EXPECT_LT(report["registration"].value("rms_error", 1.0), 0.0015)
+                        << key << report.dump();
+                }
+            });
     }
 }
 
@@ -512,20 +548,24 @@ TEST(RealAssetsInterop, ABlenderDecimateOfAShapeKeyedCreatureIsReadThroughItsBle
     INTEROP_REQUIRE_TOOLS("meshmark", "blender");
     const fs::path scratch = temp_dir("interop-real-morph-decimate");
     std::string error;
-    const MarkedGameAsset asset = make_and_mark_game_asset("morph-creature", "1", {}, scratch, &error);
+    const MarkedGameAsset asset =
+        make_and_mark_game_asset("morph-creature", "1", {}, scratch, &error);
     ASSERT_TRUE(error.empty()) << error;
-    check_marked_and_clean(asset.original, asset.marked, asset.key, "decimate=0.05", "decimate_0.05.ply", scratch,
-                           [](const nlohmann::json& report, int exit_code, bool is_marked) {
-                               EXPECT_EQ(exit_code, is_marked ? 0 : 1) << report.dump();
-                               if (is_marked)
-                               {
-                                   // (frames 1 and 16 show the same blend, 0.6, and either may fit first)
-                                   EXPECT_EQ(report["registration"].value("method", "").rfind(
-                                                 "registration (animation 'KeyAction' at ", 0),
-                                             0U)
-                                       << report.dump();
-                               }
-                           });
+    check_marked_and_clean(
+        asset.original, asset.marked, asset.key, "decimate=0.05", "decimate_0.05.ply", scratch,
+        [](const nlohmann::json& report, int exit_code, bool is_marked)
+        {
+            EXPECT_EQ(exit_code, is_marked ? 0 : 1) << report.dump();
+            if (is_marked)
+            {
+                // (frames 1 and 16 show the same blend, 0.6, and either may fit first)
+                EXPECT_EQ(report["registration"]
+                              .value("method", "")
+                              .rfind("registration (animation 'KeyAction' at ", 0),
+                          0U)
+                    << report.dump();
+            }
+        });
 }
 
 // Khronos' AnimatedMorphCube (the glTF sample models in assimp-testmodels): a cube of 24 vertices
@@ -536,7 +576,8 @@ TEST(RealAssetsInterop, ABlenderDecimateOfAShapeKeyedCreatureIsReadThroughItsBle
 TEST(RealAssetsInterop, KhronosAnimatedMorphCubeIsPosedAsBlenderShowsIt)
 {
     INTEROP_REQUIRE_TOOLS("blender", "assimp-testmodels");
-    const fs::path model = kModels / "glTF2/glTF-Sample-Models/AnimatedMorphCube-glTF/AnimatedMorphCube.gltf";
+    const fs::path model =
+        kModels / "glTF2/glTF-Sample-Models/AnimatedMorphCube-glTF/AnimatedMorphCube.gltf";
     const fs::path scratch = temp_dir("interop-real-morph-cube");
     const std::vector<int> frames{1, 20, 40};
     std::vector<std::string> ops;
@@ -553,11 +594,13 @@ TEST(RealAssetsInterop, KhronosAnimatedMorphCubeIsPosedAsBlenderShowsIt)
     ASSERT_EQ(file.animations.size(), 1u);
     EXPECT_FALSE(file.animations.front().moves_only_as_a_whole);
     std::vector<ShownPose> poses;
-    for_each_animation_pose(model, times, [&](ShownPose&& p) { poses.push_back(std::move(p)); },
-                            file.animations.front().index);
+    for_each_animation_pose(
+        model, times, [&](ShownPose&& p) { poses.push_back(std::move(p)); },
+        file.animations.front().index);
     ASSERT_EQ(poses.size(), frames.size());
     // glTF's y is Blender's z: Blender's (x, y, z) is glTF's (x, -z, y).
-    const auto in_blender = [](const Positions& V) {
+    const auto in_blender = [](const Positions& V)
+    {
         Positions B(V.rows(), 3);
         B.col(0) = V.col(0);
         B.col(1) = -V.col(2);
@@ -567,11 +610,14 @@ TEST(RealAssetsInterop, KhronosAnimatedMorphCubeIsPosedAsBlenderShowsIt)
     double farthest_from_stored = 0.0;
     for (std::size_t k = 0; k < frames.size(); ++k)
     {
-        const Positions copy = read_mesh(scratch / "posed" / ("pose_" + std::to_string(frames[k]) + ".ply")).V;
-        const Positions& shown = poses[k].V.rows() == 0 ? file.mesh.V : poses[k].V;  // (no blend: stored)
+        const Positions copy =
+            read_mesh(scratch / "posed" / ("pose_" + std::to_string(frames[k]) + ".ply")).V;
+        const Positions& shown =
+            poses[k].V.rows() == 0 ? file.mesh.V : poses[k].V;  // (no blend: stored)
         const auto [worst, rms] = nearest_distances(copy, in_blender(shown));
         EXPECT_LT(worst, 1e-5) << "frame " << frames[k] << ", rms " << rms;
-        farthest_from_stored = std::max(farthest_from_stored, nearest_distances(copy, in_blender(file.mesh.V)).first);
+        farthest_from_stored =
+            std::max(farthest_from_stored, nearest_distances(copy, in_blender(file.mesh.V)).first);
     }
     EXPECT_GT(farthest_from_stored, 0.05);
 }
@@ -579,8 +625,8 @@ TEST(RealAssetsInterop, KhronosAnimatedMorphCubeIsPosedAsBlenderShowsIt)
 // \p model of assimp-testmodels converted to .glb (without its animations when \p still:
 // strip_animations.mjs), compressed by `gltf-transform draco` into \p scratch / draco.glb and
 // marked with key kSeed (marked.glb, key.json); \p error is set if a step fails.
-ConvertedAndMarked convert_compress_and_mark(const fs::path& model, bool still, const fs::path& scratch,
-                                             std::string* error)
+ConvertedAndMarked convert_compress_and_mark(const fs::path& model, bool still,
+                                             const fs::path& scratch, std::string* error)
 {
     fs::path plain = scratch / "plain.glb";
     const ToolRun convert = assimp_to_glb(kModels / model, plain, scratch);
@@ -592,7 +638,8 @@ ConvertedAndMarked convert_compress_and_mark(const fs::path& model, bool still, 
     if (still)
     {
         const fs::path stripped = scratch / "still.glb";
-        const ToolRun strip = node_helper("strip_animations.mjs", {plain.string(), stripped.string()}, scratch);
+        const ToolRun strip =
+            node_helper("strip_animations.mjs", {plain.string(), stripped.string()}, scratch);
         if (!strip.ok())
         {
             *error = strip.describe();
@@ -601,7 +648,9 @@ ConvertedAndMarked convert_compress_and_mark(const fs::path& model, bool still, 
         plain = stripped;
     }
     ConvertedAndMarked files{scratch / "draco.glb", scratch / "marked.glb", scratch / "key.json"};
-    const ToolRun compress = run({tools().gltf_transform.string(), "draco", plain.string(), files.original.string()}, scratch);
+    const ToolRun compress =
+        run({tools().gltf_transform.string(), "draco", plain.string(), files.original.string()},
+            scratch);
     if (!compress.ok())
     {
         *error = compress.describe();
@@ -621,14 +670,18 @@ ConvertedAndMarked convert_compress_and_mark(const fs::path& model, bool still, 
 // Draco), then put through Blender's \p operations; every copy (each operation's PLY output, and
 // the decoded file itself when \p with_decoded) detected against the original: the marked
 // ones claimed with z >= \p min_score, the unmarked ones not.
-void expect_decoded_blender_copies_claimed(const fs::path& original, const fs::path& marked, const fs::path& key,
-                                           const std::vector<std::string>& operations, bool with_decoded,
-                                           double min_score, const fs::path& scratch)
+void expect_decoded_blender_copies_claimed(const fs::path& original, const fs::path& marked,
+                                           const fs::path& key,
+                                           const std::vector<std::string>& operations,
+                                           bool with_decoded, double min_score,
+                                           const fs::path& scratch)
 {
-    for (const auto& [input, name] : {std::pair{marked, std::string("marked")}, std::pair{original, std::string("clean")}})
+    for (const auto& [input, name] :
+         {std::pair{marked, std::string("marked")}, std::pair{original, std::string("clean")}})
     {
         const fs::path decoded = scratch / (name + "_decoded.glb");
-        const ToolRun decode = node_helper("decode_draco.mjs", {input.string(), decoded.string()}, scratch);
+        const ToolRun decode =
+            node_helper("decode_draco.mjs", {input.string(), decoded.string()}, scratch);
         ASSERT_TRUE(decode.ok()) << decode.describe();
         const ToolRun blender = blender_attacks(decoded, scratch / name, operations, scratch);
         ASSERT_TRUE(blender.ok()) << blender.describe();
@@ -663,12 +716,15 @@ void expect_decoded_blender_copies_claimed(const fs::path& original, const fs::p
 // (z 0.99 and 0.57 when the poses were read through the mesh node); the unmarked ones not.
 TEST(RealAssetsInterop, BlenderCopiesOfADracoCompressedCharacterAreClaimed)
 {
-    INTEROP_REQUIRE_TOOLS("meshmark", "blender", "assimp-testmodels", "assimp", "node", "gltf-transform");
+    INTEROP_REQUIRE_TOOLS("meshmark", "blender", "assimp-testmodels", "assimp", "node",
+                          "gltf-transform");
     const fs::path scratch = temp_dir("interop-real-wuson-draco");
     std::string error;
-    const auto [original, marked, key] = convert_compress_and_mark("X/Testwuson.X", false, scratch, &error);
+    const auto [original, marked, key] =
+        convert_compress_and_mark("X/Testwuson.X", false, scratch, &error);
     ASSERT_TRUE(error.empty()) << error;
-    expect_decoded_blender_copies_claimed(original, marked, key, {"ply", "pose=20"}, false, 9.0, scratch);
+    expect_decoded_blender_copies_claimed(original, marked, key, {"ply", "pose=20"}, false, 9.0,
+                                          scratch);
 }
 
 // The converted DirectX character above without its animations (strip_animations.mjs) and
@@ -680,10 +736,12 @@ TEST(RealAssetsInterop, BlenderCopiesOfADracoCompressedCharacterAreClaimed)
 // viewer shows: z 0.00 and -0.06.
 TEST(RealAssetsInterop, AStillDracoCompressedRigIsMarkedInThePoseViewersShow)
 {
-    INTEROP_REQUIRE_TOOLS("meshmark", "blender", "assimp-testmodels", "assimp", "node", "gltf-transform");
+    INTEROP_REQUIRE_TOOLS("meshmark", "blender", "assimp-testmodels", "assimp", "node",
+                          "gltf-transform");
     const fs::path scratch = temp_dir("interop-real-still-draco-rig");
     std::string error;
-    const auto [original, marked, key] = convert_compress_and_mark("X/BCN_Epileptic.X", true, scratch, &error);
+    const auto [original, marked, key] =
+        convert_compress_and_mark("X/BCN_Epileptic.X", true, scratch, &error);
     ASSERT_TRUE(error.empty()) << error;
     expect_decoded_blender_copies_claimed(original, marked, key, {"ply"}, true, 9.0, scratch);
 }
@@ -697,11 +755,13 @@ TEST(RealAssetsInterop, AStillDracoCompressedRigIsMarkedInThePoseViewersShow)
 TEST(RealAssetsInterop, AMarkedDracoFileIsReadAsTheSameMeshWhateverItsPointOrder)
 {
     INTEROP_REQUIRE_TOOLS("meshmark", "assimp-testmodels", "assimp", "node", "gltf-transform");
-    for (const char* model : {"Collada/anims_with_full_rotations_between_keys.DAE", "Collada/teapot_instancenodes.DAE"})
+    for (const char* model :
+         {"Collada/anims_with_full_rotations_between_keys.DAE", "Collada/teapot_instancenodes.DAE"})
     {
         const fs::path scratch = temp_dir("interop-real-draco-renumbered");
         std::string error;
-        const auto [original, marked, key] = convert_compress_and_mark(model, false, scratch, &error);
+        const auto [original, marked, key] =
+            convert_compress_and_mark(model, false, scratch, &error);
         ASSERT_TRUE(error.empty()) << error;
         int exit_code = -1;
         const nlohmann::json report = detect_json(marked, original, key, scratch, &exit_code);
@@ -731,13 +791,15 @@ TEST(RealAssetsInterop, AScrewSmoothedByOpen3DWithoutWeldingIsRegisteredAndClaim
     {
         const fs::path out = scratch / (is_marked ? "marked-o3d" : "unmarked-o3d");
         fs::create_directories(out);
-        const ToolRun smooth = run({tools().open3d_python.string(),
-                                    (fs::path(MESHMARK_BENCH_BLENDER_DIR) / "open3d_attacks.py").string(),
-                                    (is_marked ? marked : original).string(), out.string(), "o3d-taubin=10"},
-                                   scratch);
+        const ToolRun smooth =
+            run({tools().open3d_python.string(),
+                 (fs::path(MESHMARK_BENCH_BLENDER_DIR) / "open3d_attacks.py").string(),
+                 (is_marked ? marked : original).string(), out.string(), "o3d-taubin=10"},
+                scratch);
         ASSERT_TRUE(smooth.ok()) << smooth.describe();
         int exit_code = -1;
-        const nlohmann::json report = detect_json(out / "o3d-taubin_10.ply", original, key, scratch, &exit_code);
+        const nlohmann::json report =
+            detect_json(out / "o3d-taubin_10.ply", original, key, scratch, &exit_code);
         ASSERT_TRUE(report.is_object());
         if (is_marked)
         {
@@ -779,18 +841,22 @@ TEST(RealAssetsInterop, ABlenderSmoothOfACadPartIsReadInTheOrderOfItsTriangles)
     for (const bool is_marked : {true, false})
     {
         const fs::path out = scratch / (is_marked ? "marked" : "unmarked");
-        const ToolRun blender = blender_attacks(is_marked ? marked : original, out, {"ply", "smooth"}, scratch);
+        const ToolRun blender =
+            blender_attacks(is_marked ? marked : original, out, {"ply", "smooth"}, scratch);
         ASSERT_TRUE(blender.ok()) << blender.describe();
         for (const char* copy : {"ply.ply", "smooth.ply"})
         {
             const TriangleMesh written = read_mesh(out / copy);
             ASSERT_EQ(written.V.rows(), n) << copy;
-            ASSERT_FALSE(written.F.rows() == reversed.F.rows() && (written.F.array() == reversed.F.array()).all())
+            ASSERT_FALSE(written.F.rows() == reversed.F.rows() &&
+                         (written.F.array() == reversed.F.array()).all())
                 << copy << ": Blender kept the numbering";
             int exit_code = -1;
-            const nlohmann::json report = detect_json(out / copy, original, key, scratch, &exit_code);
+            const nlohmann::json report =
+                detect_json(out / copy, original, key, scratch, &exit_code);
             ASSERT_TRUE(report.is_object()) << copy;
-            EXPECT_EQ(report["registration"].value("method", ""), "same-connectivity") << copy << ": " << report.dump();
+            EXPECT_EQ(report["registration"].value("method", ""), "same-connectivity")
+                << copy << ": " << report.dump();
             if (is_marked)
             {
                 EXPECT_EQ(exit_code, 0) << copy << ": " << report.dump();
@@ -915,8 +981,8 @@ TEST(RealAssetsInterop, APrinterBedWhoseVerticesLieOnItsOutlinesGetsAShorterMark
         const fs::path original = fs::path("/usr/share/PrusaSlicer/profiles/Creality") / bed;
         const fs::path marked = scratch / "marked.stl";
         const fs::path key = scratch / "key.json";
-        const ToolRun marking = meshmark({"embed", original.string(), "-o", marked.string(), "--key", key.string(),
-                                          "--seed", "7", "--json"},
+        const ToolRun marking = meshmark({"embed", original.string(), "-o", marked.string(),
+                                          "--key", key.string(), "--seed", "7", "--json"},
                                          scratch);
         ASSERT_TRUE(marking.ok()) << marking.describe();
         const nlohmann::json embedded = nlohmann::json::parse(marking.result.out, nullptr, false);
@@ -925,15 +991,20 @@ TEST(RealAssetsInterop, APrinterBedWhoseVerticesLieOnItsOutlinesGetsAShorterMark
         const int repetitions = embedded.value("repetitions", 0);
         EXPECT_GE(repetitions, 1) << embedded.dump();
         EXPECT_LT(repetitions, 4) << embedded.dump();
-        EXPECT_LE(embedded.value("first_mode", 0) + 8 * repetitions, embedded.value("basis_span", 0)) << embedded.dump();
-        EXPECT_NE(marking.result.err.find("note: the vertices span only"), std::string::npos) << marking.result.err;
+        EXPECT_LE(embedded.value("first_mode", 0) + 8 * repetitions,
+                  embedded.value("basis_span", 0))
+            << embedded.dump();
+        EXPECT_NE(marking.result.err.find("note: the vertices span only"), std::string::npos)
+            << marking.result.err;
 
         // The same bed asked for the usual mark: refused, naming the file and the reason.
-        const ToolRun longer = meshmark({"embed", original.string(), "-o", (scratch / "longer.stl").string(), "--key",
-                                         (scratch / "longer.json").string(), "--seed", "7", "--repetitions", "4"},
-                                        scratch);
+        const ToolRun longer =
+            meshmark({"embed", original.string(), "-o", (scratch / "longer.stl").string(), "--key",
+                      (scratch / "longer.json").string(), "--seed", "7", "--repetitions", "4"},
+                     scratch);
         EXPECT_EQ(longer.result.exit_code, 4) << longer.describe();
-        EXPECT_NE(longer.result.err.find(original.string() + ": the mesh's vertices span only"), std::string::npos)
+        EXPECT_NE(longer.result.err.find(original.string() + ": the mesh's vertices span only"),
+                  std::string::npos)
             << longer.result.err;
         EXPECT_FALSE(fs::exists(scratch / "longer.stl"));
         EXPECT_FALSE(fs::exists(scratch / "longer.json"));
@@ -942,15 +1013,16 @@ TEST(RealAssetsInterop, APrinterBedWhoseVerticesLieOnItsOutlinesGetsAShorterMark
         {
             const std::string tag = is_marked ? "marked" : "unmarked";
             const fs::path exported = scratch / (tag + "-prusa.stl");
-            const ToolRun exporting = run({tools().xvfb_run.string(), "-a", tools().prusa_slicer.string(),
-                                           "--export-stl", "-o", exported.string(),
-                                           (is_marked ? marked : original).string()},
-                                          scratch);
+            const ToolRun exporting =
+                run({tools().xvfb_run.string(), "-a", tools().prusa_slicer.string(), "--export-stl",
+                     "-o", exported.string(), (is_marked ? marked : original).string()},
+                    scratch);
             ASSERT_TRUE(exporting.ok()) << exporting.describe();
             const fs::path reordered = scratch / (tag + "-reordered.stl");
-            const ToolRun reordering = meshmark({"attack", (is_marked ? marked : original).string(), "-o",
-                                                 reordered.string(), "--seed", "3", "reorder", "-q"},
-                                                scratch);
+            const ToolRun reordering =
+                meshmark({"attack", (is_marked ? marked : original).string(), "-o",
+                          reordered.string(), "--seed", "3", "reorder", "-q"},
+                         scratch);
             ASSERT_TRUE(reordering.ok()) << reordering.describe();
             std::vector<fs::path> suspects{exported, reordered};
             if (is_marked)
@@ -960,11 +1032,14 @@ TEST(RealAssetsInterop, APrinterBedWhoseVerticesLieOnItsOutlinesGetsAShorterMark
             for (const fs::path& suspect : suspects)
             {
                 int exit_code = -1;
-                const nlohmann::json report = detect_json(suspect, original, key, scratch, &exit_code);
+                const nlohmann::json report =
+                    detect_json(suspect, original, key, scratch, &exit_code);
                 ASSERT_TRUE(report.is_object()) << suspect;
-                EXPECT_EQ(exit_code, is_marked ? 0 : 1) << bed << " " << suspect << " " << report.dump();
+                EXPECT_EQ(exit_code, is_marked ? 0 : 1)
+                    << bed << " " << suspect << " " << report.dump();
                 EXPECT_EQ(report.value("coefficient_count", 0), 24 * repetitions) << report.dump();
-                EXPECT_EQ(report["registration"].value("method", ""), "same-connectivity") << report.dump();
+                EXPECT_EQ(report["registration"].value("method", ""), "same-connectivity")
+                    << report.dump();
             }
         }
     }
@@ -973,13 +1048,16 @@ TEST(RealAssetsInterop, APrinterBedWhoseVerticesLieOnItsOutlinesGetsAShorterMark
     // 24 coefficients would be claimed only in the vertex order): refused with the reason.
     const fs::path scratch = temp_dir("interop-real-bed-refused");
     const fs::path narrow = "/usr/share/PrusaSlicer/profiles/Creality/cr10max_bed.stl";
-    const ToolRun refused = meshmark({"embed", narrow.string(), "-o", (scratch / "marked.stl").string(), "--key",
-                                      (scratch / "key.json").string(), "--seed", "7"},
-                                     scratch);
+    const ToolRun refused =
+        meshmark({"embed", narrow.string(), "-o", (scratch / "marked.stl").string(), "--key",
+                  (scratch / "key.json").string(), "--seed", "7"},
+                 scratch);
     EXPECT_EQ(refused.result.exit_code, 4) << refused.describe();
-    EXPECT_NE(refused.result.err.find(narrow.string() + ": the mesh's vertices span only"), std::string::npos)
+    EXPECT_NE(refused.result.err.find(narrow.string() + ": the mesh's vertices span only"),
+              std::string::npos)
         << refused.result.err;
-    EXPECT_NE(refused.result.err.find("--repetitions 1 fits"), std::string::npos) << refused.result.err;
+    EXPECT_NE(refused.result.err.find("--repetitions 1 fits"), std::string::npos)
+        << refused.result.err;
     EXPECT_FALSE(fs::exists(scratch / "marked.stl"));
     EXPECT_FALSE(fs::exists(scratch / "key.json"));
 }

@@ -2,8 +2,6 @@
 // The interop suite's 3MF test (docs/interop.md): a 3MF exported by PrusaSlicer, marked by
 // `meshmark embed`, read back by `prusa-slicer --info` (the object stays where it was) and by
 // `meshmark detect`; every package entry but the model parts is kept byte for byte.
-#include <zip.h>
-
 #include <cmath>
 #include <map>
 #include <regex>
@@ -12,17 +10,23 @@
 #include <string>
 
 #include <gtest/gtest.h>
+#include <zip.h>
 
 #include "interop_support.h"
 #include "support/test_paths.h"
 
-namespace meshmark::test::interop {
-namespace {
+namespace meshmark::test::interop
+{
+namespace
+{
 
 // `prusa-slicer --info` of a 3MF: size_x/y/z and min_x/y/z.
-std::map<std::string, double> prusa_info(const fs::path& file, const fs::path& scratch, std::string* error)
+std::map<std::string, double> prusa_info(const fs::path& file, const fs::path& scratch,
+                                         std::string* error)
 {
-    const ToolRun r = run({tools().xvfb_run.string(), "-a", tools().prusa_slicer.string(), "--info", file.string()}, scratch);
+    const ToolRun r = run(
+        {tools().xvfb_run.string(), "-a", tools().prusa_slicer.string(), "--info", file.string()},
+        scratch);
     std::map<std::string, double> info;
     if (!r.ok())
     {
@@ -42,8 +46,8 @@ std::map<std::string, double> prusa_info(const fs::path& file, const fs::path& s
     }
     if (info.size() != 6)
     {
-        *error = "`prusa-slicer --info " + file.string() + "` printed " + std::to_string(info.size()) +
-                 " of the 6 size_/min_ values: " + tail(r.result.out);
+        *error = "`prusa-slicer --info " + file.string() + "` printed " +
+                 std::to_string(info.size()) + " of the 6 size_/min_ values: " + tail(r.result.out);
     }
     return info;
 }
@@ -97,13 +101,16 @@ TEST(ThreeMfInterop, PrusaSlicerBunny)
     INTEROP_REQUIRE_TOOLS("meshmark", "prusa-slicer");
 
     std::string error;
-    const std::string stamp = "prusa-slicer --export-3mf\n" + file_stamp(mesh) + file_stamp(tools().prusa_slicer);
+    const std::string stamp =
+        "prusa-slicer --export-3mf\n" + file_stamp(mesh) + file_stamp(tools().prusa_slicer);
     const fs::path folder = corpus_entry(
         "bunny.prusa_3mf", stamp,
-        [&](const fs::path& staging) {
-            const ToolRun r = run({tools().xvfb_run.string(), "-a", tools().prusa_slicer.string(), "--export-3mf", "-o",
-                               (staging / "in.3mf").string(), mesh.string()},
-                              staging);
+        [&](const fs::path& staging)
+        {
+            const ToolRun r =
+                run({tools().xvfb_run.string(), "-a", tools().prusa_slicer.string(), "--export-3mf",
+                     "-o", (staging / "in.3mf").string(), mesh.string()},
+                    staging);
             return r.ok() && fs::exists(staging / "in.3mf") ? std::string{} : r.describe();
         },
         &error);
@@ -113,8 +120,11 @@ TEST(ThreeMfInterop, PrusaSlicerBunny)
     const fs::path out = scratch / "out.3mf";
     const fs::path key = scratch / "out.key";
 
-    const ToolRun embed = meshmark({"embed", in.string(), "-o", out.string(), "--key", key.string(), "--seed", kSeed, "-q"}, scratch);
-    ASSERT_TRUE(embed.ok()) << "embed of the PrusaSlicer 3MF (bunny.stl) failed: " << embed.describe();
+    const ToolRun embed = meshmark(
+        {"embed", in.string(), "-o", out.string(), "--key", key.string(), "--seed", kSeed, "-q"},
+        scratch);
+    ASSERT_TRUE(embed.ok()) << "embed of the PrusaSlicer 3MF (bunny.stl) failed: "
+                            << embed.describe();
 
     // PrusaSlicer's own reading of both packages: the object must stay where it was.
     std::string in_error;
@@ -125,18 +135,19 @@ TEST(ThreeMfInterop, PrusaSlicerBunny)
     EXPECT_TRUE(out_error.empty()) << "prusa-slicer --info on meshmark's output: " << out_error;
     if (in_error.empty() && out_error.empty())
     {
-        const double diagonal =
-            std::sqrt(in_info.at("size_x") * in_info.at("size_x") + in_info.at("size_y") * in_info.at("size_y") +
-                      in_info.at("size_z") * in_info.at("size_z"));
+        const double diagonal = std::sqrt(in_info.at("size_x") * in_info.at("size_x") +
+                                          in_info.at("size_y") * in_info.at("size_y") +
+                                          in_info.at("size_z") * in_info.at("size_z"));
         for (const auto& [name, value] : in_info)
         {
             EXPECT_LE(std::abs(out_info.at(name) - value), 0.01 * diagonal)
-                << "prusa-slicer --info: " << name << " of the marked 3MF is " << out_info.at(name) << ", of the input "
-                << value << " (diagonal " << diagonal << ")";
+                << "prusa-slicer --info: " << name << " of the marked 3MF is " << out_info.at(name)
+                << ", of the input " << value << " (diagonal " << diagonal << ")";
         }
     }
 
-    const ToolRun found = meshmark({"detect", out.string(), "--original", in.string(), "--key", key.string(), "-q"}, scratch);
+    const ToolRun found = meshmark(
+        {"detect", out.string(), "--original", in.string(), "--key", key.string(), "-q"}, scratch);
     EXPECT_EQ(found.result.exit_code, 0) << "detect on the marked 3MF: " << found.describe();
 
     // Everything in the package but the model parts is the input's, byte for byte.
@@ -162,11 +173,13 @@ TEST(ThreeMfInterop, PrusaSlicerBunny)
         const auto b = out_entries.find(name);
         if (a == in_entries.end() || b == out_entries.end())
         {
-            ADD_FAILURE() << "3MF entry " << name << " is only in " << (a == in_entries.end() ? "the marked output" : "the input");
+            ADD_FAILURE() << "3MF entry " << name << " is only in "
+                          << (a == in_entries.end() ? "the marked output" : "the input");
             continue;
         }
-        EXPECT_TRUE(a->second == b->second) << "3MF entry " << name << " differs: input " << a->second.size()
-                                            << " bytes, marked output " << b->second.size() << " bytes";
+        EXPECT_TRUE(a->second == b->second)
+            << "3MF entry " << name << " differs: input " << a->second.size()
+            << " bytes, marked output " << b->second.size() << " bytes";
     }
 }
 

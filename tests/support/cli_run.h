@@ -3,17 +3,18 @@
 
 // Running the built meshmark program from a test, as a user would from a shell.
 
-#include <sys/wait.h>
-
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
 
+#include <sys/wait.h>
+
 #include "support/test_paths.h"
 
-namespace meshmark::test {
+namespace meshmark::test
+{
 
 /// What a run of the program left: its exit code (128 + the signal when one ended it) and
 /// its stdout and stderr.
@@ -39,8 +40,8 @@ inline CliRun run_cli(const std::string& arguments, const std::filesystem::path&
 {
     const auto out = dir / "stdout.txt";
     const auto err = dir / "stderr.txt";
-    const std::string command = "\"" + cli_path().string() + "\" " + arguments + " > \"" + out.string() + "\" 2> \"" +
-                                err.string() + "\"";
+    const std::string command = "\"" + cli_path().string() + "\" " + arguments + " > \"" +
+                                out.string() + "\" 2> \"" + err.string() + "\"";
     const int status = std::system(command.c_str());
     CliRun result;
     result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);

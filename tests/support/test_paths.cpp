@@ -1,8 +1,6 @@
 // SPDX-License-Identifier: MIT
 #include "support/test_paths.h"
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <cstdlib>
 #include <fstream>
@@ -12,9 +10,15 @@
 #include <system_error>
 #include <vector>
 
-namespace meshmark::test {
+#include <unistd.h>
 
-std::filesystem::path data_dir() { return MESHMARK_TEST_DATA_DIR; }
+namespace meshmark::test
+{
+
+std::filesystem::path data_dir()
+{
+    return MESHMARK_TEST_DATA_DIR;
+}
 
 std::filesystem::path mesh_dir()
 {
@@ -68,9 +72,13 @@ std::vector<std::filesystem::path> shared_meshes_up_to(long max_vertices)
     return result;
 }
 
-std::filesystem::path cli_path() { return MESHMARK_CLI_PATH; }
+std::filesystem::path cli_path()
+{
+    return MESHMARK_CLI_PATH;
+}
 
-namespace {
+namespace
+{
 
 // The folders temp_dir() made, removed when the process exits normally (static destruction),
 // unless MESHMARK_KEEP_TEST_DIRS is set (to look at what a failing test wrote).

@@ -7,7 +7,8 @@
 #include <string>
 #include <vector>
 
-namespace meshmark::test {
+namespace meshmark::test
+{
 
 /// Folder of the tiny hand-written fixtures (tests/data).
 [[nodiscard]] std::filesystem::path data_dir();

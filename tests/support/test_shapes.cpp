@@ -9,7 +9,8 @@
 
 #include "meshmark/geometry/shapes.h"
 
-namespace meshmark::test {
+namespace meshmark::test
+{
 
 TriangleMesh joined(const std::vector<TriangleMesh>& parts)
 {
@@ -31,7 +32,8 @@ TriangleMesh joined(const std::vector<TriangleMesh>& parts)
 TriangleMesh tyre(const Eigen::Vector3d& centre)
 {
     TriangleMesh t = torus(0.24, 0.1, 64, 20);
-    const Eigen::Matrix3d upright = Eigen::AngleAxisd(std::numbers::pi / 2, Eigen::Vector3d::UnitX()).toRotationMatrix();
+    const Eigen::Matrix3d upright =
+        Eigen::AngleAxisd(std::numbers::pi / 2, Eigen::Vector3d::UnitX()).toRotationMatrix();
     for (Eigen::Index i = 0; i < t.V.rows(); ++i)
     {
         t.V.row(i) = (upright * t.V.row(i).transpose() + centre).transpose();
@@ -42,7 +44,8 @@ TriangleMesh tyre(const Eigen::Vector3d& centre)
 TriangleMesh vehicle(bool roof_box)
 {
     std::vector<TriangleMesh> parts;
-    auto boxy = [](const Eigen::Vector3d& half, const Eigen::Vector3d& centre) {
+    auto boxy = [](const Eigen::Vector3d& half, const Eigen::Vector3d& centre)
+    {
         TriangleMesh m = icosphere(2);
         for (Eigen::Index i = 0; i < m.V.rows(); ++i)
         {
@@ -72,7 +75,9 @@ TriangleMesh vehicle(bool roof_box)
         parts.push_back(boxy({0.12, 0.12, 0.12}, {0.0, 0.5, 1.3}));
     }
     TriangleMesh whole = joined(parts);
-    const Eigen::Matrix3d turn = Eigen::AngleAxisd(25.0 * std::numbers::pi / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    const Eigen::Matrix3d turn =
+        Eigen::AngleAxisd(25.0 * std::numbers::pi / 180.0, Eigen::Vector3d::UnitZ())
+            .toRotationMatrix();
     whole.V = (whole.V * turn.transpose()).eval();
     return whole;
 }
@@ -81,7 +86,8 @@ TriangleMesh outline_plate()
 {
     constexpr int kPerArc = 25;
     constexpr int kPerLayer = 4 * kPerArc;
-    const std::array<std::array<double, 2>, 4> corners{{{152.0, 152.0}, {-152.0, 152.0}, {-152.0, -152.0}, {152.0, -152.0}}};
+    const std::array<std::array<double, 2>, 4> corners{
+        {{152.0, 152.0}, {-152.0, 152.0}, {-152.0, -152.0}, {152.0, -152.0}}};
     TriangleMesh plate;
     plate.V.resize(2 * kPerLayer, 3);
     for (int layer = 0; layer < 2; ++layer)
@@ -91,7 +97,8 @@ TriangleMesh outline_plate()
             for (int a = 0; a < kPerArc; ++a)
             {
                 const double angle = (c + a / (kPerArc - 1.0)) * std::numbers::pi / 2.0;
-                plate.V.row(layer * kPerLayer + c * kPerArc + a) << corners[c][0] + 3.0 * std::cos(angle),
+                plate.V.row(layer * kPerLayer + c * kPerArc + a)
+                    << corners[c][0] + 3.0 * std::cos(angle),
                     corners[c][1] + 3.0 * std::sin(angle), layer == 0 ? 0.0 : -3.0;
             }
         }
@@ -100,7 +107,7 @@ TriangleMesh outline_plate()
     Eigen::Index f = 0;
     for (int i = 1; i + 1 < kPerLayer; ++i)
     {
-        plate.F.row(f++) << 0, i, i + 1;                                    // top fan
+        plate.F.row(f++) << 0, i, i + 1;                                  // top fan
         plate.F.row(f++) << kPerLayer, kPerLayer + i + 1, kPerLayer + i;  // bottom fan
     }
     for (int i = 0; i < kPerLayer; ++i)

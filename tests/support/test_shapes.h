@@ -7,7 +7,8 @@
 
 #include "meshmark/core/triangle_mesh.h"
 
-namespace meshmark::test {
+namespace meshmark::test
+{
 
 /// The parts as one mesh, in order.
 [[nodiscard]] TriangleMesh joined(const std::vector<TriangleMesh>& parts);

@@ -9,7 +9,8 @@
 
 #include "meshmark/core/triangle_mesh.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// \brief A similarity transform `p -> scale * rotation * p + translation`, as applied by the
 /// similarity attack.
@@ -17,9 +18,10 @@ namespace meshmark {
 /// `registration`; matrix() gives the 4×4 homogeneous form both sides understand.
 struct AppliedSimilarity
 {
-    Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  ///< Orthogonal: det +1, or -1 mirrored.
-    double scale = 1.0;                                      ///< Uniform scale factor, > 0.
-    Eigen::Vector3d translation = Eigen::Vector3d::Zero();   ///< Applied after rotation and scale.
+    Eigen::Matrix3d rotation =
+        Eigen::Matrix3d::Identity();                        ///< Orthogonal: det +1, or -1 mirrored.
+    double scale = 1.0;                                     ///< Uniform scale factor, > 0.
+    Eigen::Vector3d translation = Eigen::Vector3d::Zero();  ///< Applied after rotation and scale.
 
     /// Image of point \p p.
     [[nodiscard]] Eigen::Vector3d apply(const Eigen::Vector3d& p) const

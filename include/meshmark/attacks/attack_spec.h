@@ -21,16 +21,16 @@
 #include "meshmark/core/rng.h"
 #include "meshmark/core/triangle_mesh.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// \brief One attack with its parameters: one alternative per attack of the suite.
 /// \details Adding an attack means one header, one source, one alternative here and one test
 /// file; parse_attack_spec(), to_string() and apply_attack() dispatch on the alternative.
 using AttackSpec =
-    std::variant<SimilarityOptions, NoiseOptions, LaplacianSmoothingOptions,
-                 TaubinSmoothingOptions, QuantizationOptions, SimplificationOptions,
-                 RemeshingOptions, SubdivisionOptions, CropOptions, ReorderOptions,
-                 VoxelRemeshingOptions>;
+    std::variant<SimilarityOptions, NoiseOptions, LaplacianSmoothingOptions, TaubinSmoothingOptions,
+                 QuantizationOptions, SimplificationOptions, RemeshingOptions, SubdivisionOptions,
+                 CropOptions, ReorderOptions, VoxelRemeshingOptions>;
 
 /// \brief Parse a chain of attacks written in the attack grammar.
 /// \details
@@ -40,17 +40,17 @@ using AttackSpec =
 /// ```
 /// | NAME | LEVEL | KEYS |
 /// |---|---|---|
-/// | similarity | none (random) | explicit: axis=x\|y\|z or ax=,ay=,az= ; angle=DEG; scale=S; tx=,ty=,tz= ; random: smax=S (scale in [1/S, S]), tmax=R (bbox radii) |
-/// | noise | amplitude, fraction of the reference length | dist=uniform\|gaussian; dir=iso\|normal; ref=diag\|centroid |
+/// | similarity | none (random) | explicit: axis=x\|y\|z or ax=,ay=,az= ; angle=DEG; scale=S;
+/// tx=,ty=,tz= ; random: smax=S (scale in [1/S, S]), tmax=R (bbox radii) | | noise | amplitude,
+/// fraction of the reference length | dist=uniform\|gaussian; dir=iso\|normal; ref=diag\|centroid |
 /// | smooth | iterations | lambda=0.1 |
 /// | taubin | iterations | lambda=0.5; mu=-0.53 |
 /// | quantize | bits | |
 /// | simplify | fraction of the vertices kept | policy=gh\|lt |
 /// | remesh | target fraction of the vertices | iter=N (iterations per pass) |
 /// | subdivide | loop\|midpoint\|sqrt3 | steps=N |
-/// | crop | fraction of the vertices kept | axis=x\|y\|z or ax=,ay=,az= (normal of the cut, towards the removed side) |
-/// | reorder | none | |
-/// | voxel | voxels along the bounding-box diagonal | |
+/// | crop | fraction of the vertices kept | axis=x\|y\|z or ax=,ay=,az= (normal of the cut, towards
+/// the removed side) | | reorder | none | | | voxel | voxels along the bounding-box diagonal | |
 ///
 /// A missing level takes the default of the options struct. Any explicit similarity key
 /// selects the explicit transform (identity in what is not given); smax and tmax cannot be
@@ -76,9 +76,10 @@ using AttackSpec =
 /// \brief Apply one attack.
 /// \details Validates the options, then calls the attack's function (apply_similarity,
 /// add_noise, smooth_laplacian, smooth_taubin, quantize, simplify, remesh, subdivide, crop,
-/// reorder or voxel_remesh) and fills the result's transform and correspondence as described in AttackResult.
-/// \param rng      Random stream of this step; attacks without randomness do not draw from it.
-/// \param threads  Worker threads for the parallel attacks (0 = all cores); the result does
+/// reorder or voxel_remesh) and fills the result's transform and correspondence as described in
+/// AttackResult. \param rng      Random stream of this step; attacks without randomness do not draw
+/// from it. \param threads  Worker threads for the parallel attacks (0 = all cores); the result
+/// does
 ///                 not depend on it.
 /// \throws InvalidOption for options out of range; InvalidMesh when the attack cannot work on
 /// this mesh (e.g. smoothing or simplifying a point cloud).

@@ -9,7 +9,8 @@
 #include "meshmark/core/rng.h"
 #include "meshmark/core/triangle_mesh.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// Parameters of the cropping attack.
 struct CropOptions

@@ -4,7 +4,8 @@
 #include "meshmark/core/rng.h"
 #include "meshmark/core/triangle_mesh.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// Law of the random displacement.
 enum class NoiseDistribution

@@ -3,7 +3,8 @@
 
 #include "meshmark/core/triangle_mesh.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// Parameters of the coordinate-quantization attack.
 struct QuantizationOptions

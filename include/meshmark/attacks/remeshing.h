@@ -3,7 +3,8 @@
 
 #include "meshmark/core/triangle_mesh.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// Parameters of the remeshing attack.
 struct RemeshingOptions

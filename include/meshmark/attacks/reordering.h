@@ -5,7 +5,8 @@
 #include "meshmark/core/rng.h"
 #include "meshmark/core/triangle_mesh.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// Parameters of the reordering attack (it has none; the stream decides everything).
 struct ReorderOptions

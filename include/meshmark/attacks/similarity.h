@@ -7,7 +7,8 @@
 #include "meshmark/core/rng.h"
 #include "meshmark/core/triangle_mesh.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// Parameters of the similarity-transform attack.
 struct SimilarityOptions
@@ -17,9 +18,9 @@ struct SimilarityOptions
 
     // Explicit transform `p -> scale * R(axis, angle) * M * p + translation`, about the origin,
     // M the mirror image in the coordinate plane normal to `mirror` (identity when none).
-    Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();       ///< Rotation axis (any length > 0).
-    double angle_deg = 0.0;                                ///< Rotation angle, degrees.
-    double scale = 1.0;                                    ///< Uniform scale, > 0.
+    Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();        ///< Rotation axis (any length > 0).
+    double angle_deg = 0.0;                                 ///< Rotation angle, degrees.
+    double scale = 1.0;                                     ///< Uniform scale, > 0.
     Eigen::Vector3d translation = Eigen::Vector3d::Zero();  ///< In the mesh's units.
     /// Mirror first in the plane x = 0 (0), y = 0 (1) or z = 0 (2); -1: no mirror. A mirrored
     /// copy keeps its faces facing out (their corners are taken in the other order).

@@ -3,7 +3,8 @@
 
 #include "meshmark/core/triangle_mesh.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// Cost and placement of the edge collapses.
 enum class SimplificationPolicy
@@ -18,7 +19,7 @@ enum class SimplificationMethod
     /// meshoptimizer's quadric collapse onto existing vertices: about 1 s on a 437K-vertex
     /// mesh, but no link-condition check, so the result may be non-manifold and open.
     Meshoptimizer,
-    Cgal,           ///< CGAL's Surface_mesh_simplification with `policy` (exact count, slower).
+    Cgal,  ///< CGAL's Surface_mesh_simplification with `policy` (exact count, slower).
 };
 
 /// Parameters of the simplification attack.
@@ -58,9 +59,9 @@ struct SimplificationOptions
 /// two, and what is still non-manifold is cut apart. New vertices have no correspondence with
 /// old ones. With SimplificationMethod::Meshoptimizer, meshopt_simplify runs on the input as
 /// is (vertices kept, not moved; count within 5% of the target, else the CGAL path runs) and
-/// none of the manifold guarantees above hold. [Garland & Heckbert 1997; Lindstrom & Turk 1998; CGAL Surface_mesh_simplification]
-/// \throws InvalidOption from options.validate(); InvalidMesh for a mesh with no faces, or
-/// with none left once degenerate and duplicate faces are dropped.
+/// none of the manifold guarantees above hold. [Garland & Heckbert 1997; Lindstrom & Turk 1998;
+/// CGAL Surface_mesh_simplification] \throws InvalidOption from options.validate(); InvalidMesh for
+/// a mesh with no faces, or with none left once degenerate and duplicate faces are dropped.
 [[nodiscard]] TriangleMesh simplify(const TriangleMesh& mesh, const SimplificationOptions& options);
 
 }  // namespace meshmark

@@ -3,7 +3,8 @@
 
 #include "meshmark/core/triangle_mesh.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// Subdivision rule.
 enum class SubdivisionScheme

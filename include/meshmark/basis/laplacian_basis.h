@@ -90,9 +90,13 @@ public:
     [[nodiscard]] Positions synthesize(const Eigen::MatrixX3d& c,
                                        double* orthogonality_error = nullptr) const override;
     /// The field of synthesize() over the active rows, computed at once, delivered in chunks.
-    void synthesize_streamed(const Eigen::MatrixX3d& c, std::size_t chunks_in_flight, const FieldSink& sink,
+    void synthesize_streamed(const Eigen::MatrixX3d& c, std::size_t chunks_in_flight,
+                             const FieldSink& sink,
                              double* orthogonality_error = nullptr) const override;
-    [[nodiscard]] std::size_t max_chunk_rows() const noexcept override { return std::size_t{1} << 16U; }
+    [[nodiscard]] std::size_t max_chunk_rows() const noexcept override
+    {
+        return std::size_t{1} << 16U;
+    }
     [[nodiscard]] Eigen::MatrixXd modes_dense(int modes) const override;
     /// The rows are visited in order, in blocks, on the calling thread (the eigenvectors are
     /// already materialized, so this is a plain sum U_m^T X).

@@ -4,8 +4,8 @@
 #include <array>
 #include <cstdint>
 #include <functional>
-#include <span>
 #include <memory>
+#include <span>
 #include <string_view>
 #include <vector>
 
@@ -15,28 +15,31 @@
 #include "meshmark/basis/spectral_basis.h"
 #include "meshmark/core/triangle_mesh.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
-namespace detail {
+namespace detail
+{
 struct BlockKernels;
 }
 
 /// \brief Which implementation of the block arithmetic the basis passes use.
 /// \details Avx2 (AVX2 + FMA, about 3x faster; Avx512 gives the same bits) and Portable
-/// (baseline x86-64, i.e. SSE2, or any other CPU) give results that are bit-identical for any thread count, but differ from
-/// each other in the last bits of the Gram matrix and of the products (FMA rounds once where
-/// mul + add rounds twice, and the summation order differs): relative differences of ~1e-13
-/// in the modes and ~1e-12 in a synthesized field (measured in tests/unit/basis). A watermark
-/// embedded with one path is read back with the other exactly like with the same path:
-/// detection reads coefficient changes in units of the modulation (a bit's undecided band is
-/// 1e-1 of it), ten orders of magnitude above that. Choose Portable to make marked files byte-identical
-/// across machines with and without AVX2.
+/// (baseline x86-64, i.e. SSE2, or any other CPU) give results that are bit-identical for any
+/// thread count, but differ from each other in the last bits of the Gram matrix and of the products
+/// (FMA rounds once where mul + add rounds twice, and the summation order differs): relative
+/// differences of ~1e-13 in the modes and ~1e-12 in a synthesized field (measured in
+/// tests/unit/basis). A watermark embedded with one path is read back with the other exactly like
+/// with the same path: detection reads coefficient changes in units of the modulation (a bit's
+/// undecided band is 1e-1 of it), ten orders of magnitude above that. Choose Portable to make
+/// marked files byte-identical across machines with and without AVX2.
 enum class BasisKernel
 {
     Automatic,  ///< The fastest this CPU has: Avx512, Avx2 or Portable (the default).
     Portable,   ///< Baseline instructions only.
     Avx2,       ///< AVX2 + FMA; falls back to Portable on a CPU without them.
-    /// AVX-512F on 8 lanes for the Gram update and the accumulation (AVX2 for the rest): the same bits as Avx2, faster; falls back to Avx2, then Portable.
+    /// AVX-512F on 8 lanes for the Gram update and the accumulation (AVX2 for the rest): the same
+    /// bits as Avx2, faster; falls back to Avx2, then Portable.
     Avx512,
 };
 
@@ -68,7 +71,8 @@ void set_basis_kernel(BasisKernel kernel) noexcept;
 /// equal centers make the Gram matrix singular (seams, STL corners).
 /// \return k vertex indices, in draw order.
 /// \throws InvalidOption if k <= 0; InvalidMesh if fewer than k distinct positions exist.
-[[nodiscard]] std::vector<std::int32_t> random_centers(const RowPositionSource& rows, int k, std::uint64_t seed);
+[[nodiscard]] std::vector<std::int32_t> random_centers(const RowPositionSource& rows, int k,
+                                                       std::uint64_t seed);
 
 /// random_centers() over the rows \p active of \p V.
 [[nodiscard]] std::vector<std::int32_t> random_centers(const Positions& V,
@@ -103,26 +107,34 @@ public:
     ///        by n / m, so G, B^T 1 and B^T (P - o) are estimates and U is orthonormal up to
     ///        their sampling error (which synthesize()'s check reports). Otherwise every row.
     /// \throws InvalidOption on empty inputs or sigma <= 0.
-    RbfBasis(std::shared_ptr<const RowPositionSource> rows, const std::vector<std::int32_t>& centers, double sigma,
-             const Eigen::Vector3d& origin, int threads, std::size_t gram_rows = 0);
+    RbfBasis(std::shared_ptr<const RowPositionSource> rows,
+             const std::vector<std::int32_t>& centers, double sigma, const Eigen::Vector3d& origin,
+             int threads, std::size_t gram_rows = 0);
 
     /// \brief synthesize() delivered chunk by chunk: rounds of \p chunks_in_flight chunks
     /// (>= 1) are computed in parallel; the sink receives a round on a thread of its own while
     /// the next one is computed, so at most 2 x chunks_in_flight chunks are buffered at once.
-    void synthesize_streamed(const Eigen::MatrixX3d& c, std::size_t chunks_in_flight, const FieldSink& sink,
+    void synthesize_streamed(const Eigen::MatrixX3d& c, std::size_t chunks_in_flight,
+                             const FieldSink& sink,
                              double* orthogonality_error = nullptr) const override;
 
     /// Largest number of rows in one chunk of the passes (the unit synthesize_streamed buffers).
     [[nodiscard]] std::size_t max_chunk_rows() const noexcept override;
 
-    [[nodiscard]] int size() const noexcept override { return static_cast<int>(center_positions_.rows()); }
+    [[nodiscard]] int size() const noexcept override
+    {
+        return static_cast<int>(center_positions_.rows());
+    }
     [[nodiscard]] double sigma() const noexcept { return sigma_; }
     /// The active rows and their positions.
     [[nodiscard]] const RowPositionSource& rows() const noexcept { return *rows_; }
     /// Rows pass 1 ran over: the number of active rows, or gram_rows when that was smaller.
     [[nodiscard]] std::size_t gram_sample_rows() const noexcept { return gram_sample_rows_; }
     /// Singular values of B (k, descending): W in G = V W^2 V^T.
-    [[nodiscard]] const Eigen::VectorXd& singular_values() const noexcept { return singular_values_; }
+    [[nodiscard]] const Eigen::VectorXd& singular_values() const noexcept
+    {
+        return singular_values_;
+    }
     /// Eigenvectors V of G (k x k, columns match singular_values()).
     [[nodiscard]] const Eigen::MatrixXd& eigenvectors() const noexcept { return eigenvectors_; }
     /// The Gram matrix G = B^T B (k x k), as accumulated.
@@ -150,8 +162,8 @@ public:
 
     /// \brief Least-squares coefficients of the leading modes over a subset of rows.
     /// \details Minimizes |U_m,S c - X_S| over the rows S of the active set with
-    /// \p is_kept[i] != 0 (cropped copies, docs/algorithms/basis.md: the cropped rows are left out of the basis
-    /// functions). With every row kept this equals project(X, modes) up to rounding.
+    /// \p is_kept[i] != 0 (cropped copies, docs/algorithms/basis.md: the cropped rows are left out
+    /// of the basis functions). With every row kept this equals project(X, modes) up to rounding.
     /// \throws NumericalError if the kept rows cannot determine the coefficients.
     [[nodiscard]] Eigen::MatrixX3d project_least_squares(const Positions& X,
                                                          const std::vector<std::uint8_t>& is_kept,
@@ -188,8 +200,8 @@ private:
     // the origin, rows their vertex indices, B their RBF values; begin is the active-row index
     // of the block's first row. Chunks: chunks_, or gram_chunks_ (rows at gram_row()) when sampled.
     template <class BlockFn>
-    void for_each_block(const BlockFn& fn, std::size_t first_chunk = 0, std::size_t last_chunk = SIZE_MAX,
-                        bool sampled = false) const;
+    void for_each_block(const BlockFn& fn, std::size_t first_chunk = 0,
+                        std::size_t last_chunk = SIZE_MAX, bool sampled = false) const;
     [[nodiscard]] double orthogonality(const Eigen::MatrixXd& T, const Eigen::MatrixX3d& c,
                                        const std::vector<std::vector<double>>& parts) const;
     [[nodiscard]] Eigen::MatrixXd mode_transform(int modes) const;  // V_m W_m^-1, k x m
@@ -198,14 +210,15 @@ private:
     // M^T (cols x stride_) in the block layout, zero on padding columns.
     [[nodiscard]] std::vector<double> columns_transposed(const Eigen::MatrixXd& M) const;
     // B^T X (k x width) from per-chunk accumulations (width x stride_ each), reduced in order.
-    [[nodiscard]] Eigen::MatrixXd reduce_columns(const std::vector<std::vector<double>>& parts, std::size_t width) const;
+    [[nodiscard]] Eigen::MatrixXd reduce_columns(const std::vector<std::vector<double>>& parts,
+                                                 std::size_t width) const;
 
     std::shared_ptr<const RowPositionSource> rows_;
-    std::size_t row_count_ = 0;  // active rows
+    std::size_t row_count_ = 0;                                                   // active rows
     Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> center_positions_;  // minus origin
     const detail::BlockKernels* kernels_;
-    std::size_t padded_k_ = 0;  // k rounded up to a multiple of 4
-    std::size_t stride_ = 0;    // row length of a B block: padded_k_ + 4 (pass 1: P and 1)
+    std::size_t padded_k_ = 0;         // k rounded up to a multiple of 4
+    std::size_t stride_ = 0;           // row length of a B block: padded_k_ + 4 (pass 1: P and 1)
     std::vector<std::size_t> column_;  // column of center j in the blocks (spatial order)
     std::vector<double> centers_soa_;  // 3 x stride_: x, y, z of the centers, by column
     double sigma_;
@@ -213,7 +226,7 @@ private:
     int threads_;
     std::vector<Chunk> chunks_;
     std::size_t gram_sample_rows_ = 0;  // rows of pass 1 (row_count_ unless sampled)
-    std::vector<Chunk> gram_chunks_;     // chunks of pass 1 when sampled
+    std::vector<Chunk> gram_chunks_;    // chunks of pass 1 when sampled
     Eigen::MatrixXd gram_;
     Eigen::MatrixX3d bt_positions_;  // B^T (P - o)
     Eigen::VectorXd bt_ones_;        // B^T 1

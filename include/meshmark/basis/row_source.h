@@ -10,7 +10,8 @@
 
 #include "meshmark/core/triangle_mesh.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// \brief One thread's sequential reader of active-row positions (see RowPositionSource).
 /// \details Reads whole blocks: the passes of a basis call it once per block of rows, never
@@ -55,7 +56,10 @@ class PositionRows final : public RowPositionSource
 public:
     PositionRows(const Positions& V, std::vector<std::int32_t> active);
     [[nodiscard]] std::size_t size() const override { return active_.size(); }
-    [[nodiscard]] std::size_t vertex_count() const override { return static_cast<std::size_t>(V_->rows()); }
+    [[nodiscard]] std::size_t vertex_count() const override
+    {
+        return static_cast<std::size_t>(V_->rows());
+    }
     [[nodiscard]] std::int32_t row(std::size_t i) const override { return active_[i]; }
     [[nodiscard]] std::array<double, 3> position(std::int32_t row) const override;
     [[nodiscard]] std::unique_ptr<RowPositionCursor> cursor(std::size_t begin) const override;
@@ -69,6 +73,7 @@ private:
 };
 
 /// \brief A shared PositionRows over \p V (which must outlive it) and the rows \p active.
-[[nodiscard]] std::shared_ptr<const PositionRows> position_rows(const Positions& V, std::vector<std::int32_t> active);
+[[nodiscard]] std::shared_ptr<const PositionRows> position_rows(const Positions& V,
+                                                                std::vector<std::int32_t> active);
 
 }  // namespace meshmark

@@ -56,8 +56,8 @@ public:
     [[nodiscard]] virtual int well_conditioned_modes(double relative_tolerance) const = 0;
 
     /// \brief Least-squares coefficients of the leading modes over the rows with
-    /// \p is_kept[i] != 0 (cropped copies, docs/algorithms/basis.md). With every row kept this equals project().
-    /// \throws NumericalError if the kept rows cannot determine the coefficients.
+    /// \p is_kept[i] != 0 (cropped copies, docs/algorithms/basis.md). With every row kept this
+    /// equals project(). \throws NumericalError if the kept rows cannot determine the coefficients.
     [[nodiscard]] virtual Eigen::MatrixX3d project_least_squares(
         const Positions& X, const std::vector<std::uint8_t>& is_kept, int modes) const = 0;
 
@@ -77,7 +77,8 @@ public:
     /// \param chunks_in_flight  Chunks (of at most max_chunk_rows() rows) computed before they
     ///        are delivered, >= 1: the memory of the field is about 2 x chunks_in_flight chunks.
     virtual void synthesize_streamed(const Eigen::MatrixX3d& c, std::size_t chunks_in_flight,
-                                     const FieldSink& sink, double* orthogonality_error = nullptr) const = 0;
+                                     const FieldSink& sink,
+                                     double* orthogonality_error = nullptr) const = 0;
 
     /// Largest number of rows synthesize_streamed() delivers in one chunk.
     [[nodiscard]] virtual std::size_t max_chunk_rows() const noexcept = 0;
@@ -85,7 +86,8 @@ public:
     /// \brief Writes a block of design rows: for the active rows \p rows, given their values on
     /// the first `head` modes in \p U (rows.size() x head, row-major), fill \p X
     /// (rows.size() x width, row-major, zero on entry).
-    using DesignFill = std::function<void(std::span<const std::int32_t> rows, const double* U, double* X)>;
+    using DesignFill =
+        std::function<void(std::span<const std::int32_t> rows, const double* U, double* X)>;
 
     /// \brief U_m^T X (modes x width) for a design X that is never materialized.
     /// \details X is produced row block by row block by \p fill, which sees the leading \p head

@@ -15,7 +15,8 @@
 #include "meshmark/pipeline/embed_recipients.h"
 #include "meshmark/watermark/key.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// The recipient name of an asset's published copy (the one `catalog add` writes).
 inline constexpr const char* kPublishedRecipient = "published";
@@ -23,25 +24,25 @@ inline constexpr const char* kPublishedRecipient = "published";
 /// One asset of a catalogue.
 struct CatalogAsset
 {
-    std::string id;                      ///< Its name: the path under the folder it was added from.
-    std::filesystem::path original;      ///< The original file (absolute).
-    std::string original_sha256;         ///< The original's bytes' SHA-256, in hex.
-    std::filesystem::path published;     ///< The published marked copy (absolute).
-    Key key;                             ///< Its family key, every recipient so far.
+    std::string id;                   ///< Its name: the path under the folder it was added from.
+    std::filesystem::path original;   ///< The original file (absolute).
+    std::string original_sha256;      ///< The original's bytes' SHA-256, in hex.
+    std::filesystem::path published;  ///< The published marked copy (absolute).
+    Key key;                          ///< Its family key, every recipient so far.
     std::int64_t vertex_count = 0;
     std::int64_t face_count = 0;
-    std::string added;                   ///< When it was recorded (UTC, ISO 8601).
-    bool is_complete = false;            ///< The published copy is written (false: an interrupted add).
+    std::string added;         ///< When it was recorded (UTC, ISO 8601).
+    bool is_complete = false;  ///< The published copy is written (false: an interrupted add).
 };
 
 /// One recipient's copy of an asset, as recorded.
 struct CatalogRecipient
 {
     std::string name;
-    std::uint32_t index = 0;        ///< Its code's index in the family key.
-    std::filesystem::path path;     ///< Where its copy was written.
-    bool is_delivered = false;      ///< The copy was written (false: recorded, then interrupted).
-    std::string issued;             ///< When it was recorded (UTC, ISO 8601).
+    std::uint32_t index = 0;     ///< Its code's index in the family key.
+    std::filesystem::path path;  ///< Where its copy was written.
+    bool is_delivered = false;   ///< The copy was written (false: recorded, then interrupted).
+    std::string issued;          ///< When it was recorded (UTC, ISO 8601).
 };
 
 /// \brief A catalogue of marked assets: an SQLite database holding each asset's original
@@ -86,7 +87,8 @@ public:
         std::int64_t recipients = 0;  ///< Names recorded, the published copy's included.
     };
     /// Every asset's summary, by id; or the one of \p id (empty when there is none).
-    [[nodiscard]] std::vector<Summary> summaries(const std::optional<std::string>& id = std::nullopt) const;
+    [[nodiscard]] std::vector<Summary> summaries(
+        const std::optional<std::string>& id = std::nullopt) const;
     /// The recipients of \p id, by code index.
     [[nodiscard]] std::vector<CatalogRecipient> recipients(const std::string& id) const;
     /// Number of complete assets.
@@ -112,9 +114,9 @@ public:
     /// asset, with \p signature, in the transaction that creates its key; a store of an existing
     /// asset refuses one that is not complete. delivered() records the copies as written, and
     /// the asset as complete once its published copy is.
-    [[nodiscard]] std::unique_ptr<FamilyKeyStore> family_store(const std::string& id,
-                                                              std::optional<CatalogAsset> prototype = std::nullopt,
-                                                              std::optional<ShapeSignature> signature = std::nullopt);
+    [[nodiscard]] std::unique_ptr<FamilyKeyStore> family_store(
+        const std::string& id, std::optional<CatalogAsset> prototype = std::nullopt,
+        std::optional<ShapeSignature> signature = std::nullopt);
 
     /// A recipient's code index, and whether this call recorded it.
     struct RecordedName
@@ -130,7 +132,8 @@ public:
     [[nodiscard]] RecordedName record_recipient(const std::string& id, const std::string& name);
     /// The code index of recipient \p name of asset \p id when recorded (a read: no waiting on
     /// the disk).
-    [[nodiscard]] std::optional<std::uint32_t> recipient_index(const std::string& id, const std::string& name) const;
+    [[nodiscard]] std::optional<std::uint32_t> recipient_index(const std::string& id,
+                                                               const std::string& name) const;
 
     /// Remove asset \p id and its recipients (`catalog add --force` re-marking a changed original).
     void remove(const std::string& id);

@@ -9,7 +9,8 @@
 #include "meshmark/pipeline/embed_recipients.h"
 #include "meshmark/pipeline/progress.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// Options of catalog_add.
 struct CatalogAddOptions
@@ -18,7 +19,7 @@ struct CatalogAddOptions
     /// recipients are set by catalog_add. A seed given here is mixed with each asset's id, so no
     /// two assets share a key.
     EmbedRecipientsOptions embed;
-    int jobs = 0;          ///< Assets marked at once; 0 = one per core (each then on one thread).
+    int jobs = 0;  ///< Assets marked at once; 0 = one per core (each then on one thread).
     /// Mark again, with a new key, an asset whose original changed since it was added (its
     /// earlier copies are then no longer traced); otherwise such a file is refused.
     bool force = false;
@@ -35,8 +36,8 @@ struct CatalogAddOutcome
         Unmarkable,  ///< a mesh the watermark cannot use (too small, degenerate): reason
         Failed,      ///< unreadable, refused, changed since added, or not written: reason
     };
-    std::filesystem::path path;       ///< The file as found.
-    std::string asset;                ///< Its asset id.
+    std::filesystem::path path;  ///< The file as found.
+    std::string asset;           ///< Its asset id.
     Status status = Status::Failed;
     std::string reason;               ///< Why, for Unmarkable and Failed.
     std::filesystem::path published;  ///< The marked copy (Marked and Present).
@@ -63,8 +64,8 @@ struct CatalogAddOutcome
 /// the same call again finishes an interrupted one; its key, recorded before its copy was
 /// written, makes the same bytes again.
 /// \throws InvalidOption for bad options or inputs (before any work).
-[[nodiscard]] std::vector<CatalogAddOutcome> catalog_add(Catalog& catalog, const std::vector<std::filesystem::path>& inputs,
-                                                         const std::filesystem::path& output_folder,
-                                                         const CatalogAddOptions& options);
+[[nodiscard]] std::vector<CatalogAddOutcome> catalog_add(
+    Catalog& catalog, const std::vector<std::filesystem::path>& inputs,
+    const std::filesystem::path& output_folder, const CatalogAddOptions& options);
 
 }  // namespace meshmark

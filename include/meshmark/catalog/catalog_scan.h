@@ -9,7 +9,8 @@
 #include "meshmark/catalog/catalog.h"
 #include "meshmark/pipeline/detect_file.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// \brief The \p count assets of \p index nearest to a suspect's \p features, nearest first, each
 /// with its distance to the nearest of its views and its place in \p index.
@@ -62,7 +63,7 @@ struct CatalogTry
     std::string asset;
     double shape_distance = 0.0;
     double false_positive_probability = 1.0;  ///< Scaled as CatalogMatch's.
-    std::string error;                        ///< The detection could not run (original missing...).
+    std::string error;  ///< The detection could not run (original missing...).
 };
 
 /// What catalog_scan found in one suspect.
@@ -81,7 +82,7 @@ struct SuspectScan
 struct CatalogScanReport
 {
     std::size_t assets = 0;  ///< Assets in the catalogue (interrupted adds too): the bound's count.
-    double max_false_positive = 0.0; ///< The per-suspect bound the claims were held to.
+    double max_false_positive = 0.0;  ///< The per-suspect bound the claims were held to.
     std::vector<SuspectScan> suspects;
 };
 
@@ -93,7 +94,8 @@ struct CatalogScanReport
 /// suspect is claimed for any asset of the catalogue is then at most that, whichever assets the
 /// index chose to try. A suspect that cannot be read is reported with its error; the scan goes on.
 /// \throws InvalidOption for bad options; IoError when the catalogue cannot be read.
-[[nodiscard]] CatalogScanReport catalog_scan(const Catalog& catalog, const std::vector<std::filesystem::path>& suspects,
+[[nodiscard]] CatalogScanReport catalog_scan(const Catalog& catalog,
+                                             const std::vector<std::filesystem::path>& suspects,
                                              const CatalogScanOptions& options);
 
 /// Options of catalog_issue.
@@ -111,6 +113,7 @@ struct CatalogIssueOptions
 /// \throws InvalidOption (no such asset, an incomplete one, bad names or pattern), IoError (the
 /// original missing or changed), InvalidMesh, NumericalError.
 [[nodiscard]] EmbedRecipientsReport catalog_issue(Catalog& catalog, const std::string& asset,
-                                                  const std::string& output_pattern, const CatalogIssueOptions& options);
+                                                  const std::string& output_pattern,
+                                                  const CatalogIssueOptions& options);
 
 }  // namespace meshmark

@@ -6,7 +6,8 @@
 #include <functional>
 #include <ostream>
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// Options of write_file_atomically.
 struct AtomicWriteOptions

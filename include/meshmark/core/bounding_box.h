@@ -5,7 +5,8 @@
 
 #include "meshmark/core/triangle_mesh.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// Axis-aligned bounding box.
 struct BoundingBox

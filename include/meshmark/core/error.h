@@ -4,7 +4,8 @@
 #include <stdexcept>
 #include <string>
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// \brief Base of every exception the library throws.
 /// \details Messages are one sentence that names what failed, where, and what was expected;
@@ -69,14 +70,14 @@ enum class ExitCode : int
 #else
 #include <cstdio>
 #include <cstdlib>
-#define MESHMARK_ASSERT(cond, message)                                                          \
-    do                                                                                          \
-    {                                                                                           \
-        if (!(cond))                                                                            \
-        {                                                                                       \
+#define MESHMARK_ASSERT(cond, message)                                                            \
+    do                                                                                            \
+    {                                                                                             \
+        if (!(cond))                                                                              \
+        {                                                                                         \
             std::fprintf(stderr, "%s:%d: assertion '%s' failed: %s\n", __FILE__, __LINE__, #cond, \
-                         message);                                                              \
-            std::abort();                                                                       \
-        }                                                                                       \
+                         message);                                                                \
+            std::abort();                                                                         \
+        }                                                                                         \
     } while (0)
 #endif

@@ -4,7 +4,8 @@
 #include <cstddef>
 #include <cstdint>
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// \brief One step of SplitMix64 [Steele, Lea, Flood 2014]: a bijective 64-bit mixer.
 [[nodiscard]] constexpr std::uint64_t splitmix64(std::uint64_t x) noexcept

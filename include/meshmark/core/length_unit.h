@@ -5,7 +5,8 @@
 #include <string>
 #include <string_view>
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// \brief Units of length a mesh's coordinates may be in: what a file declares (3MF's model
 /// unit, glTF's metres) or a user states (`--unit`).
@@ -19,7 +20,8 @@ enum class LengthUnit
     Foot,        ///< "ft".
 };
 
-/// The unit's symbol as written on the command line and in --json: "um", "mm", "cm", "m", "in", "ft".
+/// The unit's symbol as written on the command line and in --json: "um", "mm", "cm", "m", "in",
+/// "ft".
 [[nodiscard]] const char* to_string(LengthUnit unit) noexcept;
 
 /// Metres in one \p unit (an inch is 0.0254 m exactly, a foot 0.3048 m).

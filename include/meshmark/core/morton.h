@@ -6,7 +6,8 @@
 
 #include "meshmark/core/triangle_mesh.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// \brief The rows of \p P in Z (Morton) order of their positions, ties by row index.
 /// \details Each coordinate is scaled to the points' bounding box and quantized to \p bits bits

@@ -7,7 +7,8 @@
 
 #include "meshmark/core/error.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// \brief The value named \p name among \p choices (name, value pairs).
 /// \throws InvalidOption "unknown WHAT 'NAME' (expected a, b or c)." when no choice has that name.
@@ -31,7 +32,8 @@ template <class Value>
         expected += choice;
         ++index;
     }
-    throw InvalidOption("unknown " + std::string(what) + " '" + name + "' (expected " + expected + ").");
+    throw InvalidOption("unknown " + std::string(what) + " '" + name + "' (expected " + expected +
+                        ").");
 }
 
 }  // namespace meshmark

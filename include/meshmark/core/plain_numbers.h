@@ -8,7 +8,8 @@
 #include <cstdint>
 #include <string>
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// \brief \p value with its thousands grouped: "12,345,678".
 [[nodiscard]] std::string grouped_digits(std::uintmax_t value);

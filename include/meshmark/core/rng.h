@@ -7,7 +7,8 @@
 
 #include "meshmark/core/hash.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// \brief Seed of an independent stream: `hash(purpose)` mixed with the key's seed.
 /// \details Each use of randomness (centers, payload mask, random payload, attacks) draws

@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: MIT
 #pragma once
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// \brief The worker-thread count for a `threads` option: \p requested when it is positive,
 /// otherwise (0, "all cores") OpenMP's default team size, omp_get_max_threads().

@@ -6,7 +6,8 @@
 
 #include <Eigen/Core>
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// #V×3 vertex positions, row-major so that one vertex's x, y, z are contiguous.
 using Positions = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;

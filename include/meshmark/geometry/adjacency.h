@@ -8,7 +8,8 @@
 
 #include "meshmark/core/triangle_mesh.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// \brief Vertex-to-vertex adjacency of a triangle mesh in compressed rows (CSR).
 /// \details The neighbours of vertex `v` are `neighbors[offsets[v] .. offsets[v + 1])`, sorted
@@ -17,7 +18,7 @@ namespace meshmark {
 /// A vertex used by no face has no neighbours.
 struct VertexAdjacency
 {
-    std::vector<std::size_t> offsets;     ///< #V + 1 row starts; offsets.back() == neighbors.size().
+    std::vector<std::size_t> offsets;  ///< #V + 1 row starts; offsets.back() == neighbors.size().
     std::vector<std::int32_t> neighbors;  ///< Concatenated sorted neighbour lists.
 
     /// Number of vertices the adjacency was built for.

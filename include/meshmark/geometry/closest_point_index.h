@@ -7,7 +7,8 @@
 
 #include "meshmark/core/triangle_mesh.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// Result of one closest-point query.
 struct ClosestPoint
@@ -45,7 +46,8 @@ public:
 
     /// \brief Closest points of many queries, in parallel over \p threads (0 = all cores).
     /// \param queries #Q×3. \return one result per row, in order (deterministic).
-    [[nodiscard]] std::vector<ClosestPoint> closest(const Positions& queries, int threads = 0) const;
+    [[nodiscard]] std::vector<ClosestPoint> closest(const Positions& queries,
+                                                    int threads = 0) const;
 
     [[nodiscard]] bool is_point_cloud() const noexcept;
 

@@ -5,7 +5,8 @@
 
 #include "meshmark/core/triangle_mesh.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// \brief Unit normal of every triangle, from the right-hand rule on its corner order.
 /// \details A degenerate triangle (zero area) gets a zero normal rather than NaN.

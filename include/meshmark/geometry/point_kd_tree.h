@@ -9,7 +9,8 @@
 
 #include "meshmark/core/triangle_mesh.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// \brief Exact nearest-neighbour queries on a point set: nanoflann's kd-tree (leaf size 10)
 /// over the rows of a Positions matrix, built once.
@@ -38,7 +39,8 @@ public:
 
     /// \brief The \p k points nearest to \p query, nearest first, into \p index and \p squared
     /// (each with room for \p k values). \return how many were found: min(k, point count).
-    std::size_t nearest(const Eigen::Vector3d& query, std::size_t k, std::uint32_t* index, double* squared) const;
+    std::size_t nearest(const Eigen::Vector3d& query, std::size_t k, std::uint32_t* index,
+                        double* squared) const;
 
 private:
     struct Impl;

@@ -6,7 +6,8 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// \brief A triangle given by its three corners.
 struct TriangleCorners
@@ -40,14 +41,21 @@ struct TriangleEdges
     return twice_area2 <= kSliverAltitude * kSliverAltitude * longest2 * longest2;
 }
 
-namespace triangle_detail {
+namespace triangle_detail
+{
 
 // What the closest-point walk needs of a triangle, in each of the two forms: its edges from a,
 // its corner k (1 = b, 2 = c) given the edge from a to it, and p minus that corner given
 // ap = p - a. Each form keeps its own rounding (p - b, or (p - a) - ab): sharing the walk does
 // not change the answers of either.
-inline Eigen::Vector3d edge_ab(const TriangleCorners& t) { return t.b - t.a; }
-inline Eigen::Vector3d edge_ac(const TriangleCorners& t) { return t.c - t.a; }
+inline Eigen::Vector3d edge_ab(const TriangleCorners& t)
+{
+    return t.b - t.a;
+}
+inline Eigen::Vector3d edge_ac(const TriangleCorners& t)
+{
+    return t.c - t.a;
+}
 inline Eigen::Vector3d corner(const TriangleCorners& t, int k, const Eigen::Vector3d& /*edge*/)
 {
     return k == 1 ? t.b : t.c;
@@ -58,27 +66,40 @@ inline Eigen::Vector3d from_corner(const TriangleCorners& t, int k, const Eigen:
     return p - corner(t, k, edge);
 }
 
-inline const Eigen::Vector3d& edge_ab(const TriangleEdges& t) { return t.ab; }
-inline const Eigen::Vector3d& edge_ac(const TriangleEdges& t) { return t.ac; }
-inline Eigen::Vector3d corner(const TriangleEdges& t, int /*k*/, const Eigen::Vector3d& edge) { return t.a + edge; }
-inline Eigen::Vector3d from_corner(const TriangleEdges& /*t*/, int /*k*/, const Eigen::Vector3d& /*p*/,
-                                   const Eigen::Vector3d& ap, const Eigen::Vector3d& edge)
+inline const Eigen::Vector3d& edge_ab(const TriangleEdges& t)
+{
+    return t.ab;
+}
+inline const Eigen::Vector3d& edge_ac(const TriangleEdges& t)
+{
+    return t.ac;
+}
+inline Eigen::Vector3d corner(const TriangleEdges& t, int /*k*/, const Eigen::Vector3d& edge)
+{
+    return t.a + edge;
+}
+inline Eigen::Vector3d from_corner(const TriangleEdges& /*t*/, int /*k*/,
+                                   const Eigen::Vector3d& /*p*/, const Eigen::Vector3d& ap,
+                                   const Eigen::Vector3d& edge)
 {
     return ap - edge;
 }
 
 /// Edge from b to c, as each form computes it (c - b, or ac - ab).
-inline Eigen::Vector3d edge_bc(const TriangleCorners& t, const Eigen::Vector3d& /*ab*/, const Eigen::Vector3d& /*ac*/)
+inline Eigen::Vector3d edge_bc(const TriangleCorners& t, const Eigen::Vector3d& /*ab*/,
+                               const Eigen::Vector3d& /*ac*/)
 {
     return t.c - t.b;
 }
-inline Eigen::Vector3d edge_bc(const TriangleEdges& /*t*/, const Eigen::Vector3d& ab, const Eigen::Vector3d& ac)
+inline Eigen::Vector3d edge_bc(const TriangleEdges& /*t*/, const Eigen::Vector3d& ab,
+                               const Eigen::Vector3d& ac)
 {
     return ac - ab;
 }
 
 /// Closest point to \p p on the segment a + t d, t in [0, 1] (d may be zero).
-[[nodiscard]] inline Eigen::Vector3d closest_on_segment(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
+[[nodiscard]] inline Eigen::Vector3d closest_on_segment(const Eigen::Vector3d& p,
+                                                        const Eigen::Vector3d& a,
                                                         const Eigen::Vector3d& d)
 {
     const double dd = d.squaredNorm();
@@ -101,8 +122,10 @@ inline Eigen::Vector3d edge_bc(const TriangleEdges& /*t*/, const Eigen::Vector3d
 /// with p - a; \p own_k, \p other_k: the same dotted with p minus the corner. Sets \p v to the
 /// barycentric numerator of the other corner, and \p answer when p lies in one of the regions.
 template <class Triangle>
-[[gnu::always_inline]] inline bool in_corner_regions(const Triangle& t, int k, const Eigen::Vector3d& edge, double own_a, double other_a,
-                       double own_k, double other_k, double& v, Eigen::Vector3d& answer)
+[[gnu::always_inline]] inline bool in_corner_regions(const Triangle& t, int k,
+                                                     const Eigen::Vector3d& edge, double own_a,
+                                                     double other_a, double own_k, double other_k,
+                                                     double& v, Eigen::Vector3d& answer)
 {
     if (own_k >= 0.0 && other_k <= own_k)
     {
@@ -124,7 +147,8 @@ template <class Triangle>
 // Inlined into the callers' query loops: called once per triangle visited, it is the hot path
 // of the closest-point queries.
 template <class Triangle>
-[[nodiscard, gnu::always_inline]] inline Eigen::Vector3d closest_by_regions(const Eigen::Vector3d& p, const Triangle& t)
+[[nodiscard, gnu::always_inline]] inline Eigen::Vector3d closest_by_regions(
+    const Eigen::Vector3d& p, const Triangle& t)
 {
     const Eigen::Vector3d ab = edge_ab(t);
     const Eigen::Vector3d ac = edge_ac(t);
@@ -155,7 +179,8 @@ template <class Triangle>
     const double va = d3 * d6 - d5 * d4;
     if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0)
     {
-        return corner(t, 1, ab) + ratio(d4 - d3, (d4 - d3) + (d5 - d6)) * edge_bc(t, ab, ac);  // edge bc
+        return corner(t, 1, ab) +
+               ratio(d4 - d3, (d4 - d3) + (d5 - d6)) * edge_bc(t, ab, ac);  // edge bc
     }
     const double sum = va + vb + vc;
     if (!(sum > 0.0))
@@ -178,8 +203,8 @@ template <class Triangle>
 /// of a triangle round differently in the last bits (see TriangleEdges); each form gives the
 /// same bits for the same inputs on every call.
 template <class Triangle>
-[[nodiscard, gnu::always_inline]] inline Eigen::Vector3d closest_point_on_triangle(const Eigen::Vector3d& p, const Triangle& t,
-                                                        bool is_sliver = false)
+[[nodiscard, gnu::always_inline]] inline Eigen::Vector3d closest_point_on_triangle(
+    const Eigen::Vector3d& p, const Triangle& t, bool is_sliver = false)
 {
     using namespace triangle_detail;
     Eigen::Vector3d best = closest_by_regions(p, t);

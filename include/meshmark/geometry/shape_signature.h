@@ -8,7 +8,8 @@
 
 #include "meshmark/core/triangle_mesh.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// Number of features that describe one view of a shape (shape_features).
 inline constexpr int kShapeFeatures = 30;
@@ -48,7 +49,8 @@ inline constexpr int kShapeCropDirections = 64;  ///< a Fibonacci lattice on the
 /// Fractions of the area a crop view keeps: a crop keeping half the vertices may keep from a
 /// third to two thirds of the area.
 inline constexpr std::array<double, 4> kShapeCropFractions = {0.35, 0.5, 0.65, 0.8};
-inline constexpr int kShapeViews = 1 + kShapeCropDirections * static_cast<int>(kShapeCropFractions.size());
+inline constexpr int kShapeViews =
+    1 + kShapeCropDirections * static_cast<int>(kShapeCropFractions.size());
 
 /// The features of \p mesh's whole surface (a suspect's). A mesh without area or points: zeros.
 [[nodiscard]] ShapeFeatures shape_features(const TriangleMesh& mesh);

@@ -3,7 +3,8 @@
 
 #include "meshmark/core/triangle_mesh.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// \brief Unit icosphere: an icosahedron subdivided \p subdivisions times, projected on the
 /// sphere (10 * 4^subdivisions + 2 vertices). Closed, manifold, outward-facing.

@@ -5,7 +5,8 @@
 #include <string>
 #include <string_view>
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// \brief The SHA-256 of \p path's bytes, in lower-case hex (OpenSSL's libcrypto), read in
 /// blocks of 1 MiB (what `sha256sum` prints): how a catalogue knows an original is unchanged,

@@ -14,7 +14,8 @@
 #include "meshmark/core/length_unit.h"
 #include "meshmark/core/triangle_mesh.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// File formats, chosen by file extension (case-insensitive).
 enum class MeshFormat
@@ -42,8 +43,10 @@ enum class MeshFormat
 /// Name of a format as used in messages and --json ("PLY", "OBJ", ...).
 [[nodiscard]] const char* to_string(MeshFormat format) noexcept;
 
-namespace detail {
-struct FileLayout;  // Everything a preserving writer needs: the original bytes and where positions sit.
+namespace detail
+{
+struct FileLayout;  // Everything a preserving writer needs: the original bytes and where positions
+                    // sit.
 }
 
 /// \brief Where an animated file's mesh stands at one time of one of its animations
@@ -56,9 +59,9 @@ struct FileLayout;  // Everything a preserving writer needs: the original bytes 
 /// (rigid node animation, skinning); `to_rest` carries a displacement made in the pose back.
 struct ShownPose
 {
-    std::string name;  ///< What the pose is, for messages ("animation 'Run' at 1/24 s").
-    double time = 0.0; ///< Seconds into the animation (1/24 in the first: what Blender shows).
-    Positions V;       ///< MeshFile::mesh's vertices in the pose, row for row; empty: no such pose.
+    std::string name;   ///< What the pose is, for messages ("animation 'Run' at 1/24 s").
+    double time = 0.0;  ///< Seconds into the animation (1/24 in the first: what Blender shows).
+    Positions V;  ///< MeshFile::mesh's vertices in the pose, row for row; empty: no such pose.
     /// Per row: the linear map taking a displacement near the posed vertex back to the stored
     /// frame (the inverse of the pose's linear part at that vertex).
     std::vector<Eigen::Matrix3d> to_rest;
@@ -71,10 +74,10 @@ struct ShownPose
 /// past its animations (named "the stored morph target weights"): its pose is that blend.
 struct AnimationSpan
 {
-    std::size_t index = 0;  ///< Its place in the file's list of animations (see above).
-    std::string name;       ///< Its name in the file ("animation K" when it has none).
-    double first_key = 0.0; ///< Time of its earliest key, seconds.
-    double last_key = 0.0;  ///< Time of its latest key, seconds.
+    std::size_t index = 0;   ///< Its place in the file's list of animations (see above).
+    std::string name;        ///< Its name in the file ("animation K" when it has none).
+    double first_key = 0.0;  ///< Time of its earliest key, seconds.
+    double last_key = 0.0;   ///< Time of its latest key, seconds.
     /// It only turns, moves or uniformly scales the asset as a whole (a turntable): every node
     /// it animates lies above every mesh of the scene (none skinned), with similarities on the
     /// way, so no time of it poses the mesh (for_each_animation_pose gives empty poses throughout).
@@ -85,9 +88,10 @@ struct AnimationSpan
 /// for its vertex positions.
 struct MeshFile
 {
-    TriangleMesh mesh;  ///< Positions (every vertex record of the file, referenced or not) and
-                        ///< triangles (polygons fan-triangulated, strips decoded). For STL the
-                        ///< positions are the distinct corner positions (bit-identical corners welded).
+    TriangleMesh
+        mesh;  ///< Positions (every vertex record of the file, referenced or not) and
+               ///< triangles (polygons fan-triangulated, strips decoded). For STL the
+               ///< positions are the distinct corner positions (bit-identical corners welded).
     MeshFormat format = MeshFormat::Ply;
     std::filesystem::path path;
     /// Positions were stored as float32 and changed ones are written back as float32: binary
@@ -96,10 +100,11 @@ struct MeshFile
     bool is_single_precision = false;
     std::shared_ptr<const detail::FileLayout> layout;  ///< Opaque; used by write_mesh_file.
     /// glTF and 3MF: the geometry of the other instances of meshes that several nodes (build
-    /// items, components) show under different transforms, in the world frame. `mesh` holds the first instance only (the
-    /// instances share their stored positions, so only one can take a displacement); a copy
-    /// re-exported by a tool that flattens instances shows all of them, and detection registers
-    /// against `mesh` plus these. Empty for other formats and files without such instances.
+    /// items, components) show under different transforms, in the world frame. `mesh` holds the
+    /// first instance only (the instances share their stored positions, so only one can take a
+    /// displacement); a copy re-exported by a tool that flattens instances shows all of them, and
+    /// detection registers against `mesh` plus these. Empty for other formats and files without
+    /// such instances.
     TriangleMesh instances;
     /// glTF: every animation that animates a node or morph weights, in the file's order, to
     /// sample its poses (for_each_animation_pose), whether or not they differ from the stored
@@ -130,7 +135,8 @@ struct MeshFile
 /// a user (a rigged character exported at another frame) is read through these.
 /// \throws the errors of read_mesh_file.
 void for_each_animation_pose(const std::filesystem::path& path, std::span<const double> times,
-                             const std::function<void(ShownPose&&)>& visit, std::size_t animation = 0);
+                             const std::function<void(ShownPose&&)>& visit,
+                             std::size_t animation = 0);
 
 /// \brief Read only the geometry of a mesh file. Same errors as read_mesh_file.
 [[nodiscard]] TriangleMesh read_mesh(const std::filesystem::path& path);
@@ -138,7 +144,7 @@ void for_each_animation_pose(const std::filesystem::path& path, std::span<const 
 /// Options of the generic writers.
 struct WriteOptions
 {
-    bool is_binary = true;             ///< PLY and STL: binary (little-endian) rather than ASCII.
+    bool is_binary = true;  ///< PLY and STL: binary (little-endian) rather than ASCII.
     /// Store positions as float32 instead of float64 (PLY binary and ASCII; for OBJ, OFF and
     /// ASCII STL: shortest float32 digits). Binary STL is always float32.
     bool use_single_precision = false;

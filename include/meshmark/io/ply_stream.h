@@ -10,7 +10,8 @@
 #include <string>
 #include <vector>
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// \brief Which vertices the triangles of a file reference (PlyStream::scan_faces()).
 /// \details The referenced vertices are the "active rows" of a watermark, in vertex order; a
@@ -122,7 +123,8 @@ public:
     /// Write everything before the vertex records of \p file to \p out. \p output names the
     /// file being written in messages.
     PlyDisplacedCopy(const PlyStream& file, const ReferencedVertices& referenced,
-                     const std::filesystem::path& output, std::ostream& out, std::size_t window_bytes);
+                     const std::filesystem::path& output, std::ostream& out,
+                     std::size_t window_bytes);
     ~PlyDisplacedCopy();
     PlyDisplacedCopy(const PlyDisplacedCopy&) = delete;
     PlyDisplacedCopy& operator=(const PlyDisplacedCopy&) = delete;

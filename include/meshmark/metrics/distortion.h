@@ -11,10 +11,12 @@
 #include "meshmark/core/triangle_mesh.h"
 #include "meshmark/geometry/closest_point_index.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// Automatic area-sample count: kAutoSamplesPerFace per face, at least kMinAutoSamples and at
-/// most kMaxAutoSamples (the cap bounds the time on very large meshes: see docs/algorithms/metrics.md).
+/// most kMaxAutoSamples (the cap bounds the time on very large meshes: see
+/// docs/algorithms/metrics.md).
 inline constexpr std::int64_t kAutoSamplesPerFace = 10;
 inline constexpr std::int64_t kMinAutoSamples = 1'000'000;
 inline constexpr std::int64_t kMaxAutoSamples = 2'000'000;
@@ -24,8 +26,8 @@ struct CompareOptions
 {
     /// Area samples per surface, on top of its vertices; 0 = automatic (auto_sample_count).
     std::int64_t samples = 0;
-    std::uint64_t seed = 0;              ///< Seed of the stratified sampling.
-    int threads = 0;                     ///< Worker threads (0 = all cores); results do not depend on it.
+    std::uint64_t seed = 0;  ///< Seed of the stratified sampling.
+    int threads = 0;         ///< Worker threads (0 = all cores); results do not depend on it.
     bool keep_vertex_distances = false;  ///< Fill DistortionReport::vertex_distances_ba (heatmaps).
     /// Optional progress report, the pipeline's ProgressCallback protocol: each phase ("index",
     /// "a_to_b", "b_to_a", the names of DistortionReport::seconds) is announced with fraction 0
@@ -50,8 +52,8 @@ struct OneSidedDistance
 /// Vertex-to-vertex displacement between two meshes that share connectivity.
 struct Displacement
 {
-    double max = 0.0;             ///< Largest |b_i - a_i|.
-    double rms = 0.0;             ///< sqrt(mean |b_i - a_i|^2) over the referenced vertices.
+    double max = 0.0;              ///< Largest |b_i - a_i|.
+    double rms = 0.0;              ///< sqrt(mean |b_i - a_i|^2) over the referenced vertices.
     std::int32_t max_vertex = -1;  ///< Vertex of the largest displacement.
 };
 
@@ -67,9 +69,10 @@ struct CompareSeconds
 /// Everything compare_meshes measures. Fields named `_rel` are divided by `diagonal`.
 struct DistortionReport
 {
-    double diagonal = 0.0;  ///< Bounding-box diagonal of A's referenced vertices (the unit of `_rel`).
-    OneSidedDistance a_to_b;  ///< Samples of A, distances to the surface of B.
-    OneSidedDistance b_to_a;  ///< Samples of B, distances to the surface of A.
+    double diagonal =
+        0.0;  ///< Bounding-box diagonal of A's referenced vertices (the unit of `_rel`).
+    OneSidedDistance a_to_b;        ///< Samples of A, distances to the surface of B.
+    OneSidedDistance b_to_a;        ///< Samples of B, distances to the surface of A.
     double hausdorff_rel = 0.0;     ///< Symmetric Hausdorff: max(hausdorff_ab, hausdorff_ba).
     double hausdorff_ab_rel = 0.0;  ///< a_to_b.max / diagonal.
     double hausdorff_ba_rel = 0.0;  ///< b_to_a.max / diagonal.
@@ -111,9 +114,11 @@ struct DistortionReport
 /// \param vertex_distances If not null, receives the distance of every vertex of \p from
 ///                 (#V entries, unreferenced ones included).
 /// \throws InvalidOption if area_samples is negative.
-[[nodiscard]] OneSidedDistance one_sided_distance(const TriangleMesh& from, const ClosestPointIndex& to,
+[[nodiscard]] OneSidedDistance one_sided_distance(const TriangleMesh& from,
+                                                  const ClosestPointIndex& to,
                                                   std::int64_t area_samples, std::uint64_t seed,
-                                                  int threads = 0, Eigen::VectorXd* vertex_distances = nullptr);
+                                                  int threads = 0,
+                                                  Eigen::VectorXd* vertex_distances = nullptr);
 
 /// \brief True when both meshes have the same vertex count and identical faces (same rows in
 /// the same order); two point clouds of the same size qualify.
@@ -133,13 +138,14 @@ struct DistortionReport
 /// square root of the area-weighted mean of that over the triangles, summed in face order in
 /// fixed blocks (the same result on any thread count). Second-order terms (the curvature, the
 /// tilt of the faces) lower the sampled distance: the MRMS of compare_meshes reads up to 1%
-/// below this, or on it within its sampling noise (docs/algorithms/embedding.md, "Strength"). A point cloud, which has no normals, gets the
-/// expected normal part of an isotropic field: sqrt(mean |d|^2 / 3) over its points.
-/// \param mesh   The surface (its faces and positions).
+/// below this, or on it within its sampling noise (docs/algorithms/embedding.md, "Strength"). A
+/// point cloud, which has no normals, gets the expected normal part of an isotropic field:
+/// sqrt(mean |d|^2 / 3) over its points. \param mesh   The surface (its faces and positions).
 /// \param field  #V x 3 displacement.
 /// \param threads  0 = all cores (the result does not depend on it).
 /// \return In the mesh's units; 0 for a mesh whose triangles have no area.
-[[nodiscard]] double surface_rms_displacement(const TriangleMesh& mesh, const Positions& field, int threads = 0);
+[[nodiscard]] double surface_rms_displacement(const TriangleMesh& mesh, const Positions& field,
+                                              int threads = 0);
 
 /// \brief surface_rms_displacement of many fields `base + c * field` that share `base` (a
 /// family's copies: the owner's mark plus each recipient's code): the faces' unit normals and

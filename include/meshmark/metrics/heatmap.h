@@ -7,7 +7,8 @@
 
 #include <Eigen/Core>
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// An 8-bit sRGB color.
 using Rgb8 = std::array<std::uint8_t, 3>;
@@ -20,7 +21,9 @@ using Rgb8 = std::array<std::uint8_t, 3>;
 
 /// \brief Per-vertex colors for distances: heat_color(distance / max_distance).
 /// \param distances    #V distances (non-negative).
-/// \param max_distance Distance shown in red; when it is zero (or not positive) every vertex is blue.
-[[nodiscard]] std::vector<Rgb8> distance_colors(const Eigen::VectorXd& distances, double max_distance);
+/// \param max_distance Distance shown in red; when it is zero (or not positive) every vertex is
+/// blue.
+[[nodiscard]] std::vector<Rgb8> distance_colors(const Eigen::VectorXd& distances,
+                                                double max_distance);
 
 }  // namespace meshmark

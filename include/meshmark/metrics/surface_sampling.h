@@ -5,7 +5,8 @@
 
 #include "meshmark/core/triangle_mesh.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// Area samples drawn per block; each block has its own random stream (see sample_surface), so
 /// the draw does not depend on the thread count. 4096: chosen by hand; no study on record.
@@ -26,8 +27,8 @@ inline constexpr std::int64_t kSamplesPerBlock = 4096;
 /// \param threads Worker threads (0 = all cores).
 /// \return #count×3 points; empty when the mesh has no faces or zero total area.
 /// \throws InvalidOption if count is negative.
-[[nodiscard]] Positions sample_surface(const TriangleMesh& mesh, std::int64_t count, std::uint64_t seed,
-                                       int threads = 0);
+[[nodiscard]] Positions sample_surface(const TriangleMesh& mesh, std::int64_t count,
+                                       std::uint64_t seed, int threads = 0);
 
 /// \brief Cumulative face areas: entry f is the area of faces 0..f (#F entries, non-decreasing).
 /// \details Shared by sample_surface and the distance metrics so both cut the same strata.
@@ -38,6 +39,7 @@ inline constexpr std::int64_t kSamplesPerBlock = 4096;
 /// Lets callers stream blocks through a computation without storing every sample.
 /// \pre cumulative_areas is from cumulative_face_areas(mesh) and its last entry is positive.
 void sample_surface_block(const TriangleMesh& mesh, const Eigen::VectorXd& cumulative_areas,
-                          std::int64_t count, std::uint64_t seed, std::int64_t block, Positions& out);
+                          std::int64_t count, std::uint64_t seed, std::int64_t block,
+                          Positions& out);
 
 }  // namespace meshmark

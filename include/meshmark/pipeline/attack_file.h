@@ -10,14 +10,15 @@
 
 #include "meshmark/pipeline/progress.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// Options of attack_file.
 struct AttackFileOptions
 {
-    std::uint64_t seed = 0;  ///< Seed of every random choice of the chain.
-    int threads = 0;         ///< 0 = all cores (resolve_threads).
-    bool force = false;      ///< Allow the output to replace the input file.
+    std::uint64_t seed = 0;     ///< Seed of every random choice of the chain.
+    int threads = 0;            ///< 0 = all cores (resolve_threads).
+    bool force = false;         ///< Allow the output to replace the input file.
     ProgressCallback progress;  ///< Optional; phases "read", "attack", "write".
 };
 
@@ -42,7 +43,8 @@ struct AttackFileReport
 /// \details The spec and the output's extension are checked before anything is read.
 /// \throws InvalidOption for a bad spec or output name, or an output naming the input without
 /// force; IoError; InvalidMesh (naming \p input) when an attack cannot work on the mesh.
-AttackFileReport attack_file(const std::filesystem::path& input, const std::filesystem::path& output,
-                             const std::string& spec, const AttackFileOptions& options = {});
+AttackFileReport attack_file(const std::filesystem::path& input,
+                             const std::filesystem::path& output, const std::string& spec,
+                             const AttackFileOptions& options = {});
 
 }  // namespace meshmark

@@ -10,18 +10,19 @@
 #include "meshmark/registration/registration.h"
 #include "meshmark/watermark/watermark.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// Options of detect_file.
 struct DetectFileOptions
 {
-    DetectOptions decision;     ///< Verdict rule and its parameters.
-    int threads = 0;            ///< 0 = all cores (resolve_threads).
+    DetectOptions decision;  ///< Verdict rule and its parameters.
+    int threads = 0;         ///< 0 = all cores (resolve_threads).
     /// Register and resample suspects whose vertices do not correspond to the original's
     /// (docs/algorithms/detection.md, "General suspects"). False: such suspects are refused.
     bool allow_registration = true;
-    std::vector<PointPair> pairs;    ///< Optional user point pairs (suspect, original) to start from.
-    ProgressCallback progress;       ///< Optional.
+    std::vector<PointPair> pairs;  ///< Optional user point pairs (suspect, original) to start from.
+    ProgressCallback progress;     ///< Optional.
     /// Family keys: score every recipient and accuse (docs/fingerprinting.md). False: the
     /// owner's mark alone decides, as with a single-owner key.
     bool trace = true;
@@ -114,24 +115,27 @@ struct DetectReport
 /// fingerprint); InvalidMesh for a malformed mesh or an original the key's basis cannot use;
 /// InvalidOption for bad options or, with allow_registration off, a suspect that does not
 /// correspond to the original; NumericalError.
-DetectReport detect_file(const std::filesystem::path& suspect, const std::filesystem::path& original,
+DetectReport detect_file(const std::filesystem::path& suspect,
+                         const std::filesystem::path& original,
                          const std::filesystem::path& key_path, const DetectFileOptions& options);
 
 /// \brief detect_file with the suspect in memory (the mesh an editor holds): the original and
 /// the key are read from their files, so the original's other instances and animation are used
 /// as detect_file uses them (the Blender add-on's Detect). Same steps, results and errors.
 DetectReport detect_against_file(const TriangleMesh& suspect, const std::filesystem::path& original,
-                                 const std::filesystem::path& key_path, const DetectFileOptions& options);
+                                 const std::filesystem::path& key_path,
+                                 const DetectFileOptions& options);
 
 /// \brief detect_against_file with the key in memory too (a catalogue's record): same steps,
 /// results and errors.
-DetectReport detect_against_original(const TriangleMesh& suspect, const std::filesystem::path& original,
-                                     const Key& key, const DetectFileOptions& options);
+DetectReport detect_against_original(const TriangleMesh& suspect,
+                                     const std::filesystem::path& original, const Key& key,
+                                     const DetectFileOptions& options);
 
 /// \brief detect_file for meshes in memory and a watermark already built from \p original
 /// (which must be the mesh \p mark was made from): many suspects against one key pay for the
 /// basis once (the robustness benchmark). Same steps, results and errors as detect_file.
-DetectReport detect_mesh(const SpectralWatermark& mark, const TriangleMesh& original, const TriangleMesh& suspect,
-                         const DetectFileOptions& options);
+DetectReport detect_mesh(const SpectralWatermark& mark, const TriangleMesh& original,
+                         const TriangleMesh& suspect, const DetectFileOptions& options);
 
 }  // namespace meshmark

@@ -9,7 +9,8 @@
 #include "meshmark/core/triangle_mesh.h"
 #include "meshmark/watermark/watermark.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// What capping the mark's largest vertex displacement did (cap_displacement).
 struct DisplacementCap
@@ -42,9 +43,9 @@ struct DisplacementCap
 /// \param name    The file, named in errors. \param unit  The mesh's unit, for errors' lengths.
 /// \throws InvalidOption naming the file, the cap and the smallest cap that fits, when the cap
 /// is below the coordinates' float32 precision or leaves a mark that is not detected.
-DisplacementCap cap_displacement(SpectralWatermark& mark, const TriangleMesh& mesh, Positions& field,
-                                 EmbedStats* stats, double cap, const std::filesystem::path& name,
-                                 std::optional<LengthUnit> unit);
+DisplacementCap cap_displacement(SpectralWatermark& mark, const TriangleMesh& mesh,
+                                 Positions& field, EmbedStats* stats, double cap,
+                                 const std::filesystem::path& name, std::optional<LengthUnit> unit);
 
 /// \brief Largest distance between rows of \p a and \p b (#V x 3 each, same rows).
 [[nodiscard]] double largest_row_distance(const Positions& a, const Positions& b);

@@ -16,13 +16,14 @@
 #include "meshmark/watermark/key.h"
 #include "meshmark/watermark/watermark.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// \brief Options of the in-memory embed (meshmark.h): the watermark's parameters plus where
 /// its seed and payload come from (see make_key).
 struct EmbedMeshOptions
 {
-    EmbedOptions embed;                    ///< k, m, rule, strength, sigma factor.
+    EmbedOptions embed;                   ///< k, m, rule, strength, sigma factor.
     std::optional<std::string> message;   ///< Payload from a text (hashed to 3m bits).
     std::optional<std::string> bits_hex;  ///< Payload given directly as hex digits.
     std::optional<std::uint64_t> seed;    ///< Secret seed; drawn from the OS when absent.
@@ -32,7 +33,7 @@ struct EmbedMeshOptions
     /// rounding, and an undetectable mark is refused (cap_displacement, displacement_cap.h).
     /// Not for recipient copies (one family strength for copies of different largest moves).
     double max_displacement = 0.0;
-    ProgressCallback progress;            ///< Optional.
+    ProgressCallback progress;  ///< Optional.
     /// \throws InvalidOption on conflicting or out-of-range options.
     void validate() const;
 };
@@ -40,7 +41,7 @@ struct EmbedMeshOptions
 /// Options of embed_file: those of the in-memory embed plus the files' handling.
 struct EmbedFileOptions : EmbedMeshOptions
 {
-    bool force = false;                   ///< Allow replacing an existing key file.
+    bool force = false;  ///< Allow replacing an existing key file.
     /// Longest wait for the key while another call changes it (file_lock.h); then IoError.
     std::chrono::milliseconds lock_timeout = kDefaultLockTimeout;
     /// \brief Allow the output to be the input itself (in-place embedding). The marked copy is
@@ -78,7 +79,7 @@ struct EmbedReport
     std::int64_t vertex_count = 0;
     std::int64_t face_count = 0;
     PhaseTimings seconds;
-    bool streamed = false;     ///< Embedded out of core.
+    bool streamed = false;    ///< Embedded out of core.
     std::string stream_note;  ///< Why a budget-exceeding input was embedded in memory anyway.
     /// Out of core: how the surface strength was applied (as its vertex equivalent).
     std::string strength_note;
@@ -97,13 +98,14 @@ struct EmbedReport
 /// \brief Refuse, with one sentence naming \p path, a key that \p mesh cannot use: the
 /// Laplacian basis or decimated centers on a point cloud (they need faces).
 /// \throws InvalidMesh in those cases.
-void check_basis_input(const TriangleMesh& mesh, const EmbedOptions& options, const std::filesystem::path& path);
+void check_basis_input(const TriangleMesh& mesh, const EmbedOptions& options,
+                       const std::filesystem::path& path);
 
 /// \brief The watermark of \p key on \p mesh (SpectralWatermark), its InvalidMesh and
 /// NumericalError errors (a mesh with fewer usable vertices than the basis has functions, or
 /// whose vertices span fewer modes than the mark needs, say) naming \p path.
-[[nodiscard]] SpectralWatermark watermark_of(const TriangleMesh& mesh, const Key& key, const std::filesystem::path& path,
-                                             int threads);
+[[nodiscard]] SpectralWatermark watermark_of(const TriangleMesh& mesh, const Key& key,
+                                             const std::filesystem::path& path, int threads);
 
 /// \brief Watermark a mesh file end to end: read -> the in-memory embed (meshmark.h) -> write
 /// mesh and key; or, for large binary PLY files under a memory budget, the same bytes out of core.

@@ -15,7 +15,8 @@
 #include "meshmark/watermark/key.h"
 #include "meshmark/watermark/watermark.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// The text that names the recipient in an output pattern: `out/{recipient}.glb`.
 inline constexpr const char* kRecipientPlaceholder = "{recipient}";
@@ -23,7 +24,10 @@ inline constexpr const char* kRecipientPlaceholder = "{recipient}";
 /// Options of embed_recipients: the in-memory embed's (for a new family key) plus the recipients.
 struct EmbedRecipientsOptions : EmbedMeshOptions
 {
-    EmbedRecipientsOptions() { embed.repetitions = kFamilyRepetitions; }  // the owner's mark of a family key
+    EmbedRecipientsOptions()
+    {
+        embed.repetitions = kFamilyRepetitions;
+    }  // the owner's mark of a family key
 
     /// Names to issue a copy to, in order; a name the key already holds gets its copy again,
     /// byte for byte. Each passes check_recipient_name; a name given twice is issued once.
@@ -50,8 +54,8 @@ struct IssuedCopy
 /// What embed_recipients did.
 struct EmbedRecipientsReport
 {
-    Key key;                      ///< The family key as written (every recipient so far).
-    bool key_created = false;     ///< The key file did not exist before.
+    Key key;                   ///< The family key as written (every recipient so far).
+    bool key_created = false;  ///< The key file did not exist before.
     std::vector<IssuedCopy> copies;
     MeshFormat input_format = MeshFormat::Ply;
     std::int64_t vertex_count = 0;
@@ -94,7 +98,8 @@ public:
 
 /// \brief The output path of \p name: \p pattern with every kRecipientPlaceholder replaced.
 /// \throws InvalidOption unless \p pattern contains the placeholder.
-[[nodiscard]] std::filesystem::path recipient_output(const std::string& pattern, const std::string& name);
+[[nodiscard]] std::filesystem::path recipient_output(const std::string& pattern,
+                                                     const std::string& name);
 
 /// \brief Issue one marked copy of \p input per recipient (docs/fingerprinting.md).
 /// \details With no file at \p key_path a new family key is made (seed, payload and embedding
@@ -117,14 +122,17 @@ public:
 /// a key that is not a family key or belongs to another original, unwritable outputs, the
 /// lock's wait expired),
 /// InvalidMesh, NumericalError.
-EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const std::string& output_pattern,
-                                       const std::filesystem::path& key_path, const EmbedRecipientsOptions& options);
+EmbedRecipientsReport embed_recipients(const std::filesystem::path& input,
+                                       const std::string& output_pattern,
+                                       const std::filesystem::path& key_path,
+                                       const EmbedRecipientsOptions& options);
 
 /// \brief embed_recipients with the key kept in \p store and copy paths given by \p output_of
 /// (a catalogue's issuing). \p given, when not null, is \p input already read (what
 /// read_mesh_file returned); \p input then only names it in messages. Same steps and errors.
-EmbedRecipientsReport embed_recipients(const std::filesystem::path& input, const MeshFile* given,
-                                       const std::function<std::filesystem::path(const std::string&)>& output_of,
-                                       FamilyKeyStore& store, const EmbedRecipientsOptions& options);
+EmbedRecipientsReport embed_recipients(
+    const std::filesystem::path& input, const MeshFile* given,
+    const std::function<std::filesystem::path(const std::string&)>& output_of,
+    FamilyKeyStore& store, const EmbedRecipientsOptions& options);
 
 }  // namespace meshmark

@@ -9,14 +9,15 @@
 
 #include "meshmark/watermark/key.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// One file of an embed record: its name as given, its size and its SHA-256.
 struct RecordedFile
 {
-    std::string file;      ///< The path as given on the command line.
+    std::string file;  ///< The path as given on the command line.
     std::uint64_t bytes = 0;
-    std::string sha256;    ///< 64 lowercase hex digits, as `sha256sum` prints them.
+    std::string sha256;  ///< 64 lowercase hex digits, as `sha256sum` prints them.
 };
 
 /// \brief What an embed did, in a form a third party can check later without the key
@@ -47,7 +48,8 @@ struct EmbedRecord
 /// \param original  If not null, the original as recorded_file() hashed it before the embed:
 ///                  an embed in place has replaced \p input with the marked copy by now.
 /// \throws IoError naming a file that cannot be read.
-[[nodiscard]] EmbedRecord make_embed_record(const std::filesystem::path& input, const std::filesystem::path& output,
+[[nodiscard]] EmbedRecord make_embed_record(const std::filesystem::path& input,
+                                            const std::filesystem::path& output,
                                             const std::filesystem::path& key_path, const Key& key,
                                             const RecordedFile* original = nullptr);
 

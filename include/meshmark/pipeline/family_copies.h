@@ -13,7 +13,8 @@
 #include "meshmark/watermark/key.h"
 #include "meshmark/watermark/watermark.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// \brief What every copy of one family key's original shares, built once: the watermark, the
 /// owner's mark added to the original's positions, and the recipients' modes. Each recipient's
@@ -32,11 +33,13 @@ public:
     /// \brief For the family key \p key of \p file (both must outlive this object); its basis is
     /// built on \p threads threads. \p path names the file in errors.
     /// \throws InvalidOption (not a family key), InvalidMesh, NumericalError (watermark_of).
-    FamilyCopies(const MeshFile& file, const Key& key, const std::filesystem::path& path, int threads);
+    FamilyCopies(const MeshFile& file, const Key& key, const std::filesystem::path& path,
+                 int threads);
 
     /// \brief From a watermark already built on \p file (a new key, calibrated) and its owner's
     /// field \p owner with \p owner_stats (SpectralWatermark::displacement()).
-    FamilyCopies(const MeshFile& file, SpectralWatermark mark, Positions owner, const EmbedStats& owner_stats);
+    FamilyCopies(const MeshFile& file, SpectralWatermark mark, Positions owner,
+                 const EmbedStats& owner_stats);
 
     FamilyCopies(const FamilyCopies&) = delete;
     FamilyCopies& operator=(const FamilyCopies&) = delete;
@@ -47,8 +50,8 @@ public:
     /// \brief The positions of the copies of recipients \p indices (at most kBatch), into \p out
     /// (resized; its matrices reused), each copy's distortion into \p stats (same size, or
     /// empty: not measured), on \p threads threads.
-    void make(std::span<const std::uint32_t> indices, std::vector<Positions>& out, std::span<EmbedStats> stats,
-              int threads) const;
+    void make(std::span<const std::uint32_t> indices, std::vector<Positions>& out,
+              std::span<EmbedStats> stats, int threads) const;
 
     [[nodiscard]] const MeshFile& file() const noexcept { return *file_; }
     [[nodiscard]] const SpectralWatermark& watermark() const noexcept { return mark_; }

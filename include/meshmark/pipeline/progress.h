@@ -7,7 +7,8 @@
 #include <utility>
 #include <vector>
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// \brief Progress of a long operation: a phase name and the fraction done (0..1) within it.
 /// \details The pipelines call it with fraction 0 when a phase starts, 1 when it ends, and
@@ -19,7 +20,7 @@ using ProgressCallback = std::function<void(std::string_view phase, double fract
 struct PhaseTimings
 {
     std::vector<std::pair<std::string, double>> phases;  ///< In the order they ran.
-    double total = 0.0;                                  ///< Wall time from start to the last phase's end.
+    double total = 0.0;  ///< Wall time from start to the last phase's end.
 };
 
 }  // namespace meshmark

@@ -17,7 +17,8 @@
 #include "meshmark/pipeline/embed_recipients.h"
 #include "meshmark/pipeline/progress.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// Phase timings as a JSON object {"read": 0.1, ..., "total": 0.5}.
 [[nodiscard]] nlohmann::json to_json(const PhaseTimings& timings);
@@ -32,7 +33,8 @@ namespace meshmark {
 /// \brief `meshmark embed --recipient ... --json`: the family's parameters, then one entry
 /// per copy written (name, index, output, new, rms_displacement, max_displacement).
 [[nodiscard]] nlohmann::json embed_recipients_report_json(const EmbedRecipientsReport& report,
-                                                          const std::string& input, const std::string& key);
+                                                          const std::string& input,
+                                                          const std::string& key);
 
 /// \brief `meshmark embed --json`: embed_stats_json plus the file names as given, the counts,
 /// `streamed` and `seconds`; where the coordinates' unit is known (the file's or `--unit`),
@@ -48,23 +50,28 @@ namespace meshmark {
 /// \brief `meshmark detect --json`: the decision, registration and counts of \p report under
 /// \p options (its threshold and bound are echoed). \p diagnostics adds what was read per
 /// coefficient and bit (`normalized_change`, `coefficient_weights`, `bit_values`; `--verbose`).
-[[nodiscard]] nlohmann::json detect_report_json(const DetectReport& report, const DetectOptions& options,
+[[nodiscard]] nlohmann::json detect_report_json(const DetectReport& report,
+                                                const DetectOptions& options,
                                                 bool diagnostics = false);
 
 /// `meshmark attack --json`.
-[[nodiscard]] nlohmann::json attack_report_json(const AttackFileReport& report, const std::string& input,
+[[nodiscard]] nlohmann::json attack_report_json(const AttackFileReport& report,
+                                                const std::string& input,
                                                 const std::string& output);
 
 /// \brief `meshmark compare --json`'s `in_unit` object: the distances of \p r in \p unit, A's
 /// coordinates' unit (`unit`, `source` "file" or "option", `bbox_diagonal`, `hausdorff`,
 /// `hausdorff_ab`, `hausdorff_ba`, `rms_ab`, `rms_ba`, `mrms`, `mean_ab`, `mean_ba`, and with the
 /// same connectivity `max_displacement`, `rms_displacement`).
-[[nodiscard]] nlohmann::json compare_in_unit_json(const DistortionReport& r, LengthUnit unit, bool is_from_file);
+[[nodiscard]] nlohmann::json compare_in_unit_json(const DistortionReport& r, LengthUnit unit,
+                                                  bool is_from_file);
 
 /// \brief `meshmark compare --json` without `seconds` and `heatmap`: the distances of \p report
 /// (A = \p a read from \p a_path, B likewise), the counts and the sampling \p seed.
-[[nodiscard]] nlohmann::json compare_report_json(const std::string& a_path, const std::string& b_path,
-                                                 const TriangleMesh& a, const TriangleMesh& b,
-                                                 const DistortionReport& report, std::uint64_t seed);
+[[nodiscard]] nlohmann::json compare_report_json(const std::string& a_path,
+                                                 const std::string& b_path, const TriangleMesh& a,
+                                                 const TriangleMesh& b,
+                                                 const DistortionReport& report,
+                                                 std::uint64_t seed);
 
 }  // namespace meshmark

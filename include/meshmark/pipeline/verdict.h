@@ -11,7 +11,8 @@
 #include "meshmark/core/plain_numbers.h"
 #include "meshmark/pipeline/detect_file.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// \brief What a detection concludes, as a person reads it.
 /// \details Claimed when ownership is shown: by the owner's mark (alone, or read jointly with a

@@ -8,7 +8,8 @@
 
 #include "meshmark/registration/registration.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// \brief Parse point pairs from text: one pair per line, `x y z  x' y' z'`, the first point
 /// on the suspect and the second on the reference (the original).

@@ -10,7 +10,8 @@
 #include "meshmark/core/triangle_mesh.h"
 #include "meshmark/registration/surface_matcher.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// \brief One linearized point-to-plane update [Chen & Medioni 1992; Low 2004]: the small
 /// motion that best lays the points listed in \p kept onto the planes of their matches.
@@ -28,15 +29,15 @@ template <int N>
 struct PointToPlaneStep
 {
     Eigen::Vector3d centre = Eigen::Vector3d::Zero();  ///< c
-    double radius = 0.0;                                ///< L
+    double radius = 0.0;                               ///< L
     Eigen::Matrix<double, N, 1> delta = Eigen::Matrix<double, N, 1>::Zero();
 };
 
 /// The update above; nullopt when \p kept is empty or the update is not finite.
 /// \tparam N 6 (rigid) or 7 (rigid and uniform scale).
 template <int N>
-[[nodiscard]] std::optional<PointToPlaneStep<N>> point_to_plane_step(const Positions& Y,
-                                                                     const std::vector<SurfaceMatch>& matches,
-                                                                     std::span<const Eigen::Index> kept);
+[[nodiscard]] std::optional<PointToPlaneStep<N>> point_to_plane_step(
+    const Positions& Y, const std::vector<SurfaceMatch>& matches,
+    std::span<const Eigen::Index> kept);
 
 }  // namespace meshmark

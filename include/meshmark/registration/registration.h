@@ -11,7 +11,8 @@
 #include "meshmark/core/triangle_mesh.h"
 #include "meshmark/registration/surface_matcher.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// A point picked on the suspect and the same feature picked on the reference (the original).
 struct PointPair
@@ -42,7 +43,7 @@ struct RegistrationOptions
     /// Largest rms_error (relative to the reference bbox diagonal) of a converged result.
     double max_rms_rel = 0.05;
     std::uint64_t seed = 0x5245474953544552ULL;  ///< Seed of the deterministic subsampling.
-    int threads = 0;                              ///< 0 = all cores.
+    int threads = 0;                             ///< 0 = all cores.
     /// Return the fine stage's closest-point structure over the reference
     /// (RegistrationResult::reference_surface) instead of dropping it, for a caller that queries
     /// the reference's surface next (detection's symmetry search). It holds a copy of the
@@ -65,12 +66,12 @@ struct RegistrationResult
     /// RMS distance of the kept (trimmed) suspect samples to the reference surface, relative
     /// to the reference's bounding-box diagonal.
     double rms_error = 0.0;
-    int iterations = 0;       ///< ICP iterations of every stage, summed.
-    bool converged = false;   ///< Final stage met its tolerance and the result is plausible.
+    int iterations = 0;      ///< ICP iterations of every stage, summed.
+    bool converged = false;  ///< Final stage met its tolerance and the result is plausible.
     /// Fraction of the final suspect samples lying on the reference (closer than three times
     /// the trimmed RMS distance): near 1 for cropped copies too, low for a wrong alignment.
     double overlap_fraction = 0.0;
-    int candidates = 0;       ///< Coarse starting transforms that were tried.
+    int candidates = 0;  ///< Coarse starting transforms that were tried.
     /// The best fit of the other handedness (unmirrored when `transform` is mirrored, and the
     /// reverse), given when it fitted nearly as well as the chosen one (within 1.5 times its
     /// score): a nearly mirror-symmetric reference fits a copy about as well both ways, and the
@@ -124,8 +125,10 @@ struct RegistrationResult
 /// one stays mirrored), which costs a small part of a full registration.
 /// \throws InvalidMesh as above; InvalidOption from options.validate() or when the linear
 /// part of \p start is not a similarity.
-[[nodiscard]] RegistrationResult register_from(const TriangleMesh& suspect, const TriangleMesh& reference,
-                                               const Eigen::Matrix4d& start, const RegistrationOptions& options = {});
+[[nodiscard]] RegistrationResult register_from(const TriangleMesh& suspect,
+                                               const TriangleMesh& reference,
+                                               const Eigen::Matrix4d& start,
+                                               const RegistrationOptions& options = {});
 
 /// \brief The shape's spread along its principal axes: the eigenvalues of the area-weighted
 /// second moments of its surface (vertex moments for a point cloud), smallest first, as shares

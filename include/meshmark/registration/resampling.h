@@ -9,7 +9,8 @@
 #include "meshmark/core/triangle_mesh.h"
 #include "meshmark/geometry/closest_point_index.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// Parameters of resample(). The crop threshold is
 /// `max(edge_factor * h, quantile_factor * q)`, where `h` is the reference's mean edge length
@@ -22,7 +23,7 @@ struct ResamplingOptions
     /// Quantile of the distances that measures the attack's displacement. 0.25 stays inside the
     /// surviving part for crops that remove up to 75% of the vertices.
     double quantile = 0.25;
-    int threads = 0;                ///< 0 = all cores.
+    int threads = 0;  ///< 0 = all cores.
 
     /// \throws InvalidOption naming the field, its value and the allowed range.
     void validate() const;
@@ -31,12 +32,13 @@ struct ResamplingOptions
 /// The suspect's surface sampled at the reference's vertices.
 struct Resampling
 {
-    Positions points;                     ///< #V_ref×3: closest suspect point, reference frame.
-    Eigen::VectorXd distance;             ///< #V_ref distances to those points, reference units.
-    std::vector<std::uint8_t> is_cropped; ///< #V_ref flags: 1 when the distance exceeds the threshold.
-    double cropped_fraction = 0.0;        ///< Flagged fraction of the reference's vertices.
-    double crop_threshold = 0.0;          ///< The threshold used, reference units.
-    double mean_edge_length = 0.0;        ///< `h` above, reference units.
+    Positions points;          ///< #V_ref×3: closest suspect point, reference frame.
+    Eigen::VectorXd distance;  ///< #V_ref distances to those points, reference units.
+    std::vector<std::uint8_t>
+        is_cropped;                 ///< #V_ref flags: 1 when the distance exceeds the threshold.
+    double cropped_fraction = 0.0;  ///< Flagged fraction of the reference's vertices.
+    double crop_threshold = 0.0;    ///< The threshold used, reference units.
+    double mean_edge_length = 0.0;  ///< `h` above, reference units.
     /// #V_ref: the suspect's triangle holding each point (its vertex for a point cloud).
     std::vector<std::int32_t> element;
 };
@@ -83,7 +85,8 @@ struct Resampling
 /// vertices; a search structure over its triangles would cost 190 MB more on 1M vertices).
 /// \param sampled  The result of resample() for the same meshes and transform.
 /// \throws InvalidOption if \p sampled was not made for \p reference.
-void match_reference_surface(Resampling& sampled, const TriangleMesh& reference, const TriangleMesh& suspect,
+void match_reference_surface(Resampling& sampled, const TriangleMesh& reference,
+                             const TriangleMesh& suspect,
                              const Eigen::Matrix4d& suspect_to_reference, int threads = 0);
 
 /// \brief Mean length of the face edges of \p mesh (each face's three edges, so interior

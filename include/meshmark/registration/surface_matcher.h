@@ -9,7 +9,8 @@
 
 #include "meshmark/core/triangle_mesh.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// One ICP correspondence: the point found on the target, the target's unit normal there
 /// (zero when the target is a point set) and the distance to the query.

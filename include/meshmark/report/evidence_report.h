@@ -21,7 +21,8 @@
 #include "meshmark/render/image.h"
 #include "meshmark/render/view.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// The file kinds an evidence report is written as, chosen by the file's extension.
 enum class EvidenceFormat
@@ -37,9 +38,9 @@ enum class EvidenceFormat
 /// A file the report names: as given, its size and its SHA-256.
 struct EvidenceFile
 {
-    std::string name;              ///< The path as given on the command line.
+    std::string name;  ///< The path as given on the command line.
     std::uintmax_t size_bytes = 0;
-    std::string sha256;            ///< Lower-case hex.
+    std::string sha256;  ///< Lower-case hex.
 };
 
 /// \brief The name, size and SHA-256 of \p path (file_sha256).
@@ -74,7 +75,7 @@ struct EvidencePictureOptions
     /// Samples per pixel along each axis (1 to 4); 1 for meshes with more triangles (suspect and
     /// original together) than a panel has pixels.
     int supersampling = 2;
-    int threads = 0;                 ///< 0 = all cores; the pictures do not depend on it.
+    int threads = 0;  ///< 0 = all cores; the pictures do not depend on it.
 };
 
 /// The two pictures of a report and the numbers their captions state.
@@ -97,7 +98,8 @@ struct EvidencePictures
 /// distances (ClosestPointIndex). Point clouds are drawn as discs.
 /// \throws InvalidOption for a detect report without a transform, InvalidMesh for a mesh with
 /// nothing to draw.
-[[nodiscard]] EvidencePictures evidence_pictures(const TriangleMesh& suspect, const TriangleMesh& original,
+[[nodiscard]] EvidencePictures evidence_pictures(const TriangleMesh& suspect,
+                                                 const TriangleMesh& original,
                                                  const nlohmann::json& detect,
                                                  const EvidencePictureOptions& options = {});
 
@@ -123,8 +125,8 @@ struct EvidenceText
 {
     std::string title;
     bool is_claimed = false;
-    std::string verdict;   ///< "CLAIMED: ..." or "NOT SHOWN: ...".
-    std::string chance;    ///< The sentence with the "1 in N".
+    std::string verdict;                      ///< "CLAIMED: ..." or "NOT SHOWN: ...".
+    std::string chance;                       ///< The sentence with the "1 in N".
     double false_positive_probability = 1.0;  ///< The verdict's, as in the JSON.
     std::vector<std::string> accused;         ///< Recipients named, as in the JSON.
     std::vector<EvidenceSection> sections;
@@ -133,7 +135,8 @@ struct EvidenceText
 /// \brief The report's words, from \p facts (its `detect` JSON above all) and the numbers of
 /// \p pictures.
 /// \throws InvalidOption when a field the report states is missing from `facts.detect`.
-[[nodiscard]] EvidenceText evidence_text(const EvidenceFacts& facts, const EvidencePictures& pictures);
+[[nodiscard]] EvidenceText evidence_text(const EvidenceFacts& facts,
+                                         const EvidencePictures& pictures);
 
 /// \brief The report as one self-contained HTML page: inline CSS, the pictures as base64 PNG
 /// data URIs, no script, no external file; prints on at most 3 A4 pages.
@@ -153,8 +156,8 @@ void write_evidence_report(const std::filesystem::path& path, const EvidenceFact
 struct DetectionReportOptions
 {
     EvidencePictureOptions pictures;
-    std::string version;  ///< EvidenceFacts::version.
-    std::string command;  ///< EvidenceFacts::command.
+    std::string version;   ///< EvidenceFacts::version.
+    std::string command;   ///< EvidenceFacts::command.
     bool is_dated = true;  ///< State when the report was made (the current UTC time).
 };
 
@@ -165,12 +168,14 @@ struct DetectionReportOptions
 /// IoError, InvalidMesh as read_mesh.
 void write_detection_report(const std::filesystem::path& path, const std::filesystem::path& suspect,
                             const std::filesystem::path& original, const std::filesystem::path& key,
-                            const nlohmann::json& detect, const DetectionReportOptions& options = {});
+                            const nlohmann::json& detect,
+                            const DetectionReportOptions& options = {});
 
 /// \brief write_detection_report with the key named by \p key (a key without a file of its own: a
 /// catalogue's record, named by the SHA-256 of its key file as `catalog export` writes it).
 void write_detection_report(const std::filesystem::path& path, const std::filesystem::path& suspect,
                             const std::filesystem::path& original, const EvidenceFile& key,
-                            const nlohmann::json& detect, const DetectionReportOptions& options = {});
+                            const nlohmann::json& detect,
+                            const DetectionReportOptions& options = {});
 
 }  // namespace meshmark

@@ -3,11 +3,12 @@
 
 #include <cmath>
 #include <cstdint>
-#include <utility>
 #include <string>
+#include <utility>
 #include <vector>
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// What an extraction read from a suspect.
 struct Extraction
@@ -123,10 +124,10 @@ public:
     [[nodiscard]] double slack() const noexcept { return slack_; }
 
 private:
-    double inverse_step_ = 0.0;     // 1 / h, h in units of |a|
-    double slack_ = 0.0;            // e
-    std::size_t total_ = 0;         // Q = sum_i q_i
-    std::size_t first_ = 0;         // Q / 2: the first sum kept below
+    double inverse_step_ = 0.0;  // 1 / h, h in units of |a|
+    double slack_ = 0.0;         // e
+    std::size_t total_ = 0;      // Q = sum_i q_i
+    std::size_t first_ = 0;      // Q / 2: the first sum kept below
     // at_least_[k - first_] = P(sum over the positive signs of q_i >= k), k = first_ .. Q + 1
     std::vector<double> at_least_;
 };
@@ -166,7 +167,10 @@ public:
     [[nodiscard]] SoftScore score(Sign sign) const;
     [[nodiscard]] std::size_t size() const noexcept { return size_; }
     /// 3 weightings (unless left out) plus one per extra reading: the union bound's factor.
-    [[nodiscard]] int statistic_count() const noexcept { return static_cast<int>(weighted_.size()); }
+    [[nodiscard]] int statistic_count() const noexcept
+    {
+        return static_cast<int>(weighted_.size());
+    }
 
 private:
     std::size_t size_ = 0;
@@ -234,7 +238,8 @@ enum class VerdictRule
 struct DetectOptions
 {
     VerdictRule verdict = VerdictRule::Combined;
-    /// Combined and correlation rules: ownership is claimed when the false-positive bound is at most this.
+    /// Combined and correlation rules: ownership is claimed when the false-positive bound is at
+    /// most this.
     double max_false_positive = 1e-6;
     /// Bits rule: ownership is claimed when R >= threshold (Wu & Kobbelt's value).
     double threshold = 0.75;
@@ -283,7 +288,8 @@ struct Decision
     /// key-masked payload with probability 1/2 and an undecided one never does.
     double bits_false_positive_probability = 1.0;
     /// The false-positive probability of the rule in use: one of the two above, or for the
-    /// combined rule min(1, 16/15 score_false_positive_probability, 16 bits_false_positive_probability).
+    /// combined rule min(1, 16/15 score_false_positive_probability, 16
+    /// bits_false_positive_probability).
     double false_positive_probability = 1.0;
     std::string bits_expected;  ///< '0'/'1'.
     std::string bits_found;     ///< '0'/'1'/'?'.

@@ -8,7 +8,8 @@
 #include "meshmark/watermark/decision.h"
 #include "meshmark/watermark/watermark.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// Weight of a resampled row at distance \p distance from the original's vertex, for a weight
 /// scale \p scale > 0 (Detector::extract_resampled): 1 / (1 + (distance / scale)^2).
@@ -61,7 +62,8 @@ public:
     ///        depend on the suspect and the original only, never on a key's signs, so the bound
     ///        holds.
     /// \throws InvalidOption if \p weight_scale is negative or not finite.
-    [[nodiscard]] Extraction extract_resampled(const Positions& resampled, const DetectOptions& options,
+    [[nodiscard]] Extraction extract_resampled(const Positions& resampled,
+                                               const DetectOptions& options,
                                                const std::vector<std::uint8_t>* is_kept = nullptr,
                                                double weight_scale = 0.0) const;
 
@@ -77,7 +79,8 @@ public:
     /// \brief extract_resampled() reading a family key's code modes jointly with the owner's
     /// even on a cropped suspect (where extract_resampled reads the owner's alone): the code's
     /// coefficients of a slightly cropped suspect (remeshing, simplification) for tracing.
-    [[nodiscard]] Extraction extract_resampled_with_code(const Positions& resampled, const DetectOptions& options,
+    [[nodiscard]] Extraction extract_resampled_with_code(const Positions& resampled,
+                                                         const DetectOptions& options,
                                                          const std::vector<std::uint8_t>* is_kept,
                                                          double weight_scale = 0.0) const;
 
@@ -105,10 +108,10 @@ public:
     ///        on no recipient's signs, so the bound holds.
     /// \throws InvalidOption unless the watermark has a recipient code, or if \p code_sampling
     ///        is neither empty nor 3M x 3M.
-    [[nodiscard]] std::vector<std::vector<double>> region_changes(const Positions& suspect, bool is_resampled,
-                                                                  const std::vector<std::uint8_t>* is_kept = nullptr,
-                                                                  double weight_scale = 0.0,
-                                                                  const std::vector<double>& code_sampling = {}) const;
+    [[nodiscard]] std::vector<std::vector<double>> region_changes(
+        const Positions& suspect, bool is_resampled,
+        const std::vector<std::uint8_t>* is_kept = nullptr, double weight_scale = 0.0,
+        const std::vector<double>& code_sampling = {}) const;
 
     /// The watermark's decision on an extraction (SpectralWatermark::decide).
     [[nodiscard]] Decision decide(const Extraction& extraction, const DetectOptions& options) const
@@ -123,12 +126,15 @@ private:
     // Modes read by an extraction: every modulated one, or a family key's owner modes alone on
     // a cropped suspect (\p is_kept not null).
     [[nodiscard]] int read_modes(const std::vector<std::uint8_t>* is_kept) const noexcept;
-    [[nodiscard]] Extraction read_resampled(const Positions& resampled, const DetectOptions& options,
+    [[nodiscard]] Extraction read_resampled(const Positions& resampled,
+                                            const DetectOptions& options,
                                             const std::vector<std::uint8_t>* is_kept,
-                                            double weight_scale, int modes, bool is_whole_change = false) const;
+                                            double weight_scale, int modes,
+                                            bool is_whole_change = false) const;
     // Extraction of coefficients normalized by their modulation, with their variances and
     // (where the joint least squares computes them) their damped readings.
-    [[nodiscard]] Extraction extraction_from(const Eigen::VectorXd& normalized, const Eigen::VectorXd& variances,
+    [[nodiscard]] Extraction extraction_from(const Eigen::VectorXd& normalized,
+                                             const Eigen::VectorXd& variances,
                                              const DetectOptions& options,
                                              const std::vector<Eigen::VectorXd>& damped = {}) const;
 

@@ -10,24 +10,26 @@
 
 #include "meshmark/core/triangle_mesh.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// \brief The model's canonical frame: centroid and principal axes of the analysed vertices.
 /// \details Embedding happens in this frame so that the watermark does not depend on where the
-/// model sits, how it is oriented or how large it is (docs/algorithms/embedding.md, "Canonical frame").
-/// Axes are the covariance eigenvectors, largest variance first; the first two point towards
-/// the positive third moment (skewness) and the third is their cross product, so a rotated
+/// model sits, how it is oriented or how large it is (docs/algorithms/embedding.md, "Canonical
+/// frame"). Axes are the covariance eigenvectors, largest variance first; the first two point
+/// towards the positive third moment (skewness) and the third is their cross product, so a rotated
 /// model gets the rotated frame.
 struct CanonicalFrame
 {
-    Eigen::Vector3d origin = Eigen::Vector3d::Zero();      ///< Centroid of the analysed vertices.
-    Eigen::Matrix3d axes = Eigen::Matrix3d::Identity();    ///< Rows: principal axes (a rotation).
+    Eigen::Vector3d origin = Eigen::Vector3d::Zero();    ///< Centroid of the analysed vertices.
+    Eigen::Matrix3d axes = Eigen::Matrix3d::Identity();  ///< Rows: principal axes (a rotation).
     double diagonal = 0.0;  ///< Diagonal of the bounding box in the principal axes ("D").
 };
 
 /// \brief Canonical frame of the listed rows.
 /// \throws NumericalError if the vertices coincide or are collinear (no 2D extent).
-[[nodiscard]] CanonicalFrame canonical_frame(const Positions& V, const std::vector<std::int32_t>& rows);
+[[nodiscard]] CanonicalFrame canonical_frame(const Positions& V,
+                                             const std::vector<std::int32_t>& rows);
 
 /// \brief canonical_frame() in three passes over the rows, for callers that stream positions
 /// (out-of-core embedding). canonical_frame() runs on this builder, so the same positions fed
@@ -64,7 +66,8 @@ private:
     Eigen::Matrix3d covariance_ = Eigen::Matrix3d::Zero();
     Eigen::Vector3d e1_ = Eigen::Vector3d::Zero();
     Eigen::Vector3d e2_ = Eigen::Vector3d::Zero();
-    Eigen::Matrix3d unsigned_axes_ = Eigen::Matrix3d::Identity();  // rows e1, e2, e1 x e2 before the signs
+    Eigen::Matrix3d unsigned_axes_ =
+        Eigen::Matrix3d::Identity();  // rows e1, e2, e1 x e2 before the signs
     double moment1_ = 0.0;
     double moment2_ = 0.0;
     Eigen::Vector3d lo_ = Eigen::Vector3d::Zero();

@@ -9,7 +9,8 @@
 
 #include "meshmark/core/triangle_mesh.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// How coefficients are modulated (docs/algorithms/embedding.md, "Modulation").
 enum class EmbeddingRule
@@ -71,8 +72,8 @@ enum class CenterSelection
 /// Parameters that, with the original mesh and the seed, determine the watermark.
 struct EmbedOptions
 {
-    int basis_size = 100;   ///< k, number of RBF centers [Wu & Kobbelt: 100].
-    int coefficients = 8;   ///< m, bits per axis: 3m payload bits (24, Wu & Kobbelt's count).
+    int basis_size = 100;  ///< k, number of RBF centers [Wu & Kobbelt: 100].
+    int coefficients = 8;  ///< m, bits per axis: 3m payload bits (24, Wu & Kobbelt's count).
     /// Spreading factor r: each payload bit is embedded on r coefficients (modes m r in all,
     /// bit t on coefficients t, t + 3m, t + 6m, ...), each with its own key-mask sign, and read
     /// back by soft-decision correlation. More coefficients at the same distortion make a
@@ -207,7 +208,8 @@ void check_recipient_name(const std::string& name);
 /// \brief The code of recipient \p index: n signs (0/1 for -1/+1) from the seed's
 /// "recipient-code" stream for that index, independent of every other recipient's and of the
 /// owner's mask.
-[[nodiscard]] std::vector<std::uint8_t> recipient_code(std::uint64_t seed, std::uint32_t index, int n);
+[[nodiscard]] std::vector<std::uint8_t> recipient_code(std::uint64_t seed, std::uint32_t index,
+                                                       int n);
 
 /// \brief Everything that, with the original mesh, regenerates the watermarked mesh and
 /// detects it: stored as a versioned JSON key file (mode 0600).
@@ -215,9 +217,9 @@ struct Key
 {
     static constexpr int kVersion = 1;
 
-    std::uint64_t seed = 0;       ///< Secret; every random choice derives from it.
+    std::uint64_t seed = 0;  ///< Secret; every random choice derives from it.
     EmbedOptions options;
-    std::vector<std::uint8_t> payload;  ///< 3m bits (0/1), before the key-derived mask.
+    std::vector<std::uint8_t> payload;   ///< 3m bits (0/1), before the key-derived mask.
     std::optional<std::string> message;  ///< The text the payload was derived from, if any.
     MeshFingerprint original;
     /// A family key (one copy per recipient, `meshmark embed --recipient`): the recipients'
@@ -246,9 +248,10 @@ struct Key
                            const std::optional<std::string>& message = std::nullopt,
                            const std::optional<std::string>& bits_hex = std::nullopt);
 
-/// \brief The key-derived mask XOR-ed with the payload before embedding (docs/algorithms/embedding.md, "Payload bits"):
-/// without it, a wrong key reads the mark, because the leading modes barely depend on the centers.
-/// \details One bit per modulated coefficient (3 m r); the first n bits do not depend on n.
+/// \brief The key-derived mask XOR-ed with the payload before embedding
+/// (docs/algorithms/embedding.md, "Payload bits"): without it, a wrong key reads the mark, because
+/// the leading modes barely depend on the centers. \details One bit per modulated coefficient (3 m
+/// r); the first n bits do not depend on n.
 [[nodiscard]] std::vector<std::uint8_t> payload_mask(std::uint64_t seed, int n);
 
 /// Bits as a string of '0'/'1'.

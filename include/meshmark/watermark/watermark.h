@@ -16,7 +16,8 @@
 #include "meshmark/watermark/frame.h"
 #include "meshmark/watermark/key.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// What an embedding did.
 struct EmbedStats
@@ -26,9 +27,10 @@ struct EmbedStats
     /// First-order RMS distance of the marked surface from the original (surface_rms_displacement),
     /// same unit; 0 where it is not measured (the out-of-core embed, which has no faces in memory).
     double surface_rms_rel = 0.0;
-    double orthogonality_error = 0.0;   ///< max |U_m^T U_m - I| over the modes used.
-    double modulation_step = 0.0;       ///< Additive rule: s, in file units.
-    int weak_bits = 0;  ///< Paper rule: bits on coefficients below 1/10 of the largest modulated one.
+    double orthogonality_error = 0.0;  ///< max |U_m^T U_m - I| over the modes used.
+    double modulation_step = 0.0;      ///< Additive rule: s, in file units.
+    int weak_bits =
+        0;  ///< Paper rule: bits on coefficients below 1/10 of the largest modulated one.
     int analysed_vertices = 0;
     /// Modes the basis spans numerically (SpectralBasis::kDegenerateModeTolerance): k, unless
     /// the vertices lie on a few curves or in a small patch.
@@ -50,7 +52,8 @@ struct DisplacementSummary
 
 /// \brief Refuse a key whose basis has more functions than the original has analysed rows.
 /// \throws InvalidMesh naming both counts (and \p source, the file, when given).
-void check_analysed_rows(const EmbedOptions& options, std::size_t analysed_rows, const std::string& source = {});
+void check_analysed_rows(const EmbedOptions& options, std::size_t analysed_rows,
+                         const std::string& source = {});
 
 /// \brief The repetitions r a key with EmbedOptions::kAutoRepetitions gets on an original with
 /// \p analysed_rows analysed vertices (docs/statistics.md, "How long a mark"): 5 (120
@@ -89,8 +92,8 @@ public:
     /// order): bit for bit the watermark the constructor above builds from the mesh. Without the
     /// mesh only the RBF basis with random centers can be built.
     /// \throws as above; InvalidOption for the Laplacian basis or decimated centers.
-    SpectralWatermark(const Key& key, std::shared_ptr<const RowPositionSource> rows, const CanonicalFrame& frame,
-                      int threads = 0);
+    SpectralWatermark(const Key& key, std::shared_ptr<const RowPositionSource> rows,
+                      const CanonicalFrame& frame, int threads = 0);
 
     /// Coefficient change beta - alpha in file axes (first_mode + m r rows, zero above): what
     /// displacement() synthesizes. For a family key this is the owner's mark, shared by every copy.
@@ -107,8 +110,8 @@ public:
 
     /// \brief EmbedStats of a synthesized field from its summary, as displacement() fills them.
     /// \param aabb_diagonal  Axis-aligned bbox diagonal of the analysed rows.
-    void describe(const DisplacementSummary& summary, double aabb_diagonal, double orthogonality_error,
-                  EmbedStats* stats) const;
+    void describe(const DisplacementSummary& summary, double aabb_diagonal,
+                  double orthogonality_error, EmbedStats* stats) const;
 
     [[nodiscard]] const Key& key() const noexcept { return key_; }
     [[nodiscard]] const CanonicalFrame& frame() const noexcept { return frame_; }
@@ -140,11 +143,12 @@ public:
     /// from which detection and later copies rebuild it (docs/algorithms/embedding.md,
     /// "Strength"). A family key's owner mark carries its share of the energy only.
     /// \param original  The mesh this watermark was built from (its faces are read here).
-    /// \param stats     If not null, scaled with the field; surface_rms_rel is filled in either way.
-    /// \return The factor: 1 when the key needs no calibration (it then only measures).
+    /// \param stats     If not null, scaled with the field; surface_rms_rel is filled in either
+    /// way. \return The factor: 1 when the key needs no calibration (it then only measures).
     /// \throws InvalidOption when the watermark was built from streamed rows, or when the
     /// calibrated vertex strength would exceed 0.5 of the diagonal.
-    double calibrate_strength(const TriangleMesh& original, Positions& field, EmbedStats* stats = nullptr);
+    double calibrate_strength(const TriangleMesh& original, Positions& field,
+                              EmbedStats* stats = nullptr);
 
     /// \brief Lower (or raise) the mark's strength by \p factor after the embedding chose it: the
     /// key's strength (and calibrated vertex strength) and the modulation (the owner's and a
@@ -160,7 +164,8 @@ public:
 
     /// \brief Every recipient of a family key scored on the extraction's recipient
     /// coefficients, in the key's order (docs/fingerprinting.md); empty for other keys.
-    [[nodiscard]] std::vector<RecipientScore> trace(const Extraction& extraction, const DetectOptions& options) const;
+    [[nodiscard]] std::vector<RecipientScore> trace(const Extraction& extraction,
+                                                    const DetectOptions& options) const;
 
 private:
     // Checks the key; a family key's automatic repetitions become kFamilyRepetitions here.

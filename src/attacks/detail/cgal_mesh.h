@@ -11,7 +11,8 @@
 
 #include "meshmark/core/triangle_mesh.h"
 
-namespace meshmark::detail {
+namespace meshmark::detail
+{
 
 using CgalKernel = CGAL::Exact_predicates_inexact_constructions_kernel;
 using CgalPoint = CgalKernel::Point_3;

@@ -5,7 +5,8 @@
 #include <charconv>
 #include <string>
 
-namespace meshmark::detail {
+namespace meshmark::detail
+{
 
 /// Shortest text that reads back to exactly \p value (std::to_chars, locale-independent).
 inline std::string format_number(double value)

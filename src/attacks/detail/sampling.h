@@ -11,7 +11,8 @@
 #include "meshmark/core/rng.h"
 #include "meshmark/core/threads.h"
 
-namespace meshmark::detail {
+namespace meshmark::detail
+{
 
 /// Direction uniform on the unit sphere (Archimedes: z uniform in [-1, 1], longitude uniform).
 inline Eigen::Vector3d random_unit_vector(Rng& rng)

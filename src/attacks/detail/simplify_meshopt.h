@@ -7,7 +7,8 @@
 
 #include "meshmark/core/triangle_mesh.h"
 
-namespace meshmark::detail {
+namespace meshmark::detail
+{
 
 /// \brief Simplify \p mesh with meshopt_simplify until about \p target_vertices vertices are
 /// left; the result keeps the exact positions of the vertices it keeps, compacted in increasing

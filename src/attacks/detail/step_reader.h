@@ -15,7 +15,8 @@
 #include "attacks/detail/format.h"
 #include "meshmark/core/error.h"
 
-namespace meshmark::detail {
+namespace meshmark::detail
+{
 
 inline std::string_view trim(std::string_view s)
 {
@@ -64,8 +65,9 @@ public:
     {
         if (text.empty())
         {
-            throw InvalidOption("Empty attack step in the attack spec (two commas in a row, or a "
-                                "comma at an end?).");
+            throw InvalidOption(
+                "Empty attack step in the attack spec (two commas in a row, or a "
+                "comma at an end?).");
         }
         const auto parts = split(text, ':');
         const std::size_t equals = parts.front().find('=');
@@ -123,8 +125,8 @@ public:
             digits.remove_prefix(1);
         }
         double value = 0.0;
-        const auto [end, error] = std::from_chars(digits.data(), digits.data() + digits.size(),
-                                                  value);
+        const auto [end, error] =
+            std::from_chars(digits.data(), digits.data() + digits.size(), value);
         if (error != std::errc() || end != digits.data() + digits.size() || digits.empty())
         {
             fail(std::string(what) + " " + quoted(text) + " is not a number.");
@@ -200,8 +202,8 @@ public:
 
     // The value of `key` read as a word among `choices`; nullopt when the key is absent.
     template <typename E>
-    [[nodiscard]] std::optional<E> take_choice(std::string_view key,
-                                               std::initializer_list<std::pair<std::string_view, E>> choices)
+    [[nodiscard]] std::optional<E> take_choice(
+        std::string_view key, std::initializer_list<std::pair<std::string_view, E>> choices)
     {
         const auto word = take(key);
         return word ? std::optional<E>(choice(*word, key, choices)) : std::nullopt;

@@ -9,7 +9,8 @@
 
 #include "meshmark/core/triangle_mesh.h"
 
-namespace meshmark::detail {
+namespace meshmark::detail
+{
 
 /// File name of the plugin (a CMake MODULE library built with the attacks library).
 inline constexpr const char* kVoxelPluginFile = "libmeshmark_voxel.so";

@@ -12,7 +12,8 @@
 #include "io/detail/numbers.h"
 #include "meshmark/io/mesh_io.h"
 
-namespace meshmark::detail {
+namespace meshmark::detail
+{
 
 /// A token of a text file: [offset, offset + length) in FileLayout::bytes.
 struct TextSpan
@@ -74,7 +75,7 @@ struct ThreeMfObject
 struct ThreeMfLayout
 {
     std::vector<ThreeMfObject> objects;
-    TriangleMesh instances;  ///< Other instances of objects (see MeshFile::instances).
+    TriangleMesh instances;          ///< Other instances of objects (see MeshFile::instances).
     std::optional<LengthUnit> unit;  ///< The root model's unit (see MeshFile::unit).
 };
 

@@ -10,7 +10,8 @@
 #include "io/detail/file_layout.h"
 #include "meshmark/io/mesh_io.h"
 
-namespace meshmark::detail {
+namespace meshmark::detail
+{
 
 // Readers: parse layout.bytes (the whole file) into a MeshFile whose layout is filled in.
 // Each throws IoError/InvalidMesh naming `path`.
@@ -46,8 +47,9 @@ namespace meshmark::detail {
 /// keep their bytes, changed ones follow the precision rules of mesh_io.h. \p path names the
 /// file in errors. A binary PLY is one copy of the original, patched in place.
 /// \pre the positions are finite (check_finite).
-[[nodiscard]] std::string preserved_bytes(const std::filesystem::path& path, const FileLayout& layout,
-                                          const Positions& original, const Positions& positions);
+[[nodiscard]] std::string preserved_bytes(const std::filesystem::path& path,
+                                          const FileLayout& layout, const Positions& original,
+                                          const Positions& positions);
 
 /// \brief Write preserved_bytes to \p path, atomically (a binary PLY in slices, never as a
 /// second whole copy). An OBJ's material libraries are relinked when \p path is in another
@@ -69,9 +71,9 @@ struct TextEdit
 /// resolve from \p output_folder as it does from \p source_folder by the relative path from
 /// the output's folder to the source's library (see relinked), in file order; none in the
 /// usual cases (no `mtllib`, the same folder).
-[[nodiscard]] std::vector<TextEdit> material_library_edits(std::string_view bytes,
-                                                           const std::filesystem::path& source_folder,
-                                                           const std::filesystem::path& output_folder);
+[[nodiscard]] std::vector<TextEdit> material_library_edits(
+    std::string_view bytes, const std::filesystem::path& source_folder,
+    const std::filesystem::path& output_folder);
 
 /// The STL part of write_preserved (facet corners and recomputed normals).
 [[nodiscard]] std::string preserved_stl_bytes(const std::filesystem::path& path,

@@ -13,13 +13,12 @@
 
 #include <Eigen/Core>
 
-#include "meshmark/io/mesh_io.h"
-
 #include "meshmark/core/triangle_mesh.h"
-
+#include "meshmark/io/mesh_io.h"
 #include "numbers.h"
 
-namespace meshmark::detail {
+namespace meshmark::detail
+{
 
 /// glTF accessor component types that a POSITION accessor may have (core: FLOAT;
 /// KHR_mesh_quantization: the four integer types, normalized or not).
@@ -264,8 +263,9 @@ struct GlbChunks
 
 // Draco (draco.cpp).
 
-[[nodiscard]] DracoGeometry decode_draco(const std::filesystem::path& path, const std::string& bytes,
-                                         std::int32_t position_id, std::span<const std::int32_t> more_ids = {});
+[[nodiscard]] DracoGeometry decode_draco(const std::filesystem::path& path,
+                                         const std::string& bytes, std::int32_t position_id,
+                                         std::span<const std::int32_t> more_ids = {});
 /// \brief Re-encode \p bytes with the positions of every point replaced by \p positions
 /// (3 per point, stored values in the attribute's data type: integers for integer types),
 /// keeping every attribute, its unique id and its quantization.

@@ -13,7 +13,8 @@
 #include "numbers.h"
 #include "support.h"
 
-namespace meshmark::detail {
+namespace meshmark::detail
+{
 
 using GltfJson = nlohmann::ordered_json;
 

@@ -20,7 +20,8 @@
 #include "gltf.h"
 #include "gltf_json.h"
 
-namespace meshmark::detail {
+namespace meshmark::detail
+{
 
 // glTF codes the writers store: componentType and bufferView target.
 inline constexpr int kFloat = 5126;
@@ -29,8 +30,8 @@ inline constexpr int kArrayBuffer = 34962;
 inline constexpr int kElementArrayBuffer = 34963;
 
 /// \brief Copies of the asset's buffers and JSON with welded positions \p original replaced
-/// by \p positions; run() writes them, one_file() returns them as one file's bytes. The JSON is parsed on first use and serialized again
-/// only when something in it changed.
+/// by \p positions; run() writes them, one_file() returns them as one file's bytes. The JSON is
+/// parsed on first use and serialized again only when something in it changed.
 class GltfWriter
 {
 public:

@@ -9,7 +9,8 @@
 #include <string>
 #include <string_view>
 
-namespace meshmark::detail {
+namespace meshmark::detail
+{
 
 /// Scalar types of binary and typed-ASCII files (the PLY set).
 enum class ScalarType : std::uint8_t

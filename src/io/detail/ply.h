@@ -12,7 +12,8 @@
 #include "io/detail/file_layout.h"
 #include "io/detail/support.h"
 
-namespace meshmark::detail {
+namespace meshmark::detail
+{
 
 enum class PlyEncoding
 {

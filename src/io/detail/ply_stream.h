@@ -17,7 +17,8 @@
 #include "io/detail/support.h"
 #include "meshmark/io/ply_stream.h"
 
-namespace meshmark::detail {
+namespace meshmark::detail
+{
 
 /// A read-only file descriptor with positioned reads (thread-safe: pread has no shared offset).
 class InputFile
@@ -94,7 +95,8 @@ inline void patch_coordinate(char* p, ScalarType type, bool is_big_endian, doubl
 {
     if (!std::isfinite(value))
     {
-        fail_mesh(path, "vertex " + std::to_string(vertex) + " has a non-finite coordinate (NaN or infinity)");
+        fail_mesh(path, "vertex " + std::to_string(vertex) +
+                            " has a non-finite coordinate (NaN or infinity)");
     }
     if (is_changed(old_value, value) && !store_scalar(p, type, is_big_endian, value))
     {
@@ -104,7 +106,8 @@ inline void patch_coordinate(char* p, ScalarType type, bool is_big_endian, doubl
 
 }  // namespace meshmark::detail
 
-namespace meshmark {
+namespace meshmark
+{
 
 /// Where things sit in a PLY opened for streaming.
 struct PlyStream::Impl

@@ -12,7 +12,8 @@
 
 #include "meshmark/core/triangle_mesh.h"
 
-namespace meshmark::detail {
+namespace meshmark::detail
+{
 
 /// Throw IoError "<path>: <what>." (what is one clause, without the final period).
 [[noreturn]] void fail_io(const std::filesystem::path& path, const std::string& what);
@@ -30,9 +31,9 @@ namespace meshmark::detail {
 /// library): std::nullopt when \p name still resolves from there (the same folder, a file with
 /// the same bytes at that place, or no such resource to reach), else the relative path from
 /// \p output_folder to the source's file (empty when there is none).
-[[nodiscard]] std::optional<std::filesystem::path> relinked(const std::filesystem::path& source_folder,
-                                                            const std::filesystem::path& output_folder,
-                                                            const std::filesystem::path& name);
+[[nodiscard]] std::optional<std::filesystem::path> relinked(
+    const std::filesystem::path& source_folder, const std::filesystem::path& output_folder,
+    const std::filesystem::path& name);
 
 /// Spaces that separate tokens within a line (everything but '\n').
 [[nodiscard]] constexpr bool is_blank(char c) noexcept
@@ -153,7 +154,8 @@ inline constexpr std::uint64_t kMaxVertices = 2147483647U;
 
 }  // namespace meshmark::detail
 
-namespace meshmark::detail {
+namespace meshmark::detail
+{
 
 /// Append the fan triangles (i0, ik, ik+1) of a polygon of \p n checked indices (none if n < 3).
 inline void append_fan(TriangleBuffer& triangles, const std::int32_t* indices, std::size_t n)

@@ -21,7 +21,8 @@
 #include "support.h"
 #include "zip_archive.h"
 
-namespace meshmark::detail {
+namespace meshmark::detail
+{
 
 inline constexpr std::string_view kCoreNamespace =
     "http://schemas.microsoft.com/3dmanufacturing/core/2015/02";

@@ -5,7 +5,8 @@
 #include <cstdint>
 #include <vector>
 
-namespace meshmark::detail {
+namespace meshmark::detail
+{
 
 /// Vertices of different transform groups are welded when closer than this fraction of the
 /// bbox diagonal. An exporter that stores each part as T^-1 * world in float32 leaves the

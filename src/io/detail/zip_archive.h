@@ -12,7 +12,8 @@
 // Zip containers (3MF packages) in memory through libzip (Debian libzip-dev).
 struct zip;
 
-namespace meshmark::detail {
+namespace meshmark::detail
+{
 
 /// A zip archive opened read-only on bytes in memory; errors name \p path.
 class ZipArchive

@@ -8,7 +8,8 @@
 
 #include "meshmark/core/triangle_mesh.h"
 
-namespace meshmark::detail {
+namespace meshmark::detail
+{
 
 /// Centroid and covariance of a shape.
 struct Moments
@@ -49,6 +50,7 @@ struct Moments
                                                    std::uint64_t seed);
 
 /// A seeded random permutation of \p rows (Fisher-Yates driven by meshmark::Rng).
-[[nodiscard]] std::vector<std::int32_t> shuffled(std::vector<std::int32_t> rows, std::uint64_t seed);
+[[nodiscard]] std::vector<std::int32_t> shuffled(std::vector<std::int32_t> rows,
+                                                 std::uint64_t seed);
 
 }  // namespace meshmark::detail

@@ -10,7 +10,8 @@
 #include "meshmark/core/triangle_mesh.h"
 #include "meshmark/registration/surface_matcher.h"
 
-namespace meshmark::detail {
+namespace meshmark::detail
+{
 
 /// \brief Median distance from a point of \p V to its nearest other point (at most
 /// \p max_queries points queried, evenly spaced in row order); 0 with fewer than 2 points.

@@ -1,14 +1,15 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/geometry/adjacency.h"
 
-#include <gtest/gtest.h>
-
 #include <algorithm>
 #include <vector>
 
+#include <gtest/gtest.h>
+
 #include "meshmark/geometry/shapes.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 TEST(AdjacencyTest, icosphere_neighbours_are_symmetric_sorted_and_match_euler)
 {

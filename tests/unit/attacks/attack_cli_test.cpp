@@ -1,22 +1,24 @@
 // SPDX-License-Identifier: MIT
 // `meshmark attack` end to end: exit codes, determinism across runs, refusal to overwrite.
-#include <gtest/gtest.h>
-#include <sys/wait.h>
-
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <string>
 
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include "attack_test_util.h"
 #include "meshmark/geometry/adjacency.h"
 #include "meshmark/geometry/shapes.h"
 #include "meshmark/io/mesh_io.h"
 #include "support/test_paths.h"
-#include "attack_test_util.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 class AttackCliTest : public ::testing::Test
 {
@@ -36,10 +38,9 @@ protected:
     // stderr to files; returns the exit code.
     int run(const std::string& args, const std::string& env = "") const
     {
-        const std::string command = (env.empty() ? "" : "env " + env + " ") +
-                                    test::cli_path().string() + " attack " + args + " >" +
-                                    (dir_ / "stdout.txt").string() + " 2>" +
-                                    (dir_ / "stderr.txt").string();
+        const std::string command =
+            (env.empty() ? "" : "env " + env + " ") + test::cli_path().string() + " attack " +
+            args + " >" + (dir_ / "stdout.txt").string() + " 2>" + (dir_ / "stderr.txt").string();
         const int status = std::system(command.c_str());
         return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
     }
@@ -60,8 +61,7 @@ TEST_F(AttackCliTest, chain_writes_the_attacked_mesh_and_is_reproducible_per_see
     ASSERT_EQ(run(input_.string() + " -o " + (dir_ / "a.ply").string() + " --seed 3" + spec), 0)
         << file("stderr.txt");
     EXPECT_NE(file("stderr.txt").find("2562 vertices"), std::string::npos) << file("stderr.txt");
-    ASSERT_EQ(run(input_.string() + " -o " + (dir_ / "b.ply").string() + " --seed 3 -q" + spec),
-              0);
+    ASSERT_EQ(run(input_.string() + " -o " + (dir_ / "b.ply").string() + " --seed 3 -q" + spec), 0);
     EXPECT_TRUE(file("stderr.txt").empty());
     ASSERT_EQ(run(input_.string() + " -o " + (dir_ / "c.ply").string() + " --seed 4" + spec), 0);
     const TriangleMesh a = read_mesh(dir_ / "a.ply");
@@ -105,9 +105,9 @@ TEST_F(AttackCliTest, errors_map_to_exit_codes_and_leave_no_output)
 
 TEST_F(AttackCliTest, voxel_remeshing_writes_a_closed_new_mesh_the_same_for_any_thread_count)
 {
-    ASSERT_EQ(run(input_.string() + " -o " + (dir_ / "v1.ply").string() +
-                  " --json --threads 1 voxel=60"),
-              0)
+    ASSERT_EQ(
+        run(input_.string() + " -o " + (dir_ / "v1.ply").string() + " --json --threads 1 voxel=60"),
+        0)
         << file("stderr.txt");
     const std::string json = file("stdout.txt");
     EXPECT_NE(json.find("\"spec\":\"voxel=60\""), std::string::npos) << json;
@@ -152,9 +152,10 @@ TEST_F(AttackCliTest, voxel_plugin_is_loaded_only_by_the_voxel_step_and_reported
     const std::string in_empty = "MESHMARK_PLUGIN_DIR=" + empty.string();
     const std::string never = (dir_ / "never.ply").string();
     EXPECT_EQ(run(input_.string() + " -o " + never + " voxel=30", in_empty), 5);
-    EXPECT_NE(file("stderr.txt").find("needs libmeshmark_voxel.so (OpenVDB), which was not found "
-                                      "in MESHMARK_PLUGIN_DIR (" +
-                                      empty.string() + "): reinstall meshmark."),
+    EXPECT_NE(file("stderr.txt")
+                  .find("needs libmeshmark_voxel.so (OpenVDB), which was not found "
+                        "in MESHMARK_PLUGIN_DIR (" +
+                        empty.string() + "): reinstall meshmark."),
               std::string::npos)
         << file("stderr.txt");
     EXPECT_FALSE(std::filesystem::exists(never));
@@ -165,8 +166,7 @@ TEST_F(AttackCliTest, voxel_plugin_is_loaded_only_by_the_voxel_step_and_reported
     const std::filesystem::path broken = empty / "libmeshmark_voxel.so";
     std::ofstream(broken) << "not a library\n";
     EXPECT_EQ(run(input_.string() + " -o " + never + " voxel=30", in_empty), 5);
-    EXPECT_NE(file("stderr.txt").find("could not load " + broken.string()),
-              std::string::npos)
+    EXPECT_NE(file("stderr.txt").find("could not load " + broken.string()), std::string::npos)
         << file("stderr.txt");
     EXPECT_FALSE(std::filesystem::exists(never));
 

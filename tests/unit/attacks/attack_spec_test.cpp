@@ -1,16 +1,18 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/attacks/attack_spec.h"
 
-#include <gtest/gtest.h>
-
 #include <string>
 
+#include <gtest/gtest.h>
+
+#include "attack_test_util.h"
 #include "meshmark/core/error.h"
 #include "meshmark/geometry/shapes.h"
-#include "attack_test_util.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 // The InvalidOption message of parsing \p text, or "" if it parses.
 std::string parse_error(const std::string& text)
@@ -50,7 +52,8 @@ TEST(AttackSpecTest, parses_the_documented_example_into_typed_steps)
     EXPECT_EQ(std::get<LaplacianSmoothingOptions>(keyed[1]).lambda, 0.2);
     EXPECT_EQ(std::get<TaubinSmoothingOptions>(keyed[2]).mu, -0.45);
     EXPECT_EQ(std::get<QuantizationOptions>(keyed[3]).bits, 8);
-    EXPECT_EQ(std::get<SimplificationOptions>(keyed[4]).policy, SimplificationPolicy::LindstromTurk);
+    EXPECT_EQ(std::get<SimplificationOptions>(keyed[4]).policy,
+              SimplificationPolicy::LindstromTurk);
     EXPECT_EQ(std::get<RemeshingOptions>(keyed[5]).iterations, 5);
     EXPECT_EQ(std::get<SubdivisionOptions>(keyed[6]).scheme, SubdivisionScheme::Sqrt3);
     EXPECT_EQ(std::get<SubdivisionOptions>(keyed[6]).steps, 2);
@@ -75,7 +78,8 @@ TEST(AttackSpecTest, to_string_is_canonical_and_round_trips)
               "simplify=0.1,noise=0.001");
     EXPECT_EQ(to_string(parse_attack_spec("similarity:scale=1")), "similarity:scale=1");
     EXPECT_EQ(to_string(parse_attack_spec("similarity:mirror=y")), "similarity:mirror=y");
-    EXPECT_EQ(to_string(parse_attack_spec("similarity:mirror=x:angle=90")), "similarity:angle=90:mirror=x");
+    EXPECT_EQ(to_string(parse_attack_spec("similarity:mirror=x:angle=90")),
+              "similarity:angle=90:mirror=x");
     EXPECT_EQ(to_string(parse_attack_spec("crop=0.5:ax=1:ay=2:az=0")), "crop=0.5:ax=1:ay=2:az=0");
     EXPECT_EQ(to_string(parse_attack_spec("subdivide")), "subdivide=loop");
     EXPECT_EQ(to_string(parse_attack_spec("voxel")), "voxel=150");
@@ -121,21 +125,63 @@ TEST(AttackSpecTest, bad_specs_throw_invalid_option_naming_the_problem)
     EXPECT_NE(parse_error("noise=2").find("outside [0, 1]"), std::string::npos);
     EXPECT_NE(parse_error("simplify=0.1,noise=2").find("'noise=2'"), std::string::npos);
     EXPECT_NE(parse_error("voxel=5").find("resolution 5 is outside [10, 2000]"), std::string::npos);
-    EXPECT_NE(parse_error("voxel=150:adapt=0").find("voxel, which takes no keys"), std::string::npos);
-    for (const char* bad :
-         {"", " ", ",", "noise,,smooth", "noise,", "noise=", "noise:dist", "noise:=3",
-          "noise=-0.1", "noise=nan", "noise=0.1:dist=cauchy", "noise=0.1:dir=up",
-          "noise=0.1:ref=radius", "noise=0.1:dist=gaussian:dist=uniform", "smooth=2.5",
-          "smooth=10:lambda=0", "smooth=-1", "taubin=10:mu=0.2", "taubin=10:lambda=0.6",
-          "quantize=0", "quantize=31", "quantize=8:bits=9", "simplify=0", "simplify=1.5",
-          "simplify=0.5:policy=qem", "remesh=0", "remesh=1.5", "remesh=0.25:iter=0", "subdivide=butterfly",
-          "subdivide=loop:steps=0", "crop=0", "crop=1.5", "crop=0.5:axis=w",
-          "crop=0.5:ax=0:ay=0:az=0", "reorder=1", "reorder:x=1", "similarity=3",
-          "similarity:axis=w", "similarity:axis=x:ax=1", "similarity:angle=30:smax=2",
-          "similarity:scale=0", "similarity:scale=-2", "similarity:smax=0.5", "similarity:mirror=w",
-          "similarity:mirror=x:smax=2",
-          "similarity:angle=ten", "NOISE=0.1", "voxel=9.99", "voxel=2001",
-          "voxel=0", "voxel=-150", "voxel=inf", "voxel=nan", "voxel=1/150", "voxel=150:adapt=0"})
+    EXPECT_NE(parse_error("voxel=150:adapt=0").find("voxel, which takes no keys"),
+              std::string::npos);
+    for (const char* bad : {"",
+                            " ",
+                            ",",
+                            "noise,,smooth",
+                            "noise,",
+                            "noise=",
+                            "noise:dist",
+                            "noise:=3",
+                            "noise=-0.1",
+                            "noise=nan",
+                            "noise=0.1:dist=cauchy",
+                            "noise=0.1:dir=up",
+                            "noise=0.1:ref=radius",
+                            "noise=0.1:dist=gaussian:dist=uniform",
+                            "smooth=2.5",
+                            "smooth=10:lambda=0",
+                            "smooth=-1",
+                            "taubin=10:mu=0.2",
+                            "taubin=10:lambda=0.6",
+                            "quantize=0",
+                            "quantize=31",
+                            "quantize=8:bits=9",
+                            "simplify=0",
+                            "simplify=1.5",
+                            "simplify=0.5:policy=qem",
+                            "remesh=0",
+                            "remesh=1.5",
+                            "remesh=0.25:iter=0",
+                            "subdivide=butterfly",
+                            "subdivide=loop:steps=0",
+                            "crop=0",
+                            "crop=1.5",
+                            "crop=0.5:axis=w",
+                            "crop=0.5:ax=0:ay=0:az=0",
+                            "reorder=1",
+                            "reorder:x=1",
+                            "similarity=3",
+                            "similarity:axis=w",
+                            "similarity:axis=x:ax=1",
+                            "similarity:angle=30:smax=2",
+                            "similarity:scale=0",
+                            "similarity:scale=-2",
+                            "similarity:smax=0.5",
+                            "similarity:mirror=w",
+                            "similarity:mirror=x:smax=2",
+                            "similarity:angle=ten",
+                            "NOISE=0.1",
+                            "voxel=9.99",
+                            "voxel=2001",
+                            "voxel=0",
+                            "voxel=-150",
+                            "voxel=inf",
+                            "voxel=nan",
+                            "voxel=1/150",
+                            "voxel=150:adapt=0"})
     {
         EXPECT_THROW((void)parse_attack_spec(bad), InvalidOption) << "'" << bad << "'";
     }
@@ -145,9 +191,9 @@ TEST(AttackSpecTest, names_follow_the_grammar)
 {
     const auto specs = parse_attack_spec(
         "similarity,noise,smooth,taubin,quantize,simplify,remesh,subdivide,crop,reorder,voxel");
-    const std::vector<std::string> names = {"similarity", "noise",  "smooth",    "taubin",
+    const std::vector<std::string> names = {"similarity", "noise",    "smooth", "taubin",
                                             "quantize",   "simplify", "remesh", "subdivide",
-                                            "crop",       "reorder", "voxel"};
+                                            "crop",       "reorder",  "voxel"};
     ASSERT_EQ(specs.size(), names.size());
     for (std::size_t k = 0; k < specs.size(); ++k)
     {
@@ -172,8 +218,9 @@ TEST(AttackSpecTest, chains_are_deterministic_per_seed_and_compose_transform_and
     {
         const Eigen::Vector3d expected =
             a.similarity->apply(mesh.V.row((*a.source_vertex)[k]).transpose());
-        worst = std::max(worst, (a.mesh.V.row(static_cast<Eigen::Index>(k)).transpose() -
-                                 expected).norm() / a.similarity->scale);
+        worst = std::max(
+            worst, (a.mesh.V.row(static_cast<Eigen::Index>(k)).transpose() - expected).norm() /
+                       a.similarity->scale);
     }
     EXPECT_LT(worst, 1e-9);
 

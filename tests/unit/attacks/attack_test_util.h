@@ -2,16 +2,16 @@
 // Small helpers shared by the attack tests.
 #pragma once
 
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <cstring>
 
 #include <Eigen/Geometry>
+#include <gtest/gtest.h>
 
 #include "meshmark/core/triangle_mesh.h"
 
-namespace meshmark::test {
+namespace meshmark::test
+{
 
 /// True when \p size bytes at \p a and \p b are equal; an empty range is equal even when its
 /// data() is null (memcmp on a null pointer is undefined behaviour, even for 0 bytes).
@@ -24,8 +24,10 @@ inline bool same_bytes(const void* a, const void* b, std::size_t size)
 inline bool bit_identical(const TriangleMesh& a, const TriangleMesh& b)
 {
     return a.V.rows() == b.V.rows() && a.F.rows() == b.F.rows() &&
-           same_bytes(a.V.data(), b.V.data(), sizeof(double) * static_cast<std::size_t>(a.V.size())) &&
-           same_bytes(a.F.data(), b.F.data(), sizeof(std::int32_t) * static_cast<std::size_t>(a.F.size()));
+           same_bytes(a.V.data(), b.V.data(),
+                      sizeof(double) * static_cast<std::size_t>(a.V.size())) &&
+           same_bytes(a.F.data(), b.F.data(),
+                      sizeof(std::int32_t) * static_cast<std::size_t>(a.F.size()));
 }
 
 /// Mean distance of the vertices to the origin.

@@ -1,16 +1,17 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/attacks/cropping.h"
 
-#include <gtest/gtest.h>
-
 #include <algorithm>
 
+#include <gtest/gtest.h>
+
+#include "attack_test_util.h"
 #include "meshmark/core/error.h"
 #include "meshmark/geometry/adjacency.h"
 #include "meshmark/geometry/shapes.h"
-#include "attack_test_util.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 TEST(CroppingTest, keeps_the_requested_fraction_on_one_side_of_the_plane)
 {
@@ -22,8 +23,7 @@ TEST(CroppingTest, keeps_the_requested_fraction_on_one_side_of_the_plane)
             Rng rng(seed);
             const AttackResult result = crop(mesh, {.vertex_fraction = fraction}, rng);
             const double target = fraction * static_cast<double>(mesh.V.rows());
-            EXPECT_LE(test::relative_error(static_cast<double>(result.mesh.V.rows()), target),
-                      0.02)
+            EXPECT_LE(test::relative_error(static_cast<double>(result.mesh.V.rows()), target), 0.02)
                 << "fraction " << fraction << ", seed " << seed;
             EXPECT_LE(result.mesh.V.rows(), static_cast<Eigen::Index>(std::round(target)));
             EXPECT_TRUE(edge_statistics(result.mesh).is_consistently_oriented());

@@ -1,20 +1,21 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/attacks/noise.h"
 
-#include <gtest/gtest.h>
-
 #include <cmath>
 
 #include <Eigen/Geometry>
+#include <gtest/gtest.h>
 
+#include "attack_test_util.h"
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
 #include "meshmark/geometry/normals.h"
 #include "meshmark/geometry/shapes.h"
-#include "attack_test_util.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 // RMS of all coordinates of the displacement.
 double rms_per_coordinate(const TriangleMesh& a, const TriangleMesh& b)

@@ -1,13 +1,14 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/geometry/normals.h"
 
-#include <gtest/gtest.h>
-
 #include <numbers>
+
+#include <gtest/gtest.h>
 
 #include "meshmark/geometry/shapes.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 TEST(NormalsTest, icosphere_normals_point_outwards_along_the_radius)
 {

@@ -1,16 +1,17 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/attacks/quantization.h"
 
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <set>
+
+#include <gtest/gtest.h>
 
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
 #include "meshmark/geometry/shapes.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 TEST(QuantizationTest, coordinates_land_on_the_grid_within_half_a_step)
 {

@@ -5,13 +5,14 @@
 
 #include <gtest/gtest.h>
 
+#include "attack_test_util.h"
 #include "meshmark/core/error.h"
 #include "meshmark/geometry/adjacency.h"
 #include "meshmark/geometry/shapes.h"
 #include "meshmark/io/mesh_io.h"
-#include "attack_test_util.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 TEST(RemeshingTest, closed_sphere_reaches_the_target_count_and_stays_closed)
 {
@@ -39,7 +40,8 @@ TEST(RemeshingTest, open_grid_reaches_the_target_and_keeps_a_boundary)
     const EdgeStatistics edges = edge_statistics(r);
     EXPECT_GT(edges.boundary_edge_count, 0U);
     EXPECT_TRUE(edges.is_consistently_oriented());
-    // On the plane but for the remesher's tie-break (remeshing.cpp, kTieBreak: 1e-9 of the diagonal).
+    // On the plane but for the remesher's tie-break (remeshing.cpp, kTieBreak: 1e-9 of the
+    // diagonal).
     EXPECT_TRUE(r.V.col(2).isZero(1e-8));
 }
 

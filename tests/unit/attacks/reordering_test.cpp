@@ -1,18 +1,20 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/attacks/reordering.h"
 
-#include <gtest/gtest.h>
-
 #include <algorithm>
 #include <array>
 #include <vector>
 
+#include <gtest/gtest.h>
+
+#include "attack_test_util.h"
 #include "meshmark/geometry/adjacency.h"
 #include "meshmark/geometry/shapes.h"
-#include "attack_test_util.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 // Faces as sorted lists of corner positions, each rotated so its smallest corner comes first
 // (orientation kept), the whole list sorted: equal for the same surface in any numbering.
@@ -24,8 +26,8 @@ std::vector<std::array<double, 9>> geometric_faces(const TriangleMesh& mesh)
         std::array<std::array<double, 3>, 3> corners;
         for (int c = 0; c < 3; ++c)
         {
-            corners[static_cast<std::size_t>(c)] = {mesh.V(mesh.F(f, c), 0), mesh.V(mesh.F(f, c), 1),
-                                                    mesh.V(mesh.F(f, c), 2)};
+            corners[static_cast<std::size_t>(c)] = {
+                mesh.V(mesh.F(f, c), 0), mesh.V(mesh.F(f, c), 1), mesh.V(mesh.F(f, c), 2)};
         }
         std::rotate(corners.begin(), std::min_element(corners.begin(), corners.end()),
                     corners.end());

@@ -1,19 +1,21 @@
 // SPDX-License-Identifier: MIT
 // The CGAL-backed attacks on real, messy meshes: closed scans, a CAD part with sharp features,
 // and files with non-manifold edges, open boundaries and unreferenced vertices.
-#include <gtest/gtest.h>
-
 #include <filesystem>
 #include <string>
 
+#include <gtest/gtest.h>
+
+#include "attack_test_util.h"
 #include "meshmark/attacks/attack_spec.h"
 #include "meshmark/geometry/adjacency.h"
 #include "meshmark/io/mesh_io.h"
 #include "support/test_paths.h"
-#include "attack_test_util.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 class SharedMeshAttackTest : public ::testing::TestWithParam<const char*>
 {
@@ -77,8 +79,9 @@ TEST_P(SharedMeshAttackTest, remeshing_hits_the_target_and_stays_edge_manifold)
 
 TEST_P(SharedMeshAttackTest, subdivision_refines_every_face)
 {
-    for (const auto& [spec, factor] : {std::pair{"subdivide=loop", 4}, std::pair{"subdivide=midpoint", 4},
-                                       std::pair{"subdivide=sqrt3", 3}})
+    for (const auto& [spec, factor] :
+         {std::pair{"subdivide=loop", 4}, std::pair{"subdivide=midpoint", 4},
+          std::pair{"subdivide=sqrt3", 3}})
     {
         const TriangleMesh out = run(spec).mesh;
         const EdgeStatistics edges = edge_statistics(out);
@@ -111,7 +114,8 @@ TEST_P(SharedMeshAttackTest, vertex_attacks_chain_with_correspondence)
 INSTANTIATE_TEST_SUITE_P(SmallMeshes, SharedMeshAttackTest,
                          ::testing::Values("bunny.off", "fandisk.obj", "dragon_vrip_res4.ply",
                                            "beetle.obj", "teapot.obj"),
-                         [](const auto& info) {
+                         [](const auto& info)
+                         {
                              std::string name = info.param;
                              for (char& c : name)
                              {

@@ -1,20 +1,21 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/attacks/similarity.h"
 
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <numbers>
 
 #include <Eigen/Geometry>
+#include <gtest/gtest.h>
 
+#include "attack_test_util.h"
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
 #include "meshmark/geometry/shapes.h"
-#include "attack_test_util.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 // Least-squares similarity from corresponding point sets [Umeyama 1991], as a registration would
 // recover it from the output.
@@ -83,21 +84,30 @@ TEST(SimilarityTest, a_mirror_reflects_first_and_keeps_the_faces_facing_out)
     const TriangleMesh mesh = lumpy_ellipsoid(1);
     for (int axis = 0; axis < 3; ++axis)
     {
-        const SimilarityOptions options{.is_random = false, .axis = Eigen::Vector3d::UnitZ(), .angle_deg = 90.0,
-                                        .scale = 2.0, .translation = Eigen::Vector3d(1.0, 2.0, 3.0), .mirror = axis};
+        const SimilarityOptions options{.is_random = false,
+                                        .axis = Eigen::Vector3d::UnitZ(),
+                                        .angle_deg = 90.0,
+                                        .scale = 2.0,
+                                        .translation = Eigen::Vector3d(1.0, 2.0, 3.0),
+                                        .mirror = axis};
         Rng rng(1);
         const AttackResult result = apply_similarity(mesh, options, rng);
         const AppliedSimilarity& t = *result.similarity;
         EXPECT_NEAR(t.rotation.determinant(), -1.0, 1e-12) << axis;
         Eigen::Matrix3d M = Eigen::Matrix3d::Identity();
         M(axis, axis) = -1.0;
-        const Eigen::Matrix3d R = Eigen::AngleAxisd(std::numbers::pi / 2.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+        const Eigen::Matrix3d R =
+            Eigen::AngleAxisd(std::numbers::pi / 2.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
         for (Eigen::Index i = 0; i < mesh.V.rows(); i += 17)
         {
-            const Eigen::Vector3d expected = 2.0 * (R * (M * mesh.V.row(i).transpose())) + Eigen::Vector3d(1.0, 2.0, 3.0);
-            EXPECT_LT((result.mesh.V.row(i).transpose() - expected).norm(), 1e-12) << axis << " " << i;
+            const Eigen::Vector3d expected =
+                2.0 * (R * (M * mesh.V.row(i).transpose())) + Eigen::Vector3d(1.0, 2.0, 3.0);
+            EXPECT_LT((result.mesh.V.row(i).transpose() - expected).norm(), 1e-12)
+                << axis << " " << i;
         }
-        EXPECT_NEAR(test::signed_volume(result.mesh), 8.0 * test::signed_volume(mesh), 1e-9 * std::abs(test::signed_volume(mesh))) << axis;
+        EXPECT_NEAR(test::signed_volume(result.mesh), 8.0 * test::signed_volume(mesh),
+                    1e-9 * std::abs(test::signed_volume(mesh)))
+            << axis;
         EXPECT_GT(test::signed_volume(mesh), 0.0);
         const TriangleMesh back = transformed(result.mesh, t.inverse());
         EXPECT_LT((back.V - mesh.V).cwiseAbs().maxCoeff(), 1e-9) << axis;

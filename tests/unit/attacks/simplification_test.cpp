@@ -1,25 +1,26 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/attacks/simplification.h"
 
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <variant>
 #include <vector>
 
+#include <gtest/gtest.h>
+
+#include "attack_test_util.h"
 #include "meshmark/attacks/attack_spec.h"
 #include "meshmark/core/error.h"
 #include "meshmark/geometry/adjacency.h"
 #include "meshmark/geometry/shapes.h"
-#include "attack_test_util.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 TEST(SimplificationTest, closed_sphere_reaches_the_target_and_stays_closed_on_the_surface)
 {
     const TriangleMesh mesh = icosphere(4);  // 2562 vertices
-    for (const auto policy : {SimplificationPolicy::GarlandHeckbert,
-                              SimplificationPolicy::LindstromTurk})
+    for (const auto policy :
+         {SimplificationPolicy::GarlandHeckbert, SimplificationPolicy::LindstromTurk})
     {
         for (const double fraction : {0.5, 0.25, 0.1, 0.02})
         {
@@ -177,7 +178,8 @@ TEST(SimplificationTest, boundary_key_parses_round_trips_and_weighs_the_borders)
     const TriangleMesh held = simplify(sheet, {.vertex_fraction = 0.05});
     const TriangleMesh loose = simplify(sheet, {.vertex_fraction = 0.05, .boundary_weight = 1.0});
     EXPECT_EQ(held.V.rows(), loose.V.rows());
-    EXPECT_GT(edge_statistics(held).boundary_edge_count, edge_statistics(loose).boundary_edge_count);
+    EXPECT_GT(edge_statistics(held).boundary_edge_count,
+              edge_statistics(loose).boundary_edge_count);
 }
 
 TEST(SimplificationTest, meshopt_point_clouds_still_throw)

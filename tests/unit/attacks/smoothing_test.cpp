@@ -1,18 +1,20 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/attacks/smoothing.h"
 
-#include <gtest/gtest.h>
-
 #include <cmath>
 
+#include <gtest/gtest.h>
+
+#include "attack_test_util.h"
 #include "meshmark/attacks/noise.h"
 #include "meshmark/core/error.h"
 #include "meshmark/geometry/adjacency.h"
 #include "meshmark/geometry/shapes.h"
-#include "attack_test_util.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 // Standard deviation of the distances to the origin: the roughness of a noisy sphere.
 double radial_spread(const TriangleMesh& mesh)

@@ -1,19 +1,21 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/attacks/subdivision.h"
 
-#include <gtest/gtest.h>
-
 #include <algorithm>
 #include <array>
 #include <set>
 
+#include <gtest/gtest.h>
+
+#include "attack_test_util.h"
 #include "meshmark/core/error.h"
 #include "meshmark/geometry/adjacency.h"
 #include "meshmark/geometry/shapes.h"
-#include "attack_test_util.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 std::set<std::array<double, 3>> positions(const TriangleMesh& mesh)
 {
@@ -36,9 +38,9 @@ TEST(SubdivisionTest, counts_follow_each_scheme_and_closed_surfaces_stay_closed)
         Eigen::Index vertices;
         Eigen::Index faces;
     };
-    for (const Case& c : {Case{SubdivisionScheme::Loop, 642, 1280},
-                          Case{SubdivisionScheme::Midpoint, 642, 1280},
-                          Case{SubdivisionScheme::Sqrt3, 482, 960}})
+    for (const Case& c :
+         {Case{SubdivisionScheme::Loop, 642, 1280}, Case{SubdivisionScheme::Midpoint, 642, 1280},
+          Case{SubdivisionScheme::Sqrt3, 482, 960}})
     {
         const TriangleMesh s = subdivide(mesh, {.scheme = c.scheme});
         EXPECT_EQ(s.V.rows(), c.vertices);

@@ -1,21 +1,22 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/attacks/voxel_remeshing.h"
 
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <numbers>
 
 #include <Eigen/Geometry>
+#include <gtest/gtest.h>
 
+#include "attack_test_util.h"
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
 #include "meshmark/geometry/adjacency.h"
 #include "meshmark/geometry/shapes.h"
-#include "attack_test_util.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 double voxel_edge(const TriangleMesh& mesh, double resolution)
 {

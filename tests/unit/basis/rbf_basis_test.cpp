@@ -1,10 +1,6 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/basis/rbf_basis.h"
 
-#include <gtest/gtest.h>
-
-#include <Eigen/SVD>
-
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -12,20 +8,29 @@
 #include <set>
 #include <span>
 
+#include <Eigen/SVD>
+#include <gtest/gtest.h>
+
 #include "meshmark/core/error.h"
 #include "meshmark/core/rng.h"
 #include "meshmark/geometry/shapes.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
-std::vector<std::int32_t> all_rows(const TriangleMesh& mesh) { return referenced_vertices(mesh); }
+std::vector<std::int32_t> all_rows(const TriangleMesh& mesh)
+{
+    return referenced_vertices(mesh);
+}
 
 // Dense reference: B evaluated directly, in the same centered frame.
 Eigen::MatrixXd dense_B(const Positions& V, const std::vector<std::int32_t>& rows,
                         const std::vector<std::int32_t>& centers, double sigma)
 {
-    Eigen::MatrixXd B(static_cast<Eigen::Index>(rows.size()), static_cast<Eigen::Index>(centers.size()));
+    Eigen::MatrixXd B(static_cast<Eigen::Index>(rows.size()),
+                      static_cast<Eigen::Index>(centers.size()));
     for (std::size_t i = 0; i < rows.size(); ++i)
     {
         for (std::size_t j = 0; j < centers.size(); ++j)
@@ -64,7 +69,8 @@ TEST(RbfBasisTest, gram_matches_dense_computation)
     const Eigen::JacobiSVD<Eigen::MatrixXd> svd(B);
     for (int j = 0; j < 10; ++j)
     {
-        EXPECT_NEAR(basis.singular_values()(j), svd.singularValues()(j), 1e-9 * svd.singularValues()(0));
+        EXPECT_NEAR(basis.singular_values()(j), svd.singularValues()(j),
+                    1e-9 * svd.singularValues()(0));
     }
     for (int j = 1; j < basis.size(); ++j)
     {
@@ -109,10 +115,12 @@ TEST(RbfBasisTest, project_design_equals_the_dense_product_for_any_thread_count)
     const int head = 6;
     constexpr std::size_t kWidth = 7;
     // Design row i: products of the head modes with the positions, and a constant column.
-    auto design_row = [&](std::int32_t i, const double* u, double* x) {
+    auto design_row = [&](std::int32_t i, const double* u, double* x)
+    {
         for (std::size_t c = 0; c + 1 < kWidth; ++c)
         {
-            x[c] = u[c % static_cast<std::size_t>(head)] * mesh.V(i, static_cast<Eigen::Index>(c % 3));
+            x[c] =
+                u[c % static_cast<std::size_t>(head)] * mesh.V(i, static_cast<Eigen::Index>(c % 3));
         }
         x[kWidth - 1] = 1.0;
     };
@@ -121,7 +129,9 @@ TEST(RbfBasisTest, project_design_equals_the_dense_product_for_any_thread_count)
     {
         const RbfBasis basis(position_rows(mesh.V, rows), centers, 1.1, origin, threads);
         results.push_back(basis.project_design(
-            modes, head, kWidth, [&](std::span<const std::int32_t> block, const double* U, double* X) {
+            modes, head, kWidth,
+            [&](std::span<const std::int32_t> block, const double* U, double* X)
+            {
                 for (std::size_t a = 0; a < block.size(); ++a)
                 {
                     design_row(block[a], U + a * static_cast<std::size_t>(head), X + a * kWidth);
@@ -140,7 +150,8 @@ TEST(RbfBasisTest, project_design_equals_the_dense_product_for_any_thread_count)
                 X.row(a) = x;
             }
             const Eigen::MatrixXd expected = U.transpose() * X;
-            EXPECT_LT((results.back() - expected).cwiseAbs().maxCoeff(), 1e-9 * expected.cwiseAbs().maxCoeff());
+            EXPECT_LT((results.back() - expected).cwiseAbs().maxCoeff(),
+                      1e-9 * expected.cwiseAbs().maxCoeff());
         }
     }
     EXPECT_EQ(results[0], results[1]);
@@ -226,7 +237,8 @@ TEST(RbfBasisTest, sampled_gram_uses_evenly_spaced_rows_scaled_to_all_of_them)
     // close to the exact basis.
     const RbfBasis exact(position_rows(mesh.V, rows), centers, 1.0, origin, 2);
     const Eigen::MatrixXd U = sampled.modes_dense(20);
-    const double error = (U.transpose() * U - Eigen::MatrixXd::Identity(20, 20)).cwiseAbs().maxCoeff();
+    const double error =
+        (U.transpose() * U - Eigen::MatrixXd::Identity(20, 20)).cwiseAbs().maxCoeff();
     EXPECT_GT(error, 1e-12);
     EXPECT_LT(error, 0.1);
     const Eigen::MatrixXd Ue = exact.modes_dense(20);
@@ -237,7 +249,8 @@ TEST(RbfBasisTest, sampled_gram_uses_evenly_spaced_rows_scaled_to_all_of_them)
     // The first m rows alone (a cap of the ellipsoid) would be a far worse estimate.
     std::vector<std::int32_t> first(rows.begin(), rows.begin() + static_cast<std::ptrdiff_t>(m));
     const RbfBasis cap(position_rows(mesh.V, first), centers, 1.0, origin, 2);
-    const Eigen::MatrixXd scaled_cap = cap.gram() * (static_cast<double>(n) / static_cast<double>(m));
+    const Eigen::MatrixXd scaled_cap =
+        cap.gram() * (static_cast<double>(n) / static_cast<double>(m));
     EXPECT_GT((scaled_cap - exact.gram()).norm(), 3.0 * (sampled.gram() - exact.gram()).norm());
 
     // Sampled pass 1 is bit-identical for any thread count; gram_rows >= n means every row.
@@ -248,14 +261,16 @@ TEST(RbfBasisTest, sampled_gram_uses_evenly_spaced_rows_scaled_to_all_of_them)
     EXPECT_TRUE(all.gram() == exact.gram());
 }
 
-namespace {
+namespace
+{
 
 // The active rows as a file-like stream: positions copied out in active-row order, read one
 // record at a time like the out-of-core embedding's source.
 class RecordRows final : public RowPositionSource
 {
 public:
-    RecordRows(const Positions& V, const std::vector<std::int32_t>& rows) : rows_(rows), vertex_count_(V.rows())
+    RecordRows(const Positions& V, const std::vector<std::int32_t>& rows)
+        : rows_(rows), vertex_count_(V.rows())
     {
         for (const auto row : rows)
         {
@@ -263,7 +278,10 @@ public:
         }
     }
     [[nodiscard]] std::size_t size() const override { return rows_.size(); }
-    [[nodiscard]] std::size_t vertex_count() const override { return static_cast<std::size_t>(vertex_count_); }
+    [[nodiscard]] std::size_t vertex_count() const override
+    {
+        return static_cast<std::size_t>(vertex_count_);
+    }
     [[nodiscard]] std::int32_t row(std::size_t i) const override { return rows_[i]; }
     [[nodiscard]] std::array<double, 3> position(std::int32_t row) const override
     {
@@ -313,7 +331,8 @@ TEST(RbfBasisTest, streamed_synthesis_delivers_the_field_in_order_and_passes_sin
     const auto centers = random_centers(mesh.V, rows, 40, 4);
     const Eigen::Vector3d origin = mesh.V.colwise().mean().transpose();
     const RbfBasis memory(position_rows(mesh.V, rows), centers, 1.0, origin, 2, 5000);
-    const RbfBasis streamed(std::make_shared<RecordRows>(mesh.V, rows), centers, 1.0, origin, 2, 5000);
+    const RbfBasis streamed(std::make_shared<RecordRows>(mesh.V, rows), centers, 1.0, origin, 2,
+                            5000);
     EXPECT_TRUE(memory.gram() == streamed.gram());  // the sampled rows read through the source
 
     Eigen::MatrixX3d c = Eigen::MatrixX3d::Zero(16, 3);
@@ -326,7 +345,8 @@ TEST(RbfBasisTest, streamed_synthesis_delivers_the_field_in_order_and_passes_sin
     double streamed_error = 0.0;
     streamed.synthesize_streamed(
         c, 2,
-        [&](std::size_t begin, std::size_t count, const double* field) {
+        [&](std::size_t begin, std::size_t count, const double* field)
+        {
             EXPECT_EQ(begin, next);
             for (std::size_t i = 0; i < count; ++i)
             {
@@ -348,12 +368,14 @@ TEST(RbfBasisTest, streamed_synthesis_delivers_the_field_in_order_and_passes_sin
     int calls = 0;
     try
     {
-        streamed.synthesize_streamed(c, 2, [&](std::size_t, std::size_t, const double*) {
-            if (++calls == 4)
-            {
-                throw IoError("disk full");
-            }
-        });
+        streamed.synthesize_streamed(c, 2,
+                                     [&](std::size_t, std::size_t, const double*)
+                                     {
+                                         if (++calls == 4)
+                                         {
+                                             throw IoError("disk full");
+                                         }
+                                     });
         FAIL() << "the sink's error was lost";
     }
     catch (const IoError& e)
@@ -385,8 +407,9 @@ TEST(RandomCentersTest, deterministic_distinct_and_refuses_too_few_positions)
         positions.insert({doubled(i, 0), doubled(i, 1), doubled(i, 2)});
     }
     EXPECT_EQ(positions.size(), b.size());
-    EXPECT_THROW((void)random_centers(doubled, doubled_rows, static_cast<int>(mesh.V.rows()) + 1, 1),
-                 InvalidMesh);
+    EXPECT_THROW(
+        (void)random_centers(doubled, doubled_rows, static_cast<int>(mesh.V.rows()) + 1, 1),
+        InvalidMesh);
 }
 
 }  // namespace meshmark

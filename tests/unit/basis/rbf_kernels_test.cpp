@@ -2,19 +2,22 @@
 // The implementations of the basis block kernels (portable, AVX2+FMA, AVX-512): each against
 // naive loops, against each other through RbfBasis (AVX-512 bit for bit like AVX2), and
 // bit-identical for any thread count.
-#include <gtest/gtest.h>
+#include "basis/rbf_kernels.h"
 
 #include <cmath>
 #include <string>
 #include <vector>
 
-#include "basis/rbf_kernels.h"
+#include <gtest/gtest.h>
+
 #include "meshmark/basis/rbf_basis.h"
 #include "meshmark/core/rng.h"
 #include "meshmark/geometry/shapes.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 std::vector<const detail::BlockKernels*> available_kernels()
 {
@@ -139,7 +142,8 @@ TEST(BlockKernelsTest, every_kernel_matches_naive_loops)
                 {
                     expected += B[r * ld + i] * B[r * ld + j];
                 }
-                ASSERT_NEAR(G[i * ld + j], expected, 1e-13 * (1.0 + std::abs(expected))) << i << ", " << j;
+                ASSERT_NEAR(G[i * ld + j], expected, 1e-13 * (1.0 + std::abs(expected)))
+                    << i << ", " << j;
             }
         }
 
@@ -198,8 +202,10 @@ TEST(BlockKernelsTest, evaluation_is_bit_identical_in_both_kernels)
     const Block in = random_block();
     std::vector<double> a(in.rows * in.ld);
     std::vector<double> b(in.rows * in.ld);
-    detail::portable_kernels().evaluate(in.P.data(), in.rows, in.Q.data(), in.k, in.ld, in.inv_sigma, a.data());
-    detail::avx2_kernels()->evaluate(in.P.data(), in.rows, in.Q.data(), in.k, in.ld, in.inv_sigma, b.data());
+    detail::portable_kernels().evaluate(in.P.data(), in.rows, in.Q.data(), in.k, in.ld,
+                                        in.inv_sigma, a.data());
+    detail::avx2_kernels()->evaluate(in.P.data(), in.rows, in.Q.data(), in.k, in.ld, in.inv_sigma,
+                                     b.data());
     EXPECT_TRUE(a == b);
 }
 
@@ -296,7 +302,8 @@ TEST(BasisKernelTest, avx512_basis_is_bit_identical_to_avx2)
     const Eigen::MatrixX3d c = Eigen::MatrixX3d::Constant(8, 3, -0.5);
     const Positions field = narrow.synthesize(c);
     EXPECT_TRUE(field == wide.synthesize(c));
-    EXPECT_TRUE(narrow.project(std::vector<Positions>{field}, 8)[0] == wide.project(std::vector<Positions>{field}, 8)[0]);
+    EXPECT_TRUE(narrow.project(std::vector<Positions>{field}, 8)[0] ==
+                wide.project(std::vector<Positions>{field}, 8)[0]);
 }
 
 // The documented cross-CPU contract: AVX2 and portable results agree to rounding, and a field

@@ -1,17 +1,16 @@
 // SPDX-License-Identifier: MIT
-#include <gtest/gtest.h>
+#include "meshmark/catalog/catalog.h"
 
 #include <fstream>
 #include <map>
 #include <set>
 #include <thread>
 
+#include <SQLiteCpp/SQLiteCpp.h>
+#include <gtest/gtest.h>
 #include <sys/stat.h>
 
-#include <SQLiteCpp/SQLiteCpp.h>
-
 #include "meshmark/attacks/attack_spec.h"
-#include "meshmark/catalog/catalog.h"
 #include "meshmark/catalog/catalog_add.h"
 #include "meshmark/catalog/catalog_scan.h"
 #include "meshmark/core/error.h"
@@ -19,8 +18,10 @@
 #include "meshmark/io/mesh_io.h"
 #include "support/test_paths.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 namespace fs = std::filesystem;
 
@@ -40,7 +41,8 @@ fs::path make_originals(const fs::path& root)
     return in;
 }
 
-const CatalogAddOutcome& outcome_of(const std::vector<CatalogAddOutcome>& outcomes, const std::string& asset)
+const CatalogAddOutcome& outcome_of(const std::vector<CatalogAddOutcome>& outcomes,
+                                    const std::string& asset)
 {
     for (const CatalogAddOutcome& o : outcomes)
     {
@@ -68,16 +70,18 @@ void on_threads(int count, Work&& work)
     std::vector<std::exception_ptr> failures(static_cast<std::size_t>(count));
     for (int t = 0; t < count; ++t)
     {
-        threads.emplace_back([&, t] {
-            try
+        threads.emplace_back(
+            [&, t]
             {
-                work(t);
-            }
-            catch (...)
-            {
-                failures[static_cast<std::size_t>(t)] = std::current_exception();
-            }
-        });
+                try
+                {
+                    work(t);
+                }
+                catch (...)
+                {
+                    failures[static_cast<std::size_t>(t)] = std::current_exception();
+                }
+            });
     }
     for (std::thread& thread : threads)
     {
@@ -98,11 +102,14 @@ TEST(CatalogTest, a_new_catalogue_is_private_and_a_missing_or_foreign_file_is_re
         EXPECT_TRUE(catalog.assets().empty());
         EXPECT_EQ(catalog.complete_count(), 0U);
     }
-    struct stat info{};
+    struct stat info
+    {
+    };
     ASSERT_EQ(::stat((dir / "sub" / "cat.db").c_str(), &info), 0);
     EXPECT_EQ(info.st_mode & 0777U, 0600U);
     EXPECT_NO_THROW(Catalog(dir / "sub" / "cat.db", Catalog::Open::Existing));
-    std::ofstream(dir / "text.db") << "hello, not SQLite at all, and long enough to be read as a header.....";
+    std::ofstream(dir / "text.db")
+        << "hello, not SQLite at all, and long enough to be read as a header.....";
     EXPECT_THROW(Catalog(dir / "text.db", Catalog::Open::Existing), IoError);
 }
 
@@ -160,19 +167,22 @@ TEST(CatalogTest, a_changed_original_is_refused_unless_forced_and_then_gets_a_ne
     fs::create_directories(in);
     write_mesh(in / "a.ply", lumpy_ellipsoid(4));
     Catalog catalog(dir / "cat.db", Catalog::Open::CreateIfMissing);
-    ASSERT_EQ(catalog_add(catalog, {in}, dir / "out", quick_options())[0].status, CatalogAddOutcome::Status::Marked);
+    ASSERT_EQ(catalog_add(catalog, {in}, dir / "out", quick_options())[0].status,
+              CatalogAddOutcome::Status::Marked);
     const std::uint64_t first_seed = catalog.asset("a.ply")->key.seed;
     TriangleMesh other = lumpy_ellipsoid(4);
     other.V *= 2.0;
     write_mesh(in / "a.ply", other);
     const auto refused = catalog_add(catalog, {in}, dir / "out", quick_options());
     EXPECT_EQ(refused[0].status, CatalogAddOutcome::Status::Failed);
-    EXPECT_NE(refused[0].reason.find("changed since it was added"), std::string::npos) << refused[0].reason;
+    EXPECT_NE(refused[0].reason.find("changed since it was added"), std::string::npos)
+        << refused[0].reason;
     EXPECT_EQ(catalog.asset("a.ply")->key.seed, first_seed);
     CatalogAddOptions force = quick_options();
     force.force = true;
     force.embed.seed = 12;
-    EXPECT_EQ(catalog_add(catalog, {in}, dir / "out", force)[0].status, CatalogAddOutcome::Status::Marked);
+    EXPECT_EQ(catalog_add(catalog, {in}, dir / "out", force)[0].status,
+              CatalogAddOutcome::Status::Marked);
     EXPECT_NE(catalog.asset("a.ply")->key.seed, first_seed);
 }
 
@@ -184,14 +194,16 @@ TEST(CatalogTest, an_obj_copy_gets_its_material_library_and_textures_beside_it)
     write_mesh(in / "model.obj", lumpy_ellipsoid(4));
     const std::string mesh = test::file_bytes(in / "model.obj");
     std::ofstream(in / "model.obj") << "mtllib model.mtl\nusemtl skin\n" << mesh;
-    std::ofstream(in / "model.mtl") << "newmtl skin\nmap_Kd -s 1 1 1 maps/skin.png\nbump ../outside.png\n";
+    std::ofstream(in / "model.mtl")
+        << "newmtl skin\nmap_Kd -s 1 1 1 maps/skin.png\nbump ../outside.png\n";
     std::ofstream(in / "maps" / "skin.png") << "PNG bytes";
     Catalog catalog(dir / "cat.db", Catalog::Open::CreateIfMissing);
     const auto outcomes = catalog_add(catalog, {in}, dir / "out", quick_options());
     ASSERT_EQ(outcomes[0].status, CatalogAddOutcome::Status::Marked) << outcomes[0].reason;
     EXPECT_EQ(test::file_bytes(dir / "out" / "model.mtl"), test::file_bytes(in / "model.mtl"));
     EXPECT_EQ(test::file_bytes(dir / "out" / "maps" / "skin.png"), "PNG bytes");
-    EXPECT_NE(test::file_bytes(dir / "out" / "model.obj").find("mtllib model.mtl"), std::string::npos);
+    EXPECT_NE(test::file_bytes(dir / "out" / "model.obj").find("mtllib model.mtl"),
+              std::string::npos);
 }
 
 TEST(CatalogTest, issue_records_names_before_copies_and_threads_at_once_never_share_a_code)
@@ -201,16 +213,22 @@ TEST(CatalogTest, issue_records_names_before_copies_and_threads_at_once_never_sh
     fs::create_directories(in);
     write_mesh(in / "a.ply", lumpy_ellipsoid(4));
     Catalog catalog(dir / "cat.db", Catalog::Open::CreateIfMissing);
-    ASSERT_EQ(catalog_add(catalog, {in}, dir / "out", quick_options())[0].status, CatalogAddOutcome::Status::Marked);
-    EXPECT_THROW((void)catalog_issue(catalog, "nope.ply", (dir / "c" / "{recipient}.ply").string(), {}), InvalidOption);
+    ASSERT_EQ(catalog_add(catalog, {in}, dir / "out", quick_options())[0].status,
+              CatalogAddOutcome::Status::Marked);
+    EXPECT_THROW(
+        (void)catalog_issue(catalog, "nope.ply", (dir / "c" / "{recipient}.ply").string(), {}),
+        InvalidOption);
 
-    on_threads(4, [&](int t) {
-        Catalog mine(dir / "cat.db", Catalog::Open::Existing);
-        CatalogIssueOptions options;
-        options.recipients = {"buyer" + std::to_string(t), "shared"};
-        options.threads = 1;
-        (void)catalog_issue(mine, "a.ply", (dir / "copies" / "{recipient}.ply").string(), options);
-    });
+    on_threads(4,
+               [&](int t)
+               {
+                   Catalog mine(dir / "cat.db", Catalog::Open::Existing);
+                   CatalogIssueOptions options;
+                   options.recipients = {"buyer" + std::to_string(t), "shared"};
+                   options.threads = 1;
+                   (void)catalog_issue(mine, "a.ply", (dir / "copies" / "{recipient}.ply").string(),
+                                       options);
+               });
     const auto recipients = catalog.recipients("a.ply");
     ASSERT_EQ(recipients.size(), 6U);  // published, shared, buyer0..3
     std::set<std::uint32_t> codes;
@@ -231,27 +249,34 @@ TEST(CatalogTest, issue_records_names_before_copies_and_threads_at_once_never_sh
     EXPECT_EQ(test::file_bytes(dir / "again" / "buyer2.ply"), first);
 }
 
-TEST(CatalogTest, record_recipient_gives_each_name_one_code_from_many_connections_and_copies_match_issue)
+TEST(CatalogTest,
+     record_recipient_gives_each_name_one_code_from_many_connections_and_copies_match_issue)
 {
     const fs::path dir = test::temp_dir("catalog_record");
     const fs::path in = dir / "in";
     fs::create_directories(in);
     write_mesh(in / "a.ply", lumpy_ellipsoid(4));
     Catalog catalog(dir / "cat.db", Catalog::Open::CreateIfMissing);
-    ASSERT_EQ(catalog_add(catalog, {in}, dir / "out", quick_options())[0].status, CatalogAddOutcome::Status::Marked);
+    ASSERT_EQ(catalog_add(catalog, {in}, dir / "out", quick_options())[0].status,
+              CatalogAddOutcome::Status::Marked);
     EXPECT_THROW((void)catalog.record_recipient("nope.ply", "x"), InvalidOption);
     EXPECT_THROW((void)catalog.record_recipient("a.ply", "../x"), InvalidOption);
 
     // 4 connections (as 4 processes), 25 names each, 5 of them shared by all.
     std::vector<std::vector<std::pair<std::string, std::uint32_t>>> got(4);
-    on_threads(4, [&](int t) {
-        Catalog mine(dir / "cat.db", Catalog::Open::Existing);
-        for (int i = 0; i < 25; ++i)
-        {
-            const std::string name = i < 5 ? "shared" + std::to_string(i) : "t" + std::to_string(t) + "n" + std::to_string(i);
-            got[static_cast<std::size_t>(t)].emplace_back(name, mine.record_recipient("a.ply", name).index);
-        }
-    });
+    on_threads(4,
+               [&](int t)
+               {
+                   Catalog mine(dir / "cat.db", Catalog::Open::Existing);
+                   for (int i = 0; i < 25; ++i)
+                   {
+                       const std::string name =
+                           i < 5 ? "shared" + std::to_string(i)
+                                 : "t" + std::to_string(t) + "n" + std::to_string(i);
+                       got[static_cast<std::size_t>(t)].emplace_back(
+                           name, mine.record_recipient("a.ply", name).index);
+                   }
+               });
     const auto recipients = catalog.recipients("a.ply");
     ASSERT_EQ(recipients.size(), 1U + 5U + 4U * 20U);  // published, the shared, each thread's own
     std::map<std::string, std::uint32_t> recorded;
@@ -275,7 +300,8 @@ TEST(CatalogTest, record_recipient_gives_each_name_one_code_from_many_connection
     // catalog_issue of a recorded name writes the copy of its recorded code.
     CatalogIssueOptions again;
     again.recipients = {"t2n7"};
-    const auto report = catalog_issue(catalog, "a.ply", (dir / "c" / "{recipient}.ply").string(), again);
+    const auto report =
+        catalog_issue(catalog, "a.ply", (dir / "c" / "{recipient}.ply").string(), again);
     ASSERT_EQ(report.copies.size(), 1U);
     EXPECT_EQ(report.copies[0].index, recorded.at("t2n7"));
     EXPECT_FALSE(report.copies[0].is_new);
@@ -290,7 +316,8 @@ TEST(CatalogTest, a_version_1_catalogue_is_read_with_its_recipients_and_upgraded
     Key before;
     {
         Catalog catalog(dir / "cat.db", Catalog::Open::CreateIfMissing);
-        ASSERT_EQ(catalog_add(catalog, {in}, dir / "out", quick_options())[0].status, CatalogAddOutcome::Status::Marked);
+        ASSERT_EQ(catalog_add(catalog, {in}, dir / "out", quick_options())[0].status,
+                  CatalogAddOutcome::Status::Marked);
         CatalogIssueOptions issue;
         issue.recipients = {"alice", "bob"};
         (void)catalog_issue(catalog, "a.ply", (dir / "c" / "{recipient}.ply").string(), issue);
@@ -308,10 +335,13 @@ TEST(CatalogTest, a_version_1_catalogue_is_read_with_its_recipients_and_upgraded
     EXPECT_EQ(to_json(catalog.asset("a.ply")->key), to_json(before));
     SQLite::Database db((dir / "cat.db").string(), SQLite::OPEN_READONLY);
     EXPECT_EQ(db.execAndGet("SELECT value FROM meta WHERE name = 'version'").getString(), "2");
-    EXPECT_EQ(db.execAndGet("SELECT key_json FROM assets WHERE id = 'a.ply'").getString().find("alice"), std::string::npos);
+    EXPECT_EQ(
+        db.execAndGet("SELECT key_json FROM assets WHERE id = 'a.ply'").getString().find("alice"),
+        std::string::npos);
 }
 
-TEST(CatalogTest, scan_finds_the_asset_and_recipient_of_an_attacked_copy_and_claims_nothing_unmarked)
+TEST(CatalogTest,
+     scan_finds_the_asset_and_recipient_of_an_attacked_copy_and_claims_nothing_unmarked)
 {
     const fs::path dir = test::temp_dir("catalog_scan");
     const fs::path in = make_originals(dir);
@@ -319,15 +349,19 @@ TEST(CatalogTest, scan_finds_the_asset_and_recipient_of_an_attacked_copy_and_cla
     (void)catalog_add(catalog, {in}, dir / "out", quick_options());
     CatalogIssueOptions issue;
     issue.recipients = {"alice", "bob"};
-    (void)catalog_issue(catalog, "sub/torus.obj", (dir / "copies" / "{recipient}.obj").string(), issue);
+    (void)catalog_issue(catalog, "sub/torus.obj", (dir / "copies" / "{recipient}.obj").string(),
+                        issue);
 
     const TriangleMesh bobs = read_mesh(dir / "copies" / "bob.obj");
-    write_mesh(dir / "suspect.ply", apply_attacks(bobs, parse_attack_spec("similarity,noise=0.0002"), 5, 1).mesh);
-    write_mesh(dir / "unmarked.ply", apply_attacks(read_mesh(in / "sub" / "egg.off"), parse_attack_spec("similarity"), 5, 1).mesh);
+    write_mesh(dir / "suspect.ply",
+               apply_attacks(bobs, parse_attack_spec("similarity,noise=0.0002"), 5, 1).mesh);
+    write_mesh(dir / "unmarked.ply", apply_attacks(read_mesh(in / "sub" / "egg.off"),
+                                                   parse_attack_spec("similarity"), 5, 1)
+                                         .mesh);
     CatalogScanOptions options;
     options.candidates = 2;  // (the unmarked copy is tried against two assets, not all three)
-    const CatalogScanReport report =
-        catalog_scan(catalog, {dir / "suspect.ply", dir / "unmarked.ply", dir / "missing.ply"}, options);
+    const CatalogScanReport report = catalog_scan(
+        catalog, {dir / "suspect.ply", dir / "unmarked.ply", dir / "missing.ply"}, options);
     EXPECT_EQ(report.assets, 3U);
     ASSERT_EQ(report.suspects.size(), 3U);
     const SuspectScan& found = report.suspects[0];

@@ -9,8 +9,10 @@
 #include "meshmark/core/hash.h"
 #include "meshmark/geometry/shapes.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 float nearest_view(const ShapeSignature& signature, const ShapeFeatures& features)
 {
@@ -24,7 +26,8 @@ float nearest_view(const ShapeSignature& signature, const ShapeFeatures& feature
 
 TriangleMesh moved(TriangleMesh mesh, double scale, bool mirror)
 {
-    const Eigen::Matrix3d rotation = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1.0, 2.0, 3.0).normalized()).toRotationMatrix();
+    const Eigen::Matrix3d rotation =
+        Eigen::AngleAxisd(0.7, Eigen::Vector3d(1.0, 2.0, 3.0).normalized()).toRotationMatrix();
     Eigen::Matrix3d linear = scale * rotation;
     if (mirror)
     {
@@ -32,7 +35,8 @@ TriangleMesh moved(TriangleMesh mesh, double scale, bool mirror)
     }
     for (Eigen::Index i = 0; i < mesh.V.rows(); ++i)
     {
-        mesh.V.row(i) = (linear * mesh.V.row(i).transpose() + Eigen::Vector3d(5.0, -2.0, 1.0)).transpose();
+        mesh.V.row(i) =
+            (linear * mesh.V.row(i).transpose() + Eigen::Vector3d(5.0, -2.0, 1.0)).transpose();
     }
     return mesh;
 }
@@ -74,9 +78,11 @@ TEST(ShapeSignatureTest, a_cropped_copy_is_near_one_of_the_crop_views_and_nearer
 {
     const TriangleMesh mesh = lumpy_ellipsoid(5);
     const ShapeSignature signature = shape_signature(mesh);
-    const TriangleMesh half = apply_attacks(mesh, parse_attack_spec("crop=0.5,similarity"), 3, 1).mesh;
+    const TriangleMesh half =
+        apply_attacks(mesh, parse_attack_spec("crop=0.5,similarity"), 3, 1).mesh;
     const ShapeFeatures features = shape_features(half);
-    EXPECT_LT(nearest_view(signature, features), 0.5F * shape_distance(features, signature.views[0]));
+    EXPECT_LT(nearest_view(signature, features),
+              0.5F * shape_distance(features, signature.views[0]));
 }
 
 TEST(ShapeSignatureTest, empty_and_degenerate_meshes_give_zero_features)

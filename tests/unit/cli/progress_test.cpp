@@ -1,17 +1,19 @@
 // SPDX-License-Identifier: MIT
 #include "progress.h"
 
-#include <gtest/gtest.h>
-
 #include <cstdio>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include <gtest/gtest.h>
+
 #include "meshmark/core/error.h"
 
-namespace meshmark::cli {
-namespace {
+namespace meshmark::cli
+{
+namespace
+{
 
 using Updates = std::vector<std::pair<std::string, double>>;
 
@@ -59,7 +61,8 @@ TEST(PhaseProgressTest, shows_finished_phases_with_times_and_ends_the_line)
     const auto last = text.rfind('\r');
     ASSERT_NE(last, std::string::npos);
     const std::string final_line = text.substr(last);
-    EXPECT_NE(final_line.find("meshmark embed: read 0.00 s | basis 0.00 s\n"), std::string::npos) << final_line;
+    EXPECT_NE(final_line.find("meshmark embed: read 0.00 s | basis 0.00 s\n"), std::string::npos)
+        << final_line;
     EXPECT_EQ(text.back(), '\n');
 }
 

@@ -1,18 +1,20 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/core/atomic_file.h"
 
-#include <gtest/gtest.h>
-#include <sys/stat.h>
-
 #include <fstream>
 #include <sstream>
+
+#include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include "meshmark/core/error.h"
 #include "support/test_paths.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
-namespace {
+namespace
+{
 std::string slurp(const std::filesystem::path& p)
 {
     std::ifstream in(p, std::ios::binary);
@@ -32,7 +34,9 @@ TEST(AtomicFileTest, writes_complete_file_with_requested_mode)
     const auto path = dir / "out.txt";
     write_file_atomically(path, [](std::ostream& out) { out << "hello"; }, {.permissions = 0600});
     EXPECT_EQ(slurp(path), "hello");
-    struct stat st{};
+    struct stat st
+    {
+    };
     ASSERT_EQ(::stat(path.c_str(), &st), 0);
     EXPECT_EQ(st.st_mode & 0777U, 0600U);
     EXPECT_EQ(entries(dir), 1U);
@@ -44,7 +48,8 @@ TEST(AtomicFileTest, failing_writer_leaves_previous_content_and_no_temporary)
     const auto path = dir / "out.txt";
     write_file_atomically(path, [](std::ostream& out) { out << "old"; });
     EXPECT_THROW(write_file_atomically(path,
-                                       [](std::ostream& out) {
+                                       [](std::ostream& out)
+                                       {
                                            out << "partial";
                                            throw IoError("boom");
                                        }),

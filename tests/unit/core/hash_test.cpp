@@ -1,13 +1,14 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/core/hash.h"
 
-#include <gtest/gtest.h>
-
 #include <vector>
+
+#include <gtest/gtest.h>
 
 #include "meshmark/core/rng.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 // Fed in pieces split anywhere, the hasher gives hash_bytes of the whole.
 TEST(HasherTest, pieces_give_the_hash_of_the_whole)
@@ -31,7 +32,8 @@ TEST(HasherTest, pieces_give_the_hash_of_the_whole)
                 {
                     hasher.update(buffer.data() + i, std::min(step, size - i));
                 }
-                ASSERT_EQ(hasher.value(), whole) << "size " << size << " cut " << cut << " step " << step;
+                ASSERT_EQ(hasher.value(), whole)
+                    << "size " << size << " cut " << cut << " step " << step;
             }
         }
     }

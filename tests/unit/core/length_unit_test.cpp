@@ -8,8 +8,10 @@
 
 #include "meshmark/core/error.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 TEST(LengthUnitTest, parses_lengths_with_and_without_a_unit)
 {
@@ -33,7 +35,8 @@ TEST(LengthUnitTest, parses_lengths_with_and_without_a_unit)
 
 TEST(LengthUnitTest, refuses_what_is_not_a_positive_length)
 {
-    for (const char* text : {"", "mm", "abc", "0.05 parsec", "0.05mmm", "-1mm", "0", "0mm", "nan", "inf mm", "1,5mm"})
+    for (const char* text :
+         {"", "mm", "abc", "0.05 parsec", "0.05mmm", "-1mm", "0", "0mm", "nan", "inf mm", "1,5mm"})
     {
         try
         {

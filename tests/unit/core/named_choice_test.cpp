@@ -1,12 +1,14 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/core/named_choice.h"
 
-#include <gtest/gtest.h>
-
 #include <string>
 
-namespace meshmark {
-namespace {
+#include <gtest/gtest.h>
+
+namespace meshmark
+{
+namespace
+{
 
 enum class Color
 {
@@ -15,7 +17,8 @@ enum class Color
     Blue,
 };
 
-std::string message_of(const std::string& name, std::initializer_list<std::pair<const char*, Color>> choices)
+std::string message_of(const std::string& name,
+                       std::initializer_list<std::pair<const char*, Color>> choices)
 {
     try
     {
@@ -32,8 +35,12 @@ std::string message_of(const std::string& name, std::initializer_list<std::pair<
 
 TEST(NamedChoiceTest, returns_the_named_value)
 {
-    EXPECT_EQ(parse_named_choice<Color>("green", "color", {{"red", Color::Red}, {"green", Color::Green}}), Color::Green);
-    EXPECT_EQ(parse_named_choice<Color>("red", "color", {{"red", Color::Red}, {"green", Color::Green}}), Color::Red);
+    EXPECT_EQ(
+        parse_named_choice<Color>("green", "color", {{"red", Color::Red}, {"green", Color::Green}}),
+        Color::Green);
+    EXPECT_EQ(
+        parse_named_choice<Color>("red", "color", {{"red", Color::Red}, {"green", Color::Green}}),
+        Color::Red);
 }
 
 TEST(NamedChoiceTest, names_every_choice_when_the_name_is_unknown)

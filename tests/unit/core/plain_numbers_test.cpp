@@ -1,13 +1,15 @@
 // SPDX-License-Identifier: MIT
 // Numbers as a reader without statistics reads them (plain_numbers.h).
+#include "meshmark/core/plain_numbers.h"
+
 #include <cmath>
 
 #include <gtest/gtest.h>
 
-#include "meshmark/core/plain_numbers.h"
-
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 TEST(PlainNumbersTest, one_in_rounds_to_two_significant_digits_in_words)
 {

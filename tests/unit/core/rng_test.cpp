@@ -1,13 +1,13 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/core/rng.h"
 
-#include <gtest/gtest.h>
-
+#include <cmath>
 #include <vector>
 
-#include <cmath>
+#include <gtest/gtest.h>
 
-namespace meshmark {
+namespace meshmark
+{
 
 TEST(RngTest, same_seed_gives_same_stream)
 {
@@ -72,8 +72,10 @@ TEST(RngTest, derive_seed_separates_purposes_and_is_stable)
 // slow way: the word-at-a-time path must give the same value for every length and alignment.
 TEST(HashBytesTest, word_path_equals_the_byte_definition)
 {
-    auto reference = [](const unsigned char* bytes, std::size_t size, std::uint64_t seed) {
-        std::uint64_t h = splitmix64(seed ^ (static_cast<std::uint64_t>(size) * 0x9E3779B97F4A7C15ULL));
+    auto reference = [](const unsigned char* bytes, std::size_t size, std::uint64_t seed)
+    {
+        std::uint64_t h =
+            splitmix64(seed ^ (static_cast<std::uint64_t>(size) * 0x9E3779B97F4A7C15ULL));
         for (std::size_t i = 0; i < size; i += 8)
         {
             std::uint64_t word = 0;
@@ -95,7 +97,8 @@ TEST(HashBytesTest, word_path_equals_the_byte_definition)
     {
         for (std::size_t size = 0; size <= 41; ++size)
         {
-            ASSERT_EQ(hash_bytes(buffer.data() + offset, size, 0x1234U), reference(buffer.data() + offset, size, 0x1234U))
+            ASSERT_EQ(hash_bytes(buffer.data() + offset, size, 0x1234U),
+                      reference(buffer.data() + offset, size, 0x1234U))
                 << "offset " << offset << " size " << size;
         }
     }

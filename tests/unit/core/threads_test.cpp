@@ -3,7 +3,8 @@
 
 #include <gtest/gtest.h>
 
-namespace meshmark {
+namespace meshmark
+{
 
 TEST(ResolveThreadsTest, a_positive_request_is_kept_and_zero_means_at_least_one)
 {

@@ -1,14 +1,15 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/core/triangle_mesh.h"
 
-#include <gtest/gtest.h>
-
 #include <limits>
+
+#include <gtest/gtest.h>
 
 #include "meshmark/core/error.h"
 #include "meshmark/geometry/shapes.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 TEST(TriangleMeshTest, validate_rejects_nan_and_out_of_range_index)
 {

@@ -1,22 +1,24 @@
 // SPDX-License-Identifier: MIT
 // Hostile sizes: headers and texts that claim or contain far more than they should must be
 // rejected quickly, with a clear meshmark::Error, and without allocating what they claim.
-#include <gtest/gtest.h>
-#include <sys/resource.h>
-
 #include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <functional>
 #include <string>
 
+#include <gtest/gtest.h>
+#include <sys/resource.h>
+
 #include "meshmark/core/error.h"
 #include "meshmark/io/mesh_io.h"
 #include "meshmark/watermark/key.h"
 #include "support/test_paths.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 namespace fs = std::filesystem;
 
@@ -56,7 +58,8 @@ fs::path put(const fs::path& path, const std::string& bytes)
     return path;
 }
 
-std::string ply_header(const std::string& format, const std::string& vertices, const std::string& faces)
+std::string ply_header(const std::string& format, const std::string& vertices,
+                       const std::string& faces)
 {
     return "ply\nformat " + format + " 1.0\nelement vertex " + vertices +
            "\nproperty float x\nproperty float y\nproperty float z\nelement face " + faces +
@@ -93,11 +96,12 @@ TEST(HostileInput, PlyFaceListOf255Indices)
         polygon += " " + std::to_string(i);
     }
     // A complete 255-gon is valid: fan-triangulated into 253 triangles.
-    const auto ok = put(dir / "ok.ply", ply_header("ascii", "255", "1") + vertices + polygon + "\n");
+    const auto ok =
+        put(dir / "ok.ply", ply_header("ascii", "255", "1") + vertices + polygon + "\n");
     EXPECT_EQ(read_mesh(ok).face_count(), 253);
     // A length of 255 followed by three indices is truncated, not read past the end.
-    const auto short_list = put(dir / "short.ply", ply_header("ascii", "3", "1") +
-                                                       "0 0 0\n1 0 0\n0 1 0\n255 0 1 2\n");
+    const auto short_list =
+        put(dir / "short.ply", ply_header("ascii", "3", "1") + "0 0 0\n1 0 0\n0 1 0\n255 0 1 2\n");
     expect_fast_error<IoError>([&] { static_cast<void>(read_mesh_file(short_list)); }, "short.ply");
     std::string binary = ply_header("binary_little_endian", "3", "1");
     binary.append(36, '\0');
@@ -119,15 +123,18 @@ TEST(HostileInput, DeeplyNestedKeyJsonFailsFast)
     {
         objects += "{\"a\":";
     }
-    expect_fast_error<IoError>([&] { static_cast<void>(parse_key(objects, "obj.key")); }, "obj.key");
+    expect_fast_error<IoError>([&] { static_cast<void>(parse_key(objects, "obj.key")); },
+                               "obj.key");
 }
 
 TEST(HostileInput, HugeKeyJsonFailsFast)
 {
     // 17 MiB of valid JSON: a key is < 1 KiB, a family key of 100,000 recipients about 6 MiB,
     // so this is refused before parsing.
-    const std::string huge = "{\"format\":\"meshmark-key\",\"pad\":\"" + std::string(17U << 20U, 'x') + "\"}";
-    expect_fast_error<IoError>([&] { static_cast<void>(parse_key(huge, "huge.key")); }, "too large");
+    const std::string huge =
+        "{\"format\":\"meshmark-key\",\"pad\":\"" + std::string(17U << 20U, 'x') + "\"}";
+    expect_fast_error<IoError>([&] { static_cast<void>(parse_key(huge, "huge.key")); },
+                               "too large");
     const fs::path dir = test::temp_dir("hostile_key");
     const auto path = put(dir / "huge.key", huge);
     expect_fast_error<IoError>([&] { static_cast<void>(read_key(path)); }, "too large");
@@ -136,10 +143,10 @@ TEST(HostileInput, HugeKeyJsonFailsFast)
 TEST(HostileInput, KeyFieldsOfTheWrongKindAreIoErrors)
 {
     // Each of these once escaped as a nlohmann exception or relied on an unchecked conversion.
-    for (const char* text :
-         {R"({"format":1})", R"({"format":null,"version":1})", R"([1,2,3])", R"("meshmark-key")",
-          R"({"format":"meshmark-key","version":1e300})", R"({"format":"meshmark-key","version":1.5})",
-          R"({"format":"meshmark-key","version":18446744073709551615})"})
+    for (const char* text : {R"({"format":1})", R"({"format":null,"version":1})", R"([1,2,3])",
+                             R"("meshmark-key")", R"({"format":"meshmark-key","version":1e300})",
+                             R"({"format":"meshmark-key","version":1.5})",
+                             R"({"format":"meshmark-key","version":18446744073709551615})"})
     {
         SCOPED_TRACE(text);
         expect_fast_error<IoError>([&] { static_cast<void>(parse_key(text, "k.key")); }, "k.key");

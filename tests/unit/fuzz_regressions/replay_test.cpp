@@ -2,8 +2,6 @@
 // Replays every input of fuzz/corpus/<target> and fuzz/regressions/<target> through the same
 // entry point as the libFuzzer target: only meshmark::Error may reject an input; any other
 // exception (or, under the sanitizer job, any sanitizer report) fails the test.
-#include <gtest/gtest.h>
-
 #include <algorithm>
 #include <cstdint>
 #include <exception>
@@ -13,10 +11,14 @@
 #include <string>
 #include <vector>
 
+#include <gtest/gtest.h>
+
 #include "fuzz_entry.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 namespace fs = std::filesystem;
 
@@ -54,13 +56,34 @@ struct Target
     bool (*run)(const std::uint8_t*, std::size_t);
 };
 
-bool read_ply(const std::uint8_t* d, std::size_t n) { return fuzz::read_mesh_bytes(d, n, ".ply"); }
-bool read_obj(const std::uint8_t* d, std::size_t n) { return fuzz::read_mesh_bytes(d, n, ".obj"); }
-bool read_off(const std::uint8_t* d, std::size_t n) { return fuzz::read_mesh_bytes(d, n, ".off"); }
-bool read_stl(const std::uint8_t* d, std::size_t n) { return fuzz::read_mesh_bytes(d, n, ".stl"); }
-bool read_gltf(const std::uint8_t* d, std::size_t n) { return fuzz::read_mesh_bytes(d, n, ".gltf"); }
-bool read_glb(const std::uint8_t* d, std::size_t n) { return fuzz::read_mesh_bytes(d, n, ".glb"); }
-bool read_3mf(const std::uint8_t* d, std::size_t n) { return fuzz::read_mesh_bytes(d, n, ".3mf"); }
+bool read_ply(const std::uint8_t* d, std::size_t n)
+{
+    return fuzz::read_mesh_bytes(d, n, ".ply");
+}
+bool read_obj(const std::uint8_t* d, std::size_t n)
+{
+    return fuzz::read_mesh_bytes(d, n, ".obj");
+}
+bool read_off(const std::uint8_t* d, std::size_t n)
+{
+    return fuzz::read_mesh_bytes(d, n, ".off");
+}
+bool read_stl(const std::uint8_t* d, std::size_t n)
+{
+    return fuzz::read_mesh_bytes(d, n, ".stl");
+}
+bool read_gltf(const std::uint8_t* d, std::size_t n)
+{
+    return fuzz::read_mesh_bytes(d, n, ".gltf");
+}
+bool read_glb(const std::uint8_t* d, std::size_t n)
+{
+    return fuzz::read_mesh_bytes(d, n, ".glb");
+}
+bool read_3mf(const std::uint8_t* d, std::size_t n)
+{
+    return fuzz::read_mesh_bytes(d, n, ".3mf");
+}
 
 class FuzzReplay : public ::testing::TestWithParam<Target>
 {
@@ -71,7 +94,8 @@ TEST_P(FuzzReplay, EveryInputIsReadOrRejectedWithMeshmarkError)
     const Target& target = GetParam();
     const auto files = inputs_of(target.name);
     // The seed corpus holds valid inputs, so an empty list means the folder moved.
-    ASSERT_GE(files.size(), 3U) << "no corpus for " << target.name << " under " << MESHMARK_FUZZ_DIR;
+    ASSERT_GE(files.size(), 3U) << "no corpus for " << target.name << " under "
+                                << MESHMARK_FUZZ_DIR;
     int accepted = 0;
     for (const auto& file : files)
     {
@@ -93,17 +117,22 @@ TEST_P(FuzzReplay, EveryInputIsReadOrRejectedWithMeshmarkError)
 // The attack-spec target needs the attacks library, which the sanitizer job leaves out
 // (MESHMARK_FUZZ_REPLAY_ATTACKS, tests/unit/fuzz_regressions/CMakeLists.txt).
 #ifdef MESHMARK_FUZZ_REPLAY_ATTACKS
-#define MESHMARK_ATTACK_SPEC_TARGET , Target{"fuzz_attack_spec", fuzz::parse_attack_spec_bytes}
+#define MESHMARK_ATTACK_SPEC_TARGET                       \
+    , Target                                              \
+    {                                                     \
+        "fuzz_attack_spec", fuzz::parse_attack_spec_bytes \
+    }
 #else
 #define MESHMARK_ATTACK_SPEC_TARGET
 #endif
-INSTANTIATE_TEST_SUITE_P(Targets, FuzzReplay,
-                         ::testing::Values(Target{"fuzz_read_ply", read_ply}, Target{"fuzz_read_obj", read_obj},
-                                           Target{"fuzz_read_off", read_off}, Target{"fuzz_read_stl", read_stl},
-                                           Target{"fuzz_read_gltf", read_gltf}, Target{"fuzz_read_glb", read_glb},
-                                           Target{"fuzz_read_3mf", read_3mf},
-                                           Target{"fuzz_parse_key", fuzz::parse_key_bytes} MESHMARK_ATTACK_SPEC_TARGET),
-                         [](const ::testing::TestParamInfo<Target>& param_info) { return param_info.param.name; });
+INSTANTIATE_TEST_SUITE_P(
+    Targets, FuzzReplay,
+    ::testing::Values(Target{"fuzz_read_ply", read_ply}, Target{"fuzz_read_obj", read_obj},
+                      Target{"fuzz_read_off", read_off}, Target{"fuzz_read_stl", read_stl},
+                      Target{"fuzz_read_gltf", read_gltf}, Target{"fuzz_read_glb", read_glb},
+                      Target{"fuzz_read_3mf", read_3mf},
+                      Target{"fuzz_parse_key", fuzz::parse_key_bytes} MESHMARK_ATTACK_SPEC_TARGET),
+    [](const ::testing::TestParamInfo<Target>& param_info) { return param_info.param.name; });
 
 }  // namespace
 }  // namespace meshmark

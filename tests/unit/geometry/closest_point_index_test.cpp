@@ -1,17 +1,16 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/geometry/closest_point_index.h"
 
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <limits>
 #include <numbers>
 #include <numeric>
-#include <vector>
 #include <utility>
+#include <vector>
 
 #include <CGAL/Simple_cartesian.h>
 #include <CGAL/squared_distance_3.h>
+#include <gtest/gtest.h>
 
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
@@ -19,8 +18,10 @@
 #include "meshmark/core/rng.h"
 #include "meshmark/geometry/shapes.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 using Kernel = CGAL::Simple_cartesian<double>;
 
@@ -57,29 +58,31 @@ Positions mixed_queries(const TriangleMesh& mesh, std::uint64_t seed, Eigen::Ind
     Positions queries(count, 3);
     for (Eigen::Index i = 0; i < count; ++i)
     {
-        const auto v = static_cast<Eigen::Index>(rng.below(static_cast<std::uint64_t>(mesh.V.rows())));
+        const auto v =
+            static_cast<Eigen::Index>(rng.below(static_cast<std::uint64_t>(mesh.V.rows())));
         switch (i % 4)
         {
-        case 0:  // anywhere in an enlarged box
-            for (Eigen::Index k = 0; k < 3; ++k)
+            case 0:  // anywhere in an enlarged box
+                for (Eigen::Index k = 0; k < 3; ++k)
+                {
+                    queries(i, k) = rng.uniform(lo[k], hi[k]);
+                }
+                break;
+            case 1:  // close to the surface
+                for (Eigen::Index k = 0; k < 3; ++k)
+                {
+                    queries(i, k) = mesh.V(v, k) + 1e-3 * box.diagonal() * rng.normal();
+                }
+                break;
+            case 2:  // exactly on a vertex
+                queries.row(i) = mesh.V.row(v);
+                break;
+            default:  // on an edge
             {
-                queries(i, k) = rng.uniform(lo[k], hi[k]);
+                const auto f =
+                    static_cast<Eigen::Index>(rng.below(static_cast<std::uint64_t>(mesh.F.rows())));
+                queries.row(i) = 0.5 * (mesh.V.row(mesh.F(f, 0)) + mesh.V.row(mesh.F(f, 1)));
             }
-            break;
-        case 1:  // close to the surface
-            for (Eigen::Index k = 0; k < 3; ++k)
-            {
-                queries(i, k) = mesh.V(v, k) + 1e-3 * box.diagonal() * rng.normal();
-            }
-            break;
-        case 2:  // exactly on a vertex
-            queries.row(i) = mesh.V.row(v);
-            break;
-        default:  // on an edge
-        {
-            const auto f = static_cast<Eigen::Index>(rng.below(static_cast<std::uint64_t>(mesh.F.rows())));
-            queries.row(i) = 0.5 * (mesh.V.row(mesh.F(f, 0)) + mesh.V.row(mesh.F(f, 1)));
-        }
         }
     }
     return queries;
@@ -101,7 +104,8 @@ void expect_matches_brute_force(const TriangleMesh& mesh, const Positions& queri
         EXPECT_NEAR(r.distance, brute_force_distance(mesh, q), 1e-12) << "query " << i;
         EXPECT_DOUBLE_EQ(r.distance, (r.point - q).norm());
         // The reported point lies on the reported face.
-        EXPECT_LE(std::sqrt(CGAL::squared_distance(to_cgal(r.point), triangle(mesh, r.face))), 1e-12)
+        EXPECT_LE(std::sqrt(CGAL::squared_distance(to_cgal(r.point), triangle(mesh, r.face))),
+                  1e-12)
             << "query " << i;
     }
 }
@@ -154,7 +158,9 @@ TEST(ClosestPointIndexTest, points_on_the_surface_are_at_zero_distance)
     for (Eigen::Index f = 0; f < mesh.F.rows(); f += 7)
     {
         const Eigen::Vector3d centroid =
-            (mesh.V.row(mesh.F(f, 0)) + mesh.V.row(mesh.F(f, 1)) + mesh.V.row(mesh.F(f, 2))).transpose() / 3.0;
+            (mesh.V.row(mesh.F(f, 0)) + mesh.V.row(mesh.F(f, 1)) + mesh.V.row(mesh.F(f, 2)))
+                .transpose() /
+            3.0;
         EXPECT_LE(index.closest(centroid).distance, 1e-15);
     }
 }
@@ -173,7 +179,9 @@ TEST(ClosestPointIndexTest, results_are_identical_for_one_and_two_threads)
         ASSERT_EQ(one[i].distance, two[i].distance) << i;
         ASSERT_EQ(one[i].point, two[i].point) << i;
         // The batch call gives what a single query gives.
-        ASSERT_EQ(one[i].distance, index.closest(Eigen::Vector3d(queries.row(static_cast<Eigen::Index>(i)))).distance);
+        ASSERT_EQ(
+            one[i].distance,
+            index.closest(Eigen::Vector3d(queries.row(static_cast<Eigen::Index>(i)))).distance);
     }
 }
 
@@ -189,7 +197,8 @@ TEST(ClosestPointIndexTest, large_scattered_and_coherent_batches_answer_every_qu
     Positions coherent(scattered.rows(), 3);
     for (std::size_t k = 0; k < order.size(); ++k)
     {
-        coherent.row(static_cast<Eigen::Index>(k)) = scattered.row(static_cast<Eigen::Index>(order[k]));
+        coherent.row(static_cast<Eigen::Index>(k)) =
+            scattered.row(static_cast<Eigen::Index>(order[k]));
     }
     const auto a = index.closest(scattered, 2);
     const auto b = index.closest(coherent, 2);
@@ -197,7 +206,8 @@ TEST(ClosestPointIndexTest, large_scattered_and_coherent_batches_answer_every_qu
     for (std::size_t k = 0; k < order.size(); k += 7)
     {
         const auto i = order[k];
-        const auto single = index.closest(Eigen::Vector3d(scattered.row(static_cast<Eigen::Index>(i))));
+        const auto single =
+            index.closest(Eigen::Vector3d(scattered.row(static_cast<Eigen::Index>(i))));
         ASSERT_EQ(a[i].face, single.face) << i;
         ASSERT_EQ(a[i].point, single.point) << i;
         ASSERT_EQ(b[k].face, single.face) << k;
@@ -228,8 +238,9 @@ TEST(ClosestPointIndexTest, exact_ties_go_to_the_lowest_face_whatever_the_face_o
     {
         for (int i = n - 1; i > 0; --i)
         {
-            std::swap(order[static_cast<std::size_t>(i)],
-                      order[static_cast<std::size_t>(rng.below(static_cast<std::uint64_t>(i + 1)))]);
+            std::swap(
+                order[static_cast<std::size_t>(i)],
+                order[static_cast<std::size_t>(rng.below(static_cast<std::uint64_t>(i + 1)))]);
         }
         fan.F.resize(n, 3);
         for (int f = 0; f < n; ++f)

@@ -1,6 +1,4 @@
 // SPDX-License-Identifier: MIT
-#include <gtest/gtest.h>
-
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -8,13 +6,16 @@
 
 #include <CGAL/Simple_cartesian.h>
 #include <CGAL/squared_distance_3.h>
+#include <gtest/gtest.h>
 
 #include "meshmark/core/rng.h"
 #include "meshmark/geometry/point_kd_tree.h"
 #include "meshmark/geometry/point_triangle.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 using Kernel = CGAL::Simple_cartesian<double>;
 
@@ -36,8 +37,9 @@ void expect_closest(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Ei
     const Kernel::Triangle_3 t(to_cgal(a), to_cgal(b), to_cgal(c));
     const double expected = std::sqrt(CGAL::squared_distance(to_cgal(p), t));
     const bool is_sliver = is_sliver_triangle(a, b, c);
-    for (const Eigen::Vector3d& q : {closest_point_on_triangle(p, TriangleCorners{a, b, c}, is_sliver),
-                                     closest_point_on_triangle(p, TriangleEdges{a, b - a, c - a}, is_sliver)})
+    for (const Eigen::Vector3d& q :
+         {closest_point_on_triangle(p, TriangleCorners{a, b, c}, is_sliver),
+          closest_point_on_triangle(p, TriangleEdges{a, b - a, c - a}, is_sliver)})
     {
         EXPECT_NEAR((q - p).norm(), expected, 1e-12);
         if (!is_sliver)  // CGAL's distance to a degenerate triangle is no test of lying on it
@@ -87,7 +89,8 @@ TEST(PointKdTreeTest, nearest_points_match_brute_force)
     for (int q = 0; q < 200; ++q)
     {
         const Eigen::Vector3d query = random_point(rng, 1.5);
-        std::array<double, 2> best{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()};
+        std::array<double, 2> best{std::numeric_limits<double>::infinity(),
+                                   std::numeric_limits<double>::infinity()};
         for (Eigen::Index i = 0; i < points.rows(); ++i)
         {
             const double d2 = (points.row(i).transpose() - query).squaredNorm();

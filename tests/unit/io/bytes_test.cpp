@@ -14,8 +14,10 @@
 #include "meshmark/core/error.h"
 #include "meshmark/io/mesh_io.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 namespace fs = std::filesystem;
 using test::GltfBuilder;
@@ -133,7 +135,8 @@ TEST_F(BytesTest, other_formats_give_write_mesh_bytes)
 
 TEST_F(BytesTest, obj_material_libraries_stay_as_written)
 {
-    const std::string text = "mtllib scene.mtl\n" + test::file_bytes(test::fixture("quad_faces.obj"));
+    const std::string text =
+        "mtllib scene.mtl\n" + test::file_bytes(test::fixture("quad_faces.obj"));
     fs::create_directories(dir / "src");
     test::put_bytes(dir / "src" / "scene.obj", text);
     test::put_bytes(dir / "src" / "scene.mtl", "newmtl red\nKd 1 0 0\n");
@@ -145,7 +148,8 @@ TEST_F(BytesTest, obj_material_libraries_stay_as_written)
     // Written into another folder, the library would be relinked: not so the bytes.
     fs::create_directories(dir / "out");
     write_mesh_file(dir / "out" / "marked.obj", source, perturbed(source.mesh.V));
-    EXPECT_EQ(test::file_bytes(dir / "out" / "marked.obj").rfind("mtllib ../src/scene.mtl\n", 0), 0U);
+    EXPECT_EQ(test::file_bytes(dir / "out" / "marked.obj").rfind("mtllib ../src/scene.mtl\n", 0),
+              0U);
 }
 
 TEST_F(BytesTest, glb_and_data_uri_gltf_give_the_file_written_beside_them)
@@ -195,9 +199,9 @@ TEST_F(BytesTest, rejects_a_row_count_mismatch_and_non_finite_positions)
 {
     const MeshFile source = read_mesh_file(copied("cube_binary_le.ply"));
     const Positions fewer = source.mesh.V.topRows(source.mesh.V.rows() - 1);
-    test::expect_error<InvalidOption>(
-        [&] { (void)mesh_file_bytes(source, fewer, MeshFormat::Ply); },
-        {"mesh_file_bytes", "7 rows", "8 vertices"});
+    test::expect_error<InvalidOption>([&]
+                                      { (void)mesh_file_bytes(source, fewer, MeshFormat::Ply); },
+                                      {"mesh_file_bytes", "7 rows", "8 vertices"});
     EXPECT_THROW((void)mesh_file_bytes(source, fewer, MeshFormat::Obj), InvalidOption);
 
     Positions bad = source.mesh.V;

@@ -5,7 +5,6 @@
 #include <limits>
 
 #include <Eigen/Geometry>
-
 #include <draco/attributes/attribute_quantization_transform.h>
 #include <draco/compression/decode.h>
 #include <draco/compression/encode.h>
@@ -17,8 +16,10 @@
 #include "meshmark/core/error.h"
 #include "meshmark/io/mesh_io.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 namespace fs = std::filesystem;
 using test::GltfBuilder;
@@ -173,23 +174,26 @@ TEST_F(DracoTest, an_animated_draco_part_is_posed_at_every_time)
     const std::vector<float> turns{0, 0, 0, 1, 0, 0, h, h};
     const int at = b.accessor(b.view(GltfBuilder::raw(times)), 0, 5126, 2, "SCALAR");
     const int to = b.accessor(b.view(GltfBuilder::raw(turns)), 0, 5126, 2, "VEC4");
-    b.doc["animations"] = Json::array({{{"samplers", {{{"input", at}, {"output", to}}}},
-                                        {"channels", {{{"sampler", 0}, {"target", {{"node", 0}, {"path", "rotation"}}}}}}}});
+    b.doc["animations"] = Json::array(
+        {{{"samplers", {{{"input", at}, {"output", to}}}},
+          {"channels", {{{"sampler", 0}, {"target", {{"node", 0}, {"path", "rotation"}}}}}}}});
     test::put_bytes(dir / "turning.glb", b.glb());
     const MeshFile file = read_mesh_file(dir / "turning.glb");
     ASSERT_FALSE(file.animations.empty());
     EXPECT_FALSE(file.animations.front().moves_only_as_a_whole);  // (the triangle does not turn)
     const std::vector<double> at_times{0.0, 0.5, 1.0, 0.5};
-    const std::vector<double> angles{0.0, 0.25 * 3.14159265358979323846, 0.5 * 3.14159265358979323846,
-                                     0.25 * 3.14159265358979323846};
+    const std::vector<double> angles{0.0, 0.25 * 3.14159265358979323846,
+                                     0.5 * 3.14159265358979323846, 0.25 * 3.14159265358979323846};
     std::vector<ShownPose> poses;
-    for_each_animation_pose(dir / "turning.glb", at_times, [&](ShownPose&& p) { poses.push_back(std::move(p)); });
+    for_each_animation_pose(dir / "turning.glb", at_times,
+                            [&](ShownPose&& p) { poses.push_back(std::move(p)); });
     ASSERT_EQ(poses.size(), at_times.size());
     EXPECT_EQ(poses[0].V.rows(), 0);  // (at the first key: the stored pose)
     for (std::size_t k = 1; k < poses.size(); ++k)
     {
         ASSERT_EQ(poses[k].V.rows(), file.mesh.V.rows()) << k;
-        const Eigen::Matrix3d turn = Eigen::AngleAxisd(angles[k], Eigen::Vector3d::UnitZ()).toRotationMatrix();
+        const Eigen::Matrix3d turn =
+            Eigen::AngleAxisd(angles[k], Eigen::Vector3d::UnitZ()).toRotationMatrix();
         for (Eigen::Index v = 0; v < file.mesh.V.rows(); ++v)
         {
             const Eigen::Vector3d stored = file.mesh.V.row(v).transpose();
@@ -209,7 +213,8 @@ TEST_F(DracoTest, a_draco_primitive_with_a_morph_target_is_blended_point_for_poi
     const auto patch = draco_patch();
     GltfBuilder b = draco_asset(patch);
     const auto decoded = decode(patch.bytes, false);
-    const draco::PointAttribute* position = decoded->GetNamedAttribute(draco::GeometryAttribute::POSITION);
+    const draco::PointAttribute* position =
+        decoded->GetNamedAttribute(draco::GeometryAttribute::POSITION);
     std::vector<float> delta;
     for (draco::PointIndex i(0); i < decoded->num_points(); ++i)
     {
@@ -217,21 +222,24 @@ TEST_F(DracoTest, a_draco_primitive_with_a_morph_target_is_blended_point_for_poi
         position->GetMappedValue(i, p.data());
         delta.insert(delta.end(), {0.0f, 0.0f, 0.2f * p[0]});
     }
-    b.doc["meshes"][0]["primitives"][0]["targets"] = Json::array({{{"POSITION", b.positions(delta)}}});
+    b.doc["meshes"][0]["primitives"][0]["targets"] =
+        Json::array({{{"POSITION", b.positions(delta)}}});
     b.doc["meshes"][0]["weights"] = {0.5};
     test::put_bytes(dir / "morphed.glb", b.glb());
     const MeshFile file = read_mesh_file(dir / "morphed.glb");
     ASSERT_EQ(file.animations.size(), 1u);  // (the stored blend)
     ShownPose pose;
     const double zero = 0.0;
-    for_each_animation_pose(dir / "morphed.glb", std::span<const double>(&zero, 1),
-                            [&](ShownPose&& p) { pose = std::move(p); }, file.animations.front().index);
+    for_each_animation_pose(
+        dir / "morphed.glb", std::span<const double>(&zero, 1),
+        [&](ShownPose&& p) { pose = std::move(p); }, file.animations.front().index);
     ASSERT_EQ(pose.V.rows(), file.mesh.V.rows());
     for (Eigen::Index v = 0; v < file.mesh.V.rows(); ++v)
     {
         const Eigen::Vector3d stored = file.mesh.V.row(v).transpose();
         const bool is_patch = stored.z() < 3.0;
-        const Eigen::Vector3d expected = stored + Eigen::Vector3d(0.0, 0.0, is_patch ? 0.1 * stored.x() : 0.0);
+        const Eigen::Vector3d expected =
+            stored + Eigen::Vector3d(0.0, 0.0, is_patch ? 0.1 * stored.x() : 0.0);
         EXPECT_LT((pose.V.row(v).transpose() - expected).norm(), 1e-6) << v;
     }
 }
@@ -253,16 +261,20 @@ int add_skinned_draco_mesh(GltfBuilder& b, const std::vector<SkinnedCorner>& cor
     builder.Start(static_cast<int>(corners.size() / 3));
     const int pos = builder.AddAttribute(draco::GeometryAttribute::POSITION, 3, draco::DT_FLOAT32);
     const int joints = builder.AddAttribute(draco::GeometryAttribute::GENERIC, 4, draco::DT_UINT8);
-    const int weights = builder.AddAttribute(draco::GeometryAttribute::GENERIC, 4, draco::DT_FLOAT32);
+    const int weights =
+        builder.AddAttribute(draco::GeometryAttribute::GENERIC, 4, draco::DT_FLOAT32);
     Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
     Eigen::Vector3d hi = -lo;
     for (std::size_t f = 0; 3 * f < corners.size(); ++f)
     {
         const auto face = draco::FaceIndex(static_cast<std::uint32_t>(f));
         const SkinnedCorner* c = &corners[3 * f];
-        builder.SetAttributeValuesForFace(pos, face, c[0].position.data(), c[1].position.data(), c[2].position.data());
-        builder.SetAttributeValuesForFace(joints, face, c[0].joints.data(), c[1].joints.data(), c[2].joints.data());
-        builder.SetAttributeValuesForFace(weights, face, c[0].weights.data(), c[1].weights.data(), c[2].weights.data());
+        builder.SetAttributeValuesForFace(pos, face, c[0].position.data(), c[1].position.data(),
+                                          c[2].position.data());
+        builder.SetAttributeValuesForFace(joints, face, c[0].joints.data(), c[1].joints.data(),
+                                          c[2].joints.data());
+        builder.SetAttributeValuesForFace(weights, face, c[0].weights.data(), c[1].weights.data(),
+                                          c[2].weights.data());
         for (std::size_t k = 0; k < 3; ++k)
         {
             const Eigen::Vector3d p(c[k].position[0], c[k].position[1], c[k].position[2]);
@@ -272,14 +284,17 @@ int add_skinned_draco_mesh(GltfBuilder& b, const std::vector<SkinnedCorner>& cor
     }
     auto mesh = builder.Finalize();
     draco::Encoder encoder;
-    encoder.SetAttributeQuantization(draco::GeometryAttribute::POSITION, 28);  // (the weights follow x closely)
+    encoder.SetAttributeQuantization(draco::GeometryAttribute::POSITION,
+                                     28);  // (the weights follow x closely)
     encoder.SetEncodingMethod(draco::MESH_EDGEBREAKER_ENCODING);
     draco::EncoderBuffer out;
     EXPECT_TRUE(encoder.EncodeMeshToBuffer(*mesh, &out).ok());
 
     const int view = b.view(std::string(out.data(), out.size()));
-    const auto attribute = [&](int component, const char* type) {
-        b.doc["accessors"].push_back({{"componentType", component}, {"count", mesh->num_points()}, {"type", type}});
+    const auto attribute = [&](int component, const char* type)
+    {
+        b.doc["accessors"].push_back(
+            {{"componentType", component}, {"count", mesh->num_points()}, {"type", type}});
         return static_cast<int>(b.doc["accessors"].size() - 1);
     };
     const int position_acc = attribute(5126, "VEC3");
@@ -288,17 +303,22 @@ int add_skinned_draco_mesh(GltfBuilder& b, const std::vector<SkinnedCorner>& cor
     const int joints_acc = attribute(5121, "VEC4");
     const int weights_acc = attribute(5126, "VEC4");
     const int index_acc = static_cast<int>(b.doc["accessors"].size());
-    b.doc["accessors"].push_back({{"componentType", 5125}, {"count", 3 * mesh->num_faces()}, {"type", "SCALAR"}});
+    b.doc["accessors"].push_back(
+        {{"componentType", 5125}, {"count", 3 * mesh->num_faces()}, {"type", "SCALAR"}});
     const auto id = [&](int a) { return static_cast<int>(mesh->attribute(a)->unique_id()); };
     b.doc["extensionsUsed"] = {"KHR_draco_mesh_compression"};
     b.doc["extensionsRequired"] = {"KHR_draco_mesh_compression"};
     return b.mesh(Json::array(
-        {{{"attributes", {{"POSITION", position_acc}, {"JOINTS_0", joints_acc}, {"WEIGHTS_0", weights_acc}}},
+        {{{"attributes",
+           {{"POSITION", position_acc}, {"JOINTS_0", joints_acc}, {"WEIGHTS_0", weights_acc}}},
           {"indices", index_acc},
           {"extensions",
            {{"KHR_draco_mesh_compression",
              {{"bufferView", view},
-              {"attributes", {{"POSITION", id(pos)}, {"JOINTS_0", id(joints)}, {"WEIGHTS_0", id(weights)}}}}}}}}}));
+              {"attributes",
+               {{"POSITION", id(pos)},
+                {"JOINTS_0", id(joints)},
+                {"WEIGHTS_0", id(weights)}}}}}}}}}));
 }
 
 // A rigged arm whose skinned primitive is Draco-compressed (JOINTS_0 and WEIGHTS_0 inside the
@@ -311,14 +331,17 @@ TEST_F(DracoTest, a_skinned_draco_primitive_is_posed_by_its_joints)
     const test::BendingArm arm;
     // A strip along x from -2 to 2, bent at the elbow (x = 0).
     constexpr int kAlong = 33;
-    const auto at = [](int i, int j) {
-        return std::array<float, 3>{-2.0f + 0.125f * static_cast<float>(i), 0.25f * static_cast<float>(j),
+    const auto at = [](int i, int j)
+    {
+        return std::array<float, 3>{-2.0f + 0.125f * static_cast<float>(i),
+                                    0.25f * static_cast<float>(j),
                                     0.05f * static_cast<float>(i % 3)};
     };
     std::vector<SkinnedCorner> corners;
     for (int i = 0; i + 1 < kAlong; ++i)
     {
-        for (const auto& g : std::array<std::array<int, 2>, 6>{{{i, 0}, {i + 1, 0}, {i + 1, 1}, {i, 0}, {i + 1, 1}, {i, 1}}})
+        for (const auto& g : std::array<std::array<int, 2>, 6>{
+                 {{i, 0}, {i + 1, 0}, {i + 1, 1}, {i, 0}, {i + 1, 1}, {i, 1}}})
         {
             const auto p = at(g[0], g[1]);
             const auto elbow_weight = static_cast<float>(arm.weight(p[0]));
@@ -337,7 +360,8 @@ TEST_F(DracoTest, a_skinned_draco_primitive_is_posed_by_its_joints)
     EXPECT_FALSE(file.animations.front().moves_only_as_a_whole);
     const std::vector<double> times{1.0 / 24.0, 0.1};
     std::vector<ShownPose> poses;
-    for_each_animation_pose(dir / "arm.glb", times, [&](ShownPose&& p) { poses.push_back(std::move(p)); });
+    for_each_animation_pose(dir / "arm.glb", times,
+                            [&](ShownPose&& p) { poses.push_back(std::move(p)); });
     ASSERT_EQ(poses.size(), times.size());
     for (std::size_t k = 0; k < times.size(); ++k)
     {
@@ -348,7 +372,8 @@ TEST_F(DracoTest, a_skinned_draco_primitive_is_posed_by_its_joints)
             const Eigen::Vector3d p = file.mesh.V.row(v).transpose();
             const Eigen::Vector3d shown = arm.shown(p, arm.weight(p.x()), times[k]);
             EXPECT_LT((poses[k].V.row(v).transpose() - shown).norm(), 1e-5) << k << " " << v;
-            largest_bend = std::max(largest_bend, (shown - p - Eigen::Vector3d(0.0, arm.lift, 0.0)).norm());
+            largest_bend =
+                std::max(largest_bend, (shown - p - Eigen::Vector3d(0.0, arm.lift, 0.0)).norm());
         }
         EXPECT_GT(largest_bend, 0.3) << k;  // (a bend, not the stored shape lifted)
     }
@@ -359,7 +384,8 @@ TEST_F(DracoTest, a_skinned_draco_primitive_is_posed_by_its_joints)
 // through its own matrix's inverse. Read through its node instead (as before the twelfth
 // session), a Draco rig whose scene pose is not its bind pose was marked in a shape no viewer
 // shows, and a still copy of it (Blender's) was read against the wrong shape.
-TEST_F(DracoTest, a_skinned_draco_primitive_is_read_in_the_scene_pose_and_written_back_through_its_joints)
+TEST_F(DracoTest,
+       a_skinned_draco_primitive_is_read_in_the_scene_pose_and_written_back_through_its_joints)
 {
     const test::KneeRig rig;
     std::vector<SkinnedCorner> corners;
@@ -367,8 +393,10 @@ TEST_F(DracoTest, a_skinned_draco_primitive_is_read_in_the_scene_pose_and_writte
     {
         const std::size_t k = v;
         corners.push_back({{rig.xyz[3 * k], rig.xyz[3 * k + 1], rig.xyz[3 * k + 2]},
-                           {rig.joints[4 * k], rig.joints[4 * k + 1], rig.joints[4 * k + 2], rig.joints[4 * k + 3]},
-                           {rig.weights[4 * k], rig.weights[4 * k + 1], rig.weights[4 * k + 2], rig.weights[4 * k + 3]}});
+                           {rig.joints[4 * k], rig.joints[4 * k + 1], rig.joints[4 * k + 2],
+                            rig.joints[4 * k + 3]},
+                           {rig.weights[4 * k], rig.weights[4 * k + 1], rig.weights[4 * k + 2],
+                            rig.weights[4 * k + 3]}});
     }
     GltfBuilder b;
     const int rig_mesh = add_skinned_draco_mesh(b, corners);
@@ -376,7 +404,8 @@ TEST_F(DracoTest, a_skinned_draco_primitive_is_read_in_the_scene_pose_and_writte
     test::put_bytes(dir / "rig.glb", b.glb());
 
     // (Draco stores its points in an order of its own, and a re-encoding may change it.)
-    const auto distance_to = [](const Positions& V, const Eigen::Vector3d& p) {
+    const auto distance_to = [](const Positions& V, const Eigen::Vector3d& p)
+    {
         double nearest = std::numeric_limits<double>::infinity();
         for (Eigen::Index i = 0; i < V.rows(); ++i)
         {

@@ -9,11 +9,13 @@
 #include "io_test_support.h"
 #include "meshmark/io/mesh_io.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 using test::fixture;
 
-namespace {
+namespace
+{
 
 template <typename E>
 void expect_read_error(const std::filesystem::path& path, std::vector<std::string> parts)

@@ -14,8 +14,10 @@
 #include "meshmark/pipeline/embed_file.h"
 #include "meshmark/registration/registration.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 namespace fs = std::filesystem;
 using test::GltfBuilder;
@@ -171,16 +173,17 @@ TEST(GltfPipelineTest, a_copy_of_an_animated_asset_in_the_pose_blender_shows_is_
 
     // Blender's copy: every vertex where the pose puts it (skinned with the stored weights),
     // the vertices in reverse order.
-    const auto shown_copy = [&](const fs::path& file, const fs::path& out, double t = 1.0 / 24.0) {
+    const auto shown_copy = [&](const fs::path& file, const fs::path& out, double t = 1.0 / 24.0)
+    {
         const TriangleMesh stored = read_mesh(file);
         const Eigen::Index n = stored.V.rows();
         TriangleMesh copy;
         copy.V.resize(n, 3);
         for (Eigen::Index v = 0; v < n; ++v)
         {
-            copy.V.row(n - 1 - v) =
-                arm.shown(stored.V.row(v).transpose(), arm.weight(xyz[static_cast<std::size_t>(3 * v)]), t)
-                    .transpose();
+            copy.V.row(n - 1 - v) = arm.shown(stored.V.row(v).transpose(),
+                                              arm.weight(xyz[static_cast<std::size_t>(3 * v)]), t)
+                                        .transpose();
         }
         copy.F = (n - 1) - stored.F.array();
         write_mesh(out, copy);
@@ -189,16 +192,18 @@ TEST(GltfPipelineTest, a_copy_of_an_animated_asset_in_the_pose_blender_shows_is_
     detect.threads = 1;
     // The marked copy posed at \p t is claimed, read through the frame named \p frame; the unmarked
     // one is not. Returns the marked copy's report.
-    const auto expect_claimed_at = [&](double t, const std::string& name, const std::string& frame) {
+    const auto expect_claimed_at = [&](double t, const std::string& name, const std::string& frame)
+    {
         shown_copy(dir / "marked.glb", dir / ("marked_" + name + ".ply"), t);
         shown_copy(dir / "arm.glb", dir / ("clean_" + name + ".ply"), t);
-        const DetectReport found =
-            detect_file(dir / ("marked_" + name + ".ply"), dir / "arm.glb", dir / "key.json", detect);
-        EXPECT_TRUE(found.decision.is_present) << name << " z " << found.decision.score << " " << found.alignment;
+        const DetectReport found = detect_file(dir / ("marked_" + name + ".ply"), dir / "arm.glb",
+                                               dir / "key.json", detect);
+        EXPECT_TRUE(found.decision.is_present)
+            << name << " z " << found.decision.score << " " << found.alignment;
         EXPECT_GT(found.decision.score, 9.0) << name;
         EXPECT_NE(found.alignment.find(frame), std::string::npos) << found.alignment;
-        const DetectReport clean =
-            detect_file(dir / ("clean_" + name + ".ply"), dir / "arm.glb", dir / "key.json", detect);
+        const DetectReport clean = detect_file(dir / ("clean_" + name + ".ply"), dir / "arm.glb",
+                                               dir / "key.json", detect);
         EXPECT_FALSE(clean.decision.is_present) << name << " z " << clean.decision.score;
         return found;
     };
@@ -211,7 +216,8 @@ TEST(GltfPipelineTest, a_copy_of_an_animated_asset_in_the_pose_blender_shows_is_
     // The same copy held in memory (the Blender add-on's Detect): against the original's file it
     // is read through its frame too; against the original's mesh alone it cannot be.
     const TriangleMesh held = read_mesh(dir / "marked_end.ply");
-    const DetectReport in_memory = detect_against_file(held, dir / "arm.glb", dir / "key.json", detect);
+    const DetectReport in_memory =
+        detect_against_file(held, dir / "arm.glb", dir / "key.json", detect);
     EXPECT_TRUE(in_memory.decision.is_present) << "z " << in_memory.decision.score;
     EXPECT_EQ(in_memory.decision.score, at_end.decision.score);
     const DetectReport arrays_only =
@@ -242,18 +248,23 @@ TEST(GltfPipelineTest, a_copy_posed_by_another_animation_than_the_first_is_claim
         TriangleMesh copy = stored;
         for (Eigen::Index v = 0; v < copy.V.rows(); ++v)
         {
-            copy.V.row(v) =
-                arm.shown(stored.V.row(v).transpose(), arm.weight(xyz[static_cast<std::size_t>(3 * v)]), 0.1).transpose();
+            copy.V.row(v) = arm.shown(stored.V.row(v).transpose(),
+                                      arm.weight(xyz[static_cast<std::size_t>(3 * v)]), 0.1)
+                                .transpose();
         }
         write_mesh(dir / (std::string(name) + "_bent.ply"), copy);
     }
     DetectFileOptions detect;
     detect.threads = 1;
-    const DetectReport found = detect_file(dir / "marked_bent.ply", dir / "arm.glb", dir / "key.json", detect);
-    EXPECT_TRUE(found.decision.is_present) << "z " << found.decision.score << " " << found.alignment;
+    const DetectReport found =
+        detect_file(dir / "marked_bent.ply", dir / "arm.glb", dir / "key.json", detect);
+    EXPECT_TRUE(found.decision.is_present)
+        << "z " << found.decision.score << " " << found.alignment;
     EXPECT_GT(found.decision.score, 9.0);
-    EXPECT_NE(found.alignment.find("animation 'bend' at 0.1 s"), std::string::npos) << found.alignment;
-    const DetectReport clean = detect_file(dir / "arm_bent.ply", dir / "arm.glb", dir / "key.json", detect);
+    EXPECT_NE(found.alignment.find("animation 'bend' at 0.1 s"), std::string::npos)
+        << found.alignment;
+    const DetectReport clean =
+        detect_file(dir / "arm_bent.ply", dir / "arm.glb", dir / "key.json", detect);
     EXPECT_FALSE(clean.decision.is_present) << "z " << clean.decision.score;
 }
 
@@ -266,24 +277,37 @@ TEST(GltfPipelineTest, an_animation_that_only_turns_the_asset_costs_no_second_re
 {
     const fs::path dir = test::temp_dir("gltf_pipeline_turntable");
     const auto [xyz, idx] = glb_arrays(long_lumpy_ellipsoid());
-    enum class Turning { nothing, model, camera };
-    const auto asset = [&](Turning turning) {
+    enum class Turning
+    {
+        nothing,
+        model,
+        camera
+    };
+    const auto asset = [&](Turning turning)
+    {
         GltfBuilder b;
-        const int mesh = b.mesh(Json::array({{{"attributes", {{"POSITION", b.positions(xyz)}}}, {"indices", b.indices(idx)}}}));
+        const int mesh = b.mesh(Json::array(
+            {{{"attributes", {{"POSITION", b.positions(xyz)}}}, {"indices", b.indices(idx)}}}));
         const int model = b.node({{"mesh", mesh}, {"name", "model"}});
         const int camera = b.node({{"name", "camera"}, {"translation", {0.0, 1.0, 5.0}}});
         if (turning != Turning::nothing)
         {
             const std::vector<float> times{0.0f, 1.0f, 2.0f};
             const float h = std::sqrt(0.5f);
-            const std::vector<float> turns{0, 0, 0, 1, 0, h, 0, h, 0, 1, 0, 0};  // about y: 0, 90, 180 degrees
-            const int at = b.accessor(b.view(GltfBuilder::raw(times)), 0, 5126, times.size(), "SCALAR");
-            const int to = b.accessor(b.view(GltfBuilder::raw(turns)), 0, 5126, turns.size() / 4, "VEC4");
-            b.doc["animations"] = Json::array(
-                {{{"name", "turntable"},
-                  {"samplers", {{{"input", at}, {"output", to}}}},
-                  {"channels", {{{"sampler", 0},
-                                 {"target", {{"node", turning == Turning::model ? model : camera}, {"path", "rotation"}}}}}}}});
+            const std::vector<float> turns{0, 0, 0, 1, 0, h,
+                                           0, h, 0, 1, 0, 0};  // about y: 0, 90, 180 degrees
+            const int at =
+                b.accessor(b.view(GltfBuilder::raw(times)), 0, 5126, times.size(), "SCALAR");
+            const int to =
+                b.accessor(b.view(GltfBuilder::raw(turns)), 0, 5126, turns.size() / 4, "VEC4");
+            b.doc["animations"] =
+                Json::array({{{"name", "turntable"},
+                              {"samplers", {{{"input", at}, {"output", to}}}},
+                              {"channels",
+                               {{{"sampler", 0},
+                                 {"target",
+                                  {{"node", turning == Turning::model ? model : camera},
+                                   {"path", "rotation"}}}}}}}});
         }
         return b.glb();
     };
@@ -298,7 +322,8 @@ TEST(GltfPipelineTest, an_animation_that_only_turns_the_asset_costs_no_second_re
     (void)embed_file(dir / "turning.glb", dir / "marked.glb", dir / "key.json", options);
 
     // Copies as Blender writes them at frame 12: turned by 0.5 s of the animation (45 degrees).
-    const Eigen::Affine3d turned(Eigen::AngleAxisd(0.25 * 3.14159265358979323846, Eigen::Vector3d::UnitY()));
+    const Eigen::Affine3d turned(
+        Eigen::AngleAxisd(0.25 * 3.14159265358979323846, Eigen::Vector3d::UnitY()));
     for (const char* name : {"marked", "turning"})
     {
         TriangleMesh copy = read_mesh(dir / (std::string(name) + ".glb"));
@@ -307,15 +332,20 @@ TEST(GltfPipelineTest, an_animation_that_only_turns_the_asset_costs_no_second_re
     }
     DetectFileOptions detect;
     detect.threads = 1;
-    const DetectReport still = detect_file(dir / "marked_copy.ply", dir / "still.glb", dir / "key.json", detect);
+    const DetectReport still =
+        detect_file(dir / "marked_copy.ply", dir / "still.glb", dir / "key.json", detect);
     EXPECT_TRUE(still.decision.is_present) << "z " << still.decision.score;
     EXPECT_GT(still.decision.false_positive_probability, 0.0);
     for (const char* original : {"turning.glb", "filmed.glb"})
     {
-        const DetectReport found = detect_file(dir / "marked_copy.ply", dir / original, dir / "key.json", detect);
-        EXPECT_EQ(found.decision.false_positive_probability, still.decision.false_positive_probability) << original;
+        const DetectReport found =
+            detect_file(dir / "marked_copy.ply", dir / original, dir / "key.json", detect);
+        EXPECT_EQ(found.decision.false_positive_probability,
+                  still.decision.false_positive_probability)
+            << original;
         EXPECT_EQ(found.decision.score, still.decision.score) << original;
-        const DetectReport clean = detect_file(dir / "turning_copy.ply", dir / original, dir / "key.json", detect);
+        const DetectReport clean =
+            detect_file(dir / "turning_copy.ply", dir / original, dir / "key.json", detect);
         EXPECT_FALSE(clean.decision.is_present) << original << " z " << clean.decision.score;
     }
 }

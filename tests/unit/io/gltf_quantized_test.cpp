@@ -14,8 +14,10 @@
 #include "gltf_test_support.h"
 #include "meshmark/io/mesh_io.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 namespace fs = std::filesystem;
 using test::GltfBuilder;
@@ -51,9 +53,9 @@ std::vector<std::uint16_t> patch_triangles()
         {
             const auto v = static_cast<std::uint16_t>(i * kGrid + j);
             const auto right = static_cast<std::uint16_t>(v + kGrid);
-            t.insert(t.end(), {v, right, static_cast<std::uint16_t>(right + 1), v,
-                               static_cast<std::uint16_t>(right + 1),
-                               static_cast<std::uint16_t>(v + 1)});
+            t.insert(t.end(),
+                     {v, right, static_cast<std::uint16_t>(right + 1), v,
+                      static_cast<std::uint16_t>(right + 1), static_cast<std::uint16_t>(v + 1)});
         }
     }
     return t;
@@ -144,8 +146,7 @@ TEST_F(GltfQuantizedTest, gltfpack_layout_shifts_its_grid_when_a_mark_leaves_the
     {
         if (i != 7)
         {
-            EXPECT_LE((again.mesh.V.row(i) - file.mesh.V.row(i)).cwiseAbs().maxCoeff(), 1e-12)
-                << i;
+            EXPECT_LE((again.mesh.V.row(i) - file.mesh.V.row(i)).cwiseAbs().maxCoeff(), 1e-12) << i;
         }
     }
 }
@@ -201,9 +202,9 @@ TEST_F(GltfQuantizedTest, overflow_that_a_node_transform_cannot_absorb_becomes_f
     const int mesh = b.mesh(Json::array(
         {{{"attributes", {{"POSITION", pos}}}, {"indices", b.indices(patch_triangles())}}}));
     const int child_positions = b.positions({3, 0, 0, 4, 0, 0, 3, 1, 0});
-    const int child = b.node(
-        {{"mesh", b.mesh(Json::array({{{"attributes", {{"POSITION", child_positions}}}}}))}},
-        false);
+    const int child =
+        b.node({{"mesh", b.mesh(Json::array({{{"attributes", {{"POSITION", child_positions}}}}}))}},
+               false);
     b.node({{"mesh", mesh}, {"scale", {2.0, 2.0, 2.0}}, {"children", {child}}});
     b.doc["nodes"][static_cast<std::size_t>(child)]["translation"] = {0.0, 0.0, 1.0};
     mark_quantized(b);
@@ -268,12 +269,12 @@ GltfBuilder draco_int16_asset(const std::vector<std::int32_t>& q)
                                   {"max", {32767, 32767, 32767}}});
     b.doc["accessors"].push_back(
         {{"componentType", 5125}, {"count", patch_triangles().size()}, {"type", "SCALAR"}});
-    const int mesh = b.mesh(Json::array(
-        {{{"attributes", {{"POSITION", 0}}},
-          {"indices", 1},
-          {"extensions",
-           {{"KHR_draco_mesh_compression",
-             {{"bufferView", view}, {"attributes", {{"POSITION", position_id}}}}}}}}}));
+    const int mesh = b.mesh(
+        Json::array({{{"attributes", {{"POSITION", 0}}},
+                      {"indices", 1},
+                      {"extensions",
+                       {{"KHR_draco_mesh_compression",
+                         {{"bufferView", view}, {"attributes", {{"POSITION", position_id}}}}}}}}}));
     b.node({{"mesh", mesh}, {"translation", {0.0, 0.5, 0.25}}, {"scale", {0.9, 0.9, 0.9}}});
     b.doc["extensionsUsed"] = {"KHR_draco_mesh_compression", "KHR_mesh_quantization"};
     b.doc["extensionsRequired"] = {"KHR_draco_mesh_compression", "KHR_mesh_quantization"};
@@ -357,8 +358,8 @@ TEST_F(GltfQuantizedTest, draco_int16_overflow_under_a_parent_node_becomes_float
     const auto q = patch_values(-32767, 32767);
     GltfBuilder b = draco_int16_asset(q);
     const int leaf = b.positions({3, 0, 0, 4, 0, 0, 3, 1, 0});
-    const int child = b.node(
-        {{"mesh", b.mesh(Json::array({{{"attributes", {{"POSITION", leaf}}}}}))}}, false);
+    const int child =
+        b.node({{"mesh", b.mesh(Json::array({{{"attributes", {{"POSITION", leaf}}}}}))}}, false);
     b.doc["nodes"][0]["children"] = {child};
     test::put_bytes(dir / "dparent.glb", b.glb());
     const MeshFile file = read_mesh_file(dir / "dparent.glb");
@@ -370,16 +371,19 @@ TEST_F(GltfQuantizedTest, draco_int16_overflow_under_a_parent_node_becomes_float
     EXPECT_EQ(after["nodes"], b.doc["nodes"]);
     EXPECT_EQ(after["accessors"][0]["componentType"], 5126);
     EXPECT_FALSE(after["accessors"][0].contains("normalized"));
-    EXPECT_EQ(after["meshes"][0]["primitives"][0]["extensions"], b.doc["meshes"][0]["primitives"][0]["extensions"]);
+    EXPECT_EQ(after["meshes"][0]["primitives"][0]["extensions"],
+              b.doc["meshes"][0]["primitives"][0]["extensions"]);
     std::string bin;
     const Json doc = test::glb_json(test::file_bytes(dir / "dparent_out.glb"), &bin);
     const auto& view = doc["bufferViews"][0];
-    const std::string bytes = bin.substr(view.value("byteOffset", 0U), view["byteLength"].get<std::size_t>());
+    const std::string bytes =
+        bin.substr(view.value("byteOffset", 0U), view["byteLength"].get<std::size_t>());
     draco::DecoderBuffer buffer;
     buffer.Init(bytes.data(), bytes.size());
     draco::Decoder decoder;
     auto mesh = std::move(decoder.DecodeMeshFromBuffer(&buffer)).value();
-    EXPECT_EQ(mesh->GetNamedAttribute(draco::GeometryAttribute::POSITION)->data_type(), draco::DT_FLOAT32);
+    EXPECT_EQ(mesh->GetNamedAttribute(draco::GeometryAttribute::POSITION)->data_type(),
+              draco::DT_FLOAT32);
 }
 
 TEST_F(GltfQuantizedTest, skinned_morphed_multi_scene_asset_changes_only_positions)
@@ -407,11 +411,10 @@ TEST_F(GltfQuantizedTest, skinned_morphed_multi_scene_asset_changes_only_positio
     const std::vector<float> identity{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
     const int ibm = b.accessor(b.view(GltfBuilder::raw(identity)), 0, 5126, 1, "MAT4");
     const int tris = b.indices(patch_triangles());
-    const int skinned_mesh =
-        b.mesh(Json::array({{{"attributes", {{"POSITION", skinned}, {"JOINTS_0", joints},
-                                             {"WEIGHTS_0", weights}}},
-                             {"targets", Json::array({{{"POSITION", target}}})},
-                             {"indices", tris}}}));
+    const int skinned_mesh = b.mesh(Json::array(
+        {{{"attributes", {{"POSITION", skinned}, {"JOINTS_0", joints}, {"WEIGHTS_0", weights}}},
+          {"targets", Json::array({{{"POSITION", target}}})},
+          {"indices", tris}}}));
     const auto u = patch_values(0, 16383);
     const int packed = b.accessor(b.view(GltfBuilder::raw(narrowed<std::uint16_t>(u))), 0, 5123,
                                   u.size() / 3, "VEC3");
@@ -422,9 +425,8 @@ TEST_F(GltfQuantizedTest, skinned_morphed_multi_scene_asset_changes_only_positio
     const int hidden_mesh = b.mesh(Json::array({{{"attributes", {{"POSITION", hidden}}}}}));
     const int joint = b.node({{"name", "joint"}});
     b.node({{"mesh", skinned_mesh}, {"skin", 0}, {"scale", {0.5, 0.5, 0.5}}});
-    b.node({{"mesh", packed_mesh},
-            {"translation", {3.0, 0.0, 0.0}},
-            {"scale", {1e-4, 1e-4, 1e-4}}});
+    b.node(
+        {{"mesh", packed_mesh}, {"translation", {3.0, 0.0, 0.0}}, {"scale", {1e-4, 1e-4, 1e-4}}});
     const int other = b.node({{"mesh", hidden_mesh}}, false);
     b.doc["scenes"].push_back({{"nodes", {other}}});
     b.doc["skins"] = Json::array({{{"joints", {joint}}, {"inverseBindMatrices", ibm}}});
@@ -461,12 +463,13 @@ TEST_F(GltfQuantizedTest, skinned_morphed_multi_scene_asset_changes_only_positio
     std::string after_bin;
     static_cast<void>(test::glb_json(test::file_bytes(dir / "rig_out.glb"), &after_bin));
     ASSERT_GE(after_bin.size(), before_bin.size());
-    for (const int view : {after["accessors"][static_cast<std::size_t>(joints)]["bufferView"].get<int>(),
-                           after["accessors"][static_cast<std::size_t>(weights)]["bufferView"].get<int>(),
-                           after["accessors"][static_cast<std::size_t>(target)]["bufferView"].get<int>(),
-                           after["accessors"][static_cast<std::size_t>(ibm)]["bufferView"].get<int>(),
-                           after["accessors"][static_cast<std::size_t>(hidden)]["bufferView"].get<int>(),
-                           after["images"][0]["bufferView"].get<int>()})
+    for (const int view :
+         {after["accessors"][static_cast<std::size_t>(joints)]["bufferView"].get<int>(),
+          after["accessors"][static_cast<std::size_t>(weights)]["bufferView"].get<int>(),
+          after["accessors"][static_cast<std::size_t>(target)]["bufferView"].get<int>(),
+          after["accessors"][static_cast<std::size_t>(ibm)]["bufferView"].get<int>(),
+          after["accessors"][static_cast<std::size_t>(hidden)]["bufferView"].get<int>(),
+          after["images"][0]["bufferView"].get<int>()})
     {
         const auto& v = after["bufferViews"][static_cast<std::size_t>(view)];
         const std::size_t at = v["byteOffset"];

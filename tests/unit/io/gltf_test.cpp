@@ -14,8 +14,10 @@
 #include "meshmark/core/error.h"
 #include "meshmark/io/mesh_io.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 namespace fs = std::filesystem;
 using test::GltfBuilder;
@@ -400,7 +402,8 @@ TEST_F(GltfTest, images_are_copied_beside_an_output_in_another_folder_or_reached
     const Positions moved = displaced(file.mesh.V);
 
     write_mesh_file(dir / "out" / "dst" / "marked.gltf", file, moved);
-    const Json images = Json::parse(test::file_bytes(dir / "out" / "dst" / "marked.gltf"))["images"];
+    const Json images =
+        Json::parse(test::file_bytes(dir / "out" / "dst" / "marked.gltf"))["images"];
     EXPECT_EQ(images[0]["uri"], "tex/a%20b.png");
     EXPECT_EQ(test::file_bytes(dir / "out" / "dst" / "tex" / "a b.png"), "A");
     EXPECT_EQ(images[1]["uri"], "../../shared.png");
@@ -412,11 +415,14 @@ TEST_F(GltfTest, images_are_copied_beside_an_output_in_another_folder_or_reached
     EXPECT_EQ(images[5]["uri"], "data:image/png;base64,AAAA");
     EXPECT_FALSE(fs::exists(dir / "out" / "dst" / "shared.png"));
     EXPECT_EQ(test::file_bytes(dir / "src" / "scene.gltf"), source);
-    EXPECT_LT((read_mesh_file(dir / "out" / "dst" / "marked.gltf").mesh.V - moved).cwiseAbs().maxCoeff(), 1e-6);
+    EXPECT_LT(
+        (read_mesh_file(dir / "out" / "dst" / "marked.gltf").mesh.V - moved).cwiseAbs().maxCoeff(),
+        1e-6);
 
     // In the source's folder every URI already resolves: the images are left as they are.
     write_mesh_file(dir / "src" / "marked.gltf", file, moved);
-    EXPECT_EQ(Json::parse(test::file_bytes(dir / "src" / "marked.gltf"))["images"], t.builder.doc["images"]);
+    EXPECT_EQ(Json::parse(test::file_bytes(dir / "src" / "marked.gltf"))["images"],
+              t.builder.doc["images"]);
 
     // The asset cannot be written (its name is a folder): no image and no folder are left.
     fs::create_directories(dir / "fail" / "m.gltf");
@@ -445,7 +451,8 @@ TEST_F(GltfTest, instanced_mesh_is_watermarked_once_through_its_first_instance)
     // The second instance is kept aside, unwelded (one point per element), at x = -10 + local.
     ASSERT_EQ(file.instances.V.rows(), static_cast<Eigen::Index>(xyz.size() / 3));
     EXPECT_EQ(file.instances.F.rows(), 12);
-    EXPECT_NEAR(file.instances.V.col(0).maxCoeff(), -10.0 + file.mesh.V.col(0).maxCoeff() - 10.0, 1e-12);
+    EXPECT_NEAR(file.instances.V.col(0).maxCoeff(), -10.0 + file.mesh.V.col(0).maxCoeff() - 10.0,
+                1e-12);
     Positions moved = file.mesh.V;
     moved(0, 2) += 0.25;
     write_mesh_file(dir / "inst_out.glb", file, moved);
@@ -472,8 +479,9 @@ TEST_F(GltfTest, skinned_mesh_is_read_in_the_scene_pose_and_written_back_through
     const int pos = b.positions(rig.xyz);
     const int joint_acc = b.accessor(b.view(GltfBuilder::raw(rig.joints)), 0, 5121, n, "VEC4");
     const int weight_acc = b.accessor(b.view(GltfBuilder::raw(rig.weights)), 0, 5126, n, "VEC4");
-    const int mesh = b.mesh(Json::array({{{"attributes", {{"POSITION", pos}, {"JOINTS_0", joint_acc}, {"WEIGHTS_0", weight_acc}}},
-                                          {"indices", b.indices(rig.idx)}}}));
+    const int mesh = b.mesh(Json::array(
+        {{{"attributes", {{"POSITION", pos}, {"JOINTS_0", joint_acc}, {"WEIGHTS_0", weight_acc}}},
+          {"indices", b.indices(rig.idx)}}}));
     rig.add_skeleton(b, mesh);
     test::put_bytes(dir / "rig.glb", b.glb());
     Positions expected(static_cast<Eigen::Index>(n), 3);
@@ -515,7 +523,8 @@ TEST_F(GltfTest, an_animated_rig_gives_the_pose_blender_shows_it_in)
     // What Blender shows: frame 1 of the first animation.
     ShownPose pose;
     const double frame_one = 1.0 / 24.0;
-    for_each_animation_pose(dir / "arm.glb", std::span<const double>(&frame_one, 1), [&](ShownPose&& p) { pose = std::move(p); });
+    for_each_animation_pose(dir / "arm.glb", std::span<const double>(&frame_one, 1),
+                            [&](ShownPose&& p) { pose = std::move(p); });
     ASSERT_EQ(pose.V.rows(), n);
     ASSERT_EQ(pose.to_rest.size(), static_cast<std::size_t>(n));
     EXPECT_EQ(pose.name, "animation 'bend' at 1/24 s");
@@ -525,11 +534,16 @@ TEST_F(GltfTest, an_animated_rig_gives_the_pose_blender_shows_it_in)
         const Eigen::Vector3d p(xyz[3 * v], xyz[3 * v + 1], xyz[3 * v + 2]);
         EXPECT_LT((file.mesh.V.row(v).transpose() - p).norm(), 1e-6) << v;  // stored straight
         EXPECT_LT((pose.V.row(v).transpose() - arm.shown(p)).norm(), 1e-6) << v;
-        largest_bend = std::max(largest_bend, (arm.shown(p) - p - Eigen::Vector3d(0.0, arm.lift, 0.0)).norm());
+        largest_bend =
+            std::max(largest_bend, (arm.shown(p) - p - Eigen::Vector3d(0.0, arm.lift, 0.0)).norm());
         // A displacement d made in the pose comes back as the stored displacement.
         const Eigen::Vector3d d(1e-3, -2e-3, 1.5e-3);
         const double w = arm.weight(p.x());
-        EXPECT_LT((pose.to_rest[static_cast<std::size_t>(v)] * (arm.shown(p + d, w) - arm.shown(p, w)) - d).norm(), 1e-9)
+        EXPECT_LT(
+            (pose.to_rest[static_cast<std::size_t>(v)] * (arm.shown(p + d, w) - arm.shown(p, w)) -
+             d)
+                .norm(),
+            1e-9)
             << v;
     }
     EXPECT_GT(largest_bend, 0.3);  // the pose is not the stored shape lifted
@@ -544,7 +558,8 @@ TEST_F(GltfTest, an_animated_rig_gives_the_pose_blender_shows_it_in)
     EXPECT_NEAR(file.animations.front().last_key, 0.1, 1e-7);
     const std::vector<double> times{0.0, 0.05, 1.0 / 24.0, 2.0 / 24.0, 0.1};
     std::vector<ShownPose> poses;
-    for_each_animation_pose(dir / "arm.glb", times, [&](ShownPose&& p) { poses.push_back(std::move(p)); });
+    for_each_animation_pose(dir / "arm.glb", times,
+                            [&](ShownPose&& p) { poses.push_back(std::move(p)); });
     ASSERT_EQ(poses.size(), times.size());
     EXPECT_EQ(poses[0].V.rows(), 0);  // at its start the animation only keeps the stored pose
     EXPECT_EQ(poses[1].name, "animation 'bend' at 0.05 s");
@@ -557,7 +572,9 @@ TEST_F(GltfTest, an_animated_rig_gives_the_pose_blender_shows_it_in)
         for (Eigen::Index v = 0; v < n; ++v)
         {
             const Eigen::Vector3d p(xyz[3 * v], xyz[3 * v + 1], xyz[3 * v + 2]);
-            EXPECT_LT((poses[k].V.row(v).transpose() - arm.shown(p, arm.weight(p.x()), times[k])).norm(), 1e-6)
+            EXPECT_LT(
+                (poses[k].V.row(v).transpose() - arm.shown(p, arm.weight(p.x()), times[k])).norm(),
+                1e-6)
                 << k << " " << v;
         }
     }
@@ -592,20 +609,24 @@ TEST_F(GltfTest, a_blend_of_morph_targets_is_a_pose_over_the_stored_positions)
         bump[3 * v + 1] = xyz[3 * v] > 0.0f ? 0.5f * xyz[3 * v] * xyz[3 * v] : 0.0f;
         lean[3 * v + 2] = 0.25f * xyz[3 * v];
     }
-    const auto shown = [&](std::size_t v, double w_bump, double w_lean) {
-        return Eigen::Vector3d(xyz[3 * v] + w_bump * bump[3 * v] + w_lean * lean[3 * v],
-                               xyz[3 * v + 1] + w_bump * bump[3 * v + 1] + w_lean * lean[3 * v + 1],
-                               xyz[3 * v + 2] + w_bump * bump[3 * v + 2] + w_lean * lean[3 * v + 2]);
+    const auto shown = [&](std::size_t v, double w_bump, double w_lean)
+    {
+        return Eigen::Vector3d(
+            xyz[3 * v] + w_bump * bump[3 * v] + w_lean * lean[3 * v],
+            xyz[3 * v + 1] + w_bump * bump[3 * v + 1] + w_lean * lean[3 * v + 1],
+            xyz[3 * v + 2] + w_bump * bump[3 * v + 2] + w_lean * lean[3 * v + 2]);
     };
     // \p animated: a LINEAR channel from (0.6, 0.2) at t = 0 to (0, 0) at t = 1.
-    const auto make = [&](const std::string& name, bool animated) {
+    const auto make = [&](const std::string& name, bool animated)
+    {
         GltfBuilder b;
         const int pos = b.positions(xyz);
         const int t0 = b.positions(bump);
         const int t1 = b.positions(lean);
-        const int mesh = b.mesh(Json::array({{{"attributes", {{"POSITION", pos}}},
-                                              {"indices", b.indices(idx)},
-                                              {"targets", {{{"POSITION", t0}}, {{"POSITION", t1}}}}}}));
+        const int mesh =
+            b.mesh(Json::array({{{"attributes", {{"POSITION", pos}}},
+                                 {"indices", b.indices(idx)},
+                                 {"targets", {{{"POSITION", t0}}, {{"POSITION", t1}}}}}}));
         b.doc["meshes"][0]["weights"] = {0.5, 0.0};
         const int node = b.node({{"mesh", mesh}, {"translation", {0.0, 2.0, 0.0}}});
         if (animated)
@@ -617,7 +638,8 @@ TEST_F(GltfTest, a_blend_of_morph_targets_is_a_pose_over_the_stored_positions)
             b.doc["animations"] = Json::array(
                 {{{"name", "puff"},
                   {"samplers", {{{"input", at}, {"output", to}}}},
-                  {"channels", {{{"sampler", 0}, {"target", {{"node", node}, {"path", "weights"}}}}}}}});
+                  {"channels",
+                   {{{"sampler", 0}, {"target", {{"node", node}, {"path", "weights"}}}}}}}});
         }
         test::put_bytes(dir / name, b.glb());
         return b;
@@ -634,14 +656,16 @@ TEST_F(GltfTest, a_blend_of_morph_targets_is_a_pose_over_the_stored_positions)
     EXPECT_FALSE(file.animations.front().moves_only_as_a_whole);
     ShownPose pose;
     const double zero = 0.0;
-    for_each_animation_pose(dir / "still.glb", std::span<const double>(&zero, 1), [&](ShownPose&& p) { pose = std::move(p); },
-                            file.animations.front().index);
+    for_each_animation_pose(
+        dir / "still.glb", std::span<const double>(&zero, 1),
+        [&](ShownPose&& p) { pose = std::move(p); }, file.animations.front().index);
     ASSERT_EQ(pose.V.rows(), static_cast<Eigen::Index>(n));
     EXPECT_EQ(pose.name, "the stored morph target weights");
     for (std::size_t v = 0; v < n; ++v)
     {
         const auto r = static_cast<Eigen::Index>(v);
-        EXPECT_LT((file.mesh.V.row(r).transpose() - (shown(v, 0.0, 0.0) + lift)).norm(), 1e-6) << v;  // the base
+        EXPECT_LT((file.mesh.V.row(r).transpose() - (shown(v, 0.0, 0.0) + lift)).norm(), 1e-6)
+            << v;  // the base
         EXPECT_LT((pose.V.row(r).transpose() - (shown(v, 0.5, 0.0) + lift)).norm(), 1e-6) << v;
         EXPECT_LT((pose.to_rest[v] - Eigen::Matrix3d::Identity()).norm(), 1e-12) << v;
     }
@@ -651,34 +675,45 @@ TEST_F(GltfTest, a_blend_of_morph_targets_is_a_pose_over_the_stored_positions)
         b.doc["nodes"][0]["weights"] = {0.0, 1.0};
         test::put_bytes(dir / "node_weights.glb", b.glb());
         ShownPose leaned;
-        for_each_animation_pose(dir / "node_weights.glb", std::span<const double>(&zero, 1),
-                                [&](ShownPose&& p) { leaned = std::move(p); }, 0);
+        for_each_animation_pose(
+            dir / "node_weights.glb", std::span<const double>(&zero, 1),
+            [&](ShownPose&& p) { leaned = std::move(p); }, 0);
         ASSERT_EQ(leaned.V.rows(), static_cast<Eigen::Index>(n));
         for (std::size_t v = 0; v < n; ++v)
         {
-            EXPECT_LT((leaned.V.row(static_cast<Eigen::Index>(v)).transpose() - (shown(v, 0.0, 1.0) + lift)).norm(), 1e-6);
+            EXPECT_LT((leaned.V.row(static_cast<Eigen::Index>(v)).transpose() -
+                       (shown(v, 0.0, 1.0) + lift))
+                          .norm(),
+                      1e-6);
         }
         b.doc["nodes"][0]["weights"] = {0.0, 0.0};
         test::put_bytes(dir / "no_blend.glb", b.glb());
-        EXPECT_TRUE(read_mesh_file(dir / "no_blend.glb").animations.empty());  // nothing blended, no pose
+        EXPECT_TRUE(
+            read_mesh_file(dir / "no_blend.glb").animations.empty());  // nothing blended, no pose
     }
     // A target that cannot be read (a SCALAR accessor as its POSITION) or of another length
     // adds nothing; the others still blend.
     for (const bool scalar : {true, false})
     {
         GltfBuilder b = still;
-        const std::vector<float> other = scalar ? std::vector<float>(n, 1.0f) : std::vector<float>(3, 1.0f);
-        const int bad = scalar ? b.accessor(b.view(GltfBuilder::raw(other)), 0, 5126, n, "SCALAR") : b.positions(other);
+        const std::vector<float> other =
+            scalar ? std::vector<float>(n, 1.0f) : std::vector<float>(3, 1.0f);
+        const int bad = scalar ? b.accessor(b.view(GltfBuilder::raw(other)), 0, 5126, n, "SCALAR")
+                               : b.positions(other);
         b.doc["meshes"][0]["primitives"][0]["targets"][1]["POSITION"] = bad;
         b.doc["meshes"][0]["weights"] = {0.5, 1.0};
         test::put_bytes(dir / "bad_target.glb", b.glb());
         ShownPose bumped;
-        for_each_animation_pose(dir / "bad_target.glb", std::span<const double>(&zero, 1),
-                                [&](ShownPose&& p) { bumped = std::move(p); }, 0);
+        for_each_animation_pose(
+            dir / "bad_target.glb", std::span<const double>(&zero, 1),
+            [&](ShownPose&& p) { bumped = std::move(p); }, 0);
         ASSERT_EQ(bumped.V.rows(), static_cast<Eigen::Index>(n)) << scalar;
         for (std::size_t v = 0; v < n; ++v)
         {
-            EXPECT_LT((bumped.V.row(static_cast<Eigen::Index>(v)).transpose() - (shown(v, 0.5, 0.0) + lift)).norm(), 1e-6)
+            EXPECT_LT((bumped.V.row(static_cast<Eigen::Index>(v)).transpose() -
+                       (shown(v, 0.5, 0.0) + lift))
+                          .norm(),
+                      1e-6)
                 << scalar;
         }
     }
@@ -699,7 +734,8 @@ TEST_F(GltfTest, a_blend_of_morph_targets_is_a_pose_over_the_stored_positions)
     EXPECT_FALSE(keyed.animations.front().moves_only_as_a_whole);
     const std::vector<double> times{0.0, 0.25, 1.0};
     std::vector<ShownPose> poses;
-    for_each_animation_pose(dir / "keyed.glb", times, [&](ShownPose&& p) { poses.push_back(std::move(p)); });
+    for_each_animation_pose(dir / "keyed.glb", times,
+                            [&](ShownPose&& p) { poses.push_back(std::move(p)); });
     ASSERT_EQ(poses.size(), 3u);
     EXPECT_EQ(poses[1].name, "animation 'puff' at 6/24 s");
     EXPECT_EQ(poses[2].V.rows(), 0);
@@ -709,7 +745,9 @@ TEST_F(GltfTest, a_blend_of_morph_targets_is_a_pose_over_the_stored_positions)
         const double s = 1.0 - times[k];
         for (std::size_t v = 0; v < n; ++v)
         {
-            EXPECT_LT((poses[k].V.row(static_cast<Eigen::Index>(v)).transpose() - (shown(v, 0.6 * s, 0.2 * s) + lift)).norm(),
+            EXPECT_LT((poses[k].V.row(static_cast<Eigen::Index>(v)).transpose() -
+                       (shown(v, 0.6 * s, 0.2 * s) + lift))
+                          .norm(),
                       1e-6)
                 << k << " " << v;
         }
@@ -724,10 +762,10 @@ TEST_F(GltfTest, an_animation_that_only_moves_the_whole_asset_is_told_apart)
     struct Case
     {
         const char* name;
-        int target;                      // 0: the first box's node, 1: the second box's, 2: a camera beside them
+        int target;  // 0: the first box's node, 1: the second box's, 2: a camera beside them
         const char* path;
-        std::vector<float> values;       // two keys
-        std::vector<double> stand_scale; // the stand's scale
+        std::vector<float> values;        // two keys
+        std::vector<double> stand_scale;  // the stand's scale
         bool is_whole;
     };
     const float h = std::sqrt(0.5f);
@@ -735,8 +773,12 @@ TEST_F(GltfTest, an_animation_that_only_moves_the_whole_asset_is_told_apart)
         {"turntable", 0, "rotation", {0, 0, 0, 1, 0, h, 0, h}, {1, 1, 1}, true},
         {"turntable on a larger stand", 0, "rotation", {0, 0, 0, 1, 0, h, 0, h}, {2, 2, 2}, true},
         // (a scale of 1.3 as Blender writes it: uniform to float32 rounding)
-        {"turntable on Blender's stand", 0, "rotation", {0, 0, 0, 1, 0, h, 0, h},
-         {1.2999998331069946, 1.2999999523162842, 1.2999998331069946}, true},
+        {"turntable on Blender's stand",
+         0,
+         "rotation",
+         {0, 0, 0, 1, 0, h, 0, h},
+         {1.2999998331069946, 1.2999999523162842, 1.2999998331069946},
+         true},
         {"grow", 0, "scale", {1, 1, 1, 2, 2, 2}, {1, 1, 1}, true},
         {"squash", 0, "scale", {1, 1, 1, 1, 0.5f, 1}, {1, 1, 1}, false},
         {"turn on a stretched stand", 0, "rotation", {0, 0, 0, 1, 0, h, 0, h}, {3, 1, 1}, false},
@@ -746,12 +788,14 @@ TEST_F(GltfTest, an_animation_that_only_moves_the_whole_asset_is_told_apart)
     for (const Case& c : cases)
     {
         GltfBuilder b;
-        const auto box = [&] {
+        const auto box = [&]
+        {
             std::vector<float> xyz;
             std::vector<float> normals;
             std::vector<std::uint16_t> idx;
             box_faces(xyz, normals, idx, Eigen::Matrix4d::Identity());
-            return b.mesh(Json::array({{{"attributes", {{"POSITION", b.positions(xyz)}}}, {"indices", b.indices(idx)}}}));
+            return b.mesh(Json::array(
+                {{{"attributes", {{"POSITION", b.positions(xyz)}}}, {"indices", b.indices(idx)}}}));
         };
         const int second = b.node({{"mesh", box()}, {"translation", {2.5, 0.0, 0.0}}}, false);
         const int first = b.node({{"mesh", box()}, {"children", {second}}}, false);
@@ -762,18 +806,21 @@ TEST_F(GltfTest, an_animation_that_only_moves_the_whole_asset_is_told_apart)
         const int to = b.accessor(b.view(GltfBuilder::raw(c.values)), 0, 5126, 2,
                                   std::string(c.path) == "rotation" ? "VEC4" : "VEC3");
         const int target = std::array{first, second, camera}[static_cast<std::size_t>(c.target)];
-        b.doc["animations"] = Json::array({{{"samplers", {{{"input", at}, {"output", to}}}},
-                                            {"channels", {{{"sampler", 0}, {"target", {{"node", target}, {"path", c.path}}}}}}}});
+        b.doc["animations"] = Json::array(
+            {{{"samplers", {{{"input", at}, {"output", to}}}},
+              {"channels", {{{"sampler", 0}, {"target", {{"node", target}, {"path", c.path}}}}}}}});
         test::put_bytes(dir / "moving.glb", b.glb());
         const MeshFile file = read_mesh_file(dir / "moving.glb");
         ASSERT_EQ(file.mesh.V.rows(), 16) << c.name;
         ASSERT_FALSE(file.animations.empty()) << c.name;
         EXPECT_EQ(file.animations.front().moves_only_as_a_whole, c.is_whole) << c.name;
         // What the poses say halfway: none where the whole only moves (nor where only the camera
-        // does); the door and the squash bend the asset, and the turn on a stretched stand shears it.
+        // does); the door and the squash bend the asset, and the turn on a stretched stand shears
+        // it.
         const std::vector<double> halfway{0.5};
         Eigen::Index rows = -1;
-        for_each_animation_pose(dir / "moving.glb", halfway, [&](ShownPose&& p) { rows = p.V.rows(); });
+        for_each_animation_pose(dir / "moving.glb", halfway,
+                                [&](ShownPose&& p) { rows = p.V.rows(); });
         const bool is_bent = std::string(c.name) != "camera" && !c.is_whole;
         EXPECT_EQ(rows, is_bent ? 16 : 0) << c.name;
     }
@@ -804,7 +851,8 @@ TEST_F(GltfTest, skinned_mesh_in_its_bind_pose_reads_exactly_as_through_its_node
     std::vector<float> ibm(16);
     for (int k = 0; k < 16; ++k)
     {
-        ibm[static_cast<std::size_t>(k)] = static_cast<float>(inverse(k % 4, k / 4));  // column-major
+        ibm[static_cast<std::size_t>(k)] =
+            static_cast<float>(inverse(k % 4, k / 4));  // column-major
     }
     const int pos = b.positions(xyz);
     const int mesh = b.mesh(Json::array(
@@ -817,7 +865,8 @@ TEST_F(GltfTest, skinned_mesh_in_its_bind_pose_reads_exactly_as_through_its_node
                               {"rotation", {0.0, 0.0, std::sin(angle / 2), std::cos(angle / 2)}}});
     b.node({{"mesh", mesh}, {"skin", 0}});
     b.doc["skins"] = Json::array(
-        {{{"joints", {joint}}, {"inverseBindMatrices", b.accessor(b.view(GltfBuilder::raw(ibm)), 0, 5126, 1, "MAT4")}}});
+        {{{"joints", {joint}},
+          {"inverseBindMatrices", b.accessor(b.view(GltfBuilder::raw(ibm)), 0, 5126, 1, "MAT4")}}});
     test::put_bytes(dir / "bind.glb", b.glb());
     const MeshFile file = read_mesh_file(dir / "bind.glb");
     ASSERT_EQ(file.mesh.V.rows(), 8);
@@ -842,7 +891,8 @@ TEST_F(GltfTest, vertices_a_float_step_apart_stay_apart_when_moved_alike)
     const float b = std::nextafter(a, 1.0F);
     GltfBuilder g;
     const int pos = g.positions({a, 0, 0, b, 0, 0, 0, 1, 0, 0, 0, 1});
-    g.node({{"mesh", g.mesh(Json::array({{{"attributes", {{"POSITION", pos}}}, {"indices", g.indices({0, 2, 3, 1, 3, 2})}}}))}});
+    g.node({{"mesh", g.mesh(Json::array({{{"attributes", {{"POSITION", pos}}},
+                                          {"indices", g.indices({0, 2, 3, 1, 3, 2})}}}))}});
     test::put_bytes(dir / "close.glb", g.glb());
     const MeshFile file = read_mesh_file(dir / "close.glb");
     ASSERT_EQ(file.mesh.V.rows(), 4);
@@ -953,7 +1003,8 @@ TEST_F(GltfTest, generic_writer_makes_valid_glb_and_gltf)
 // refused naming the version and the upgrade.
 TEST_F(GltfTest, gltf_1_0_assets_are_refused_naming_the_version_and_the_upgrade)
 {
-    const auto expect_refused = [&](const std::string& name, const std::string& bytes, const std::string& version)
+    const auto expect_refused =
+        [&](const std::string& name, const std::string& bytes, const std::string& version)
     {
         test::put_bytes(dir / name, bytes);
         try
@@ -965,7 +1016,8 @@ TEST_F(GltfTest, gltf_1_0_assets_are_refused_naming_the_version_and_the_upgrade)
         {
             const std::string what = e.what();
             EXPECT_NE(what.find(name), std::string::npos) << what;
-            EXPECT_NE(what.find("glTF " + version + " is not supported"), std::string::npos) << what;
+            EXPECT_NE(what.find("glTF " + version + " is not supported"), std::string::npos)
+                << what;
             EXPECT_NE(what.find("gltf-pipeline"), std::string::npos) << what;
         }
     };
@@ -1060,13 +1112,18 @@ TEST_F(GltfTest, hostile_files_fail_with_one_sentence_naming_the_file)
     {
         GltfBuilder f;
         const int p5 = f.positions({0, 0, 0, 1, 0, 0, 0, 1, 0});
-        const std::vector<std::uint8_t> joints{0, 0, 0, 0, 0, 0, 0, 0, static_cast<std::uint8_t>(bad == "joint_index" ? 3 : 0), 0, 0, 0};
+        const std::vector<std::uint8_t> joints{
+            0, 0, 0, 0, 0, 0, 0, 0, static_cast<std::uint8_t>(bad == "joint_index" ? 3 : 0),
+            0, 0, 0};
         const std::vector<float> weights{1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0};
-        const int j = f.accessor(f.view(GltfBuilder::raw(joints)), 0, 5121, bad == "joints_type" ? 4 : 3,
-                                 bad == "joints_type" ? "VEC3" : "VEC4");
+        const int j =
+            f.accessor(f.view(GltfBuilder::raw(joints)), 0, 5121, bad == "joints_type" ? 4 : 3,
+                       bad == "joints_type" ? "VEC3" : "VEC4");
         const int w = f.accessor(f.view(GltfBuilder::raw(weights)), 0, 5126, 3, "VEC4");
         const int joint = f.node({{"name", "joint"}, {"translation", {0.0, 1.0, 0.0}}});
-        f.node({{"mesh", f.mesh(Json::array({{{"attributes", {{"POSITION", p5}, {"JOINTS_0", j}, {"WEIGHTS_0", w}}}}}))},
+        f.node({{"mesh",
+                 f.mesh(Json::array(
+                     {{{"attributes", {{"POSITION", p5}, {"JOINTS_0", j}, {"WEIGHTS_0", w}}}}}))},
                 {"skin", bad == "missing_skin" ? 4 : 0}});
         f.doc["skins"] = Json::array({{{"joints", {joint}}}});
         expect_error("skin_" + bad + ".glb", f.glb());

@@ -4,8 +4,8 @@
 #pragma once
 
 #include <algorithm>
-#include <cmath>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
@@ -19,7 +19,8 @@
 
 #include "io_test_support.h"
 
-namespace meshmark::test {
+namespace meshmark::test
+{
 
 using Json = nlohmann::ordered_json;
 
@@ -259,7 +260,8 @@ struct BendingArm
     double blend = 0.4;
     double turn = 100.0 * 3.14159265358979323846 / 180.0;
     double lift = 0.3;
-    bool is_bend_first = true;  // "bend" is the file's first animation, else its second (after "straight")
+    bool is_bend_first =
+        true;  // "bend" is the file's first animation, else its second (after "straight")
 
     /// The elbow's weight at \p x.
     [[nodiscard]] double weight(double x) const
@@ -267,7 +269,8 @@ struct BendingArm
         return std::clamp((x - (elbow - blend)) / (2.0 * blend), 0.0, 1.0);
     }
 
-    [[nodiscard]] std::string glb(const std::vector<float>& xyz, const std::vector<std::uint16_t>& idx) const
+    [[nodiscard]] std::string glb(const std::vector<float>& xyz,
+                                  const std::vector<std::uint16_t>& idx) const
     {
         GltfBuilder b;
         const std::size_t n = xyz.size() / 3;
@@ -283,8 +286,10 @@ struct BendingArm
         const int pos = b.positions(xyz);
         const int joint_acc = b.accessor(b.view(GltfBuilder::raw(joints)), 0, 5121, n, "VEC4");
         const int weight_acc = b.accessor(b.view(GltfBuilder::raw(weights)), 0, 5126, n, "VEC4");
-        const int mesh = b.mesh(Json::array({{{"attributes", {{"POSITION", pos}, {"JOINTS_0", joint_acc}, {"WEIGHTS_0", weight_acc}}},
-                                              {"indices", b.indices(idx)}}}));
+        const int mesh = b.mesh(
+            Json::array({{{"attributes",
+                           {{"POSITION", pos}, {"JOINTS_0", joint_acc}, {"WEIGHTS_0", weight_acc}}},
+                          {"indices", b.indices(idx)}}}));
         return rig(b, mesh);
     }
 
@@ -293,16 +298,23 @@ struct BendingArm
     [[nodiscard]] std::string rig(GltfBuilder& b, int mesh) const
     {
         const auto e = static_cast<float>(elbow);
-        const std::vector<float> ibm{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1,   //
-                                     1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, -e, 0, 0, 1};  // column-major
+        const std::vector<float> ibm{
+            1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0,  0, 0, 1,   //
+            1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, -e, 0, 0, 1};  // column-major
         const int ibm_acc = b.accessor(b.view(GltfBuilder::raw(ibm)), 0, 5126, 2, "MAT4");
-        const int elbow_node = b.node({{"name", "elbow"}, {"translation", {elbow, 0.0, 0.0}}}, false);
+        const int elbow_node =
+            b.node({{"name", "elbow"}, {"translation", {elbow, 0.0, 0.0}}}, false);
         const int shoulder = b.node({{"name", "shoulder"}, {"children", {elbow_node}}});
         b.node({{"mesh", mesh}, {"skin", 0}});
-        b.doc["skins"] = Json::array({{{"joints", {shoulder, elbow_node}}, {"inverseBindMatrices", ibm_acc}}});
-        const auto floats = [&](const std::vector<float>& values, const char* type) {
-            const std::size_t width = std::string(type) == "SCALAR" ? 1 : std::string(type) == "VEC3" ? 3 : 4;
-            return b.accessor(b.view(GltfBuilder::raw(values)), 0, 5126, values.size() / width, type);
+        b.doc["skins"] =
+            Json::array({{{"joints", {shoulder, elbow_node}}, {"inverseBindMatrices", ibm_acc}}});
+        const auto floats = [&](const std::vector<float>& values, const char* type)
+        {
+            const std::size_t width = std::string(type) == "SCALAR" ? 1
+                                      : std::string(type) == "VEC3" ? 3
+                                                                    : 4;
+            return b.accessor(b.view(GltfBuilder::raw(values)), 0, 5126, values.size() / width,
+                              type);
         };
         const std::vector<float> times{0.0f, 0.02f};
         const std::vector<float> turn_times{0.0f, 0.1f};
@@ -310,29 +322,42 @@ struct BendingArm
         const int lift_at = floats(times, "SCALAR");
         const int lifts = floats({0.0f, 0.0f, 0.0f, 0.0f, static_cast<float>(lift), 0.0f}, "VEC3");
         const int turn_at = floats(turn_times, "SCALAR");
-        const int turns = floats({0.0f, 0.0f, 0.0f, 1.0f, 0.0f, 0.0f, -std::sin(h), -std::cos(h)}, "VEC4");
+        const int turns =
+            floats({0.0f, 0.0f, 0.0f, 1.0f, 0.0f, 0.0f, -std::sin(h), -std::cos(h)}, "VEC4");
         const int straight = floats({0.0f, 0.0f, 0.0f, 1.0f, 0.0f, 0.0f, 0.0f, 1.0f}, "VEC4");
-        const Json bend = {{"name", "bend"},
-                           {"samplers", {{{"input", lift_at}, {"output", lifts}, {"interpolation", "STEP"}},
-                                         {{"input", turn_at}, {"output", turns}}}},
-                           {"channels", {{{"sampler", 0}, {"target", {{"node", shoulder}, {"path", "translation"}}}},
-                                         {{"sampler", 1}, {"target", {{"node", elbow_node}, {"path", "rotation"}}}}}}};
-        const Json still = {{"name", "straight"},
-                            {"samplers", {{{"input", turn_at}, {"output", straight}}}},
-                            {"channels", {{{"sampler", 0}, {"target", {{"node", elbow_node}, {"path", "rotation"}}}}}}};
-        b.doc["animations"] = is_bend_first ? Json::array({bend, still}) : Json::array({still, bend});
+        const Json bend = {
+            {"name", "bend"},
+            {"samplers",
+             {{{"input", lift_at}, {"output", lifts}, {"interpolation", "STEP"}},
+              {{"input", turn_at}, {"output", turns}}}},
+            {"channels",
+             {{{"sampler", 0}, {"target", {{"node", shoulder}, {"path", "translation"}}}},
+              {{"sampler", 1}, {"target", {{"node", elbow_node}, {"path", "rotation"}}}}}}};
+        const Json still = {
+            {"name", "straight"},
+            {"samplers", {{{"input", turn_at}, {"output", straight}}}},
+            {"channels",
+             {{{"sampler", 0}, {"target", {{"node", elbow_node}, {"path", "rotation"}}}}}}};
+        b.doc["animations"] =
+            is_bend_first ? Json::array({bend, still}) : Json::array({still, bend});
         return b.glb();
     }
 
     /// Where Blender shows a stored point \p p after import (1/24 s into the first animation):
     /// the elbow's turn interpolated as Blender does (quaternion components, then normalized).
-    [[nodiscard]] Eigen::Vector3d shown(const Eigen::Vector3d& p) const { return shown(p, weight(p.x())); }
+    [[nodiscard]] Eigen::Vector3d shown(const Eigen::Vector3d& p) const
+    {
+        return shown(p, weight(p.x()));
+    }
 
-    /// The same for a point \p p skinned with elbow weight \p w, at \p t seconds into the animation.
-    [[nodiscard]] Eigen::Vector3d shown(const Eigen::Vector3d& p, double w, double t = 1.0 / 24.0) const
+    /// The same for a point \p p skinned with elbow weight \p w, at \p t seconds into the
+    /// animation.
+    [[nodiscard]] Eigen::Vector3d shown(const Eigen::Vector3d& p, double w,
+                                        double t = 1.0 / 24.0) const
     {
         const double s = std::clamp(t / 0.1, 0.0, 1.0);
-        const double angle = 2.0 * std::atan2(s * std::sin(turn / 2.0), (1.0 - s) + s * std::cos(turn / 2.0));
+        const double angle =
+            2.0 * std::atan2(s * std::sin(turn / 2.0), (1.0 - s) + s * std::cos(turn / 2.0));
         const Eigen::Affine3d shoulder(Eigen::Translation3d(0.0, t >= 0.02 ? lift : 0.0, 0.0));
         const Eigen::Affine3d elbow_world = shoulder * Eigen::Translation3d(elbow, 0.0, 0.0) *
                                             Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitZ()) *
@@ -343,7 +368,8 @@ struct BendingArm
 
 /// A strip of 2 x (segments + 1) vertices along x from \p x0 in steps of \p dx, 0.2 wide, its z
 /// zigzagging by 0.05 (not flat), two triangles per segment: positions (3 per vertex) and indices.
-inline std::pair<std::vector<float>, std::vector<std::uint16_t>> strip(int segments, float x0, float dx)
+inline std::pair<std::vector<float>, std::vector<std::uint16_t>> strip(int segments, float x0,
+                                                                       float dx)
 {
     std::vector<float> xyz;
     std::vector<std::uint16_t> idx;
@@ -358,9 +384,10 @@ inline std::pair<std::vector<float>, std::vector<std::uint16_t>> strip(int segme
     for (int i = 0; i < segments; ++i)
     {
         const auto a = static_cast<std::uint16_t>(2 * i);
-        idx.insert(idx.end(), {a, static_cast<std::uint16_t>(a + 2), static_cast<std::uint16_t>(a + 1),
-                               static_cast<std::uint16_t>(a + 1), static_cast<std::uint16_t>(a + 2),
-                               static_cast<std::uint16_t>(a + 3)});
+        idx.insert(idx.end(),
+                   {a, static_cast<std::uint16_t>(a + 2), static_cast<std::uint16_t>(a + 1),
+                    static_cast<std::uint16_t>(a + 1), static_cast<std::uint16_t>(a + 2),
+                    static_cast<std::uint16_t>(a + 3)});
     }
     return {xyz, idx};
 }
@@ -370,7 +397,8 @@ inline Positions nudged(Positions V)
 {
     for (Eigen::Index i = 0; i < V.rows(); ++i)
     {
-        V.row(i) += Eigen::RowVector3d(1e-3 * std::sin(static_cast<double>(i)), 2e-3, -1e-3 * static_cast<double>(i % 2));
+        V.row(i) += Eigen::RowVector3d(1e-3 * std::sin(static_cast<double>(i)), 2e-3,
+                                       -1e-3 * static_cast<double>(i % 2));
     }
     return V;
 }
@@ -408,14 +436,21 @@ struct KneeRig
     /// The skeleton in its scene pose and the skin, for mesh \p mesh of \p b.
     void add_skeleton(GltfBuilder& b, int mesh) const
     {
-        const std::vector<float> ibm{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1,   //
-                                     1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, -1, 0, 0, 1};  // column-major
+        const std::vector<float> ibm{
+            1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0,  0, 0, 1,   //
+            1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, -1, 0, 0, 1};  // column-major
         const int ibm_acc = b.accessor(b.view(GltfBuilder::raw(ibm)), 0, 5126, 2, "MAT4");
-        const int knee = b.node({{"name", "knee"}, {"translation", {1.0, 0.0, 0.0}},
-                                 {"rotation", {0.0, 0.0, std::sin(angle / 2), std::cos(angle / 2)}}},
-                                false);
-        const int hip = b.node({{"name", "hip"}, {"translation", {0.0, 0.5, 0.0}}, {"children", {knee}}});
-        b.node({{"mesh", mesh}, {"skin", 0}, {"scale", {3.0, 3.0, 3.0}}, {"translation", {7.0, 0.0, 0.0}}});
+        const int knee =
+            b.node({{"name", "knee"},
+                    {"translation", {1.0, 0.0, 0.0}},
+                    {"rotation", {0.0, 0.0, std::sin(angle / 2), std::cos(angle / 2)}}},
+                   false);
+        const int hip =
+            b.node({{"name", "hip"}, {"translation", {0.0, 0.5, 0.0}}, {"children", {knee}}});
+        b.node({{"mesh", mesh},
+                {"skin", 0},
+                {"scale", {3.0, 3.0, 3.0}},
+                {"translation", {7.0, 0.0, 0.0}}});
         b.doc["skins"] = Json::array({{{"joints", {hip, knee}}, {"inverseBindMatrices", ibm_acc}}});
     }
 
@@ -423,8 +458,8 @@ struct KneeRig
     [[nodiscard]] Eigen::Vector3d shown(std::size_t v) const
     {
         const Eigen::Affine3d hip_world(Eigen::Translation3d(0.0, 0.5, 0.0));
-        const Eigen::Affine3d knee_world =
-            hip_world * Eigen::Translation3d(1.0, 0.0, 0.0) * Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitZ());
+        const Eigen::Affine3d knee_world = hip_world * Eigen::Translation3d(1.0, 0.0, 0.0) *
+                                           Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitZ());
         const Eigen::Affine3d knee_inverse_bind(Eigen::Translation3d(-1.0, 0.0, 0.0));
         const Eigen::Vector3d p(xyz[3 * v], xyz[3 * v + 1], xyz[3 * v + 2]);
         const double w0 = weights[4 * v] / 2.0;

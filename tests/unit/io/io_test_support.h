@@ -15,7 +15,8 @@
 #include "meshmark/io/mesh_io.h"
 #include "support/test_paths.h"
 
-namespace meshmark::test {
+namespace meshmark::test
+{
 
 inline void put_bytes(const std::filesystem::path& path, const std::string& bytes)
 {

@@ -14,8 +14,10 @@
 #include "meshmark/core/error.h"
 #include "meshmark/io/mesh_io.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 namespace fs = std::filesystem;
 using test::GltfBuilder;

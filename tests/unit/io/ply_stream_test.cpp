@@ -3,8 +3,6 @@
 // the preserving binary PLY writer across its 1 MiB slices.
 #include "meshmark/io/ply_stream.h"
 
-#include <gtest/gtest.h>
-
 #include <fstream>
 #include <iterator>
 #include <limits>
@@ -12,13 +10,17 @@
 #include <string>
 #include <vector>
 
+#include <gtest/gtest.h>
+
 #include "meshmark/core/error.h"
 #include "meshmark/geometry/shapes.h"
 #include "meshmark/io/mesh_io.h"
 #include "support/test_paths.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 std::string file_bytes(const std::filesystem::path& path)
 {
@@ -39,8 +41,8 @@ Positions perturbed(const Positions& V)
 
 // write_mesh_file's bytes read back as the moved positions (in the file's precision), and the
 // displaced copy of the stream gives the same bytes.
-void expect_preserving_writers_agree(const std::filesystem::path& input, const std::filesystem::path& dir,
-                                     std::size_t window)
+void expect_preserving_writers_agree(const std::filesystem::path& input,
+                                     const std::filesystem::path& dir, std::size_t window)
 {
     const MeshFile file = read_mesh_file(input);
     const Positions moved = perturbed(file.mesh.V);
@@ -125,7 +127,8 @@ TEST(PlyStreamTest, preserving_writers_agree_across_slices_and_windows)
         {
             WriteOptions options;
             options.use_single_precision = single;
-            const auto input = dir / ("input-" + std::to_string(level) + (single ? "f" : "d") + ".ply");
+            const auto input =
+                dir / ("input-" + std::to_string(level) + (single ? "f" : "d") + ".ply");
             write_mesh(input, lumpy_ellipsoid(level), options);
             expect_preserving_writers_agree(input, dir, level == 4 ? 4096 : 1U << 20U);
         }
@@ -164,7 +167,8 @@ TEST(PlyStreamTest, refusals_counts_and_errors)
     std::string bytes = file_bytes(binary);
     const auto header_end = bytes.find("end_header\n") + 11;
     bytes.resize(header_end + 10);
-    std::ofstream(dir / "cut.ply", std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    std::ofstream(dir / "cut.ply", std::ios::binary)
+        .write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
     const PlyStream cut(dir / "cut.ply");
     EXPECT_THROW((void)cut.refusal(), IoError);
 }

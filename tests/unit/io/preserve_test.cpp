@@ -13,11 +13,13 @@
 #include "meshmark/core/error.h"
 #include "meshmark/io/mesh_io.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 using test::fixture;
 
-namespace {
+namespace
+{
 
 const std::vector<std::string> kValidFixtures{
     "cube_ascii.ply", "cube_binary_le.ply", "cube_binary_be.ply",  "cube_normals_extra_props.ply",
@@ -324,7 +326,8 @@ TEST(PreserveTest, obj_material_libraries_are_reached_from_an_output_in_another_
     std::filesystem::create_directories(dir / "src");
     std::filesystem::create_directories(dir / "out" / "dst");
     const std::string body = test::file_bytes(fixture("quad_faces.obj"));
-    const std::string head = "mtllib scene.mtl\nmtllib my materials.mtl\r\nmtllib same.mtl missing.mtl\n";
+    const std::string head =
+        "mtllib scene.mtl\nmtllib my materials.mtl\r\nmtllib same.mtl missing.mtl\n";
     test::put_bytes(dir / "src" / "scene.obj", head + body);
     test::put_bytes(dir / "src" / "scene.mtl", "newmtl a\n");
     test::put_bytes(dir / "src" / "my materials.mtl", "newmtl b\n");
@@ -336,13 +339,15 @@ TEST(PreserveTest, obj_material_libraries_are_reached_from_an_output_in_another_
     write_mesh_file(dir / "out" / "dst" / "marked.obj", file, moved);
     const std::string written = test::file_bytes(dir / "out" / "dst" / "marked.obj");
     const std::string expected_head =
-        "mtllib ../../src/scene.mtl\nmtllib ../../src/my materials.mtl\r\nmtllib same.mtl missing.mtl\n";
+        "mtllib ../../src/scene.mtl\nmtllib ../../src/my materials.mtl\r\nmtllib same.mtl "
+        "missing.mtl\n";
     ASSERT_EQ(written.substr(0, expected_head.size()), expected_head);
     write_mesh_file(dir / "src" / "same_folder.obj", file, moved);
     const std::string beside = test::file_bytes(dir / "src" / "same_folder.obj");
     EXPECT_EQ(beside.substr(0, head.size()), head);
     EXPECT_EQ(written.substr(expected_head.size()), beside.substr(head.size()));
-    EXPECT_EQ(read_mesh(dir / "out" / "dst" / "marked.obj").V, read_mesh(dir / "src" / "same_folder.obj").V);
+    EXPECT_EQ(read_mesh(dir / "out" / "dst" / "marked.obj").V,
+              read_mesh(dir / "src" / "same_folder.obj").V);
 }
 
 TEST(PreserveTest, other_format_target_writes_the_generic_file)

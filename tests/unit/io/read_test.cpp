@@ -1,21 +1,23 @@
 // SPDX-License-Identifier: MIT
 // Reading the tiny fixtures of tests/data: exact counts, positions and triangles per feature.
-#include <gtest/gtest.h>
-
 #include <algorithm>
 #include <cstring>
+
+#include <gtest/gtest.h>
 
 #include "io_test_support.h"
 #include "meshmark/core/error.h"
 #include "meshmark/io/mesh_io.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 using test::cube_positions;
 using test::cube_triangles;
 using test::fixture;
 
-namespace {
+namespace
+{
 const double kFloatTop = static_cast<double>(1.1F);  // 1.1 as stored in float32
 }  // namespace
 
@@ -189,7 +191,8 @@ TEST(IoTest, reads_point_cloud_ply_without_faces)
     EXPECT_TRUE(file.mesh.is_point_cloud());
 }
 
-namespace {
+namespace
+{
 
 // A binary PLY of one triangle in the given byte order: float positions, `list uchar int`.
 std::string one_triangle_ply(bool is_big_endian, std::int32_t last_index)

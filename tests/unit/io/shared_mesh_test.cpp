@@ -11,9 +11,11 @@
 #include "io_test_support.h"
 #include "meshmark/io/mesh_io.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
-namespace {
+namespace
+{
 
 struct Counts
 {

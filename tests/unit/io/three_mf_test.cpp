@@ -26,8 +26,10 @@ extern "C" const char* __lsan_default_suppressions()
     return "leak:libzip.so\n";
 }
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 namespace fs = std::filesystem;
 using test::box_object;

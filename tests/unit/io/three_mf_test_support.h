@@ -17,7 +17,8 @@
 #include "io_test_support.h"
 #include "meshmark/io/mesh_io.h"
 
-namespace meshmark::test {
+namespace meshmark::test
+{
 
 struct Entry
 {

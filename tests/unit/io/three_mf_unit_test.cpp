@@ -9,8 +9,10 @@
 
 #include "three_mf_test_support.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 namespace fs = std::filesystem;
 
@@ -19,7 +21,8 @@ namespace fs = std::filesystem;
 fs::path package_with_unit(const fs::path& dir, const std::string& unit)
 {
     std::string model = test::prusa_model(test::box_object("1", "20"));
-    model = std::regex_replace(model, std::regex("unit=\"millimeter\""), unit.empty() ? "" : "unit=\"" + unit + "\"");
+    model = std::regex_replace(model, std::regex("unit=\"millimeter\""),
+                               unit.empty() ? "" : "unit=\"" + unit + "\"");
     const fs::path path = dir / ("box-" + (unit.empty() ? std::string("none") : unit) + ".3mf");
     test::put_bytes(path, test::make_zip(dir, test::prusa_parts(model)));
     return path;

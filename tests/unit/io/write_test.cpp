@@ -8,9 +8,11 @@
 #include "meshmark/core/error.h"
 #include "meshmark/io/mesh_io.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
-namespace {
+namespace
+{
 
 // A tetrahedron with coordinates that need all 17 digits, plus one unreferenced vertex.
 TriangleMesh awkward_tetrahedron()

@@ -16,12 +16,14 @@
 #include "support/cli_run.h"
 #include "support/test_paths.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 using test::CliRun;
-using test::slurp;
 using test::run_cli;
+using test::slurp;
 
 class CompareCliTest : public ::testing::Test
 {
@@ -53,14 +55,15 @@ protected:
 TEST_F(CompareCliTest, json_reports_relative_distances_and_writes_heatmap)
 {
     const auto heatmap = dir_ / "heat.ply";
-    const CliRun run = run_cli("compare \"" + a_ + "\" \"" + b_ + "\" --json --samples 5000 --threads 2 --heatmap \"" +
-                                heatmap.string() + "\"",
-                            dir_);
+    const CliRun run =
+        run_cli("compare \"" + a_ + "\" \"" + b_ +
+                    "\" --json --samples 5000 --threads 2 --heatmap \"" + heatmap.string() + "\"",
+                dir_);
     ASSERT_EQ(run.exit_code, 0) << run.err;
     const auto json = nlohmann::json::parse(run.out);
     const double expected = 0.05 / std::sqrt(2.0);  // relative to A's bounding-box diagonal
-    for (const char* field : {"hausdorff", "hausdorff_ab", "hausdorff_ba", "rms_ab", "rms_ba", "mrms",
-                              "max_displacement", "rms_displacement"})
+    for (const char* field : {"hausdorff", "hausdorff_ab", "hausdorff_ba", "rms_ab", "rms_ba",
+                              "mrms", "max_displacement", "rms_displacement"})
     {
         EXPECT_NEAR(json.at(field).get<double>(), expected, 1e-12) << field;
     }
@@ -78,7 +81,8 @@ TEST_F(CompareCliTest, different_connectivity_has_no_displacement)
 {
     const auto other = (dir_ / "c.ply").string();
     write_mesh(other, plane_grid(5, 7));
-    const CliRun run = run_cli("compare \"" + a_ + "\" \"" + other + "\" --json --samples 2000", dir_);
+    const CliRun run =
+        run_cli("compare \"" + a_ + "\" \"" + other + "\" --json --samples 2000", dir_);
     ASSERT_EQ(run.exit_code, 0) << run.err;
     const auto json = nlohmann::json::parse(run.out);
     EXPECT_FALSE(json.at("same_connectivity").get<bool>());
@@ -155,8 +159,8 @@ TEST_F(CompareCliTest, png_heatmap_options_are_checked)
     run = run_cli("compare \"" + a_ + "\" \"" + b_ + "\" --view top", dir_);
     EXPECT_EQ(run.exit_code, 2);
     EXPECT_NE(run.err.find(".png"), std::string::npos);
-    run = run_cli(
-        "compare \"" + a_ + "\" \"" + b_ + "\" --heatmap \"" + png.string() + "\" --up w", dir_);
+    run = run_cli("compare \"" + a_ + "\" \"" + b_ + "\" --heatmap \"" + png.string() + "\" --up w",
+                  dir_);
     EXPECT_EQ(run.exit_code, 2);
     EXPECT_NE(run.err.find("up axis 'w'"), std::string::npos);
     run = run_cli("compare \"" + a_ + "\" \"" + b_ + "\" --up z", dir_);
@@ -178,7 +182,8 @@ TEST_F(CompareCliTest, png_heatmap_options_are_checked)
 TEST_F(CompareCliTest, bad_heatmap_and_unreadable_input_fail_cleanly)
 {
     const auto obj = dir_ / "heat.obj";
-    CliRun run = run_cli("compare \"" + a_ + "\" \"" + b_ + "\" --heatmap \"" + obj.string() + "\"", dir_);
+    CliRun run =
+        run_cli("compare \"" + a_ + "\" \"" + b_ + "\" --heatmap \"" + obj.string() + "\"", dir_);
     EXPECT_EQ(run.exit_code, 2);
     EXPECT_NE(run.err.find("heat.obj"), std::string::npos);
     EXPECT_NE(run.err.find(".ply"), std::string::npos);

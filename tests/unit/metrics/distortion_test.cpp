@@ -1,8 +1,6 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/metrics/distortion.h"
 
-#include <gtest/gtest.h>
-
 #include <algorithm>
 #include <cmath>
 #include <string>
@@ -10,11 +8,15 @@
 #include <utility>
 #include <vector>
 
+#include <gtest/gtest.h>
+
 #include "meshmark/core/error.h"
 #include "meshmark/geometry/shapes.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 TriangleMesh translated(TriangleMesh mesh, const Eigen::RowVector3d& t)
 {
@@ -81,7 +83,8 @@ TEST(DistortionTest, translated_copy_is_the_translation_away)
 {
     // A plane moved along its normal: every distance is exactly the translation.
     const TriangleMesh grid = plane_grid(10, 10);
-    const DistortionReport flat = compare_meshes(grid, translated(grid, {0.0, 0.0, 0.05}), with_samples(2000));
+    const DistortionReport flat =
+        compare_meshes(grid, translated(grid, {0.0, 0.0, 0.05}), with_samples(2000));
     const double diagonal = std::sqrt(2.0);
     EXPECT_NEAR(flat.diagonal, diagonal, 1e-15);
     EXPECT_NEAR(flat.hausdorff_ab_rel, 0.05 / diagonal, 1e-12);
@@ -92,7 +95,8 @@ TEST(DistortionTest, translated_copy_is_the_translation_away)
 
     // A sphere moved by t: the farthest points are the poles along t, at |t|.
     const TriangleMesh sphere = icosphere(3);
-    const DistortionReport moved = compare_meshes(sphere, translated(sphere, {0.0, 0.0, 0.02}), with_samples(5000));
+    const DistortionReport moved =
+        compare_meshes(sphere, translated(sphere, {0.0, 0.0, 0.02}), with_samples(5000));
     EXPECT_NEAR(moved.hausdorff_rel * moved.diagonal, 0.02, 0.01 * 0.02);
 }
 
@@ -102,7 +106,8 @@ TEST(DistortionTest, in_plane_shift_matches_analytic_rms)
     // (d - x) from the copy: Hausdorff d, RMS sqrt(integral_0^d (d - x)^2 dx) = sqrt(d^3 / 3).
     const double d = 0.1;
     const TriangleMesh grid = plane_grid(20, 20);
-    const DistortionReport r = compare_meshes(grid, translated(grid, {d, 0.0, 0.0}), with_samples(50'000));
+    const DistortionReport r =
+        compare_meshes(grid, translated(grid, {d, 0.0, 0.0}), with_samples(50'000));
     EXPECT_NEAR(r.a_to_b.max, d, 1e-12);
     EXPECT_NEAR(r.a_to_b.rms, std::sqrt(d * d * d / 3.0), 0.01 * std::sqrt(d * d * d / 3.0));
     EXPECT_NEAR(r.a_to_b.mean, d * d / 2.0, 0.01 * d * d / 2.0);
@@ -158,7 +163,8 @@ TEST(DistortionTest, point_clouds_are_measured_at_their_points)
     // Grid points 0.1 apart moved by 0.03 along z: each point's nearest neighbour is its copy.
     TriangleMesh cloud = plane_grid(10, 10);
     cloud.F.resize(0, 3);
-    const DistortionReport r = compare_meshes(cloud, translated(cloud, {0.0, 0.0, 0.03}), with_samples(1000));
+    const DistortionReport r =
+        compare_meshes(cloud, translated(cloud, {0.0, 0.0, 0.03}), with_samples(1000));
     EXPECT_EQ(r.a_to_b.area_samples, 0);
     EXPECT_EQ(r.a_to_b.vertex_samples, cloud.V.rows());
     EXPECT_NEAR(r.hausdorff_rel * r.diagonal, 0.03, 1e-12);
@@ -212,10 +218,12 @@ TEST(DistortionTest, reports_each_phase_from_start_to_end)
 {
     CompareOptions options = with_samples(1000);
     std::vector<std::pair<std::string, double>> calls;
-    options.progress = [&](std::string_view phase, double fraction) { calls.emplace_back(phase, fraction); };
+    options.progress = [&](std::string_view phase, double fraction)
+    { calls.emplace_back(phase, fraction); };
     (void)compare_meshes(icosphere(2), icosphere(3), options);
-    const std::vector<std::pair<std::string, double>> expected = {
-        {"index", 0.0}, {"index", 1.0}, {"a_to_b", 0.0}, {"a_to_b", 1.0}, {"b_to_a", 0.0}, {"b_to_a", 1.0}};
+    const std::vector<std::pair<std::string, double>> expected = {{"index", 0.0},  {"index", 1.0},
+                                                                  {"a_to_b", 0.0}, {"a_to_b", 1.0},
+                                                                  {"b_to_a", 0.0}, {"b_to_a", 1.0}};
     EXPECT_EQ(calls, expected);
 }
 
@@ -271,7 +279,8 @@ TEST(SurfaceRmsDisplacementTest, reads_the_normal_part_of_a_field)
     const int n = 400;
     double sum = 0.0;
     int count = 0;
-    auto add = [&](double u, double v) {
+    auto add = [&](double u, double v)
+    {
         const double value = (1.0 - u - v) * a[0] + u * a[1] + v * a[2];
         sum += value * value;
         ++count;
@@ -288,7 +297,8 @@ TEST(SurfaceRmsDisplacementTest, reads_the_normal_part_of_a_field)
             }
         }
     }
-    EXPECT_NEAR(surface_rms_displacement(triangle, field), std::sqrt(sum / count), 1e-3 * std::sqrt(sum / count));
+    EXPECT_NEAR(surface_rms_displacement(triangle, field), std::sqrt(sum / count),
+                1e-3 * std::sqrt(sum / count));
 }
 
 TEST(SurfaceRmsDisplacementTest, reads_at_or_just_above_the_sampled_mrms)
@@ -331,7 +341,8 @@ TEST(SurfaceRmsDisplacementTest, a_point_cloud_gets_an_isotropic_fields_normal_p
     TriangleMesh cloud;
     cloud.V = Positions::Random(50, 3);
     Positions field = Positions::Random(50, 3);
-    EXPECT_NEAR(surface_rms_displacement(cloud, field), std::sqrt(field.squaredNorm() / 150.0), 1e-15);
+    EXPECT_NEAR(surface_rms_displacement(cloud, field), std::sqrt(field.squaredNorm() / 150.0),
+                1e-15);
     EXPECT_THROW((void)surface_rms_displacement(cloud, Positions::Zero(49, 3)), InvalidMesh);
 }
 
@@ -351,7 +362,9 @@ TEST(SurfaceRmsOfSumsTest, gives_the_surface_rms_of_every_sum_and_the_scale_that
     const SurfaceRmsOfSums::Terms terms = sums.terms(field);
     for (const double c : {0.0, 0.5, 1.0, 1.7})
     {
-        EXPECT_NEAR(terms.rms(c), surface_rms_displacement(mesh, base + c * field), 1e-12 * terms.rms(1.0)) << c;
+        EXPECT_NEAR(terms.rms(c), surface_rms_displacement(mesh, base + c * field),
+                    1e-12 * terms.rms(1.0))
+            << c;
     }
     const double target = 1.2 * terms.rms(1.0);
     const double c = terms.scale_to(target);

@@ -1,11 +1,12 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/metrics/heatmap.h"
 
-#include <gtest/gtest.h>
-
 #include <limits>
 
-namespace meshmark {
+#include <gtest/gtest.h>
+
+namespace meshmark
+{
 
 TEST(HeatmapTest, scale_runs_from_blue_through_green_to_red)
 {

@@ -1,16 +1,17 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/metrics/surface_sampling.h"
 
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <vector>
+
+#include <gtest/gtest.h>
 
 #include "meshmark/core/error.h"
 #include "meshmark/geometry/closest_point_index.h"
 #include "meshmark/geometry/shapes.h"
 
-namespace meshmark {
+namespace meshmark
+{
 
 TEST(SurfaceSamplingTest, samples_lie_on_the_surface_and_are_deterministic)
 {
@@ -51,7 +52,9 @@ TEST(SurfaceSamplingTest, each_face_gets_its_area_share_within_two)
     for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
     {
         const double area = cumulative[f] - (f > 0 ? cumulative[f - 1] : 0.0);
-        EXPECT_LT(std::abs(per_face[static_cast<std::size_t>(f)] - static_cast<double>(count) * area / total), 2.0)
+        EXPECT_LT(std::abs(per_face[static_cast<std::size_t>(f)] -
+                           static_cast<double>(count) * area / total),
+                  2.0)
             << "face " << f;
     }
 }

@@ -17,8 +17,10 @@
 #include "seeded_options.h"
 #include "support/test_paths.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 namespace fs = std::filesystem;
 
@@ -60,7 +62,8 @@ TEST(DisplacementCapTest, the_written_file_honours_the_cap_and_is_detected)
 {
     const fs::path dir = test::temp_dir("cap-honoured");
     const fs::path input = write_input(dir);
-    const EmbedReport uncapped = embed_file(input, dir / "default.ply", dir / "default.json", seeded(3));
+    const EmbedReport uncapped =
+        embed_file(input, dir / "default.ply", dir / "default.json", seeded(3));
     const double default_max = written_displacement(input, dir / "default.ply");
     ASSERT_GT(default_max, 0.0);
 
@@ -145,25 +148,31 @@ TEST(DisplacementCapTest, a_bare_number_needs_a_unit_and_recipients_are_refused)
     const fs::path input = write_input(dir);
     EmbedFileOptions options = seeded(5);
     options.max_displacement_length = Length{0.01, std::nullopt};
-    EXPECT_THROW((void)embed_file(input, dir / "marked.ply", dir / "key.json", options), InvalidOption);
-    options.max_displacement_length = Length{0.01, LengthUnit::Millimetre};  // a unit, but the mesh has none
-    EXPECT_THROW((void)embed_file(input, dir / "marked.ply", dir / "key.json", options), InvalidOption);
+    EXPECT_THROW((void)embed_file(input, dir / "marked.ply", dir / "key.json", options),
+                 InvalidOption);
+    options.max_displacement_length =
+        Length{0.01, LengthUnit::Millimetre};  // a unit, but the mesh has none
+    EXPECT_THROW((void)embed_file(input, dir / "marked.ply", dir / "key.json", options),
+                 InvalidOption);
     EXPECT_FALSE(fs::exists(dir / "key.json"));
 
     EmbedRecipientsOptions family;
     family.seed = 5;
     family.recipients = {"bob"};
     family.max_displacement = 0.01;
-    EXPECT_THROW((void)embed_recipients(input, dir / "copy-{recipient}.ply", dir / "family.json", family),
-                 InvalidOption);
+    EXPECT_THROW(
+        (void)embed_recipients(input, dir / "copy-{recipient}.ply", dir / "family.json", family),
+        InvalidOption);
 }
 
 TEST(EmbedRecordTest, hashes_are_sha256sum_and_no_key_material_is_recorded)
 {
     const fs::path dir = test::temp_dir("embed-record");
     const fs::path input = write_input(dir);
-    const EmbedReport report = embed_file(input, dir / "marked.ply", dir / "key.json", seeded(0x5eed1234abcdULL));
-    const EmbedRecord record = make_embed_record(input, dir / "marked.ply", dir / "key.json", report.key);
+    const EmbedReport report =
+        embed_file(input, dir / "marked.ply", dir / "key.json", seeded(0x5eed1234abcdULL));
+    const EmbedRecord record =
+        make_embed_record(input, dir / "marked.ply", dir / "key.json", report.key);
     EXPECT_EQ(record.original.sha256, sha256sum(input));
     EXPECT_EQ(record.marked.sha256, sha256sum(dir / "marked.ply"));
     EXPECT_EQ(record.key.sha256, sha256sum(dir / "key.json"));
@@ -178,7 +187,8 @@ TEST(EmbedRecordTest, hashes_are_sha256sum_and_no_key_material_is_recorded)
     EXPECT_EQ(text.find("5eed1234abcd"), std::string::npos) << text;
     EXPECT_EQ(text.find(to_bit_string(report.key.payload)), std::string::npos) << text;
     EXPECT_EQ(text.find("owner"), std::string::npos) << text;
-    for (const char* field : {"\"seed\"", "\"payload\"", "\"bits\"", "\"embedding\"", "\"strength\""})
+    for (const char* field :
+         {"\"seed\"", "\"payload\"", "\"bits\"", "\"embedding\"", "\"strength\""})
     {
         EXPECT_EQ(text.find(field), std::string::npos) << field;
     }

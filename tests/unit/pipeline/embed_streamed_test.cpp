@@ -3,24 +3,25 @@
 // the marked file and the key must be byte-identical.
 #include "pipeline/embed_streamed.h"
 
-#include <gtest/gtest.h>
-
-#include <cmath>
-
 #include <bit>
+#include <cmath>
 #include <cstring>
 #include <fstream>
 #include <limits>
 #include <string>
 #include <vector>
 
+#include <gtest/gtest.h>
+
 #include "meshmark/core/error.h"
 #include "meshmark/geometry/shapes.h"
 #include "meshmark/pipeline/embed_file.h"
 #include "support/test_paths.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 // How a generated binary PLY lays out its data.
 struct PlySpec
@@ -59,7 +60,8 @@ void write_ply(const std::filesystem::path& path, const TriangleMesh& mesh, cons
     std::vector<bool> referenced;
     for (std::size_t i = 0; i < n; ++i)
     {
-        if (spec.unreferenced_every > 0 && i % static_cast<std::size_t>(spec.unreferenced_every) == 0)
+        if (spec.unreferenced_every > 0 &&
+            i % static_cast<std::size_t>(spec.unreferenced_every) == 0)
         {
             vertices.emplace_back(mesh.V.row(static_cast<Eigen::Index>(i)).transpose() * 1.5);
             referenced.push_back(false);
@@ -75,7 +77,8 @@ void write_ply(const std::filesystem::path& path, const TriangleMesh& mesh, cons
         for (int c = 0; c < 3; ++c)
         {
             const auto index = static_cast<std::size_t>(mesh.F(f, c));
-            face.push_back(index < n ? new_index[index] : static_cast<std::int32_t>(index));  // bad stays bad
+            face.push_back(index < n ? new_index[index]
+                                     : static_cast<std::int32_t>(index));  // bad stays bad
         }
         faces.push_back(face);
     }
@@ -96,15 +99,16 @@ void write_ply(const std::filesystem::path& path, const TriangleMesh& mesh, cons
     const std::string type = spec.double_xyz ? "double" : "float";
     if (spec.extra_properties)
     {
-        out += "property float nx\nproperty " + type + " x\nproperty ushort quality\nproperty " + type +
-               " y\nproperty uchar red\nproperty " + type + " z\nproperty int label\n";
+        out += "property float nx\nproperty " + type + " x\nproperty ushort quality\nproperty " +
+               type + " y\nproperty uchar red\nproperty " + type + " z\nproperty int label\n";
     }
     else
     {
         out += "property " + type + " x\nproperty " + type + " y\nproperty " + type + " z\n";
     }
     out += "element face " + std::to_string(faces.size()) + "\n";
-    out += spec.unsigned_indices ? "property list uchar uint vertex_indices\n" : "property list uchar int vertex_indices\n";
+    out += spec.unsigned_indices ? "property list uchar uint vertex_indices\n"
+                                 : "property list uchar int vertex_indices\n";
     if (spec.extra_properties)
     {
         out += "property uchar flags\n";
@@ -114,7 +118,8 @@ void write_ply(const std::filesystem::path& path, const TriangleMesh& mesh, cons
         out += "element marker 3\nproperty int id\nproperty float weight\n";
     }
     out += "end_header\n";
-    const auto coordinate = [&](double value) {
+    const auto coordinate = [&](double value)
+    {
         if (spec.double_xyz)
         {
             put(out, value, be);
@@ -195,8 +200,9 @@ Key key_for(const EmbedFileOptions& options)
 }
 
 // Embeds \p input in memory and streamed with a \p window-byte read window; expects the same bytes.
-void expect_streamed_equals_in_memory(const std::filesystem::path& input, const std::filesystem::path& dir,
-                                      std::size_t window, int threads = 2,
+void expect_streamed_equals_in_memory(const std::filesystem::path& input,
+                                      const std::filesystem::path& dir, std::size_t window,
+                                      int threads = 2,
                                       std::int64_t gram_rows = EmbedOptions::kDefaultGramRows)
 {
     EmbedFileOptions options = base_options();
@@ -206,12 +212,14 @@ void expect_streamed_equals_in_memory(const std::filesystem::path& input, const 
     EXPECT_FALSE(memory.streamed);
     detail::StreamTuning tuning;
     tuning.window_bytes = window;
-    const EmbedReport streamed = detail::embed_file_streamed(PlyStream(input), dir / "streamed.ply",
-                                                             dir / "streamed.json", key_for(options), options, tuning);
+    const EmbedReport streamed =
+        detail::embed_file_streamed(PlyStream(input), dir / "streamed.ply", dir / "streamed.json",
+                                    key_for(options), options, tuning);
     EXPECT_TRUE(streamed.streamed);
     const std::string expected = test::file_bytes(dir / "memory.ply");
     ASSERT_GT(expected.size(), 0U);
-    EXPECT_TRUE(expected == test::file_bytes(dir / "streamed.ply")) << input << ": marked files differ";
+    EXPECT_TRUE(expected == test::file_bytes(dir / "streamed.ply"))
+        << input << ": marked files differ";
     EXPECT_FALSE(expected == test::file_bytes(input)) << "the positions should have changed";
     EXPECT_EQ(test::file_bytes(dir / "memory.json"), test::file_bytes(dir / "streamed.json"));
     EXPECT_EQ(memory.vertex_count, streamed.vertex_count);
@@ -257,9 +265,11 @@ TEST(EmbedStreamedTest, sampled_gram_matches_in_memory_and_is_recorded_in_the_ke
     EXPECT_EQ(read_key(dir / "exact.json").options.gram_rows, 0);
     EXPECT_LT(exact.stats.orthogonality_error, 1e-9);
     every_row.embed.gram_rows = kRows;
-    const EmbedReport approximate = embed_file(input, dir / "again.ply", dir / "again.json", every_row);
+    const EmbedReport approximate =
+        embed_file(input, dir / "again.ply", dir / "again.json", every_row);
     EXPECT_GT(approximate.stats.orthogonality_error, exact.stats.orthogonality_error);
-    EXPECT_LT(approximate.stats.orthogonality_error, 0.1);  // 2.8%: a 24% sample, rows by subdivision level
+    EXPECT_LT(approximate.stats.orthogonality_error,
+              0.1);  // 2.8%: a 24% sample, rows by subdivision level
     EXPECT_NEAR(approximate.stats.rms_displacement_rel, exact.stats.rms_displacement_rel,
                 0.05 * exact.stats.rms_displacement_rel);
     std::filesystem::remove_all(dir);
@@ -270,10 +280,12 @@ TEST(EmbedStreamedTest, matches_in_memory_big_endian_double_with_extras)
     const auto dir = test::temp_dir("embed_streamed_layouts");
     const TriangleMesh mesh = lumpy_ellipsoid(5);  // 10242 vertices
     int variant = 0;
-    for (const PlySpec spec : {PlySpec{true, false, false, 0, false, false}, PlySpec{false, true, false, 0, false, false},
-                               PlySpec{true, true, true, 0, false, true}, PlySpec{false, false, true, 7, true, true},
-                               PlySpec{true, true, true, 3, false, false}, PlySpec{true, false, false, 0, true, false, true},
-                               PlySpec{false, false, false, 0, false, false, true}})
+    for (const PlySpec spec :
+         {PlySpec{true, false, false, 0, false, false},
+          PlySpec{false, true, false, 0, false, false}, PlySpec{true, true, true, 0, false, true},
+          PlySpec{false, false, true, 7, true, true}, PlySpec{true, true, true, 3, false, false},
+          PlySpec{true, false, false, 0, true, false, true},
+          PlySpec{false, false, false, 0, false, false, true}})
     {
         const auto input = dir / ("input-" + std::to_string(variant++) + ".ply");
         write_ply(input, mesh, spec);
@@ -290,7 +302,8 @@ TEST(EmbedStreamedTest, budget_selects_streaming_through_embed_file)
     EmbedFileOptions options = base_options();
     const EmbedReport memory = embed_file(input, dir / "memory.ply", dir / "memory.json", options);
     options.memory_budget_mib = 1;  // below the estimate (which includes a 32 MiB base)
-    const EmbedReport streamed = embed_file(input, dir / "budget.ply", dir / "budget.json", options);
+    const EmbedReport streamed =
+        embed_file(input, dir / "budget.ply", dir / "budget.json", options);
     EXPECT_FALSE(memory.streamed);
     EXPECT_TRUE(streamed.streamed);
     EXPECT_TRUE(test::file_bytes(dir / "memory.ply") == test::file_bytes(dir / "budget.ply"));
@@ -308,9 +321,11 @@ TEST(EmbedStreamedTest, surface_strength_is_applied_as_its_vertex_equivalent_and
     options.embed.measure = StrengthMeasure::Surface;
     options.embed.strength = 5e-4;
     options.force_stream = true;
-    const EmbedReport streamed = embed_file(input, dir / "streamed.ply", dir / "streamed.json", options);
+    const EmbedReport streamed =
+        embed_file(input, dir / "streamed.ply", dir / "streamed.json", options);
     EXPECT_TRUE(streamed.streamed);
-    EXPECT_NE(streamed.strength_note.find("vertex displacement"), std::string::npos) << streamed.strength_note;
+    EXPECT_NE(streamed.strength_note.find("vertex displacement"), std::string::npos)
+        << streamed.strength_note;
     const Key key = read_key(dir / "streamed.json");
     EXPECT_EQ(key.options.measure, StrengthMeasure::Vertex);
     EXPECT_DOUBLE_EQ(key.options.strength, std::sqrt(3.0) * 5e-4);
@@ -337,10 +352,13 @@ TEST(EmbedStreamedTest, unstreamable_inputs_fall_back_under_a_budget_and_fail_wh
     const auto listed = dir / "listed.ply";
     {
         const TriangleMesh mesh = lumpy_ellipsoid(3);
-        std::string out = "ply\nformat binary_little_endian 1.0\nelement vertex " + std::to_string(mesh.V.rows()) +
-                          "\nproperty float x\nproperty float y\nproperty float z\nproperty list uchar int tags\n"
-                          "element face " +
-                          std::to_string(mesh.F.rows()) + "\nproperty list uchar int vertex_indices\nend_header\n";
+        std::string out =
+            "ply\nformat binary_little_endian 1.0\nelement vertex " +
+            std::to_string(mesh.V.rows()) +
+            "\nproperty float x\nproperty float y\nproperty float z\nproperty list uchar int tags\n"
+            "element face " +
+            std::to_string(mesh.F.rows()) +
+            "\nproperty list uchar int vertex_indices\nend_header\n";
         for (Eigen::Index i = 0; i < mesh.V.rows(); ++i)
         {
             for (int d = 0; d < 3; ++d)
@@ -358,7 +376,8 @@ TEST(EmbedStreamedTest, unstreamable_inputs_fall_back_under_a_budget_and_fail_wh
                 put(out, mesh.F(f, c), false);
             }
         }
-        std::ofstream(listed, std::ios::binary).write(out.data(), static_cast<std::streamsize>(out.size()));
+        std::ofstream(listed, std::ios::binary)
+            .write(out.data(), static_cast<std::streamsize>(out.size()));
     }
     const auto obj = dir / "mesh.obj";
     write_mesh(obj, lumpy_ellipsoid(3));
@@ -389,7 +408,8 @@ TEST(EmbedStreamedTest, unstreamable_inputs_fall_back_under_a_budget_and_fail_wh
     forced.force_stream = true;
     forced.force = true;
     EXPECT_THROW((void)embed_file(obj, dir / "o.ply", dir / "k.json", forced), InvalidOption);
-    EXPECT_THROW((void)embed_file(dir / "listed.ply", dir / "o.obj", dir / "k.json", forced), InvalidOption);
+    EXPECT_THROW((void)embed_file(dir / "listed.ply", dir / "o.obj", dir / "k.json", forced),
+                 InvalidOption);
 }
 
 // The frame passes run beside the face scan (2 threads): a bad vertex is still reported, a bad
@@ -417,7 +437,8 @@ TEST(EmbedStreamedTest, non_finite_vertex_and_bad_face_are_reported_in_scan_orde
         }
         catch (const InvalidMesh& e)
         {
-            EXPECT_NE(std::string(e.what()).find("vertex 17 has a non-finite coordinate"), std::string::npos)
+            EXPECT_NE(std::string(e.what()).find("vertex 17 has a non-finite coordinate"),
+                      std::string::npos)
                 << e.what();
         }
         try
@@ -461,7 +482,8 @@ TEST(EmbedStreamedTest, bad_face_index_is_an_invalid_mesh_and_leaves_nothing)
         }
         catch (const InvalidMesh& e)
         {
-            EXPECT_NE(std::string(e.what()).find("face 5 uses vertex index -2"), std::string::npos) << e.what();
+            EXPECT_NE(std::string(e.what()).find("face 5 uses vertex index -2"), std::string::npos)
+                << e.what();
         }
         EXPECT_FALSE(std::filesystem::exists(dir / "out.ply"));
     }

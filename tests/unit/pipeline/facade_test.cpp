@@ -25,8 +25,10 @@
 #include "support/test_paths.h"
 #include "support/test_shapes.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 namespace fs = std::filesystem;
 
@@ -101,17 +103,20 @@ TEST(FacadeTest, in_memory_detect_gives_the_report_of_detect_file)
     for (const fs::path& suspect : {dir / "marked.obj", input})
     {
         const DetectReport from_files = detect_file(suspect, input, dir / "key.json", options);
-        const DetectReport in_memory = detect(read_mesh(suspect), read_mesh(input), read_key(dir / "key.json"), options);
+        const DetectReport in_memory =
+            detect(read_mesh(suspect), read_mesh(input), read_key(dir / "key.json"), options);
         EXPECT_EQ(in_memory.decision.is_present, from_files.decision.is_present) << suspect;
         EXPECT_EQ(in_memory.decision.correlation, from_files.decision.correlation) << suspect;
         EXPECT_EQ(in_memory.decision.matches, from_files.decision.matches) << suspect;
         EXPECT_EQ(in_memory.alignment, from_files.alignment) << suspect;
     }
-    EXPECT_TRUE(detect(read_mesh(dir / "marked.obj"), read_mesh(input), read_key(dir / "key.json")).decision.is_present);
+    EXPECT_TRUE(detect(read_mesh(dir / "marked.obj"), read_mesh(input), read_key(dir / "key.json"))
+                    .decision.is_present);
     // The original is checked against the key's fingerprint, as detect_file does.
     TriangleMesh other = read_mesh(input);
     other.V(0, 0) += 1e-3;
-    EXPECT_THROW((void)detect(read_mesh(dir / "marked.obj"), other, read_key(dir / "key.json")), IoError);
+    EXPECT_THROW((void)detect(read_mesh(dir / "marked.obj"), other, read_key(dir / "key.json")),
+                 IoError);
 }
 
 // A lumpy ellipsoid written to dir/input.ply and marked into dir/marked.ply (key dir/key.json):
@@ -157,7 +162,8 @@ TEST(FacadeTest, vertices_a_tool_throws_far_are_left_out_of_a_vertex_for_vertex_
     std::vector<double> sorted(from_first.data(), from_first.data() + from_first.size());
     std::sort(sorted.begin(), sorted.end());
     const double radius = sorted[sorted.size() / 20];
-    auto crushed = [&](Positions V) {
+    auto crushed = [&](Positions V)
+    {
         Eigen::RowVector3d centroid = Eigen::RowVector3d::Zero();
         int count = 0;
         for (Eigen::Index i = 0; i < V.rows(); ++i)
@@ -212,7 +218,8 @@ TEST(FacadeTest, a_copy_split_at_seams_is_read_vertex_for_vertex)
     const auto [original, key] = marked_ellipsoid(dir, options);
     // Every third face gets corners of its own; the vertices are then stored in reverse and
     // the copy moved, turned and scaled (or mirrored).
-    auto split = [](const TriangleMesh& mesh, double mirror) {
+    auto split = [](const TriangleMesh& mesh, double mirror)
+    {
         TriangleMesh out = mesh;
         std::vector<Eigen::RowVector3d> added;
         for (Eigen::Index f = 0; f < out.F.rows(); f += 3)
@@ -220,7 +227,8 @@ TEST(FacadeTest, a_copy_split_at_seams_is_read_vertex_for_vertex)
             for (int k = 0; k < 3; ++k)
             {
                 added.push_back(mesh.V.row(mesh.F(f, k)));
-                out.F(f, k) = static_cast<std::int32_t>(mesh.V.rows() + static_cast<Eigen::Index>(added.size()) - 1);
+                out.F(f, k) = static_cast<std::int32_t>(
+                    mesh.V.rows() + static_cast<Eigen::Index>(added.size()) - 1);
             }
         }
         out.V.conservativeResize(mesh.V.rows() + static_cast<Eigen::Index>(added.size()), 3);
@@ -236,7 +244,8 @@ TEST(FacadeTest, a_copy_split_at_seams_is_read_vertex_for_vertex)
         }
         reversed.F = (n - 1) - out.F.array();
         const Eigen::Matrix3d turn =
-            1.7 * Eigen::AngleAxisd(0.6, Eigen::Vector3d(1.0, 2.0, 3.0).normalized()).toRotationMatrix() *
+            1.7 *
+            Eigen::AngleAxisd(0.6, Eigen::Vector3d(1.0, 2.0, 3.0).normalized()).toRotationMatrix() *
             Eigen::Vector3d(mirror, 1.0, 1.0).asDiagonal();
         reversed.V = (reversed.V * turn.transpose()).rowwise() + Eigen::RowVector3d(4.0, -2.0, 1.0);
         if (mirror < 0.0)
@@ -274,7 +283,8 @@ TEST(FacadeTest, a_copy_split_at_seams_is_read_vertex_for_vertex)
     EXPECT_LT(std::abs(clean.decision.score), 4.0);
     // Noise of 1% of the diagonal moves every vertex beyond the match's tolerance: resampled.
     TriangleMesh noisy = marked;
-    const double diagonal = (original.V.colwise().maxCoeff() - original.V.colwise().minCoeff()).norm();
+    const double diagonal =
+        (original.V.colwise().maxCoeff() - original.V.colwise().minCoeff()).norm();
     noisy.V += 0.01 * diagonal * Positions::Random(noisy.V.rows(), 3) / std::sqrt(3.0);
     const DetectReport rough = detect(split(noisy, 1.0), original, key);
     EXPECT_EQ(rough.alignment, "registration");
@@ -297,11 +307,14 @@ TEST(FacadeTest, a_copy_that_only_lost_faces_is_read_vertex_for_vertex)
     const auto [original, key, marked] = marked_ellipsoid_copy(dir, 11);
     // The faces on one side of a plane deleted with the vertices they alone used, the kept
     // vertices stored in reverse, and the copy moved.
-    auto cut = [](const TriangleMesh& mesh) {
+    auto cut = [](const TriangleMesh& mesh)
+    {
         std::vector<Eigen::Vector3i> kept;
         for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
         {
-            const double x = (mesh.V.row(mesh.F(f, 0)) + mesh.V.row(mesh.F(f, 1)) + mesh.V.row(mesh.F(f, 2)))(0) / 3.0;
+            const double x = (mesh.V.row(mesh.F(f, 0)) + mesh.V.row(mesh.F(f, 1)) +
+                              mesh.V.row(mesh.F(f, 2)))(0) /
+                             3.0;
             if (x < 0.2)
             {
                 kept.push_back(mesh.F.row(f).transpose());
@@ -323,7 +336,8 @@ TEST(FacadeTest, a_copy_that_only_lost_faces_is_read_vertex_for_vertex)
         {
             if (index[v] >= 0)
             {
-                out.V.row(used - 1 - index[v]) = mesh.V.row(static_cast<Eigen::Index>(v)) + Eigen::RowVector3d(3.0, -1.0, 2.0);
+                out.V.row(used - 1 - index[v]) =
+                    mesh.V.row(static_cast<Eigen::Index>(v)) + Eigen::RowVector3d(3.0, -1.0, 2.0);
             }
         }
         out.F.resize(static_cast<Eigen::Index>(kept.size()), 3);
@@ -331,7 +345,8 @@ TEST(FacadeTest, a_copy_that_only_lost_faces_is_read_vertex_for_vertex)
         {
             for (int c = 0; c < 3; ++c)
             {
-                out.F(static_cast<Eigen::Index>(f), c) = used - 1 - index[static_cast<std::size_t>(kept[f](c))];
+                out.F(static_cast<Eigen::Index>(f), c) =
+                    used - 1 - index[static_cast<std::size_t>(kept[f](c))];
             }
         }
         return out;
@@ -368,18 +383,29 @@ TEST(FacadeTest, the_original_renumbered_where_it_stands_is_read_as_the_same_mes
     TriangleMesh cubes;
     cubes.V.resize(64 * 8, 3);
     cubes.F.resize(64 * 12, 3);
-    const std::array<std::array<int, 3>, 12> faces{{{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 4}, {1, 5, 4},
-                                                    {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}}};
+    const std::array<std::array<int, 3>, 12> faces{{{0, 2, 1},
+                                                    {1, 2, 3},
+                                                    {4, 5, 6},
+                                                    {5, 7, 6},
+                                                    {0, 1, 4},
+                                                    {1, 5, 4},
+                                                    {2, 6, 3},
+                                                    {3, 6, 7},
+                                                    {0, 4, 2},
+                                                    {2, 4, 6},
+                                                    {1, 3, 5},
+                                                    {3, 7, 5}}};
     for (int c = 0; c < 64; ++c)
     {
         for (int v = 0; v < 8; ++v)
         {
-            cubes.V.row(8 * c + v) << 2.0 * (c % 4) + 0.1 * (v & 1), 2.0 * ((c / 4) % 4) + 0.1 * ((v >> 1) & 1),
-                2.0 * (c / 16) + 0.1 * ((v >> 2) & 1);
+            cubes.V.row(8 * c + v) << 2.0 * (c % 4) + 0.1 * (v & 1),
+                2.0 * ((c / 4) % 4) + 0.1 * ((v >> 1) & 1), 2.0 * (c / 16) + 0.1 * ((v >> 2) & 1);
         }
         for (std::size_t f = 0; f < faces.size(); ++f)
         {
-            cubes.F.row(12 * c + static_cast<int>(f)) << 8 * c + faces[f][0], 8 * c + faces[f][1], 8 * c + faces[f][2];
+            cubes.F.row(12 * c + static_cast<int>(f)) << 8 * c + faces[f][0], 8 * c + faces[f][1],
+                8 * c + faces[f][2];
         }
     }
     const auto [key, marked] = marked_with_defaults(dir, cubes);
@@ -423,20 +449,23 @@ TEST(FacadeTest, a_renumbered_plate_whose_vertices_crowd_on_its_outline_is_read_
 // read in the original's order however far its vertices moved, the crushed rows left out
 // (10.77). Here a quarter of the vertices is crushed onto its centroid; the unmarked mesh
 // through the same steps is not claimed.
-TEST(FacadeTest, a_copy_numbered_by_its_triangles_is_read_in_the_original_order_however_far_it_moved)
+TEST(FacadeTest,
+     a_copy_numbered_by_its_triangles_is_read_in_the_original_order_however_far_it_moved)
 {
     const fs::path dir = test::temp_dir("facade-numbered-by-triangles");
     TriangleMesh mesh = lumpy_ellipsoid(4);
     constexpr Eigen::Index kRepeated = 10;  // this triangle is written twice
     Faces faces(mesh.F.rows() + 1, 3);
-    faces << mesh.F.topRows(kRepeated + 1), mesh.F.row(kRepeated), mesh.F.bottomRows(mesh.F.rows() - kRepeated - 1);
+    faces << mesh.F.topRows(kRepeated + 1), mesh.F.row(kRepeated),
+        mesh.F.bottomRows(mesh.F.rows() - kRepeated - 1);
     mesh.F = faces;
     const auto [key, marked] = marked_with_defaults(dir, mesh);
     const Eigen::VectorXd from_first = (mesh.V.rowwise() - mesh.V.row(0)).rowwise().norm();
     std::vector<double> sorted(from_first.data(), from_first.data() + from_first.size());
     std::sort(sorted.begin(), sorted.end());
     const double radius = sorted[sorted.size() / 4];
-    auto crushed_by_a_writer = [&](const TriangleMesh& copy) {
+    auto crushed_by_a_writer = [&](const TriangleMesh& copy)
+    {
         Eigen::RowVector3d centroid = Eigen::RowVector3d::Zero();
         int count = 0;
         for (Eigen::Index i = 0; i < copy.V.rows(); ++i)
@@ -476,7 +505,8 @@ TEST(FacadeTest, a_copy_numbered_by_its_triangles_is_read_in_the_original_order_
         return written;
     };
     const TriangleMesh suspect = crushed_by_a_writer(marked);
-    ASSERT_FALSE((suspect.F.array() == mesh.F.topRows(suspect.F.rows()).array()).all());  // renumbered
+    ASSERT_FALSE(
+        (suspect.F.array() == mesh.F.topRows(suspect.F.rows()).array()).all());  // renumbered
     const DetectReport found = detect(suspect, mesh, key);
     EXPECT_EQ(found.alignment, "same-connectivity");
     EXPECT_GT(found.registration_rms, 0.02);  // beyond what positions alone may differ by
@@ -525,7 +555,8 @@ TEST(FacadeTest, a_resampled_copy_pays_for_both_readings_and_their_joins)
     ASSERT_EQ(twice.alignment, "registration");
     EXPECT_EQ(twice.extraction.unread_statistics, 0) << "read twice";
     EXPECT_EQ(twice.decision.statistic_count, 7);
-    EXPECT_EQ(twice.extraction.further_changes.size(), 2U + 3U + 2U + 3U) << "own, other's weightings, other's, joined";
+    EXPECT_EQ(twice.extraction.further_changes.size(), 2U + 3U + 2U + 3U)
+        << "own, other's weightings, other's, joined";
     EXPECT_DOUBLE_EQ(twice.decision.score_false_positive_probability,
                      std::min(1.0, 7.0 * twice.decision.score_tail));
 }
@@ -546,19 +577,20 @@ TEST(FacadeTest, a_copy_of_a_symmetric_original_is_read_in_each_of_its_twin_pose
     const Key key = read_key(dir / "key.json");
     DetectFileOptions twin_start;
     const Eigen::Matrix3d half_turn = Eigen::Vector3d(1.0, -1.0, -1.0).asDiagonal();
-    for (const Eigen::Vector3d& p : {Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(0, 1.5, 0), Eigen::Vector3d(0, 0, 2),
-                                     Eigen::Vector3d(0.5, 0.5, 0.5)})
+    for (const Eigen::Vector3d& p : {Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(0, 1.5, 0),
+                                     Eigen::Vector3d(0, 0, 2), Eigen::Vector3d(0.5, 0.5, 0.5)})
     {
         twin_start.pairs.push_back(PointPair{p, half_turn * p});
     }
-    const auto reordered = [](const TriangleMesh& mesh) {
-        return apply_attacks(mesh, parse_attack_spec("reorder"), 3, 1).mesh;
-    };
-    const DetectReport marked = detect(reordered(read_mesh(dir / "marked.ply")), ellipsoid, key, twin_start);
+    const auto reordered = [](const TriangleMesh& mesh)
+    { return apply_attacks(mesh, parse_attack_spec("reorder"), 3, 1).mesh; };
+    const DetectReport marked =
+        detect(reordered(read_mesh(dir / "marked.ply")), ellipsoid, key, twin_start);
     EXPECT_TRUE(marked.decision.is_present) << marked.decision.score;
     EXPECT_GT(marked.decision.score, 9.0);
     EXPECT_LT((marked.transform.topLeftCorner<3, 3>() - Eigen::Matrix3d::Identity()).norm(), 0.05)
-        << "read in the twin pose:\n" << marked.transform;
+        << "read in the twin pose:\n"
+        << marked.transform;
     const DetectReport clean = detect(reordered(ellipsoid), ellipsoid, key, twin_start);
     EXPECT_FALSE(clean.decision.is_present) << clean.decision.score;
 }
@@ -567,7 +599,8 @@ TEST(FacadeTest, a_copy_of_a_symmetric_original_is_read_in_each_of_its_twin_pose
 // maps it onto itself, vertices onto vertices, and no rotation does; with \p horn, a lump on
 // one side only (the vertices near (0.8, 0.6, 0) pushed out, by up to 30%), as a character
 // modelled with a Mirror modifier and then given a part on one side.
-namespace {
+namespace
+{
 
 TriangleMesh bent_ellipsoid(bool horn)
 {
@@ -579,7 +612,8 @@ TriangleMesh bent_ellipsoid(bool horn)
         {
             p *= 1.0 + 0.3 * std::exp(-(p - Eigen::Vector3d(0.8, 0.6, 0.0)).squaredNorm() / 0.01);
         }
-        bent.V.row(i) = Eigen::RowVector3d(p.x(), 1.5 * p.y() + 0.4 * p.z() * p.z(), 2.0 * p.z() + 0.3 * p.y());
+        bent.V.row(i) =
+            Eigen::RowVector3d(p.x(), 1.5 * p.y() + 0.4 * p.z() * p.z(), 2.0 * p.z() + 0.3 * p.y());
     }
     return bent;
 }
@@ -594,15 +628,15 @@ void expect_mirrored_copy_claimed(bool horn, const std::string& moved, const std
     write_mesh(dir / "bent.ply", bent);
     (void)embed_file(dir / "bent.ply", dir / "marked.ply", dir / "key.json", seeded(5));
     const Key key = read_key(dir / "key.json");
-    const auto mirrored = [&](const TriangleMesh& mesh) {
-        return apply_attacks(mesh, parse_attack_spec("similarity:mirror=x," + moved), 3, 1).mesh;
-    };
+    const auto mirrored = [&](const TriangleMesh& mesh)
+    { return apply_attacks(mesh, parse_attack_spec("similarity:mirror=x," + moved), 3, 1).mesh; };
     const DetectReport marked = detect(mirrored(read_mesh(dir / "marked.ply")), bent, key);
     EXPECT_EQ(marked.alignment, alignment) << moved;
     EXPECT_TRUE(marked.decision.is_present) << moved << " " << marked.decision.score;
     EXPECT_GT(marked.decision.score, 9.0) << moved;
     EXPECT_LT((marked.transform.topLeftCorner<3, 3>().determinant()), 0.0)
-        << moved << ", read unmirrored:\n" << marked.transform;
+        << moved << ", read unmirrored:\n"
+        << marked.transform;
     const DetectReport clean = detect(mirrored(bent), bent, key);
     EXPECT_FALSE(clean.decision.is_present) << moved << " " << clean.decision.score;
 }
@@ -637,7 +671,8 @@ TEST(FacadeTest, a_mirrored_copy_of_a_nearly_mirror_symmetric_original_is_read_i
 // copy from its unmirrored fit (it chose unmirrored: z 2.23 for a mirrored and reordered copy,
 // 1.85 for one remeshed to half). The registration's fit of the other handedness is read too
 // and claims them; the unmarked vehicle through the same steps is not claimed.
-TEST(FacadeTest, a_mirrored_copy_of_a_nearly_mirror_symmetric_vehicle_is_read_in_its_other_handedness)
+TEST(FacadeTest,
+     a_mirrored_copy_of_a_nearly_mirror_symmetric_vehicle_is_read_in_its_other_handedness)
 {
     const fs::path dir = test::temp_dir("facade-other-handedness");
     const TriangleMesh vehicle = test::vehicle(true);
@@ -648,13 +683,15 @@ TEST(FacadeTest, a_mirrored_copy_of_a_nearly_mirror_symmetric_vehicle_is_read_in
     for (const std::string moved : {"reorder", "reorder,similarity", "remesh=0.5"})
     {
         const auto mirrored = [&](const TriangleMesh& mesh) {
-            return apply_attacks(mesh, parse_attack_spec("similarity:mirror=y," + moved), 3, 1).mesh;
+            return apply_attacks(mesh, parse_attack_spec("similarity:mirror=y," + moved), 3, 1)
+                .mesh;
         };
         const DetectReport copy = detect(mirrored(marked), vehicle, key);
         EXPECT_TRUE(copy.decision.is_present) << moved << " " << copy.decision.score;
         EXPECT_GT(copy.decision.score, moved == "remesh=0.5" ? 5.5 : 9.0) << moved;
         EXPECT_LT((copy.transform.topLeftCorner<3, 3>().determinant()), 0.0)
-            << moved << ", read unmirrored:\n" << copy.transform;
+            << moved << ", read unmirrored:\n"
+            << copy.transform;
         const DetectReport clean = detect(mirrored(vehicle), vehicle, key);
         EXPECT_FALSE(clean.decision.is_present) << moved << " " << clean.decision.score;
     }
@@ -688,7 +725,8 @@ TEST(FacadeTest, in_place_embed_replaces_the_input_whole_with_the_marked_copy)
     const EmbedReport report = embed_file(input, input, dir / "key.json", options);
     EXPECT_EQ(test::file_bytes(input), test::file_bytes(dir / "marked.obj"));
     EXPECT_EQ(test::file_bytes(dir / "key.json"), test::file_bytes(dir / "key-copy.json"));
-    EXPECT_EQ(to_json(report.key), test::file_bytes(dir / "key.json"));  // the original's fingerprint
+    EXPECT_EQ(to_json(report.key),
+              test::file_bytes(dir / "key.json"));  // the original's fingerprint
     EXPECT_EQ(fs::status(input).permissions() & fs::perms::all,
               fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read);
     EXPECT_EQ(hidden_files(dir), 0);
@@ -702,7 +740,9 @@ TEST(FacadeTest, a_mesh_too_small_for_the_basis_is_refused_naming_the_file)
     const fs::path dir = test::temp_dir("facade-small");
     write_mesh(dir / "small.obj", icosphere(1));
     std::ofstream(dir / "nothing.obj") << "o empty\n";
-    const auto expect_refused = [&](const auto& run, const std::string& name, const std::string& reason) {
+    const auto expect_refused =
+        [&](const auto& run, const std::string& name, const std::string& reason)
+    {
         try
         {
             run();
@@ -717,15 +757,23 @@ TEST(FacadeTest, a_mesh_too_small_for_the_basis_is_refused_naming_the_file)
         EXPECT_FALSE(fs::exists(dir / "marked.obj"));
         EXPECT_FALSE(fs::exists(dir / "key.json"));
     };
-    expect_refused([&] { (void)embed_file(dir / "small.obj", dir / "marked.obj", dir / "key.json", seeded(3)); },
-                   "small.obj", "42 usable vertices, fewer than the 60 basis functions");
-    expect_refused([&] { (void)embed_file(dir / "nothing.obj", dir / "marked.obj", dir / "key.json", seeded(3)); },
-                   "nothing.obj", "nothing to watermark");
+    expect_refused(
+        [&]
+        { (void)embed_file(dir / "small.obj", dir / "marked.obj", dir / "key.json", seeded(3)); },
+        "small.obj", "42 usable vertices, fewer than the 60 basis functions");
+    expect_refused(
+        [&]
+        { (void)embed_file(dir / "nothing.obj", dir / "marked.obj", dir / "key.json", seeded(3)); },
+        "nothing.obj", "nothing to watermark");
     EmbedRecipientsOptions family;
     family.seed = 3;
     family.recipients = {"ann"};
     expect_refused(
-        [&] { (void)embed_recipients(dir / "small.obj", (dir / "{recipient}.obj").string(), dir / "key.json", family); },
+        [&]
+        {
+            (void)embed_recipients(dir / "small.obj", (dir / "{recipient}.obj").string(),
+                                   dir / "key.json", family);
+        },
         "small.obj", "42 usable vertices, fewer than the");
     EXPECT_FALSE(fs::exists(dir / "ann.obj"));
 }
@@ -759,12 +807,14 @@ TEST(FacadeTest, the_default_strength_is_the_surface_distance_whatever_the_sampl
             V.push_back(mesh.V.row(i));
         }
         std::map<std::pair<int, int>, int> midpoint;
-        auto middle = [&](int a, int b) {
+        auto middle = [&](int a, int b)
+        {
             const auto edge = std::minmax(a, b);
             const auto [at, added] = midpoint.emplace(edge, static_cast<int>(V.size()));
             if (added)
             {
-                V.push_back(0.5 * (V[static_cast<std::size_t>(a)] + V[static_cast<std::size_t>(b)]));
+                V.push_back(0.5 *
+                            (V[static_cast<std::size_t>(a)] + V[static_cast<std::size_t>(b)]));
             }
             return at->second;
         };
@@ -818,7 +868,8 @@ TEST(FacadeTest, the_default_strength_is_the_surface_distance_whatever_the_sampl
     vertex.embed.measure = StrengthMeasure::Vertex;
     vertex.embed.strength = surface.key.options.vertex_strength;
     const EmbedResult same = embed(mesh, vertex);
-    EXPECT_LT((same.positions - surface.positions).cwiseAbs().maxCoeff(), 1e-12 * measured.diagonal);
+    EXPECT_LT((same.positions - surface.positions).cwiseAbs().maxCoeff(),
+              1e-12 * measured.diagonal);
     // ... and 1e-3 of the vertex measure moves this mesh's surface by another amount.
     vertex.embed.strength = 1e-3;
     EXPECT_GT(std::abs(embed(mesh, vertex).stats.surface_rms_rel - strength), 0.05 * strength);

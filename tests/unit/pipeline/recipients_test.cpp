@@ -20,8 +20,10 @@
 #include "meshmark/metrics/distortion.h"
 #include "support/test_paths.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 namespace fs = std::filesystem;
 
@@ -57,19 +59,22 @@ const std::vector<std::string> kEight = {"ann", "ben", "cat", "dan", "eve", "fay
 
 Key issue_eight(const fs::path& dir)
 {
-    static_cast<void>(embed_recipients(write_input(dir, 5), (dir / "{recipient}.ply").string(), dir / "family.json",
-                                       family(kEight)));
+    static_cast<void>(embed_recipients(write_input(dir, 5), (dir / "{recipient}.ply").string(),
+                                       dir / "family.json", family(kEight)));
     return read_key(dir / "family.json");
 }
 
 // Cut-and-splice: each third of the model along its longest axis taken from another copy
 // (dir / "<name>.ply"), in the order of \p colluders.
-Positions splice_thirds(const TriangleMesh& original, const fs::path& dir, const std::vector<std::string>& colluders)
+Positions splice_thirds(const TriangleMesh& original, const fs::path& dir,
+                        const std::vector<std::string>& colluders)
 {
-    const Eigen::RowVector3d extent = original.V.colwise().maxCoeff() - original.V.colwise().minCoeff();
+    const Eigen::RowVector3d extent =
+        original.V.colwise().maxCoeff() - original.V.colwise().minCoeff();
     Eigen::Index axis = 0;
     static_cast<void>(extent.maxCoeff(&axis));
-    std::vector<double> heights(original.V.col(axis).data(), original.V.col(axis).data() + original.V.rows());
+    std::vector<double> heights(original.V.col(axis).data(),
+                                original.V.col(axis).data() + original.V.rows());
     std::sort(heights.begin(), heights.end());
     const double cut1 = heights[heights.size() / 3];
     const double cut2 = heights[2 * heights.size() / 3];
@@ -127,11 +132,13 @@ TEST(RecipientsTest, key_file_round_trips_the_recipients_and_refuses_duplicates)
 TEST(RecipientsTest, names_that_cannot_be_part_of_a_file_name_are_refused)
 {
     EXPECT_NO_THROW(check_recipient_name("Studio B (contract 12)"));
-    for (const std::string& bad : std::vector<std::string>{"", ".hidden", "a/b", "a\\b", "tab\there", std::string(101, 'x'), "q\"uote"})
+    for (const std::string& bad : std::vector<std::string>{
+             "", ".hidden", "a/b", "a\\b", "tab\there", std::string(101, 'x'), "q\"uote"})
     {
         EXPECT_THROW(check_recipient_name(bad), InvalidOption) << bad;
     }
-    EXPECT_EQ(recipient_output("out/{recipient}-{recipient}.ply", "ann"), fs::path("out/ann-ann.ply"));
+    EXPECT_EQ(recipient_output("out/{recipient}-{recipient}.ply", "ann"),
+              fs::path("out/ann-ann.ply"));
     EXPECT_THROW(static_cast<void>(recipient_output("out/copy.ply", "ann")), InvalidOption);
 }
 
@@ -172,7 +179,8 @@ TEST(RecipientsTest, each_copy_accuses_its_recipient_only_and_an_average_accuses
     EXPECT_NEAR(alone.stats.surface_rms_rel, key.options.strength, 1e-9 * key.options.strength);
     for (const IssuedCopy& copy : report.copies)
     {
-        EXPECT_NEAR(copy.stats.surface_rms_rel, key.options.strength, 1e-9 * key.options.strength) << copy.name;
+        EXPECT_NEAR(copy.stats.surface_rms_rel, key.options.strength, 1e-9 * key.options.strength)
+            << copy.name;
         EXPECT_NEAR(copy.stats.rms_displacement_rel, alone.stats.rms_displacement_rel,
                     0.2 * alone.stats.rms_displacement_rel)
             << copy.name;
@@ -183,10 +191,12 @@ TEST(RecipientsTest, each_copy_accuses_its_recipient_only_and_an_average_accuses
     EXPECT_EQ(key.options.measure, StrengthMeasure::Surface);
     EXPECT_GT(key.options.vertex_strength, 0.0);
     const TriangleMesh original = read_mesh(input);
-    const double diagonal = (original.V.colwise().maxCoeff() - original.V.colwise().minCoeff()).norm();
+    const double diagonal =
+        (original.V.colwise().maxCoeff() - original.V.colwise().minCoeff()).norm();
     for (const std::string& name : names)
     {
-        const double surface = surface_rms_displacement(original, read_mesh(dir / (name + ".ply")).V - original.V);
+        const double surface =
+            surface_rms_displacement(original, read_mesh(dir / (name + ".ply")).V - original.V);
         EXPECT_NEAR(surface / diagonal, key.options.strength, 1e-9 * key.options.strength) << name;
     }
 
@@ -269,7 +279,8 @@ TEST(RecipientsTest, a_resampled_splice_is_read_by_its_regions_through_the_norma
     TriangleMesh spliced = original;
     spliced.V = splice_thirds(original, dir, {"ben", "dan", "gus"});
     const DetectReport in_place = detect(spliced, original, key);
-    const TriangleMesh subdivided = subdivide(spliced, SubdivisionOptions{SubdivisionScheme::Midpoint, 1});
+    const TriangleMesh subdivided =
+        subdivide(spliced, SubdivisionOptions{SubdivisionScheme::Midpoint, 1});
     // By default the subdivided copy keeps the original's vertices, so they are matched and
     // read vertex for vertex, every component: all three colluders accused, as in place.
     const DetectReport matched = detect(subdivided, original, key);
@@ -279,7 +290,8 @@ TEST(RecipientsTest, a_resampled_splice_is_read_by_its_regions_through_the_norma
     DetectFileOptions resample_only;
     resample_only.match_vertices = false;
     const DetectReport resampled = detect(subdivided, original, key, resample_only);
-    EXPECT_EQ(resampled.extraction.code_sampling.size(), 192U * 192U) << "the subdivided splice is resampled";
+    EXPECT_EQ(resampled.extraction.code_sampling.size(), 192U * 192U)
+        << "the subdivided splice is resampled";
     EXPECT_EQ(accused_names(resampled), (std::vector<std::string>{"ben", "gus"}));
     ASSERT_EQ(resampled.traced.size(), names.size());
     ASSERT_EQ(in_place.traced.size(), names.size());
@@ -292,7 +304,8 @@ TEST(RecipientsTest, a_resampled_splice_is_read_by_its_regions_through_the_norma
     }
     for (const std::size_t index : {0U, 2U, 4U, 5U, 7U})
     {
-        EXPECT_LT(resampled.traced[index].region_score, 4.0) << resampled.traced[index].name << " is innocent";
+        EXPECT_LT(resampled.traced[index].region_score, 4.0)
+            << resampled.traced[index].name << " is innocent";
     }
 }
 
@@ -309,26 +322,30 @@ TEST(RecipientsTest, a_mirrored_copy_of_a_mirror_symmetric_original_accuses_its_
     for (Eigen::Index i = 0; i < bent.V.rows(); ++i)
     {
         const Eigen::Vector3d p = bent.V.row(i);
-        bent.V.row(i) = Eigen::RowVector3d(p.x(), 1.5 * p.y() + 0.4 * p.z() * p.z(), 2.0 * p.z() + 0.3 * p.y());
+        bent.V.row(i) =
+            Eigen::RowVector3d(p.x(), 1.5 * p.y() + 0.4 * p.z() * p.z(), 2.0 * p.z() + 0.3 * p.y());
     }
     write_mesh(dir / "bent.ply", bent);
-    static_cast<void>(embed_recipients(dir / "bent.ply", (dir / "{recipient}.ply").string(), dir / "family.json",
-                                       family({"ann", "ben", "cat"})));
+    static_cast<void>(embed_recipients(dir / "bent.ply", (dir / "{recipient}.ply").string(),
+                                       dir / "family.json", family({"ann", "ben", "cat"})));
     const Key key = read_key(dir / "family.json");
     const TriangleMesh bens = read_mesh(dir / "ben.ply");
-    const DetectReport unmirrored = detect(apply_attacks(bens, parse_attack_spec("reorder"), 3, 1).mesh, bent, key);
+    const DetectReport unmirrored =
+        detect(apply_attacks(bens, parse_attack_spec("reorder"), 3, 1).mesh, bent, key);
     ASSERT_EQ(accused_names(unmirrored), std::vector<std::string>{"ben"});
     for (const std::string moved : {"reorder", "reorder,similarity"})
     {
         const auto mirrored = [&](const TriangleMesh& mesh) {
-            return apply_attacks(mesh, parse_attack_spec("similarity:mirror=x," + moved), 3, 1).mesh;
+            return apply_attacks(mesh, parse_attack_spec("similarity:mirror=x," + moved), 3, 1)
+                .mesh;
         };
         const DetectReport found = detect(mirrored(bens), bent, key);
         EXPECT_EQ(accused_names(found), std::vector<std::string>{"ben"}) << moved;
         EXPECT_TRUE(found.owner_detected) << moved;
         EXPECT_LT((found.transform.topLeftCorner<3, 3>().determinant()), 0.0) << moved;
         ASSERT_FALSE(found.accused.empty());
-        EXPECT_NEAR(found.accused.front().false_positive_probability, unmirrored.accused.front().false_positive_probability,
+        EXPECT_NEAR(found.accused.front().false_positive_probability,
+                    unmirrored.accused.front().false_positive_probability,
                     1e-6 * unmirrored.accused.front().false_positive_probability)
             << moved << ": the same reading as the unmirrored copy's, both paying for two poses";
         const DetectReport clean = detect(mirrored(bent), bent, key);
@@ -341,12 +358,12 @@ TEST(RecipientsTest, a_later_call_adds_recipients_and_reissues_known_ones_byte_f
 {
     const fs::path dir = test::temp_dir("recipients-extend");
     const fs::path input = write_input(dir, 3);
-    static_cast<void>(embed_recipients(input, (dir / "first-{recipient}.ply").string(), dir / "family.json",
-                                       family({"ann", "ben"})));
+    static_cast<void>(embed_recipients(input, (dir / "first-{recipient}.ply").string(),
+                                       dir / "family.json", family({"ann", "ben"})));
     EmbedRecipientsOptions later = family({"ben", "cat"});
     later.seed.reset();  // the key's seed decides, not the options
-    const EmbedRecipientsReport report =
-        embed_recipients(input, (dir / "second-{recipient}.ply").string(), dir / "family.json", later);
+    const EmbedRecipientsReport report = embed_recipients(
+        input, (dir / "second-{recipient}.ply").string(), dir / "family.json", later);
     EXPECT_FALSE(report.key_created);
     ASSERT_EQ(report.copies.size(), 2U);
     EXPECT_FALSE(report.copies[0].is_new);
@@ -363,14 +380,15 @@ TEST(RecipientsTest, refusals_leave_no_file_behind)
     const fs::path dir = test::temp_dir("recipients-refuse");
     const fs::path input = write_input(dir, 3);
     // A single-owner key is not extended into a family.
-    static_cast<void>(embed_file(input, dir / "single.ply", dir / "single.json", EmbedFileOptions{}));
-    EXPECT_THROW(static_cast<void>(embed_recipients(input, (dir / "{recipient}.ply").string(), dir / "single.json",
-                                                    family({"ann"}))),
+    static_cast<void>(
+        embed_file(input, dir / "single.ply", dir / "single.json", EmbedFileOptions{}));
+    EXPECT_THROW(static_cast<void>(embed_recipients(input, (dir / "{recipient}.ply").string(),
+                                                    dir / "single.json", family({"ann"}))),
                  IoError);
     EXPECT_FALSE(fs::exists(dir / "ann.ply"));
     // A family key belongs to its original.
-    static_cast<void>(
-        embed_recipients(input, (dir / "f-{recipient}.ply").string(), dir / "family.json", family({"ann"})));
+    static_cast<void>(embed_recipients(input, (dir / "f-{recipient}.ply").string(),
+                                       dir / "family.json", family({"ann"})));
     const fs::path other = dir / "other.ply";
     write_mesh(other, lumpy_ellipsoid(2));
     EXPECT_THROW(static_cast<void>(embed_recipients(other, (dir / "o-{recipient}.ply").string(),
@@ -378,8 +396,8 @@ TEST(RecipientsTest, refusals_leave_no_file_behind)
                  IoError);
     EXPECT_FALSE(fs::exists(dir / "o-ben.ply"));
     // Bad patterns and names, before any work.
-    EXPECT_THROW(static_cast<void>(embed_recipients(input, (dir / "copy.ply").string(), dir / "new.json",
-                                                    family({"ann"}))),
+    EXPECT_THROW(static_cast<void>(embed_recipients(input, (dir / "copy.ply").string(),
+                                                    dir / "new.json", family({"ann"}))),
                  InvalidOption);
     EXPECT_THROW(static_cast<void>(embed_recipients(input, (dir / "n-{recipient}.ply").string(),
                                                     dir / "new.json", family({"ann", "bad/name"}))),
@@ -390,8 +408,9 @@ TEST(RecipientsTest, refusals_leave_no_file_behind)
     // a later call delivers the same copies.
     fs::create_directories(dir / "blocked");
     fs::create_directories(dir / "blocked" / "zed.ply");  // a directory where a copy should go
-    EXPECT_ANY_THROW(static_cast<void>(embed_recipients(input, (dir / "blocked" / "{recipient}.ply").string(),
-                                                        dir / "blocked.json", family({"amy", "zed"}))));
+    EXPECT_ANY_THROW(
+        static_cast<void>(embed_recipients(input, (dir / "blocked" / "{recipient}.ply").string(),
+                                           dir / "blocked.json", family({"amy", "zed"}))));
     EXPECT_FALSE(fs::exists(dir / "blocked" / "amy.ply"));
     ASSERT_EQ(read_key(dir / "blocked.json").recipients->recipients.size(), 2U);
     fs::remove(dir / "blocked" / "zed.ply");
@@ -509,8 +528,10 @@ TEST(RecipientsTest, the_accusation_bound_is_paid_for_every_recipient_of_the_key
     // Every code sign agrees, each with weight 1: a sum of random signs does that with
     // probability 2^-n, times 3 weightings and 10 recipients.
     const auto n = static_cast<int>(signs.size());
-    EXPECT_NEAR(scores[3].false_positive_probability / (10.0 * 3.0 * binomial_tail_half(n, n)), 1.0, 1e-8);
-    EXPECT_LT(scores[3].false_positive_probability, 10.0 * 3.0 * rademacher_tail_bound(scores[3].score));
+    EXPECT_NEAR(scores[3].false_positive_probability / (10.0 * 3.0 * binomial_tail_half(n, n)), 1.0,
+                1e-8);
+    EXPECT_LT(scores[3].false_positive_probability,
+              10.0 * 3.0 * rademacher_tail_bound(scores[3].score));
     for (const RecipientScore& s : scores)
     {
         EXPECT_EQ(s.is_accused, s.index == 3) << s.name << " z " << s.score;

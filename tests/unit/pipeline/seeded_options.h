@@ -7,7 +7,8 @@
 
 #include "meshmark/pipeline/embed_file.h"
 
-namespace meshmark::test {
+namespace meshmark::test
+{
 
 /// Embed options with seed \p seed, message "owner" and a 60-function basis.
 inline EmbedFileOptions seeded(std::uint64_t seed)

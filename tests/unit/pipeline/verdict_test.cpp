@@ -1,14 +1,16 @@
 // SPDX-License-Identifier: MIT
 // The one verdict of a detection (verdict.h): claimed or not, whose copy, its probability, and
 // the sentence that says it.
+#include "meshmark/pipeline/verdict.h"
+
 #include <string>
 
 #include <gtest/gtest.h>
 
-#include "meshmark/pipeline/verdict.h"
-
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 constexpr double kMax = 1e-6;
 
@@ -24,7 +26,8 @@ DetectReport single_owner(bool present, double p)
 
 // A family key's report traced over five recipients: the owner's mark alone at \p alone,
 // ownership (alone or joint) at \p ownership, and \p accused with their bounds.
-DetectReport family(double alone, double ownership, std::vector<std::pair<std::string, double>> accused)
+DetectReport family(double alone, double ownership,
+                    std::vector<std::pair<std::string, double>> accused)
 {
     DetectReport report;
     report.recipients_traced = 5;
@@ -59,7 +62,8 @@ TEST(VerdictTest, a_single_owner_key_claims_what_its_mark_shows_at_the_marks_pro
 
 // The contradiction the verdict removes: the owner's mark alone not found, yet a recipient is
 // accused. The copy is claimed, named, at the accusation's probability, not the mark alone's.
-TEST(VerdictTest, an_accusation_claims_the_copy_at_the_accusations_probability_whatever_the_mark_alone_reads)
+TEST(VerdictTest,
+     an_accusation_claims_the_copy_at_the_accusations_probability_whatever_the_mark_alone_reads)
 {
     const DetectReport report = family(0.0111, 4e-9, {{"bob", 2e-9}});
     ASSERT_TRUE(report.detected());
@@ -69,13 +73,15 @@ TEST(VerdictTest, an_accusation_claims_the_copy_at_the_accusations_probability_w
     EXPECT_EQ(verdict.accused[0], "bob");
     EXPECT_EQ(verdict.false_positive_probability, 2e-9);
     EXPECT_EQ(headline(verdict),
-              "Claimed: a copy of the original, made from the copy issued to bob. The chance that a mesh without "
+              "Claimed: a copy of the original, made from the copy issued to bob. The chance that "
+              "a mesh without "
               "this mark gives this result is at most 1 in 500 million (2e-09).");
 
     // Two accused: both named, the strongest's probability.
     const Verdict two = verdict_of(family(0.5, 1e-30, {{"ann", 1e-20}, {"cat", 1e-8}}), kMax);
     EXPECT_EQ(two.false_positive_probability, 1e-20);
-    EXPECT_NE(headline(two).find("the copies issued to ann and cat."), std::string::npos) << headline(two);
+    EXPECT_NE(headline(two).find("the copies issued to ann and cat."), std::string::npos)
+        << headline(two);
 }
 
 TEST(VerdictTest, ownership_shown_without_an_accusation_is_a_claim_that_names_nobody)
@@ -85,7 +91,8 @@ TEST(VerdictTest, ownership_shown_without_an_accusation_is_a_claim_that_names_no
     const Verdict verdict = verdict_of(report, kMax);
     EXPECT_TRUE(verdict.claimed);
     EXPECT_EQ(verdict.false_positive_probability, 2e-7);
-    EXPECT_NE(headline(verdict).find("no recipient's copy named"), std::string::npos) << headline(verdict);
+    EXPECT_NE(headline(verdict).find("no recipient's copy named"), std::string::npos)
+        << headline(verdict);
 
     const DetectReport nothing = family(0.3, 0.04, {});
     EXPECT_FALSE(nothing.detected());

@@ -1,12 +1,12 @@
 // SPDX-License-Identifier: MIT
 // The speed target of the module on the 437K-vertex dragon (label `slow`; skipped when the
 // shared meshes are missing).
-#include <gtest/gtest.h>
-
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <string>
+
+#include <gtest/gtest.h>
 
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/rng.h"
@@ -16,8 +16,10 @@
 #include "perturbations.h"
 #include "support/test_paths.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 // The dragon against itself, moved (and, second, mirrored and cropped to half); prints the
 // timings quoted in docs/algorithms/registration.md.
@@ -31,7 +33,8 @@ TEST(DragonRegistrationTest, registers_and_resamples_the_dragon)
     const TriangleMesh reference = read_mesh(path);
     const double D = bounding_box(reference.V).diagonal();
     Rng rng(32);
-    const test::Cropped cropped = test::crop_by_plane(reference, Eigen::Vector3d(0.6, 0.0, 0.8), 0.5);
+    const test::Cropped cropped =
+        test::crop_by_plane(reference, Eigen::Vector3d(0.6, 0.0, 0.8), 0.5);
     for (const bool is_cropped : {false, true})
     {
         const TriangleMesh& base = is_cropped ? cropped.mesh : reference;
@@ -52,7 +55,8 @@ TEST(DragonRegistrationTest, registers_and_resamples_the_dragon)
                        std::to_string(register_s + resample_s));
         EXPECT_TRUE(result.converged);
         EXPECT_EQ(result.is_reflection, is_cropped);
-        EXPECT_LT(test::rms_distance(transform_points(result.transform, suspect.V), base.V), 1e-9 * D);
+        EXPECT_LT(test::rms_distance(transform_points(result.transform, suspect.V), base.V),
+                  1e-9 * D);
         if (is_cropped)
         {
             EXPECT_GT(r.cropped_fraction, 0.45);

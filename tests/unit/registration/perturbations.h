@@ -13,7 +13,8 @@
 #include "meshmark/core/rng.h"
 #include "meshmark/core/triangle_mesh.h"
 
-namespace meshmark::test {
+namespace meshmark::test
+{
 
 /// A random similarity: uniform rotation, log-uniform scale in [0.1, 10], translation of up
 /// to a few units, optionally mirrored (x -> -x before the rotation).
@@ -37,7 +38,8 @@ inline Positions apply(const Eigen::Matrix4d& T, const Positions& V)
     Positions result(V.rows(), 3);
     for (Eigen::Index i = 0; i < V.rows(); ++i)
     {
-        result.row(i) = (T.block<3, 3>(0, 0) * V.row(i).transpose() + T.block<3, 1>(0, 3)).transpose();
+        result.row(i) =
+            (T.block<3, 3>(0, 0) * V.row(i).transpose() + T.block<3, 1>(0, 3)).transpose();
     }
     return result;
 }
@@ -46,8 +48,8 @@ inline Positions apply(const Eigen::Matrix4d& T, const Positions& V)
 struct Cropped
 {
     TriangleMesh mesh;
-    std::vector<Eigen::Index> kept;   ///< Original index of each kept vertex.
-    std::vector<bool> is_removed;     ///< Per original vertex.
+    std::vector<Eigen::Index> kept;  ///< Original index of each kept vertex.
+    std::vector<bool> is_removed;    ///< Per original vertex.
 };
 
 /// Keep the vertices on the low side of a plane with normal \p n (the fraction \p keep of

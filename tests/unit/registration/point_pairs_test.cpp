@@ -1,16 +1,18 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/registration/point_pairs.h"
 
-#include <gtest/gtest.h>
-
 #include <fstream>
 #include <string>
+
+#include <gtest/gtest.h>
 
 #include "meshmark/core/error.h"
 #include "support/test_paths.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 TEST(PointPairsTest, parses_pairs_with_comments_blank_lines_and_commas)
 {

@@ -1,18 +1,19 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/registration/point_to_plane.h"
 
-#include <gtest/gtest.h>
-
-#include <Eigen/Geometry>
-
 #include <cmath>
 #include <numeric>
 #include <vector>
 
+#include <Eigen/Geometry>
+#include <gtest/gtest.h>
+
 #include "meshmark/core/rng.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 // Points spread over an ellipsoid (semi-axes 1, 0.6, 0.3: no motion slides it along itself),
 // each matched to itself with the ellipsoid's normal there.
@@ -59,9 +60,10 @@ TEST(PointToPlaneTest, one_step_undoes_a_translation)
     EXPECT_LT(scaled->delta.head<4>().norm(), 1e-9);
 }
 
-// Points of the ellipsoid scaled about its centre by 1.01 lie off their planes. The motion back is a scale by 1 / 1.01 about the sample's centre c and a translation,
-// exactly linear in the residuals: the step with scale gives k = 1 + delta(3) / L = 1 / 1.01.
-// The rigid one cannot undo a scale: it stays within a fraction of the 0.01.
+// Points of the ellipsoid scaled about its centre by 1.01 lie off their planes. The motion back is
+// a scale by 1 / 1.01 about the sample's centre c and a translation, exactly linear in the
+// residuals: the step with scale gives k = 1 + delta(3) / L = 1 / 1.01. The rigid one cannot undo a
+// scale: it stays within a fraction of the 0.01.
 TEST(PointToPlaneTest, the_step_with_scale_undoes_a_scale)
 {
     const EllipsoidPairs s = ellipsoid_pairs(500);
@@ -98,7 +100,8 @@ TEST(PointToPlaneTest, only_the_kept_rows_with_a_plane_count)
     with_planeless.push_back(450);
     const auto planeless = point_to_plane_step<6>(more, matches, with_planeless);
     ASSERT_TRUE(planeless.has_value());
-    EXPECT_LT((planeless->delta.tail<3>() + tau.transpose()).norm(), 1e-9);  // the translation alone
+    EXPECT_LT((planeless->delta.tail<3>() + tau.transpose()).norm(),
+              1e-9);  // the translation alone
     EXPECT_FALSE(point_to_plane_step<6>(moved, s.matches, {}).has_value());
 }
 

@@ -1,14 +1,13 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/registration/registration.h"
 
-#include <gtest/gtest.h>
+#include <cmath>
+#include <cstdint>
+#include <numbers>
+#include <vector>
 
 #include <Eigen/Geometry>
-
-#include <cmath>
-#include <numbers>
-#include <cstdint>
-#include <vector>
+#include <gtest/gtest.h>
 
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
@@ -17,8 +16,10 @@
 #include "perturbations.h"
 #include "support/test_shapes.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 double linear_det(const Eigen::Matrix4d& T)
 {
@@ -57,21 +58,25 @@ void check_random_copies(std::uint64_t seed, bool mirrored, Checks more_checks)
 
 TEST(RegistrationTest, recovers_known_similarities_of_lumpy_ellipsoid)
 {
-    check_random_copies(1, false, [](const RegistrationResult& result, const Eigen::Matrix4d& T) {
-        // The recovered transform is the inverse of the applied one, scale included.
-        const Eigen::Matrix4d expected = T.inverse();
-        EXPECT_LT((result.transform - expected).norm() / expected.norm(), 1e-9);
-        EXPECT_NEAR(result.scale * std::cbrt(T.block<3, 3>(0, 0).determinant()), 1.0, 1e-9);
-        EXPECT_LT(result.rms_error, 1e-9);
-        EXPECT_GT(result.overlap_fraction, 0.99);
-    });
+    check_random_copies(1, false,
+                        [](const RegistrationResult& result, const Eigen::Matrix4d& T)
+                        {
+                            // The recovered transform is the inverse of the applied one, scale
+                            // included.
+                            const Eigen::Matrix4d expected = T.inverse();
+                            EXPECT_LT((result.transform - expected).norm() / expected.norm(), 1e-9);
+                            EXPECT_NEAR(result.scale * std::cbrt(T.block<3, 3>(0, 0).determinant()),
+                                        1.0, 1e-9);
+                            EXPECT_LT(result.rms_error, 1e-9);
+                            EXPECT_GT(result.overlap_fraction, 0.99);
+                        });
 }
 
 TEST(RegistrationTest, recovers_mirrored_copy_and_reports_reflection)
 {
-    check_random_copies(2, true, [](const RegistrationResult& result, const Eigen::Matrix4d& /*T*/) {
-        EXPECT_LT(linear_det(result.transform), 0.0);
-    });
+    check_random_copies(2, true,
+                        [](const RegistrationResult& result, const Eigen::Matrix4d& /*T*/)
+                        { EXPECT_LT(linear_det(result.transform), 0.0); });
 }
 
 TEST(RegistrationTest, refuses_reflection_when_not_allowed)
@@ -99,14 +104,17 @@ TEST(RegistrationTest, keeps_the_reference_surface_only_when_asked)
     TriangleMesh suspect = reference;
     suspect.V = test::apply(test::random_similarity(rng, false), reference.V);
     EXPECT_EQ(register_to_reference(suspect, reference).reference_surface, nullptr);
-    const RegistrationResult result = register_to_reference(suspect, reference, {.keep_reference_surface = true});
+    const RegistrationResult result =
+        register_to_reference(suspect, reference, {.keep_reference_surface = true});
     ASSERT_NE(result.reference_surface, nullptr);
-    const std::vector<PointPair> pairs = {{suspect.V.row(0).transpose(), reference.V.row(0).transpose()},
-                                          {suspect.V.row(50).transpose(), reference.V.row(50).transpose()},
-                                          {suspect.V.row(100).transpose(), reference.V.row(100).transpose()},
-                                          {suspect.V.row(150).transpose(), reference.V.row(150).transpose()}};
+    const std::vector<PointPair> pairs = {
+        {suspect.V.row(0).transpose(), reference.V.row(0).transpose()},
+        {suspect.V.row(50).transpose(), reference.V.row(50).transpose()},
+        {suspect.V.row(100).transpose(), reference.V.row(100).transpose()},
+        {suspect.V.row(150).transpose(), reference.V.row(150).transpose()}};
     EXPECT_EQ(register_to_reference(suspect, reference, pairs).reference_surface, nullptr);
-    EXPECT_NE(register_to_reference(suspect, reference, pairs, {.keep_reference_surface = true}).reference_surface,
+    EXPECT_NE(register_to_reference(suspect, reference, pairs, {.keep_reference_surface = true})
+                  .reference_surface,
               nullptr);
     const SurfaceMatcher& surface = *result.reference_surface;
     ASSERT_TRUE(surface.has_normals());
@@ -141,8 +149,9 @@ TEST(RegistrationTest, registers_from_a_start_near_the_answer)
         TriangleMesh suspect = reference;
         suspect.V = test::apply(T, reference.V);
         Eigen::Matrix4d nudge = Eigen::Matrix4d::Identity();
-        nudge.topLeftCorner<3, 3>() =
-            Eigen::AngleAxisd(8.0 * std::numbers::pi / 180.0, Eigen::Vector3d(1.0, 2.0, 0.5).normalized()).matrix();
+        nudge.topLeftCorner<3, 3>() = Eigen::AngleAxisd(8.0 * std::numbers::pi / 180.0,
+                                                        Eigen::Vector3d(1.0, 2.0, 0.5).normalized())
+                                          .matrix();
         nudge.topRightCorner<3, 1>() = Eigen::Vector3d(0.03 * D, 0.0, -0.01 * D);
         const RegistrationResult result = register_from(suspect, reference, nudge * T.inverse());
         EXPECT_EQ(result.is_reflection, mirrored);
@@ -216,7 +225,8 @@ TEST(RegistrationTest, converges_on_copy_cropped_to_half_by_a_plane)
     Rng rng(4);
     for (int trial = 0; trial < 2; ++trial)
     {
-        const Eigen::Vector3d n = Eigen::Vector3d(rng.normal(), rng.normal(), rng.normal()).normalized();
+        const Eigen::Vector3d n =
+            Eigen::Vector3d(rng.normal(), rng.normal(), rng.normal()).normalized();
         const test::Cropped cropped = test::crop_by_plane(reference, n, 0.5);
         const Eigen::Matrix4d T = test::random_similarity(rng, trial % 2 == 1);
         TriangleMesh suspect = cropped.mesh;
@@ -249,14 +259,16 @@ TEST(RegistrationTest, gives_the_other_handedness_when_a_nearly_symmetric_refere
         const Positions clean = test::apply(T, vehicle.V);
         RegistrationResult other = result;
         other.transform = *result.other_handedness;
-        EXPECT_LT(std::min(alignment_error(result, clean, vehicle.V, D), alignment_error(other, clean, vehicle.V, D)),
+        EXPECT_LT(std::min(alignment_error(result, clean, vehicle.V, D),
+                           alignment_error(other, clean, vehicle.V, D)),
                   1e-3)
             << "trial " << trial;
     }
     const TriangleMesh lumpy = lumpy_ellipsoid(3);
     const double d = bounding_box(lumpy.V).diagonal();
     TriangleMesh suspect = lumpy;
-    suspect.V = test::apply(test::random_similarity(rng, true), test::add_noise(lumpy.V, 0.001 * d, rng));
+    suspect.V =
+        test::apply(test::random_similarity(rng, true), test::add_noise(lumpy.V, 0.001 * d, rng));
     const RegistrationResult result = register_to_reference(suspect, lumpy);
     EXPECT_TRUE(result.is_reflection);
     EXPECT_FALSE(result.other_handedness.has_value());
@@ -279,8 +291,8 @@ TEST(RegistrationTest, registers_a_half_cut_through_the_bounding_box_centre_alon
         const Eigen::Vector3d n = Eigen::Vector3d::Unit(axis);
         const double centre = 0.5 * (box.min(axis) + box.max(axis));
         const auto below = (reference.V.col(axis).array() < centre).count();
-        const test::Cropped half =
-            test::crop_by_plane(reference, n, static_cast<double>(below) / static_cast<double>(reference.V.rows()));
+        const test::Cropped half = test::crop_by_plane(
+            reference, n, static_cast<double>(below) / static_cast<double>(reference.V.rows()));
         for (int trial = 0; trial < 2; ++trial)
         {
             TriangleMesh suspect = half.mesh;
@@ -288,8 +300,8 @@ TEST(RegistrationTest, registers_a_half_cut_through_the_bounding_box_centre_alon
             const RegistrationResult result = register_to_reference(suspect, reference);
             EXPECT_FALSE(result.is_reflection);
             EXPECT_LT(alignment_error(result, suspect.V, half.mesh.V, D), 1e-6)
-                << "axis " << axis << ", trial " << trial << ": RMS " << result.rms_error << ", overlap "
-                << result.overlap_fraction;
+                << "axis " << axis << ", trial " << trial << ": RMS " << result.rms_error
+                << ", overlap " << result.overlap_fraction;
         }
     }
 }
@@ -305,10 +317,12 @@ TEST(RegistrationTest, registers_a_finely_tessellated_copy_of_large_faces_beside
     box.V.resize(8, 3);
     for (int i = 0; i < 8; ++i)
     {
-        box.V.row(i) << ((i & 1) != 0 ? 1.1 : -1.1), ((i & 2) != 0 ? 0.5 : -0.5), ((i & 4) != 0 ? 0.85 : 0.35);
+        box.V.row(i) << ((i & 1) != 0 ? 1.1 : -1.1), ((i & 2) != 0 ? 0.5 : -0.5),
+            ((i & 4) != 0 ? 0.85 : 0.35);
     }
     box.F.resize(12, 3);
-    box.F << 0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4, 2, 6, 3, 3, 6, 7, 0, 4, 2, 2, 4, 6, 1, 3, 5, 3, 7, 5;
+    box.F << 0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4, 2, 6, 3, 3, 6, 7, 0, 4, 2, 2, 4,
+        6, 1, 3, 5, 3, 7, 5;
     std::vector<TriangleMesh> tyres;
     for (const double x : {0.75, -0.75})
     {
@@ -366,7 +380,9 @@ TEST(RegistrationTest, lays_the_larger_part_of_a_copy_bent_at_a_hinge_on_the_ref
     const TriangleMesh reference = lumpy_ellipsoid(4);
     const double D = bounding_box(reference.V).diagonal();
     const double hinge = 0.3;
-    const Eigen::Matrix3d turn = Eigen::AngleAxisd(25.0 * std::numbers::pi / 180.0, Eigen::Vector3d::UnitY()).toRotationMatrix();
+    const Eigen::Matrix3d turn =
+        Eigen::AngleAxisd(25.0 * std::numbers::pi / 180.0, Eigen::Vector3d::UnitY())
+            .toRotationMatrix();
     TriangleMesh bent = reference;
     std::vector<Eigen::Index> still;
     for (Eigen::Index i = 0; i < bent.V.rows(); ++i)
@@ -396,7 +412,8 @@ TEST(RegistrationTest, lays_the_larger_part_of_a_copy_bent_at_a_hinge_on_the_ref
         }
         EXPECT_FALSE(result.is_reflection);
         EXPECT_LT(std::sqrt(squared / static_cast<double>(still.size())) / D, 1e-6)
-            << "trial " << trial << ": RMS " << result.rms_error << ", overlap " << result.overlap_fraction;
+            << "trial " << trial << ": RMS " << result.rms_error << ", overlap "
+            << result.overlap_fraction;
     }
 }
 
@@ -410,7 +427,8 @@ TEST(RegistrationTest, converges_on_noisy_copy)
         const Eigen::Matrix4d T = test::random_similarity(rng, false);
         TriangleMesh suspect = reference;
         const Positions clean = test::apply(T, reference.V);
-        suspect.V = test::add_noise(clean, 0.01 * D * std::cbrt(T.block<3, 3>(0, 0).determinant()), rng);
+        suspect.V =
+            test::add_noise(clean, 0.01 * D * std::cbrt(T.block<3, 3>(0, 0).determinant()), rng);
         const RegistrationResult result = register_to_reference(suspect, reference);
         EXPECT_TRUE(result.converged) << "trial " << trial;
         // Noise of 1% of the diagonal averages out over thousands of samples.
@@ -450,10 +468,12 @@ TEST(RegistrationTest, converges_on_a_soup_of_collapsed_triangles)
     const TriangleMesh reference = lumpy_ellipsoid(4);
     const double D = bounding_box(reference.V).diagonal();
     TriangleMesh soup = test::triangle_soup(reference);
-    const double end = reference.V.col(0).maxCoeff() - 0.05 * (reference.V.col(0).maxCoeff() - reference.V.col(0).minCoeff());
+    const double end = reference.V.col(0).maxCoeff() -
+                       0.05 * (reference.V.col(0).maxCoeff() - reference.V.col(0).minCoeff());
     for (Eigen::Index f = 0; f < soup.F.rows(); ++f)
     {
-        const Eigen::RowVector3d centre = (soup.V.row(3 * f) + soup.V.row(3 * f + 1) + soup.V.row(3 * f + 2)) / 3.0;
+        const Eigen::RowVector3d centre =
+            (soup.V.row(3 * f) + soup.V.row(3 * f + 1) + soup.V.row(3 * f + 2)) / 3.0;
         const double shrink = centre(0) > end ? 1e-4 : 1e-8;
         for (Eigen::Index c = 0; c < 3; ++c)
         {
@@ -539,9 +559,11 @@ TEST(RegistrationTest, is_bit_identical_for_one_and_two_threads)
 {
     const TriangleMesh reference = lumpy_ellipsoid(3);
     Rng rng(10);
-    const test::Cropped cropped = test::crop_by_plane(reference, Eigen::Vector3d(0.3, -0.5, 0.8).normalized(), 0.6);
+    const test::Cropped cropped =
+        test::crop_by_plane(reference, Eigen::Vector3d(0.3, -0.5, 0.8).normalized(), 0.6);
     TriangleMesh suspect = cropped.mesh;
-    suspect.V = test::add_noise(test::apply(test::random_similarity(rng, true), cropped.mesh.V), 0.02, rng);
+    suspect.V =
+        test::add_noise(test::apply(test::random_similarity(rng, true), cropped.mesh.V), 0.02, rng);
     const RegistrationResult one = register_to_reference(suspect, reference, {.threads = 1});
     const RegistrationResult two = register_to_reference(suspect, reference, {.threads = 2});
     for (Eigen::Index i = 0; i < 16; ++i)

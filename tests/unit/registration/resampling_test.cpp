@@ -1,11 +1,11 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/registration/resampling.h"
 
-#include <gtest/gtest.h>
-
 #include <algorithm>
 #include <cmath>
 #include <vector>
+
+#include <gtest/gtest.h>
 
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
@@ -13,8 +13,10 @@
 #include "meshmark/geometry/shapes.h"
 #include "perturbations.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 TEST(ResamplingTest, unmoved_copy_returns_reference_positions_exactly)
 {
@@ -73,7 +75,8 @@ TEST(ResamplingTest, crop_marking_flags_the_removed_half)
     Rng rng(22);
     for (int trial = 0; trial < 2; ++trial)
     {
-        const Eigen::Vector3d n = Eigen::Vector3d(rng.normal(), rng.normal(), rng.normal()).normalized();
+        const Eigen::Vector3d n =
+            Eigen::Vector3d(rng.normal(), rng.normal(), rng.normal()).normalized();
         const test::Cropped cropped = test::crop_by_plane(reference, n, 0.5);
         const Eigen::Matrix4d T = test::random_similarity(rng, false);
         TriangleMesh suspect = cropped.mesh;
@@ -88,7 +91,8 @@ TEST(ResamplingTest, crop_marking_flags_the_removed_half)
             false_flags += (r.is_cropped[i] != 0 && !cropped.is_removed[i]) ? 1U : 0U;
         }
         EXPECT_EQ(false_flags, 0U) << "kept vertices flagged as cropped";
-        const double removed_fraction = static_cast<double>(removed) / static_cast<double>(r.is_cropped.size());
+        const double removed_fraction =
+            static_cast<double>(removed) / static_cast<double>(r.is_cropped.size());
         // Only a band of about two edge lengths along the cut escapes the flag.
         EXPECT_LE(r.cropped_fraction, removed_fraction);
         EXPECT_GT(r.cropped_fraction, removed_fraction - 0.05) << "trial " << trial;
@@ -170,8 +174,10 @@ TEST(ResamplingTest, matching_the_reference_surface_removes_the_chord_error)
     {
         const Eigen::Vector3d p = reference.V.row(i).transpose();
         const double expected = h * field(p);
-        plain_error = std::max(plain_error, std::abs((plain.points.row(i).transpose() - p).dot(p) - expected));
-        matched_error = std::max(matched_error, std::abs((matched.points.row(i).transpose() - p).dot(p) - expected));
+        plain_error = std::max(plain_error,
+                               std::abs((plain.points.row(i).transpose() - p).dot(p) - expected));
+        matched_error = std::max(
+            matched_error, std::abs((matched.points.row(i).transpose() - p).dot(p) - expected));
     }
     EXPECT_GT(plain_error, 2.0 * h);
     EXPECT_LT(matched_error, 0.2 * h);
@@ -185,7 +191,8 @@ TEST(ResamplingTest, matching_a_point_cloud_uses_each_point_s_offset)
 {
     const TriangleMesh reference = icosphere(3);
     TriangleMesh cloud;
-    cloud.V = 1.01 * icosphere(2).V;  // on the sphere of radius 1.01: 0.01 off the reference's vertices
+    cloud.V =
+        1.01 * icosphere(2).V;  // on the sphere of radius 1.01: 0.01 off the reference's vertices
     Resampling r = resample(reference, cloud, Eigen::Matrix4d::Identity());
     match_reference_surface(r, reference, cloud, Eigen::Matrix4d::Identity());
     for (Eigen::Index i = 0; i < reference.V.rows(); ++i)
@@ -206,8 +213,9 @@ TEST(ResamplingTest, rejects_singular_transform_and_bad_options)
 {
     const TriangleMesh mesh = lumpy_ellipsoid(1);
     EXPECT_THROW(static_cast<void>(resample(mesh, mesh, Eigen::Matrix4d::Zero())), InvalidOption);
-    EXPECT_THROW(static_cast<void>(resample(mesh, mesh, Eigen::Matrix4d::Identity(), {.quantile = 0.0})),
-                 InvalidOption);
+    EXPECT_THROW(
+        static_cast<void>(resample(mesh, mesh, Eigen::Matrix4d::Identity(), {.quantile = 0.0})),
+        InvalidOption);
     EXPECT_THROW(static_cast<void>(resample(mesh, TriangleMesh{}, Eigen::Matrix4d::Identity())),
                  InvalidMesh);
 }

@@ -1,10 +1,10 @@
 // SPDX-License-Identifier: MIT
 // Registration and resampling on the real shared meshes (skipped when the folder is missing).
-#include <gtest/gtest.h>
-
 #include <algorithm>
 #include <filesystem>
 #include <vector>
+
+#include <gtest/gtest.h>
 
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/rng.h"
@@ -14,8 +14,10 @@
 #include "perturbations.h"
 #include "support/test_paths.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 TEST(SharedMeshRegistrationTest, recovers_similarities_of_small_real_meshes)
 {
@@ -67,7 +69,8 @@ TEST(SharedMeshRegistrationTest, registers_a_half_of_an_open_scan_left_in_place)
     std::vector<Eigen::Index> kept;
     for (Eigen::Index f = 0; f < reference.F.rows(); ++f)
     {
-        if ((reference.V(reference.F(f, 0), axis) >= middle) && (reference.V(reference.F(f, 1), axis) >= middle) &&
+        if ((reference.V(reference.F(f, 0), axis) >= middle) &&
+            (reference.V(reference.F(f, 1), axis) >= middle) &&
             (reference.V(reference.F(f, 2), axis) >= middle))
         {
             kept.push_back(f);

@@ -84,8 +84,10 @@ TEST(ViewTest, up_axis_turns_the_camera)
         const Eigen::Vector3d axis = front.up;
         EXPECT_NEAR(axis.cwiseAbs().maxCoeff(), 1.0, 1e-12) << name;  // exactly the up axis
     }
-    EXPECT_TRUE(view_frame(parse_view("front"), UpAxis::NegZ).up.isApprox(Eigen::Vector3d(0, 0, -1), 1e-12));
-    EXPECT_TRUE(view_frame(parse_view("front"), UpAxis::PosX).up.isApprox(Eigen::Vector3d(1, 0, 0), 1e-12));
+    EXPECT_TRUE(view_frame(parse_view("front"), UpAxis::NegZ)
+                    .up.isApprox(Eigen::Vector3d(0, 0, -1), 1e-12));
+    EXPECT_TRUE(
+        view_frame(parse_view("front"), UpAxis::PosX).up.isApprox(Eigen::Vector3d(1, 0, 0), 1e-12));
 }
 
 TEST(ViewTest, image_sizes)

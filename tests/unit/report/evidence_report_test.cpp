@@ -16,8 +16,10 @@
 #include "meshmark/io/mesh_io.h"
 #include "support/test_paths.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 // What a key holds and a detect report echoes: neither may reach a report.
 constexpr const char* kSeed = "8817263541902837465";
@@ -59,24 +61,26 @@ Case make_case()
     return c;
 }
 
-nlohmann::json detect_json(bool claimed, const Eigen::Matrix4d& transform, const std::string& accused)
+nlohmann::json detect_json(bool claimed, const Eigen::Matrix4d& transform,
+                           const std::string& accused)
 {
     nlohmann::json rows = nlohmann::json::array();
     for (int r = 0; r < 4; ++r)
     {
         rows.push_back({transform(r, 0), transform(r, 1), transform(r, 2), transform(r, 3)});
     }
-    nlohmann::json j = {{"detected", claimed},
-                        {"false_positive_probability", claimed ? 3.1e-10 : 0.5},
-                        {"max_false_positive_probability", 1e-6},
-                        {"bits_expected", kPayload},
-                        {"bits_found", kPayload},
-                        {"cropped_fraction", 0.0},
-                        {"outlier_fraction", 0.0},
-                        {"registration", {{"method", "registration"}, {"rms_error", 3e-4}, {"transform", rows}}},
-                        {"mark_strength", 4e-4},
-                        {"suspect_vertices", 642},
-                        {"original_vertices", 642}};
+    nlohmann::json j = {
+        {"detected", claimed},
+        {"false_positive_probability", claimed ? 3.1e-10 : 0.5},
+        {"max_false_positive_probability", 1e-6},
+        {"bits_expected", kPayload},
+        {"bits_found", kPayload},
+        {"cropped_fraction", 0.0},
+        {"outlier_fraction", 0.0},
+        {"registration", {{"method", "registration"}, {"rms_error", 3e-4}, {"transform", rows}}},
+        {"mark_strength", 4e-4},
+        {"suspect_vertices", 642},
+        {"original_vertices", 642}};
     if (!accused.empty())
     {
         j["recipients"] = nlohmann::json::array(
@@ -97,18 +101,21 @@ EvidencePictureOptions small_pictures()
     return options;
 }
 
-EvidenceFacts facts_for(const std::filesystem::path& dir, const Case& c, const nlohmann::json& detect)
+EvidenceFacts facts_for(const std::filesystem::path& dir, const Case& c,
+                        const nlohmann::json& detect)
 {
     write_mesh(dir / "suspect.ply", c.suspect);
     write_mesh(dir / "original.ply", c.original);
-    std::ofstream(dir / "original.key.json") << "{\"seed\": " << kSeed << ", \"payload\": \"" << kPayload << "\"}\n";
+    std::ofstream(dir / "original.key.json")
+        << "{\"seed\": " << kSeed << ", \"payload\": \"" << kPayload << "\"}\n";
     EvidenceFacts facts;
     facts.suspect = evidence_file(dir / "suspect.ply");
     facts.original = evidence_file(dir / "original.ply");
     facts.key = evidence_file(dir / "original.key.json");
     facts.detect = detect;
     facts.version = "meshmark 9.9.9";
-    facts.command = "meshmark detect suspect.ply --original original.ply --key original.key.json --json";
+    facts.command =
+        "meshmark detect suspect.ply --original original.ply --key original.key.json --json";
     return facts;
 }
 
@@ -139,7 +146,8 @@ TEST(EvidencePictures, DrawTheSuspectOnTheOriginalAndTheDistances)
 {
     const Case c = make_case();
     const EvidencePictureOptions options = small_pictures();
-    const EvidencePictures p = evidence_pictures(c.suspect, c.original, detect_json(true, c.to_original, ""), options);
+    const EvidencePictures p =
+        evidence_pictures(c.suspect, c.original, detect_json(true, c.to_original, ""), options);
     ASSERT_EQ(p.alignment.width, 600);
     ASSERT_EQ(p.alignment.height, 240);
     const PixelCounts left = count(p.alignment, 0, 300);
@@ -159,7 +167,8 @@ TEST(EvidencePictures, DrawTheSuspectOnTheOriginalAndTheDistances)
     // A wrong transform puts the suspect beside the original: grey shows where it is missing.
     Eigen::Matrix4d off = c.to_original;
     off(0, 3) += 0.6;
-    const EvidencePictures moved = evidence_pictures(c.suspect, c.original, detect_json(true, off, ""), options);
+    const EvidencePictures moved =
+        evidence_pictures(c.suspect, c.original, detect_json(true, off, ""), options);
     EXPECT_GT(count(moved.alignment, 300, 600).grey, panel / 50);
     EXPECT_GT(moved.median_distance_rel, 10.0 * p.median_distance_rel);
 }
@@ -203,7 +212,8 @@ TEST(EvidenceReport, ClaimedFamilyCopyNamesTheRecipientAndTheChance)
     const std::string pdf = evidence_pdf(text, pictures);
     ASSERT_EQ(pdf.rfind("%PDF", 0), 0U);
     std::size_t pages = 0;
-    for (std::size_t at = pdf.find("/Type /Page"); at != std::string::npos; at = pdf.find("/Type /Page", at + 1))
+    for (std::size_t at = pdf.find("/Type /Page"); at != std::string::npos;
+         at = pdf.find("/Type /Page", at + 1))
     {
         pages += pdf.compare(at, 12, "/Type /Pages") != 0 ? 1 : 0;
     }
@@ -257,13 +267,16 @@ TEST(EvidenceReport, HeadlineOfTheJsonIsQuotedWhenPresent)
 {
     const auto dir = test::temp_dir("evidence_headline");
     const Case c = make_case();
-    // The headline JSON (issue 55 item 1): `headline`, and the owner's mark read alone in `owner_mark`.
+    // The headline JSON (issue 55 item 1): `headline`, and the owner's mark read alone in
+    // `owner_mark`.
     nlohmann::json detect = detect_json(true, c.to_original, "bob");
     detect["headline"] = "Claimed: the owner's mark is shown (false-positive probability 3.1e-10).";
     detect.erase("owner_detected");
     detect.erase("owner_false_positive_probability");
-    detect["owner_mark"] = {{"detected", true}, {"false_positive_probability", 1.1368683783530287e-14},
-                            {"score", 6.9}, {"correlation", 1.0}, {"matches", 24}, {"bit_count", 24}};
+    detect["owner_mark"] = {
+        {"detected", true}, {"false_positive_probability", 1.1368683783530287e-14},
+        {"score", 6.9},     {"correlation", 1.0},
+        {"matches", 24},    {"bit_count", 24}};
     const EvidenceFacts facts = facts_for(dir, c, detect);
     EvidencePictureOptions options;
     options.panel = {200, 160};
@@ -344,7 +357,8 @@ TEST(EvidenceReportSpeed, DISABLED_Dragon)
     {
         const auto start = std::chrono::steady_clock::now();
         write_detection_report(dir / name, dragon, dragon, dir / "dragon.key", detect);
-        const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        const double seconds =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         std::printf("%s: %.2f s\n", name, seconds);
     }
 }

@@ -1,23 +1,24 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/watermark/key.h"
 
-#include <gtest/gtest.h>
-#include <sys/stat.h>
-
 #include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <functional>
 
+#include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <sys/stat.h>
 
 #include "meshmark/core/error.h"
 #include "meshmark/core/rng.h"
 #include "meshmark/geometry/shapes.h"
 #include "support/test_paths.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 Key sample_key()
 {
@@ -75,7 +76,8 @@ TEST(KeyTest, keys_without_repetitions_read_as_one_copy_per_bit)
     EXPECT_THROW(bad.options.validate(), InvalidOption);
     bad.options.repetitions = -1;
     EXPECT_THROW(bad.options.validate(), InvalidOption);
-    bad.options.repetitions = EmbedOptions::kAutoRepetitions;  // the watermark chooses: valid options
+    bad.options.repetitions =
+        EmbedOptions::kAutoRepetitions;  // the watermark chooses: valid options
     EXPECT_NO_THROW(bad.options.validate());
     bad.options.repetitions = 3;
     bad.options.first_mode = 63;  // 63 + 18 > 80
@@ -104,11 +106,13 @@ TEST(KeyTest, a_key_file_without_its_repetitions_is_refused)
     catch (const IoError& e)
     {
         EXPECT_NE(std::string(e.what()).find("auto.json"), std::string::npos) << e.what();
-        EXPECT_NE(std::string(e.what()).find("embedding.repetitions"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("embedding.repetitions"), std::string::npos)
+            << e.what();
     }
 }
 
-namespace {
+namespace
+{
 
 // The key text with \p edit applied to its content and the checksum recomputed (a genuine key
 // of another version, not a tampered one).
@@ -141,20 +145,25 @@ TEST(KeyTest, basis_and_centers_round_trip_and_old_keys_read_as_rbf_random)
 
     // Keys written before the fields existed: no "basis" (RBF), "centers" absent or "random".
     key.options.centers = CenterSelection::Random;
-    const Key old = parse_key(resigned(key, [](nlohmann::json& j) { j["embedding"].erase("basis"); }), "old.json");
+    const Key old = parse_key(
+        resigned(key, [](nlohmann::json& j) { j["embedding"].erase("basis"); }), "old.json");
     EXPECT_EQ(old.options.basis, BasisType::Rbf);
     EXPECT_EQ(old.options.centers, CenterSelection::Random);
-    const Key older = parse_key(resigned(key, [](nlohmann::json& j) {
-                                    j["embedding"].erase("basis");
-                                    j["embedding"].erase("centers");
-                                }),
+    const Key older = parse_key(resigned(key,
+                                         [](nlohmann::json& j)
+                                         {
+                                             j["embedding"].erase("basis");
+                                             j["embedding"].erase("centers");
+                                         }),
                                 "older.json");
     EXPECT_EQ(older.options.centers, CenterSelection::Random);
 
     // Unknown names are refused, naming the file.
     try
     {
-        (void)parse_key(resigned(key, [](nlohmann::json& j) { j["embedding"]["basis"] = "wavelet"; }), "w.json");
+        (void)parse_key(
+            resigned(key, [](nlohmann::json& j) { j["embedding"]["basis"] = "wavelet"; }),
+            "w.json");
         FAIL() << "unknown basis accepted";
     }
     catch (const IoError& e)
@@ -162,9 +171,10 @@ TEST(KeyTest, basis_and_centers_round_trip_and_old_keys_read_as_rbf_random)
         EXPECT_NE(std::string(e.what()).find("w.json"), std::string::npos);
         EXPECT_NE(std::string(e.what()).find("wavelet"), std::string::npos);
     }
-    EXPECT_THROW((void)parse_key(resigned(key, [](nlohmann::json& j) { j["embedding"]["centers"] = "grid"; }),
-                                 "g.json"),
-                 IoError);
+    EXPECT_THROW(
+        (void)parse_key(
+            resigned(key, [](nlohmann::json& j) { j["embedding"]["centers"] = "grid"; }), "g.json"),
+        IoError);
     EXPECT_EQ(parse_basis_type("laplacian"), BasisType::Laplacian);
     EXPECT_THROW((void)parse_center_selection("kmeans"), InvalidOption);
 }
@@ -199,14 +209,17 @@ TEST(KeyTest, strength_measure_round_trips_and_old_keys_read_as_the_vertex_measu
 
     // Keys written before the field existed meant the RMS vertex displacement.
     key.options.vertex_strength = 9.5e-4;
-    const Key old = parse_key(resigned(key, [](nlohmann::json& j) {
-                                  j["embedding"].erase("strength_measure");
-                                  j["embedding"].erase("vertex_strength");
-                              }),
+    const Key old = parse_key(resigned(key,
+                                       [](nlohmann::json& j)
+                                       {
+                                           j["embedding"].erase("strength_measure");
+                                           j["embedding"].erase("vertex_strength");
+                                       }),
                               "old.json");
     EXPECT_EQ(old.options.measure, StrengthMeasure::Vertex);
     EXPECT_DOUBLE_EQ(old.options.modulation_strength(), 6e-4);
-    EXPECT_THROW((void)parse_key(resigned(key, [](nlohmann::json& j) { j["embedding"]["strength_measure"] = "area"; }),
+    EXPECT_THROW((void)parse_key(resigned(key, [](nlohmann::json& j)
+                                          { j["embedding"]["strength_measure"] = "area"; }),
                                  "a.json"),
                  IoError);
     EXPECT_EQ(parse_strength_measure("vertex"), StrengthMeasure::Vertex);
@@ -226,7 +239,8 @@ TEST(KeyTest, gram_rows_round_trips_old_keys_mean_every_row_and_tiny_samples_are
     EXPECT_EQ(parse_key(to_json(key), "k.json").options.gram_rows, 123457);
 
     // Keys written before the field existed built the Gram matrix from every row.
-    const Key old = parse_key(resigned(key, [](nlohmann::json& j) { j["embedding"].erase("gram_rows"); }), "old.json");
+    const Key old = parse_key(
+        resigned(key, [](nlohmann::json& j) { j["embedding"].erase("gram_rows"); }), "old.json");
     EXPECT_EQ(old.options.gram_rows, 0);
 
     // At least 16 rows per basis function (80 here), or 0.
@@ -245,9 +259,10 @@ TEST(KeyTest, gram_rows_round_trips_old_keys_mean_every_row_and_tiny_samples_are
     }
     key.options.gram_rows = -1;
     EXPECT_THROW(key.options.validate(), InvalidOption);
-    EXPECT_THROW((void)parse_key(resigned(key, [](nlohmann::json& j) { j["embedding"]["gram_rows"] = 7; }),
-                                 "tiny.json"),
-                 IoError);
+    EXPECT_THROW(
+        (void)parse_key(resigned(key, [](nlohmann::json& j) { j["embedding"]["gram_rows"] = 7; }),
+                        "tiny.json"),
+        IoError);
 }
 
 TEST(KeyTest, tampered_truncated_or_foreign_keys_are_rejected_with_a_clear_message)
@@ -308,7 +323,9 @@ TEST(KeyTest, key_file_is_private_and_reads_back)
     const auto dir = test::temp_dir("key");
     const auto path = dir / "key.json";
     write_key(path, sample_key());
-    struct stat st{};
+    struct stat st
+    {
+    };
     ASSERT_EQ(::stat(path.c_str(), &st), 0);
     EXPECT_EQ(st.st_mode & 0777U, 0600U);
     EXPECT_EQ(read_key(path).seed, sample_key().seed);

@@ -1,8 +1,5 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/watermark/watermark.h"
-#include "meshmark/watermark/detector.h"
-
-#include <gtest/gtest.h>
 
 #include <algorithm>
 #include <array>
@@ -14,20 +11,24 @@
 
 #include <Eigen/Geometry>
 #include <Eigen/QR>
+#include <gtest/gtest.h>
 
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/rng.h"
 #include "meshmark/geometry/normals.h"
 #include "meshmark/geometry/shapes.h"
+#include "meshmark/watermark/detector.h"
 #include "support/test_shapes.h"
 #include "watermark/nuisance.h"
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
-Key make_key(const TriangleMesh& mesh, std::uint64_t seed, EmbeddingRule rule = EmbeddingRule::Additive,
-             double strength = -1.0)
+Key make_key(const TriangleMesh& mesh, std::uint64_t seed,
+             EmbeddingRule rule = EmbeddingRule::Additive, double strength = -1.0)
 {
     EmbedOptions options;
     options.rule = rule;
@@ -37,7 +38,8 @@ Key make_key(const TriangleMesh& mesh, std::uint64_t seed, EmbeddingRule rule = 
     return key;
 }
 
-Decision detect_positions(const SpectralWatermark& mark, const TriangleMesh& original, const Positions& suspect)
+Decision detect_positions(const SpectralWatermark& mark, const TriangleMesh& original,
+                          const Positions& suspect)
 {
     const DetectOptions options;
     return mark.decide(Detector(mark, original).extract(suspect, options), options);
@@ -57,8 +59,8 @@ Positions with_noise(const TriangleMesh& mesh, Positions P, std::uint64_t seed)
 
 bool same_extraction(const Extraction& a, const Extraction& b)
 {
-    return a.normalized_change == b.normalized_change && a.weights == b.weights && a.bit_values == b.bit_values &&
-           a.bits_found == b.bits_found;
+    return a.normalized_change == b.normalized_change && a.weights == b.weights &&
+           a.bit_values == b.bit_values && a.bits_found == b.bits_found;
 }
 
 }  // namespace
@@ -71,7 +73,8 @@ TEST(SpectralWatermarkTest, built_from_rows_and_frame_it_is_the_watermark_built_
     const Key key = make_key(mesh, 12);
     const SpectralWatermark from_mesh(mesh, key, 2);
     const std::vector<std::int32_t> active = referenced_vertices(mesh);
-    const SpectralWatermark from_rows(key, position_rows(mesh.V, active), canonical_frame(mesh.V, active), 2);
+    const SpectralWatermark from_rows(key, position_rows(mesh.V, active),
+                                      canonical_frame(mesh.V, active), 2);
     EXPECT_EQ(from_rows.centers(), from_mesh.centers());
     EXPECT_TRUE(from_rows.coefficient_change() == from_mesh.coefficient_change());
     const Positions marked = mesh.V + from_rows.displacement();
@@ -81,7 +84,8 @@ TEST(SpectralWatermarkTest, built_from_rows_and_frame_it_is_the_watermark_built_
     // Without the mesh there is no Laplacian basis and no decimation: refused, not half built.
     Key laplacian = key;
     laplacian.options.basis = BasisType::Laplacian;
-    EXPECT_THROW(SpectralWatermark(laplacian, position_rows(mesh.V, active), canonical_frame(mesh.V, active)),
+    EXPECT_THROW(SpectralWatermark(laplacian, position_rows(mesh.V, active),
+                                   canonical_frame(mesh.V, active)),
                  InvalidOption);
     // A detector refuses an original that is not the watermark's.
     const TriangleMesh other = lumpy_ellipsoid(3);
@@ -105,11 +109,13 @@ TEST(SpectralWatermarkTest, extraction_is_safe_from_several_threads_at_once)
     std::vector<std::thread> threads;
     for (int t = 0; t < kThreads; ++t)
     {
-        threads.emplace_back([&, t]() {
-            const auto slot = static_cast<std::size_t>(t);
-            found[slot] = detector.extract(noisy, options);
-            found_resampled[slot] = detector.extract_resampled(noisy, options);
-        });
+        threads.emplace_back(
+            [&, t]()
+            {
+                const auto slot = static_cast<std::size_t>(t);
+                found[slot] = detector.extract(noisy, options);
+                found_resampled[slot] = detector.extract_resampled(noisy, options);
+            });
     }
     for (auto& thread : threads)
     {
@@ -169,7 +175,8 @@ TEST(SpectralWatermarkTest, marked_copy_reads_back_all_bits_with_both_rules)
         // statistics: 3 weightings of the least squares and 2 damped readings.
         const int coefficients = 3 * modulated_modes(mark.key().options);
         EXPECT_EQ(decision.coefficient_count, coefficients);
-        EXPECT_NEAR(decision.score, std::sqrt(static_cast<double>(coefficients)), 1e-6) << to_string(rule);
+        EXPECT_NEAR(decision.score, std::sqrt(static_cast<double>(coefficients)), 1e-6)
+            << to_string(rule);
         EXPECT_EQ(decision.verdict, VerdictRule::Combined);
         EXPECT_NEAR(decision.false_positive_probability /
                         std::min(5.0 * decision.score_tail * 16.0 / 15.0, 16.0 * std::pow(0.5, 24)),
@@ -198,10 +205,12 @@ TEST(SpectralWatermarkTest, additive_strength_is_the_rms_displacement_in_diagona
     key.options.measure = StrengthMeasure::Surface;
     key.options.vertex_strength = 1.5e-3;
     const Positions calibrated = SpectralWatermark(mesh, key).displacement();
-    EXPECT_NEAR(std::sqrt(calibrated.rowwise().squaredNorm().mean()) / mark.frame().diagonal, 1.5e-3, 1e-9);
+    EXPECT_NEAR(std::sqrt(calibrated.rowwise().squaredNorm().mean()) / mark.frame().diagonal,
+                1.5e-3, 1e-9);
     key.options.vertex_strength = -1.0;
     const Positions nominal = SpectralWatermark(mesh, key).displacement();
-    EXPECT_NEAR(std::sqrt(nominal.rowwise().squaredNorm().mean()) / mark.frame().diagonal, std::sqrt(3.0) * 2e-3, 1e-9);
+    EXPECT_NEAR(std::sqrt(nominal.rowwise().squaredNorm().mean()) / mark.frame().diagonal,
+                std::sqrt(3.0) * 2e-3, 1e-9);
 }
 
 TEST(SpectralWatermarkTest, zero_strength_reproduces_the_input)
@@ -253,7 +262,8 @@ TEST(SpectralWatermarkTest, each_bit_is_spread_over_r_coefficients_with_independ
         const int bit = key.payload[static_cast<std::size_t>(c % 24)];
         const double expected = (bit ^ mask[static_cast<std::size_t>(c)]) != 0 ? 1.0 : -1.0;
         EXPECT_EQ(mark.embedded_signs()(c / 3, c % 3), expected) << c;
-        differing_copies += mark.embedded_signs()(c / 3, c % 3) != mark.embedded_signs()((c % 24) / 3, c % 3);
+        differing_copies +=
+            mark.embedded_signs()(c / 3, c % 3) != mark.embedded_signs()((c % 24) / 3, c % 3);
     }
     EXPECT_GT(differing_copies, 10);  // copies of one bit do not share a sign pattern
     const DetectOptions options;
@@ -297,7 +307,8 @@ TEST(SpectralWatermarkTest, automatic_repetitions_lengthen_the_mark_on_large_mes
             Key family = make_key(mesh, 8);
             family.recipients = RecipientCodes{};
             family.recipients->recipients.push_back({"a", 0});
-            EXPECT_EQ(SpectralWatermark(mesh, family).key().options.repetitions, kFamilyRepetitions);
+            EXPECT_EQ(SpectralWatermark(mesh, family).key().options.repetitions,
+                      kFamilyRepetitions);
         }
     }
 }
@@ -335,9 +346,9 @@ TEST(SpectralWatermarkTest, scores_of_unmarked_copies_follow_the_null_model)
     // The best of three N(0, 1) scores: mean about 0.6 when they are correlated as here.
     EXPECT_GT(sum / trials, 0.0);
     EXPECT_LT(sum / trials, 1.2);
-    EXPECT_GT(positive, trials / 3);         // the scores are not degenerate
-    EXPECT_LE(below_half, 60 + 17);          // alpha = 0.5: at most 60 expected, + 3 sigma
-    EXPECT_LE(below_tenth, 12 + 10);         // alpha = 0.1: at most 12 expected, + 3 sigma
+    EXPECT_GT(positive, trials / 3);  // the scores are not degenerate
+    EXPECT_LE(below_half, 60 + 17);   // alpha = 0.5: at most 60 expected, + 3 sigma
+    EXPECT_LE(below_tenth, 12 + 10);  // alpha = 0.1: at most 12 expected, + 3 sigma
     EXPECT_EQ(claimed, 0);
 }
 
@@ -355,7 +366,8 @@ Extraction unit_weight_extraction(const SpectralWatermark& mark, Value value)
     for (std::size_t c = 0; c < coefficients; ++c)
     {
         e.normalized_change.push_back(
-            value(c, mark.embedded_signs()(static_cast<Eigen::Index>(c / 3), static_cast<Eigen::Index>(c % 3))));
+            value(c, mark.embedded_signs()(static_cast<Eigen::Index>(c / 3),
+                                           static_cast<Eigen::Index>(c % 3))));
     }
     return e;
 }
@@ -364,7 +376,8 @@ TEST(SpectralWatermarkTest, soft_verdict_claims_every_sign_right_with_uneven_mag
 {
     const TriangleMesh mesh = lumpy_ellipsoid(4);
     const SpectralWatermark mark(mesh, make_key(mesh, 9));
-    Extraction e = unit_weight_extraction(mark, [](std::size_t c, double sign) { return sign * (c % 7 == 0 ? 30.0 : 0.2); });
+    Extraction e = unit_weight_extraction(
+        mark, [](std::size_t c, double sign) { return sign * (c % 7 == 0 ? 30.0 : 0.2); });
     e.bits_found.assign(mark.key().payload.size(), 2);  // no bit decided: the score alone
     DetectOptions correlation;
     correlation.verdict = VerdictRule::Correlation;
@@ -372,7 +385,8 @@ TEST(SpectralWatermarkTest, soft_verdict_claims_every_sign_right_with_uneven_mag
     EXPECT_LT(soft.score, 5.0);
     EXPECT_GT(3.0 * rademacher_tail_bound(soft.score), 1e-6) << "the formula alone refuses";
     EXPECT_TRUE(soft.is_present);
-    // (Measured: z 3.89, tail 1.3e-29: the 14 large coefficients and nearly every small one must agree.)
+    // (Measured: z 3.89, tail 1.3e-29: the 14 large coefficients and nearly every small one must
+    // agree.)
     EXPECT_LT(soft.score_tail, 1e-15);
     EXPECT_TRUE(mark.decide(e, DetectOptions{}).is_present);
 }
@@ -428,7 +442,9 @@ TEST(DampedReadingsTest, shrink_the_least_squares_and_ignore_the_nuisance)
     {
         EXPECT_LT((readings[l] - x / (1.0 + detail::kDampingLevels[l])).norm(), 1e-12) << l;
     }
-    EXPECT_TRUE(detail::damped_readings(Eigen::MatrixXd::Zero(rows, modulated + fields), modulated, target).empty());
+    EXPECT_TRUE(
+        detail::damped_readings(Eigen::MatrixXd::Zero(rows, modulated + fields), modulated, target)
+            .empty());
 }
 
 // Half the model cropped away (the registration marks those rows; 96 coefficients): the
@@ -481,7 +497,8 @@ TEST(DampedReadingsTest, a_half_model_scores_higher_damped)
     EXPECT_EQ(plain.statistic_count, 3);
     // (Measured: 5.15 against 1.45. The marked positions are kept whole, not projected on the
     // normals as a resampling would, so the tangential part of the mark is noise here.)
-    EXPECT_GT(damped.score, plain.score + 2.5) << "damped " << damped.score << ", plain " << plain.score;
+    EXPECT_GT(damped.score, plain.score + 2.5)
+        << "damped " << damped.score << ", plain " << plain.score;
     // Without a damped reading the flag cannot leave the verdict without statistics.
     extraction.damped_only = true;
     const Decision fallback = mark.decide(extraction, options);
@@ -509,13 +526,16 @@ TEST(FurtherReadingTest, another_reading_adds_its_statistics)
     EXPECT_EQ(primary.further_changes[3], (std::vector<double>{0.5, 0.5, 0.5}));
     EXPECT_TRUE(primary.further_recipient_changes.empty()) << "no code read, nothing to pair";
     // The verdict counts them: 3 weightings + 4 further readings.
-    EXPECT_EQ(SoftCorrelation(primary.normalized_change, primary.weights, primary.further_changes).statistic_count(), 7);
+    EXPECT_EQ(SoftCorrelation(primary.normalized_change, primary.weights, primary.further_changes)
+                  .statistic_count(),
+              7);
     // The other reading's weightings are recorded, so a verdict on damped readings alone can
     // leave them out; without the weightings only the further readings count.
     EXPECT_EQ(primary.further_weightings, (std::vector<std::size_t>{0, 1, 2}));
-    EXPECT_EQ(SoftCorrelation(primary.normalized_change, primary.weights, primary.further_changes, false)
-                  .statistic_count(),
-              4);
+    EXPECT_EQ(
+        SoftCorrelation(primary.normalized_change, primary.weights, primary.further_changes, false)
+            .statistic_count(),
+        4);
 
     // With a family code read: the code's part is paired, zeros where the other reading has none.
     Extraction family;
@@ -563,7 +583,8 @@ TEST(FurtherReadingTest, joins_two_readings_damping_level_by_level_and_all_toget
     EXPECT_EQ(joined_reading_count(2), 3);
     EXPECT_EQ(joined_reading_count(1), 1);
     EXPECT_EQ(joined_reading_count(0), 0);
-    const auto near = [](const std::vector<double>& a, const std::vector<double>& b) {
+    const auto near = [](const std::vector<double>& a, const std::vector<double>& b)
+    {
         ASSERT_EQ(a.size(), b.size());
         for (std::size_t c = 0; c < a.size(); ++c)
         {
@@ -607,9 +628,11 @@ TEST(FurtherReadingTest, joins_two_readings_damping_level_by_level_and_all_toget
     }
     const std::vector<double> zeros(n, 0.0);
     const SoftScore alone =
-        SoftCorrelation(zeros, a.weights, {a.further_changes[0], b.further_changes[0]}, false).score(signs_of);
+        SoftCorrelation(zeros, a.weights, {a.further_changes[0], b.further_changes[0]}, false)
+            .score(signs_of);
     add_further_reading(a, b);
-    std::vector<std::vector<double>> damped = {a.further_changes[0], a.further_changes[4], a.further_changes[5]};
+    std::vector<std::vector<double>> damped = {a.further_changes[0], a.further_changes[4],
+                                               a.further_changes[5]};
     const SoftScore joined = SoftCorrelation(zeros, a.weights, damped, false).score(signs_of);
     EXPECT_GT(joined.z, alone.z + 1.0);
     EXPECT_LT(joined.probability, 1e-3 * alone.probability);
@@ -622,7 +645,8 @@ TEST(FurtherReadingTest, unread_statistics_are_paid_for)
     const TriangleMesh mesh = lumpy_ellipsoid(4);
     const SpectralWatermark mark(mesh, make_key(mesh, 5), 1);
     Extraction extraction =
-        Detector(mark, mesh).extract(with_noise(mesh, mesh.V + mark.displacement(), 3), DetectOptions{});
+        Detector(mark, mesh)
+            .extract(with_noise(mesh, mesh.V + mark.displacement(), 3), DetectOptions{});
     const DetectOptions decide_options;
     const Decision read = mark.decide(extraction, decide_options);
     extraction.unread_statistics = 5;
@@ -630,7 +654,8 @@ TEST(FurtherReadingTest, unread_statistics_are_paid_for)
     EXPECT_EQ(paid.score, read.score);
     EXPECT_EQ(paid.statistic_count, read.statistic_count + 5);
     EXPECT_EQ(paid.score_tail, read.score_tail);
-    EXPECT_DOUBLE_EQ(paid.score_false_positive_probability, std::min(1.0, paid.statistic_count * paid.score_tail));
+    EXPECT_DOUBLE_EQ(paid.score_false_positive_probability,
+                     std::min(1.0, paid.statistic_count * paid.score_tail));
     EXPECT_GT(paid.score_false_positive_probability, read.score_false_positive_probability);
     EXPECT_DOUBLE_EQ(score_level_factor(VerdictRule::Combined), 16.0 / 15.0);
     EXPECT_EQ(score_level_factor(VerdictRule::Correlation), 1.0);
@@ -651,7 +676,8 @@ TEST(RowWeightsTest, rows_moved_far_by_an_attack_count_less)
     const Positions normals = vertex_normals(mesh);
     const DetectOptions options;
     const Detector detector(mark, mesh);
-    auto attacked = [&](const Positions& field) {
+    auto attacked = [&](const Positions& field)
+    {
         // What a resampling keeps (the normal component), then 16 amplitudes off on every 4th row.
         Positions resampled = mesh.V;
         Rng rng(5);
@@ -666,16 +692,20 @@ TEST(RowWeightsTest, rows_moved_far_by_an_attack_count_less)
     const Positions marked = attacked(displacement);
     const double scale = 3.0 * amplitude;
     const Decision plain = mark.decide(detector.extract_resampled(marked, options), options);
-    const Decision weighted = mark.decide(detector.extract_resampled(marked, options, nullptr, scale), options);
+    const Decision weighted =
+        mark.decide(detector.extract_resampled(marked, options, nullptr, scale), options);
     EXPECT_FALSE(plain.is_present) << plain.score;
     EXPECT_TRUE(weighted.is_present) << weighted.score;
     // (Measured: 7.54 against 4.21.)
-    EXPECT_GT(weighted.score, plain.score + 2.0) << "weighted " << weighted.score << ", plain " << plain.score;
-    EXPECT_EQ(mark.decide(detector.extract_resampled(marked, options, nullptr, 0.0), options).score, plain.score);
+    EXPECT_GT(weighted.score, plain.score + 2.0)
+        << "weighted " << weighted.score << ", plain " << plain.score;
+    EXPECT_EQ(mark.decide(detector.extract_resampled(marked, options, nullptr, 0.0), options).score,
+              plain.score);
     EXPECT_DOUBLE_EQ(row_weight(scale, scale), 0.5);
 
     const Positions unmarked = attacked(Positions::Zero(mesh.V.rows(), 3));
-    EXPECT_FALSE(mark.decide(detector.extract_resampled(unmarked, options, nullptr, scale), options).is_present);
+    EXPECT_FALSE(mark.decide(detector.extract_resampled(unmarked, options, nullptr, scale), options)
+                     .is_present);
     EXPECT_THROW((void)detector.extract_resampled(marked, options, nullptr, -1.0), InvalidOption);
 }
 
@@ -685,12 +715,15 @@ TEST(SpectralWatermarkTest, bits_verdict_is_the_papers_rule)
     const SpectralWatermark mark(mesh, make_key(mesh, 8));
     DetectOptions options;
     options.verdict = VerdictRule::Bits;
-    const Decision d = mark.decide(Detector(mark, mesh).extract(mesh.V + mark.displacement(), options), options);
+    const Decision d =
+        mark.decide(Detector(mark, mesh).extract(mesh.V + mark.displacement(), options), options);
     EXPECT_TRUE(d.is_present);
     EXPECT_EQ(d.verdict, VerdictRule::Bits);
     EXPECT_EQ(d.false_positive_probability, d.bits_false_positive_probability);
     options.threshold = 1.0;
-    EXPECT_TRUE(mark.decide(Detector(mark, mesh).extract(mesh.V + mark.displacement(), options), options).is_present);
+    EXPECT_TRUE(
+        mark.decide(Detector(mark, mesh).extract(mesh.V + mark.displacement(), options), options)
+            .is_present);
     EXPECT_FALSE(mark.decide(Detector(mark, mesh).extract(mesh.V, options), options).is_present);
     EXPECT_EQ(parse_verdict_rule("bits"), VerdictRule::Bits);
     EXPECT_EQ(parse_verdict_rule(to_string(VerdictRule::Correlation)), VerdictRule::Correlation);
@@ -715,7 +748,8 @@ TEST(SpectralWatermarkTest, same_message_under_another_key_is_not_claimed)
         const SpectralWatermark other(mesh, other_key);
         sum += detect_positions(mark, mesh, mesh.V + other.displacement()).correlation;
     }
-    // Without the key-derived mask this would be near 1 (docs/algorithms/embedding.md, "Payload bits").
+    // Without the key-derived mask this would be near 1 (docs/algorithms/embedding.md, "Payload
+    // bits").
     EXPECT_LT(sum / trials, 0.6);
 }
 
@@ -752,7 +786,8 @@ TEST(SpectralWatermarkTest, unreferenced_vertices_never_move_and_point_clouds_wo
     TriangleMesh cloud = lumpy_ellipsoid(3);
     cloud.F.resize(0, 3);
     const SpectralWatermark cloud_mark(cloud, make_key(cloud, 2));
-    EXPECT_DOUBLE_EQ(detect_positions(cloud_mark, cloud, cloud.V + cloud_mark.displacement()).correlation, 1.0);
+    EXPECT_DOUBLE_EQ(
+        detect_positions(cloud_mark, cloud, cloud.V + cloud_mark.displacement()).correlation, 1.0);
 }
 
 TEST(SpectralWatermarkTest, noise_and_smoothing_keep_the_mark)
@@ -786,7 +821,7 @@ TEST(SpectralWatermarkTest, a_mesh_spanning_few_modes_gets_a_shorter_mark_or_a_c
     const Positions marked = plate.V + mark.displacement(&stats);
     const EmbedOptions& options = mark.key().options;
     EXPECT_TRUE(stats.shortened_to_span);
-    EXPECT_LT(stats.basis_span, 44);  // the usual mark below 5,000 vertices: modes 12-43
+    EXPECT_LT(stats.basis_span, 44);    // the usual mark below 5,000 vertices: modes 12-43
     EXPECT_GE(options.repetitions, 2);  // one would be claimed only in the vertex order
     EXPECT_LT(options.repetitions, 4);
     EXPECT_LE(options.first_mode + modulated_modes(options), stats.basis_span);
@@ -809,7 +844,8 @@ TEST(SpectralWatermarkTest, a_mesh_spanning_few_modes_gets_a_shorter_mark_or_a_c
     catch (const NumericalError& e)
     {
         const std::string what = e.what();
-        EXPECT_NE(what.find("span only " + std::to_string(stats.basis_span) + " independent modes"), std::string::npos)
+        EXPECT_NE(what.find("span only " + std::to_string(stats.basis_span) + " independent modes"),
+                  std::string::npos)
             << what;
         EXPECT_NE(what.find("needs 44"), std::string::npos) << what;
         EXPECT_NE(what.find("--repetitions"), std::string::npos) << what;
@@ -821,7 +857,8 @@ TEST(SpectralWatermarkTest, a_mesh_spanning_few_modes_gets_a_shorter_mark_or_a_c
     EmbedStats full_stats;
     (void)full.displacement(&full_stats);
     EXPECT_FALSE(full_stats.shortened_to_span);
-    EXPECT_EQ(full.key().options.repetitions, automatic_repetitions(full.key().options, ellipsoid.V.rows()));
+    EXPECT_EQ(full.key().options.repetitions,
+              automatic_repetitions(full.key().options, ellipsoid.V.rows()));
     EXPECT_GE(full_stats.basis_span, 44);
 }
 
@@ -864,10 +901,12 @@ TEST(RademacherTailTest, is_the_binomial_tail_for_equal_weights)
             EXPECT_LE(tail(z), binomial_tail_half(n, k - 1) * (1.0 + 1e-8)) << n << " " << k;
             if (k < n)
             {
-                EXPECT_NEAR(tail(z + 0.03) / binomial_tail_half(n, k + 1), 1.0, 1e-8) << n << " " << k;
+                EXPECT_NEAR(tail(z + 0.03) / binomial_tail_half(n, k + 1), 1.0, 1e-8)
+                    << n << " " << k;
             }
         }
-        EXPECT_EQ(tail(std::sqrt(static_cast<double>(n)) + 0.03), 0.0) << "beyond every sign agreeing";
+        EXPECT_EQ(tail(std::sqrt(static_cast<double>(n)) + 0.03), 0.0)
+            << "beyond every sign agreeing";
     }
     // 120 coefficients at z = 5: P(Bin(120, 1/2) >= 88) = 1.5e-7 against the formula's 1.3e-6.
     const RademacherTail tail(std::vector<double>(120, 1.0));
@@ -907,8 +946,10 @@ TEST(RademacherTailTest, brackets_the_exact_tail_of_any_weights)
             }
             sums.push_back(sum / std::sqrt(norm_sq));
         }
-        auto exact = [&](double z) {
-            return static_cast<double>(std::count_if(sums.begin(), sums.end(), [z](double s) { return s >= z; })) /
+        auto exact = [&](double z)
+        {
+            return static_cast<double>(
+                       std::count_if(sums.begin(), sums.end(), [z](double s) { return s >= z; })) /
                    static_cast<double>(sums.size());
         };
         const RademacherTail tail(a);
@@ -947,7 +988,8 @@ TEST(RademacherTailTest, agrees_with_sampled_signs_for_48_normal_weights)
     const std::array<double, 2> levels{1e-3, 1e-4};
     std::array<double, 2> at{score_at(levels[0]), score_at(levels[1])};
     std::array<double, 2> hits{};
-    std::array<double, 2> hits_up{};  // at z + 0.021: the counted tail there bounds these from above
+    std::array<double, 2>
+        hits_up{};  // at z + 0.021: the counted tail there bounds these from above
     const double norm = std::sqrt(norm_sq);
     constexpr int kDraws = 4'000'000;
     for (int d = 0; d < kDraws; ++d)
@@ -969,11 +1011,13 @@ TEST(RademacherTailTest, agrees_with_sampled_signs_for_48_normal_weights)
     {
         const double p = tail(at[l]);
         const double sigma = std::sqrt(p * kDraws);
-        EXPECT_LE(hits[l], p * kDraws + 4.0 * sigma) << "the counted tail is below the sampled share at " << at[l];
+        EXPECT_LE(hits[l], p * kDraws + 4.0 * sigma)
+            << "the counted tail is below the sampled share at " << at[l];
         // One resolution up, the exact tail is at most the counted one here: the sampled share
         // there may not exceed it, and the counted tail must not be far above the share below.
         EXPECT_LE(hits_up[l], p * kDraws + 4.0 * sigma);
-        EXPECT_GE(hits[l], tail(at[l] + 0.021) * kDraws - 4.0 * sigma) << "the counted tail is loose at " << at[l];
+        EXPECT_GE(hits[l], tail(at[l] + 0.021) * kDraws - 4.0 * sigma)
+            << "the counted tail is loose at " << at[l];
     }
 }
 
@@ -1035,8 +1079,10 @@ TEST(BinomialTest, tail_matches_direct_sums)
 
 }  // namespace meshmark
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 Key laplacian_key(const TriangleMesh& mesh, std::uint64_t seed)
 {
@@ -1068,15 +1114,18 @@ TEST(LaplacianWatermarkTest, marked_copy_is_found_and_unmarked_or_wrong_key_is_n
     EXPECT_FALSE(detect_positions(mark, mesh, mesh.V).is_present);
     // Through the resampled path (registration's extraction) as well.
     const DetectOptions options;
-    EXPECT_TRUE(mark.decide(Detector(mark, mesh).extract_resampled(marked, options), options).is_present);
-    EXPECT_FALSE(mark.decide(Detector(mark, mesh).extract_resampled(mesh.V, options), options).is_present);
+    EXPECT_TRUE(
+        mark.decide(Detector(mark, mesh).extract_resampled(marked, options), options).is_present);
+    EXPECT_FALSE(
+        mark.decide(Detector(mark, mesh).extract_resampled(mesh.V, options), options).is_present);
     for (std::uint64_t seed = 500; seed < 503; ++seed)
     {
         const SpectralWatermark other(mesh, laplacian_key(mesh, seed));
         EXPECT_FALSE(detect_positions(other, mesh, marked).is_present) << seed;
     }
     // An RBF key with the same seed does not read the Laplacian mark.
-    EXPECT_FALSE(detect_positions(SpectralWatermark(mesh, make_key(mesh, 42)), mesh, marked).is_present);
+    EXPECT_FALSE(
+        detect_positions(SpectralWatermark(mesh, make_key(mesh, 42)), mesh, marked).is_present);
 }
 
 TEST(LaplacianWatermarkTest, noise_keeps_the_mark_and_point_clouds_are_refused)
@@ -1103,14 +1152,17 @@ TEST(DecimatedCentersWatermarkTest, centers_do_not_depend_on_the_seed_and_the_ma
     EXPECT_EQ(static_cast<int>(mark_a.centers().size()), a.options.basis_size);
     const Positions marked = mesh.V + mark_a.displacement();
     EXPECT_TRUE(detect_positions(mark_a, mesh, marked).is_present);
-    EXPECT_FALSE(detect_positions(mark_b, mesh, marked).is_present) << "the payload mask still depends on the key";
+    EXPECT_FALSE(detect_positions(mark_b, mesh, marked).is_present)
+        << "the payload mask still depends on the key";
     EXPECT_FALSE(detect_positions(mark_a, mesh, mesh.V).is_present);
 }
 
 }  // namespace meshmark
 
-namespace meshmark {
-namespace {
+namespace meshmark
+{
+namespace
+{
 
 // A family key of \p count recipients r0, r1, ... on \p mesh.
 Key family_key(const TriangleMesh& mesh, std::uint64_t seed, std::uint32_t count)
@@ -1188,12 +1240,14 @@ TEST(SpectralWatermarkTest, joint_reading_shows_ownership_that_neither_part_show
         extraction.bits_found.assign(key.payload.size(), 2);  // the bits play no part here
         for (Eigen::Index c = 0; c < owner.size(); ++c)
         {
-            extraction.normalized_change.push_back(0.5 * amplitude * owner(c / 3, c % 3) + rng.normal());
+            extraction.normalized_change.push_back(0.5 * amplitude * owner(c / 3, c % 3) +
+                                                   rng.normal());
             extraction.weights.push_back(1.0);
         }
         for (std::size_t c = 0; c < n; ++c)
         {
-            extraction.recipient_change.push_back(0.5 * amplitude * (code[c] != 0 ? 1.0 : -1.0) + rng.normal());
+            extraction.recipient_change.push_back(0.5 * amplitude * (code[c] != 0 ? 1.0 : -1.0) +
+                                                  rng.normal());
             extraction.recipient_weights.push_back(1.0);
         }
         const Decision decision = mark.decide(extraction, options);
@@ -1215,7 +1269,8 @@ TEST(SpectralWatermarkTest, joint_reading_shows_ownership_that_neither_part_show
             EXPECT_GT(scores[3].joint_score, decision.score);
             EXPECT_GT(scores[3].joint_score, scores[3].score);
             EXPECT_LT(scores[3].joint_false_positive_probability, options.max_false_positive)
-                << "joint z " << scores[3].joint_score << ", owner " << decision.score << ", code " << scores[3].score;
+                << "joint z " << scores[3].joint_score << ", owner " << decision.score << ", code "
+                << scores[3].score;
         }
         else
         {
@@ -1227,7 +1282,8 @@ TEST(SpectralWatermarkTest, joint_reading_shows_ownership_that_neither_part_show
 
 }  // namespace meshmark
 
-namespace meshmark {
+namespace meshmark
+{
 
 // A recipient's code read back only by a damped reading (the least squares' values are noise):
 // the trace scores the damped reading as a further statistic, accuses that recipient and pays 5
@@ -1277,10 +1333,12 @@ TEST(DampedReadingsTest, a_code_read_only_damped_accuses_its_recipient)
         if (with_damped)
         {
             EXPECT_GT(scores[7].score, 10.0);
-            // 20 recipients times the 5 statistics' smallest tail, each statistic's weights counted.
+            // 20 recipients times the 5 statistics' smallest tail, each statistic's weights
+            // counted.
             const SoftCorrelation soft(extraction.recipient_change, extraction.recipient_weights,
                                        extraction.further_recipient_changes);
-            const SoftScore own = soft.score([&](std::size_t c) { return code[c] != 0 ? 1.0 : -1.0; });
+            const SoftScore own =
+                soft.score([&](std::size_t c) { return code[c] != 0 ? 1.0 : -1.0; });
             EXPECT_EQ(own.z, scores[7].score);
             EXPECT_NEAR(scores[7].false_positive_probability / (20.0 * 5.0 * own.tail), 1.0, 1e-12);
             EXPECT_LT(own.tail, 1e-3 * rademacher_tail_bound(own.z));
