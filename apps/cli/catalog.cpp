@@ -15,6 +15,7 @@
 #include "commands.h"
 #include "meshmark/catalog/catalog_add.h"
 #include "meshmark/catalog/catalog_json.h"
+#include "meshmark/catalog/catalog_reindex.h"
 #include "meshmark/catalog/catalog_scan.h"
 #include "meshmark/core/atomic_file.h"
 #include "meshmark/core/error.h"
@@ -44,6 +45,7 @@ struct CatalogArgs
     int jobs = 0;
     int candidates = CatalogScanOptions{}.candidates;
     bool all_candidates = false;
+    bool all = false;  // reindex: every asset
     double max_false_positive = DetectOptions{}.max_false_positive;
     double lock_timeout = std::chrono::duration<double>(kDefaultLockTimeout).count();
     // add: the watermark's parameters
@@ -103,6 +105,35 @@ int run_add(const CatalogArgs& args, const GlobalArgs& global)
                      args.catalog.c_str());
     }
     return counts[3] > 0 ? static_cast<int>(ExitCode::InvalidInput) : 0;
+}
+
+int run_reindex(const CatalogArgs& args, const GlobalArgs& global)
+{
+    CatalogReindexOptions options;
+    options.all = args.all;
+    options.threads = global.threads;
+    Catalog catalog(args.catalog, Catalog::Open::Existing, lock_timeout_of(args.lock_timeout));
+    const auto outcomes = with_progress("meshmark catalog reindex", global.quiet, options.progress,
+                                        [&] { return catalog_reindex(catalog, options); });
+    if (args.json)
+    {
+        print_json(catalog_reindex_json(catalog, outcomes));
+    }
+    int counts[3] = {0, 0, 0};
+    for (const CatalogReindexOutcome& o : outcomes)
+    {
+        ++counts[static_cast<int>(o.status)];
+        if (!global.quiet && o.status == CatalogReindexOutcome::Status::Failed)
+        {
+            std::fprintf(stderr, "meshmark: %s: %s\n", o.asset.c_str(), o.reason.c_str());
+        }
+    }
+    if (!global.quiet)
+    {
+        std::fprintf(stderr, "meshmark: %zu assets: %d updated, %d already current, %d failed\n",
+                     outcomes.size(), counts[1], counts[0], counts[2]);
+    }
+    return counts[2] > 0 ? static_cast<int>(ExitCode::InvalidInput) : 0;
 }
 
 int run_list(const CatalogArgs& args, const GlobalArgs& /*global*/)
@@ -484,6 +515,16 @@ void register_catalog(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     add_global_flags(*scan, global);
     scan->callback([args, &global, &runner]
                    { runner = [args, &global] { return run_scan(*args, global); }; });
+
+    auto* reindex = catalog->add_subcommand(
+        "reindex", "Recompute from the originals the shape signatures an older build wrote");
+    reindex->add_option("CATALOG", args->catalog, "Catalogue file")->required();
+    reindex->add_flag("--all", args->all, "Recompute every asset's signature");
+    add_lock_timeout(*reindex, *args);
+    reindex->add_flag("--json", args->json, "Print every asset's outcome as JSON on stdout");
+    add_global_flags(*reindex, global);
+    reindex->callback([args, &global, &runner]
+                      { runner = [args, &global] { return run_reindex(*args, global); }; });
 
     auto* exported =
         catalog->add_subcommand("export", "Write an asset's key as a key file (detect --key)");

@@ -12,7 +12,7 @@
        complete (killed between the copy's rename and the `complete` mark) is the copy the
        run to the end leaves, byte for byte;
    each run to the end reports every file marked or present, and a further add of the first
-   catalogue only "present".
+   catalogue only "present"; `catalog reindex --all` writes every signature again, byte for byte.
 2. --issuers `catalog issue` processes at once on one asset, each a name of its own and one
    shared name: every call exits 0 and the catalogue holds every name once, codes distinct.
    Then an issue and a scan are killed with SIGKILL: every visible copy's name is recorded, and
@@ -31,6 +31,7 @@ import os
 import random
 import shutil
 import signal
+import sqlite3
 import subprocess
 import sys
 import tempfile
@@ -152,6 +153,14 @@ def main():
         summary["problems"] += problems
         summary["problems"] += [f"left not complete: {p}" for p in interrupted]
         summary["assets"] = total
+        # `catalog reindex --all` recomputes every signature from the originals: the same bytes.
+        with sqlite3.connect(catalog) as db:
+            before = dict(db.execute("SELECT id, shape FROM assets"))
+        reindexed = json.loads(run(args.cli, "catalog", "reindex", catalog, "--all", "--json", "-q").stdout)
+        with sqlite3.connect(catalog) as db:
+            after = dict(db.execute("SELECT id, shape FROM assets"))
+        if reindexed["counts"] != {"current": 0, "failed": 0, "updated": len(MESHES)} or before != after:
+            summary["problems"].append(f"reindex --all: {reindexed['counts']}, same signatures: {before == after}")
         # 2. Issuers at once on one asset.
         procs = [subprocess.Popen([args.cli, "catalog", "issue", catalog, "spot.obj", "--recipient", f"buyer{i}",
                                    "--recipient", "everyone", "-o", str(work / "copies" / "{recipient}.obj"), "-q"],

@@ -385,6 +385,27 @@ std::vector<Catalog::IndexEntry> Catalog::shape_index() const
         });
 }
 
+void Catalog::set_shape(const std::string& id, const ShapeSignature& signature)
+{
+    const std::lock_guard lock(impl_->mutex);
+    impl_->guarded(
+        "change",
+        [&]
+        {
+            SQLite::Transaction transaction(*impl_->db, SQLite::TransactionBehavior::IMMEDIATE);
+            SQLite::Statement set(*impl_->db, "UPDATE assets SET shape = ? WHERE id = ?");
+            const std::vector<std::uint8_t> shape = signature.to_bytes();
+            set.bind(1, shape.data(), static_cast<int>(shape.size()));
+            set.bind(2, id);
+            if (set.exec() == 0)
+            {
+                throw InvalidOption(impl_->path.string() + ": no asset '" + id +
+                                    "' in the catalogue.");
+            }
+            transaction.commit();
+        });
+}
+
 void Catalog::remove(const std::string& id)
 {
     const std::lock_guard lock(impl_->mutex);

@@ -36,6 +36,26 @@ nlohmann::json catalog_add_json(const Catalog& catalog,
     return {{"catalog", catalog.path().string()}, {"files", std::move(files)}, {"counts", counts}};
 }
 
+nlohmann::json catalog_reindex_json(const Catalog& catalog,
+                                    const std::vector<CatalogReindexOutcome>& outcomes)
+{
+    nlohmann::json assets = nlohmann::json::array();
+    std::map<std::string, int> counts = {{"current", 0}, {"updated", 0}, {"failed", 0}};
+    for (const CatalogReindexOutcome& o : outcomes)
+    {
+        nlohmann::json asset = {
+            {"asset", o.asset}, {"outcome", to_string(o.status)}, {"seconds", o.seconds}};
+        if (!o.reason.empty())
+        {
+            asset["reason"] = o.reason;
+        }
+        ++counts[to_string(o.status)];
+        assets.push_back(std::move(asset));
+    }
+    return {
+        {"catalog", catalog.path().string()}, {"assets", std::move(assets)}, {"counts", counts}};
+}
+
 nlohmann::json catalog_asset_json(const CatalogAsset& asset,
                                   const std::vector<CatalogRecipient>& recipients)
 {

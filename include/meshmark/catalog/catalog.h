@@ -108,6 +108,9 @@ public:
     /// The shape index of every recorded asset, an interrupted add's included: its key is
     /// recorded before its copy is written, so a copy the interruption left on disk is traced.
     [[nodiscard]] std::vector<IndexEntry> shape_index() const;
+    /// \brief Store \p signature as asset \p id's shape (catalog_reindex), in one transaction.
+    /// \throws InvalidOption when there is no such asset.
+    void set_shape(const std::string& id, const ShapeSignature& signature);
 
     /// \brief The family key of asset \p id as a FamilyKeyStore (embed_recipients): change()
     /// is one immediate transaction. A store for a new asset (\p prototype given) records the

@@ -7,6 +7,7 @@
 
 #include "meshmark/catalog/catalog.h"
 #include "meshmark/catalog/catalog_add.h"
+#include "meshmark/catalog/catalog_reindex.h"
 #include "meshmark/catalog/catalog_scan.h"
 
 namespace meshmark
@@ -16,6 +17,11 @@ namespace meshmark
 /// "published"?, "vertices", "seconds"}], "counts": {"marked", "present", "unmarkable", "failed"}}.
 [[nodiscard]] nlohmann::json catalog_add_json(const Catalog& catalog,
                                               const std::vector<CatalogAddOutcome>& outcomes);
+
+/// `catalog reindex --json`: {"catalog", "assets": [{"asset", "outcome", "seconds", "reason"
+/// (failed)}], "counts": {"current", "updated", "failed"}}.
+[[nodiscard]] nlohmann::json catalog_reindex_json(
+    const Catalog& catalog, const std::vector<CatalogReindexOutcome>& outcomes);
 
 /// One asset of `catalog list --json` (no key material): {"asset", "original", "original_sha256",
 /// "published", "vertices", "faces", "added", "complete", "recipients": [names]}.

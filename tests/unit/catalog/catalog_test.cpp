@@ -12,6 +12,7 @@
 
 #include "meshmark/attacks/attack_spec.h"
 #include "meshmark/catalog/catalog_add.h"
+#include "meshmark/catalog/catalog_reindex.h"
 #include "meshmark/catalog/catalog_scan.h"
 #include "meshmark/core/error.h"
 #include "meshmark/geometry/shapes.h"
@@ -411,6 +412,81 @@ TEST(CatalogTest, a_visible_copy_of_an_interrupted_add_is_traced_and_the_next_ad
     EXPECT_EQ(outcome_of(finished, "ellipsoid.ply").status, CatalogAddOutcome::Status::Present);
     EXPECT_TRUE(catalog.asset("sub/torus.obj")->is_complete);
     EXPECT_EQ(file_sha256(published), copy);
+}
+
+// The shape column of every asset, by id, as stored.
+std::map<std::string, std::vector<std::uint8_t>> stored_shapes(const fs::path& file)
+{
+    SQLite::Database db(file.string(), SQLite::OPEN_READONLY);
+    SQLite::Statement row(db, "SELECT id, shape FROM assets");
+    std::map<std::string, std::vector<std::uint8_t>> shapes;
+    while (row.executeStep())
+    {
+        const auto* data = static_cast<const std::uint8_t*>(row.getColumn(1).getBlob());
+        shapes[row.getColumn(0).getString()].assign(data, data + row.getColumn(1).getBytes());
+    }
+    return shapes;
+}
+
+TEST(CatalogTest, reindex_recomputes_an_older_builds_signatures_and_leaves_a_changed_original_alone)
+{
+    const fs::path dir = test::temp_dir("catalog_reindex");
+    const fs::path in = make_originals(dir);
+    Catalog catalog(dir / "cat.db", Catalog::Open::CreateIfMissing);
+    (void)catalog_add(catalog, {in}, dir / "out", quick_options());
+    const auto added = stored_shapes(dir / "cat.db");
+    ASSERT_EQ(added.size(), 3U);
+    {
+        // As an older build left them: the positions' features alone, no signature, and one
+        // whose original changed since.
+        SQLite::Database db((dir / "cat.db").string(), SQLite::OPEN_READWRITE);
+        std::vector<std::uint8_t> older;
+        const std::vector<std::uint8_t>& now = added.at("ellipsoid.ply");
+        for (int v = 0; v < kShapeViews; ++v)
+        {
+            older.insert(older.end(), now.begin() + v * kShapeFeatures,
+                         now.begin() + v * kShapeFeatures + kShapePositionFeatures);
+        }
+        SQLite::Statement set(db, "UPDATE assets SET shape = ? WHERE id = 'ellipsoid.ply'");
+        set.bind(1, older.data(), static_cast<int>(older.size()));
+        set.exec();
+        db.exec(
+            "UPDATE assets SET shape = zeroblob(0) WHERE id IN ('sub/egg.off', 'sub/torus.obj')");
+    }
+    std::ofstream(in / "sub" / "torus.obj", std::ios::app) << "# edited\n";
+
+    const auto outcomes = catalog_reindex(catalog, CatalogReindexOptions{});
+    std::map<std::string, CatalogReindexOutcome::Status> status;
+    for (const auto& o : outcomes)
+    {
+        status[o.asset] = o.status;
+    }
+    EXPECT_EQ(status.at("ellipsoid.ply"), CatalogReindexOutcome::Status::Updated);
+    EXPECT_EQ(status.at("sub/egg.off"), CatalogReindexOutcome::Status::Updated);
+    EXPECT_EQ(status.at("sub/torus.obj"), CatalogReindexOutcome::Status::Failed);
+    const auto reason = std::find_if(outcomes.begin(), outcomes.end(),
+                                     [](const auto& o) { return o.asset == "sub/torus.obj"; })
+                            ->reason;
+    EXPECT_NE(reason.find("changed since it was added"), std::string::npos) << reason;
+    const auto reindexed = stored_shapes(dir / "cat.db");
+    EXPECT_EQ(reindexed.at("ellipsoid.ply"), added.at("ellipsoid.ply"));
+    EXPECT_EQ(reindexed.at("sub/egg.off"), added.at("sub/egg.off"));
+    EXPECT_TRUE(reindexed.at("sub/torus.obj").empty());
+
+    // Again: nothing left to do but the changed original; --all reads every unchanged one.
+    for (const auto& o : catalog_reindex(catalog, CatalogReindexOptions{}))
+    {
+        EXPECT_EQ(o.status, o.asset == "sub/torus.obj" ? CatalogReindexOutcome::Status::Failed
+                                                       : CatalogReindexOutcome::Status::Current);
+    }
+    CatalogReindexOptions all;
+    all.all = true;
+    for (const auto& o : catalog_reindex(catalog, all))
+    {
+        EXPECT_EQ(o.status, o.asset == "sub/torus.obj" ? CatalogReindexOutcome::Status::Failed
+                                                       : CatalogReindexOutcome::Status::Updated);
+    }
+    EXPECT_EQ(stored_shapes(dir / "cat.db").at("sub/egg.off"), added.at("sub/egg.off"));
 }
 
 TEST(CatalogTest, scan_reports_the_same_tries_in_rank_order_on_one_thread_or_several)
