@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: MIT
 // Preserving writers for text and binary position layouts: the original bytes with only the
-// changed coordinates replaced (STL facets are handled in stl.cpp). A binary PLY file goes out
-// in slices of at most 1 MiB with the changed coordinates patched in, so the output never
+// changed coordinates replaced (STL facets are handled in stl_write.cpp). A binary PLY file goes
+// out in slices of at most 1 MiB with the changed coordinates patched in, so the output never
 // occupies memory twice; its bytes in memory (preserved_bytes) are one copy, patched in place.
 #include <algorithm>
 #include <string>
