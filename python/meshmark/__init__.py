@@ -65,6 +65,32 @@ __all__ = [
     "write_mesh",
 ]
 
+# Without numpy (`pip install meshmark[arrays]` or `pip install numpy` adds it) the file and
+# catalogue functions work; the functions on arrays say what is missing when called, instead of
+# failing inside the extension on its first array.
+import importlib.util as _importlib_util
+
+if _importlib_util.find_spec("numpy") is None:
+    import functools as _functools
+
+    def _needs_numpy(function):
+        @_functools.wraps(function)
+        def refuse(*args, **kwargs):
+            import sys
+
+            raise ImportError(
+                f"meshmark.{function.__name__} works on numpy arrays and numpy is not installed for "
+                f"{sys.executable}: pip install numpy (or meshmark[arrays]); the file and catalogue "
+                "functions work without it."
+            )
+
+        return refuse
+
+    for _name in ("embed", "detect", "detect_against_file", "attack_mesh", "read_mesh", "write_mesh"):
+        globals()[_name] = _needs_numpy(globals()[_name])
+    del _name, _needs_numpy, _functools
+del _importlib_util
+
 # Shown as meshmark.Error, meshmark.Key, ... in tracebacks and help(), where users import them.
 for _name in ("Catalog", "DetectResult", "Error", "InvalidMesh", "InvalidOption", "IoError", "Key", "NumericalError"):
     globals()[_name].__module__ = __name__
