@@ -4,8 +4,9 @@
 //
 // Each group embeds a mesh with a fixed --seed, attacks the marked copy with fixed seeds
 // (noise, crop, simplify, remesh, similarity, reorder, a mirrored copy, a copy split at seams,
-// a copy of an animated asset in another pose, copies of a family key's recipients) and runs
-// `detect --json` on each. Every field of the JSON but `seconds` (scores, z, the
+// a copy of an animated asset in another pose, copies of a family key's recipients, a copy whose
+// registration does not converge, a Draco-compressed and an instanced glTF) and runs
+// `detect --json` on each (`--verdict bits` for a few). Every field of the JSON but `seconds` (scores, z, the
 // false-positive probabilities, the verdict, the accused, the registration's method, RMS and
 // transform, the bit counts...) must print exactly as saved, and so must the SHA-256 of every
 // file embed and attack wrote and the exit code of detect. A failure names the group, the case
