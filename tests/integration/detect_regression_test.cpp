@@ -6,11 +6,11 @@
 // (noise, crop, simplify, remesh, similarity, reorder, a mirrored copy, a copy split at seams,
 // a copy of an animated asset in another pose, copies of a family key's recipients, a copy whose
 // registration does not converge, a Draco-compressed and an instanced glTF) and runs
-// `detect --json` on each (`--verdict bits` for a few). Every field of the JSON but `seconds` (scores, z, the
-// false-positive probabilities, the verdict, the accused, the registration's method, RMS and
-// transform, the bit counts...) must print exactly as saved, and so must the SHA-256 of every
-// file embed and attack wrote and the exit code of detect. A failure names the group, the case
-// and the field, with the saved and the found value.
+// `detect --json` on each (`--verdict bits` for a few). Every field of the JSON but `seconds`
+// (scores, z, the false-positive probabilities, the verdict, the accused, the registration's
+// method, RMS and transform, the bit counts...) must print exactly as saved, and so must the
+// SHA-256 of every file embed and attack wrote and the exit code of detect. A failure names the
+// group, the case and the field, with the saved and the found value.
 //
 // The basis runs its portable kernels (MESHMARK_BASIS_KERNEL=portable), so the figures do not
 // depend on the processor's SIMD (src/basis/rbf_kernels.cpp). The "shared" group uses the shared
