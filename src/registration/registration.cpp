@@ -18,6 +18,7 @@
 
 #include "meshmark/core/error.h"
 #include "meshmark/core/threads.h"
+#include "meshmark/registration/point_pairs.h"
 #include "meshmark/registration/similarity_fit.h"
 #include "registration/detail/coarse_alignment.h"
 #include "registration/detail/coarse_candidates.h"

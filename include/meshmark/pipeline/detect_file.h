@@ -7,7 +7,7 @@
 #include <Eigen/Core>
 
 #include "meshmark/pipeline/embed_file.h"
-#include "meshmark/registration/registration.h"
+#include "meshmark/registration/point_pairs.h"
 #include "meshmark/watermark/watermark.h"
 
 namespace meshmark

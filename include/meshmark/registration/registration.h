@@ -9,17 +9,11 @@
 #include <Eigen/Core>
 
 #include "meshmark/core/triangle_mesh.h"
+#include "meshmark/registration/point_pairs.h"  // PointPair: register_to_reference's pairs
 #include "meshmark/registration/surface_matcher.h"
 
 namespace meshmark
 {
-
-/// A point picked on the suspect and the same feature picked on the reference (the original).
-struct PointPair
-{
-    Eigen::Vector3d suspect = Eigen::Vector3d::Zero();    ///< In the suspect's file frame.
-    Eigen::Vector3d reference = Eigen::Vector3d::Zero();  ///< In the reference's file frame.
-};
 
 /// Parameters of register_to_reference. The defaults are the measured choices of
 /// docs/algorithms/registration.md; the CLI and the pipeline take them from here.
@@ -138,16 +132,6 @@ struct RegistrationResult
 /// before registering onto the closest ones.
 /// \throws InvalidMesh when the mesh has no area (or, as a point cloud, no extent).
 [[nodiscard]] Eigen::Vector3d principal_spread(const TriangleMesh& mesh);
-
-/// \brief Least-squares similarity mapping each pair's suspect point to its reference point
-/// [Umeyama 1991].
-/// \param allow_reflection  Also fit a mirrored map and return it when its residual is
-///                          smaller (with 3 pairs both fit exactly and the proper one wins).
-/// \return 4×4 suspect -> reference transform.
-/// \throws InvalidOption if fewer than 3 pairs are given, or the suspect points are
-/// (nearly) collinear or coincident.
-[[nodiscard]] Eigen::Matrix4d similarity_from_pairs(std::span<const PointPair> pairs,
-                                                    bool allow_reflection = true);
 
 /// \brief Apply a 4×4 affine transform to every row of \p V.
 [[nodiscard]] Positions transform_points(const Eigen::Matrix4d& transform, const Positions& V);

@@ -13,6 +13,7 @@
 #include "meshmark/core/error.h"
 #include "meshmark/core/rng.h"
 #include "meshmark/geometry/shapes.h"
+#include "meshmark/registration/point_pairs.h"
 #include "perturbations.h"
 #include "support/test_shapes.h"
 
