@@ -193,13 +193,29 @@ private:
     };
     using Result = std::unique_ptr<PGresult, Clear>;
 
-    static std::string trimmed(std::string text)
+    // libpq's message on one line ("ERROR:  ...\nDETAIL:  ...\n" as "ERROR: ... DETAIL: ...").
+    static std::string trimmed(const std::string& text)
     {
-        while (!text.empty() && (text.back() == '\n' || text.back() == ' '))
+        std::string line;
+        for (const char c : text)
         {
-            text.pop_back();
+            if (c == '\n' || c == ' ')
+            {
+                if (!line.empty() && line.back() != ' ')
+                {
+                    line += ' ';
+                }
+            }
+            else
+            {
+                line += c;
+            }
         }
-        return text;
+        while (!line.empty() && line.back() == ' ')
+        {
+            line.pop_back();
+        }
+        return line;
     }
 
     void check(PGresult* result) const

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/catalog/catalog.h"
 
+#include <chrono>
 #include <cstdlib>
 #include <fstream>
 #include <map>
@@ -432,6 +433,53 @@ TEST(CatalogTest,
     ASSERT_EQ(report.copies.size(), 1U);
     EXPECT_EQ(report.copies[0].index, recorded.at("t2n7"));
     EXPECT_FALSE(report.copies[0].is_new);
+}
+
+// A change waits for one in progress elsewhere (SQLite: a writer; PostgreSQL: the catalogue's
+// advisory lock held exclusively, as a migration holds it) up to the busy timeout, then fails
+// saying so, and records nothing.
+TEST(CatalogTest, a_change_waits_for_another_up_to_the_busy_timeout_then_says_the_catalogue_is_busy)
+{
+    const fs::path dir = test::temp_dir("catalog_busy");
+    fs::create_directories(dir / "in");
+    write_mesh(dir / "in" / "a.ply", lumpy_ellipsoid(3));
+    const std::string at = catalog_at(dir);
+    Catalog catalog(at, Catalog::Open::CreateIfMissing, std::chrono::milliseconds(300));
+    ASSERT_EQ(catalog_add(catalog, {dir / "in"}, dir / "out", quick_options())[0].status,
+              CatalogAddOutcome::Status::Marked);
+    const auto held_while = [&](auto&& work)
+    {
+        if (postgres_server() != nullptr)
+        {
+            PGconn* other = PQconnectdb(at.c_str());
+            PQclear(PQexec(other, "SELECT pg_advisory_lock(28013, 0)"));  // 0x6d6d: meshmark's
+            work();
+            PQfinish(other);
+        }
+        else
+        {
+            SQLite::Database other(at, SQLite::OPEN_READWRITE);
+            SQLite::Transaction writing(other, SQLite::TransactionBehavior::IMMEDIATE);
+            work();
+        }
+    };
+    held_while(
+        [&]
+        {
+            const auto start = std::chrono::steady_clock::now();
+            try
+            {
+                (void)catalog.record_recipient("a.ply", "late");
+                ADD_FAILURE() << "recorded while another change held the catalogue";
+            }
+            catch (const IoError& e)
+            {
+                EXPECT_NE(std::string(e.what()).find("stayed busy"), std::string::npos) << e.what();
+            }
+            EXPECT_GE(std::chrono::steady_clock::now() - start, std::chrono::milliseconds(250));
+        });
+    EXPECT_FALSE(catalog.recipient_index("a.ply", "late").has_value());
+    EXPECT_TRUE(catalog.record_recipient("a.ply", "late").is_new);
 }
 
 TEST(CatalogTest, a_version_1_catalogue_is_read_with_its_recipients_and_upgraded)
