@@ -120,6 +120,10 @@ def migration(c, pg, work):
     _, file_list = c.listing(cat)
     c.expect(pg_list == file_list and len(file_list["assets"]) == 2,
              "catalog list --json differs between the SQLite file and PostgreSQL")
+    for where, key in ((cat, "file.key"), (url, "pg.key")):
+        c.run("catalog", "export", where, "a.off", "--key", work / key)
+    c.expect((work / "file.key").read_bytes() == (work / "pg.key").read_bytes(),
+             "catalog export writes another key from PostgreSQL")
     again = c.run("catalog", "migrate", cat, with_password, expect=None)
     c.expect(again.returncode != 0 and "already holds assets" in again.stderr,
              f"a second migration: exit {again.returncode}, {again.stderr.strip()}")
