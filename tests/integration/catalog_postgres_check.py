@@ -13,6 +13,8 @@
 2. --issuers `catalog issue` processes at once (default 16) on one asset of a catalogue made in
    PostgreSQL by `catalog add`, each a name of its own and one shared name: every call exits 0,
    and the catalogue holds every name once, with codes all distinct, every copy delivered.
+3. `meshmark serve` on that catalogue (a password in its URL) serves a copy to a new name over
+   HTTP, recorded in PostgreSQL; its log never holds the password.
 
 Exit 0 when every check held (a JSON summary on stdout), 1 otherwise, 77 when no PostgreSQL
 server can be started here.
@@ -26,7 +28,10 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import re
+import signal
 import time
+import urllib.request
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "support"))
@@ -183,6 +188,44 @@ def issuers(c, pg, work, count):
             "seconds": round(seconds, 2)}
 
 
+def serve(c, url, work):
+    with_password = url.replace("postgres@", f"postgres:{c.secret}@")
+    token_file = work / "serve.token"
+    log = open(work / "serve.log", "w+")
+    proc = subprocess.Popen([c.cli, "serve", "--catalog", with_password, "--listen", "127.0.0.1:0",
+                             "--token-file", str(token_file)], stdout=log, stderr=log)
+    try:
+        port = None
+        for _ in range(100):
+            log.seek(0)
+            found = re.search(r"on http://127\.0\.0\.1:(\d+)", log.read())
+            if found:
+                port = int(found.group(1))
+                break
+            time.sleep(0.1)
+        c.expect(port is not None, "serve did not start")
+        if port is None:
+            return None
+        request = urllib.request.Request(
+            f"http://127.0.0.1:{port}/v1/assets/a.off/copies", data=b'{"recipient":"web1"}',
+            headers={"Authorization": "Bearer " + token_file.read_text().strip(),
+                     "Content-Type": "application/json"}, method="POST")
+        with urllib.request.urlopen(request, timeout=60) as answer:
+            status, size = answer.status, len(answer.read())
+        c.expect(status == 200 and size > 1000, f"serve's copy: {status}, {size} bytes")
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        proc.wait(timeout=30)
+        log.seek(0)
+        text = log.read()
+        log.close()
+    c.expect(c.secret not in text, "serve logged the password")
+    _, listed = c.listing(url)
+    names = [r["name"] for r in listed["assets"][0]["recipients"]]
+    c.expect(names.count("web1") == 1, f"web1 recorded {names.count('web1')} times")
+    return {"status": status, "bytes": size}
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--cli", default=str(Path(__file__).resolve().parents[2] / "build" / "bin" / "meshmark"))
@@ -200,6 +243,7 @@ def main():
         with server as pg:
             summary["migration_scans"] = migration(c, pg, work / "migration")
             summary["issuers"] = issuers(c, pg, work / "issuers", args.issuers)
+            summary["serve"] = serve(c, f"{pg.url}/issuers", work / "issuers")
     finally:
         shutil.rmtree(work, ignore_errors=True)
     summary["problems"] = c.problems
