@@ -167,4 +167,8 @@ def main(argv):
 
 
 if __name__ == "__main__":
-    sys.exit(main(sys.argv[1:]))
+    try:
+        sys.exit(main(sys.argv[1:]))
+    except KeyboardInterrupt as e:  # the server is stopped and its folder removed by now
+        print(f"postgres_server.py: interrupted ({e})", file=sys.stderr)
+        sys.exit(130)
