@@ -11,7 +11,7 @@ check=0
 help_dir=$(mktemp -d)
 trap 'rm -rf "$help_dir"' EXIT
 commands=("" demo embed detect attack compare catalog "catalog add" "catalog list" "catalog issue"
-          "catalog scan" "catalog reindex" "catalog export" serve bench "bench speed" "bench robustness" "bench approximation")
+          "catalog scan" "catalog reindex" "catalog export" "catalog migrate" serve bench "bench speed" "bench robustness" "bench approximation")
 for c in "${commands[@]}"; do
     # shellcheck disable=SC2086
     $m $c --help > "$help_dir/${c// /_}.txt"

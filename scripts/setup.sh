@@ -31,6 +31,8 @@ packages=(
   libbenchmark-dev       # micro-benchmarks
   libhnswlib-dev         # the shape index's exact search against an HNSW graph (bench/perf only)
   libsqlite3-dev libsqlitecpp-dev  # the catalogue's database (SQLite, through SQLiteCpp)
+  libpq-dev              # the catalogue on PostgreSQL (a `postgresql://` location, through libpq)
+  postgresql             # tests only: a PostgreSQL server the `postgres` tests start (initdb, pg_ctl)
   libssl-dev             # SHA-256 of catalogue originals (OpenSSL's libcrypto)
   libcpp-httplib-dev     # the issuing service's HTTP server (`meshmark serve`)
   libcairo2-dev          # PDF evidence reports (`detect --report x.pdf`): cairo's PDF surface

@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: MIT
-// `meshmark catalog add|list|issue|scan|export`: a catalogue of marked assets (docs/catalog.md).
+// `meshmark catalog add|list|issue|scan|reindex|export`: a catalogue of marked assets
+// (docs/catalog.md); `catalog migrate`: catalog_migrate.cpp.
 #include "meshmark/catalog/catalog.h"
 
 #include <algorithm>
@@ -102,7 +103,7 @@ int run_add(const CatalogArgs& args, const GlobalArgs& global)
                      "markable, %d failed; "
                      "catalogue %s\n",
                      outcomes.size(), counts[0], counts[1], counts[2], counts[3],
-                     args.catalog.c_str());
+                     catalog.path().c_str());
     }
     return counts[3] > 0 ? static_cast<int>(ExitCode::InvalidInput) : 0;
 }
@@ -148,7 +149,7 @@ int run_list(const CatalogArgs& args, const GlobalArgs& /*global*/)
         {
             list.push_back(catalog_asset_json(a, catalog.recipients(a.id)));
         }
-        print_json({{"catalog", args.catalog}, {"assets", std::move(list)}});
+        print_json({{"catalog", catalog.path().string()}, {"assets", std::move(list)}});
         return 0;
     }
     for (const CatalogAsset& a : assets)
@@ -178,9 +179,10 @@ int run_issue(const CatalogArgs& args, const GlobalArgs& global)
                       [&] { return catalog_issue(catalog, args.asset, args.output, options); });
     if (args.json)
     {
-        nlohmann::json out = embed_recipients_report_json(report, args.asset, args.catalog);
+        nlohmann::json out =
+            embed_recipients_report_json(report, args.asset, catalog.path().string());
         out.erase("key");
-        out["catalog"] = args.catalog;
+        out["catalog"] = catalog.path().string();
         out["asset"] = args.asset;
         print_json(out);
     }
@@ -195,7 +197,7 @@ int run_issue(const CatalogArgs& args, const GlobalArgs& global)
             stderr,
             "meshmark: issued %zu copies of %s (%d new recipients) in %.3f s; recorded in %s\n",
             report.copies.size(), args.asset.c_str(), added, report.seconds.total,
-            args.catalog.c_str());
+            catalog.path().c_str());
     }
     return 0;
 }
@@ -304,7 +306,7 @@ void write_scan_report(const CatalogArgs& args, const Catalog& catalog,
     DetectionReportOptions report_options;
     report_options.pictures.threads = global.threads;
     report_options.version = kVersion;
-    report_options.command = "meshmark catalog scan " + shell_word(args.catalog) + " " +
+    report_options.command = "meshmark catalog scan " + shell_word(catalog.path().string()) + " " +
                              shell_word(scan.path) +
                              (args.max_false_positive != DetectOptions{}.max_false_positive
                                   ? " --max-fpp " + shortest(args.max_false_positive)
@@ -401,7 +403,8 @@ int run_export(const CatalogArgs& args, const GlobalArgs& global)
     const std::optional<CatalogAsset> asset = catalog.asset(args.asset);
     if (!asset)
     {
-        throw InvalidOption(args.catalog + ": no asset '" + args.asset + "' in the catalogue.");
+        throw InvalidOption(catalog.path().string() + ": no asset '" + args.asset +
+                            "' in the catalogue.");
     }
     if (!args.force && std::filesystem::exists(args.key))
     {
@@ -416,6 +419,8 @@ int run_export(const CatalogArgs& args, const GlobalArgs& global)
     }
     return 0;
 }
+
+constexpr const char* kCatalogHelp = "Catalogue file or postgresql:// URL";
 
 void add_lock_timeout(CLI::App& command, CatalogArgs& args)
 {
@@ -433,13 +438,15 @@ void register_catalog(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     auto args = std::make_shared<CatalogArgs>();
     auto* catalog =
         app.add_subcommand("catalog",
-                           "A catalogue of marked assets (SQLite file): add, list, issue "
-                           "copies, scan suspects (docs/catalog.md)");
+                           "A catalogue of marked assets (SQLite file or PostgreSQL database): "
+                           "add, list, issue copies, scan suspects, migrate (docs/catalog.md)");
     catalog->require_subcommand(1);
 
     auto* add = catalog->add_subcommand(
         "add", "Mark every mesh file found (folders recursively) into -o and record it; resumable");
-    add->add_option("CATALOG", args->catalog, "Catalogue file (created when missing)")->required();
+    add->add_option("CATALOG", args->catalog,
+                    "Catalogue file (created when missing) or postgresql:// URL")
+        ->required();
     add->add_option("INPUTS", args->inputs, "Mesh files and folders")
         ->required()
         ->check(CLI::ExistingPath);
@@ -467,7 +474,7 @@ void register_catalog(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
 
     auto* list =
         catalog->add_subcommand("list", "List the catalogue's assets and their recipients");
-    list->add_option("CATALOG", args->catalog, "Catalogue file")->required();
+    list->add_option("CATALOG", args->catalog, kCatalogHelp)->required();
     list->add_flag("--json", args->json, "Print JSON on stdout");
     add_lock_timeout(*list, *args);
     add_global_flags(*list, global);
@@ -477,7 +484,7 @@ void register_catalog(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     auto* issue = catalog->add_subcommand(
         "issue",
         "Issue traceable copies of an asset to recipients (recorded before they are written)");
-    issue->add_option("CATALOG", args->catalog, "Catalogue file")->required();
+    issue->add_option("CATALOG", args->catalog, kCatalogHelp)->required();
     issue->add_option("ASSET", args->asset, "Asset id (catalog list)")->required();
     issue->add_option("--recipient", args->recipients, "Recipient name (repeatable)");
     issue->add_option("--recipients", args->recipients_file, "File of names, one per line")
@@ -494,7 +501,7 @@ void register_catalog(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
         "scan",
         "Find which assets (and whose copies) suspects were made from. Exit 0 when any suspect "
         "matched, 1 when none did");
-    scan->add_option("CATALOG", args->catalog, "Catalogue file")->required();
+    scan->add_option("CATALOG", args->catalog, kCatalogHelp)->required();
     scan->add_option("SUSPECTS", args->inputs, "Suspect mesh files")->required();
     scan->add_option("--candidates", args->candidates,
                      "Assets tried per suspect: same numbering, then nearest shape")
@@ -518,7 +525,7 @@ void register_catalog(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
 
     auto* reindex = catalog->add_subcommand(
         "reindex", "Recompute from the originals the shape signatures an older build wrote");
-    reindex->add_option("CATALOG", args->catalog, "Catalogue file")->required();
+    reindex->add_option("CATALOG", args->catalog, kCatalogHelp)->required();
     reindex->add_flag("--all", args->all, "Recompute every asset's signature");
     add_lock_timeout(*reindex, *args);
     reindex->add_flag("--json", args->json, "Print every asset's outcome as JSON on stdout");
@@ -528,13 +535,15 @@ void register_catalog(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
 
     auto* exported =
         catalog->add_subcommand("export", "Write an asset's key as a key file (detect --key)");
-    exported->add_option("CATALOG", args->catalog, "Catalogue file")->required();
+    exported->add_option("CATALOG", args->catalog, kCatalogHelp)->required();
     exported->add_option("ASSET", args->asset, "Asset id")->required();
     exported->add_option("--key", args->key, "Key file to write (mode 0600)")->required();
     exported->add_flag("--force", args->force, "Replace an existing file");
     add_global_flags(*exported, global);
     exported->callback([args, &global, &runner]
                        { runner = [args, &global] { return run_export(*args, global); }; });
+
+    register_catalog_migrate(*catalog, global, runner);
 }
 
 }  // namespace meshmark::cli

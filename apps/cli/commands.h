@@ -54,6 +54,8 @@ void register_bench_approximation(CLI::App& bench, GlobalArgs& global, CommandRu
 [[nodiscard]] std::vector<std::string> read_recipients_file(const std::string& path);
 /// `meshmark catalog ...` (catalog.cpp).
 void register_catalog(CLI::App& app, GlobalArgs& global, CommandRunner& runner);
+/// `catalog migrate` (catalog_migrate.cpp), added under \p catalog by register_catalog.
+void register_catalog_migrate(CLI::App& catalog, GlobalArgs& global, CommandRunner& runner);
 /// `meshmark serve` (serve.cpp).
 void register_serve(CLI::App& app, GlobalArgs& global, CommandRunner& runner);
 /// Adds --threads, --quiet and --verbose to a subcommand.

@@ -133,13 +133,16 @@ void register_serve(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     auto args = std::make_shared<ServeArgs>();
     auto* serve = app.add_subcommand(
         "serve", "Serve a catalogue over HTTP: a marked copy per buyer, scans (docs/service.md)");
-    serve->add_option("--catalog", args->catalog, "Catalogue file (meshmark catalog add)")
+    serve
+        ->add_option("--catalog", args->catalog,
+                     "Catalogue file (meshmark catalog add) or postgresql:// URL")
         ->required();
     serve->add_option("--listen", args->listen, "HOST:PORT to listen on; port 0 picks a free one")
         ->capture_default_str();
     serve->add_option(
         "--token-file", args->token_file,
-        "Bearer token file (default CATALOG.token; created, mode 0600, when missing)");
+        "Bearer token file (default CATALOG.token, required with a postgresql:// catalogue; "
+        "created, mode 0600, when missing)");
     serve
         ->add_option("--memory-budget", args->memory_budget,
                      "Memory for warm assets (originals and bases)")

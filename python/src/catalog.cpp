@@ -37,8 +37,8 @@ std::chrono::milliseconds timeout_of(double seconds)
 constexpr const char* kCatalogDoc =
     R"(A catalogue of marked assets (an SQLite file): `meshmark catalog ...`.
 
-Catalog(path, create=False, lock_timeout=60): opens the catalogue; create=True makes it when
-missing (as `catalog add` does). Safe to use from several threads and processes at once. Each
+Catalog(path, create=False, lock_timeout=60): opens the catalogue (a file, or a PostgreSQL
+database given as "postgresql://..."); create=True makes it when missing (as `catalog add` does). Safe to use from several threads and processes at once. Each
 method returns the matching command's --json report as a dict (list: the list of assets).)";
 
 }  // namespace

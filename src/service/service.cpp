@@ -58,6 +58,11 @@ Service::Service(ServiceOptions options) : impl_(std::make_unique<Impl>())
         throw InvalidOption("--workers must be >= 0, --connections 1 to 4096.");
     }
     s.catalog = std::make_unique<Catalog>(o.catalog, Catalog::Open::Existing, o.lock_timeout);
+    if (o.token_file.empty() && o.catalog.string().find("://") != std::string::npos)
+    {
+        throw InvalidOption("--token-file is needed with a catalogue in a database (" +
+                            s.catalog->path().string() + "): the token is kept in a file.");
+    }
     s.token_path = o.token_file.empty() ? fs::path(o.catalog.string() + ".token") : o.token_file;
     bool created = false;
     s.token = load_token(s.token_path, &created);
@@ -124,7 +129,7 @@ const std::filesystem::path& Service::token_file() const noexcept
 
 void Service::run()
 {
-    impl_->notice("serving " + impl_->options.catalog.string() + " on http://" +
+    impl_->notice("serving " + impl_->catalog->path().string() + " on http://" +
                   impl_->options.host + ":" + std::to_string(impl_->port) + " (token in " +
                   impl_->token_path.string() + ")");
     const bool listened = impl_->server.listen_after_bind();

@@ -46,7 +46,8 @@ struct CatalogRecipient
 };
 
 /// \brief A catalogue of marked assets: an SQLite database holding each asset's original
-/// (location and SHA-256), its key, its recipients and its shape (docs/catalog.md).
+/// (location and SHA-256), its key, its recipients and its shape (docs/catalog.md); or a
+/// PostgreSQL database, for a location `postgresql://...` (docs/catalog.md, "On PostgreSQL").
 /// \details The file is created mode 0600 (it holds keys). Every change is one transaction,
 /// committed durably (WAL, synchronous=FULL) before anything it records is written elsewhere;
 /// other processes wait up to the busy timeout for a transaction in progress. One Catalog may
@@ -60,6 +61,8 @@ public:
         Existing,         ///< every other command: a missing file is an error
     };
 
+    /// \param path a file, or a PostgreSQL connection URI (`postgresql://user@host:port/db`):
+    /// its database must exist; CreateIfMissing makes the catalogue's tables in an empty one.
     /// \throws IoError (cannot create or open it, not a meshmark catalogue, a newer format).
     explicit Catalog(std::filesystem::path path, Open mode = Open::Existing,
                      std::chrono::milliseconds busy_timeout = kDefaultLockTimeout);
@@ -69,6 +72,7 @@ public:
     Catalog(Catalog&&) = delete;
     Catalog& operator=(Catalog&&) = delete;
 
+    /// Its location as shown in messages and JSON (a PostgreSQL URL without its password).
     [[nodiscard]] const std::filesystem::path& path() const noexcept;
 
     /// The asset \p id, if recorded (complete or not).
@@ -140,6 +144,11 @@ public:
 
     /// Remove asset \p id and its recipients (`catalog add --force` re-marking a changed original).
     void remove(const std::string& id);
+
+    /// \brief Copy every asset of \p source (its key, recipients and shape, as stored) into this
+    /// catalogue, in one transaction (`catalog migrate`); the number of assets copied.
+    /// \throws InvalidOption when this catalogue already holds assets; IoError.
+    std::size_t copy_from(const Catalog& source);
 
 private:
     struct Impl;

@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/catalog/catalog.h"
 
+#include <chrono>
+#include <cstdlib>
 #include <fstream>
 #include <map>
 #include <set>
@@ -8,7 +10,9 @@
 
 #include <SQLiteCpp/SQLiteCpp.h>
 #include <gtest/gtest.h>
+#include <libpq-fe.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include "meshmark/attacks/attack_spec.h"
 #include "meshmark/catalog/catalog_add.h"
@@ -25,6 +29,92 @@ namespace
 {
 
 namespace fs = std::filesystem;
+
+// The backend of this run: SQLite files, or, when MESHMARK_TEST_POSTGRES names a server
+// (postgres_server.py, test postgres.CatalogTest), a new PostgreSQL database for each catalogue.
+const char* postgres_server()
+{
+    const char* url = std::getenv("MESHMARK_TEST_POSTGRES");
+    return url != nullptr && *url != '\0' ? url : nullptr;
+}
+
+// Rows of \p statement ($1, $2, ... bound to \p params) in the catalogue at \p location, as text.
+std::vector<std::vector<std::string>> sql(const std::string& location, const std::string& statement,
+                                          const std::vector<std::string>& params = {})
+{
+    std::vector<std::vector<std::string>> rows;
+    if (postgres_server() == nullptr)
+    {
+        SQLite::Database db(location, SQLite::OPEN_READWRITE);
+        SQLite::Statement query(db, statement);
+        for (std::size_t p = 0; p < params.size(); ++p)
+        {
+            query.bind(static_cast<int>(p) + 1, params[p]);
+        }
+        while (query.executeStep())
+        {
+            rows.emplace_back();
+            for (int c = 0; c < query.getColumnCount(); ++c)
+            {
+                rows.back().push_back(query.getColumn(c).getString());
+            }
+        }
+        return rows;
+    }
+    PGconn* conn = PQconnectdb(location.c_str());
+    std::vector<const char*> values;
+    for (const std::string& p : params)
+    {
+        values.push_back(p.c_str());
+    }
+    PGresult* result = PQexecParams(conn, statement.c_str(), static_cast<int>(params.size()),
+                                    nullptr, values.data(), nullptr, nullptr, 0);
+    const ExecStatusType status = PQresultStatus(result);
+    const std::string error = PQresultErrorMessage(result);
+    for (int r = 0; r < PQntuples(result); ++r)
+    {
+        rows.emplace_back();
+        for (int c = 0; c < PQnfields(result); ++c)
+        {
+            rows.back().emplace_back(PQgetvalue(result, r, c));
+        }
+    }
+    PQclear(result);
+    PQfinish(conn);
+    if (status != PGRES_COMMAND_OK && status != PGRES_TUPLES_OK)
+    {
+        throw std::runtime_error(statement + ": " + error);
+    }
+    return rows;
+}
+
+// Where a test's catalogue is: \p dir/cat.db, or a new database of the test server.
+std::string catalog_at(const fs::path& dir)
+{
+    const char* server = postgres_server();
+    if (server == nullptr)
+    {
+        return (dir / "cat.db").string();
+    }
+    static int count = 0;
+    const std::string name =
+        "catalog_test_" + std::to_string(::getpid()) + "_" + std::to_string(count++);
+    (void)sql(std::string(server) + "/postgres", "CREATE DATABASE " + name);
+    return std::string(server) + "/" + name;
+}
+
+// \p bytes as an SQL literal of the backend: X'..' (SQLite), '\x..'::bytea (PostgreSQL).
+std::string blob_literal(const std::vector<std::uint8_t>& bytes)
+{
+    std::string hex;
+    for (const std::uint8_t b : bytes)
+    {
+        static const char* digits = "0123456789abcdef";
+        hex += digits[b >> 4U];
+        hex += digits[b & 15U];
+    }
+    return postgres_server() ? "'\\x" + hex + "'::bytea" : "X'" + hex + "'";
+}
 
 // A folder of three markable originals (two in a subfolder), one too small, one unreadable.
 fs::path make_originals(const fs::path& root)
@@ -97,6 +187,38 @@ void on_threads(int count, Work&& work)
 TEST(CatalogTest, a_new_catalogue_is_private_and_a_missing_or_foreign_file_is_refused)
 {
     const fs::path dir = test::temp_dir("catalog_open");
+    if (const char* server = postgres_server())
+    {
+        // A database must exist; an empty one is no catalogue but for `add` (CreateIfMissing);
+        // one of other tables is refused; the password is in no message and not in path().
+        const std::string secret = std::string(server).insert(13 + 8, ":hunter2");
+        ASSERT_EQ(secret.substr(0, 30), "postgresql://postgres:hunter2@");
+        try
+        {
+            const Catalog none(secret + "/no_such_database", Catalog::Open::Existing);
+            ADD_FAILURE() << "opened a missing database";
+        }
+        catch (const IoError& e)
+        {
+            EXPECT_EQ(std::string(e.what()).find("hunter2"), std::string::npos) << e.what();
+            EXPECT_NE(std::string(e.what()).find("no_such_database"), std::string::npos);
+        }
+        const std::string at = catalog_at(dir);
+        const std::string at_secret = secret + at.substr(at.rfind('/'));
+        EXPECT_THROW(Catalog(at_secret, Catalog::Open::Existing), IoError);
+        {
+            const Catalog catalog(at_secret + "?application_name=t&password=hunter2",
+                                  Catalog::Open::CreateIfMissing);
+            EXPECT_EQ(catalog.path().string(), at + "?application_name=t");
+            EXPECT_TRUE(catalog.assets().empty());
+            EXPECT_EQ(catalog.complete_count(), 0U);
+        }
+        EXPECT_NO_THROW(Catalog(at, Catalog::Open::Existing));
+        const std::string other = catalog_at(dir);
+        (void)sql(other, "CREATE TABLE assets (x INTEGER)");
+        EXPECT_THROW(Catalog(other, Catalog::Open::CreateIfMissing), IoError);
+        return;
+    }
     EXPECT_THROW(Catalog(dir / "none.db", Catalog::Open::Existing), IoError);
     {
         const Catalog catalog(dir / "sub" / "cat.db", Catalog::Open::CreateIfMissing);
@@ -118,7 +240,8 @@ TEST(CatalogTest, add_marks_every_file_reports_each_outcome_and_a_second_run_cha
 {
     const fs::path dir = test::temp_dir("catalog_add");
     const fs::path in = make_originals(dir);
-    Catalog catalog(dir / "cat.db", Catalog::Open::CreateIfMissing);
+    const std::string at = catalog_at(dir);
+    Catalog catalog(at, Catalog::Open::CreateIfMissing);
     const auto outcomes = catalog_add(catalog, {in}, dir / "out", quick_options());
     ASSERT_EQ(outcomes.size(), 5U);  // notes.txt is not a mesh file
     for (const char* asset : {"ellipsoid.ply", "sub/torus.obj", "sub/egg.off"})
@@ -167,7 +290,8 @@ TEST(CatalogTest, a_changed_original_is_refused_unless_forced_and_then_gets_a_ne
     const fs::path in = dir / "in";
     fs::create_directories(in);
     write_mesh(in / "a.ply", lumpy_ellipsoid(4));
-    Catalog catalog(dir / "cat.db", Catalog::Open::CreateIfMissing);
+    const std::string at = catalog_at(dir);
+    Catalog catalog(at, Catalog::Open::CreateIfMissing);
     ASSERT_EQ(catalog_add(catalog, {in}, dir / "out", quick_options())[0].status,
               CatalogAddOutcome::Status::Marked);
     const std::uint64_t first_seed = catalog.asset("a.ply")->key.seed;
@@ -198,7 +322,8 @@ TEST(CatalogTest, an_obj_copy_gets_its_material_library_and_textures_beside_it)
     std::ofstream(in / "model.mtl")
         << "newmtl skin\nmap_Kd -s 1 1 1 maps/skin.png\nbump ../outside.png\n";
     std::ofstream(in / "maps" / "skin.png") << "PNG bytes";
-    Catalog catalog(dir / "cat.db", Catalog::Open::CreateIfMissing);
+    const std::string at = catalog_at(dir);
+    Catalog catalog(at, Catalog::Open::CreateIfMissing);
     const auto outcomes = catalog_add(catalog, {in}, dir / "out", quick_options());
     ASSERT_EQ(outcomes[0].status, CatalogAddOutcome::Status::Marked) << outcomes[0].reason;
     EXPECT_EQ(test::file_bytes(dir / "out" / "model.mtl"), test::file_bytes(in / "model.mtl"));
@@ -213,7 +338,8 @@ TEST(CatalogTest, issue_records_names_before_copies_and_threads_at_once_never_sh
     const fs::path in = dir / "in";
     fs::create_directories(in);
     write_mesh(in / "a.ply", lumpy_ellipsoid(4));
-    Catalog catalog(dir / "cat.db", Catalog::Open::CreateIfMissing);
+    const std::string at = catalog_at(dir);
+    Catalog catalog(at, Catalog::Open::CreateIfMissing);
     ASSERT_EQ(catalog_add(catalog, {in}, dir / "out", quick_options())[0].status,
               CatalogAddOutcome::Status::Marked);
     EXPECT_THROW(
@@ -223,7 +349,7 @@ TEST(CatalogTest, issue_records_names_before_copies_and_threads_at_once_never_sh
     on_threads(4,
                [&](int t)
                {
-                   Catalog mine(dir / "cat.db", Catalog::Open::Existing);
+                   Catalog mine(at, Catalog::Open::Existing);
                    CatalogIssueOptions options;
                    options.recipients = {"buyer" + std::to_string(t), "shared"};
                    options.threads = 1;
@@ -257,7 +383,8 @@ TEST(CatalogTest,
     const fs::path in = dir / "in";
     fs::create_directories(in);
     write_mesh(in / "a.ply", lumpy_ellipsoid(4));
-    Catalog catalog(dir / "cat.db", Catalog::Open::CreateIfMissing);
+    const std::string at = catalog_at(dir);
+    Catalog catalog(at, Catalog::Open::CreateIfMissing);
     ASSERT_EQ(catalog_add(catalog, {in}, dir / "out", quick_options())[0].status,
               CatalogAddOutcome::Status::Marked);
     EXPECT_THROW((void)catalog.record_recipient("nope.ply", "x"), InvalidOption);
@@ -268,7 +395,7 @@ TEST(CatalogTest,
     on_threads(4,
                [&](int t)
                {
-                   Catalog mine(dir / "cat.db", Catalog::Open::Existing);
+                   Catalog mine(at, Catalog::Open::Existing);
                    for (int i = 0; i < 25; ++i)
                    {
                        const std::string name =
@@ -308,6 +435,53 @@ TEST(CatalogTest,
     EXPECT_FALSE(report.copies[0].is_new);
 }
 
+// A change waits for one in progress elsewhere (SQLite: a writer; PostgreSQL: the catalogue's
+// advisory lock held exclusively, as a migration holds it) up to the busy timeout, then fails
+// saying so, and records nothing.
+TEST(CatalogTest, a_change_waits_for_another_up_to_the_busy_timeout_then_says_the_catalogue_is_busy)
+{
+    const fs::path dir = test::temp_dir("catalog_busy");
+    fs::create_directories(dir / "in");
+    write_mesh(dir / "in" / "a.ply", lumpy_ellipsoid(3));
+    const std::string at = catalog_at(dir);
+    Catalog catalog(at, Catalog::Open::CreateIfMissing, std::chrono::milliseconds(300));
+    ASSERT_EQ(catalog_add(catalog, {dir / "in"}, dir / "out", quick_options())[0].status,
+              CatalogAddOutcome::Status::Marked);
+    const auto held_while = [&](auto&& work)
+    {
+        if (postgres_server() != nullptr)
+        {
+            PGconn* other = PQconnectdb(at.c_str());
+            PQclear(PQexec(other, "SELECT pg_advisory_lock(28013, 0)"));  // 0x6d6d: meshmark's
+            work();
+            PQfinish(other);
+        }
+        else
+        {
+            SQLite::Database other(at, SQLite::OPEN_READWRITE);
+            SQLite::Transaction writing(other, SQLite::TransactionBehavior::IMMEDIATE);
+            work();
+        }
+    };
+    held_while(
+        [&]
+        {
+            const auto start = std::chrono::steady_clock::now();
+            try
+            {
+                (void)catalog.record_recipient("a.ply", "late");
+                ADD_FAILURE() << "recorded while another change held the catalogue";
+            }
+            catch (const IoError& e)
+            {
+                EXPECT_NE(std::string(e.what()).find("stayed busy"), std::string::npos) << e.what();
+            }
+            EXPECT_GE(std::chrono::steady_clock::now() - start, std::chrono::milliseconds(250));
+        });
+    EXPECT_FALSE(catalog.recipient_index("a.ply", "late").has_value());
+    EXPECT_TRUE(catalog.record_recipient("a.ply", "late").is_new);
+}
+
 TEST(CatalogTest, a_version_1_catalogue_is_read_with_its_recipients_and_upgraded)
 {
     const fs::path dir = test::temp_dir("catalog_v1");
@@ -315,8 +489,9 @@ TEST(CatalogTest, a_version_1_catalogue_is_read_with_its_recipients_and_upgraded
     fs::create_directories(in);
     write_mesh(in / "a.ply", lumpy_ellipsoid(4));
     Key before;
+    const std::string at = catalog_at(dir);
     {
-        Catalog catalog(dir / "cat.db", Catalog::Open::CreateIfMissing);
+        Catalog catalog(at, Catalog::Open::CreateIfMissing);
         ASSERT_EQ(catalog_add(catalog, {in}, dir / "out", quick_options())[0].status,
                   CatalogAddOutcome::Status::Marked);
         CatalogIssueOptions issue;
@@ -325,20 +500,13 @@ TEST(CatalogTest, a_version_1_catalogue_is_read_with_its_recipients_and_upgraded
         before = catalog.asset("a.ply")->key;
     }
     // Make it what version 1 wrote: the recipients inside the key's JSON as well.
-    {
-        SQLite::Database db((dir / "cat.db").string(), SQLite::OPEN_READWRITE);
-        SQLite::Statement set(db, "UPDATE assets SET key_json = ? WHERE id = 'a.ply'");
-        set.bind(1, to_json(before));
-        set.exec();
-        db.exec("UPDATE meta SET value = '1' WHERE name = 'version'");
-    }
-    Catalog catalog(dir / "cat.db", Catalog::Open::Existing);
+    (void)sql(at, "UPDATE assets SET key_json = $1 WHERE id = 'a.ply'", {to_json(before)});
+    (void)sql(at, "UPDATE meta SET value = '1' WHERE name = 'version'");
+    Catalog catalog(at, Catalog::Open::Existing);
     EXPECT_EQ(to_json(catalog.asset("a.ply")->key), to_json(before));
-    SQLite::Database db((dir / "cat.db").string(), SQLite::OPEN_READONLY);
-    EXPECT_EQ(db.execAndGet("SELECT value FROM meta WHERE name = 'version'").getString(), "2");
-    EXPECT_EQ(
-        db.execAndGet("SELECT key_json FROM assets WHERE id = 'a.ply'").getString().find("alice"),
-        std::string::npos);
+    EXPECT_EQ(sql(at, "SELECT value FROM meta WHERE name = 'version'")[0][0], "2");
+    EXPECT_EQ(sql(at, "SELECT key_json FROM assets WHERE id = 'a.ply'")[0][0].find("alice"),
+              std::string::npos);
 }
 
 TEST(CatalogTest,
@@ -346,7 +514,8 @@ TEST(CatalogTest,
 {
     const fs::path dir = test::temp_dir("catalog_scan");
     const fs::path in = make_originals(dir);
-    Catalog catalog(dir / "cat.db", Catalog::Open::CreateIfMissing);
+    const std::string at = catalog_at(dir);
+    Catalog catalog(at, Catalog::Open::CreateIfMissing);
     (void)catalog_add(catalog, {in}, dir / "out", quick_options());
     CatalogIssueOptions issue;
     issue.recipients = {"alice", "bob"};
@@ -388,14 +557,12 @@ TEST(CatalogTest, a_visible_copy_of_an_interrupted_add_is_traced_and_the_next_ad
 {
     const fs::path dir = test::temp_dir("catalog_interrupted");
     const fs::path in = make_originals(dir);
-    Catalog catalog(dir / "cat.db", Catalog::Open::CreateIfMissing);
+    const std::string at = catalog_at(dir);
+    Catalog catalog(at, Catalog::Open::CreateIfMissing);
     (void)catalog_add(catalog, {in}, dir / "out", quick_options());
     const fs::path published = dir / "out" / "sub" / "torus.obj";
     const std::string copy = file_sha256(published);
-    {
-        SQLite::Database db((dir / "cat.db").string(), SQLite::OPEN_READWRITE);
-        db.exec("UPDATE assets SET complete = 0 WHERE id = 'sub/torus.obj'");
-    }
+    (void)sql(at, "UPDATE assets SET complete = 0 WHERE id = 'sub/torus.obj'");
     ASSERT_FALSE(catalog.asset("sub/torus.obj")->is_complete);
     EXPECT_EQ(catalog.complete_count(), 2U);
 
@@ -415,15 +582,17 @@ TEST(CatalogTest, a_visible_copy_of_an_interrupted_add_is_traced_and_the_next_ad
 }
 
 // The shape column of every asset, by id, as stored.
-std::map<std::string, std::vector<std::uint8_t>> stored_shapes(const fs::path& file)
+std::map<std::string, std::vector<std::uint8_t>> stored_shapes(const std::string& at)
 {
-    SQLite::Database db(file.string(), SQLite::OPEN_READONLY);
-    SQLite::Statement row(db, "SELECT id, shape FROM assets");
     std::map<std::string, std::vector<std::uint8_t>> shapes;
-    while (row.executeStep())
+    for (const auto& row : sql(at, postgres_server() ? "SELECT id, encode(shape, 'hex') FROM assets"
+                                                     : "SELECT id, hex(shape) FROM assets"))
     {
-        const auto* data = static_cast<const std::uint8_t*>(row.getColumn(1).getBlob());
-        shapes[row.getColumn(0).getString()].assign(data, data + row.getColumn(1).getBytes());
+        std::vector<std::uint8_t>& shape = shapes[row[0]];
+        for (std::size_t i = 0; i + 1 < row[1].size(); i += 2)
+        {
+            shape.push_back(static_cast<std::uint8_t>(std::stoi(row[1].substr(i, 2), nullptr, 16)));
+        }
     }
     return shapes;
 }
@@ -432,14 +601,14 @@ TEST(CatalogTest, reindex_recomputes_an_older_builds_signatures_and_leaves_a_cha
 {
     const fs::path dir = test::temp_dir("catalog_reindex");
     const fs::path in = make_originals(dir);
-    Catalog catalog(dir / "cat.db", Catalog::Open::CreateIfMissing);
+    const std::string at = catalog_at(dir);
+    Catalog catalog(at, Catalog::Open::CreateIfMissing);
     (void)catalog_add(catalog, {in}, dir / "out", quick_options());
-    const auto added = stored_shapes(dir / "cat.db");
+    const auto added = stored_shapes(at);
     ASSERT_EQ(added.size(), 3U);
     {
         // As an older build left them: the positions' features alone, no signature, and one
         // whose original changed since.
-        SQLite::Database db((dir / "cat.db").string(), SQLite::OPEN_READWRITE);
         std::vector<std::uint8_t> older;
         const std::vector<std::uint8_t>& now = added.at("ellipsoid.ply");
         for (int v = 0; v < kShapeViews; ++v)
@@ -447,11 +616,10 @@ TEST(CatalogTest, reindex_recomputes_an_older_builds_signatures_and_leaves_a_cha
             older.insert(older.end(), now.begin() + v * kShapeFeatures,
                          now.begin() + v * kShapeFeatures + kShapePositionFeatures);
         }
-        SQLite::Statement set(db, "UPDATE assets SET shape = ? WHERE id = 'ellipsoid.ply'");
-        set.bind(1, older.data(), static_cast<int>(older.size()));
-        set.exec();
-        db.exec(
-            "UPDATE assets SET shape = zeroblob(0) WHERE id IN ('sub/egg.off', 'sub/torus.obj')");
+        (void)sql(
+            at, "UPDATE assets SET shape = " + blob_literal(older) + " WHERE id = 'ellipsoid.ply'");
+        (void)sql(at, "UPDATE assets SET shape = " + blob_literal({}) +
+                          " WHERE id IN ('sub/egg.off', 'sub/torus.obj')");
     }
     std::ofstream(in / "sub" / "torus.obj", std::ios::app) << "# edited\n";
 
@@ -468,7 +636,7 @@ TEST(CatalogTest, reindex_recomputes_an_older_builds_signatures_and_leaves_a_cha
                                      [](const auto& o) { return o.asset == "sub/torus.obj"; })
                             ->reason;
     EXPECT_NE(reason.find("changed since it was added"), std::string::npos) << reason;
-    const auto reindexed = stored_shapes(dir / "cat.db");
+    const auto reindexed = stored_shapes(at);
     EXPECT_EQ(reindexed.at("ellipsoid.ply"), added.at("ellipsoid.ply"));
     EXPECT_EQ(reindexed.at("sub/egg.off"), added.at("sub/egg.off"));
     EXPECT_TRUE(reindexed.at("sub/torus.obj").empty());
@@ -486,14 +654,15 @@ TEST(CatalogTest, reindex_recomputes_an_older_builds_signatures_and_leaves_a_cha
         EXPECT_EQ(o.status, o.asset == "sub/torus.obj" ? CatalogReindexOutcome::Status::Failed
                                                        : CatalogReindexOutcome::Status::Updated);
     }
-    EXPECT_EQ(stored_shapes(dir / "cat.db").at("sub/egg.off"), added.at("sub/egg.off"));
+    EXPECT_EQ(stored_shapes(at).at("sub/egg.off"), added.at("sub/egg.off"));
 }
 
 TEST(CatalogTest, scan_reports_the_same_tries_in_rank_order_on_one_thread_or_several)
 {
     const fs::path dir = test::temp_dir("catalog_scan_threads");
     const fs::path in = make_originals(dir);
-    Catalog catalog(dir / "cat.db", Catalog::Open::CreateIfMissing);
+    const std::string at = catalog_at(dir);
+    Catalog catalog(at, Catalog::Open::CreateIfMissing);
     (void)catalog_add(catalog, {in}, dir / "out", quick_options());
     const auto listed = catalog.assets();
     ASSERT_EQ(listed.size(), 3U);
@@ -602,7 +771,8 @@ TEST(CatalogTest, scan_tries_first_the_asset_whose_numbering_a_copy_keeps)
     }
     write_mesh(dir / "in" / "a_reversed.ply", reversed);
     write_mesh(dir / "in" / "z_made.ply", made);
-    Catalog catalog(dir / "cat.db", Catalog::Open::CreateIfMissing);
+    const std::string at = catalog_at(dir);
+    Catalog catalog(at, Catalog::Open::CreateIfMissing);
     (void)catalog_add(catalog, {dir / "in"}, dir / "out", quick_options());
     write_mesh(dir / "suspect.ply",
                apply_attacks(read_mesh(dir / "out" / "z_made.ply"),
