@@ -1,0 +1,316 @@
+// SPDX-License-Identifier: MIT
+// The catalogue's scan: finding a suspect's asset and recipient, the shape index, an
+// interrupted add's copy, reindexing.
+#include "meshmark/catalog/catalog_scan.h"
+
+#include <chrono>
+#include <cstdlib>
+#include <fstream>
+#include <map>
+#include <set>
+#include <thread>
+
+#include <SQLiteCpp/SQLiteCpp.h>
+#include <gtest/gtest.h>
+#include <libpq-fe.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "catalog_test_support.h"
+#include "meshmark/attacks/attack_spec.h"
+#include "meshmark/catalog/catalog.h"
+#include "meshmark/catalog/catalog_add.h"
+#include "meshmark/catalog/catalog_reindex.h"
+#include "meshmark/core/error.h"
+#include "meshmark/geometry/shapes.h"
+#include "meshmark/io/mesh_io.h"
+#include "support/test_paths.h"
+
+namespace meshmark
+{
+namespace
+{
+
+namespace fs = std::filesystem;
+using namespace test;  // catalog_test_support.h
+
+TEST(CatalogTest,
+     scan_finds_the_asset_and_recipient_of_an_attacked_copy_and_claims_nothing_unmarked)
+{
+    const fs::path dir = test::temp_dir("catalog_scan");
+    const fs::path in = make_originals(dir);
+    const std::string at = catalog_at(dir);
+    Catalog catalog(at, Catalog::Open::CreateIfMissing);
+    (void)catalog_add(catalog, {in}, dir / "out", quick_options());
+    CatalogIssueOptions issue;
+    issue.recipients = {"alice", "bob"};
+    (void)catalog_issue(catalog, "sub/torus.obj", (dir / "copies" / "{recipient}.obj").string(),
+                        issue);
+
+    const TriangleMesh bobs = read_mesh(dir / "copies" / "bob.obj");
+    write_mesh(dir / "suspect.ply",
+               apply_attacks(bobs, parse_attack_spec("similarity,noise=0.0002"), 5, 1).mesh);
+    write_mesh(dir / "unmarked.ply", apply_attacks(read_mesh(in / "sub" / "egg.off"),
+                                                   parse_attack_spec("similarity"), 5, 1)
+                                         .mesh);
+    CatalogScanOptions options;
+    options.candidates = 2;  // (the unmarked copy is tried against two assets, not all three)
+    const CatalogScanReport report = catalog_scan(
+        catalog, {dir / "suspect.ply", dir / "unmarked.ply", dir / "missing.ply"}, options);
+    EXPECT_EQ(report.assets, 3U);
+    ASSERT_EQ(report.suspects.size(), 3U);
+    const SuspectScan& found = report.suspects[0];
+    ASSERT_TRUE(found.detected);
+    ASSERT_EQ(found.matches.size(), 1U);
+    EXPECT_EQ(found.matches[0].asset, "sub/torus.obj");
+    ASSERT_EQ(found.matches[0].recipients.size(), 1U);
+    EXPECT_EQ(found.matches[0].recipients[0].name, "bob");
+    // The bound is the detection's times the catalogue's size.
+    EXPECT_NEAR(found.matches[0].false_positive_probability,
+                std::min(1.0, 3.0 * found.matches[0].report.owner_false_positive_probability),
+                1e-12 + 1e-9 * found.matches[0].false_positive_probability);
+    EXPECT_FALSE(report.suspects[1].detected);
+    EXPECT_FALSE(report.suspects[1].tried.empty());
+    EXPECT_FALSE(report.suspects[2].detected);
+    EXPECT_NE(report.suspects[2].error.find("missing.ply"), std::string::npos);
+}
+
+// A kill between the published copy's rename and the asset's `complete` mark leaves a visible
+// copy of an asset not yet complete: a scan traces it, and the next add finishes the asset with
+// the same copy.
+TEST(CatalogTest, a_visible_copy_of_an_interrupted_add_is_traced_and_the_next_add_keeps_it)
+{
+    const fs::path dir = test::temp_dir("catalog_interrupted");
+    const fs::path in = make_originals(dir);
+    const std::string at = catalog_at(dir);
+    Catalog catalog(at, Catalog::Open::CreateIfMissing);
+    (void)catalog_add(catalog, {in}, dir / "out", quick_options());
+    const fs::path published = dir / "out" / "sub" / "torus.obj";
+    const std::string copy = file_sha256(published);
+    (void)sql(at, "UPDATE assets SET complete = 0 WHERE id = 'sub/torus.obj'");
+    ASSERT_FALSE(catalog.asset("sub/torus.obj")->is_complete);
+    EXPECT_EQ(catalog.complete_count(), 2U);
+
+    write_mesh(dir / "suspect.ply",
+               apply_attacks(read_mesh(published), parse_attack_spec("similarity"), 5, 1).mesh);
+    const CatalogScanReport report =
+        catalog_scan(catalog, {dir / "suspect.ply"}, CatalogScanOptions{});
+    EXPECT_EQ(report.assets, 3U);  // the bound counts the interrupted asset too
+    ASSERT_TRUE(report.suspects[0].detected);
+    EXPECT_EQ(report.suspects[0].matches[0].asset, "sub/torus.obj");
+
+    const auto finished = catalog_add(catalog, {in}, dir / "out", quick_options());
+    EXPECT_EQ(outcome_of(finished, "sub/torus.obj").status, CatalogAddOutcome::Status::Marked);
+    EXPECT_EQ(outcome_of(finished, "ellipsoid.ply").status, CatalogAddOutcome::Status::Present);
+    EXPECT_TRUE(catalog.asset("sub/torus.obj")->is_complete);
+    EXPECT_EQ(file_sha256(published), copy);
+}
+
+// The shape column of every asset, by id, as stored.
+std::map<std::string, std::vector<std::uint8_t>> stored_shapes(const std::string& at)
+{
+    std::map<std::string, std::vector<std::uint8_t>> shapes;
+    for (const auto& row : sql(at, postgres_server() ? "SELECT id, encode(shape, 'hex') FROM assets"
+                                                     : "SELECT id, hex(shape) FROM assets"))
+    {
+        std::vector<std::uint8_t>& shape = shapes[row[0]];
+        for (std::size_t i = 0; i + 1 < row[1].size(); i += 2)
+        {
+            shape.push_back(static_cast<std::uint8_t>(std::stoi(row[1].substr(i, 2), nullptr, 16)));
+        }
+    }
+    return shapes;
+}
+
+TEST(CatalogTest, reindex_recomputes_an_older_builds_signatures_and_leaves_a_changed_original_alone)
+{
+    const fs::path dir = test::temp_dir("catalog_reindex");
+    const fs::path in = make_originals(dir);
+    const std::string at = catalog_at(dir);
+    Catalog catalog(at, Catalog::Open::CreateIfMissing);
+    (void)catalog_add(catalog, {in}, dir / "out", quick_options());
+    const auto added = stored_shapes(at);
+    ASSERT_EQ(added.size(), 3U);
+    {
+        // As an older build left them: the positions' features alone, no signature, and one
+        // whose original changed since.
+        std::vector<std::uint8_t> older;
+        const std::vector<std::uint8_t>& now = added.at("ellipsoid.ply");
+        for (int v = 0; v < kShapeViews; ++v)
+        {
+            older.insert(older.end(), now.begin() + v * kShapeFeatures,
+                         now.begin() + v * kShapeFeatures + kShapePositionFeatures);
+        }
+        (void)sql(
+            at, "UPDATE assets SET shape = " + blob_literal(older) + " WHERE id = 'ellipsoid.ply'");
+        (void)sql(at, "UPDATE assets SET shape = " + blob_literal({}) +
+                          " WHERE id IN ('sub/egg.off', 'sub/torus.obj')");
+    }
+    std::ofstream(in / "sub" / "torus.obj", std::ios::app) << "# edited\n";
+
+    const auto outcomes = catalog_reindex(catalog, CatalogReindexOptions{});
+    std::map<std::string, CatalogReindexOutcome::Status> status;
+    for (const auto& o : outcomes)
+    {
+        status[o.asset] = o.status;
+    }
+    EXPECT_EQ(status.at("ellipsoid.ply"), CatalogReindexOutcome::Status::Updated);
+    EXPECT_EQ(status.at("sub/egg.off"), CatalogReindexOutcome::Status::Updated);
+    EXPECT_EQ(status.at("sub/torus.obj"), CatalogReindexOutcome::Status::Failed);
+    const auto reason = std::find_if(outcomes.begin(), outcomes.end(),
+                                     [](const auto& o) { return o.asset == "sub/torus.obj"; })
+                            ->reason;
+    EXPECT_NE(reason.find("changed since it was added"), std::string::npos) << reason;
+    const auto reindexed = stored_shapes(at);
+    EXPECT_EQ(reindexed.at("ellipsoid.ply"), added.at("ellipsoid.ply"));
+    EXPECT_EQ(reindexed.at("sub/egg.off"), added.at("sub/egg.off"));
+    EXPECT_TRUE(reindexed.at("sub/torus.obj").empty());
+
+    // Again: nothing left to do but the changed original; --all reads every unchanged one.
+    for (const auto& o : catalog_reindex(catalog, CatalogReindexOptions{}))
+    {
+        EXPECT_EQ(o.status, o.asset == "sub/torus.obj" ? CatalogReindexOutcome::Status::Failed
+                                                       : CatalogReindexOutcome::Status::Current);
+    }
+    CatalogReindexOptions all;
+    all.all = true;
+    for (const auto& o : catalog_reindex(catalog, all))
+    {
+        EXPECT_EQ(o.status, o.asset == "sub/torus.obj" ? CatalogReindexOutcome::Status::Failed
+                                                       : CatalogReindexOutcome::Status::Updated);
+    }
+    EXPECT_EQ(stored_shapes(at).at("sub/egg.off"), added.at("sub/egg.off"));
+}
+
+TEST(CatalogTest, scan_reports_the_same_tries_in_rank_order_on_one_thread_or_several)
+{
+    const fs::path dir = test::temp_dir("catalog_scan_threads");
+    const fs::path in = make_originals(dir);
+    const std::string at = catalog_at(dir);
+    Catalog catalog(at, Catalog::Open::CreateIfMissing);
+    (void)catalog_add(catalog, {in}, dir / "out", quick_options());
+    const auto listed = catalog.assets();
+    ASSERT_EQ(listed.size(), 3U);
+    write_mesh(dir / "suspect.ply",
+               apply_attacks(read_mesh(listed[1].published),
+                             parse_attack_spec("similarity,noise=0.0002"), 5, 1)
+                   .mesh);
+    // What a scan reports, but its times: every try and match with its rank order and figures.
+    const auto summary = [](const CatalogScanReport& report)
+    {
+        std::vector<std::string> lines;
+        for (const SuspectScan& scan : report.suspects)
+        {
+            for (const CatalogTry& tried : scan.tried)
+            {
+                lines.push_back("tried " + tried.asset + " " +
+                                std::to_string(tried.shape_distance) + " " +
+                                std::to_string(tried.false_positive_probability));
+            }
+            for (const CatalogMatch& match : scan.matches)
+            {
+                lines.push_back("match " + match.asset + " " + std::to_string(match.rank) + " " +
+                                std::to_string(match.score));
+            }
+        }
+        return lines;
+    };
+    // The marked copy tried against every asset (the nearest alone, the two others at once when
+    // there are threads for them), on one thread or on several: the same tries in rank order.
+    CatalogScanOptions options;
+    options.candidates = 3;
+    options.stop_at_match = false;
+    options.detect.threads = 1;
+    const auto one = summary(catalog_scan(catalog, {dir / "suspect.ply"}, options));
+    options.detect.threads = 3;
+    const auto several = summary(catalog_scan(catalog, {dir / "suspect.ply"}, options));
+    EXPECT_EQ(one, several);
+    ASSERT_EQ(one.size(), 3U);  // two tries and the match
+    EXPECT_EQ(
+        std::count_if(one.begin(), one.end(),
+                      [](const std::string& l) { return l.starts_with("match sub/egg.off "); }),
+        1);
+}
+
+TEST(CatalogTest,
+     shape_candidates_take_the_two_rankings_in_turn_and_rank_an_older_catalogues_assets)
+{
+    TriangleMesh egg = icosphere(4);
+    egg.V.col(2) *= 1.7;
+    const std::vector<TriangleMesh> meshes = {lumpy_ellipsoid(3), torus(1.0, 0.3, 48, 24), egg};
+    std::vector<Catalog::IndexEntry> index;
+    for (std::size_t m = 0; m < meshes.size(); ++m)
+    {
+        index.push_back({"asset" + std::to_string(m), shape_signature(meshes[m]).to_bytes()});
+    }
+    // The torus as a catalogue of an older build holds it: the positions' features alone.
+    std::vector<std::uint8_t> older;
+    for (std::size_t at = 0; at < index[1].views.size(); at += kShapeFeatures)
+    {
+        older.insert(
+            older.end(), index[1].views.begin() + static_cast<std::ptrdiff_t>(at),
+            index[1].views.begin() + static_cast<std::ptrdiff_t>(at + kShapePositionFeatures));
+    }
+    index[1].views = older;
+    const TriangleMesh moved = apply_attacks(meshes[1], parse_attack_spec("similarity"), 3, 1).mesh;
+    const auto ranked = shape_candidates(index, shape_features(moved), 3);
+    ASSERT_EQ(ranked.size(), 3U);
+    // The torus is not in the ranking by every feature (it has no normals' features), so it
+    // comes second, first of the positions' ranking, at the distance of an exact copy.
+    EXPECT_EQ(ranked[1].second, 1U);
+    EXPECT_LT(ranked[1].first, 0.01F);
+    std::set<std::size_t> listed;
+    for (const auto& [distance, a] : ranked)
+    {
+        listed.insert(a);
+    }
+    EXPECT_EQ(listed.size(), 3U);
+    // A current entry is first when it is first by every feature.
+    const auto egg_first = shape_candidates(
+        index, shape_features(apply_attacks(egg, parse_attack_spec("similarity"), 3, 1).mesh), 1);
+    ASSERT_EQ(egg_first.size(), 1U);
+    EXPECT_EQ(egg_first[0].second, 2U);
+}
+
+TEST(CatalogTest, scan_tries_first_the_asset_whose_numbering_a_copy_keeps)
+{
+    // Two assets of one surface: the same vertices in reverse order ("a_reversed", first in the
+    // index's order) and as made ("z_made"). Their signatures are equal (the draw does not
+    // depend on the numbering), so the shape index ranks them as a tie; a moved copy of
+    // z_made's published copy keeps z_made's numbering, and is tried against it first.
+    const fs::path dir = test::temp_dir("catalog_in_order");
+    fs::create_directories(dir / "in");
+    const TriangleMesh made = lumpy_ellipsoid(3);
+    TriangleMesh reversed = made;
+    const auto n = static_cast<std::int32_t>(made.V.rows());
+    for (std::int32_t i = 0; i < n; ++i)
+    {
+        reversed.V.row(i) = made.V.row(n - 1 - i);
+    }
+    for (Eigen::Index f = 0; f < made.F.rows(); ++f)
+    {
+        for (int k = 0; k < 3; ++k)
+        {
+            reversed.F(f, k) = n - 1 - made.F(f, k);
+        }
+    }
+    write_mesh(dir / "in" / "a_reversed.ply", reversed);
+    write_mesh(dir / "in" / "z_made.ply", made);
+    const std::string at = catalog_at(dir);
+    Catalog catalog(at, Catalog::Open::CreateIfMissing);
+    (void)catalog_add(catalog, {dir / "in"}, dir / "out", quick_options());
+    write_mesh(dir / "suspect.ply",
+               apply_attacks(read_mesh(dir / "out" / "z_made.ply"),
+                             parse_attack_spec("similarity,noise=0.0005"), 5, 1)
+                   .mesh);
+    CatalogScanOptions options;
+    options.candidates = 1;
+    const CatalogScanReport report = catalog_scan(catalog, {dir / "suspect.ply"}, options);
+    ASSERT_EQ(report.suspects.size(), 1U);
+    ASSERT_EQ(report.suspects[0].matches.size(), 1U);
+    EXPECT_EQ(report.suspects[0].matches[0].asset, "z_made.ply");
+    EXPECT_TRUE(report.suspects[0].tried.empty());
+}
+
+}  // namespace
+}  // namespace meshmark
