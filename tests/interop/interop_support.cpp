@@ -195,7 +195,7 @@ std::string missing_tools(const std::vector<std::string>& needed)
         }
         else if (name == "assimp-testmodels")
         {
-            // Debian's assimp-testmodels: other people's models (real_assets_test.cpp).
+            // Debian's assimp-testmodels: other people's models (real_assets_*_test.cpp).
             note(fs::exists("/usr/share/assimp/models/OBJ/spider.obj"),
                  "assimp-testmodels (/usr/share/assimp/models)");
         }
