@@ -166,7 +166,7 @@ void read_animation_pose(PoseReading& reading, PhaseTimer& timer, const Spectral
 {
     DetectReport& report = reading.report;
     if (in.animated == nullptr || in.animated->animations.empty() ||
-        reading.correspondence == Correspondence::None ||
+        report.correspondence == Correspondence::None ||
         (mark.key().recipients && !mark.key().recipients->recipients.empty()) ||
         options.decision.verdict == VerdictRule::Bits || !options.pairs.empty())
     {
@@ -229,8 +229,8 @@ void read_animation_pose(PoseReading& reading, PhaseTimer& timer, const Spectral
     read_in_pose(other, timer, mark, unposed_in, options, &in_place, nullptr);
     bounded(other.report);
     other.report.transform = other.report.transform * fit->to_pose;
-    other.correspondence = Correspondence::AnimationFrame;
-    other.pose = fit->pose.name;
+    other.report.correspondence = Correspondence::AnimationFrame;
+    other.report.pose = fit->pose.name;
     keep_more_significant(reading, other);
 }
 
