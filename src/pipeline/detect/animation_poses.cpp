@@ -83,9 +83,9 @@ std::vector<AnimationFrame> animation_frames(const std::vector<AnimationSpan>& a
     return frames;
 }
 
-// \p visit(pose, k) for each k of \p which: frames[k] posed, the frames of one animation from
-// one parse of the file (for_each_animation_pose), animation after animation.
-void for_each_frame(const std::filesystem::path& path, const std::vector<AnimationFrame>& frames,
+// \p visit(pose, k) for each k of \p which: frames[k] posed, the frames of one animation in one
+// walk of the file read up front (for_each_animation_pose), animation after animation.
+void for_each_frame(const MeshFile& file, const std::vector<AnimationFrame>& frames,
                     const std::vector<std::size_t>& which,
                     const std::function<void(FramePose&&, std::size_t)>& visit)
 {
@@ -103,7 +103,7 @@ void for_each_frame(const std::filesystem::path& path, const std::vector<Animati
         }
         std::size_t at = begin;
         for_each_animation_pose(
-            path, times,
+            file, times,
             [&](ShownPose&& pose)
             {
                 visit(FramePose{std::move(pose.name), std::move(pose.V), std::move(pose.to_rest)},
@@ -198,7 +198,7 @@ void read_animation_pose(PoseReading& reading, PhaseTimer& timer, const Spectral
     }
     posed.pose = [&](const std::vector<std::size_t>& which,
                      const std::function<void(FramePose&&, std::size_t)>& visit)
-    { for_each_frame(animated.path, frames, which, visit); };
+    { for_each_frame(*animated.file, frames, which, visit); };
     const bool bends = any_frame_bends(posed, shown_frames, frames.size(), original.V.rows());
     timer.lap("poses");
     if (!bends)
