@@ -107,7 +107,7 @@ Trial run_trial(const SpectralWatermark& mark, const TriangleMesh& original,
         trial.cropped_fraction = report.cropped_fraction;
         trial.outlier_fraction = report.outlier_fraction;
         trial.registration_rms = report.registration_rms;
-        trial.alignment = report.alignment;
+        trial.alignment = report.registration_method();
         trial.recipients_traced = report.recipients_traced;
         trial.owner_detected = report.owner_detected;
         trial.recipient_score = report.traced.empty() ? 0.0 : -1e300;

@@ -438,8 +438,8 @@ void register_catalog(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     auto args = std::make_shared<CatalogArgs>();
     auto* catalog =
         app.add_subcommand("catalog",
-                           "A catalogue of marked assets (SQLite file or PostgreSQL database): "
-                           "add, list, issue copies, scan suspects, migrate (docs/catalog.md)");
+                           "A catalogue of marked assets (SQLite file or PostgreSQL): add, list, "
+                           "issue copies, scan suspects (docs/catalog.md)");
     catalog->require_subcommand(1);
 
     auto* add = catalog->add_subcommand(

@@ -84,8 +84,8 @@ void register_catalog_migrate(CLI::App& catalog, GlobalArgs& global, CommandRunn
     auto args = std::make_shared<MigrateArgs>();
     auto* migrate = catalog.add_subcommand(
         "migrate",
-        "Copy a catalogue (every asset, key, recipient and shape) into a new one, in one "
-        "transaction: e.g. an SQLite file into postgresql://");
+        "Copy a whole catalogue into a new one in one transaction (e.g. a file into "
+        "postgresql://)");
     migrate->add_option("SOURCE", args->source, "Catalogue file or postgresql:// URL")->required();
     migrate
         ->add_option("DESTINATION", args->destination,

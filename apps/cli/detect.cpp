@@ -178,7 +178,7 @@ int run_detect(const DetectArgs& args, const GlobalArgs& global)
             std::printf(
                 "  expected %s\n  found    %s\n  alignment %s, RMS distance %s of the diagonal, "
                 "cropped %.1f%%, far rows left out %.1f%%, %.3f s\n",
-                d.bits_expected.c_str(), d.bits_found.c_str(), report.alignment.c_str(),
+                d.bits_expected.c_str(), d.bits_found.c_str(), report.registration_method().c_str(),
                 format_number(report.registration_rms).c_str(), 100.0 * report.cropped_fraction,
                 100.0 * report.outlier_fraction, report.seconds.total);
         }

@@ -322,9 +322,9 @@ void bind_memory(py::module_& m)
             "is far from them (crops aside): a resampled suspect's surface, or a "
             "vertex-for-vertex suspect's own vertices.")
         .def_property_readonly(
-            "alignment", [](const DetectResult& r) { return r.report.alignment; },
-            "How the suspect was put in correspondence ('none', 'similarity', "
-            "'registration', ...).")
+            "alignment", [](const DetectResult& r) { return r.report.registration_method(); },
+            "How the suspect was put in correspondence, as the JSON report's "
+            "registration.method ('none', 'same-connectivity', 'registration', ...).")
         .def_property_readonly("registration_rms",
                                [](const DetectResult& r) { return r.report.registration_rms; })
         .def_property_readonly(

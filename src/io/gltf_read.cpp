@@ -9,7 +9,9 @@
 #include <cctype>
 #include <climits>
 #include <map>
+#include <memory>
 #include <string_view>
+#include <vector>
 
 #include <tiny_gltf.h>
 
@@ -369,7 +371,7 @@ namespace
 {
 
 // The container (GLB chunks), tinygltf's parse and buffer loading, meshopt views decoded: what
-// read_gltf and visit_gltf_poses walk the scene of.
+// read_gltf walks the scene of (and keeps, for visit_gltf_poses to walk it again).
 tinygltf::Model load_asset(const fs::path& path, const std::string& bytes, bool is_glb,
                            GltfAsset& asset)
 {
@@ -434,16 +436,31 @@ tinygltf::Model load_asset(const fs::path& path, const std::string& bytes, bool 
 TriangleMesh read_gltf(const fs::path& path, const std::string& bytes, bool is_glb,
                        GltfAsset& asset)
 {
-    const tinygltf::Model model = load_asset(path, bytes, is_glb, asset);
-    return read_scene(path, model, asset);
+    auto model = std::make_shared<tinygltf::Model>(load_asset(path, bytes, is_glb, asset));
+    TriangleMesh mesh = read_scene(path, *model, asset);
+    // Kept to pose the scene later (visit_gltf_poses). Without animations and without a stored
+    // blend of morph targets (no AnimationSpan), no time of any animation poses the mesh.
+    if (!model->animations.empty() || !asset.animations.empty())
+    {
+        for (tinygltf::Buffer& buffer : model->buffers)
+        {
+            std::vector<unsigned char>().swap(buffer.data);  // (asset.buffers holds the bytes)
+        }
+        asset.model = std::move(model);
+    }
+    return mesh;
 }
 
-void visit_gltf_poses(const fs::path& path, const std::string& bytes, bool is_glb,
-                      std::span<const double> times, const std::function<void(ShownPose&&)>& visit,
-                      std::size_t animation)
+void visit_gltf_poses(const fs::path& path, const GltfAsset& read, std::span<const double> times,
+                      const std::function<void(ShownPose&&)>& visit, std::size_t animation)
 {
+    // What the scene walk reads of a loaded asset (load_asset's result); what it fills starts
+    // empty, as does the welding it caches from the first time for the others.
     GltfAsset loaded;
-    const tinygltf::Model model = load_asset(path, bytes, is_glb, loaded);
+    loaded.is_glb = read.is_glb;
+    loaded.folder = read.folder;
+    loaded.buffers = read.buffers;
+    loaded.meshopt = read.meshopt;
     for (const double t : times)
     {
         // The scene walk fills the asset's lists of accessors, Draco primitives and instances:
@@ -452,7 +469,7 @@ void visit_gltf_poses(const fs::path& path, const std::string& bytes, bool is_gl
         loaded.draco.clear();
         loaded.instances = TriangleMesh{};
         loaded.pose = ShownPose{};
-        (void)read_scene(path, model, loaded, t, animation);
+        (void)read_scene(path, *read.model, loaded, t, animation);
         visit(std::move(loaded.pose));
     }
 }

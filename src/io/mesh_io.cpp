@@ -192,11 +192,12 @@ MeshFile read_mesh_file(const std::filesystem::path& path)
     return file;
 }
 
-void for_each_animation_pose(const std::filesystem::path& path, std::span<const double> times,
+void for_each_animation_pose(const MeshFile& file, std::span<const double> times,
                              const std::function<void(ShownPose&&)>& visit, std::size_t animation)
 {
-    const MeshFormat format = format_from_extension(path);
-    if (format != MeshFormat::Gltf && format != MeshFormat::Glb)
+    const auto* asset =
+        file.layout == nullptr ? nullptr : std::get_if<detail::GltfAsset>(&file.layout->positions);
+    if (asset == nullptr || asset->model == nullptr)  // (no animation: no time poses the mesh)
     {
         for (std::size_t k = 0; k < times.size(); ++k)
         {
@@ -204,8 +205,19 @@ void for_each_animation_pose(const std::filesystem::path& path, std::span<const 
         }
         return;
     }
-    detail::visit_gltf_poses(path, detail::read_file_bytes(path), format == MeshFormat::Glb, times,
-                             visit, animation);
+    detail::visit_gltf_poses(file.path, *asset, times, visit, animation);
+}
+
+void for_each_animation_pose(const std::filesystem::path& path, std::span<const double> times,
+                             const std::function<void(ShownPose&&)>& visit, std::size_t animation)
+{
+    const MeshFormat format = format_from_extension(path);
+    if (format != MeshFormat::Gltf && format != MeshFormat::Glb)
+    {
+        for_each_animation_pose(MeshFile{}, times, visit, animation);
+        return;
+    }
+    for_each_animation_pose(read_mesh_file(path), times, visit, animation);
 }
 
 TriangleMesh read_mesh(const std::filesystem::path& path)

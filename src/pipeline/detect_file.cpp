@@ -17,8 +17,6 @@
 
 namespace meshmark
 {
-namespace detail
-{
 
 std::string correspondence_method(Correspondence correspondence, const std::string& pose)
 {
@@ -39,8 +37,6 @@ std::string correspondence_method(Correspondence correspondence, const std::stri
     }
     return "none";
 }
-
-}  // namespace detail
 
 namespace
 {
@@ -77,9 +73,6 @@ DetectReport run_detection(const detail::DetectSources& sources, const DetectFil
     // 7. Other poses of an animated original, under the union bound.
     detail::read_animation_pose(reading, timer, mark, in, options);
 
-    reading.report.alignment = detail::correspondence_method(reading.correspondence, reading.pose);
-    reading.report.registered = reading.correspondence != detail::Correspondence::None &&
-                                reading.correspondence != detail::Correspondence::InOrder;
     return std::move(reading.report);
 }
 

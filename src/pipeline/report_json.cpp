@@ -182,7 +182,7 @@ nlohmann::json detect_report_json(const DetectReport& report, const DetectOption
                           {"cropped_fraction", report.cropped_fraction},
                           {"outlier_fraction", report.outlier_fraction},
                           {"registration",
-                           {{"method", report.alignment},
+                           {{"method", report.registration_method()},
                             {"rms_error", report.registration_rms},
                             {"transform", matrix_json(report.transform)}}},
                           {"mark_strength", report.mark_strength},

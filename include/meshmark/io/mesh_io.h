@@ -98,7 +98,9 @@ struct MeshFile
     /// or float-typed ASCII PLY, binary STL; for OBJ, OFF and ASCII STL, every coordinate
     /// token had at most 9 significant digits.
     bool is_single_precision = false;
-    std::shared_ptr<const detail::FileLayout> layout;  ///< Opaque; used by write_mesh_file.
+    /// Opaque; used by write_mesh_file (and by for_each_animation_pose: a glTF file with
+    /// animations keeps its parsed scene here).
+    std::shared_ptr<const detail::FileLayout> layout;
     /// glTF and 3MF: the geometry of the other instances of meshes that several nodes (build
     /// items, components) show under different transforms, in the world frame. `mesh` holds the
     /// first instance only (the instances share their stored positions, so only one can take a
@@ -125,14 +127,23 @@ struct MeshFile
 /// or byte offset) or InvalidMesh (non-finite coordinate, index out of range).
 [[nodiscard]] MeshFile read_mesh_file(const std::filesystem::path& path);
 
-/// \brief The mesh of a glTF file posed by its animation \p animation (AnimationSpan::index; 0:
-/// the first; one past the file's animations: its stored morph weights) at each of \p times
-/// (seconds), one call of \p visit per time, in order, the file parsed once. A pose blends the
-/// morph targets by their weights at that time.
+/// \brief The mesh of a glTF file, as read_mesh_file read it, posed by its animation
+/// \p animation (AnimationSpan::index; 0: the first; one past the file's animations: its stored
+/// morph weights) at each of \p times (seconds), one call of \p visit per time, in order. A pose
+/// blends the morph targets by their weights at that time. Nothing is read or parsed again:
+/// read_mesh_file keeps what posing needs of a glTF file with animations (in `layout`).
 /// \details Each pose has MeshFile::mesh's rows and the maps back (ShownPose), with an empty
-/// `V` where the pose is only a similarity of the stored one (or the animation is malformed). Other
-/// formats, and files without an animation, call \p visit with empty poses. A copy re-posed by
-/// a user (a rigged character exported at another frame) is read through these.
+/// `V` where the pose is only a similarity of the stored one (or the animation is malformed).
+/// Other formats, files without an animation, and a MeshFile without layout, call \p visit with
+/// empty poses. A copy re-posed by a user (a rigged character exported at another frame) is read
+/// through these.
+/// \throws IoError for a malformed mesh in the pose (as read_mesh_file would).
+void for_each_animation_pose(const MeshFile& file, std::span<const double> times,
+                             const std::function<void(ShownPose&&)>& visit,
+                             std::size_t animation = 0);
+
+/// \brief for_each_animation_pose of the file at \p path, read first (read_mesh_file; other
+/// formats than glTF are not read: their poses are empty).
 /// \throws the errors of read_mesh_file.
 void for_each_animation_pose(const std::filesystem::path& path, std::span<const double> times,
                              const std::function<void(ShownPose&&)>& visit,

@@ -6,6 +6,7 @@
 
 #include <Eigen/Core>
 
+#include "meshmark/pipeline/correspondence.h"
 #include "meshmark/pipeline/embed_file.h"
 #include "meshmark/registration/point_pairs.h"
 #include "meshmark/watermark/watermark.h"
@@ -47,12 +48,12 @@ struct DetectReport
     /// them (beyond 3 x the median distance and 10 x the strength), crops aside: a resampled
     /// suspect's surface, or a vertex-for-vertex suspect's own vertices.
     double outlier_fraction = 0.0;
-    /// How the suspect was put in correspondence, in the words of `detect --json`'s
-    /// registration.method ("same-connectivity", "registration", ...): for people and files.
-    std::string alignment = "none";
-    /// The suspect was registered onto the original (its vertices are not the original's in
-    /// its order): what code that decides on the correspondence reads, never alignment's text.
-    bool registered = false;
+    /// How the suspect was put in correspondence with the original (of the reading kept); its
+    /// words for people and files: registration_method().
+    Correspondence correspondence = Correspondence::None;
+    /// Correspondence::AnimationFrame: the frame of the original's animations read through
+    /// ("animation 'Run' at 10/24 s"); empty otherwise.
+    std::string pose;
     Eigen::Matrix4d transform = Eigen::Matrix4d::Identity();  ///< Suspect -> original frame.
     double registration_rms = 0.0;  ///< RMS distance to the original / its bbox diagonal.
     /// The mark's RMS amplitude / the original's bbox diagonal: the key's additive strength (the
@@ -93,11 +94,19 @@ struct DetectReport
     {
         return recipients_traced > 0 ? !accused.empty() || owner_detected : decision.is_present;
     }
+    /// The suspect was registered onto the original (is_registered(correspondence)): its
+    /// vertices are not the original's in its order.
+    [[nodiscard]] bool registered() const noexcept { return is_registered(correspondence); }
+    /// `detect --json`'s registration.method: correspondence_method(correspondence, pose).
+    [[nodiscard]] std::string registration_method() const
+    {
+        return correspondence_method(correspondence, pose);
+    }
     /// Whether the suspect was registered and lies kFarCopyStrengths times the mark's strength
     /// or more from the original: why a "not found" there says little (meshmark detect's note).
     [[nodiscard]] bool is_far_copy() const noexcept
     {
-        return registered && mark_strength > 0.0 &&
+        return registered() && mark_strength > 0.0 &&
                registration_rms >= kFarCopyStrengths * mark_strength;
     }
 };

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <map>
+#include <memory>
 #include <span>
 #include <string>
 #include <utility>
@@ -16,6 +17,11 @@
 #include "meshmark/core/triangle_mesh.h"
 #include "meshmark/io/mesh_io.h"
 #include "numbers.h"
+
+namespace tinygltf
+{
+class Model;
+}
 
 namespace meshmark::detail
 {
@@ -194,6 +200,10 @@ struct GltfAsset
     /// The geometry of every instance but the first of instanced meshes, in the world frame
     /// (not watermarked; see MeshFile::instances).
     TriangleMesh instances;
+    /// read_gltf: tinygltf's parse of the file, kept when it has animations (or a stored blend
+    /// of morph targets) so that its poses are walked without parsing it again
+    /// (visit_gltf_poses); without its buffers' bytes, which `buffers` holds. Null otherwise.
+    std::shared_ptr<const tinygltf::Model> model;
     /// The pose of the animation at the time read_scene was asked for (for_each_animation_pose).
     ShownPose pose;
     /// The animations that animate a node (see MeshFile::animations).
@@ -224,9 +234,10 @@ struct GltfAsset
 [[nodiscard]] TriangleMesh read_gltf(const std::filesystem::path& path, const std::string& bytes,
                                      bool is_glb, GltfAsset& asset);
 
-/// \brief read_gltf's parse, then the scene posed by animation \p animation at each of \p times
-/// (for_each_animation_pose).
-void visit_gltf_poses(const std::filesystem::path& path, const std::string& bytes, bool is_glb,
+/// \brief The scene of \p read (as read_gltf left it, its model kept) posed by animation
+/// \p animation at each of \p times (for_each_animation_pose): nothing is read or parsed again;
+/// each call walks the scene afresh over a copy of its loaded buffers. \p path names the file.
+void visit_gltf_poses(const std::filesystem::path& path, const GltfAsset& read,
                       std::span<const double> times, const std::function<void(ShownPose&&)>& visit,
                       std::size_t animation);
 

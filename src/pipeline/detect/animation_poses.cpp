@@ -83,9 +83,9 @@ std::vector<AnimationFrame> animation_frames(const std::vector<AnimationSpan>& a
     return frames;
 }
 
-// \p visit(pose, k) for each k of \p which: frames[k] posed, the frames of one animation from
-// one parse of the file (for_each_animation_pose), animation after animation.
-void for_each_frame(const std::filesystem::path& path, const std::vector<AnimationFrame>& frames,
+// \p visit(pose, k) for each k of \p which: frames[k] posed, the frames of one animation in one
+// walk of the file read up front (for_each_animation_pose), animation after animation.
+void for_each_frame(const MeshFile& file, const std::vector<AnimationFrame>& frames,
                     const std::vector<std::size_t>& which,
                     const std::function<void(FramePose&&, std::size_t)>& visit)
 {
@@ -103,7 +103,7 @@ void for_each_frame(const std::filesystem::path& path, const std::vector<Animati
         }
         std::size_t at = begin;
         for_each_animation_pose(
-            path, times,
+            file, times,
             [&](ShownPose&& pose)
             {
                 visit(FramePose{std::move(pose.name), std::move(pose.V), std::move(pose.to_rest)},
@@ -166,7 +166,7 @@ void read_animation_pose(PoseReading& reading, PhaseTimer& timer, const Spectral
 {
     DetectReport& report = reading.report;
     if (in.animated == nullptr || in.animated->animations.empty() ||
-        reading.correspondence == Correspondence::None ||
+        report.correspondence == Correspondence::None ||
         (mark.key().recipients && !mark.key().recipients->recipients.empty()) ||
         options.decision.verdict == VerdictRule::Bits || !options.pairs.empty())
     {
@@ -198,7 +198,7 @@ void read_animation_pose(PoseReading& reading, PhaseTimer& timer, const Spectral
     }
     posed.pose = [&](const std::vector<std::size_t>& which,
                      const std::function<void(FramePose&&, std::size_t)>& visit)
-    { for_each_frame(animated.path, frames, which, visit); };
+    { for_each_frame(*animated.file, frames, which, visit); };
     const bool bends = any_frame_bends(posed, shown_frames, frames.size(), original.V.rows());
     timer.lap("poses");
     if (!bends)
@@ -229,8 +229,8 @@ void read_animation_pose(PoseReading& reading, PhaseTimer& timer, const Spectral
     read_in_pose(other, timer, mark, unposed_in, options, &in_place, nullptr);
     bounded(other.report);
     other.report.transform = other.report.transform * fit->to_pose;
-    other.correspondence = Correspondence::AnimationFrame;
-    other.pose = fit->pose.name;
+    other.report.correspondence = Correspondence::AnimationFrame;
+    other.report.pose = fit->pose.name;
     keep_more_significant(reading, other);
 }
 

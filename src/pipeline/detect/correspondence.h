@@ -13,6 +13,7 @@
 
 #include <Eigen/Core>
 
+#include "meshmark/pipeline/correspondence.h"
 #include "meshmark/pipeline/detect_file.h"
 #include "meshmark/registration/resampling.h"
 #include "pipeline/detect/inputs.h"
@@ -20,28 +21,6 @@
 
 namespace meshmark::detail
 {
-
-/// How the suspect was put in correspondence with the original. Stages decide on it, never on
-/// report text; DetectReport::alignment is written from it when detection ends
-/// (correspondence_method).
-enum class Correspondence
-{
-    None,  ///< Not read.
-    /// In the original's vertex order: as it is, renumbered by its triangles (Blender's PLY
-    /// writer) or where it stands (a re-encoded Draco file), after a closed-form similarity.
-    InOrder,
-    VerticesMatched,  ///< Registered, and its vertices are the original's again: read vertex for
-                      ///< vertex.
-    Registered,       ///< Registered and resampled at the original's vertices.
-    RegisteredNotConverged,  ///< The same, the registration short of its stopping tolerance.
-    AnimationFrame,          ///< Read through a frame of the original's animations, registered.
-};
-
-/// The words of \p correspondence in reports (`detect --json`'s registration.method):
-/// "same-connectivity", "registration (vertices matched)", "registration", "registration (not
-/// converged)", "registration (POSE)" with \p pose the frame's name, or "none".
-[[nodiscard]] std::string correspondence_method(Correspondence correspondence,
-                                                const std::string& pose);
 
 /// What the first reading of a copy learns for its other poses (read_symmetric_poses).
 struct PoseHints

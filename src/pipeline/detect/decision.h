@@ -4,8 +4,6 @@
 // Detection's verdict stage: the owner's decision, a family key's tracing, and the union bound
 // over several readings of one copy (docs/statistics.md, "Several poses").
 
-#include <string>
-
 #include "meshmark/pipeline/detect_file.h"
 #include "meshmark/watermark/watermark.h"
 #include "pipeline/detect/correspondence.h"
@@ -13,12 +11,11 @@
 namespace meshmark::detail
 {
 
-/// One reading of the copy in one pose: the report, and how the copy was put in correspondence.
+/// One reading of the copy in one pose: its report (with how the copy was put in
+/// correspondence, DetectReport::correspondence and ::pose).
 struct PoseReading
 {
     DetectReport report;
-    Correspondence correspondence = Correspondence::None;
-    std::string pose;  ///< Correspondence::AnimationFrame: the frame read through.
 };
 
 /// The owner's verdict on report.extraction: report.decision, and ownership as that decision

@@ -72,16 +72,21 @@ DetectInputs read_inputs(const DetectSources& sources, const DetectFileOptions& 
     const Key& key = *read.key;
     // Both meshes are read side by side (each reader is serial); errors are still reported in
     // the order of a serial run: the key, the original, its checks, then the suspect.
-    std::vector<AnimationSpan> animations;
     std::array<std::exception_ptr, 2> failures;
     const auto read_original = [&]
     {
         try
         {
-            MeshFile file = read_mesh_file(sources.original_path);
-            read.original = std::move(file.mesh);
-            read.instances = std::move(file.instances);
-            animations = std::move(file.animations);
+            read.original = read_mesh_file(sources.original_path);
+            // (an animation that only moves the whole asset, a turntable, shows no other pose
+            // to read through)
+            std::copy_if(read.original.animations.begin(), read.original.animations.end(),
+                         std::back_inserter(read.animated.animations),
+                         [](const AnimationSpan& a) { return !a.moves_only_as_a_whole; });
+            if (read.animated.animations.empty())
+            {
+                read.original.layout.reset();  // (only posing would read it again)
+            }
         }
         catch (...)
         {
@@ -117,19 +122,16 @@ DetectInputs read_inputs(const DetectSources& sources, const DetectFileOptions& 
     {
         std::rethrow_exception(failures[0]);
     }
-    check_original(read.original, key, sources.original_path);
-    check_basis_input(read.original, key.options, sources.original_path);
+    const TriangleMesh& original = read.original.mesh;
+    check_original(original, key, sources.original_path);
+    check_basis_input(original, key.options, sources.original_path);
     if (failures[1])
     {
         std::rethrow_exception(failures[1]);
     }
     timer.lap("read");
-    // (an animation that only moves the whole asset, a turntable, shows no other pose to read
-    // through)
-    read.animated.path = sources.original_path;
-    std::copy_if(animations.begin(), animations.end(), std::back_inserter(read.animated.animations),
-                 [](const AnimationSpan& a) { return !a.moves_only_as_a_whole; });
-    return {read.original, read.instances,
+    read.animated.file = &read.original;
+    return {original, read.original.instances,
             sources.suspect != nullptr ? *sources.suspect : read.suspect, sources.suspect_path,
             read.animated.animations.empty() ? nullptr : &read.animated};
 }

@@ -19,7 +19,9 @@ namespace meshmark::detail
 /// The animations of an animated original, where detection may read a copy through their poses.
 struct AnimatedOriginal
 {
-    std::filesystem::path path;  ///< The original's file, posed at other times.
+    /// The original's file as read (ReadInputs::original), posed at other times
+    /// (for_each_animation_pose) without reading it again.
+    const MeshFile* file = nullptr;
     std::vector<AnimationSpan>
         animations;  ///< Those that may bend the mesh, the file's first first.
 };
@@ -54,8 +56,9 @@ struct DetectSources
 struct ReadInputs
 {
     std::optional<Key> key;
-    TriangleMesh original;
-    TriangleMesh instances;
+    /// The original's file: its mesh, other instances and animations; what posing it needs
+    /// (MeshFile::layout) only when it has animations that may bend the mesh.
+    MeshFile original;
     TriangleMesh suspect;
     AnimatedOriginal animated;
 };

@@ -24,7 +24,7 @@ void read_in_pose(PoseReading& reading, PhaseTimer& timer, const SpectralWaterma
     report.mark_strength = amplitude / diagonal;
 
     SuspectInFrame found = find_correspondence(timer, in, amplitude, options, pose, hints);
-    reading.correspondence = found.kind;
+    report.correspondence = found.kind;
     report.transform = found.transform;
     report.registration_rms = found.registration_rms;
     report.cropped_fraction = found.cropped_fraction;

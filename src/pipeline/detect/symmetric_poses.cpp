@@ -40,9 +40,9 @@ void read_symmetric_poses(PoseReading& reading, PhaseTimer& timer, const Spectra
     // A copy in the original's vertex order, or put in it by its triangles, is read by index:
     // it has no other pose.
     const bool in_order =
-        reading.correspondence == Correspondence::InOrder &&
+        report.correspondence == Correspondence::InOrder &&
         (hints.is_numbered_by_triangles || has_same_triangles(in.suspect, original));
-    const bool placed = reading.correspondence != Correspondence::None;
+    const bool placed = report.correspondence != Correspondence::None;
     if (!placed || in_order || options.decision.verdict == VerdictRule::Bits)
     {
         return;

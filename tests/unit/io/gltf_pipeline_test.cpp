@@ -121,7 +121,7 @@ TEST(GltfPipelineTest, two_part_glb_detects_after_a_similarity_of_the_whole_asse
     EXPECT_TRUE(found.decision.is_present)
         << "R " << found.decision.correlation << " z " << found.decision.score << " matches "
         << found.decision.matches << "/" << found.decision.bit_count << " alignment "
-        << found.alignment << " rms " << found.registration_rms;
+        << found.registration_method() << " rms " << found.registration_rms;
     EXPECT_EQ(found.decision.matches, found.decision.bit_count);
     const auto clean = detect_file(dir / "clean.glb", dir / "asset.glb", dir / "key.json", detect);
     EXPECT_FALSE(clean.decision.is_present);
@@ -199,9 +199,10 @@ TEST(GltfPipelineTest, a_copy_of_an_animated_asset_in_the_pose_blender_shows_is_
         const DetectReport found = detect_file(dir / ("marked_" + name + ".ply"), dir / "arm.glb",
                                                dir / "key.json", detect);
         EXPECT_TRUE(found.decision.is_present)
-            << name << " z " << found.decision.score << " " << found.alignment;
+            << name << " z " << found.decision.score << " " << found.registration_method();
         EXPECT_GT(found.decision.score, 9.0) << name;
-        EXPECT_NE(found.alignment.find(frame), std::string::npos) << found.alignment;
+        EXPECT_EQ(found.correspondence, Correspondence::AnimationFrame) << name;
+        EXPECT_NE(found.pose.find(frame), std::string::npos) << found.pose;
         const DetectReport clean = detect_file(dir / ("clean_" + name + ".ply"), dir / "arm.glb",
                                                dir / "key.json", detect);
         EXPECT_FALSE(clean.decision.is_present) << name << " z " << clean.decision.score;
@@ -259,10 +260,10 @@ TEST(GltfPipelineTest, a_copy_posed_by_another_animation_than_the_first_is_claim
     const DetectReport found =
         detect_file(dir / "marked_bent.ply", dir / "arm.glb", dir / "key.json", detect);
     EXPECT_TRUE(found.decision.is_present)
-        << "z " << found.decision.score << " " << found.alignment;
+        << "z " << found.decision.score << " " << found.registration_method();
     EXPECT_GT(found.decision.score, 9.0);
-    EXPECT_NE(found.alignment.find("animation 'bend' at 0.1 s"), std::string::npos)
-        << found.alignment;
+    EXPECT_EQ(found.correspondence, Correspondence::AnimationFrame);
+    EXPECT_EQ(found.registration_method(), "registration (animation 'bend' at 0.1 s)");
     const DetectReport clean =
         detect_file(dir / "arm_bent.ply", dir / "arm.glb", dir / "key.json", detect);
     EXPECT_FALSE(clean.decision.is_present) << "z " << clean.decision.score;

@@ -2,8 +2,10 @@
 // glTF 2.0 / GLB meshes in their scene pose: instances, skins, animated rigs, morph targets,
 // whole-asset animations, bind poses.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numbers>
+#include <span>
 
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
@@ -476,9 +478,60 @@ TEST_F(GltfTest, skinned_mesh_in_its_bind_pose_reads_exactly_as_through_its_node
     }
 }
 
-// Two vertices a float32 step apart (a CAD model's repeated corners) moved alike must stay two:
-// written as float32 their new coordinates would round to the same floats, and the reader
-// would weld them (an IFC building lost 182 of its 16,942 vertices so, and its marked copy was
-// no longer read vertex for vertex). The writer moves the later one on by float32 steps.
+// The poses of a file read once (read_mesh_file) come from what the reader kept, not from the
+// file again: the same poses, bit for bit, as posing it by path, with the file gone, and again
+// on a second call (each walk starts afresh); an asset without animations keeps nothing and, as
+// a MeshFile without layout, gives empty poses.
+TEST_F(GltfTest, the_poses_of_a_file_read_once_need_no_second_read)
+{
+    const auto [xyz, idx] = test::strip(16, -1.0f, 0.125f);
+    const test::BendingArm arm;
+    test::put_bytes(dir / "arm.glb", arm.glb(xyz, idx));
+    const std::vector<double> times{0.0, 0.05, 1.0 / 24.0, 0.1};
+    std::vector<ShownPose> by_path;
+    for_each_animation_pose(dir / "arm.glb", times,
+                            [&](ShownPose&& p) { by_path.push_back(std::move(p)); });
+    const MeshFile file = read_mesh_file(dir / "arm.glb");
+    fs::remove(dir / "arm.glb");
+    for (int call = 0; call < 2; ++call)
+    {
+        std::vector<ShownPose> read_once;
+        for_each_animation_pose(file, times,
+                                [&](ShownPose&& p) { read_once.push_back(std::move(p)); });
+        ASSERT_EQ(read_once.size(), by_path.size()) << call;
+        for (std::size_t k = 0; k < times.size(); ++k)
+        {
+            EXPECT_EQ(read_once[k].name, by_path[k].name) << call << " " << k;
+            EXPECT_EQ(read_once[k].time, by_path[k].time) << call << " " << k;
+            ASSERT_EQ(read_once[k].V.rows(), by_path[k].V.rows()) << call << " " << k;
+            EXPECT_TRUE(read_once[k].V == by_path[k].V) << call << " " << k;
+            EXPECT_TRUE(read_once[k].to_rest == by_path[k].to_rest) << call << " " << k;
+        }
+        EXPECT_GT(read_once[1].V.rows(), 0);
+    }
+    // The second animation's frame, from the same file read once.
+    std::size_t posed = 0;
+    const double end = 0.1;
+    for_each_animation_pose(
+        file, std::span<const double>(&end, 1), [&](ShownPose&&) { ++posed; }, 1);
+    EXPECT_EQ(posed, 1u);
+
+    write_mesh(dir / "still.glb", file.mesh);
+    const MeshFile still = read_mesh_file(dir / "still.glb");
+    ASSERT_TRUE(still.animations.empty());
+    MeshFile without_layout = file;
+    without_layout.layout.reset();
+    for (const MeshFile* f : std::array<const MeshFile*, 2>{&still, &without_layout})
+    {
+        std::vector<ShownPose> none;
+        for_each_animation_pose(*f, times, [&](ShownPose&& p) { none.push_back(std::move(p)); });
+        ASSERT_EQ(none.size(), times.size());
+        for (const ShownPose& p : none)
+        {
+            EXPECT_EQ(p.V.rows(), 0);
+            EXPECT_TRUE(p.name.empty());
+        }
+    }
+}
 }  // namespace
 }  // namespace meshmark

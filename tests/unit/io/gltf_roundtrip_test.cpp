@@ -300,6 +300,10 @@ TEST_F(GltfTest, images_are_copied_beside_an_output_in_another_folder_or_reached
     EXPECT_FALSE(fs::exists(dir / "fail" / "same.png"));
 }
 
+// Two vertices a float32 step apart (a CAD model's repeated corners) moved alike must stay two:
+// written as float32 their new coordinates would round to the same floats, and the reader
+// would weld them (an IFC building lost 182 of its 16,942 vertices so, and its marked copy was
+// no longer read vertex for vertex). The writer moves the later one on by float32 steps.
 TEST_F(GltfTest, vertices_a_float_step_apart_stay_apart_when_moved_alike)
 {
     const float a = 0.3F;

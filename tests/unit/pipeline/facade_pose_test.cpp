@@ -90,7 +90,7 @@ TriangleMesh bent_ellipsoid(bool horn)
 // The bent ellipsoid (with its horn or not) marked, and that copy and the original itself
 // mirrored in x and then \p moved: the copy is claimed, read in a mirrored pose; the original
 // is not.
-void expect_mirrored_copy_claimed(bool horn, const std::string& moved, const std::string& alignment)
+void expect_mirrored_copy_claimed(bool horn, const std::string& moved, Correspondence alignment)
 {
     const fs::path dir = test::temp_dir(horn ? "facade-near-mirror" : "facade-mirror");
     const TriangleMesh bent = bent_ellipsoid(horn);
@@ -100,7 +100,7 @@ void expect_mirrored_copy_claimed(bool horn, const std::string& moved, const std
     const auto mirrored = [&](const TriangleMesh& mesh)
     { return apply_attacks(mesh, parse_attack_spec("similarity:mirror=x," + moved), 3, 1).mesh; };
     const DetectReport marked = detect(mirrored(read_mesh(dir / "marked.ply")), bent, key);
-    EXPECT_EQ(marked.alignment, alignment) << moved;
+    EXPECT_EQ(marked.correspondence, alignment) << moved;
     EXPECT_TRUE(marked.decision.is_present) << moved << " " << marked.decision.score;
     EXPECT_GT(marked.decision.score, 9.0) << moved;
     EXPECT_LT((marked.transform.topLeftCorner<3, 3>().determinant()), 0.0)
@@ -120,8 +120,8 @@ void expect_mirrored_copy_claimed(bool horn, const std::string& moved, const std
 // round: z 3.37.)
 TEST(FacadeTest, a_mirrored_copy_of_a_mirror_symmetric_original_is_read_in_its_mirrored_pose)
 {
-    expect_mirrored_copy_claimed(false, "reorder", "registration (vertices matched)");
-    expect_mirrored_copy_claimed(false, "reorder,similarity", "registration (vertices matched)");
+    expect_mirrored_copy_claimed(false, "reorder", Correspondence::VerticesMatched);
+    expect_mirrored_copy_claimed(false, "reorder,similarity", Correspondence::VerticesMatched);
 }
 
 // Nearly mirror-symmetric: the bent ellipsoid with a horn on one side. Its mirror image about
@@ -131,7 +131,7 @@ TEST(FacadeTest, a_mirrored_copy_of_a_mirror_symmetric_original_is_read_in_its_m
 // symmetric part (z 1.22 without the refit), is read mirrored and claimed.
 TEST(FacadeTest, a_mirrored_copy_of_a_nearly_mirror_symmetric_original_is_read_in_its_mirrored_pose)
 {
-    expect_mirrored_copy_claimed(true, "reorder,similarity", "registration (vertices matched)");
+    expect_mirrored_copy_claimed(true, "reorder,similarity", Correspondence::VerticesMatched);
 }
 
 // A game vehicle that is mirror-symmetric but for a box on one side of its roof (2.7% of its

@@ -87,7 +87,7 @@ TEST(FacadeTest, in_memory_detect_gives_the_report_of_detect_file)
         EXPECT_EQ(in_memory.decision.is_present, from_files.decision.is_present) << suspect;
         EXPECT_EQ(in_memory.decision.correlation, from_files.decision.correlation) << suspect;
         EXPECT_EQ(in_memory.decision.matches, from_files.decision.matches) << suspect;
-        EXPECT_EQ(in_memory.alignment, from_files.alignment) << suspect;
+        EXPECT_EQ(in_memory.correspondence, from_files.correspondence) << suspect;
     }
     EXPECT_TRUE(detect(read_mesh(dir / "marked.obj"), read_mesh(input), read_key(dir / "key.json"))
                     .decision.is_present);

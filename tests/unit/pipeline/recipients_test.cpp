@@ -284,7 +284,7 @@ TEST(RecipientsTest, a_resampled_splice_is_read_by_its_regions_through_the_norma
     // By default the subdivided copy keeps the original's vertices, so they are matched and
     // read vertex for vertex, every component: all three colluders accused, as in place.
     const DetectReport matched = detect(subdivided, original, key);
-    EXPECT_EQ(matched.alignment, "registration (vertices matched)");
+    EXPECT_EQ(matched.correspondence, Correspondence::VerticesMatched);
     EXPECT_EQ(accused_names(matched), (std::vector<std::string>{"ben", "dan", "gus"}));
     EXPECT_EQ(accused_names(in_place), (std::vector<std::string>{"ben", "dan", "gus"}));
     DetectFileOptions resample_only;
