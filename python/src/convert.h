@@ -4,6 +4,7 @@
 // numpy arrays, Python values and paths to and from the library's types, for the bindings.
 
 #include <cstdint>
+#include <filesystem>
 #include <optional>
 #include <string>
 
@@ -38,5 +39,13 @@ namespace py = pybind11;
 /// \brief A seed from a Python int (None = absent).
 /// \throws InvalidOption unless it is in [0, 2^64).
 [[nodiscard]] std::optional<std::uint64_t> seed_from(py::handle seed, const char* name = "seed");
+
+/// \brief A text from a Python str (None = absent).
+/// \throws InvalidOption naming \p name for any other type.
+[[nodiscard]] std::optional<std::string> text_from(py::handle value, const char* name);
+
+/// \brief A path from a str or an os.PathLike (None = absent).
+/// \throws InvalidOption naming \p name for any other type.
+[[nodiscard]] std::optional<std::filesystem::path> path_from(py::handle value, const char* name);
 
 }  // namespace meshmark::python
