@@ -298,6 +298,7 @@ def embed_recipients(
     seed: int | None = ...,
     strength: float | None = ...,
     strength_measure: str = ...,
+    centers: str = ...,
     basis_size: int = ...,
     coefficients: int = ...,
     repetitions: int | str = ...,

@@ -42,7 +42,7 @@ output_pattern holds {recipient}; key_path is the family key, created if absent,
 from any number of threads and processes at once: the key is read, extended and written durably
 in one step under its lock (waiting up to lock_timeout seconds) before any copy is written.
 Returns the report of the program's --json as a dict. Keywords: those of meshmark.embed_file
-for a new key, plus
+for a new key but rule and basis (a family key is additive on the RBF basis), plus
   recipients_file  a file of names, one per line ('#' comments): the program's --recipients,
                    added after recipients
   recipient_modes, recipient_share  a new family key's codes (--recipient-modes, --recipient-share)
@@ -155,15 +155,15 @@ void bind_files(py::module_& m)
         [](const Path& input, const std::string& output_pattern, const Path& key_path,
            const std::vector<std::string>& recipients, const OptionalPath& recipients_file,
            const OptionalStr& message, const OptionalStr& bits, const OptionalInt& seed,
-           const OptionalFloat& strength, std::string strength_measure, int basis_size,
-           int coefficients, const Repetitions& repetitions, int first_mode, double sigma_factor,
-           std::int64_t gram_rows, int recipient_modes, double recipient_share, double lock_timeout,
-           int threads) -> Report
+           const OptionalFloat& strength, std::string strength_measure, std::string centers,
+           int basis_size, int coefficients, const Repetitions& repetitions, int first_mode,
+           double sigma_factor, std::int64_t gram_rows, int recipient_modes, double recipient_share,
+           double lock_timeout, int threads) -> Report
         {
             EmbedRecipientsOptions options;
             fill_embed_options(
                 {message.object, bits.object, seed.object, strength.object, "additive",
-                 strength_measure, "rbf", "random", basis_size, coefficients, repetitions.object,
+                 strength_measure, "rbf", centers, basis_size, coefficients, repetitions.object,
                  first_mode, sigma_factor, gram_rows, threads},
                 options);
             const py::object& r = repetitions.object;
@@ -200,7 +200,7 @@ void bind_files(py::module_& m)
         py::arg("recipients_file") = py::none(), py::arg("message") = py::none(),
         py::arg("bits") = py::none(), py::arg("seed") = py::none(),
         py::arg("strength") = py::none(), py::arg("strength_measure") = "surface",
-        py::arg("basis_size") = EmbedOptions{}.basis_size,
+        py::arg("centers") = "random", py::arg("basis_size") = EmbedOptions{}.basis_size,
         py::arg("coefficients") = EmbedOptions{}.coefficients, py::arg("repetitions") = "auto",
         py::arg("first_mode") = EmbedOptions{}.first_mode,
         py::arg("sigma_factor") = EmbedOptions{}.sigma_factor,

@@ -138,3 +138,12 @@ def test_catalog_reindex_issue_from_a_file_and_scan_without_tracing(torus, tmp_p
     match = untraced["suspects"][0]["matches"][0]
     assert match["asset"] == "ring.ply" and match["recipients"] == []
     assert isinstance(catalog.path, type(tmp_path)) and catalog.path == tmp_path / "cat.db"
+
+
+def test_recipient_copies_take_the_programs_centers(original, tmp_path, cli):
+    meshmark.embed_recipients(original, str(tmp_path / "py_{recipient}.ply"), tmp_path / "py.json", ["ann"],
+                              centers="decimate", seed=2)
+    assert meshmark.Key.load(tmp_path / "py.json").centers == "decimate"
+    run_cli(cli, "embed", original, "-o", tmp_path / "cli_{recipient}.ply", "--key", tmp_path / "cli.json",
+            "--recipient", "ann", "--centers", "decimate", "--seed", 2, "--quiet")
+    assert (tmp_path / "py_ann.ply").read_bytes() == (tmp_path / "cli_ann.ply").read_bytes()
