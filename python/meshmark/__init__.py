@@ -15,8 +15,11 @@ detect_file, attack and compare do what the meshmark program's commands do and r
 --json report as a dict; the key file is the same.
 detect_against_file looks in a mesh in memory with the original and the key as files (the
 original's instances and animation used as detect_file uses them).
+compare writes the program's heatmap (heatmap="b.png" or "b.ply"); trace=False is detect's
+--no-trace; Catalog wraps `meshmark catalog` (add, list, issue, scan, reindex).
 Errors are meshmark.Error subclasses (IoError, InvalidMesh, InvalidOption, NumericalError)
-carrying the program's one-sentence message. See docs/library.md, "Python".
+carrying the program's one-sentence message. The signatures in help() and the type stubs
+(_meshmark.pyi, with py.typed) give every type. See docs/library.md, "Python".
 """
 
 from ._meshmark import (
