@@ -68,9 +68,9 @@ void bind_catalog(py::module_& m)
             {
                 CatalogAddOptions options;
                 options.embed.seed = seed_from(seed.handle());
-                if (!strength.object.is_none())
+                if (const std::optional<double> given = number_from(strength.handle(), "strength"))
                 {
-                    options.embed.embed.strength = strength.object.cast<double>();
+                    options.embed.embed.strength = *given;
                 }
                 options.embed.message = text_from(message.handle(), "message");
                 options.embed.embed.basis_size = basis_size;

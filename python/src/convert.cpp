@@ -238,4 +238,22 @@ std::optional<std::filesystem::path> path_from(py::handle value, const char* nam
     return value.cast<std::filesystem::path>();
 }
 
+std::optional<double> number_from(py::handle value, const char* name)
+{
+    if (value.is_none())
+    {
+        return std::nullopt;
+    }
+    try
+    {
+        return value.cast<double>();  // what converts to a float (numpy scalars included)
+    }
+    catch (const py::cast_error&)
+    {
+        throw InvalidOption(std::string(name) + " must be a number or None, got a " +
+                            std::string(py::str(py::type::handle_of(value).attr("__name__"))) +
+                            ".");
+    }
+}
+
 }  // namespace meshmark::python

@@ -44,6 +44,10 @@ namespace py = pybind11;
 /// \throws InvalidOption naming \p name for any other type.
 [[nodiscard]] std::optional<std::string> text_from(py::handle value, const char* name);
 
+/// \brief A real number from anything Python converts to a float (None = absent).
+/// \throws InvalidOption naming \p name for anything else (pybind11 would raise RuntimeError).
+[[nodiscard]] std::optional<double> number_from(py::handle value, const char* name);
+
 /// \brief A path from a str or an os.PathLike (None = absent).
 /// \throws InvalidOption naming \p name for any other type.
 [[nodiscard]] std::optional<std::filesystem::path> path_from(py::handle value, const char* name);

@@ -149,9 +149,9 @@ void fill_embed_options(const EmbedKeywords& k, EmbedMeshOptions& options)
     options.embed.first_mode = k.first_mode;
     options.embed.sigma_factor = k.sigma_factor;
     options.embed.gram_rows = k.gram_rows;
-    if (!k.strength.is_none())
+    if (const std::optional<double> strength = number_from(k.strength, "strength"))
     {
-        options.embed.strength = k.strength.cast<double>();
+        options.embed.strength = *strength;
         if (!(options.embed.strength > 0.0))
         {
             throw InvalidOption("strength must be positive, got " +

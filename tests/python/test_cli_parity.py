@@ -147,3 +147,17 @@ def test_recipient_copies_take_the_programs_centers(original, tmp_path, cli):
     run_cli(cli, "embed", original, "-o", tmp_path / "cli_{recipient}.ply", "--key", tmp_path / "cli.json",
             "--recipient", "ann", "--centers", "decimate", "--seed", 2, "--quiet")
     assert (tmp_path / "py_ann.ply").read_bytes() == (tmp_path / "cli_ann.ply").read_bytes()
+
+
+def test_wrong_types_raise_typed_errors_naming_the_keyword(torus, tmp_path):
+    V, F = torus
+    with pytest.raises(meshmark.InvalidOption, match="strength must be a number or None, got a str"):
+        meshmark.embed(V, F, strength="strong")
+    with pytest.raises(meshmark.InvalidOption, match="strength must be a number or None, got a str"):
+        meshmark.Catalog(tmp_path / "c.db", create=True).add([tmp_path], tmp_path / "out", strength="strong")
+    with pytest.raises(meshmark.InvalidOption, match="message must be a str or None, got a int"):
+        meshmark.Catalog(tmp_path / "c.db").add([tmp_path], tmp_path / "out", message=3)
+    with pytest.raises(meshmark.InvalidOption, match="seed must be an integer"):
+        meshmark.Catalog(tmp_path / "c.db").add([tmp_path], tmp_path / "out", seed="s")
+    key, marked = meshmark.embed(V, F, seed=1, strength=np.float32(0.0006))  # numpy scalars convert
+    assert key.strength == pytest.approx(0.0006)
