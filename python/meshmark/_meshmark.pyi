@@ -285,6 +285,9 @@ def embed_file(
     memory_budget: int = ...,
     stream: bool = ...,
     lock_timeout: float = ...,
+    unit: str | None = ...,
+    max_displacement: str | float | None = ...,
+    record: _Path | None = ...,
 ) -> _Report: ...
 def embed_recipients(
     input: _Path,

@@ -256,4 +256,33 @@ std::optional<double> number_from(py::handle value, const char* name)
     }
 }
 
+std::optional<Length> length_from(py::handle value, const char* name)
+{
+    if (value.is_none())
+    {
+        return std::nullopt;
+    }
+    if (py::isinstance<py::str>(value))
+    {
+        return parse_length(value.cast<std::string>(), name);
+    }
+    double number = 0.0;
+    try
+    {
+        number = value.cast<double>();
+    }
+    catch (const py::cast_error&)
+    {
+        throw InvalidOption(
+            std::string(name) + " must be a length such as '0.05mm', a number or None, got a " +
+            std::string(py::str(py::type::handle_of(value).attr("__name__"))) + ".");
+    }
+    if (!(std::isfinite(number) && number > 0.0))
+    {
+        throw InvalidOption(std::string(name) + " must be a positive length, got " +
+                            std::string(py::str(value)) + ".");
+    }
+    return Length{number, std::nullopt};
+}
+
 }  // namespace meshmark::python

@@ -12,6 +12,7 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
+#include "meshmark/core/length_unit.h"
 #include "meshmark/core/triangle_mesh.h"
 
 namespace meshmark::python
@@ -47,6 +48,11 @@ namespace py = pybind11;
 /// \brief A real number from anything Python converts to a float (None = absent).
 /// \throws InvalidOption naming \p name for anything else (pybind11 would raise RuntimeError).
 [[nodiscard]] std::optional<double> number_from(py::handle value, const char* name);
+
+/// \brief A length from a str such as "0.05mm" (parse_length) or a number in the coordinates'
+/// unit (None = absent).
+/// \throws InvalidOption naming \p name for another type or a text parse_length refuses.
+[[nodiscard]] std::optional<Length> length_from(py::handle value, const char* name);
 
 /// \brief A path from a str or an os.PathLike (None = absent).
 /// \throws InvalidOption naming \p name for any other type.

@@ -7,6 +7,8 @@
 
 #include "bindings.h"
 #include "convert.h"
+#include "meshmark/core/atomic_file.h"
+#include "meshmark/core/length_unit.h"
 #include "meshmark/io/mesh_io.h"
 #include "meshmark/meshmark.h"
 #include "meshmark/pipeline/attack_file.h"
@@ -32,6 +34,12 @@ of `meshmark embed --json` as a dict. Keywords: those of meshmark.embed, plus
   memory_budget  MiB; above it a binary PLY is embedded out of core (0 = no budget)
   stream         always embed out of core (binary PLY only)
   lock_timeout   seconds to wait while another call writes the same key (default 60)
+  unit           the coordinates' unit (um mm cm m in ft), overriding the file's (--unit)
+  max_displacement  cap on the largest vertex displacement, a length such as '0.05mm' or a
+                 number in the coordinates' unit; the strength is lowered to fit
+                 (--max-displacement)
+  record         also write the embed record (the report's 'record': SHA-256 of the files,
+                 never the key) to this JSON file, for timestamping (--record)
 Raises meshmark.Error subclasses with the program's message.)";
 
 constexpr const char* kEmbedRecipientsDoc =
@@ -99,8 +107,14 @@ void bind_files(py::module_& m)
            std::string rule, std::string strength_measure, std::string basis, std::string centers,
            int basis_size, int coefficients, const Repetitions& repetitions, int first_mode,
            double sigma_factor, std::int64_t gram_rows, int threads, bool force,
-           std::int64_t memory_budget, bool stream, double lock_timeout) -> Report
+           std::int64_t memory_budget, bool stream, double lock_timeout,
+           const OptionalStr& unit_arg, const LengthArg& max_displacement_arg,
+           const OptionalPath& record_arg) -> Report
         {
+            const std::optional<std::string> unit = text_from(unit_arg.handle(), "unit");
+            const std::optional<Length> max_displacement =
+                length_from(max_displacement_arg.handle(), "max_displacement");
+            const std::optional<Path> record = path_from(record_arg.handle(), "record");
             if (!(lock_timeout >= 0.0))
             {
                 throw InvalidOption("lock_timeout must be >= 0 seconds.");
@@ -117,6 +131,17 @@ void bind_files(py::module_& m)
                 force;  // as the program: the output may name the input only with force
             options.memory_budget_mib = memory_budget;
             options.force_stream = stream;
+            if (unit)
+            {
+                options.unit = parse_length_unit(*unit);
+            }
+            options.max_displacement_length = max_displacement;
+            if (record &&
+                (is_same_file(*record, input) || *record == output || *record == key_path))
+            {
+                throw InvalidOption("record " + record->string() +
+                                    " must differ from the input, the output and the key.");
+            }
             std::optional<EmbedReport> report;
             nlohmann::json out;
             {
@@ -131,9 +156,14 @@ void bind_files(py::module_& m)
                 report.emplace(embed_file(input, output, key_path, options));
                 out =
                     embed_report_json(*report, input.string(), output.string(), key_path.string());
-                out["record"] =
-                    to_json(make_embed_record(input, output, key_path, report->key,
-                                              original_before ? &*original_before : nullptr));
+                const EmbedRecord written =
+                    make_embed_record(input, output, key_path, report->key,
+                                      original_before ? &*original_before : nullptr);
+                if (record)
+                {
+                    write_embed_record(*record, written);
+                }
+                out["record"] = to_json(written);
             }
             return to_python(out);
         },
@@ -148,7 +178,8 @@ void bind_files(py::module_& m)
         py::arg("gram_rows") = EmbedOptions{}.gram_rows, py::arg("threads") = 0,
         py::arg("force") = false, py::arg("memory_budget") = 0, py::arg("stream") = false,
         py::arg("lock_timeout") = std::chrono::duration<double>(kDefaultLockTimeout).count(),
-        kEmbedFileDoc);
+        py::arg("unit") = py::none(), py::arg("max_displacement") = py::none(),
+        py::arg("record") = py::none(), kEmbedFileDoc);
 
     m.def(
         "embed_recipients",

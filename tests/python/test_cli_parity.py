@@ -161,3 +161,39 @@ def test_wrong_types_raise_typed_errors_naming_the_keyword(torus, tmp_path):
         meshmark.Catalog(tmp_path / "c.db").add([tmp_path], tmp_path / "out", seed="s")
     key, marked = meshmark.embed(V, F, seed=1, strength=np.float32(0.0006))  # numpy scalars convert
     assert key.strength == pytest.approx(0.0006)
+
+
+def test_embed_file_unit_cap_and_record_are_the_programs(original, tmp_path, cli):
+    ours = meshmark.embed_file(original, tmp_path / "py.ply", tmp_path / "py.json", seed=6, unit="mm",
+                               max_displacement="0.002mm", record=tmp_path / "py_record.json")
+    done = subprocess.run([cli, "embed", original, "-o", tmp_path / "cli.ply", "--key", tmp_path / "cli.json",
+                           "--seed", "6", "--unit", "mm", "--max-displacement", "0.002mm",
+                           "--record", tmp_path / "cli_record.json", "--json", "--quiet"],
+                          capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    theirs = json.loads(done.stdout)
+    assert (tmp_path / "py.ply").read_bytes() == (tmp_path / "cli.ply").read_bytes()
+    assert set(ours) == set(theirs)
+    for field in ("max_displacement", "rms_displacement", "strength"):
+        assert ours[field] == theirs[field], field
+    for field in set(theirs) & {"in_unit", "cap"}:
+        assert ours[field] == theirs[field], field
+    record = json.loads((tmp_path / "py_record.json").read_text())
+    assert record == ours["record"]
+    cli_record = json.loads((tmp_path / "cli_record.json").read_text())
+    assert set(record) == set(cli_record)
+    assert record["marked"]["sha256"] == cli_record["marked"]["sha256"]
+    assert record["original"] == cli_record["original"]
+    # A bare number is in the coordinates' unit; the checks are the program's.
+    bare = meshmark.embed_file(original, tmp_path / "bare.ply", tmp_path / "bare.json", seed=6,
+                               max_displacement=0.002, unit="mm")
+    assert bare["max_displacement"] == ours["max_displacement"]
+    with pytest.raises(meshmark.InvalidOption, match="must differ from the input, the output and the key"):
+        meshmark.embed_file(original, tmp_path / "x.ply", tmp_path / "x.json", record=original)
+    with pytest.raises(meshmark.InvalidOption, match="max_displacement"):
+        meshmark.embed_file(original, tmp_path / "x.ply", tmp_path / "x.json", max_displacement="far")
+    with pytest.raises(meshmark.InvalidOption, match="max_displacement must be a length"):
+        meshmark.embed_file(original, tmp_path / "x.ply", tmp_path / "x.json", max_displacement=[1])
+    with pytest.raises(meshmark.InvalidOption):
+        meshmark.embed_file(original, tmp_path / "x.ply", tmp_path / "x.json", unit="parsec")
+    assert not (tmp_path / "x.json").exists()
