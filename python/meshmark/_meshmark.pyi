@@ -327,6 +327,7 @@ def detect_file(
     trace: bool = ...,
     threads: int = ...,
     verbose: bool = ...,
+    report: _Path | None = ...,
 ) -> _Report: ...
 def attack(
     input: _Path,

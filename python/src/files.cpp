@@ -15,6 +15,7 @@
 #include "meshmark/pipeline/embed_recipients.h"
 #include "meshmark/pipeline/embed_record.h"
 #include "meshmark/pipeline/report_json.h"
+#include "meshmark/report/evidence_report.h"
 #include "typed.h"
 
 namespace meshmark::python
@@ -60,7 +61,9 @@ constexpr const char* kDetectFileDoc =
     R"(Look for a key's mark in a suspect file: `meshmark detect SUSPECT --original ORIGINAL --key KEY_PATH --json`.
 
 Returns the report of `meshmark detect --json` as a dict ('detected', 'score',
-'false_positive_probability', ...). Keywords: those of meshmark.detect.)";
+'false_positive_probability', ...). Keywords: those of meshmark.detect, plus
+  report   also write an evidence report (docs/evidence.md), a .html or .pdf file: the
+           program's --report.)";
 
 }  // namespace
 
@@ -245,16 +248,51 @@ void bind_files(py::module_& m)
         "detect_file",
         [](const Path& suspect, const Path& original, const Path& key_path,
            const std::string& verdict, double max_fpp, double threshold, double epsilon,
-           bool register_suspect, const Pairs& pairs, bool trace, int threads,
-           bool verbose) -> Report
+           bool register_suspect, const Pairs& pairs, bool trace, int threads, bool verbose,
+           const OptionalPath& report_arg) -> Report
         {
             const DetectFileOptions options =
                 make_detect_options(verdict, max_fpp, threshold, epsilon, register_suspect,
                                     pairs.handle(), trace, threads);
+            // As `detect --report`: an .html or .pdf file that is none of the inputs, checked
+            // before detecting.
+            const std::optional<Path> evidence = path_from(report_arg.handle(), "report");
+            const std::optional<Path> pairs_file = path_from(
+                py::isinstance<py::str>(pairs.object) || py::hasattr(pairs.object, "__fspath__")
+                    ? pairs.handle()
+                    : py::none(),
+                "pairs");
+            if (evidence)
+            {
+                (void)evidence_format(*evidence);
+                for (const Path* input : {&suspect, &original, &key_path})
+                {
+                    if (is_same_file(*evidence, *input) ||
+                        (pairs_file && is_same_file(*evidence, *pairs_file)))
+                    {
+                        throw InvalidOption("report " + evidence->string() +
+                                            " would overwrite an input file.");
+                    }
+                }
+            }
             std::optional<DetectReport> report;
             {
                 py::gil_scoped_release release;
                 report.emplace(detect_file(suspect, original, key_path, options));
+                if (evidence)
+                {
+                    // The evidence report states what the dict states: written from the same
+                    // object, with the command that repeats the check.
+                    DetectionReportOptions report_options;
+                    report_options.pictures.threads = threads;
+                    report_options.version = "meshmark " MESHMARK_VERSION;
+                    report_options.command =
+                        detect_command(suspect.string(), original.string(), key_path.string(),
+                                       pairs_file ? pairs_file->string() : std::string(), options);
+                    write_detection_report(*evidence, suspect, original, key_path,
+                                           detect_report_json(*report, options.decision),
+                                           report_options);
+                }
             }
             return to_python(detect_report_json(*report, options.decision, verbose));
         },
@@ -264,7 +302,7 @@ void bind_files(py::module_& m)
         py::arg("threshold") = DetectOptions{}.threshold,
         py::arg("epsilon") = DetectOptions{}.epsilon, py::arg("register") = true,
         py::arg("pairs") = py::none(), py::arg("trace") = true, py::arg("threads") = 0,
-        py::arg("verbose") = false, kDetectFileDoc);
+        py::arg("verbose") = false, py::arg("report") = py::none(), kDetectFileDoc);
 
     m.def(
         "attack",

@@ -3,6 +3,7 @@
 same bytes as `compare --heatmap`), `--unit`, `--no-trace` (trace=False), `--recipients`
 (recipients_file) and `catalog reindex` (Catalog.reindex)."""
 import json
+import re
 import subprocess
 
 import numpy as np
@@ -197,3 +198,23 @@ def test_embed_file_unit_cap_and_record_are_the_programs(original, tmp_path, cli
     with pytest.raises(meshmark.InvalidOption):
         meshmark.embed_file(original, tmp_path / "x.ply", tmp_path / "x.json", unit="parsec")
     assert not (tmp_path / "x.json").exists()
+
+
+def test_detect_file_report_is_the_programs_evidence_report(original, marked, tmp_path, cli):
+    """report= writes the evidence report `detect --report` writes: the same HTML but for the
+    time it was made."""
+    key = tmp_path / "key.json"
+    found = meshmark.detect_file(marked, original, key, max_fpp=1e-5, trace=False, report=tmp_path / "py.html")
+    run_cli(cli, "detect", marked, "--original", original, "--key", key, "--max-fpp", "1e-5", "--no-trace",
+            "--report", tmp_path / "cli.html", "--quiet")
+    made = re.compile(r"\d{4}-\d\d-\d\d \d\d:\d\d:\d\d UTC")
+    ours = made.sub("TIME", (tmp_path / "py.html").read_text())
+    assert ours == made.sub("TIME", (tmp_path / "cli.html").read_text())
+    assert "--max-fpp 1e-05 --no-trace --json" in ours and found["detected"]
+    html_key = tmp_path / "key.html"  # a key file may have any name
+    html_key.write_bytes(key.read_bytes())
+    with pytest.raises(meshmark.InvalidOption, match="report .*key.html would overwrite an input file"):
+        meshmark.detect_file(marked, original, html_key, report=html_key)
+    with pytest.raises(meshmark.InvalidOption, match="must name a .html or a .pdf file"):
+        meshmark.detect_file(marked, original, key, report=tmp_path / "report.txt")
+    assert html_key.read_bytes() == key.read_bytes()
