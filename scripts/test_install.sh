@@ -91,6 +91,8 @@ if grep -q '^MESHMARK_PYTHON:BOOL=ON' "$build/CMakeCache.txt"; then
     site=$prefix/lib/python3/dist-packages
     [[ -f $site/meshmark/__init__.py ]] || fail "the Python package was not installed in $site"
     ls "$site"/meshmark/_meshmark*.so >/dev/null 2>&1 || fail "the _meshmark extension was not installed"
+    [[ -f $site/meshmark/_meshmark.pyi && -f $site/meshmark/py.typed ]] ||
+        fail "the type stubs (_meshmark.pyi, py.typed) were not installed"
     [[ -f $prefix/share/meshmark/blender/meshmark_blender/__init__.py ]] || fail "the Blender add-on was not installed"
     [[ -f $prefix/share/meshmark/blender/meshmark_blender.zip ]] || fail "the Blender add-on zip was not installed"
     mkdir -p "$work/python"

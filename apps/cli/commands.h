@@ -49,9 +49,6 @@ void register_bench_approximation(CLI::App& bench, GlobalArgs& global, CommandRu
 
 /// --lock-timeout's seconds as a duration.
 [[nodiscard]] std::chrono::milliseconds lock_timeout_of(double seconds);
-/// \brief Names from a recipients file (--recipients): one per line; blank lines and lines
-/// starting with '#' skipped, spaces around a name dropped. \throws IoError when unreadable.
-[[nodiscard]] std::vector<std::string> read_recipients_file(const std::string& path);
 /// `meshmark catalog ...` (catalog.cpp).
 void register_catalog(CLI::App& app, GlobalArgs& global, CommandRunner& runner);
 /// `catalog migrate` (catalog_migrate.cpp), added under \p catalog by register_catalog.

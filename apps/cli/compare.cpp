@@ -1,7 +1,5 @@
 // SPDX-License-Identifier: MIT
 // `meshmark compare`: distortion metrics between two meshes, and an optional distance heatmap.
-#include <algorithm>
-#include <cctype>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -16,9 +14,9 @@
 #include "meshmark/core/error.h"
 #include "meshmark/io/mesh_io.h"
 #include "meshmark/metrics/distortion.h"
-#include "meshmark/metrics/heatmap.h"
 #include "meshmark/pipeline/report_json.h"
 #include "meshmark/render/heatmap_image.h"
+#include "meshmark/report/compare_heatmap.h"
 #include "progress.h"
 #include "report.h"
 
@@ -65,20 +63,7 @@ HeatmapKind heatmap_kind(const std::string& path)
     {
         return HeatmapKind::None;
     }
-    std::string ext = std::filesystem::path(path).extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(),
-                   [](unsigned char c) { return std::tolower(c); });
-    if (ext == ".ply")
-    {
-        return HeatmapKind::Ply;
-    }
-    if (ext == ".png")
-    {
-        return HeatmapKind::Png;
-    }
-    throw InvalidOption(
-        "compare: --heatmap " + path +
-        " must name a .ply file (the mesh with per-vertex colors) or a .png file (a picture).");
+    return heatmap_file_kind(path) == HeatmapFile::Png ? HeatmapKind::Png : HeatmapKind::Ply;
 }
 
 // The heatmap is a colored PLY or a PNG picture, and never replaces an input; --view and
@@ -130,35 +115,6 @@ HeatmapImageOptions check_heatmap_args(const CompareArgs& args)
         throw InvalidOption(std::string("compare: ") + e.what());
     }
     return image;
-}
-
-/// B colored by the distance of each vertex to A: blue at 0, red at the largest distance of a
-/// referenced vertex of B. Returns that largest distance.
-double write_heatmap(const std::string& path, const TriangleMesh& b,
-                     const Eigen::VectorXd& distances)
-{
-    double max_distance = 0.0;
-    for (const std::int32_t v : referenced_vertices(b))
-    {
-        max_distance = std::max(max_distance, distances[v]);
-    }
-    const std::vector<Rgb8> colors = distance_colors(distances, max_distance);
-    // Float positions: the file is for viewing, and every PLY viewer reads float.
-    write_mesh(path, b, WriteOptions{.use_single_precision = true, .vertex_colors = &colors});
-    return max_distance;
-}
-
-/// The same colors on a picture of B, its colour bar in % of A's diagonal. Returns the
-/// distance drawn in red (as write_heatmap).
-double write_heatmap_png(const std::string& path, const TriangleMesh& b,
-                         const Eigen::VectorXd& distances, HeatmapImageOptions options,
-                         double diagonal, int threads)
-{
-    options.unit_length = diagonal;
-    options.threads = threads;
-    const HeatmapPicture picture = render_heatmap(b, distances, options);
-    write_png(path, picture.image);
-    return picture.max_distance;
 }
 
 void print_text(const CompareArgs& args, const TriangleMesh& a, const TriangleMesh& b,
@@ -241,9 +197,8 @@ int run_compare(const CompareArgs& args, const GlobalArgs& global)
     {
         report_phase("heatmap", 0.0);
         const auto phase = std::chrono::steady_clock::now();
-        heatmap_max = png ? write_heatmap_png(args.heatmap, b, report.vertex_distances_ba,
-                                              image_options, report.diagonal, global.threads)
-                          : write_heatmap(args.heatmap, b, report.vertex_distances_ba);
+        heatmap_max = write_distance_heatmap(args.heatmap, b, report.vertex_distances_ba,
+                                             image_options, report.diagonal, global.threads);
         heatmap_seconds = seconds_since(phase);
         report_phase("heatmap", 1.0);
     }

@@ -37,38 +37,6 @@ struct DetectArgs
     DetectOptions decision;
 };
 
-/// The command that repeats this check and prints its --json: the options that differ from
-/// their defaults, never --report.
-std::string repeat_command(const DetectArgs& args)
-{
-    const DetectOptions defaults;
-    std::string command = "meshmark detect " + shell_word(args.suspect) + " --original " +
-                          shell_word(args.original) + " --key " + shell_word(args.key);
-    if (args.verdict != "combined")
-    {
-        command += " --verdict " + args.verdict;
-    }
-    if (args.decision.max_false_positive != defaults.max_false_positive)
-    {
-        command += " --max-fpp " + shortest(args.decision.max_false_positive);
-    }
-    if (args.decision.threshold != defaults.threshold)
-    {
-        command += " --threshold " + shortest(args.decision.threshold);
-    }
-    if (args.decision.epsilon != defaults.epsilon)
-    {
-        command += " --epsilon " + shortest(args.decision.epsilon);
-    }
-    if (!args.pairs.empty())
-    {
-        command += " --pairs " + shell_word(args.pairs);
-    }
-    command += args.no_trace ? " --no-trace" : "";
-    command += args.no_register ? " --no-register" : "";
-    return command + " --json";
-}
-
 /// --report names an .html or .pdf file that is none of the inputs (checked before detecting).
 void check_report_path(const DetectArgs& args)
 {
@@ -111,7 +79,8 @@ int run_detect(const DetectArgs& args, const GlobalArgs& global)
         DetectionReportOptions report_options;
         report_options.pictures.threads = global.threads;
         report_options.version = kVersion;
-        report_options.command = repeat_command(args);
+        report_options.command =
+            detect_command(args.suspect, args.original, args.key, args.pairs, options);
         write_detection_report(args.report, args.suspect, args.original, args.key,
                                detect_report_json(report, args.decision), report_options);
         if (!global.quiet)

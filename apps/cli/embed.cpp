@@ -4,7 +4,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <memory>
 #include <optional>
 #include <string>
@@ -310,34 +309,6 @@ int run_embed(const EmbedArgs& args, const GlobalArgs& global)
 std::chrono::milliseconds lock_timeout_of(double seconds)
 {
     return std::chrono::milliseconds(static_cast<std::int64_t>(std::llround(1000.0 * seconds)));
-}
-
-// Names from a recipients file: one per line; blank lines and lines starting with '#' skipped,
-// spaces around a name dropped.
-std::vector<std::string> read_recipients_file(const std::string& path)
-{
-    std::ifstream in(path);
-    if (!in)
-    {
-        throw IoError(path + ": cannot open the recipients file.");
-    }
-    std::vector<std::string> names;
-    std::string line;
-    while (std::getline(in, line))
-    {
-        const auto first = line.find_first_not_of(" \t\r");
-        if (first == std::string::npos || line[first] == '#')
-        {
-            continue;
-        }
-        const auto last = line.find_last_not_of(" \t\r");
-        names.push_back(line.substr(first, last - first + 1));
-    }
-    if (in.bad())
-    {
-        throw IoError(path + ": cannot read the recipients file.");
-    }
-    return names;
 }
 
 void register_embed(CLI::App& app, GlobalArgs& global, CommandRunner& runner)

@@ -18,11 +18,6 @@ void print_json(const nlohmann::json& object);
 /// Formats a number with \p digits significant digits ("%.*g").
 [[nodiscard]] std::string format_number(double value, int digits = 3);
 
-/// An argument as the shell reads it back: quoted unless made of safe characters only (the
-/// command an evidence report gives to repeat a check).
-[[nodiscard]] std::string shell_word(const std::string& word);
-
-/// The shortest text that reads back as \p value ("1e-06", "0.5").
-[[nodiscard]] std::string shortest(double value);
+// shell_word and shortest: the library's (report_json.h), for the commands' evidence reports.
 
 }  // namespace meshmark::cli

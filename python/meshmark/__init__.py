@@ -15,8 +15,11 @@ detect_file, attack and compare do what the meshmark program's commands do and r
 --json report as a dict; the key file is the same.
 detect_against_file looks in a mesh in memory with the original and the key as files (the
 original's instances and animation used as detect_file uses them).
+compare writes the program's heatmap (heatmap="b.png" or "b.ply"); trace=False is detect's
+--no-trace; Catalog wraps `meshmark catalog` (add, list, issue, scan, reindex).
 Errors are meshmark.Error subclasses (IoError, InvalidMesh, InvalidOption, NumericalError)
-carrying the program's one-sentence message. See docs/library.md, "Python".
+carrying the program's one-sentence message. The signatures in help() and the type stubs
+(_meshmark.pyi, with py.typed) give every type. See docs/library.md, "Python".
 """
 
 from ._meshmark import (
@@ -72,10 +75,13 @@ import importlib.util as _importlib_util
 
 if _importlib_util.find_spec("numpy") is None:
     import functools as _functools
+    from typing import Any as _Any
+    from typing import Callable as _Callable
+    from typing import NoReturn as _NoReturn
 
-    def _needs_numpy(function):
+    def _needs_numpy(function: _Callable[..., _Any]) -> _Callable[..., _Any]:
         @_functools.wraps(function)
-        def refuse(*args, **kwargs):
+        def refuse(*args: _Any, **kwargs: _Any) -> _NoReturn:
             import sys
 
             raise ImportError(
@@ -88,7 +94,7 @@ if _importlib_util.find_spec("numpy") is None:
 
     for _name in ("embed", "detect", "detect_against_file", "attack_mesh", "read_mesh", "write_mesh"):
         globals()[_name] = _needs_numpy(globals()[_name])
-    del _name, _needs_numpy, _functools
+    del _name, _needs_numpy, _functools, _Any, _Callable, _NoReturn
 del _importlib_util
 
 # Shown as meshmark.Error, meshmark.Key, ... in tracebacks and help(), where users import them.

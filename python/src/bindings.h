@@ -32,15 +32,16 @@ void fill_embed_options(const EmbedKeywords& keywords, EmbedMeshOptions& options
 
 /// \brief The detect keywords shared by detect() and detect_file().
 /// \p pairs: None, a point-pair file (the CLI's --pairs) or a (k, 6) array of suspect and
-/// original points.
+/// original points. \p trace false: the CLI's --no-trace.
 DetectFileOptions make_detect_options(const std::string& verdict, double max_fpp, double threshold,
                                       double epsilon, bool allow_registration, py::handle pairs,
-                                      int threads);
+                                      bool trace, int threads);
 
 void bind_errors(py::module_& m);
 void bind_key(py::module_& m);
 void bind_memory(py::module_& m);   ///< embed, detect, DetectResult, attack_mesh
-void bind_files(py::module_& m);    ///< embed_file, detect_file, attack, compare
+void bind_files(py::module_& m);    ///< read_mesh, write_mesh, embed_file, detect_file, attack
+void bind_compare(py::module_& m);  ///< compare (and its heatmap)
 void bind_catalog(py::module_& m);  ///< Catalog
 
 }  // namespace meshmark::python

@@ -8,15 +8,16 @@
 #include <optional>
 
 #include <pybind11/stl.h>
-#include <pybind11/stl/filesystem.h>
 
 #include "bindings.h"
 #include "convert.h"
 #include "meshmark/catalog/catalog_add.h"
 #include "meshmark/catalog/catalog_json.h"
+#include "meshmark/catalog/catalog_reindex.h"
 #include "meshmark/catalog/catalog_scan.h"
 #include "meshmark/core/error.h"
 #include "meshmark/pipeline/report_json.h"
+#include "typed.h"
 
 namespace meshmark::python
 {
@@ -55,26 +56,26 @@ void bind_catalog(py::module_& m)
                  }),
              py::arg("path"), py::kw_only(), py::arg("create") = false,
              py::arg("lock_timeout") = std::chrono::duration<double>(kDefaultLockTimeout).count())
-        .def_property_readonly("path", &Catalog::path)
+        .def_property_readonly(
+            "path", [](const Catalog& catalog) -> PathlibPath { return py::cast(catalog.path()); },
+            "The catalogue's file.")
         .def(
             "add",
             [](Catalog& catalog, const std::vector<Path>& inputs, const Path& output,
-               py::object seed, py::object strength, py::object message, int jobs, bool force,
-               int threads)
+               const OptionalInt& seed, const OptionalFloat& strength, const OptionalStr& message,
+               int basis_size, int coefficients, int jobs, bool force, double lock_timeout,
+               int threads) -> Report
             {
                 CatalogAddOptions options;
-                if (!seed.is_none())
+                options.embed.seed = seed_from(seed.handle());
+                if (const std::optional<double> given = number_from(strength.handle(), "strength"))
                 {
-                    options.embed.seed = seed.cast<std::uint64_t>();
+                    options.embed.embed.strength = *given;
                 }
-                if (!strength.is_none())
-                {
-                    options.embed.embed.strength = strength.cast<double>();
-                }
-                if (!message.is_none())
-                {
-                    options.embed.message = message.cast<std::string>();
-                }
+                options.embed.message = text_from(message.handle(), "message");
+                options.embed.embed.basis_size = basis_size;
+                options.embed.embed.coefficients = coefficients;
+                options.embed.lock_timeout = timeout_of(lock_timeout);
                 options.jobs = jobs;
                 options.force = force;
                 options.embed.threads = threads;
@@ -86,16 +87,20 @@ void bind_catalog(py::module_& m)
                 return to_python(catalog_add_json(catalog, *outcomes));
             },
             py::arg("inputs"), py::arg("output"), py::kw_only(), py::arg("seed") = py::none(),
-            py::arg("strength") = py::none(), py::arg("message") = py::none(), py::arg("jobs") = 0,
-            py::arg("force") = false, py::arg("threads") = 0,
+            py::arg("strength") = py::none(), py::arg("message") = py::none(),
+            py::arg("basis_size") = EmbedOptions{}.basis_size,
+            py::arg("coefficients") = EmbedOptions{}.coefficients, py::arg("jobs") = 0,
+            py::arg("force") = false,
+            py::arg("lock_timeout") = std::chrono::duration<double>(kDefaultLockTimeout).count(),
+            py::arg("threads") = 0,
             "Mark every mesh file under inputs (files and folders) into the folder output and "
-            "record "
-            "them: `meshmark catalog add CATALOG INPUTS... -o OUTPUT --json`. One file's failure "
-            "is "
-            "its outcome; running it again finishes an interrupted call.")
+            "record them: `meshmark catalog add CATALOG INPUTS... -o OUTPUT --json`. One file's "
+            "failure is its outcome; running it again finishes an interrupted call. seed, "
+            "strength, message, basis_size, coefficients: as embed's (a seed is mixed with each "
+            "asset's id); lock_timeout: seconds to wait for a key another call writes.")
         .def(
             "list",
-            [](const Catalog& catalog)
+            [](const Catalog& catalog) -> ReportList
             {
                 nlohmann::json assets = nlohmann::json::array();
                 for (const CatalogAsset& a : catalog.assets())
@@ -109,10 +114,17 @@ void bind_catalog(py::module_& m)
             "issue",
             [](Catalog& catalog, const std::string& asset,
                const std::vector<std::string>& recipients, const std::string& output_pattern,
-               double lock_timeout, int threads)
+               const OptionalPath& recipients_file, double lock_timeout, int threads) -> Report
             {
                 CatalogIssueOptions options;
                 options.recipients = recipients;
+                if (const auto file = path_from(recipients_file.handle(), "recipients_file"))
+                {
+                    // As the program's --recipients: the file's names after the list's.
+                    const std::vector<std::string> listed = read_recipients_file(*file);
+                    options.recipients.insert(options.recipients.end(), listed.begin(),
+                                              listed.end());
+                }
                 options.lock_timeout = timeout_of(lock_timeout);
                 options.threads = threads;
                 std::optional<EmbedRecipientsReport> report;
@@ -128,19 +140,22 @@ void bind_catalog(py::module_& m)
                 return to_python(out);
             },
             py::arg("asset"), py::arg("recipients"), py::arg("output_pattern"), py::kw_only(),
+            py::arg("recipients_file") = py::none(),
             py::arg("lock_timeout") = std::chrono::duration<double>(kDefaultLockTimeout).count(),
             py::arg("threads") = 0,
             "Issue traceable copies of an asset (output_pattern holds {recipient}): `meshmark "
             "catalog "
             "issue CATALOG ASSET --recipient NAME... -o PATTERN --json`. Each name is recorded "
             "before "
-            "any copy is written; a known name gets the same bytes again.")
+            "any copy is written; a known name gets the same bytes again. recipients_file: a file "
+            "of names, one per line ('#' comments), added after recipients (--recipients).")
         .def(
             "scan",
             [](const Catalog& catalog, const std::vector<Path>& suspects, int candidates,
-               bool all_candidates, double max_fpp, int threads)
+               bool all_candidates, double max_fpp, bool trace, int threads) -> Report
             {
                 CatalogScanOptions options;
+                options.detect.trace = trace;
                 options.candidates = candidates;
                 options.stop_at_match = !all_candidates;
                 options.detect.decision.max_false_positive = max_fpp;
@@ -155,10 +170,30 @@ void bind_catalog(py::module_& m)
             py::arg("suspects"), py::kw_only(),
             py::arg("candidates") = CatalogScanOptions{}.candidates,
             py::arg("all_candidates") = false,
-            py::arg("max_fpp") = DetectOptions{}.max_false_positive, py::arg("threads") = 0,
+            py::arg("max_fpp") = DetectOptions{}.max_false_positive, py::arg("trace") = true,
+            py::arg("threads") = 0,
             "Which assets (and whose copies) suspects were made from: `meshmark catalog scan "
-            "CATALOG "
-            "SUSPECT... --json`. The bound max_fpp holds per suspect over the whole catalogue.")
+            "CATALOG SUSPECT... --json`. The bound max_fpp holds per suspect over the whole "
+            "catalogue. trace=False: decide on the owners' marks alone, naming no recipient "
+            "(detect's --no-trace).")
+        .def(
+            "reindex",
+            [](Catalog& catalog, bool all, int threads) -> Report
+            {
+                CatalogReindexOptions options;
+                options.all = all;
+                options.threads = threads;
+                std::optional<std::vector<CatalogReindexOutcome>> outcomes;
+                {
+                    py::gil_scoped_release release;
+                    outcomes.emplace(catalog_reindex(catalog, options));
+                }
+                return to_python(catalog_reindex_json(catalog, *outcomes));
+            },
+            py::kw_only(), py::arg("all") = false, py::arg("threads") = 0,
+            "Recompute from the originals the shape signatures an older build wrote (all=True: "
+            "every asset's): `meshmark catalog reindex CATALOG [--all] --json`. One asset's "
+            "failure (its original missing or changed) is its outcome.")
         .def(
             "key",
             [](const Catalog& catalog, const std::string& asset)

@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "meshmark/core/error.h"
+#include "typed.h"
 
 namespace meshmark::python
 {
@@ -205,6 +206,83 @@ std::optional<std::uint64_t> seed_from(py::handle seed, const char* name)
                             std::string(py::str(seed)) + ".");
     }
     return value.cast<std::uint64_t>();
+}
+
+std::optional<std::string> text_from(py::handle value, const char* name)
+{
+    if (value.is_none())
+    {
+        return std::nullopt;
+    }
+    if (!py::isinstance<py::str>(value))
+    {
+        throw InvalidOption(std::string(name) + " must be a str or None, got a " +
+                            std::string(py::str(py::type::handle_of(value).attr("__name__"))) +
+                            ".");
+    }
+    return value.cast<std::string>();
+}
+
+std::optional<std::filesystem::path> path_from(py::handle value, const char* name)
+{
+    if (value.is_none())
+    {
+        return std::nullopt;
+    }
+    if (!py::isinstance<py::str>(value) && !py::hasattr(value, "__fspath__"))
+    {
+        throw InvalidOption(std::string(name) + " must be a str, an os.PathLike or None, got a " +
+                            std::string(py::str(py::type::handle_of(value).attr("__name__"))) +
+                            ".");
+    }
+    return value.cast<std::filesystem::path>();
+}
+
+std::optional<double> number_from(py::handle value, const char* name)
+{
+    if (value.is_none())
+    {
+        return std::nullopt;
+    }
+    try
+    {
+        return value.cast<double>();  // what converts to a float (numpy scalars included)
+    }
+    catch (const py::cast_error&)
+    {
+        throw InvalidOption(std::string(name) + " must be a number or None, got a " +
+                            std::string(py::str(py::type::handle_of(value).attr("__name__"))) +
+                            ".");
+    }
+}
+
+std::optional<Length> length_from(py::handle value, const char* name)
+{
+    if (value.is_none())
+    {
+        return std::nullopt;
+    }
+    if (py::isinstance<py::str>(value))
+    {
+        return parse_length(value.cast<std::string>(), name);
+    }
+    double number = 0.0;
+    try
+    {
+        number = value.cast<double>();
+    }
+    catch (const py::cast_error&)
+    {
+        throw InvalidOption(
+            std::string(name) + " must be a length such as '0.05mm', a number or None, got a " +
+            std::string(py::str(py::type::handle_of(value).attr("__name__"))) + ".");
+    }
+    if (!(std::isfinite(number) && number > 0.0))
+    {
+        throw InvalidOption(std::string(name) + " must be a positive length, got " +
+                            std::string(py::str(value)) + ".");
+    }
+    return Length{number, std::nullopt};
 }
 
 }  // namespace meshmark::python

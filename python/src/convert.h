@@ -4,6 +4,7 @@
 // numpy arrays, Python values and paths to and from the library's types, for the bindings.
 
 #include <cstdint>
+#include <filesystem>
 #include <optional>
 #include <string>
 
@@ -11,6 +12,7 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
+#include "meshmark/core/length_unit.h"
 #include "meshmark/core/triangle_mesh.h"
 
 namespace meshmark::python
@@ -38,5 +40,22 @@ namespace py = pybind11;
 /// \brief A seed from a Python int (None = absent).
 /// \throws InvalidOption unless it is in [0, 2^64).
 [[nodiscard]] std::optional<std::uint64_t> seed_from(py::handle seed, const char* name = "seed");
+
+/// \brief A text from a Python str (None = absent).
+/// \throws InvalidOption naming \p name for any other type.
+[[nodiscard]] std::optional<std::string> text_from(py::handle value, const char* name);
+
+/// \brief A real number from anything Python converts to a float (None = absent).
+/// \throws InvalidOption naming \p name for anything else (pybind11 would raise RuntimeError).
+[[nodiscard]] std::optional<double> number_from(py::handle value, const char* name);
+
+/// \brief A length from a str such as "0.05mm" (parse_length) or a number in the coordinates'
+/// unit (None = absent).
+/// \throws InvalidOption naming \p name for another type or a text parse_length refuses.
+[[nodiscard]] std::optional<Length> length_from(py::handle value, const char* name);
+
+/// \brief A path from a str or an os.PathLike (None = absent).
+/// \throws InvalidOption naming \p name for any other type.
+[[nodiscard]] std::optional<std::filesystem::path> path_from(py::handle value, const char* name);
 
 }  // namespace meshmark::python

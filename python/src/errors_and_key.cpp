@@ -4,13 +4,13 @@
 #include <filesystem>
 
 #include <pybind11/stl.h>
-#include <pybind11/stl/filesystem.h>
 
 #include "bindings.h"
 #include "meshmark/core/atomic_file.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/file_lock.h"
 #include "meshmark/watermark/key.h"
+#include "typed.h"
 
 namespace meshmark::python
 {

@@ -1,7 +1,6 @@
 // SPDX-License-Identifier: MIT
 // The in-memory calls on numpy arrays: embed, detect (and its DetectResult), attack_mesh.
 #include <pybind11/stl.h>
-#include <pybind11/stl/filesystem.h>
 
 #include "bindings.h"
 #include "convert.h"
@@ -11,26 +10,12 @@
 #include "meshmark/pipeline/report_json.h"
 #include "meshmark/pipeline/verdict.h"
 #include "meshmark/registration/point_pairs.h"
+#include "typed.h"
 
 namespace meshmark::python
 {
 namespace
 {
-
-std::optional<std::string> text_from(py::handle value, const char* name)
-{
-    if (value.is_none())
-    {
-        return std::nullopt;
-    }
-    if (!py::isinstance<py::str>(value))
-    {
-        throw InvalidOption(std::string(name) + " must be a str or None, got a " +
-                            std::string(py::str(py::type::handle_of(value).attr("__name__"))) +
-                            ".");
-    }
-    return value.cast<std::string>();
-}
 
 std::vector<PointPair> pairs_from_array(py::handle object)
 {
@@ -111,6 +96,8 @@ Keywords (the options of `meshmark detect`):
   max_fpp, threshold, epsilon
   pairs      None, a point-pair file, or a (k, 6) array 'xs ys zs xo yo zo' to start from
   register   False = the `--no-register` flag
+  trace      False = the `--no-trace` flag: with a family key, decide on the owner's mark
+             alone, without naming recipients
   threads    0 = all cores;  verbose: to_dict() adds the per-coefficient diagnostics
 Returns a DetectResult (.detected, .score, .false_positive_probability, ..., .to_dict()).
 "Not found" is a result, not an error.)";
@@ -162,9 +149,9 @@ void fill_embed_options(const EmbedKeywords& k, EmbedMeshOptions& options)
     options.embed.first_mode = k.first_mode;
     options.embed.sigma_factor = k.sigma_factor;
     options.embed.gram_rows = k.gram_rows;
-    if (!k.strength.is_none())
+    if (const std::optional<double> strength = number_from(k.strength, "strength"))
     {
-        options.embed.strength = k.strength.cast<double>();
+        options.embed.strength = *strength;
         if (!(options.embed.strength > 0.0))
         {
             throw InvalidOption("strength must be positive, got " +
@@ -183,7 +170,7 @@ void fill_embed_options(const EmbedKeywords& k, EmbedMeshOptions& options)
 
 DetectFileOptions make_detect_options(const std::string& verdict, double max_fpp, double threshold,
                                       double epsilon, bool allow_registration, py::handle pairs,
-                                      int threads)
+                                      bool trace, int threads)
 {
     DetectFileOptions options;
     options.decision.verdict = parse_verdict_rule(verdict);
@@ -191,6 +178,7 @@ DetectFileOptions make_detect_options(const std::string& verdict, double max_fpp
     options.decision.threshold = threshold;
     options.decision.epsilon = epsilon;
     options.allow_registration = allow_registration;
+    options.trace = trace;
     options.threads = threads;
     if (py::isinstance<py::str>(pairs) || py::hasattr(pairs, "__fspath__"))
     {
@@ -207,18 +195,18 @@ void bind_memory(py::module_& m)
 {
     m.def(
         "embed",
-        [](py::handle V, py::handle F, py::object message, py::object bits, py::object seed,
-           py::object strength, std::string rule, std::string strength_measure, std::string basis,
-           std::string centers, int basis_size, int coefficients, py::object repetitions,
-           int first_mode, double sigma_factor, std::int64_t gram_rows, int threads,
-           bool report) -> py::object
+        [](const ArrayLike& V, const OptionalArrayLike& F, const OptionalStr& message,
+           const OptionalStr& bits, const OptionalInt& seed, const OptionalFloat& strength,
+           std::string rule, std::string strength_measure, std::string basis, std::string centers,
+           int basis_size, int coefficients, const Repetitions& repetitions, int first_mode,
+           double sigma_factor, std::int64_t gram_rows, int threads, bool report) -> EmbedReturn
         {
             EmbedMeshOptions options;
-            fill_embed_options(
-                {message, bits, seed, strength, rule, strength_measure, basis, centers, basis_size,
-                 coefficients, repetitions, first_mode, sigma_factor, gram_rows, threads},
-                options);
-            TriangleMesh mesh = mesh_from_arrays(V, F, "");
+            fill_embed_options({message.object, bits.object, seed.object, strength.object, rule,
+                                strength_measure, basis, centers, basis_size, coefficients,
+                                repetitions.object, first_mode, sigma_factor, gram_rows, threads},
+                               options);
+            TriangleMesh mesh = mesh_from_arrays(V.handle(), F.handle(), "");
             std::optional<EmbedResult> result;
             {
                 py::gil_scoped_release release;
@@ -268,7 +256,7 @@ void bind_memory(py::module_& m)
             "recipient's code; docs/fingerprinting.md).")
         .def_property_readonly(
             "recipients",
-            [](const DetectResult& r)
+            [](const DetectResult& r) -> Recipients
             {
                 py::list accused;
                 for (const RecipientScore& s : r.report.accused)
@@ -358,7 +346,7 @@ void bind_memory(py::module_& m)
         .def_property_readonly("original_vertices",
                                [](const DetectResult& r) { return r.report.original_vertices; })
         .def(
-            "to_dict", [](const DetectResult& r) { return to_python(r.json()); },
+            "to_dict", [](const DetectResult& r) -> Report { return to_python(r.json()); },
             "The fields of `meshmark detect --json` (with verbose=True, also those of --verbose).")
         .def("__repr__",
              [](const DetectResult& r)
@@ -372,14 +360,18 @@ void bind_memory(py::module_& m)
 
     m.def(
         "detect",
-        [](py::handle V_suspect, py::handle F_suspect, py::handle V_original, py::handle F_original,
-           const Key& key, const std::string& verdict, double max_fpp, double threshold,
-           double epsilon, bool register_suspect, py::handle pairs, int threads, bool verbose)
+        [](const ArrayLike& V_suspect, const OptionalArrayLike& F_suspect,
+           const ArrayLike& V_original, const OptionalArrayLike& F_original, const Key& key,
+           const std::string& verdict, double max_fpp, double threshold, double epsilon,
+           bool register_suspect, const Pairs& pairs, bool trace, int threads, bool verbose)
         {
-            const DetectFileOptions options = make_detect_options(
-                verdict, max_fpp, threshold, epsilon, register_suspect, pairs, threads);
-            const TriangleMesh suspect = mesh_from_arrays(V_suspect, F_suspect, "suspect");
-            const TriangleMesh original = mesh_from_arrays(V_original, F_original, "original");
+            const DetectFileOptions options =
+                make_detect_options(verdict, max_fpp, threshold, epsilon, register_suspect,
+                                    pairs.handle(), trace, threads);
+            const TriangleMesh suspect =
+                mesh_from_arrays(V_suspect.handle(), F_suspect.handle(), "suspect");
+            const TriangleMesh original =
+                mesh_from_arrays(V_original.handle(), F_original.handle(), "original");
             return detect_result(options, verbose,
                                  [&] { return detect(suspect, original, key, options); });
         },
@@ -389,19 +381,21 @@ void bind_memory(py::module_& m)
         py::arg("max_fpp") = DetectOptions{}.max_false_positive,
         py::arg("threshold") = DetectOptions{}.threshold,
         py::arg("epsilon") = DetectOptions{}.epsilon, py::arg("register") = true,
-        py::arg("pairs") = py::none(), py::arg("threads") = 0, py::arg("verbose") = false,
-        kDetectDoc);
+        py::arg("pairs") = py::none(), py::arg("trace") = true, py::arg("threads") = 0,
+        py::arg("verbose") = false, kDetectDoc);
 
     m.def(
         "detect_against_file",
-        [](py::handle V_suspect, py::handle F_suspect, const std::filesystem::path& original,
-           const std::filesystem::path& key_path, const std::string& verdict, double max_fpp,
-           double threshold, double epsilon, bool register_suspect, py::handle pairs, int threads,
-           bool verbose)
+        [](const ArrayLike& V_suspect, const OptionalArrayLike& F_suspect,
+           const std::filesystem::path& original, const std::filesystem::path& key_path,
+           const std::string& verdict, double max_fpp, double threshold, double epsilon,
+           bool register_suspect, const Pairs& pairs, bool trace, int threads, bool verbose)
         {
-            const DetectFileOptions options = make_detect_options(
-                verdict, max_fpp, threshold, epsilon, register_suspect, pairs, threads);
-            const TriangleMesh suspect = mesh_from_arrays(V_suspect, F_suspect, "suspect");
+            const DetectFileOptions options =
+                make_detect_options(verdict, max_fpp, threshold, epsilon, register_suspect,
+                                    pairs.handle(), trace, threads);
+            const TriangleMesh suspect =
+                mesh_from_arrays(V_suspect.handle(), F_suspect.handle(), "suspect");
             return detect_result(
                 options, verbose,
                 [&] { return detect_against_file(suspect, original, key_path, options); });
@@ -411,16 +405,17 @@ void bind_memory(py::module_& m)
         py::arg("max_fpp") = DetectOptions{}.max_false_positive,
         py::arg("threshold") = DetectOptions{}.threshold,
         py::arg("epsilon") = DetectOptions{}.epsilon, py::arg("register") = true,
-        py::arg("pairs") = py::none(), py::arg("threads") = 0, py::arg("verbose") = false,
-        kDetectAgainstFileDoc);
+        py::arg("pairs") = py::none(), py::arg("trace") = true, py::arg("threads") = 0,
+        py::arg("verbose") = false, kDetectAgainstFileDoc);
 
     m.def(
         "attack_mesh",
-        [](py::handle V, py::handle F, const std::string& spec, py::handle seed, int threads)
+        [](const ArrayLike& V, const OptionalArrayLike& F, const std::string& spec,
+           const SeedInt& seed, int threads) -> MeshArrays
         {
             const auto specs = parse_attack_spec(spec);
-            const std::uint64_t s = seed_from(seed).value_or(0);
-            const TriangleMesh mesh = mesh_from_arrays(V, F, "");
+            const std::uint64_t s = seed_from(seed.handle()).value_or(0);
+            const TriangleMesh mesh = mesh_from_arrays(V.handle(), F.handle(), "");
             std::optional<AttackResult> result;
             {
                 py::gil_scoped_release release;

@@ -13,5 +13,6 @@ PYBIND11_MODULE(_meshmark, m)
     bind_key(m);
     bind_memory(m);
     bind_files(m);
+    bind_compare(m);
     bind_catalog(m);
 }

@@ -6,6 +6,7 @@
 #include <array>
 #include <chrono>
 #include <exception>
+#include <fstream>
 #include <functional>
 #include <future>
 #include <limits>
@@ -475,6 +476,32 @@ EmbedRecipientsReport embed_recipients(
     report.seconds.phases.emplace_back("lock", waited);  // the part of "basis" spent waiting
     report.key = std::move(key);
     return report;
+}
+
+std::vector<std::string> read_recipients_file(const std::filesystem::path& path)
+{
+    std::ifstream in(path);
+    if (!in)
+    {
+        throw IoError(path.string() + ": cannot open the recipients file.");
+    }
+    std::vector<std::string> names;
+    std::string line;
+    while (std::getline(in, line))
+    {
+        const auto first = line.find_first_not_of(" \t\r");
+        if (first == std::string::npos || line[first] == '#')
+        {
+            continue;
+        }
+        const auto last = line.find_last_not_of(" \t\r");
+        names.push_back(line.substr(first, last - first + 1));
+    }
+    if (in.bad())
+    {
+        throw IoError(path.string() + ": cannot read the recipients file.");
+    }
+    return names;
 }
 
 }  // namespace meshmark

@@ -1,6 +1,9 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/pipeline/report_json.h"
 
+#include <array>
+#include <charconv>
+
 #include "meshmark/pipeline/verdict.h"
 
 namespace meshmark
@@ -288,6 +291,63 @@ nlohmann::json compare_report_json(const std::string& a_path, const std::string&
         out["rms_displacement"] = r.rms_displacement_rel;
     }
     return out;
+}
+
+std::string shell_word(const std::string& word)
+{
+    const bool is_safe = !word.empty() && word.find_first_not_of(
+                                              "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
+                                              "0123456789_-+=.,/:@%") == std::string::npos;
+    if (is_safe)
+    {
+        return word;
+    }
+    std::string out = "'";
+    for (const char c : word)
+    {
+        out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+    }
+    return out + "'";
+}
+
+std::string shortest(double value)
+{
+    std::array<char, 32> text{};
+    const auto end = std::to_chars(text.data(), text.data() + text.size(), value).ptr;
+    return {text.data(), end};
+}
+
+std::string detect_command(const std::string& suspect, const std::string& original,
+                           const std::string& key, const std::string& pairs,
+                           const DetectFileOptions& options)
+{
+    const DetectOptions defaults;
+    const DetectOptions& decision = options.decision;
+    std::string command = "meshmark detect " + shell_word(suspect) + " --original " +
+                          shell_word(original) + " --key " + shell_word(key);
+    if (decision.verdict != defaults.verdict)
+    {
+        command += std::string(" --verdict ") + to_string(decision.verdict);
+    }
+    if (decision.max_false_positive != defaults.max_false_positive)
+    {
+        command += " --max-fpp " + shortest(decision.max_false_positive);
+    }
+    if (decision.threshold != defaults.threshold)
+    {
+        command += " --threshold " + shortest(decision.threshold);
+    }
+    if (decision.epsilon != defaults.epsilon)
+    {
+        command += " --epsilon " + shortest(decision.epsilon);
+    }
+    if (!pairs.empty())
+    {
+        command += " --pairs " + shell_word(pairs);
+    }
+    command += options.trace ? "" : " --no-trace";
+    command += options.allow_registration ? "" : " --no-register";
+    return command + " --json";
 }
 
 }  // namespace meshmark

@@ -101,6 +101,11 @@ public:
 [[nodiscard]] std::filesystem::path recipient_output(const std::string& pattern,
                                                      const std::string& name);
 
+/// \brief Names from a recipients file (`--recipients`, the Python package's recipients_file):
+/// one per line; blank lines and lines starting with '#' skipped, spaces around a name dropped.
+/// \throws IoError when it cannot be opened or read.
+[[nodiscard]] std::vector<std::string> read_recipients_file(const std::filesystem::path& path);
+
 /// \brief Issue one marked copy of \p input per recipient (docs/fingerprinting.md).
 /// \details With no file at \p key_path a new family key is made (seed, payload and embedding
 /// options as for embed_file, plus the recipients' modes and energy share); with a family key

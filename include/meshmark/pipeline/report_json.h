@@ -74,4 +74,18 @@ namespace meshmark
                                                  const DistortionReport& report,
                                                  std::uint64_t seed);
 
+/// \brief An argument as the shell reads it back: quoted unless made of safe characters only
+/// (the command an evidence report gives to repeat a check).
+[[nodiscard]] std::string shell_word(const std::string& word);
+
+/// The shortest text that reads back as \p value ("1e-06", "0.5").
+[[nodiscard]] std::string shortest(double value);
+
+/// \brief The `meshmark detect ... --json` command that repeats a check of \p suspect against
+/// \p original with the key file \p key under \p options (the options that differ from their
+/// defaults; \p pairs: the point-pair file, empty when none): what `detect --report` states.
+[[nodiscard]] std::string detect_command(const std::string& suspect, const std::string& original,
+                                         const std::string& key, const std::string& pairs,
+                                         const DetectFileOptions& options);
+
 }  // namespace meshmark
