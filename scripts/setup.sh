@@ -39,6 +39,8 @@ packages=(
   chromium               # tests only: the HTML evidence report opened, screenshot and printed headless
   curl wrk               # the service's tests (curl) and load benchmark (wrk: bench/service)
   pybind11-dev python3-dev python3-numpy python3-pytest  # the Python package (python/) and its tests
+  python3-mypy           # tests only: the type stubs checked by mypy --strict (tests/python/test_stubs.py)
+  python3-venv           # tests only: `pip install .` into a fresh virtual environment (python.pip_install)
 )
 if ((interop_tools)); then
   # Interop tests (label `interop`): the ecosystem's own tools write the inputs and check
