@@ -210,21 +210,8 @@ int run_compare(const CompareArgs& args, const GlobalArgs& global)
     if (args.json)
     {
         nlohmann::json out = compare_report_json(args.a, args.b, a, b, report, args.options.seed);
-        if (unit.unit)
-        {
-            out["in_unit"] = compare_in_unit_json(report, *unit.unit, unit.is_from_file);
-        }
-        if (!args.heatmap.empty())
-        {
-            out["heatmap"] = {{"file", args.heatmap},
-                              {"max_distance", heatmap_max / report.diagonal}};
-        }
-        out["seconds"] = {{"read", read_seconds},
-                          {"index", report.seconds.index},
-                          {"a_to_b", report.seconds.a_to_b},
-                          {"b_to_a", report.seconds.b_to_a},
-                          {"heatmap", heatmap_seconds},
-                          {"total", seconds_since(start)}};
+        complete_compare_json(out, report, unit.unit, unit.is_from_file, args.heatmap, heatmap_max,
+                              {read_seconds, heatmap_seconds, seconds_since(start)});
         print_json(out);
         return 0;
     }

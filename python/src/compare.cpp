@@ -146,21 +146,9 @@ void bind_compare(py::module_& m)
                 }
                 out = compare_report_json(a_path.string(), b_path.string(), a, b, report,
                                           options.seed);
-                if (a_unit)
-                {
-                    out["in_unit"] = compare_in_unit_json(report, *a_unit, unit_from_file);
-                }
-                if (heatmap)
-                {
-                    out["heatmap"] = {{"file", heatmap->string()},
-                                      {"max_distance", heatmap_max / report.diagonal}};
-                }
-                out["seconds"] = {{"read", read_seconds},
-                                  {"index", report.seconds.index},
-                                  {"a_to_b", report.seconds.a_to_b},
-                                  {"b_to_a", report.seconds.b_to_a},
-                                  {"heatmap", heatmap_seconds},
-                                  {"total", since(start)}};
+                complete_compare_json(out, report, a_unit, unit_from_file,
+                                      heatmap ? heatmap->string() : std::string(), heatmap_max,
+                                      {read_seconds, heatmap_seconds, since(start)});
             }
             return to_python(out);
         },

@@ -243,6 +243,27 @@ nlohmann::json attack_report_json(const AttackFileReport& report, const std::str
             {"seconds", to_json(report.seconds)}};
 }
 
+void complete_compare_json(nlohmann::json& out, const DistortionReport& report,
+                           const std::optional<LengthUnit>& unit, bool unit_from_file,
+                           const std::string& heatmap, double heatmap_max,
+                           const CompareRunSeconds& seconds)
+{
+    if (unit)
+    {
+        out["in_unit"] = compare_in_unit_json(report, *unit, unit_from_file);
+    }
+    if (!heatmap.empty())
+    {
+        out["heatmap"] = {{"file", heatmap}, {"max_distance", heatmap_max / report.diagonal}};
+    }
+    out["seconds"] = {{"read", seconds.read},
+                      {"index", report.seconds.index},
+                      {"a_to_b", report.seconds.a_to_b},
+                      {"b_to_a", report.seconds.b_to_a},
+                      {"heatmap", seconds.heatmap},
+                      {"total", seconds.total}};
+}
+
 nlohmann::json compare_in_unit_json(const DistortionReport& r, LengthUnit unit, bool is_from_file)
 {
     const double d = r.diagonal;

@@ -5,6 +5,7 @@
 /// \brief The JSON reports of the `meshmark` commands (`--json`), built in one place so that the
 /// program and the Python package (python/) print and return the same fields.
 
+#include <optional>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -73,6 +74,23 @@ namespace meshmark
                                                  const TriangleMesh& b,
                                                  const DistortionReport& report,
                                                  std::uint64_t seed);
+
+/// The seconds of a `compare` run besides those of its report (reading, the heatmap, in all).
+struct CompareRunSeconds
+{
+    double read = 0.0;
+    double heatmap = 0.0;
+    double total = 0.0;
+};
+
+/// \brief Completes compare_report_json as `meshmark compare --json` prints it (the CLI's and the
+/// Python package's `compare`): `in_unit` when \p unit is known (\p unit_from_file: read from A's
+/// file), `heatmap` when \p heatmap names the picture written (\p heatmap_max its largest
+/// distance), and `seconds`.
+void complete_compare_json(nlohmann::json& out, const DistortionReport& report,
+                           const std::optional<LengthUnit>& unit, bool unit_from_file,
+                           const std::string& heatmap, double heatmap_max,
+                           const CompareRunSeconds& seconds);
 
 /// \brief An argument as the shell reads it back: quoted unless made of safe characters only
 /// (the command an evidence report gives to repeat a check).
