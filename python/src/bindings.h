@@ -43,5 +43,6 @@ void bind_memory(py::module_& m);   ///< embed, detect, DetectResult, attack_mes
 void bind_files(py::module_& m);    ///< read_mesh, write_mesh, embed_file, detect_file, attack
 void bind_compare(py::module_& m);  ///< compare (and its heatmap)
 void bind_catalog(py::module_& m);  ///< Catalog
+void bind_cluster(py::module_& m);  ///< catalog add's steps for meshmark.cluster
 
 }  // namespace meshmark::python

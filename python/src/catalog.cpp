@@ -61,11 +61,21 @@ void bind_catalog(py::module_& m)
             "The catalogue's file.")
         .def(
             "add",
-            [](Catalog& catalog, const std::vector<Path>& inputs, const Path& output,
+            [](const py::object& self, const std::vector<Path>& inputs, const Path& output,
                const OptionalInt& seed, const OptionalFloat& strength, const OptionalStr& message,
                int basis_size, int coefficients, int jobs, bool force, double lock_timeout,
-               int threads) -> Report
+               int threads, const OptionalClient& client) -> Report
             {
+                if (!client.object.is_none())  // the marking on a Dask cluster (meshmark.cluster)
+                {
+                    return py::module_::import("meshmark.cluster")
+                        .attr("catalog_add")(
+                            self, inputs, output, py::arg("client") = client.object,
+                            py::arg("seed") = seed, py::arg("strength") = strength,
+                            py::arg("message") = message, py::arg("basis_size") = basis_size,
+                            py::arg("coefficients") = coefficients, py::arg("force") = force);
+                }
+                auto& catalog = self.cast<Catalog&>();
                 CatalogAddOptions options;
                 options.embed.seed = seed_from(seed.handle());
                 if (const std::optional<double> given = number_from(strength.handle(), "strength"))
@@ -92,12 +102,14 @@ void bind_catalog(py::module_& m)
             py::arg("coefficients") = EmbedOptions{}.coefficients, py::arg("jobs") = 0,
             py::arg("force") = false,
             py::arg("lock_timeout") = std::chrono::duration<double>(kDefaultLockTimeout).count(),
-            py::arg("threads") = 0,
+            py::arg("threads") = 0, py::arg("client") = py::none(),
             "Mark every mesh file under inputs (files and folders) into the folder output and "
             "record them: `meshmark catalog add CATALOG INPUTS... -o OUTPUT --json`. One file's "
             "failure is its outcome; running it again finishes an interrupted call. seed, "
             "strength, message, basis_size, coefficients: as embed's (a seed is mixed with each "
-            "asset's id); lock_timeout: seconds to wait for a key another call writes.")
+            "asset's id); lock_timeout: seconds to wait for a key another call writes. client: a "
+            "dask.distributed Client: the files are marked on its workers, this process records "
+            "them (meshmark.cluster; same bytes as a local run with a seed).")
         .def(
             "list",
             [](const Catalog& catalog) -> ReportList
@@ -151,9 +163,21 @@ void bind_catalog(py::module_& m)
             "of names, one per line ('#' comments), added after recipients (--recipients).")
         .def(
             "scan",
-            [](const Catalog& catalog, const std::vector<Path>& suspects, int candidates,
-               bool all_candidates, double max_fpp, bool trace, int threads) -> Report
+            [](const py::object& self, const std::vector<Path>& suspects, int candidates,
+               bool all_candidates, double max_fpp, bool trace, int threads,
+               const OptionalClient& client) -> Report
             {
+                if (!client.object
+                         .is_none())  // the suspects read on a Dask cluster (meshmark.cluster)
+                {
+                    return py::module_::import("meshmark.cluster")
+                        .attr("catalog_scan")(self, suspects, py::arg("client") = client.object,
+                                              py::arg("candidates") = candidates,
+                                              py::arg("all_candidates") = all_candidates,
+                                              py::arg("max_fpp") = max_fpp,
+                                              py::arg("trace") = trace);
+                }
+                const auto& catalog = self.cast<const Catalog&>();
                 CatalogScanOptions options;
                 options.detect.trace = trace;
                 options.candidates = candidates;
@@ -171,11 +195,13 @@ void bind_catalog(py::module_& m)
             py::arg("candidates") = CatalogScanOptions{}.candidates,
             py::arg("all_candidates") = false,
             py::arg("max_fpp") = DetectOptions{}.max_false_positive, py::arg("trace") = true,
-            py::arg("threads") = 0,
+            py::arg("threads") = 0, py::arg("client") = py::none(),
             "Which assets (and whose copies) suspects were made from: `meshmark catalog scan "
             "CATALOG SUSPECT... --json`. The bound max_fpp holds per suspect over the whole "
             "catalogue. trace=False: decide on the owners' marks alone, naming no recipient "
-            "(detect's --no-trace).")
+            "(detect's --no-trace). client: a dask.distributed Client: the suspects are read on "
+            "its "
+            "workers, each opening the catalogue (meshmark.cluster).")
         .def(
             "reindex",
             [](Catalog& catalog, bool all, int threads) -> Report

@@ -95,7 +95,11 @@ void bind_files(py::module_& m)
         {
             const TriangleMesh mesh = mesh_from_arrays(V.handle(), F.handle(), "");
             py::gil_scoped_release release;
-            write_mesh(path, mesh, WriteOptions{.is_binary = binary});
+            write_mesh(path, mesh,
+                       WriteOptions{.is_binary = binary,
+                                    .use_single_precision = false,
+                                    .vertex_colors = nullptr,
+                                    .link_folder = {}});
         },
         py::arg("path"), py::arg("V"), py::arg("F") = py::none(), py::kw_only(),
         py::arg("binary") = true,

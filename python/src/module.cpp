@@ -15,4 +15,5 @@ PYBIND11_MODULE(_meshmark, m)
     bind_files(m);
     bind_compare(m);
     bind_catalog(m);
+    bind_cluster(m);
 }

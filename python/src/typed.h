@@ -50,6 +50,7 @@ MESHMARK_PY_TYPE_NAME(Pairs, "str | os.PathLike | numpy.typing.ArrayLike | None"
 MESHMARK_PY_TYPE_NAME(LengthArg, "str | float | None")
 MESHMARK_PY_TYPE_NAME(OptionalPath, "str | os.PathLike | None")
 MESHMARK_PY_TYPE_NAME(Report, "dict[str, typing.Any]")
+MESHMARK_PY_TYPE_NAME(OptionalClient, "distributed.Client | None")
 MESHMARK_PY_TYPE_NAME(ReportList, "list[dict[str, typing.Any]]")
 MESHMARK_PY_TYPE_NAME(MeshArrays,
                       "tuple[numpy.typing.NDArray[numpy.float64], "

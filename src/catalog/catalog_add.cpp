@@ -10,10 +10,12 @@
 #include <iterator>
 #include <mutex>
 #include <optional>
+#include <random>
 #include <set>
 #include <sstream>
 #include <thread>
 
+#include "catalog/catalog_add_impl.h"
 #include "meshmark/core/atomic_file.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/hash.h"
@@ -69,15 +71,22 @@ bool stays_inside(const fs::path& relative)
     return normal.is_relative() && !normal.empty() && *normal.begin() != "..";
 }
 
-// Copies \p from to \p to (folders made) unless \p to already holds the same bytes.
-void copy_beside(const fs::path& from, const fs::path& to)
+// The outcome of a failure: InvalidMesh and NumericalError say the mesh cannot carry a mark.
+CatalogAddOutcome failed(CatalogAddOutcome outcome, const std::exception& e, bool unmarkable)
 {
-    std::ifstream in(from, std::ios::binary);
-    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    if (!in.good() && !in.eof())
-    {
-        throw IoError(from.string() + ": cannot read this file that the mesh references.");
-    }
+    outcome.status =
+        unmarkable ? CatalogAddOutcome::Status::Unmarkable : CatalogAddOutcome::Status::Failed;
+    outcome.reason = e.what();
+    return outcome;
+}
+
+}  // namespace
+
+namespace catalog_detail
+{
+
+void write_unless_same(const fs::path& to, const std::string& bytes)
+{
     std::error_code error;
     if (fs::is_regular_file(to, error))
     {
@@ -92,10 +101,25 @@ void copy_beside(const fs::path& from, const fs::path& to)
     write_file_atomically(to, [&](std::ostream& out) { out << bytes; });
 }
 
-// An OBJ's material libraries and the textures they name, copied beside its marked copy under
-// the same relative paths, so the copy's folder shows what the original's does (a glTF's
-// writer copies its images itself). A file whose path would leave the folder is left out: the
-// writer then links it back to the original's (io/obj.cpp, material_library_edits).
+namespace
+{
+
+// Copies \p from to \p to (folders made) unless \p to already holds the same bytes.
+void copy_beside(const fs::path& from, const fs::path& to)
+{
+    std::ifstream in(from, std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    if (!in.good() && !in.eof())
+    {
+        throw IoError(from.string() + ": cannot read this file that the mesh references.");
+    }
+    write_unless_same(to, bytes);
+}
+
+}  // namespace
+
+// The copy's folder shows what the original's does (a glTF's writer copies its images itself;
+// io/obj.cpp, material_library_edits, links back what is left out).
 void copy_obj_materials(const fs::path& input, const fs::path& output)
 {
     std::ifstream in(input, std::ios::binary);
@@ -171,16 +195,78 @@ void copy_obj_materials(const fs::path& input, const fs::path& output)
     }
 }
 
-// The outcome of a failure: InvalidMesh and NumericalError say the mesh cannot carry a mark.
-CatalogAddOutcome failed(CatalogAddOutcome outcome, const std::exception& e, bool unmarkable)
+CatalogAddOutcome mark_asset(const CatalogMarkTask& task, const fs::path& output_root, int threads,
+                             const KeyStoreFactory& store_of)
 {
-    outcome.status =
-        unmarkable ? CatalogAddOutcome::Status::Unmarkable : CatalogAddOutcome::Status::Failed;
-    outcome.reason = e.what();
-    return outcome;
+    const auto start = std::chrono::steady_clock::now();
+    CatalogAddOutcome outcome;
+    outcome.path = task.input;
+    outcome.asset = task.asset;
+    const auto finish = [&](CatalogAddOutcome done)
+    {
+        done.seconds =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        return done;
+    };
+    try
+    {
+        // A file the readers refuse failed; a mesh read but unable to carry a mark (below) is
+        // unmarkable.
+        std::optional<MeshFile> read;
+        try
+        {
+            read.emplace(read_mesh_file(task.original));
+        }
+        catch (const Error& e)
+        {
+            return finish(failed(std::move(outcome), e, false));
+        }
+        const MeshFile& file = *read;
+        outcome.vertex_count = file.mesh.vertex_count();
+        CatalogAsset prototype;
+        prototype.id = task.asset;
+        prototype.original = task.original;
+        prototype.original_sha256 = task.original_sha256;
+        prototype.published = task.published;
+        prototype.vertex_count = file.mesh.vertex_count();
+        prototype.face_count = file.mesh.face_count();
+        ShapeSignature signature = shape_signature(file.mesh);
+        EmbedRecipientsOptions embed = task.embed;
+        embed.recipients = {kPublishedRecipient};
+        embed.threads = threads;
+        embed.progress = nullptr;
+        const fs::path copy = output_root / task.asset;
+        if (copy != task.published)
+        {
+            embed.link_folder = [&task](const fs::path&) { return task.published.parent_path(); };
+        }
+        if (file.format == MeshFormat::Obj)
+        {
+            copy_obj_materials(task.original, copy);
+        }
+        const std::unique_ptr<FamilyKeyStore> store =
+            store_of(std::move(prototype), std::move(signature));
+        (void)embed_recipients(
+            task.original, &file, [&](const std::string&) { return copy; }, *store, embed);
+        outcome.status = CatalogAddOutcome::Status::Marked;
+        outcome.published = task.published;
+    }
+    catch (const InvalidMesh& e)
+    {
+        outcome = failed(std::move(outcome), e, true);
+    }
+    catch (const NumericalError& e)
+    {
+        outcome = failed(std::move(outcome), e, true);
+    }
+    catch (const std::exception& e)
+    {
+        outcome = failed(std::move(outcome), e, false);
+    }
+    return finish(std::move(outcome));
 }
 
-}  // namespace
+}  // namespace catalog_detail
 
 std::vector<std::pair<fs::path, std::string>> find_mesh_files(const std::vector<fs::path>& inputs,
                                                               const fs::path& skip)
@@ -231,9 +317,8 @@ std::vector<std::pair<fs::path, std::string>> find_mesh_files(const std::vector<
     return found;
 }
 
-std::vector<CatalogAddOutcome> catalog_add(Catalog& catalog, const std::vector<fs::path>& inputs,
-                                           const fs::path& output_folder,
-                                           const CatalogAddOptions& options)
+CatalogAddPlan catalog_plan_add(Catalog& catalog, const std::vector<fs::path>& inputs,
+                                const fs::path& output_folder, const CatalogAddOptions& options)
 {
     if (options.jobs < 0)
     {
@@ -249,55 +334,49 @@ std::vector<CatalogAddOutcome> catalog_add(Catalog& catalog, const std::vector<f
         throw InvalidOption("name the folder of the marked copies with -o.");
     }
     const auto files = find_mesh_files(inputs, output_folder);
-    std::vector<CatalogAddOutcome> outcomes(files.size());
-    const int cores = resolve_threads(0);
-    const int jobs =
-        std::max(1, std::min<int>(options.jobs > 0 ? options.jobs : cores,
-                                  static_cast<int>(std::max<std::size_t>(files.size(), 1))));
-    const int threads = std::max(1, resolve_threads(options.embed.threads) / jobs);
-    std::atomic<std::size_t> next{0};
-    std::atomic<std::size_t> done{0};
-    std::mutex progress_mutex;
-    // Two files naming one asset in this call: the first claims it.
-    std::mutex claim_mutex;
-    std::set<std::string> claimed;
-
-    const auto mark_one = [&](std::size_t f)
+    const fs::path output_root = fs::absolute(output_folder).lexically_normal();
+    CatalogAddPlan plan;
+    plan.outcomes.resize(files.size());
+    std::set<std::string> claimed;  // two files naming one asset in this call: the first claims it
+    std::random_device device;
+    for (std::size_t f = 0; f < files.size(); ++f)
     {
         const auto start = std::chrono::steady_clock::now();
         const auto& [input, id] = files[f];
-        CatalogAddOutcome outcome;
+        CatalogAddOutcome& outcome = plan.outcomes[f];
         outcome.path = input;
         outcome.asset = id;
-        const fs::path published = fs::absolute(output_folder / id).lexically_normal();
+        CatalogMarkTask task;
+        task.file = f;
+        task.asset = id;
+        task.input = input;
+        task.output_folder = output_root;
+        task.published = (output_root / id).lexically_normal();
         try
         {
+            if (!claimed.insert(id).second)
             {
-                const std::lock_guard lock(claim_mutex);
-                if (!claimed.insert(id).second)
-                {
-                    throw InvalidOption(input.string() +
-                                        ": another file of this call is already asset '" + id +
-                                        "'; add the two from separate folders.");
-                }
+                throw InvalidOption(input.string() +
+                                    ": another file of this call is already asset '" + id +
+                                    "'; add the two from separate folders.");
             }
-            const fs::path original = fs::absolute(input).lexically_normal();
-            if (is_same_file(original, published))
+            task.original = fs::absolute(input).lexically_normal();
+            if (is_same_file(task.original, task.published))
             {
                 throw InvalidOption(
                     input.string() +
                     ": the marked copy would replace the original; choose another -o.");
             }
-            const std::string sha = file_sha256(original);
+            task.original_sha256 = file_sha256(task.original);
             if (const std::optional<CatalogAsset> known = catalog.asset(id))
             {
-                if (known->original != original)
+                if (known->original != task.original)
                 {
                     throw InvalidOption(input.string() + ": the catalogue's asset '" + id +
                                         "' is another file, " + known->original.string() +
                                         "; add this one from another folder.");
                 }
-                if (known->original_sha256 == sha && known->is_complete)
+                if (known->original_sha256 == task.original_sha256 && known->is_complete)
                 {
                     outcome.status = CatalogAddOutcome::Status::Present;
                     outcome.published = known->published;
@@ -305,9 +384,9 @@ std::vector<CatalogAddOutcome> catalog_add(Catalog& catalog, const std::vector<f
                     outcome.seconds =
                         std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
                             .count();
-                    return outcome;
+                    continue;
                 }
-                if (known->original_sha256 != sha)
+                if (known->original_sha256 != task.original_sha256)
                 {
                     if (known->is_complete && !options.force)
                     {
@@ -319,79 +398,60 @@ std::vector<CatalogAddOutcome> catalog_add(Catalog& catalog, const std::vector<f
                     }
                     catalog.remove(id);  // an interrupted add of other bytes, or --force
                 }
-                // else: an interrupted add of these bytes, finished with its recorded key
+                else
+                {
+                    task.key = known->key;  // an interrupted add of these bytes: its key again
+                }
             }
-            // A file the readers refuse failed; a mesh read but unable to carry a mark (below)
-            // is unmarkable.
-            std::optional<MeshFile> read;
-            try
-            {
-                read.emplace(read_mesh_file(original));
-            }
-            catch (const Error& e)
-            {
-                outcome = failed(std::move(outcome), e, false);
-                outcome.seconds =
-                    std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-                return outcome;
-            }
-            const MeshFile& file = *read;
-            outcome.vertex_count = file.mesh.vertex_count();
-            CatalogAsset prototype;
-            prototype.id = id;
-            prototype.original = original;
-            prototype.original_sha256 = sha;
-            prototype.published = published;
-            prototype.vertex_count = file.mesh.vertex_count();
-            prototype.face_count = file.mesh.face_count();
-            ShapeSignature signature = shape_signature(file.mesh);
-            EmbedRecipientsOptions embed = options.embed;
-            embed.recipients = {kPublishedRecipient};
-            embed.threads = threads;
-            embed.progress = nullptr;
-            if (embed.seed)
-            {
-                embed.seed = splitmix64(*embed.seed ^ hash_bytes(id.data(), id.size()));
-            }
-            if (file.format == MeshFormat::Obj)
-            {
-                copy_obj_materials(original, published);
-            }
-            const std::unique_ptr<FamilyKeyStore> store =
-                catalog.family_store(id, std::move(prototype), std::move(signature));
-            (void)embed_recipients(
-                original, &file, [&](const std::string&) { return published; }, *store, embed);
-            outcome.status = CatalogAddOutcome::Status::Marked;
-            outcome.published = published;
-        }
-        catch (const InvalidMesh& e)
-        {
-            outcome = failed(std::move(outcome), e, true);
-        }
-        catch (const NumericalError& e)
-        {
-            outcome = failed(std::move(outcome), e, true);
+            task.embed = options.embed;
+            task.embed.progress = nullptr;
+            task.embed.seed =
+                options.embed.seed
+                    ? splitmix64(*options.embed.seed ^ hash_bytes(id.data(), id.size()))
+                    : (std::uint64_t{device()} << 32U) ^ device();
+            plan.tasks.push_back(std::move(task));
         }
         catch (const std::exception& e)
         {
             outcome = failed(std::move(outcome), e, false);
+            outcome.seconds =
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         }
-        outcome.seconds =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        return outcome;
-    };
+    }
+    return plan;
+}
 
+std::vector<CatalogAddOutcome> catalog_add(Catalog& catalog, const std::vector<fs::path>& inputs,
+                                           const fs::path& output_folder,
+                                           const CatalogAddOptions& options)
+{
+    CatalogAddPlan plan = catalog_plan_add(catalog, inputs, output_folder, options);
+    const std::size_t total = plan.outcomes.size();
+    const int cores = resolve_threads(0);
+    const int jobs =
+        std::max(1, std::min<int>(options.jobs > 0 ? options.jobs : cores,
+                                  static_cast<int>(std::max<std::size_t>(plan.tasks.size(), 1))));
+    const int threads = std::max(1, resolve_threads(options.embed.threads) / jobs);
+    std::atomic<std::size_t> next{0};
+    std::atomic<std::size_t> done{total - plan.tasks.size()};
+    std::mutex progress_mutex;
     const auto work = [&]
     {
-        for (std::size_t f = next++; f < files.size(); f = next++)
+        for (std::size_t t = next++; t < plan.tasks.size(); t = next++)
         {
-            outcomes[f] = mark_one(f);
+            const CatalogMarkTask& task = plan.tasks[t];
+            // Marked in place: the catalogue's store records the key before the copy is written.
+            plan.outcomes[task.file] = catalog_detail::mark_asset(
+                task, task.output_folder, threads,
+                [&](CatalogAsset prototype, ShapeSignature shape) {
+                    return catalog.family_store(task.asset, std::move(prototype), std::move(shape));
+                });
             const std::size_t finished = ++done;
             if (options.progress)
             {
                 const std::lock_guard lock(progress_mutex);
                 options.progress("files",
-                                 static_cast<double>(finished) / static_cast<double>(files.size()));
+                                 static_cast<double>(finished) / static_cast<double>(total));
             }
         }
     };
@@ -402,7 +462,7 @@ std::vector<CatalogAddOutcome> catalog_add(Catalog& catalog, const std::vector<f
     }
     work();
     workers.clear();  // joins
-    return outcomes;
+    return std::move(plan.outcomes);
 }
 
 }  // namespace meshmark

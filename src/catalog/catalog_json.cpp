@@ -4,10 +4,67 @@
 
 #include <map>
 
+#include "meshmark/catalog/catalog_mark.h"
+#include "meshmark/core/error.h"
 #include "meshmark/pipeline/report_json.h"
 
 namespace meshmark
 {
+
+nlohmann::json to_json(const CatalogAddOutcome& o)
+{
+    nlohmann::json file = {{"path", o.path.string()},
+                           {"asset", o.asset},
+                           {"outcome", to_string(o.status)},
+                           {"vertices", o.vertex_count},
+                           {"seconds", o.seconds}};
+    if (!o.reason.empty())
+    {
+        file["reason"] = o.reason;
+    }
+    if (!o.published.empty())
+    {
+        file["published"] = o.published.string();
+    }
+    return file;
+}
+
+CatalogAddOutcome parse_add_outcome(const nlohmann::json& json)
+{
+    CatalogAddOutcome o;
+    try
+    {
+        o.path = json.at("path").get<std::string>();
+        o.asset = json.at("asset").get<std::string>();
+        const auto status = json.at("outcome").get<std::string>();
+        bool known = false;
+        for (const auto s :
+             {CatalogAddOutcome::Status::Marked, CatalogAddOutcome::Status::Present,
+              CatalogAddOutcome::Status::Unmarkable, CatalogAddOutcome::Status::Failed})
+        {
+            if (status == to_string(s))
+            {
+                o.status = s;
+                known = true;
+            }
+        }
+        if (!known)
+        {
+            throw InvalidOption("an add outcome '" + status +
+                                "' that is not one of catalog add's.");
+        }
+        o.vertex_count = json.at("vertices").get<std::int64_t>();
+        o.seconds = json.at("seconds").get<double>();
+        o.reason = json.value("reason", std::string());
+        o.published = json.value("published", std::string());
+    }
+    catch (const nlohmann::json::exception& e)
+    {
+        throw InvalidOption(std::string("an add outcome that is not catalog add's (") + e.what() +
+                            ").");
+    }
+    return o;
+}
 
 nlohmann::json catalog_add_json(const Catalog& catalog,
                                 const std::vector<CatalogAddOutcome>& outcomes)
@@ -17,21 +74,8 @@ nlohmann::json catalog_add_json(const Catalog& catalog,
         {"marked", 0}, {"present", 0}, {"unmarkable", 0}, {"failed", 0}};
     for (const CatalogAddOutcome& o : outcomes)
     {
-        nlohmann::json file = {{"path", o.path.string()},
-                               {"asset", o.asset},
-                               {"outcome", to_string(o.status)},
-                               {"vertices", o.vertex_count},
-                               {"seconds", o.seconds}};
-        if (!o.reason.empty())
-        {
-            file["reason"] = o.reason;
-        }
-        if (!o.published.empty())
-        {
-            file["published"] = o.published.string();
-        }
         ++counts[to_string(o.status)];
-        files.push_back(std::move(file));
+        files.push_back(to_json(o));
     }
     return {{"catalog", catalog.path().string()}, {"files", std::move(files)}, {"counts", counts}};
 }

@@ -68,8 +68,12 @@ void guarded_json(const fs::path& path, const Body& body)
 }  // namespace
 
 GltfWriter::GltfWriter(const fs::path& path, const GltfAsset& asset, const Positions& original,
-                       const Positions& positions)
-    : path_(path), asset_(asset), original_(original), positions_(positions)
+                       const Positions& positions, fs::path link_folder)
+    : path_(path),
+      asset_(asset),
+      original_(original),
+      positions_(positions),
+      link_folder_(std::move(link_folder))
 {
     for (const auto& b : asset.buffers)
     {
@@ -158,8 +162,8 @@ std::vector<std::pair<fs::path, fs::path>> GltfWriter::image_copies()
     std::vector<std::pair<fs::path, fs::path>> copies;
     const fs::path from_folder = asset_.folder.empty() ? fs::path(".") : asset_.folder;
     const fs::path to_folder = path_.parent_path().empty() ? fs::path(".") : path_.parent_path();
-    if (is_same_file(from_folder, to_folder) || !doc().contains("images") ||
-        !doc()["images"].is_array())
+    if (is_same_file(from_folder, link_folder_.empty() ? to_folder : link_folder_) ||
+        !doc().contains("images") || !doc()["images"].is_array())
     {
         return copies;
     }
@@ -185,7 +189,7 @@ std::vector<std::pair<fs::path, fs::path>> GltfWriter::image_copies()
             copies.emplace_back(from, to);
             continue;
         }
-        const auto reach = relinked(from_folder, to_folder, relative);
+        const auto reach = relinked(from_folder, to_folder, relative, link_folder_);
         if (reach && !reach->empty())
         {
             std::string encoded;
@@ -381,9 +385,10 @@ void GltfWriter::run(bool is_glb)
 }
 
 void write_gltf_preserving(const fs::path& path, bool is_glb, const GltfAsset& asset,
-                           const Positions& original, const Positions& positions)
+                           const Positions& original, const Positions& positions,
+                           const fs::path& link_folder)
 {
-    GltfWriter writer(path, asset, original, positions);
+    GltfWriter writer(path, asset, original, positions, link_folder);
     guarded_json(path, [&] { writer.run(is_glb); });
 }
 

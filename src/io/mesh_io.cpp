@@ -246,7 +246,7 @@ void write_mesh_file(const std::filesystem::path& path, const MeshFile& source,
     if (const auto* asset = std::get_if<detail::GltfAsset>(&source.layout->positions))
     {
         detail::write_gltf_preserving(path, format == MeshFormat::Glb, *asset, source.mesh.V,
-                                      positions);
+                                      positions, options.link_folder);
         return;
     }
     if (std::holds_alternative<detail::ThreeMfLayout>(source.layout->positions))
@@ -256,7 +256,7 @@ void write_mesh_file(const std::filesystem::path& path, const MeshFile& source,
         return;
     }
     detail::write_preserved(path, *source.layout, source.mesh.V, positions,
-                            source.path.parent_path());
+                            source.path.parent_path(), options.link_folder);
 }
 
 std::string mesh_file_bytes(const MeshFile& source, const Positions& positions, MeshFormat format,

@@ -254,13 +254,16 @@ TriangleMesh read_obj(const std::filesystem::path& path, FileLayout& layout,
 // names one, as the format says.
 std::vector<TextEdit> material_library_edits(std::string_view bytes,
                                              const std::filesystem::path& source_folder,
-                                             const std::filesystem::path& output_folder)
+                                             const std::filesystem::path& output_folder,
+                                             const std::filesystem::path& link_folder)
 {
     std::vector<TextEdit> edits;
     std::error_code error;
     if (bytes.find("mtllib") == std::string_view::npos ||
-        std::filesystem::equivalent(source_folder.empty() ? "." : source_folder,
-                                    output_folder.empty() ? "." : output_folder, error))
+        std::filesystem::equivalent(
+            source_folder.empty() ? "." : source_folder,
+            !link_folder.empty() ? link_folder : (output_folder.empty() ? "." : output_folder),
+            error))
     {
         return edits;  // (the usual cases: no scan of the lines)
     }
@@ -302,7 +305,8 @@ std::vector<TextEdit> material_library_edits(std::string_view bytes,
         bool is_changed = false;
         for (const std::string_view name : names)
         {
-            const auto reach = relinked(source_folder, output_folder, std::string(name));
+            const auto reach =
+                relinked(source_folder, output_folder, std::string(name), link_folder);
             const bool moves = reach && !reach->empty();
             if (!replaced.empty())
             {

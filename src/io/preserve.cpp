@@ -188,7 +188,8 @@ std::string preserved_bytes(const std::filesystem::path& path, const FileLayout&
 
 void write_preserved(const std::filesystem::path& path, const FileLayout& layout,
                      const Positions& original, const Positions& positions,
-                     const std::filesystem::path& source_folder)
+                     const std::filesystem::path& source_folder,
+                     const std::filesystem::path& link_folder)
 {
     if (const auto* binary = std::get_if<BinaryPositions>(&layout.positions))
     {
@@ -198,9 +199,10 @@ void write_preserved(const std::filesystem::path& path, const FileLayout& layout
     const std::string bytes = preserved_bytes(path, layout, original, positions);
     // An OBJ's material libraries, relinked when the output is in another folder; streamed
     // around the edits: no second copy of the text.
-    const auto edits = layout.format == MeshFormat::Obj
-                           ? material_library_edits(bytes, source_folder, path.parent_path())
-                           : std::vector<TextEdit>{};
+    const auto edits =
+        layout.format == MeshFormat::Obj
+            ? material_library_edits(bytes, source_folder, path.parent_path(), link_folder)
+            : std::vector<TextEdit>{};
     write_file_atomically(path,
                           [&](std::ostream& out)
                           {

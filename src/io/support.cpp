@@ -93,14 +93,16 @@ std::string quoted(std::string_view token)
 
 std::optional<std::filesystem::path> relinked(const std::filesystem::path& source_folder,
                                               const std::filesystem::path& output_folder,
-                                              const std::filesystem::path& name)
+                                              const std::filesystem::path& name,
+                                              const std::filesystem::path& link_folder)
 {
     namespace fs = std::filesystem;
     const fs::path from_folder = source_folder.empty() ? fs::path(".") : source_folder;
     const fs::path to_folder = output_folder.empty() ? fs::path(".") : output_folder;
     std::error_code error;
     const fs::path from = from_folder / name;
-    if (fs::equivalent(from_folder, to_folder, error) || !fs::is_regular_file(from, error))
+    const fs::path reader_folder = link_folder.empty() ? to_folder : link_folder;
+    if (fs::equivalent(from_folder, reader_folder, error) || !fs::is_regular_file(from, error))
     {
         return std::nullopt;
     }
@@ -109,7 +111,8 @@ std::optional<std::filesystem::path> relinked(const std::filesystem::path& sourc
     {
         return std::nullopt;
     }
-    fs::path reach = fs::relative(fs::absolute(from, error), fs::absolute(to_folder, error), error);
+    fs::path reach =
+        fs::relative(fs::absolute(from, error), fs::absolute(reader_folder, error), error);
     return error ? fs::path() : reach;
 }
 

@@ -398,7 +398,12 @@ EmbedRecipientsReport embed_recipients(
                                {
                                    const IssuedCopy& copy = report.copies[first + b];
                                    const bool existed = std::filesystem::exists(copy.path);
-                                   write_mesh_file(copy.path, file, positions[b]);
+                                   WriteOptions write;
+                                   if (options.link_folder)
+                                   {
+                                       write.link_folder = options.link_folder(copy.path);
+                                   }
+                                   write_mesh_file(copy.path, file, positions[b], write);
                                    if (!existed)
                                    {
                                        const std::lock_guard lock(created_mutex);

@@ -50,7 +50,9 @@ double write_distance_heatmap(const std::filesystem::path& path, const TriangleM
     }
     const std::vector<Rgb8> colors = distance_colors(distances, max_distance);
     // Float positions: the file is for viewing, and every PLY viewer reads float.
-    write_mesh(path, b, WriteOptions{.use_single_precision = true, .vertex_colors = &colors});
+    write_mesh(
+        path, b,
+        WriteOptions{.use_single_precision = true, .vertex_colors = &colors, .link_folder = {}});
     return max_distance;
 }
 

@@ -161,6 +161,11 @@ struct WriteOptions
     bool use_single_precision = false;
     /// Optional per-vertex colors (PLY only: red/green/blue uchar properties), #V entries.
     const std::vector<std::array<std::uint8_t, 3>>* vertex_colors = nullptr;
+    /// write_mesh_file preserving a source: the folder the file will be read from when it is
+    /// written elsewhere first (a cluster worker's staging folder, docs/cluster.md); relative
+    /// links to the source's files outside it (an OBJ's `mtllib`, a glTF's images) start
+    /// there. Empty: the folder it is written to.
+    std::filesystem::path link_folder;
 
     /// \brief Throws InvalidOption unless vertex_colors is null or has \p vertex_count entries.
     void validate(Eigen::Index vertex_count) const;
@@ -182,7 +187,8 @@ void write_mesh(const std::filesystem::path& path, const TriangleMesh& mesh,
 /// ASCII coordinate is rewritten only if its value changed, with the shortest digits that
 /// read back to the new value in the file's precision. STL facets get their corners' new
 /// positions and a recomputed normal (a zero normal stays zero). When the formats differ,
-/// this is write_mesh of the positions and triangles, and only then are \p options used.
+/// this is write_mesh of the positions and triangles, and only then are \p options used (but
+/// for link_folder, used only when they are the same).
 /// Writing the unchanged positions reproduces the source file byte for byte; \p path may be
 /// the source file itself. See docs/file_formats.md for the precision rules per format.
 /// \pre positions.rows() == source.mesh.V.rows().

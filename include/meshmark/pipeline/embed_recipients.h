@@ -36,6 +36,9 @@ struct EmbedRecipientsOptions : EmbedMeshOptions
     std::chrono::milliseconds lock_timeout = kDefaultLockTimeout;
     int recipient_modes = RecipientCodes{}.modes;            ///< M of a new family key.
     double recipient_share = RecipientCodes{}.energy_share;  ///< Energy share of a new family key.
+    /// Where a copy written at a path will be read from, when not there (a cluster worker
+    /// stages copies: WriteOptions::link_folder); empty: where it is written.
+    std::function<std::filesystem::path(const std::filesystem::path&)> link_folder;
     /// \throws InvalidOption on bad or missing names, a negative lock timeout and the in-memory
     /// embed's errors.
     void validate() const;

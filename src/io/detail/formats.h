@@ -53,11 +53,13 @@ namespace meshmark::detail
 
 /// \brief Write preserved_bytes to \p path, atomically (a binary PLY in slices, never as a
 /// second whole copy). An OBJ's material libraries are relinked when \p path is in another
-/// folder than the source's, \p source_folder (material_library_edits).
+/// folder than the source's, \p source_folder (material_library_edits; \p link_folder: see
+/// relinked).
 /// \pre the positions are finite (check_finite).
 void write_preserved(const std::filesystem::path& path, const FileLayout& layout,
                      const Positions& original, const Positions& positions,
-                     const std::filesystem::path& source_folder);
+                     const std::filesystem::path& source_folder,
+                     const std::filesystem::path& link_folder = {});
 
 /// A replacement of \p length bytes at \p offset of a text by \p text.
 struct TextEdit
@@ -73,7 +75,7 @@ struct TextEdit
 /// usual cases (no `mtllib`, the same folder).
 [[nodiscard]] std::vector<TextEdit> material_library_edits(
     std::string_view bytes, const std::filesystem::path& source_folder,
-    const std::filesystem::path& output_folder);
+    const std::filesystem::path& output_folder, const std::filesystem::path& link_folder = {});
 
 /// The STL part of write_preserved (facet corners and recomputed normals).
 [[nodiscard]] std::string preserved_stl_bytes(const std::filesystem::path& path,

@@ -242,9 +242,11 @@ void visit_gltf_poses(const std::filesystem::path& path, const GltfAsset& read,
                       std::size_t animation);
 
 /// \brief Write \p asset with welded positions \p original replaced by \p positions to
-/// \p path (a .gltf or .glb; external buffers are written beside it), atomically.
+/// \p path (a .gltf or .glb; external buffers are written beside it), atomically;
+/// \p link_folder: see relinked.
 void write_gltf_preserving(const std::filesystem::path& path, bool is_glb, const GltfAsset& asset,
-                           const Positions& original, const Positions& positions);
+                           const Positions& original, const Positions& positions,
+                           const std::filesystem::path& link_folder = {});
 
 /// \brief The bytes write_gltf_preserving writes to a path in the source's folder (image URIs
 /// as written), as one file; \p path names it in errors.

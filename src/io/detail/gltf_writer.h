@@ -35,8 +35,10 @@ inline constexpr int kElementArrayBuffer = 34963;
 class GltfWriter
 {
 public:
+    /// \p link_folder: where the output will be read from, when not \p path's folder (see
+    /// relinked).
     GltfWriter(const std::filesystem::path& path, const GltfAsset& asset, const Positions& original,
-               const Positions& positions);
+               const Positions& positions, std::filesystem::path link_folder = {});
 
     /// Rewrite everything and write the asset (and any external buffers beside it, and the
     /// images an output in another folder would miss).
@@ -102,6 +104,7 @@ private:
     const GltfAsset& asset_;
     const Positions& original_;
     const Positions& positions_;
+    std::filesystem::path link_folder_;
     std::vector<std::string> buffers_;
     std::optional<GltfJson> doc_;
     bool is_json_changed_ = false;

@@ -30,10 +30,12 @@ namespace meshmark::detail
 /// in \p source_folder names by the relative \p name (a glTF's image, an OBJ's material
 /// library): std::nullopt when \p name still resolves from there (the same folder, a file with
 /// the same bytes at that place, or no such resource to reach), else the relative path from
-/// \p output_folder to the source's file (empty when there is none).
+/// \p output_folder to the source's file (empty when there is none). A \p link_folder, when
+/// given, is where the output will be read from (a cluster worker's staging writes elsewhere):
+/// the relative path starts there, and the same folder as the source's means no relink.
 [[nodiscard]] std::optional<std::filesystem::path> relinked(
     const std::filesystem::path& source_folder, const std::filesystem::path& output_folder,
-    const std::filesystem::path& name);
+    const std::filesystem::path& name, const std::filesystem::path& link_folder = {});
 
 /// Spaces that separate tokens within a line (everything but '\n').
 [[nodiscard]] constexpr bool is_blank(char c) noexcept

@@ -1,0 +1,265 @@
+# SPDX-License-Identifier: MIT
+"""Catalogue work on a Dask cluster (docs/cluster.md).
+
+    from dask.distributed import Client
+    import meshmark
+    client = Client("tcp://127.0.0.1:8786")
+    catalog = meshmark.Catalog("shop.catalog", create=True)
+    report = catalog.add(["models/"], "published/", client=client)   # as `catalog add --json`
+    found = catalog.scan(["suspects/a.glb"], client=client)          # as `catalog scan --json`
+
+catalog_add: this process (the coordinator) plans, the workers mark (each task a function of
+the original's bytes, its asset, its seed or recorded key and the parameters, named by them:
+run twice, it makes the same bytes), and this process alone records each marked asset in the
+catalogue and writes its files, the key durable before the copy is visible. A worker lost
+midway: its tasks run again elsewhere. This process lost: running the same call again
+finishes the batch. With a seed, the copies and keys are those of a local `catalog add`, byte
+for byte.
+
+catalog_scan: the suspects, in chunks, are read on the workers, each opening the catalogue
+read-only (a file every worker reaches at the same path, or PostgreSQL: a password in the
+location is not sent, give it to the workers as PGPASSWORD or ~/.pgpass).
+
+Workers need this package importable (pip install it on each) and the originals (add) or
+suspects (scan) at the same paths as here. `meshmark catalog add|scan --scheduler ADDRESS`
+runs these functions (python3 -m meshmark.cluster, reading its request from a file).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+from collections.abc import Callable, Iterable, Sequence
+from typing import Any
+
+from . import _meshmark
+
+Location = str | os.PathLike[str]
+
+
+def _mark(task: str) -> tuple[str, list[tuple[str, bytes]]]:
+    """A worker's task: one asset marked in memory (_meshmark._catalog_mark)."""
+    from meshmark import _meshmark as core  # on the worker
+
+    return core._catalog_mark(task, 1)
+
+
+def _scan(location: str, suspects: list[str], options: dict[str, Any]) -> dict[str, Any]:
+    """A worker's task: a chunk of suspects scanned against the catalogue at location."""
+    from meshmark import _meshmark as core  # on the worker
+
+    catalog = core.Catalog(location, lock_timeout=options.pop("lock_timeout"))
+    return catalog.scan(suspects, **options)
+
+
+def _slots(client: Any) -> int:
+    """Tasks to keep in flight: twice the workers' threads (at least 4)."""
+    try:
+        threads = sum(client.nthreads().values())
+    except Exception:  # noqa: BLE001 - a client of another kind: a fixed window
+        threads = 2
+    return max(4, 2 * threads)
+
+
+def _open(catalog: Any, create: bool) -> Any:
+    if isinstance(catalog, _meshmark.Catalog):
+        return catalog
+    return _meshmark.Catalog(catalog, create=create)
+
+
+def catalog_add(
+    catalog: _meshmark.Catalog | Location,
+    inputs: Sequence[Location],
+    output: Location,
+    *,
+    client: Any,
+    seed: int | None = None,
+    strength: float | None = None,
+    message: str | None = None,
+    basis_size: int = 100,
+    coefficients: int = 8,
+    force: bool = False,
+    retries: int = 2,
+    progress: Callable[[int, int], None] | None = None,
+) -> dict[str, Any]:
+    """`catalog add` with the marking on the client's workers; its --json report.
+
+    retries: times a task whose worker failed (not the file: that is its outcome) is run again
+    elsewhere; a worker that dies is handled by Dask itself (its tasks rescheduled).
+    progress(done, total) is called as files are recorded.
+    """
+    from dask.distributed import as_completed
+
+    catalog = _open(catalog, create=True)
+    outcomes, tasks = _meshmark._catalog_plan_add(
+        catalog,
+        [os.fspath(p) for p in inputs],
+        os.fspath(output),
+        seed=seed,
+        strength=strength,
+        message=message,
+        basis_size=basis_size,
+        coefficients=coefficients,
+        force=force,
+    )
+    total = len(outcomes)
+    done = total - len(tasks)
+    if progress:
+        progress(done, total)
+    pending = iter(tasks)
+    running: dict[Any, str] = {}
+
+    def submit_next() -> Any | None:
+        task = next(pending, None)
+        if task is None:
+            return None
+        text, name = task
+        future = client.submit(_mark, text, key=name, pure=False, retries=retries)
+        running[future] = text
+        return future
+
+    window = as_completed()
+    for _ in range(_slots(client)):
+        future = submit_next()
+        if future is None:
+            break
+        window.add(future)
+    for future in window:
+        text = running.pop(future)
+        index = json.loads(text)["file"]
+        try:
+            marked, files = future.result()
+            outcomes[index] = _meshmark._catalog_record(catalog, text, marked, files)
+        except Exception as error:  # noqa: BLE001 - the cluster's failure is this file's outcome
+            outcome = json.loads(text)
+            outcomes[index] = json.dumps(
+                {
+                    "path": outcome["input"],
+                    "asset": outcome["asset"],
+                    "outcome": "failed",
+                    "reason": f"{outcome['input']}: the cluster could not mark it "
+                    f"({type(error).__name__}: {error}); run the add again.",
+                    "vertices": 0,
+                    "seconds": 0.0,
+                }
+            )
+        future.release()
+        done += 1
+        if progress:
+            progress(done, total)
+        following = submit_next()
+        if following is not None:
+            window.add(following)
+    return _meshmark._catalog_add_report(catalog, outcomes)
+
+
+def catalog_scan(
+    catalog: _meshmark.Catalog | Location,
+    suspects: Sequence[Location],
+    *,
+    client: Any,
+    candidates: int = 8,
+    all_candidates: bool = False,
+    max_fpp: float = 1e-6,
+    trace: bool = True,
+    lock_timeout: float = 60.0,
+    chunk: int | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> dict[str, Any]:
+    """`catalog scan` with the suspects read on the client's workers; its --json report.
+
+    Suspects go in chunks of `chunk` (default: spread over twice the workers' threads), each
+    chunk one task that opens the catalogue once; the report lists them in the order given.
+    """
+    location = os.fspath(catalog.path if isinstance(catalog, _meshmark.Catalog) else catalog)
+    given = [os.fspath(s) for s in suspects]
+    absolute = [os.path.abspath(s) for s in given]
+    if not given:
+        raise _meshmark.InvalidOption("name at least one suspect to scan.")
+    if chunk is None:
+        chunk = max(1, -(-len(absolute) // _slots(client)))
+    if chunk < 1:
+        raise _meshmark.InvalidOption("chunk must be >= 1.")
+    options = {
+        "candidates": candidates,
+        "all_candidates": all_candidates,
+        "max_fpp": max_fpp,
+        "trace": trace,
+        "lock_timeout": lock_timeout,
+    }
+    futures = [
+        client.submit(_scan, location, absolute[i : i + chunk], dict(options), pure=False)
+        for i in range(0, len(absolute), chunk)
+    ]
+    reports: list[dict[str, Any]] = []
+    for n, future in enumerate(futures):
+        reports.append(future.result())
+        future.release()
+        if progress:
+            progress(min(len(given), (n + 1) * chunk), len(given))
+    merged = dict(reports[0])
+    merged["assets"] = max(r["assets"] for r in reports)
+    merged["suspects"] = [s for r in reports for s in r["suspects"]]
+    for scan, path in zip(merged["suspects"], given):
+        scan["path"] = path  # as given here, not as the workers read it
+    return merged
+
+
+def _summary_progress(label: str) -> Callable[[int, int], None]:
+    def show(done: int, total: int) -> None:
+        sys.stdout.write(json.dumps({"progress": done / total if total else 1.0}) + "\n")
+        sys.stdout.flush()
+
+    return show
+
+
+def main(argv: Iterable[str] | None = None) -> int:
+    """`python3 -m meshmark.cluster REQUEST.json`: what `meshmark catalog add|scan --scheduler`
+    runs. Prints {"progress": f} lines, then {"report": {...}} (or {"error": "..."}), on stdout."""
+    args = list(sys.argv[1:] if argv is None else argv)
+    if len(args) != 1:
+        sys.stderr.write("usage: python3 -m meshmark.cluster REQUEST.json\n")
+        return 2
+    with open(args[0], encoding="utf-8") as f:
+        request = json.load(f)
+    try:
+        from dask.distributed import Client
+
+        with Client(request["scheduler"], timeout=request.get("connect_timeout", 30)) as client:
+            show = _summary_progress(request["command"]) if request.get("progress") else None
+            if request["command"] == "add":
+                report = catalog_add(
+                    _meshmark.Catalog(
+                        request["catalog"], create=True, lock_timeout=request["lock_timeout"]
+                    ),
+                    request["inputs"],
+                    request["output"],
+                    client=client,
+                    progress=show,
+                    **request["options"],
+                )
+            elif request["command"] == "scan":
+                report = catalog_scan(
+                    request["catalog"],
+                    request["inputs"],
+                    client=client,
+                    progress=show,
+                    lock_timeout=request["lock_timeout"],
+                    **request["options"],
+                )
+            else:
+                raise _meshmark.InvalidOption(f"no cluster command {request['command']!r}.")
+    except _meshmark.Error as error:
+        print(json.dumps({"error": str(error), "kind": type(error).__name__}), flush=True)
+        return 0
+    except (OSError, TimeoutError) as error:
+        message = f"{request['scheduler']}: cannot reach the Dask scheduler ({error})."
+        print(json.dumps({"error": message, "kind": "IoError"}), flush=True)
+        return 0
+    print(json.dumps({"report": report}), flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

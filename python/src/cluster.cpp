@@ -1,0 +1,142 @@
+// SPDX-License-Identifier: MIT
+// The steps of `catalog add` that meshmark.cluster (python/meshmark/cluster.py) runs on a Dask
+// cluster (docs/cluster.md): the plan and the recording on the coordinator, the marking on a
+// worker. Private (underscored): the public API is Catalog.add(client=...) and meshmark.cluster.
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <pybind11/stl.h>
+
+#include "bindings.h"
+#include "convert.h"
+#include "meshmark/catalog/catalog_json.h"
+#include "meshmark/catalog/catalog_mark.h"
+#include "meshmark/core/error.h"
+#include "typed.h"
+
+namespace meshmark::python
+{
+namespace
+{
+
+using Path = std::filesystem::path;
+using Files = std::vector<std::pair<std::string, py::bytes>>;
+
+CatalogMarkTask task_of(const std::string& text)
+{
+    try
+    {
+        return parse_mark_task(nlohmann::json::parse(text));
+    }
+    catch (const nlohmann::json::exception&)
+    {
+        throw InvalidOption("a catalogue marking task that is not JSON.");
+    }
+}
+
+}  // namespace
+
+void bind_cluster(py::module_& m)
+{
+    m.def(
+        "_catalog_plan_add",
+        [](Catalog& catalog, const std::vector<Path>& inputs, const Path& output,
+           const OptionalInt& seed, const OptionalFloat& strength, const OptionalStr& message,
+           int basis_size, int coefficients, bool force)
+        {
+            CatalogAddOptions options;
+            options.embed.seed = seed_from(seed.handle());
+            if (const std::optional<double> given = number_from(strength.handle(), "strength"))
+            {
+                options.embed.embed.strength = *given;
+            }
+            options.embed.message = text_from(message.handle(), "message");
+            options.embed.embed.basis_size = basis_size;
+            options.embed.embed.coefficients = coefficients;
+            options.force = force;
+            std::optional<CatalogAddPlan> plan;
+            {
+                py::gil_scoped_release release;
+                plan.emplace(catalog_plan_add(catalog, inputs, output, options));
+            }
+            // Every file's outcome as JSON (those of tasks: None), and each task's JSON and name.
+            std::vector<std::optional<std::string>> outcomes(plan->outcomes.size());
+            for (std::size_t f = 0; f < outcomes.size(); ++f)
+            {
+                outcomes[f] = to_json(plan->outcomes[f]).dump();
+            }
+            std::vector<std::pair<std::string, std::string>> tasks;
+            for (const CatalogMarkTask& task : plan->tasks)
+            {
+                outcomes[task.file].reset();
+                tasks.emplace_back(task.to_json().dump(), task.name());
+            }
+            return std::make_pair(outcomes, tasks);
+        },
+        py::arg("catalog"), py::arg("inputs"), py::arg("output"), py::kw_only(),
+        py::arg("seed") = py::none(), py::arg("strength") = py::none(),
+        py::arg("message") = py::none(), py::arg("basis_size") = EmbedOptions{}.basis_size,
+        py::arg("coefficients") = EmbedOptions{}.coefficients, py::arg("force") = false,
+        "catalog add's plan: (per file, its outcome's JSON or None for a task; the tasks' "
+        "(JSON, name)).");
+    m.def(
+        "_catalog_mark",
+        [](const std::string& task_json, int threads)
+        {
+            const CatalogMarkTask task = task_of(task_json);
+            std::optional<CatalogMarkedAsset> marked;
+            {
+                py::gil_scoped_release release;
+                marked.emplace(catalog_mark(task, threads));
+            }
+            Files files;
+            for (auto& [relative, bytes] : marked->files)
+            {
+                files.emplace_back(relative, py::bytes(bytes));
+            }
+            return std::make_pair(marked->to_json().dump(), std::move(files));
+        },
+        py::arg("task"), py::arg("threads") = 1,
+        "A worker's marking of one task: (the marked asset's JSON, [(relative path, bytes)]).");
+    m.def(
+        "_catalog_record",
+        [](Catalog& catalog, const std::string& task_json, const std::string& marked_json,
+           const Files& files)
+        {
+            const CatalogMarkTask task = task_of(task_json);
+            CatalogMarkedAsset marked;
+            try
+            {
+                marked = parse_marked_asset(nlohmann::json::parse(marked_json));
+            }
+            catch (const nlohmann::json::exception&)
+            {
+                throw InvalidOption("a marked asset that is not JSON.");
+            }
+            for (const auto& [relative, bytes] : files)
+            {
+                marked.files.emplace_back(relative, std::string(bytes));
+            }
+            py::gil_scoped_release release;
+            return to_json(catalog_record(catalog, task, std::move(marked))).dump();
+        },
+        py::arg("catalog"), py::arg("task"), py::arg("marked"), py::arg("files"),
+        "The coordinator's recording of a marked asset: its outcome's JSON.");
+    m.def(
+        "_catalog_add_report",
+        [](const Catalog& catalog, const std::vector<std::string>& outcomes) -> Report
+        {
+            std::vector<CatalogAddOutcome> parsed;
+            for (const std::string& text : outcomes)
+            {
+                parsed.push_back(parse_add_outcome(nlohmann::json::parse(text)));
+            }
+            return to_python(catalog_add_json(catalog, parsed));
+        },
+        py::arg("catalog"), py::arg("outcomes"),
+        "catalog add --json's report of the outcomes' JSON.");
+}
+
+}  // namespace meshmark::python
