@@ -13,9 +13,11 @@
 #include <string>
 #include <vector>
 
+#include "catalog_args.h"
 #include "commands.h"
 #include "meshmark/catalog/catalog_add.h"
 #include "meshmark/catalog/catalog_json.h"
+#include "meshmark/catalog/catalog_mark.h"
 #include "meshmark/catalog/catalog_reindex.h"
 #include "meshmark/catalog/catalog_scan.h"
 #include "meshmark/core/atomic_file.h"
@@ -31,34 +33,28 @@ namespace meshmark::cli
 namespace
 {
 
-struct CatalogArgs
-{
-    std::string catalog;
-    std::vector<std::string> inputs;  // add: files and folders; scan: suspects
-    std::string output;
-    std::string asset;
-    std::vector<std::string> recipients;
-    std::string recipients_file;
-    std::string key;
-    std::string report;  // scan: --report PATTERN (.html or .pdf, {suspect} with several suspects)
-    bool json = false;
-    bool force = false;
-    int jobs = 0;
-    int candidates = CatalogScanOptions{}.candidates;
-    bool all_candidates = false;
-    bool all = false;  // reindex: every asset
-    double max_false_positive = DetectOptions{}.max_false_positive;
-    double lock_timeout = std::chrono::duration<double>(kDefaultLockTimeout).count();
-    // add: the watermark's parameters
-    double strength = -1.0;
-    std::string message;
-    std::uint64_t seed = 0;
-    bool has_seed = false;
-    EmbedOptions options;
-};
-
 int run_add(const CatalogArgs& args, const GlobalArgs& global)
 {
+    if (!args.scheduler.empty())
+    {
+        if (args.jobs != 0)
+        {
+            throw InvalidOption(
+                "--jobs is the local run's: with --scheduler, the workers' "
+                "threads decide how many files are marked at once.");
+        }
+        const nlohmann::json report = run_on_cluster("add", args, global);
+        if (args.json)
+        {
+            print_json(report);
+        }
+        std::vector<CatalogAddOutcome> outcomes;
+        for (const nlohmann::json& file : report.at("files"))
+        {
+            outcomes.push_back(parse_add_outcome(file));
+        }
+        return finish_add(report.at("catalog").get<std::string>(), outcomes, global);
+    }
     CatalogAddOptions options;
     options.embed.embed.basis_size = args.options.basis_size;
     options.embed.embed.coefficients = args.options.coefficients;
@@ -85,6 +81,14 @@ int run_add(const CatalogArgs& args, const GlobalArgs& global)
     {
         print_json(catalog_add_json(catalog, outcomes));
     }
+    return finish_add(catalog.path().string(), outcomes, global);
+}
+
+}  // namespace
+
+int finish_add(const std::string& catalog, const std::vector<CatalogAddOutcome>& outcomes,
+               const GlobalArgs& global)
+{
     int counts[4] = {0, 0, 0, 0};
     for (const CatalogAddOutcome& o : outcomes)
     {
@@ -102,11 +106,66 @@ int run_add(const CatalogArgs& args, const GlobalArgs& global)
                      "meshmark: %zu files: %d marked, %d already in the catalogue, %d not "
                      "markable, %d failed; "
                      "catalogue %s\n",
-                     outcomes.size(), counts[0], counts[1], counts[2], counts[3],
-                     catalog.path().c_str());
+                     outcomes.size(), counts[0], counts[1], counts[2], counts[3], catalog.c_str());
     }
     return counts[3] > 0 ? static_cast<int>(ExitCode::InvalidInput) : 0;
 }
+
+int finish_scan(const nlohmann::json& report, const GlobalArgs& global)
+{
+    bool any = false;
+    std::size_t unreadable = 0;
+    const nlohmann::json& suspects = report.at("suspects");
+    const auto assets = report.at("assets").get<std::size_t>();
+    for (const nlohmann::json& s : suspects)
+    {
+        const bool detected = s.at("detected").get<bool>();
+        const std::string path = s.at("path").get<std::string>();
+        const double seconds = s.contains("seconds") ? s["seconds"].value("total", 0.0) : 0.0;
+        any = any || detected;
+        const bool failed = s.contains("error");
+        unreadable += failed ? 1U : 0U;
+        if (global.quiet)
+        {
+            continue;
+        }
+        if (failed)
+        {
+            std::fprintf(stderr, "meshmark: %s\n", s.at("error").get<std::string>().c_str());
+            continue;
+        }
+        if (!detected)
+        {
+            std::fprintf(stderr,
+                         "meshmark: %s: no asset of the catalogue found (%zu tried) in %.2f s\n",
+                         path.c_str(), s.at("tried").size(), seconds);
+            continue;
+        }
+        for (const nlohmann::json& m : s.at("matches"))
+        {
+            std::string names;
+            for (const nlohmann::json& r : m.at("recipients"))
+            {
+                names += (names.empty() ? "" : ", ") + r.at("name").get<std::string>();
+            }
+            std::fprintf(
+                stderr,
+                "meshmark: %s: asset %s (false-positive probability %s over the catalogue's %zu "
+                "assets)%s%s in %.2f s\n",
+                path.c_str(), m.at("asset").get<std::string>().c_str(),
+                format_number(m.at("false_positive_probability").get<double>()).c_str(), assets,
+                names.empty() ? "" : "; copy of ", names.c_str(), seconds);
+        }
+    }
+    if (!suspects.empty() && unreadable == suspects.size())
+    {
+        return static_cast<int>(ExitCode::InvalidInput);
+    }
+    return any ? 0 : 1;
+}
+
+namespace
+{
 
 int run_reindex(const CatalogArgs& args, const GlobalArgs& global)
 {
@@ -326,6 +385,21 @@ void write_scan_report(const CatalogArgs& args, const Catalog& catalog,
 int run_scan(const CatalogArgs& args, const GlobalArgs& global)
 {
     check_scan_reports(args);
+    if (!args.scheduler.empty())
+    {
+        if (!args.report.empty())
+        {
+            throw InvalidOption(
+                "--report is written by a local scan: scan those suspects "
+                "without --scheduler for their evidence reports.");
+        }
+        const nlohmann::json report = run_on_cluster("scan", args, global);
+        if (args.json)
+        {
+            print_json(report);
+        }
+        return finish_scan(report, global);
+    }
     CatalogScanOptions options;
     options.detect.threads = global.threads;
     options.detect.decision.max_false_positive = args.max_false_positive;
@@ -337,9 +411,10 @@ int run_scan(const CatalogArgs& args, const GlobalArgs& global)
     const CatalogScanReport report =
         with_progress("meshmark catalog scan", global.quiet, options.progress,
                       [&] { return catalog_scan(catalog, suspects, options); });
+    const nlohmann::json json = catalog_scan_json(catalog, report, options);
     if (args.json)
     {
-        print_json(catalog_scan_json(catalog, report, options));
+        print_json(json);
     }
     if (!args.report.empty())
     {
@@ -351,49 +426,7 @@ int run_scan(const CatalogArgs& args, const GlobalArgs& global)
             }
         }
     }
-    bool any = false;
-    std::size_t unreadable = 0;
-    for (const SuspectScan& s : report.suspects)
-    {
-        any = any || s.detected;
-        unreadable += s.error.empty() ? 0U : 1U;
-        if (global.quiet)
-        {
-            continue;
-        }
-        if (!s.error.empty())
-        {
-            std::fprintf(stderr, "meshmark: %s\n", s.error.c_str());
-            continue;
-        }
-        if (!s.detected)
-        {
-            std::fprintf(stderr,
-                         "meshmark: %s: no asset of the catalogue found (%zu tried) in %.2f s\n",
-                         s.path.c_str(), s.tried.size(), s.seconds);
-            continue;
-        }
-        for (const CatalogMatch& m : s.matches)
-        {
-            std::string names;
-            for (const RecipientScore& r : m.recipients)
-            {
-                names += (names.empty() ? "" : ", ") + r.name;
-            }
-            std::fprintf(
-                stderr,
-                "meshmark: %s: asset %s (false-positive probability %s over the catalogue's %zu "
-                "assets)%s%s in %.2f s\n",
-                s.path.c_str(), m.asset.c_str(),
-                format_number(m.false_positive_probability).c_str(), report.assets,
-                names.empty() ? "" : "; copy of ", names.c_str(), s.seconds);
-        }
-    }
-    if (!report.suspects.empty() && unreadable == report.suspects.size())
-    {
-        return static_cast<int>(ExitCode::InvalidInput);
-    }
-    return any ? 0 : 1;
+    return finish_scan(json, global);
 }
 
 int run_export(const CatalogArgs& args, const GlobalArgs& global)
@@ -462,6 +495,9 @@ void register_catalog(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
                     "Secret seed, mixed with each asset's id (default: random)");
     add->add_flag("--force", args->force,
                   "Mark again, with a new key, originals changed since they were added");
+    add->add_option(
+        "--scheduler", args->scheduler,
+        "Mark on the Dask cluster of this scheduler, tcp://HOST:PORT (docs/cluster.md)");
     add_lock_timeout(*add, *args);
     add->add_flag("--json", args->json, "Print every file's outcome as JSON on stdout");
     add_global_flags(*add, global);
@@ -514,6 +550,8 @@ void register_catalog(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
         ->check(CLI::Range(1e-300, 1.0))
         ->capture_default_str();
     add_lock_timeout(*scan, *args);
+    scan->add_option("--scheduler", args->scheduler,
+                     "Read the suspects on the Dask cluster of this scheduler (docs/cluster.md)");
     scan->add_option(
         "--report", args->report,
         "Write an evidence report per suspect, FILE.html or FILE.pdf; several suspects: "
