@@ -166,13 +166,9 @@ nlohmann::json run_on_cluster(const char* command, const CatalogArgs& args,
     }
     const bool shows_progress = PhaseProgress::should_show(global.quiet);
     const nlohmann::json request = {
-        {"command", command},
-        {"scheduler", args.scheduler},
-        {"catalog", args.catalog},
+        {"command", command},    {"scheduler", args.scheduler},       {"catalog", args.catalog},
         {"inputs", args.inputs},  // as given: the child runs in this folder
-        {"output", args.output},
-        {"lock_timeout", args.lock_timeout},
-        {"progress", shows_progress},
+        {"output", args.output}, {"lock_timeout", args.lock_timeout}, {"progress", shows_progress},
         {"options", options}};
     const TemporaryFile request_file(request.dump());
 

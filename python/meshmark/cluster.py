@@ -173,6 +173,9 @@ def catalog_scan(
     chunk one task that opens the catalogue once; the report lists them in the order given.
     """
     location = os.fspath(catalog.path if isinstance(catalog, _meshmark.Catalog) else catalog)
+    shown = location
+    if not location.startswith(("postgresql://", "postgres://")):
+        location = os.path.abspath(location)  # the workers run in folders of their own
     given = [os.fspath(s) for s in suspects]
     absolute = [os.path.abspath(s) for s in given]
     if not given:
@@ -199,6 +202,7 @@ def catalog_scan(
         if progress:
             progress(min(len(given), (n + 1) * chunk), len(given))
     merged = dict(reports[0])
+    merged["catalog"] = shown
     merged["assets"] = max(r["assets"] for r in reports)
     merged["suspects"] = [s for r in reports for s in r["suspects"]]
     for scan, path in zip(merged["suspects"], given):
@@ -214,6 +218,21 @@ def _summary_progress(label: str) -> Callable[[int, int], None]:
     return show
 
 
+def _exit_with_parent() -> None:
+    """The command that started this process gone (killed): stop too, as its own work would."""
+    import threading
+    import time
+
+    parent = os.getppid()
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(0.5)
+        os._exit(1)
+
+    threading.Thread(target=watch, daemon=True).start()
+
+
 def main(argv: Iterable[str] | None = None) -> int:
     """`python3 -m meshmark.cluster REQUEST.json`: what `meshmark catalog add|scan --scheduler`
     runs. Prints {"progress": f} lines, then {"report": {...}} (or {"error": "..."}), on stdout."""
@@ -223,6 +242,7 @@ def main(argv: Iterable[str] | None = None) -> int:
         return 2
     with open(args[0], encoding="utf-8") as f:
         request = json.load(f)
+    _exit_with_parent()
     try:
         from dask.distributed import Client
 

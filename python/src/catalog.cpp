@@ -61,7 +61,7 @@ void bind_catalog(py::module_& m)
             "The catalogue's file.")
         .def(
             "add",
-            [](const py::object& self, const std::vector<Path>& inputs, const Path& output,
+            [](const std::shared_ptr<Catalog>& self, const std::vector<Path>& inputs, const Path& output,
                const OptionalInt& seed, const OptionalFloat& strength, const OptionalStr& message,
                int basis_size, int coefficients, int jobs, bool force, double lock_timeout,
                int threads, const OptionalClient& client) -> Report
@@ -75,7 +75,7 @@ void bind_catalog(py::module_& m)
                             py::arg("message") = message, py::arg("basis_size") = basis_size,
                             py::arg("coefficients") = coefficients, py::arg("force") = force);
                 }
-                auto& catalog = self.cast<Catalog&>();
+                Catalog& catalog = *self;
                 CatalogAddOptions options;
                 options.embed.seed = seed_from(seed.handle());
                 if (const std::optional<double> given = number_from(strength.handle(), "strength"))
@@ -163,7 +163,7 @@ void bind_catalog(py::module_& m)
             "of names, one per line ('#' comments), added after recipients (--recipients).")
         .def(
             "scan",
-            [](const py::object& self, const std::vector<Path>& suspects, int candidates,
+            [](const std::shared_ptr<Catalog>& self, const std::vector<Path>& suspects, int candidates,
                bool all_candidates, double max_fpp, bool trace, int threads,
                const OptionalClient& client) -> Report
             {
@@ -171,13 +171,13 @@ void bind_catalog(py::module_& m)
                          .is_none())  // the suspects read on a Dask cluster (meshmark.cluster)
                 {
                     return py::module_::import("meshmark.cluster")
-                        .attr("catalog_scan")(self, suspects, py::arg("client") = client.object,
+                        .attr("catalog_scan")(py::cast(self), suspects, py::arg("client") = client.object,
                                               py::arg("candidates") = candidates,
                                               py::arg("all_candidates") = all_candidates,
                                               py::arg("max_fpp") = max_fpp,
                                               py::arg("trace") = trace);
                 }
-                const auto& catalog = self.cast<const Catalog&>();
+                const Catalog& catalog = *self;
                 CatalogScanOptions options;
                 options.detect.trace = trace;
                 options.candidates = candidates;
