@@ -41,6 +41,7 @@ packages=(
   pybind11-dev python3-dev python3-numpy python3-pytest  # the Python package (python/) and its tests
   python3-mypy           # tests only: the type stubs checked by mypy --strict (tests/python/test_stubs.py)
   python3-venv           # tests only: `pip install .` into a fresh virtual environment (python.pip_install)
+  python3-distributed    # catalogue work on a Dask cluster (docs/cluster.md); tests start its scheduler and workers
 )
 if ((interop_tools)); then
   # Interop tests (label `interop`): the ecosystem's own tools write the inputs and check
