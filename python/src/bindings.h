@@ -5,8 +5,10 @@
 
 #include <pybind11/pybind11.h>
 
+#include "meshmark/catalog/catalog_add.h"
 #include "meshmark/pipeline/detect_file.h"
 #include "meshmark/pipeline/embed_file.h"
+#include "typed.h"
 
 namespace meshmark::python
 {
@@ -36,6 +38,12 @@ void fill_embed_options(const EmbedKeywords& keywords, EmbedMeshOptions& options
 DetectFileOptions make_detect_options(const std::string& verdict, double max_fpp, double threshold,
                                       double epsilon, bool allow_registration, py::handle pairs,
                                       bool trace, int threads);
+
+/// \brief catalog add's options from the keywords Catalog.add and meshmark.cluster share.
+/// \throws InvalidOption for out-of-range values.
+CatalogAddOptions catalog_add_options(const OptionalInt& seed, const OptionalFloat& strength,
+                                      const OptionalStr& message, int basis_size, int coefficients,
+                                      bool force);
 
 void bind_errors(py::module_& m);
 void bind_key(py::module_& m);

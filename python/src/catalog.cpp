@@ -44,6 +44,23 @@ method returns the matching command's --json report as a dict (list: the list of
 
 }  // namespace
 
+CatalogAddOptions catalog_add_options(const OptionalInt& seed, const OptionalFloat& strength,
+                                      const OptionalStr& message, int basis_size, int coefficients,
+                                      bool force)
+{
+    CatalogAddOptions options;
+    options.embed.seed = seed_from(seed.handle());
+    if (const std::optional<double> given = number_from(strength.handle(), "strength"))
+    {
+        options.embed.embed.strength = *given;
+    }
+    options.embed.message = text_from(message.handle(), "message");
+    options.embed.embed.basis_size = basis_size;
+    options.embed.embed.coefficients = coefficients;
+    options.force = force;
+    return options;
+}
+
 void bind_catalog(py::module_& m)
 {
     py::class_<Catalog, std::shared_ptr<Catalog>>(m, "Catalog", kCatalogDoc)
@@ -61,10 +78,10 @@ void bind_catalog(py::module_& m)
             "The catalogue's file.")
         .def(
             "add",
-            [](const std::shared_ptr<Catalog>& self, const std::vector<Path>& inputs, const Path& output,
-               const OptionalInt& seed, const OptionalFloat& strength, const OptionalStr& message,
-               int basis_size, int coefficients, int jobs, bool force, double lock_timeout,
-               int threads, const OptionalClient& client) -> Report
+            [](const std::shared_ptr<Catalog>& self, const std::vector<Path>& inputs,
+               const Path& output, const OptionalInt& seed, const OptionalFloat& strength,
+               const OptionalStr& message, int basis_size, int coefficients, int jobs, bool force,
+               double lock_timeout, int threads, const OptionalClient& client) -> Report
             {
                 if (!client.object.is_none())  // the marking on a Dask cluster (meshmark.cluster)
                 {
@@ -76,18 +93,10 @@ void bind_catalog(py::module_& m)
                             py::arg("coefficients") = coefficients, py::arg("force") = force);
                 }
                 Catalog& catalog = *self;
-                CatalogAddOptions options;
-                options.embed.seed = seed_from(seed.handle());
-                if (const std::optional<double> given = number_from(strength.handle(), "strength"))
-                {
-                    options.embed.embed.strength = *given;
-                }
-                options.embed.message = text_from(message.handle(), "message");
-                options.embed.embed.basis_size = basis_size;
-                options.embed.embed.coefficients = coefficients;
+                CatalogAddOptions options =
+                    catalog_add_options(seed, strength, message, basis_size, coefficients, force);
                 options.embed.lock_timeout = timeout_of(lock_timeout);
                 options.jobs = jobs;
-                options.force = force;
                 options.embed.threads = threads;
                 std::optional<std::vector<CatalogAddOutcome>> outcomes;
                 {
@@ -163,19 +172,19 @@ void bind_catalog(py::module_& m)
             "of names, one per line ('#' comments), added after recipients (--recipients).")
         .def(
             "scan",
-            [](const std::shared_ptr<Catalog>& self, const std::vector<Path>& suspects, int candidates,
-               bool all_candidates, double max_fpp, bool trace, int threads,
+            [](const std::shared_ptr<Catalog>& self, const std::vector<Path>& suspects,
+               int candidates, bool all_candidates, double max_fpp, bool trace, int threads,
                const OptionalClient& client) -> Report
             {
                 if (!client.object
                          .is_none())  // the suspects read on a Dask cluster (meshmark.cluster)
                 {
                     return py::module_::import("meshmark.cluster")
-                        .attr("catalog_scan")(py::cast(self), suspects, py::arg("client") = client.object,
-                                              py::arg("candidates") = candidates,
-                                              py::arg("all_candidates") = all_candidates,
-                                              py::arg("max_fpp") = max_fpp,
-                                              py::arg("trace") = trace);
+                        .attr("catalog_scan")(
+                            py::cast(self), suspects, py::arg("client") = client.object,
+                            py::arg("candidates") = candidates,
+                            py::arg("all_candidates") = all_candidates,
+                            py::arg("max_fpp") = max_fpp, py::arg("trace") = trace);
                 }
                 const Catalog& catalog = *self;
                 CatalogScanOptions options;

@@ -46,16 +46,8 @@ void bind_cluster(py::module_& m)
            const OptionalInt& seed, const OptionalFloat& strength, const OptionalStr& message,
            int basis_size, int coefficients, bool force)
         {
-            CatalogAddOptions options;
-            options.embed.seed = seed_from(seed.handle());
-            if (const std::optional<double> given = number_from(strength.handle(), "strength"))
-            {
-                options.embed.embed.strength = *given;
-            }
-            options.embed.message = text_from(message.handle(), "message");
-            options.embed.embed.basis_size = basis_size;
-            options.embed.embed.coefficients = coefficients;
-            options.force = force;
+            const CatalogAddOptions options =
+                catalog_add_options(seed, strength, message, basis_size, coefficients, force);
             std::optional<CatalogAddPlan> plan;
             {
                 py::gil_scoped_release release;
