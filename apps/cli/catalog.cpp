@@ -223,6 +223,29 @@ int run_list(const CatalogArgs& args, const GlobalArgs& /*global*/)
 
 int run_issue(const CatalogArgs& args, const GlobalArgs& global)
 {
+    if (!args.scheduler.empty())
+    {
+        const nlohmann::json report = run_on_cluster("issue", args, global);
+        if (args.json)
+        {
+            print_json(report);
+        }
+        if (!global.quiet)
+        {
+            int added = 0;
+            for (const nlohmann::json& copy : report.at("copies"))
+            {
+                added += copy.at("new").get<bool>() ? 1 : 0;
+            }
+            std::fprintf(stderr,
+                         "meshmark: issued %zu copies of %s (%d new recipients) in %.3f s on the "
+                         "cluster; recorded in %s\n",
+                         report.at("copies").size(), args.asset.c_str(), added,
+                         report.at("seconds").value("total", 0.0),
+                         report.at("catalog").get<std::string>().c_str());
+        }
+        return 0;
+    }
     CatalogIssueOptions options;
     options.recipients = args.recipients;
     if (!args.recipients_file.empty())
@@ -238,12 +261,7 @@ int run_issue(const CatalogArgs& args, const GlobalArgs& global)
                       [&] { return catalog_issue(catalog, args.asset, args.output, options); });
     if (args.json)
     {
-        nlohmann::json out =
-            embed_recipients_report_json(report, args.asset, catalog.path().string());
-        out.erase("key");
-        out["catalog"] = catalog.path().string();
-        out["asset"] = args.asset;
-        print_json(out);
+        print_json(catalog_issue_report_json(catalog, args.asset, report));
     }
     if (!global.quiet)
     {
@@ -528,6 +546,8 @@ void register_catalog(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     issue->add_option("-o,--output", args->output, "Copy path pattern containing {recipient}")
         ->required();
     add_lock_timeout(*issue, *args);
+    issue->add_option("--scheduler", args->scheduler,
+                      "Make the copies on the Dask cluster of this scheduler (docs/cluster.md)");
     issue->add_flag("--json", args->json, "Print a JSON report on stdout");
     add_global_flags(*issue, global);
     issue->callback([args, &global, &runner]

@@ -43,9 +43,9 @@ struct CatalogArgs
     EmbedOptions options;
 };
 
-/// \brief `catalog add|scan --scheduler`: the command run by meshmark.cluster (python3 -m
+/// \brief `catalog add|issue|scan --scheduler`: the command run by meshmark.cluster (python3 -m
 /// meshmark.cluster) on the Dask cluster at args.scheduler (docs/cluster.md); its --json report.
-/// \p command: "add" or "scan". \throws the error meshmark.cluster reported, as its type.
+/// \p command: "add", "issue" or "scan". \throws the error meshmark.cluster reported, as its type.
 [[nodiscard]] nlohmann::json run_on_cluster(const char* command, const CatalogArgs& args,
                                             const GlobalArgs& global);
 

@@ -140,7 +140,14 @@ nlohmann::json run_on_cluster(const char* command, const CatalogArgs& args,
 {
     nlohmann::json options;
     const bool is_add = std::string(command) == "add";
-    if (is_add)
+    const bool is_issue = std::string(command) == "issue";
+    if (is_issue)
+    {
+        options = {{"recipients_file", args.recipients_file.empty()
+                                           ? nlohmann::json(nullptr)
+                                           : nlohmann::json(args.recipients_file)}};
+    }
+    else if (is_add)
     {
         options = {{"basis_size", args.options.basis_size},
                    {"coefficients", args.options.coefficients},
@@ -166,10 +173,16 @@ nlohmann::json run_on_cluster(const char* command, const CatalogArgs& args,
     }
     const bool shows_progress = PhaseProgress::should_show(global.quiet);
     const nlohmann::json request = {
-        {"command", command},    {"scheduler", args.scheduler},       {"catalog", args.catalog},
+        {"command", command},
+        {"scheduler", args.scheduler},
+        {"catalog", args.catalog},
         {"inputs", args.inputs},  // as given: the child runs in this folder
-        {"output", args.output}, {"lock_timeout", args.lock_timeout}, {"progress", shows_progress},
-        {"options", options}};
+        {"output", args.output},
+        {"lock_timeout", args.lock_timeout},
+        {"progress", shows_progress},
+        {"options", options},
+        {"asset", args.asset},
+        {"recipients", args.recipients}};
     const TemporaryFile request_file(request.dump());
 
     const std::string python = python_interpreter();
@@ -211,8 +224,9 @@ nlohmann::json run_on_cluster(const char* command, const CatalogArgs& args,
     std::optional<PhaseProgress> progress;
     if (shows_progress)
     {
-        progress.emplace(PhaseProgressOptions{is_add ? "meshmark catalog add (cluster)"
-                                                     : "meshmark catalog scan (cluster)"});
+        progress.emplace(PhaseProgressOptions{is_add     ? "meshmark catalog add (cluster)"
+                                              : is_issue ? "meshmark catalog issue (cluster)"
+                                                         : "meshmark catalog scan (cluster)"});
     }
     const ProgressCallback show = progress ? progress->callback() : ProgressCallback();
     nlohmann::json outcome;
@@ -236,7 +250,8 @@ nlohmann::json run_on_cluster(const char* command, const CatalogArgs& args,
             const nlohmann::json message = nlohmann::json::parse(line, nullptr, false);
             if (message.is_object() && message.contains("progress") && show)
             {
-                show(is_add ? "files" : "suspects", message["progress"].get<double>());
+                show(is_add ? "files" : (is_issue ? "copies" : "suspects"),
+                     message["progress"].get<double>());
             }
             else if (message.is_object() &&
                      (message.contains("report") || message.contains("error")))

@@ -154,6 +154,7 @@ class Catalog:
         recipients_file: _Path | None = ...,
         lock_timeout: float = ...,
         threads: int = ...,
+        client: Any | None = ...,  # a dask.distributed Client (meshmark.cluster)
     ) -> _Report: ...
     def scan(
         self,

@@ -16,12 +16,16 @@ midway: its tasks run again elsewhere. This process lost: running the same call 
 finishes the batch. With a seed, the copies and keys are those of a local `catalog add`, byte
 for byte.
 
+catalog_issue: every new name is recorded here first, with its code; the workers make the
+copies in chunks (each building the asset's basis once), and this process writes them and
+records them delivered: the codes and bytes of a local issue.
+
 catalog_scan: the suspects, in chunks, are read on the workers, each opening the catalogue
 read-only (a file every worker reaches at the same path, or PostgreSQL: a password in the
 location is not sent, give it to the workers as PGPASSWORD or ~/.pgpass).
 
 Workers need this package importable (pip install it on each) and the originals (add) or
-suspects (scan) at the same paths as here. `meshmark catalog add|scan --scheduler ADDRESS`
+suspects (scan) at the same paths as here. `meshmark catalog add|issue|scan --scheduler ADDRESS`
 runs these functions (python3 -m meshmark.cluster, reading its request from a file).
 """
 
@@ -154,6 +158,75 @@ def catalog_add(
     return _meshmark._catalog_add_report(catalog, outcomes)
 
 
+def _make_copies(task: str) -> tuple[str, list[tuple[str, bytes]]]:
+    """A worker's task: some recipients' copies made in memory (_meshmark._catalog_make_copies)."""
+    from meshmark import _meshmark as core  # on the worker
+
+    return core._catalog_make_copies(task, 1)
+
+
+def catalog_issue(
+    catalog: _meshmark.Catalog | Location,
+    asset: str,
+    recipients: Sequence[str],
+    output_pattern: str,
+    *,
+    client: Any,
+    recipients_file: Location | None = None,
+    lock_timeout: float = 60.0,
+    per_task: int | None = None,
+    retries: int = 2,
+    progress: Callable[[int, int], None] | None = None,
+) -> dict[str, Any]:
+    """`catalog issue` with the copies made on the client's workers; its --json report.
+
+    Every new name is recorded here with its code before any task starts; each task (per_task
+    copies, default: spread over twice the workers' threads, at least 8) builds the asset's
+    basis once and makes its copies; this process writes them and records them delivered.
+    """
+    import time
+
+    from dask.distributed import as_completed
+
+    start = time.monotonic()
+    catalog = _open(catalog, create=False)
+    names = list(recipients)
+    if recipients_file is not None:
+        names_in_file = os.fspath(recipients_file)
+    else:
+        names_in_file = None
+    if per_task is None:
+        per_task = max(8, -(-max(1, len(names)) // _slots(client)))
+    plan, tasks = _meshmark._catalog_plan_issue(
+        catalog,
+        asset,
+        names,
+        output_pattern,
+        recipients_file=names_in_file,
+        lock_timeout=lock_timeout,
+        per_task=per_task,
+    )
+    made: list[str | None] = [None] * len(tasks)
+    futures = {
+        client.submit(_make_copies, text, key=name, pure=False, retries=retries): (n, text)
+        for n, (text, name) in enumerate(tasks)
+    }
+    total = sum(len(json.loads(text)["copies"]) for text, _ in tasks)
+    done = 0
+    for future in as_completed(futures):
+        n, text = futures[future]
+        made_json, files = future.result()  # a failed task fails the call: the names stay recorded
+        _meshmark._catalog_deliver(catalog, text, made_json, files)
+        made[n] = made_json
+        future.release()
+        done += len(json.loads(text)["copies"])
+        if progress:
+            progress(done, total)
+    return _meshmark._catalog_issue_report(
+        catalog, asset, plan, [m for m in made if m is not None], time.monotonic() - start
+    )
+
+
 def catalog_scan(
     catalog: _meshmark.Catalog | Location,
     suspects: Sequence[Location],
@@ -257,6 +330,17 @@ def main(argv: Iterable[str] | None = None) -> int:
                     request["output"],
                     client=client,
                     progress=show,
+                    **request["options"],
+                )
+            elif request["command"] == "issue":
+                report = catalog_issue(
+                    _meshmark.Catalog(request["catalog"], lock_timeout=request["lock_timeout"]),
+                    request["asset"],
+                    request["recipients"],
+                    request["output"],
+                    client=client,
+                    progress=show,
+                    lock_timeout=request["lock_timeout"],
                     **request["options"],
                 )
             elif request["command"] == "scan":

@@ -3,6 +3,8 @@
 
 // The parts of the extension module _meshmark, one function per source file.
 
+#include <chrono>
+
 #include <pybind11/pybind11.h>
 
 #include "meshmark/catalog/catalog_add.h"
@@ -38,6 +40,9 @@ void fill_embed_options(const EmbedKeywords& keywords, EmbedMeshOptions& options
 DetectFileOptions make_detect_options(const std::string& verdict, double max_fpp, double threshold,
                                       double epsilon, bool allow_registration, py::handle pairs,
                                       bool trace, int threads);
+
+/// A lock timeout in seconds (lock_timeout=). \throws InvalidOption when negative.
+std::chrono::milliseconds timeout_of(double seconds);
 
 /// \brief catalog add's options from the keywords Catalog.add and meshmark.cluster share.
 /// \throws InvalidOption for out-of-range values.

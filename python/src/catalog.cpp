@@ -26,15 +26,6 @@ namespace
 
 using Path = std::filesystem::path;
 
-std::chrono::milliseconds timeout_of(double seconds)
-{
-    if (!(seconds >= 0.0))
-    {
-        throw InvalidOption("lock_timeout must be >= 0 seconds.");
-    }
-    return std::chrono::milliseconds(static_cast<std::int64_t>(1000.0 * seconds));
-}
-
 constexpr const char* kCatalogDoc =
     R"(A catalogue of marked assets (an SQLite file): `meshmark catalog ...`.
 
@@ -43,6 +34,15 @@ database given as "postgresql://..."); create=True makes it when missing (as `ca
 method returns the matching command's --json report as a dict (list: the list of assets).)";
 
 }  // namespace
+
+std::chrono::milliseconds timeout_of(double seconds)
+{
+    if (!(seconds >= 0.0))
+    {
+        throw InvalidOption("lock_timeout must be >= 0 seconds.");
+    }
+    return std::chrono::milliseconds(static_cast<std::int64_t>(1000.0 * seconds));
+}
 
 CatalogAddOptions catalog_add_options(const OptionalInt& seed, const OptionalFloat& strength,
                                       const OptionalStr& message, int basis_size, int coefficients,
@@ -133,10 +133,20 @@ void bind_catalog(py::module_& m)
             "The assets, as `meshmark catalog list --json` lists them (no key material).")
         .def(
             "issue",
-            [](Catalog& catalog, const std::string& asset,
+            [](const std::shared_ptr<Catalog>& self, const std::string& asset,
                const std::vector<std::string>& recipients, const std::string& output_pattern,
-               const OptionalPath& recipients_file, double lock_timeout, int threads) -> Report
+               const OptionalPath& recipients_file, double lock_timeout, int threads,
+               const OptionalClient& client) -> Report
             {
+                if (!client.object.is_none())  // the copies made on a Dask cluster
+                {
+                    return py::module_::import("meshmark.cluster")
+                        .attr("catalog_issue")(py::cast(self), asset, recipients, output_pattern,
+                                               py::arg("client") = client.object,
+                                               py::arg("recipients_file") = recipients_file.object,
+                                               py::arg("lock_timeout") = lock_timeout);
+                }
+                Catalog& catalog = *self;
                 CatalogIssueOptions options;
                 options.recipients = recipients;
                 if (const auto file = path_from(recipients_file.handle(), "recipients_file"))
@@ -153,23 +163,20 @@ void bind_catalog(py::module_& m)
                     py::gil_scoped_release release;
                     report.emplace(catalog_issue(catalog, asset, output_pattern, options));
                 }
-                nlohmann::json out =
-                    embed_recipients_report_json(*report, asset, catalog.path().string());
-                out.erase("key");
-                out["catalog"] = catalog.path().string();
-                out["asset"] = asset;
-                return to_python(out);
+                return to_python(catalog_issue_report_json(catalog, asset, *report));
             },
             py::arg("asset"), py::arg("recipients"), py::arg("output_pattern"), py::kw_only(),
             py::arg("recipients_file") = py::none(),
             py::arg("lock_timeout") = std::chrono::duration<double>(kDefaultLockTimeout).count(),
-            py::arg("threads") = 0,
+            py::arg("threads") = 0, py::arg("client") = py::none(),
             "Issue traceable copies of an asset (output_pattern holds {recipient}): `meshmark "
             "catalog "
             "issue CATALOG ASSET --recipient NAME... -o PATTERN --json`. Each name is recorded "
             "before "
             "any copy is written; a known name gets the same bytes again. recipients_file: a file "
-            "of names, one per line ('#' comments), added after recipients (--recipients).")
+            "of names, one per line ('#' comments), added after recipients (--recipients). "
+            "client: a dask.distributed Client: the names recorded here, the copies made on its "
+            "workers (meshmark.cluster).")
         .def(
             "scan",
             [](const std::shared_ptr<Catalog>& self, const std::vector<Path>& suspects,

@@ -8,10 +8,47 @@
 #include <memory>
 #include <string>
 
+#include <unistd.h>
+
 #include "meshmark/catalog/catalog_mark.h"
+#include "meshmark/core/error.h"
 
 namespace meshmark::catalog_detail
 {
+
+// A private folder under the system's temporary folder, removed with its contents.
+class StagingFolder
+{
+public:
+    StagingFolder()
+    {
+        std::string pattern =
+            (std::filesystem::temp_directory_path() / "meshmark-stage-XXXXXX").string();
+        if (::mkdtemp(pattern.data()) == nullptr)
+        {
+            throw IoError(std::filesystem::temp_directory_path().string() +
+                          ": cannot make a staging folder for a marked copy.");
+        }
+        path_ = pattern;
+    }
+    StagingFolder(const StagingFolder&) = delete;
+    StagingFolder& operator=(const StagingFolder&) = delete;
+    StagingFolder(StagingFolder&&) = delete;
+    StagingFolder& operator=(StagingFolder&&) = delete;
+    ~StagingFolder()
+    {
+        std::error_code ignored;
+        std::filesystem::remove_all(path_, ignored);
+    }
+    [[nodiscard]] const std::filesystem::path& path() const noexcept { return path_; }
+
+private:
+    std::filesystem::path path_;
+};
+
+/// The checks of an asset before copies are issued: recorded, complete, its original there.
+/// \throws InvalidOption, IoError.
+[[nodiscard]] CatalogAsset issuable_asset(const Catalog& catalog, const std::string& id);
 
 /// Writes \p bytes to \p to atomically (folders made) unless it already holds them.
 void write_unless_same(const std::filesystem::path& to, const std::string& bytes);

@@ -80,6 +80,16 @@ nlohmann::json catalog_add_json(const Catalog& catalog,
     return {{"catalog", catalog.path().string()}, {"files", std::move(files)}, {"counts", counts}};
 }
 
+nlohmann::json catalog_issue_report_json(const Catalog& catalog, const std::string& asset,
+                                         const EmbedRecipientsReport& report)
+{
+    nlohmann::json out = embed_recipients_report_json(report, asset, catalog.path().string());
+    out.erase("key");
+    out["catalog"] = catalog.path().string();
+    out["asset"] = asset;
+    return out;
+}
+
 nlohmann::json catalog_reindex_json(const Catalog& catalog,
                                     const std::vector<CatalogReindexOutcome>& outcomes)
 {

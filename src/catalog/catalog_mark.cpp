@@ -105,35 +105,6 @@ private:
     std::optional<Key>& key_;
 };
 
-// A private folder under the system's temporary folder, removed with its contents.
-class StagingFolder
-{
-public:
-    StagingFolder()
-    {
-        std::string pattern = (fs::temp_directory_path() / "meshmark-stage-XXXXXX").string();
-        if (::mkdtemp(pattern.data()) == nullptr)
-        {
-            throw IoError(fs::temp_directory_path().string() +
-                          ": cannot make a staging folder for a marked copy.");
-        }
-        path_ = pattern;
-    }
-    StagingFolder(const StagingFolder&) = delete;
-    StagingFolder& operator=(const StagingFolder&) = delete;
-    StagingFolder(StagingFolder&&) = delete;
-    StagingFolder& operator=(StagingFolder&&) = delete;
-    ~StagingFolder()
-    {
-        std::error_code ignored;
-        fs::remove_all(path_, ignored);
-    }
-    [[nodiscard]] const fs::path& path() const noexcept { return path_; }
-
-private:
-    fs::path path_;
-};
-
 std::string read_bytes(const fs::path& path)
 {
     std::ifstream in(path, std::ios::binary);
@@ -262,7 +233,7 @@ CatalogMarkedAsset catalog_mark(const CatalogMarkTask& task, int threads)
             throw IoError(task.input.string() +
                           ": the original changed since the catalogue add began; run it again.");
         }
-        const StagingFolder staging;
+        const catalog_detail::StagingFolder staging;
         marked.key = task.key;
         marked.outcome = catalog_detail::mark_asset(
             task, staging.path(), threads,

@@ -12,6 +12,7 @@
 #include <optional>
 #include <thread>
 
+#include "catalog/catalog_add_impl.h"
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/threads.h"
@@ -386,11 +387,9 @@ CatalogScanReport catalog_scan(const Catalog& catalog,
     return report;
 }
 
-EmbedRecipientsReport catalog_issue(Catalog& catalog, const std::string& asset_id,
-                                    const std::string& output_pattern,
-                                    const CatalogIssueOptions& options)
+CatalogAsset catalog_detail::issuable_asset(const Catalog& catalog, const std::string& asset_id)
 {
-    const std::optional<CatalogAsset> asset = catalog.asset(asset_id);
+    std::optional<CatalogAsset> asset = catalog.asset(asset_id);
     if (!asset)
     {
         throw InvalidOption(catalog.path().string() + ": no asset '" + asset_id +
@@ -408,6 +407,14 @@ EmbedRecipientsReport catalog_issue(Catalog& catalog, const std::string& asset_i
         throw IoError(asset->original.string() + ": the original of asset '" + asset_id +
                       "' is no longer there; copies are made from the original.");
     }
+    return std::move(*asset);
+}
+
+EmbedRecipientsReport catalog_issue(Catalog& catalog, const std::string& asset_id,
+                                    const std::string& output_pattern,
+                                    const CatalogIssueOptions& options)
+{
+    const CatalogAsset asset = catalog_detail::issuable_asset(catalog, asset_id);
     EmbedRecipientsOptions embed;
     embed.recipients = options.recipients;
     embed.lock_timeout = options.lock_timeout;
@@ -415,7 +422,7 @@ EmbedRecipientsReport catalog_issue(Catalog& catalog, const std::string& asset_i
     embed.progress = options.progress;
     const std::unique_ptr<FamilyKeyStore> store = catalog.family_store(asset_id);
     return embed_recipients(
-        asset->original, nullptr,
+        asset.original, nullptr,
         [&](const std::string& name) { return recipient_output(output_pattern, name); }, *store,
         embed);
 }

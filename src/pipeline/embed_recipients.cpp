@@ -160,9 +160,9 @@ std::vector<std::string> distinct(const std::vector<std::string>& names)
     return kept;
 }
 
-// The recipients of this call, each with its index: the key's for a name it holds, the next
-// free one for a new name (added to the key).
-std::vector<IssuedCopy> assign_indices(
+}  // namespace
+
+std::vector<IssuedCopy> assign_recipient_indices(
     Key& key, const std::vector<std::string>& names,
     const std::function<std::filesystem::path(const std::string&)>& output_of)
 {
@@ -202,8 +202,6 @@ std::vector<IssuedCopy> assign_indices(
     }
     return copies;
 }
-
-}  // namespace
 
 EmbedRecipientsReport embed_recipients(const std::filesystem::path& input,
                                        const std::string& output_pattern,
@@ -329,7 +327,7 @@ EmbedRecipientsReport embed_recipients(
                     mark.reset();  // replaced meanwhile by another family key of this original
                 }
             }
-            report.copies = assign_indices(key, names, output_of);
+            report.copies = assign_recipient_indices(key, names, output_of);
             const bool adds = std::any_of(report.copies.begin(), report.copies.end(),
                                           [](const IssuedCopy& copy) { return copy.is_new; });
             return report.key_created || adds ? std::optional<Key>(key) : std::nullopt;

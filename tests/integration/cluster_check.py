@@ -11,10 +11,11 @@ outside its folder, so its copy links back to it):
    every file "present".
 2. `catalog scan --scheduler` of an attacked marked copy and an unmarked original: the same
    verdicts, assets and recipients as a local scan, exit code 0.
-3. Python: Catalog.add(client=...) makes the bytes of Catalog.add() (local) with the same seed.
-4. A worker killed (kill -9) while an add runs: the add completes, every asset recorded once,
+3. `catalog issue --scheduler` of 12 recipients' copies: the local issue's codes and bytes.
+4. Python: Catalog.add(client=...) makes the bytes of Catalog.add() (local) with the same seed.
+5. A worker killed (kill -9) while an add runs: the add completes, every asset recorded once,
    the outputs byte for byte the local run's.
-5. The coordinator killed (kill -9, the command and its Python child) midway: the same call run
+6. The coordinator killed (kill -9, the command and its Python child) midway: the same call run
    again finishes, every asset complete once, outputs byte for byte the local run's.
 
 Exit 0 when every check held (a JSON summary on stdout), 1 otherwise, 77 when no Dask cluster
@@ -181,7 +182,25 @@ def main():
                   not scans[1][1][1], f"cluster scan: {scans[1]}")
             summary["scan"] = scans[1]
 
-            # 3. Python: Catalog.add(client=...) against Catalog.add().
+            # 3. Recipients' copies: `catalog issue --scheduler` against a local issue.
+            names = [f"--recipient=buyer-{i}" for i in range(12)]
+            issued = []
+            for catalog, out, extra in (("local.db", "issued_local", []),
+                                        ("cluster.db", "issued_cluster", ["--scheduler",
+                                                                          address])):
+                report = json.loads(run(cli, "catalog", "issue", catalog, "a/fandisk.obj",
+                                        *names, "-o", f"{out}/{{recipient}}.obj", "--json",
+                                        "-q", *extra).stdout)
+                issued.append([(c["name"], c["index"], c["new"]) for c in report["copies"]])
+            check(issued[0] == issued[1] and len(issued[1]) == 12,
+                  f"cluster issue's copies {issued[1]} != local {issued[0]}")
+            same_tree("issued_local", "issued_cluster", "cluster issue")
+            recorded = [a for a in listing(cli, "cluster.db") if a["asset"] == "a/fandisk.obj"]
+            check(len(recorded[0]["recipients"]) == 13,
+                  f"cluster issue: {len(recorded[0]['recipients'])} names recorded, not 13")
+            summary["issued"] = len(issued[1])
+
+            # 4. Python: Catalog.add(client=...) against Catalog.add().
             code = f"""
 import meshmark
 from dask.distributed import Client
@@ -196,7 +215,7 @@ assert r["counts"] == l["counts"] and r["counts"]["marked"] == {len(MESHES)}, (r
             if check(done.returncode == 0, "Python Catalog.add(client=): " + done.stderr[-1500:]):
                 same_tree("py_local", "py_cluster", "Python Catalog.add(client=)")
 
-            # 4. A worker killed while the add runs.
+            # 5. A worker killed while the add runs.
             add = subprocess.Popen([cli, "catalog", "add", "killed.db", "corpus", "-o",
                                     "out_killed", "--seed", "5", "--scheduler", address, "--json",
                                     "-q"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
@@ -218,7 +237,7 @@ assert r["counts"] == l["counts"] and r["counts"]["marked"] == {len(MESHES)}, (r
             cluster.start_worker()
             cluster.wait_for_workers(2)
 
-            # 5. The coordinator killed midway, then the same call again.
+            # 6. The coordinator killed midway, then the same call again.
             add = subprocess.Popen([cli, "catalog", "add", "resumed.db", "corpus", "-o",
                                     "out_resumed", "--seed", "5", "--scheduler", address, "-q"],
                                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,

@@ -23,6 +23,11 @@ namespace meshmark
 [[nodiscard]] nlohmann::json catalog_reindex_json(
     const Catalog& catalog, const std::vector<CatalogReindexOutcome>& outcomes);
 
+/// `catalog issue --json`: embed_recipients_report_json without "key", with "catalog" and "asset".
+[[nodiscard]] nlohmann::json catalog_issue_report_json(const Catalog& catalog,
+                                                       const std::string& asset,
+                                                       const EmbedRecipientsReport& report);
+
 /// One asset of `catalog list --json` (no key material): {"asset", "original", "original_sha256",
 /// "published", "vertices", "faces", "added", "complete", "recipients": [names]}.
 [[nodiscard]] nlohmann::json catalog_asset_json(const CatalogAsset& asset,

@@ -104,6 +104,14 @@ public:
 [[nodiscard]] std::filesystem::path recipient_output(const std::string& pattern,
                                                      const std::string& name);
 
+/// \brief The copies of \p names (each given once), each with its code's index: the family
+/// key's for a name it holds, the next free one for a new name (added to \p key, is_new set);
+/// paths from \p output_of. What embed_recipients records; catalog_plan_issue's too.
+/// \throws InvalidOption when the key holds as many recipients as it can.
+[[nodiscard]] std::vector<IssuedCopy> assign_recipient_indices(
+    Key& key, const std::vector<std::string>& names,
+    const std::function<std::filesystem::path(const std::string&)>& output_of);
+
 /// \brief Names from a recipients file (`--recipients`, the Python package's recipients_file):
 /// one per line; blank lines and lines starting with '#' skipped, spaces around a name dropped.
 /// \throws IoError when it cannot be opened or read.
