@@ -84,89 +84,6 @@ int run_add(const CatalogArgs& args, const GlobalArgs& global)
     return finish_add(catalog.path().string(), outcomes, global);
 }
 
-}  // namespace
-
-int finish_add(const std::string& catalog, const std::vector<CatalogAddOutcome>& outcomes,
-               const GlobalArgs& global)
-{
-    int counts[4] = {0, 0, 0, 0};
-    for (const CatalogAddOutcome& o : outcomes)
-    {
-        ++counts[static_cast<int>(o.status)];
-        if (!global.quiet &&
-            (o.status == CatalogAddOutcome::Status::Failed ||
-             (global.verbose && o.status == CatalogAddOutcome::Status::Unmarkable)))
-        {
-            std::fprintf(stderr, "meshmark: %s: %s\n", to_string(o.status), o.reason.c_str());
-        }
-    }
-    if (!global.quiet)
-    {
-        std::fprintf(stderr,
-                     "meshmark: %zu files: %d marked, %d already in the catalogue, %d not "
-                     "markable, %d failed; "
-                     "catalogue %s\n",
-                     outcomes.size(), counts[0], counts[1], counts[2], counts[3], catalog.c_str());
-    }
-    return counts[3] > 0 ? static_cast<int>(ExitCode::InvalidInput) : 0;
-}
-
-int finish_scan(const nlohmann::json& report, const GlobalArgs& global)
-{
-    bool any = false;
-    std::size_t unreadable = 0;
-    const nlohmann::json& suspects = report.at("suspects");
-    const auto assets = report.at("assets").get<std::size_t>();
-    for (const nlohmann::json& s : suspects)
-    {
-        const bool detected = s.at("detected").get<bool>();
-        const std::string path = s.at("path").get<std::string>();
-        const double seconds = s.contains("seconds") ? s["seconds"].value("total", 0.0) : 0.0;
-        any = any || detected;
-        const bool failed = s.contains("error");
-        unreadable += failed ? 1U : 0U;
-        if (global.quiet)
-        {
-            continue;
-        }
-        if (failed)
-        {
-            std::fprintf(stderr, "meshmark: %s\n", s.at("error").get<std::string>().c_str());
-            continue;
-        }
-        if (!detected)
-        {
-            std::fprintf(stderr,
-                         "meshmark: %s: no asset of the catalogue found (%zu tried) in %.2f s\n",
-                         path.c_str(), s.at("tried").size(), seconds);
-            continue;
-        }
-        for (const nlohmann::json& m : s.at("matches"))
-        {
-            std::string names;
-            for (const nlohmann::json& r : m.at("recipients"))
-            {
-                names += (names.empty() ? "" : ", ") + r.at("name").get<std::string>();
-            }
-            std::fprintf(
-                stderr,
-                "meshmark: %s: asset %s (false-positive probability %s over the catalogue's %zu "
-                "assets)%s%s in %.2f s\n",
-                path.c_str(), m.at("asset").get<std::string>().c_str(),
-                format_number(m.at("false_positive_probability").get<double>()).c_str(), assets,
-                names.empty() ? "" : "; copy of ", names.c_str(), seconds);
-        }
-    }
-    if (!suspects.empty() && unreadable == suspects.size())
-    {
-        return static_cast<int>(ExitCode::InvalidInput);
-    }
-    return any ? 0 : 1;
-}
-
-namespace
-{
-
 int run_reindex(const CatalogArgs& args, const GlobalArgs& global)
 {
     CatalogReindexOptions options;
@@ -230,20 +147,7 @@ int run_issue(const CatalogArgs& args, const GlobalArgs& global)
         {
             print_json(report);
         }
-        if (!global.quiet)
-        {
-            int added = 0;
-            for (const nlohmann::json& copy : report.at("copies"))
-            {
-                added += copy.at("new").get<bool>() ? 1 : 0;
-            }
-            std::fprintf(stderr,
-                         "meshmark: issued %zu copies of %s (%d new recipients) in %.3f s on the "
-                         "cluster; recorded in %s\n",
-                         report.at("copies").size(), args.asset.c_str(), added,
-                         report.at("seconds").value("total", 0.0),
-                         report.at("catalog").get<std::string>().c_str());
-        }
+        finish_issue(report, args.asset, " on the cluster", global);
         return 0;
     }
     CatalogIssueOptions options;
@@ -259,23 +163,12 @@ int run_issue(const CatalogArgs& args, const GlobalArgs& global)
     const EmbedRecipientsReport report =
         with_progress("meshmark catalog issue", global.quiet, options.progress,
                       [&] { return catalog_issue(catalog, args.asset, args.output, options); });
+    const nlohmann::json json = catalog_issue_report_json(catalog, args.asset, report);
     if (args.json)
     {
-        print_json(catalog_issue_report_json(catalog, args.asset, report));
+        print_json(json);
     }
-    if (!global.quiet)
-    {
-        int added = 0;
-        for (const IssuedCopy& copy : report.copies)
-        {
-            added += copy.is_new ? 1 : 0;
-        }
-        std::fprintf(
-            stderr,
-            "meshmark: issued %zu copies of %s (%d new recipients) in %.3f s; recorded in %s\n",
-            report.copies.size(), args.asset.c_str(), added, report.seconds.total,
-            catalog.path().c_str());
-    }
+    finish_issue(json, args.asset, "", global);
     return 0;
 }
 

@@ -57,4 +57,8 @@ struct CatalogArgs
 /// `catalog scan`'s messages for its --json \p report on stderr (unless quiet) and its exit code.
 [[nodiscard]] int finish_scan(const nlohmann::json& report, const GlobalArgs& global);
 
+/// `catalog issue`'s message for its --json \p report (\p where: "" or " on the cluster").
+void finish_issue(const nlohmann::json& report, const std::string& asset, const char* where,
+                  const GlobalArgs& global);
+
 }  // namespace meshmark::cli
