@@ -12,10 +12,13 @@ outside its folder, so its copy links back to it):
 2. `catalog scan --scheduler` of an attacked marked copy and an unmarked original: the same
    verdicts, assets and recipients as a local scan, exit code 0.
 3. `catalog issue --scheduler` of 12 recipients' copies: the local issue's codes and bytes.
-4. Python: Catalog.add(client=...) makes the bytes of Catalog.add() (local) with the same seed.
-5. A worker killed (kill -9) while an add runs: the add completes, every asset recorded once,
+4. On PostgreSQL (tests/support/postgres_server.py, when one can be started): `catalog add
+   --scheduler` into a `postgresql://` catalogue leaves the local run's files and keys, and a
+   `catalog scan --scheduler` through it (every worker opening the database) finds the suspect.
+5. Python: Catalog.add(client=...) makes the bytes of Catalog.add() (local) with the same seed.
+6. A worker killed (kill -9) while an add runs: the add completes, every asset recorded once,
    the outputs byte for byte the local run's.
-6. The coordinator killed (kill -9, the command and its Python child) midway: the same call run
+7. The coordinator killed (kill -9, the command and its Python child) midway: the same call run
    again finishes, every asset complete once, outputs byte for byte the local run's.
 
 Exit 0 when every check held (a JSON summary on stdout), 1 otherwise, 77 when no Dask cluster
@@ -35,6 +38,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "support"))
 import dask_cluster  # noqa: E402
+import postgres_server  # noqa: E402
 
 MESHES = ["fandisk.obj", "spot.obj", "beetle.obj", "rocker-arm.obj", "teapot.obj", "bunny.off",
           "horse.ply"]
@@ -200,7 +204,33 @@ def main():
                   f"cluster issue: {len(recorded[0]['recipients'])} names recorded, not 13")
             summary["issued"] = len(issued[1])
 
-            # 4. Python: Catalog.add(client=...) against Catalog.add().
+            # 4. The catalogue on PostgreSQL: the coordinator records there, the scan's workers
+            # read it.
+            try:
+                with postgres_server.PostgresServer() as pg:
+                    url = pg.create_database("cluster")
+                    report = json.loads(run(cli, "catalog", "add", url, "corpus", "-o",
+                                            "out_pg", "--seed", 5, "--scheduler", address,
+                                            "--json", "-q").stdout)
+                    check(report["counts"]["marked"] == n, f"add into PostgreSQL: {report}")
+                    same_tree("out_local", "out_pg", "cluster add into PostgreSQL")
+                    unissued = [a for a in assets if not a.startswith("a/")][:3]  # (3. issued)
+                    pg_keys = keys(cli, url, unissued, work / "k_pg")
+                    local_keys = keys(cli, "local.db", unissued, work / "k_local_pg")
+                    check(pg_keys == local_keys,
+                          "cluster add into PostgreSQL: keys differ from the local run's: " +
+                          str([(a, pg_keys[a][:300], local_keys[a][:300]) for a in pg_keys
+                               if pg_keys[a] != local_keys[a]][:1]))
+                    done = run(cli, "catalog", "scan", url, "suspect.ply", "--json", "-q",
+                               "--scheduler", address, expect=0)
+                    found = json.loads(done.stdout)["suspects"][0]
+                    check(found["detected"] and found["matches"][0]["asset"] == "a/fandisk.obj",
+                          f"cluster scan through PostgreSQL: {found['matches']}")
+                    summary["postgres"] = "checked"
+            except postgres_server.Unavailable as e:
+                summary["postgres"] = f"skipped: {e}"
+
+            # 5. Python: Catalog.add(client=...) against Catalog.add().
             code = f"""
 import meshmark
 from dask.distributed import Client
@@ -215,7 +245,7 @@ assert r["counts"] == l["counts"] and r["counts"]["marked"] == {len(MESHES)}, (r
             if check(done.returncode == 0, "Python Catalog.add(client=): " + done.stderr[-1500:]):
                 same_tree("py_local", "py_cluster", "Python Catalog.add(client=)")
 
-            # 5. A worker killed while the add runs.
+            # 6. A worker killed while the add runs.
             add = subprocess.Popen([cli, "catalog", "add", "killed.db", "corpus", "-o",
                                     "out_killed", "--seed", "5", "--scheduler", address, "--json",
                                     "-q"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
@@ -237,7 +267,7 @@ assert r["counts"] == l["counts"] and r["counts"]["marked"] == {len(MESHES)}, (r
             cluster.start_worker()
             cluster.wait_for_workers(2)
 
-            # 6. The coordinator killed midway, then the same call again.
+            # 7. The coordinator killed midway, then the same call again.
             add = subprocess.Popen([cli, "catalog", "add", "resumed.db", "corpus", "-o",
                                     "out_resumed", "--seed", "5", "--scheduler", address, "-q"],
                                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
