@@ -13,8 +13,10 @@
 2. --issuers `catalog issue` processes at once (default 16) on one asset of a catalogue made in
    PostgreSQL by `catalog add`, each a name of its own and one shared name: every call exits 0,
    and the catalogue holds every name once, with codes all distinct, every copy delivered.
-3. `meshmark serve` on that catalogue (a password in its URL) serves a copy to a new name over
-   HTTP, recorded in PostgreSQL; its log never holds the password.
+3. Two `meshmark serve` processes on that catalogue (the issuing service on two hosts; a
+   password in its URL) serve at once 6 names each and 4 names asked of both: every answer a
+   copy, a name asked of both served the same bytes by both and recorded once, no code given
+   twice; their logs never hold the password.
 
 Exit 0 when every check held (a JSON summary on stdout), 1 otherwise, 77 when no PostgreSQL
 server can be started here.
@@ -31,7 +33,9 @@ import tempfile
 import re
 import signal
 import time
+import urllib.error
 import urllib.request
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "support"))
@@ -188,42 +192,79 @@ def issuers(c, pg, work, count):
             "seconds": round(seconds, 2)}
 
 
-def serve(c, url, work):
-    with_password = url.replace("postgres@", f"postgres:{c.secret}@")
-    token_file = work / "serve.token"
-    log = open(work / "serve.log", "w+")
-    proc = subprocess.Popen([c.cli, "serve", "--catalog", with_password, "--listen", "127.0.0.1:0",
+def start_serve(c, url, work, name):
+    """`meshmark serve` on the catalogue at \p url (its password given): (process, port, token, log)."""
+    token_file = work / f"{name}.token"
+    log = open(work / f"{name}.log", "w+")
+    proc = subprocess.Popen([c.cli, "serve", "--catalog", url, "--listen", "127.0.0.1:0",
                              "--token-file", str(token_file)], stdout=log, stderr=log)
-    try:
-        port = None
-        for _ in range(100):
-            log.seek(0)
-            found = re.search(r"on http://127\.0\.0\.1:(\d+)", log.read())
-            if found:
-                port = int(found.group(1))
-                break
-            time.sleep(0.1)
-        c.expect(port is not None, "serve did not start")
-        if port is None:
-            return None
-        request = urllib.request.Request(
-            f"http://127.0.0.1:{port}/v1/assets/a.off/copies", data=b'{"recipient":"web1"}',
-            headers={"Authorization": "Bearer " + token_file.read_text().strip(),
-                     "Content-Type": "application/json"}, method="POST")
-        with urllib.request.urlopen(request, timeout=60) as answer:
-            status, size = answer.status, len(answer.read())
-        c.expect(status == 200 and size > 1000, f"serve's copy: {status}, {size} bytes")
-    finally:
-        proc.send_signal(signal.SIGTERM)
-        proc.wait(timeout=30)
+    port = None
+    for _ in range(100):
         log.seek(0)
-        text = log.read()
-        log.close()
-    c.expect(c.secret not in text, "serve logged the password")
+        found = re.search(r"on http://127\.0\.0\.1:(\d+)", log.read())
+        if found:
+            port = int(found.group(1))
+            break
+        time.sleep(0.1)
+    token = token_file.read_text().strip() if port is not None else ""
+    return proc, port, token, log
+
+
+def serve_copy(port, token, recipient):
+    """POST a copy of a.off for \p recipient: (status, bytes)."""
+    request = urllib.request.Request(
+        f"http://127.0.0.1:{port}/v1/assets/a.off/copies",
+        data=json.dumps({"recipient": recipient}).encode(),
+        headers={"Authorization": "Bearer " + token, "Content-Type": "application/json"},
+        method="POST")
+    try:
+        with urllib.request.urlopen(request, timeout=120) as answer:
+            return answer.status, answer.read()
+    except urllib.error.HTTPError as e:
+        return e.code, e.read()
+
+
+def serve(c, url, work):
+    """Two `meshmark serve` processes on one PostgreSQL catalogue (the issuing service on two
+    hosts), a password in its URL: requests to both at once, some names asked of both."""
+    with_password = url.replace("postgres@", f"postgres:{c.secret}@")
+    servers = [start_serve(c, with_password, work, f"serve{n}") for n in range(2)]
+    results = {}
+    try:
+        c.expect(all(port is not None for _, port, _, _ in servers), "serve did not start")
+        if any(port is None for _, port, _, _ in servers):
+            return None
+        # Each server its own names, and four names asked of both at once.
+        jobs = [(n, f"web{n}-{i}") for n in range(2) for i in range(6)]
+        jobs += [(n, f"both-{i}") for i in range(4) for n in range(2)]
+        with ThreadPoolExecutor(max_workers=8) as pool:
+            answers = list(pool.map(
+                lambda job: (job, serve_copy(servers[job[0]][1], servers[job[0]][2], job[1])),
+                jobs))
+        for (n, name), (status, body) in answers:
+            c.expect(status == 200 and len(body) > 1000,
+                     f"serve{n}'s copy for {name}: {status}, {len(body)} bytes")
+            results.setdefault(name, []).append(body)
+        for name, bodies in results.items():
+            c.expect(len(set(bodies)) == 1, f"{name}: two servers served different bytes")
+    finally:
+        texts = []
+        for proc, _, _, log in servers:
+            proc.send_signal(signal.SIGTERM)
+            proc.wait(timeout=30)
+            log.seek(0)
+            texts.append(log.read())
+            log.close()
+    c.expect(all(c.secret not in text for text in texts), "serve logged the password")
     _, listed = c.listing(url)
     names = [r["name"] for r in listed["assets"][0]["recipients"]]
-    c.expect(names.count("web1") == 1, f"web1 recorded {names.count('web1')} times")
-    return {"status": status, "bytes": size}
+    c.expect(all(names.count(name) == 1 for name in results),
+             "a name served by two servers recorded twice")
+    c.run("catalog", "export", url, "a.off", "--key", work / "served.key")
+    key = json.loads((work / "served.key").read_text())
+    codes = [r["index"] for r in key["recipients"]["issued"]]
+    c.expect(len(set(codes)) == len(codes), f"a code given twice by the two servers: {codes}")
+    return {"servers": 2, "requests": len(jobs), "names": len(results)}
 
 
 def main():
