@@ -89,7 +89,7 @@ class PostgresStore final : public Store
 {
 public:
     PostgresStore(const std::string& url, std::chrono::milliseconds busy_timeout)
-        : location_(without_password(url))
+        : location_(without_password(url)), busy_timeout_(busy_timeout)
     {
         conn_ = PQconnectdb(url.c_str());
         if (conn_ == nullptr || PQstatus(conn_) != CONNECTION_OK)
@@ -102,10 +102,7 @@ public:
         // No NOTICE on stderr ("relation ... already exists, skipping").
         PQsetNoticeProcessor(
             conn_, [](void*, const char*) {}, nullptr);
-        run("SET client_min_messages = warning", {});
-        // (0 would wait for ever: SQLite's busy timeout of 0 fails at once)
-        run("SET lock_timeout = " + std::to_string(std::max<std::int64_t>(1, busy_timeout.count())),
-            {});
+        configure();
     }
     ~PostgresStore() override { PQfinish(conn_); }
     PostgresStore(const PostgresStore&) = delete;
@@ -140,6 +137,7 @@ public:
     void begin(const std::string& asset) override
     {
         run("BEGIN", {});
+        in_transaction_ = true;
         try
         {
             if (asset.empty())
@@ -160,8 +158,16 @@ public:
             throw;
         }
     }
-    void commit() override { run("COMMIT", {}); }
-    void rollback() noexcept override { PQclear(PQexec(conn_, "ROLLBACK")); }
+    void commit() override
+    {
+        in_transaction_ = false;  // (a failed COMMIT ends the transaction too)
+        run("COMMIT", {});
+    }
+    void rollback() noexcept override
+    {
+        in_transaction_ = false;
+        PQclear(PQexec(conn_, "ROLLBACK"));
+    }
 
     [[nodiscard]] bool has_table(const std::string& name) override
     {
@@ -233,9 +239,55 @@ private:
                          busy);
     }
 
+    // The session's settings, on a new connection or after a reset.
+    void configure()
+    {
+        run_once("SET client_min_messages = warning", {});
+        // (0 would wait for ever: SQLite's busy timeout of 0 fails at once)
+        run_once("SET lock_timeout = " +
+                     std::to_string(std::max<std::int64_t>(1, busy_timeout_.count())),
+                 {});
+    }
+
+    // The connection made again when it was lost (the server restarted, a network cut): true
+    // when it is back.
+    bool reconnect()
+    {
+        PQreset(conn_);
+        if (PQstatus(conn_) != CONNECTION_OK)
+        {
+            return false;
+        }
+        configure();
+        return true;
+    }
+
+    // run_once, and once more after a lost connection is made again, outside a transaction
+    // only (a statement in one would run without its transaction's earlier statements): a
+    // long-running `serve` outlives a restart of the database server.
+    Result run(const std::string& sql, const std::vector<Value>& params)
+    {
+        if (!in_transaction_ && PQstatus(conn_) != CONNECTION_OK)
+        {
+            (void)reconnect();
+        }
+        try
+        {
+            return run_once(sql, params);
+        }
+        catch (const StoreError&)
+        {
+            if (in_transaction_ || PQstatus(conn_) == CONNECTION_OK || !reconnect())
+            {
+                throw;
+            }
+        }
+        return run_once(sql, params);
+    }
+
     // Runs \p sql, its `?` turned into $1, $2, ...; text results but for integers and bytea,
     // read in binary.
-    Result run(const std::string& sql, const std::vector<Value>& params)
+    Result run_once(const std::string& sql, const std::vector<Value>& params)
     {
         std::string text;
         int n = 0;
@@ -315,6 +367,8 @@ private:
 
     std::filesystem::path location_;
     PGconn* conn_ = nullptr;
+    std::chrono::milliseconds busy_timeout_;
+    bool in_transaction_ = false;  // between begin() and commit() or rollback()
 };
 
 }  // namespace

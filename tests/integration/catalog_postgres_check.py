@@ -16,7 +16,8 @@
 3. Two `meshmark serve` processes on that catalogue (the issuing service on two hosts; a
    password in its URL) serve at once 6 names each and 4 names asked of both: every answer a
    copy, a name asked of both served the same bytes by both and recorded once, no code given
-   twice; their logs never hold the password.
+   twice; after the database server restarts (pg_ctl restart) each serves a new name; their
+   logs never hold the password.
 
 Exit 0 when every check held (a JSON summary on stdout), 1 otherwise, 77 when no PostgreSQL
 server can be started here.
@@ -224,7 +225,7 @@ def serve_copy(port, token, recipient):
         return e.code, e.read()
 
 
-def serve(c, url, work):
+def serve(c, url, work, restart):
     """Two `meshmark serve` processes on one PostgreSQL catalogue (the issuing service on two
     hosts), a password in its URL: requests to both at once, some names asked of both."""
     with_password = url.replace("postgres@", f"postgres:{c.secret}@")
@@ -247,6 +248,13 @@ def serve(c, url, work):
             results.setdefault(name, []).append(body)
         for name, bodies in results.items():
             c.expect(len(set(bodies)) == 1, f"{name}: two servers served different bytes")
+        # The database server restarted under the services: each connects again and serves.
+        restart()
+        for n, (_, port, token, _) in enumerate(servers):
+            status, body = serve_copy(port, token, f"after-restart-{n}")
+            c.expect(status == 200 and len(body) > 1000,
+                     f"serve{n} after the database restarted: {status} {body[:200]!r}")
+            results[f"after-restart-{n}"] = [body]
     finally:
         texts = []
         for proc, _, _, log in servers:
@@ -258,8 +266,8 @@ def serve(c, url, work):
     c.expect(all(c.secret not in text for text in texts), "serve logged the password")
     _, listed = c.listing(url)
     names = [r["name"] for r in listed["assets"][0]["recipients"]]
-    c.expect(all(names.count(name) == 1 for name in results),
-             "a name served by two servers recorded twice")
+    counts = {name: names.count(name) for name in results if names.count(name) != 1}
+    c.expect(not counts, f"names not recorded exactly once: {counts}")
     c.run("catalog", "export", url, "a.off", "--key", work / "served.key")
     key = json.loads((work / "served.key").read_text())
     codes = [r["index"] for r in key["recipients"]["issued"]]
@@ -284,7 +292,7 @@ def main():
         with server as pg:
             summary["migration_scans"] = migration(c, pg, work / "migration")
             summary["issuers"] = issuers(c, pg, work / "issuers", args.issuers)
-            summary["serve"] = serve(c, f"{pg.url}/issuers", work / "issuers")
+            summary["serve"] = serve(c, f"{pg.url}/issuers", work / "issuers", pg.restart)
     finally:
         shutil.rmtree(work, ignore_errors=True)
     summary["problems"] = c.problems
