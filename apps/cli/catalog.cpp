@@ -16,6 +16,7 @@
 #include "catalog_args.h"
 #include "commands.h"
 #include "meshmark/catalog/catalog_add.h"
+#include "meshmark/catalog/catalog_evidence.h"
 #include "meshmark/catalog/catalog_json.h"
 #include "meshmark/catalog/catalog_mark.h"
 #include "meshmark/catalog/catalog_reindex.h"
@@ -172,130 +173,55 @@ int run_issue(const CatalogArgs& args, const GlobalArgs& global)
     return 0;
 }
 
-// --- catalog scan --report: an evidence report per suspect (docs/evidence.md). ---
-
-// The report's file for \p suspect: the pattern with {suspect} replaced by its file name's stem.
-std::filesystem::path report_path(const std::string& pattern, const std::filesystem::path& suspect)
+// `catalog scan --report`: one evidence report per suspect (docs/evidence.md).
+void write_scan_reports(const CatalogArgs& args, const Catalog& catalog,
+                        const CatalogScanReport& report, const CatalogScanOptions& options,
+                        const GlobalArgs& global)
 {
-    std::string path = pattern;
-    const std::string name = suspect.stem().string();
-    for (std::size_t at = path.find("{suspect}"); at != std::string::npos;
-         at = path.find("{suspect}", at + name.size()))
+    DetectionReportOptions evidence;
+    evidence.pictures.threads = global.threads;
+    evidence.version = kVersion;
+    for (const SuspectScan& scan : report.suspects)
     {
-        path.replace(at, 9, name);
-    }
-    return path;
-}
-
-// --report names .html or .pdf files, one per suspect, none of them an input (before scanning).
-void check_scan_reports(const CatalogArgs& args)
-{
-    if (args.report.empty())
-    {
-        return;
-    }
-    (void)evidence_format(args.report);
-    std::set<std::filesystem::path> paths;
-    for (const std::string& suspect : args.inputs)
-    {
-        const std::filesystem::path path = report_path(args.report, suspect);
-        if (!paths.insert(path).second)
+        if (!scan.error.empty())
         {
-            throw InvalidOption("--report " + args.report +
-                                " names one file for several suspects; put {suspect} "
-                                "(the suspect's file name without its extension) in it.");
+            continue;
         }
-        if (is_same_file(path, suspect) || is_same_file(path, args.catalog))
-        {
-            throw InvalidOption("--report " + path.string() + " would overwrite an input file.");
-        }
-    }
-}
-
-// \p report with every probability taken over the catalogue's \p assets keys, as the scan
-// states them (the union bound over every key it could have tried: docs/statistics.md).
-DetectReport over_the_catalogue(DetectReport report, std::size_t assets)
-{
-    const auto scaled = [assets](double& p) { p = std::min(1.0, p * static_cast<double>(assets)); };
-    scaled(report.decision.false_positive_probability);
-    scaled(report.decision.score_false_positive_probability);
-    scaled(report.decision.bits_false_positive_probability);
-    scaled(report.owner_false_positive_probability);
-    for (RecipientScore& r : report.accused)
-    {
-        scaled(r.false_positive_probability);
-    }
-    return report;
-}
-
-// The report of one suspect: against its strongest match, or, matched by none, against the
-// nearest asset the scan tried (detected again there: a "not shown" report says what was
-// compared). Nothing to write when no asset could be tried.
-void write_scan_report(const CatalogArgs& args, const Catalog& catalog,
-                       const CatalogScanReport& report, const SuspectScan& scan,
-                       const CatalogScanOptions& options, const GlobalArgs& global)
-{
-    std::optional<CatalogAsset> asset;
-    DetectReport found;
-    if (!scan.matches.empty())
-    {
-        asset = catalog.asset(scan.matches.front().asset);
-        found = scan.matches.front().report;
-    }
-    else
-    {
-        for (const CatalogTry& tried : scan.tried)
-        {
-            if (tried.error.empty() && (asset = catalog.asset(tried.asset)))
-            {
-                DetectFileOptions detect = options.detect;
-                detect.decision.max_false_positive /=
-                    static_cast<double>(std::max<std::size_t>(1, report.assets));
-                found = detect_against_original(read_mesh(scan.path), asset->original, asset->key,
-                                                detect);
-                break;
-            }
-        }
-    }
-    const std::filesystem::path path = report_path(args.report, scan.path);
-    if (!asset)
-    {
+        const std::filesystem::path path =
+            scan_report_paths(args.report, {scan.path}, catalog.path()).front();
+        evidence.command = "meshmark catalog scan " + shell_word(catalog.path().string()) + " " +
+                           shell_word(scan.path) +
+                           (args.max_false_positive != DetectOptions{}.max_false_positive
+                                ? " --max-fpp " + shortest(args.max_false_positive)
+                                : std::string()) +
+                           " --json";
+        const bool written = write_scan_evidence(path, catalog, report, scan, options, evidence);
         if (!global.quiet)
         {
-            std::fprintf(stderr,
-                         "meshmark: %s: no report (no asset of the catalogue could be compared)\n",
-                         scan.path.c_str());
+            if (written)
+            {
+                std::fprintf(stderr, "meshmark: %s: report written to %s\n", scan.path.c_str(),
+                             path.c_str());
+            }
+            else
+            {
+                std::fprintf(stderr,
+                             "meshmark: %s: no report (no asset of the catalogue could be "
+                             "compared)\n",
+                             scan.path.c_str());
+            }
         }
-        return;
-    }
-    DetectOptions decision;
-    decision.max_false_positive = args.max_false_positive;
-    const std::string key_text = to_json(asset->key);
-    const EvidenceFile key{"the key of asset " + asset->id + " (catalog export)", key_text.size(),
-                           bytes_sha256(key_text)};
-    DetectionReportOptions report_options;
-    report_options.pictures.threads = global.threads;
-    report_options.version = kVersion;
-    report_options.command = "meshmark catalog scan " + shell_word(catalog.path().string()) + " " +
-                             shell_word(scan.path) +
-                             (args.max_false_positive != DetectOptions{}.max_false_positive
-                                  ? " --max-fpp " + shortest(args.max_false_positive)
-                                  : std::string()) +
-                             " --json";
-    write_detection_report(
-        path, scan.path, asset->original, key,
-        detect_report_json(over_the_catalogue(std::move(found), report.assets), decision),
-        report_options);
-    if (!global.quiet)
-    {
-        std::fprintf(stderr, "meshmark: %s: report written to %s\n", scan.path.c_str(),
-                     path.c_str());
     }
 }
 
 int run_scan(const CatalogArgs& args, const GlobalArgs& global)
 {
-    check_scan_reports(args);
+    if (!args.report.empty())
+    {
+        (void)scan_report_paths(
+            args.report, std::vector<std::filesystem::path>(args.inputs.begin(), args.inputs.end()),
+            args.catalog);
+    }
     if (!args.scheduler.empty())
     {
         if (!args.report.empty())
@@ -329,13 +255,7 @@ int run_scan(const CatalogArgs& args, const GlobalArgs& global)
     }
     if (!args.report.empty())
     {
-        for (const SuspectScan& scan : report.suspects)
-        {
-            if (scan.error.empty())
-            {
-                write_scan_report(args, catalog, report, scan, options, global);
-            }
-        }
+        write_scan_reports(args, catalog, report, options, global);
     }
     return finish_scan(json, global);
 }

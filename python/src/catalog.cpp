@@ -12,6 +12,7 @@
 #include "bindings.h"
 #include "convert.h"
 #include "meshmark/catalog/catalog_add.h"
+#include "meshmark/catalog/catalog_evidence.h"
 #include "meshmark/catalog/catalog_json.h"
 #include "meshmark/catalog/catalog_reindex.h"
 #include "meshmark/catalog/catalog_scan.h"
@@ -181,11 +182,17 @@ void bind_catalog(py::module_& m)
             "scan",
             [](const std::shared_ptr<Catalog>& self, const std::vector<Path>& suspects,
                int candidates, bool all_candidates, double max_fpp, bool trace, int threads,
-               const OptionalClient& client) -> Report
+               const OptionalClient& client, const OptionalPath& report_arg) -> Report
             {
-                if (!client.object
-                         .is_none())  // the suspects read on a Dask cluster (meshmark.cluster)
+                const std::optional<Path> evidence = path_from(report_arg.handle(), "report");
+                if (!client.object.is_none())  // the suspects read on a Dask cluster
                 {
+                    if (evidence)
+                    {
+                        throw InvalidOption(
+                            "report= is written by a local scan: scan those suspects without "
+                            "client= for their evidence reports.");
+                    }
                     return py::module_::import("meshmark.cluster")
                         .attr("catalog_scan")(
                             py::cast(self), suspects, py::arg("client") = client.object,
@@ -200,24 +207,46 @@ void bind_catalog(py::module_& m)
                 options.stop_at_match = !all_candidates;
                 options.detect.decision.max_false_positive = max_fpp;
                 options.detect.threads = threads;
+                // As `catalog scan --report`: one .html or .pdf file per suspect, checked first.
+                const std::vector<Path> reports =
+                    evidence ? scan_report_paths(evidence->string(), suspects, catalog.path())
+                             : std::vector<Path>();
                 std::optional<CatalogScanReport> report;
+                nlohmann::json json;
                 {
                     py::gil_scoped_release release;
                     report.emplace(catalog_scan(catalog, suspects, options));
+                    json = catalog_scan_json(catalog, *report, options);
+                    for (std::size_t s = 0; s < reports.size(); ++s)
+                    {
+                        DetectionReportOptions made;
+                        made.pictures.threads = threads;
+                        made.version = std::string("meshmark ") + MESHMARK_VERSION;
+                        made.command = "meshmark.Catalog(" + shell_word(catalog.path().string()) +
+                                       ").scan([" + shell_word(suspects[s].string()) +
+                                       "], max_fpp=" + shortest(max_fpp) + ")";
+                        if (report->suspects[s].error.empty() &&
+                            write_scan_evidence(reports[s], catalog, *report, report->suspects[s],
+                                                options, made))
+                        {
+                            json["suspects"][s]["report"] = reports[s].string();
+                        }
+                    }
                 }
-                return to_python(catalog_scan_json(catalog, *report, options));
+                return to_python(json);
             },
             py::arg("suspects"), py::kw_only(),
             py::arg("candidates") = CatalogScanOptions{}.candidates,
             py::arg("all_candidates") = false,
             py::arg("max_fpp") = DetectOptions{}.max_false_positive, py::arg("trace") = true,
-            py::arg("threads") = 0, py::arg("client") = py::none(),
+            py::arg("threads") = 0, py::arg("client") = py::none(), py::arg("report") = py::none(),
             "Which assets (and whose copies) suspects were made from: `meshmark catalog scan "
             "CATALOG SUSPECT... --json`. The bound max_fpp holds per suspect over the whole "
             "catalogue. trace=False: decide on the owners' marks alone, naming no recipient "
             "(detect's --no-trace). client: a dask.distributed Client: the suspects are read on "
-            "its "
-            "workers, each opening the catalogue (meshmark.cluster).")
+            "its workers, each opening the catalogue (meshmark.cluster). report: an evidence "
+            "report per suspect, a .html or .pdf path ({suspect} in it for several; --report), "
+            "its path then in the suspect's 'report'.")
         .def(
             "reindex",
             [](Catalog& catalog, bool all, int threads) -> Report

@@ -54,3 +54,21 @@ def test_add_list_issue_scan_and_the_program_reads_the_same_catalogue(originals,
     assert [r["name"] for r in json.loads(done.stdout)["recipients"]] == ["ann"]
     with pytest.raises(meshmark.InvalidOption, match="no asset 'nope'"):
         catalog.key("nope")
+
+
+def test_scan_writes_the_programs_evidence_report_per_suspect(originals, tmp_path):
+    catalog = meshmark.Catalog(tmp_path / "cat.db", create=True)
+    catalog.add([originals], tmp_path / "out", seed=3)
+    catalog.issue("ring.ply", ["ann"], str(tmp_path / "copies" / "{recipient}.ply"))
+    suspects = [tmp_path / "copies" / "ann.ply", originals / "sub" / "flat_ring.obj"]
+    # One file for two suspects is refused before any work, as --report is.
+    with pytest.raises(meshmark.InvalidOption, match="one file for several suspects"):
+        catalog.scan(suspects, report=tmp_path / "one.html")
+    assert not (tmp_path / "one.html").exists()
+    report = catalog.scan(suspects, candidates=2, report=str(tmp_path / "r_{suspect}.html"))
+    found, unmarked = report["suspects"]
+    assert found["detected"] and found["report"] == str(tmp_path / "r_ann.html")
+    text = (tmp_path / "r_ann.html").read_text()
+    assert "ring.ply" in text and "ann" in text and "meshmark.Catalog(" in text
+    # An unmarked original: compared with the nearest asset tried, its report says not found.
+    assert not unmarked["detected"] and (tmp_path / "r_flat_ring.html").is_file()
