@@ -131,6 +131,14 @@ def proc_cpu(pid):
         return 0.0
 
 
+def system_cpu():
+    """Machine-wide CPU seconds from /proc/stat: (busy, iowait, steal)."""
+    with open("/proc/stat") as f:
+        v = [int(x) for x in f.readline().split()[1:]]
+    # user nice system idle iowait irq softirq steal
+    return (v[0] + v[1] + v[2] + v[5] + v[6] + v[7]) / TICKS, v[4] / TICKS, v[7] / TICKS
+
+
 def thread_cpu():
     """This process's CPU seconds per thread, named by Python where it knows the thread."""
     names = {t.native_id: t.name for t in threading.enumerate()}
@@ -164,8 +172,9 @@ def kill_group(proc, sig=signal.SIGTERM, wait=10.0):
 
 
 class Cluster:
-    def __init__(self, work, env):
+    def __init__(self, work, env, worker_env=None):
         self.work, self.env = work, env
+        self.worker_env = worker_env or env
         self.port = free_port()
         self.address = f"tcp://127.0.0.1:{self.port}"
         (work / "logs").mkdir(parents=True, exist_ok=True)
@@ -200,7 +209,7 @@ class Cluster:
         self.workers[n] = subprocess.Popen(
             ["dask-worker", self.address, "--nthreads", "1", "--no-dashboard", "--host", "127.0.0.1",
              "--local-directory", str(self.work / f"dask-{n}"), "--name", f"w{n}"],
-            env=self.env, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+            env=self.worker_env, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
         return n
 
     def stop_worker(self, n, sig=signal.SIGTERM):
@@ -257,14 +266,18 @@ def tree_digest(folder):
     return out
 
 
-def compare_digests(reference, digest):
+def compare_digests(reference, digest, not_marked=()):
+    """Differences, each told as in the folder of an asset the reference did not mark or not."""
     problems = []
     missing = sorted(set(reference) - set(digest))
     extra = sorted(set(digest) - set(reference))
     differ = sorted(k for k in set(reference) & set(digest) if reference[k] != digest[k])
+    folders = {str(Path(a).parent) for a in not_marked}
     for what, items in (("missing", missing), ("extra", extra), ("different", differ)):
         if items:
-            problems.append(f"{len(items)} files {what}, e.g. {items[:3]}")
+            beside = sum(1 for i in items if str(Path(i).parent) in folders)
+            note = f" ({beside} of them in the folder of an asset the reference did not mark)" if beside else ""
+            problems.append(f"{len(items)} files {what}{note}, e.g. {items[:3]}")
     return problems
 
 
@@ -363,7 +376,7 @@ class Bench:
         catalog = self.meshmark.Catalog(catalog_path, create=True)
         self.timer.reset()
         cluster_cpu = self.cluster.cpu() if self.cluster else {}
-        own, threads0 = os.times(), thread_cpu()
+        own, threads0, machine0 = os.times(), thread_cpu(), system_cpu()
         if during:
             during.start()
         start = time.perf_counter()
@@ -378,7 +391,7 @@ class Bench:
         wall = time.perf_counter() - start
         if during:
             during.join()
-        own2, threads1 = os.times(), thread_cpu()
+        own2, threads1, machine1 = os.times(), thread_cpu(), system_cpu()
         cluster_cpu2 = self.cluster.cpu() if self.cluster else {}
         counts = report["counts"]
         tasks = counts.get("marked", 0) + counts.get("unmarkable", 0) + counts.get("failed", 0)
@@ -401,13 +414,19 @@ class Bench:
             run["workers_cpu_s"] = sum(cluster_cpu2.get(p, 0.0) - cluster_cpu.get(p, 0.0)
                                        for p in set(cluster_cpu) | set(cluster_cpu2)
                                        if p != sched and p in cluster_cpu and p in cluster_cpu2)
+        run["machine_busy_s"] = machine1[0] - machine0[0]
+        run["machine_iowait_s"] = machine1[1] - machine0[1]
+        run["machine_steal_s"] = machine1[2] - machine0[2]
+        ours = run["coordinator_cpu_s"] + run.get("scheduler_cpu_s", 0.0) + run.get("workers_cpu_s", 0.0)
+        run["other_cpu_s"] = run["machine_busy_s"] - ours  # processes not of this run (and the kernel's)
         run["report"] = report
         return run
 
     def check_same(self, run, reference, what):
         """Files, outcomes and a few keys as the reference's; catalogue complete, each asset once."""
         args = self.args
-        issues = compare_digests(reference["digest"], tree_digest(run["output"]))
+        issues = compare_digests(reference["digest"], tree_digest(run["output"]),
+                                 [f["asset"] for f in reference["report"]["files"] if f["outcome"] != "marked"])
         ref_out, out = outcomes_of(reference["report"]), outcomes_of(run["report"])
         if sorted(out) != sorted(ref_out):
             issues.append(f"the report names other assets ({len(out)} vs {len(ref_out)})")
@@ -666,25 +685,36 @@ def med(values):
 
 def summary(result):
     lines = ["# catalog add on a Dask cluster", ""]
+    if result["args"].get("worker_tmpdir"):
+        lines.append(f"workers' TMPDIR (staging folders): {result['args']['worker_tmpdir']}")
     lines.append(f"{result['machine']}; corpus {result['corpus_files']} files ({result['corpus_note']}); "
                  f"seed {result['seed']}")
     runs = result.get("throughput", [])
     if runs:
         lines += ["", "| run | round | wall s | assets/s | sum of per-file marking s | coordinator CPU s "
-                  "| _catalog_record wall s / CPU s (calls) | workers CPU s | scheduler CPU s | identical |",
-                  "|---|---|---|---|---|---|---|---|---|---|"]
+                  "| _catalog_record wall s / CPU s (calls) | workers CPU s | scheduler CPU s | other CPU s "
+                  "| iowait s | identical |",
+                  "|---|---|---|---|---|---|---|---|---|---|---|---|"]
         for r in [result["reference"]] + runs:
             rec = r["steps"].get("_catalog_record", {})
             rec_text = f"{rec['wall_s']:.2f} / {rec['cpu_s']:.2f} ({rec['calls']})" if rec else "-"
             lines.append(f"| {r['label']} | {r.get('round', '-')} | {r['wall_s']:.2f} | {r['assets_per_s']:.1f} | "
                          f"{r['marking_s_sum']:.1f} | {r['coordinator_cpu_s']:.1f} | {rec_text} | "
                          f"{r.get('workers_cpu_s', 0):.1f} | {r.get('scheduler_cpu_s', 0):.1f} | "
-                         f"{r.get('identical', 'reference')} |")
+                         f"{r['other_cpu_s']:.1f} | {r['machine_iowait_s']:.1f} | {r.get('identical', 'reference')} |")
         lines += ["", "| configuration | median assets/s |", "|---|---|"]
         for key, value in result["medians"].items():
             lines.append(f"| {key} | {value:.1f} |")
         lines += ["", f"ratio 2 workers / 1 worker (medians): **{result['ratio_workers']:.2f}**; "
                   f"local jobs=2 / jobs=1: {result['ratio_local']:.2f}"]
+        lines += ["", "| round | 2 workers / 1 worker | local jobs=2 / jobs=1 | calibration: spin | calibration: "
+                  "two local adds |", "|---|---|---|---|---|"]
+        for c in result["calibration"]:
+            r = c["round"]
+            per = {(x["mode"], x["workers"] or x["jobs"]): x["assets_per_s"] for x in runs if x["round"] == r}
+            lines.append(f"| {r} | {per[('cluster', 2)] / per[('cluster', 1)]:.2f} | "
+                         f"{per[('local', 2)] / per[('local', 1)]:.2f} | {c['spin_ratio']:.2f} | {c['add_ratio']:.2f} |")
+        lines.append("")
         c = result["calibration_medians"]
         lines.append(f"machine (no coordination, medians): 2 processes / 1 process: pure-Python spin "
                      f"{c['spin_ratio']:.2f}, two local adds of the corpus's halves at once "
@@ -735,6 +765,7 @@ def main():
     parser.add_argument("--skip-throughput", action="store_true")
     parser.add_argument("--skip-kills", action="store_true")
     parser.add_argument("--keep", action="store_true", help="keep every run's catalogue and files")
+    parser.add_argument("--worker-tmpdir", help="TMPDIR of the workers (their staging folders)")
     parser.add_argument("--json-file")
     args = parser.parse_args()
     if not args.cli or not Path(args.cli).exists():
@@ -761,7 +792,8 @@ def main():
     if len(chosen) < args.assets:
         say(f"only {len(chosen)} OBJs qualify for --assets {args.assets}")
     bench = Bench(args, work, env)
-    bench.cluster = Cluster(work, env)
+    worker_env = dict(env, TMPDIR=args.worker_tmpdir) if args.worker_tmpdir else env
+    bench.cluster = Cluster(work, env, worker_env)
     try:
         bench.cluster.start()
         say(f"scheduler {bench.cluster.address}")
