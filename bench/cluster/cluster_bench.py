@@ -563,10 +563,11 @@ class Bench:
         nanny = next(n for n, p in self.cluster.workers.items()
                      if victim in children_of(p.pid))
         delay = rng.uniform(0.3, 0.6) * reference["wall_s"]
-        state = {"done": 0, "total": 0, "at": None}
+        state = {"done": 0, "total": 0, "at": None, "times": []}
 
         def progress(done, total):
             state["done"], state["total"] = done, total
+            state["times"].append(time.perf_counter())
 
         def killer():
             time.sleep(delay)
@@ -581,6 +582,12 @@ class Bench:
         say(f"-- worker kill ({mode}) on {corpus}: kill at {delay:.1f} s")
         run = self.add(f"kill-{mode}", corpus, "cluster", workers=2, progress=progress,
                        during=threading.Thread(target=killer))
+        times = state["times"]
+        gaps = [(b - a, a - times[0]) for a, b in zip(times, times[1:])]
+        if gaps:
+            longest = max(gaps)
+            run["longest_gap_s"], run["longest_gap_at_s"] = longest[0], longest[1]
+            say(f"   longest wait between two recorded files: {longest[0]:.1f} s, at {longest[1]:.1f} s")
         run["kill_after_s"] = delay
         run["kill_at_files"] = state["at"]
         run["killed"] = "worker process" if mode == "worker" else "worker and nanny"
@@ -729,13 +736,15 @@ def summary(result):
                          f"{k.get('counts')}; identical to the run without kill: {k.get('identical')}")
         else:
             lines.append(f"\n**{k['label']}** ({k['killed']} kill -9'ed after {k['kill_after_s']:.1f} s, at "
-                         f"{k['kill_at_files']} files): {k['wall_s']:.1f} s, {k['counts']}, catalogue lists "
+                         f"{k['kill_at_files']} files): {k['wall_s']:.1f} s (longest wait between two recorded files "
+                         f"{k.get('longest_gap_s', 0):.1f} s, at {k.get('longest_gap_at_s', 0):.1f} s; other "
+                         f"processes' CPU {k['other_cpu_s']:.1f} s), {k['counts']}, catalogue lists "
                          f"{k.get('listed_assets')} assets; workers after: {k.get('workers_after')}; "
                          f"identical to the run without kill: {k.get('identical')}")
     if result.get("kill_reference"):
         r = result["kill_reference"]
         lines.append(f"\nrun without kill ({r['files']} files, 2 workers): {r['wall_s']:.1f} s, "
-                     f"{r['assets_per_s']:.1f} assets/s, {r['counts']}")
+                     f"{r['assets_per_s']:.1f} assets/s, {r['counts']}; other processes' CPU {r['other_cpu_s']:.1f} s")
     lines.append("")
     lines.append("**ALL CHECKS HELD**" if not result["problems"] else
                  "**CHECKS FAILED**:\n" + "\n".join(f"- {p}" for p in result["problems"]))
