@@ -411,9 +411,10 @@ class Bench:
         if self.cluster:
             sched = self.cluster.scheduler.pid
             run["scheduler_cpu_s"] = cluster_cpu2.get(sched, 0.0) - cluster_cpu.get(sched, 0.0)
-            run["workers_cpu_s"] = sum(cluster_cpu2.get(p, 0.0) - cluster_cpu.get(p, 0.0)
-                                       for p in set(cluster_cpu) | set(cluster_cpu2)
-                                       if p != sched and p in cluster_cpu and p in cluster_cpu2)
+            # A process started during the run counts from 0; one killed during it is not
+            # counted (its CPU lands in other_cpu_s).
+            run["workers_cpu_s"] = sum(cpu - cluster_cpu.get(p, 0.0)
+                                       for p, cpu in cluster_cpu2.items() if p != sched)
         run["machine_busy_s"] = machine1[0] - machine0[0]
         run["machine_iowait_s"] = machine1[1] - machine0[1]
         run["machine_steal_s"] = machine1[2] - machine0[2]
@@ -572,6 +573,9 @@ class Bench:
         def killer():
             time.sleep(delay)
             state["at"] = (state["done"], state["total"])
+            if state["total"] and state["done"] >= state["total"]:
+                state["at"] = None  # the add was over: nothing killed midway
+                return
             if mode == "worker":
                 os.kill(victim, signal.SIGKILL)
             else:
@@ -588,10 +592,15 @@ class Bench:
             longest = max(gaps)
             run["longest_gap_s"], run["longest_gap_at_s"] = longest[0], longest[1]
             say(f"   longest wait between two recorded files: {longest[0]:.1f} s, at {longest[1]:.1f} s")
+        if state["at"] is None:
+            self.fail(f"worker kill ({mode}): the add finished before the kill at {delay:.1f} s; "
+                      f"nothing was tested (a larger --kill-assets)")
         run["kill_after_s"] = delay
         run["kill_at_files"] = state["at"]
         run["killed"] = "worker process" if mode == "worker" else "worker and nanny"
-        if mode == "node":
+        if state["at"] is None:
+            pass
+        elif mode == "node":
             self.cluster.workers.pop(nanny).wait(10)
             run["workers_after"] = len(self.cluster.client.scheduler_info()["workers"])
         else:
@@ -736,9 +745,10 @@ def summary(result):
                          f"{k.get('counts')}; identical to the run without kill: {k.get('identical')}")
         else:
             lines.append(f"\n**{k['label']}** ({k['killed']} kill -9'ed after {k['kill_after_s']:.1f} s, at "
-                         f"{k['kill_at_files']} files): {k['wall_s']:.1f} s (longest wait between two recorded files "
-                         f"{k.get('longest_gap_s', 0):.1f} s, at {k.get('longest_gap_at_s', 0):.1f} s; other "
-                         f"processes' CPU {k['other_cpu_s']:.1f} s), {k['counts']}, catalogue lists "
+                         f"{k['kill_at_files'] or 'no'} files): {k['wall_s']:.1f} s (longest wait between two recorded files "
+                         f"{k.get('longest_gap_s', 0):.1f} s, at {k.get('longest_gap_at_s', 0):.1f} s; CPU of other "
+                         f"processes, the killed worker's included: {k['other_cpu_s']:.1f} s), {k['counts']}, "
+                         f"catalogue lists "
                          f"{k.get('listed_assets')} assets; workers after: {k.get('workers_after')}; "
                          f"identical to the run without kill: {k.get('identical')}")
     if result.get("kill_reference"):
