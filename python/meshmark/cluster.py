@@ -42,11 +42,11 @@ from . import _meshmark
 Location = str | os.PathLike[str]
 
 
-def _mark(task: str) -> tuple[str, list[tuple[str, bytes]]]:
-    """A worker's task: one asset marked in memory (_meshmark._catalog_mark)."""
+def _mark(tasks: list[str]) -> list[tuple[str, list[tuple[str, bytes]]]]:
+    """A worker's task: a few assets marked in memory, one after the other (_catalog_mark)."""
     from meshmark import _meshmark as core  # on the worker
 
-    return core._catalog_mark(task, 1)
+    return [core._catalog_mark(task, 1) for task in tasks]
 
 
 def _scan(location: str, suspects: list[str], options: dict[str, Any]) -> dict[str, Any]:
@@ -85,10 +85,13 @@ def catalog_add(
     coefficients: int = 8,
     force: bool = False,
     retries: int = 2,
+    batch: int | None = None,
     progress: Callable[[int, int], None] | None = None,
 ) -> dict[str, Any]:
     """`catalog add` with the marking on the client's workers; its --json report.
 
+    batch: files per Dask task (default: up to 4, fewer when there are few files to spread over
+    the workers); a task's cost to the scheduler and the workers is shared by its files.
     retries: times a task whose worker failed (not the file: that is its outcome) is run again
     elsewhere; a worker that dies is handled by Dask itself (its tasks rescheduled).
     progress(done, total) is called as files are recorded.
@@ -111,51 +114,77 @@ def catalog_add(
     done = total - len(tasks)
     if progress:
         progress(done, total)
-    pending = iter(tasks)
-    running: dict[Any, str] = {}
+    slots = _slots(client)
+    if batch is None:
+        batch = max(1, min(4, len(tasks) // (2 * slots)))
+    if batch < 1:
+        raise _meshmark.InvalidOption("batch must be >= 1.")
+    # A batch's Dask key: its tasks' names (each a function of its content), hashed.
+    batches = [tasks[i : i + batch] for i in range(0, len(tasks), batch)]
+    pending = iter(batches)
+    running: dict[Any, list[tuple[str, str]]] = {}
 
     def submit_next() -> Any | None:
-        task = next(pending, None)
-        if task is None:
+        group = next(pending, None)
+        if group is None:
             return None
-        text, name = task
-        future = client.submit(_mark, text, key=name, pure=False, retries=retries)
-        running[future] = text
+        names = "+".join(name for _, name in group)
+        key = group[0][1] if len(group) == 1 else f"meshmark-add-batch-{_digest(names)}"
+        future = client.submit(
+            _mark, [text for text, _ in group], key=key, pure=False, retries=retries
+        )
+        running[future] = group
         return future
 
-    window = as_completed()
-    for _ in range(_slots(client)):
+    window = as_completed(loop=client.loop)  # (not the default client's: this one's)
+    for _ in range(slots):
         future = submit_next()
         if future is None:
             break
         window.add(future)
     for future in window:
-        text = running.pop(future)
-        index = json.loads(text)["file"]
+        group = running.pop(future)
         try:
-            marked, files = future.result()
-            outcomes[index] = _meshmark._catalog_record(catalog, text, marked, files)
-        except Exception as error:  # noqa: BLE001 - the cluster's failure is this file's outcome
-            outcome = json.loads(text)
-            outcomes[index] = json.dumps(
-                {
-                    "path": outcome["input"],
-                    "asset": outcome["asset"],
-                    "outcome": "failed",
-                    "reason": f"{outcome['input']}: the cluster could not mark it "
-                    f"({type(error).__name__}: {error}); run the add again.",
-                    "vertices": 0,
-                    "seconds": 0.0,
-                }
-            )
+            results = future.result()
+        except Exception as error:  # noqa: BLE001 - the cluster's failure is these files' outcome
+            results = [error] * len(group)
+        for (text, _), result in zip(group, results):
+            index = json.loads(text)["file"]
+            if isinstance(result, Exception):
+                outcomes[index] = _cluster_failure(text, result)
+            else:
+                marked, files = result
+                outcomes[index] = _meshmark._catalog_record(catalog, text, marked, files)
+            done += 1
+            if progress:
+                progress(done, total)
         future.release()
-        done += 1
-        if progress:
-            progress(done, total)
         following = submit_next()
         if following is not None:
             window.add(following)
     return _meshmark._catalog_add_report(catalog, outcomes)
+
+
+def _digest(text: str) -> str:
+    import hashlib
+
+    return hashlib.sha256(text.encode()).hexdigest()[:24]
+
+
+def _cluster_failure(text: str, error: Exception) -> str:
+    """The outcome of a file whose task the cluster gave up on."""
+    task = json.loads(text)
+    return json.dumps(
+        {
+            "path": task["input"],
+            "asset": task["asset"],
+            "outcome": "failed",
+            "reason": f"{task['input']}: the cluster could not mark it "
+            f"({type(error).__name__}: {error}); run the add again.",
+            "vertices": 0,
+            "seconds": 0.0,
+        }
+    )
 
 
 def _make_copies(task: str) -> tuple[str, list[tuple[str, bytes]]]:
@@ -213,7 +242,7 @@ def catalog_issue(
     }
     total = sum(len(json.loads(text)["copies"]) for text, _ in tasks)
     done = 0
-    for future in as_completed(futures):
+    for future in as_completed(futures, loop=client.loop):
         n, text = futures[future]
         made_json, files = future.result()  # a failed task fails the call: the names stay recorded
         _meshmark._catalog_deliver(catalog, text, made_json, files)

@@ -195,6 +195,43 @@ void copy_obj_materials(const fs::path& input, const fs::path& output)
     }
 }
 
+namespace
+{
+
+// A key store that copies an OBJ's materials beside its copy once the key is made (change()).
+class MaterialsOnRecord final : public FamilyKeyStore
+{
+public:
+    MaterialsOnRecord(FamilyKeyStore& inner, fs::path obj, fs::path copy)
+        : inner_(inner), obj_(std::move(obj)), copy_(std::move(copy))
+    {
+    }
+    [[nodiscard]] std::string name() const override { return inner_.name(); }
+    [[nodiscard]] std::string single_owner_advice() const override
+    {
+        return inner_.single_owner_advice();
+    }
+    [[nodiscard]] std::optional<Key> peek() const override { return inner_.peek(); }
+    double change(const std::function<std::optional<Key>(std::optional<Key>)>& update) override
+    {
+        const double waited = inner_.change(update);
+        if (!obj_.empty())
+        {
+            copy_obj_materials(obj_, copy_);
+            obj_.clear();
+        }
+        return waited;
+    }
+    void delivered(const std::vector<IssuedCopy>& copies) override { inner_.delivered(copies); }
+
+private:
+    FamilyKeyStore& inner_;
+    fs::path obj_;
+    fs::path copy_;
+};
+
+}  // namespace
+
 CatalogAddOutcome mark_asset(const CatalogMarkTask& task, const fs::path& output_root, int threads,
                              const KeyStoreFactory& store_of)
 {
@@ -240,14 +277,15 @@ CatalogAddOutcome mark_asset(const CatalogMarkTask& task, const fs::path& output
         {
             embed.link_folder = [&task](const fs::path&) { return task.published.parent_path(); };
         }
-        if (file.format == MeshFormat::Obj)
-        {
-            copy_obj_materials(task.original, copy);
-        }
-        const std::unique_ptr<FamilyKeyStore> store =
+        const std::unique_ptr<FamilyKeyStore> recorded =
             store_of(std::move(prototype), std::move(signature));
+        // An OBJ's materials are copied once its key is made (a mesh that cannot carry a mark
+        // leaves none: the output folder holds the same whether it was marked here or on a
+        // worker), before its copy is written (the writer finds them beside it).
+        MaterialsOnRecord store(*recorded,
+                                file.format == MeshFormat::Obj ? task.original : fs::path(), copy);
         (void)embed_recipients(
-            task.original, &file, [&](const std::string&) { return copy; }, *store, embed);
+            task.original, &file, [&](const std::string&) { return copy; }, store, embed);
         outcome.status = CatalogAddOutcome::Status::Marked;
         outcome.published = task.published;
     }
