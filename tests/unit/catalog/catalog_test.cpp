@@ -178,6 +178,17 @@ TEST(CatalogTest, an_obj_copy_gets_its_material_library_and_textures_beside_it)
     EXPECT_EQ(test::file_bytes(dir / "out" / "maps" / "skin.png"), "PNG bytes");
     EXPECT_NE(test::file_bytes(dir / "out" / "model.obj").find("mtllib model.mtl"),
               std::string::npos);
+
+    // An OBJ too small for a mark leaves no material beside a copy it does not get (a worker's
+    // marking leaves none either: docs/cluster.md).
+    fs::create_directories(in / "small");
+    std::ofstream(in / "small" / "tri.obj")
+        << "mtllib tri.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    std::ofstream(in / "small" / "tri.mtl") << "newmtl none\n";
+    const auto again = catalog_add(catalog, {in}, dir / "out", quick_options());
+    ASSERT_EQ(again.size(), 2U);
+    EXPECT_EQ(again[1].status, CatalogAddOutcome::Status::Unmarkable) << again[1].reason;
+    EXPECT_FALSE(fs::exists(dir / "out" / "small" / "tri.mtl"));
 }
 
 TEST(CatalogTest, issue_records_names_before_copies_and_threads_at_once_never_share_a_code)
