@@ -35,6 +35,7 @@ import json
 import os
 import sys
 from collections.abc import Callable, Iterable, Sequence
+from concurrent.futures import ALL_COMPLETED, FIRST_COMPLETED, ThreadPoolExecutor, wait
 from typing import Any
 
 from . import _meshmark
@@ -86,12 +87,15 @@ def catalog_add(
     force: bool = False,
     retries: int = 2,
     batch: int | None = None,
+    recorders: int = 4,
     progress: Callable[[int, int], None] | None = None,
 ) -> dict[str, Any]:
     """`catalog add` with the marking on the client's workers; its --json report.
 
     batch: files per Dask task (default: up to 4, fewer when there are few files to spread over
     the workers); a task's cost to the scheduler and the workers is shared by its files.
+    recorders: threads recording results at once (each record waits mostly on the disk: its
+    transactions and the copy's atomic writes; the catalogue serializes its own transactions).
     retries: times a task whose worker failed (not the file: that is its outcome) is run again
     elsewhere; a worker that dies is handled by Dask itself (its tasks rescheduled).
     progress(done, total) is called as files are recorded.
@@ -136,32 +140,51 @@ def catalog_add(
         running[future] = group
         return future
 
+    def record(text: str, result: Any) -> tuple[int, str]:
+        index = json.loads(text)["file"]
+        if isinstance(result, Exception):
+            return index, _cluster_failure(text, result)
+        marked, files = result
+        return index, _meshmark._catalog_record(catalog, text, marked, files)
+
+    if recorders < 1:
+        raise _meshmark.InvalidOption("recorders must be >= 1.")
     window = as_completed(loop=client.loop)  # (not the default client's: this one's)
     for _ in range(slots):
         future = submit_next()
         if future is None:
             break
         window.add(future)
-    for future in window:
-        group = running.pop(future)
-        try:
-            results = future.result()
-        except Exception as error:  # noqa: BLE001 - the cluster's failure is these files' outcome
-            results = [error] * len(group)
-        for (text, _), result in zip(group, results):
-            index = json.loads(text)["file"]
-            if isinstance(result, Exception):
-                outcomes[index] = _cluster_failure(text, result)
-            else:
-                marked, files = result
-                outcomes[index] = _meshmark._catalog_record(catalog, text, marked, files)
-            done += 1
-            if progress:
-                progress(done, total)
-        future.release()
-        following = submit_next()
-        if following is not None:
-            window.add(following)
+    recording: set[Any] = set()
+    with ThreadPoolExecutor(max_workers=recorders) as pool:
+
+        def collect(block: bool) -> None:
+            nonlocal done
+            finished, _ = wait(recording, return_when=FIRST_COMPLETED if block else ALL_COMPLETED)
+            for job in finished:
+                recording.discard(job)
+                index, outcome = job.result()
+                outcomes[index] = outcome
+                done += 1
+                if progress:
+                    progress(done, total)
+
+        for future in window:
+            group = running.pop(future)
+            try:
+                results = future.result()
+            except Exception as error:  # noqa: BLE001 - the cluster's failure: these files' outcome
+                results = [error] * len(group)
+            future.release()
+            for (text, _), result in zip(group, results):
+                recording.add(pool.submit(record, text, result))
+            # Results wait here (their bytes in memory) for at most two rounds of recorders.
+            while len(recording) > 2 * recorders:
+                collect(block=True)
+            following = submit_next()
+            if following is not None:
+                window.add(following)
+        collect(block=False)
     return _meshmark._catalog_add_report(catalog, outcomes)
 
 
