@@ -85,6 +85,17 @@ CatalogAddOutcome failed(CatalogAddOutcome outcome, const std::exception& e, boo
 namespace catalog_detail
 {
 
+std::string read_staged(const fs::path& path)
+{
+    std::ifstream in(path, std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    if (!in.good() && !in.eof())
+    {
+        throw IoError(path.string() + ": cannot read a staged file back.");
+    }
+    return bytes;
+}
+
 void write_unless_same(const fs::path& to, const std::string& bytes)
 {
     std::error_code error;

@@ -46,6 +46,9 @@ private:
     std::filesystem::path path_;
 };
 
+/// The bytes of a file a marking staged. \throws IoError.
+[[nodiscard]] std::string read_staged(const std::filesystem::path& path);
+
 /// The checks of an asset before copies are issued: recorded, complete, its original there.
 /// \throws InvalidOption, IoError.
 [[nodiscard]] CatalogAsset issuable_asset(const Catalog& catalog, const std::string& id);

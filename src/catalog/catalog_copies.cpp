@@ -75,17 +75,6 @@ EmbedStats parse_stats(const nlohmann::json& json)
     return s;
 }
 
-std::string read_bytes(const fs::path& path)
-{
-    std::ifstream in(path, std::ios::binary);
-    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    if (!in.good() && !in.eof())
-    {
-        throw IoError(path.string() + ": cannot read a staged file back.");
-    }
-    return bytes;
-}
-
 // The key store of a worker's copies: the recorded key, which already holds every name.
 class RecordedKey final : public FamilyKeyStore
 {
@@ -336,7 +325,7 @@ CatalogMadeCopies catalog_make_copies(const CatalogCopyTask& task, int threads)
             const fs::path to =
                 task.copies[c].path.parent_path() / it->path().lexically_relative(folder);
             (it->path() == staged(c) ? copies : made.files)
-                .emplace_back(to, read_bytes(it->path()));
+                .emplace_back(to, catalog_detail::read_staged(it->path()));
         }
     }
     made.files.insert(made.files.end(), copies.begin(), copies.end());

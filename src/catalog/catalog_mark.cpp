@@ -105,17 +105,6 @@ private:
     std::optional<Key>& key_;
 };
 
-std::string read_bytes(const fs::path& path)
-{
-    std::ifstream in(path, std::ios::binary);
-    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    if (!in.good() && !in.eof())
-    {
-        throw IoError(path.string() + ": cannot read a staged file back.");
-    }
-    return bytes;
-}
-
 }  // namespace
 
 nlohmann::json CatalogMarkTask::to_json() const
@@ -257,11 +246,11 @@ CatalogMarkedAsset catalog_mark(const CatalogMarkTask& task, int threads)
             {
                 marked.files.emplace_back(
                     it->path().lexically_relative(staging.path()).generic_string(),
-                    read_bytes(it->path()));
+                    catalog_detail::read_staged(it->path()));
             }
         }
         std::sort(marked.files.begin(), marked.files.end());
-        marked.files.emplace_back(task.asset, read_bytes(copy));
+        marked.files.emplace_back(task.asset, catalog_detail::read_staged(copy));
     }
     catch (const std::exception& e)
     {
