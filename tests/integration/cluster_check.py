@@ -240,7 +240,7 @@ with Client({address!r}) as client:
 l = meshmark.Catalog("py_local.db", create=True).add(["corpus/a"], "py_local", seed=9)
 assert r["counts"] == l["counts"] and r["counts"]["marked"] == {len(MESHES)}, (r, l)
 """
-            done = subprocess.run(["/usr/bin/python3", "-c", code], env=cluster.env,
+            done = subprocess.run([sys.executable, "-c", code], env=cluster.env,
                                   stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
             if check(done.returncode == 0, "Python Catalog.add(client=): " + done.stderr[-1500:]):
                 same_tree("py_local", "py_cluster", "Python Catalog.add(client=)")

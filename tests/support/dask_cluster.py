@@ -43,7 +43,7 @@ class DaskCluster:
             raise Unavailable("no dask-scheduler or dask-worker: apt-get install python3-distributed")
         self.count = workers
         self.nthreads = nthreads
-        self.python = python or "/usr/bin/python3"
+        self.python = python or sys.executable
         self.env = dict(os.environ)
         if pythonpath:
             rest = self.env.get("PYTHONPATH", "")
@@ -91,7 +91,7 @@ class DaskCluster:
         self.wait_for_workers(self.count)
 
     def connected_workers(self):
-        """Workers the scheduler knows, asked through a client of Debian's python3."""
+        """Workers the scheduler knows, asked through a client (this interpreter's)."""
         code = ("import sys\nfrom dask.distributed import Client\n"
                 f"c = Client({self.address!r}, timeout=20)\nprint(len(c.nthreads()))\nc.close()\n")
         done = subprocess.run([self.python, "-c", code], stdout=subprocess.PIPE,
