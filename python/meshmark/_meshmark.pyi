@@ -355,3 +355,36 @@ def compare(
     unit: str | None = ...,
     threads: int = ...,
 ) -> _Report: ...
+
+# Private: catalogue work's steps for meshmark.cluster (docs/cluster.md).
+_Files = list[tuple[str, bytes]]
+def _catalog_plan_add(
+    catalog: Catalog,
+    inputs: Sequence[_Path],
+    output: _Path,
+    *,
+    seed: int | None = ...,
+    strength: float | None = ...,
+    message: str | None = ...,
+    basis_size: int = ...,
+    coefficients: int = ...,
+    force: bool = ...,
+) -> tuple[list[str | None], list[tuple[str, str]]]: ...
+def _catalog_mark(task: str, threads: int = ...) -> tuple[str, _Files]: ...
+def _catalog_record(catalog: Catalog, task: str, marked: str, files: _Files) -> str: ...
+def _catalog_add_report(catalog: Catalog, outcomes: Sequence[str | None]) -> _Report: ...
+def _catalog_plan_issue(
+    catalog: Catalog,
+    asset: str,
+    recipients: Sequence[str],
+    output_pattern: str,
+    *,
+    recipients_file: _Path | None = ...,
+    lock_timeout: float = ...,
+    per_task: int = ...,
+) -> tuple[str, list[tuple[str, str]]]: ...
+def _catalog_make_copies(task: str, threads: int = ...) -> tuple[str, _Files]: ...
+def _catalog_deliver(catalog: Catalog, task: str, made: str, files: _Files) -> None: ...
+def _catalog_issue_report(
+    catalog: Catalog, asset: str, plan: str, made: Sequence[str], seconds: float
+) -> _Report: ...

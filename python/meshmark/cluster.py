@@ -61,13 +61,13 @@ def _scan(location: str, suspects: list[str], options: dict[str, Any]) -> dict[s
 def _slots(client: Any) -> int:
     """Tasks to keep in flight: twice the workers' threads (at least 4)."""
     try:
-        threads = sum(client.nthreads().values())
+        threads = int(sum(client.nthreads().values()))
     except Exception:  # noqa: BLE001 - a client of another kind: a fixed window
         threads = 2
     return max(4, 2 * threads)
 
 
-def _open(catalog: Any, create: bool) -> Any:
+def _open(catalog: Any, create: bool) -> _meshmark.Catalog:
     if isinstance(catalog, _meshmark.Catalog):
         return catalog
     return _meshmark.Catalog(catalog, create=create)
@@ -102,9 +102,9 @@ def catalog_add(
     """
     from dask.distributed import as_completed
 
-    catalog = _open(catalog, create=True)
+    opened = _open(catalog, create=True)
     outcomes, tasks = _meshmark._catalog_plan_add(
-        catalog,
+        opened,
         [os.fspath(p) for p in inputs],
         os.fspath(output),
         seed=seed,
@@ -145,16 +145,16 @@ def catalog_add(
         if isinstance(result, Exception):
             return index, _cluster_failure(text, result)
         marked, files = result
-        return index, _meshmark._catalog_record(catalog, text, marked, files)
+        return index, _meshmark._catalog_record(opened, text, marked, files)
 
     if recorders < 1:
         raise _meshmark.InvalidOption("recorders must be >= 1.")
-    window = as_completed(loop=client.loop)  # (not the default client's: this one's)
+    window = as_completed(loop=client.loop)  # type: ignore[no-untyped-call]  # (this client's)
     for _ in range(slots):
         future = submit_next()
         if future is None:
             break
-        window.add(future)
+        window.add(future)  # type: ignore[no-untyped-call]
     recording: set[Any] = set()
     with ThreadPoolExecutor(max_workers=recorders) as pool:
 
@@ -183,9 +183,9 @@ def catalog_add(
                 collect(block=True)
             following = submit_next()
             if following is not None:
-                window.add(following)
+                window.add(following)  # type: ignore[no-untyped-call]
         collect(block=False)
-    return _meshmark._catalog_add_report(catalog, outcomes)
+    return _meshmark._catalog_add_report(opened, outcomes)
 
 
 def _digest(text: str) -> str:
@@ -241,7 +241,7 @@ def catalog_issue(
     from dask.distributed import as_completed
 
     start = time.monotonic()
-    catalog = _open(catalog, create=False)
+    opened = _open(catalog, create=False)
     names = list(recipients)
     if recipients_file is not None:
         names_in_file = os.fspath(recipients_file)
@@ -250,7 +250,7 @@ def catalog_issue(
     if per_task is None:
         per_task = max(8, -(-max(1, len(names)) // _slots(client)))
     plan, tasks = _meshmark._catalog_plan_issue(
-        catalog,
+        opened,
         asset,
         names,
         output_pattern,
@@ -265,17 +265,17 @@ def catalog_issue(
     }
     total = sum(len(json.loads(text)["copies"]) for text, _ in tasks)
     done = 0
-    for future in as_completed(futures, loop=client.loop):
+    for future in as_completed(futures, loop=client.loop):  # type: ignore[no-untyped-call]
         n, text = futures[future]
         made_json, files = future.result()  # a failed task fails the call: the names stay recorded
-        _meshmark._catalog_deliver(catalog, text, made_json, files)
+        _meshmark._catalog_deliver(opened, text, made_json, files)
         made[n] = made_json
         future.release()
         done += len(json.loads(text)["copies"])
         if progress:
             progress(done, total)
     return _meshmark._catalog_issue_report(
-        catalog, asset, plan, [m for m in made if m is not None], time.monotonic() - start
+        opened, asset, plan, [m for m in made if m is not None], time.monotonic() - start
     )
 
 
@@ -371,7 +371,9 @@ def main(argv: Iterable[str] | None = None) -> int:
     try:
         from dask.distributed import Client
 
-        with Client(request["scheduler"], timeout=request.get("connect_timeout", 30)) as client:
+        with Client(  # type: ignore[no-untyped-call]
+            request["scheduler"], timeout=request.get("connect_timeout", 30)
+        ) as client:
             show = _summary_progress(request["command"]) if request.get("progress") else None
             if request["command"] == "add":
                 report = catalog_add(

@@ -184,3 +184,18 @@ def test_mypy_checks_a_typed_program_against_the_stubs(tmp_path):
     wrong = run_mypy(tmp_path, TYPED_MISTAKES)
     assert wrong.returncode == 1, wrong.stdout + wrong.stderr
     assert wrong.stdout.count("error:") == 3, wrong.stdout
+
+
+@pytest.mark.skipif(importlib.util.find_spec("mypy") is None, reason="mypy is not installed (python3-mypy)")
+@pytest.mark.skipif(importlib.util.find_spec("distributed") is None,
+                    reason="dask.distributed is not installed (python3-distributed)")
+def test_mypy_checks_the_cluster_module_against_the_stubs(tmp_path):
+    """meshmark.cluster calls the extension's private steps as the stubs declare them."""
+    cluster = PACKAGE / "cluster.py"
+    env = {"MYPYPATH": str(PACKAGE.parent), "PATH": "/usr/bin:/bin"}
+    done = subprocess.run(
+        [sys.executable, "-m", "mypy", "--strict", "--no-incremental", "--cache-dir", str(tmp_path / "cache"),
+         "-p", "meshmark.cluster"],
+        capture_output=True, text=True, env=env, cwd=tmp_path)
+    assert cluster.is_file()
+    assert done.returncode == 0, done.stdout + done.stderr
