@@ -97,20 +97,13 @@ def copy_asset(obj, sh3f_root, corpus):
         shutil.copy2(item, target)
 
 
-def make_corpus(corpus, objs, sh3f_root, extra=None):
+def make_corpus(corpus, objs, sh3f_root):
     if corpus.exists():
         shutil.rmtree(corpus)
     corpus.mkdir(parents=True)
     for obj in objs:
         copy_asset(obj, sh3f_root, corpus)
-    count = len(objs)
-    if extra:
-        for mesh in sorted(Path(extra).iterdir()):
-            if mesh.suffix.lower() in MESH_SUFFIXES and mesh.is_file():
-                (corpus / "shared").mkdir(exist_ok=True)
-                shutil.copy2(mesh, corpus / "shared" / mesh.name)
-                count += 1
-    return count
+    return len(objs)
 
 
 # ---------------------------------------------------------------------------------------- cluster
@@ -778,8 +771,6 @@ def main():
     parser.add_argument("--keys", type=int, default=5, help="assets whose exported keys are compared")
     parser.add_argument("--min-vertices", type=int, default=500)
     parser.add_argument("--sh3f", default="/usr/share/sweethome3d/furniture")
-    parser.add_argument("--shared-meshes", default="/work/shared/data/meshes",
-                        help="meshes added to the kill corpus when too few OBJs qualify")
     parser.add_argument("--cli", default=default_cli(), help="the meshmark program")
     parser.add_argument("--skip-throughput", action="store_true")
     parser.add_argument("--skip-kills", action="store_true")
@@ -842,11 +833,16 @@ def main():
                 count = make_corpus(kill_corpus, evenly(qualifying, args.kill_assets), sh3f_root)
                 note = f"{args.kill_assets} of {len(qualifying)} qualifying sh3f OBJs"
             else:
-                extra = args.shared_meshes if Path(args.shared_meshes).is_dir() else None
-                count = make_corpus(kill_corpus, qualifying, sh3f_root, extra)
+                # Fewer qualifying OBJs than asked: all of them, then again under again/ (other
+                # asset ids, the same bytes) for the rest.
+                count = make_corpus(kill_corpus, qualifying, sh3f_root)
+                more = evenly(qualifying, args.kill_assets - count)
+                for obj in more:
+                    copy_asset(obj, sh3f_root, kill_corpus / "again")
+                count += len(more)
                 note = (f"only {len(qualifying)} sh3f OBJs have >= {args.min_vertices} vertices, fewer than "
-                        f"--kill-assets {args.kill_assets}: all of them plus {count - len(qualifying)} meshes of "
-                        f"{extra}")
+                        f"--kill-assets {args.kill_assets}: all of them, and {len(more)} of them again under "
+                        f"again/ (other assets, the same bytes)")
                 say(note)
             result["kill_corpus_files"], result["kill_corpus_note"] = count, note
             say(f"-- kill corpus: {count} files; run without kill (2 workers)")
