@@ -181,14 +181,21 @@ void write_scan_reports(const CatalogArgs& args, const Catalog& catalog,
     DetectionReportOptions evidence;
     evidence.pictures.threads = global.threads;
     evidence.version = kVersion;
+    std::vector<std::filesystem::path> suspects;
     for (const SuspectScan& scan : report.suspects)
     {
+        suspects.push_back(scan.path);
+    }
+    const std::vector<std::filesystem::path> paths =
+        scan_report_paths(args.report, suspects, catalog.path());
+    for (std::size_t s = 0; s < report.suspects.size(); ++s)
+    {
+        const SuspectScan& scan = report.suspects[s];
         if (!scan.error.empty())
         {
             continue;
         }
-        const std::filesystem::path path =
-            scan_report_paths(args.report, {scan.path}, catalog.path()).front();
+        const std::filesystem::path& path = paths[s];
         evidence.command = "meshmark catalog scan " + shell_word(catalog.path().string()) + " " +
                            shell_word(scan.path) +
                            (args.max_false_positive != DetectOptions{}.max_false_positive
