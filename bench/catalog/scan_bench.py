@@ -18,6 +18,8 @@ claimed (must be 0); the median and quartiles of the seconds per suspect.
 import argparse
 import json
 import random
+import shutil
+import sqlite3
 import statistics
 import subprocess
 import sys
@@ -44,6 +46,12 @@ def main():
     parser.add_argument("--candidates", type=int, default=8)
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--work", help="folder for the suspects (default: a temporary one)")
+    parser.add_argument("--without-points", action="store_true",
+                        help="also scan the same suspects against a copy of the (SQLite) catalogue whose "
+                             "signatures lack the points' section: the shape index's ranking alone")
+    parser.add_argument("--claimable", action="store_true",
+                        help="for every marked suspect missed, run `meshmark detect` told the right original "
+                             "at the scan's level: is it claimable at all?")
     args = parser.parse_args()
     rng = random.Random(args.seed)
     cli = args.cli
@@ -75,9 +83,34 @@ def main():
         lookalikes += sorted(p.rglob("*.ply")) if p.is_dir() else [p]
     for p in rng.sample(lookalikes, min(len(lookalikes), args.unmarked)):
         truth[str(p)] = None
-    scan = subprocess.run([cli, "catalog", "scan", args.catalog, *truth, "--json", "--candidates",
+    results = {"catalog": summary(cli, args, args.catalog, truth, work)}
+    if args.without_points:
+        stripped = work / "without-points.db"
+        shutil.copyfile(args.catalog, stripped)
+        with sqlite3.connect(stripped) as db:
+            # the views alone: 257 views of 30 bytes (ShapeSignature::to_bytes)
+            db.execute("UPDATE assets SET shape = substr(shape, 1, 7710) WHERE length(shape) > 7710")
+        results["without_points"] = summary(cli, args, str(stripped), truth, work)
+    print(json.dumps(results if args.without_points else results["catalog"], indent=1))
+    return 0
+
+
+def claimable(cli, catalog, assets, suspect, asset, work):
+    """Whether `meshmark detect` told the right original claims \p suspect at the scan's level."""
+    key = work / f"key-{abs(hash(asset))}.json"
+    subprocess.run([cli, "catalog", "export", catalog, asset, "--key", str(key), "--force", "-q"], check=True)
+    original = next(a["original"] for a in assets if a["asset"] == asset)
+    done = subprocess.run([cli, "detect", suspect, "--original", original, "--key", str(key), "--max-fpp",
+                           str(1e-6 / len(assets)), "-q"], capture_output=True, text=True)
+    return done.returncode == 0
+
+
+def summary(cli, args, catalog, truth, work):
+    scan = subprocess.run([cli, "catalog", "scan", catalog, *truth, "--json", "--candidates",
                            str(args.candidates), "-q"], capture_output=True, text=True)
     report = json.loads(scan.stdout)
+    assets = json.loads(subprocess.run([cli, "catalog", "list", catalog, "--json"], check=True,
+                                       capture_output=True, text=True).stdout)["assets"]
     per_attack, claimed, times, misses = {}, 0, [], []
     for s in report["suspects"]:
         times.append(s["seconds"]["total"])
@@ -93,20 +126,25 @@ def main():
         row[1] += 1
         if not ok:
             ranks = [t["asset"] for t in s["tried"]]
-            misses.append({"suspect": s["path"], "asset": asset, "attack": attack,
-                           "found": got["asset"] if got else None,
-                           "tried_rank": ranks.index(asset) if asset in ranks else None})
+            miss = {"suspect": s["path"], "asset": asset, "attack": attack,
+                    "found": got["asset"] if got else None,
+                    "tried_rank": ranks.index(asset) if asset in ranks else None}
+            if args.claimable:
+                miss["claimable"] = claimable(cli, catalog, assets, s["path"], asset, work)
+            misses.append(miss)
     times.sort()
     q = statistics.quantiles(times, n=4) if len(times) > 1 else times * 3
     marked = sum(v[1] for v in per_attack.values())
     found = sum(v[0] for v in per_attack.values())
-    print(json.dumps({"assets": report["assets"], "suspects": len(times), "marked": marked, "found": found,
-                      "per_attack": {k: f"{v[0]}/{v[1]}" for k, v in per_attack.items()},
-                      "unmarked": len(times) - marked, "unmarked_claimed": claimed,
-                      "seconds_per_suspect": {"median": round(statistics.median(times), 3), "q1": round(q[0], 3),
-                                              "q3": round(q[2], 3), "max": round(times[-1], 3)},
-                      "misses": misses}, indent=1))
-    return 0
+    out = {"assets": report["assets"], "suspects": len(times), "marked": marked, "found": found,
+           "per_attack": {k: f"{v[0]}/{v[1]}" for k, v in per_attack.items()},
+           "unmarked": len(times) - marked, "unmarked_claimed": claimed,
+           "seconds_per_suspect": {"median": round(statistics.median(times), 3), "q1": round(q[0], 3),
+                                   "q3": round(q[2], 3), "max": round(times[-1], 3)},
+           "misses": misses}
+    if args.claimable:
+        out["missed_claimable"] = sum(1 for m in misses if m["claimable"])
+    return out
 
 
 if __name__ == "__main__":

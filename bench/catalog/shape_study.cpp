@@ -11,6 +11,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <numbers>
 #include <string>
 #include <vector>
@@ -18,6 +19,7 @@
 #include "meshmark/attacks/attack_spec.h"
 #include "meshmark/attacks/cropping.h"
 #include "meshmark/catalog/catalog_scan.h"
+#include "meshmark/geometry/shape_fit.h"
 #include "meshmark/geometry/shape_signature.h"
 #include "meshmark/io/mesh_io.h"
 #include "meshmark/registration/registration.h"
@@ -80,12 +82,24 @@ int main(int argc, char** argv)
     std::vector<Catalog::IndexEntry> entries;
     for (std::size_t b = 0; b < index.size(); ++b)
     {
-        entries.push_back({names[b], index[b].to_bytes()});
+        entries.push_back(index_entry(names[b], index[b].to_bytes()));
     }
     std::vector<TriangleMesh> samples(meshes.size());
     for (std::size_t b = 0; b < meshes.size(); ++b)
     {
         samples[b].V = shape_sample(meshes[b], 2048);
+    }
+    std::vector<Positions> fit_samples(meshes.size());
+    std::vector<Positions> fit_normals(meshes.size());
+    std::vector<std::unique_ptr<PointKdTree>> fit_trees(meshes.size());
+    {
+        const char* points_env = std::getenv("MESHMARK_STUDY_FIT_POINTS");
+        const int fit_points = points_env ? std::stoi(points_env) : 1024;
+        for (std::size_t b = 0; b < meshes.size(); ++b)
+        {
+            fit_samples[b] = shape_sample(meshes[b], fit_points, &fit_normals[b]);
+            fit_trees[b] = std::make_unique<PointKdTree>(fit_samples[b]);
+        }
     }
     // MESHMARK_STUDY_ATTACKED=N: attack only the first N meshes of the list (the rest are
     // distractors); otherwise up to 60 spread over the list.
@@ -154,6 +168,66 @@ int main(int argc, char** argv)
                     std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
                 std::sort(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(m));
             }
+            // MESHMARK_STUDY_FIT=M: the first M re-ranked by shape_fit (the suspect's 512
+            // points onto the asset's MESHMARK_STUDY_FIT_POINTS, from the whole and the asset's
+            // MESHMARK_STUDY_FIT_VIEWS crop views nearest the suspect's features).
+            if (const char* fit_env = std::getenv("MESHMARK_STUDY_FIT"))
+            {
+                const std::size_t m = std::min<std::size_t>(d.size(), std::stoul(fit_env));
+                const char* views_env = std::getenv("MESHMARK_STUDY_FIT_VIEWS");
+                const std::size_t view_count = views_env ? std::stoul(views_env) : 3;
+                const char* sp_env = std::getenv("MESHMARK_STUDY_FIT_SUSPECT");
+                const Positions s_points = shape_sample(suspect, sp_env ? std::stoi(sp_env) : 512);
+                ShapeFitOptions fit_options;
+                if (const char* e = std::getenv("MESHMARK_STUDY_FIT_COARSE"))
+                {
+                    fit_options.coarse_rounds = std::stoi(e);
+                }
+                if (const char* e = std::getenv("MESHMARK_STUDY_FIT_FINE"))
+                {
+                    fit_options.fine_rounds = std::stoi(e);
+                }
+                if (const char* e = std::getenv("MESHMARK_STUDY_FIT_ACROSS"))
+                {
+                    fit_options.across = std::stoi(e) != 0;
+                }
+                if (const char* e = std::getenv("MESHMARK_STUDY_FIT_POINT"))
+                {
+                    fit_options.to_plane = std::stoi(e) == 0;
+                }
+                if (const char* e = std::getenv("MESHMARK_STUDY_FIT_POSES"))
+                {
+                    fit_options.fine_poses = std::stoi(e);
+                }
+                const ShapeFeatures features = shape_features(suspect);
+                const auto t0 = std::chrono::steady_clock::now();
+                for (std::size_t k = 0; k < m; ++k)
+                {
+                    const std::size_t b = d[k].second;
+                    std::vector<std::pair<float, int>> by_view;
+                    for (int v = 1; v < static_cast<int>(index[b].views.size()); ++v)
+                    {
+                        by_view.emplace_back(
+                            shape_distance(features, index[b].views[static_cast<std::size_t>(v)]),
+                            v);
+                    }
+                    const std::size_t kept = std::min(view_count, by_view.size());
+                    std::partial_sort(by_view.begin(),
+                                      by_view.begin() + static_cast<std::ptrdiff_t>(kept),
+                                      by_view.end());
+                    std::vector<int> views;
+                    for (std::size_t v = 0; v < kept; ++v)
+                    {
+                        views.push_back(by_view[v].second);
+                    }
+                    d[k].first =
+                        static_cast<float>(shape_fit(s_points, fit_samples[b], fit_normals[b],
+                                                     *fit_trees[b], views, fit_options));
+                }
+                verify_seconds +=
+                    std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+                std::stable_sort(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(m));
+            }
             int rank = 0;
             while (d[static_cast<std::size_t>(rank)].second != a)
             {
@@ -166,6 +240,7 @@ int main(int argc, char** argv)
         }
     }
     std::fprintf(stderr, "verification: %.1f s in all\n", verify_seconds);
+    std::fflush(stdout);
     for (const auto& [spec, r] : ranks)
     {
         const auto within = [&](int k)

@@ -43,7 +43,7 @@ std::vector<std::vector<std::uint8_t>> base_signatures()
                                          : icosphere(3);
         mesh.V.col(0) *= 1.0 + 0.05 * s;
         mesh.V.col(2) *= s % 3 == 2 ? 0.3 + 0.04 * s : 1.0;
-        signatures.push_back(shape_signature(mesh).to_bytes());
+        signatures.push_back(index_entry("", shape_signature(mesh).to_bytes()).views);
     }
     return signatures;
 }
@@ -78,7 +78,7 @@ const Data& data_of(std::size_t assets)
         {
             byte = moved(byte, rng);
         }
-        d.index.push_back({std::to_string(a), std::move(views)});
+        d.index.push_back({std::to_string(a), std::move(views), 0, 0, {}});
     }
     for (int s = 0; s < kSuspects; ++s)
     {

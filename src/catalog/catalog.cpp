@@ -18,7 +18,7 @@ namespace
 {
 
 constexpr const char* kFormat = "meshmark-catalog";
-constexpr int kVersion = 2;
+constexpr int kVersion = 3;
 
 }  // namespace
 
@@ -71,6 +71,12 @@ void Catalog::Impl::open(Open mode) const
     if (std::stoi(version) == 1)
     {
         migrate_from_v1();
+    }
+    if (std::stoi(version) <= 2)
+    {
+        // Version 3 adds the points' section to new signatures: older builds must not read
+        // them as damaged. Signatures without it stay valid (`catalog reindex` adds it).
+        execute("UPDATE meta SET value = ? WHERE name = 'version'", {std::to_string(kVersion)});
     }
 }
 
@@ -202,20 +208,35 @@ std::vector<Catalog::IndexEntry> Catalog::shape_index() const
                  impl_->query("SELECT id, shape, vertex_count, face_count FROM assets ORDER BY id"))
             {
                 const std::size_t size = row[1].bytes.size();
-                // A signature of this build, of an older one (the positions' features alone), or
-                // none.
-                if (size != 0 && size != static_cast<std::size_t>(kShapeViews * kShapeFeatures) &&
+                constexpr auto kViews = static_cast<std::size_t>(kShapeViews * kShapeFeatures);
+                // A signature of this build (views and points), of older ones (the views alone;
+                // the positions' features alone), or none.
+                if (size != 0 && size != kViews && size != kViews + kShapePointBytes &&
                     size != static_cast<std::size_t>(kShapeViews * kShapePositionFeatures))
                 {
                     throw IoError(path().string() + ": the shape signature of asset '" +
                                   row[0].as_text() + "' is damaged (" + std::to_string(size) +
                                   " bytes).");
                 }
-                entries.push_back(
-                    {row[0].as_text(), row[1].as_blob(), row[2].as_int(), row[3].as_int()});
+                entries.push_back(index_entry(row[0].as_text(), row[1].as_blob(), row[2].as_int(),
+                                              row[3].as_int()));
             }
             return entries;
         });
+}
+
+Catalog::IndexEntry index_entry(std::string id, std::vector<std::uint8_t> stored,
+                                std::int64_t vertex_count, std::int64_t face_count)
+{
+    constexpr auto kViews = static_cast<std::size_t>(kShapeViews * kShapeFeatures);
+    Catalog::IndexEntry entry{std::move(id), std::move(stored), vertex_count, face_count, {}};
+    if (entry.views.size() == kViews + kShapePointBytes)
+    {
+        entry.points.assign(entry.views.begin() + static_cast<std::ptrdiff_t>(kViews),
+                            entry.views.end());
+        entry.views.resize(kViews);
+    }
+    return entry;
 }
 
 void Catalog::set_shape(const std::string& id, const ShapeSignature& signature)

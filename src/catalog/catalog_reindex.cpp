@@ -45,7 +45,7 @@ std::vector<CatalogReindexOutcome> catalog_reindex(Catalog& catalog,
         outcome.asset = index[a].id;
         try
         {
-            if (!options.all && index[a].views.size() == kCurrentSize)
+            if (!options.all && index[a].views.size() == kCurrentSize && !index[a].points.empty())
             {
                 outcome.status = CatalogReindexOutcome::Status::Current;
                 return outcome;

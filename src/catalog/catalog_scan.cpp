@@ -16,6 +16,9 @@
 #include "meshmark/core/bounding_box.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/threads.h"
+#include "meshmark/geometry/point_kd_tree.h"
+#include "meshmark/geometry/shape_fit.h"
+#include "meshmark/geometry/shape_signature.h"
 #include "meshmark/io/mesh_io.h"
 #include "meshmark/pipeline/verdict.h"
 #include "meshmark/registration/registration.h"
@@ -150,6 +153,113 @@ std::vector<std::size_t> in_order_fits(const Catalog& catalog,
     return assets;
 }
 
+// The shape index's features rank near-duplicates (variants of one object) about as far apart
+// as an attack moves a copy, and a crop's asset often low; a fit of the suspect's points onto
+// each of the first kFitShortlist assets' points (shape_fit) ranks them far better
+// (bench/results/2026-11-30-shape-fit.md). The fit starts from the asset's whole and from its
+// kFitStartViews crop views nearest the suspect's features.
+constexpr std::size_t kFitShortlist = 64;
+constexpr std::size_t kFitStartViews = 3;
+// Candidates taken from the fit's ranking for each one from the index's: the index's own
+// first assets stay among the candidates (where the fit's start poses miss, it does not).
+constexpr std::size_t kFitTurns = 3;
+
+// The crop views of \p views (this build's width) nearest \p scaled (features in 255ths).
+std::vector<int> nearest_crop_views(const std::vector<std::uint8_t>& views,
+                                    const std::array<float, kShapeFeatures>& scaled)
+{
+    std::vector<std::pair<float, int>> by_view;
+    for (int v = 1; v < kShapeViews; ++v)
+    {
+        float sum = 0.0F;
+        for (std::size_t i = 0; i < kShapeFeatures; ++i)
+        {
+            const float d =
+                scaled[i] -
+                static_cast<float>(views[static_cast<std::size_t>(v) * kShapeFeatures + i]);
+            sum += d * d;
+        }
+        by_view.emplace_back(sum, v);
+    }
+    const std::size_t kept = std::min(kFitStartViews, by_view.size());
+    std::partial_sort(by_view.begin(), by_view.begin() + static_cast<std::ptrdiff_t>(kept),
+                      by_view.end());
+    std::vector<int> nearest;
+    for (std::size_t k = 0; k < kept; ++k)
+    {
+        nearest.push_back(by_view[k].second);
+    }
+    return nearest;
+}
+
+// The first kFitShortlist assets of \p by_shape not \p taken that hold points, best fit of
+// \p suspect first; on \p threads threads.
+std::vector<std::size_t> fit_ranking(const std::vector<Catalog::IndexEntry>& index,
+                                     const std::vector<std::pair<float, std::size_t>>& by_shape,
+                                     const std::vector<bool>& taken, const TriangleMesh& suspect,
+                                     const ShapeFeatures& features, int threads)
+{
+    std::vector<std::size_t> shortlist;
+    for (std::size_t r = 0; r < by_shape.size() && shortlist.size() < kFitShortlist; ++r)
+    {
+        const std::size_t a = by_shape[r].second;
+        if (!taken[a] && !index[a].points.empty())
+        {
+            shortlist.push_back(a);
+        }
+    }
+    if (shortlist.empty())
+    {
+        return shortlist;
+    }
+    std::array<float, kShapeFeatures> scaled{};
+    for (std::size_t i = 0; i < scaled.size(); ++i)
+    {
+        scaled[i] = 255.0F * features[i];
+    }
+    const Positions points = shape_sample(suspect, kShapePoints);
+    std::vector<std::pair<double, std::size_t>> fits(shortlist.size());
+    std::atomic<std::size_t> next{0};
+    const auto work = [&]
+    {
+        for (std::size_t k = next++; k < shortlist.size(); k = next++)
+        {
+            const Catalog::IndexEntry& entry = index[shortlist[k]];
+            double error = std::numeric_limits<double>::infinity();
+            try
+            {
+                Positions asset;
+                Positions normals;
+                ShapeSignature::points_from_bytes(entry.points, asset, normals);
+                const PointKdTree tree(asset);
+                error = shape_fit(points, asset, normals, tree,
+                                  nearest_crop_views(entry.views, scaled));
+            }
+            catch (const Error&)
+            {
+                // shape_index checked the size; nothing else can fail: ranks last
+            }
+            fits[k] = {error, shortlist[k]};
+        }
+    };
+    {
+        std::vector<std::jthread> workers;
+        for (int j = 1; j < std::min<int>(threads, static_cast<int>(shortlist.size())); ++j)
+        {
+            workers.emplace_back(work);
+        }
+        work();
+    }
+    std::stable_sort(fits.begin(), fits.end(),
+                     [](const auto& x, const auto& y) { return x.first < y.first; });
+    std::vector<std::size_t> ranked;
+    for (const auto& [error, a] : fits)
+    {
+        ranked.push_back(a);
+    }
+    return ranked;
+}
+
 }  // namespace
 
 std::vector<std::pair<float, std::size_t>> shape_candidates(
@@ -276,7 +386,8 @@ CatalogScanReport catalog_scan(const Catalog& catalog,
             const auto index_start = Clock::now();
             // Assets in the suspect's numbering first, then the shape index's, up to the
             // candidates asked; each with its shape distance.
-            const auto by_shape = shape_candidates(index, shape_features(suspect), index.size());
+            const ShapeFeatures features = shape_features(suspect);
+            const auto by_shape = shape_candidates(index, features, index.size());
             std::vector<float> distance(index.size(), std::numeric_limits<float>::infinity());
             for (const auto& [d, a] : by_shape)
             {
@@ -296,9 +407,26 @@ CatalogScanReport catalog_scan(const Catalog& catalog,
             {
                 take(a);
             }
-            for (const auto& [d, a] : by_shape)
+            // Then kFitTurns of the fit's ranking for each of the index's, in turn.
+            const std::vector<std::size_t> by_fit =
+                fit_ranking(index, by_shape, taken, suspect, features, threads);
+            std::size_t at_fit = 0;
+            std::size_t at_shape = 0;
+            while (ranked.size() < static_cast<std::size_t>(options.candidates) &&
+                   (at_fit < by_fit.size() || at_shape < by_shape.size()))
             {
-                take(a);
+                for (std::size_t turn = 0; turn < kFitTurns && at_fit < by_fit.size(); ++turn)
+                {
+                    take(by_fit[at_fit++]);
+                }
+                while (at_shape < by_shape.size() && taken[by_shape[at_shape].second])
+                {
+                    ++at_shape;
+                }
+                if (at_shape < by_shape.size())
+                {
+                    take(by_shape[at_shape++].second);
+                }
             }
             scan.index_seconds = seconds_since(index_start);
             std::vector<CandidateOutcome> outcomes(ranked.size());

@@ -4,7 +4,9 @@
 #include "meshmark/geometry/shape_signature.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstring>
 #include <numbers>
 #include <numeric>
 #include <tuple>
@@ -427,10 +429,12 @@ void nested_features(const std::vector<Vec3>& points, const Draws& draws,
     }
 }
 
+}  // namespace
+
 // The crop directions: kShapeCropDirections points of a Fibonacci lattice on the sphere
 // [Gonzalez 2010], nearly even; no direction is more than about 180 / sqrt(directions) degrees
 // from one of them.
-std::vector<Vec3> crop_directions()
+std::vector<Eigen::Vector3d> shape_crop_directions()
 {
     std::vector<Vec3> directions;
     const double golden_angle = std::numbers::pi * (3.0 - std::sqrt(5.0));
@@ -444,15 +448,23 @@ std::vector<Vec3> crop_directions()
     return directions;
 }
 
-}  // namespace
-
-Positions shape_sample(const TriangleMesh& mesh, int count)
+Positions shape_sample(const TriangleMesh& mesh, int count, Positions* normals)
 {
-    const std::vector<Vec3> points = surface_points(mesh, count);
+    std::vector<Vec3> drawn_normals;
+    const std::vector<Vec3> points =
+        surface_points(mesh, count, normals != nullptr ? &drawn_normals : nullptr);
     Positions sample(static_cast<Eigen::Index>(points.size()), 3);
     for (std::size_t i = 0; i < points.size(); ++i)
     {
         sample.row(static_cast<Eigen::Index>(i)) = points[i].transpose();
+    }
+    if (normals != nullptr)
+    {
+        normals->resize(sample.rows(), 3);
+        for (std::size_t i = 0; i < drawn_normals.size(); ++i)
+        {
+            normals->row(static_cast<Eigen::Index>(i)) = drawn_normals[i].transpose();
+        }
     }
     return sample;
 }
@@ -474,6 +486,7 @@ ShapeSignature shape_signature(const TriangleMesh& mesh)
     const Draws draws = draw(points, normals);
     const std::size_t n = points.size();
     ShapeSignature signature;
+    signature.points = shape_sample(mesh, kShapePoints, &signature.normals);
     signature.views.resize(kShapeViews);
     nested_features(points, draws, std::vector<std::uint8_t>(n, 1), 1, signature.views.data());
     // Per direction, the crop views are nested (a smaller kept fraction keeps a subset): each
@@ -483,7 +496,7 @@ ShapeSignature shape_signature(const TriangleMesh& mesh)
     std::vector<double> heights(n);
     std::vector<double> sorted(n);
     ShapeFeatures* out = signature.views.data() + 1;
-    for (const Vec3& d : crop_directions())
+    for (const Vec3& d : shape_crop_directions())
     {
         for (std::size_t i = 0; i < n; ++i)
         {
@@ -529,41 +542,6 @@ float shape_distance(const ShapeFeatures& a, const ShapeFeatures& b) noexcept
         sum += d * d;
     }
     return std::sqrt(sum);
-}
-
-std::vector<std::uint8_t> ShapeSignature::to_bytes() const
-{
-    std::vector<std::uint8_t> bytes;
-    bytes.reserve(views.size() * kShapeFeatures);
-    for (const ShapeFeatures& view : views)
-    {
-        for (const float x : view)
-        {
-            bytes.push_back(
-                static_cast<std::uint8_t>(std::lround(std::clamp(x, 0.0F, 1.0F) * 255.0F)));
-        }
-    }
-    return bytes;
-}
-
-ShapeSignature ShapeSignature::from_bytes(std::span<const std::uint8_t> bytes)
-{
-    constexpr std::size_t kViewBytes = kShapeFeatures;
-    if (bytes.size() % kViewBytes != 0)
-    {
-        throw InvalidOption("a shape signature of " + std::to_string(bytes.size()) +
-                            " bytes is not a whole number of views.");
-    }
-    ShapeSignature signature;
-    signature.views.resize(bytes.size() / kViewBytes);
-    for (std::size_t v = 0; v < signature.views.size(); ++v)
-    {
-        for (std::size_t i = 0; i < kShapeFeatures; ++i)
-        {
-            signature.views[v][i] = static_cast<float>(bytes[v * kViewBytes + i]) / 255.0F;
-        }
-    }
-    return signature;
 }
 
 }  // namespace meshmark

@@ -108,6 +108,9 @@ public:
         std::vector<std::uint8_t> views;
         std::int64_t vertex_count = 0;  ///< the original's (a copy in its numbering has as many)
         std::int64_t face_count = 0;
+        /// The signature's points' section (ShapeSignature::points_from_bytes); empty when the
+        /// signature was stored before points were kept (`catalog reindex` adds them).
+        std::vector<std::uint8_t> points;
     };
     /// The shape index of every recorded asset, an interrupted add's included: its key is
     /// recorded before its copy is written, so a copy the interruption left on disk is traced.
@@ -154,5 +157,11 @@ private:
     struct Impl;
     std::unique_ptr<Impl> impl_;
 };
+
+/// \brief An index entry of a signature as stored (ShapeSignature::to_bytes): the views, and the
+/// points' section apart when it is there.
+[[nodiscard]] Catalog::IndexEntry index_entry(std::string id, std::vector<std::uint8_t> stored,
+                                              std::int64_t vertex_count = 0,
+                                              std::int64_t face_count = 0);
 
 }  // namespace meshmark

@@ -143,8 +143,13 @@ TEST(CatalogTest, reindex_recomputes_an_older_builds_signatures_and_leaves_a_cha
         }
         (void)sql(
             at, "UPDATE assets SET shape = " + blob_literal(older) + " WHERE id = 'ellipsoid.ply'");
-        (void)sql(at, "UPDATE assets SET shape = " + blob_literal({}) +
-                          " WHERE id IN ('sub/egg.off', 'sub/torus.obj')");
+        // this build's views without the points' section (a build of 2026-11-30 wrote them)
+        const std::vector<std::uint8_t>& egg = added.at("sub/egg.off");
+        (void)sql(at, "UPDATE assets SET shape = " +
+                          blob_literal({egg.begin(), egg.begin() + kShapeViews * kShapeFeatures}) +
+                          " WHERE id = 'sub/egg.off'");
+        (void)sql(at,
+                  "UPDATE assets SET shape = " + blob_literal({}) + " WHERE id = 'sub/torus.obj'");
     }
     std::ofstream(in / "sub" / "torus.obj", std::ios::app) << "# edited\n";
 
@@ -241,7 +246,8 @@ TEST(CatalogTest,
     std::vector<Catalog::IndexEntry> index;
     for (std::size_t m = 0; m < meshes.size(); ++m)
     {
-        index.push_back({"asset" + std::to_string(m), shape_signature(meshes[m]).to_bytes()});
+        index.push_back(
+            index_entry("asset" + std::to_string(m), shape_signature(meshes[m]).to_bytes()));
     }
     // The torus as a catalogue of an older build holds it: the positions' features alone.
     std::vector<std::uint8_t> older;
@@ -310,6 +316,43 @@ TEST(CatalogTest, scan_tries_first_the_asset_whose_numbering_a_copy_keeps)
     ASSERT_EQ(report.suspects[0].matches.size(), 1U);
     EXPECT_EQ(report.suspects[0].matches[0].asset, "z_made.ply");
     EXPECT_TRUE(report.suspects[0].tried.empty());
+}
+
+TEST(CatalogTest, scan_tells_near_duplicate_variants_apart_by_the_fit_of_their_points)
+{
+    // Six variants of one surface, each "scanned again": a smooth bump field of its own, about
+    // 1.5% of the size. The shape index's features of a remeshed copy of one lie about as near
+    // the others' (without the fit, the test fails). The fit of the copy's points onto each
+    // variant's tells them apart, so the right one is the first tried.
+    const fs::path dir = test::temp_dir("catalog_variants");
+    fs::create_directories(dir / "in");
+    for (int v = 0; v < 6; ++v)
+    {
+        TriangleMesh variant = lumpy_ellipsoid(4);
+        Eigen::Matrix3d f;
+        for (int i = 0; i < 9; ++i)
+        {
+            f(i / 3, i % 3) = 2.0 * std::sin(1.7 * v + 0.9 * i + 0.3);
+        }
+        variant.V += 0.015 * (variant.V * f).array().sin().matrix();
+        write_mesh(dir / "in" / ("v" + std::to_string(v) + ".ply"), variant);
+    }
+    const std::string at = catalog_at(dir);
+    Catalog catalog(at, Catalog::Open::CreateIfMissing);
+    (void)catalog_add(catalog, {dir / "in"}, dir / "out", quick_options());
+    CatalogScanOptions options;
+    options.candidates = 1;
+    for (const std::string v : {"v1.ply", "v4.ply"})
+    {
+        write_mesh(dir / ("suspect-" + v),
+                   apply_attacks(read_mesh(dir / "out" / v),
+                                 parse_attack_spec("remesh=0.8,similarity"), 7, 1)
+                       .mesh);
+        const CatalogScanReport report = catalog_scan(catalog, {dir / ("suspect-" + v)}, options);
+        ASSERT_EQ(report.suspects.size(), 1U);
+        ASSERT_EQ(report.suspects[0].matches.size(), 1U) << v;
+        EXPECT_EQ(report.suspects[0].matches[0].asset, v);
+    }
 }
 
 }  // namespace

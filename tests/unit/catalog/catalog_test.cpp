@@ -363,7 +363,7 @@ TEST(CatalogTest, a_version_1_catalogue_is_read_with_its_recipients_and_upgraded
     (void)sql(at, "UPDATE meta SET value = '1' WHERE name = 'version'");
     Catalog catalog(at, Catalog::Open::Existing);
     EXPECT_EQ(to_json(catalog.asset("a.ply")->key), to_json(before));
-    EXPECT_EQ(sql(at, "SELECT value FROM meta WHERE name = 'version'")[0][0], "2");
+    EXPECT_EQ(sql(at, "SELECT value FROM meta WHERE name = 'version'")[0][0], "3");
     EXPECT_EQ(sql(at, "SELECT key_json FROM assets WHERE id = 'a.ply'")[0][0].find("alice"),
               std::string::npos);
 }

@@ -1,12 +1,18 @@
 // SPDX-License-Identifier: MIT
 #include "meshmark/geometry/shape_signature.h"
 
+#include <array>
+#include <limits>
+#include <span>
+
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
 #include "meshmark/attacks/attack_spec.h"
 #include "meshmark/core/error.h"
 #include "meshmark/core/hash.h"
+#include "meshmark/geometry/point_kd_tree.h"
+#include "meshmark/geometry/shape_fit.h"
 #include "meshmark/geometry/shapes.h"
 
 namespace meshmark
@@ -64,13 +70,26 @@ TEST(ShapeSignatureTest, an_original_lists_its_whole_and_crop_views_and_round_tr
     ASSERT_EQ(signature.views.size(), static_cast<std::size_t>(kShapeViews));
     EXPECT_EQ(shape_distance(signature.views[0], shape_features(mesh)), 0.0F);
     const std::vector<std::uint8_t> bytes = signature.to_bytes();
-    EXPECT_EQ(bytes.size(), static_cast<std::size_t>(kShapeViews * kShapeFeatures));
+    EXPECT_EQ(bytes.size(),
+              static_cast<std::size_t>(kShapeViews * kShapeFeatures) + kShapePointBytes);
     const ShapeSignature back = ShapeSignature::from_bytes(bytes);
     ASSERT_EQ(back.views.size(), signature.views.size());
     for (std::size_t v = 0; v < back.views.size(); ++v)
     {
         EXPECT_LE(shape_distance(back.views[v], signature.views[v]), 0.01F);
     }
+    // The points within 1/65,535 of their box, the normals within 1/127 and of unit length.
+    ASSERT_EQ(signature.points.rows(), kShapePoints);
+    ASSERT_EQ(back.points.rows(), kShapePoints);
+    const double box =
+        (signature.points.colwise().maxCoeff() - signature.points.colwise().minCoeff()).maxCoeff();
+    EXPECT_LE((back.points - signature.points).cwiseAbs().maxCoeff(), 1e-4 * box);
+    EXPECT_LE((back.normals - signature.normals).cwiseAbs().maxCoeff(), 0.02);
+    EXPECT_NEAR(back.normals.rowwise().norm().minCoeff(), 1.0, 1e-9);
+    // A signature stored before the points were kept: the views alone.
+    const std::vector<std::uint8_t> views_only(bytes.begin(),
+                                               bytes.begin() + kShapeViews * kShapeFeatures);
+    EXPECT_EQ(ShapeSignature::from_bytes(views_only).points.rows(), 0);
     EXPECT_THROW((void)ShapeSignature::from_bytes(std::vector<std::uint8_t>(7)), Error);
 }
 
@@ -100,8 +119,10 @@ TEST(ShapeSignatureTest, empty_and_degenerate_meshes_give_zero_features)
 // changes it, and catalogues of older builds would then be ranked wrong.
 TEST(ShapeSignatureTest, the_positions_features_of_a_fixed_mesh_are_those_older_catalogues_hold)
 {
-    const std::vector<std::uint8_t> bytes = shape_signature(lumpy_ellipsoid(3)).to_bytes();
-    ASSERT_EQ(bytes.size(), static_cast<std::size_t>(kShapeViews * kShapeFeatures));
+    std::vector<std::uint8_t> bytes = shape_signature(lumpy_ellipsoid(3)).to_bytes();
+    ASSERT_EQ(bytes.size(),
+              static_cast<std::size_t>(kShapeViews * kShapeFeatures) + kShapePointBytes);
+    bytes.resize(static_cast<std::size_t>(kShapeViews * kShapeFeatures));  // the views
     std::vector<std::uint8_t> positions;
     for (std::size_t at = 0; at < bytes.size(); at += kShapeFeatures)
     {
@@ -109,6 +130,64 @@ TEST(ShapeSignatureTest, the_positions_features_of_a_fixed_mesh_are_those_older_
                          bytes.begin() + static_cast<std::ptrdiff_t>(at + kShapePositionFeatures));
     }
     EXPECT_EQ(hash_bytes(positions.data(), positions.size()), 0x37136d98ea3969a1ULL);
+}
+
+// shape_fit: a resampled, moved and mirrored copy fits its own surface closer than a
+// stretched variant of it, and a half of it fits from the crop view nearest its features.
+TEST(ShapeFitTest, a_resampled_mirrored_copy_fits_its_surface_better_than_a_stretched_variant)
+{
+    const TriangleMesh asset = lumpy_ellipsoid(4);
+    TriangleMesh variant = asset;
+    variant.V.col(0) *= 1.15;
+    TriangleMesh copy = apply_attacks(asset, parse_attack_spec("remesh=0.8,similarity"), 3, 1).mesh;
+    copy.V.col(1) *= -1.0;  // a mirror image
+    const Positions points = shape_sample(copy, kShapePoints);
+    const auto fit = [&](const TriangleMesh& onto, std::span<const int> views)
+    {
+        const ShapeSignature s = shape_signature(onto);
+        const PointKdTree tree(s.points);
+        return shape_fit(points, s.points, s.normals, tree, views);
+    };
+    const double own = fit(asset, {});
+    EXPECT_LT(own, 0.02);
+    EXPECT_LT(1.5 * own, fit(variant, {}));
+
+    const TriangleMesh half =
+        apply_attacks(asset, parse_attack_spec("crop=0.5,similarity"), 5, 1).mesh;
+    const Positions half_points = shape_sample(half, kShapePoints);
+    const ShapeSignature s = shape_signature(asset);
+    const PointKdTree tree(s.points);
+    const ShapeFeatures features = shape_features(half);
+    int nearest = 1;
+    for (int v = 2; v < kShapeViews; ++v)
+    {
+        if (shape_distance(features, s.views[static_cast<std::size_t>(v)]) <
+            shape_distance(features, s.views[static_cast<std::size_t>(nearest)]))
+        {
+            nearest = v;
+        }
+    }
+    const std::array<int, 1> views{nearest};
+    const double half_fit = shape_fit(half_points, s.points, s.normals, tree, views);
+    EXPECT_LT(half_fit, 0.1);
+    // onto another surface (a torus of the same size), from its nearest view too
+    const ShapeSignature other = shape_signature(torus(1.0, 0.4, 48, 24));
+    const PointKdTree other_tree(other.points);
+    int other_nearest = 1;
+    for (int v = 2; v < kShapeViews; ++v)
+    {
+        if (shape_distance(features, other.views[static_cast<std::size_t>(v)]) <
+            shape_distance(features, other.views[static_cast<std::size_t>(other_nearest)]))
+        {
+            other_nearest = v;
+        }
+    }
+    const std::array<int, 1> other_views{other_nearest};
+    EXPECT_LT(1.5 * half_fit,
+              shape_fit(half_points, other.points, other.normals, other_tree, other_views));
+    // Too few points to fit: no fit.
+    EXPECT_EQ(shape_fit(half_points.topRows(4), s.points, s.normals, tree, views),
+              std::numeric_limits<double>::infinity());
 }
 
 }  // namespace

@@ -1,0 +1,43 @@
+// SPDX-License-Identifier: MIT
+#pragma once
+
+#include <span>
+
+#include "meshmark/core/triangle_mesh.h"
+#include "meshmark/geometry/point_kd_tree.h"
+
+namespace meshmark
+{
+
+/// How much work shape_fit does; the defaults are those of `catalog scan`.
+struct ShapeFitOptions
+{
+    int coarse_rounds = 5;  ///< ICP rounds from each start pose, on a quarter of the points
+    int fine_poses = 2;     ///< the best start poses refined on all the points
+    int fine_rounds = 10;   ///< ICP rounds of those
+    double kept = 0.9;      ///< share of the suspect's points measured: the closest
+    bool to_plane = true;   ///< measure the distance along the asset's normal
+    bool across = true;     ///< refine by the distances to the asset's tangent planes
+};
+
+/// \brief How far a suspect's surface lies from an asset's after the best similarity (mirror
+/// images included) taking the suspect onto the asset or onto one of its crop views: the RMS of
+/// the distances from the suspect's points to the asset's nearest points (the closest nine
+/// tenths), over the suspect's RMS radius, in the suspect's own units (so shrinking a suspect
+/// into a corner of the asset does not help).
+/// \details A quick geometric check of the shape index's candidates: the index's features
+/// cannot tell near-duplicates apart (variants of one object) nor rank a crop's asset well, a
+/// fit of the points can. Start poses: the principal axes of the suspect's points set on those
+/// of the asset's whole and of each crop view given (the points above the view's plane), in
+/// their eight sign choices; a few ICP rounds on a quarter of the suspect's points for each, then
+/// more rounds with all of them for the best two.
+/// \param suspect points drawn on the suspect's surface (shape_sample; a few hundred).
+/// \param asset the asset's points (shape_sample of the original, in the original's frame), and
+/// \p tree over them.
+/// \param views crop views of the asset's signature to start from too (1 to kShapeViews - 1).
+/// \return the fit's relative RMS; infinity when either has fewer than 8 points.
+[[nodiscard]] double shape_fit(const Positions& suspect, const Positions& asset,
+                               const Positions& asset_normals, const PointKdTree& tree,
+                               std::span<const int> views, const ShapeFitOptions& options = {});
+
+}  // namespace meshmark
