@@ -110,14 +110,44 @@ int main(int argc, char** argv)
     const std::size_t step = attacked != nullptr ? 1 : std::max<std::size_t>(1, meshes.size() / 60);
     std::map<std::string, std::vector<int>> ranks;
     double verify_seconds = 0.0;
-    for (std::size_t a = 0; a < first; a += step)
+    // MESHMARK_STUDY_SUSPECTS=FILE: rank the suspects FILE lists instead, a line each:
+    // SUSPECT<TAB>ORIGINAL (ORIGINAL as LIST gives it), reported under the attack "file".
+    std::vector<std::pair<std::size_t, std::string>> jobs;
+    if (const char* listed = std::getenv("MESHMARK_STUDY_SUSPECTS"))
     {
-        for (const std::string& spec : specs)
+        std::ifstream in(listed);
+        for (std::string line; std::getline(in, line);)
+        {
+            const auto tab = line.find('\t');
+            const auto at = std::find(names.begin(), names.end(), line.substr(tab + 1));
+            if (tab != std::string::npos && at != names.end())
+            {
+                jobs.emplace_back(static_cast<std::size_t>(at - names.begin()),
+                                  "file:" + line.substr(0, tab));
+            }
+        }
+    }
+    else
+    {
+        for (std::size_t a = 0; a < first; a += step)
+        {
+            for (const std::string& spec : specs)
+            {
+                jobs.emplace_back(a, spec);
+            }
+        }
+    }
+    for (const auto& [a, spec] : jobs)
+    {
         {
             TriangleMesh suspect;
             try
             {
-                if (spec.starts_with("aligned-crop="))
+                if (spec.starts_with("file:"))
+                {
+                    suspect = read_mesh(spec.substr(5));
+                }
+                else if (spec.starts_with("aligned-crop="))
                 {
                     // A crop along the first of the index's directions (0, -1, -phi): no direction
                     // error, only the fraction's.
@@ -168,6 +198,11 @@ int main(int argc, char** argv)
                     std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
                 std::sort(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(m));
             }
+            int index_rank = 0;
+            while (d[static_cast<std::size_t>(index_rank)].second != a)
+            {
+                ++index_rank;
+            }
             // MESHMARK_STUDY_FIT=M: the first M re-ranked by shape_fit (the suspect's 512
             // points onto the asset's MESHMARK_STUDY_FIT_POINTS, from the whole and the asset's
             // MESHMARK_STUDY_FIT_VIEWS crop views nearest the suspect's features).
@@ -186,6 +221,17 @@ int main(int argc, char** argv)
                 if (const char* e = std::getenv("MESHMARK_STUDY_FIT_FINE"))
                 {
                     fit_options.fine_rounds = std::stoi(e);
+                }
+                for (const auto& [name, field] :
+                     {std::pair{"MESHMARK_STUDY_FIT_START_STRIDE", &ShapeFitOptions::start_stride},
+                      std::pair{"MESHMARK_STUDY_FIT_COARSE_POSES", &ShapeFitOptions::coarse_poses},
+                      std::pair{"MESHMARK_STUDY_FIT_COARSE_STRIDE", &ShapeFitOptions::coarse_stride},
+                      std::pair{"MESHMARK_STUDY_FIT_FINE_STRIDE", &ShapeFitOptions::fine_stride}})
+                {
+                    if (const char* e = std::getenv(name))
+                    {
+                        fit_options.*field = std::stoi(e);
+                    }
                 }
                 if (const char* e = std::getenv("MESHMARK_STUDY_FIT_ACROSS"))
                 {
@@ -234,9 +280,9 @@ int main(int argc, char** argv)
                 ++rank;
             }
             ranks[spec].push_back(rank);
-            std::printf("%s\t%s\t%d\t%.4f\t%.4f\n", names[a].c_str(), spec.c_str(), rank,
+            std::printf("%s\t%s\t%d\t%.4f\t%.4f\t%d\n", names[a].c_str(), spec.c_str(), rank,
                         static_cast<double>(d[static_cast<std::size_t>(rank)].first),
-                        static_cast<double>(d[0].first));
+                        static_cast<double>(d[0].first), index_rank);
         }
     }
     std::fprintf(stderr, "verification: %.1f s in all\n", verify_seconds);

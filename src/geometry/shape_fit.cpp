@@ -23,8 +23,6 @@ using Vec3 = Eigen::Vector3d;
 using Mat3 = Eigen::Matrix3d;
 
 constexpr Eigen::Index kMinPoints = 8;
-// Start poses refined by ICP on a quarter of the points (of 2 x 24 per part, scored as they stand).
-constexpr std::size_t kCoarsePoses = 8;
 // Weight of the distance along the asset's surface (to the nearest sample point) beside the
 // distance across it: the samples are about a sixth of the radius apart, which would
 // otherwise set the floor of every fit.
@@ -272,7 +270,8 @@ double shape_fit(const Positions& suspect, const Positions& asset, const Positio
     {
         const Eigen::MatrixX3d& source = sources[static_cast<std::size_t>(m)];
         const Frame from = frame_of(source);
-        const Eigen::MatrixX3d eighth = source(Eigen::seq(0, source.rows() - 1, 8), Eigen::all);
+        const Eigen::MatrixX3d eighth =
+            source(Eigen::seq(0, source.rows() - 1, options.start_stride), Eigen::all);
         for (const Frame& part : parts)
         {
             if (!(part.radius > 0.0))
@@ -296,14 +295,16 @@ double shape_fit(const Positions& suspect, const Positions& asset, const Positio
     }
     const auto by_error = [](const Start& a, const Start& b)
     { return a.pose.error < b.pose.error; };
-    const std::size_t coarse = std::min<std::size_t>(starts.size(), kCoarsePoses);
+    const std::size_t coarse =
+        std::min<std::size_t>(starts.size(), static_cast<std::size_t>(options.coarse_poses));
     std::partial_sort(starts.begin(), starts.begin() + static_cast<std::ptrdiff_t>(coarse),
                       starts.end(), by_error);
     starts.resize(coarse);
     for (Start& start : starts)
     {
         const Eigen::MatrixX3d& source = sources[static_cast<std::size_t>(start.source)];
-        refine(source(Eigen::seq(0, source.rows() - 1, 4), Eigen::all), own.radius, tree,
+        refine(source(Eigen::seq(0, source.rows() - 1, options.coarse_stride), Eigen::all), own.radius,
+               tree,
                asset_normals, options.coarse_rounds, options.kept, options.to_plane, false,
                start.pose);
     }
@@ -313,7 +314,9 @@ double shape_fit(const Positions& suspect, const Positions& asset, const Positio
          ++k)
     {
         Pose pose = starts[k].pose;
-        refine(sources[static_cast<std::size_t>(starts[k].source)], own.radius, tree, asset_normals,
+        const Eigen::MatrixX3d& source = sources[static_cast<std::size_t>(starts[k].source)];
+        refine(source(Eigen::seq(0, source.rows() - 1, options.fine_stride), Eigen::all),
+               own.radius, tree, asset_normals,
                options.fine_rounds, options.kept, options.to_plane, options.across, pose);
         best = std::min(best, pose.error);
     }

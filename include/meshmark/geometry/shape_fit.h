@@ -12,8 +12,12 @@ namespace meshmark
 /// How much work shape_fit does; the defaults are those of `catalog scan`.
 struct ShapeFitOptions
 {
-    int coarse_rounds = 5;  ///< ICP rounds from each start pose, on a quarter of the points
-    int fine_poses = 2;     ///< the best start poses refined on all the points
+    int start_stride = 8;   ///< start poses scored on every n-th of the suspect's points
+    int coarse_poses = 8;   ///< the best start poses refined by ICP
+    int coarse_stride = 4;  ///< on every n-th point
+    int coarse_rounds = 5;  ///< ICP rounds of those
+    int fine_stride = 1;    ///< the best of those refined again on every n-th point
+    int fine_poses = 2;     ///< how many
     int fine_rounds = 10;   ///< ICP rounds of those
     double kept = 0.9;      ///< share of the suspect's points measured: the closest
     bool to_plane = true;   ///< measure the distance along the asset's normal
