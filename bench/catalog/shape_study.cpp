@@ -225,7 +225,8 @@ int main(int argc, char** argv)
                 for (const auto& [name, field] :
                      {std::pair{"MESHMARK_STUDY_FIT_START_STRIDE", &ShapeFitOptions::start_stride},
                       std::pair{"MESHMARK_STUDY_FIT_COARSE_POSES", &ShapeFitOptions::coarse_poses},
-                      std::pair{"MESHMARK_STUDY_FIT_COARSE_STRIDE", &ShapeFitOptions::coarse_stride},
+                      std::pair{"MESHMARK_STUDY_FIT_COARSE_STRIDE",
+                                &ShapeFitOptions::coarse_stride},
                       std::pair{"MESHMARK_STUDY_FIT_FINE_STRIDE", &ShapeFitOptions::fine_stride}})
                 {
                     if (const char* e = std::getenv(name))

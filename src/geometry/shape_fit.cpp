@@ -303,10 +303,9 @@ double shape_fit(const Positions& suspect, const Positions& asset, const Positio
     for (Start& start : starts)
     {
         const Eigen::MatrixX3d& source = sources[static_cast<std::size_t>(start.source)];
-        refine(source(Eigen::seq(0, source.rows() - 1, options.coarse_stride), Eigen::all), own.radius,
-               tree,
-               asset_normals, options.coarse_rounds, options.kept, options.to_plane, false,
-               start.pose);
+        refine(source(Eigen::seq(0, source.rows() - 1, options.coarse_stride), Eigen::all),
+               own.radius, tree, asset_normals, options.coarse_rounds, options.kept,
+               options.to_plane, false, start.pose);
     }
     std::sort(starts.begin(), starts.end(), by_error);
     double best = std::numeric_limits<double>::infinity();
@@ -316,8 +315,8 @@ double shape_fit(const Positions& suspect, const Positions& asset, const Positio
         Pose pose = starts[k].pose;
         const Eigen::MatrixX3d& source = sources[static_cast<std::size_t>(starts[k].source)];
         refine(source(Eigen::seq(0, source.rows() - 1, options.fine_stride), Eigen::all),
-               own.radius, tree, asset_normals,
-               options.fine_rounds, options.kept, options.to_plane, options.across, pose);
+               own.radius, tree, asset_normals, options.fine_rounds, options.kept, options.to_plane,
+               options.across, pose);
         best = std::min(best, pose.error);
     }
     return best;

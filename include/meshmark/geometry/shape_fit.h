@@ -26,15 +26,18 @@ struct ShapeFitOptions
 
 /// \brief How far a suspect's surface lies from an asset's after the best similarity (mirror
 /// images included) taking the suspect onto the asset or onto one of its crop views: the RMS of
-/// the distances from the suspect's points to the asset's nearest points (the closest nine
-/// tenths), over the suspect's RMS radius, in the suspect's own units (so shrinking a suspect
-/// into a corner of the asset does not help).
+/// the distances from the suspect's points to the asset's nearest points along the asset's
+/// normals (and 1% of the rest; the closest nine tenths of the points), over the suspect's RMS
+/// radius, in the suspect's own units (so shrinking a suspect into a corner of the asset does
+/// not help).
 /// \details A quick geometric check of the shape index's candidates: the index's features
 /// cannot tell near-duplicates apart (variants of one object) nor rank a crop's asset well, a
-/// fit of the points can. Start poses: the principal axes of the suspect's points set on those
-/// of the asset's whole and of each crop view given (the points above the view's plane), in
-/// their eight sign choices; a few ICP rounds on a quarter of the suspect's points for each, then
-/// more rounds with all of them for the best two.
+/// fit of the points can (bench/results/2026-11-30-shape-fit.md). Start poses: the principal
+/// axes of the suspect's points, as given and mirrored, set on those of the asset's whole and of
+/// each crop view given (the points above the view's plane) in the 24 turns of a cube, each
+/// scored as it stands; the best refined by point-to-point ICP [Besl and McKay 1992] on a part
+/// of the points, the best of those by rounds to the asset's tangent planes [Chen and Medioni
+/// 1992] on all of them. Deterministic: the same points give the same value.
 /// \param suspect points drawn on the suspect's surface (shape_sample; a few hundred).
 /// \param asset the asset's points (shape_sample of the original, in the original's frame), and
 /// \p tree over them.
