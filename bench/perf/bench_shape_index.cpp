@@ -15,8 +15,11 @@
 
 #include <benchmark/benchmark.h>
 
+#include "meshmark/attacks/attack_spec.h"
 #include "meshmark/catalog/catalog_scan.h"
 #include "meshmark/core/rng.h"
+#include "meshmark/geometry/point_kd_tree.h"
+#include "meshmark/geometry/shape_fit.h"
 #include "meshmark/geometry/shape_signature.h"
 #include "meshmark/geometry/shapes.h"
 
@@ -110,6 +113,34 @@ BENCHMARK(BM_ShapeIndexExact)
     ->Arg(10'000)
     ->Arg(100'000)
     ->Unit(benchmark::kMillisecond);
+
+// One check of a candidate by the fit of points (shape_fit, as `catalog scan` runs it on each
+// of the index's first 64 assets): a remeshed and moved copy of a generated surface onto the
+// asset's stored points, from its whole and its 3 crop views nearest the copy's features.
+void BM_ShapeFit(benchmark::State& state)
+{
+    const TriangleMesh asset = lumpy_ellipsoid(4);
+    const ShapeSignature signature = shape_signature(asset);
+    const PointKdTree tree(signature.points);
+    const TriangleMesh copy =
+        apply_attacks(asset, parse_attack_spec("remesh=0.8,similarity"), 3, 1).mesh;
+    const Positions points = shape_sample(copy, kShapePoints);
+    const ShapeFeatures features = shape_features(copy);
+    std::vector<std::pair<float, int>> by_view;
+    for (int v = 1; v < kShapeViews; ++v)
+    {
+        by_view.emplace_back(shape_distance(features, signature.views[static_cast<std::size_t>(v)]),
+                             v);
+    }
+    std::partial_sort(by_view.begin(), by_view.begin() + 3, by_view.end());
+    const std::array<int, 3> views{by_view[0].second, by_view[1].second, by_view[2].second};
+    for (auto _ : state)
+    {
+        benchmark::DoNotOptimize(
+            shape_fit(points, signature.points, signature.normals, tree, views));
+    }
+}
+BENCHMARK(BM_ShapeFit)->Unit(benchmark::kMillisecond);
 
 #ifdef MESHMARK_HAVE_HNSWLIB
 // Every view of every asset a point of the graph, labelled by asset: an asset's distance is that
