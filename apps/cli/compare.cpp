@@ -271,7 +271,9 @@ void register_compare(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     command
         ->add_option("--samples", args->options.samples,
                      "Area samples per surface on top of the vertices; 0 = automatic (" +
-                         std::to_string(kAutoSamplesPerFace) + " per triangle)")
+                         std::to_string(kAutoSamplesPerFace) + " per triangle, " +
+                         std::to_string(kMinAutoSamples) + " to " +
+                         std::to_string(kMaxAutoSamples) + ")")
         ->check(CLI::Range(std::int64_t{0}, std::int64_t{1'000'000'000}))
         ->capture_default_str();
     command->add_option("--seed", args->options.seed, "Seed of the stratified sampling")
