@@ -30,6 +30,21 @@ float nearest_view(const ShapeSignature& signature, const ShapeFeatures& feature
     return best;
 }
 
+// The crop view (1 to kShapeViews - 1) of \p signature nearest \p features.
+int nearest_crop_view(const ShapeSignature& signature, const ShapeFeatures& features)
+{
+    int nearest = 1;
+    for (int v = 2; v < kShapeViews; ++v)
+    {
+        if (shape_distance(features, signature.views[static_cast<std::size_t>(v)]) <
+            shape_distance(features, signature.views[static_cast<std::size_t>(nearest)]))
+        {
+            nearest = v;
+        }
+    }
+    return nearest;
+}
+
 TriangleMesh moved(TriangleMesh mesh, double scale, bool mirror)
 {
     const Eigen::Matrix3d rotation =
@@ -158,31 +173,13 @@ TEST(ShapeFitTest, a_resampled_mirrored_copy_fits_its_surface_better_than_a_stre
     const ShapeSignature s = shape_signature(asset);
     const PointKdTree tree(s.points);
     const ShapeFeatures features = shape_features(half);
-    int nearest = 1;
-    for (int v = 2; v < kShapeViews; ++v)
-    {
-        if (shape_distance(features, s.views[static_cast<std::size_t>(v)]) <
-            shape_distance(features, s.views[static_cast<std::size_t>(nearest)]))
-        {
-            nearest = v;
-        }
-    }
-    const std::array<int, 1> views{nearest};
+    const std::array<int, 1> views{nearest_crop_view(s, features)};
     const double half_fit = shape_fit(half_points, s.points, s.normals, tree, views);
     EXPECT_LT(half_fit, 0.1);
     // onto another surface (a torus of the same size), from its nearest view too
     const ShapeSignature other = shape_signature(torus(1.0, 0.4, 48, 24));
     const PointKdTree other_tree(other.points);
-    int other_nearest = 1;
-    for (int v = 2; v < kShapeViews; ++v)
-    {
-        if (shape_distance(features, other.views[static_cast<std::size_t>(v)]) <
-            shape_distance(features, other.views[static_cast<std::size_t>(other_nearest)]))
-        {
-            other_nearest = v;
-        }
-    }
-    const std::array<int, 1> other_views{other_nearest};
+    const std::array<int, 1> other_views{nearest_crop_view(other, features)};
     EXPECT_LT(1.5 * half_fit,
               shape_fit(half_points, other.points, other.normals, other_tree, other_views));
     // Too few points to fit: no fit.
