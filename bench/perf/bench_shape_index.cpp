@@ -115,7 +115,7 @@ BENCHMARK(BM_ShapeIndexExact)
     ->Unit(benchmark::kMillisecond);
 
 // One check of a candidate by the fit of points (shape_fit, as `catalog scan` runs it on each
-// of the index's first 64 assets): a remeshed and moved copy of a generated surface onto the
+// of the index's first 128 assets): a remeshed and moved copy of a generated surface onto the
 // asset's stored points, from its whole and its 3 crop views nearest the copy's features.
 void BM_ShapeFit(benchmark::State& state)
 {

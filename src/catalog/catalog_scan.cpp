@@ -156,9 +156,10 @@ std::vector<std::size_t> in_order_fits(const Catalog& catalog,
 // The shape index's features rank near-duplicates (variants of one object) about as far apart
 // as an attack moves a copy, and a crop's asset often low; a fit of the suspect's points onto
 // each of the first kFitShortlist assets' points (shape_fit) ranks them far better
-// (bench/results/2026-11-30-shape-fit.md). The fit starts from the asset's whole and from its
-// kFitStartViews crop views nearest the suspect's features.
-constexpr std::size_t kFitShortlist = 64;
+// (bench/results/2026-11-30-shape-fit.md; 128 found on scans what 64 missed, 256 little more). The
+// fit starts from the asset's whole and from its kFitStartViews crop views nearest the suspect's
+// features.
+constexpr std::size_t kFitShortlist = 128;
 constexpr std::size_t kFitStartViews = 3;
 // Candidates taken from the fit's ranking for each one from the index's: the index's own
 // first assets stay among the candidates (where the fit's start poses miss, it does not).
