@@ -380,7 +380,7 @@ void register_catalog(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     scan->add_option("CATALOG", args->catalog, kCatalogHelp)->required();
     scan->add_option("SUSPECTS", args->inputs, "Suspect mesh files")->required();
     scan->add_option("--candidates", args->candidates,
-                     "Assets tried per suspect: same numbering, then nearest shape")
+                     "Assets tried per suspect: same numbering, then best shape fit")
         ->check(CLI::Range(1, 10000))
         ->capture_default_str();
     scan->add_flag("--all-candidates", args->all_candidates,
