@@ -19,7 +19,7 @@
 #include "meshmark/catalog/catalog_scan.h"
 #include "meshmark/core/rng.h"
 #include "meshmark/geometry/point_kd_tree.h"
-#include "meshmark/geometry/shape_fit.h"
+#include "meshmark/registration/shape_fit.h"
 #include "meshmark/geometry/shape_signature.h"
 #include "meshmark/geometry/shapes.h"
 

@@ -12,7 +12,7 @@
 #include "meshmark/core/error.h"
 #include "meshmark/core/hash.h"
 #include "meshmark/geometry/point_kd_tree.h"
-#include "meshmark/geometry/shape_fit.h"
+#include "meshmark/registration/shape_fit.h"
 #include "meshmark/geometry/shapes.h"
 
 namespace meshmark

@@ -1,18 +1,21 @@
 // SPDX-License-Identifier: MIT
 // A quick fit of a suspect's points onto an asset's: the shape index's candidates checked by
 // geometry (shape_fit.h).
-#include "meshmark/geometry/shape_fit.h"
+#include "meshmark/registration/shape_fit.h"
 
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <vector>
 
-#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 
 #include "meshmark/geometry/shape_signature.h"
+#include "meshmark/registration/point_to_plane.h"
+#include "meshmark/registration/similarity_fit.h"
+#include "registration/detail/coarse_alignment.h"
 
 namespace meshmark
 {
@@ -46,13 +49,7 @@ Frame frame_of(const Rows& points)
     const Eigen::MatrixX3d centred = points.rowwise() - frame.centre.transpose();
     const Mat3 covariance = centred.transpose() * centred / n;
     frame.radius = std::sqrt(covariance.trace());
-    const Eigen::SelfAdjointEigenSolver<Mat3> solver(covariance);
-    // Eigen sorts increasing: largest first.
-    frame.axes = solver.eigenvectors().rowwise().reverse();
-    if (frame.axes.determinant() < 0.0)
-    {
-        frame.axes.col(2) *= -1.0;
-    }
+    frame.axes = detail::principal_frame(covariance);
     return frame;
 }
 
@@ -66,46 +63,40 @@ struct Pose
     double error = std::numeric_limits<double>::infinity();
 };
 
-// One Gauss-Newton step of the similarity that brings the pairs' moved points onto their
-// partners' tangent planes [Chen and Medioni 1992, with a scale]: a sparse sample's nearest
-// points pull a point-to-point fit off the surface, the planes do not.
-void step_across(const Eigen::Matrix3Xd& from, const Eigen::Matrix3Xd& to, const Positions& normals,
-                 const std::vector<std::pair<double, Eigen::Index>>& order,
-                 const std::vector<std::uint32_t>& nearest, Eigen::Index kept, Pose& pose)
+// One point-to-plane step (point_to_plane_step, with scale) of the kept pairs, \p from moved
+// by \p pose onto the planes of \p to and \p to_normals: a sparse sample's nearest points pull a
+// point-to-point fit off the surface, the planes do not.
+void step_across(const Eigen::Matrix3Xd& from, const Eigen::Matrix3Xd& to,
+                 const Eigen::Matrix3Xd& to_normals, Pose& pose)
 {
-    Eigen::Matrix3Xd moved = (pose.scale * pose.rotation) * from;
-    moved.colwise() += pose.translation;
-    const Vec3 centre = moved.rowwise().mean();
-    Eigen::Matrix<double, 7, 7> normal = Eigen::Matrix<double, 7, 7>::Zero();
-    Eigen::Matrix<double, 7, 1> right = Eigen::Matrix<double, 7, 1>::Zero();
-    for (Eigen::Index k = 0; k < kept; ++k)
+    Positions moved = ((pose.scale * pose.rotation) * from).transpose();
+    moved.rowwise() += pose.translation.transpose();
+    std::vector<SurfaceMatch> matches(static_cast<std::size_t>(from.cols()));
+    std::vector<Eigen::Index> kept(matches.size());
+    for (Eigen::Index k = 0; k < from.cols(); ++k)
     {
-        const Eigen::Index i = order[static_cast<std::size_t>(k)].second;
-        const Vec3 n = normals.row(nearest[static_cast<std::size_t>(i)]).transpose();
-        const Vec3 y = moved.col(k) - centre;
-        Eigen::Matrix<double, 7, 1> row;
-        row << y.cross(n), n, n.dot(y);
-        normal += row * row.transpose();
-        right -= row * n.dot(moved.col(k) - to.col(k));
+        matches[static_cast<std::size_t>(k)] = {to.col(k), to_normals.col(k), 0.0};
+        kept[static_cast<std::size_t>(k)] = k;
     }
-    normal.diagonal().array() += 1e-9 * normal.trace() + 1e-300;
-    const Eigen::Matrix<double, 7, 1> delta = normal.ldlt().solve(right);
-    if (!delta.allFinite())
+    const std::optional<PointToPlaneStep<7>> update = point_to_plane_step<7>(moved, matches, kept);
+    if (!update || !(update->radius > 0.0))
     {
         return;
     }
-    const Vec3 omega = delta.head<3>();
-    const double angle = omega.norm();
-    const Mat3 turn =
-        angle > 0.0 ? Eigen::AngleAxisd(angle, omega / angle).toRotationMatrix() : Mat3::Identity();
-    const double grow = 1.0 + delta[6];
+    const Vec3 omega = update->delta.head<3>() / update->radius;
+    const double grow = 1.0 + update->delta(3) / update->radius;
     if (!(grow > 0.5 && grow < 2.0))
     {
         return;
     }
+    const double angle = omega.norm();
+    const Mat3 turn =
+        angle > 0.0 ? Eigen::AngleAxisd(angle, omega / angle).toRotationMatrix() : Mat3::Identity();
+    const Vec3& c = update->centre;
+    // y' = c + k dR (y - c) + tau, composed with y = s R x + t (as the registration's ICP does).
     pose.scale *= grow;
     pose.rotation = turn * pose.rotation;
-    pose.translation = grow * (turn * (pose.translation - centre)) + centre + delta.segment<3>(3);
+    pose.translation = c + grow * (turn * (pose.translation - c)) + update->delta.tail<3>();
 }
 
 // ICP rounds of \p source (rows: the suspect's points, mirrored or not) onto \p tree's points,
@@ -122,6 +113,7 @@ void refine(const Eigen::MatrixX3d& source, double source_radius, const PointKdT
     std::vector<std::uint32_t> nearest(static_cast<std::size_t>(n));
     Eigen::Matrix3Xd from(3, kept);
     Eigen::Matrix3Xd to(3, kept);
+    Eigen::Matrix3Xd to_normals(3, across ? kept : 0);
     const Positions& target = tree.points();
     for (int round = 0; round <= rounds; ++round)
     {
@@ -158,13 +150,17 @@ void refine(const Eigen::MatrixX3d& source, double source_radius, const PointKdT
             const Eigen::Index i = order[static_cast<std::size_t>(k)].second;
             from.col(k) = source.row(i).transpose();
             to.col(k) = target.row(nearest[static_cast<std::size_t>(i)]).transpose();
+            if (across)
+            {
+                to_normals.col(k) = normals.row(nearest[static_cast<std::size_t>(i)]).transpose();
+            }
         }
         if (across)
         {
-            step_across(from, to, normals, order, nearest, kept, pose);
+            step_across(from, to, to_normals, pose);
             continue;
         }
-        const Eigen::Matrix4d fit = Eigen::umeyama(from, to, true);
+        const Eigen::Matrix4d fit = fit_similarity(from, to);
         const double scale = fit.block<3, 1>(0, 0).norm();
         if (!(scale > 0.0) || !std::isfinite(scale))
         {
@@ -174,30 +170,6 @@ void refine(const Eigen::MatrixX3d& source, double source_radius, const PointKdT
         pose.rotation = fit.block<3, 3>(0, 0) / scale;
         pose.translation = fit.block<3, 1>(0, 3);
     }
-}
-
-// The 24 proper rotations mapping the coordinate axes onto themselves (a cube's turns).
-std::vector<Mat3> cube_rotations()
-{
-    std::vector<Mat3> turns;
-    const std::array<std::array<int, 3>, 6> orders = {
-        {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}}};
-    for (const auto& order : orders)
-    {
-        for (int signs = 0; signs < 8; ++signs)
-        {
-            Mat3 turn = Mat3::Zero();
-            for (int k = 0; k < 3; ++k)
-            {
-                turn(order[static_cast<std::size_t>(k)], k) = (signs >> k & 1) != 0 ? -1.0 : 1.0;
-            }
-            if (turn.determinant() > 0.0)
-            {
-                turns.push_back(turn);
-            }
-        }
-    }
-    return turns;
 }
 
 }  // namespace
@@ -264,7 +236,7 @@ double shape_fit(const Positions& suspect, const Positions& asset, const Positio
         Pose pose;
     };
     // Every start pose scored as it stands on an eighth of the points; the best few refined.
-    const std::vector<Mat3> turns = cube_rotations();
+    const std::vector<Mat3> turns = detail::axis_rotations();
     std::vector<Start> starts;
     for (int m = 0; m < 2; ++m)
     {
