@@ -19,10 +19,10 @@
 #include "meshmark/attacks/attack_spec.h"
 #include "meshmark/attacks/cropping.h"
 #include "meshmark/catalog/catalog_scan.h"
-#include "meshmark/registration/shape_fit.h"
 #include "meshmark/geometry/shape_signature.h"
 #include "meshmark/io/mesh_io.h"
 #include "meshmark/registration/registration.h"
+#include "meshmark/registration/shape_fit.h"
 
 using namespace meshmark;
 

@@ -19,9 +19,9 @@
 #include "meshmark/catalog/catalog_scan.h"
 #include "meshmark/core/rng.h"
 #include "meshmark/geometry/point_kd_tree.h"
-#include "meshmark/registration/shape_fit.h"
 #include "meshmark/geometry/shape_signature.h"
 #include "meshmark/geometry/shapes.h"
+#include "meshmark/registration/shape_fit.h"
 
 #if __has_include(<hnswlib/hnswlib.h>)
 #include <hnswlib/hnswlib.h>

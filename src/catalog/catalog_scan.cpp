@@ -17,11 +17,11 @@
 #include "meshmark/core/error.h"
 #include "meshmark/core/threads.h"
 #include "meshmark/geometry/point_kd_tree.h"
-#include "meshmark/registration/shape_fit.h"
 #include "meshmark/geometry/shape_signature.h"
 #include "meshmark/io/mesh_io.h"
 #include "meshmark/pipeline/verdict.h"
 #include "meshmark/registration/registration.h"
+#include "meshmark/registration/shape_fit.h"
 #include "meshmark/registration/similarity_fit.h"
 
 namespace meshmark

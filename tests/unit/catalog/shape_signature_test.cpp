@@ -12,8 +12,8 @@
 #include "meshmark/core/error.h"
 #include "meshmark/core/hash.h"
 #include "meshmark/geometry/point_kd_tree.h"
-#include "meshmark/registration/shape_fit.h"
 #include "meshmark/geometry/shapes.h"
+#include "meshmark/registration/shape_fit.h"
 
 namespace meshmark
 {
