@@ -80,34 +80,20 @@ std::vector<CatalogReindexOutcome> catalog_reindex(Catalog& catalog,
         return outcome;
     };
 
-    std::atomic<std::size_t> next{0};
     std::atomic<std::size_t> done{0};
     std::mutex progress_mutex;
-    const auto work = [&]
-    {
-        for (std::size_t a = next++; a < index.size(); a = next++)
-        {
-            outcomes[a] = reindex_one(a);
-            const std::size_t finished = ++done;
-            if (options.progress)
-            {
-                const std::lock_guard lock(progress_mutex);
-                options.progress("assets",
-                                 static_cast<double>(finished) / static_cast<double>(index.size()));
-            }
-        }
-    };
-    const int threads =
-        std::max(1, std::min<int>(resolve_threads(options.threads),
-                                  static_cast<int>(std::max<std::size_t>(index.size(), 1))));
-    {
-        std::vector<std::jthread> workers;
-        for (int t = 1; t < threads; ++t)
-        {
-            workers.emplace_back(work);
-        }
-        work();
-    }
+    for_each_index(index.size(), resolve_threads(options.threads),
+                   [&](std::size_t a)
+                   {
+                       outcomes[a] = reindex_one(a);
+                       const std::size_t finished = ++done;
+                       if (options.progress)
+                       {
+                           const std::lock_guard lock(progress_mutex);
+                           options.progress("assets", static_cast<double>(finished) /
+                                                          static_cast<double>(index.size()));
+                       }
+                   });
     return outcomes;
 }
 

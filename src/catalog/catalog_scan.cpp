@@ -220,37 +220,26 @@ std::vector<std::size_t> fit_ranking(const std::vector<Catalog::IndexEntry>& ind
     }
     const Positions points = shape_sample(suspect, kShapePoints);
     std::vector<std::pair<double, std::size_t>> fits(shortlist.size());
-    std::atomic<std::size_t> next{0};
-    const auto work = [&]
-    {
-        for (std::size_t k = next++; k < shortlist.size(); k = next++)
-        {
-            const Catalog::IndexEntry& entry = index[shortlist[k]];
-            double error = std::numeric_limits<double>::infinity();
-            try
-            {
-                Positions asset;
-                Positions normals;
-                ShapeSignature::points_from_bytes(entry.points, asset, normals);
-                const PointKdTree tree(asset);
-                error = shape_fit(points, asset, normals, tree,
-                                  nearest_crop_views(entry.views, scaled));
-            }
-            catch (const Error&)
-            {
-                // shape_index checked the size; nothing else can fail: ranks last
-            }
-            fits[k] = {error, shortlist[k]};
-        }
-    };
-    {
-        std::vector<std::jthread> workers;
-        for (int j = 1; j < std::min<int>(threads, static_cast<int>(shortlist.size())); ++j)
-        {
-            workers.emplace_back(work);
-        }
-        work();
-    }
+    for_each_index(shortlist.size(), threads,
+                   [&](std::size_t k)
+                   {
+                       const Catalog::IndexEntry& entry = index[shortlist[k]];
+                       double error = std::numeric_limits<double>::infinity();
+                       try
+                       {
+                           Positions asset;
+                           Positions normals;
+                           ShapeSignature::points_from_bytes(entry.points, asset, normals);
+                           const PointKdTree tree(asset);
+                           error = shape_fit(points, asset, normals, tree,
+                                             nearest_crop_views(entry.views, scaled));
+                       }
+                       catch (const Error&)
+                       {
+                           // shape_index checked the size; nothing else can fail: ranks last
+                       }
+                       fits[k] = {error, shortlist[k]};
+                   });
     std::stable_sort(fits.begin(), fits.end(),
                      [](const auto& x, const auto& y) { return x.first < y.first; });
     std::vector<std::size_t> ranked;

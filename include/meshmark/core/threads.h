@@ -1,6 +1,9 @@
 // SPDX-License-Identifier: MIT
 #pragma once
 
+#include <cstddef>
+#include <functional>
+
 namespace meshmark
 {
 
@@ -13,5 +16,12 @@ namespace meshmark
 /// parallel step has a fixed partition and reduction order), so this only changes speed.
 /// \return At least 1.
 [[nodiscard]] int resolve_threads(int requested);
+
+/// \brief Calls \p each(i) for every i in [0, \p count) on up to \p threads threads (the
+/// calling one among them), handing the indices out one at a time in order: for items of
+/// uneven cost (files, assets). Returns when every call has returned.
+/// \details When a call throws, no further index is handed out, the calls running finish, and
+/// the first exception is rethrown here.
+void for_each_index(std::size_t count, int threads, const std::function<void(std::size_t)>& each);
 
 }  // namespace meshmark
