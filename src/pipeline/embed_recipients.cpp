@@ -285,46 +285,68 @@ EmbedRecipientsReport embed_recipients(
     Key key;
     EmbedStats owner_stats;
     Positions owner;
+    // A new family key, its watermark and the owner's mark (the basis and the calibration: most
+    // of a small file's embedding).
+    const auto make_key = [&]
+    {
+        key = detail::new_key(options);
+        key.recipients = RecipientCodes{options.recipient_modes, options.recipient_share, {}};
+        key.recipients->validate(key.options);
+        key.recipients->shorten_to_span = true;
+        key.original = original;
+        mark.emplace(watermark_of(file.mesh, key, input, options.threads));
+        // The automatic repetitions and the code's modes, as the watermark resolved them.
+        key.options = mark->key().options;
+        key.recipients->modes = mark->key().recipients->modes;
+        key.recipients->shorten_to_span = false;
+        owner = mark->displacement(&owner_stats);
+        // A new family key is calibrated on the owner's mark, at its share of the energy
+        // (docs/algorithms/embedding.md, "Strength"); each copy's code is scaled below.
+        if (key.options.needs_calibration())
+        {
+            mark->calibrate_strength(file.mesh, owner, &owner_stats);
+            key.options.vertex_strength = mark->key().options.vertex_strength;
+            // Synthesized again from the recorded strength, as a later call adding recipients
+            // does: the scaled field may differ from it in the last bit, the copies may not.
+            owner = mark->displacement(&owner_stats);
+        }
+    };
+    // With no key yet, one is made before the store's step, outside its lock: calls marking
+    // other assets of a catalogue at once then build their bases at once (inside, they took
+    // turns). It is used only if the store still has none when its step runs.
+    const bool made_before = !seen;
+    if (made_before)
+    {
+        make_key();
+    }
     // Issuing is one step of the store (under the key file's lock, or a catalogue's
     // transaction): the key as it is now, the indices of the new names, the key recorded durably
     // (file and folder fsync'ed, or committed). Copies are made only after it: recorded before
     // released (docs/fingerprinting.md, "Issuing at once").
+    const Key prepared = key;
     const double waited = store.change(
         [&](std::optional<Key> now) -> std::optional<Key>
         {
             report.key_created = !now.has_value();
             if (report.key_created)
             {
-                key = detail::new_key(options);
-                key.recipients =
-                    RecipientCodes{options.recipient_modes, options.recipient_share, {}};
-                key.recipients->validate(key.options);
-                key.recipients->shorten_to_span = true;
-                key.original = original;
-                mark.emplace(watermark_of(file.mesh, key, input, options.threads));
-                // The automatic repetitions and the code's modes, as the watermark resolved them.
-                key.options = mark->key().options;
-                key.recipients->modes = mark->key().recipients->modes;
-                key.recipients->shorten_to_span = false;
-                owner = mark->displacement(&owner_stats);
-                // A new family key is calibrated on the owner's mark, at its share of the energy
-                // (docs/algorithms/embedding.md, "Strength"); each copy's code is scaled below.
-                if (key.options.needs_calibration())
+                if (made_before && mark)
                 {
-                    mark->calibrate_strength(file.mesh, owner, &owner_stats);
-                    key.options.vertex_strength = mark->key().options.vertex_strength;
-                    // Synthesized again from the recorded strength, as a later call adding
-                    // recipients does: the scaled field may differ from it in the last bit, the
-                    // copies may not.
-                    owner = mark->displacement(&owner_stats);
+                    key = prepared;
+                }
+                else
+                {
+                    make_key();
                 }
             }
             else
             {
                 key = checked_family_key(std::move(*now), store, original, input);
-                if (seen && !same_watermark(*seen, key))
+                if (made_before || (seen && !same_watermark(*seen, key)))
                 {
-                    mark.reset();  // replaced meanwhile by another family key of this original
+                    // made here but another call recorded its key first, or replaced
+                    // meanwhile by another family key of this original
+                    mark.reset();
                 }
             }
             report.copies = assign_recipient_indices(key, names, output_of);
