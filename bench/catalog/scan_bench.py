@@ -6,6 +6,9 @@ Given a catalogue made by `catalog add` (its published copies under PUBLISHED), 
   - marked: --marked published copies chosen at random, each attacked by one chain of the
     attack suite (cycled: similarity, noise, simplification, remeshing, smoothing, crops to 75%
     and 50%), and --issued recipient copies (`catalog issue`, then attacked the same way);
+  - made by Blender (--blender OP...): --blender-assets other published copies, each re-worked
+    by every OP of bench/blender/attacks.py (Blender's importers, modifiers and writers: no
+    meshmark code touches them);
   - unmarked: --unmarked meshes never marked, given as files or folders (--lookalikes: e.g.
     near-duplicate variants of the catalogue's sources that were not added);
 then scans them all in one `catalog scan --json` call and reports, as JSON: for marked suspects
@@ -43,6 +46,11 @@ def main():
     parser.add_argument("--issued", type=int, default=10)
     parser.add_argument("--lookalikes", nargs="*", default=[])
     parser.add_argument("--unmarked", type=int, default=20)
+    parser.add_argument("--blender", nargs="*", default=[], metavar="OP",
+                        help="bench/blender/attacks.py operations, e.g. obj transform decimate=0.5 smooth "
+                             "bisect voxel=300")
+    parser.add_argument("--blender-assets", type=int, default=12)
+    parser.add_argument("--blender-cli", default="blender")
     parser.add_argument("--candidates", type=int, default=8)
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--work", help="folder for the suspects (default: a temporary one)")
@@ -77,6 +85,25 @@ def main():
             print(f"scan_bench: {attack} on {source}: {done.stderr.strip()}", file=sys.stderr)
             continue
         truth[str(suspect)] = (asset["asset"], recipient, attack)
+    if args.blender:
+        attacks_py = Path(__file__).resolve().parents[1] / "blender" / "attacks.py"
+        sys.path.insert(0, str(attacks_py.parent))
+        from rework import blender_environment  # Blender's Python then finds the system's numpy
+        others = [a for a in assets if a not in chosen]
+        for n, asset in enumerate(rng.sample(others, min(len(others), args.blender_assets))):
+            out = work / f"blender{n}"
+            out.mkdir(parents=True, exist_ok=True)
+            done = subprocess.run([args.blender_cli, "-b", "--factory-startup", "--python-exit-code", "2",
+                                   "--python", str(attacks_py), "--", asset["published"], str(out),
+                                   "--seed", str(n), *args.blender], capture_output=True, text=True,
+                                  env=blender_environment())
+            if done.returncode != 0:
+                print(f"scan_bench: Blender on {asset['published']}: {done.stderr.strip()[-300:]}",
+                      file=sys.stderr)
+                continue
+            for made in json.loads((out / "attacks.json").read_text()):
+                truth[str(out / Path(made["output"]).name)] = (asset["asset"], "published",
+                                                                "blender " + made["op"])
     lookalikes = []
     for item in args.lookalikes:
         p = Path(item)

@@ -23,6 +23,15 @@ namespace
 // order stay far below (1% noise: ~0.6%); a reordered copy is far above (~30%).
 constexpr double kCorrespondenceTolerance = 0.02;
 
+// Triangles cannot tell identical parts apart: Blender's OBJ writer, after joining a table's
+// five objects whose legs are alike, wrote the same triangles over the legs' vertices in
+// another order, and a renumbering by parts of its other writers' output was as wrong; both put
+// the vertices 87% of the diagonal (RMS) from the original's after the best similarity, and the
+// copies were read as unmarked (bench/results/2026-11-30-add-and-scan.md). Triangles that
+// leave them farther than this (the strongest smoothing on record, Blender's Smooth 0.5 x 10,
+// moves them a few percent) are taken for a wrong correspondence, and the copy is registered.
+constexpr double kRenumberedTolerance = 0.1;
+
 // Rounds of the far-rows rule and the similarity refitted without them, for a suspect read
 // vertex for vertex, until the rows left out stay the same.
 constexpr int kMaxOutlierRefits = 10;
@@ -161,11 +170,17 @@ bool read_in_order(SuspectInFrame& found, const DetectInputs& in, double amplitu
     found.transform = T;
     // Triangles that are the original's tell which vertex is which however far a tool moved
     // them (a strong smoothing of a CAD part: 2.4% of the diagonal RMS, whose far rows the
-    // reading leaves out); otherwise (a point cloud has none) the positions must say so.
+    // reading leaves out), up to kRenumberedTolerance (beyond, alike parts were taken for one
+    // another); otherwise (a point cloud has none) the positions must say so.
     const bool has_triangles = original.F.rows() > 0;
-    const bool is_corresponding = (same_triangles && has_triangles) || renumbered.has_value() ||
-                                  by_parts.has_value() ||
-                                  found.registration_rms <= kCorrespondenceTolerance;
+    const bool by_triangles =
+        (same_triangles && has_triangles) || renumbered.has_value() || by_parts.has_value();
+    const bool is_corresponding =
+        found.registration_rms <= (by_triangles ? kRenumberedTolerance : kCorrespondenceTolerance);
+    if (!is_corresponding && hints != nullptr)
+    {
+        hints->is_numbered_by_triangles = false;
+    }
     found.kind = Correspondence::InOrder;
     if (is_corresponding)
     {
