@@ -147,6 +147,34 @@ TEST(ShapeSignatureTest, the_positions_features_of_a_fixed_mesh_are_those_older_
     EXPECT_EQ(hash_bytes(positions.data(), positions.size()), 0x37136d98ea3969a1ULL);
 }
 
+// Every bit of a signature, not only its stored bytes: the views' floats, the points and normals
+// as doubles, and a suspect's features (views[0]). Pinned with the code before the speed-ups of
+// 2026-12 (sort once, exact selection, counts by level codes), which had to leave every bit as
+// it was; a surface, a torus (many triangles alike, so the order of ties counts) and a point
+// cloud (the vertices drawn).
+std::uint64_t signature_bits(const TriangleMesh& mesh)
+{
+    const ShapeSignature s = shape_signature(mesh);
+    const ShapeFeatures whole = shape_features(mesh);
+    Hasher hasher(s.views.size() * sizeof(ShapeFeatures) +
+                  sizeof(double) * static_cast<std::size_t>(s.points.size() + s.normals.size()) +
+                  sizeof whole);
+    hasher.update(s.views.data(), s.views.size() * sizeof(ShapeFeatures));
+    hasher.update(s.points.data(), sizeof(double) * static_cast<std::size_t>(s.points.size()));
+    hasher.update(s.normals.data(), sizeof(double) * static_cast<std::size_t>(s.normals.size()));
+    hasher.update(whole.data(), sizeof whole);
+    return hasher.value();
+}
+
+TEST(ShapeSignatureTest, every_bit_of_the_signatures_of_fixed_meshes_is_as_pinned)
+{
+    TriangleMesh cloud = lumpy_ellipsoid(3);
+    cloud.F.resize(0, 3);
+    EXPECT_EQ(signature_bits(lumpy_ellipsoid(4)), 0x89e1cade3da7219eULL);
+    EXPECT_EQ(signature_bits(torus(1.0, 0.3, 48, 24)), 0xcc8ad5a7b8aa636dULL);
+    EXPECT_EQ(signature_bits(cloud), 0xd8a0ae775a94c9e5ULL);
+}
+
 // shape_fit: a resampled, moved and mirrored copy fits its own surface closer than a
 // stretched variant of it, and a half of it fits from the crop view nearest its features.
 TEST(ShapeFitTest, a_resampled_mirrored_copy_fits_its_surface_better_than_a_stretched_variant)
