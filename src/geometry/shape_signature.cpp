@@ -6,165 +6,38 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstring>
+#include <limits>
 #include <numbers>
 #include <numeric>
-#include <tuple>
+#include <span>
 
 #include <Eigen/Eigenvalues>
 
-#include "meshmark/core/error.h"
-#include "meshmark/core/hash.h"
-#include "meshmark/core/rng.h"
+#include "geometry/shape_draw.h"
 
 namespace meshmark
 {
 namespace
 {
 
-using Vec3 = Eigen::Vector3d;
+using namespace shape_detail;
 
-// Points drawn per surface, and pairs and triples of them for the distance and angle
-// distributions (every view uses those that fall inside it). Chosen on the shape-index study
-// (bench/results/2026-11-29-catalogue.md, "The shape index alone"): with 2,048 points drawn in
-// the file's face order reordered copies ranked first in 11 of 24; a signature costs about 25 ms.
-constexpr int kSamples = 4096;
-constexpr int kPairs = 16384;
-constexpr int kTriples = 16384;
 // Distributions: bins and the range they cover, in RMS radii (a point is rarely more than
 // 2.5 radii from the centroid, two points rarely more than 3.5 apart); last bin open-ended.
 constexpr int kCentroidBins = 6;
 constexpr double kCentroidRange = 2.5;
 constexpr int kPairBins = 12;
 constexpr double kPairRange = 3.5;
-constexpr int kAngleBins = 4;  // bin counts chosen by hand; no study on record
-// The angle between the normals of a pair's points, as |cos| in bins of equal width (either
-// orientation: artists' models mix them). Six bins: a box's pairs are parallel or at right
-// angles, a turned part's spread; chosen by hand, measured on the shape-index study
-// (bench/results/2026-11-30-scan-speed.md).
-constexpr int kNormalBins = 6;
-// The fixed seed of the draw: a suspect and its original are drawn alike.
-constexpr std::uint64_t kSeed = 0x5ea7c0de5eedULL;
-
-// The draw: kSamples points by area (stratified over the cumulative area, so that every part of
-// the surface gets its share), or the vertices of a point cloud or of a surface without area.
-// The triangles are taken in an order that does not depend on the file (by their centroid's
-// distance from the surface's centroid, each one's corners likewise), so a copy with its
-// vertices or faces renumbered draws the same points. With each point, when \p normals is given,
-// the unit normal of the triangle it lies on (zero for a vertex of a point cloud).
-std::vector<Vec3> surface_points(const TriangleMesh& mesh, int count = kSamples,
-                                 std::vector<Vec3>* normals = nullptr)
-{
-    struct Triangle
-    {
-        double key = 0.0;
-        double area = 0.0;
-        std::array<Vec3, 3> corners;
-    };
-    std::vector<Triangle> triangles;
-    triangles.reserve(static_cast<std::size_t>(mesh.F.rows()));
-    Vec3 weighted = Vec3::Zero();
-    double total = 0.0;
-    for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
-    {
-        Triangle t;
-        for (int k = 0; k < 3; ++k)
-        {
-            t.corners[static_cast<std::size_t>(k)] = mesh.V.row(mesh.F(f, k)).transpose();
-        }
-        const auto& [a, b, c] = t.corners;
-        t.area = 0.5 * (b - a).cross(c - a).norm();
-        if (!(t.area > 0.0) || !std::isfinite(t.area))
-        {
-            continue;
-        }
-        weighted += t.area * (a + b + c) / 3.0;
-        total += t.area;
-        triangles.push_back(t);
-    }
-    std::vector<Vec3> points;
-    points.reserve(static_cast<std::size_t>(count));
-    Rng rng(kSeed);
-    if (total > 0.0)
-    {
-        const Vec3 centre = weighted / total;
-        for (Triangle& t : triangles)
-        {
-            std::sort(t.corners.begin(), t.corners.end(),
-                      [&](const Vec3& p, const Vec3& q)
-                      {
-                          return std::make_tuple((p - centre).squaredNorm(), p.x(), p.y(), p.z()) <
-                                 std::make_tuple((q - centre).squaredNorm(), q.x(), q.y(), q.z());
-                      });
-            t.key = ((t.corners[0] + t.corners[1] + t.corners[2]) / 3.0 - centre).squaredNorm();
-        }
-        std::sort(triangles.begin(), triangles.end(),
-                  [](const Triangle& p, const Triangle& q)
-                  { return std::tie(p.key, p.area) < std::tie(q.key, q.area); });
-        std::vector<double> cumulative;
-        cumulative.reserve(triangles.size());
-        double sum = 0.0;
-        for (const Triangle& t : triangles)
-        {
-            sum += t.area;
-            cumulative.push_back(sum);
-        }
-        for (int i = 0; i < count; ++i)
-        {
-            const double at = (static_cast<double>(i) + rng.uniform()) / count * sum;
-            const auto f = static_cast<std::size_t>(std::min<std::ptrdiff_t>(
-                std::upper_bound(cumulative.begin(), cumulative.end(), at) - cumulative.begin(),
-                static_cast<std::ptrdiff_t>(cumulative.size()) - 1));
-            double u = rng.uniform();
-            double v = rng.uniform();
-            if (u + v > 1.0)
-            {
-                u = 1.0 - u;
-                v = 1.0 - v;
-            }
-            const auto& [a, b, c] = triangles[f].corners;
-            points.push_back(a + u * (b - a) + v * (c - a));
-            if (normals != nullptr)
-            {
-                normals->push_back((b - a).cross(c - a).normalized());
-            }
-        }
-        return points;
-    }
-    const auto n = static_cast<std::uint64_t>(mesh.V.rows());
-    for (int i = 0; n > 0 && i < count; ++i)
-    {
-        points.push_back(mesh.V.row(static_cast<Eigen::Index>(rng.below(n))).transpose());
-        if (normals != nullptr)
-        {
-            normals->push_back(Vec3::Zero());
-        }
-    }
-    return points;
-}
-
-// A fast deterministic stream for the pair and triple draws (a SplitMix64 counter and Lemire's
-// multiply-shift of its high 32 bits to [0, n)): the draws are millions per asset, where
-// std::mt19937_64 with rejection sampling took half the time. Biased by under n / 2^32, which
-// for a view's at most kSamples points is nothing the distributions can show.
-class Draw
-{
-public:
-    explicit Draw(std::uint64_t seed) : state_(seed) {}
-    std::size_t below(std::size_t n)
-    {
-        return static_cast<std::size_t>(((splitmix64(state_++) >> 32U) * n) >> 32U);
-    }
-
-private:
-    std::uint64_t state_;
-};
+// The nested views of one sample (the crop fractions of a direction, or the whole): a point's
+// level is the number of them it lies in.
+constexpr std::size_t kFractions = kShapeCropFractions.size();
+constexpr std::size_t kLevels = kFractions + 1;
 
 // The counts of \p bins bins turned into their cumulative distribution, times \p weight:
 // \p bins values written from \p out. Cumulative rather than per bin, so that a distribution
 // shifted by less than a bin changes the features by that little (their distance is then the
 // earth mover's distance between the two).
-float* cumulative(const std::vector<int>& counts, float weight, float* out)
+float* cumulative(std::span<const int> counts, float weight, float* out)
 {
     const double n = std::max(1, std::accumulate(counts.begin(), counts.end(), 0));
     int sum = 0;
@@ -176,115 +49,113 @@ float* cumulative(const std::vector<int>& counts, float weight, float* out)
     return out;
 }
 
-// The bin of \p x (a distance in bin widths) among \p bins bins, the last open-ended.
-std::size_t bin_of(double x, int bins)
+// Buffers of nested_features, kept from view to view (a signature takes 65 calls).
+struct Scratch
 {
-    return static_cast<std::size_t>(std::min(x, bins - 0.5));
-}
-
-// The draws every view shares: pairs of sample points with their distance (in ascending order
-// of it), triples with the bin of their angle. A view uses those whose points it all holds, so a
-// crop view measures the draws of the whole that fall inside it (no draws of its own, and no random
-// access).
-struct Draws
-{
-    std::vector<std::array<std::int32_t, 2>> pairs;
-    std::vector<double> pair_distance;
-    std::vector<std::array<std::int32_t, 3>> triples;
-    std::vector<std::uint8_t> triple_bin;
-    std::vector<std::uint8_t> normal_bin;  ///< per pair, in the pairs' order
+    std::vector<double> x, y, z;      ///< the points by level, highest first
+    std::vector<std::uint64_t> code;  ///< per point, kLevelCode of its level
 };
 
-Draws draw(const std::vector<Vec3>& points, const std::vector<Vec3>& normals)
+// A point's level as a code whose 16-bit field v is 1 when the point lies in view v: the AND of
+// two or three points' codes is that of the views holding them all, so summing codes counts the
+// pairs and triples of every view at once, and without branches (16 bits hold kPairs and
+// kTriples; the old counts per level and per view took a third of the time).
+constexpr std::array<std::uint64_t, kLevels> kLevelCode = {0, 0x1, 0x10001, 0x100010001,
+                                                           0x1000100010001};
+static_assert(kLevels == kLevelCode.size());
+int field(std::uint64_t counts, std::size_t v)
 {
-    Draws d;
-    const std::size_t n = points.size();
-    if (n < 3)
+    return static_cast<int>((counts >> (16U * v)) & 0xffffU);
+}
+
+// The sum of the codes of draws [from, to), each the AND of its points' codes. Left scalar: GCC
+// vectorizes the loop into gathers made of shuffles, 5% slower over the signature.
+#if defined(__GNUC__) && !defined(__clang__)
+#define MESHMARK_SCALAR_LOOPS __attribute__((optimize("no-tree-vectorize")))
+#else
+#define MESHMARK_SCALAR_LOOPS
+#endif
+template <std::size_t K>
+MESHMARK_SCALAR_LOOPS std::uint64_t sum_codes(
+    const std::vector<std::array<std::uint16_t, K>>& draws, std::size_t from, std::size_t to,
+    const std::vector<std::uint64_t>& code)
+{
+    std::uint64_t sum = 0;
+    for (std::size_t t = from; t < to; ++t)
     {
-        return d;
-    }
-    Draw stream(kSeed ^ n);
-    d.pairs.reserve(kPairs);
-    d.pair_distance.reserve(kPairs);
-    for (int t = 0; t < kPairs; ++t)
-    {
-        const auto i = static_cast<std::int32_t>(stream.below(n));
-        const auto j = static_cast<std::int32_t>(stream.below(n));
-        d.pairs.push_back({i, j});
-        d.pair_distance.push_back(
-            (points[static_cast<std::size_t>(i)] - points[static_cast<std::size_t>(j)]).norm());
-    }
-    // By distance: a view's pairs in one bin are then a run, found by a binary search per bin
-    // edge (nested_features); the counts do not depend on the order.
-    std::vector<std::size_t> order(d.pairs.size());
-    std::iota(order.begin(), order.end(), std::size_t{0});
-    std::stable_sort(order.begin(), order.end(),
-                     [&](std::size_t a, std::size_t b)
-                     { return d.pair_distance[a] < d.pair_distance[b]; });
-    Draws sorted;
-    sorted.pairs.reserve(order.size());
-    sorted.pair_distance.reserve(order.size());
-    for (const std::size_t t : order)
-    {
-        sorted.pairs.push_back(d.pairs[t]);
-        sorted.pair_distance.push_back(d.pair_distance[t]);
-    }
-    d.pairs = std::move(sorted.pairs);
-    d.pair_distance = std::move(sorted.pair_distance);
-    d.normal_bin.reserve(d.pairs.size());
-    for (const auto& [i, j] : d.pairs)
-    {
-        const double cosine = std::abs(
-            normals[static_cast<std::size_t>(i)].dot(normals[static_cast<std::size_t>(j)]));
-        d.normal_bin.push_back(
-            static_cast<std::uint8_t>(bin_of(cosine * kNormalBins, kNormalBins)));
-    }
-    // Angle bins by their cosines (descending with the angle): no acos per triple.
-    std::array<double, kAngleBins - 1> cosine_edges{};
-    for (int b = 1; b < kAngleBins; ++b)
-    {
-        cosine_edges[static_cast<std::size_t>(b - 1)] = std::cos(std::numbers::pi * b / kAngleBins);
-    }
-    for (int t = 0; t < kTriples; ++t)
-    {
-        const std::array<std::int32_t, 3> abc = {static_cast<std::int32_t>(stream.below(n)),
-                                                 static_cast<std::int32_t>(stream.below(n)),
-                                                 static_cast<std::int32_t>(stream.below(n))};
-        const Vec3 u =
-            points[static_cast<std::size_t>(abc[0])] - points[static_cast<std::size_t>(abc[1])];
-        const Vec3 v =
-            points[static_cast<std::size_t>(abc[2])] - points[static_cast<std::size_t>(abc[1])];
-        const double norms = std::sqrt(u.squaredNorm() * v.squaredNorm());
-        if (!(norms > 0.0))
+        std::uint64_t all = ~std::uint64_t{0};
+        for (const std::uint16_t i : draws[t])
         {
-            continue;
+            all &= code[i];
         }
-        const double cosine = u.dot(v) / norms;
-        d.triples.push_back(abc);
-        d.triple_bin.push_back(static_cast<std::uint8_t>(std::count_if(
-            cosine_edges.begin(), cosine_edges.end(), [&](double edge) { return cosine < edge; })));
+        sum += all;
     }
-    return d;
+    return sum;
 }
 
 // The features of nested views of one sample: point i belongs to views 0 .. level[i] - 1 (each
 // view a subset of the one before). Writes \p views features, one per view, from \p out.
 void nested_features(const std::vector<Vec3>& points, const Draws& draws,
-                     const std::vector<std::uint8_t>& level, int views, ShapeFeatures* out)
+                     const std::vector<std::int32_t>& level, std::size_t count, ShapeFeatures* out,
+                     Scratch& s)
 {
-    const auto count = static_cast<std::size_t>(views);
-    // Moments per view: the points of level >= v + 1.
-    // (Summed per level, then over the levels at or above each view: one pass, no per-view work
-    // per point.)
-    std::vector<double> weight(count + 1, 0.0);
-    std::vector<Vec3> first(count + 1, Vec3::Zero());
-    std::vector<Eigen::Matrix3d> second(count + 1, Eigen::Matrix3d::Zero());
-    for (std::size_t i = 0; i < points.size(); ++i)
+    const std::size_t n = points.size();
+    // The points by level, highest first, in their order within a level: view v holds the
+    // first end[v + 1] of them, and each level's moments are summed in the points' order.
+    std::array<std::size_t, kLevels + 1> end{};  // end[l]: the points of level l or above
+    for (std::size_t i = 0; i < n; ++i)
     {
-        const std::size_t l = level[i];
-        weight[l] += 1.0;
-        first[l] += points[i];
-        second[l].noalias() += points[i] * points[i].transpose();
+        ++end[static_cast<std::size_t>(level[i])];
+    }
+    for (std::size_t l = count; l-- > 0;)
+    {
+        end[l] += end[l + 1];
+    }
+    std::array<std::size_t, kLevels> at{};
+    for (std::size_t l = 0; l <= count; ++l)
+    {
+        at[l] = end[l + 1];
+    }
+    s.x.resize(n);
+    s.y.resize(n);
+    s.z.resize(n);
+    s.code.resize(n);
+    for (std::size_t i = 0; i < n; ++i)
+    {
+        const auto l = static_cast<std::size_t>(level[i]);
+        const std::size_t p = at[l]++;
+        s.x[p] = points[i].x();
+        s.y[p] = points[i].y();
+        s.z[p] = points[i].z();
+        s.code[i] = kLevelCode[l];
+    }
+    // Moments per level, then summed over the levels at or above each view (view v holds the
+    // points of level >= v + 1). The sums are those of the points in order, as Eigen's p p^T
+    // and += gave them.
+    std::array<double, kLevels> weight{};
+    std::array<Vec3, kLevels> first;
+    std::array<Eigen::Matrix3d, kLevels> second;
+    for (std::size_t l = 1; l <= count; ++l)
+    {
+        std::array<double, 9> m{};  // x, y, z, xx, xy, xz, yy, yz, zz
+        for (std::size_t p = end[l + 1]; p < end[l]; ++p)
+        {
+            const double x = s.x[p];
+            const double y = s.y[p];
+            const double z = s.z[p];
+            m[0] += x;
+            m[1] += y;
+            m[2] += z;
+            m[3] += x * x;
+            m[4] += x * y;
+            m[5] += x * z;
+            m[6] += y * y;
+            m[7] += y * z;
+            m[8] += z * z;
+        }
+        weight[l] = static_cast<double>(end[l] - end[l + 1]);
+        first[l] = Vec3(m[0], m[1], m[2]);
+        second[l] << m[3], m[4], m[5], m[4], m[6], m[7], m[5], m[7], m[8];
     }
     for (std::size_t l = count; l > 1; --l)
     {
@@ -292,141 +163,230 @@ void nested_features(const std::vector<Vec3>& points, const Draws& draws,
         first[l - 1] += first[l];
         second[l - 1] += second[l];
     }
-    // View v holds the points of level >= v + 1.
-    weight.erase(weight.begin());
-    first.erase(first.begin());
-    second.erase(second.begin());
-    std::vector<Vec3> centroid(count);
-    std::vector<Eigen::Matrix3d> covariance(count);
-    std::vector<double> radius(count, 0.0);
+    // Per view (index v + 1 of the per-level arrays).
+    std::array<Vec3, kFractions> centroid;
+    std::array<Eigen::Matrix3d, kFractions> covariance;
+    std::array<double, kFractions> radius{};
     // Bins of equal width: a bin is a product and a conversion (no search, no branch).
-    std::vector<double> centroid_scale(count, 0.0);
-    std::vector<double> pair_scale(count, 0.0);
+    std::array<double, kFractions> centroid_scale{};
+    std::array<double, kFractions> pair_scale{};
     for (std::size_t v = 0; v < count; ++v)
     {
         out[v] = ShapeFeatures{};
-        if (weight[v] < 3.0)
+        if (weight[v + 1] < 3.0)
         {
             continue;
         }
-        centroid[v] = first[v] / weight[v];
-        covariance[v] = second[v] / weight[v] - centroid[v] * centroid[v].transpose();
+        centroid[v] = first[v + 1] / weight[v + 1];
+        covariance[v] = second[v + 1] / weight[v + 1] - centroid[v] * centroid[v].transpose();
         radius[v] = std::sqrt(std::max(0.0, covariance[v].trace()));
         centroid_scale[v] = kCentroidBins / (kCentroidRange * radius[v]);
         pair_scale[v] = kPairBins / (kPairRange * radius[v]);
     }
     const auto usable = [&](std::size_t v) { return radius[v] > 0.0 && std::isfinite(radius[v]); };
-    std::vector<std::vector<int>> to_centroid(count, std::vector<int>(kCentroidBins, 0));
-    for (std::size_t i = 0; i < points.size(); ++i)
+    // Distances to the centroid, binned as before by the floor of sqrt(s) * scale (Eigen's norm:
+    // the root of s = (x^2 + y^2) + z^2), counted as the number at or above each bin edge. Both
+    // roundings are monotone, so a point reaches edge b exactly when s reaches the least s
+    // that does (found next to b^2 / scale^2): no root per point (a root took an eighth of the
+    // time). The counts are summed as doubles, exact below 2^53, which the compiler vectorizes.
+    std::array<std::array<int, kCentroidBins>, kFractions> to_centroid{};
+    for (std::size_t v = 0; v < count; ++v)
     {
-        for (std::size_t v = 0; v < level[i]; ++v)
+        if (!usable(v))
         {
-            if (usable(v))
+            continue;
+        }
+        const double scale = centroid_scale[v];
+        std::array<double, kCentroidBins> edge{};
+        for (int b = 1; b < kCentroidBins; ++b)
+        {
+            const auto reaches = [&](double x) { return std::sqrt(x) * scale >= b; };
+            double& e = edge[static_cast<std::size_t>(b)];
+            e = (b / scale) * (b / scale);
+            while (e > 0.0 && reaches(std::nextafter(e, 0.0)))
             {
-                ++to_centroid[v][bin_of((points[i] - centroid[v]).norm() * centroid_scale[v],
-                                        kCentroidBins)];
+                e = std::nextafter(e, 0.0);
             }
+            while (!reaches(e))
+            {
+                e = std::nextafter(e, std::numeric_limits<double>::infinity());
+            }
+        }
+        std::array<double, kCentroidBins> at_least{};  // [b]: the points of bin b or above
+        const Vec3 c = centroid[v];
+        for (std::size_t p = 0; p < end[v + 1]; ++p)
+        {
+            const double dx = s.x[p] - c.x();
+            const double dy = s.y[p] - c.y();
+            const double dz = s.z[p] - c.z();
+            const double squared = dx * dx + dy * dy + dz * dz;
+            for (std::size_t b = 1; b < kCentroidBins; ++b)
+            {
+                at_least[b] += squared >= edge[b] ? 1.0 : 0.0;
+            }
+        }
+        at_least[0] = static_cast<double>(end[v + 1]);
+        for (std::size_t b = 0; b < kCentroidBins; ++b)
+        {
+            to_centroid[v][b] = static_cast<int>(at_least[b]) -
+                                (b + 1 < kCentroidBins ? static_cast<int>(at_least[b + 1]) : 0);
         }
     }
     // The pairs by distance: in view v, the pairs of bin b or below are those before the first
     // whose distance reaches bin b + 1 (the same product bin_of takes the floor of, so the counts
-    // are those of binning each pair) and whose points the view holds. A pair lies in the views
-    // below the smaller of its points' levels.
-    const std::size_t pair_count = draws.pairs.size();
-    std::vector<std::uint8_t> pair_in(pair_count);
-    for (std::size_t t = 0; t < pair_count; ++t)
-    {
-        const auto& [i, j] = draws.pairs[t];
-        pair_in[t] =
-            std::min(level[static_cast<std::size_t>(i)], level[static_cast<std::size_t>(j)]);
-    }
-    std::vector<std::vector<int>> pairs(count, std::vector<int>(kPairBins, 0));
+    // are those of binning each pair) and whose points the view holds. Those edges of every view
+    // in ascending order, then one pass over the pairs summing their codes up to each.
+    std::array<std::pair<std::size_t, std::size_t>, kFractions*(kPairBins - 1)> edges{};
+    std::size_t edge_count = 0;
     for (std::size_t v = 0; v < count; ++v)
     {
-        if (!usable(v))
-        {
-            continue;
-        }
         std::size_t from = 0;
-        int below = 0;  // pairs of the view before `from`
-        int previous = 0;
-        for (int b = 0; b < kPairBins; ++b)
+        for (int b = 0; usable(v) && b + 1 < kPairBins; ++b)
         {
-            const auto to =
-                b + 1 < kPairBins
-                    ? static_cast<std::size_t>(
-                          std::partition_point(
-                              draws.pair_distance.begin() + static_cast<std::ptrdiff_t>(from),
-                              draws.pair_distance.end(),
-                              [&](double d) { return d * pair_scale[v] < b + 1; }) -
-                          draws.pair_distance.begin())
-                    : pair_count;
-            for (std::size_t t = from; t < to; ++t)
-            {
-                below += pair_in[t] > v ? 1 : 0;
-            }
-            pairs[v][static_cast<std::size_t>(b)] = below - previous;
-            previous = below;
-            from = to;
+            from = static_cast<std::size_t>(
+                std::partition_point(
+                    draws.pair_distance.begin() + static_cast<std::ptrdiff_t>(from),
+                    draws.pair_distance.end(),
+                    [&](double d) { return d * pair_scale[v] < b + 1; }) -
+                draws.pair_distance.begin());
+            edges[edge_count++] = {from, v * kPairBins + static_cast<std::size_t>(b)};
         }
     }
-    // Triples by the smallest level of their points and their angle's bin, pairs by theirs and
-    // their normals' bin (neither bin depends on the view), then summed over the levels above
-    // each view.
-    const auto by_view = [count](const std::vector<std::vector<int>>& by_level)
+    std::sort(edges.begin(), edges.begin() + static_cast<std::ptrdiff_t>(edge_count));
+    // Per view and bin, the pairs below the bin's upper edge; per normals' bin, all its pairs:
+    // each normals' bin in turn, its sum up to each edge its pairs' ranks pass.
+    std::array<std::uint64_t, kFractions * kPairBins> below{};
+    std::array<std::uint64_t, kNormalBins> normal{};
+    for (std::size_t b = 0; b < kNormalBins; ++b)
     {
-        std::vector<std::vector<int>> per_view(count, std::vector<int>(by_level[0].size(), 0));
-        for (std::size_t v = 0; v < count; ++v)
+        std::uint64_t sum = 0;
+        std::size_t t = draws.normal_from[b];
+        for (std::size_t e = 0; e < edge_count; ++e)
         {
-            for (std::size_t l = v + 1; l <= count; ++l)
-            {
-                for (std::size_t b = 0; b < per_view[v].size(); ++b)
-                {
-                    per_view[v][b] += by_level[l][b];
-                }
-            }
+            const std::size_t to = draws.normal_from[b] + draws.normal_below[edges[e].first][b];
+            sum += sum_codes(draws.pairs, t, to, s.code);
+            t = to;
+            below[edges[e].second] += sum;
         }
-        return per_view;
-    };
-    std::vector<std::vector<int>> triple_level(count + 1, std::vector<int>(kAngleBins, 0));
-    for (std::size_t t = 0; t < draws.triples.size(); ++t)
-    {
-        const auto& [i, j, k] = draws.triples[t];
-        const std::size_t in =
-            std::min({level[static_cast<std::size_t>(i)], level[static_cast<std::size_t>(j)],
-                      level[static_cast<std::size_t>(k)]});
-        ++triple_level[in][draws.triple_bin[t]];
+        normal[b] = sum + sum_codes(draws.pairs, t, draws.normal_from[b + 1], s.code);
     }
-    const std::vector<std::vector<int>> angles = by_view(triple_level);
-    std::vector<std::vector<int>> normal_level(count + 1, std::vector<int>(kNormalBins, 0));
-    for (std::size_t t = 0; t < pair_count; ++t)
+    const std::uint64_t sum = std::accumulate(normal.begin(), normal.end(), std::uint64_t{0});
+    std::array<std::uint64_t, kAngleBins> angle{};
+    for (std::size_t b = 0; b < kAngleBins; ++b)
     {
-        ++normal_level[pair_in[t]][draws.normal_bin[t]];
+        angle[b] = sum_codes(draws.triples, draws.triple_from[b], draws.triple_from[b + 1], s.code);
     }
-    const std::vector<std::vector<int>> normals = by_view(normal_level);
     for (std::size_t v = 0; v < count; ++v)
     {
         if (!usable(v))
         {
             continue;
+        }
+        std::array<int, kPairBins> pairs{};
+        std::array<int, kAngleBins> angles{};
+        std::array<int, kNormalBins> normals{};
+        int previous = 0;
+        for (std::size_t b = 0; b < kPairBins; ++b)
+        {
+            const int upto = field(b + 1 < kPairBins ? below[v * kPairBins + b] : sum, v);
+            pairs[b] = upto - previous;
+            previous = upto;
+        }
+        for (std::size_t b = 0; b < kAngleBins; ++b)
+        {
+            angles[b] = field(angle[b], v);
+        }
+        for (std::size_t b = 0; b < kNormalBins; ++b)
+        {
+            normals[b] = field(normal[b], v);
         }
         // Each block weighted by 1 / sqrt(its length): a block that differs entirely counts
         // about as much as another, whatever its number of values.
-        float* at = out[v].data();
-        at = cumulative(to_centroid[v], 1.0F / std::sqrt(float{kCentroidBins}), at);
-        at = cumulative(pairs[v], 1.0F / std::sqrt(float{kPairBins}), at);
-        at = cumulative(angles[v], 1.0F / std::sqrt(float{kAngleBins}), at);
+        float* at_feature = out[v].data();
+        at_feature = cumulative(to_centroid[v], 1.0F / std::sqrt(float{kCentroidBins}), at_feature);
+        at_feature = cumulative(pairs, 1.0F / std::sqrt(float{kPairBins}), at_feature);
+        at_feature = cumulative(angles, 1.0F / std::sqrt(float{kAngleBins}), at_feature);
         const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(covariance[v],
                                                                     Eigen::EigenvaluesOnly);
         const Vec3 l = solver.eigenvalues().cwiseMax(0.0);  // ascending
         const float eigen_weight = 1.0F / std::sqrt(2.0F);
-        *at++ = eigen_weight * static_cast<float>(l(2) > 0.0 ? l(1) / l(2) : 0.0);
-        *at++ = eigen_weight * static_cast<float>(l(2) > 0.0 ? l(0) / l(2) : 0.0);
+        *at_feature++ = eigen_weight * static_cast<float>(l(2) > 0.0 ? l(1) / l(2) : 0.0);
+        *at_feature++ = eigen_weight * static_cast<float>(l(2) > 0.0 ? l(0) / l(2) : 0.0);
         // After the features of positions (kShapePositionFeatures), which catalogues of older
         // builds hold alone: at half a block's weight, the normals rank crops far better without
         // ranking noised, smoothed and remeshed copies much worse (the study above).
-        at = cumulative(normals[v], 0.5F / std::sqrt(float{kNormalBins}), at);
+        at_feature = cumulative(normals, 0.5F / std::sqrt(float{kNormalBins}), at_feature);
     }
+}
+
+// The heights of the points along a direction in kBuckets buckets of equal width: a monotone map,
+// so the k-th smallest height lies in the bucket where the counts below reach k.
+constexpr std::size_t kBuckets = 1024;
+
+// The order statistics \p rank (ascending) of \p heights, as nth_element gives them, found
+// among few: nth_element on the heights of the bucket (\p bucket, per height) each lies in
+// alone. (A quarter of the signature's time went to nth_element on all 4,096.) Without buckets
+// (heights not all finite, or spread too little): nth_element on all, as before.
+std::array<double, kFractions> order_statistics(const std::vector<double>& heights,
+                                                const std::vector<std::int32_t>& bucket,
+                                                const std::array<std::size_t, kFractions>& rank,
+                                                std::vector<double>& scratch)
+{
+    std::array<double, kFractions> value{};
+    if (bucket.empty())
+    {
+        scratch = heights;
+        std::size_t settled = 0;  // the heights before it are at most the last value
+        for (std::size_t f = 0; f < kFractions; ++f)
+        {
+            // The ranks grow with f: each selection searches only above the one before.
+            std::nth_element(scratch.begin() + static_cast<std::ptrdiff_t>(settled),
+                             scratch.begin() + static_cast<std::ptrdiff_t>(rank[f]), scratch.end());
+            value[f] = scratch[rank[f]];
+            settled = rank[f];
+        }
+        return value;
+    }
+    std::array<std::uint32_t, kBuckets + 1> below{};  // [k]: the heights in the buckets below k
+    for (const std::int32_t k : bucket)
+    {
+        ++below[static_cast<std::size_t>(k) + 1];
+    }
+    std::partial_sum(below.begin(), below.end(), below.begin());
+    // The heights of the buckets of the ranks, each bucket's together (a bucket's end after).
+    std::array<std::int32_t, kBuckets> end;
+    end.fill(-1);
+    std::array<std::size_t, kFractions> in{};
+    std::int32_t size = 0;
+    for (std::size_t f = 0; f < kFractions; ++f)
+    {
+        in[f] = static_cast<std::size_t>(std::upper_bound(below.begin(), below.end(), rank[f]) -
+                                         below.begin()) -
+                1;
+        if (end[in[f]] < 0)
+        {
+            end[in[f]] = size;
+            size += static_cast<std::int32_t>(below[in[f] + 1] - below[in[f]]);
+        }
+    }
+    scratch.resize(static_cast<std::size_t>(size));
+    for (std::size_t i = 0; i < heights.size(); ++i)
+    {
+        std::int32_t& at = end[static_cast<std::size_t>(bucket[i])];
+        if (at >= 0)
+        {
+            scratch[static_cast<std::size_t>(at++)] = heights[i];
+        }
+    }
+    for (std::size_t f = 0; f < kFractions; ++f)
+    {
+        const auto to = scratch.begin() + end[in[f]];
+        const auto from = to - static_cast<std::ptrdiff_t>(below[in[f] + 1] - below[in[f]]);
+        const auto nth = from + static_cast<std::ptrdiff_t>(rank[f] - below[in[f]]);
+        std::nth_element(from, nth, to);
+        value[f] = *nth;
+    }
+    return value;
 }
 
 }  // namespace
@@ -448,83 +408,96 @@ std::vector<Eigen::Vector3d> shape_crop_directions()
     return directions;
 }
 
-Positions shape_sample(const TriangleMesh& mesh, int count, Positions* normals)
-{
-    std::vector<Vec3> drawn_normals;
-    const std::vector<Vec3> points =
-        surface_points(mesh, count, normals != nullptr ? &drawn_normals : nullptr);
-    Positions sample(static_cast<Eigen::Index>(points.size()), 3);
-    for (std::size_t i = 0; i < points.size(); ++i)
-    {
-        sample.row(static_cast<Eigen::Index>(i)) = points[i].transpose();
-    }
-    if (normals != nullptr)
-    {
-        normals->resize(sample.rows(), 3);
-        for (std::size_t i = 0; i < drawn_normals.size(); ++i)
-        {
-            normals->row(static_cast<Eigen::Index>(i)) = drawn_normals[i].transpose();
-        }
-    }
-    return sample;
-}
-
 ShapeFeatures shape_features(const TriangleMesh& mesh)
 {
     std::vector<Vec3> normals;
-    const std::vector<Vec3> points = surface_points(mesh, kSamples, &normals);
+    const std::vector<Vec3> points = surface_points(mesh, sorted_surface(mesh), kSamples, &normals);
     ShapeFeatures whole;
-    nested_features(points, draw(points, normals), std::vector<std::uint8_t>(points.size(), 1), 1,
-                    &whole);
+    Scratch scratch;
+    nested_features(points, draw(points, normals), std::vector<std::int32_t>(points.size(), 1), 1,
+                    &whole, scratch);
     return whole;
 }
 
 ShapeSignature shape_signature(const TriangleMesh& mesh)
 {
+    const Surface surface = sorted_surface(mesh);
     std::vector<Vec3> normals;
-    const std::vector<Vec3> points = surface_points(mesh, kSamples, &normals);
+    const std::vector<Vec3> points = surface_points(mesh, surface, kSamples, &normals);
     const Draws draws = draw(points, normals);
     const std::size_t n = points.size();
     ShapeSignature signature;
-    signature.points = shape_sample(mesh, kShapePoints, &signature.normals);
+    signature.points = sample_of(mesh, surface, kShapePoints, &signature.normals);
     signature.views.resize(kShapeViews);
-    nested_features(points, draws, std::vector<std::uint8_t>(n, 1), 1, signature.views.data());
+    Scratch scratch;
+    nested_features(points, draws, std::vector<std::int32_t>(n, 1), 1, signature.views.data(),
+                    scratch);
     // Per direction, the crop views are nested (a smaller kept fraction keeps a subset): each
     // point's level is the number of them it lies in, from the fractions' height quantiles.
-    constexpr std::size_t kFractions = kShapeCropFractions.size();
-    std::vector<std::uint8_t> level(n);
+    std::array<std::size_t, kFractions> drop{};  // largest fraction first
+    for (std::size_t f = 0; f < kFractions && n > 0; ++f)
+    {
+        const double fraction = kShapeCropFractions[kFractions - 1 - f];
+        drop[f] = std::min(
+            static_cast<std::size_t>(std::lround((1.0 - fraction) * static_cast<double>(n))),
+            n - 1);
+    }
+    // The points' coordinates apart (the loops below vectorize), and their box: along a
+    // direction the heights lie in the box's (the buckets' range; up to rounding, which the
+    // buckets' clamp takes).
+    std::array<std::vector<double>, 3> coordinate;
+    for (int k = 0; k < 3; ++k)
+    {
+        for (const Vec3& p : points)
+        {
+            coordinate[static_cast<std::size_t>(k)].push_back(p(k));
+        }
+    }
+    const auto& [x, y, z] = coordinate;
+    Vec3 box_min = Vec3::Constant(std::numeric_limits<double>::infinity());
+    Vec3 box_max = -box_min;
+    bool tame = true;  // finite and far from overflowing: so are the heights
+    for (const Vec3& p : points)
+    {
+        box_min = box_min.cwiseMin(p);
+        box_max = box_max.cwiseMax(p);
+        tame = tame && (p.array().abs() < 1e300).all();
+    }
+    std::vector<std::int32_t> level(n);
     std::vector<double> heights(n);
-    std::vector<double> sorted(n);
+    std::vector<std::int32_t> bucket;
+    std::vector<double> selected;
     ShapeFeatures* out = signature.views.data() + 1;
     for (const Vec3& d : shape_crop_directions())
     {
+        const double lo = box_min.cwiseProduct(d).cwiseMin(box_max.cwiseProduct(d)).sum();
+        const double hi = box_min.cwiseProduct(d).cwiseMax(box_max.cwiseProduct(d)).sum();
+        const double scale = static_cast<double>(kBuckets) / (hi - lo);
+        const bool buckets = tame && hi > lo && std::isfinite(scale);
+        bucket.resize(buckets ? n : 0);
         for (std::size_t i = 0; i < n; ++i)
         {
-            heights[i] = points[i].dot(d);
+            // points[i].dot(d), as Eigen sums it
+            heights[i] = x[i] * d.x() + y[i] * d.y() + z[i] * d.z();
         }
-        std::array<double, kFractions> threshold{};  // largest fraction first
-        sorted = heights;
-        std::size_t settled = 0;  // the heights before it are at most the last threshold
-        for (std::size_t f = 0; f < kFractions; ++f)
+        for (std::size_t i = 0; i < bucket.size(); ++i)
         {
-            const double fraction = kShapeCropFractions[kFractions - 1 - f];
-            const auto drop = std::min(
-                static_cast<std::size_t>(std::lround((1.0 - fraction) * static_cast<double>(n))),
-                n - 1);
-            // The drops grow with f: each selection searches only above the one before.
-            std::nth_element(sorted.begin() + static_cast<std::ptrdiff_t>(settled),
-                             sorted.begin() + static_cast<std::ptrdiff_t>(drop), sorted.end());
-            threshold[f] = sorted[drop];
-            settled = drop;
+            bucket[i] = static_cast<std::int32_t>(
+                std::clamp((heights[i] - lo) * scale, 0.0, kBuckets - 1.0));
         }
+        const std::array<double, kFractions> threshold =
+            n > 0 ? order_statistics(heights, bucket, drop, selected)
+                  : std::array<double, kFractions>{};
+        const auto& [t0, t1, t2, t3] = threshold;
         for (std::size_t i = 0; i < n; ++i)
         {
-            level[i] = static_cast<std::uint8_t>(std::count_if(
-                threshold.begin(), threshold.end(), [&](double t) { return heights[i] >= t; }));
+            const double h = heights[i];
+            level[i] = static_cast<std::int32_t>((h >= t0 ? 1.0 : 0.0) + (h >= t1 ? 1.0 : 0.0) +
+                                                 (h >= t2 ? 1.0 : 0.0) + (h >= t3 ? 1.0 : 0.0));
         }
         // Views come out largest fraction first; the signature lists them by kShapeCropFractions.
         std::array<ShapeFeatures, kFractions> nested{};
-        nested_features(points, draws, level, static_cast<int>(kFractions), nested.data());
+        nested_features(points, draws, level, kFractions, nested.data(), scratch);
         for (std::size_t f = 0; f < kFractions; ++f)
         {
             *out++ = nested[kFractions - 1 - f];
