@@ -64,8 +64,8 @@ std::size_t bin_of(double x, int bins)
 }
 
 // The order of \p keys (non-negative, no NaN) ascending, ties in their order, as std::stable_sort
-// would give it: a radix sort of their bits, which for such doubles order as their values (a
-// fiftieth of the time of the comparison sort on 16,384 keys).
+// would give it: a radix sort of their bits, which for such doubles order as their values (an
+// eighth of std::stable_sort's time on 16,384 keys).
 std::vector<std::uint32_t> ascending(const std::vector<double>& keys)
 {
     constexpr unsigned kDigit = 11U;
@@ -99,17 +99,15 @@ std::vector<std::uint32_t> ascending(const std::vector<double>& keys)
 
 Surface sorted_surface(const TriangleMesh& mesh)
 {
-    // Sorted as keys and an index (not the corners): std::sort's moves depend only on its
-    // comparisons, so triangles with equal keys and areas keep the order they always had.
     struct Key
     {
         double key = 0.0;
         double area = 0.0;
-        Eigen::Index face = 0;
+        std::array<std::int32_t, 3> corners{};  // vertices, in the face's order, then sorted
     };
     std::vector<Key> keys;
     keys.reserve(static_cast<std::size_t>(mesh.F.rows()));
-    const auto corner = [&](Eigen::Index vertex) -> Vec3 { return mesh.V.row(vertex).transpose(); };
+    const auto corner = [&](std::int32_t vertex) -> Vec3 { return mesh.V.row(vertex).transpose(); };
     Vec3 weighted = Vec3::Zero();
     double total = 0.0;
     for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
@@ -124,7 +122,7 @@ Surface sorted_surface(const TriangleMesh& mesh)
         }
         weighted += area * (a + b + c) / 3.0;
         total += area;
-        keys.push_back({0.0, area, f});
+        keys.push_back({0.0, area, {mesh.F(f, 0), mesh.F(f, 1), mesh.F(f, 2)}});
     }
     Surface surface;
     if (!(total > 0.0))
@@ -132,46 +130,62 @@ Surface sorted_surface(const TriangleMesh& mesh)
         return surface;
     }
     const Vec3 centre = weighted / total;
-    surface.corners.resize(keys.size());
+    std::vector<double> key_bits(keys.size());
     for (std::size_t t = 0; t < keys.size(); ++t)
     {
         // Corners that compare equal are equal: any sort of the three gives them alike.
-        std::array<std::pair<std::array<double, 4>, Eigen::Index>, 3> by;
-        for (Eigen::Index k = 0; k < 3; ++k)
+        std::array<std::pair<std::array<double, 4>, std::int32_t>, 3> by;
+        for (std::size_t k = 0; k < 3; ++k)
         {
-            const Eigen::Index vertex = mesh.F(keys[t].face, k);
-            const Vec3 p = corner(vertex);
-            by[static_cast<std::size_t>(k)] = {{(p - centre).squaredNorm(), p.x(), p.y(), p.z()},
-                                               vertex};
+            const Vec3 p = corner(keys[t].corners[k]);
+            by[k] = {{(p - centre).squaredNorm(), p.x(), p.y(), p.z()}, keys[t].corners[k]};
         }
         std::sort(by.begin(), by.end(),
                   [](const auto& p, const auto& q) { return lexicographic(p.first, q.first); });
         for (std::size_t k = 0; k < 3; ++k)
         {
-            surface.corners[t][k] = by[k].second;
+            keys[t].corners[k] = by[k].second;
         }
-        const auto& [a, b, c] = surface.corners[t];
+        const auto& [a, b, c] = keys[t].corners;
         keys[t].key = ((corner(a) + corner(b) + corner(c)) / 3.0 - centre).squaredNorm();
+        key_bits[t] = keys[t].key;
     }
-    // (The corners, in the faces' order so far, follow the keys.)
-    for (std::size_t t = 0; t < keys.size(); ++t)
+    // By key, then area. Where no two triangles tie, that order is the only one, and a radix sort
+    // of the keys finds it in a fraction of the comparison sort's time (checked: each triangle
+    // strictly after the one before). Where some tie (mirror images: a quarter of the real files
+    // of the catalogue-add run), std::sort on the faces' order as before: its moves depend only
+    // on its comparisons, so the tied ones keep the order they always had.
+    const auto before = [](const Key& p, const Key& q) {
+        return lexicographic(std::array{p.key, p.area}, std::array{q.key, q.area});
+    };
+    std::vector<Key> sorted;
+    if (std::ranges::none_of(key_bits, [](double k) { return std::isnan(k); }))
     {
-        keys[t].face = static_cast<Eigen::Index>(t);
+        sorted.reserve(keys.size());
+        for (const std::uint32_t t : ascending(key_bits))
+        {
+            if (!sorted.empty() && !before(sorted.back(), keys[t]))
+            {
+                sorted.clear();
+                break;
+            }
+            sorted.push_back(keys[t]);
+        }
     }
-    std::sort(keys.begin(), keys.end(),
-              [](const Key& p, const Key& q) {
-                  return lexicographic(std::array{p.key, p.area}, std::array{q.key, q.area});
-              });
-    std::vector<std::array<Eigen::Index, 3>> corners(keys.size());
-    surface.cumulative.reserve(keys.size());
+    if (sorted.empty())
+    {
+        std::sort(keys.begin(), keys.end(), before);
+        sorted = std::move(keys);
+    }
+    surface.corners.reserve(sorted.size());
+    surface.cumulative.reserve(sorted.size());
     double sum = 0.0;
-    for (std::size_t t = 0; t < keys.size(); ++t)
+    for (const Key& k : sorted)
     {
-        corners[t] = surface.corners[static_cast<std::size_t>(keys[t].face)];
-        sum += keys[t].area;
+        surface.corners.push_back(k.corners);
+        sum += k.area;
         surface.cumulative.push_back(sum);
     }
-    surface.corners = std::move(corners);
     return surface;
 }
 

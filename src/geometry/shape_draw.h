@@ -38,7 +38,7 @@ static_assert(kSamples <= 65536 && kPairs < 65536 && kTriples < 65536);
 // renumbered draws the same points. Empty for a point cloud or a surface without area.
 struct Surface
 {
-    std::vector<std::array<Eigen::Index, 3>> corners;  ///< vertices, in the corners' order
+    std::vector<std::array<std::int32_t, 3>> corners;  ///< vertices, in the corners' order
     std::vector<double> cumulative;
 };
 

@@ -59,7 +59,7 @@ struct Scratch
 // A point's level as a code whose 16-bit field v is 1 when the point lies in view v: the AND of
 // two or three points' codes is that of the views holding them all, so summing codes counts the
 // pairs and triples of every view at once, and without branches (16 bits hold kPairs and
-// kTriples; the old counts per level and per view took a third of the time).
+// kTriples; the counts per level and per view they replace took a fifth of the time).
 constexpr std::array<std::uint64_t, kLevels> kLevelCode = {0, 0x1, 0x10001, 0x100010001,
                                                            0x1000100010001};
 static_assert(kLevels == kLevelCode.size());
@@ -186,9 +186,9 @@ void nested_features(const std::vector<Vec3>& points, const Draws& draws,
     const auto usable = [&](std::size_t v) { return radius[v] > 0.0 && std::isfinite(radius[v]); };
     // Distances to the centroid, binned as before by the floor of sqrt(s) * scale (Eigen's norm:
     // the root of s = (x^2 + y^2) + z^2), counted as the number at or above each bin edge. Both
-    // roundings are monotone, so a point reaches edge b exactly when s reaches the least s
-    // that does (found next to b^2 / scale^2): no root per point (a root took an eighth of the
-    // time). The counts are summed as doubles, exact below 2^53, which the compiler vectorizes.
+    // roundings are monotone, so a point reaches edge b exactly when s reaches the least s that
+    // does (found next to b^2 / scale^2): no root per point (the loop with a root per point took
+    // an eighth of the time). Counted in doubles (exact), which the compiler vectorizes.
     std::array<std::array<int, kCentroidBins>, kFractions> to_centroid{};
     for (std::size_t v = 0; v < count; ++v)
     {
@@ -235,7 +235,8 @@ void nested_features(const std::vector<Vec3>& points, const Draws& draws,
     // The pairs by distance: in view v, the pairs of bin b or below are those before the first
     // whose distance reaches bin b + 1 (the same product bin_of takes the floor of, so the counts
     // are those of binning each pair) and whose points the view holds. Those edges of every view
-    // in ascending order, then one pass over the pairs summing their codes up to each.
+    // in ascending order; then, per normals' bin, its pairs' codes summed up to each edge (where
+    // it falls among them: normal_below), one pass over the pairs for both distributions.
     std::array<std::pair<std::size_t, std::size_t>, kFractions*(kPairBins - 1)> edges{};
     std::size_t edge_count = 0;
     for (std::size_t v = 0; v < count; ++v)
@@ -253,8 +254,7 @@ void nested_features(const std::vector<Vec3>& points, const Draws& draws,
         }
     }
     std::sort(edges.begin(), edges.begin() + static_cast<std::ptrdiff_t>(edge_count));
-    // Per view and bin, the pairs below the bin's upper edge; per normals' bin, all its pairs:
-    // each normals' bin in turn, its sum up to each edge its pairs' ranks pass.
+    // Per view and bin, the pairs below the bin's upper edge; per normals' bin, all its pairs.
     std::array<std::uint64_t, kFractions * kPairBins> below{};
     std::array<std::uint64_t, kNormalBins> normal{};
     for (std::size_t b = 0; b < kNormalBins; ++b)
@@ -314,7 +314,7 @@ void nested_features(const std::vector<Vec3>& points, const Draws& draws,
         *at_feature++ = eigen_weight * static_cast<float>(l(2) > 0.0 ? l(0) / l(2) : 0.0);
         // After the features of positions (kShapePositionFeatures), which catalogues of older
         // builds hold alone: at half a block's weight, the normals rank crops far better without
-        // ranking noised, smoothed and remeshed copies much worse (the study above).
+        // ranking noised, smoothed and remeshed copies much worse (the study of kNormalBins).
         at_feature = cumulative(normals, 0.5F / std::sqrt(float{kNormalBins}), at_feature);
     }
 }
@@ -488,6 +488,7 @@ ShapeSignature shape_signature(const TriangleMesh& mesh)
         const std::array<double, kFractions> threshold =
             n > 0 ? order_statistics(heights, bucket, drop, selected)
                   : std::array<double, kFractions>{};
+        // The thresholds at or below each height, counted in doubles (which vectorize).
         const auto& [t0, t1, t2, t3] = threshold;
         for (std::size_t i = 0; i < n; ++i)
         {
