@@ -7,8 +7,6 @@
 #include <cctype>
 #include <chrono>
 #include <exception>
-#include <fstream>
-#include <iterator>
 #include <mutex>
 #include <optional>
 #include <random>
@@ -21,6 +19,7 @@
 #include "meshmark/core/error.h"
 #include "meshmark/core/hash.h"
 #include "meshmark/core/threads.h"
+#include "meshmark/io/file_bytes.h"
 
 namespace meshmark
 {
@@ -88,27 +87,16 @@ namespace catalog_detail
 
 std::string read_staged(const fs::path& path)
 {
-    std::ifstream in(path, std::ios::binary);
-    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    if (!in.good() && !in.eof())
-    {
-        throw IoError(path.string() + ": cannot read a staged file back.");
-    }
-    return bytes;
+    return read_file(path);
 }
 
 void write_unless_same(const fs::path& to, const std::string& bytes)
 {
     std::error_code error;
-    if (fs::is_regular_file(to, error))
+    if (fs::is_regular_file(to, error) && fs::file_size(to, error) == bytes.size() &&
+        read_file(to) == bytes)
     {
-        std::ifstream there(to, std::ios::binary);
-        const std::string existing((std::istreambuf_iterator<char>(there)),
-                                   std::istreambuf_iterator<char>());
-        if (existing == bytes)
-        {
-            return;
-        }
+        return;
     }
     write_file_atomically(to, [&](std::ostream& out) { out << bytes; });
 }
@@ -119,9 +107,12 @@ namespace
 // Copies \p from to \p to (folders made) unless \p to already holds the same bytes.
 void copy_beside(const fs::path& from, const fs::path& to)
 {
-    std::ifstream in(from, std::ios::binary);
-    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    if (!in.good() && !in.eof())
+    std::string bytes;
+    try
+    {
+        bytes = read_file(from);
+    }
+    catch (const IoError&)
     {
         throw IoError(from.string() + ": cannot read this file that the mesh references.");
     }
@@ -159,13 +150,6 @@ void for_each_line(std::string_view text, Each&& each)
     }
 }
 
-// The whole of \p path (empty when it cannot be read).
-std::string file_bytes(const fs::path& path)
-{
-    std::ifstream in(path, std::ios::binary);
-    return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
 }  // namespace
 
 // The copy's folder shows what the original's does (a glTF's writer copies its images itself;
@@ -174,7 +158,7 @@ std::string file_bytes(const fs::path& path)
 // of a whole `catalog add` of artists' files).
 void copy_obj_materials(const fs::path& input, const fs::path& output)
 {
-    const std::string obj = file_bytes(input);
+    const std::string obj = read_file(input);
     const fs::path from = input.parent_path();
     const fs::path to = output.parent_path();
     std::error_code error;
@@ -224,7 +208,7 @@ void copy_obj_materials(const fs::path& input, const fs::path& output)
             // relative to the library's own folder.
             const fs::path library_folder = fs::path(name).parent_path();
             for_each_line(
-                file_bytes(from / name),
+                read_file(from / name),
                 [&](std::string_view statement)
                 {
                     const std::vector<std::string_view> parts = words_of(statement);

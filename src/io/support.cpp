@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include "meshmark/core/error.h"
+#include "meshmark/io/file_bytes.h"
 
 namespace meshmark::detail
 {
@@ -299,3 +300,13 @@ std::string index_range(std::uint64_t vertex_count)
 }
 
 }  // namespace meshmark::detail
+
+namespace meshmark
+{
+
+std::string read_file(const std::filesystem::path& path)
+{
+    return detail::read_file_bytes(path);
+}
+
+}  // namespace meshmark
