@@ -322,7 +322,7 @@ void register_catalog(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
         ->required()
         ->check(CLI::ExistingPath);
     add->add_option("-o,--output", args->output, "Folder of the marked copies")->required();
-    add->add_option("--jobs", args->jobs, "Files marked at once (0 = one per core)")
+    add->add_option("--jobs", args->jobs, "Files marked at once (0 = one more than the cores)")
         ->capture_default_str();
     add->add_option("--strength", args->strength, "As embed's (default: embed's)");
     add->add_option("--basis-size", args->options.basis_size, "As embed's")->capture_default_str();

@@ -399,7 +399,7 @@ CatalogAddPlan catalog_plan_add(Catalog& catalog, const std::vector<fs::path>& i
 {
     if (options.jobs < 0)
     {
-        throw InvalidOption("--jobs must be >= 0 (0 = one per core).");
+        throw InvalidOption("--jobs must be >= 0 (0 = one more than the cores).");
     }
     {
         EmbedRecipientsOptions check = options.embed;
@@ -526,9 +526,13 @@ std::vector<CatalogAddOutcome> catalog_add(Catalog& catalog, const std::vector<f
 {
     CatalogAddPlan plan = catalog_plan_add(catalog, inputs, output_folder, options);
     const std::size_t total = plan.outcomes.size();
+    // One more file than cores: each file's writes wait on the disk (its copy and the
+    // catalogue's records are synced before the next step), and another file's work fills that
+    // core meanwhile (820 artists' OBJ files on 2 cores: 10.2 s with 2 at once, 9.5 s with 3;
+    // bench/results/2026-11-30-add-and-scan.md).
     const int cores = resolve_threads(0);
     const int jobs =
-        std::max(1, std::min<int>(options.jobs > 0 ? options.jobs : cores,
+        std::max(1, std::min<int>(options.jobs > 0 ? options.jobs : cores + 1,
                                   static_cast<int>(std::max<std::size_t>(plan.tasks.size(), 1))));
     const int threads = std::max(1, resolve_threads(options.embed.threads) / jobs);
     std::atomic<std::size_t> done{total - plan.tasks.size()};

@@ -19,7 +19,7 @@ struct CatalogAddOptions
     /// recipients are set by catalog_add. A seed given here is mixed with each asset's id, so no
     /// two assets share a key.
     EmbedRecipientsOptions embed;
-    int jobs = 0;  ///< Assets marked at once; 0 = one per core (each then on one thread).
+    int jobs = 0;  ///< Assets marked at once; 0 = one more than the cores (each on one thread).
     /// Mark again, with a new key, an asset whose original changed since it was added (its
     /// earlier copies are then no longer traced); otherwise such a file is refused.
     bool force = false;
