@@ -190,7 +190,7 @@ void read_face(const std::filesystem::path& path, StatementTokens& tokens, std::
     {
         return;  // an edge or a point (a wire of an older exporter): kept as written, no triangle
     }
-    append_fan(state.triangles, state.polygon.data(), state.polygon.size());
+    state.triangles.push_polygon(state.polygon.data(), state.polygon.size());
 }
 
 }  // namespace

@@ -163,7 +163,8 @@ void read_off_vertices(const std::filesystem::path& path, std::string_view bytes
 }
 
 // One line per face: `n i0 ... i(n-1)`, then optional color values.
-Faces read_off_faces(const std::filesystem::path& path, OffLines& lines, const OffCounts& counts)
+Faces read_off_faces(const std::filesystem::path& path, OffLines& lines, const OffCounts& counts,
+                     const Positions& V)
 {
     TriangleBuffer triangles;
     triangles.reserve(static_cast<std::size_t>(counts.faces));
@@ -203,8 +204,9 @@ Faces read_off_faces(const std::filesystem::path& path, OffLines& lines, const O
             }
             polygon.push_back(static_cast<std::int32_t>(index));
         }
-        append_fan(triangles, polygon.data(), polygon.size());
+        triangles.push_polygon(polygon.data(), polygon.size());
     }
+    fill_polygons(V.data(), triangles);
     return triangles.take();
 }
 
@@ -222,7 +224,7 @@ TriangleMesh read_off(const std::filesystem::path& path, FileLayout& layout,
     TextPositions slots;
     read_off_vertices(path, bytes, lines, mesh.V, slots, is_single_precision);
     check_finite(path, mesh.V);
-    mesh.F = read_off_faces(path, lines, counts);
+    mesh.F = read_off_faces(path, lines, counts, mesh.V);
     layout.positions = std::move(slots);
     return mesh;
 }

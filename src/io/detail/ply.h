@@ -133,7 +133,7 @@ public:
     /// Check and narrow the next index; InvalidMesh naming the record when out of range.
     void add(std::int64_t index);
 
-    void end() { append_fan(triangles_, polygon_.data(), polygon_.size()); }
+    void end() { triangles_.push_polygon(polygon_.data(), polygon_.size()); }
 
 private:
     const std::filesystem::path& path_;

@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <limits>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -123,12 +124,37 @@ public:
         p[2] = c;
         ++size_;
     }
+    /// \brief A polygon of \p n checked indices as its fan (i0, ik, ik+1), none if n < 3.
+    /// \details A polygon of 4 or more corners is remembered: fill_polygons, once the positions
+    /// are known, replaces the fan of one that is not convex by a triangulation inside it.
+    void push_polygon(const std::int32_t* indices, std::size_t n)
+    {
+        if (n > 3)
+        {
+            polygons_.push_back({size_, static_cast<std::uint32_t>(std::min<std::size_t>(
+                                            n, std::numeric_limits<std::uint32_t>::max()))});
+        }
+        for (std::size_t k = 1; k + 1 < n; ++k)
+        {
+            push(indices[0], indices[k], indices[k + 1]);
+        }
+    }
+    /// A polygon pushed as a fan: its first triangle and its number of corners.
+    struct Polygon
+    {
+        std::size_t first;
+        std::uint32_t corners;
+    };
+    [[nodiscard]] const std::vector<Polygon>& polygons() const noexcept { return polygons_; }
+    /// Corners of triangle \p t (t < size()).
+    [[nodiscard]] std::int32_t* triangle(std::size_t t) noexcept { return F_.data() + 3 * t; }
     [[nodiscard]] std::size_t size() const noexcept { return size_; }
     /// The triangles pushed so far; the buffer is empty afterwards.
     [[nodiscard]] Faces take()
     {
         F_.conservativeResize(static_cast<Eigen::Index>(size_), 3);
         size_ = 0;
+        polygons_ = {};
         return std::move(F_);
     }
 
@@ -139,6 +165,7 @@ private:
     }
     Faces F_;
     std::size_t size_ = 0;
+    std::vector<Polygon> polygons_;
 };
 
 /// A mesh from flat positions \p xyz (3 per vertex) and the triangles of \p triangles.
@@ -159,14 +186,13 @@ inline constexpr std::uint64_t kMaxVertices = 2147483647U;
 namespace meshmark::detail
 {
 
-/// Append the fan triangles (i0, ik, ik+1) of a polygon of \p n checked indices (none if n < 3).
-inline void append_fan(TriangleBuffer& triangles, const std::int32_t* indices, std::size_t n)
-{
-    for (std::size_t k = 1; k + 1 < n; ++k)
-    {
-        triangles.push(indices[0], indices[k], indices[k + 1]);
-    }
-}
+/// \brief Triangulate inside each polygon of \p triangles that is not convex, in place.
+/// \details \p xyz holds 3 coordinates per vertex. A polygon pushed with push_polygon is first
+/// its fan from corner 0, which lays triangles outside a concave outline (an L, a letter, a
+/// gear's rim): seen in its own plane, such a polygon gets a constrained Delaunay triangulation
+/// of the same n - 2 triangles on its own corners instead. A polygon whose triangulation would
+/// need other points (an outline crossing itself) or is too long keeps its fan.
+void fill_polygons(const double* xyz, TriangleBuffer& triangles);
 
 /// "outside 0..n-1" for index messages ("but the file has no vertices" when n == 0).
 [[nodiscard]] std::string index_range(std::uint64_t vertex_count);

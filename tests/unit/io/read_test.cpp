@@ -76,8 +76,11 @@ TEST(IoTest, decodes_triangle_strips_with_restart_and_degenerates)
     test::expect_triangles(mesh, {{0, 1, 2}, {2, 1, 3}, {4, 5, 6}, {6, 5, 7}, {7, 8, 9}});
 }
 
-TEST(IoTest, fan_triangulates_obj_polygons)
+TEST(IoTest, fan_triangulates_convex_obj_polygons_and_fills_the_others_inside)
 {
+    // The quads are convex: fans from their first corner. The pentagon (3 4 8 9 7) is not: seen
+    // along its normal, corner 9 lies inside the square of the other four, and the fan from
+    // corner 3 would hold a triangle with no area there; it is filled from corner 9 instead.
     const auto mesh = read_mesh(fixture("quad_faces.obj"));
     ASSERT_EQ(mesh.V.rows(), 9);
     EXPECT_EQ(mesh.V(8, 1), 1.5);
@@ -91,9 +94,9 @@ TEST(IoTest, fan_triangulates_obj_polygons)
                                   {0, 7, 3},
                                   {1, 2, 6},
                                   {1, 6, 5},
-                                  {2, 3, 7},
-                                  {2, 7, 8},
-                                  {2, 8, 6}});
+                                  {8, 3, 7},
+                                  {6, 2, 8},
+                                  {8, 2, 3}});
 }
 
 TEST(IoTest, reads_every_obj_index_form)
