@@ -251,6 +251,14 @@ int run_scan(const CatalogArgs& args, const GlobalArgs& global)
     options.stop_at_match = !args.all_candidates;
     const Catalog catalog(args.catalog, Catalog::Open::Existing,
                           lock_timeout_of(args.lock_timeout));
+    if (catalog.has_stale_signatures())
+    {
+        std::fprintf(stderr,
+                     "meshmark: warning: %s: its shape signatures were computed by an older "
+                     "build, which read polygons that are not convex wrongly; copies of such "
+                     "assets may be missed until `meshmark catalog reindex` recomputes them.\n",
+                     catalog.path().c_str());
+    }
     std::vector<std::filesystem::path> suspects(args.inputs.begin(), args.inputs.end());
     const CatalogScanReport report =
         with_progress("meshmark catalog scan", global.quiet, options.progress,

@@ -19,6 +19,11 @@ namespace
 
 constexpr const char* kFormat = "meshmark-catalog";
 constexpr int kVersion = 3;
+/// meta row naming how the stored signatures read their originals' polygons: missing in a
+/// catalogue an older build wrote (its OBJ, OFF and PLY readers fanned every polygon from its
+/// first corner), "filled" since polygons that are not convex are triangulated inside.
+constexpr const char* kPolygonsMeta = "signature_polygons";
+constexpr const char* kPolygonsCurrent = "filled";
 
 }  // namespace
 
@@ -51,6 +56,7 @@ void Catalog::Impl::open(Open mode) const
         execute("INSERT INTO meta(name, value) VALUES (?, ?)", {"format", kFormat});
         execute("INSERT INTO meta(name, value) VALUES (?, ?)",
                 {"version", std::to_string(kVersion)});
+        execute("INSERT INTO meta(name, value) VALUES (?, ?)", {kPolygonsMeta, kPolygonsCurrent});
         return;
     }
     const auto value = [&](const char* key) -> std::string
@@ -274,11 +280,39 @@ void Catalog::remove(const std::string& id)
                    });
 }
 
+bool Catalog::has_stale_signatures() const
+{
+    const std::lock_guard lock(impl_->mutex);
+    return impl_->guarded("read",
+                          [&]
+                          {
+                              const auto rows = impl_->query(
+                                  "SELECT value FROM meta WHERE name = ?", {kPolygonsMeta});
+                              return rows.empty() || rows[0][0].as_text() != kPolygonsCurrent;
+                          });
+}
+
+void Catalog::set_signatures_stale(bool stale)
+{
+    const std::lock_guard lock(impl_->mutex);
+    impl_->guarded("record the signatures' state in",
+                   [&]
+                   {
+                       impl_->execute("DELETE FROM meta WHERE name = ?", {kPolygonsMeta});
+                       if (!stale)
+                       {
+                           impl_->execute("INSERT INTO meta(name, value) VALUES (?, ?)",
+                                          {kPolygonsMeta, kPolygonsCurrent});
+                       }
+                   });
+}
+
 std::size_t Catalog::copy_from(const Catalog& source)
 {
     // Read first (source and destination may not be locked in either order by two calls).
     std::vector<Row> assets;
     std::vector<Row> recipients;
+    std::vector<Row> polygons;  // the signatures' state goes with them
     {
         const std::lock_guard lock(source.impl_->mutex);
         source.impl_->guarded(
@@ -295,6 +329,8 @@ std::size_t Catalog::copy_from(const Catalog& source)
                         recipients =
                             source.impl_->query(std::string("SELECT ") + kRecipientColumns +
                                                 " FROM recipients ORDER BY asset, code");
+                        polygons = source.impl_->query("SELECT value FROM meta WHERE name = ?",
+                                                       {kPolygonsMeta});
                     });
             });
     }
@@ -324,6 +360,12 @@ std::size_t Catalog::copy_from(const Catalog& source)
                         impl_->execute(std::string("INSERT INTO recipients(") + kRecipientColumns +
                                            ") VALUES (?, ?, ?, ?, ?, ?)",
                                        row);
+                    }
+                    impl_->execute("DELETE FROM meta WHERE name = ?", {kPolygonsMeta});
+                    if (!polygons.empty())
+                    {
+                        impl_->execute("INSERT INTO meta(name, value) VALUES (?, ?)",
+                                       {kPolygonsMeta, polygons[0][0].as_text()});
                     }
                 });
         });

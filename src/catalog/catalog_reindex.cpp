@@ -2,6 +2,7 @@
 // `catalog reindex`: the shape signatures an older build wrote, recomputed from the originals.
 #include "meshmark/catalog/catalog_reindex.h"
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <mutex>
@@ -34,6 +35,9 @@ const char* to_string(CatalogReindexOutcome::Status status) noexcept
 std::vector<CatalogReindexOutcome> catalog_reindex(Catalog& catalog,
                                                    const CatalogReindexOptions& options)
 {
+    // A catalogue an older build wrote read polygons differently: every signature is redone.
+    const bool stale = catalog.has_stale_signatures();
+    const bool all = options.all || stale;
     const std::vector<Catalog::IndexEntry> index = catalog.shape_index();
     constexpr std::size_t kCurrentSize = static_cast<std::size_t>(kShapeViews) * kShapeFeatures;
     std::vector<CatalogReindexOutcome> outcomes(index.size());
@@ -45,7 +49,7 @@ std::vector<CatalogReindexOutcome> catalog_reindex(Catalog& catalog,
         outcome.asset = index[a].id;
         try
         {
-            if (!options.all && index[a].views.size() == kCurrentSize && !index[a].points.empty())
+            if (!all && index[a].views.size() == kCurrentSize && !index[a].points.empty())
             {
                 outcome.status = CatalogReindexOutcome::Status::Current;
                 return outcome;
@@ -94,6 +98,14 @@ std::vector<CatalogReindexOutcome> catalog_reindex(Catalog& catalog,
                                                           static_cast<double>(index.size()));
                        }
                    });
+    const bool failed =
+        std::any_of(outcomes.begin(), outcomes.end(),
+                    [](const auto& outcome)
+                    { return outcome.status == CatalogReindexOutcome::Status::Failed; });
+    if (stale && !failed)
+    {
+        catalog.set_signatures_stale(false);
+    }
     return outcomes;
 }
 

@@ -115,6 +115,12 @@ public:
     /// The shape index of every recorded asset, an interrupted add's included: its key is
     /// recorded before its copy is written, so a copy the interruption left on disk is traced.
     [[nodiscard]] std::vector<IndexEntry> shape_index() const;
+    /// \brief Whether the stored signatures may have been computed by a build whose readers
+    /// fanned polygons that are not convex (a catalogue written before they were triangulated
+    /// inside): `catalog reindex` recomputes them all, then clears it.
+    [[nodiscard]] bool has_stale_signatures() const;
+    /// Record whether the stored signatures are stale (catalog_reindex, copy_from's callers).
+    void set_signatures_stale(bool stale);
     /// \brief Store \p signature as asset \p id's shape (catalog_reindex), in one transaction.
     /// \throws InvalidOption when there is no such asset.
     void set_shape(const std::string& id, const ShapeSignature& signature);

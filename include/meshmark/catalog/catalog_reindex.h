@@ -39,7 +39,8 @@ struct CatalogReindexOutcome
 
 /// \brief Recompute the shape signatures of \p catalog's assets from their originals: those
 /// written by an older build (positions' features only, or none), or all of them with
-/// options.all. An original that changed since it was added is not read (its signature would
+/// options.all or when Catalog::has_stale_signatures (every one then, and the mark is cleared
+/// once none failed). An original that changed since it was added is not read (its signature would
 /// not be the marked asset's): that asset fails and keeps the signature it has. One asset's
 /// failure is its outcome, never the batch's; each signature is stored in its own transaction,
 /// so an interrupted run keeps what it did.

@@ -131,8 +131,12 @@ public:
     {
         if (n > 3)
         {
-            polygons_.push_back({size_, static_cast<std::uint32_t>(std::min<std::size_t>(
-                                            n, std::numeric_limits<std::uint32_t>::max()))});
+            constexpr std::size_t kMost = std::numeric_limits<std::uint32_t>::max();
+            if (size_ <= kMost && n <= kMost)  // else kept as a fan (beyond 4 billion triangles)
+            {
+                polygons_.push_back(
+                    {static_cast<std::uint32_t>(size_), static_cast<std::uint32_t>(n)});
+            }
         }
         for (std::size_t k = 1; k + 1 < n; ++k)
         {
@@ -142,7 +146,7 @@ public:
     /// A polygon pushed as a fan: its first triangle and its number of corners.
     struct Polygon
     {
-        std::size_t first;
+        std::uint32_t first;  // 8 bytes a polygon: a million quads cost 8 MB while read
         std::uint32_t corners;
     };
     [[nodiscard]] const std::vector<Polygon>& polygons() const noexcept { return polygons_; }
@@ -191,7 +195,8 @@ namespace meshmark::detail
 /// its fan from corner 0, which lays triangles outside a concave outline (an L, a letter, a
 /// gear's rim): seen in its own plane, such a polygon gets a constrained Delaunay triangulation
 /// of the same n - 2 triangles on its own corners instead. A polygon whose triangulation would
-/// need other points (an outline crossing itself) or is too long keeps its fan.
+/// need other points (an outline crossing itself), or with a corner on another of its sides,
+/// keeps its fan.
 void fill_polygons(const double* xyz, TriangleBuffer& triangles);
 
 /// "outside 0..n-1" for index messages ("but the file has no vertices" when n == 0).

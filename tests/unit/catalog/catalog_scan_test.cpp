@@ -187,6 +187,57 @@ TEST(CatalogTest, reindex_recomputes_an_older_builds_signatures_and_leaves_a_cha
     EXPECT_EQ(stored_shapes(at).at("sub/egg.off"), added.at("sub/egg.off"));
 }
 
+TEST(CatalogTest, a_catalogue_of_a_build_that_fanned_polygons_is_reindexed_whole_once)
+{
+    const fs::path dir = test::temp_dir("catalog_stale_signatures");
+    const fs::path in = make_originals(dir);
+    const std::string at = catalog_at(dir);
+    {
+        Catalog catalog(at, Catalog::Open::CreateIfMissing);
+        (void)catalog_add(catalog, {in}, dir / "out", quick_options());
+        EXPECT_FALSE(catalog.has_stale_signatures());
+    }
+    const auto added = stored_shapes(at);
+    // As a build before polygons were filled left it: no mark, and a signature of this size
+    // that is not its original's (a fan-triangulated reading, say): a plain reindex keeps it.
+    (void)sql(at, "DELETE FROM meta WHERE name = 'signature_polygons'");
+    (void)sql(at, "UPDATE assets SET shape = " + blob_literal(added.at("ellipsoid.ply")) +
+                      " WHERE id = 'sub/torus.obj'");
+    Catalog catalog(at, Catalog::Open::Existing);
+    ASSERT_TRUE(catalog.has_stale_signatures());
+
+    // A migrated copy is as stale as its source.
+    const fs::path copy_dir = test::temp_dir("catalog_stale_signatures_copy");
+    Catalog copy(catalog_at(copy_dir), Catalog::Open::CreateIfMissing);
+    EXPECT_FALSE(copy.has_stale_signatures());
+    EXPECT_EQ(copy.copy_from(catalog), 3U);
+    EXPECT_TRUE(copy.has_stale_signatures());
+
+    // An original that changed fails: the mark stays, and a later run redoes every asset.
+    const fs::path egg = in / "sub" / "egg.off";
+    const std::string egg_bytes = test::file_bytes(egg);
+    std::ofstream(egg, std::ios::app) << "# edited\n";
+    for (const auto& o : catalog_reindex(catalog, CatalogReindexOptions{}))
+    {
+        EXPECT_EQ(o.status, o.asset == "sub/egg.off" ? CatalogReindexOutcome::Status::Failed
+                                                     : CatalogReindexOutcome::Status::Updated);
+    }
+    EXPECT_TRUE(catalog.has_stale_signatures());
+    EXPECT_EQ(stored_shapes(at).at("sub/torus.obj"), added.at("sub/torus.obj"));
+
+    std::ofstream(egg, std::ios::binary | std::ios::trunc) << egg_bytes;
+    for (const auto& o : catalog_reindex(catalog, CatalogReindexOptions{}))
+    {
+        EXPECT_EQ(o.status, CatalogReindexOutcome::Status::Updated) << o.asset << ": " << o.reason;
+    }
+    EXPECT_FALSE(catalog.has_stale_signatures());
+    EXPECT_EQ(stored_shapes(at), added);
+    for (const auto& o : catalog_reindex(catalog, CatalogReindexOptions{}))
+    {
+        EXPECT_EQ(o.status, CatalogReindexOutcome::Status::Current) << o.asset;
+    }
+}
+
 TEST(CatalogTest, scan_reports_the_same_tries_in_rank_order_on_one_thread_or_several)
 {
     const fs::path dir = test::temp_dir("catalog_scan_threads");

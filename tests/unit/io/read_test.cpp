@@ -1,8 +1,11 @@
 // SPDX-License-Identifier: MIT
 // Reading the tiny fixtures of tests/data: exact counts, positions and triangles per feature.
 #include <algorithm>
+#include <array>
 #include <cstring>
+#include <vector>
 
+#include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
 #include "io_test_support.h"
@@ -84,19 +87,44 @@ TEST(IoTest, fan_triangulates_convex_obj_polygons_and_fills_the_others_inside)
     const auto mesh = read_mesh(fixture("quad_faces.obj"));
     ASSERT_EQ(mesh.V.rows(), 9);
     EXPECT_EQ(mesh.V(8, 1), 1.5);
-    test::expect_triangles(mesh, {{0, 3, 2},
-                                  {0, 2, 1},
-                                  {4, 5, 6},
-                                  {4, 6, 7},
-                                  {0, 1, 5},
-                                  {0, 5, 4},
-                                  {0, 4, 7},
-                                  {0, 7, 3},
-                                  {1, 2, 6},
-                                  {1, 6, 5},
-                                  {8, 3, 7},
-                                  {6, 2, 8},
-                                  {8, 2, 3}});
+    ASSERT_EQ(mesh.F.rows(), 13);
+    TriangleMesh quads = mesh;
+    quads.F.conservativeResize(10, 3);
+    test::expect_triangles(quads, {{0, 3, 2},
+                                   {0, 2, 1},
+                                   {4, 5, 6},
+                                   {4, 6, 7},
+                                   {0, 1, 5},
+                                   {0, 5, 4},
+                                   {0, 4, 7},
+                                   {0, 7, 3},
+                                   {1, 2, 6},
+                                   {1, 6, 5}});
+    // The pentagon: three triangles on its corners, none flipped against its normal, which
+    // together make its vector area. (Seen along the normal, 9 is near the diagonal 3-7 of a
+    // square: which triangles the triangulation picks there is a tie, not pinned here.)
+    // Twice its vector area: the same for every surface the outline bounds.
+    const std::array<int, 5> outline = {2, 3, 7, 8, 6};
+    Eigen::RowVector3d newell = Eigen::RowVector3d::Zero();
+    for (std::size_t k = 0; k < outline.size(); ++k)
+    {
+        newell += mesh.V.row(outline[k]).cross(mesh.V.row(outline[(k + 1) % outline.size()]));
+    }
+    Eigen::RowVector3d sum = Eigen::RowVector3d::Zero();
+    for (Eigen::Index f = 10; f < 13; ++f)
+    {
+        for (Eigen::Index c = 0; c < 3; ++c)
+        {
+            EXPECT_TRUE(mesh.F(f, c) == 2 || mesh.F(f, c) == 3 || mesh.F(f, c) == 6 ||
+                        mesh.F(f, c) == 7 || mesh.F(f, c) == 8);
+        }
+        const Eigen::RowVector3d a = mesh.V.row(mesh.F(f, 0));
+        const Eigen::RowVector3d n =
+            (mesh.V.row(mesh.F(f, 1)) - a).cross(mesh.V.row(mesh.F(f, 2)) - a);
+        EXPECT_GE(n.dot(newell), -1e-12) << "triangle " << f;
+        sum += n;
+    }
+    EXPECT_LT((sum - newell).norm(), 1e-12);
 }
 
 TEST(IoTest, reads_every_obj_index_form)
