@@ -191,6 +191,8 @@ nlohmann::json catalog_scan_json(const Catalog& catalog, const CatalogScanReport
              "catalogue is at "
              "most max_false_positive (each asset's key tested at max_false_positive / assets; "
              "docs/statistics.md)"},
+            // Signatures of a build that fanned concave polygons: `catalog reindex` redoes them.
+            {"stale_signatures", catalog.has_stale_signatures()},
             {"suspects", std::move(suspects)}};
 }
 

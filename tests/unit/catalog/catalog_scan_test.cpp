@@ -20,6 +20,7 @@
 #include "meshmark/attacks/attack_spec.h"
 #include "meshmark/catalog/catalog.h"
 #include "meshmark/catalog/catalog_add.h"
+#include "meshmark/catalog/catalog_json.h"
 #include "meshmark/catalog/catalog_reindex.h"
 #include "meshmark/core/error.h"
 #include "meshmark/geometry/shapes.h"
@@ -205,6 +206,9 @@ TEST(CatalogTest, a_catalogue_of_a_build_that_fanned_polygons_is_reindexed_whole
                       " WHERE id = 'sub/torus.obj'");
     Catalog catalog(at, Catalog::Open::Existing);
     ASSERT_TRUE(catalog.has_stale_signatures());
+    EXPECT_EQ(catalog_scan_json(catalog, CatalogScanReport{}, CatalogScanOptions{})
+                  .at("stale_signatures"),
+              true);
 
     // A migrated copy is as stale as its source.
     const fs::path copy_dir = test::temp_dir("catalog_stale_signatures_copy");
@@ -231,6 +235,9 @@ TEST(CatalogTest, a_catalogue_of_a_build_that_fanned_polygons_is_reindexed_whole
         EXPECT_EQ(o.status, CatalogReindexOutcome::Status::Updated) << o.asset << ": " << o.reason;
     }
     EXPECT_FALSE(catalog.has_stale_signatures());
+    EXPECT_EQ(catalog_scan_json(catalog, CatalogScanReport{}, CatalogScanOptions{})
+                  .at("stale_signatures"),
+              false);
     EXPECT_EQ(stored_shapes(at), added);
     for (const auto& o : catalog_reindex(catalog, CatalogReindexOptions{}))
     {
