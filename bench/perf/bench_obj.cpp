@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 // OBJ read of a 1M-vertex mesh of polygons, as artists' models carry them: quads (convex: each
-// is checked and keeps its fan) or concave hexagons (each is triangulated inside its outline).
+// is checked and keeps its fan) or concave hexagons (each is triangulated inside its outline);
+// and of one concave outline of 100,000 corners.
 // The files go to a temporary directory removed at exit; the page cache is warm, so these are
 // the CPU costs, not the disk's.
 #include <cmath>
@@ -62,17 +63,43 @@ fs::path write_grid(const fs::path& dir, bool concave)
     return path;
 }
 
+/// One face: a star of 100,000 corners along a tilted circle (a concave outline whose corners
+/// are nearly cocircular, the Delaunay triangulation's hard case when inserted in order).
+fs::path write_star(const fs::path& dir)
+{
+    constexpr int kCorners = 100'000;
+    const fs::path path = dir / "star.obj";
+    std::ofstream out(path);
+    out.precision(12);
+    for (int k = 0; k < kCorners; ++k)
+    {
+        const double angle = 2.0 * M_PI * k / kCorners;
+        const double r = k % 2 == 0 ? 1.0 : 1.01;
+        out << "v " << r * std::cos(angle) << ' ' << r * std::sin(angle) << ' '
+            << 0.3 * r * std::cos(angle) << '\n';
+    }
+    out << 'f';
+    for (int k = 1; k <= kCorners; ++k)
+    {
+        out << ' ' << (k % kCorners) + 1;  // from an inner corner: the fan leaves the outline
+    }
+    out << '\n';
+    return path;
+}
+
 struct ObjFixture
 {
     fs::path dir;
     fs::path quads;
     fs::path hexagons;
+    fs::path star;
     ObjFixture()
     {
         dir = fs::temp_directory_path() / ("meshmark_bench_obj_" + std::to_string(::getpid()));
         fs::create_directories(dir);
         quads = write_grid(dir, false);
         hexagons = write_grid(dir, true);
+        star = write_star(dir);
     }
     ~ObjFixture()
     {
@@ -102,8 +129,19 @@ void BM_ObjRead(benchmark::State& state)
     state.counters["MB"] = static_cast<double>(fs::file_size(input)) / 1e6;
 }
 
+void BM_ObjReadOutline(benchmark::State& state)
+{
+    const auto& f = fixture();
+    for (auto _ : state)
+    {
+        const MeshFile file = read_mesh_file(f.star);
+        benchmark::DoNotOptimize(file.mesh.F.data());
+    }
+}
+
 }  // namespace
 
+BENCHMARK(BM_ObjReadOutline)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_ObjRead)
     ->ArgName("concave")
     ->Arg(0)
