@@ -273,7 +273,7 @@ void fill_polygons(const double* xyz, TriangleBuffer& triangles)
         bool fan_is_inside = false;
         const Vec3 normal = fan_normal(xyz, corners, normals, fan_is_inside);
         const double area = 0.5 * std::sqrt(dot(normal, normal));
-        if (fan_is_inside || !(area > 0.0))
+        if (fan_is_inside || !(area > 0.0) || !std::isfinite(area))  // NaN, infinity: refused later
         {
             continue;
         }

@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include "io_test_support.h"
+#include "meshmark/core/error.h"
 #include "meshmark/io/mesh_io.h"
 
 namespace meshmark
@@ -180,6 +181,34 @@ TEST(PolygonFillTest, an_outline_that_crosses_itself_keeps_its_fan)
             EXPECT_EQ(mesh.F(k, 0), 0);
             EXPECT_EQ(mesh.F(k, 1), k + 1);
             EXPECT_EQ(mesh.F(k, 2), k + 2);
+        }
+    }
+}
+
+}  // namespace meshmark
+
+namespace meshmark
+{
+
+TEST(PolygonFillTest, a_concave_polygon_with_a_non_finite_corner_is_refused_not_triangulated)
+{
+    // The OBJ reader checks the positions after the triangles are made: the triangulation must
+    // leave such a polygon alone (CGAL on infinite points is undefined).
+    const auto folder = test::temp_dir("polygon_fill_infinite");
+    for (const char* bad : {"inf", "nan", "1e300"})
+    {
+        SCOPED_TRACE(bad);
+        const auto path = folder / "bad.obj";
+        test::put_bytes(path, std::string("v 2 1 0\nv 1 1 0\nv 1 2 0\nv 0 2 0\nv 0 0 ") + bad +
+                                  "\nv 2 0 0\nf 1 2 3 4 5 6\n");
+        if (std::string(bad) == "1e300")
+        {
+            // Finite, but its products overflow: read, not refused.
+            EXPECT_EQ(read_mesh(path).F.rows(), 4);
+        }
+        else
+        {
+            test::expect_error<InvalidMesh>([&] { (void)read_mesh(path); }, {"non-finite"});
         }
     }
 }
