@@ -20,6 +20,7 @@
 #include "meshmark/core/hash.h"
 #include "meshmark/core/threads.h"
 #include "meshmark/io/file_bytes.h"
+#include "meshmark/io/obj_materials.h"
 
 namespace meshmark
 {
@@ -121,115 +122,32 @@ void copy_beside(const fs::path& from, const fs::path& to)
 
 }  // namespace
 
-namespace
-{
-
-// The blank-separated words of \p line (the OBJ and MTL formats' separators).
-std::vector<std::string_view> words_of(std::string_view line)
-{
-    std::vector<std::string_view> words;
-    constexpr std::string_view kBlanks = " \t\r\f\v";
-    for (std::size_t at = line.find_first_not_of(kBlanks); at != std::string_view::npos;)
-    {
-        const std::size_t end = std::min(line.find_first_of(kBlanks, at), line.size());
-        words.push_back(line.substr(at, end - at));
-        at = line.find_first_not_of(kBlanks, end);
-    }
-    return words;
-}
-
-// Calls \p each with every line of \p text (without its '\n').
-template <typename Each>
-void for_each_line(std::string_view text, Each&& each)
-{
-    for (std::size_t at = 0; at < text.size();)
-    {
-        const std::size_t end = std::min(text.find('\n', at), text.size());
-        each(text.substr(at, end - at));
-        at = end + 1;
-    }
-}
-
-}  // namespace
-
 // The copy's folder shows what the original's does (a glTF's writer copies its images itself;
-// io/obj.cpp, material_library_edits, links back what is left out). The OBJ is scanned for
-// `mtllib` as bytes, a line parsed only where the word occurs (a stream per line cost about 5%
-// of a whole `catalog add` of artists' files).
+// io/obj.cpp, material_library_edits, links back what is left out): the OBJ's material
+// libraries and their textures, each relative to the file that names it.
 void copy_obj_materials(const fs::path& input, const fs::path& output)
 {
-    const std::string obj = read_file(input);
     const fs::path from = input.parent_path();
     const fs::path to = output.parent_path();
     std::error_code error;
-    std::size_t next = 0;  // past the line of the last "mtllib" seen
-    for (std::size_t hit = obj.find("mtllib"); hit != std::string::npos;
-         hit = obj.find("mtllib", next))
+    for (const MaterialLibraryStatement& statement : material_libraries(read_file(input), from))
     {
-        const std::size_t before = obj.rfind('\n', hit);
-        const std::size_t start = before == std::string::npos ? 0 : before + 1;
-        next = std::min(obj.find('\n', hit), obj.size());
-        const std::string_view line = std::string_view(obj).substr(start, next - start);
-        const std::vector<std::string_view> words = words_of(line);
-        if (words.empty() || words[0] != "mtllib")
-        {
-            continue;
-        }
-        // The rest of the line names one file when the folder has a file by that whole name
-        // (exporters write names with spaces), else each word names one.
-        std::string rest;
-        if (words.size() > 1)
-        {
-            const auto first = static_cast<std::size_t>(words[1].data() - line.data());
-            const auto last =
-                static_cast<std::size_t>(words.back().data() + words.back().size() - line.data());
-            rest = line.substr(first, last - first);
-        }
-        std::vector<std::string> names;
-        if (!rest.empty() && fs::is_regular_file(from / rest, error))
-        {
-            names.push_back(rest);
-        }
-        else
-        {
-            for (std::size_t w = 1; w < words.size(); ++w)
-            {
-                names.emplace_back(words[w]);
-            }
-        }
-        for (const std::string& name : names)
+        for (const std::string& name : statement.names)
         {
             if (!stays_inside(name) || !fs::is_regular_file(from / name, error))
             {
                 continue;
             }
             copy_beside(from / name, to / name);
-            // The library's textures: the last word of each map/bump/disp/decal/refl statement,
-            // relative to the library's own folder.
             const fs::path library_folder = fs::path(name).parent_path();
-            for_each_line(
-                read_file(from / name),
-                [&](std::string_view statement)
+            for (const std::string& texture : material_textures(read_file(from / name)))
+            {
+                const fs::path relative = library_folder / texture;
+                if (stays_inside(relative) && fs::is_regular_file(from / relative, error))
                 {
-                    const std::vector<std::string_view> parts = words_of(statement);
-                    if (parts.size() < 2)
-                    {
-                        return;
-                    }
-                    std::string first(parts[0]);
-                    std::transform(first.begin(), first.end(), first.begin(),
-                                   [](unsigned char c) { return std::tolower(c); });
-                    if (!first.starts_with("map_") && first != "bump" && first != "disp" &&
-                        first != "decal" && first != "refl" && first != "norm")
-                    {
-                        return;
-                    }
-                    const fs::path relative = library_folder / std::string(parts.back());
-                    if (stays_inside(relative) && fs::is_regular_file(from / relative, error))
-                    {
-                        copy_beside(from / relative, to / relative);
-                    }
-                });
+                    copy_beside(from / relative, to / relative);
+                }
+            }
         }
     }
 }

@@ -13,6 +13,7 @@
 
 #include "io/detail/formats.h"
 #include "io/detail/support.h"
+#include "meshmark/io/obj_materials.h"
 
 namespace meshmark::detail
 {
@@ -247,11 +248,9 @@ TriangleMesh read_obj(const std::filesystem::path& path, FileLayout& layout,
     return mesh;
 }
 
-// `mtllib` names its libraries relative to the OBJ's folder, and a library names its textures
-// relative to itself: relinking the library (rather than copying it) keeps both resolvable
-// without parsing the MTL's texture options. The rest of the line names one file when the
-// source has a file by that whole name (exporters write names with spaces), else each token
-// names one, as the format says.
+// `mtllib` names its libraries relative to the OBJ's folder (material_libraries), and a library
+// names its textures relative to itself: relinking the library (rather than copying it) keeps
+// both resolvable without parsing the MTL's texture options.
 std::vector<TextEdit> material_library_edits(std::string_view bytes,
                                              const std::filesystem::path& source_folder,
                                              const std::filesystem::path& output_folder,
@@ -267,58 +266,24 @@ std::vector<TextEdit> material_library_edits(std::string_view bytes,
     {
         return edits;  // (the usual cases: no scan of the lines)
     }
-    LineCursor lines(bytes);
-    std::string_view line;
-    while (lines.next(line))
+    for (MaterialLibraryStatement& statement : material_libraries(bytes, source_folder))
     {
-        TokenCursor tokens(line);
-        std::string_view keyword;
-        if (!tokens.next(keyword) || keyword != "mtllib")
-        {
-            continue;
-        }
-        auto first = static_cast<std::size_t>(keyword.data() + keyword.size() - line.data());
-        auto last = line.size();
-        while (first < last && is_blank(line[first]))
-        {
-            ++first;
-        }
-        while (last > first && is_blank(line[last - 1]))
-        {
-            --last;
-        }
-        const std::string_view rest = line.substr(first, last - first);
-        std::vector<std::string_view> names;
-        if (std::filesystem::is_regular_file(source_folder / std::string(rest), error))
-        {
-            names.push_back(rest);
-        }
-        else
-        {
-            TokenCursor parts(rest);
-            for (std::string_view name; parts.next(name);)
-            {
-                names.push_back(name);
-            }
-        }
         std::string replaced;
         bool is_changed = false;
-        for (const std::string_view name : names)
+        for (const std::string& name : statement.names)
         {
-            const auto reach =
-                relinked(source_folder, output_folder, std::string(name), link_folder);
+            const auto reach = relinked(source_folder, output_folder, name, link_folder);
             const bool moves = reach && !reach->empty();
             if (!replaced.empty())
             {
                 replaced += ' ';
             }
-            replaced += moves ? reach->generic_string() : std::string(name);
+            replaced += moves ? reach->generic_string() : name;
             is_changed = is_changed || moves;
         }
         if (is_changed)
         {
-            const auto at = static_cast<std::size_t>(line.data() - bytes.data());
-            edits.push_back({at + first, last - first, std::move(replaced)});
+            edits.push_back({statement.offset, statement.length, std::move(replaced)});
         }
     }
     return edits;

@@ -17,7 +17,7 @@
 #include <CGAL/property_map.h>
 #include <CGAL/spatial_sort.h>
 
-#include "detail/support.h"
+#include "io/detail/support.h"
 
 namespace meshmark::detail
 {
