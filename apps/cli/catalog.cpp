@@ -221,6 +221,17 @@ void write_scan_reports(const CatalogArgs& args, const Catalog& catalog,
     }
 }
 
+// A catalogue whose signatures a build that fanned concave polygons computed (scan --json's
+// "stale_signatures"), whether scanned here or on a cluster.
+void warn_stale_signatures(const std::string& shown)
+{
+    std::fprintf(stderr,
+                 "meshmark: warning: %s: its shape signatures were computed by an older build, "
+                 "which read polygons that are not convex wrongly; copies of such assets may be "
+                 "missed until `meshmark catalog reindex` recomputes them.\n",
+                 shown.c_str());
+}
+
 int run_scan(const CatalogArgs& args, const GlobalArgs& global)
 {
     if (!args.report.empty())
@@ -238,6 +249,10 @@ int run_scan(const CatalogArgs& args, const GlobalArgs& global)
                 "without --scheduler for their evidence reports.");
         }
         const nlohmann::json report = run_on_cluster("scan", args, global);
+        if (report.value("stale_signatures", false))
+        {
+            warn_stale_signatures(report.value("catalog", std::string()));
+        }
         if (args.json)
         {
             print_json(report);
@@ -253,11 +268,7 @@ int run_scan(const CatalogArgs& args, const GlobalArgs& global)
                           lock_timeout_of(args.lock_timeout));
     if (catalog.has_stale_signatures())
     {
-        std::fprintf(stderr,
-                     "meshmark: warning: %s: its shape signatures were computed by an older "
-                     "build, which read polygons that are not convex wrongly; copies of such "
-                     "assets may be missed until `meshmark catalog reindex` recomputes them.\n",
-                     catalog.path().c_str());
+        warn_stale_signatures(catalog.path().string());
     }
     std::vector<std::filesystem::path> suspects(args.inputs.begin(), args.inputs.end());
     const CatalogScanReport report =

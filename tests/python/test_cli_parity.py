@@ -218,3 +218,30 @@ def test_detect_file_report_is_the_programs_evidence_report(original, marked, tm
     with pytest.raises(meshmark.InvalidOption, match="must name a .html or a .pdf file"):
         meshmark.detect_file(marked, original, key, report=tmp_path / "report.txt")
     assert html_key.read_bytes() == key.read_bytes()
+
+
+def test_a_catalogue_of_a_build_that_fanned_polygons_is_flagged_until_reindexed(torus, tmp_path, cli):
+    import sqlite3
+
+    V, F = torus
+    (tmp_path / "in").mkdir()
+    meshmark.write_mesh(tmp_path / "in" / "ring.ply", V, F)
+    catalog = meshmark.Catalog(tmp_path / "cat.db", create=True)
+    catalog.add([tmp_path / "in"], tmp_path / "out", seed=3)
+    published = tmp_path / "out" / "ring.ply"
+    fresh = run_cli(cli, "catalog", "scan", tmp_path / "cat.db", published, "--json")
+    assert json.loads(fresh.stdout)["stale_signatures"] is False and "older build" not in fresh.stderr
+
+    # As a build before concave polygons were triangulated inside left it: no meta row.
+    with sqlite3.connect(tmp_path / "cat.db") as db:
+        db.execute("DELETE FROM meta WHERE name = 'signature_polygons'")
+    db.close()
+    stale = run_cli(cli, "catalog", "scan", tmp_path / "cat.db", published, "--json")
+    assert json.loads(stale.stdout)["stale_signatures"] is True
+    assert "older build" in stale.stderr and "catalog reindex" in stale.stderr
+    assert catalog.scan([published])["stale_signatures"] is True
+
+    assert catalog.reindex()["counts"] == {"current": 0, "updated": 1, "failed": 0}
+    again = run_cli(cli, "catalog", "scan", tmp_path / "cat.db", published, "--json")
+    assert json.loads(again.stdout)["stale_signatures"] is False and "older build" not in again.stderr
+    assert catalog.reindex()["counts"] == {"current": 1, "updated": 0, "failed": 0}
