@@ -7,12 +7,14 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <unordered_map>
 #include <vector>
 
 #include <CGAL/Constrained_Delaunay_triangulation_2.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Spatial_sort_traits_adapter_2.h>
+#include <CGAL/Triangulation_face_base_with_info_2.h>
 #include <CGAL/Triangulation_vertex_base_with_info_2.h>
 #include <CGAL/property_map.h>
 #include <CGAL/spatial_sort.h>
@@ -33,7 +35,16 @@ struct Corner
 
 using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
 using VertexBase = CGAL::Triangulation_vertex_base_with_info_2<Corner, Kernel>;
-using FaceBase = CGAL::Constrained_triangulation_face_base_2<Kernel>;
+/// The outline's winding number around a face of the triangulation (kUnset: not reached yet).
+struct Winding
+{
+    static constexpr int kUnset = std::numeric_limits<int>::min();
+    int w = kUnset;
+};
+
+using FaceBase =
+    CGAL::Triangulation_face_base_with_info_2<Winding, Kernel,
+                                              CGAL::Constrained_triangulation_face_base_2<Kernel>>;
 using Tds = CGAL::Triangulation_data_structure_2<VertexBase, FaceBase>;
 using Cdt = CGAL::Constrained_Delaunay_triangulation_2<Kernel, Tds, CGAL::Exact_predicates_tag>;
 using Point2 = std::array<double, 2>;
@@ -193,14 +204,12 @@ bool triangulate(const std::vector<Point2>& plane, double area, Cdt& cdt,
         ++walked[side_key(a->info().k, b->info().k)];
         --walked[side_key(b->info().k, a->info().k)];
     }
-    std::unordered_map<Cdt::Face_handle, int> winding;
-    winding.reserve(2 * count);
     std::vector<Cdt::Face_handle> stack;
     for (auto f = cdt.all_faces_begin(); f != cdt.all_faces_end(); ++f)
     {
         if (cdt.is_infinite(f))
         {
-            winding.emplace(f, 0);
+            f->info().w = 0;
             stack.push_back(f);
         }
     }
@@ -208,11 +217,10 @@ bool triangulate(const std::vector<Point2>& plane, double area, Cdt& cdt,
     {
         const Cdt::Face_handle f = stack.back();
         stack.pop_back();
-        const int w = winding.at(f);
         for (int i = 0; i < 3; ++i)
         {
             const Cdt::Face_handle g = f->neighbor(i);
-            if (winding.count(g) != 0)
+            if (g->info().w != Winding::kUnset)
             {
                 continue;
             }
@@ -225,14 +233,14 @@ bool triangulate(const std::vector<Point2>& plane, double area, Cdt& cdt,
                 const auto side = walked.find(side_key(p->info().k, q->info().k));
                 change = side == walked.end() ? 0 : side->second;
             }
-            winding.emplace(g, w - change);
+            g->info().w = f->info().w - change;
             stack.push_back(g);
         }
     }
     double covered = 0.0;
     for (auto f = cdt.finite_faces_begin(); f != cdt.finite_faces_end(); ++f)
     {
-        if (winding.at(f) == 0)
+        if (f->info().w == 0)
         {
             continue;
         }
