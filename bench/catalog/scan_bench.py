@@ -52,6 +52,8 @@ def main():
     parser.add_argument("--blender-assets", type=int, default=12)
     parser.add_argument("--blender-cli", default="blender")
     parser.add_argument("--candidates", type=int, default=8)
+    parser.add_argument("--attacks", nargs="+", default=ATTACKS, metavar="SPEC",
+                        help="the attack chains cycled over the marked suspects (default: the suite above)")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--work", help="folder for the suspects (default: a temporary one)")
     parser.add_argument("--without-points", action="store_true",
@@ -70,7 +72,7 @@ def main():
     truth = {}  # suspect path -> (asset, recipient, attack) or None
     chosen = rng.sample(assets, min(len(assets), args.marked + args.issued))
     for n, asset in enumerate(chosen):
-        attack = ATTACKS[n % len(ATTACKS)]
+        attack = args.attacks[n % len(args.attacks)]
         source, recipient = Path(asset["published"]), "published"
         if n >= args.marked:
             recipient = f"buyer{n}"

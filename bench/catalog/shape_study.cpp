@@ -13,6 +13,7 @@
 #include <map>
 #include <memory>
 #include <numbers>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -247,6 +248,28 @@ int main(int argc, char** argv)
                     fit_options.fine_poses = std::stoi(e);
                 }
                 const ShapeFeatures features = shape_features(suspect);
+                // MESHMARK_STUDY_GROUPS=1: the m fitted are the first of m distinct vertex and
+                // face counts (one variant of a mesh stands for all until the fit ranks it).
+                if (std::getenv("MESHMARK_STUDY_GROUPS") != nullptr)
+                {
+                    std::vector<std::pair<float, std::size_t>> front;
+                    std::vector<std::pair<float, std::size_t>> rest;
+                    std::set<std::pair<Eigen::Index, Eigen::Index>> seen;
+                    for (const auto& entry : d)
+                    {
+                        const TriangleMesh& mesh = meshes[entry.second];
+                        if (front.size() < m && seen.insert({mesh.V.rows(), mesh.F.rows()}).second)
+                        {
+                            front.push_back(entry);
+                        }
+                        else
+                        {
+                            rest.push_back(entry);
+                        }
+                    }
+                    front.insert(front.end(), rest.begin(), rest.end());
+                    d = std::move(front);
+                }
                 const auto t0 = std::chrono::steady_clock::now();
                 for (std::size_t k = 0; k < m; ++k)
                 {
@@ -271,9 +294,99 @@ int main(int argc, char** argv)
                         static_cast<float>(shape_fit(s_points, fit_samples[b], fit_normals[b],
                                                      *fit_trees[b], views, fit_options));
                 }
+                std::stable_sort(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(m));
+                // MESHMARK_STUDY_SIBLINGS=K: the assets of the vertex and face counts of any of
+                // the fit's first K (same connectivity: variants of one mesh) fitted as well.
+                if (const char* sib = std::getenv("MESHMARK_STUDY_SIBLINGS"))
+                {
+                    const std::size_t kk = std::min<std::size_t>(m, std::stoul(sib));
+                    std::vector<bool> in_front(d.size(), false);
+                    for (std::size_t k = 0; k < m; ++k)
+                    {
+                        in_front[d[k].second] = true;
+                    }
+                    std::vector<std::pair<float, std::size_t>> front(
+                        d.begin(), d.begin() + static_cast<std::ptrdiff_t>(m));
+                    std::vector<std::pair<float, std::size_t>> rest;
+                    for (std::size_t k = m; k < d.size(); ++k)
+                    {
+                        const std::size_t b = d[k].second;
+                        bool sibling = false;
+                        for (std::size_t j = 0; j < kk && !sibling; ++j)
+                        {
+                            const std::size_t c = d[j].second;
+                            sibling = meshes[b].V.rows() == meshes[c].V.rows() &&
+                                      meshes[b].F.rows() == meshes[c].F.rows();
+                        }
+                        if (!sibling)
+                        {
+                            rest.push_back(d[k]);
+                            continue;
+                        }
+                        std::vector<std::pair<float, int>> by_view;
+                        for (int v = 1; v < static_cast<int>(index[b].views.size()); ++v)
+                        {
+                            by_view.emplace_back(
+                                shape_distance(features,
+                                               index[b].views[static_cast<std::size_t>(v)]),
+                                v);
+                        }
+                        const std::size_t kept = std::min(view_count, by_view.size());
+                        std::partial_sort(by_view.begin(),
+                                          by_view.begin() + static_cast<std::ptrdiff_t>(kept),
+                                          by_view.end());
+                        std::vector<int> views;
+                        for (std::size_t v = 0; v < kept; ++v)
+                        {
+                            views.push_back(by_view[v].second);
+                        }
+                        front.emplace_back(
+                            static_cast<float>(shape_fit(s_points, fit_samples[b], fit_normals[b],
+                                                         *fit_trees[b], views, fit_options)),
+                            b);
+                    }
+                    std::stable_sort(front.begin(), front.end());
+                    front.insert(front.end(), rest.begin(), rest.end());
+                    d = std::move(front);
+                }
+                // MESHMARK_STUDY_REFIT=M,V: the first M of that ranking fitted again from their V
+                // crop views nearest the suspect's features (the better of the two fits kept).
+                if (const char* refit = std::getenv("MESHMARK_STUDY_REFIT"))
+                {
+                    const std::string spec_refit(refit);
+                    const std::size_t comma = spec_refit.find(',');
+                    const std::size_t mm =
+                        std::min<std::size_t>(d.size(), std::stoul(spec_refit.substr(0, comma)));
+                    const std::size_t vv = std::stoul(spec_refit.substr(comma + 1));
+                    for (std::size_t k = 0; k < mm; ++k)
+                    {
+                        const std::size_t b = d[k].second;
+                        std::vector<std::pair<float, int>> by_view;
+                        for (int v = 1; v < static_cast<int>(index[b].views.size()); ++v)
+                        {
+                            by_view.emplace_back(
+                                shape_distance(features,
+                                               index[b].views[static_cast<std::size_t>(v)]),
+                                v);
+                        }
+                        const std::size_t kept = std::min(vv, by_view.size());
+                        std::partial_sort(by_view.begin(),
+                                          by_view.begin() + static_cast<std::ptrdiff_t>(kept),
+                                          by_view.end());
+                        std::vector<int> views;
+                        for (std::size_t v = 0; v < kept; ++v)
+                        {
+                            views.push_back(by_view[v].second);
+                        }
+                        d[k].first = std::min(
+                            d[k].first,
+                            static_cast<float>(shape_fit(s_points, fit_samples[b], fit_normals[b],
+                                                         *fit_trees[b], views, fit_options)));
+                    }
+                    std::stable_sort(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(mm));
+                }
                 verify_seconds +=
                     std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-                std::stable_sort(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(m));
             }
             int rank = 0;
             while (d[static_cast<std::size_t>(rank)].second != a)
@@ -281,9 +394,32 @@ int main(int argc, char** argv)
                 ++rank;
             }
             ranks[spec].push_back(rank);
-            std::printf("%s\t%s\t%d\t%.4f\t%.4f\t%d\n", names[a].c_str(), spec.c_str(), rank,
+            // The first of the same vertex and face counts (a variant of the same mesh, or itself).
+            int family_rank = 0;
+            while (meshes[d[static_cast<std::size_t>(family_rank)].second].V.rows() !=
+                       meshes[a].V.rows() ||
+                   meshes[d[static_cast<std::size_t>(family_rank)].second].F.rows() !=
+                       meshes[a].F.rows())
+            {
+                ++family_rank;
+            }
+            // The right asset's own fit, from every crop view (whether or not it was fitted).
+            double own_fit = 0.0;
+            if (std::getenv("MESHMARK_STUDY_FIT") != nullptr)
+            {
+                std::vector<int> all_views;
+                for (int v = 1; v < static_cast<int>(index[a].views.size()); ++v)
+                {
+                    all_views.push_back(v);
+                }
+                own_fit = shape_fit(shape_sample(suspect, 512), fit_samples[a], fit_normals[a],
+                                    *fit_trees[a], all_views);
+            }
+            std::printf("%s\t%s\t%d\t%.4f\t%.4f\t%d\t%d\t%.4f\t%s\n", names[a].c_str(),
+                        spec.c_str(), rank,
                         static_cast<double>(d[static_cast<std::size_t>(rank)].first),
-                        static_cast<double>(d[0].first), index_rank);
+                        static_cast<double>(d[0].first), index_rank, family_rank, own_fit,
+                        names[d[0].second].c_str());
         }
     }
     std::fprintf(stderr, "verification: %.1f s in all\n", verify_seconds);

@@ -164,10 +164,21 @@ constexpr std::size_t kFitStartViews = 3;
 // Candidates taken from the fit's ranking for each one from the index's: the index's own
 // first assets stay among the candidates (where the fit's start poses miss, it does not).
 constexpr std::size_t kFitTurns = 3;
+// Near-duplicates are often variants of one mesh (stretched, bent, rescanned on the same
+// triangles: the same vertex and face counts); the index ranks a crop of one far below another
+// it looks like. The variants of the first kSiblingsOf fitted assets are fitted too, at most
+// kSiblingFits of them (bench/results/2026-12-01-variants-fitted.md).
+constexpr std::size_t kSiblingsOf = 8;
+constexpr std::size_t kSiblingFits = 64;
+// The first kRefits of the fit's ranking are fitted again from their kRefitStartViews crop
+// views nearest the suspect's features: a crop's start poses (the same study).
+constexpr std::size_t kRefits = 32;
+constexpr std::size_t kRefitStartViews = 16;
 
 // The crop views of \p views (this build's width) nearest \p scaled (features in 255ths).
 std::vector<int> nearest_crop_views(const std::vector<std::uint8_t>& views,
-                                    const std::array<float, kShapeFeatures>& scaled)
+                                    const std::array<float, kShapeFeatures>& scaled,
+                                    std::size_t count)
 {
     std::vector<std::pair<float, int>> by_view;
     for (int v = 1; v < kShapeViews; ++v)
@@ -182,7 +193,7 @@ std::vector<int> nearest_crop_views(const std::vector<std::uint8_t>& views,
         }
         by_view.emplace_back(sum, v);
     }
-    const std::size_t kept = std::min(kFitStartViews, by_view.size());
+    const std::size_t kept = std::min(count, by_view.size());
     std::partial_sort(by_view.begin(), by_view.begin() + static_cast<std::ptrdiff_t>(kept),
                       by_view.end());
     std::vector<int> nearest;
@@ -191,63 +202,6 @@ std::vector<int> nearest_crop_views(const std::vector<std::uint8_t>& views,
         nearest.push_back(by_view[k].second);
     }
     return nearest;
-}
-
-// The first kFitShortlist assets of \p by_shape not \p taken that hold points, best fit of
-// \p suspect first; on \p threads threads.
-std::vector<std::size_t> fit_ranking(const std::vector<Catalog::IndexEntry>& index,
-                                     const std::vector<std::pair<float, std::size_t>>& by_shape,
-                                     const std::vector<bool>& taken, const TriangleMesh& suspect,
-                                     const ShapeFeatures& features, int threads)
-{
-    std::vector<std::size_t> shortlist;
-    for (std::size_t r = 0; r < by_shape.size() && shortlist.size() < kFitShortlist; ++r)
-    {
-        const std::size_t a = by_shape[r].second;
-        if (!taken[a] && !index[a].points.empty())
-        {
-            shortlist.push_back(a);
-        }
-    }
-    if (shortlist.empty())
-    {
-        return shortlist;
-    }
-    std::array<float, kShapeFeatures> scaled{};
-    for (std::size_t i = 0; i < scaled.size(); ++i)
-    {
-        scaled[i] = 255.0F * features[i];
-    }
-    const Positions points = shape_sample(suspect, kShapePoints);
-    std::vector<std::pair<double, std::size_t>> fits(shortlist.size());
-    for_each_index(shortlist.size(), threads,
-                   [&](std::size_t k)
-                   {
-                       const Catalog::IndexEntry& entry = index[shortlist[k]];
-                       double error = std::numeric_limits<double>::infinity();
-                       try
-                       {
-                           Positions asset;
-                           Positions normals;
-                           ShapeSignature::points_from_bytes(entry.points, asset, normals);
-                           const PointKdTree tree(asset);
-                           error = shape_fit(points, asset, normals, tree,
-                                             nearest_crop_views(entry.views, scaled));
-                       }
-                       catch (const Error&)
-                       {
-                           // shape_index checked the size; nothing else can fail: ranks last
-                       }
-                       fits[k] = {error, shortlist[k]};
-                   });
-    std::stable_sort(fits.begin(), fits.end(),
-                     [](const auto& x, const auto& y) { return x.first < y.first; });
-    std::vector<std::size_t> ranked;
-    for (const auto& [error, a] : fits)
-    {
-        ranked.push_back(a);
-    }
-    return ranked;
 }
 
 }  // namespace
@@ -331,6 +285,107 @@ std::vector<std::pair<float, std::size_t>> shape_candidates(
     return ranked;
 }
 
+std::vector<std::size_t> shape_fit_ranking(
+    const std::vector<Catalog::IndexEntry>& index,
+    const std::vector<std::pair<float, std::size_t>>& by_shape, const std::vector<bool>& taken,
+    const TriangleMesh& suspect, const ShapeFeatures& features, std::size_t count, int threads)
+{
+    std::vector<std::size_t> shortlist;
+    for (std::size_t r = 0; r < by_shape.size() && shortlist.size() < count; ++r)
+    {
+        const std::size_t a = by_shape[r].second;
+        if (!taken[a] && !index[a].points.empty())
+        {
+            shortlist.push_back(a);
+        }
+    }
+    if (shortlist.empty())
+    {
+        return shortlist;
+    }
+    std::array<float, kShapeFeatures> scaled{};
+    for (std::size_t i = 0; i < scaled.size(); ++i)
+    {
+        scaled[i] = 255.0F * features[i];
+    }
+    const Positions points = shape_sample(suspect, kShapePoints);
+    const auto fit_all = [&](const std::vector<std::size_t>& assets, std::size_t views)
+    {
+        std::vector<std::pair<double, std::size_t>> fits(assets.size());
+        for_each_index(assets.size(), threads,
+                       [&](std::size_t k)
+                       {
+                           const Catalog::IndexEntry& entry = index[assets[k]];
+                           double error = std::numeric_limits<double>::infinity();
+                           try
+                           {
+                               Positions asset;
+                               Positions normals;
+                               ShapeSignature::points_from_bytes(entry.points, asset, normals);
+                               const PointKdTree tree(asset);
+                               error = shape_fit(points, asset, normals, tree,
+                                                 nearest_crop_views(entry.views, scaled, views));
+                           }
+                           catch (const Error&)
+                           {
+                               // shape_index checked the size; nothing else can fail: ranks last
+                           }
+                           fits[k] = {error, assets[k]};
+                       });
+        return fits;
+    };
+    const auto by_error = [](const auto& x, const auto& y) { return x.first < y.first; };
+    std::vector<std::pair<double, std::size_t>> fits = fit_all(shortlist, kFitStartViews);
+    std::stable_sort(fits.begin(), fits.end(), by_error);
+    // The variants of the mesh of each of the best fits (same vertex and face counts) that the
+    // index left out: fitted too, ranked with the rest.
+    std::vector<bool> fitted(index.size(), false);
+    for (const std::size_t a : shortlist)
+    {
+        fitted[a] = true;
+    }
+    std::vector<std::size_t> siblings;
+    for (std::size_t k = 0; k < fits.size() && k < kSiblingsOf; ++k)
+    {
+        const Catalog::IndexEntry& best = index[fits[k].second];
+        for (std::size_t a = 0; a < index.size() && siblings.size() < kSiblingFits; ++a)
+        {
+            if (!fitted[a] && !taken[a] && !index[a].points.empty() &&
+                index[a].vertex_count == best.vertex_count &&
+                index[a].face_count == best.face_count)
+            {
+                fitted[a] = true;
+                siblings.push_back(a);
+            }
+        }
+    }
+    if (!siblings.empty())
+    {
+        const std::vector<std::pair<double, std::size_t>> more = fit_all(siblings, kFitStartViews);
+        fits.insert(fits.end(), more.begin(), more.end());
+        std::stable_sort(fits.begin(), fits.end(), by_error);
+    }
+    // The best fitted again from more crop views (the better fit kept).
+    const std::size_t again = std::min(kRefits, fits.size());
+    std::vector<std::size_t> best(again);
+    for (std::size_t k = 0; k < again; ++k)
+    {
+        best[k] = fits[k].second;
+    }
+    const std::vector<std::pair<double, std::size_t>> refits = fit_all(best, kRefitStartViews);
+    for (std::size_t k = 0; k < again; ++k)
+    {
+        fits[k].first = std::min(fits[k].first, refits[k].first);
+    }
+    std::stable_sort(fits.begin(), fits.begin() + static_cast<std::ptrdiff_t>(again), by_error);
+    std::vector<std::size_t> ranked;
+    for (const auto& [error, a] : fits)
+    {
+        ranked.push_back(a);
+    }
+    return ranked;
+}
+
 CatalogScanReport catalog_scan(const Catalog& catalog,
                                const std::vector<std::filesystem::path>& suspects,
                                const CatalogScanOptions& options)
@@ -398,8 +453,8 @@ CatalogScanReport catalog_scan(const Catalog& catalog,
                 take(a);
             }
             // Then kFitTurns of the fit's ranking for each of the index's, in turn.
-            const std::vector<std::size_t> by_fit =
-                fit_ranking(index, by_shape, taken, suspect, features, threads);
+            const std::vector<std::size_t> by_fit = shape_fit_ranking(
+                index, by_shape, taken, suspect, features, kFitShortlist, threads);
             std::size_t at_fit = 0;
             std::size_t at_shape = 0;
             while (ranked.size() < static_cast<std::size_t>(options.candidates) &&

@@ -24,6 +24,22 @@ namespace meshmark
     const std::vector<Catalog::IndexEntry>& index, const ShapeFeatures& features,
     std::size_t count);
 
+/// \brief The first \p count assets of \p by_shape (shape_candidates' ranking) not \p taken, and
+/// the variants of the best fitted among them, ranked by the fit of \p suspect's points onto
+/// theirs (shape_fit), best first; on \p threads threads. \p features: the suspect's
+/// (shape_features). Assets without points are left out.
+/// \details The index's features tell near-duplicates apart no better than an attack moves a
+/// copy, and rank a crop's asset low; the fit of the points ranks them far better
+/// (bench/results/2026-11-30-shape-fit.md). Each asset is fitted from its whole and its 3 crop
+/// views nearest the suspect's features. The assets of the vertex and face counts of any of the
+/// 8 best fitted (variants of one mesh: stretched, bent, rescanned on the same triangles), up to
+/// 64, are fitted as well, wherever the index ranked them; then the 32 best are fitted again from
+/// 16 crop views each, the better fit kept (bench/results/2026-12-01-variants-fitted.md).
+[[nodiscard]] std::vector<std::size_t> shape_fit_ranking(
+    const std::vector<Catalog::IndexEntry>& index,
+    const std::vector<std::pair<float, std::size_t>>& by_shape, const std::vector<bool>& taken,
+    const TriangleMesh& suspect, const ShapeFeatures& features, std::size_t count, int threads);
+
 /// Options of catalog_scan.
 struct CatalogScanOptions
 {

@@ -336,6 +336,58 @@ TEST(CatalogTest,
     EXPECT_EQ(egg_first[0].second, 2U);
 }
 
+TEST(CatalogTest, shape_fit_ranking_fits_the_variants_of_a_good_fit_the_index_left_out)
+{
+    // Two variants of one mesh (the same triangles, each with its own bump field), a torus and
+    // an egg. The index's ranking is given with the crop's own variant last and a shortlist of
+    // one: only the other variant is fitted from the shortlist, and the crop's variant is
+    // fitted because it has that one's vertex and face counts. Without the variants (or
+    // without the counts matching) the crop's asset is not ranked at all.
+    std::vector<TriangleMesh> meshes;
+    for (int v = 0; v < 2; ++v)
+    {
+        TriangleMesh variant = lumpy_ellipsoid(3);
+        Eigen::Matrix3d f;
+        for (int i = 0; i < 9; ++i)
+        {
+            f(i / 3, i % 3) = 2.0 * std::sin(1.3 * v + 0.7 * i + 0.5);
+        }
+        variant.V += 0.03 * (variant.V * f).array().sin().matrix();
+        meshes.push_back(std::move(variant));
+    }
+    TriangleMesh egg = icosphere(4);  // not the variants' counts (lumpy_ellipsoid(3)'s)
+    egg.V.col(2) *= 1.7;
+    meshes.push_back(torus(1.0, 0.3, 48, 24));
+    meshes.push_back(egg);
+    std::vector<Catalog::IndexEntry> index;
+    for (std::size_t m = 0; m < meshes.size(); ++m)
+    {
+        index.push_back(index_entry("asset" + std::to_string(m),
+                                    shape_signature(meshes[m]).to_bytes(), meshes[m].V.rows(),
+                                    meshes[m].F.rows()));
+    }
+    const TriangleMesh suspect =
+        apply_attacks(meshes[1], parse_attack_spec("crop=0.75,similarity"), 11, 1).mesh;
+    const std::vector<std::pair<float, std::size_t>> by_shape = {
+        {0.1F, 0}, {0.2F, 2}, {0.3F, 3}, {0.4F, 1}};
+    const std::vector<bool> taken(index.size(), false);
+    const ShapeFeatures features = shape_features(suspect);
+    const std::vector<std::size_t> ranked =
+        shape_fit_ranking(index, by_shape, taken, suspect, features, 1, 1);
+    ASSERT_EQ(ranked.size(), 2U);  // the shortlist's one and its variant; not the torus nor the egg
+    EXPECT_EQ(ranked[0], 1U);      // the crop's own variant fits best
+    EXPECT_EQ(ranked[1], 0U);
+    // An asset already taken (tried in the suspect's numbering) is neither fitted nor ranked.
+    std::vector<bool> first_taken(index.size(), false);
+    first_taken[1] = true;
+    EXPECT_EQ(shape_fit_ranking(index, by_shape, first_taken, suspect, features, 1, 1),
+              std::vector<std::size_t>{0});
+    // Another mesh's counts: no variant, the shortlist alone.
+    index[1].vertex_count += 1;
+    EXPECT_EQ(shape_fit_ranking(index, by_shape, taken, suspect, features, 1, 1),
+              std::vector<std::size_t>{0});
+}
+
 TEST(CatalogTest, scan_tries_first_the_asset_whose_numbering_a_copy_keeps)
 {
     // Two assets of one surface: the same vertices in reverse order ("a_reversed", first in the
