@@ -4,7 +4,12 @@
 //   meshmark_shape_study LIST [ATTACK_SPEC...]
 // LIST: a file of mesh paths, one per line (the catalogue). Each of the first 60 (every
 // n-th when there are more) is attacked by every spec (default: the set below) and ranked
-// against all. Prints one line per (asset, attack) and a summary per attack.
+// against all. Prints one line per (asset, attack) and a summary per attack. A line: asset,
+// attack, its rank, its distance as ranked, the first's, its rank by the index alone, the rank
+// of the first asset of its vertex and face counts (a variant of its mesh, or itself), its own
+// fit from all its crop views (with MESHMARK_STUDY_FIT), the first's name. Settings through the
+// environment: MESHMARK_STUDY_FIT, _FIT_*, _SIBLINGS, _GROUPS, _REFIT, _VERIFY, _ATTACKED,
+// _SUSPECTS (each explained where it is read).
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
