@@ -167,7 +167,7 @@ constexpr std::size_t kFitTurns = 3;
 // Near-duplicates are often variants of one mesh (stretched, bent, rescanned on the same
 // triangles: the same vertex and face counts); the index ranks a crop of one far below another
 // it looks like. The variants of the first kSiblingsOf fitted assets are fitted too, at most
-// kSiblingFits of them (bench/results/2026-12-01-variants-fitted.md).
+// kSiblingFits of them (bench/results/2026-11-30-variants-fitted.md).
 constexpr std::size_t kSiblingsOf = 8;
 constexpr std::size_t kSiblingFits = 64;
 // The first kRefits of the fit's ranking are fitted again from their kRefitStartViews crop

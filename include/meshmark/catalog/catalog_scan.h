@@ -34,7 +34,7 @@ namespace meshmark
 /// views nearest the suspect's features. The assets of the vertex and face counts of any of the
 /// 8 best fitted (variants of one mesh: stretched, bent, rescanned on the same triangles), up to
 /// 64, are fitted as well, wherever the index ranked them; then the 32 best are fitted again from
-/// 16 crop views each, the better fit kept (bench/results/2026-12-01-variants-fitted.md).
+/// 16 crop views each, the better fit kept (bench/results/2026-11-30-variants-fitted.md).
 [[nodiscard]] std::vector<std::size_t> shape_fit_ranking(
     const std::vector<Catalog::IndexEntry>& index,
     const std::vector<std::pair<float, std::size_t>>& by_shape, const std::vector<bool>& taken,
