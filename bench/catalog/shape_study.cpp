@@ -275,10 +275,10 @@ int main(int argc, char** argv)
                     front.insert(front.end(), rest.begin(), rest.end());
                     d = std::move(front);
                 }
-                const auto t0 = std::chrono::steady_clock::now();
-                for (std::size_t k = 0; k < m; ++k)
+                // Asset b's fit from its whole and its \p views_kept crop views nearest the
+                // suspect's features.
+                const auto fit_of = [&](std::size_t b, std::size_t views_kept)
                 {
-                    const std::size_t b = d[k].second;
                     std::vector<std::pair<float, int>> by_view;
                     for (int v = 1; v < static_cast<int>(index[b].views.size()); ++v)
                     {
@@ -286,7 +286,7 @@ int main(int argc, char** argv)
                             shape_distance(features, index[b].views[static_cast<std::size_t>(v)]),
                             v);
                     }
-                    const std::size_t kept = std::min(view_count, by_view.size());
+                    const std::size_t kept = std::min(views_kept, by_view.size());
                     std::partial_sort(by_view.begin(),
                                       by_view.begin() + static_cast<std::ptrdiff_t>(kept),
                                       by_view.end());
@@ -295,9 +295,13 @@ int main(int argc, char** argv)
                     {
                         views.push_back(by_view[v].second);
                     }
-                    d[k].first =
-                        static_cast<float>(shape_fit(s_points, fit_samples[b], fit_normals[b],
-                                                     *fit_trees[b], views, fit_options));
+                    return static_cast<float>(shape_fit(s_points, fit_samples[b], fit_normals[b],
+                                                        *fit_trees[b], views, fit_options));
+                };
+                const auto t0 = std::chrono::steady_clock::now();
+                for (std::size_t k = 0; k < m; ++k)
+                {
+                    d[k].first = fit_of(d[k].second, view_count);
                 }
                 std::stable_sort(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(m));
                 // MESHMARK_STUDY_SIBLINGS=K: the assets of the vertex and face counts of any of
@@ -305,11 +309,6 @@ int main(int argc, char** argv)
                 if (const char* sib = std::getenv("MESHMARK_STUDY_SIBLINGS"))
                 {
                     const std::size_t kk = std::min<std::size_t>(m, std::stoul(sib));
-                    std::vector<bool> in_front(d.size(), false);
-                    for (std::size_t k = 0; k < m; ++k)
-                    {
-                        in_front[d[k].second] = true;
-                    }
                     std::vector<std::pair<float, std::size_t>> front(
                         d.begin(), d.begin() + static_cast<std::ptrdiff_t>(m));
                     std::vector<std::pair<float, std::size_t>> rest;
@@ -328,27 +327,7 @@ int main(int argc, char** argv)
                             rest.push_back(d[k]);
                             continue;
                         }
-                        std::vector<std::pair<float, int>> by_view;
-                        for (int v = 1; v < static_cast<int>(index[b].views.size()); ++v)
-                        {
-                            by_view.emplace_back(
-                                shape_distance(features,
-                                               index[b].views[static_cast<std::size_t>(v)]),
-                                v);
-                        }
-                        const std::size_t kept = std::min(view_count, by_view.size());
-                        std::partial_sort(by_view.begin(),
-                                          by_view.begin() + static_cast<std::ptrdiff_t>(kept),
-                                          by_view.end());
-                        std::vector<int> views;
-                        for (std::size_t v = 0; v < kept; ++v)
-                        {
-                            views.push_back(by_view[v].second);
-                        }
-                        front.emplace_back(
-                            static_cast<float>(shape_fit(s_points, fit_samples[b], fit_normals[b],
-                                                         *fit_trees[b], views, fit_options)),
-                            b);
+                        front.emplace_back(fit_of(b, view_count), b);
                     }
                     std::stable_sort(front.begin(), front.end());
                     front.insert(front.end(), rest.begin(), rest.end());
@@ -366,27 +345,7 @@ int main(int argc, char** argv)
                     for (std::size_t k = 0; k < mm; ++k)
                     {
                         const std::size_t b = d[k].second;
-                        std::vector<std::pair<float, int>> by_view;
-                        for (int v = 1; v < static_cast<int>(index[b].views.size()); ++v)
-                        {
-                            by_view.emplace_back(
-                                shape_distance(features,
-                                               index[b].views[static_cast<std::size_t>(v)]),
-                                v);
-                        }
-                        const std::size_t kept = std::min(vv, by_view.size());
-                        std::partial_sort(by_view.begin(),
-                                          by_view.begin() + static_cast<std::ptrdiff_t>(kept),
-                                          by_view.end());
-                        std::vector<int> views;
-                        for (std::size_t v = 0; v < kept; ++v)
-                        {
-                            views.push_back(by_view[v].second);
-                        }
-                        d[k].first = std::min(
-                            d[k].first,
-                            static_cast<float>(shape_fit(s_points, fit_samples[b], fit_normals[b],
-                                                         *fit_trees[b], views, fit_options)));
+                        d[k].first = std::min(d[k].first, fit_of(b, vv));
                     }
                     std::stable_sort(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(mm));
                 }

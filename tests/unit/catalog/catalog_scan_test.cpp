@@ -32,6 +32,19 @@ namespace meshmark
 namespace
 {
 
+// A variant of \p mesh "scanned again": a smooth bump field of its own, \p amplitude of its
+// size, the field's frequencies 2 sin(phase.first + phase.second i), i = 0..8.
+TriangleMesh bumped(TriangleMesh mesh, double amplitude, std::pair<double, double> phase)
+{
+    Eigen::Matrix3d f;
+    for (int i = 0; i < 9; ++i)
+    {
+        f(i / 3, i % 3) = 2.0 * std::sin(phase.first + phase.second * i);
+    }
+    mesh.V += amplitude * (mesh.V * f).array().sin().matrix();
+    return mesh;
+}
+
 namespace fs = std::filesystem;
 using namespace test;  // catalog_test_support.h
 
@@ -346,14 +359,7 @@ TEST(CatalogTest, shape_fit_ranking_fits_the_variants_of_a_good_fit_the_index_le
     std::vector<TriangleMesh> meshes;
     for (int v = 0; v < 2; ++v)
     {
-        TriangleMesh variant = lumpy_ellipsoid(3);
-        Eigen::Matrix3d f;
-        for (int i = 0; i < 9; ++i)
-        {
-            f(i / 3, i % 3) = 2.0 * std::sin(1.3 * v + 0.7 * i + 0.5);
-        }
-        variant.V += 0.03 * (variant.V * f).array().sin().matrix();
-        meshes.push_back(std::move(variant));
+        meshes.push_back(bumped(lumpy_ellipsoid(3), 0.03, {1.3 * v + 0.5, 0.7}));
     }
     TriangleMesh egg = icosphere(4);  // not the variants' counts (lumpy_ellipsoid(3)'s)
     egg.V.col(2) *= 1.7;
@@ -438,14 +444,8 @@ TEST(CatalogTest, scan_tells_near_duplicate_variants_apart_by_the_fit_of_their_p
     fs::create_directories(dir / "in");
     for (int v = 0; v < 6; ++v)
     {
-        TriangleMesh variant = lumpy_ellipsoid(4);
-        Eigen::Matrix3d f;
-        for (int i = 0; i < 9; ++i)
-        {
-            f(i / 3, i % 3) = 2.0 * std::sin(1.7 * v + 0.9 * i + 0.3);
-        }
-        variant.V += 0.015 * (variant.V * f).array().sin().matrix();
-        write_mesh(dir / "in" / ("v" + std::to_string(v) + ".ply"), variant);
+        write_mesh(dir / "in" / ("v" + std::to_string(v) + ".ply"),
+                   bumped(lumpy_ellipsoid(4), 0.015, {1.7 * v + 0.3, 0.9}));
     }
     const std::string at = catalog_at(dir);
     Catalog catalog(at, Catalog::Open::CreateIfMissing);
