@@ -28,6 +28,7 @@ import argparse
 import filecmp
 import json
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -61,8 +62,19 @@ def run(cli, *args, expect=0, cwd=None):
     return done
 
 
+STAGING = re.compile(r"^\..+\.tmp-[A-Za-z0-9]{6}$")
+
+
 def tree(folder):
-    return sorted(str(p.relative_to(folder)) for p in Path(folder).rglob("*") if p.is_file())
+    """The files under \p folder, less the hidden staging files an atomic write killed midway
+    leaves (`.<name>.tmp-XXXXXX`: never read, documented in docs/reliability.md)."""
+    return sorted(str(p.relative_to(folder)) for p in Path(folder).rglob("*")
+                  if p.is_file() and not STAGING.match(p.name))
+
+
+def staging(folder):
+    return sorted(str(p.relative_to(folder)) for p in Path(folder).rglob("*")
+                  if p.is_file() and STAGING.match(p.name))
 
 
 def same_tree(a, b, what):
@@ -278,6 +290,7 @@ assert r["counts"] == l["counts"] and r["counts"]["marked"] == {len(MESHES)}, (r
             check(running, "the coordinator kill came after the add had ended (nothing tested)")
             before = len(tree("out_resumed"))
             summary["coordinator_killed_after_files"] = before
+            summary["coordinator_killed_staging_files"] = staging("out_resumed")
             rerun = json.loads(run(cli, "catalog", "add", "resumed.db", "corpus", "-o",
                                    "out_resumed", "--seed", 5, "--scheduler", address, "--json",
                                    "-q").stdout)
