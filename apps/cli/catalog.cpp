@@ -263,6 +263,7 @@ int run_scan(const CatalogArgs& args, const GlobalArgs& global)
     options.detect.threads = global.threads;
     options.detect.decision.max_false_positive = args.max_false_positive;
     options.candidates = args.candidates;
+    options.more_candidates = args.more_candidates;
     options.stop_at_match = !args.all_candidates;
     const Catalog catalog(args.catalog, Catalog::Open::Existing,
                           lock_timeout_of(args.lock_timeout));
@@ -401,6 +402,10 @@ void register_catalog(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
     scan->add_option("--candidates", args->candidates,
                      "Assets tried per suspect: same numbering, then best shape fit")
         ->check(CLI::Range(1, 10000))
+        ->capture_default_str();
+    scan->add_option("--more-candidates", args->more_candidates,
+                     "Tried after a wider fit when none of those matched (0: none)")
+        ->check(CLI::Range(0, 10000))
         ->capture_default_str();
     scan->add_flag("--all-candidates", args->all_candidates,
                    "Try every candidate, not only until one matches");

@@ -30,6 +30,7 @@ struct CatalogArgs
     bool force = false;
     int jobs = 0;
     int candidates = CatalogScanOptions{}.candidates;
+    int more_candidates = CatalogScanOptions{}.more_candidates;
     bool all_candidates = false;
     bool all = false;  // reindex: every asset
     double max_false_positive = DetectOptions{}.max_false_positive;

@@ -168,6 +168,7 @@ nlohmann::json run_on_cluster(const char* command, const CatalogArgs& args,
     else
     {
         options = {{"candidates", args.candidates},
+                   {"more_candidates", args.more_candidates},
                    {"all_candidates", args.all_candidates},
                    {"max_fpp", args.max_false_positive}};
     }

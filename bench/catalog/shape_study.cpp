@@ -240,6 +240,14 @@ int main(int argc, char** argv)
                         fit_options.*field = std::stoi(e);
                     }
                 }
+                if (const char* e = std::getenv("MESHMARK_STUDY_FIT_BOUND"))
+                {
+                    fit_options.start_bound = std::stod(e);
+                }
+                if (const char* e = std::getenv("MESHMARK_STUDY_FIT_SETTLED"))
+                {
+                    fit_options.settled = std::stod(e);
+                }
                 if (const char* e = std::getenv("MESHMARK_STUDY_FIT_ACROSS"))
                 {
                     fit_options.across = std::stoi(e) != 0;

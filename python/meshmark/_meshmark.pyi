@@ -161,6 +161,7 @@ class Catalog:
         suspects: Sequence[_Path],
         *,
         candidates: int = ...,
+        more_candidates: int = ...,
         all_candidates: bool = ...,
         max_fpp: float = ...,
         trace: bool = ...,

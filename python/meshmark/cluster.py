@@ -285,6 +285,7 @@ def catalog_scan(
     *,
     client: Any,
     candidates: int = 8,
+    more_candidates: int = 4,
     all_candidates: bool = False,
     max_fpp: float = 1e-6,
     trace: bool = True,
@@ -311,6 +312,7 @@ def catalog_scan(
         raise _meshmark.InvalidOption("chunk must be >= 1.")
     options = {
         "candidates": candidates,
+        "more_candidates": more_candidates,
         "all_candidates": all_candidates,
         "max_fpp": max_fpp,
         "trace": trace,

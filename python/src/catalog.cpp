@@ -181,8 +181,8 @@ void bind_catalog(py::module_& m)
         .def(
             "scan",
             [](const std::shared_ptr<Catalog>& self, const std::vector<Path>& suspects,
-               int candidates, bool all_candidates, double max_fpp, bool trace, int threads,
-               const OptionalClient& client, const OptionalPath& report_arg) -> Report
+               int candidates, int more_candidates, bool all_candidates, double max_fpp, bool trace,
+               int threads, const OptionalClient& client, const OptionalPath& report_arg) -> Report
             {
                 const std::optional<Path> evidence = path_from(report_arg.handle(), "report");
                 if (!client.object.is_none())  // the suspects read on a Dask cluster
@@ -197,6 +197,7 @@ void bind_catalog(py::module_& m)
                         .attr("catalog_scan")(
                             py::cast(self), suspects, py::arg("client") = client.object,
                             py::arg("candidates") = candidates,
+                            py::arg("more_candidates") = more_candidates,
                             py::arg("all_candidates") = all_candidates,
                             py::arg("max_fpp") = max_fpp, py::arg("trace") = trace);
                 }
@@ -204,6 +205,7 @@ void bind_catalog(py::module_& m)
                 CatalogScanOptions options;
                 options.detect.trace = trace;
                 options.candidates = candidates;
+                options.more_candidates = more_candidates;
                 options.stop_at_match = !all_candidates;
                 options.detect.decision.max_false_positive = max_fpp;
                 options.detect.threads = threads;
@@ -237,6 +239,7 @@ void bind_catalog(py::module_& m)
             },
             py::arg("suspects"), py::kw_only(),
             py::arg("candidates") = CatalogScanOptions{}.candidates,
+            py::arg("more_candidates") = CatalogScanOptions{}.more_candidates,
             py::arg("all_candidates") = false,
             py::arg("max_fpp") = DetectOptions{}.max_false_positive, py::arg("trace") = true,
             py::arg("threads") = 0, py::arg("client") = py::none(), py::arg("report") = py::none(),

@@ -42,12 +42,13 @@ struct CandidateOutcome
     std::exception_ptr failure;  ///< anything but a detection's own Error, rethrown in rank order
 };
 
-// The detection of \p suspect against the catalogue's asset \p id, at the scan's level.
-template <typename Scale>
+// The detection of \p suspect against the catalogue's asset \p id, at the scan's level: its
+// bounds times the number of \p assets.
 CandidateOutcome try_candidate(const Catalog& catalog, const std::string& id, float distance,
                                int rank, const TriangleMesh& suspect,
-                               const DetectFileOptions& detect, const Scale& scaled)
+                               const DetectFileOptions& detect, double assets)
 {
+    const auto scaled = [assets](double p) { return std::min(1.0, p * assets); };
     CandidateOutcome outcome;
     CatalogTry tried{id, distance, 1.0, {}};
     try
@@ -152,12 +153,111 @@ std::vector<std::size_t> in_order_fits(const Catalog& catalog,
 
 // The shape index's features rank near-duplicates (variants of one object) about as far apart
 // as an attack moves a copy, and a crop's asset often low; a fit of the suspect's points onto
-// each of the first kFitShortlist assets' points (shape_fit_ranking) ranks them far better
-// (bench/results/2026-11-30-shape-fit.md; 128 found on scans what 64 missed, 256 little more).
-constexpr std::size_t kFitShortlist = 128;
-// Candidates taken from the fit's ranking for each one from the index's: the index's own
-// first assets stay among the candidates (where the fit's start poses miss, it does not).
+// each of the first options.fit_shortlist assets' points (shape_fit_ranking) ranks them far
+// better. Candidates taken from the fit's ranking for each one from the index's: the index's
+// own first assets stay among the candidates (where the fit's start poses miss, it does not).
 constexpr std::size_t kFitTurns = 3;
+// The first kRefits of the fit's ranking are fitted again from more crop views (a crop's start
+// poses: bench/results/2026-11-30-variants-fitted.md).
+constexpr std::size_t kRefits = 32;
+
+// The detection of one suspect against a list of candidates.
+struct Candidates
+{
+    const Catalog& catalog;
+    const std::vector<Catalog::IndexEntry>& index;
+    const TriangleMesh& suspect;
+    const DetectFileOptions& detect;
+    double assets = 1.0;  ///< the bound's count
+    int threads = 1;
+    bool stop_at_match = true;
+
+    /// Tries \p ranked (shape distance, asset) in order, ranks numbered from \p first_rank,
+    /// into \p scan's matches and tries; \return whether any matched. The first alone on every
+    /// thread (a suspect the index ranks right costs one detection, at full speed); the others
+    /// several at once, one thread each (a small model's detection gains little from a second
+    /// thread, two detections at once twice: bench/results/2026-11-30-scan-speed.md).
+    bool try_all(const std::vector<std::pair<float, std::size_t>>& ranked, int first_rank,
+                 SuspectScan& scan) const
+    {
+        if (ranked.empty())
+        {
+            return false;
+        }
+        std::vector<CandidateOutcome> outcomes(ranked.size());
+        const auto try_rank = [&](std::size_t r, int detect_threads)
+        {
+            DetectFileOptions one = detect;
+            one.threads = detect_threads;
+            try
+            {
+                outcomes[r] = try_candidate(catalog, index[ranked[r].second].id, ranked[r].first,
+                                            first_rank + static_cast<int>(r), suspect, one, assets);
+            }
+            catch (...)
+            {
+                outcomes[r].failure = std::current_exception();
+            }
+        };
+        try_rank(0, threads);
+        if (!(stop_at_match && outcomes[0].match))
+        {
+            // Ranks handed out in order; none past a match is started once the match is known.
+            std::atomic<std::size_t> next{1};
+            std::atomic<std::size_t> first_match{ranked.size()};
+            const auto work = [&]
+            {
+                for (std::size_t r = next++; r < ranked.size(); r = next++)
+                {
+                    if (stop_at_match && r > first_match.load())
+                    {
+                        return;
+                    }
+                    try_rank(r, 1);
+                    if (outcomes[r].match)
+                    {
+                        std::size_t known = first_match.load();
+                        while (r < known && !first_match.compare_exchange_weak(known, r))
+                        {
+                        }
+                    }
+                }
+            };
+            const int jobs = std::min<int>(threads, static_cast<int>(ranked.size()) - 1);
+            std::vector<std::jthread> workers;
+            for (int j = 1; j < jobs; ++j)
+            {
+                workers.emplace_back(work);
+            }
+            work();
+            workers.clear();  // joins
+        }
+        // In rank order, as one thread trying them in turn would report them: past the first
+        // match (when stopping there) nothing counts, even what a worker had already tried.
+        bool matched = false;
+        for (CandidateOutcome& outcome : outcomes)
+        {
+            if (outcome.failure)
+            {
+                std::rethrow_exception(outcome.failure);
+            }
+            if (outcome.match)
+            {
+                scan.matches.push_back(std::move(*outcome.match));
+                matched = true;
+                if (stop_at_match)
+                {
+                    break;
+                }
+            }
+            else if (outcome.tried)
+            {
+                scan.tried.push_back(std::move(*outcome.tried));
+            }
+        }
+        return matched;
+    }
+};
 
 }  // namespace
 
@@ -170,6 +270,10 @@ CatalogScanReport catalog_scan(const Catalog& catalog,
     {
         throw InvalidOption("--candidates must be at least 1.");
     }
+    if (options.more_candidates < 0)
+    {
+        throw InvalidOption("--more-candidates must be at least 0.");
+    }
     CatalogScanReport report;
     const std::vector<Catalog::IndexEntry> index = catalog.shape_index();
     report.assets = index.size();
@@ -180,12 +284,7 @@ CatalogScanReport catalog_scan(const Catalog& catalog,
     DetectFileOptions detect = options.detect;
     detect.decision.max_false_positive = options.detect.decision.max_false_positive / assets;
     detect.progress = nullptr;
-    const auto scaled = [&](double p) { return std::min(1.0, p * assets); };
 
-    // The candidates of a suspect: the nearest first, alone on every thread (a suspect the index
-    // ranks right costs one detection, at full speed); the others several at once, one thread
-    // each (a small model's detection gains little from a second thread, two detections at once
-    // twice: bench/results/2026-11-30-scan-speed.md).
     const int threads = resolve_threads(options.detect.threads);
     for (std::size_t s = 0; s < suspects.size(); ++s)
     {
@@ -228,8 +327,8 @@ CatalogScanReport catalog_scan(const Catalog& catalog,
                 take(a);
             }
             // Then kFitTurns of the fit's ranking for each of the index's, in turn.
-            const std::vector<std::size_t> by_fit = shape_fit_ranking(
-                index, by_shape, taken, suspect, features, kFitShortlist, threads);
+            const std::vector<std::pair<double, std::size_t>> by_fit = shape_fit_ranking(
+                index, by_shape, taken, suspect, features, options.fit_shortlist, kRefits, threads);
             std::size_t at_fit = 0;
             std::size_t at_shape = 0;
             while (ranked.size() < static_cast<std::size_t>(options.candidates) &&
@@ -237,7 +336,7 @@ CatalogScanReport catalog_scan(const Catalog& catalog,
             {
                 for (std::size_t turn = 0; turn < kFitTurns && at_fit < by_fit.size(); ++turn)
                 {
-                    take(by_fit[at_fit++]);
+                    take(by_fit[at_fit++].second);
                 }
                 while (at_shape < by_shape.size() && taken[by_shape[at_shape].second])
                 {
@@ -249,75 +348,40 @@ CatalogScanReport catalog_scan(const Catalog& catalog,
                 }
             }
             scan.index_seconds = seconds_since(index_start);
-            std::vector<CandidateOutcome> outcomes(ranked.size());
-            const auto try_rank = [&](std::size_t r, int detect_threads)
+            const Candidates candidates{
+                catalog, index, suspect, detect, assets, threads, options.stop_at_match};
+            if (!candidates.try_all(ranked, 0, scan) && options.more_candidates > 0)
             {
-                DetectFileOptions one = detect;
-                one.threads = detect_threads;
-                try
+                // None claimed it: the index's next options.wider_shortlist fitted too (from 3
+                // crop views each, not again from more), and the best fits of both not yet tried.
+                const auto wider_start = Clock::now();
+                std::vector<bool> fitted = taken;
+                for (const auto& [fit, a] : by_fit)
                 {
-                    outcomes[r] =
-                        try_candidate(catalog, index[ranked[r].second].id, ranked[r].first,
-                                      static_cast<int>(r), suspect, one, scaled);
+                    fitted[a] = true;
                 }
-                catch (...)
+                std::vector<std::pair<double, std::size_t>> fits =
+                    shape_fit_ranking(index, by_shape, fitted, suspect, features,
+                                      options.wider_shortlist, 0, threads);
+                for (const auto& [fit, a] : by_fit)
                 {
-                    outcomes[r].failure = std::current_exception();
-                }
-            };
-            try_rank(0, threads);
-            if (!(options.stop_at_match && outcomes[0].match))
-            {
-                // Ranks handed out in order; none past a match is started once the match is known.
-                std::atomic<std::size_t> next{1};
-                std::atomic<std::size_t> first_match{ranked.size()};
-                const auto work = [&]
-                {
-                    for (std::size_t r = next++; r < ranked.size(); r = next++)
+                    if (!taken[a])
                     {
-                        if (options.stop_at_match && r > first_match.load())
-                        {
-                            return;
-                        }
-                        try_rank(r, 1);
-                        if (outcomes[r].match)
-                        {
-                            std::size_t known = first_match.load();
-                            while (r < known && !first_match.compare_exchange_weak(known, r))
-                            {
-                            }
-                        }
-                    }
-                };
-                const int jobs = std::min<int>(threads, static_cast<int>(ranked.size()) - 1);
-                std::vector<std::jthread> workers;
-                for (int j = 1; j < jobs; ++j)
-                {
-                    workers.emplace_back(work);
-                }
-                work();
-                workers.clear();  // joins
-            }
-            // In rank order, as one thread trying them in turn would report them: past the first
-            // match (when stopping there) nothing counts, even what a worker had already tried.
-            for (CandidateOutcome& outcome : outcomes)
-            {
-                if (outcome.failure)
-                {
-                    std::rethrow_exception(outcome.failure);
-                }
-                if (outcome.match)
-                {
-                    scan.matches.push_back(std::move(*outcome.match));
-                    if (options.stop_at_match)
-                    {
-                        break;
+                        fits.emplace_back(fit, a);
                     }
                 }
-                else if (outcome.tried)
+                std::stable_sort(fits.begin(), fits.end(),
+                                 [](const auto& x, const auto& y) { return x.first < y.first; });
+                std::vector<std::pair<float, std::size_t>> more;
+                for (std::size_t k = 0;
+                     k < fits.size() &&
+                     more.size() < static_cast<std::size_t>(options.more_candidates);
+                     ++k)
                 {
-                    scan.tried.push_back(std::move(*outcome.tried));
+                    more.emplace_back(distance[fits[k].second], fits[k].second);
                 }
+                scan.index_seconds += seconds_since(wider_start);
+                candidates.try_all(more, static_cast<int>(ranked.size()), scan);
             }
         }
         std::stable_sort(scan.matches.begin(), scan.matches.end(),

@@ -28,9 +28,8 @@ constexpr std::size_t kFitStartViews = 3;
 // kSiblingFits of them (bench/results/2026-11-30-variants-fitted.md).
 constexpr std::size_t kSiblingsOf = 8;
 constexpr std::size_t kSiblingFits = 64;
-// The first kRefits of the fit's ranking are fitted again from their kRefitStartViews crop
+// The first `refits` of the fit's ranking are fitted again from their kRefitStartViews crop
 // views nearest the suspect's features: a crop's start poses (the same study).
-constexpr std::size_t kRefits = 32;
 constexpr std::size_t kRefitStartViews = 16;
 
 // The crop views of \p views (this build's width) nearest \p scaled (features in 255ths).
@@ -143,10 +142,11 @@ std::vector<std::pair<float, std::size_t>> shape_candidates(
     return ranked;
 }
 
-std::vector<std::size_t> shape_fit_ranking(
+std::vector<std::pair<double, std::size_t>> shape_fit_ranking(
     const std::vector<Catalog::IndexEntry>& index,
     const std::vector<std::pair<float, std::size_t>>& by_shape, const std::vector<bool>& taken,
-    const TriangleMesh& suspect, const ShapeFeatures& features, std::size_t count, int threads)
+    const TriangleMesh& suspect, const ShapeFeatures& features, std::size_t count,
+    std::size_t refits, int threads)
 {
     std::vector<std::size_t> shortlist;
     for (std::size_t r = 0; r < by_shape.size() && shortlist.size() < count; ++r)
@@ -159,7 +159,7 @@ std::vector<std::size_t> shape_fit_ranking(
     }
     if (shortlist.empty())
     {
-        return shortlist;
+        return {};
     }
     std::array<float, kShapeFeatures> scaled{};
     for (std::size_t i = 0; i < scaled.size(); ++i)
@@ -224,24 +224,19 @@ std::vector<std::size_t> shape_fit_ranking(
         std::stable_sort(fits.begin(), fits.end(), by_error);
     }
     // The best fitted again from more crop views (the better fit kept).
-    const std::size_t again = std::min(kRefits, fits.size());
+    const std::size_t again = std::min(refits, fits.size());
     std::vector<std::size_t> best(again);
     for (std::size_t k = 0; k < again; ++k)
     {
         best[k] = fits[k].second;
     }
-    const std::vector<std::pair<double, std::size_t>> refits = fit_all(best, kRefitStartViews);
+    const std::vector<std::pair<double, std::size_t>> fits_again = fit_all(best, kRefitStartViews);
     for (std::size_t k = 0; k < again; ++k)
     {
-        fits[k].first = std::min(fits[k].first, refits[k].first);
+        fits[k].first = std::min(fits[k].first, fits_again[k].first);
     }
     std::stable_sort(fits.begin(), fits.begin() + static_cast<std::ptrdiff_t>(again), by_error);
-    std::vector<std::size_t> ranked;
-    for (const auto& [error, a] : fits)
-    {
-        ranked.push_back(a);
-    }
-    return ranked;
+    return fits;
 }
 
 }  // namespace meshmark

@@ -71,6 +71,25 @@ std::uint32_t PointKdTree::nearest(const Eigen::Vector3d& query, double& squared
     return index;
 }
 
+std::optional<std::uint32_t> PointKdTree::nearest_within(const Eigen::Vector3d& query, double bound,
+                                                         double& squared) const
+{
+    std::uint32_t index = 0;
+    double found = 0.0;
+    nanoflann::KNNResultSet<double, std::uint32_t> result(1);
+    result.init(&index, &found);
+    // The result set's worst distance is the bound: nanoflann prunes every cell beyond it and
+    // adds only points nearer.
+    found = bound;
+    impl_->tree.findNeighbors(result, query.data(), nanoflann::SearchParams());
+    if (result.size() == 0)
+    {
+        return std::nullopt;
+    }
+    squared = found;
+    return index;
+}
+
 std::size_t PointKdTree::nearest(const Eigen::Vector3d& query, std::size_t k, std::uint32_t* index,
                                  double* squared) const
 {

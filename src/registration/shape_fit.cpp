@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <limits>
 #include <optional>
 #include <vector>
@@ -101,10 +103,13 @@ void step_across(const Eigen::Matrix3Xd& from, const Eigen::Matrix3Xd& to,
 
 // ICP rounds of \p source (rows: the suspect's points, mirrored or not) onto \p tree's points,
 // from \p pose; each round pairs every point with its nearest, keeps the closest kKept, and
-// fits the similarity of those pairs [Umeyama 1991].
+// fits the similarity of those pairs [Umeyama 1991]; a round that improves the fit by less than
+// the share \p settled ends it. With \p rounds 0 the pose is only scored; then a point farther
+// than the square root of \p bound from every asset point counts as that far (the search
+// leaves out the rest of the tree: ShapeFitOptions::start_bound).
 void refine(const Eigen::MatrixX3d& source, double source_radius, const PointKdTree& tree,
             const Positions& normals, int rounds, double kept_share, bool to_plane, bool across,
-            Pose& pose)
+            double settled, Pose& pose, double bound = std::numeric_limits<double>::infinity())
 {
     const Eigen::Index n = source.rows();
     const auto kept =
@@ -122,7 +127,22 @@ void refine(const Eigen::MatrixX3d& source, double source_radius, const PointKdT
             const Vec3 moved =
                 pose.scale * (pose.rotation * source.row(i).transpose()) + pose.translation;
             double squared = 0.0;
-            const std::uint32_t p = tree.nearest(moved, squared);
+            std::uint32_t p = 0;
+            if (rounds == 0 && std::isfinite(bound))
+            {
+                const std::optional<std::uint32_t> near =
+                    tree.nearest_within(moved, bound, squared);
+                if (!near)
+                {
+                    order[static_cast<std::size_t>(i)] = {bound, i};
+                    continue;
+                }
+                p = *near;
+            }
+            else
+            {
+                p = tree.nearest(moved, squared);
+            }
             nearest[static_cast<std::size_t>(i)] = p;
             if (to_plane)
             {
@@ -140,8 +160,9 @@ void refine(const Eigen::MatrixX3d& source, double source_radius, const PointKdT
             sum += order[static_cast<std::size_t>(k)].first;
         }
         // In the suspect's own units: the asset's distances over the scale the fit gave it.
+        const double before = pose.error;
         pose.error = std::sqrt(sum / static_cast<double>(kept)) / (pose.scale * source_radius);
-        if (round == rounds)
+        if (round == rounds || (round > 0 && pose.error > before * (1.0 - settled)))
         {
             return;
         }
@@ -237,6 +258,9 @@ double shape_fit(const Positions& suspect, const Positions& asset, const Positio
     };
     // Every start pose scored as it stands on an eighth of the points; the best few refined.
     const std::vector<Mat3> turns = detail::axis_rotations();
+    const double bound = options.start_bound > 0.0
+                             ? std::pow(options.start_bound * parts.front().radius, 2)
+                             : std::numeric_limits<double>::infinity();
     std::vector<Start> starts;
     for (int m = 0; m < 2; ++m)
     {
@@ -260,7 +284,7 @@ double shape_fit(const Positions& suspect, const Positions& asset, const Positio
                 start.pose.translation =
                     part.centre - start.pose.scale * (start.pose.rotation * from.centre);
                 refine(eighth, from.radius, tree, asset_normals, 0, options.kept, options.to_plane,
-                       false, start.pose);
+                       false, 0.0, start.pose, bound);
                 starts.push_back(start);
             }
         }
@@ -277,7 +301,7 @@ double shape_fit(const Positions& suspect, const Positions& asset, const Positio
         const Eigen::MatrixX3d& source = sources[static_cast<std::size_t>(start.source)];
         refine(source(Eigen::seq(0, source.rows() - 1, options.coarse_stride), Eigen::all),
                own.radius, tree, asset_normals, options.coarse_rounds, options.kept,
-               options.to_plane, false, start.pose);
+               options.to_plane, false, options.settled, start.pose);
     }
     std::sort(starts.begin(), starts.end(), by_error);
     double best = std::numeric_limits<double>::infinity();
@@ -288,7 +312,7 @@ double shape_fit(const Positions& suspect, const Positions& asset, const Positio
         const Eigen::MatrixX3d& source = sources[static_cast<std::size_t>(starts[k].source)];
         refine(source(Eigen::seq(0, source.rows() - 1, options.fine_stride), Eigen::all),
                own.radius, tree, asset_normals, options.fine_rounds, options.kept, options.to_plane,
-               options.across, pose);
+               options.across, options.settled, pose);
         best = std::min(best, pose.error);
     }
     return best;

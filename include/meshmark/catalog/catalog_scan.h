@@ -26,19 +26,20 @@ namespace meshmark
 
 /// \brief The first \p count assets of \p by_shape (shape_candidates' ranking) not \p taken, and
 /// the variants of the best fitted among them, ranked by the fit of \p suspect's points onto
-/// theirs (shape_fit), best first; on \p threads threads. \p features: the suspect's
-/// (shape_features). Assets without points are left out.
-/// \details The index's features tell near-duplicates apart no better than an attack moves a
-/// copy, and rank a crop's asset low; the fit of the points ranks them far better
-/// (bench/results/2026-11-30-shape-fit.md). Each asset is fitted from its whole and its 3 crop
-/// views nearest the suspect's features. The assets of the vertex and face counts of any of the
-/// 8 best fitted (variants of one mesh: stretched, bent, rescanned on the same triangles), up to
-/// 64, are fitted as well, wherever the index ranked them; then the 32 best are fitted again from
-/// 16 crop views each, the better fit kept (bench/results/2026-11-30-variants-fitted.md).
-[[nodiscard]] std::vector<std::size_t> shape_fit_ranking(
+/// theirs (shape_fit), best first, each with its fit; on \p threads threads. \p features: the
+/// suspect's (shape_features). Assets without points are left out. \details The index's features
+/// tell near-duplicates apart no better than an attack moves a copy, and rank a crop's asset low;
+/// the fit of the points ranks them far better (bench/results/2026-11-30-shape-fit.md). Each asset
+/// is fitted from its whole and its 3 crop views nearest the suspect's features. The assets of the
+/// vertex and face counts of any of the 8 best fitted (variants of one mesh: stretched, bent,
+/// rescanned on the same triangles), up to 64, are fitted as well, wherever the index ranked them;
+/// then the \p refits best (`catalog scan`: 32) are fitted again from 16 crop views each, the
+/// better fit kept (bench/results/2026-11-30-variants-fitted.md).
+[[nodiscard]] std::vector<std::pair<double, std::size_t>> shape_fit_ranking(
     const std::vector<Catalog::IndexEntry>& index,
     const std::vector<std::pair<float, std::size_t>>& by_shape, const std::vector<bool>& taken,
-    const TriangleMesh& suspect, const ShapeFeatures& features, std::size_t count, int threads);
+    const TriangleMesh& suspect, const ShapeFeatures& features, std::size_t count,
+    std::size_t refits, int threads);
 
 /// Options of catalog_scan.
 struct CatalogScanOptions
@@ -51,6 +52,15 @@ struct CatalogScanOptions
     /// (bench/results/2026-11-30-scan-speed.md); more trade time for crops and attacked
     /// look-alikes the index ranks low.
     int candidates = 8;
+    /// A suspect none of the candidates claims: the shape index's next wider_shortlist assets
+    /// are fitted too, and this many of the best fits not yet tried are tried (0: none).
+    int more_candidates = 4;
+    /// The shape index's first assets fitted for the candidates (shape_fit_ranking; 128 found on
+    /// scans what 64 missed, 256 little more: bench/results/2026-11-30-shape-fit.md), and the
+    /// next ones fitted for the more candidates (real crops and smoothed copies among look-alike
+    /// furniture ranked 143rd and 174th: bench/results/2026-12-01-wider-fit.md).
+    std::size_t fit_shortlist = 128;
+    std::size_t wider_shortlist = 256;
     /// Stop at the first asset that matches (the others would have to carry marks of their own
     /// in the same suspect); false: try every candidate.
     bool stop_at_match = true;

@@ -4,6 +4,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <optional>
 
 #include <Eigen/Core>
 
@@ -36,6 +37,13 @@ public:
     /// \brief Index of the point nearest to \p query; \p squared receives its squared distance.
     /// \pre The tree has at least one point.
     [[nodiscard]] std::uint32_t nearest(const Eigen::Vector3d& query, double& squared) const;
+
+    /// \brief Index of the point nearest to \p query if one is nearer than the square root of
+    /// \p bound (\p squared receives its squared distance), nothing otherwise.
+    /// \details Far cheaper than nearest() for a query far from every point: the search leaves
+    /// out every part of the tree beyond the bound.
+    [[nodiscard]] std::optional<std::uint32_t> nearest_within(const Eigen::Vector3d& query,
+                                                              double bound, double& squared) const;
 
     /// \brief The \p k points nearest to \p query, nearest first, into \p index and \p squared
     /// (each with room for \p k values). \return how many were found: min(k, point count).

@@ -12,16 +12,19 @@ namespace meshmark
 /// How much work shape_fit does; the defaults are those of `catalog scan`.
 struct ShapeFitOptions
 {
-    int start_stride = 8;   ///< start poses scored on every n-th of the suspect's points
-    int coarse_poses = 8;   ///< the best start poses refined by ICP
-    int coarse_stride = 4;  ///< on every n-th point
-    int coarse_rounds = 5;  ///< ICP rounds of those
-    int fine_stride = 1;    ///< the best of those refined again on every n-th point
-    int fine_poses = 2;     ///< how many
-    int fine_rounds = 10;   ///< ICP rounds of those
-    double kept = 0.9;      ///< share of the suspect's points measured: the closest
-    bool to_plane = true;   ///< measure the distance along the asset's normal
-    bool across = true;     ///< refine by the distances to the asset's tangent planes
+    int start_stride = 8;      ///< start poses scored on every n-th of the suspect's points
+    double start_bound = 0.0;  ///< starts: a point farther than this share of the asset's RMS
+                               ///< radius from its points counts as that far (0: none)
+    int coarse_poses = 8;      ///< the best start poses refined by ICP
+    int coarse_stride = 4;     ///< on every n-th point
+    int coarse_rounds = 5;     ///< ICP rounds of those
+    int fine_stride = 1;       ///< the best of those refined again on every n-th point
+    int fine_poses = 2;        ///< how many
+    int fine_rounds = 10;      ///< ICP rounds of those
+    double settled = 1e-3;     ///< a round that improves the fit by less than this share ends it
+    double kept = 0.9;         ///< share of the suspect's points measured: the closest
+    bool to_plane = true;      ///< measure the distance along the asset's normal
+    bool across = true;        ///< refine by the distances to the asset's tangent planes
 };
 
 /// \brief How far a suspect's surface lies from an asset's after the best similarity (mirror

@@ -69,6 +69,7 @@ TEST(CatalogTest,
                                          .mesh);
     CatalogScanOptions options;
     options.candidates = 2;  // (the unmarked copy is tried against two assets, not all three)
+    options.more_candidates = 0;
     const CatalogScanReport report = catalog_scan(
         catalog, {dir / "suspect.ply", dir / "unmarked.ply", dir / "missing.ply"}, options);
     EXPECT_EQ(report.assets, 3U);
@@ -378,20 +379,28 @@ TEST(CatalogTest, shape_fit_ranking_fits_the_variants_of_a_good_fit_the_index_le
         {0.1F, 0}, {0.2F, 2}, {0.3F, 3}, {0.4F, 1}};
     const std::vector<bool> taken(index.size(), false);
     const ShapeFeatures features = shape_features(suspect);
-    const std::vector<std::size_t> ranked =
-        shape_fit_ranking(index, by_shape, taken, suspect, features, 1, 1);
-    ASSERT_EQ(ranked.size(), 2U);  // the shortlist's one and its variant; not the torus nor the egg
-    EXPECT_EQ(ranked[0], 1U);      // the crop's own variant fits best
-    EXPECT_EQ(ranked[1], 0U);
+    const auto assets_of = [&](const std::vector<bool>& taken_now)
+    {
+        std::vector<std::size_t> assets;
+        double last = 0.0;
+        for (const auto& [fit, a] :
+             shape_fit_ranking(index, by_shape, taken_now, suspect, features, 1, 32, 1))
+        {
+            EXPECT_GE(fit, last);  // best first
+            last = fit;
+            assets.push_back(a);
+        }
+        return assets;
+    };
+    // The shortlist's one and its variant, the crop's own variant first; not the torus nor the egg.
+    EXPECT_EQ(assets_of(taken), (std::vector<std::size_t>{1, 0}));
     // An asset already taken (tried in the suspect's numbering) is neither fitted nor ranked.
     std::vector<bool> first_taken(index.size(), false);
     first_taken[1] = true;
-    EXPECT_EQ(shape_fit_ranking(index, by_shape, first_taken, suspect, features, 1, 1),
-              std::vector<std::size_t>{0});
+    EXPECT_EQ(assets_of(first_taken), std::vector<std::size_t>{0});
     // Another mesh's counts: no variant, the shortlist alone.
     index[1].vertex_count += 1;
-    EXPECT_EQ(shape_fit_ranking(index, by_shape, taken, suspect, features, 1, 1),
-              std::vector<std::size_t>{0});
+    EXPECT_EQ(assets_of(taken), std::vector<std::size_t>{0});
 }
 
 TEST(CatalogTest, scan_tries_first_the_asset_whose_numbering_a_copy_keeps)
@@ -452,6 +461,7 @@ TEST(CatalogTest, scan_tells_near_duplicate_variants_apart_by_the_fit_of_their_p
     (void)catalog_add(catalog, {dir / "in"}, dir / "out", quick_options());
     CatalogScanOptions options;
     options.candidates = 1;
+    options.more_candidates = 0;
     for (const std::string v : {"v1.ply", "v4.ply"})
     {
         write_mesh(dir / ("suspect-" + v),
@@ -463,6 +473,62 @@ TEST(CatalogTest, scan_tells_near_duplicate_variants_apart_by_the_fit_of_their_p
         ASSERT_EQ(report.suspects[0].matches.size(), 1U) << v;
         EXPECT_EQ(report.suspects[0].matches[0].asset, v);
     }
+}
+
+TEST(CatalogTest, scan_tries_the_fits_of_a_wider_shortlist_when_no_candidate_matched)
+{
+    // One surface remeshed six ways (no variants of one mesh: each has counts of its own),
+    // which neither the index nor a fit can tell apart. A crop of one's published
+    // copy, moved, that the index does not rank first. With one candidate and only the index's
+    // first asset fitted, the first round tries a wrong asset; the more candidates come from
+    // the fit of the index's next ones, and one of them is the right asset.
+    const fs::path dir = test::temp_dir("catalog_wider");
+    fs::create_directories(dir / "in");
+    for (int t = 0; t < 6; ++t)
+    {
+        write_mesh(dir / "in" / ("t" + std::to_string(t) + ".ply"),
+                   apply_attacks(lumpy_ellipsoid(4),
+                                 parse_attack_spec("remesh=" + std::to_string(0.8 + 0.04 * t)),
+                                 static_cast<std::uint64_t>(t), 1)
+                       .mesh);
+    }
+    const std::string at = catalog_at(dir);
+    Catalog catalog(at, Catalog::Open::CreateIfMissing);
+    (void)catalog_add(catalog, {dir / "in"}, dir / "out", quick_options());
+    const std::vector<Catalog::IndexEntry> index = catalog.shape_index();
+    ASSERT_EQ(index.size(), 6U);
+    std::string asset;
+    for (int t = 0; t < 6 && asset.empty(); ++t)
+    {
+        const std::string name = "t" + std::to_string(t) + ".ply";
+        const TriangleMesh crop = apply_attacks(read_mesh(dir / "out" / name),
+                                                parse_attack_spec("crop=0.75,similarity"), 3, 1)
+                                      .mesh;
+        if (index[shape_candidates(index, shape_features(crop), 1)[0].second].id != name)
+        {
+            asset = name;
+            write_mesh(dir / "suspect.ply", crop);
+        }
+    }
+    ASSERT_FALSE(asset.empty()) << "every crop ranked first by the index: nothing to test";
+    CatalogScanOptions options;
+    options.candidates = 1;
+    options.fit_shortlist = 1;
+    options.more_candidates = 0;
+    const CatalogScanReport without = catalog_scan(catalog, {dir / "suspect.ply"}, options);
+    ASSERT_EQ(without.suspects.size(), 1U);
+    EXPECT_FALSE(without.suspects[0].detected);
+    ASSERT_EQ(without.suspects[0].tried.size(), 1U);
+    // The five others are the more candidates; tried in order, stopping at the match.
+    options.more_candidates = 5;
+    const CatalogScanReport with = catalog_scan(catalog, {dir / "suspect.ply"}, options);
+    ASSERT_EQ(with.suspects.size(), 1U);
+    ASSERT_EQ(with.suspects[0].matches.size(), 1U);
+    const CatalogMatch& match = with.suspects[0].matches[0];
+    EXPECT_EQ(match.asset, asset);
+    EXPECT_GE(match.rank, 1);
+    ASSERT_EQ(with.suspects[0].tried.size(), static_cast<std::size_t>(match.rank));
+    EXPECT_EQ(with.suspects[0].tried[0].asset, without.suspects[0].tried[0].asset);
 }
 
 }  // namespace

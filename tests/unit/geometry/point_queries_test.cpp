@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <optional>
 
 #include <CGAL/Simple_cartesian.h>
 #include <CGAL/squared_distance_3.h>
@@ -112,6 +113,23 @@ TEST(PointKdTreeTest, nearest_points_match_brute_force)
         ASSERT_EQ(tree.nearest(query, 2, two.data(), two_squared.data()), 2U);
         EXPECT_DOUBLE_EQ(two_squared[0], best[0]);
         EXPECT_DOUBLE_EQ(two_squared[1], best[1]);
+        // Within a bound: the nearest when it is nearer than the bound, nothing otherwise (the
+        // bound taken on both sides of the true distance).
+        for (const double bound : {0.5 * best[0], 2.0 * best[0]})
+        {
+            double within = -1.0;
+            const std::optional<std::uint32_t> near = tree.nearest_within(query, bound, within);
+            ASSERT_EQ(near.has_value(), best[0] < bound);
+            if (near)
+            {
+                EXPECT_DOUBLE_EQ(within, best[0]);
+                EXPECT_DOUBLE_EQ((points.row(*near).transpose() - query).squaredNorm(), best[0]);
+            }
+            else
+            {
+                EXPECT_EQ(within, -1.0);  // left as it was
+            }
+        }
     }
 }
 
