@@ -58,7 +58,7 @@ struct CatalogScanOptions
     /// The shape index's first assets fitted for the candidates (shape_fit_ranking; 128 found on
     /// scans what 64 missed, 256 little more: bench/results/2026-11-30-shape-fit.md), and the
     /// next ones fitted for the more candidates (real crops and smoothed copies among look-alike
-    /// furniture ranked 143rd and 174th: bench/results/2026-12-01-wider-fit.md).
+    /// furniture ranked 143rd and 174th: bench/results/2026-11-30-wider-fit.md).
     std::size_t fit_shortlist = 128;
     std::size_t wider_shortlist = 256;
     /// Stop at the first asset that matches (the others would have to carry marks of their own

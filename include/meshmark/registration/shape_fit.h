@@ -13,7 +13,7 @@ namespace meshmark
 struct ShapeFitOptions
 {
     int start_stride = 8;      ///< start poses scored on every n-th of the suspect's points
-    double start_bound = 0.0;  ///< starts: a point farther than this share of the asset's RMS
+    double start_bound = 0.2;  ///< starts: a point farther than this share of the asset's RMS
                                ///< radius from its points counts as that far (0: none)
     int coarse_poses = 8;      ///< the best start poses refined by ICP
     int coarse_stride = 4;     ///< on every n-th point
