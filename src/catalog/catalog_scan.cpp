@@ -161,6 +161,9 @@ constexpr std::size_t kFitTurns = 3;
 // poses: bench/results/2026-11-30-variants-fitted.md).
 constexpr std::size_t kRefits = 32;
 
+// Variants of the best fit's mesh tried at most in the second round, beside the best fits.
+constexpr std::size_t kVariantTries = 16;
+
 // The detection of one suspect against a list of candidates.
 struct Candidates
 {
@@ -372,13 +375,41 @@ CatalogScanReport catalog_scan(const Catalog& catalog,
                 }
                 std::stable_sort(fits.begin(), fits.end(),
                                  [](const auto& x, const auto& y) { return x.first < y.first; });
+                // The fit cannot tell a crop of one variant of a mesh from another (the same
+                // vertex and face counts: stretched, bent, rescanned on the same triangles):
+                // the best fit's not yet tried are tried too, up to kVariantTries.
                 std::vector<std::pair<float, std::size_t>> more;
-                for (std::size_t k = 0;
-                     k < fits.size() &&
-                     more.size() < static_cast<std::size_t>(options.more_candidates);
-                     ++k)
+                const std::size_t best_fit = by_fit.empty()
+                                                 ? (fits.empty() ? 0 : fits.front().second)
+                                                 : by_fit.front().second;
+                const Catalog::IndexEntry& best = index[best_fit];
+                const auto variant_of_best = [&](std::size_t a) {
+                    return index[a].vertex_count == best.vertex_count &&
+                           index[a].face_count == best.face_count;
+                };
+                // Only when the first round's candidates already held another variant of it
+                // (the fit could not choose among them); otherwise the best fits alone.
+                const bool crowded =
+                    std::count_if(ranked.begin(), ranked.end(),
+                                  [&](const auto& r) { return variant_of_best(r.second); }) >= 2;
+                std::size_t best_fits = 0;
+                std::size_t variants = 0;
+                for (const auto& [fit, a] : fits)
                 {
-                    more.emplace_back(distance[fits[k].second], fits[k].second);
+                    const bool variant = crowded && variant_of_best(a);
+                    if (variant && variants < kVariantTries)
+                    {
+                        ++variants;
+                    }
+                    else if (best_fits < static_cast<std::size_t>(options.more_candidates))
+                    {
+                        ++best_fits;
+                    }
+                    else
+                    {
+                        continue;
+                    }
+                    more.emplace_back(distance[a], a);
                 }
                 scan.index_seconds += seconds_since(wider_start);
                 candidates.try_all(more, static_cast<int>(ranked.size()), scan);
