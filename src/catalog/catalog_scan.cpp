@@ -387,8 +387,8 @@ CatalogScanReport catalog_scan(const Catalog& catalog,
                     return index[a].vertex_count == best.vertex_count &&
                            index[a].face_count == best.face_count;
                 };
-                // Only when the first round's candidates already held another variant of it
-                // (the fit could not choose among them); otherwise the best fits alone.
+                // Only when the first round's candidates held two of its variants (itself
+                // included: the fit could not choose among them); otherwise the best fits alone.
                 const bool crowded =
                     std::count_if(ranked.begin(), ranked.end(),
                                   [&](const auto& r) { return variant_of_best(r.second); }) >= 2;
