@@ -48,6 +48,18 @@ TriangleMesh bumped(TriangleMesh mesh, double amplitude, std::pair<double, doubl
 namespace fs = std::filesystem;
 using namespace test;  // catalog_test_support.h
 
+// Six variants of lumpy_ellipsoid(4) (the same triangles), v0.ply to v5.ply in \p in, each with
+// a bump field of its own of \p amplitude (bumped).
+void write_variants(const fs::path& in, double amplitude)
+{
+    fs::create_directories(in);
+    for (int v = 0; v < 6; ++v)
+    {
+        write_mesh(in / ("v" + std::to_string(v) + ".ply"),
+                   bumped(lumpy_ellipsoid(4), amplitude, {1.7 * v + 0.3, 0.9}));
+    }
+}
+
 TEST(CatalogTest,
      scan_finds_the_asset_and_recipient_of_an_attacked_copy_and_claims_nothing_unmarked)
 {
@@ -450,12 +462,7 @@ TEST(CatalogTest, scan_tells_near_duplicate_variants_apart_by_the_fit_of_their_p
     // the others' (without the fit, the test fails). The fit of the copy's points onto each
     // variant's tells them apart, so the right one is the first tried.
     const fs::path dir = test::temp_dir("catalog_variants");
-    fs::create_directories(dir / "in");
-    for (int v = 0; v < 6; ++v)
-    {
-        write_mesh(dir / "in" / ("v" + std::to_string(v) + ".ply"),
-                   bumped(lumpy_ellipsoid(4), 0.015, {1.7 * v + 0.3, 0.9}));
-    }
+    write_variants(dir / "in", 0.015);
     const std::string at = catalog_at(dir);
     Catalog catalog(at, Catalog::Open::CreateIfMissing);
     (void)catalog_add(catalog, {dir / "in"}, dir / "out", quick_options());
@@ -538,12 +545,7 @@ TEST(CatalogTest, scan_tries_every_variant_of_the_best_fit_when_the_first_candid
     // first round miss (both variants of the best fit) is found in the second round, which
     // tries the best fit's other variants whatever their fit, beside the one more candidate.
     const fs::path dir = test::temp_dir("catalog_variant_tries");
-    fs::create_directories(dir / "in");
-    for (int v = 0; v < 6; ++v)
-    {
-        write_mesh(dir / "in" / ("v" + std::to_string(v) + ".ply"),
-                   bumped(lumpy_ellipsoid(4), 0.004, {1.7 * v + 0.3, 0.9}));
-    }
+    write_variants(dir / "in", 0.004);
     const std::string at = catalog_at(dir);
     Catalog catalog(at, Catalog::Open::CreateIfMissing);
     (void)catalog_add(catalog, {dir / "in"}, dir / "out", quick_options());
