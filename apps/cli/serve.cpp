@@ -30,6 +30,7 @@ struct ServeArgs
     double read_timeout = 10.0;
     double queue_timeout = 30.0;
     int candidates = service::ServiceOptions{}.scan_candidates;
+    int more_candidates = service::ServiceOptions{}.scan_more_candidates;
     double max_false_positive = service::ServiceOptions{}.max_false_positive;
     double lock_timeout = std::chrono::duration<double>(kDefaultLockTimeout).count();
 };
@@ -83,6 +84,7 @@ int run_serve(const ServeArgs& args, const GlobalArgs& global)
     options.queue_timeout =
         std::chrono::milliseconds(static_cast<long>(args.queue_timeout * 1000.0));
     options.scan_candidates = args.candidates;
+    options.scan_more_candidates = args.more_candidates;
     options.max_false_positive = args.max_false_positive;
     options.lock_timeout = lock_timeout_of(args.lock_timeout);
     if (global.quiet)
@@ -168,6 +170,11 @@ void register_serve(CLI::App& app, GlobalArgs& global, CommandRunner& runner)
         ->capture_default_str();
     serve->add_option("--candidates", args->candidates, "Scans: assets tried per suspect")
         ->check(CLI::Range(1, 10000))
+        ->capture_default_str();
+    serve
+        ->add_option("--more-candidates", args->more_candidates,
+                     "Scans: tried after a wider fit when none of those matched (0: none)")
+        ->check(CLI::Range(0, 10000))
         ->capture_default_str();
     serve
         ->add_option("--max-fpp", args->max_false_positive,

@@ -53,9 +53,13 @@ Service::Service(ServiceOptions options) : impl_(std::make_unique<Impl>())
     {
         throw InvalidOption("--listen's port must be 0 to 65535.");
     }
-    if (o.workers < 0 || o.connections < 1 || o.connections > 4096 || o.scan_candidates < 1)
+    if (o.workers < 0 || o.connections < 1 || o.connections > 4096)
     {
         throw InvalidOption("--workers must be >= 0, --connections 1 to 4096.");
+    }
+    if (o.scan_candidates < 1 || o.scan_more_candidates < 0)
+    {
+        throw InvalidOption("--candidates must be >= 1, --more-candidates >= 0.");
     }
     s.catalog = std::make_unique<Catalog>(o.catalog, Catalog::Open::Existing, o.lock_timeout);
     if (o.token_file.empty() && o.catalog.string().find("://") != std::string::npos)

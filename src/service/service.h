@@ -35,7 +35,8 @@ struct ServiceOptions
     std::chrono::milliseconds queue_timeout{30'000};
     std::chrono::milliseconds lock_timeout = kDefaultLockTimeout;  ///< The catalogue's busy wait.
     int scan_candidates = 8;                                       ///< `catalog scan --candidates`.
-    double max_false_positive = 1e-6;                              ///< `catalog scan --max-fpp`.
+    int scan_more_candidates = 4;      ///< `catalog scan --more-candidates` (0: no second round).
+    double max_false_positive = 1e-6;  ///< `catalog scan --max-fpp`.
     /// Receives one line per request (JSON) and the service's own notices; stderr when empty.
     std::function<void(const std::string&)> log;
 };

@@ -150,6 +150,7 @@ void Service::Impl::scan(const httplib::Request& req, httplib::Response& res)
                 scan_options.detect.threads = 1;
                 scan_options.detect.decision.max_false_positive = options.max_false_positive;
                 scan_options.candidates = options.scan_candidates;
+                scan_options.more_candidates = options.scan_more_candidates;
                 const CatalogScanReport report = catalog_scan(*catalog, {suspect}, scan_options);
                 Json json = catalog_scan_json(*catalog, report, scan_options);
                 json.erase("catalog");  // the server's path (each match keeps its "original":

@@ -15,7 +15,8 @@ curl (and Python's http.client for the concurrent part):
     service keeps serving meanwhile;
   - 16 clients at once, 4 names each: every name one code, codes distinct;
   - /metrics counts the copies; SIGTERM stops it (exit 0); every log line is JSON; neither the
-    token nor the key's seed or payload appears in any response or log line.
+    token nor the key's seed or payload appears in any response or log line;
+  - scans try --candidates, then --more-candidates more (0: none).
 Exit 0 when every check held, 77 without the shared meshes or curl.
 """
 import argparse
@@ -347,6 +348,18 @@ def main():
         service.send_signal(15)
         c.check(service.wait(timeout=30) == 0, "SIGTERM: exit 0")
         service = None
+
+        # Scans' candidates: one tried, then the second round's best fits unless
+        # --more-candidates 0 (an unmarked original: no candidate claims it).
+        for more, expected in [("0", 1), ("4", 2)]:
+            service, port = start_service(cli, catalog, work / f"serve-more{more}.log",
+                                          "--candidates", "1", "--more-candidates", more)
+            status, _, body = curl(port, "POST", "/v1/scan?name=suspect.stl", token, data_file=str(assets / "bunny.stl"))
+            tried = json.loads(body)["suspects"][0]["tried"] if status == 200 else []
+            c.check(len(tried) == expected, f"--candidates 1 --more-candidates {more}: {expected} tried (got {len(tried)})")
+            service.send_signal(15)
+            service.wait(timeout=30)
+            service = None
     finally:
         if service is not None:
             service.kill()
