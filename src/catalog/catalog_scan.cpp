@@ -98,50 +98,58 @@ CandidateOutcome try_candidate(const Catalog& catalog, const std::string& id, fl
 // draw's noise (bench/results/2026-11-30-scan-speed.md). The mark moves vertices by about 1e-3
 // of the diagonal, the attack suite's noise by 5e-4 to 2e-3.
 constexpr double kInOrderFit = 0.01;
-// Same-count assets read per suspect at most (each is an original read from its file).
-constexpr std::size_t kInOrderReads = 64;
+// Same-count assets read per suspect at most (each is an original read from its file): a
+// catalogue of 100,000 near-duplicates holds about 150 variants of each mesh, all of its counts.
+constexpr std::size_t kInOrderReads = 256;
 
 // The assets of \p index whose original has \p suspect's vertex and face counts and fits it in
-// order within kInOrderFit, best fit first.
+// order within kInOrderFit, best fit first; the originals read on \p threads threads.
 std::vector<std::size_t> in_order_fits(const Catalog& catalog,
                                        const std::vector<Catalog::IndexEntry>& index,
-                                       const TriangleMesh& suspect)
+                                       const TriangleMesh& suspect, int threads)
 {
-    std::vector<std::pair<double, std::size_t>> fits;
-    std::size_t read = 0;
-    for (std::size_t a = 0; a < index.size() && read < kInOrderReads; ++a)
+    std::vector<std::size_t> same;
+    std::vector<std::filesystem::path> originals;
+    for (std::size_t a = 0; a < index.size() && same.size() < kInOrderReads; ++a)
     {
         if (index[a].vertex_count != suspect.V.rows() || index[a].face_count != suspect.F.rows())
         {
             continue;
         }
-        ++read;
-        try
-        {
-            const std::optional<CatalogAsset> asset = catalog.asset(index[a].id);
-            if (!asset)
-            {
-                continue;
-            }
-            const TriangleMesh original = read_mesh(asset->original);
-            if (original.V.rows() != suspect.V.rows())
-            {
-                continue;
-            }
-            const Eigen::Matrix4d fit = fit_similarity_rows(suspect.V, original.V);
-            const Positions moved = transform_points(fit, suspect.V);
-            const double diagonal = bounding_box(original.V).diagonal();
-            const double rms = std::sqrt((moved - original.V).rowwise().squaredNorm().mean());
-            if (diagonal > 0.0 && rms <= kInOrderFit * diagonal)
-            {
-                fits.emplace_back(rms / diagonal, a);
-            }
-        }
-        catch (const Error&)
-        {
-            // an original that cannot be read now is tried, if at all, through the index
-        }
+        same.push_back(a);
+        const std::optional<CatalogAsset> asset = catalog.asset(index[a].id);
+        originals.push_back(asset ? asset->original : std::filesystem::path());
     }
+    const double infinity = std::numeric_limits<double>::infinity();
+    std::vector<std::pair<double, std::size_t>> fits(same.size(), {infinity, 0});
+    for_each_index(same.size(), threads,
+                   [&](std::size_t k)
+                   {
+                       fits[k].second = same[k];
+                       try
+                       {
+                           const TriangleMesh original = read_mesh(originals[k]);
+                           if (original.V.rows() != suspect.V.rows())
+                           {
+                               return;
+                           }
+                           const Eigen::Matrix4d fit = fit_similarity_rows(suspect.V, original.V);
+                           const Positions moved = transform_points(fit, suspect.V);
+                           const double diagonal = bounding_box(original.V).diagonal();
+                           const double rms =
+                               std::sqrt((moved - original.V).rowwise().squaredNorm().mean());
+                           if (diagonal > 0.0 && rms <= kInOrderFit * diagonal)
+                           {
+                               fits[k].first = rms / diagonal;
+                           }
+                       }
+                       catch (const Error&)
+                       {
+                           // an original that cannot be read now is tried, if at all, through
+                           // the index
+                       }
+                   });
+    std::erase_if(fits, [](const auto& f) { return !std::isfinite(f.first); });
     std::sort(fits.begin(), fits.end());
     std::vector<std::size_t> assets;
     for (const auto& [rms, a] : fits)
@@ -163,6 +171,66 @@ constexpr std::size_t kRefits = 32;
 
 // Variants of the best fit's mesh tried at most in the second round, beside the best fits.
 constexpr std::size_t kVariantTries = 16;
+// Variants of the best fit's mesh read and scored at most (variant_ranking): a catalogue of
+// 100,000 near-duplicates holds about 150 of each mesh.
+constexpr std::size_t kVariantReads = 256;
+
+// Places among the candidates that go to the closest variants of the best fit's mesh, at least.
+constexpr std::size_t kVariantPlaces = 2;
+
+// The places of \p ranked from \p from on that hold one of \p variants (closest first), and at
+// least kVariantPlaces (the last others), given to the closest variants not placed elsewhere, in
+// order; \p taken follows.
+void closest_variants_first(std::vector<std::pair<float, std::size_t>>& ranked, std::size_t from,
+                            std::vector<bool>& taken,
+                            const std::vector<std::pair<double, std::size_t>>& variants,
+                            const std::vector<float>& distance)
+{
+    std::vector<bool> is_variant(taken.size(), false);
+    for (const auto& [score, a] : variants)
+    {
+        is_variant[a] = true;
+    }
+    std::vector<bool> is_place(ranked.size(), false);
+    std::size_t places = 0;
+    for (std::size_t r = from; r < ranked.size(); ++r)
+    {
+        if (is_variant[ranked[r].second])
+        {
+            is_place[r] = true;
+            ++places;
+        }
+    }
+    const std::size_t wanted = std::min(kVariantPlaces, variants.size());
+    for (std::size_t r = ranked.size(); r > from && places < wanted; --r)
+    {
+        if (!is_place[r - 1])
+        {
+            is_place[r - 1] = true;
+            ++places;
+        }
+    }
+    std::vector<bool> elsewhere(taken.size(), false);
+    for (std::size_t r = 0; r < ranked.size(); ++r)
+    {
+        taken[ranked[r].second] = false;
+        elsewhere[ranked[r].second] = !is_place[r];
+    }
+    auto next = variants.begin();
+    for (std::size_t r = 0; r < ranked.size(); ++r)
+    {
+        while (is_place[r] && next != variants.end() && elsewhere[next->second])
+        {
+            ++next;
+        }
+        if (is_place[r] && next != variants.end())
+        {
+            ranked[r] = {distance[next->second], next->second};
+            ++next;
+        }
+        taken[ranked[r].second] = true;
+    }
+}
 
 // The detection of one suspect against a list of candidates.
 struct Candidates
@@ -325,10 +393,11 @@ CatalogScanReport catalog_scan(const Catalog& catalog,
                     ranked.emplace_back(distance[a], a);
                 }
             };
-            for (const std::size_t a : in_order_fits(catalog, index, suspect))
+            for (const std::size_t a : in_order_fits(catalog, index, suspect, threads))
             {
                 take(a);
             }
+            const std::size_t in_order = ranked.size();
             // Then kFitTurns of the fit's ranking for each of the index's, in turn.
             const std::vector<std::pair<double, std::size_t>> by_fit = shape_fit_ranking(
                 index, by_shape, taken, suspect, features, options.fit_shortlist, kRefits, threads);
@@ -349,6 +418,27 @@ CatalogScanReport catalog_scan(const Catalog& catalog,
                 {
                     take(by_shape[at_shape++].second);
                 }
+            }
+            // The variants of the best fit's mesh (shape_fit cannot choose among them), closest
+            // first by a fit onto each one's own surface: the candidates' places that hold
+            // variants go to the closest of them.
+            // (Ranked once, when places are left after the assets in the suspect's numbering or
+            // for the second round.)
+            std::optional<std::vector<std::pair<double, std::size_t>>> ranked_variants;
+            const auto variants = [&]() -> const std::vector<std::pair<double, std::size_t>>&
+            {
+                if (!ranked_variants)
+                {
+                    ranked_variants =
+                        by_fit.empty() ? std::vector<std::pair<double, std::size_t>>{}
+                                       : variant_ranking(catalog, index, by_fit.front().second,
+                                                         suspect, features, kVariantReads, threads);
+                }
+                return *ranked_variants;
+            };
+            if (in_order < ranked.size())
+            {
+                closest_variants_first(ranked, in_order, taken, variants(), distance);
             }
             scan.index_seconds = seconds_since(index_start);
             const Candidates candidates{
@@ -392,24 +482,34 @@ CatalogScanReport catalog_scan(const Catalog& catalog,
                 const bool crowded =
                     std::count_if(ranked.begin(), ranked.end(),
                                   [&](const auto& r) { return variant_of_best(r.second); }) >= 2;
+                // The variants first, closest by their own surfaces (by the points' fit where
+                // none could be read), then the best fits.
+                std::vector<bool> chosen = taken;
+                const auto choose = [&](std::size_t a)
+                {
+                    chosen[a] = true;
+                    more.emplace_back(distance[a], a);
+                };
+                if (crowded)
+                {
+                    std::size_t variant_tries = 0;
+                    for (const auto& [score, a] : variants().empty() ? fits : variants())
+                    {
+                        if (!chosen[a] && variant_of_best(a) && variant_tries < kVariantTries)
+                        {
+                            ++variant_tries;
+                            choose(a);
+                        }
+                    }
+                }
                 std::size_t best_fits = 0;
-                std::size_t variants = 0;
                 for (const auto& [fit, a] : fits)
                 {
-                    const bool variant = crowded && variant_of_best(a);
-                    if (variant && variants < kVariantTries)
-                    {
-                        ++variants;
-                    }
-                    else if (best_fits < static_cast<std::size_t>(options.more_candidates))
+                    if (!chosen[a] && best_fits < static_cast<std::size_t>(options.more_candidates))
                     {
                         ++best_fits;
+                        choose(a);
                     }
-                    else
-                    {
-                        continue;
-                    }
-                    more.emplace_back(distance[a], a);
                 }
                 scan.index_seconds += seconds_since(wider_start);
                 candidates.try_all(more, static_cast<int>(ranked.size()), scan);

@@ -4,7 +4,9 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <filesystem>
 #include <limits>
+#include <optional>
 #include <vector>
 
 #include "meshmark/catalog/catalog_scan.h"
@@ -12,7 +14,9 @@
 #include "meshmark/core/threads.h"
 #include "meshmark/geometry/point_kd_tree.h"
 #include "meshmark/geometry/shape_signature.h"
+#include "meshmark/io/mesh_io.h"
 #include "meshmark/registration/shape_fit.h"
+#include "meshmark/registration/variant_fit.h"
 
 namespace meshmark
 {
@@ -31,6 +35,10 @@ constexpr std::size_t kSiblingFits = 64;
 // The first `refits` of the fit's ranking are fitted again from their kRefitStartViews crop
 // views nearest the suspect's features: a crop's start poses (the same study).
 constexpr std::size_t kRefitStartViews = 16;
+// The variants of a mesh are scored on this many points of the suspect, by this many ICP
+// rounds onto each one's surface (surface_fits).
+constexpr int kVariantPoints = 1024;
+constexpr int kVariantRounds = 5;
 
 // The crop views of \p views (this build's width) nearest \p scaled (features in 255ths).
 std::vector<int> nearest_crop_views(const std::vector<std::uint8_t>& views,
@@ -237,6 +245,84 @@ std::vector<std::pair<double, std::size_t>> shape_fit_ranking(
     }
     std::stable_sort(fits.begin(), fits.begin() + static_cast<std::ptrdiff_t>(again), by_error);
     return fits;
+}
+
+std::vector<std::pair<double, std::size_t>> variant_ranking(
+    const Catalog& catalog, const std::vector<Catalog::IndexEntry>& index, std::size_t best,
+    const TriangleMesh& suspect, const ShapeFeatures& features, std::size_t count, int threads)
+{
+    if (best >= index.size() || index[best].points.empty())
+    {
+        return {};
+    }
+    // The best first, then its variants in the index's order; their originals' paths (the
+    // catalogue is asked from this thread only), then the meshes read in parallel.
+    std::vector<std::size_t> family{best};
+    for (std::size_t a = 0; a < index.size() && family.size() < count; ++a)
+    {
+        if (a != best && index[a].vertex_count == index[best].vertex_count &&
+            index[a].face_count == index[best].face_count)
+        {
+            family.push_back(a);
+        }
+    }
+    if (family.size() < 2)
+    {
+        return {};
+    }
+    std::vector<std::filesystem::path> originals(family.size());
+    for (std::size_t k = 0; k < family.size(); ++k)
+    {
+        if (const std::optional<CatalogAsset> asset = catalog.asset(index[family[k]].id))
+        {
+            originals[k] = asset->original;
+        }
+    }
+    std::vector<TriangleMesh> meshes(family.size());
+    for_each_index(family.size(), threads,
+                   [&](std::size_t k)
+                   {
+                       try
+                       {
+                           meshes[k] = read_mesh(originals[k]);
+                       }
+                       catch (const Error&)
+                       {
+                           // no faces: scored infinity, left out below
+                       }
+                   });
+    // The suspect's pose on the best: shape_fit from the crop views nearest the suspect's
+    // features, as the fit ranked it; its variants lie in nearly the same frame.
+    std::array<float, kShapeFeatures> scaled{};
+    for (std::size_t i = 0; i < scaled.size(); ++i)
+    {
+        scaled[i] = 255.0F * features[i];
+    }
+    Positions asset;
+    Positions normals;
+    ShapeSignature::points_from_bytes(index[best].points, asset, normals);
+    const PointKdTree tree(asset);
+    ShapeFitPose pose;
+    const double fit =
+        shape_fit(shape_sample(suspect, kShapePoints), asset, normals, tree,
+                  nearest_crop_views(index[best].views, scaled, kRefitStartViews), {}, &pose);
+    if (!std::isfinite(fit))
+    {
+        return {};
+    }
+    const std::vector<double> scores =
+        surface_fits(shape_sample(suspect, kVariantPoints), meshes, pose, kVariantRounds, threads);
+    std::vector<std::pair<double, std::size_t>> ranked;
+    for (std::size_t k = 0; k < family.size(); ++k)
+    {
+        if (std::isfinite(scores[k]))
+        {
+            ranked.emplace_back(scores[k], family[k]);
+        }
+    }
+    std::stable_sort(ranked.begin(), ranked.end(),
+                     [](const auto& x, const auto& y) { return x.first < y.first; });
+    return ranked;
 }
 
 }  // namespace meshmark

@@ -195,7 +195,7 @@ void refine(const Eigen::MatrixX3d& source, double source_radius, const PointKdT
 
 double shape_fit(const Positions& suspect, const Positions& asset, const Positions& asset_normals,
                  const PointKdTree& tree, std::span<const int> views,
-                 const ShapeFitOptions& options)
+                 const ShapeFitOptions& options, ShapeFitPose* pose_out)
 {
     if (suspect.rows() < kMinPoints || asset.rows() < kMinPoints)
     {
@@ -311,7 +311,14 @@ double shape_fit(const Positions& suspect, const Positions& asset, const Positio
         refine(source(Eigen::seq(0, source.rows() - 1, options.fine_stride), Eigen::all),
                own.radius, tree, asset_normals, options.fine_rounds, options.kept, options.to_plane,
                options.across, options.settled, pose);
-        best = std::min(best, pose.error);
+        if (pose.error < best)
+        {
+            best = pose.error;
+            if (pose_out != nullptr)
+            {
+                *pose_out = {starts[k].source == 1, pose.scale, pose.rotation, pose.translation};
+            }
+        }
     }
     return best;
 }

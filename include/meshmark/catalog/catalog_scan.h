@@ -41,6 +41,18 @@ namespace meshmark
     const TriangleMesh& suspect, const ShapeFeatures& features, std::size_t count,
     std::size_t refits, int threads);
 
+/// \brief Asset \p best and the other assets of its vertex and face counts in \p index (variants
+/// of one mesh: stretched, bent, rescanned on the same triangles), closest to \p suspect first,
+/// each with its score (surface_fits from shape_fit's pose of the suspect on \p best: an ICP
+/// onto each one's original); at most \p count of them read (\p best, then the others in
+/// \p index's order), on \p threads threads. Empty when \p best has no variant or the suspect
+/// cannot be placed on it; an asset whose original cannot be read is left out.
+/// \details shape_fit_ranking cannot tell a copy of one variant from another; their own
+/// surfaces can (bench/results/2026-12-01-variants-by-their-surfaces.md).
+[[nodiscard]] std::vector<std::pair<double, std::size_t>> variant_ranking(
+    const Catalog& catalog, const std::vector<Catalog::IndexEntry>& index, std::size_t best,
+    const TriangleMesh& suspect, const ShapeFeatures& features, std::size_t count, int threads);
+
 /// Options of catalog_scan.
 struct CatalogScanOptions
 {

@@ -27,6 +27,16 @@ struct ShapeFitOptions
     bool across = true;        ///< refine by the distances to the asset's tangent planes
 };
 
+/// The similarity shape_fit found: a suspect point x (its first coordinate negated first when
+/// \p mirrored) lies at scale * rotation * x + translation in the asset's frame.
+struct ShapeFitPose
+{
+    bool mirrored = false;
+    double scale = 1.0;
+    Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+    Eigen::Vector3d translation = Eigen::Vector3d::Zero();
+};
+
 /// \brief How far a suspect's surface lies from an asset's after the best similarity (mirror
 /// images included) taking the suspect onto the asset or onto one of its crop views: the RMS of
 /// the distances from the suspect's points to the asset's nearest points along the asset's
@@ -45,9 +55,11 @@ struct ShapeFitOptions
 /// \param asset the asset's points (shape_sample of the original, in the original's frame), and
 /// \p tree over them.
 /// \param views crop views of the asset's signature to start from too (1 to kShapeViews - 1).
+/// \param pose when given, receives the best fit's similarity (unchanged when none was found).
 /// \return the fit's relative RMS; infinity when either has fewer than 8 points.
 [[nodiscard]] double shape_fit(const Positions& suspect, const Positions& asset,
                                const Positions& asset_normals, const PointKdTree& tree,
-                               std::span<const int> views, const ShapeFitOptions& options = {});
+                               std::span<const int> views, const ShapeFitOptions& options = {},
+                               ShapeFitPose* pose = nullptr);
 
 }  // namespace meshmark
