@@ -8,6 +8,7 @@
 #include <cmath>
 #include <exception>
 #include <limits>
+#include <map>
 #include <optional>
 #include <thread>
 
@@ -467,7 +468,8 @@ CatalogScanReport catalog_scan(const Catalog& catalog,
                                  [](const auto& x, const auto& y) { return x.first < y.first; });
                 // The fit cannot tell a crop of one variant of a mesh from another (the same
                 // vertex and face counts: stretched, bent, rescanned on the same triangles):
-                // the best fit's not yet tried are tried too, up to kVariantTries.
+                // when the first round was crowded with them, the best fit's others not yet
+                // tried are tried too, up to kVariantTries.
                 std::vector<std::pair<float, std::size_t>> more;
                 const std::size_t best_fit = by_fit.empty()
                                                  ? (fits.empty() ? 0 : fits.front().second)
@@ -482,14 +484,52 @@ CatalogScanReport catalog_scan(const Catalog& catalog,
                 const bool crowded =
                     std::count_if(ranked.begin(), ranked.end(),
                                   [&](const auto& r) { return variant_of_best(r.second); }) >= 2;
-                // The variants first, closest by their own surfaces (by the points' fit where
-                // none could be read), then the best fits.
+                // The best fits, then the best fit's other variants, closest by their own
+                // surfaces (by the points' fit where none could be read).
                 std::vector<bool> chosen = taken;
                 const auto choose = [&](std::size_t a)
                 {
                     chosen[a] = true;
                     more.emplace_back(distance[a], a);
                 };
+                // The best fits' places, each given to the closest untried variant of its mesh
+                // (the fit cannot choose among them; their surfaces can).
+                std::vector<std::size_t> best_fits;
+                for (const auto& [fit, a] : fits)
+                {
+                    if (!chosen[a] &&
+                        best_fits.size() < static_cast<std::size_t>(options.more_candidates))
+                    {
+                        best_fits.push_back(a);
+                    }
+                }
+                std::map<std::pair<std::int64_t, std::int64_t>,
+                         std::vector<std::pair<double, std::size_t>>>
+                    closest;
+                for (const std::size_t a : best_fits)
+                {
+                    const std::pair counts{index[a].vertex_count, index[a].face_count};
+                    if (!closest.contains(counts))
+                    {
+                        closest[counts] = variant_of_best(a)
+                                              ? variants()
+                                              : variant_ranking(catalog, index, a, suspect,
+                                                                features, kVariantReads, threads);
+                    }
+                    std::size_t pick = a;
+                    for (const auto& [score, b] : closest[counts])
+                    {
+                        if (!chosen[b])
+                        {
+                            pick = b;
+                            break;
+                        }
+                    }
+                    if (!chosen[pick])
+                    {
+                        choose(pick);
+                    }
+                }
                 if (crowded)
                 {
                     std::size_t variant_tries = 0;
@@ -500,15 +540,6 @@ CatalogScanReport catalog_scan(const Catalog& catalog,
                             ++variant_tries;
                             choose(a);
                         }
-                    }
-                }
-                std::size_t best_fits = 0;
-                for (const auto& [fit, a] : fits)
-                {
-                    if (!chosen[a] && best_fits < static_cast<std::size_t>(options.more_candidates))
-                    {
-                        ++best_fits;
-                        choose(a);
                     }
                 }
                 scan.index_seconds += seconds_since(wider_start);
