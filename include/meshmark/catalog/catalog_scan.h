@@ -65,9 +65,10 @@ struct CatalogScanOptions
     /// look-alikes the index ranks low.
     int candidates = 8;
     /// A suspect none of the candidates claims: the shape index's next wider_shortlist assets
-    /// are fitted too, and this many of the best fits not yet tried are tried (0: none); when
-    /// two of the candidates were variants of the best fit's mesh (same vertex and face
-    /// counts), up to 16 of its other variants as well.
+    /// are fitted too, and this many of the best fits not yet tried are tried, each replaced by
+    /// the closest untried variant of its mesh (variant_ranking; 0: none); when two of the
+    /// candidates were variants of the best fit's mesh (same vertex and face counts), up to 16
+    /// of its other variants after them, closest first.
     int more_candidates = 4;
     /// The shape index's first assets fitted for the candidates (shape_fit_ranking; 128 found on
     /// scans what 64 missed, 256 little more: bench/results/2026-11-30-shape-fit.md), and the
