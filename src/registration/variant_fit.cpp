@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 
+#include "meshmark/core/error.h"
 #include "meshmark/core/threads.h"
 #include "registration/detail/icp.h"
 
@@ -41,13 +42,20 @@ std::vector<double> surface_fits(const Positions& suspect, std::span<const Trian
                        {
                            return;
                        }
-                       const SurfaceMatcher target(meshes[k]);
-                       const detail::IcpOutcome fit =
-                           detail::icp_point_to_plane(source, target, from, settings);
-                       if (fit.transform.scale > 0.0 && std::isfinite(fit.trimmed_rms))
+                       try
                        {
-                           // target units -> the suspect's, over its radius
-                           scores[k] = fit.trimmed_rms / (fit.transform.scale * radius);
+                           const SurfaceMatcher target(meshes[k]);
+                           const detail::IcpOutcome fit =
+                               detail::icp_point_to_plane(source, target, from, settings);
+                           if (fit.transform.scale > 0.0 && std::isfinite(fit.trimmed_rms))
+                           {
+                               // target units -> the suspect's, over its radius
+                               scores[k] = fit.trimmed_rms / (fit.transform.scale * radius);
+                           }
+                       }
+                       catch (const Error&)
+                       {
+                           // a mesh the matcher refuses scores infinity
                        }
                    });
     return scores;
