@@ -60,6 +60,15 @@ void write_variants(const fs::path& in, double amplitude)
     }
 }
 
+// One candidate, no second round: what the first one tried shows the ranking alone.
+CatalogScanOptions first_candidate_only()
+{
+    CatalogScanOptions options;
+    options.candidates = 1;
+    options.more_candidates = 0;
+    return options;
+}
+
 TEST(CatalogTest,
      scan_finds_the_asset_and_recipient_of_an_attacked_copy_and_claims_nothing_unmarked)
 {
@@ -466,9 +475,7 @@ TEST(CatalogTest, scan_tells_near_duplicate_variants_apart_by_the_fit_of_their_p
     const std::string at = catalog_at(dir);
     Catalog catalog(at, Catalog::Open::CreateIfMissing);
     (void)catalog_add(catalog, {dir / "in"}, dir / "out", quick_options());
-    CatalogScanOptions options;
-    options.candidates = 1;
-    options.more_candidates = 0;
+    const CatalogScanOptions options = first_candidate_only();
     for (const std::string v : {"v1.ply", "v4.ply"})
     {
         write_mesh(dir / ("suspect-" + v),
@@ -549,9 +556,7 @@ TEST(CatalogTest, scan_tries_the_variant_whose_own_surface_fits_a_crop_best_firs
     const std::string at = catalog_at(dir);
     Catalog catalog(at, Catalog::Open::CreateIfMissing);
     (void)catalog_add(catalog, {dir / "in"}, dir / "out", quick_options());
-    CatalogScanOptions options;
-    options.candidates = 1;
-    options.more_candidates = 0;
+    const CatalogScanOptions options = first_candidate_only();
     for (int v = 0; v < 6; ++v)
     {
         const std::string name = "v" + std::to_string(v) + ".ply";
