@@ -150,6 +150,7 @@ int run_bench_robustness(const RobustnessArgs& args, const GlobalArgs& global)
     DetectFileOptions detect_options;
     detect_options.threads = global.threads;
     detect_options.match_surface = !args.plain_resampling;
+    detect_options.predict_voxel = !args.no_voxel_prediction;
     const bool chatty = !global.quiet;
 
     std::vector<MeshEmbedding> embeddings;
@@ -428,6 +429,8 @@ void register_bench_robustness(CLI::App& bench, GlobalArgs& global, CommandRunne
         ->check(CLI::ExistingFile);
     command->add_flag("--plain-resampling", args->plain_resampling,
                       "Ablation: read resampled copies against the original's vertices only");
+    command->add_flag("--no-voxel-prediction", args->no_voxel_prediction,
+                      "Ablation: read voxel-remeshed copies without the original's own remesh");
     command->add_flag("--json", args->json,
                       "Print every trial as one JSON object instead of the tables");
     add_global_flags(*command, global);

@@ -67,7 +67,8 @@ struct RobustnessArgs
     std::string markdown;
     std::string json_path;
     std::vector<std::string> from_json;
-    bool plain_resampling = false;  // ablation: DetectFileOptions::match_surface off
+    bool plain_resampling = false;     // ablation: DetectFileOptions::match_surface off
+    bool no_voxel_prediction = false;  // ablation: DetectFileOptions::predict_voxel off
     bool json = false;
     int recipients = 0;  // > 0: family keys with this many recipients (docs/fingerprinting.md)
     int colluders =

@@ -65,13 +65,14 @@ DetectReport run_detection(const detail::DetectSources& sources, const DetectFil
 
     // 3-5. Correspondence, readings, verdict and tracing, in the pose found.
     detail::PoseHints hints;
-    detail::read_in_pose(reading, timer, mark, in, options, nullptr, &hints);
+    detail::VoxelCache voxel_cache;
+    detail::read_in_pose(reading, timer, mark, in, options, nullptr, &hints, voxel_cache);
 
     // 6. Other poses of a symmetric original, under the union bound.
-    detail::read_symmetric_poses(reading, timer, mark, in, options, hints);
+    detail::read_symmetric_poses(reading, timer, mark, in, options, hints, voxel_cache);
 
     // 7. Other poses of an animated original, under the union bound.
-    detail::read_animation_pose(reading, timer, mark, in, options);
+    detail::read_animation_pose(reading, timer, mark, in, options, voxel_cache);
 
     return std::move(reading.report);
 }

@@ -188,6 +188,7 @@ nlohmann::json detect_report_json(const DetectReport& report, const DetectOption
                            {{"method", report.registration_method()},
                             {"rms_error", report.registration_rms},
                             {"transform", matrix_json(report.transform)}}},
+                          {"voxel_resolution", report.voxel_resolution},
                           {"mark_strength", report.mark_strength},
                           {"suspect_vertices", report.suspect_vertices},
                           {"original_vertices", report.original_vertices},

@@ -266,7 +266,7 @@ Extraction Detector::read_resampled(const Positions& resampled, const DetectOpti
     // (a point cloud, whose points carry no normal; a suspect read vertex for vertex).
     const bool has_normals = !original_->is_point_cloud() && !is_whole_change;
     const Positions normals = has_normals ? vertex_normals(*original_) : Positions();
-    const NuisanceFields nuisance(*original_, active(), mark_->frame().origin);
+    const NuisanceFields nuisance(*original_, active(), mark_->frame().origin, predicted_);
     const Eigen::Index q = nuisance.count();
     const Eigen::Index columns = coefficients + q + 1;
     constexpr Eigen::Index kPairs = 6;

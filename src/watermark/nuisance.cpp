@@ -59,12 +59,16 @@ std::vector<Positions> laplacian_powers(const TriangleMesh& mesh,
 }  // namespace
 
 NuisanceFields::NuisanceFields(const TriangleMesh& mesh, const std::vector<std::int32_t>& rows,
-                               const Eigen::Vector3d& origin)
+                               const Eigen::Vector3d& origin, const Positions* extra)
     : V_(&mesh.V), origin_(origin)
 {
     if (!mesh.is_point_cloud())
     {
         laplacians_ = laplacian_powers(mesh, rows);
+    }
+    if (extra != nullptr)
+    {
+        laplacians_.push_back(*extra);
     }
 }
 

@@ -18,13 +18,15 @@ namespace meshmark::detail
 {
 
 // Fields (#V x 3) whose effect a suspect may show without any watermark: the 7 infinitesimal
-// similarity motions about the centroid (left over by registration) and L P, L^2 P, L^3 P
-// (smoothing), in that order. Evaluated row by row: only the Laplacian powers are stored.
+// similarity motions about the centroid (left over by registration), L P, L^2 P, L^3 P
+// (smoothing) and, when given, \p extra (an attack's predicted change of the original:
+// Detector::set_predicted_change), in that order. Evaluated row by row: only the Laplacian
+// powers and the extra field are stored.
 class NuisanceFields
 {
 public:
     NuisanceFields(const TriangleMesh& mesh, const std::vector<std::int32_t>& rows,
-                   const Eigen::Vector3d& origin);
+                   const Eigen::Vector3d& origin, const Positions* extra = nullptr);
 
     [[nodiscard]] Eigen::Index count() const noexcept
     {

@@ -36,6 +36,11 @@ struct DetectFileOptions
     /// component of the change (vertices_in_place, registration/vertex_matching.h). False:
     /// resampled like any other registered suspect, as before 2026-11-26 (an ablation).
     bool match_vertices = true;
+    /// Resampled suspects whose edges look voxel-remeshed: the original is voxel-remeshed at the
+    /// suspect's voxel size and its change is fitted beside the mark (predict_voxel_change,
+    /// docs/algorithms/detection.md, "Voxel-remeshed suspects"). False: read as before
+    /// 2026-12-01 (an ablation).
+    bool predict_voxel = true;
 };
 
 /// What detect_file found.
@@ -54,6 +59,9 @@ struct DetectReport
     /// Correspondence::AnimationFrame: the frame of the original's animations read through
     /// ("animation 'Run' at 10/24 s"); empty otherwise.
     std::string pose;
+    /// A resampled suspect read beside the original voxel-remeshed (DetectFileOptions::
+    /// predict_voxel): the voxels along the original's diagonal of that remesh; 0 otherwise.
+    double voxel_resolution = 0.0;
     Eigen::Matrix4d transform = Eigen::Matrix4d::Identity();  ///< Suspect -> original frame.
     double registration_rms = 0.0;  ///< RMS distance to the original / its bbox diagonal.
     /// The mark's RMS amplitude / the original's bbox diagonal: the key's additive strength (the

@@ -119,6 +119,14 @@ public:
         return mark_->decide(extraction, options);
     }
 
+    /// \brief A further nuisance field (#V x 3, original frame) that the resampled readings
+    /// (extract_resampled and the like) fit beside the similarity and smoothing ones: what an
+    /// attack is predicted to do to the original without any mark (a voxel remesh of it), so that
+    /// only what differs from that is read. Null: none. It must come from the original and the
+    /// suspect only, never from a key, for the bound to hold; it must outlive the extractions,
+    /// and is set between them, not during them.
+    void set_predicted_change(const Positions* field) noexcept { predicted_ = field; }
+
     [[nodiscard]] const SpectralWatermark& watermark() const noexcept { return *mark_; }
     [[nodiscard]] const TriangleMesh& original() const noexcept { return *original_; }
 
@@ -148,6 +156,7 @@ private:
     }
     const std::vector<std::int32_t>* borrowed_active_ = nullptr;
     std::vector<std::int32_t> own_active_;
+    const Positions* predicted_ = nullptr;
 };
 
 }  // namespace meshmark

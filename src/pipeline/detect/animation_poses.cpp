@@ -162,7 +162,8 @@ bool any_frame_bends(const AnimationFrames& posed, std::size_t shown_frames,
 // bends the mesh (then there is no second reading; an animation the reader sees only moves the
 // whole, a turntable, never comes here).
 void read_animation_pose(PoseReading& reading, PhaseTimer& timer, const SpectralWatermark& mark,
-                         const DetectInputs& in, const DetectFileOptions& options)
+                         const DetectInputs& in, const DetectFileOptions& options,
+                         VoxelCache& voxel_cache)
 {
     DetectReport& report = reading.report;
     if (in.animated == nullptr || in.animated->animations.empty() ||
@@ -226,7 +227,7 @@ void read_animation_pose(PoseReading& reading, PhaseTimer& timer, const Spectral
     PoseReading other;
     const Eigen::Matrix4d in_place = Eigen::Matrix4d::Identity();
     const DetectInputs unposed_in{original, in.instances, copy, in.suspect_path, nullptr};
-    read_in_pose(other, timer, mark, unposed_in, options, &in_place, nullptr);
+    read_in_pose(other, timer, mark, unposed_in, options, &in_place, nullptr, voxel_cache);
     bounded(other.report);
     other.report.transform = other.report.transform * fit->to_pose;
     other.report.correspondence = Correspondence::AnimationFrame;

@@ -5,6 +5,7 @@
 #include "meshmark/watermark/watermark.h"
 #include "pipeline/detect/decision.h"
 #include "pipeline/detect/inputs.h"
+#include "pipeline/detect/voxel_prediction.h"
 #include "pipeline/timer.h"
 
 namespace meshmark::detail
@@ -17,6 +18,7 @@ namespace meshmark::detail
 /// \details Not for a family key, the bits verdict or user point pairs. The frames are
 /// Blender's (24 per second, frame 1 of the first animation always among them).
 void read_animation_pose(PoseReading& reading, PhaseTimer& timer, const SpectralWatermark& mark,
-                         const DetectInputs& in, const DetectFileOptions& options);
+                         const DetectInputs& in, const DetectFileOptions& options,
+                         VoxelCache& voxel_cache);
 
 }  // namespace meshmark::detail

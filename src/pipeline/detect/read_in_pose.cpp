@@ -8,13 +8,14 @@
 #include "pipeline/detect/decision.h"
 #include "pipeline/detect/readings.h"
 #include "pipeline/detect/rows.h"
+#include "pipeline/detect/voxel_prediction.h"
 
 namespace meshmark::detail
 {
 
 void read_in_pose(PoseReading& reading, PhaseTimer& timer, const SpectralWatermark& mark,
                   const DetectInputs& in, const DetectFileOptions& options,
-                  const Eigen::Matrix4d* pose, PoseHints* hints)
+                  const Eigen::Matrix4d* pose, PoseHints* hints, VoxelCache& voxel_cache)
 {
     DetectReport& report = reading.report;
     report.suspect_vertices = in.suspect.vertex_count();
@@ -30,11 +31,20 @@ void read_in_pose(PoseReading& reading, PhaseTimer& timer, const SpectralWaterma
     report.cropped_fraction = found.cropped_fraction;
     report.outlier_fraction = found.outlier_fraction;
 
+    const VoxelPrediction* voxel = nullptr;
+    if (options.predict_voxel && found.is_resampled())
+    {
+        timer.begin("voxel prediction");
+        voxel = predict_voxel_change(in, found, voxel_cache, options.threads);
+        timer.lap("voxel prediction");
+        report.voxel_resolution = voxel != nullptr ? voxel->resolution : 0.0;
+    }
+
     timer.begin("extract");
-    const Detector detector(mark, in.original);
+    Detector detector(mark, in.original);
     const bool tracing = is_tracing(mark, options);
-    FirstReadings first =
-        read_owner_mark(report.extraction, timer, detector, mark, in, found, options, tracing);
+    FirstReadings first = read_owner_mark(report.extraction, timer, detector, mark, in, found,
+                                          options, tracing, voxel);
     decide_owner(report, mark, options.decision);
     if (tracing)
     {

@@ -71,11 +71,14 @@ bool is_tracing(const SpectralWatermark& mark, const DetectFileOptions& options)
     return options.trace && mark.key().recipients && !mark.key().recipients->recipients.empty();
 }
 
-FirstReadings read_owner_mark(Extraction& extraction, PhaseTimer& timer, const Detector& detector,
+FirstReadings read_owner_mark(Extraction& extraction, PhaseTimer& timer, Detector& detector,
                               const SpectralWatermark& mark, const DetectInputs& in,
-                              SuspectInFrame& found, const DetectFileOptions& options, bool tracing)
+                              SuspectInFrame& found, const DetectFileOptions& options, bool tracing,
+                              const VoxelPrediction* voxel)
 {
     FirstReadings first;
+    // Each reading fits the voxel prediction sampled as it samples the suspect.
+    detector.set_predicted_change(voxel != nullptr ? &voxel->plain : nullptr);
     extraction = read_once(detector, found, options.decision);
     const bool is_resampled = found.is_resampled();
     const bool conclusive = is_resampled && options.match_surface && !tracing &&
@@ -116,6 +119,7 @@ FirstReadings read_owner_mark(Extraction& extraction, PhaseTimer& timer, const D
                                 options.threads);
         timer.lap("match surface");
         timer.begin("extract");
+        detector.set_predicted_change(voxel != nullptr ? &voxel->matched : nullptr);
         extraction = read_once(detector, found, options.decision);
         add_further_reading(extraction, plain);
     }

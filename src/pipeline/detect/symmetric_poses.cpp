@@ -32,7 +32,7 @@ namespace meshmark::detail
 // way (a buyer's mirrored copy of a symmetric asset accuses the buyer).
 void read_symmetric_poses(PoseReading& reading, PhaseTimer& timer, const SpectralWatermark& mark,
                           const DetectInputs& in, const DetectFileOptions& options,
-                          const PoseHints& hints)
+                          const PoseHints& hints, VoxelCache& voxel_cache)
 {
     const DetectReport& report = reading.report;
     const TriangleMesh& original = in.original;
@@ -93,7 +93,7 @@ void read_symmetric_poses(PoseReading& reading, PhaseTimer& timer, const Spectra
             break;
         }
         PoseReading other;
-        read_in_pose(other, timer, mark, in, options, &pose, nullptr);
+        read_in_pose(other, timer, mark, in, options, &pose, nullptr, voxel_cache);
         bounded(other.report);
         keep_more_significant(reading, other);
     }

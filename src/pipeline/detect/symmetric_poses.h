@@ -6,6 +6,7 @@
 #include "pipeline/detect/correspondence.h"
 #include "pipeline/detect/decision.h"
 #include "pipeline/detect/inputs.h"
+#include "pipeline/detect/voxel_prediction.h"
 #include "pipeline/timer.h"
 
 namespace meshmark::detail
@@ -20,6 +21,6 @@ namespace meshmark::detail
 /// (someone accused, or a single-owner mark found).
 void read_symmetric_poses(PoseReading& reading, PhaseTimer& timer, const SpectralWatermark& mark,
                           const DetectInputs& in, const DetectFileOptions& options,
-                          const PoseHints& hints);
+                          const PoseHints& hints, VoxelCache& voxel_cache);
 
 }  // namespace meshmark::detail

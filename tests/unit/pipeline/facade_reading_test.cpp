@@ -464,6 +464,43 @@ TEST(FacadeTest, a_fine_voxel_remesh_is_read_through_its_surface)
     EXPECT_FALSE(clean.decision.is_present);
 }
 
+// A voxel remesh is read beside the original's own remesh at the voxel its edges show
+// (predict_voxel_change): on the test vehicle (body, cabin, tyres, lamps: parts a voxel at 1/150
+// of the diagonal rounds and thickens) the remesh's displacement is fitted, not read as noise,
+// so the score rises (10.7 from 8.6) with no statistic more to pay for; the never-marked remesh
+// stays unclaimed, and a copy whose edges are not a voxel grid's is read as before.
+TEST(FacadeTest, a_voxel_remesh_is_read_beside_the_originals_own_remesh)
+{
+    const fs::path dir = test::temp_dir("facade-voxel-prediction");
+    write_mesh(dir / "vehicle.ply", test::vehicle());
+    EmbedFileOptions options;
+    options.seed = 7;
+    (void)embed_file(dir / "vehicle.ply", dir / "marked.ply", dir / "key.json", options);
+    const TriangleMesh original = read_mesh(dir / "vehicle.ply");
+    const TriangleMesh marked = read_mesh(dir / "marked.ply");
+    const Key key = read_key(dir / "key.json");
+    const TriangleMesh remeshed = voxel_remesh(marked, {.resolution = 150.0});
+    const DetectReport found = detect(remeshed, original, key);
+    ASSERT_EQ(found.correspondence, Correspondence::Registered);
+    EXPECT_NEAR(found.voxel_resolution, 150.0, 1.5);
+    DetectFileOptions without;
+    without.predict_voxel = false;
+    const DetectReport before = detect(remeshed, original, key, without);
+    EXPECT_EQ(before.voxel_resolution, 0.0);
+    EXPECT_TRUE(found.decision.is_present);
+    EXPECT_GT(found.decision.score, before.decision.score + 1.0)
+        << found.decision.score << " vs " << before.decision.score;
+    EXPECT_EQ(found.decision.statistic_count, before.decision.statistic_count) << "no more paid";
+
+    const DetectReport clean = detect(voxel_remesh(original, {.resolution = 150.0}), original, key);
+    EXPECT_GT(clean.voxel_resolution, 0.0);
+    EXPECT_FALSE(clean.decision.is_present) << clean.decision.score;
+
+    SimplificationOptions half;
+    half.vertex_fraction = 0.5;
+    EXPECT_EQ(detect(simplify(marked, half), original, key).voxel_resolution, 0.0);
+}
+
 // A resampled suspect is read twice and its verdict pays for 7 statistics: each reading's two
 // damped readings and the three that join them (add_further_reading). A copy the first reading
 // already claims pays for the same 7 without the second reading; a simplification to 1%,
