@@ -321,6 +321,10 @@ void bind_memory(py::module_& m)
             "strength): registration_rms / mark_strength is how many times further than the "
             "mark the suspect lies from the original.")
         .def_property_readonly(
+            "voxel_resolution", [](const DetectResult& r) { return r.report.voxel_resolution; },
+            "A voxel-remeshed suspect read beside the original's own voxel remesh: that "
+            "remesh's voxels along the original's diagonal; 0 when none was used.")
+        .def_property_readonly(
             "is_far_copy", [](const DetectResult& r) { return r.report.is_far_copy(); },
             "Registered and at least 3 times the mark's strength from the original: marked "
             "copies that far are mostly lost, so 'not found' says little about whose copy "

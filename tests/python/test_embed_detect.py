@@ -34,6 +34,8 @@ def test_round_trip(torus):
     assert report["registration"]["method"] == found.alignment
     # The unit of registration_rms for "how far from the original": the default strength.
     assert found.mark_strength == pytest.approx(0.00059) and report["mark_strength"] == found.mark_strength
+    # Read vertex for vertex: no voxel remesh of the original was needed.
+    assert found.voxel_resolution == 0.0 and report["voxel_resolution"] == 0.0
 
     clean = meshmark.detect(V, F, V, F, key)
     assert not clean.detected
