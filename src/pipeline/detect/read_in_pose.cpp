@@ -31,20 +31,14 @@ void read_in_pose(PoseReading& reading, PhaseTimer& timer, const SpectralWaterma
     report.cropped_fraction = found.cropped_fraction;
     report.outlier_fraction = found.outlier_fraction;
 
-    const VoxelPrediction* voxel = nullptr;
-    if (options.predict_voxel && found.is_resampled())
-    {
-        timer.begin("voxel prediction");
-        voxel = predict_voxel_change(in, found, voxel_cache, options.threads);
-        timer.lap("voxel prediction");
-        report.voxel_resolution = voxel != nullptr ? voxel->resolution : 0.0;
-    }
+    VoxelPredictor voxel(in, found, voxel_cache, options.threads, options.predict_voxel);
 
     timer.begin("extract");
     Detector detector(mark, in.original);
     const bool tracing = is_tracing(mark, options);
     FirstReadings first = read_owner_mark(report.extraction, timer, detector, mark, in, found,
-                                          options, tracing, voxel);
+                                          options, tracing, &voxel);
+    report.voxel_resolution = voxel.used() != nullptr ? voxel.used()->resolution : 0.0;
     decide_owner(report, mark, options.decision);
     if (tracing)
     {

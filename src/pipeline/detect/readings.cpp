@@ -42,7 +42,7 @@ Extraction read_once(const Detector& detector, const SuspectInFrame& found,
 // not repeat): the claim is then one the two readings make too, and a clear copy is read at the
 // cost of one reading (docs/algorithms/detection.md). Marks the statistics left unread.
 bool is_conclusive(Extraction& extraction, const SpectralWatermark& mark,
-                   const DetectOptions& decision)
+                   const DetectOptions& decision, bool may_predict_voxel)
 {
     // The second reading would bring as many statistics as the first has and the joined ones;
     // the stop asks for more (kEarlyStopStatistics), which implies the claim. It asks it of the
@@ -50,9 +50,12 @@ bool is_conclusive(Extraction& extraction, const SpectralWatermark& mark,
     // copies from z ~ 5 whose second reading scores 9-10, and a clear copy should report the
     // score it has (the claim is the same either way).
     const Decision first = mark.decide(extraction, decision);
-    // Unread: the second reading's own statistics and the two readings joined.
-    const int unread = first.statistic_count +
-                       joined_reading_count(static_cast<int>(extraction.further_changes.size()));
+    // Unread: the second reading's own statistics and the two readings joined; for a copy that
+    // may be read beside the original's voxel remesh, also this reading's damped readings
+    // again (the readings with the remesh replace it and keep its statistics).
+    const auto damped = static_cast<int>(extraction.further_changes.size());
+    const int unread =
+        first.statistic_count + joined_reading_count(damped) + (may_predict_voxel ? damped : 0);
     const int paid = std::max(first.statistic_count + unread, kEarlyStopStatistics);
     const double both = std::min(1.0, paid * rademacher_tail_bound(first.score));
     const double factor = score_level_factor(decision.verdict);
@@ -74,15 +77,15 @@ bool is_tracing(const SpectralWatermark& mark, const DetectFileOptions& options)
 FirstReadings read_owner_mark(Extraction& extraction, PhaseTimer& timer, Detector& detector,
                               const SpectralWatermark& mark, const DetectInputs& in,
                               SuspectInFrame& found, const DetectFileOptions& options, bool tracing,
-                              const VoxelPrediction* voxel)
+                              VoxelPredictor* voxel)
 {
     FirstReadings first;
-    // Each reading fits the voxel prediction sampled as it samples the suspect.
-    detector.set_predicted_change(voxel != nullptr ? &voxel->plain : nullptr);
+    detector.set_predicted_change(nullptr);
     extraction = read_once(detector, found, options.decision);
     const bool is_resampled = found.is_resampled();
+    const bool may_predict = voxel != nullptr && voxel->is_possible() && options.match_surface;
     const bool conclusive = is_resampled && options.match_surface && !tracing &&
-                            is_conclusive(extraction, mark, options.decision);
+                            is_conclusive(extraction, mark, options.decision, may_predict);
     if (conclusive)
     {
         found.sampled.element = std::vector<std::int32_t>();
@@ -100,6 +103,26 @@ FirstReadings read_owner_mark(Extraction& extraction, PhaseTimer& timer, Detecto
         // that the second sees whole (docs/algorithms/detection.md, "General suspects"). Only
         // the original and the suspect enter either reading, so the bound holds, paying for
         // the statistics of both.
+        // A voxel-remeshed copy: both readings again beside the original's own remesh, each
+        // sampled as it samples the suspect (Detector::set_predicted_change); the reading
+        // without it stays among the statistics, so a copy it would have claimed alone is
+        // claimed (docs/algorithms/detection.md, "Voxel-remeshed suspects").
+        const VoxelPrediction* prediction = nullptr;
+        if (may_predict)
+        {
+            timer.lap("extract");
+            timer.begin("voxel prediction");
+            prediction = voxel->prediction();
+            timer.lap("voxel prediction");
+            timer.begin("extract");
+        }
+        std::optional<Extraction> unfitted;
+        if (prediction != nullptr)
+        {
+            unfitted = std::move(extraction);
+            detector.set_predicted_change(&prediction->plain);
+            extraction = read_once(detector, found, options.decision);
+        }
         Extraction plain = std::move(extraction);
         if (tracing)
         {
@@ -119,9 +142,13 @@ FirstReadings read_owner_mark(Extraction& extraction, PhaseTimer& timer, Detecto
                                 options.threads);
         timer.lap("match surface");
         timer.begin("extract");
-        detector.set_predicted_change(voxel != nullptr ? &voxel->matched : nullptr);
+        detector.set_predicted_change(prediction != nullptr ? &prediction->matched : nullptr);
         extraction = read_once(detector, found, options.decision);
         add_further_reading(extraction, plain);
+        if (unfitted)
+        {
+            add_further_reading(extraction, *unfitted);
+        }
     }
     return first;
 }

@@ -31,15 +31,17 @@ struct FirstReadings
 /// \details A resampled suspect is read a second time against the original's surface under its
 /// own triangles (match_reference_surface, which updates \p found's samples) unless the first
 /// reading alone, paying for the statistics of both, already claims (the early stop), or
-/// options.match_surface is off; the two readings are joined (add_further_reading). With
-/// \p voxel (a voxel-remeshed suspect), each reading fits the original's remesh sampled as it
-/// samples the suspect (Detector::set_predicted_change), and the detector keeps the last one
-/// set for the code's readings; \p voxel must outlive them.
+/// options.match_surface is off; the two readings are joined (add_further_reading). A suspect
+/// \p voxel finds voxel-remeshed, when the first reading does not stop the detection, is read
+/// twice more beside the original's own remesh (Detector::set_predicted_change), each reading
+/// fitting it sampled as it samples the suspect; the first reading stays among the statistics
+/// and the detector keeps the last field set for the code's readings (\p voxel must outlive
+/// them).
 [[nodiscard]] FirstReadings read_owner_mark(Extraction& extraction, PhaseTimer& timer,
                                             Detector& detector, const SpectralWatermark& mark,
                                             const DetectInputs& in, SuspectInFrame& found,
                                             const DetectFileOptions& options, bool tracing,
-                                            const VoxelPrediction* voxel = nullptr);
+                                            VoxelPredictor* voxel = nullptr);
 
 /// \brief A family key's recipient codes read into \p extraction (after the owner's verdict):
 /// jointly with the owner's mark, or apart for a cropped suspect, and region by region.

@@ -130,47 +130,63 @@ VoxelPrediction predict(const TriangleMesh& original, const TriangleMesh& suspec
 
 }  // namespace
 
-const VoxelPrediction* predict_voxel_change(const DetectInputs& in, const SuspectInFrame& found,
-                                            VoxelCache& cache, int threads)
+VoxelPredictor::VoxelPredictor(const DetectInputs& in, const SuspectInFrame& found,
+                               VoxelCache& cache, int threads, bool enabled)
+    : in_(&in), found_(&found), cache_(&cache), threads_(threads)
 {
-    if (!found.is_resampled() || in.suspect.is_point_cloud() || in.original.is_point_cloud())
+    if (!enabled || !found.is_resampled() || in.suspect.is_point_cloud() ||
+        in.original.is_point_cloud())
     {
-        return nullptr;
+        return;
     }
     const EdgeSpread spread = edge_spread(in.suspect);
     if (spread.median <= 0.0 || spread.variation > kVoxelEdgeVariation)
     {
-        return nullptr;
+        return;
     }
     const double scale = std::cbrt(std::abs(found.to_original.topLeftCorner<3, 3>().determinant()));
-    const double diagonal = bounding_box(in.original.V).diagonal();
-    const double estimate = diagonal / (spread.median * scale);
-    if (!std::isfinite(estimate) || estimate < kLowest || estimate > kHighest)
+    const double estimate = bounding_box(in.original.V).diagonal() / (spread.median * scale);
+    if (std::isfinite(estimate) && estimate >= kLowest && estimate <= kHighest &&
+        found.registration_rms * estimate <= kVoxelReach)
     {
-        return nullptr;
+        estimate_ = estimate;
     }
+}
+
+const VoxelPrediction* VoxelPredictor::prediction()
+{
+    if (asked_ || !is_possible())
+    {
+        return used_;
+    }
+    asked_ = true;
     // Poses of one suspect differ in scale by rounding: the same remesh serves them all.
     constexpr double kSameEstimate = 0.01;
-    auto cached = std::find_if(cache.begin(), cache.end(),
-                               [&](const VoxelPrediction& p) {
-                                   return p.original == &in.original &&
-                                          std::abs(p.estimate / estimate - 1.0) <= kSameEstimate;
+    auto cached = std::find_if(cache_->begin(), cache_->end(),
+                               [&](const VoxelPrediction& p)
+                               {
+                                   return p.original == &in_->original &&
+                                          std::abs(p.estimate / estimate_ - 1.0) <= kSameEstimate;
                                });
-    if (cached == cache.end())
+    if (cached == cache_->end())
     {
         try
         {
-            cache.push_back(predict(in.original, in.suspect, estimate, found.is_cropped, threads));
+            cache_->push_back(
+                predict(in_->original, in_->suspect, estimate_, found_->is_cropped, threads_));
         }
         catch (const std::exception&)
         {
             // No OpenVDB plugin, or no surface left at this resolution: read as before.
             return nullptr;
         }
-        cached = std::prev(cache.end());
+        cached = std::prev(cache_->end());
     }
-    const double explained = explained_share(in.original, found, cached->plain);
-    return explained >= kVoxelExplained ? &*cached : nullptr;
+    if (explained_share(in_->original, *found_, cached->plain) >= kVoxelExplained)
+    {
+        used_ = &*cached;
+    }
+    return used_;
 }
 
 }  // namespace meshmark::detail
