@@ -20,7 +20,8 @@ namespace meshmark
 
 void VoxelRemeshingOptions::validate() const
 {
-    if (!std::isfinite(resolution) || resolution < 10.0 || resolution > 2000.0)
+    if (!std::isfinite(resolution) || resolution < kLowestResolution ||
+        resolution > kHighestResolution)
     {
         throw InvalidOption("voxel: resolution " + detail::format_number(resolution) +
                             " is outside [10, 2000] voxels along the bounding-box diagonal.");

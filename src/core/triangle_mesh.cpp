@@ -38,6 +38,24 @@ void validate(const TriangleMesh& mesh, const char* what)
     }
 }
 
+Faces with_fans(const TriangleMesh& mesh)
+{
+    Faces F = mesh.F;
+    const auto n = static_cast<std::int32_t>(mesh.V.rows());
+    const auto in_range = [n](std::int32_t v) { return v >= 0 && v < n; };
+    for (const FanTriangle& fan : mesh.fans)
+    {
+        // A mesh whose triangles were changed after it was read keeps fans that may no longer
+        // fit: those out of range are left out (the others can only fail to match a copy's).
+        if (fan.row >= 0 && fan.row < F.rows() && in_range(fan.a) && in_range(fan.b) &&
+            in_range(fan.c))
+        {
+            F.row(fan.row) << fan.a, fan.b, fan.c;
+        }
+    }
+    return F;
+}
+
 std::vector<std::int32_t> referenced_vertices(const TriangleMesh& mesh)
 {
     const auto n = static_cast<std::size_t>(mesh.V.rows());

@@ -162,10 +162,12 @@ void read_off_vertices(const std::filesystem::path& path, std::string_view bytes
     }
 }
 
-// One line per face: `n i0 ... i(n-1)`, then optional color values.
-Faces read_off_faces(const std::filesystem::path& path, OffLines& lines, const OffCounts& counts,
-                     const Positions& V)
+// One line per face: `n i0 ... i(n-1)`, then optional color values; the triangles into
+// mesh.F (and mesh.fans), over mesh.V.
+void read_off_faces(const std::filesystem::path& path, OffLines& lines, const OffCounts& counts,
+                    TriangleMesh& mesh)
 {
+    const Positions& V = mesh.V;
     TriangleBuffer triangles;
     triangles.reserve(static_cast<std::size_t>(counts.faces));
     std::vector<std::int32_t> polygon;  // Reused across faces.
@@ -207,7 +209,8 @@ Faces read_off_faces(const std::filesystem::path& path, OffLines& lines, const O
         triangles.push_polygon(polygon.data(), polygon.size());
     }
     fill_polygons(V.data(), triangles);
-    return triangles.take();
+    mesh.fans = triangles.take_fans();
+    mesh.F = triangles.take();
 }
 
 }  // namespace
@@ -224,7 +227,7 @@ TriangleMesh read_off(const std::filesystem::path& path, FileLayout& layout,
     TextPositions slots;
     read_off_vertices(path, bytes, lines, mesh.V, slots, is_single_precision);
     check_finite(path, mesh.V);
-    mesh.F = read_off_faces(path, lines, counts, mesh.V);
+    read_off_faces(path, lines, counts, mesh);
     layout.positions = std::move(slots);
     return mesh;
 }

@@ -293,6 +293,7 @@ void fill_polygons(const double* xyz, TriangleBuffer& triangles)
         for (std::size_t t = 0; t < fan; ++t)
         {
             std::int32_t* triangle = triangles.triangle(polygon.first + t);
+            triangles.keep_fan(polygon.first + t, triangle[0], triangle[1], triangle[2]);
             for (std::size_t j = 0; j < 3; ++j)
             {
                 triangle[j] = corners[static_cast<std::size_t>(inside[t][j])];

@@ -268,6 +268,7 @@ TriangleMesh make_mesh(const std::vector<double>& xyz, TriangleBuffer& triangles
         std::memcpy(mesh.V.data(), xyz.data(), xyz.size() * sizeof(double));
     }
     fill_polygons(xyz.data(), triangles);
+    mesh.fans = triangles.take_fans();
     mesh.F = triangles.take();
     return mesh;
 }

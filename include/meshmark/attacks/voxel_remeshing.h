@@ -14,6 +14,8 @@ struct VoxelRemeshingOptions
     /// Range [10, 2000]: below, little of the shape is left; above, the grid (and the output,
     /// about surface area / voxel edge^2 vertices) grows past what an attack needs.
     double resolution = 150.0;
+    static constexpr double kLowestResolution = 10.0;     ///< The range's lower end.
+    static constexpr double kHighestResolution = 2000.0;  ///< The range's upper end.
 
     /// \throws InvalidOption when resolution is not in [10, 2000].
     void validate() const;

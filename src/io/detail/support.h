@@ -150,6 +150,13 @@ public:
         std::uint32_t corners;
     };
     [[nodiscard]] const std::vector<Polygon>& polygons() const noexcept { return polygons_; }
+    /// Remember that triangle \p t was (a, b, c), its polygon's fan, before another took its row.
+    void keep_fan(std::size_t t, std::int32_t a, std::int32_t b, std::int32_t c)
+    {
+        fans_.push_back({static_cast<Eigen::Index>(t), a, b, c});
+    }
+    /// The fans kept so far (TriangleMesh::fans); none are kept afterwards.
+    [[nodiscard]] std::vector<FanTriangle> take_fans() { return std::move(fans_); }
     /// Corners of triangle \p t (t < size()).
     [[nodiscard]] std::int32_t* triangle(std::size_t t) noexcept { return F_.data() + 3 * t; }
     [[nodiscard]] std::size_t size() const noexcept { return size_; }
@@ -159,6 +166,7 @@ public:
         F_.conservativeResize(static_cast<Eigen::Index>(size_), 3);
         size_ = 0;
         polygons_ = {};
+        fans_ = {};
         return std::move(F_);
     }
 
@@ -170,6 +178,7 @@ private:
     Faces F_;
     std::size_t size_ = 0;
     std::vector<Polygon> polygons_;
+    std::vector<FanTriangle> fans_;
 };
 
 /// A mesh from flat positions \p xyz (3 per vertex) and the triangles of \p triangles.
@@ -196,7 +205,7 @@ namespace meshmark::detail
 /// gear's rim): seen in its own plane, such a polygon gets a constrained Delaunay triangulation
 /// of the same n - 2 triangles on its own corners instead. A polygon whose triangulation would
 /// need other points (an outline crossing itself), or with a corner on another of its sides,
-/// keeps its fan.
+/// keeps its fan. The fan of each polygon triangulated otherwise is kept (take_fans).
 void fill_polygons(const double* xyz, TriangleBuffer& triangles);
 
 /// "outside 0..n-1" for index messages ("but the file has no vertices" when n == 0).

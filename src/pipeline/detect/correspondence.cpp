@@ -48,6 +48,24 @@ TriangleMesh with_instances(const TriangleMesh& original, const TriangleMesh& in
     return shown;
 }
 
+// Two meshes with every polygon as its fan (TriangleMesh::fans), to compare their triangles.
+struct FannedPair
+{
+    FannedPair(const TriangleMesh& original_mesh, const TriangleMesh& suspect_mesh)
+        : original(fanned(original_mesh)), suspect(fanned(suspect_mesh))
+    {
+    }
+    static TriangleMesh fanned(const TriangleMesh& mesh)
+    {
+        TriangleMesh out;
+        out.V = mesh.V;
+        out.F = with_fans(mesh);
+        return out;
+    }
+    TriangleMesh original;
+    TriangleMesh suspect;
+};
+
 // RMS distance of suspect rows in the original's order to the original, over the diagonal
 // (over the rows \p kept marks, every row when null).
 double relative_rms(const Positions& in_frame, const TriangleMesh& original, double diagonal,
@@ -129,25 +147,53 @@ bool read_in_order(SuspectInFrame& found, const DetectInputs& in, double amplitu
     // Draco primitive: renumbered_in_place), then read in the original's order without
     // registration. Any count: perhaps the original's parts in another order, each numbered its
     // own way (Blender's writers after joining a model's objects: renumbered_by_parts).
-    const bool same_triangles = same_count && has_same_triangles(suspect, original);
+    // A polygon's triangles depend on where its corners stand (a concave one is triangulated
+    // inside its outline), so a copy whose vertices a tool moved may have other triangles over
+    // the same polygons: Blender's Smooth 0.5 x 10 on an artists' bus. Their fans are the same.
+    const bool has_fans = !original.fans.empty() || !suspect.fans.empty();
+    std::optional<FannedPair> fanned;  // made when first needed
+    const auto fans = [&]() -> const FannedPair&
+    {
+        if (!fanned)
+        {
+            fanned.emplace(original, suspect);
+        }
+        return *fanned;
+    };
+    bool same_triangles = same_count && has_same_triangles(suspect, original);
     std::optional<Positions> renumbered;
     std::optional<TriangleRenumbering> by_parts;
     if (!same_triangles && same_count)
     {
         renumbered = renumbered_by_triangles(original, suspect);
-        if (!renumbered)
+        if (!renumbered && has_fans)
+        {
+            same_triangles = has_same_triangles(fans().suspect, fans().original);
+            if (!same_triangles)
+            {
+                renumbered = renumbered_by_triangles(fans().original, fans().suspect);
+            }
+        }
+        if (same_triangles || renumbered)
+        {
+            if (hints != nullptr)
+            {
+                hints->is_numbered_by_triangles = true;
+            }
+        }
+        else
         {
             renumbered =
                 renumbered_in_place(original, suspect, kOutlierFloor * amplitude, options.threads);
-        }
-        else if (hints != nullptr)
-        {
-            hints->is_numbered_by_triangles = true;
         }
     }
     if (!same_triangles && !renumbered)
     {
         by_parts = renumbered_by_parts(original, suspect);
+        if (!by_parts && has_fans)
+        {
+            by_parts = renumbered_by_parts(fans().original, fans().suspect);
+        }
         if (!by_parts)
         {
             if (!same_count)

@@ -22,8 +22,8 @@ namespace
 {
 
 // VoxelRemeshingOptions::validate's range of resolutions.
-constexpr double kLowest = 10.0;
-constexpr double kHighest = 2000.0;
+constexpr double kLowest = VoxelRemeshingOptions::kLowestResolution;
+constexpr double kHighest = VoxelRemeshingOptions::kHighestResolution;
 
 // The suspect's edge lengths (each face's three): median and coefficient of variation.
 struct EdgeSpread
