@@ -43,26 +43,30 @@ std::vector<std::size_t> row_offsets(const std::vector<std::size_t>& counts)
 
 }  // namespace
 
-VertexAdjacency vertex_adjacency(const TriangleMesh& mesh)
+namespace
 {
-    // Counting sort into rows (O(#F)), then sort and deduplicate each short row: far cheaper
-    // than sorting all 6 #F half-edges globally on large meshes.
-    const auto n = static_cast<std::size_t>(mesh.V.rows());
+
+// The adjacency of the edges for_each_edge(visit) visits (each as visit(a, b), a != b, in any
+// number of repeats): a counting sort into rows (O(#F)), then each short row sorted and
+// deduplicated, far cheaper than sorting all 6 #F half-edges globally on large meshes.
+template <typename ForEachEdge>
+VertexAdjacency adjacency_of_edges(std::size_t n, ForEachEdge&& for_each_edge)
+{
     std::vector<std::size_t> counts(n, 0);
-    for_each_face_edge(mesh,
-                       [&](std::int32_t a, std::int32_t b)
-                       {
-                           ++counts[static_cast<std::size_t>(a)];
-                           ++counts[static_cast<std::size_t>(b)];
-                       });
+    for_each_edge(
+        [&](std::int32_t a, std::int32_t b)
+        {
+            ++counts[static_cast<std::size_t>(a)];
+            ++counts[static_cast<std::size_t>(b)];
+        });
     std::vector<std::size_t> cursor = row_offsets(counts);
     std::vector<std::int32_t> raw(cursor.back());
-    for_each_face_edge(mesh,
-                       [&](std::int32_t a, std::int32_t b)
-                       {
-                           raw[cursor[static_cast<std::size_t>(a)]++] = b;
-                           raw[cursor[static_cast<std::size_t>(b)]++] = a;
-                       });
+    for_each_edge(
+        [&](std::int32_t a, std::int32_t b)
+        {
+            raw[cursor[static_cast<std::size_t>(a)]++] = b;
+            raw[cursor[static_cast<std::size_t>(b)]++] = a;
+        });
 
     VertexAdjacency adjacency;
     adjacency.offsets.assign(n + 1, 0);
@@ -79,6 +83,81 @@ VertexAdjacency vertex_adjacency(const TriangleMesh& mesh)
         begin += counts[v];
     }
     return adjacency;
+}
+
+// Per face, bit c set when its edge (c, c + 1) lies inside one of mesh.polygons: an edge two
+// of the polygon's triangles share. A polygon whose rows are not all in range (a mesh changed
+// after it was read) marks nothing.
+std::vector<std::uint8_t> inner_polygon_edges(const TriangleMesh& mesh)
+{
+    std::vector<std::uint8_t> inner(static_cast<std::size_t>(mesh.F.rows()), 0);
+    std::vector<std::array<std::int32_t, 4>> edges;  // the smaller end, the larger, row, corner
+    for (const PolygonRows& polygon : mesh.polygons)
+    {
+        const Eigen::Index end = polygon.first + polygon.corners - 2;
+        if (polygon.corners < 4 || polygon.first < 0 || end > mesh.F.rows())
+        {
+            continue;
+        }
+        edges.clear();
+        for (Eigen::Index f = polygon.first; f < end; ++f)
+        {
+            for (int c = 0; c < 3; ++c)
+            {
+                const std::int32_t a = mesh.F(f, c);
+                const std::int32_t b = mesh.F(f, (c + 1) % 3);
+                edges.push_back({std::min(a, b), std::max(a, b),
+                                 static_cast<std::int32_t>(f - polygon.first), c});
+            }
+        }
+        std::sort(edges.begin(), edges.end());
+        for (std::size_t i = 0; i + 1 < edges.size(); ++i)
+        {
+            if (edges[i][0] == edges[i + 1][0] && edges[i][1] == edges[i + 1][1])
+            {
+                for (const std::size_t k : {i, i + 1})
+                {
+                    inner[static_cast<std::size_t>(polygon.first + edges[k][2])] |=
+                        static_cast<std::uint8_t>(1U << edges[k][3]);
+                }
+            }
+        }
+    }
+    return inner;
+}
+
+}  // namespace
+
+VertexAdjacency vertex_adjacency(const TriangleMesh& mesh)
+{
+    return adjacency_of_edges(static_cast<std::size_t>(mesh.V.rows()),
+                              [&](auto&& visit) { for_each_face_edge(mesh, visit); });
+}
+
+VertexAdjacency polygon_adjacency(const TriangleMesh& mesh)
+{
+    if (mesh.polygons.empty())
+    {
+        return vertex_adjacency(mesh);
+    }
+    const std::vector<std::uint8_t> inner = inner_polygon_edges(mesh);
+    return adjacency_of_edges(
+        static_cast<std::size_t>(mesh.V.rows()),
+        [&](auto&& visit)
+        {
+            for (Eigen::Index f = 0; f < mesh.F.rows(); ++f)
+            {
+                for (int c = 0; c < 3; ++c)
+                {
+                    const std::int32_t a = mesh.F(f, c);
+                    const std::int32_t b = mesh.F(f, (c + 1) % 3);
+                    if (a != b && (inner[static_cast<std::size_t>(f)] & (1U << c)) == 0)
+                    {
+                        visit(a, b);
+                    }
+                }
+            }
+        });
 }
 
 VertexFaces vertex_faces(const TriangleMesh& mesh)

@@ -210,6 +210,7 @@ void read_off_faces(const std::filesystem::path& path, OffLines& lines, const Of
     }
     fill_polygons(V.data(), triangles);
     mesh.fans = triangles.take_fans();
+    mesh.polygons = triangles.take_polygons();
     mesh.F = triangles.take();
 }
 

@@ -150,6 +150,7 @@ TriangleMesh read_ply(const std::filesystem::path& path, FileLayout& layout,
     check_finite(path, mesh.V);
     fill_polygons(mesh.V.data(), triangles);
     mesh.fans = triangles.take_fans();
+    mesh.polygons = triangles.take_polygons();
     mesh.F = triangles.take();
     is_single_precision = std::all_of(types.begin(), types.end(),
                                       [](ScalarType t) { return t == ScalarType::Float32; });

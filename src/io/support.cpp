@@ -269,6 +269,7 @@ TriangleMesh make_mesh(const std::vector<double>& xyz, TriangleBuffer& triangles
     }
     fill_polygons(xyz.data(), triangles);
     mesh.fans = triangles.take_fans();
+    mesh.polygons = triangles.take_polygons();
     mesh.F = triangles.take();
     return mesh;
 }

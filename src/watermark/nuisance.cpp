@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: MIT
 #include "watermark/nuisance.h"
 
+#include <iterator>
 #include <limits>
 #include <span>
 
@@ -25,14 +26,14 @@ constexpr double kNullSpaceComponent = 1e-8;
 // against overfitting the modulated modes. Chosen by hand; no study on record.
 constexpr int kModesPerNuisanceField = 4;
 
-// L P, L^2 P, L^3 P with the uniform Laplacian (#V x 3 each), zero on rows that take no part.
-std::vector<Positions> laplacian_powers(const TriangleMesh& mesh,
+// L P, L^2 P, L^3 P with the uniform Laplacian of \p adjacency (#V x 3 each), zero on rows that
+// take no part.
+std::vector<Positions> laplacian_powers(const VertexAdjacency& adjacency, const Positions& V,
                                         const std::vector<std::int32_t>& rows)
 {
-    const auto n = mesh.V.rows();
+    const auto n = V.rows();
     std::vector<Positions> fields;
-    const VertexAdjacency adjacency = vertex_adjacency(mesh);
-    Positions current = mesh.V;
+    Positions current = V;
     for (int power = 0; power < kLaplacianPowers; ++power)
     {
         Positions next = Positions::Zero(n, 3);
@@ -64,11 +65,20 @@ NuisanceFields::NuisanceFields(const TriangleMesh& mesh, const std::vector<std::
 {
     if (!mesh.is_point_cloud())
     {
-        laplacians_ = laplacian_powers(mesh, rows);
+        laplacians_ = laplacian_powers(vertex_adjacency(mesh), mesh.V, rows);
     }
     if (extra != nullptr)
     {
         laplacians_.push_back(*extra);
+    }
+    if (!mesh.is_point_cloud() && !mesh.polygons.empty())
+    {
+        // A tool that smooths the file's polygons averages over their outlines alone (Blender's
+        // Smooth: the bus's 0.5 x 10 copy read at z 4.45 with the triangles' Laplacian alone,
+        // 10.80 with the polygons' too; bench/results/2026-12-02-smoothed-polygons.md).
+        std::vector<Positions> polygon = laplacian_powers(polygon_adjacency(mesh), mesh.V, rows);
+        polygon_fields_ = static_cast<Eigen::Index>(polygon.size());
+        std::move(polygon.begin(), polygon.end(), std::back_inserter(laplacians_));
     }
 }
 
@@ -174,9 +184,16 @@ NuisanceModel nuisance_model(const SpectralBasis& basis, const NuisanceFields& f
 {
     NuisanceModel model;
     model.modes = basis.well_conditioned_modes(kNuisanceModeTolerance);
-    // Enough unmodulated modes to fit the nuisance fields with room to spare.
-    const Eigen::Index q = fields.count();
-    if (model.modes - modulated_head < kModesPerNuisanceField * static_cast<int>(q))
+    // Enough unmodulated modes to fit the nuisance fields with room to spare; the polygons'
+    // fields are left out first.
+    const auto has_room = [&](Eigen::Index fields_used)
+    { return model.modes - modulated_head >= kModesPerNuisanceField * fields_used; };
+    Eigen::Index q = fields.count();
+    if (!has_room(q))
+    {
+        q -= fields.polygon_count();
+    }
+    if (!has_room(q))
     {
         model.modes = 0;
         return model;

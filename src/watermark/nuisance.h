@@ -19,9 +19,10 @@ namespace meshmark::detail
 
 // Fields (#V x 3) whose effect a suspect may show without any watermark: the 7 infinitesimal
 // similarity motions about the centroid (left over by registration), L P, L^2 P, L^3 P
-// (smoothing) and, when given, \p extra (an attack's predicted change of the original:
-// Detector::set_predicted_change), in that order. Evaluated row by row: only the Laplacian
-// powers and the extra field are stored.
+// (smoothing), when given \p extra (an attack's predicted change of the original:
+// Detector::set_predicted_change), and for a mesh read with polygons the same three powers of
+// the polygons' Laplacian (polygon_adjacency: smoothing over the file's own edges), in that
+// order. Evaluated row by row: only the Laplacian powers and the extra field are stored.
 class NuisanceFields
 {
 public:
@@ -32,6 +33,9 @@ public:
     {
         return kSimilarityFields + static_cast<Eigen::Index>(laplacians_.size());
     }
+
+    /// The polygons' fields, the last ones (none for a mesh read without polygons).
+    [[nodiscard]] Eigen::Index polygon_count() const noexcept { return polygon_fields_; }
 
     /// Row \p i of field \p f (i among the rows given to the constructor).
     [[nodiscard]] Eigen::RowVector3d row(Eigen::Index f, std::int32_t i) const
@@ -59,6 +63,7 @@ private:
     const Positions* V_;
     Eigen::Vector3d origin_;
     std::vector<Positions> laplacians_;
+    Eigen::Index polygon_fields_ = 0;
 };
 
 // Throws InvalidOption unless \p weight_scale, the scale of the resampled rows' weights

@@ -22,6 +22,14 @@ struct FanTriangle
     std::int32_t a = 0, b = 0, c = 0;
 };
 
+/// \brief One of a file's polygons of 4 or more corners (TriangleMesh::polygons): rows first to
+/// first + corners - 3 of TriangleMesh::F are its triangles.
+struct PolygonRows
+{
+    Eigen::Index first = 0;
+    std::int32_t corners = 0;
+};
+
 /// \brief An indexed triangle mesh, or a point cloud when it has no faces.
 /// \details Vertices that no face uses ("unreferenced") are allowed and kept: file round trips
 /// carry them through untouched. The readers decode triangle strips and triangulate polygons
@@ -37,6 +45,10 @@ struct TriangleMesh
     /// whose vertices a tool moved (a smoothing) can get other triangles over the same polygons;
     /// its fans are the same. Detection's correspondence by triangles compares them (with_fans).
     std::vector<FanTriangle> fans = {};
+    /// \brief The file's polygons of 4 or more corners (read from a file; empty otherwise).
+    /// \details The edges inside a polygon are not edges of the file's mesh: a tool that
+    /// smooths polygons (Blender's Smooth) averages over the outlines alone (polygon_adjacency).
+    std::vector<PolygonRows> polygons = {};
 
     [[nodiscard]] Eigen::Index vertex_count() const noexcept { return V.rows(); }
     [[nodiscard]] Eigen::Index face_count() const noexcept { return F.rows(); }

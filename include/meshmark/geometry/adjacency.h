@@ -39,6 +39,11 @@ struct VertexAdjacency
 ///              repeated index contribute only their distinct edges.
 [[nodiscard]] VertexAdjacency vertex_adjacency(const TriangleMesh& mesh);
 
+/// \brief The vertex adjacency of \p mesh's polygons as its file has them: the edges inside a
+/// polygon of TriangleMesh::polygons (those two of its triangles share) are left out, unless
+/// another face has them as an edge of its own. vertex_adjacency when there are no polygons.
+[[nodiscard]] VertexAdjacency polygon_adjacency(const TriangleMesh& mesh);
+
 /// \brief Vertex-to-face incidence of a triangle mesh in compressed rows (CSR).
 /// \details The faces using vertex `v` are `faces[offsets[v] .. offsets[v + 1])`, in face
 /// order; a face with a repeated index is listed once per corner.

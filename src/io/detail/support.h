@@ -157,6 +157,16 @@ public:
     }
     /// The fans kept so far (TriangleMesh::fans); none are kept afterwards.
     [[nodiscard]] std::vector<FanTriangle> take_fans() { return std::move(fans_); }
+    /// The polygons pushed so far (TriangleMesh::polygons); none are kept afterwards.
+    [[nodiscard]] std::vector<PolygonRows> take_polygons() const
+    {
+        std::vector<PolygonRows> rows(polygons_.size());
+        std::transform(polygons_.begin(), polygons_.end(), rows.begin(),
+                       [](const Polygon& p) {
+                           return PolygonRows{p.first, static_cast<std::int32_t>(p.corners)};
+                       });
+        return rows;
+    }
     /// Corners of triangle \p t (t < size()).
     [[nodiscard]] std::int32_t* triangle(std::size_t t) noexcept { return F_.data() + 3 * t; }
     [[nodiscard]] std::size_t size() const noexcept { return size_; }

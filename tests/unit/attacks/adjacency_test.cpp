@@ -33,6 +33,35 @@ TEST(AdjacencyTest, icosphere_neighbours_are_symmetric_sorted_and_match_euler)
     EXPECT_EQ(mesh.V.rows() - edges + mesh.F.rows(), 2);
 }
 
+TEST(AdjacencyTest, polygon_adjacency_leaves_out_inner_edges_unless_a_face_has_them_too)
+{
+    // A quad 0-1-2-3 as two triangles (inner edge 0-2), a triangle 0-2-4 on that same edge (a
+    // face of its own: the edge stays), and a stale polygon whose rows are out of range.
+    TriangleMesh mesh;
+    mesh.V = Positions::Zero(5, 3);
+    mesh.F.resize(3, 3);
+    mesh.F << 0, 1, 2, 0, 2, 3, 0, 2, 4;
+    mesh.polygons = {{0, 4}, {2, 5}};
+    const auto row = [](const VertexAdjacency& adjacency, std::size_t v)
+    {
+        const auto r = adjacency.of(v);
+        return std::vector<std::int32_t>(r.begin(), r.end());
+    };
+    const VertexAdjacency with_triangle = polygon_adjacency(mesh);
+    EXPECT_EQ(row(with_triangle, 0), (std::vector<std::int32_t>{1, 2, 3, 4}));
+    EXPECT_EQ(row(with_triangle, 1), (std::vector<std::int32_t>{0, 2}));
+    EXPECT_EQ(row(with_triangle, 3), (std::vector<std::int32_t>{0, 2}));
+
+    mesh.F.conservativeResize(2, 3);  // the triangle gone: the quad's inner edge is left out
+    mesh.polygons = {{0, 4}};
+    const VertexAdjacency quad = polygon_adjacency(mesh);
+    EXPECT_EQ(row(quad, 0), (std::vector<std::int32_t>{1, 3}));
+    EXPECT_EQ(row(quad, 2), (std::vector<std::int32_t>{1, 3}));
+
+    mesh.polygons.clear();  // no polygons: the triangles' adjacency
+    EXPECT_EQ(polygon_adjacency(mesh).neighbors, vertex_adjacency(mesh).neighbors);
+}
+
 TEST(AdjacencyTest, vertex_faces_list_every_face_of_each_vertex_in_face_order)
 {
     TriangleMesh mesh = icosphere(1);

@@ -2,6 +2,7 @@
 // Polygons that are not convex: the OBJ, OFF and PLY readers triangulate them inside their
 // outline (a fan from the first corner lays triangles outside it: an artist's headphones read
 // with 2.3x their area).
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <sstream>
@@ -13,6 +14,7 @@
 
 #include "io_test_support.h"
 #include "meshmark/core/error.h"
+#include "meshmark/geometry/adjacency.h"
 #include "meshmark/io/mesh_io.h"
 
 namespace meshmark
@@ -118,6 +120,38 @@ TEST(PolygonFillTest, a_concave_polygon_is_triangulated_inside_its_outline_by_ev
                 3.0;
             EXPECT_FALSE(centroid.x() > 1.0 && centroid.y() > 1.0)
                 << "triangle " << t << " in the notch";
+        }
+    }
+}
+
+TEST(PolygonFillTest, every_reader_keeps_each_polygon_and_its_outline_is_its_adjacency)
+{
+    // The L again (triangulated inside its outline) and a convex hexagon (its fan): either
+    // way the polygon's rows are kept, and the neighbours along the file's edges are its two
+    // neighbours on the outline, not the triangles' inner edges.
+    const std::vector<Point2> l_shape = {{2, 1}, {1, 1}, {1, 2}, {0, 2}, {0, 0}, {2, 0}};
+    const std::vector<Point2> hexagon = {{2, 1}, {1.5, 2}, {0.5, 2}, {0, 1}, {0.5, 0}, {1.5, 0}};
+    for (const auto& outline : {l_shape, hexagon})
+    {
+        const auto folder = test::temp_dir("polygon_fill_outline");
+        for (const auto& file : write_polygon(folder, outline, {0, 1, 2, 3, 4, 5}))
+        {
+            SCOPED_TRACE(file.filename().string());
+            const TriangleMesh mesh = read_mesh(file);
+            ASSERT_EQ(mesh.polygons.size(), 1U);
+            EXPECT_EQ(mesh.polygons[0].first, 0);
+            EXPECT_EQ(mesh.polygons[0].corners, 6);
+            const VertexAdjacency outline_adjacency = polygon_adjacency(mesh);
+            for (std::int32_t v = 0; v < 6; ++v)
+            {
+                const auto row = outline_adjacency.of(static_cast<std::size_t>(v));
+                const std::vector<std::int32_t> expected = {std::min((v + 5) % 6, (v + 1) % 6),
+                                                            std::max((v + 5) % 6, (v + 1) % 6)};
+                EXPECT_EQ(std::vector<std::int32_t>(row.begin(), row.end()), expected)
+                    << "vertex " << v;
+            }
+            // The triangles' own adjacency has the inner edges too.
+            EXPECT_GT(vertex_adjacency(mesh).neighbors.size(), outline_adjacency.neighbors.size());
         }
     }
 }
