@@ -141,6 +141,16 @@ Positions smoothed(const Positions& V, const std::vector<Quad>& quads, double fa
     return out;
 }
 
+// \p suspect (in \p dir, beside original.obj and key.json) read in the original's order, and
+// claimed when \p is_marked, else not.
+void expect_read_in_order(const fs::path& dir, const std::string& suspect, bool is_marked)
+{
+    const DetectReport found =
+        detect_file(dir / suspect, dir / "original.obj", dir / "key.json", {});
+    EXPECT_EQ(found.correspondence, Correspondence::InOrder) << suspect;
+    EXPECT_EQ(found.decision.is_present, is_marked) << suspect << ": z " << found.decision.score;
+}
+
 }  // namespace
 
 // A torus of quads where every 16th cell is a dart: its first corner pushed past the cell's
@@ -179,17 +189,11 @@ TEST(FacadeTest, a_smoothed_copy_of_concave_polygons_is_read_by_its_polygons_fan
     const TriangleMesh suspect = read_mesh(dir / "suspect.ply");
     ASSERT_LT(suspect.fans.size(), original.fans.size()) << "the smoothing left the darts";
 
-    const DetectReport found =
-        detect_file(dir / "suspect.ply", dir / "original.obj", dir / "key.json", {});
-    EXPECT_EQ(found.correspondence, Correspondence::InOrder);
-    EXPECT_TRUE(found.decision.is_present) << found.decision.score;
+    expect_read_in_order(dir, "suspect.ply", true);
 
     // The same steps on the never-marked original: read in order, not claimed.
     write_ply_renumbered(dir / "unmarked.ply", smoothed(V, quads, 0.5, 5), quads);
-    const DetectReport unmarked =
-        detect_file(dir / "unmarked.ply", dir / "original.obj", dir / "key.json", {});
-    EXPECT_EQ(unmarked.correspondence, Correspondence::InOrder);
-    EXPECT_FALSE(unmarked.decision.is_present) << unmarked.decision.score;
+    expect_read_in_order(dir, "unmarked.ply", false);
 }
 
 // A torus of quads whose cells are uneven (corners moved along the surface by up to 0.3 of a
@@ -223,15 +227,10 @@ TEST(FacadeTest, a_copy_smoothed_along_its_polygons_sides_is_read_with_their_lap
     (void)embed_file(dir / "original.obj", dir / "marked.obj", dir / "key.json", embed);
     write_obj(dir / "suspect.obj", smoothed(read_mesh(dir / "marked.obj").V, quads, 0.25, 30),
               quads);
-    const DetectReport found =
-        detect_file(dir / "suspect.obj", dir / "original.obj", dir / "key.json", {});
-    EXPECT_EQ(found.correspondence, Correspondence::InOrder);
-    EXPECT_TRUE(found.decision.is_present) << found.decision.score;
+    expect_read_in_order(dir, "suspect.obj", true);
 
     write_obj(dir / "unmarked.obj", smoothed(V, quads, 0.25, 30), quads);
-    const DetectReport unmarked =
-        detect_file(dir / "unmarked.obj", dir / "original.obj", dir / "key.json", {});
-    EXPECT_FALSE(unmarked.decision.is_present) << unmarked.decision.score;
+    expect_read_in_order(dir, "unmarked.obj", false);
 }
 
 }  // namespace meshmark
