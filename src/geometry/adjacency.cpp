@@ -94,20 +94,21 @@ std::vector<std::uint8_t> inner_polygon_edges(const TriangleMesh& mesh)
     std::vector<std::array<std::int32_t, 4>> edges;  // the smaller end, the larger, row, corner
     for (const PolygonRows& polygon : mesh.polygons)
     {
-        const Eigen::Index end = polygon.first + polygon.corners - 2;
-        if (polygon.corners < 4 || polygon.first < 0 || end > mesh.F.rows())
+        const Eigen::Index first = polygon.first;
+        const Eigen::Index end = first + static_cast<Eigen::Index>(polygon.corners) - 2;
+        if (polygon.corners < 4 || end > mesh.F.rows())
         {
             continue;
         }
         edges.clear();
-        for (Eigen::Index f = polygon.first; f < end; ++f)
+        for (Eigen::Index f = first; f < end; ++f)
         {
             for (int c = 0; c < 3; ++c)
             {
                 const std::int32_t a = mesh.F(f, c);
                 const std::int32_t b = mesh.F(f, (c + 1) % 3);
-                edges.push_back({std::min(a, b), std::max(a, b),
-                                 static_cast<std::int32_t>(f - polygon.first), c});
+                edges.push_back(
+                    {std::min(a, b), std::max(a, b), static_cast<std::int32_t>(f - first), c});
             }
         }
         std::sort(edges.begin(), edges.end());
@@ -117,7 +118,7 @@ std::vector<std::uint8_t> inner_polygon_edges(const TriangleMesh& mesh)
             {
                 for (const std::size_t k : {i, i + 1})
                 {
-                    inner[static_cast<std::size_t>(polygon.first + edges[k][2])] |=
+                    inner[static_cast<std::size_t>(first + edges[k][2])] |=
                         static_cast<std::uint8_t>(1U << edges[k][3]);
                 }
             }

@@ -26,8 +26,8 @@ struct FanTriangle
 /// first + corners - 3 of TriangleMesh::F are its triangles.
 struct PolygonRows
 {
-    Eigen::Index first = 0;
-    std::int32_t corners = 0;
+    std::uint32_t first = 0;
+    std::uint32_t corners = 0;
 };
 
 /// \brief An indexed triangle mesh, or a point cloud when it has no faces.

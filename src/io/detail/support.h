@@ -143,12 +143,9 @@ public:
             push(indices[0], indices[k], indices[k + 1]);
         }
     }
-    /// A polygon pushed as a fan: its first triangle and its number of corners.
-    struct Polygon
-    {
-        std::uint32_t first;  // 8 bytes a polygon: a million quads cost 8 MB while read
-        std::uint32_t corners;
-    };
+    /// A polygon pushed as a fan: its first triangle and its number of corners (8 bytes a
+    /// polygon: a million quads cost 8 MB).
+    using Polygon = PolygonRows;
     [[nodiscard]] const std::vector<Polygon>& polygons() const noexcept { return polygons_; }
     /// Remember that triangle \p t was (a, b, c), its polygon's fan, before another took its row.
     void keep_fan(std::size_t t, std::int32_t a, std::int32_t b, std::int32_t c)
@@ -158,15 +155,7 @@ public:
     /// The fans kept so far (TriangleMesh::fans); none are kept afterwards.
     [[nodiscard]] std::vector<FanTriangle> take_fans() { return std::move(fans_); }
     /// The polygons pushed so far (TriangleMesh::polygons); none are kept afterwards.
-    [[nodiscard]] std::vector<PolygonRows> take_polygons() const
-    {
-        std::vector<PolygonRows> rows(polygons_.size());
-        std::transform(polygons_.begin(), polygons_.end(), rows.begin(),
-                       [](const Polygon& p) {
-                           return PolygonRows{p.first, static_cast<std::int32_t>(p.corners)};
-                       });
-        return rows;
-    }
+    [[nodiscard]] std::vector<PolygonRows> take_polygons() { return std::move(polygons_); }
     /// Corners of triangle \p t (t < size()).
     [[nodiscard]] std::int32_t* triangle(std::size_t t) noexcept { return F_.data() + 3 * t; }
     [[nodiscard]] std::size_t size() const noexcept { return size_; }
