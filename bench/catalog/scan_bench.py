@@ -42,6 +42,8 @@ def main():
     parser.add_argument("catalog")
     parser.add_argument("published")
     parser.add_argument("--cli", default=default_cli())
+    parser.add_argument("--compare-cli", metavar="CLI",
+                        help="also scan the same suspects with this other build (its figures under \"compare\")")
     parser.add_argument("--marked", type=int, default=40)
     parser.add_argument("--issued", type=int, default=10)
     parser.add_argument("--lookalikes", nargs="*", default=[])
@@ -56,6 +58,9 @@ def main():
                         help="the attack chains cycled over the marked suspects (default: the suite above)")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--work", help="folder for the suspects (default: a temporary one)")
+    parser.add_argument("--reuse", action="store_true",
+                        help="keep the suspects an earlier run with the same --work and --seed made there "
+                             "(scan them again, e.g. with another build)")
     parser.add_argument("--without-points", action="store_true",
                         help="also scan the same suspects against a copy of the (SQLite) catalogue whose "
                              "signatures lack the points' section: the shape index's ranking alone")
@@ -74,13 +79,16 @@ def main():
     for n, asset in enumerate(chosen):
         attack = args.attacks[n % len(args.attacks)]
         source, recipient = Path(asset["published"]), "published"
+        suspect = work / f"suspect{n}.ply"
+        if args.reuse and suspect.exists():
+            truth[str(suspect)] = (asset["asset"], "published" if n < args.marked else f"buyer{n}", attack)
+            continue
         if n >= args.marked:
             recipient = f"buyer{n}"
             pattern = str(work / f"issued{n}-{{recipient}}{source.suffix}")
             subprocess.run([cli, "catalog", "issue", args.catalog, asset["asset"], "--recipient", recipient,
                             "-o", pattern, "-q"], check=True)
             source = Path(pattern.replace("{recipient}", recipient))
-        suspect = work / f"suspect{n}.ply"
         done = subprocess.run([cli, "attack", str(source), attack, "-o", str(suspect), "--seed", str(n), "-q"],
                               capture_output=True, text=True)
         if done.returncode != 0:
@@ -113,6 +121,8 @@ def main():
     for p in rng.sample(lookalikes, min(len(lookalikes), args.unmarked)):
         truth[str(p)] = None
     results = {"catalog": summary(cli, args, args.catalog, truth, work)}
+    if args.compare_cli:
+        results["compare"] = summary(args.compare_cli, args, args.catalog, truth, work)
     if args.without_points:
         stripped = work / "without-points.db"
         shutil.copyfile(args.catalog, stripped)
@@ -120,7 +130,7 @@ def main():
             # the views alone: 257 views of 30 bytes (ShapeSignature::to_bytes)
             db.execute("UPDATE assets SET shape = substr(shape, 1, 7710) WHERE length(shape) > 7710")
         results["without_points"] = summary(cli, args, str(stripped), truth, work)
-    print(json.dumps(results if args.without_points else results["catalog"], indent=1))
+    print(json.dumps(results if len(results) > 1 else results["catalog"], indent=1))
     return 0
 
 
