@@ -78,13 +78,13 @@ def main():
     chosen = rng.sample(assets, min(len(assets), args.marked + args.issued))
     for n, asset in enumerate(chosen):
         attack = args.attacks[n % len(args.attacks)]
-        source, recipient = Path(asset["published"]), "published"
+        source = Path(asset["published"])
+        recipient = "published" if n < args.marked else f"buyer{n}"
         suspect = work / f"suspect{n}.ply"
         if args.reuse and suspect.exists():
-            truth[str(suspect)] = (asset["asset"], "published" if n < args.marked else f"buyer{n}", attack)
+            truth[str(suspect)] = (asset["asset"], recipient, attack)
             continue
         if n >= args.marked:
-            recipient = f"buyer{n}"
             pattern = str(work / f"issued{n}-{{recipient}}{source.suffix}")
             subprocess.run([cli, "catalog", "issue", args.catalog, asset["asset"], "--recipient", recipient,
                             "-o", pattern, "-q"], check=True)
