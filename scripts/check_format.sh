@@ -14,12 +14,16 @@ if ! files=$(git ls-files -- '*.cpp' '*.h' 2>/dev/null) || [[ -z $files ]]; then
     echo "check_format.sh: not a git clone; skipped"
     exit 77
 fi
+# One clang-format process checks them all (--dry-run: names each file that differs); the diffs
+# are then printed for those files only. A process per file took 80 s of the suite's time.
 status=0
-while IFS= read -r file; do
-    if ! clang-format-14 --style=file "$file" | diff -u --label "$file" --label "$file (formatted)" "$file" -; then
-        status=1
-    fi
-done <<<"$files"
+if ! report=$(xargs -d '\n' clang-format-14 --style=file --dry-run --Werror <<<"$files" 2>&1); then
+    status=1
+    while IFS= read -r file; do
+        clang-format-14 --style=file "$file" | diff -u --label "$file" --label "$file (formatted)" "$file" - || true
+    done < <(sed -n 's/^\([^:]*\):[0-9]*:[0-9]*: error: code should be clang-formatted.*/\1/p' <<<"$report" | sort -u)
+    [[ -n $report ]] && grep -v 'code should be clang-formatted' <<<"$report" | grep -E '^[^ ]*: error' || true
+fi
 if ((status)); then
     echo "check_format.sh: the files above are not formatted as .clang-format says;" \
          "run: git ls-files '*.cpp' '*.h' | xargs clang-format-14 -i" >&2

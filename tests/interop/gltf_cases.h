@@ -59,8 +59,13 @@ inline void PrintTo(const GltfCase& c, std::ostream* os)
 inline constexpr const char* kScene = "scene";
 inline const std::vector<std::string> kSceneMeshes{"spot.obj", "fandisk.obj", "stanford-bunny.obj"};
 
-/// Every glTF case: each shared mesh with each variant, then the scene's variants.
+/// The glTF cases of the default suite: each shared mesh with each variant (the Stanford
+/// bunny with kLargeMeshVariants only), then the scene's variants.
 std::vector<GltfCase> gltf_cases();
+
+/// The bunny with the other variants, the same layouts as spot's and fandisk's on a 35K-vertex
+/// mesh: the `slow` label's (tests/interop/CMakeLists.txt), run by `scripts/test.sh --all`.
+std::vector<GltfCase> gltf_large_cases();
 
 // The input file of a case (generated on first use).
 fs::path case_input(const GltfCase& c, std::string* error);

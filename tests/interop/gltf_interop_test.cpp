@@ -307,9 +307,14 @@ TEST_P(GltfInterop, EmbedValidateReadDetect)
     }
 }
 
-INSTANTIATE_TEST_SUITE_P(Corpus, GltfInterop, ::testing::ValuesIn(gltf_cases()),
-                         [](const ::testing::TestParamInfo<GltfCase>& param)
-                         { return param.param.name(); });
+std::string case_name(const ::testing::TestParamInfo<GltfCase>& param)
+{
+    return param.param.name();
+}
+
+INSTANTIATE_TEST_SUITE_P(Corpus, GltfInterop, ::testing::ValuesIn(gltf_cases()), case_name);
+INSTANTIATE_TEST_SUITE_P(CorpusLarge, GltfInterop, ::testing::ValuesIn(gltf_large_cases()),
+                         case_name);
 
 }  // namespace
 }  // namespace meshmark::test::interop
