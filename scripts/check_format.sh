@@ -22,7 +22,8 @@ if ! report=$(xargs -d '\n' clang-format-14 --style=file --dry-run --Werror <<<"
     while IFS= read -r file; do
         clang-format-14 --style=file "$file" | diff -u --label "$file" --label "$file (formatted)" "$file" - || true
     done < <(sed -n 's/^\([^:]*\):[0-9]*:[0-9]*: error: code should be clang-formatted.*/\1/p' <<<"$report" | sort -u)
-    [[ -n $report ]] && grep -v 'code should be clang-formatted' <<<"$report" | grep -E '^[^ ]*: error' || true
+    # Any other error (a file clang-format cannot read) as clang-format gave it.
+    grep -E '^[^ ]*: error' <<<"$report" | grep -v 'code should be clang-formatted' || true
 fi
 if ((status)); then
     echo "check_format.sh: the files above are not formatted as .clang-format says;" \

@@ -122,11 +122,6 @@ fs::path scene_base(std::string* error)
     return folder.empty() ? fs::path{} : folder / "in.glb";
 }
 
-}  // namespace
-
-namespace
-{
-
 // The bunny in the default suite: one variant of each compression family (gltfpack's
 // quantized default, Draco, meshopt); the others are gltf_large_cases'.
 constexpr const char* kLargeMesh = "stanford-bunny.obj";

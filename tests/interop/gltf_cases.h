@@ -60,7 +60,7 @@ inline constexpr const char* kScene = "scene";
 inline const std::vector<std::string> kSceneMeshes{"spot.obj", "fandisk.obj", "stanford-bunny.obj"};
 
 /// The glTF cases of the default suite: each shared mesh with each variant (the Stanford
-/// bunny with kLargeMeshVariants only), then the scene's variants.
+/// bunny with one variant of each compression family only), then the scene's variants.
 std::vector<GltfCase> gltf_cases();
 
 /// The bunny with the other variants, the same layouts as spot's and fandisk's on a 35K-vertex
